@@ -1,0 +1,280 @@
+//! Stability margins of a SISO loop transfer L(s) under unity negative feedback (SPEC §4).
+//!
+//! Method: evaluate L(jω) by a solve on a logarithmic grid that covers every pole's frequency
+//! ±2 decades, with extra points at lightly damped poles, refined wherever the phase moves more
+//! than 20° or the magnitude more than 3 dB between neighbours; unwrap the phase from the
+//! low-frequency asymptote (−90° per integrator); find every sign change of |L| − 1 (gain
+//! crossings) and of the phase through −180° + k·360° (phase crossings), and refine each with
+//! Brent's method in log ω. Stability is decided from the closed-loop eigenvalues, never from
+//! the margins, so open-loop unstable plants are not misjudged.
+
+use super::freqresp::{nearest_branch, unwrap_anchored, FreqEvaluator};
+use super::{eigenvalues, is_stable, roots, LtiError, StateSpace};
+use num_complex::Complex64;
+use serde::Serialize;
+use std::f64::consts::PI;
+
+/// Initial grid density (points per decade).
+const POINTS_PER_DECADE: f64 = 40.0;
+/// Largest phase step (deg) allowed between neighbouring grid points.
+const MAX_PHASE_STEP_DEG: f64 = 20.0;
+/// Largest magnitude step (dB) allowed between neighbouring grid points.
+const MAX_MAG_STEP_DB: f64 = 3.0;
+/// Bisection depth limit of the grid refinement (a factor 2¹² finer at most).
+const MAX_REFINE_DEPTH: u32 = 12;
+
+/// Whether a crossing is of the magnitude (|L| = 1) or of the phase (∠L = −180° + k·360°).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CrossingKind {
+    /// |L(jω)| = 1: gives a phase margin.
+    Gain,
+    /// ∠L(jω) = −180° mod 360°: gives a gain margin.
+    Phase,
+}
+
+/// One crossing of the open-loop frequency response.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Crossing {
+    /// Gain or phase crossing.
+    pub kind: CrossingKind,
+    /// Frequency (Hz).
+    pub frequency_hz: f64,
+    /// |L| there (dB).
+    pub magnitude_db: f64,
+    /// Unwrapped phase there (deg).
+    pub phase_deg: f64,
+    /// Phase margin (deg, in (−180, 180]) at a gain crossing; gain margin (dB) at a phase
+    /// crossing.
+    pub margin: f64,
+    /// Delay margin (s) at a gain crossing: the smallest pure delay that brings this crossing to
+    /// −180°.
+    pub delay_margin_s: Option<f64>,
+}
+
+/// Margins of a loop, with every crossing. `None` headline values are infinite margins (no
+/// crossing of that kind).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Margins {
+    /// Headline gain margin (dB): the phase crossing with the smallest |GM|, as MATLAB `margin`.
+    pub gain_margin_db: Option<f64>,
+    /// Headline phase margin (deg): the gain crossing with the smallest |PM|.
+    pub phase_margin_deg: Option<f64>,
+    /// Frequency of the headline gain margin (Hz).
+    pub phase_crossover_hz: Option<f64>,
+    /// Frequency of the headline phase margin (Hz).
+    pub gain_crossover_hz: Option<f64>,
+    /// Smallest delay margin over the gain crossings (s); 0 when the closed loop is already
+    /// unstable **[choice]**; `None` (infinite) without a gain crossing.
+    pub delay_margin_s: Option<f64>,
+    /// Closed-loop stability from the closed-loop eigenvalues.
+    pub closed_loop_stable: bool,
+    /// Every crossing, by increasing frequency.
+    pub crossings: Vec<Crossing>,
+    /// Poles at the origin counted for the phase anchor.
+    pub integrators: usize,
+}
+
+/// Margins of the SISO loop transfer `sys` (see the module documentation for the method).
+pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
+    let ev = FreqEvaluator::new(sys)?;
+    let poles = eigenvalues(&sys.a)?;
+    let integrators = count_integrators(&poles);
+    let closed_loop_stable = is_stable(&sys.closed_loop_poles()?);
+    let grid = Grid::build(&ev, &poles, integrators, sys.d[(0, 0)]);
+    let crossings = grid.crossings(&ev);
+    Ok(summarise(crossings, closed_loop_stable, integrators))
+}
+
+/// Poles within 1e-8·max(1, max |λ|) of the origin.
+pub(crate) fn count_integrators(poles: &[Complex64]) -> usize {
+    let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
+    poles.iter().filter(|p| p.norm() <= 1e-8 * scale).count()
+}
+
+/// Pick the headline margins from the crossings.
+fn summarise(crossings: Vec<Crossing>, closed_loop_stable: bool, integrators: usize) -> Margins {
+    let smallest = |kind| {
+        crossings
+            .iter()
+            .filter(|c| c.kind == kind)
+            .min_by(|a, b| a.margin.abs().total_cmp(&b.margin.abs()))
+    };
+    let gm = smallest(CrossingKind::Phase);
+    let pm = smallest(CrossingKind::Gain);
+    let delay = crossings
+        .iter()
+        .filter_map(|c| c.delay_margin_s)
+        .min_by(f64::total_cmp)
+        .map(|d| if closed_loop_stable { d } else { 0.0 });
+    Margins {
+        gain_margin_db: gm.map(|c| c.margin),
+        phase_margin_deg: pm.map(|c| c.margin),
+        phase_crossover_hz: gm.map(|c| c.frequency_hz),
+        gain_crossover_hz: pm.map(|c| c.frequency_hz),
+        delay_margin_s: delay,
+        closed_loop_stable,
+        crossings,
+        integrators,
+    }
+}
+
+/// The refined frequency grid with values and unwrapped phase.
+struct Grid {
+    omega: Vec<f64>,
+    mag_db: Vec<f64>,
+    phase_deg: Vec<f64>,
+}
+
+impl Grid {
+    fn build(ev: &FreqEvaluator, poles: &[Complex64], integrators: usize, d: f64) -> Grid {
+        let (lo, hi) = frequency_range(ev, poles, integrators, d);
+        let mut seeds = super::log_grid(lo, hi, ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2);
+        seeds.extend(pole_points(poles).into_iter().filter(|w| *w > lo && *w < hi));
+        seeds.sort_by(f64::total_cmp);
+        seeds.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * *b);
+        let mut omega = Vec::with_capacity(seeds.len() * 2);
+        let mut values = Vec::with_capacity(seeds.len() * 2);
+        let mut prev = (seeds[0], ev.at(seeds[0]));
+        omega.push(prev.0);
+        values.push(prev.1);
+        for &w in &seeds[1..] {
+            let next = (w, ev.at(w));
+            refine(ev, prev, next, 0, &mut omega, &mut values);
+            prev = next;
+        }
+        let phase_deg = unwrap_anchored(ev, &values, omega[0], integrators);
+        let mag_db = values.iter().map(|g| 20.0 * g.norm().log10()).collect();
+        Grid {
+            omega,
+            mag_db,
+            phase_deg,
+        }
+    }
+
+    /// Every gain and phase crossing, refined, by increasing frequency.
+    fn crossings(&self, ev: &FreqEvaluator) -> Vec<Crossing> {
+        let mut out = Vec::new();
+        for i in 1..self.omega.len() {
+            let (w0, w1) = (self.omega[i - 1], self.omega[i]);
+            if (self.mag_db[i - 1] >= 0.0) != (self.mag_db[i] >= 0.0) {
+                let mag = |u: f64| 20.0 * ev.at(u.exp()).norm().log10();
+                let w = brent_log(mag, w0, w1);
+                out.push(self.crossing_at(ev, CrossingKind::Gain, w, i));
+            }
+            let k0 = ((self.phase_deg[i - 1] + 180.0) / 360.0).floor();
+            let k1 = ((self.phase_deg[i] + 180.0) / 360.0).floor();
+            if k0 != k1 {
+                let level = -180.0 + 360.0 * k0.max(k1);
+                let phase = |u: f64| self.phase_near(ev, u.exp(), i) - level;
+                let w = brent_log(phase, w0, w1);
+                out.push(self.crossing_at(ev, CrossingKind::Phase, w, i));
+            }
+        }
+        out.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+        out
+    }
+
+    /// Unwrapped phase at ω inside grid interval `i` (between points i−1 and i).
+    fn phase_near(&self, ev: &FreqEvaluator, omega: f64, i: usize) -> f64 {
+        let (w0, w1) = (self.omega[i - 1], self.omega[i]);
+        let t = (omega / w0).ln() / (w1 / w0).ln();
+        let interp = self.phase_deg[i - 1] + t * (self.phase_deg[i] - self.phase_deg[i - 1]);
+        nearest_branch(ev.at(omega).arg().to_degrees(), interp)
+    }
+
+    fn crossing_at(&self, ev: &FreqEvaluator, kind: CrossingKind, omega: f64, i: usize) -> Crossing {
+        let g = ev.at(omega);
+        let magnitude_db = 20.0 * g.norm().log10();
+        let phase_deg = self.phase_near(ev, omega, i);
+        let (margin, delay_margin_s) = match kind {
+            CrossingKind::Gain => {
+                let pm = wrap_half_open(phase_deg + 180.0);
+                (pm, Some(pm.rem_euclid(360.0).to_radians() / omega))
+            }
+            CrossingKind::Phase => (-magnitude_db, None),
+        };
+        Crossing {
+            kind,
+            frequency_hz: omega / (2.0 * PI),
+            magnitude_db,
+            phase_deg,
+            margin,
+            delay_margin_s,
+        }
+    }
+}
+
+/// Bisect (in log ω) between two evaluated points while the response moves too much.
+fn refine(
+    ev: &FreqEvaluator,
+    a: (f64, Complex64),
+    b: (f64, Complex64),
+    depth: u32,
+    omega: &mut Vec<f64>,
+    values: &mut Vec<Complex64>,
+) {
+    let dphase = nearest_branch((b.1 / a.1).arg().to_degrees(), 0.0).abs();
+    let dmag = 20.0 * (b.1.norm() / a.1.norm()).log10().abs();
+    let too_coarse = !(dphase <= MAX_PHASE_STEP_DEG && dmag <= MAX_MAG_STEP_DB);
+    if too_coarse && depth < MAX_REFINE_DEPTH {
+        let wm = (a.0 * b.0).sqrt();
+        let mid = (wm, ev.at(wm));
+        refine(ev, a, mid, depth + 1, omega, values);
+        refine(ev, mid, b, depth + 1, omega, values);
+    } else {
+        omega.push(b.0);
+        values.push(b.1);
+    }
+}
+
+/// Analysis range (rad/s): two decades beyond the slowest and fastest non-zero poles, extended
+/// while a crossing may still lie outside (|L| < 1 at the low end with integrators, |L| > 1 at
+/// the high end of a strictly proper loop).
+fn frequency_range(ev: &FreqEvaluator, poles: &[Complex64], integrators: usize, d: f64) -> (f64, f64) {
+    let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
+    let nonzero = poles.iter().map(|p| p.norm()).filter(|&w| w > 1e-8 * scale);
+    let (min, max) = nonzero.fold((f64::INFINITY, 0.0f64), |(lo, hi), w| (lo.min(w), hi.max(w)));
+    let (mut lo, mut hi) = if max > 0.0 { (min / 100.0, max * 100.0) } else { (1e-2, 1e2) };
+    for _ in 0..12 {
+        if integrators > 0 && ev.at(lo).norm() < 1.0 {
+            lo /= 10.0;
+        }
+        if d.abs() < 1.0 && ev.at(hi).norm() > 1.0 {
+            hi *= 10.0;
+        }
+    }
+    (lo, hi)
+}
+
+/// Extra grid points around lightly damped poles (ζ < 0.5): ω_d (1 ± jζ), j ∈ {0, 1, 2, 4}.
+fn pole_points(poles: &[Complex64]) -> Vec<f64> {
+    let mut pts = Vec::new();
+    for p in poles.iter().filter(|p| p.im > 0.0) {
+        let zeta = -p.re / p.norm();
+        if zeta.abs() < 0.5 {
+            for j in [-4.0, -2.0, -1.0, 0.0, 1.0, 2.0, 4.0] {
+                let w = p.im * (1.0 + j * zeta.abs());
+                if w > 0.0 {
+                    pts.push(w);
+                }
+            }
+        }
+    }
+    pts
+}
+
+/// Root of `f(ln ω)` between ω0 and ω1 (rad/s), returned as ω.
+fn brent_log(f: impl Fn(f64) -> f64, w0: f64, w1: f64) -> f64 {
+    roots::brent(f, w0.ln(), w1.ln(), 1e-12).exp()
+}
+
+/// Wrap an angle (deg) into (−180, 180].
+fn wrap_half_open(deg: f64) -> f64 {
+    let w = deg.rem_euclid(360.0);
+    if w > 180.0 {
+        w - 360.0
+    } else {
+        w
+    }
+}

@@ -1,0 +1,157 @@
+//! Generic continuous-time linear time-invariant state-space models: `ẋ = A x + B u`,
+//! `y = C x + D u`, and the analyses of SPEC §4 on them — poles, frequency response (Bode) and
+//! stability margins — computed on the state-space form, never through transfer-function
+//! polynomials (see DEPENDENCIES.md for the numerical pitfalls this module avoids).
+
+mod freqresp;
+mod io;
+mod margins;
+mod poles;
+mod roots;
+
+pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
+pub use io::{ModelJson, StateInfo};
+pub use margins::{margins, Crossing, CrossingKind, Margins};
+pub use poles::{eigenvalues, PoleInfo};
+
+use nalgebra::DMatrix;
+
+/// Errors of the LTI analyses.
+#[derive(Debug, thiserror::Error)]
+pub enum LtiError {
+    /// Matrix sizes that do not fit together.
+    #[error("model dimensions: {0}")]
+    Dimension(String),
+    /// NaN or infinity in a matrix.
+    #[error("model matrix {matrix} has a non-finite entry at row {row}, column {col}")]
+    NonFinite {
+        /// Which matrix (A, B, C or D).
+        matrix: &'static str,
+        /// Row (1-based).
+        row: usize,
+        /// Column (1-based).
+        col: usize,
+    },
+    /// The analysis needs one input and one output.
+    #[error("model must be SISO (1 input, 1 output) for this analysis; it has {inputs} inputs and {outputs} outputs")]
+    NotSiso {
+        /// Number of inputs.
+        inputs: usize,
+        /// Number of outputs.
+        outputs: usize,
+    },
+    /// The Schur iteration did not converge within its iteration limit.
+    #[error("eigenvalue computation did not converge (Schur iteration limit reached)")]
+    NoConvergence,
+    /// Unity feedback with D = −1 has no solution.
+    #[error("unity feedback is ill-posed: 1 + D = 0 (algebraic loop)")]
+    IllPosedFeedback,
+}
+
+/// A continuous-time state-space model. SI units are the caller's business; the analyses are
+/// unit-agnostic (frequencies in rad/s internally, Hz at the API where named `_hz`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateSpace {
+    /// State matrix, n × n.
+    pub a: DMatrix<f64>,
+    /// Input matrix, n × m.
+    pub b: DMatrix<f64>,
+    /// Output matrix, p × n.
+    pub c: DMatrix<f64>,
+    /// Feedthrough matrix, p × m.
+    pub d: DMatrix<f64>,
+}
+
+impl StateSpace {
+    /// Build a model, checking that the sizes fit and every entry is finite.
+    pub fn new(
+        a: DMatrix<f64>,
+        b: DMatrix<f64>,
+        c: DMatrix<f64>,
+        d: DMatrix<f64>,
+    ) -> Result<Self, LtiError> {
+        let n = a.nrows();
+        let dim = |what: String| Err(LtiError::Dimension(what));
+        if n == 0 {
+            return dim("A is empty: the model has no states".into());
+        }
+        if a.ncols() != n {
+            return dim(format!("A must be square, it is {}×{}", n, a.ncols()));
+        }
+        if b.nrows() != n {
+            return dim(format!("B has {} rows, A has {n}", b.nrows()));
+        }
+        if c.ncols() != n {
+            return dim(format!("C has {} columns, A has {n}", c.ncols()));
+        }
+        if d.nrows() != c.nrows() || d.ncols() != b.ncols() {
+            return dim(format!(
+                "D is {}×{}, expected {}×{} (outputs × inputs)",
+                d.nrows(),
+                d.ncols(),
+                c.nrows(),
+                b.ncols()
+            ));
+        }
+        for (name, m) in [("A", &a), ("B", &b), ("C", &c), ("D", &d)] {
+            check_finite(name, m)?;
+        }
+        Ok(StateSpace { a, b, c, d })
+    }
+
+    /// Number of states.
+    pub fn order(&self) -> usize {
+        self.a.nrows()
+    }
+
+    /// Fail unless the model has one input and one output.
+    pub fn require_siso(&self) -> Result<(), LtiError> {
+        if self.b.ncols() == 1 && self.c.nrows() == 1 {
+            Ok(())
+        } else {
+            Err(LtiError::NotSiso {
+                inputs: self.b.ncols(),
+                outputs: self.c.nrows(),
+            })
+        }
+    }
+
+    /// The closed loop r → y of a SISO loop transfer L under unity negative feedback,
+    /// u = r − y: A − B C/(1+D), B/(1+D), C/(1+D), D/(1+D).
+    pub fn unity_feedback(&self) -> Result<StateSpace, LtiError> {
+        self.require_siso()?;
+        let den = 1.0 + self.d[(0, 0)];
+        if den.abs() < f64::EPSILON {
+            return Err(LtiError::IllPosedFeedback);
+        }
+        let a = &self.a - &self.b * &self.c / den;
+        StateSpace::new(a, &self.b / den, &self.c / den, &self.d / den)
+    }
+
+    /// Closed-loop poles under unity negative feedback (SISO).
+    pub fn closed_loop_poles(&self) -> Result<Vec<num_complex::Complex64>, LtiError> {
+        eigenvalues(&self.unity_feedback()?.a)
+    }
+}
+
+/// NaN/inf check naming the first bad entry (1-based).
+fn check_finite(matrix: &'static str, m: &DMatrix<f64>) -> Result<(), LtiError> {
+    for r in 0..m.nrows() {
+        for c in 0..m.ncols() {
+            if !m[(r, c)].is_finite() {
+                return Err(LtiError::NonFinite {
+                    matrix,
+                    row: r + 1,
+                    col: c + 1,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A closed loop is (asymptotically) stable when every pole lies strictly in the left
+/// half-plane; a pole within 1e-10·max(1, |λ|) of the imaginary axis counts as not stable.
+pub fn is_stable(poles: &[num_complex::Complex64]) -> bool {
+    poles.iter().all(|p| p.re < -1e-10 * p.norm().max(1.0))
+}

@@ -1,0 +1,95 @@
+//! Poles (eigenvalues of A) with natural frequency and damping ratio (SPEC §4).
+
+use super::LtiError;
+use nalgebra::linalg::balancing::balance_parlett_reinsch;
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use std::f64::consts::PI;
+
+/// Schur iteration limit: the QR iteration can cycle on some inputs (nalgebra #611, #764).
+const SCHUR_MAX_ITER: usize = 10_000;
+
+/// Eigenvalues of `a`, balanced first (the rig's A spans ~1e-5 … 3e10), sorted by modulus.
+/// Non-finite input or a Schur iteration that does not converge is an error, never a hang.
+pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>, LtiError> {
+    if a.iter().any(|v| !v.is_finite()) {
+        return Err(LtiError::NonFinite {
+            matrix: "A",
+            row: 0,
+            col: 0,
+        });
+    }
+    let mut balanced = a.clone();
+    balance_parlett_reinsch(&mut balanced);
+    let schur = balanced
+        .try_schur(f64::EPSILON, SCHUR_MAX_ITER)
+        .ok_or(LtiError::NoConvergence)?;
+    let mut eig: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
+    eig.sort_by(|p, q| p.norm().total_cmp(&q.norm()).then(p.im.total_cmp(&q.im)));
+    Ok(eig)
+}
+
+/// A pole with its natural frequency and damping ratio.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct PoleInfo {
+    /// Real part (1/s).
+    pub re: f64,
+    /// Imaginary part (rad/s).
+    pub im: f64,
+    /// Natural frequency |λ|/(2π) (Hz).
+    pub natural_freq_hz: f64,
+    /// Damping ratio −Re λ/|λ|; `None` for a pole at the origin (undefined).
+    pub damping: Option<f64>,
+}
+
+impl From<Complex64> for PoleInfo {
+    fn from(p: Complex64) -> Self {
+        let wn = p.norm();
+        PoleInfo {
+            re: p.re,
+            im: p.im,
+            natural_freq_hz: wn / (2.0 * PI),
+            damping: (wn > 0.0).then(|| -p.re / wn),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn second_order_poles_give_wn_and_zeta() {
+        // s² + 2ζω s + ω², ω = 10, ζ = 0.1, companion form
+        let (w, z) = (10.0, 0.1);
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -w * w, -2.0 * z * w]);
+        let p = eigenvalues(&a).unwrap();
+        for pole in p {
+            let info = PoleInfo::from(pole);
+            assert_relative_eq!(info.natural_freq_hz, w / (2.0 * PI), max_relative = 1e-12);
+            assert_relative_eq!(info.damping.unwrap(), z, max_relative = 1e-12);
+        }
+    }
+
+    #[test]
+    fn badly_scaled_matrix_needs_balancing() {
+        // diag similarity of a stable matrix with entries spanning 1e-6 … 1e10
+        let base = DMatrix::from_row_slice(3, 3, &[-1.0, 2.0, 0.0, -3.0, -1.0, 1.0, 0.0, -1.0, -5.0]);
+        let s = nalgebra::DVector::from_vec(vec![1e-6, 1.0, 1e4]);
+        let scaled = DMatrix::from_fn(3, 3, |i, j| base[(i, j)] * s[i] / s[j]);
+        let mut p1 = eigenvalues(&base).unwrap();
+        let mut p2 = eigenvalues(&scaled).unwrap();
+        p1.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
+        p2.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
+        for (a, b) in p1.iter().zip(&p2) {
+            assert!((a - b).norm() < 1e-9 * a.norm().max(1.0), "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn non_finite_is_an_error() {
+        let a = DMatrix::from_row_slice(1, 1, &[f64::NAN]);
+        assert!(eigenvalues(&a).is_err());
+    }
+}

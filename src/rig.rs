@@ -1,0 +1,669 @@
+//! The rig description: every parameter of a dual-prime-mover (DPM) pump-controlled cylinder,
+//! read from and written to TOML (SPEC §2).
+//!
+//! User-facing keys carry their unit in the name (`beta_bar`, `mass_kg`, `x0_mm`). Inside the
+//! code everything is SI: [`Rig::si`] converts once and the model uses only [`RigSi`].
+//! The embedded default ([`Rig::default`]) is the article's rig.
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// Errors reading, overriding or validating a rig description.
+#[derive(Debug, thiserror::Error)]
+pub enum RigError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// TOML syntax, unknown key or wrong type; the message names line, column and key.
+    #[error("{file}: {message}")]
+    Parse {
+        /// The file (or `--set`).
+        file: String,
+        /// The parser's message, naming line and key.
+        message: String,
+    },
+    /// A `--set KEY=VALUE` override that does not fit.
+    #[error("--set {assignment}: {message}")]
+    Set {
+        /// The assignment as given.
+        assignment: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value outside its physical range.
+    #[error("{source_name}: key `{key}` = {value}: {rule}")]
+    Invalid {
+        /// Where the rig came from (file name, `--set` or `default`).
+        source_name: String,
+        /// The key.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
+        /// The rule it breaks.
+        rule: &'static str,
+    },
+}
+
+/// Motor (servo drive) model used in the LTI model (SPEC §4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MotorModel {
+    /// Full model: rotor + pump inertia, P velocity loop, first-order current loop, filtered
+    /// velocity feedforward, load torque from the pressures (SPEC §3).
+    Full,
+    /// First-order approximation common in the literature: ω/ω_ref = 1/(τ s + 1), no load
+    /// torque, no feedforward. τ is `motor_time_constant_s`, or, when absent, J_i/Km_i — the
+    /// velocity loop's time constant on the motor-plus-pump inertia with feedforward off
+    /// **[choice]**.
+    FirstOrder,
+}
+
+/// A DPM rig. Field names are the TOML keys; units are in the names. Absent keys in a file take
+/// the default (the article's rig, SPEC §2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Rig {
+    /// Piston diameter d1 (mm).
+    pub piston_diameter_mm: f64,
+    /// Rod diameter d2 (mm).
+    pub rod_diameter_mm: f64,
+    /// Line volume between pump and chamber 1, VL1 (dm³).
+    pub line_volume_1_dm3: f64,
+    /// Line volume between pump and chamber 2, VL2 (dm³).
+    pub line_volume_2_dm3: f64,
+    /// Cylinder stroke x_max (mm).
+    pub stroke_mm: f64,
+    /// Operating-point position x0 used for the chamber volumes (mm).
+    pub x0_mm: f64,
+    /// Motor 1 rotor inertia Jm1 (kg·mm²).
+    pub motor_inertia_1_kg_mm2: f64,
+    /// Motor 2 rotor inertia Jm2 (kg·mm²).
+    pub motor_inertia_2_kg_mm2: f64,
+    /// Pump 1 inertia Jp1 (kg·mm²).
+    pub pump_inertia_1_kg_mm2: f64,
+    /// Pump 2 inertia Jp2 (kg·mm²).
+    pub pump_inertia_2_kg_mm2: f64,
+    /// Pump 1 displacement D1 (cm³/rev), between chamber 2 and chamber 1.
+    pub displacement_1_cm3_per_rev: f64,
+    /// Pump 2 displacement D2 (cm³/rev), between reservoir and chamber 1.
+    pub displacement_2_cm3_per_rev: f64,
+    /// Current-loop bandwidth ωI (rad/s).
+    pub current_loop_bandwidth_rad_per_s: f64,
+    /// Drive 1 velocity-loop P gain Km1 (N·m·s/rad).
+    pub km1_nms_per_rad: f64,
+    /// Drive 2 velocity-loop P gain Km2 (N·m·s/rad).
+    pub km2_nms_per_rad: f64,
+    /// Drive velocity feedforward gain Kff (kg·m²), a torque per angular acceleration.
+    pub kff_kg_m2: f64,
+    /// Feedforward filter time constant τff (s).
+    pub tau_ff_s: f64,
+    /// Normalised command to motor speed, K_scale (rad/s per unit command).
+    pub k_scale_rad_per_s: f64,
+    /// First-order motor time constant (s); absent = J_i/Km_i per motor. Only for
+    /// `motor_model = "first_order"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motor_time_constant_s: Option<f64>,
+    /// Effective moving mass m (kg).
+    pub mass_kg: f64,
+    /// External force F_ext (N); zero at the horizontal position.
+    pub external_force_n: f64,
+    /// Effective bulk modulus β (bar).
+    pub beta_bar: f64,
+    /// Viscous friction b (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// Cross-port leakage c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Chamber 1 leakage c1 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
+    pub c1_m5_per_ns: f64,
+    /// Chamber 2 leakage c2 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
+    pub c2_m5_per_ns: f64,
+    /// Position P gain Kp (normalised command per metre of error).
+    pub kp: f64,
+    /// Sum-pressure set-point p1 + p2 (bar).
+    pub p_sum_ref_bar: f64,
+    /// Sum-pressure gain K_pres (normalised command per bar) **[choice]: per bar**.
+    pub k_pres_per_bar: f64,
+    /// Sum-pressure split factor Kβ (dimensionless).
+    pub k_beta: f64,
+    /// Motor rated torque (N·m).
+    pub motor_rated_torque_nm: f64,
+    /// Motor rated speed (rpm).
+    pub motor_rated_speed_rpm: f64,
+    /// Pump maximum speed (rpm).
+    pub pump_max_speed_rpm: f64,
+    /// Drive velocity feedforward on (SPEC §3) or off.
+    pub feedforward: bool,
+    /// Motor–hydraulics coupling: the D1(p1 − p2) and D2 p1 load torques on the motors.
+    pub motor_coupling: bool,
+    /// Sum-pressure loop closed in closed-loop simulations. The frequency analysis of SPEC §4
+    /// opens it regardless (see `model::LoopOptions`).
+    pub sum_pressure: bool,
+    /// Motor model: "full" or "first_order".
+    pub motor_model: MotorModel,
+}
+
+impl Default for Rig {
+    /// The article's rig (SPEC §2).
+    fn default() -> Self {
+        Rig {
+            piston_diameter_mm: 63.0,
+            rod_diameter_mm: 36.0,
+            line_volume_1_dm3: 0.1272,
+            line_volume_2_dm3: 0.1272,
+            stroke_mm: 500.0,
+            x0_mm: 345.0,
+            motor_inertia_1_kg_mm2: 1600.0,
+            motor_inertia_2_kg_mm2: 1600.0,
+            pump_inertia_1_kg_mm2: 600.0,
+            pump_inertia_2_kg_mm2: 34.0,
+            displacement_1_cm3_per_rev: 6.0,
+            displacement_2_cm3_per_rev: 3.6,
+            current_loop_bandwidth_rad_per_s: 1256.6,
+            km1_nms_per_rad: 0.026,
+            km2_nms_per_rad: 0.026,
+            kff_kg_m2: 0.0016,
+            tau_ff_s: 0.0012,
+            k_scale_rad_per_s: 314.1593,
+            motor_time_constant_s: None,
+            mass_kg: 10593.0,
+            external_force_n: 0.0,
+            beta_bar: 165.0,
+            viscous_friction_ns_per_m: 100.0,
+            c12_m5_per_ns: 1.2e-10,
+            c1_m5_per_ns: 5.49e-11,
+            c2_m5_per_ns: -1.19e-11,
+            kp: 25.0,
+            p_sum_ref_bar: 10.0,
+            k_pres_per_bar: 22.0,
+            k_beta: 1.4,
+            motor_rated_torque_nm: 12.5,
+            motor_rated_speed_rpm: 3000.0,
+            pump_max_speed_rpm: 3600.0,
+            feedforward: true,
+            motor_coupling: true,
+            sum_pressure: true,
+            motor_model: MotorModel::Full,
+        }
+    }
+}
+
+/// The rig in SI units, with the derived quantities of SPEC §2–3.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigSi {
+    /// Piston area A1 (m²).
+    pub a1: f64,
+    /// Annulus area A2 (m²).
+    pub a2: f64,
+    /// Chamber 1 volume at x0, V1 = VL1 + A1 x0 (m³).
+    pub v1: f64,
+    /// Chamber 2 volume at x0, V2 = VL2 + A2 (x_max − x0) (m³).
+    pub v2: f64,
+    /// Motor-plus-pump inertias J1, J2 (kg·m²).
+    pub j: [f64; 2],
+    /// Motor rotor inertias Jm1, Jm2 (kg·m²).
+    pub jm: [f64; 2],
+    /// Pump displacements D1, D2 (m³/rad).
+    pub d: [f64; 2],
+    /// Current-loop bandwidth ωI (1/s).
+    pub omega_i: f64,
+    /// Velocity-loop gains Km1, Km2 (N·m·s/rad).
+    pub km: [f64; 2],
+    /// Feedforward gain Kff (kg·m²), zero when feedforward is off.
+    pub kff: f64,
+    /// Feedforward filter time constant (s).
+    pub tau_ff: f64,
+    /// Command scale (rad/s per unit).
+    pub k_scale: f64,
+    /// First-order motor time constants (s).
+    pub tau_motor: [f64; 2],
+    /// Mass (kg).
+    pub mass: f64,
+    /// Bulk modulus (Pa).
+    pub beta: f64,
+    /// Viscous friction (N·s/m).
+    pub b: f64,
+    /// Leakages c1, c2, c12 (m⁵/(N·s)).
+    pub c1: f64,
+    /// Chamber 2 leakage (m⁵/(N·s)).
+    pub c2: f64,
+    /// Cross-port leakage (m⁵/(N·s)).
+    pub c12: f64,
+    /// Position gain (1/m).
+    pub kp: f64,
+    /// Sum-pressure gain (1/Pa).
+    pub k_pres: f64,
+    /// Sum-pressure split factor.
+    pub k_beta: f64,
+    /// Flow-matching ratio α = (D1/D2)(A1/A2 − 1).
+    pub alpha: f64,
+}
+
+/// Pascal per bar.
+pub const PA_PER_BAR: f64 = 1e5;
+/// Radians per second per rpm.
+pub const RAD_S_PER_RPM: f64 = 2.0 * PI / 60.0;
+
+impl Rig {
+    /// Parse a rig from TOML text; `name` is used in messages (usually the file name).
+    pub fn from_toml_str(text: &str, name: &str) -> Result<Rig, RigError> {
+        let rig: Rig = toml::from_str(text).map_err(|e| RigError::Parse {
+            file: name.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        rig.validate(name)?;
+        Ok(rig)
+    }
+
+    /// Read and validate a rig file.
+    pub fn from_file(path: &Path) -> Result<Rig, RigError> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| RigError::Io {
+            file: name.clone(),
+            source,
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| RigError::Parse {
+            file: name.clone(),
+            message: format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()),
+        })?;
+        Self::from_toml_str(&text, &name)
+    }
+
+    /// Apply `KEY=VALUE` overrides (same keys and types as the TOML), then validate.
+    /// A bare word value (`motor_model=first_order`) is taken as a string.
+    pub fn with_overrides(&self, assignments: &[String]) -> Result<Rig, RigError> {
+        if assignments.is_empty() {
+            return Ok(self.clone());
+        }
+        let mut table = toml::Table::try_from(self).expect("a rig always serialises");
+        for assignment in assignments {
+            let (key, value) = parse_assignment(assignment, &table)?;
+            table.insert(key, value);
+        }
+        let rig: Rig = table.try_into().map_err(|e: toml::de::Error| RigError::Set {
+            assignment: assignments.join(" "),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        rig.validate("--set")?;
+        Ok(rig)
+    }
+
+    /// Check every value against its physical range (SPEC §2); the error names the key.
+    pub fn validate(&self, source_name: &str) -> Result<(), RigError> {
+        let invalid = |key, value, rule| RigError::Invalid {
+            source_name: source_name.to_string(),
+            key,
+            value,
+            rule,
+        };
+        for (key, value, rule) in self.numeric_fields() {
+            if !value.is_finite() {
+                return Err(invalid(key, value, "must be a finite number"));
+            }
+            let ok = match rule {
+                Range::Positive => value > 0.0,
+                Range::NonNegative => value >= 0.0,
+                Range::Any => true,
+            };
+            if !ok {
+                return Err(invalid(key, value, rule.text()));
+            }
+        }
+        if self.rod_diameter_mm >= self.piston_diameter_mm {
+            return Err(invalid(
+                "rod_diameter_mm",
+                self.rod_diameter_mm,
+                "must be smaller than piston_diameter_mm",
+            ));
+        }
+        if self.x0_mm <= 0.0 || self.x0_mm >= self.stroke_mm {
+            return Err(invalid(
+                "x0_mm",
+                self.x0_mm,
+                "must lie strictly inside the stroke (0, stroke_mm)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every numeric key with its value and allowed range.
+    fn numeric_fields(&self) -> Vec<(&'static str, f64, Range)> {
+        use Range::*;
+        let mut fields = vec![
+            ("piston_diameter_mm", self.piston_diameter_mm, Positive),
+            ("rod_diameter_mm", self.rod_diameter_mm, Positive),
+            ("line_volume_1_dm3", self.line_volume_1_dm3, Positive),
+            ("line_volume_2_dm3", self.line_volume_2_dm3, Positive),
+            ("stroke_mm", self.stroke_mm, Positive),
+            ("x0_mm", self.x0_mm, Positive),
+            ("motor_inertia_1_kg_mm2", self.motor_inertia_1_kg_mm2, Positive),
+            ("motor_inertia_2_kg_mm2", self.motor_inertia_2_kg_mm2, Positive),
+            ("pump_inertia_1_kg_mm2", self.pump_inertia_1_kg_mm2, NonNegative),
+            ("pump_inertia_2_kg_mm2", self.pump_inertia_2_kg_mm2, NonNegative),
+            ("displacement_1_cm3_per_rev", self.displacement_1_cm3_per_rev, Positive),
+            ("displacement_2_cm3_per_rev", self.displacement_2_cm3_per_rev, Positive),
+            ("current_loop_bandwidth_rad_per_s", self.current_loop_bandwidth_rad_per_s, Positive),
+            ("km1_nms_per_rad", self.km1_nms_per_rad, Positive),
+            ("km2_nms_per_rad", self.km2_nms_per_rad, Positive),
+            ("kff_kg_m2", self.kff_kg_m2, NonNegative),
+            ("tau_ff_s", self.tau_ff_s, Positive),
+            ("k_scale_rad_per_s", self.k_scale_rad_per_s, Positive),
+            ("mass_kg", self.mass_kg, Positive),
+            ("external_force_n", self.external_force_n, Any),
+            ("beta_bar", self.beta_bar, Positive),
+            ("viscous_friction_ns_per_m", self.viscous_friction_ns_per_m, NonNegative),
+            ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative),
+            ("c1_m5_per_ns", self.c1_m5_per_ns, Any),
+            ("c2_m5_per_ns", self.c2_m5_per_ns, Any),
+            ("kp", self.kp, Positive),
+            ("p_sum_ref_bar", self.p_sum_ref_bar, Positive),
+            ("k_pres_per_bar", self.k_pres_per_bar, NonNegative),
+            ("k_beta", self.k_beta, NonNegative),
+            ("motor_rated_torque_nm", self.motor_rated_torque_nm, Positive),
+            ("motor_rated_speed_rpm", self.motor_rated_speed_rpm, Positive),
+            ("pump_max_speed_rpm", self.pump_max_speed_rpm, Positive),
+        ];
+        if let Some(tau) = self.motor_time_constant_s {
+            fields.push(("motor_time_constant_s", tau, Positive));
+        }
+        fields
+    }
+
+    /// Convert to SI and compute the derived quantities (SPEC §2–3).
+    pub fn si(&self) -> RigSi {
+        let mm = 1e-3;
+        let d1 = self.piston_diameter_mm * mm;
+        let d2 = self.rod_diameter_mm * mm;
+        let a1 = PI * d1 * d1 / 4.0;
+        let a2 = PI * (d1 * d1 - d2 * d2) / 4.0;
+        let x0 = self.x0_mm * mm;
+        let x_max = self.stroke_mm * mm;
+        let v1 = self.line_volume_1_dm3 * 1e-3 + a1 * x0;
+        let v2 = self.line_volume_2_dm3 * 1e-3 + a2 * (x_max - x0);
+        let kg_mm2 = 1e-6;
+        let jm = [
+            self.motor_inertia_1_kg_mm2 * kg_mm2,
+            self.motor_inertia_2_kg_mm2 * kg_mm2,
+        ];
+        let j = [
+            jm[0] + self.pump_inertia_1_kg_mm2 * kg_mm2,
+            jm[1] + self.pump_inertia_2_kg_mm2 * kg_mm2,
+        ];
+        let m3_per_rad = 1e-6 / (2.0 * PI);
+        let d = [
+            self.displacement_1_cm3_per_rev * m3_per_rad,
+            self.displacement_2_cm3_per_rev * m3_per_rad,
+        ];
+        let km = [self.km1_nms_per_rad, self.km2_nms_per_rad];
+        let tau_motor = match self.motor_time_constant_s {
+            Some(tau) => [tau, tau],
+            None => [j[0] / km[0], j[1] / km[1]],
+        };
+        RigSi {
+            a1,
+            a2,
+            v1,
+            v2,
+            j,
+            jm,
+            d,
+            omega_i: self.current_loop_bandwidth_rad_per_s,
+            km,
+            kff: if self.feedforward { self.kff_kg_m2 } else { 0.0 },
+            tau_ff: self.tau_ff_s,
+            k_scale: self.k_scale_rad_per_s,
+            tau_motor,
+            mass: self.mass_kg,
+            beta: self.beta_bar * PA_PER_BAR,
+            b: self.viscous_friction_ns_per_m,
+            c1: self.c1_m5_per_ns,
+            c2: self.c2_m5_per_ns,
+            c12: self.c12_m5_per_ns,
+            kp: self.kp,
+            k_pres: self.k_pres_per_bar / PA_PER_BAR,
+            k_beta: self.k_beta,
+            alpha: (d[0] / d[1]) * (a1 / a2 - 1.0),
+        }
+    }
+
+    /// The rig as TOML with a comment per key giving unit and meaning, ready to edit.
+    pub fn to_commented_toml(&self) -> String {
+        let table = toml::Table::try_from(self).expect("a rig always serialises");
+        let mut out = String::from(
+            "# pumpcyl rig description (SPEC §2). Units are part of every key.\n\
+             # Absent keys take the article's default; unknown keys are errors.\n",
+        );
+        for (section, keys) in KEY_DOCS {
+            out.push_str(&format!("\n# --- {section} ---\n"));
+            for (key, doc) in *keys {
+                match table.get(*key) {
+                    Some(value) => out.push_str(&format!("{key} = {value}  # {doc}\n")),
+                    None => out.push_str(&format!("# {key} = 0.05  # {doc}\n")),
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Allowed range of a numeric key.
+#[derive(Debug, Clone, Copy)]
+enum Range {
+    Positive,
+    NonNegative,
+    Any,
+}
+
+impl Range {
+    fn text(self) -> &'static str {
+        match self {
+            Range::Positive => "must be > 0",
+            Range::NonNegative => "must be >= 0",
+            Range::Any => "any finite value",
+        }
+    }
+}
+
+/// Split `KEY=VALUE`, check the key exists and the value's type matches the default's.
+fn parse_assignment(
+    assignment: &str,
+    table: &toml::Table,
+) -> Result<(String, toml::Value), RigError> {
+    let err = |message: String| RigError::Set {
+        assignment: assignment.to_string(),
+        message,
+    };
+    let (key, raw) = assignment
+        .split_once('=')
+        .ok_or_else(|| err("expected KEY=VALUE".into()))?;
+    let key = key.trim();
+    let raw = raw.trim();
+    let value = parse_value(raw);
+    // the one optional key is absent from the table when unset: its type is float
+    let float = toml::Value::Float(0.0);
+    let current = match table.get(key) {
+        Some(current) => current,
+        None if key == "motor_time_constant_s" => &float,
+        None => {
+            let known: Vec<&str> = KEY_DOCS
+                .iter()
+                .flat_map(|(_, k)| k.iter().map(|(n, _)| *n))
+                .collect();
+            return Err(err(format!(
+                "unknown key `{key}`; known keys: {}",
+                known.join(", ")
+            )));
+        }
+    };
+    let value = match (current, value) {
+        (toml::Value::Float(_), toml::Value::Integer(i)) => toml::Value::Float(i as f64),
+        (c, v) if c.type_str() == v.type_str() => v,
+        (c, v) => {
+            return Err(err(format!(
+                "key `{key}` takes a {}, got {} `{raw}`",
+                c.type_str(),
+                v.type_str()
+            )))
+        }
+    };
+    Ok((key.to_string(), value))
+}
+
+/// A `--set` value as TOML (number, bool, quoted string), or a bare word as a string.
+fn parse_value(raw: &str) -> toml::Value {
+    let doc = format!("v = {raw}");
+    match doc.parse::<toml::Table>() {
+        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(raw.into())),
+        Err(_) => toml::Value::String(raw.to_string()),
+    }
+}
+
+/// Sections and per-key documentation used for the commented TOML. Every serialised key must be
+/// listed (a test checks it).
+const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
+    (
+        "geometry",
+        &[
+            ("piston_diameter_mm", "mm, piston diameter d1"),
+            ("rod_diameter_mm", "mm, rod diameter d2"),
+            ("line_volume_1_dm3", "dm3, line volume pump to chamber 1 (piston side), VL1"),
+            ("line_volume_2_dm3", "dm3, line volume pump to chamber 2 (rod side), VL2"),
+            ("stroke_mm", "mm, cylinder stroke x_max"),
+            ("x0_mm", "mm, operating-point position used for the chamber volumes"),
+        ],
+    ),
+    (
+        "motors, pumps and drives",
+        &[
+            ("motor_inertia_1_kg_mm2", "kg mm2, motor 1 rotor inertia Jm1"),
+            ("motor_inertia_2_kg_mm2", "kg mm2, motor 2 rotor inertia Jm2"),
+            ("pump_inertia_1_kg_mm2", "kg mm2, pump 1 (axial piston) inertia Jp1"),
+            ("pump_inertia_2_kg_mm2", "kg mm2, pump 2 (internal gear) inertia Jp2"),
+            ("displacement_1_cm3_per_rev", "cm3/rev, pump 1 displacement D1 (chamber 2 -> chamber 1)"),
+            ("displacement_2_cm3_per_rev", "cm3/rev, pump 2 displacement D2 (reservoir -> chamber 1)"),
+            ("current_loop_bandwidth_rad_per_s", "rad/s, current-loop bandwidth (first order)"),
+            ("km1_nms_per_rad", "N m s/rad, drive 1 velocity-loop P gain"),
+            ("km2_nms_per_rad", "N m s/rad, drive 2 velocity-loop P gain"),
+            ("kff_kg_m2", "kg m2, drive velocity feedforward gain (torque per rad/s2)"),
+            ("tau_ff_s", "s, feedforward filter time constant"),
+            ("k_scale_rad_per_s", "rad/s per unit normalised command (1 = 3000 rpm)"),
+            ("motor_time_constant_s", "s, first-order motor model only; absent = J_i/Km_i"),
+            ("motor_rated_torque_nm", "N m, motor rated torque"),
+            ("motor_rated_speed_rpm", "rpm, motor rated speed"),
+            ("pump_max_speed_rpm", "rpm, pump speed limit"),
+        ],
+    ),
+    (
+        "load and hydraulics",
+        &[
+            ("mass_kg", "kg, effective moving mass (I/r2 for the seesaw)"),
+            ("external_force_n", "N, external force (0 at horizontal)"),
+            ("beta_bar", "bar, effective bulk modulus"),
+            ("viscous_friction_ns_per_m", "N s/m, viscous friction"),
+            ("c12_m5_per_ns", "m5/(N s), cross-port leakage"),
+            ("c1_m5_per_ns", "m5/(N s), chamber 1 leakage (may be negative: pump null shift)"),
+            ("c2_m5_per_ns", "m5/(N s), chamber 2 leakage (may be negative: pump null shift)"),
+        ],
+    ),
+    (
+        "controller",
+        &[
+            ("kp", "1/m, position P gain: normalised command per metre of error"),
+            ("p_sum_ref_bar", "bar, sum-pressure set-point p1 + p2"),
+            ("k_pres_per_bar", "1/bar, sum-pressure gain: normalised command per bar"),
+            ("k_beta", "-, sum-pressure split factor"),
+        ],
+    ),
+    (
+        "model variants",
+        &[
+            ("feedforward", "bool, drive velocity feedforward on"),
+            ("motor_coupling", "bool, pressure load torques act on the motors"),
+            ("sum_pressure", "bool, sum-pressure loop closed in simulations (frequency analysis opens it)"),
+            ("motor_model", "\"full\" or \"first_order\""),
+        ],
+    ),
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn commented_toml_round_trips_and_documents_every_key() {
+        let rig = Rig::default();
+        let text = rig.to_commented_toml();
+        assert_eq!(Rig::from_toml_str(&text, "t").unwrap(), rig);
+        let table = toml::Table::try_from(&rig).unwrap();
+        let documented: Vec<&str> = KEY_DOCS.iter().flat_map(|(_, k)| k.iter().map(|(n, _)| *n)).collect();
+        for key in table.keys() {
+            assert!(documented.contains(&key.as_str()), "undocumented key {key}");
+        }
+        for line in text.lines().filter(|l| !l.starts_with('#') && !l.is_empty()) {
+            assert!(line.contains("  # "), "line without comment: {line}");
+        }
+    }
+
+    #[test]
+    fn derived_quantities_match_spec() {
+        let si = Rig::default().si();
+        assert_relative_eq!(si.a1, 3.117245e-3, max_relative = 1e-6);
+        assert_relative_eq!(si.a2, 2.0993693e-3, max_relative = 1e-6);
+        assert_relative_eq!(si.v1, 0.1272e-3 + si.a1 * 0.345, max_relative = 1e-12);
+        assert_relative_eq!(si.v2, 0.1272e-3 + si.a2 * 0.155, max_relative = 1e-12);
+        assert_relative_eq!(si.j[0], 2.2e-3, max_relative = 1e-12);
+        assert_relative_eq!(si.j[1], 1.634e-3, max_relative = 1e-12);
+        assert_relative_eq!(si.d[0] * 2.0 * PI, 6e-6, max_relative = 1e-12);
+        // α = (D1/D2)(A1/A2 − 1) = (6/3.6)(d1²/(d1² − d2²) − 1)
+        let r = 63.0f64.powi(2) / (63.0f64.powi(2) - 36.0f64.powi(2));
+        assert_relative_eq!(si.alpha, 6.0 / 3.6 * (r - 1.0), max_relative = 1e-12);
+        assert_relative_eq!(si.beta, 1.65e7);
+    }
+
+    #[test]
+    fn overrides_apply_and_name_bad_keys() {
+        let rig = Rig::default();
+        let set = |s: &str| rig.with_overrides(&[s.to_string()]);
+        assert_eq!(set("beta_bar=37.8").unwrap().beta_bar, 37.8);
+        assert_eq!(set("mass_kg=4898").unwrap().mass_kg, 4898.0);
+        assert!(!set("feedforward=false").unwrap().feedforward);
+        assert_eq!(set("motor_model=first_order").unwrap().motor_model, MotorModel::FirstOrder);
+        assert_eq!(set("motor_time_constant_s=0.05").unwrap().motor_time_constant_s, Some(0.05));
+        let e = set("bogus=1").unwrap_err().to_string();
+        assert!(e.contains("unknown key `bogus`"), "{e}");
+        let e = set("beta_bar=abc").unwrap_err().to_string();
+        assert!(e.contains("beta_bar") && e.contains("float"), "{e}");
+        let e = set("mass_kg=-1").unwrap_err().to_string();
+        assert!(e.contains("mass_kg") && e.contains("> 0"), "{e}");
+        let e = set("motor_model=second").unwrap_err().to_string();
+        assert!(e.contains("motor_model") || e.contains("variant"), "{e}");
+        assert!(set("beta_bar").is_err());
+    }
+
+    #[test]
+    fn file_errors_name_line_and_key() {
+        let e = Rig::from_toml_str("beta_bar = 165\nmass_kgg = 3\n", "r.toml").unwrap_err().to_string();
+        assert!(e.contains("r.toml") && e.contains("mass_kgg") && e.contains("line 2"), "{e}");
+        let e = Rig::from_toml_str("beta_bar = \"x\"\n", "r.toml").unwrap_err().to_string();
+        assert!(e.contains("line 1") && e.contains("beta_bar"), "{e}");
+        let e = Rig::from_toml_str("beta_bar = 0\n", "r.toml").unwrap_err().to_string();
+        assert!(e.contains("beta_bar") && e.contains("> 0"), "{e}");
+        let e = Rig::from_toml_str("x0_mm = 600\n", "r.toml").unwrap_err().to_string();
+        assert!(e.contains("x0_mm"), "{e}");
+        let e = Rig::from_toml_str("line_volume_1_dm3 = -0.1\n", "r.toml").unwrap_err().to_string();
+        assert!(e.contains("line_volume_1_dm3"), "{e}");
+    }
+
+    #[test]
+    fn partial_file_takes_defaults() {
+        let rig = Rig::from_toml_str("beta_bar = 220\nmass_kg = 4898\n", "p").unwrap();
+        assert_eq!(rig.beta_bar, 220.0);
+        assert_eq!(rig.kp, 25.0);
+    }
+}
