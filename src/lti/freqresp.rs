@@ -186,7 +186,10 @@ mod tests {
             let s = Complex64::new(0.0, w);
             let direct = (s + 3.0) / (s * s * s + 2.0 * s * s + 5.0 * s + 1.0) + 0.5;
             let g = ev.at(w);
-            assert!((g - direct).norm() < 1e-12 * direct.norm().max(1.0), "w={w}: {g} vs {direct}");
+            assert!(
+                (g - direct).norm() < 1e-12 * direct.norm().max(1.0),
+                "w={w}: {g} vs {direct}"
+            );
         }
     }
 
@@ -208,7 +211,11 @@ mod tests {
     fn negative_gain_anchored_at_minus_180() {
         let sys = siso(&[-1.0], &[1.0], &[-1.0], 0.0);
         let b = bode(&sys, &log_grid(1e-5, 1e3, 100)).unwrap();
-        assert!((b.phase_deg[0] + 180.0).abs() < 0.1, "{:?}", &b.phase_deg[..3]);
+        assert!(
+            (b.phase_deg[0] + 180.0).abs() < 0.1,
+            "{:?}",
+            &b.phase_deg[..3]
+        );
         assert!((b.phase_deg.last().unwrap() + 270.0).abs() < 0.1);
     }
 }

@@ -99,9 +99,16 @@ mod tests {
         let back = ModelJson::from_model(&sys, vec![]);
         assert_eq!(back.to_model().unwrap(), sys);
         let ragged = r#"{"A": [[0, 1], [-2]], "B": [[0], [1]], "C": [[1, 0]], "D": [[0]]}"#;
-        let e = serde_json::from_str::<ModelJson>(ragged).unwrap().to_model().unwrap_err();
+        let e = serde_json::from_str::<ModelJson>(ragged)
+            .unwrap()
+            .to_model()
+            .unwrap_err();
         assert!(e.to_string().contains("A row 2"), "{e}");
-        let mismatch = r#"{"A": [[0, 1], [-2, -3]], "B": [[0], [1], [2]], "C": [[1, 0]], "D": [[0]]}"#;
-        assert!(serde_json::from_str::<ModelJson>(mismatch).unwrap().to_model().is_err());
+        let mismatch =
+            r#"{"A": [[0, 1], [-2, -3]], "B": [[0], [1], [2]], "C": [[1, 0]], "D": [[0]]}"#;
+        assert!(serde_json::from_str::<ModelJson>(mismatch)
+            .unwrap()
+            .to_model()
+            .is_err());
     }
 }

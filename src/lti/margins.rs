@@ -82,7 +82,10 @@ pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
     let integrators = count_integrators(&poles);
     let closed_loop_stable = is_stable(&sys.closed_loop_poles()?);
     let grid = Grid::build(&ev, &poles, integrators, sys.d[(0, 0)]);
-    let crossings = grid.crossings(&ev);
+    let mut crossings = grid.crossings(&ev);
+    if integrators == 0 {
+        crossings.splice(0..0, dc_phase_crossing(&ev));
+    }
     Ok(summarise(crossings, closed_loop_stable, integrators))
 }
 
@@ -90,6 +93,23 @@ pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
 pub(crate) fn count_integrators(poles: &[Complex64]) -> usize {
     let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
     poles.iter().filter(|p| p.norm() <= 1e-8 * scale).count()
+}
+
+/// A loop without integrators whose DC gain L(0) is negative sits on −180° at ω = 0: that is a
+/// phase crossing at 0 Hz (as MATLAB `allmargin` reports), with GM = −20 log10 |L(0)|.
+fn dc_phase_crossing(ev: &FreqEvaluator) -> Option<Crossing> {
+    let l0 = ev.eval(Complex64::new(0.0, 0.0));
+    (l0.re < 0.0 && l0.re.is_finite()).then(|| {
+        let magnitude_db = 20.0 * l0.re.abs().log10();
+        Crossing {
+            kind: CrossingKind::Phase,
+            frequency_hz: 0.0,
+            magnitude_db,
+            phase_deg: -180.0,
+            margin: -magnitude_db,
+            delay_margin_s: None,
+        }
+    })
 }
 
 /// Pick the headline margins from the crossings.
@@ -129,8 +149,13 @@ struct Grid {
 impl Grid {
     fn build(ev: &FreqEvaluator, poles: &[Complex64], integrators: usize, d: f64) -> Grid {
         let (lo, hi) = frequency_range(ev, poles, integrators, d);
-        let mut seeds = super::log_grid(lo, hi, ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2);
-        seeds.extend(pole_points(poles).into_iter().filter(|w| *w > lo && *w < hi));
+        let mut seeds =
+            super::log_grid(lo, hi, ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2);
+        seeds.extend(
+            pole_points(poles)
+                .into_iter()
+                .filter(|w| *w > lo && *w < hi),
+        );
         seeds.sort_by(f64::total_cmp);
         seeds.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * *b);
         let mut omega = Vec::with_capacity(seeds.len() * 2);
@@ -183,7 +208,13 @@ impl Grid {
         nearest_branch(ev.at(omega).arg().to_degrees(), interp)
     }
 
-    fn crossing_at(&self, ev: &FreqEvaluator, kind: CrossingKind, omega: f64, i: usize) -> Crossing {
+    fn crossing_at(
+        &self,
+        ev: &FreqEvaluator,
+        kind: CrossingKind,
+        omega: f64,
+        i: usize,
+    ) -> Crossing {
         let g = ev.at(omega);
         let magnitude_db = 20.0 * g.norm().log10();
         let phase_deg = self.phase_near(ev, omega, i);
@@ -231,11 +262,22 @@ fn refine(
 /// Analysis range (rad/s): two decades beyond the slowest and fastest non-zero poles, extended
 /// while a crossing may still lie outside (|L| < 1 at the low end with integrators, |L| > 1 at
 /// the high end of a strictly proper loop).
-fn frequency_range(ev: &FreqEvaluator, poles: &[Complex64], integrators: usize, d: f64) -> (f64, f64) {
+fn frequency_range(
+    ev: &FreqEvaluator,
+    poles: &[Complex64],
+    integrators: usize,
+    d: f64,
+) -> (f64, f64) {
     let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
     let nonzero = poles.iter().map(|p| p.norm()).filter(|&w| w > 1e-8 * scale);
-    let (min, max) = nonzero.fold((f64::INFINITY, 0.0f64), |(lo, hi), w| (lo.min(w), hi.max(w)));
-    let (mut lo, mut hi) = if max > 0.0 { (min / 100.0, max * 100.0) } else { (1e-2, 1e2) };
+    let (min, max) = nonzero.fold((f64::INFINITY, 0.0f64), |(lo, hi), w| {
+        (lo.min(w), hi.max(w))
+    });
+    let (mut lo, mut hi) = if max > 0.0 {
+        (min / 100.0, max * 100.0)
+    } else {
+        (1e-2, 1e2)
+    };
     for _ in 0..12 {
         if integrators > 0 && ev.at(lo).norm() < 1.0 {
             lo /= 10.0;

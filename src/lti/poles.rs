@@ -75,7 +75,8 @@ mod tests {
     #[test]
     fn badly_scaled_matrix_needs_balancing() {
         // diag similarity of a stable matrix with entries spanning 1e-6 … 1e10
-        let base = DMatrix::from_row_slice(3, 3, &[-1.0, 2.0, 0.0, -3.0, -1.0, 1.0, 0.0, -1.0, -5.0]);
+        let base =
+            DMatrix::from_row_slice(3, 3, &[-1.0, 2.0, 0.0, -3.0, -1.0, 1.0, 0.0, -1.0, -5.0]);
         let s = nalgebra::DVector::from_vec(vec![1e-6, 1.0, 1e4]);
         let scaled = DMatrix::from_fn(3, 3, |i, j| base[(i, j)] * s[i] / s[j]);
         let mut p1 = eigenvalues(&base).unwrap();

@@ -22,7 +22,11 @@ pub fn brent(f: impl Fn(f64) -> f64, lo: f64, hi: f64, tol: f64) -> f64 {
         .configure(|s| s.max_iters(200))
         .run();
     match run {
-        Ok(res) => res.state().get_best_param().copied().unwrap_or(0.5 * (lo + hi)),
+        Ok(res) => res
+            .state()
+            .get_best_param()
+            .copied()
+            .unwrap_or(0.5 * (lo + hi)),
         Err(_) => 0.5 * (lo + hi),
     }
 }

@@ -1,0 +1,175 @@
+//! Command-line interface: argument parsing and formatting only; the work is in the library.
+
+mod analysis;
+mod output;
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+use crate::lti::{ModelJson, StateInfo, StateSpace};
+use crate::model::Plant;
+use crate::rig::Rig;
+
+/// pumpcyl — model, analyse, identify and design pump-controlled hydraulic cylinders.
+///
+/// The default rig is the dual-prime-mover cylinder of Gøytil, Hansen & Tvilde, Actuators 2025,
+/// 14(8), 366. Units are part of every key and column name (SI inside).
+#[derive(Debug, Parser)]
+#[command(name = "pumpcyl", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Print a rig description as commented TOML (the embedded default, or a file with --set
+    /// overrides applied), ready to copy and edit.
+    Rig(RigArgs),
+    /// Gain, phase and delay margins of the position loop (SPEC §4), every crossing, and
+    /// closed-loop stability from the closed-loop eigenvalues.
+    Margins(analysis::MarginsArgs),
+    /// Bode diagram (magnitude dB, unwrapped phase deg) of the position open loop, as CSV or SVG,
+    /// optionally overlaying variants.
+    Bode(analysis::BodeArgs),
+    /// Open- and closed-loop poles with natural frequency (Hz) and damping ratio.
+    Poles(analysis::PolesArgs),
+    /// The open-loop state-space model (A, B, C, D and state names, SI).
+    Model(analysis::ModelCmdArgs),
+}
+
+#[derive(Debug, Args)]
+struct RigArgs {
+    /// Print the embedded default rig (the article's, SPEC §2).
+    #[arg(long, conflicts_with_all = ["rig", "set"])]
+    print_default: bool,
+    /// Rig description to read and print back (validated, with --set applied).
+    #[arg(long, value_name = "FILE.toml")]
+    rig: Option<PathBuf>,
+    /// Override a rig key: --set beta_bar=37.8 (repeatable; same keys as the TOML).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+}
+
+/// Where the analysed model comes from: a rig (default, file, overrides) or a JSON model.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    /// Rig description (TOML). Default: the embedded article rig.
+    #[arg(long, value_name = "FILE.toml")]
+    rig: Option<PathBuf>,
+    /// Override a rig key: --set beta_bar=37.8 (repeatable; same keys as the TOML).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Analyse a SISO continuous state-space model from JSON ({"A","B","C","D"}) instead of a
+    /// rig: the model is taken as the loop transfer L(s).
+    #[arg(long, value_name = "MODEL.json", conflicts_with_all = ["rig", "set"])]
+    ss: Option<PathBuf>,
+    /// Keep the sum-pressure loop closed inside the analysed position loop (SPEC §4 opens it).
+    #[arg(long, conflicts_with = "ss")]
+    sum_pressure_closed: bool,
+}
+
+/// The loop to analyse, with a description for the output.
+pub struct Loop {
+    /// L(s): input the position error (m), output x (m) for a rig.
+    pub open_loop: StateSpace,
+    /// State names and units.
+    pub states: Vec<StateInfo>,
+    /// The rig, when the model comes from one.
+    pub rig: Option<Rig>,
+    /// What was analysed, in words.
+    pub description: String,
+}
+
+impl ModelArgs {
+    /// The base rig: file or default, with --set applied.
+    fn rig(&self) -> Result<Rig> {
+        let base = match &self.rig {
+            Some(path) => Rig::from_file(path)?,
+            None => Rig::default(),
+        };
+        Ok(base.with_overrides(&self.set)?)
+    }
+
+    /// Build the analysed loop, with extra overrides (for --compare).
+    fn build(&self, extra: &[String]) -> Result<Loop> {
+        if let Some(path) = &self.ss {
+            return read_ss(path);
+        }
+        let rig = self.rig()?.with_overrides(extra)?;
+        let plant = Plant::new(&rig);
+        let sp = if self.sum_pressure_closed {
+            "closed"
+        } else {
+            "open"
+        };
+        let origin = self
+            .rig
+            .as_ref()
+            .map_or("default rig".to_string(), |p| p.display().to_string());
+        Ok(Loop {
+            open_loop: plant.open_loop(self.sum_pressure_closed),
+            states: plant.layout.states(),
+            description: format!(
+                "{origin}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}"
+            ),
+            rig: Some(rig),
+        })
+    }
+}
+
+/// Read a `--ss` JSON model; errors name the file, line and column.
+fn read_ss(path: &std::path::Path) -> Result<Loop> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read"))?;
+    let json: ModelJson =
+        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    let sys = json
+        .to_model()
+        .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    sys.require_siso()
+        .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    let states = if json.states.is_empty() {
+        (1..=sys.order())
+            .map(|i| StateInfo {
+                name: format!("x{i}"),
+                unit: String::new(),
+            })
+            .collect()
+    } else {
+        json.states
+    };
+    Ok(Loop {
+        open_loop: sys,
+        states,
+        rig: None,
+        description: format!("{name}: loop transfer L(s) from JSON"),
+    })
+}
+
+/// Parse the command line and run it.
+pub fn run() -> Result<()> {
+    let cli = Cli::parse();
+    let text = match cli.command {
+        Command::Rig(args) => {
+            let rig = if args.print_default {
+                Rig::default()
+            } else {
+                ModelArgs {
+                    rig: args.rig,
+                    set: args.set,
+                    ss: None,
+                    sum_pressure_closed: false,
+                }
+                .rig()?
+            };
+            rig.to_commented_toml()
+        }
+        Command::Margins(args) => analysis::margins(&args)?,
+        Command::Bode(args) => analysis::bode(&args)?,
+        Command::Poles(args) => analysis::poles(&args)?,
+        Command::Model(args) => analysis::model(&args)?,
+    };
+    output::emit(&text)
+}
