@@ -246,7 +246,10 @@ mod tests {
         let ev = crate::lti::FreqEvaluator::new(&plant.open_loop(false)).unwrap();
         let w = 1e-4;
         let kv_measured = ev.at(w).norm() * w;
-        assert!((kv_measured / kv - 1.0).abs() < 0.02, "{kv_measured} vs {kv}");
+        assert!(
+            (kv_measured / kv - 1.0).abs() < 0.02,
+            "{kv_measured} vs {kv}"
+        );
     }
 
     #[test]
@@ -267,7 +270,10 @@ mod tests {
         // first-order motor pole at −Km/J
         let p = eigenvalues(&first.a).unwrap();
         let want = -first.si.km[0] / first.si.j[0];
-        assert!(p.iter().any(|z| (z.re - want).abs() < 1e-9 && z.im == 0.0), "{p:?}");
+        assert!(
+            p.iter().any(|z| (z.re - want).abs() < 1e-9 && z.im == 0.0),
+            "{p:?}"
+        );
     }
 
     #[test]

@@ -269,7 +269,10 @@ impl Rig {
         })?;
         let text = String::from_utf8(bytes).map_err(|e| RigError::Parse {
             file: name.clone(),
-            message: format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()),
+            message: format!(
+                "not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
         })?;
         Self::from_toml_str(&text, &name)
     }
@@ -285,10 +288,12 @@ impl Rig {
             let (key, value) = parse_assignment(assignment, &table)?;
             table.insert(key, value);
         }
-        let rig: Rig = table.try_into().map_err(|e: toml::de::Error| RigError::Set {
-            assignment: assignments.join(" "),
-            message: e.to_string().trim_end().to_string(),
-        })?;
+        let rig: Rig = table
+            .try_into()
+            .map_err(|e: toml::de::Error| RigError::Set {
+                assignment: assignments.join(" "),
+                message: e.to_string().trim_end().to_string(),
+            })?;
         rig.validate("--set")?;
         Ok(rig)
     }
@@ -341,13 +346,41 @@ impl Rig {
             ("line_volume_2_dm3", self.line_volume_2_dm3, Positive),
             ("stroke_mm", self.stroke_mm, Positive),
             ("x0_mm", self.x0_mm, Positive),
-            ("motor_inertia_1_kg_mm2", self.motor_inertia_1_kg_mm2, Positive),
-            ("motor_inertia_2_kg_mm2", self.motor_inertia_2_kg_mm2, Positive),
-            ("pump_inertia_1_kg_mm2", self.pump_inertia_1_kg_mm2, NonNegative),
-            ("pump_inertia_2_kg_mm2", self.pump_inertia_2_kg_mm2, NonNegative),
-            ("displacement_1_cm3_per_rev", self.displacement_1_cm3_per_rev, Positive),
-            ("displacement_2_cm3_per_rev", self.displacement_2_cm3_per_rev, Positive),
-            ("current_loop_bandwidth_rad_per_s", self.current_loop_bandwidth_rad_per_s, Positive),
+            (
+                "motor_inertia_1_kg_mm2",
+                self.motor_inertia_1_kg_mm2,
+                Positive,
+            ),
+            (
+                "motor_inertia_2_kg_mm2",
+                self.motor_inertia_2_kg_mm2,
+                Positive,
+            ),
+            (
+                "pump_inertia_1_kg_mm2",
+                self.pump_inertia_1_kg_mm2,
+                NonNegative,
+            ),
+            (
+                "pump_inertia_2_kg_mm2",
+                self.pump_inertia_2_kg_mm2,
+                NonNegative,
+            ),
+            (
+                "displacement_1_cm3_per_rev",
+                self.displacement_1_cm3_per_rev,
+                Positive,
+            ),
+            (
+                "displacement_2_cm3_per_rev",
+                self.displacement_2_cm3_per_rev,
+                Positive,
+            ),
+            (
+                "current_loop_bandwidth_rad_per_s",
+                self.current_loop_bandwidth_rad_per_s,
+                Positive,
+            ),
             ("km1_nms_per_rad", self.km1_nms_per_rad, Positive),
             ("km2_nms_per_rad", self.km2_nms_per_rad, Positive),
             ("kff_kg_m2", self.kff_kg_m2, NonNegative),
@@ -356,7 +389,11 @@ impl Rig {
             ("mass_kg", self.mass_kg, Positive),
             ("external_force_n", self.external_force_n, Any),
             ("beta_bar", self.beta_bar, Positive),
-            ("viscous_friction_ns_per_m", self.viscous_friction_ns_per_m, NonNegative),
+            (
+                "viscous_friction_ns_per_m",
+                self.viscous_friction_ns_per_m,
+                NonNegative,
+            ),
             ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative),
             ("c1_m5_per_ns", self.c1_m5_per_ns, Any),
             ("c2_m5_per_ns", self.c2_m5_per_ns, Any),
@@ -364,8 +401,16 @@ impl Rig {
             ("p_sum_ref_bar", self.p_sum_ref_bar, Positive),
             ("k_pres_per_bar", self.k_pres_per_bar, NonNegative),
             ("k_beta", self.k_beta, NonNegative),
-            ("motor_rated_torque_nm", self.motor_rated_torque_nm, Positive),
-            ("motor_rated_speed_rpm", self.motor_rated_speed_rpm, Positive),
+            (
+                "motor_rated_torque_nm",
+                self.motor_rated_torque_nm,
+                Positive,
+            ),
+            (
+                "motor_rated_speed_rpm",
+                self.motor_rated_speed_rpm,
+                Positive,
+            ),
             ("pump_max_speed_rpm", self.pump_max_speed_rpm, Positive),
         ];
         if let Some(tau) = self.motor_time_constant_s {
@@ -414,7 +459,11 @@ impl Rig {
             d,
             omega_i: self.current_loop_bandwidth_rad_per_s,
             km,
-            kff: if self.feedforward { self.kff_kg_m2 } else { 0.0 },
+            kff: if self.feedforward {
+                self.kff_kg_m2
+            } else {
+                0.0
+            },
             tau_ff: self.tau_ff_s,
             k_scale: self.k_scale_rad_per_s,
             tau_motor,
@@ -531,28 +580,67 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
         &[
             ("piston_diameter_mm", "mm, piston diameter d1"),
             ("rod_diameter_mm", "mm, rod diameter d2"),
-            ("line_volume_1_dm3", "dm3, line volume pump to chamber 1 (piston side), VL1"),
-            ("line_volume_2_dm3", "dm3, line volume pump to chamber 2 (rod side), VL2"),
+            (
+                "line_volume_1_dm3",
+                "dm3, line volume pump to chamber 1 (piston side), VL1",
+            ),
+            (
+                "line_volume_2_dm3",
+                "dm3, line volume pump to chamber 2 (rod side), VL2",
+            ),
             ("stroke_mm", "mm, cylinder stroke x_max"),
-            ("x0_mm", "mm, operating-point position used for the chamber volumes"),
+            (
+                "x0_mm",
+                "mm, operating-point position used for the chamber volumes",
+            ),
         ],
     ),
     (
         "motors, pumps and drives",
         &[
-            ("motor_inertia_1_kg_mm2", "kg mm2, motor 1 rotor inertia Jm1"),
-            ("motor_inertia_2_kg_mm2", "kg mm2, motor 2 rotor inertia Jm2"),
-            ("pump_inertia_1_kg_mm2", "kg mm2, pump 1 (axial piston) inertia Jp1"),
-            ("pump_inertia_2_kg_mm2", "kg mm2, pump 2 (internal gear) inertia Jp2"),
-            ("displacement_1_cm3_per_rev", "cm3/rev, pump 1 displacement D1 (chamber 2 -> chamber 1)"),
-            ("displacement_2_cm3_per_rev", "cm3/rev, pump 2 displacement D2 (reservoir -> chamber 1)"),
-            ("current_loop_bandwidth_rad_per_s", "rad/s, current-loop bandwidth (first order)"),
+            (
+                "motor_inertia_1_kg_mm2",
+                "kg mm2, motor 1 rotor inertia Jm1",
+            ),
+            (
+                "motor_inertia_2_kg_mm2",
+                "kg mm2, motor 2 rotor inertia Jm2",
+            ),
+            (
+                "pump_inertia_1_kg_mm2",
+                "kg mm2, pump 1 (axial piston) inertia Jp1",
+            ),
+            (
+                "pump_inertia_2_kg_mm2",
+                "kg mm2, pump 2 (internal gear) inertia Jp2",
+            ),
+            (
+                "displacement_1_cm3_per_rev",
+                "cm3/rev, pump 1 displacement D1 (chamber 2 -> chamber 1)",
+            ),
+            (
+                "displacement_2_cm3_per_rev",
+                "cm3/rev, pump 2 displacement D2 (reservoir -> chamber 1)",
+            ),
+            (
+                "current_loop_bandwidth_rad_per_s",
+                "rad/s, current-loop bandwidth (first order)",
+            ),
             ("km1_nms_per_rad", "N m s/rad, drive 1 velocity-loop P gain"),
             ("km2_nms_per_rad", "N m s/rad, drive 2 velocity-loop P gain"),
-            ("kff_kg_m2", "kg m2, drive velocity feedforward gain (torque per rad/s2)"),
+            (
+                "kff_kg_m2",
+                "kg m2, drive velocity feedforward gain (torque per rad/s2)",
+            ),
             ("tau_ff_s", "s, feedforward filter time constant"),
-            ("k_scale_rad_per_s", "rad/s per unit normalised command (1 = 3000 rpm)"),
-            ("motor_time_constant_s", "s, first-order motor model only; absent = J_i/Km_i"),
+            (
+                "k_scale_rad_per_s",
+                "rad/s per unit normalised command (1 = 3000 rpm)",
+            ),
+            (
+                "motor_time_constant_s",
+                "s, first-order motor model only; absent = J_i/Km_i",
+            ),
             ("motor_rated_torque_nm", "N m, motor rated torque"),
             ("motor_rated_speed_rpm", "rpm, motor rated speed"),
             ("pump_max_speed_rpm", "rpm, pump speed limit"),
@@ -566,16 +654,28 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("beta_bar", "bar, effective bulk modulus"),
             ("viscous_friction_ns_per_m", "N s/m, viscous friction"),
             ("c12_m5_per_ns", "m5/(N s), cross-port leakage"),
-            ("c1_m5_per_ns", "m5/(N s), chamber 1 leakage (may be negative: pump null shift)"),
-            ("c2_m5_per_ns", "m5/(N s), chamber 2 leakage (may be negative: pump null shift)"),
+            (
+                "c1_m5_per_ns",
+                "m5/(N s), chamber 1 leakage (may be negative: pump null shift)",
+            ),
+            (
+                "c2_m5_per_ns",
+                "m5/(N s), chamber 2 leakage (may be negative: pump null shift)",
+            ),
         ],
     ),
     (
         "controller",
         &[
-            ("kp", "1/m, position P gain: normalised command per metre of error"),
+            (
+                "kp",
+                "1/m, position P gain: normalised command per metre of error",
+            ),
             ("p_sum_ref_bar", "bar, sum-pressure set-point p1 + p2"),
-            ("k_pres_per_bar", "1/bar, sum-pressure gain: normalised command per bar"),
+            (
+                "k_pres_per_bar",
+                "1/bar, sum-pressure gain: normalised command per bar",
+            ),
             ("k_beta", "-, sum-pressure split factor"),
         ],
     ),
@@ -583,8 +683,14 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
         "model variants",
         &[
             ("feedforward", "bool, drive velocity feedforward on"),
-            ("motor_coupling", "bool, pressure load torques act on the motors"),
-            ("sum_pressure", "bool, sum-pressure loop closed in simulations (frequency analysis opens it)"),
+            (
+                "motor_coupling",
+                "bool, pressure load torques act on the motors",
+            ),
+            (
+                "sum_pressure",
+                "bool, sum-pressure loop closed in simulations (frequency analysis opens it)",
+            ),
             ("motor_model", "\"full\" or \"first_order\""),
         ],
     ),
@@ -601,11 +707,17 @@ mod tests {
         let text = rig.to_commented_toml();
         assert_eq!(Rig::from_toml_str(&text, "t").unwrap(), rig);
         let table = toml::Table::try_from(&rig).unwrap();
-        let documented: Vec<&str> = KEY_DOCS.iter().flat_map(|(_, k)| k.iter().map(|(n, _)| *n)).collect();
+        let documented: Vec<&str> = KEY_DOCS
+            .iter()
+            .flat_map(|(_, k)| k.iter().map(|(n, _)| *n))
+            .collect();
         for key in table.keys() {
             assert!(documented.contains(&key.as_str()), "undocumented key {key}");
         }
-        for line in text.lines().filter(|l| !l.starts_with('#') && !l.is_empty()) {
+        for line in text
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.is_empty())
+        {
             assert!(line.contains("  # "), "line without comment: {line}");
         }
     }
@@ -633,8 +745,16 @@ mod tests {
         assert_eq!(set("beta_bar=37.8").unwrap().beta_bar, 37.8);
         assert_eq!(set("mass_kg=4898").unwrap().mass_kg, 4898.0);
         assert!(!set("feedforward=false").unwrap().feedforward);
-        assert_eq!(set("motor_model=first_order").unwrap().motor_model, MotorModel::FirstOrder);
-        assert_eq!(set("motor_time_constant_s=0.05").unwrap().motor_time_constant_s, Some(0.05));
+        assert_eq!(
+            set("motor_model=first_order").unwrap().motor_model,
+            MotorModel::FirstOrder
+        );
+        assert_eq!(
+            set("motor_time_constant_s=0.05")
+                .unwrap()
+                .motor_time_constant_s,
+            Some(0.05)
+        );
         let e = set("bogus=1").unwrap_err().to_string();
         assert!(e.contains("unknown key `bogus`"), "{e}");
         let e = set("beta_bar=abc").unwrap_err().to_string();
@@ -648,15 +768,28 @@ mod tests {
 
     #[test]
     fn file_errors_name_line_and_key() {
-        let e = Rig::from_toml_str("beta_bar = 165\nmass_kgg = 3\n", "r.toml").unwrap_err().to_string();
-        assert!(e.contains("r.toml") && e.contains("mass_kgg") && e.contains("line 2"), "{e}");
-        let e = Rig::from_toml_str("beta_bar = \"x\"\n", "r.toml").unwrap_err().to_string();
+        let e = Rig::from_toml_str("beta_bar = 165\nmass_kgg = 3\n", "r.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("r.toml") && e.contains("mass_kgg") && e.contains("line 2"),
+            "{e}"
+        );
+        let e = Rig::from_toml_str("beta_bar = \"x\"\n", "r.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 1") && e.contains("beta_bar"), "{e}");
-        let e = Rig::from_toml_str("beta_bar = 0\n", "r.toml").unwrap_err().to_string();
+        let e = Rig::from_toml_str("beta_bar = 0\n", "r.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("beta_bar") && e.contains("> 0"), "{e}");
-        let e = Rig::from_toml_str("x0_mm = 600\n", "r.toml").unwrap_err().to_string();
+        let e = Rig::from_toml_str("x0_mm = 600\n", "r.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("x0_mm"), "{e}");
-        let e = Rig::from_toml_str("line_volume_1_dm3 = -0.1\n", "r.toml").unwrap_err().to_string();
+        let e = Rig::from_toml_str("line_volume_1_dm3 = -0.1\n", "r.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line_volume_1_dm3"), "{e}");
     }
 

@@ -1,85 +1,100 @@
 //! Frequency response C(sI − A)⁻¹B + D of a SISO model, by a solve (SPEC §4).
 //!
-//! Setup once: balance A (Parlett–Reinsch), reduce it to upper Hessenberg form H = Qᵀ A Q.
-//! Then each frequency costs one O(n²) complex Hessenberg solve with partial pivoting — no
-//! transfer-function polynomial, no inverse.
+//! Setup once: balance A (Parlett–Reinsch) and take its real Schur form T = Qᵀ A Q (orthogonal
+//! Q, so no conditioning is lost). Each frequency then costs one complex back-substitution
+//! through the quasi-triangular T (1×1 and 2×2 blocks): O(n²/2), no transfer-function
+//! polynomial, no inverse. The poles come with the factorisation.
 
+use super::poles::BalancedSchur;
 use super::{LtiError, StateSpace};
-use nalgebra::linalg::balancing::balance_parlett_reinsch;
-use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
 /// Pre-factored SISO model for fast evaluation at many complex frequencies.
 #[derive(Debug, Clone)]
 pub struct FreqEvaluator {
-    /// Upper Hessenberg form of the balanced A.
-    h: DMatrix<f64>,
+    /// Order n.
+    n: usize,
+    /// Quasi-triangular Schur factor of the balanced A, row-major n × n.
+    t: Vec<f64>,
     /// Qᵀ D⁻¹ B.
-    b: DVector<f64>,
-    /// C D Q.
-    c: DVector<f64>,
+    b: Vec<f64>,
+    /// Qᵀ D Cᵀ.
+    c: Vec<f64>,
     /// Feedthrough.
     d: f64,
+    /// Eigenvalues of A, sorted by modulus.
+    poles: Vec<Complex64>,
 }
+
+/// Largest order solved in a stack buffer (larger models use the heap).
+const STACK_ORDER: usize = 16;
 
 impl FreqEvaluator {
     /// Prepare a SISO model for evaluation.
     pub fn new(sys: &StateSpace) -> Result<Self, LtiError> {
         sys.require_siso()?;
-        let mut a = sys.a.clone();
-        let scale = balance_parlett_reinsch(&mut a);
-        let b = sys.b.column(0).component_div(&scale);
-        let c = sys.c.row(0).transpose().component_mul(&scale);
-        let (q, h) = a.hessenberg().unpack();
+        let schur = BalancedSchur::new(&sys.a)?;
+        let b = sys.b.column(0).component_div(&schur.scale);
+        let c = sys.c.row(0).transpose().component_mul(&schur.scale);
+        let n = schur.t.nrows();
         Ok(FreqEvaluator {
-            b: q.tr_mul(&b),
-            c: q.tr_mul(&c),
-            h,
+            n,
+            t: (0..n * n).map(|k| schur.t[(k / n, k % n)]).collect(),
+            b: schur.q.tr_mul(&b).iter().copied().collect(),
+            c: schur.q.tr_mul(&c).iter().copied().collect(),
             d: sys.d[(0, 0)],
+            poles: schur.eigenvalues,
         })
+    }
+
+    /// Eigenvalues of A (the open-loop poles), sorted by modulus.
+    pub fn poles(&self) -> &[Complex64] {
+        &self.poles
     }
 
     /// G(s) at a complex frequency s (rad/s). At an eigenvalue of A the result is infinite.
     pub fn eval(&self, s: Complex64) -> Complex64 {
-        let n = self.h.nrows();
-        // M = sI − H, row-major, upper Hessenberg.
-        let mut m: Vec<Complex64> = Vec::with_capacity(n * n);
-        for i in 0..n {
-            for j in 0..n {
-                let diag = if i == j { s } else { Complex64::new(0.0, 0.0) };
-                m.push(diag - self.h[(i, j)]);
+        if self.n <= STACK_ORDER {
+            let mut z = [Complex64::new(0.0, 0.0); STACK_ORDER];
+            self.solve(s, &mut z[..self.n])
+        } else {
+            self.solve(s, &mut vec![Complex64::new(0.0, 0.0); self.n])
+        }
+    }
+
+    /// Back-substitution of (sI − T) z = b through the 1×1 and 2×2 diagonal blocks of T, then
+    /// c·z + d. `z` (length n) is the work buffer.
+    fn solve(&self, s: Complex64, z: &mut [Complex64]) -> Complex64 {
+        let n = self.n;
+        let t = |i: usize, j: usize| self.t[i * n + j];
+        // b_i + Σ_{j ≥ from} T_ij z_j
+        let rhs = |z: &[Complex64], i: usize, from: usize| {
+            let row = &self.t[i * n + from..(i + 1) * n];
+            row.iter()
+                .zip(&z[from..])
+                .fold(Complex64::new(self.b[i], 0.0), |acc, (&tij, &zj)| {
+                    acc + zj * tij
+                })
+        };
+        let mut k = n;
+        while k > 0 {
+            let i = k - 1;
+            if i > 0 && t(i, i - 1) != 0.0 {
+                // 2×2 block on rows i−1, i
+                let (r1, r2) = (rhs(z, i - 1, k), rhs(z, i, k));
+                let (a11, a22) = (s - t(i - 1, i - 1), s - t(i, i));
+                let (t12, t21) = (t(i - 1, i), t(i, i - 1));
+                let inv_det = (a11 * a22 - t12 * t21).inv();
+                z[i - 1] = (a22 * r1 + r2 * t12) * inv_det;
+                z[i] = (r1 * t21 + a11 * r2) * inv_det;
+                k -= 2;
+            } else {
+                z[i] = rhs(z, i, k) / (s - t(i, i));
+                k -= 1;
             }
         }
-        let mut x: Vec<Complex64> = self.b.iter().map(|&v| Complex64::new(v, 0.0)).collect();
-        for k in 0..n.saturating_sub(1) {
-            // pivot between rows k and k+1 (the only non-zeros in column k below the diagonal)
-            if m[(k + 1) * n + k].norm_sqr() > m[k * n + k].norm_sqr() {
-                for j in k..n {
-                    m.swap(k * n + j, (k + 1) * n + j);
-                }
-                x.swap(k, k + 1);
-            }
-            let pivot = m[k * n + k];
-            if pivot == Complex64::new(0.0, 0.0) {
-                continue;
-            }
-            let l = m[(k + 1) * n + k] / pivot;
-            for j in k + 1..n {
-                let mkj = m[k * n + j];
-                m[(k + 1) * n + j] -= l * mkj;
-            }
-            let xk = x[k];
-            x[k + 1] -= l * xk;
-        }
-        for k in (0..n).rev() {
-            let mut acc = x[k];
-            for j in k + 1..n {
-                acc -= m[k * n + j] * x[j];
-            }
-            x[k] = acc / m[k * n + k];
-        }
-        let y: Complex64 = self.c.iter().zip(&x).map(|(&c, &xi)| xi * c).sum();
+        let y: Complex64 = self.c.iter().zip(z.iter()).map(|(&c, &zi)| zi * c).sum();
         y + self.d
     }
 
@@ -115,7 +130,7 @@ pub fn log_grid(from: f64, to: f64, points: usize) -> Vec<f64> {
 /// than 180° between neighbours (use `margins` for a self-refining grid).
 pub fn bode(sys: &StateSpace, freq_hz: &[f64]) -> Result<Bode, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
-    let integrators = super::margins::count_integrators(&super::eigenvalues(&sys.a)?);
+    let integrators = super::margins::count_integrators(ev.poles());
     let values: Vec<Complex64> = freq_hz.iter().map(|f| ev.at(2.0 * PI * f)).collect();
     let phase = match freq_hz.first() {
         Some(&f0) => unwrap_anchored(&ev, &values, 2.0 * PI * f0, integrators),
@@ -160,6 +175,7 @@ pub(crate) fn nearest_branch(raw: f64, reference: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DMatrix;
 
     fn siso(a: &[f64], b: &[f64], c: &[f64], d: f64) -> StateSpace {
         let n = b.len();

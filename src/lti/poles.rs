@@ -2,7 +2,7 @@
 
 use super::LtiError;
 use nalgebra::linalg::balancing::balance_parlett_reinsch;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
@@ -12,21 +12,47 @@ const SCHUR_MAX_ITER: usize = 10_000;
 /// Eigenvalues of `a`, balanced first (the rig's A spans ~1e-5 … 3e10), sorted by modulus.
 /// Non-finite input or a Schur iteration that does not converge is an error, never a hang.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>, LtiError> {
-    if a.iter().any(|v| !v.is_finite()) {
-        return Err(LtiError::NonFinite {
-            matrix: "A",
-            row: 0,
-            col: 0,
-        });
+    Ok(BalancedSchur::new(a)?.eigenvalues)
+}
+
+/// Real Schur form of the balanced matrix: `D⁻¹ A D = Q T Qᵀ`, T quasi-upper-triangular with
+/// exactly zero sub-diagonal entries between its 1×1 and 2×2 blocks.
+pub(crate) struct BalancedSchur {
+    /// Balancing scale D (diagonal).
+    pub scale: DVector<f64>,
+    /// Orthogonal Schur vectors.
+    pub q: DMatrix<f64>,
+    /// Quasi-triangular factor.
+    pub t: DMatrix<f64>,
+    /// Eigenvalues sorted by modulus.
+    pub eigenvalues: Vec<Complex64>,
+}
+
+impl BalancedSchur {
+    /// Balance, then Schur with an iteration limit.
+    pub fn new(a: &DMatrix<f64>) -> Result<Self, LtiError> {
+        if let Some(k) = a.iter().position(|v| !v.is_finite()) {
+            return Err(LtiError::NonFinite {
+                matrix: "A",
+                row: k % a.nrows() + 1,
+                col: k / a.nrows() + 1,
+            });
+        }
+        let mut balanced = a.clone();
+        let scale = balance_parlett_reinsch(&mut balanced);
+        let schur = balanced
+            .try_schur(f64::EPSILON, SCHUR_MAX_ITER)
+            .ok_or(LtiError::NoConvergence)?;
+        let mut eigenvalues: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
+        eigenvalues.sort_by(|p, q| p.norm().total_cmp(&q.norm()).then(p.im.total_cmp(&q.im)));
+        let (q, t) = schur.unpack();
+        Ok(BalancedSchur {
+            scale,
+            q,
+            t,
+            eigenvalues,
+        })
     }
-    let mut balanced = a.clone();
-    balance_parlett_reinsch(&mut balanced);
-    let schur = balanced
-        .try_schur(f64::EPSILON, SCHUR_MAX_ITER)
-        .ok_or(LtiError::NoConvergence)?;
-    let mut eig: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
-    eig.sort_by(|p, q| p.norm().total_cmp(&q.norm()).then(p.im.total_cmp(&q.im)));
-    Ok(eig)
 }
 
 /// A pole with its natural frequency and damping ratio.
