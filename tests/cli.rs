@@ -1,0 +1,254 @@
+//! End-to-end tests of the `pumpcyl` binary: real input from the command line, exit codes,
+//! messages and files.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn pumpcyl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = pumpcyl(args);
+    assert!(
+        out.status.success(),
+        "{args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn fails(args: &[&str]) -> String {
+    let out = pumpcyl(args);
+    assert!(!out.status.success(), "{args:?} should fail");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    err
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    serde_json::from_str(&ok(args)).unwrap()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+#[test]
+fn margins_json_of_the_default_rig_match_the_article() {
+    let m = json(&["margins", "--json"]);
+    let gm = m["gain_margin_db"].as_f64().unwrap();
+    let pm = m["phase_margin_deg"].as_f64().unwrap();
+    assert!((gm - 6.5).abs() <= 0.1, "{gm}");
+    assert!((pm - 33.5).abs() <= 0.5, "{pm}");
+    assert_eq!(m["closed_loop_stable"], true);
+    assert_eq!(m["gain_margin_infinite"], false);
+    for key in ["phase_crossover_hz", "gain_crossover_hz", "delay_margin_s"] {
+        assert!(m[key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    let crossings = m["crossings"].as_array().unwrap();
+    assert_eq!(crossings.len(), 2);
+    // delay margin = PM (rad) / ωc
+    let wc = 2.0 * std::f64::consts::PI * m["gain_crossover_hz"].as_f64().unwrap();
+    let dm = m["delay_margin_s"].as_f64().unwrap();
+    assert!((dm - pm.to_radians() / wc).abs() < 1e-9);
+}
+
+#[test]
+fn margins_text_names_everything() {
+    let text = ok(&["margins"]);
+    for word in [
+        "gain margin",
+        "phase margin",
+        "delay margin",
+        "stable",
+        "crossings (2)",
+    ] {
+        assert!(text.contains(word), "missing {word}: {text}");
+    }
+}
+
+#[test]
+fn printed_default_rig_round_trips_through_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = ok(&["rig", "--print-default"]);
+    assert!(toml.contains("beta_bar = 165.0  # bar"), "{toml}");
+    let edited = toml.replace("beta_bar = 165.0", "beta_bar = 37.8");
+    let path = write(dir.path(), "rig.toml", &edited);
+    let from_file = json(&["margins", "--json", "--rig", &path]);
+    let from_set = json(&["margins", "--json", "--set", "beta_bar=37.8"]);
+    assert_eq!(from_file["gain_margin_db"], from_set["gain_margin_db"]);
+    let nominal = json(&["margins", "--json"]);
+    assert_ne!(from_file["gain_margin_db"], nominal["gain_margin_db"]);
+}
+
+#[test]
+fn bad_rig_input_names_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "bad.toml", "beta_bar = 165\nmass_kgs = 10\n");
+    let err = fails(&["margins", "--rig", &path]);
+    assert!(
+        err.contains("bad.toml") && err.contains("line 2") && err.contains("mass_kgs"),
+        "{err}"
+    );
+    let path = write(dir.path(), "neg.toml", "mass_kg = -5\n");
+    let err = fails(&["margins", "--rig", &path]);
+    assert!(err.contains("neg.toml") && err.contains("mass_kg"), "{err}");
+    let err = fails(&["margins", "--set", "beta_bar=0"]);
+    assert!(err.contains("beta_bar") && err.contains("> 0"), "{err}");
+    let err = fails(&["margins", "--set", "betabar=3"]);
+    assert!(err.contains("unknown key `betabar`"), "{err}");
+    let err = fails(&["margins", "--rig", "/nonexistent/rig.toml"]);
+    assert!(err.contains("/nonexistent/rig.toml"), "{err}");
+}
+
+#[test]
+fn ss_model_gives_closed_form_margins_and_infinite_gm_as_null() {
+    // L = 10 / (s (0.5 s + 1)) = 20 / (s² + 2 s)
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "l.json",
+        r#"{"A": [[0, 1], [0, -2]], "B": [[0], [1]], "C": [[20, 0]], "D": [[0]]}"#,
+    );
+    let m = json(&["margins", "--json", "--ss", &path]);
+    let (k, tau) = (10.0f64, 0.5f64);
+    let wc = ((-1.0 + (1.0 + 4.0 * tau * tau * k * k).sqrt()) / (2.0 * tau * tau)).sqrt();
+    let pm = 90.0 - (tau * wc).atan().to_degrees();
+    assert!((m["phase_margin_deg"].as_f64().unwrap() - pm).abs() < 1e-8);
+    assert!(m["gain_margin_db"].is_null());
+    assert_eq!(m["gain_margin_infinite"], true);
+    assert!(m["phase_crossover_hz"].is_null());
+}
+
+#[test]
+fn ss_errors_are_clear() {
+    let dir = tempfile::tempdir().unwrap();
+    let mimo = write(
+        dir.path(),
+        "mimo.json",
+        r#"{"A": [[-1]], "B": [[1, 2]], "C": [[1]], "D": [[0, 0]]}"#,
+    );
+    let err = fails(&["margins", "--ss", &mimo]);
+    assert!(err.contains("mimo.json") && err.contains("SISO"), "{err}");
+    let ragged = write(
+        dir.path(),
+        "ragged.json",
+        r#"{"A": [[-1, 0], [1]], "B": [[1], [0]], "C": [[1, 0]], "D": [[0]]}"#,
+    );
+    let err = fails(&["poles", "--ss", &ragged]);
+    assert!(err.contains("A row 2"), "{err}");
+    let mismatch = write(
+        dir.path(),
+        "mismatch.json",
+        r#"{"A": [[-1, 0], [0, -2]], "B": [[1]], "C": [[1, 0]], "D": [[0]]}"#,
+    );
+    let err = fails(&["bode", "--ss", &mismatch]);
+    assert!(err.contains("B has 1 rows"), "{err}");
+    let broken = write(
+        dir.path(),
+        "broken.json",
+        "{\"A\": [[-1]],\n \"B\": [[1]] \"C\"}",
+    );
+    let err = fails(&["margins", "--ss", &broken]);
+    assert!(
+        err.contains("broken.json") && err.contains("line 2"),
+        "{err}"
+    );
+    let err = fails(&["margins", "--ss", &mimo, "--set", "beta_bar=3"]);
+    assert!(err.contains("cannot be used with"), "{err}");
+}
+
+#[test]
+fn model_json_feeds_back_into_ss_with_the_same_margins() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = ok(&["model", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&model).unwrap();
+    assert_eq!(v["A"].as_array().unwrap().len(), 10);
+    assert_eq!(v["states"][2]["name"], "p1");
+    assert_eq!(v["states"][2]["unit"], "Pa");
+    let path = write(dir.path(), "model.json", &model);
+    let a = json(&["margins", "--json", "--ss", &path]);
+    let b = json(&["margins", "--json"]);
+    let (ga, gb) = (
+        a["gain_margin_db"].as_f64().unwrap(),
+        b["gain_margin_db"].as_f64().unwrap(),
+    );
+    assert!((ga - gb).abs() < 1e-9, "{ga} vs {gb}");
+}
+
+#[test]
+fn bode_writes_csv_and_svg_and_refuses_unknown_formats() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("b.csv");
+    ok(&[
+        "bode",
+        "--from-hz",
+        "0.1",
+        "--to-hz",
+        "10",
+        "--points-per-decade",
+        "10",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("freq_hz,mag_db,phase_deg"));
+    assert_eq!(lines.count(), 21);
+    let svg = dir.path().join("b.svg");
+    ok(&[
+        "bode",
+        "--out",
+        svg.to_str().unwrap(),
+        "--compare",
+        "beta_bar=37.8",
+        "--compare",
+        "beta_bar=370",
+    ]);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains("<svg") && text.contains("beta_bar=370"));
+    let bad = dir.path().join("b.txt");
+    let err = fails(&["bode", "--out", bad.to_str().unwrap()]);
+    assert!(err.contains("b.txt") && err.contains(".csv"), "{err}");
+    assert!(!bad.exists());
+    let err = fails(&[
+        "bode",
+        "--compare",
+        "nope=1",
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(err.contains("nope"), "{err}");
+}
+
+#[test]
+fn poles_report_frequency_and_damping() {
+    let p = json(&["poles", "--json"]);
+    assert_eq!(p["open_loop"].as_array().unwrap().len(), 10);
+    assert_eq!(p["closed_loop_stable"], true);
+    assert_eq!(p["closed_loop_with_sum_pressure_stable"], true);
+    // the position integrator: a pole at the origin with undefined damping
+    let origin = &p["open_loop"][0];
+    assert_eq!(origin["natural_freq_hz"], 0.0);
+    assert!(origin["damping"].is_null());
+    let text = ok(&["poles"]);
+    assert!(text.contains("damping") && text.contains("f_n_hz"));
+}
+
+#[test]
+fn every_command_has_help() {
+    for cmd in ["rig", "margins", "bode", "poles", "model"] {
+        let text = ok(&[cmd, "--help"]);
+        assert!(
+            text.contains(&format!("Usage: pumpcyl {cmd}")),
+            "{cmd}: {text}"
+        );
+        assert!(text.contains("--help"), "{cmd}: {text}");
+    }
+}
