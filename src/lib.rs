@@ -12,5 +12,7 @@
 pub mod cli;
 pub mod lti;
 pub mod model;
+pub mod record;
 pub mod report;
+pub mod response;
 pub mod rig;

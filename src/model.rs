@@ -15,6 +15,31 @@ use crate::lti::{StateInfo, StateSpace};
 use crate::rig::{MotorModel, Rig, RigSi};
 use nalgebra::DMatrix;
 
+/// Names and SI units of the outputs of [`Plant::closed_loop_outputs`], in order.
+pub const SIM_OUTPUTS: [(&str, &str); 6] = [
+    ("x", "m"),
+    ("p1", "Pa"),
+    ("p2", "Pa"),
+    ("w1", "rad/s"),
+    ("w2", "rad/s"),
+    ("e", "m"),
+];
+
+/// The steady operating point (SI; pressures gauge).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OperatingPoint {
+    /// Position (m).
+    pub x: f64,
+    /// Chamber 1 pressure (Pa).
+    pub p1: f64,
+    /// Chamber 2 pressure (Pa).
+    pub p2: f64,
+    /// Motor 1 speed (rad/s).
+    pub w1: f64,
+    /// Motor 2 speed (rad/s).
+    pub w2: f64,
+}
+
 /// Positions of the states in the state vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Layout {
@@ -144,10 +169,51 @@ impl Plant {
     /// The closed loop x_ref → x (SISO) with the position loop and, optionally, the sum-pressure
     /// loop closed.
     pub fn closed_loop(&self, sum_pressure: bool) -> StateSpace {
-        let (kx, kr) = self.controller(sum_pressure);
-        let a = &self.a + &self.b * kx;
-        let b = &self.b * kr;
+        let (a, b) = self.closed_ab(sum_pressure);
         self.siso(a, b)
+    }
+
+    /// The closed loop for simulation (SPEC §5): input x_ref (m, deviation); outputs
+    /// [`SIM_OUTPUTS`]: x (m), p1, p2 (Pa), ω1, ω2 (rad/s) and the control error e = x_ref − x (m).
+    pub fn closed_loop_outputs(&self, sum_pressure: bool) -> StateSpace {
+        let (a, b) = self.closed_ab(sum_pressure);
+        let l = &self.layout;
+        let mut c = DMatrix::zeros(SIM_OUTPUTS.len(), l.n);
+        for (row, state) in [l.x, l.p[0], l.p[1], l.w[0], l.w[1]]
+            .into_iter()
+            .enumerate()
+        {
+            c[(row, state)] = 1.0;
+        }
+        c[(5, l.x)] = -1.0;
+        let mut d = DMatrix::zeros(SIM_OUTPUTS.len(), 1);
+        d[(5, 0)] = 1.0;
+        StateSpace::new(a, b, c, d).expect("the assembled model is consistent")
+    }
+
+    /// A and B of the closed loop with input x_ref.
+    fn closed_ab(&self, sum_pressure: bool) -> (DMatrix<f64>, DMatrix<f64>) {
+        let (kx, kr) = self.controller(sum_pressure);
+        (&self.a + &self.b * kx, &self.b * kr)
+    }
+
+    /// The steady operating point the model is linearised about (SI, gauge pressures): x0, the
+    /// pressures from the sum-pressure set-point and the force balance p1 A1 − p2 A2 = F_ext, and
+    /// the pump speeds that feed the leakage at standstill (SPEC §6.2 solved for ω).
+    pub fn operating_point(&self) -> OperatingPoint {
+        let si = &self.si;
+        let p1 = (si.p_sum_ref * si.a2 + si.f_ext) / (si.a1 + si.a2);
+        let p2 = si.p_sum_ref - p1;
+        let cross = si.c12 * (p1 - p2);
+        let w1 = (cross - si.c2 * p2) / si.d[0];
+        let w2 = (si.c1 * p1 + cross - si.d[0] * w1) / si.d[1];
+        OperatingPoint {
+            x: si.x0,
+            p1,
+            p2,
+            w1,
+            w2,
+        }
     }
 
     /// Wrap A, B with output x and no feedthrough.
@@ -289,6 +355,19 @@ mod tests {
                 assert_eq!(plant.a[(w, p)], 0.0);
             }
         }
+    }
+
+    #[test]
+    fn operating_point_reproduces_the_article_standstill() {
+        // SPEC §6.2: ω1 ≈ −160 rpm, ω2 ≈ 245 rpm at p1 ≈ 3.95 bar, p2 ≈ 5.86 bar; the model's
+        // point (p1 + p2 = 10 bar exactly) is close: within 5 %.
+        let op = Plant::new(&Rig::default()).operating_point();
+        let rpm = 60.0 / (2.0 * std::f64::consts::PI);
+        assert!((op.w1 * rpm / -160.0 - 1.0).abs() < 0.05, "{}", op.w1 * rpm);
+        assert!((op.w2 * rpm / 245.0 - 1.0).abs() < 0.05, "{}", op.w2 * rpm);
+        assert!((op.p1 + op.p2 - 10e5).abs() < 1e-6);
+        let si = Rig::default().si();
+        assert!((op.p1 * si.a1 - op.p2 * si.a2).abs() < 1e-9);
     }
 
     #[test]

@@ -242,6 +242,12 @@ pub struct RigSi {
     pub k_beta: f64,
     /// Flow-matching ratio α = (D1/D2)(A1/A2 − 1).
     pub alpha: f64,
+    /// Operating-point position x0 (m).
+    pub x0: f64,
+    /// Sum-pressure set-point (Pa).
+    pub p_sum_ref: f64,
+    /// External force (N).
+    pub f_ext: f64,
 }
 
 /// Pascal per bar.
@@ -477,6 +483,9 @@ impl Rig {
             k_pres: self.k_pres_per_bar / PA_PER_BAR,
             k_beta: self.k_beta,
             alpha: (d[0] / d[1]) * (a1 / a2 - 1.0),
+            x0,
+            p_sum_ref: self.p_sum_ref_bar * PA_PER_BAR,
+            f_ext: self.external_force_n,
         }
     }
 

@@ -252,3 +252,109 @@ fn every_command_has_help() {
         assert!(text.contains("--help"), "{cmd}: {text}");
     }
 }
+
+#[test]
+fn step_reports_metrics_and_writes_figures() {
+    let m = json(&["step", "--json"]);
+    let metrics = &m["metrics"];
+    assert_eq!(metrics["step_mm"], 5.0);
+    let rise = metrics["rise_time_s"].as_f64().unwrap();
+    assert!(rise > 0.05 && rise < 2.0, "{rise}");
+    assert!(metrics["steady_state_error_mm"].as_f64().unwrap().abs() < 1e-9);
+    let text = ok(&["step", "--compare", "feedforward=false"]);
+    assert!(
+        text.contains("rise time") && text.contains("feedforward=false"),
+        "{text}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("s.csv");
+    ok(&["step", "--duration-s", "1", "--out", csv.to_str().unwrap()]);
+    let body = std::fs::read_to_string(&csv).unwrap();
+    assert!(body.starts_with("time_s,x_ref_mm,x_mm,e_mm,p1_bar,p2_bar,w1_rpm,w2_rpm\n"));
+    assert_eq!(body.lines().count(), 102);
+    let svg = dir.path().join("s.svg");
+    ok(&[
+        "step",
+        "--out",
+        svg.to_str().unwrap(),
+        "--compare",
+        "sum_pressure=false",
+    ]);
+    let body = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        body.contains("<svg")
+            && body.contains("Pressure (bar)")
+            && body.contains("sum_pressure=false")
+    );
+}
+
+#[test]
+fn track_article_cases_give_three_rows() {
+    let m = json(&["track", "--article-cases", "--json"]);
+    let cases = m["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 3);
+    for c in cases {
+        let wr = c["metrics"]["wave_reduction"].as_f64().unwrap();
+        let amp = c["metrics"]["amp_mm"].as_f64().unwrap();
+        let max = c["metrics"]["max_error_mm"].as_f64().unwrap();
+        assert!((wr - (1.0 - max / amp)).abs() < 1e-12);
+        assert!(wr > 0.0 && wr < 1.0, "{wr}");
+    }
+    let err = fails(&["track", "--freq-hz", "0.2"]);
+    assert!(err.contains("--amp-mm"), "{err}");
+}
+
+#[test]
+fn simulate_replays_a_record_and_rejects_bad_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    // a record made by the model itself (Kp = 25 step at 0.5 s): replaying it gives MSE ≈ 0
+    let csv = dir.path().join("step.csv");
+    ok(&["step", "--duration-s", "3", "--out", csv.to_str().unwrap()]);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut rec = String::from("time_s,x_ref_mm,x_mm,p1_bar\n");
+    for k in 0..50 {
+        // 0.5 s at rest before the step, with non-uniform pre-step sampling
+        let t = k as f64 * 0.01;
+        rec.push_str(&format!("{:.3},345,345,4.0\n", t - 0.5));
+    }
+    for line in text.lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        rec.push_str(&format!("{},{},{},{}\n", f[0], f[1], f[2], f[4]));
+    }
+    let path = write(dir.path(), "rec.csv", &rec);
+    let m = json(&["simulate", "--data", &path, "--json", "--fit-end-s", "2.5"]);
+    assert!(m["mse_mm2"].as_f64().unwrap() < 1e-8, "{m}");
+    let shifted = json(&[
+        "simulate",
+        "--data",
+        &path,
+        "--json",
+        "--set",
+        "beta_bar=60",
+    ]);
+    assert!(shifted["mse_mm2"].as_f64().unwrap() > 1e-3, "{shifted}");
+    let out = dir.path().join("sim.svg");
+    ok(&["simulate", "--data", &path, "--out", out.to_str().unwrap()]);
+    assert!(std::fs::read_to_string(&out).unwrap().contains("<svg"));
+    // bad records: error names file, line and column; nothing written
+    let bad = write(
+        dir.path(),
+        "bad.csv",
+        "time_s,x_ref_mm,x_mm\n0,345,345\n0.01,inf,345\n",
+    );
+    let out = dir.path().join("never.csv");
+    let err = fails(&["simulate", "--data", &bad, "--out", out.to_str().unwrap()]);
+    assert!(
+        err.contains("bad.csv") && err.contains("line 3") && err.contains("x_ref_mm"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let missing = write(dir.path(), "missing.csv", "time_s,x_mm\n0,1\n1,2\n");
+    let err = fails(&["simulate", "--data", &missing]);
+    assert!(
+        err.contains("missing.csv") && err.contains("x_ref_mm"),
+        "{err}"
+    );
+    let err = fails(&["simulate", "--data", &path, "--fit-end-s", "99"]);
+    assert!(err.contains("outside the record"), "{err}");
+}

@@ -2,6 +2,7 @@
 
 mod analysis;
 mod output;
+mod time;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -37,6 +38,14 @@ enum Command {
     Poles(analysis::PolesArgs),
     /// The open-loop state-space model (A, B, C, D and state names, SI).
     Model(analysis::ModelCmdArgs),
+    /// Closed-loop response to a position step (SPEC §5): rise, overshoot, settling, with
+    /// position, error, pressures and motor speeds.
+    Step(time::StepArgs),
+    /// Sinusoidal tracking (SPEC §5): maximum and RMS error and wave reduction.
+    Track(time::TrackArgs),
+    /// Replay a recorded reference (SPEC §9 CSV) through the model and compare with the
+    /// measured response (position MSE in mm²).
+    Simulate(time::SimulateArgs),
 }
 
 #[derive(Debug, Args)]
@@ -52,15 +61,46 @@ struct RigArgs {
     set: Vec<String>,
 }
 
-/// Where the analysed model comes from: a rig (default, file, overrides) or a JSON model.
+/// A rig: the embedded default or a file, with `--set` overrides.
 #[derive(Debug, Clone, Args)]
-pub struct ModelArgs {
+pub struct RigSource {
     /// Rig description (TOML). Default: the embedded article rig.
     #[arg(long, value_name = "FILE.toml")]
     rig: Option<PathBuf>,
     /// Override a rig key: --set beta_bar=37.8 (repeatable; same keys as the TOML).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+}
+
+impl RigSource {
+    /// The rig: file or default, with --set applied.
+    pub fn load(&self) -> Result<Rig> {
+        let base = match &self.rig {
+            Some(path) => Rig::from_file(path)?,
+            None => Rig::default(),
+        };
+        Ok(base.with_overrides(&self.set)?)
+    }
+
+    /// Where the rig came from, in words.
+    pub fn origin(&self) -> String {
+        let file = self
+            .rig
+            .as_ref()
+            .map_or("default rig".to_string(), |p| p.display().to_string());
+        if self.set.is_empty() {
+            file
+        } else {
+            format!("{file}, {}", self.set.join(" "))
+        }
+    }
+}
+
+/// Where the analysed model comes from: a rig (default, file, overrides) or a JSON model.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    #[command(flatten)]
+    source: RigSource,
     /// Analyse a SISO continuous state-space model from JSON ({"A","B","C","D"}) instead of a
     /// rig: the model is taken as the loop transfer L(s).
     #[arg(long, value_name = "MODEL.json", conflicts_with_all = ["rig", "set"])]
@@ -83,36 +123,24 @@ pub struct Loop {
 }
 
 impl ModelArgs {
-    /// The base rig: file or default, with --set applied.
-    fn rig(&self) -> Result<Rig> {
-        let base = match &self.rig {
-            Some(path) => Rig::from_file(path)?,
-            None => Rig::default(),
-        };
-        Ok(base.with_overrides(&self.set)?)
-    }
-
     /// Build the analysed loop, with extra overrides (for --compare).
     fn build(&self, extra: &[String]) -> Result<Loop> {
         if let Some(path) = &self.ss {
             return read_ss(path);
         }
-        let rig = self.rig()?.with_overrides(extra)?;
+        let rig = self.source.load()?.with_overrides(extra)?;
         let plant = Plant::new(&rig);
         let sp = if self.sum_pressure_closed {
             "closed"
         } else {
             "open"
         };
-        let origin = self
-            .rig
-            .as_ref()
-            .map_or("default rig".to_string(), |p| p.display().to_string());
         Ok(Loop {
             open_loop: plant.open_loop(self.sum_pressure_closed),
             states: plant.layout.states(),
             description: format!(
-                "{origin}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}"
+                "{}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}",
+                self.source.origin()
             ),
             rig: Some(rig),
         })
@@ -156,13 +184,11 @@ pub fn run() -> Result<()> {
             let rig = if args.print_default {
                 Rig::default()
             } else {
-                ModelArgs {
+                RigSource {
                     rig: args.rig,
                     set: args.set,
-                    ss: None,
-                    sum_pressure_closed: false,
                 }
-                .rig()?
+                .load()?
             };
             rig.to_commented_toml()
         }
@@ -170,6 +196,9 @@ pub fn run() -> Result<()> {
         Command::Bode(args) => analysis::bode(&args)?,
         Command::Poles(args) => analysis::poles(&args)?,
         Command::Model(args) => analysis::model(&args)?,
+        Command::Step(args) => time::step(&args)?,
+        Command::Track(args) => time::track(&args)?,
+        Command::Simulate(args) => time::simulate(&args)?,
     };
     output::emit(&text)
 }

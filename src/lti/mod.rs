@@ -8,11 +8,13 @@ mod io;
 mod margins;
 mod poles;
 mod roots;
+mod timeresp;
 
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
 pub use poles::{eigenvalues, PoleInfo};
+pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;
 

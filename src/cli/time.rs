@@ -1,0 +1,584 @@
+//! The time-domain commands: `step`, `track`, `simulate` (SPEC §5, §9).
+
+use anyhow::{Context, Result};
+use clap::Args;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::output::{fmt_opt, format_of, write_atomic, Format};
+use super::RigSource;
+use crate::lti::dc_output;
+use crate::model::Plant;
+use crate::record::Record;
+use crate::report::{self, LineStyle, Panel, Trace};
+use crate::response::{self, Baseline, Signals, StepMetrics, TrackMetrics, ARTICLE_SINE_CASES};
+use crate::rig::Rig;
+
+/// Options shared by the time-domain commands.
+#[derive(Debug, Args)]
+pub struct TimeOptions {
+    /// Output file: .csv (signals), .svg or .png (four-panel figure).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Print the metrics as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Overlay a variant: KEY=VALUE[,KEY=VALUE...] on top of the rig (repeatable), e.g.
+    /// --compare feedforward=false --compare sum_pressure=false.
+    #[arg(long, value_name = "KEY=VALUE[,...]")]
+    compare: Vec<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct StepArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Step size (mm), from the operating point x0.
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    step_mm: f64,
+    /// Simulated duration (s).
+    #[arg(long, default_value_t = 4.0)]
+    duration_s: f64,
+    /// Sample rate (Hz) of the reference and the output.
+    #[arg(long, default_value_t = 100.0)]
+    rate_hz: f64,
+    #[command(flatten)]
+    opts: TimeOptions,
+}
+
+#[derive(Debug, Args)]
+pub struct TrackArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Sine frequency (Hz).
+    #[arg(long, required_unless_present = "article_cases")]
+    freq_hz: Option<f64>,
+    /// Sine amplitude (mm) about x0.
+    #[arg(long, required_unless_present = "article_cases")]
+    amp_mm: Option<f64>,
+    /// Number of periods simulated; metrics skip the first.
+    #[arg(long, default_value_t = 3.0)]
+    periods: f64,
+    /// Sample rate (Hz).
+    #[arg(long, default_value_t = 100.0)]
+    rate_hz: f64,
+    /// Run the article's three cases (0.1 Hz ±50 mm, 0.2 Hz ±35 mm, 0.25 Hz ±20 mm).
+    #[arg(long, conflicts_with_all = ["freq_hz", "amp_mm"])]
+    article_cases: bool,
+    #[command(flatten)]
+    opts: TimeOptions,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Record to replay (CSV, SPEC §9: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
+    /// w1_rpm, w2_rpm).
+    #[arg(long, value_name = "RECORD.csv")]
+    data: PathBuf,
+    /// End of the fit window on the record's time axis (s); default: the whole record.
+    #[arg(long)]
+    fit_end_s: Option<f64>,
+    #[command(flatten)]
+    opts: TimeOptions,
+}
+
+/// The nominal rig and each `--compare` variant, labelled.
+fn variants(rig: &Rig, compare: &[String]) -> Result<Vec<(String, Rig)>> {
+    let mut out = vec![("nominal".to_string(), rig.clone())];
+    for c in compare {
+        let overrides: Vec<String> = c.split(',').map(|s| s.trim().to_string()).collect();
+        let v = rig
+            .with_overrides(&overrides)
+            .with_context(|| format!("--compare {c}"))?;
+        out.push((c.clone(), v));
+    }
+    Ok(out)
+}
+
+fn check_timing(duration_s: f64, rate_hz: f64) -> Result<()> {
+    anyhow::ensure!(
+        duration_s.is_finite() && duration_s > 0.0,
+        "--duration-s must be > 0 (got {duration_s})"
+    );
+    anyhow::ensure!(
+        rate_hz.is_finite() && rate_hz > 0.0 && duration_s * rate_hz <= 1e7,
+        "--rate-hz must be > 0 and give at most 10^7 samples (got {rate_hz})"
+    );
+    Ok(())
+}
+
+/// `pumpcyl step`.
+pub fn step(args: &StepArgs) -> Result<String> {
+    check_timing(args.duration_s, args.rate_hz)?;
+    anyhow::ensure!(
+        args.step_mm != 0.0 && args.step_mm.is_finite(),
+        "--step-mm must be non-zero"
+    );
+    let rig = args.rig.load()?;
+    let mut runs = Vec::new();
+    for (label, r) in variants(&rig, &args.opts.compare)? {
+        let s = response::step(&r, args.step_mm, args.duration_s, args.rate_hz)?;
+        let m = metrics_of_step(&r, &s, args.step_mm)?;
+        runs.push((label, s, m));
+    }
+    if let Some(path) = &args.opts.out {
+        let series: Vec<(String, &Signals)> = runs.iter().map(|(l, s, _)| (l.clone(), s)).collect();
+        let title = format!(
+            "Step {:+} mm from x0 = {} mm ({})",
+            args.step_mm,
+            rig.x0_mm,
+            args.rig.origin()
+        );
+        let subtitle = step_subtitle(&runs[0].2);
+        write_figure(path, &title, Some(&subtitle), &series, None)?;
+    }
+    if args.opts.json {
+        let mut v =
+            json!({"rig": args.rig.origin(), "step_mm": args.step_mm, "metrics": runs[0].2});
+        if runs.len() > 1 {
+            v["compare"] = runs[1..]
+                .iter()
+                .map(|(l, _, m)| json!({"label": l, "metrics": m}))
+                .collect();
+        }
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+    }
+    Ok(step_table(args, &runs))
+}
+
+/// Step metrics of a simulated step; the steady-state error comes from the DC solution.
+fn metrics_of_step(rig: &Rig, s: &Signals, step_mm: f64) -> Result<StepMetrics> {
+    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    let dc_mm = dc_output(&sys, &[step_mm * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
+    let x0 = s.x_mm[0];
+    let y: Vec<f64> = s.x_mm.iter().map(|x| x - x0).collect();
+    Ok(response::step_metrics(&s.time_s, &y, step_mm, dc_mm))
+}
+
+fn step_subtitle(m: &StepMetrics) -> String {
+    format!(
+        "rise {} s, overshoot {:.2} mm ({:.1} %), settling (2 %) {} s",
+        fmt_opt(m.rise_time_s, 3),
+        m.overshoot_mm,
+        m.overshoot_pct,
+        fmt_opt(m.settling_time_s, 2)
+    )
+}
+
+fn step_table(args: &StepArgs, runs: &[(String, Signals, StepMetrics)]) -> String {
+    let mut s = format!(
+        "step {:+} mm, {} Hz, {} s ({}; sum-pressure loop as the rig says)\n",
+        args.step_mm,
+        args.rate_hz,
+        args.duration_s,
+        args.rig.origin()
+    );
+    let _ = write!(s, "{:<24}", "");
+    for (label, _, _) in runs {
+        let _ = write!(s, " {label:>22}");
+    }
+    s.push('\n');
+    type Row = (&'static str, fn(&StepMetrics) -> String);
+    let rows: [Row; 7] = [
+        ("rise time 10-90 % (s)", |m| fmt_opt(m.rise_time_s, 3)),
+        ("overshoot (mm)", |m| format!("{:.3}", m.overshoot_mm)),
+        ("overshoot (%)", |m| format!("{:.2}", m.overshoot_pct)),
+        ("peak time (s)", |m| format!("{:.2}", m.peak_time_s)),
+        ("settling time 2 % (s)", |m| fmt_opt(m.settling_time_s, 2)),
+        ("steady-state error (mm)", |m| {
+            format!("{:.4}", m.steady_state_error_mm)
+        }),
+        ("error at end (mm)", |m| format!("{:.4}", m.final_error_mm)),
+    ];
+    for (name, f) in rows {
+        let _ = write!(s, "{name:<24}");
+        for (_, _, m) in runs {
+            let _ = write!(s, " {:>22}", f(m));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `pumpcyl track`.
+pub fn track(args: &TrackArgs) -> Result<String> {
+    let cases: Vec<(f64, f64)> = if args.article_cases {
+        ARTICLE_SINE_CASES.to_vec()
+    } else {
+        vec![(
+            args.freq_hz.unwrap_or_default(),
+            args.amp_mm.unwrap_or_default(),
+        )]
+    };
+    for &(f, a) in &cases {
+        anyhow::ensure!(f > 0.0 && f.is_finite(), "--freq-hz must be > 0 (got {f})");
+        anyhow::ensure!(a > 0.0 && a.is_finite(), "--amp-mm must be > 0 (got {a})");
+        check_timing(args.periods / f, args.rate_hz)?;
+    }
+    anyhow::ensure!(
+        args.periods > 1.0,
+        "--periods must exceed 1 (metrics skip the first period)"
+    );
+    let rig = args.rig.load()?;
+    let mut runs = Vec::new();
+    for &(f, a) in &cases {
+        for (label, r) in variants(&rig, &args.opts.compare)? {
+            let s = response::sine(&r, f, a, args.periods, args.rate_hz)?;
+            let m = response::track_metrics(&s.time_s, &s.e_mm, f, a);
+            runs.push((label, s, m));
+        }
+    }
+    if let Some(path) = &args.opts.out {
+        write_track_output(path, &runs)?;
+    }
+    if args.opts.json {
+        let cases: Vec<_> = runs
+            .iter()
+            .map(|(l, _, m)| json!({"label": l, "metrics": m}))
+            .collect();
+        return Ok(serde_json::to_string_pretty(
+            &json!({"rig": args.rig.origin(), "cases": cases}),
+        )? + "\n");
+    }
+    let mut s = format!(
+        "sinusoidal tracking ({}), metrics after the first period\n",
+        args.rig.origin()
+    );
+    let _ = writeln!(
+        s,
+        "{:<22} {:>8} {:>8} {:>12} {:>12} {:>15}",
+        "variant", "freq_hz", "amp_mm", "max_err_mm", "rms_err_mm", "wave_reduction"
+    );
+    for (label, _, m) in &runs {
+        let _ = writeln!(
+            s,
+            "{label:<22} {:>8.3} {:>8.1} {:>12.3} {:>12.3} {:>15.3}",
+            m.freq_hz, m.amp_mm, m.max_error_mm, m.rms_error_mm, m.wave_reduction
+        );
+    }
+    Ok(s)
+}
+
+fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> Result<()> {
+    let labelled: Vec<(String, &Signals)> = runs
+        .iter()
+        .map(|(l, s, m)| (format!("{} Hz ±{} mm {l}", m.freq_hz, m.amp_mm), s))
+        .collect();
+    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
+        return write_atomic(path, signals_csv(&labelled, None).as_bytes());
+    }
+    // one position panel per case, then all errors together
+    let mut panels = Vec::new();
+    let mut errors = Panel {
+        y_label: "Control error (mm)".into(),
+        traces: Vec::new(),
+    };
+    for (i, (label, s)) in labelled.iter().enumerate() {
+        let (_, _, m) = &runs[i];
+        panels.push(Panel {
+            y_label: format!("Position (mm), {} Hz", m.freq_hz),
+            traces: vec![
+                trace("x_ref", &s.time_s, &s.x_ref_mm, LineStyle::Dashed, Some(6)),
+                trace(
+                    &format!("x {label}"),
+                    &s.time_s,
+                    &s.x_mm,
+                    LineStyle::Solid,
+                    Some(i),
+                ),
+            ],
+        });
+        errors
+            .traces
+            .push(trace(label, &s.time_s, &s.e_mm, LineStyle::Solid, Some(i)));
+    }
+    panels.push(errors);
+    let title = "Sinusoidal tracking (SPEC §5)";
+    let list = |f: fn(&TrackMetrics) -> String| -> String {
+        runs.iter()
+            .map(|(_, _, m)| f(m))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let subtitle = format!(
+        "max|e| {} mm; wave reduction {}",
+        list(|m| format!("{:.1}", m.max_error_mm)),
+        list(|m| format!("{:.2}", m.wave_reduction))
+    );
+    render(path, title, Some(&subtitle), &panels)
+}
+
+/// `pumpcyl simulate`.
+pub fn simulate(args: &SimulateArgs) -> Result<String> {
+    let rec = Record::read(&args.data)?;
+    let window_end = match args.fit_end_s {
+        Some(t) => {
+            let (t0, t1) = (rec.time_s[0], rec.time_s[rec.len() - 1]);
+            anyhow::ensure!(
+                t.is_finite() && t > t0 && t <= t1,
+                "{}: --fit-end-s {t} lies outside the record ({t0} … {t1} s)",
+                rec.file
+            );
+            t
+        }
+        None => rec.time_s[rec.len() - 1],
+    };
+    let rig = args.rig.load()?;
+    let measured = signals_of_record(&rec);
+    let mut runs = Vec::new();
+    for (label, r) in variants(&rig, &args.opts.compare)? {
+        let base = baseline_of_record(&rec, &r);
+        let s = response::simulate(&r, &rec.time_s, &rec.x_ref_mm, &base)?;
+        let mse = mse_window(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
+        runs.push((label, s, mse));
+    }
+    let in_window = rec.time_s.iter().filter(|&&t| t <= window_end).count();
+    if let Some(path) = &args.opts.out {
+        let series: Vec<(String, &Signals)> = runs
+            .iter()
+            .map(|(l, s, _)| (format!("sim {l}"), s))
+            .collect();
+        let title = format!("{} against the model ({})", rec.file, args.rig.origin());
+        let subtitle = format!(
+            "position MSE {:.4} mm² up to t = {} s",
+            runs[0].2, window_end
+        );
+        write_figure(path, &title, Some(&subtitle), &series, Some(&measured))?;
+    }
+    if args.opts.json {
+        let mut v = json!({
+            "file": rec.file, "rig": args.rig.origin(), "mse_mm2": runs[0].2,
+            "fit_end_s": window_end, "samples_in_window": in_window,
+        });
+        if runs.len() > 1 {
+            v["compare"] = runs[1..]
+                .iter()
+                .map(|(l, _, m)| json!({"label": l, "mse_mm2": m}))
+                .collect();
+        }
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+    }
+    let mut s = format!(
+        "{}: {} samples, fit window up to {} s ({in_window} samples)\n",
+        rec.file,
+        rec.len(),
+        window_end
+    );
+    for (label, _, mse) in &runs {
+        let _ = writeln!(s, "  {label:<24} position MSE {mse:.5} mm²");
+    }
+    Ok(s)
+}
+
+/// Initial steady state of a record (SPEC §9), with the rig's operating point for signals the
+/// record lacks.
+fn baseline_of_record(rec: &Record, rig: &Rig) -> Baseline {
+    let op = Baseline::of_rig(rig);
+    let mean =
+        |s: &Option<Vec<f64>>, fallback: f64| s.as_ref().map_or(fallback, |v| rec.initial_mean(v));
+    Baseline {
+        x_ref_mm: rec.initial_mean(&rec.x_ref_mm),
+        x_mm: rec.initial_mean(&rec.x_mm),
+        p_bar: [
+            mean(&rec.p1_bar, op.p_bar[0]),
+            mean(&rec.p2_bar, op.p_bar[1]),
+        ],
+        w_rpm: [
+            mean(&rec.w1_rpm, op.w_rpm[0]),
+            mean(&rec.w2_rpm, op.w_rpm[1]),
+        ],
+    }
+}
+
+/// The measured signals (absent ones empty).
+fn signals_of_record(rec: &Record) -> Signals {
+    let opt = |v: &Option<Vec<f64>>| v.clone().unwrap_or_default();
+    Signals {
+        time_s: rec.time_s.clone(),
+        x_ref_mm: rec.x_ref_mm.clone(),
+        x_mm: rec.x_mm.clone(),
+        e_mm: rec
+            .x_ref_mm
+            .iter()
+            .zip(&rec.x_mm)
+            .map(|(r, x)| r - x)
+            .collect(),
+        p1_bar: opt(&rec.p1_bar),
+        p2_bar: opt(&rec.p2_bar),
+        w1_rpm: opt(&rec.w1_rpm),
+        w2_rpm: opt(&rec.w2_rpm),
+    }
+}
+
+/// Mean squared position error (mm²) over samples with t ≤ `end`.
+fn mse_window(t: &[f64], sim: &[f64], meas: &[f64], end: f64) -> f64 {
+    let (sum, n) = t
+        .iter()
+        .zip(sim.iter().zip(meas))
+        .filter(|(t, _)| **t <= end)
+        .fold((0.0, 0usize), |(s, n), (_, (a, b))| {
+            (s + (a - b).powi(2), n + 1)
+        });
+    sum / n.max(1) as f64
+}
+
+/// CSV of signals: one block of columns per series (suffixed `[label]` beyond the first), and
+/// the measured columns first when given.
+fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> String {
+    let names = [
+        "x_ref_mm", "x_mm", "e_mm", "p1_bar", "p2_bar", "w1_rpm", "w2_rpm",
+    ];
+    let mut blocks: Vec<(String, &Signals)> = Vec::new();
+    if let Some(m) = measured {
+        blocks.push(("measured".into(), m));
+    }
+    blocks.extend(series.iter().map(|(l, s)| (l.clone(), *s)));
+    let mut out = String::from("time_s");
+    for (i, (label, _)) in blocks.iter().enumerate() {
+        for n in names {
+            if i == 0 {
+                let _ = write!(out, ",{n}");
+            } else {
+                let _ = write!(out, ",{n}[{}]", label.replace(',', ";"));
+            }
+        }
+    }
+    out.push('\n');
+    let len = blocks
+        .iter()
+        .map(|(_, s)| s.time_s.len())
+        .max()
+        .unwrap_or(0);
+    for k in 0..len {
+        let t = blocks
+            .iter()
+            .find_map(|(_, s)| s.time_s.get(k))
+            .copied()
+            .unwrap_or(f64::NAN);
+        let _ = write!(out, "{t:.6}");
+        for (_, s) in &blocks {
+            for v in [
+                &s.x_ref_mm,
+                &s.x_mm,
+                &s.e_mm,
+                &s.p1_bar,
+                &s.p2_bar,
+                &s.w1_rpm,
+                &s.w2_rpm,
+            ] {
+                match v.get(k) {
+                    Some(x) => {
+                        let _ = write!(out, ",{x:.6}");
+                    }
+                    None => out.push(','),
+                }
+            }
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Write signals as CSV or as the four-panel figure, by the file's extension.
+fn write_figure(
+    path: &Path,
+    title: &str,
+    subtitle: Option<&str>,
+    series: &[(String, &Signals)],
+    measured: Option<&Signals>,
+) -> Result<()> {
+    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
+        return write_atomic(path, signals_csv(series, measured).as_bytes());
+    }
+    render(path, title, subtitle, &four_panels(series, measured))
+}
+
+/// Render panels to SVG or PNG by extension, atomically.
+fn render(path: &Path, title: &str, subtitle: Option<&str>, panels: &[Panel]) -> Result<()> {
+    let bytes = match format_of(path, &[Format::Svg, Format::Png])? {
+        Format::Png => report::panels_png(title, subtitle, panels, 1500, 1500)?,
+        _ => report::panels_svg(title, subtitle, panels)?.into_bytes(),
+    };
+    write_atomic(path, &bytes)
+}
+
+fn trace(label: &str, t: &[f64], y: &[f64], style: LineStyle, color: Option<usize>) -> Trace {
+    Trace {
+        label: label.to_string(),
+        t_s: t.to_vec(),
+        y: y.to_vec(),
+        style,
+        color,
+    }
+}
+
+/// Position and reference, control error, pressures, motor speeds; the measured record (if any)
+/// in black-ish solid lines, simulated series after it.
+fn four_panels(series: &[(String, &Signals)], measured: Option<&Signals>) -> Vec<Panel> {
+    let mut panels: Vec<Panel> = [
+        "Position (mm)",
+        "Control error (mm)",
+        "Pressure (bar)",
+        "Motor speed (rpm)",
+    ]
+    .iter()
+    .map(|l| Panel {
+        y_label: l.to_string(),
+        traces: Vec::new(),
+    })
+    .collect();
+    let first = measured.unwrap_or(series[0].1);
+    panels[0].traces.push(trace(
+        "x_ref",
+        &first.time_s,
+        &first.x_ref_mm,
+        LineStyle::Dashed,
+        Some(6),
+    ));
+    let mut add = |label: &str, s: &Signals, style: LineStyle, color: usize| {
+        let t = &s.time_s;
+        let suffix = if label.is_empty() {
+            String::new()
+        } else {
+            format!(" {label}")
+        };
+        let mut push = |panel: usize, name: &str, y: &[f64], color: usize| {
+            if !y.is_empty() {
+                panels[panel].traces.push(trace(
+                    &format!("{name}{suffix}"),
+                    t,
+                    y,
+                    style,
+                    Some(color),
+                ));
+            }
+        };
+        push(0, "x", &s.x_mm, color);
+        push(1, "e", &s.e_mm, color);
+        push(2, "p1", &s.p1_bar, 2 * color);
+        push(2, "p2", &s.p2_bar, 2 * color + 1);
+        push(3, "w1", &s.w1_rpm, 2 * color);
+        push(3, "w2", &s.w2_rpm, 2 * color + 1);
+    };
+    if let Some(m) = measured {
+        add("measured", m, LineStyle::Solid, 0);
+    }
+    let offset = usize::from(measured.is_some());
+    for (i, (label, s)) in series.iter().enumerate() {
+        let style = if i + offset == 0 {
+            LineStyle::Solid
+        } else {
+            LineStyle::Dashed
+        };
+        let label = if series.len() == 1 && measured.is_none() {
+            ""
+        } else {
+            label.as_str()
+        };
+        add(label, s, style, i + offset);
+    }
+    panels
+}

@@ -1,0 +1,1399 @@
+//! Two-panel Bode diagrams (magnitude in dB over phase in degrees, shared
+//! logarithmic frequency axis in Hz), rendered to SVG or PNG in memory.
+
+use std::ops::Range;
+
+use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::font;
+
+/// Default figure width in pixels (used for SVG output; a sensible PNG size).
+pub const DEFAULT_WIDTH_PX: u32 = 1000;
+/// Default figure height in pixels (used for SVG output; a sensible PNG size).
+pub const DEFAULT_HEIGHT_PX: u32 = 750;
+
+/// Smallest accepted PNG size in pixels (below it the labels cannot fit).
+pub(super) const MIN_WIDTH_PX: u32 = 320;
+pub(super) const MIN_HEIGHT_PX: u32 = 240;
+/// Largest accepted PNG side in pixels (keeps the RGB buffer reasonable).
+pub(super) const MAX_SIDE_PX: u32 = 16_384;
+
+/// Lowest magnitude shown, relative to the largest finite magnitude, in dB.
+/// Deeper notches and roll-offs are clipped at the bottom of the panel.
+const MAG_WINDOW_DB: f64 = 200.0;
+
+/// Okabe–Ito colour-blind-friendly palette, in the order series use it
+/// (yellow last: it has the least contrast on white).
+pub(super) const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),   // blue
+    RGBColor(213, 94, 0),    // vermillion
+    RGBColor(0, 158, 115),   // bluish green
+    RGBColor(204, 121, 167), // reddish purple
+    RGBColor(230, 159, 0),   // orange
+    RGBColor(86, 180, 233),  // sky blue
+    RGBColor(0, 0, 0),       // black
+    RGBColor(240, 228, 66),  // yellow
+];
+
+/// Colour of reference lines (0 dB, -180 deg) and crossover markers.
+const REF_COLOR: RGBColor = RGBColor(70, 70, 70);
+
+/// One curve of a Bode diagram.
+///
+/// The three vectors are indexed together and must have the same length.
+/// Points whose frequency is not finite and positive, or whose magnitude
+/// (phase) is not finite, are skipped in the magnitude (phase) panel and
+/// break the line there.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BodeSeries {
+    /// Label shown in the legend (the legend is drawn when there is more than
+    /// one series).
+    pub label: String,
+    /// Frequencies in Hz, strictly increasing, > 0.
+    pub freq_hz: Vec<f64>,
+    /// Magnitude at each frequency, in dB (20·log10 |G|).
+    pub mag_db: Vec<f64>,
+    /// Phase at each frequency, in degrees, already unwrapped by the caller.
+    pub phase_deg: Vec<f64>,
+}
+
+/// Optional markers: the stability margins found, drawn on the plot.
+///
+/// Crossover frequencies are drawn as dotted vertical lines in both panels.
+/// The gain margin is drawn as a bar from -GM dB up to 0 dB at the phase
+/// crossover, the phase margin as a bar from -180 deg up to -180 + PM deg at
+/// the gain crossover (shifted by the multiple of 360 deg that matches the
+/// first series' unwrapped phase there), and both values are printed under
+/// the title. Non-finite or non-positive frequencies and NaN margins are
+/// ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BodeMarkers {
+    /// Gain crossover frequency (|L| = 0 dB), in Hz.
+    pub gain_crossover_hz: Option<f64>,
+    /// Phase crossover frequency (phase = -180 deg), in Hz.
+    pub phase_crossover_hz: Option<f64>,
+    /// Gain margin, in dB (positive when the loop is stable); may be infinite.
+    pub gain_margin_db: Option<f64>,
+    /// Phase margin, in degrees (positive when the loop is stable).
+    pub phase_margin_deg: Option<f64>,
+}
+
+/// Errors of the report renderers.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// The plotting library failed, the input is inconsistent (vector lengths
+    /// differ) or the requested image size is unusable.
+    #[error("plot: {0}")]
+    Plot(String),
+    /// Nothing to draw: no series, or no finite point in any series.
+    #[error("plot: no data to draw: {0}")]
+    Empty(String),
+}
+
+/// Render a two-panel Bode diagram (magnitude in dB on top, phase in degrees
+/// below, shared logarithmic frequency axis in Hz) to an SVG document in
+/// memory, [`DEFAULT_WIDTH_PX`] x [`DEFAULT_HEIGHT_PX`] pixels.
+///
+/// `title` is printed at the top. Each series gets its own colour; a legend
+/// with the series labels is drawn when there is more than one series.
+/// `markers` (stability margins) refer to the first series.
+///
+/// # Errors
+/// [`ReportError::Empty`] when `series` is empty or holds no finite point;
+/// [`ReportError::Plot`] when a series' vectors differ in length or plotting
+/// fails.
+pub fn bode_svg(
+    title: &str,
+    series: &[BodeSeries],
+    markers: Option<&BodeMarkers>,
+) -> Result<String, ReportError> {
+    let figure = Figure::prepare(title, series, markers)?;
+    font::ensure_registered().map_err(ReportError::Plot)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX))
+            .into_drawing_area();
+        figure.render(&root, 1.0)?;
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// Same figure as [`bode_svg`], rendered to an encoded PNG file (the bytes of
+/// the file, RGB, 8 bit), `width` x `height` pixels. Text and line widths
+/// scale with the image size relative to 1000 x 750.
+///
+/// # Errors
+/// As [`bode_svg`]; additionally [`ReportError::Plot`] when the size is below
+/// 320 x 240 or above 16384 pixels on a side, or PNG encoding fails.
+pub fn bode_png(
+    title: &str,
+    series: &[BodeSeries],
+    markers: Option<&BodeMarkers>,
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
+    if !(MIN_WIDTH_PX..=MAX_SIDE_PX).contains(&width)
+        || !(MIN_HEIGHT_PX..=MAX_SIDE_PX).contains(&height)
+    {
+        return Err(ReportError::Plot(format!(
+            "image size {width} x {height} px out of range \
+             ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
+        )));
+    }
+    let figure = Figure::prepare(title, series, markers)?;
+    font::ensure_registered().map_err(ReportError::Plot)?;
+    let scale = (f64::from(width) / f64::from(DEFAULT_WIDTH_PX))
+        .min(f64::from(height) / f64::from(DEFAULT_HEIGHT_PX))
+        .clamp(0.4, 8.0);
+    // Bounded by MAX_SIDE_PX, so this cannot overflow.
+    let mut rgb = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        figure.render(&root, scale)?;
+        root.present().map_err(plot_err)?;
+    }
+    encode_png(&rgb, width, height)
+}
+
+/// Encode a packed RGB8 buffer as a PNG file.
+pub(super) fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(rgb, width, height, image::ColorType::Rgb8)
+        .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))?;
+    Ok(out)
+}
+
+pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
+    ReportError::Plot(e.to_string())
+}
+
+// ---------------------------------------------------------------------------
+// Axes
+// ---------------------------------------------------------------------------
+
+/// How tick labels of an axis are written.
+#[derive(Debug, Clone, Copy)]
+enum TickFormat {
+    /// Frequency in Hz: plain decimal, exponent form outside 1e-3..1e6.
+    Freq,
+    /// Fixed number of decimals.
+    Fixed(usize),
+}
+
+/// A plotters axis with explicit major (labelled, bold grid) and minor
+/// (light grid) ticks, mapping values through an inner coordinate (linear or
+/// `log_scale()`).
+pub(super) struct TickedAxis<R> {
+    inner: R,
+    major: Vec<f64>,
+    minor: Vec<f64>,
+    format: TickFormat,
+}
+
+impl<R: Ranged<ValueType = f64>> Ranged for TickedAxis<R> {
+    type FormatOption = NoDefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.inner.map(value, limit)
+    }
+
+    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            self.minor.clone()
+        } else {
+            self.major.clone()
+        }
+    }
+
+    fn range(&self) -> Range<f64> {
+        self.inner.range()
+    }
+}
+
+impl<R: Ranged<ValueType = f64>> ValueFormatter<f64> for TickedAxis<R> {
+    fn format(value: &f64) -> String {
+        trim_decimal(*value, 6)
+    }
+
+    fn format_ext(&self, value: &f64) -> String {
+        match self.format {
+            TickFormat::Freq => format_freq_tick(*value),
+            TickFormat::Fixed(decimals) => {
+                let s = format!("{value:.decimals$}");
+                // Avoid "-0".
+                if s.trim_start_matches('-')
+                    .chars()
+                    .all(|c| c == '0' || c == '.')
+                {
+                    s.trim_start_matches('-').to_string()
+                } else {
+                    s
+                }
+            }
+        }
+    }
+}
+
+/// Linear value range with its ticks.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct LinearTicks {
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) major: Vec<f64>,
+    pub(super) minor: Vec<f64>,
+    decimals: usize,
+}
+
+impl LinearTicks {
+    pub(super) fn axis(&self) -> TickedAxis<RangedCoordf64> {
+        TickedAxis {
+            inner: (self.lo..self.hi).into(),
+            major: self.major.clone(),
+            minor: self.minor.clone(),
+            format: TickFormat::Fixed(self.decimals),
+        }
+    }
+
+    fn contains(&self, v: f64) -> bool {
+        v >= self.lo && v <= self.hi
+    }
+}
+
+/// Logarithmic frequency range (Hz) with its ticks.
+#[derive(Debug, Clone, PartialEq)]
+struct FreqTicks {
+    lo: f64,
+    hi: f64,
+    major: Vec<f64>,
+    minor: Vec<f64>,
+}
+
+impl FreqTicks {
+    fn axis(&self) -> TickedAxis<LogCoord<f64>> {
+        TickedAxis {
+            inner: (self.lo..self.hi).log_scale().into(),
+            major: self.major.clone(),
+            minor: self.minor.clone(),
+            format: TickFormat::Freq,
+        }
+    }
+
+    fn contains(&self, f: f64) -> bool {
+        f >= self.lo && f <= self.hi
+    }
+
+    /// Position of `f` along the axis, 0 at the left edge, 1 at the right.
+    fn fraction(&self, f: f64) -> f64 {
+        (f.log10() - self.lo.log10()) / (self.hi.log10() - self.lo.log10())
+    }
+}
+
+/// Ticks for the log frequency axis spanning exactly `lo..hi` (Hz).
+fn freq_ticks(lo: f64, hi: f64) -> FreqTicks {
+    let (mut lo, mut hi) = (lo, hi);
+    if hi / lo < 1.0 + 1e-9 {
+        // Single frequency: show a small band around it.
+        lo /= 1.5;
+        hi *= 1.5;
+    }
+    let tol = 1e-9;
+    let inside = |v: f64| v >= lo * (1.0 - tol) && v <= hi * (1.0 + tol);
+    let d0 = lo.log10().floor() as i32;
+    let d1 = hi.log10().ceil() as i32;
+    let multiples = |mults: &[u32]| -> Vec<f64> {
+        (d0..=d1)
+            .flat_map(|d| mults.iter().map(move |&m| f64::from(m) * pow10(d)))
+            .filter(|&v| inside(v))
+            .collect()
+    };
+
+    let decades = multiples(&[1]);
+    let (major, minor) = if decades.len() > 10 {
+        // Very wide sweep: label every n-th decade, light lines at decades.
+        let n = decades.len().div_ceil(8) as i32;
+        let (major, minor): (Vec<f64>, Vec<f64>) = decades
+            .iter()
+            .partition(|&&v| (v.log10().round() as i32).rem_euclid(n) == 0);
+        (major, minor)
+    } else if decades.len() >= 2 {
+        (decades, multiples(&[2, 3, 4, 5, 6, 7, 8, 9]))
+    } else {
+        let one_two_five = multiples(&[1, 2, 5]);
+        if one_two_five.len() >= 2 {
+            (one_two_five, multiples(&[3, 4, 6, 7, 8, 9]))
+        } else {
+            let all = multiples(&[1, 2, 3, 4, 5, 6, 7, 8, 9]);
+            if all.len() >= 2 {
+                (all, Vec::new())
+            } else {
+                // Less than one 1-2-3 step wide: linear nice ticks.
+                let t = linear_ticks(lo, hi, &nice_steps_125());
+                (t.major, t.minor)
+            }
+        }
+    };
+    FreqTicks {
+        lo,
+        hi,
+        major,
+        minor,
+    }
+}
+
+fn pow10(d: i32) -> f64 {
+    10f64.powi(d)
+}
+
+/// Candidate (major, minor) steps 1-2-5 x 10^k, ascending.
+fn nice_steps_125() -> Vec<(f64, f64)> {
+    (-6..=8)
+        .flat_map(|d| {
+            let p = pow10(d);
+            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
+        })
+        .collect()
+}
+
+/// Candidate (major, minor) steps for phase in degrees, ascending; multiples
+/// of 45 and 90 deg once the span is large enough.
+fn phase_steps() -> Vec<(f64, f64)> {
+    let mut steps = vec![
+        (0.1, 0.05),
+        (0.2, 0.1),
+        (0.5, 0.1),
+        (1.0, 0.5),
+        (2.0, 1.0),
+        (5.0, 1.0),
+        (10.0, 5.0),
+        (15.0, 5.0),
+        (45.0, 15.0),
+        (90.0, 30.0),
+        (180.0, 45.0),
+        (360.0, 90.0),
+    ];
+    let mut s = 720.0;
+    while s < 1e9 {
+        steps.push((s, s / 4.0));
+        s *= 2.0;
+    }
+    steps
+}
+
+/// Pick the smallest step giving at most `MAX_MAJOR` intervals over `lo..hi`
+/// and snap the range outward to the minor step (so the data fill the panel;
+/// the edges need not carry a label).
+pub(super) fn linear_ticks(lo: f64, hi: f64, steps: &[(f64, f64)]) -> LinearTicks {
+    const MAX_MAJOR: f64 = 8.0;
+    let span = hi - lo;
+    let &(step, minor_step) = steps
+        .iter()
+        .find(|(s, _)| span / s <= MAX_MAJOR)
+        .unwrap_or_else(|| steps.last().expect("non-empty step table"));
+    let per = ((step / minor_step).round() as i64).max(1);
+    let j0 = (lo / minor_step - 1e-9).floor() as i64;
+    let j1 = (hi / minor_step + 1e-9).ceil() as i64;
+    let (mut major, mut minor) = (Vec::new(), Vec::new());
+    for j in j0..=j1 {
+        let v = j as f64 * minor_step;
+        if j.rem_euclid(per) == 0 {
+            major.push(v);
+        } else {
+            minor.push(v);
+        }
+    }
+    let (lo, hi) = (j0 as f64 * minor_step, j1 as f64 * minor_step);
+    let decimals = if step >= 1.0 {
+        0
+    } else {
+        (-step.log10()).ceil().max(0.0) as usize
+    };
+    LinearTicks {
+        lo,
+        hi,
+        major,
+        minor,
+        decimals,
+    }
+}
+
+/// Value range of one panel: data extent `(lo, hi)` padded by 5 % on each
+/// side, widened to include `reference` when that at most doubles the span,
+/// then snapped to ticks.
+fn value_ticks(
+    lo: f64,
+    hi: f64,
+    reference: Option<f64>,
+    steps: &[(f64, f64)],
+    pad_min: f64,
+) -> LinearTicks {
+    let (mut lo, mut hi) = (lo, hi);
+    if let Some(r) = reference {
+        let span = (hi - lo).max(pad_min);
+        if r < lo && lo - r <= span {
+            lo = r;
+        } else if r > hi && r - hi <= span {
+            hi = r;
+        }
+    }
+    let pad = ((hi - lo) * 0.05).max(pad_min * 0.05);
+    linear_ticks(lo - pad, hi + pad, steps)
+}
+
+/// Decimal representation with at most `max_decimals` decimals, trailing
+/// zeros removed.
+fn trim_decimal(v: f64, max_decimals: usize) -> String {
+    let s = format!("{v:.max_decimals$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s
+    }
+}
+
+/// Frequency tick label in Hz: "0.01", "1", "250", "10000", "1e6".
+fn format_freq_tick(f: f64) -> String {
+    if f == 0.0 || !f.is_finite() {
+        return trim_decimal(f, 0);
+    }
+    let e = f.abs().log10().floor() as i32;
+    if (-3..6).contains(&e) {
+        // 6 significant digits at most.
+        trim_decimal(f, (5 - e).max(0) as usize)
+    } else {
+        let mantissa = f / pow10(e);
+        format!("{}e{}", trim_decimal(mantissa, 2), e)
+    }
+}
+
+/// Frequency for annotations, 3 significant digits: "0.0123", "4.56", "123".
+fn format_freq_hz(f: f64) -> String {
+    if !f.is_finite() || f <= 0.0 {
+        return format!("{f}");
+    }
+    let e = f.log10().floor() as i32;
+    if (-4..6).contains(&e) {
+        format!("{:.*}", (2 - e).max(0) as usize, f)
+    } else {
+        format!("{f:.2e}")
+    }
+}
+
+fn format_signed(v: f64, unit: &str) -> String {
+    if v.is_infinite() {
+        if v > 0.0 {
+            format!("∞ {unit}")
+        } else {
+            format!("-∞ {unit}")
+        }
+    } else {
+        format!("{v:.1} {unit}")
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Data preparation
+// ---------------------------------------------------------------------------
+
+/// A polyline in data coordinates (frequency in Hz, value).
+type Polyline = Vec<(f64, f64)>;
+
+/// Drawable pieces of one series in one panel.
+#[derive(Debug, Default, Clone, PartialEq)]
+struct Pieces {
+    lines: Vec<Polyline>,
+    /// Isolated finite points (no finite neighbour) inside the panel range.
+    dots: Vec<(f64, f64)>,
+}
+
+/// Split `(freq, value)` into polylines: points with a non-finite or
+/// non-positive frequency or a non-finite value break the line; segments are
+/// clipped to `lo..=hi` on the value axis (interpolating in log frequency).
+fn clip_pieces(freq: &[f64], value: &[f64], lo: f64, hi: f64) -> Pieces {
+    let mut pieces = Pieces::default();
+    let mut run: Vec<(f64, f64)> = Vec::new(); // (log10 f, value)
+    let valid = |f: f64, v: f64| f.is_finite() && f > 0.0 && v.is_finite();
+    let mut points = freq
+        .iter()
+        .zip(value)
+        .map(|(&f, &v)| valid(f, v).then(|| (f.log10(), v)))
+        .chain(std::iter::once(None));
+    loop {
+        match points.next() {
+            Some(Some(p)) => run.push(p),
+            Some(None) => {
+                clip_run(&run, lo, hi, &mut pieces);
+                run.clear();
+            }
+            None => break,
+        }
+    }
+    pieces
+}
+
+fn clip_run(run: &[(f64, f64)], lo: f64, hi: f64, out: &mut Pieces) {
+    let to_data = |(lf, v): (f64, f64)| (10f64.powf(lf), v);
+    match run {
+        [] => {}
+        [p] => {
+            if p.1 >= lo && p.1 <= hi {
+                out.dots.push(to_data(*p));
+            }
+        }
+        _ => {
+            let mut current: Polyline = Vec::new();
+            let mut flush = |current: &mut Polyline| {
+                if current.len() >= 2 {
+                    out.lines.push(std::mem::take(current));
+                } else {
+                    current.clear();
+                }
+            };
+            for w in run.windows(2) {
+                let (a, b) = (w[0], w[1]);
+                let (mut t0, mut t1) = (0.0f64, 1.0f64);
+                let dv = b.1 - a.1;
+                if dv == 0.0 {
+                    if a.1 < lo || a.1 > hi {
+                        flush(&mut current);
+                        continue;
+                    }
+                } else {
+                    let ta = (lo - a.1) / dv;
+                    let tb = (hi - a.1) / dv;
+                    t0 = t0.max(ta.min(tb));
+                    t1 = t1.min(ta.max(tb));
+                    if t0 > t1 {
+                        flush(&mut current);
+                        continue;
+                    }
+                }
+                let lerp = |t: f64| {
+                    if t == 0.0 {
+                        a
+                    } else if t == 1.0 {
+                        b
+                    } else {
+                        (a.0 + t * (b.0 - a.0), (a.1 + t * dv).clamp(lo, hi))
+                    }
+                };
+                if current.is_empty() || t0 > 0.0 {
+                    flush(&mut current);
+                    current.push(to_data(lerp(t0)));
+                }
+                current.push(to_data(lerp(t1)));
+                if t1 < 1.0 {
+                    flush(&mut current);
+                }
+            }
+            flush(&mut current);
+        }
+    }
+}
+
+/// Value of `(freq, value)` at frequency `f`, interpolated linearly in log
+/// frequency between the two finite neighbours.
+fn interpolate_at(freq: &[f64], value: &[f64], f: f64) -> Option<f64> {
+    let lf = f.log10();
+    freq.iter()
+        .zip(value)
+        .zip(freq.iter().zip(value).skip(1))
+        .find_map(|((&fa, &va), (&fb, &vb))| {
+            let ok = [fa, va, fb, vb].iter().all(|x| x.is_finite()) && fa > 0.0 && fb > 0.0;
+            if !ok {
+                return None;
+            }
+            let (la, lb) = (fa.log10(), fb.log10());
+            let (l0, l1) = if la <= lb { (la, lb) } else { (lb, la) };
+            if lf < l0 || lf > l1 {
+                return None;
+            }
+            if lb == la {
+                return Some(va);
+            }
+            Some(va + (lf - la) / (lb - la) * (vb - va))
+        })
+}
+
+/// Finite min/max of the values of points with a valid frequency.
+fn extent<'a>(pairs: impl Iterator<Item = (&'a [f64], &'a [f64])>) -> Option<(f64, f64)> {
+    let mut out: Option<(f64, f64)> = None;
+    for (freq, val) in pairs {
+        for (&f, &v) in freq.iter().zip(val) {
+            if f.is_finite() && f > 0.0 && v.is_finite() {
+                out = Some(match out {
+                    None => (v, v),
+                    Some((lo, hi)) => (lo.min(v), hi.max(v)),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Everything needed to draw, computed before touching a backend.
+struct Figure<'a> {
+    title: &'a str,
+    series: &'a [BodeSeries],
+    x: FreqTicks,
+    mag: LinearTicks,
+    phase: LinearTicks,
+    mag_pieces: Vec<Pieces>,
+    phase_pieces: Vec<Pieces>,
+    /// Gain margin bar: (phase crossover Hz, from dB, to dB).
+    gm_bar: Option<(f64, f64, f64)>,
+    /// Phase margin bar: (gain crossover Hz, from deg, to deg).
+    pm_bar: Option<(f64, f64, f64)>,
+    /// Crossover frequencies (Hz) inside the frequency range.
+    crossovers: Vec<f64>,
+    /// Margin summary printed under the title.
+    summary: Option<String>,
+}
+
+fn valid_freq(f: Option<f64>) -> Option<f64> {
+    f.filter(|f| f.is_finite() && *f > 0.0)
+}
+
+impl<'a> Figure<'a> {
+    fn prepare(
+        title: &'a str,
+        series: &'a [BodeSeries],
+        markers: Option<&BodeMarkers>,
+    ) -> Result<Self, ReportError> {
+        if series.is_empty() {
+            return Err(ReportError::Empty("no series given".into()));
+        }
+        for s in series {
+            if s.freq_hz.len() != s.mag_db.len() || s.freq_hz.len() != s.phase_deg.len() {
+                return Err(ReportError::Plot(format!(
+                    "series '{}': {} frequencies, {} magnitudes and {} phases",
+                    s.label,
+                    s.freq_hz.len(),
+                    s.mag_db.len(),
+                    s.phase_deg.len()
+                )));
+            }
+        }
+
+        // Frequency extent over points with at least one finite value.
+        let mut f_ext: Option<(f64, f64)> = None;
+        for s in series {
+            for ((&f, &m), &p) in s.freq_hz.iter().zip(&s.mag_db).zip(&s.phase_deg) {
+                if f.is_finite() && f > 0.0 && (m.is_finite() || p.is_finite()) {
+                    f_ext = Some(match f_ext {
+                        None => (f, f),
+                        Some((lo, hi)) => (lo.min(f), hi.max(f)),
+                    });
+                }
+            }
+        }
+        let Some((f_lo, f_hi)) = f_ext else {
+            return Err(ReportError::Empty(
+                "no point with a finite positive frequency and a finite magnitude or phase".into(),
+            ));
+        };
+        let x = freq_ticks(f_lo, f_hi);
+
+        let mag_ext = extent(
+            series
+                .iter()
+                .map(|s| (s.freq_hz.as_slice(), s.mag_db.as_slice())),
+        );
+        let phase_ext = extent(
+            series
+                .iter()
+                .map(|s| (s.freq_hz.as_slice(), s.phase_deg.as_slice())),
+        );
+
+        let markers = markers.copied().unwrap_or_default();
+        let gm = markers.gain_margin_db.filter(|g| !g.is_nan());
+        let pm = markers.phase_margin_deg.filter(|p| p.is_finite());
+        let f_pc = valid_freq(markers.phase_crossover_hz);
+        let f_gc = valid_freq(markers.gain_crossover_hz);
+
+        // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
+        let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
+        let m_lo = m_lo.max(m_hi - MAG_WINDOW_DB);
+        let mag = value_ticks(m_lo, m_hi, Some(0.0), &nice_steps_125(), 10.0);
+
+        // Phase: include the -180 deg line (or the odd multiple of 180 deg
+        // nearest to the data).
+        let (p_lo, p_hi) = phase_ext.unwrap_or((-180.0, 0.0));
+        let mid = 0.5 * (p_lo + p_hi);
+        let ref180 = ((mid + 180.0) / 360.0).round() * 360.0 - 180.0;
+        let phase = value_ticks(p_lo, p_hi, Some(ref180), &phase_steps(), 20.0);
+
+        let mag_pieces = series
+            .iter()
+            .map(|s| clip_pieces(&s.freq_hz, &s.mag_db, mag.lo, mag.hi))
+            .collect();
+        let phase_pieces = series
+            .iter()
+            .map(|s| clip_pieces(&s.freq_hz, &s.phase_deg, phase.lo, phase.hi))
+            .collect();
+
+        let first = &series[0];
+        let gm_bar = match (f_pc, gm) {
+            (Some(f), Some(g)) if g.is_finite() && x.contains(f) && g != 0.0 => {
+                let lo = (-g).clamp(mag.lo, mag.hi);
+                let hi = 0.0f64.clamp(mag.lo, mag.hi);
+                (lo != hi).then_some((f, lo, hi))
+            }
+            _ => None,
+        };
+        let pm_bar = match (f_gc, pm) {
+            (Some(f), Some(p)) if x.contains(f) && p != 0.0 => {
+                // -180 deg shifted by the multiple of 360 deg that matches
+                // the unwrapped phase of the first series at the crossover.
+                let base = interpolate_at(&first.freq_hz, &first.phase_deg, f)
+                    .map(|ph| ((ph - p + 180.0) / 360.0).round() * 360.0 - 180.0)
+                    .unwrap_or(-180.0);
+                let lo = base.clamp(phase.lo, phase.hi);
+                let hi = (base + p).clamp(phase.lo, phase.hi);
+                (lo != hi).then_some((f, lo, hi))
+            }
+            _ => None,
+        };
+        let mut crossovers: Vec<f64> = [f_gc, f_pc]
+            .into_iter()
+            .flatten()
+            .filter(|&f| x.contains(f))
+            .collect();
+        crossovers.dedup();
+
+        let mut parts = Vec::new();
+        match (gm, f_pc) {
+            (Some(g), Some(f)) => parts.push(format!(
+                "GM = {} @ {} Hz",
+                format_signed(g, "dB"),
+                format_freq_hz(f)
+            )),
+            (Some(g), None) => parts.push(format!("GM = {}", format_signed(g, "dB"))),
+            (None, Some(f)) => parts.push(format!("phase crossover @ {} Hz", format_freq_hz(f))),
+            (None, None) => {}
+        }
+        match (pm, f_gc) {
+            (Some(p), Some(f)) => parts.push(format!("PM = {p:.1}° @ {} Hz", format_freq_hz(f))),
+            (Some(p), None) => parts.push(format!("PM = {p:.1}°")),
+            (None, Some(f)) => parts.push(format!("gain crossover @ {} Hz", format_freq_hz(f))),
+            (None, None) => {}
+        }
+        let summary = (!parts.is_empty()).then(|| parts.join("      "));
+
+        Ok(Figure {
+            title,
+            series,
+            x,
+            mag,
+            phase,
+            mag_pieces,
+            phase_pieces,
+            gm_bar,
+            pm_bar,
+            crossovers,
+            summary,
+        })
+    }
+
+    /// Legend corner in the magnitude panel that hides the fewest points,
+    /// given the legend size as fractions of the plotting area.
+    fn legend_position(&self, legend_w: f64, legend_h: f64) -> SeriesLabelPosition {
+        let candidates = [
+            (SeriesLabelPosition::UpperRight, 1.0, 1.0),
+            (SeriesLabelPosition::LowerLeft, 0.0, 0.0),
+            (SeriesLabelPosition::UpperLeft, 0.0, 1.0),
+            (SeriesLabelPosition::LowerRight, 1.0, 0.0),
+        ];
+        let span = self.mag.hi - self.mag.lo;
+        let hits = |cx: f64, cy: f64| -> usize {
+            let (x0, x1) = if cx > 0.5 {
+                (1.0 - legend_w, 1.0)
+            } else {
+                (0.0, legend_w)
+            };
+            let (y0, y1) = if cy > 0.5 {
+                (1.0 - legend_h, 1.0)
+            } else {
+                (0.0, legend_h)
+            };
+            let inside = |&(f, v): &(f64, f64)| {
+                let fx = self.x.fraction(f);
+                let fy = (v - self.mag.lo) / span;
+                fx >= x0 && fx <= x1 && fy >= y0 && fy <= y1
+            };
+            self.mag_pieces
+                .iter()
+                .flat_map(|p| p.lines.iter().flatten().chain(p.dots.iter()))
+                .filter(|p| inside(p))
+                .count()
+        };
+        let mut best = (usize::MAX, SeriesLabelPosition::UpperRight);
+        for (pos, cx, cy) in candidates {
+            let n = hits(cx, cy);
+            if n < best.0 {
+                best = (n, pos);
+            }
+        }
+        best.1
+    }
+
+    /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
+    /// and paddings (1.0 for 1000 x 750 px).
+    fn render<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        let px = |v: f64| (v * scale).round() as i32;
+        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
+        let text =
+            |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (width, height) = root.dim_in_pixel();
+
+        // Header: title and margin summary.
+        let title_size = 24.0;
+        let summary_size = 17.0;
+        let mut header_h = px(14.0) + px(title_size) + px(10.0);
+        if self.summary.is_some() {
+            header_h += px(summary_size) + px(6.0);
+        }
+        let (header, body) = root.split_vertically(header_h);
+        let centre = (width / 2) as i32;
+        header
+            .draw(&Text::new(
+                self.title.to_string(),
+                (centre, px(14.0)),
+                text(title_size).pos(Pos::new(HPos::Center, VPos::Top)),
+            ))
+            .map_err(plot_err)?;
+        if let Some(summary) = &self.summary {
+            header
+                .draw(&Text::new(
+                    summary.clone(),
+                    (centre, px(14.0) + px(title_size) + px(8.0)),
+                    text(summary_size)
+                        .color(&REF_COLOR)
+                        .pos(Pos::new(HPos::Center, VPos::Top)),
+                ))
+                .map_err(plot_err)?;
+        }
+
+        // Panels with plotting areas of equal height.
+        let y_label_area = px(82.0);
+        let x_label_area = px(58.0);
+        let (m_left, m_right, m_top, m_gap, m_bottom) =
+            (px(8.0), px(30.0), px(4.0), px(10.0), px(8.0));
+        let body_h = height as i32 - header_h;
+        let plot_h = ((body_h - m_top - 2 * m_gap - x_label_area - m_bottom) / 2).max(10);
+        let (top_area, bottom_area) = body.split_vertically(m_top + plot_h + m_gap);
+
+        let label_style = text(15.0);
+        let desc_style = text(17.0);
+        let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
+        let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
+        let line_w = upx(2.0);
+        let ref_style = REF_COLOR.stroke_width(upx(1.5));
+        let marker_style = REF_COLOR.mix(0.9).stroke_width(upx(1.2));
+        let bar_style = BLACK.stroke_width(upx(3.0));
+
+        // --- Magnitude panel ---------------------------------------------
+        let mut top = ChartBuilder::on(&top_area)
+            .margin_left(m_left)
+            .margin_right(m_right)
+            .margin_top(m_top)
+            .margin_bottom(m_gap)
+            .x_label_area_size(0)
+            .y_label_area_size(y_label_area)
+            .build_cartesian_2d(self.x.axis(), self.mag.axis())
+            .map_err(plot_err)?;
+        top.configure_mesh()
+            .y_desc("Magnitude (dB)")
+            .axis_desc_style(desc_style.clone())
+            .label_style(label_style.clone())
+            .bold_line_style(bold_grid)
+            .light_line_style(light_grid)
+            .y_label_offset(0)
+            .draw()
+            .map_err(plot_err)?;
+        if self.mag.contains(0.0) {
+            top.draw_series(DashedLineSeries::new(
+                [(self.x.lo, 0.0), (self.x.hi, 0.0)],
+                px(8.0),
+                px(5.0),
+                ref_style,
+            ))
+            .map_err(plot_err)?;
+        }
+        for &f in &self.crossovers {
+            top.draw_series(DashedLineSeries::new(
+                [(f, self.mag.lo), (f, self.mag.hi)],
+                px(2.0),
+                px(4.0),
+                marker_style,
+            ))
+            .map_err(plot_err)?;
+        }
+        let multi = self.series.len() > 1;
+        for (i, (s, pieces)) in self.series.iter().zip(&self.mag_pieces).enumerate() {
+            let color = PALETTE[i % PALETTE.len()];
+            draw_pieces(&mut top, pieces, color, line_w, upx(3.0))?;
+            if multi {
+                let legend_style = color.stroke_width(line_w);
+                let len = px(28.0);
+                top.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+                    .map_err(plot_err)?
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| PathElement::new([(x, y), (x + len, y)], legend_style));
+            }
+        }
+        if let Some((f, lo, hi)) = self.gm_bar {
+            top.draw_series(std::iter::once(PathElement::new(
+                [(f, lo), (f, hi)],
+                bar_style,
+            )))
+            .map_err(plot_err)?;
+            top.draw_series(std::iter::once(
+                EmptyElement::at((f, 0.5 * (lo + hi)))
+                    + Text::new(
+                        "GM",
+                        (px(7.0), 0),
+                        text(16.0).pos(Pos::new(HPos::Left, VPos::Center)),
+                    ),
+            ))
+            .map_err(plot_err)?;
+        }
+        if multi {
+            let (pw, ph) = top.plotting_area().dim_in_pixel();
+            let longest = self
+                .series
+                .iter()
+                .map(|s| s.label.chars().count())
+                .max()
+                .unwrap_or(0) as f64;
+            let legend_w = (px(60.0) as f64 + longest * 9.5 * scale) / f64::from(pw.max(1));
+            let legend_h =
+                (px(20.0) as f64 + self.series.len() as f64 * 22.0 * scale) / f64::from(ph.max(1));
+            top.configure_series_labels()
+                .position(self.legend_position(legend_w, legend_h))
+                .margin(px(10.0))
+                .legend_area_size(px(36.0))
+                .label_font(text(15.0))
+                .background_style(WHITE.mix(0.88))
+                .border_style(BLACK.mix(0.45))
+                .draw()
+                .map_err(plot_err)?;
+        }
+        frame(
+            &top,
+            self.x.lo,
+            self.x.hi,
+            self.mag.lo,
+            self.mag.hi,
+            upx(1.0),
+        )?;
+
+        // --- Phase panel -------------------------------------------------
+        let mut bottom = ChartBuilder::on(&bottom_area)
+            .margin_left(m_left)
+            .margin_right(m_right)
+            .margin_top(m_gap)
+            .margin_bottom(m_bottom)
+            .x_label_area_size(x_label_area)
+            .y_label_area_size(y_label_area)
+            .build_cartesian_2d(self.x.axis(), self.phase.axis())
+            .map_err(plot_err)?;
+        bottom
+            .configure_mesh()
+            .x_desc("Frequency (Hz)")
+            .y_desc("Phase (deg)")
+            .axis_desc_style(desc_style)
+            .label_style(label_style)
+            .bold_line_style(bold_grid)
+            .light_line_style(light_grid)
+            .draw()
+            .map_err(plot_err)?;
+        // Dashed reference at every odd multiple of 180 deg in range.
+        let k0 = ((self.phase.lo + 180.0) / 360.0).ceil() as i64;
+        let k1 = ((self.phase.hi + 180.0) / 360.0).floor() as i64;
+        for k in k0..=k1.min(k0 + 8) {
+            let v = k as f64 * 360.0 - 180.0;
+            bottom
+                .draw_series(DashedLineSeries::new(
+                    [(self.x.lo, v), (self.x.hi, v)],
+                    px(8.0),
+                    px(5.0),
+                    ref_style,
+                ))
+                .map_err(plot_err)?;
+        }
+        for &f in &self.crossovers {
+            bottom
+                .draw_series(DashedLineSeries::new(
+                    [(f, self.phase.lo), (f, self.phase.hi)],
+                    px(2.0),
+                    px(4.0),
+                    marker_style,
+                ))
+                .map_err(plot_err)?;
+        }
+        for (i, pieces) in self.phase_pieces.iter().enumerate() {
+            draw_pieces(
+                &mut bottom,
+                pieces,
+                PALETTE[i % PALETTE.len()],
+                line_w,
+                upx(3.0),
+            )?;
+        }
+        if let Some((f, lo, hi)) = self.pm_bar {
+            bottom
+                .draw_series(std::iter::once(PathElement::new(
+                    [(f, lo), (f, hi)],
+                    bar_style,
+                )))
+                .map_err(plot_err)?;
+            bottom
+                .draw_series(std::iter::once(
+                    EmptyElement::at((f, 0.5 * (lo + hi)))
+                        + Text::new(
+                            "PM",
+                            (-px(7.0), 0),
+                            text(16.0).pos(Pos::new(HPos::Right, VPos::Center)),
+                        ),
+                ))
+                .map_err(plot_err)?;
+        }
+        frame(
+            &bottom,
+            self.x.lo,
+            self.x.hi,
+            self.phase.lo,
+            self.phase.hi,
+            upx(1.0),
+        )?;
+        Ok(())
+    }
+}
+
+type BodeChart<'b, DB> =
+    ChartContext<'b, DB, Cartesian2d<TickedAxis<LogCoord<f64>>, TickedAxis<RangedCoordf64>>>;
+
+/// Draw the polylines and isolated points of one series.
+fn draw_pieces<DB: DrawingBackend>(
+    chart: &mut BodeChart<'_, DB>,
+    pieces: &Pieces,
+    color: RGBColor,
+    line_w: u32,
+    dot_r: u32,
+) -> Result<(), ReportError> {
+    let style = color.stroke_width(line_w);
+    chart
+        .draw_series(
+            pieces
+                .lines
+                .iter()
+                .map(|line| PathElement::new(line.clone(), style)),
+        )
+        .map_err(plot_err)?;
+    chart
+        .draw_series(
+            pieces
+                .dots
+                .iter()
+                .map(|&p| Circle::new(p, dot_r, color.filled())),
+        )
+        .map_err(plot_err)?;
+    Ok(())
+}
+
+/// Thin frame around the plotting area.
+fn frame<DB: DrawingBackend>(
+    chart: &BodeChart<'_, DB>,
+    x_lo: f64,
+    x_hi: f64,
+    y_lo: f64,
+    y_hi: f64,
+    width: u32,
+) -> Result<(), ReportError> {
+    chart
+        .plotting_area()
+        .draw(&PathElement::new(
+            [
+                (x_lo, y_lo),
+                (x_hi, y_lo),
+                (x_hi, y_hi),
+                (x_lo, y_hi),
+                (x_lo, y_lo),
+            ],
+            BLACK.stroke_width(width),
+        ))
+        .map_err(plot_err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// L(s) = k / (s (s/10 + 1) (s/100 + 1)), s = j 2 pi f, as a Bode series.
+    fn loop_series(label: &str, k: f64, n: usize) -> BodeSeries {
+        let mut s = BodeSeries {
+            label: label.into(),
+            ..Default::default()
+        };
+        let mut prev: Option<f64> = None;
+        for i in 0..n {
+            let f = 10f64.powf(-2.0 + 5.0 * i as f64 / (n - 1) as f64);
+            let w = 2.0 * std::f64::consts::PI * f;
+            // |L| and arg L, computed per factor.
+            let mag =
+                k / (w * (1.0 + (w / 10.0).powi(2)).sqrt() * (1.0 + (w / 100.0).powi(2)).sqrt());
+            let ph = -90.0 - (w / 10.0).atan().to_degrees() - (w / 100.0).atan().to_degrees();
+            if let Some(p) = prev {
+                assert!((ph - p).abs() < 180.0);
+            }
+            prev = Some(ph);
+            s.freq_hz.push(f);
+            s.mag_db.push(20.0 * mag.log10());
+            s.phase_deg.push(ph);
+        }
+        s
+    }
+
+    fn markers() -> BodeMarkers {
+        BodeMarkers {
+            gain_crossover_hz: Some(1.0),
+            phase_crossover_hz: Some(5.0),
+            gain_margin_db: Some(12.3),
+            phase_margin_deg: Some(40.0),
+        }
+    }
+
+    #[test]
+    fn svg_single_series() {
+        let svg = bode_svg("Open loop", &[loop_series("L1", 20.0, 200)], None).unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        assert!(svg.trim_end().ends_with("</svg>"));
+        for label in [
+            "Magnitude (dB)",
+            "Phase (deg)",
+            "Frequency (Hz)",
+            "Open loop",
+        ] {
+            assert!(svg.contains(label), "missing {label}");
+        }
+    }
+
+    #[test]
+    fn svg_multi_series_has_legend_and_markers() {
+        let series = [
+            loop_series("K = 20 &lt", 20.0, 300),
+            loop_series("K = 60", 60.0, 300),
+            loop_series("K = 200", 200.0, 300),
+        ];
+        let svg = bode_svg("Loops", &series, Some(&markers())).unwrap();
+        assert!(svg.starts_with("<svg"));
+        // Labels are XML-escaped.
+        assert!(svg.contains("K = 20 &amp;lt"));
+        assert!(svg.contains("K = 60"));
+        assert!(svg.contains("K = 200"));
+        assert!(svg.contains("GM = 12.3 dB @ 5.00 Hz"));
+        assert!(svg.contains("PM = 40.0° @ 1.00 Hz"));
+    }
+
+    #[test]
+    fn png_signature_and_size() {
+        let png = bode_png(
+            "PNG",
+            &[loop_series("a", 20.0, 150), loop_series("b", 60.0, 150)],
+            Some(&markers()),
+            800,
+            600,
+        )
+        .unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        // IHDR: width and height, big endian, at bytes 16..24.
+        assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 800);
+        assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), 600);
+        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap();
+        assert_eq!((img.width(), img.height()), (800, 600));
+        // Not a blank image: some dark pixels (text, curves).
+        let rgb = img.to_rgb8();
+        assert!(
+            rgb.pixels()
+                .filter(|p| p.0.iter().all(|&c| c < 100))
+                .count()
+                > 1000
+        );
+    }
+
+    #[test]
+    fn png_bad_size_is_an_error() {
+        let s = [loop_series("a", 20.0, 50)];
+        assert!(matches!(
+            bode_png("x", &s, None, 0, 600),
+            Err(ReportError::Plot(_))
+        ));
+        assert!(matches!(
+            bode_png("x", &s, None, 100_000, 600),
+            Err(ReportError::Plot(_))
+        ));
+    }
+
+    #[test]
+    fn empty_input_is_empty_error() {
+        assert!(matches!(
+            bode_svg("x", &[], None),
+            Err(ReportError::Empty(_))
+        ));
+        let empty = BodeSeries {
+            label: "e".into(),
+            ..Default::default()
+        };
+        assert!(matches!(
+            bode_svg("x", std::slice::from_ref(&empty), None),
+            Err(ReportError::Empty(_))
+        ));
+        assert!(matches!(
+            bode_png("x", &[empty], None, 640, 480),
+            Err(ReportError::Empty(_))
+        ));
+        let all_nan = BodeSeries {
+            label: "n".into(),
+            freq_hz: vec![1.0, 2.0, f64::NAN],
+            mag_db: vec![f64::NAN, f64::INFINITY, 1.0],
+            phase_deg: vec![f64::NAN, f64::NEG_INFINITY, 1.0],
+        };
+        let err = bode_svg("x", &[all_nan], None).unwrap_err();
+        assert!(matches!(err, ReportError::Empty(_)));
+        assert!(err.to_string().starts_with("plot: no data to draw: "));
+    }
+
+    #[test]
+    fn length_mismatch_is_plot_error() {
+        let bad = BodeSeries {
+            label: "bad".into(),
+            freq_hz: vec![1.0, 2.0],
+            mag_db: vec![0.0],
+            phase_deg: vec![0.0, 1.0],
+        };
+        assert!(matches!(
+            bode_svg("x", &[bad], None),
+            Err(ReportError::Plot(_))
+        ));
+    }
+
+    #[test]
+    fn nan_and_inf_do_not_panic() {
+        let mut s = loop_series("holes", 20.0, 100);
+        s.mag_db[10] = f64::NAN;
+        s.mag_db[11] = f64::INFINITY;
+        s.phase_deg[50] = f64::NAN;
+        s.freq_hz[70] = f64::NAN;
+        s.freq_hz[71] = -1.0;
+        s.mag_db[90] = f64::NEG_INFINITY;
+        let odd_markers = BodeMarkers {
+            gain_crossover_hz: Some(f64::NAN),
+            phase_crossover_hz: Some(-3.0),
+            gain_margin_db: Some(f64::INFINITY),
+            phase_margin_deg: Some(f64::NAN),
+        };
+        let other = loop_series("other", 60.0, 100);
+        let series = [s, other];
+        let svg = bode_svg("holes", &series, Some(&odd_markers)).unwrap();
+        assert!(svg.contains("GM = ∞ dB"));
+        bode_png("holes", &series, Some(&markers()), 640, 480).unwrap();
+
+        // Only magnitude finite, single points, constant data, one frequency.
+        let lonely = BodeSeries {
+            label: "lonely".into(),
+            freq_hz: vec![1.0, 2.0, 3.0],
+            mag_db: vec![5.0, f64::NAN, 5.0],
+            phase_deg: vec![f64::NAN; 3],
+        };
+        bode_svg("lonely", &[lonely], Some(&markers())).unwrap();
+        let single = BodeSeries {
+            label: "single".into(),
+            freq_hz: vec![3.0],
+            mag_db: vec![-1.0],
+            phase_deg: vec![-10.0],
+        };
+        bode_png("single", &[single], None, 640, 480).unwrap();
+    }
+
+    #[test]
+    fn huge_dynamic_range_is_clamped() {
+        let f: Vec<f64> = (0..100).map(|i| 10f64.powf(i as f64 / 20.0)).collect();
+        let s = BodeSeries {
+            label: "steep".into(),
+            mag_db: (0..100).map(|i| 150.0 - 4.5 * i as f64).collect(),
+            phase_deg: vec![-90.0; 100],
+            freq_hz: f,
+        };
+        let fig = Figure::prepare("t", std::slice::from_ref(&s), None).unwrap();
+        assert!(fig.mag.lo >= 150.0 - MAG_WINDOW_DB - 25.0, "{:?}", fig.mag);
+        assert!(fig.mag.hi >= 150.0);
+        for line in &fig.mag_pieces[0].lines {
+            assert!(line
+                .iter()
+                .all(|&(_, v)| v >= fig.mag.lo && v <= fig.mag.hi));
+        }
+        bode_svg("steep", &[s], None).unwrap();
+    }
+
+    #[test]
+    fn clipping_breaks_lines() {
+        let f = [1.0, 10.0, 100.0, 1000.0];
+        let v = [0.0, 20.0, 0.0, f64::NAN];
+        let p = clip_pieces(&f, &v, -5.0, 10.0);
+        assert_eq!(p.lines.len(), 2);
+        assert_eq!(p.lines[0].len(), 2);
+        assert!((p.lines[0][1].1 - 10.0).abs() < 1e-12);
+        assert!((p.lines[0][1].0 - 10f64.sqrt()).abs() < 1e-9);
+        assert!((p.lines[1][0].1 - 10.0).abs() < 1e-12);
+        let p = clip_pieces(&[1.0, 2.0, 3.0], &[1.0, f64::NAN, 2.0], 0.0, 3.0);
+        assert!(p.lines.is_empty());
+        assert_eq!(p.dots, vec![(1.0, 1.0), (3.0, 2.0)]);
+    }
+
+    #[test]
+    fn ticks() {
+        let t = freq_ticks(0.01, 1000.0);
+        assert_eq!(t.major.len(), 6);
+        assert_eq!(format_freq_tick(t.major[0]), "0.01");
+        assert_eq!(format_freq_tick(t.major[5]), "1000");
+        assert_eq!(format_freq_tick(2e6), "2e6");
+        let t = freq_ticks(2.0, 8.0);
+        assert!(t.major.len() >= 2);
+        let p = value_ticks(-250.0, -90.0, Some(-180.0), &phase_steps(), 20.0);
+        assert!(p.major.iter().all(|v| v % 45.0 == 0.0), "{p:?}");
+        assert!(p.lo <= -250.0 && p.hi >= -90.0);
+        let m = value_ticks(-80.0, 40.0, Some(0.0), &nice_steps_125(), 10.0);
+        assert!(m.major.contains(&0.0));
+        assert_eq!(format_freq_hz(4.5678), "4.57");
+        assert_eq!(format_freq_hz(0.012345), "0.0123");
+        assert_eq!(format_freq_hz(1234.4), "1234");
+    }
+
+    #[test]
+    fn interpolation() {
+        let f = [1.0, 10.0, 100.0];
+        let v = [0.0, -20.0, f64::NAN];
+        assert!((interpolate_at(&f, &v, 10f64.sqrt()).unwrap() + 10.0).abs() < 1e-9);
+        assert_eq!(interpolate_at(&f, &v, 50.0), None);
+        assert_eq!(interpolate_at(&f, &v, 0.5), None);
+    }
+}

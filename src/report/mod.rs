@@ -1,0 +1,14 @@
+//! Rendering of analysis results as figures.
+//!
+//! Everything here renders into memory (an SVG document as a `String`, a PNG
+//! file as bytes); writing the result to disk is the caller's job. Text is
+//! drawn with an embedded copy of DejaVu Sans, so no system fonts are needed.
+
+mod bode;
+mod font;
+
+pub use bode::{
+    bode_png, bode_svg, BodeMarkers, BodeSeries, ReportError, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,
+};
+mod timeseries;
+pub use timeseries::*;

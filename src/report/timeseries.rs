@@ -1,0 +1,1107 @@
+//! Stacked time-series panels: one or more panels, each with its own value
+//! axis and unit, sharing one time axis in seconds, rendered to SVG or PNG in
+//! memory. Used for step responses (position, error, pressures, motor
+//! speeds), measured-vs-simulated overlays and model-variant comparisons.
+//!
+//! The look (fonts, sizes, grid, palette, margins) follows the Bode diagrams
+//! of [`super::bode`], so all pumpcyl figures form one family.
+
+use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::bode::{
+    encode_png, linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX,
+    MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX, PALETTE,
+};
+use super::font;
+
+/// Height of the plotting area of one panel in the default (SVG) layout, in
+/// pixels; with the gap to the next panel a panel takes 220 px.
+pub const PANEL_PLOT_HEIGHT_PX: u32 = 200;
+
+/// Colour of the subtitle (the same dark grey as the Bode margin summary).
+const SUBTITLE_COLOR: RGBColor = RGBColor(70, 70, 70);
+
+// Layout at scale 1 (1000 px wide), in pixels.
+const TITLE_TOP: f64 = 14.0;
+const TITLE_SIZE: f64 = 24.0;
+const TITLE_GAP: f64 = 10.0;
+const SUBTITLE_SIZE: f64 = 17.0;
+const SUBTITLE_GAP: f64 = 6.0;
+const MARGIN_LEFT: f64 = 8.0;
+const MARGIN_RIGHT: f64 = 30.0;
+const MARGIN_TOP: f64 = 4.0;
+/// Margin above and below each plotting area between two panels.
+const PANEL_GAP: f64 = 10.0;
+const MARGIN_BOTTOM: f64 = 8.0;
+const X_LABEL_AREA: f64 = 58.0;
+/// Smallest y label area (room for the rotated description and labels).
+const MIN_Y_LABEL_AREA: f64 = 82.0;
+const TICK_LABEL_SIZE: f64 = 15.0;
+const AXIS_DESC_SIZE: f64 = 17.0;
+const LEGEND_FONT_SIZE: f64 = 15.0;
+const LEGEND_MARGIN: f64 = 10.0;
+const LEGEND_AREA: f64 = 36.0;
+const LEGEND_SAMPLE: f64 = 28.0;
+/// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
+const MIN_PLOT_HEIGHT_PX: i32 = 40;
+
+/// Line style of a trace.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LineStyle {
+    /// Continuous line.
+    #[default]
+    Solid,
+    /// Dashes (10 px dash, 6 px gap at the default size), e.g. for a model
+    /// variant or a reference.
+    Dashed,
+    /// Dots (2 px every 6 px at the default size), e.g. for a secondary
+    /// reference.
+    Dotted,
+}
+
+/// One curve of a panel: time in seconds and values in the panel's unit.
+///
+/// `t_s` and `y` are indexed together and must have the same length. Points
+/// whose time or value is not finite (NaN, ±inf) are skipped and break the
+/// line; a finite point without finite neighbours is drawn as a dot. Time
+/// need not be uniformly sampled.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trace {
+    /// Label shown in the panel's legend; an empty label keeps the trace out
+    /// of the legend.
+    pub label: String,
+    /// Sample times, in seconds.
+    pub t_s: Vec<f64>,
+    /// Values at the sample times, in the unit named by the panel's
+    /// [`Panel::y_label`] (e.g. mm, bar, rpm).
+    pub y: Vec<f64>,
+    /// Line style.
+    pub style: LineStyle,
+    /// Colour as an index into the colour-blind-safe palette (8 colours,
+    /// taken modulo 8: 0 blue, 1 vermillion, 2 bluish green, 3 reddish
+    /// purple, 4 orange, 5 sky blue, 6 black, 7 yellow). `None` takes the
+    /// first palette colour not yet used in the panel (neither by an explicit
+    /// `Some` of any trace of the panel nor by an earlier `None` trace).
+    pub color: Option<usize>,
+}
+
+/// One panel of the figure: a value axis and the traces drawn on it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Panel {
+    /// Value-axis description with its unit, e.g. `"Position (mm)"`.
+    pub y_label: String,
+    /// Curves of the panel, drawn in order (later ones on top).
+    pub traces: Vec<Trace>,
+}
+
+/// Default figure size in pixels, `(width, height)`, for `panel_count` panels
+/// with or without a subtitle: [`DEFAULT_WIDTH_PX`] wide and about 220 px of
+/// height per panel plus the title, subtitle and time axis (4 panels with a
+/// subtitle: 1000 x 1001). [`panels_svg`] uses this size; it is also a
+/// sensible size for [`panels_png`].
+pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32) {
+    let n = panel_count.clamp(1, 1000) as f64;
+    let h = header_height(1.0, with_subtitle) as f64
+        + MARGIN_TOP
+        + n * f64::from(PANEL_PLOT_HEIGHT_PX)
+        + (n - 1.0) * 2.0 * PANEL_GAP
+        + X_LABEL_AREA
+        + MARGIN_BOTTOM;
+    (DEFAULT_WIDTH_PX, h.round() as u32)
+}
+
+/// Render `panels` stacked vertically (first panel on top), sharing one time
+/// axis in seconds (labelled "Time (s)" under the bottom panel only), to an
+/// SVG document in memory of [`panels_default_size`] pixels.
+///
+/// `title` is printed at the top, `subtitle` (smaller, grey) under it, e.g.
+/// metrics like "rise 0.62 s, overshoot 4.1 %" or a notice like "emulated
+/// data". The time axis spans the union of the finite times of all traces;
+/// each panel's value axis spans its finite values with 5 % padding (a
+/// constant signal gets ±5 % of its value, or ±1 around 0). A panel with
+/// more than one trace or a labelled trace gets a legend of its labelled
+/// traces, in the top-right corner unless another corner hides less of the
+/// curves.
+///
+/// # Errors
+/// [`ReportError::Empty`] when `panels` is empty or no trace has a point with
+/// finite time and value; [`ReportError::Plot`] when a trace's `t_s` and `y`
+/// differ in length (the message names the panel and trace), values are too
+/// large to scale (beyond about ±1e307) or plotting fails.
+pub fn panels_svg(
+    title: &str,
+    subtitle: Option<&str>,
+    panels: &[Panel],
+) -> Result<String, ReportError> {
+    let figure = Figure::prepare(title, subtitle, panels)?;
+    font::ensure_registered().map_err(ReportError::Plot)?;
+    let (width, height) = panels_default_size(panels.len(), figure.subtitle.is_some());
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        figure.render(&root, 1.0)?;
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// Same figure as [`panels_svg`], rendered to an encoded PNG file (the bytes
+/// of the file, RGB, 8 bit), `width` x `height` pixels. Text and line widths
+/// scale with the image size relative to [`panels_default_size`]; the panels
+/// share the height left by the title and the time axis equally.
+///
+/// # Errors
+/// As [`panels_svg`]; additionally [`ReportError::Plot`] when the size is
+/// below 320 x 240 or above 16384 pixels on a side, too low for the number of
+/// panels, or PNG encoding fails.
+pub fn panels_png(
+    title: &str,
+    subtitle: Option<&str>,
+    panels: &[Panel],
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
+    if !(MIN_WIDTH_PX..=MAX_SIDE_PX).contains(&width)
+        || !(MIN_HEIGHT_PX..=MAX_SIDE_PX).contains(&height)
+    {
+        return Err(ReportError::Plot(format!(
+            "image size {width} x {height} px out of range \
+             ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
+        )));
+    }
+    let figure = Figure::prepare(title, subtitle, panels)?;
+    font::ensure_registered().map_err(ReportError::Plot)?;
+    let (w0, h0) = panels_default_size(panels.len(), figure.subtitle.is_some());
+    let scale = (f64::from(width) / f64::from(w0))
+        .min(f64::from(height) / f64::from(h0))
+        .clamp(0.4, 8.0);
+    // Bounded by MAX_SIDE_PX, so this cannot overflow.
+    let mut rgb = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        figure.render(&root, scale)?;
+        root.present().map_err(plot_err)?;
+    }
+    encode_png(&rgb, width, height)
+}
+
+// ---------------------------------------------------------------------------
+// Data preparation
+// ---------------------------------------------------------------------------
+
+/// A polyline in data coordinates (time in s, value).
+type Polyline = Vec<(f64, f64)>;
+
+/// Drawable pieces of one trace.
+#[derive(Debug, Default, Clone, PartialEq)]
+struct Pieces {
+    /// Runs of at least two consecutive finite points.
+    lines: Vec<Polyline>,
+    /// Isolated finite points (no finite neighbour).
+    dots: Vec<(f64, f64)>,
+}
+
+/// Split a trace into runs of consecutive points with finite time and value.
+fn split_pieces(t: &[f64], y: &[f64]) -> Pieces {
+    let mut pieces = Pieces::default();
+    let mut run: Polyline = Vec::new();
+    let mut flush = |run: &mut Polyline| match run.len() {
+        0 => {}
+        1 => pieces.dots.push(run.pop().expect("one point")),
+        _ => pieces.lines.push(std::mem::take(run)),
+    };
+    for (&t, &y) in t.iter().zip(y) {
+        if t.is_finite() && y.is_finite() {
+            run.push((t, y));
+        } else {
+            flush(&mut run);
+        }
+    }
+    flush(&mut run);
+    pieces
+}
+
+/// Finite min/max of `values`, or `None` when there is no finite value.
+fn extent(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+/// Range with a non-zero span around the extent `lo..=hi`: unchanged when it
+/// has a usable span, else ±5 % of the value (±1 around 0).
+fn widen_degenerate(lo: f64, hi: f64) -> (f64, f64) {
+    let mag = lo.abs().max(hi.abs());
+    let span = hi - lo;
+    if span > mag * 1e-9 && span >= 1e-100 {
+        return (lo, hi);
+    }
+    let centre = 0.5 * (lo + hi);
+    let half = if 0.05 * mag >= 1e-100 {
+        0.05 * mag
+    } else {
+        1.0
+    };
+    (centre - half, centre + half)
+}
+
+/// Palette index of every trace of a panel (see [`Trace::color`]).
+fn assign_colors(traces: &[Trace]) -> Vec<usize> {
+    let n = PALETTE.len();
+    let mut taken = vec![false; n];
+    for c in traces.iter().filter_map(|t| t.color) {
+        taken[c % n] = true;
+    }
+    let mut cycle = 0;
+    traces
+        .iter()
+        .map(|t| match t.color {
+            Some(c) => c % n,
+            None => match taken.iter().position(|&used| !used) {
+                Some(i) => {
+                    taken[i] = true;
+                    i
+                }
+                None => {
+                    // All colours in use: cycle through the palette.
+                    cycle += 1;
+                    (cycle - 1) % n
+                }
+            },
+        })
+        .collect()
+}
+
+/// Everything about one panel that does not depend on the image size.
+struct PanelData<'a> {
+    panel: &'a Panel,
+    /// Value range before tick snapping (padded extent), in panel units.
+    y_range: (f64, f64),
+    pieces: Vec<Pieces>,
+    colors: Vec<usize>,
+}
+
+/// Everything needed to draw, computed before touching a backend.
+struct Figure<'a> {
+    title: &'a str,
+    subtitle: Option<&'a str>,
+    /// Shared time range, in s.
+    t_range: (f64, f64),
+    panels: Vec<PanelData<'a>>,
+}
+
+impl<'a> Figure<'a> {
+    fn prepare(
+        title: &'a str,
+        subtitle: Option<&'a str>,
+        panels: &'a [Panel],
+    ) -> Result<Self, ReportError> {
+        if panels.is_empty() {
+            return Err(ReportError::Empty("no panels given".into()));
+        }
+        for p in panels {
+            for tr in &p.traces {
+                if tr.t_s.len() != tr.y.len() {
+                    return Err(ReportError::Plot(format!(
+                        "panel '{}', trace '{}': {} times and {} values",
+                        p.y_label,
+                        tr.label,
+                        tr.t_s.len(),
+                        tr.y.len()
+                    )));
+                }
+            }
+        }
+        let all_traces = || panels.iter().flat_map(|p| &p.traces);
+        let any_finite = all_traces().any(|tr| {
+            tr.t_s
+                .iter()
+                .zip(&tr.y)
+                .any(|(t, y)| t.is_finite() && y.is_finite())
+        });
+        if !any_finite {
+            return Err(ReportError::Empty(
+                "no point with a finite time and a finite value".into(),
+            ));
+        }
+        let (t_lo, t_hi) = extent(all_traces().flat_map(|tr| tr.t_s.iter().copied()))
+            .expect("a finite point exists");
+        let t_range = widen_degenerate(t_lo, t_hi);
+        check_span(t_range, "time axis")?;
+
+        let panels = panels
+            .iter()
+            .map(|panel| {
+                let y_ext = extent(panel.traces.iter().flat_map(|tr| {
+                    tr.t_s
+                        .iter()
+                        .zip(&tr.y)
+                        .filter(|(t, _)| t.is_finite())
+                        .map(|(_, &y)| y)
+                }));
+                let (lo, hi) =
+                    widen_degenerate(y_ext.map_or(0.0, |e| e.0), y_ext.map_or(0.0, |e| e.1));
+                let pad = 0.05 * (hi - lo);
+                let y_range = (lo - pad, hi + pad);
+                check_span(y_range, &format!("panel '{}'", panel.y_label))?;
+                Ok(PanelData {
+                    panel,
+                    y_range,
+                    pieces: panel
+                        .traces
+                        .iter()
+                        .map(|tr| split_pieces(&tr.t_s, &tr.y))
+                        .collect(),
+                    colors: assign_colors(&panel.traces),
+                })
+            })
+            .collect::<Result<Vec<_>, ReportError>>()?;
+
+        Ok(Figure {
+            title,
+            subtitle: subtitle.filter(|s| !s.trim().is_empty()),
+            t_range,
+            panels,
+        })
+    }
+
+    /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
+    /// and paddings (1.0 for the default size).
+    fn render<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        let px = |v: f64| (v * scale).round() as i32;
+        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
+        let text =
+            |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (width, height) = root.dim_in_pixel();
+
+        // Header: title and subtitle.
+        let header_h = header_height(scale, self.subtitle.is_some());
+        let (header, body) = root.split_vertically(header_h);
+        let centre = (width / 2) as i32;
+        header
+            .draw(&Text::new(
+                self.title.to_string(),
+                (centre, px(TITLE_TOP)),
+                text(TITLE_SIZE).pos(Pos::new(HPos::Center, VPos::Top)),
+            ))
+            .map_err(plot_err)?;
+        if let Some(subtitle) = self.subtitle {
+            header
+                .draw(&Text::new(
+                    subtitle.to_string(),
+                    (
+                        centre,
+                        px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP) - px(2.0),
+                    ),
+                    text(SUBTITLE_SIZE)
+                        .color(&SUBTITLE_COLOR)
+                        .pos(Pos::new(HPos::Center, VPos::Top)),
+                ))
+                .map_err(plot_err)?;
+        }
+
+        // Vertical layout: equal plotting heights.
+        let n = self.panels.len() as i32;
+        let (m_top, m_gap, m_bottom, x_label_area) = (
+            px(MARGIN_TOP),
+            px(PANEL_GAP),
+            px(MARGIN_BOTTOM),
+            px(X_LABEL_AREA),
+        );
+        let body_h = height as i32 - header_h;
+        let plot_h = (body_h - m_top - (n - 1) * 2 * m_gap - x_label_area - m_bottom) / n;
+        if plot_h < MIN_PLOT_HEIGHT_PX {
+            return Err(ReportError::Plot(format!(
+                "image height {height} px too small for {n} panels"
+            )));
+        }
+
+        // Ticks: at most one labelled value per ~36 px of panel height.
+        let max_y_intervals = (f64::from(plot_h) / (36.0 * scale)).floor().clamp(2.0, 8.0);
+        let y_ticks: Vec<LinearTicks> = self
+            .panels
+            .iter()
+            .map(|p| ticks(p.y_range.0, p.y_range.1, max_y_intervals))
+            .collect();
+
+        // Horizontal layout: the y label area fits the widest tick label.
+        let label_style = text(TICK_LABEL_SIZE);
+        let mut widest = 0u32;
+        for t in &y_ticks {
+            let axis = t.axis();
+            for v in &t.major {
+                let s = axis.format_ext(v);
+                let (w, _) = root
+                    .estimate_text_size(&s, &label_style)
+                    .map_err(plot_err)?;
+                widest = widest.max(w);
+            }
+        }
+        let y_label_area = px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0));
+        let (m_left, m_right) = (px(MARGIN_LEFT), px(MARGIN_RIGHT));
+        let plot_w = (width as i32 - m_left - m_right - y_label_area).max(10);
+        let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
+        let x_ticks = time_ticks(self.t_range.0, self.t_range.1, max_x_intervals);
+
+        // Panel areas, top to bottom.
+        let mut breaks = Vec::with_capacity(self.panels.len());
+        let mut y = m_top + plot_h + m_gap;
+        for _ in 1..n {
+            breaks.push(y);
+            y += 2 * m_gap + plot_h;
+        }
+        let areas = body.split_by_breakpoints([] as [i32; 0], breaks);
+
+        let desc_style = text(AXIS_DESC_SIZE);
+        let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
+        let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
+        let styles = TraceStyles {
+            line_w: upx(2.0),
+            dot_r: upx(3.0),
+            dash: (px(10.0).max(2), px(6.0).max(2)),
+            dot: (px(2.0).max(1), px(6.0).max(2)),
+            legend_len: px(LEGEND_SAMPLE),
+        };
+
+        for (i, ((data, area), yt)) in self.panels.iter().zip(&areas).zip(&y_ticks).enumerate() {
+            let first = i == 0;
+            let last = i + 1 == self.panels.len();
+            let mut chart = ChartBuilder::on(area)
+                .margin_left(m_left)
+                .margin_right(m_right)
+                .margin_top(if first { m_top } else { m_gap })
+                .margin_bottom(if last { m_bottom } else { m_gap })
+                .x_label_area_size(if last { x_label_area } else { 0 })
+                .y_label_area_size(y_label_area)
+                .build_cartesian_2d(x_ticks.axis(), yt.axis())
+                .map_err(plot_err)?;
+            let mut mesh = chart.configure_mesh();
+            mesh.y_desc(data.panel.y_label.clone())
+                .axis_desc_style(desc_style.clone())
+                .label_style(label_style.clone())
+                .bold_line_style(bold_grid)
+                .light_line_style(light_grid);
+            if last {
+                mesh.x_desc("Time (s)");
+            }
+            mesh.draw().map_err(plot_err)?;
+
+            let (pw, ph) = chart.plotting_area().dim_in_pixel();
+            let bucket_count = (pw as usize).max(1) * 2;
+            for ((trace, pieces), &color) in
+                data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
+            {
+                draw_trace(
+                    &mut chart,
+                    trace,
+                    pieces,
+                    PALETTE[color],
+                    &styles,
+                    (x_ticks.lo, x_ticks.hi, bucket_count),
+                )?;
+            }
+
+            let labelled: Vec<&str> = data
+                .panel
+                .traces
+                .iter()
+                .map(|t| t.label.as_str())
+                .filter(|l| !l.is_empty())
+                .collect();
+            if !labelled.is_empty() {
+                let legend_font = text(LEGEND_FONT_SIZE);
+                let mut longest = 0u32;
+                for l in &labelled {
+                    let (w, _) = root.estimate_text_size(l, &legend_font).map_err(plot_err)?;
+                    longest = longest.max(w);
+                }
+                // Box size as plotters lays it out, plus its 5 px inset.
+                let box_w = f64::from(longest)
+                    + f64::from(px(LEGEND_AREA))
+                    + 2.0 * f64::from(px(LEGEND_MARGIN))
+                    + 5.0;
+                let box_h = (labelled.len() as f64 * 1.25 * LEGEND_FONT_SIZE * scale)
+                    + 2.0 * f64::from(px(LEGEND_MARGIN))
+                    + 5.0;
+                let position = legend_position(
+                    data,
+                    (x_ticks.lo, x_ticks.hi),
+                    (yt.lo, yt.hi),
+                    box_w / f64::from(pw.max(1)),
+                    box_h / f64::from(ph.max(1)),
+                );
+                chart
+                    .configure_series_labels()
+                    .position(position)
+                    .margin(px(LEGEND_MARGIN))
+                    .legend_area_size(px(LEGEND_AREA))
+                    .label_font(legend_font)
+                    .background_style(WHITE.mix(0.88))
+                    .border_style(BLACK.mix(0.45))
+                    .draw()
+                    .map_err(plot_err)?;
+            }
+
+            chart
+                .plotting_area()
+                .draw(&PathElement::new(
+                    [
+                        (x_ticks.lo, yt.lo),
+                        (x_ticks.hi, yt.lo),
+                        (x_ticks.hi, yt.hi),
+                        (x_ticks.lo, yt.hi),
+                        (x_ticks.lo, yt.lo),
+                    ],
+                    BLACK.stroke_width(upx(1.0)),
+                ))
+                .map_err(plot_err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Height of the title block in pixels at `scale`.
+fn header_height(scale: f64, with_subtitle: bool) -> i32 {
+    let px = |v: f64| (v * scale).round() as i32;
+    let mut h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
+    if with_subtitle {
+        h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
+    }
+    h
+}
+
+/// Error unless `lo..hi` is a finite, non-empty range.
+fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
+    if lo.is_finite() && hi.is_finite() && (hi - lo).is_finite() && hi > lo {
+        Ok(())
+    } else {
+        Err(ReportError::Plot(format!(
+            "{what}: values too large to scale ({lo:e} .. {hi:e})"
+        )))
+    }
+}
+
+/// Candidate (major, minor) 1-2-5 x 10^k steps for a span, ascending,
+/// starting at the smallest giving at most `max_intervals` major intervals.
+fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
+    let min_step = span / max_intervals;
+    let d0 = min_step.log10().floor() as i32 - 1;
+    let steps: Vec<(f64, f64)> = (d0..=d0 + 2)
+        .flat_map(|d| {
+            let p = 10f64.powi(d);
+            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
+        })
+        .filter(|&(s, _)| s >= min_step * (1.0 - 1e-9))
+        .collect();
+    if steps.is_empty() {
+        vec![(min_step, min_step / 2.0)]
+    } else {
+        steps
+    }
+}
+
+/// Value ticks over `lo..hi`, the range snapped outward to the minor step.
+fn ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
+    linear_ticks(lo, hi, &steps_125(hi - lo, max_intervals))
+}
+
+/// Time ticks over exactly `lo..hi` (no snapping: the axis spans the data).
+fn time_ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
+    let mut t = ticks(lo, hi, max_intervals);
+    let tol = 1e-9 * (hi - lo);
+    let inside = |v: &f64| *v >= lo - tol && *v <= hi + tol;
+    t.major.retain(inside);
+    t.minor.retain(inside);
+    t.lo = lo;
+    t.hi = hi;
+    t
+}
+
+/// Pixel sizes for drawing traces.
+struct TraceStyles {
+    line_w: u32,
+    dot_r: u32,
+    /// (dash, gap) of [`LineStyle::Dashed`].
+    dash: (i32, i32),
+    /// (dot, gap) of [`LineStyle::Dotted`].
+    dot: (i32, i32),
+    legend_len: i32,
+}
+
+type PanelChart<'b, DB> =
+    ChartContext<'b, DB, Cartesian2d<TickedAxis<RangedCoordf64>, TickedAxis<RangedCoordf64>>>;
+
+/// Draw one trace (lines, isolated dots) and register its legend entry.
+fn draw_trace<DB: DrawingBackend>(
+    chart: &mut PanelChart<'_, DB>,
+    trace: &Trace,
+    pieces: &Pieces,
+    color: RGBColor,
+    styles: &TraceStyles,
+    (t_lo, t_hi, buckets): (f64, f64, usize),
+) -> Result<(), ReportError> {
+    let style = color.stroke_width(styles.line_w);
+    let lines = pieces
+        .lines
+        .iter()
+        .map(|line| decimate(line, t_lo, t_hi, buckets));
+    let pattern = match trace.style {
+        LineStyle::Solid => None,
+        LineStyle::Dashed => Some(styles.dash),
+        LineStyle::Dotted => Some(styles.dot),
+    };
+    match pattern {
+        None => {
+            chart
+                .draw_series(lines.map(|l| PathElement::new(l, style)))
+                .map_err(plot_err)?;
+        }
+        Some((on, off)) => {
+            chart
+                .draw_series(lines.map(|l| DashedPathElement::new(l, on, off, style)))
+                .map_err(plot_err)?;
+        }
+    }
+    let anno = chart
+        .draw_series(
+            pieces
+                .dots
+                .iter()
+                .map(|&p| Circle::new(p, styles.dot_r, color.filled())),
+        )
+        .map_err(plot_err)?;
+    if !trace.label.is_empty() {
+        let len = styles.legend_len;
+        let anno = anno.label(trace.label.clone());
+        match pattern {
+            None => {
+                anno.legend(move |(x, y)| PathElement::new([(x, y), (x + len, y)], style));
+            }
+            Some((on, off)) => {
+                anno.legend(move |(x, y)| {
+                    DashedPathElement::new(vec![(x, y), (x + len, y)], on, off, style)
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reduce a polyline to what can be seen at `buckets` columns across the
+/// time range `t_lo..t_hi`: of every run of consecutive points falling in the
+/// same column, keep the first, the lowest, the highest and the last (in
+/// their original order). Short polylines are returned unchanged.
+fn decimate(line: &[(f64, f64)], t_lo: f64, t_hi: f64, buckets: usize) -> Polyline {
+    if line.len() <= 4 * buckets || t_hi <= t_lo {
+        return line.to_vec();
+    }
+    let column = |t: f64| ((t - t_lo) / (t_hi - t_lo) * buckets as f64).floor() as i64;
+    let mut out = Vec::with_capacity(4 * buckets + 4);
+    let mut start = 0;
+    while start < line.len() {
+        let col = column(line[start].0);
+        let mut end = start + 1;
+        while end < line.len() && column(line[end].0) == col {
+            end += 1;
+        }
+        let group = &line[start..end];
+        let by_value =
+            |a: &(usize, &(f64, f64)), b: &(usize, &(f64, f64))| a.1 .1.total_cmp(&b.1 .1);
+        let lo = group.iter().enumerate().min_by(by_value).map_or(0, |p| p.0);
+        let hi = group.iter().enumerate().max_by(by_value).map_or(0, |p| p.0);
+        let mut keep = [0, lo.min(hi), lo.max(hi), group.len() - 1];
+        keep.sort_unstable();
+        let mut prev = None;
+        for k in keep {
+            if prev != Some(k) {
+                out.push(group[k]);
+                prev = Some(k);
+            }
+        }
+        start = end;
+    }
+    out
+}
+
+/// Legend corner hiding the fewest curve segments, preferring the top
+/// right, given the legend size as fractions of the plotting area.
+fn legend_position(
+    data: &PanelData<'_>,
+    (t_lo, t_hi): (f64, f64),
+    (y_lo, y_hi): (f64, f64),
+    legend_w: f64,
+    legend_h: f64,
+) -> SeriesLabelPosition {
+    let (lw, lh) = (legend_w.min(1.0), legend_h.min(1.0));
+    let candidates = [
+        (SeriesLabelPosition::UpperRight, 1.0 - lw, 1.0 - lh),
+        (SeriesLabelPosition::UpperLeft, 0.0, 1.0 - lh),
+        (SeriesLabelPosition::LowerRight, 1.0 - lw, 0.0),
+        (SeriesLabelPosition::LowerLeft, 0.0, 0.0),
+    ];
+    let norm = |(t, y): (f64, f64)| ((t - t_lo) / (t_hi - t_lo), (y - y_lo) / (y_hi - y_lo));
+    let mut best = (usize::MAX, SeriesLabelPosition::UpperRight);
+    for (pos, x0, y0) in candidates {
+        let rect = (x0, y0, x0 + lw, y0 + lh);
+        let mut hits = 0;
+        for pieces in &data.pieces {
+            for line in &pieces.lines {
+                hits += line
+                    .windows(2)
+                    .filter(|w| segment_hits_rect(norm(w[0]), norm(w[1]), rect))
+                    .count();
+            }
+            hits += pieces
+                .dots
+                .iter()
+                .filter(|&&p| segment_hits_rect(norm(p), norm(p), rect))
+                .count();
+        }
+        if hits < best.0 {
+            best = (hits, pos);
+        }
+        if hits == 0 {
+            break;
+        }
+    }
+    best.1
+}
+
+/// Whether the segment `a`-`b` touches the rectangle `(x0, y0, x1, y1)`
+/// (Liang–Barsky clipping).
+fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, f64, f64)) -> bool {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, a.0 - x0),
+        (dx, x1 - a.0),
+        (-dy, a.1 - y0),
+        (dy, y1 - a.1),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return false;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+            if t0 > t1 {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trace(label: &str, t: &[f64], y: &[f64]) -> Trace {
+        Trace {
+            label: label.into(),
+            t_s: t.to_vec(),
+            y: y.to_vec(),
+            ..Default::default()
+        }
+    }
+
+    fn time(n: usize, dt: f64) -> Vec<f64> {
+        (0..n).map(|i| i as f64 * dt).collect()
+    }
+
+    /// Four panels like a step response.
+    fn step_panels() -> Vec<Panel> {
+        let t = time(401, 0.01);
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&t| 340.0 + 5.0 * (1.0 - (-3.0 * t).exp() * (1.0 + 3.0 * t)))
+            .collect();
+        let x_ref: Vec<f64> = t
+            .iter()
+            .map(|&t| if t < 0.1 { 340.0 } else { 345.0 })
+            .collect();
+        let err: Vec<f64> = x_ref.iter().zip(&x).map(|(r, x)| r - x).collect();
+        let p1: Vec<f64> = t.iter().map(|&t| 4.0 + 0.3 * (-2.0 * t).exp()).collect();
+        let p2: Vec<f64> = t.iter().map(|&t| 6.0 - 0.2 * (-2.0 * t).exp()).collect();
+        let w: Vec<f64> = t.iter().map(|&t| 900.0 * (-2.0 * t).exp()).collect();
+        vec![
+            Panel {
+                y_label: "Position (mm)".into(),
+                traces: vec![trace("x", &t, &x), trace("x_ref", &t, &x_ref)],
+            },
+            Panel {
+                y_label: "Error (mm)".into(),
+                traces: vec![trace("", &t, &err)],
+            },
+            Panel {
+                y_label: "Pressure (bar)".into(),
+                traces: vec![trace("p1", &t, &p1), trace("p2", &t, &p2)],
+            },
+            Panel {
+                y_label: "Speed (rpm)".into(),
+                traces: vec![trace("w1", &t, &w), trace("w2", &t, &w)],
+            },
+        ]
+    }
+
+    #[test]
+    fn svg_contains_labels() {
+        let svg = panels_svg("Step response", Some("rise 0.62 s"), &step_panels()).unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        assert!(svg.trim_end().ends_with("</svg>"));
+        for s in [
+            "Step response",
+            "rise 0.62 s",
+            "Position (mm)",
+            "Error (mm)",
+            "Pressure (bar)",
+            "Speed (rpm)",
+            "Time (s)",
+            "x_ref",
+            "p1",
+            "p2",
+            "w1",
+            "w2",
+        ] {
+            assert!(svg.contains(s), "missing {s}");
+        }
+        // "Time (s)" only once: on the bottom panel.
+        assert_eq!(svg.matches("Time (s)").count(), 1);
+        let (w, h) = panels_default_size(4, true);
+        assert_eq!(w, 1000);
+        assert!((950..=1050).contains(&h), "{h}");
+        assert!(svg.contains(&format!("width=\"{w}\"")));
+        assert!(svg.contains(&format!("height=\"{h}\"")));
+    }
+
+    #[test]
+    fn png_signature_and_size() {
+        let png = panels_png("PNG", None, &step_panels(), 900, 800).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 900);
+        assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), 800);
+        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap();
+        assert_eq!((img.width(), img.height()), (900, 800));
+        let rgb = img.to_rgb8();
+        assert!(
+            rgb.pixels()
+                .filter(|p| p.0.iter().all(|&c| c < 100))
+                .count()
+                > 1000
+        );
+    }
+
+    #[test]
+    fn png_bad_size_is_an_error() {
+        let p = step_panels();
+        for (w, h) in [(0, 600), (100_000, 600), (800, 100)] {
+            assert!(matches!(
+                panels_png("x", None, &p, w, h),
+                Err(ReportError::Plot(_))
+            ));
+        }
+        // Too many panels for the height.
+        let many = vec![p[0].clone(); 12];
+        assert!(matches!(
+            panels_png("x", None, &many, 800, 400),
+            Err(ReportError::Plot(_))
+        ));
+    }
+
+    #[test]
+    fn constant_and_non_finite_do_not_panic() {
+        let t = time(50, 0.1);
+        let mut y: Vec<f64> = t.iter().map(|t| t.sin()).collect();
+        y[3] = f64::NAN;
+        y[10] = f64::INFINITY;
+        y[11] = f64::NEG_INFINITY;
+        y[20] = f64::NAN;
+        y[22] = f64::NAN; // y[21] is an isolated dot
+        let mut t_holes = t.clone();
+        t_holes[30] = f64::NAN;
+        t_holes[31] = f64::INFINITY;
+        let panels = vec![
+            Panel {
+                y_label: "Constant (bar)".into(),
+                traces: vec![trace("", &t, &[4.0; 50])],
+            },
+            Panel {
+                y_label: "Zero (mm)".into(),
+                traces: vec![trace("zero", &t, &[0.0; 50])],
+            },
+            Panel {
+                y_label: "Holes".into(),
+                traces: vec![
+                    trace("holes", &t_holes, &y),
+                    trace("nan", &t, &[f64::NAN; 50]),
+                ],
+            },
+            Panel {
+                y_label: "Nothing".into(),
+                traces: vec![],
+            },
+            Panel {
+                y_label: "Single".into(),
+                traces: vec![trace("one", &[1.0], &[2.0])],
+            },
+        ];
+        panels_svg("holes", None, &panels).unwrap();
+        panels_png("holes", Some("emulated data"), &panels, 640, 900).unwrap();
+
+        // A single point overall: degenerate time and value ranges.
+        let single = [Panel {
+            y_label: "p".into(),
+            traces: vec![trace("s", &[0.0], &[0.0])],
+        }];
+        panels_svg("single", None, &single).unwrap();
+        panels_png("single", None, &single, 400, 300).unwrap();
+
+        let fig = Figure::prepare("c", None, &panels).unwrap();
+        let (lo, hi) = fig.panels[0].y_range;
+        assert!(lo < 4.0 && hi > 4.0 && hi - lo < 1.0, "{lo} {hi}");
+        let (lo, hi) = fig.panels[1].y_range;
+        assert!(lo <= -1.0 && hi >= 1.0, "{lo} {hi}");
+        assert_eq!(fig.t_range, (0.0, 4.9));
+        assert_eq!(fig.panels[2].pieces[0].dots, vec![(2.1, y[21])]);
+    }
+
+    #[test]
+    fn huge_values_are_an_error_not_a_panic() {
+        let t = [0.0, 1.0];
+        let p = [Panel {
+            y_label: "big".into(),
+            traces: vec![trace("b", &t, &[-1.7e308, 1.7e308])],
+        }];
+        assert!(matches!(
+            panels_svg("x", None, &p),
+            Err(ReportError::Plot(_))
+        ));
+        let p = [Panel {
+            y_label: "large".into(),
+            traces: vec![trace("b", &t, &[1e20, 3e20])],
+        }];
+        panels_svg("x", None, &p).unwrap();
+    }
+
+    #[test]
+    fn empty_input_is_empty_error() {
+        assert!(matches!(
+            panels_svg("x", None, &[]),
+            Err(ReportError::Empty(_))
+        ));
+        let no_traces = [Panel::default()];
+        assert!(matches!(
+            panels_svg("x", None, &no_traces),
+            Err(ReportError::Empty(_))
+        ));
+        let all_nan = [Panel {
+            y_label: "n".into(),
+            traces: vec![trace(
+                "n",
+                &[0.0, f64::NAN, 2.0],
+                &[f64::NAN, 1.0, f64::INFINITY],
+            )],
+        }];
+        let err = panels_svg("x", None, &all_nan).unwrap_err();
+        assert!(matches!(err, ReportError::Empty(_)));
+        assert!(matches!(
+            panels_png("x", None, &all_nan, 640, 480),
+            Err(ReportError::Empty(_))
+        ));
+    }
+
+    #[test]
+    fn length_mismatch_is_plot_error_naming_trace() {
+        let p = [Panel {
+            y_label: "Position (mm)".into(),
+            traces: vec![
+                trace("ok", &[0.0, 1.0], &[0.0, 1.0]),
+                trace("bad one", &[0.0, 1.0], &[0.0]),
+            ],
+        }];
+        let err = panels_svg("x", None, &p).unwrap_err();
+        assert!(matches!(err, ReportError::Plot(_)));
+        assert!(err.to_string().contains("bad one"), "{err}");
+        assert!(matches!(
+            panels_png("x", None, &p, 640, 480),
+            Err(ReportError::Plot(_))
+        ));
+    }
+
+    #[test]
+    fn colour_assignment() {
+        let tr = |c: Option<usize>| Trace {
+            color: c,
+            ..Default::default()
+        };
+        assert_eq!(
+            assign_colors(&[tr(None), tr(None), tr(None)]),
+            vec![0, 1, 2]
+        );
+        // Explicit colours are reserved for the whole panel, taken modulo 8.
+        assert_eq!(
+            assign_colors(&[tr(None), tr(Some(9)), tr(None), tr(Some(0))]),
+            vec![2, 1, 3, 0]
+        );
+        let many: Vec<Trace> = (0..10).map(|_| tr(None)).collect();
+        assert_eq!(assign_colors(&many), vec![0, 1, 2, 3, 4, 5, 6, 7, 0, 1]);
+    }
+
+    #[test]
+    fn time_ticks_span_data_exactly() {
+        let t = time_ticks(0.0, 3.97, 8.0);
+        assert_eq!((t.lo, t.hi), (0.0, 3.97));
+        assert_eq!(t.major, vec![0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]);
+        let y = ticks(339.8, 345.5, 5.0);
+        assert!(y.lo <= 339.8 && y.hi >= 345.5);
+        assert!(y.major.len() >= 3 && y.major.len() <= 6, "{y:?}");
+    }
+
+    #[test]
+    fn decimation_keeps_extremes() {
+        let line: Polyline = (0..10_000)
+            .map(|i| {
+                (
+                    i as f64 * 1e-3,
+                    if i == 5_000 { 10.0 } else { (i % 7) as f64 },
+                )
+            })
+            .collect();
+        let d = decimate(&line, 0.0, 10.0, 100);
+        assert!(d.len() <= 400 && d.len() >= 200, "{}", d.len());
+        assert!(d.contains(&(5.0, 10.0)));
+        assert_eq!(d.first(), line.first());
+        assert_eq!(d.last(), line.last());
+        assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
+        let short = &line[..50];
+        assert_eq!(decimate(short, 0.0, 10.0, 100), short.to_vec());
+    }
+
+    #[test]
+    fn segment_rect() {
+        let r = (0.5, 0.5, 1.0, 1.0);
+        assert!(segment_hits_rect((0.0, 0.0), (1.0, 1.0), r));
+        assert!(!segment_hits_rect((0.0, 0.0), (1.0, 0.4), r));
+        assert!(segment_hits_rect((0.7, 0.7), (0.7, 0.7), r));
+        assert!(!segment_hits_rect((0.2, 0.7), (0.2, 0.7), r));
+    }
+}

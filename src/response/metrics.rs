@@ -1,0 +1,188 @@
+//! Step and tracking metrics (SPEC §5) of sampled responses; times between samples are found by
+//! linear interpolation.
+
+use serde::Serialize;
+
+/// Step-response metrics, for a step of size r from a steady state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StepMetrics {
+    /// Step size (mm).
+    pub step_mm: f64,
+    /// 10–90 % rise time (s); `None` if the response never reaches 90 %.
+    pub rise_time_s: Option<f64>,
+    /// Overshoot beyond the step (mm, ≥ 0).
+    pub overshoot_mm: f64,
+    /// Overshoot (% of the step).
+    pub overshoot_pct: f64,
+    /// Time of the largest excursion in the step direction (s).
+    pub peak_time_s: f64,
+    /// 2 % settling time (s); `None` if still outside the band at the end.
+    pub settling_time_s: Option<f64>,
+    /// Steady-state error from the DC solution of the model (mm).
+    pub steady_state_error_mm: f64,
+    /// Error at the end of the simulated record (mm).
+    pub final_error_mm: f64,
+}
+
+/// Metrics of the deviation response `y` (mm, starting at 0) to a step `r` (mm) at t[0];
+/// `dc_mm` is the model's steady-state deviation.
+pub fn step_metrics(t: &[f64], y: &[f64], r: f64, dc_mm: f64) -> StepMetrics {
+    let n = y.len();
+    let norm: Vec<f64> = y.iter().map(|v| v / r).collect();
+    let cross = |level: f64| {
+        (1..n)
+            .find(|&k| norm[k] >= level)
+            .map(|k| interpolate_time(t, &norm, k, level))
+    };
+    let rise = cross(0.1).zip(cross(0.9)).map(|(a, b)| b - a);
+    let (peak_k, peak) = norm
+        .iter()
+        .enumerate()
+        .fold((0, f64::NEG_INFINITY), |best, (k, &v)| {
+            if v > best.1 {
+                (k, v)
+            } else {
+                best
+            }
+        });
+    let overshoot = (peak - 1.0).max(0.0);
+    StepMetrics {
+        step_mm: r,
+        rise_time_s: rise,
+        overshoot_mm: overshoot * r.abs(),
+        overshoot_pct: 100.0 * overshoot,
+        peak_time_s: t[peak_k] - t[0],
+        settling_time_s: settling_time(t, &norm, 0.02),
+        steady_state_error_mm: r - dc_mm,
+        final_error_mm: r - y[n - 1],
+    }
+}
+
+/// Time at which `v` crosses `level` between samples k−1 and k.
+fn interpolate_time(t: &[f64], v: &[f64], k: usize, level: f64) -> f64 {
+    if k == 0 || v[k] == v[k - 1] {
+        return t[k] - t[0];
+    }
+    let f = (level - v[k - 1]) / (v[k] - v[k - 1]);
+    t[k - 1] + f * (t[k] - t[k - 1]) - t[0]
+}
+
+/// Last time the normalised response `v` is outside 1 ± band, interpolated to the band edge;
+/// `None` if it is outside at the end.
+fn settling_time(t: &[f64], v: &[f64], band: f64) -> Option<f64> {
+    let outside = |x: f64| (x - 1.0).abs() > band;
+    if outside(*v.last()?) {
+        return None;
+    }
+    match (0..v.len()).rev().find(|&k| outside(v[k])) {
+        None => Some(0.0),
+        Some(k) => {
+            let edge = if v[k] > 1.0 { 1.0 + band } else { 1.0 - band };
+            Some(interpolate_time(t, v, k + 1, edge))
+        }
+    }
+}
+
+/// Sinusoidal tracking metrics (SPEC §5), measured after the first period.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrackMetrics {
+    /// Frequency (Hz).
+    pub freq_hz: f64,
+    /// Amplitude (mm).
+    pub amp_mm: f64,
+    /// Maximum |e| (mm).
+    pub max_error_mm: f64,
+    /// RMS error (mm).
+    pub rms_error_mm: f64,
+    /// Wave reduction 1 − max|e|/amplitude.
+    pub wave_reduction: f64,
+}
+
+/// Metrics of the error `e` (mm) for a sine of `freq_hz` and `amp_mm`, skipping the first period.
+pub fn track_metrics(t: &[f64], e: &[f64], freq_hz: f64, amp_mm: f64) -> TrackMetrics {
+    let start = t[0] + 1.0 / freq_hz - 1e-9;
+    let tail: Vec<f64> = t
+        .iter()
+        .zip(e)
+        .filter(|(t, _)| **t >= start)
+        .map(|(_, e)| *e)
+        .collect();
+    let max = tail.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    let rms = (tail.iter().map(|e| e * e).sum::<f64>() / tail.len().max(1) as f64).sqrt();
+    TrackMetrics {
+        freq_hz,
+        amp_mm,
+        max_error_mm: max,
+        rms_error_mm: rms,
+        wave_reduction: 1.0 - max / amp_mm,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn second_order_step_metrics_match_closed_form() {
+        // y = 1 − e^{−ζωt}(cos ωd t + ζ/√(1−ζ²) sin ωd t): overshoot e^{−πζ/√(1−ζ²)},
+        // peak at π/ωd
+        let (wn, z) = (4.0f64, 0.3f64);
+        let wd = wn * (1.0 - z * z).sqrt();
+        let t: Vec<f64> = (0..=200_000).map(|k| k as f64 * 1e-4).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                1.0 - (-z * wn * t).exp()
+                    * ((wd * t).cos() + z / (1.0 - z * z).sqrt() * (wd * t).sin())
+            })
+            .collect();
+        let m = step_metrics(&t, &y, 1.0, 1.0);
+        let os = (-PI * z / (1.0 - z * z).sqrt()).exp();
+        assert!((m.overshoot_pct - 100.0 * os).abs() < 1e-3, "{m:?}");
+        assert!((m.peak_time_s - PI / wd).abs() < 2e-4);
+        assert!(m.steady_state_error_mm.abs() < 1e-12);
+        // settling: the envelope bound 4/(ζωn) is an upper estimate; the true value is below it
+        let ts = m.settling_time_s.unwrap();
+        assert!(ts > 2.0 && ts < 4.0 / (z * wn), "{ts}");
+        // at the settling time the response is at the band edge
+        let k = t.iter().position(|&x| x >= ts).unwrap();
+        assert!(((y[k] - 1.0).abs() - 0.02).abs() < 1e-3);
+    }
+
+    #[test]
+    fn first_order_rise_time_is_tau_ln9() {
+        let tau = 0.5;
+        let t: Vec<f64> = (0..=100_000).map(|k| k as f64 * 1e-4).collect();
+        let y: Vec<f64> = t.iter().map(|t| 5.0 * (1.0 - (-t / tau).exp())).collect();
+        let m = step_metrics(&t, &y, 5.0, 5.0);
+        assert!(
+            (m.rise_time_s.unwrap() - tau * 9f64.ln()).abs() < 1e-6,
+            "{m:?}"
+        );
+        assert!((m.settling_time_s.unwrap() - tau * 50f64.ln()).abs() < 1e-6);
+        assert_eq!(m.overshoot_mm, 0.0);
+    }
+
+    #[test]
+    fn tracking_metrics_skip_the_first_period() {
+        let f = 0.5;
+        let t: Vec<f64> = (0..=600).map(|k| k as f64 * 0.01).collect();
+        // a large error in the first period only, then a 2 mm sine
+        let e: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                if t < 2.0 {
+                    50.0
+                } else {
+                    2.0 * (2.0 * PI * f * t).sin()
+                }
+            })
+            .collect();
+        let m = track_metrics(&t, &e, f, 20.0);
+        assert!((m.max_error_mm - 2.0).abs() < 1e-3, "{m:?}");
+        assert!((m.rms_error_mm - 2.0 / 2f64.sqrt()).abs() < 0.01);
+        assert!((m.wave_reduction - 0.9).abs() < 1e-4);
+    }
+
+    use std::f64::consts::PI;
+}

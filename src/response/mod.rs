@@ -1,0 +1,149 @@
+//! Time-domain responses of the closed loop (SPEC §5): position step, sinusoidal tracking and
+//! any recorded reference, simulated exactly by zero-order hold on deviations from the operating
+//! point and reported as absolute values in user units (mm, bar gauge, rpm).
+
+mod metrics;
+
+pub use metrics::{step_metrics, track_metrics, StepMetrics, TrackMetrics};
+
+use crate::lti::{LtiError, Simulator};
+use crate::model::{Plant, SIM_OUTPUTS};
+use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use std::f64::consts::PI;
+
+/// Simulated (or measured) signals in user units, one value per sample.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Signals {
+    /// Time (s).
+    pub time_s: Vec<f64>,
+    /// Position reference (mm).
+    pub x_ref_mm: Vec<f64>,
+    /// Position (mm).
+    pub x_mm: Vec<f64>,
+    /// Control error x_ref − x (mm).
+    pub e_mm: Vec<f64>,
+    /// Chamber 1 pressure (bar gauge).
+    pub p1_bar: Vec<f64>,
+    /// Chamber 2 pressure (bar gauge).
+    pub p2_bar: Vec<f64>,
+    /// Motor 1 speed (rpm).
+    pub w1_rpm: Vec<f64>,
+    /// Motor 2 speed (rpm).
+    pub w2_rpm: Vec<f64>,
+}
+
+/// The steady state the deviations are taken from, in user units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Baseline {
+    /// Reference (mm).
+    pub x_ref_mm: f64,
+    /// Position (mm).
+    pub x_mm: f64,
+    /// Chamber pressures (bar gauge).
+    pub p_bar: [f64; 2],
+    /// Motor speeds (rpm).
+    pub w_rpm: [f64; 2],
+}
+
+impl Baseline {
+    /// The rig's own operating point (x0, pressures from the sum-pressure set-point, leakage
+    /// speeds).
+    pub fn of_rig(rig: &Rig) -> Baseline {
+        let op = Plant::new(rig).operating_point();
+        Baseline {
+            x_ref_mm: op.x * 1e3,
+            x_mm: op.x * 1e3,
+            p_bar: [op.p1 / PA_PER_BAR, op.p2 / PA_PER_BAR],
+            w_rpm: [op.w1 / RAD_S_PER_RPM, op.w2 / RAD_S_PER_RPM],
+        }
+    }
+}
+
+/// Simulate the closed loop of `rig` (sum-pressure loop as the rig says) driven by the
+/// reference `x_ref_mm` sampled at `time_s` and held between samples, starting at rest in
+/// `base`.
+pub fn simulate(
+    rig: &Rig,
+    time_s: &[f64],
+    x_ref_mm: &[f64],
+    base: &Baseline,
+) -> Result<Signals, LtiError> {
+    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    let u: Vec<f64> = x_ref_mm
+        .iter()
+        .map(|r| (r - base.x_ref_mm) * 1e-3)
+        .collect();
+    let r = Simulator::new(&sys).run(time_s, &u, &vec![0.0; sys.order()])?;
+    debug_assert_eq!(r.p, SIM_OUTPUTS.len());
+    let shifted = |i: usize, scale: f64, offset: f64| -> Vec<f64> {
+        r.output(i).iter().map(|v| v * scale + offset).collect()
+    };
+    Ok(Signals {
+        time_s: time_s.to_vec(),
+        x_ref_mm: x_ref_mm.to_vec(),
+        x_mm: shifted(0, 1e3, base.x_mm),
+        p1_bar: shifted(1, 1.0 / PA_PER_BAR, base.p_bar[0]),
+        p2_bar: shifted(2, 1.0 / PA_PER_BAR, base.p_bar[1]),
+        w1_rpm: shifted(3, 1.0 / RAD_S_PER_RPM, base.w_rpm[0]),
+        w2_rpm: shifted(4, 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
+        e_mm: shifted(5, 1e3, base.x_ref_mm - base.x_mm),
+    })
+}
+
+/// Uniform sample times 0, 1/rate, … up to and including `duration_s`.
+pub fn sample_times(duration_s: f64, rate_hz: f64) -> Vec<f64> {
+    let n = (duration_s * rate_hz + 1e-9).floor() as usize;
+    (0..=n).map(|k| k as f64 / rate_hz).collect()
+}
+
+/// Step response: the reference jumps by `step_mm` at t = 0 from the rig's operating point.
+pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Signals, LtiError> {
+    let base = Baseline::of_rig(rig);
+    let t = sample_times(duration_s, rate_hz);
+    let r = vec![base.x_ref_mm + step_mm; t.len()];
+    simulate(rig, &t, &r, &base)
+}
+
+/// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (SPEC §5).
+pub fn sine(
+    rig: &Rig,
+    freq_hz: f64,
+    amp_mm: f64,
+    periods: f64,
+    rate_hz: f64,
+) -> Result<Signals, LtiError> {
+    let base = Baseline::of_rig(rig);
+    let t = sample_times(periods / freq_hz, rate_hz);
+    let r: Vec<f64> = t
+        .iter()
+        .map(|t| base.x_ref_mm + amp_mm * (2.0 * PI * freq_hz * t).sin())
+        .collect();
+    simulate(rig, &t, &r, &base)
+}
+
+/// The three sinusoidal tracking cases of the article (SPEC §5): (frequency Hz, amplitude mm).
+pub const ARTICLE_SINE_CASES: [(f64, f64); 3] = [(0.1, 50.0), (0.2, 35.0), (0.25, 20.0)];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lti::dc_output;
+
+    #[test]
+    fn step_settles_at_the_dc_solution() {
+        let rig = Rig::default();
+        let s = step(&rig, 5.0, 100.0, 100.0).unwrap();
+        let sys = Plant::new(&rig).closed_loop_outputs(true);
+        let dc = dc_output(&sys, &[5e-3]).unwrap();
+        let base = Baseline::of_rig(&rig);
+        let last = s.time_s.len() - 1;
+        assert!((s.x_mm[last] - (base.x_mm + dc[0] * 1e3)).abs() < 1e-6);
+        assert!((s.p1_bar[last] - (base.p_bar[0] + dc[1] / 1e5)).abs() < 1e-6);
+        assert!((s.w1_rpm[last] - (base.w_rpm[0] + dc[3] / RAD_S_PER_RPM)).abs() < 1e-4);
+        assert!(
+            (dc[0] - 5e-3).abs() < 1e-12,
+            "type-1 loop: no steady-state error"
+        );
+        assert!(s.e_mm[last].abs() < 1e-6);
+    }
+}
