@@ -74,7 +74,7 @@ pub fn simulate(
         .map(|r| (r - base.x_ref_mm) * 1e-3)
         .collect();
     let r = Simulator::new(&sys).run(time_s, &u, &vec![0.0; sys.order()])?;
-    debug_assert_eq!(r.p, SIM_OUTPUTS.len());
+    debug_assert_eq!(r.outputs(), SIM_OUTPUTS.len());
     let shifted = |i: usize, scale: f64, offset: f64| -> Vec<f64> {
         r.output(i).iter().map(|v| v * scale + offset).collect()
     };
