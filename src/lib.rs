@@ -10,6 +10,7 @@
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
 
 pub mod cli;
+pub mod ident;
 pub mod lti;
 pub mod model;
 pub mod record;

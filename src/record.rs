@@ -92,43 +92,17 @@ impl Record {
 
     /// Parse record text; `file` names it in messages.
     pub fn parse(bytes: &[u8], file: &str) -> Result<Record, RecordError> {
-        let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(bytes);
-        let csv_err = |e: csv::Error| RecordError::Csv {
+        let mut t = Table::parse(bytes, file, &REQUIRED, &OPTIONAL)?;
+        Ok(Record {
             file: file.to_string(),
-            line: e.position().map_or(1, |p| p.line()),
-            message: e.to_string(),
-        };
-        let headers = reader.headers().map_err(csv_err)?.clone();
-        let index = column_index(&headers, file)?;
-        let mut columns: Vec<Vec<f64>> = vec![Vec::new(); index.len()];
-        let mut prev_time: Option<f64> = None;
-        for row in reader.records() {
-            let row = row.map_err(csv_err)?;
-            let line = row.position().map_or(0, |p| p.line());
-            for (c, (name, i)) in index.iter().enumerate() {
-                let value = parse_field(row.get(*i).unwrap_or(""), file, line, name)?;
-                columns[c].push(value);
-            }
-            let t = columns[0][columns[0].len() - 1];
-            if let Some(p) = prev_time.filter(|&p| t <= p) {
-                return Err(RecordError::Value {
-                    file: file.to_string(),
-                    line,
-                    column: "time_s".into(),
-                    message: format!("time must strictly increase: {t} follows {p}"),
-                });
-            }
-            prev_time = Some(t);
-        }
-        if columns[0].len() < 2 {
-            return Err(RecordError::Empty {
-                file: file.to_string(),
-                message: format!("needs at least 2 samples, found {}", columns[0].len()),
-            });
-        }
-        Ok(assemble(file, &index, columns))
+            time_s: t.take("time_s").unwrap_or_default(),
+            x_ref_mm: t.take("x_ref_mm").unwrap_or_default(),
+            x_mm: t.take("x_mm").unwrap_or_default(),
+            p1_bar: t.take("p1_bar"),
+            p2_bar: t.take("p2_bar"),
+            w1_rpm: t.take("w1_rpm"),
+            w2_rpm: t.take("w2_rpm"),
+        })
     }
 
     /// Number of samples.
@@ -159,10 +133,87 @@ impl Record {
     }
 }
 
+/// Named numeric columns read from a CSV file with a header row: the first required column is
+/// time, which must strictly increase; every field must be a finite number.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Table {
+    /// The columns found, required first, by name.
+    columns: Vec<(String, Vec<f64>)>,
+}
+
+impl Table {
+    /// Read a file with the `required` columns (the first is time) and any `optional` ones.
+    pub fn read(path: &Path, required: &[&str], optional: &[&str]) -> Result<Table, RecordError> {
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| RecordError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        Self::parse(&bytes, &file, required, optional)
+    }
+
+    /// Parse CSV text; `file` names it in messages.
+    pub fn parse(
+        bytes: &[u8],
+        file: &str,
+        required: &[&str],
+        optional: &[&str],
+    ) -> Result<Table, RecordError> {
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(bytes);
+        let csv_err = |e: csv::Error| RecordError::Csv {
+            file: file.to_string(),
+            line: e.position().map_or(1, |p| p.line()),
+            message: e.to_string(),
+        };
+        let headers = reader.headers().map_err(csv_err)?.clone();
+        let index = column_index(&headers, file, required, optional)?;
+        let mut columns: Vec<Vec<f64>> = vec![Vec::new(); index.len()];
+        let mut prev_time: Option<f64> = None;
+        for row in reader.records() {
+            let row = row.map_err(csv_err)?;
+            let line = row.position().map_or(0, |p| p.line());
+            for (c, (name, i)) in index.iter().enumerate() {
+                columns[c].push(parse_field(row.get(*i).unwrap_or(""), file, line, name)?);
+            }
+            let t = columns[0][columns[0].len() - 1];
+            if let Some(p) = prev_time.filter(|&p| t <= p) {
+                return Err(RecordError::Value {
+                    file: file.to_string(),
+                    line,
+                    column: index[0].0.clone(),
+                    message: format!("time must strictly increase: {t} follows {p}"),
+                });
+            }
+            prev_time = Some(t);
+        }
+        if columns[0].len() < 2 {
+            return Err(RecordError::Empty {
+                file: file.to_string(),
+                message: format!("needs at least 2 samples, found {}", columns[0].len()),
+            });
+        }
+        Ok(Table {
+            columns: index.into_iter().map(|(n, _)| n).zip(columns).collect(),
+        })
+    }
+
+    /// Take a column out of the table by name (`None` if absent).
+    pub fn take(&mut self, name: &str) -> Option<Vec<f64>> {
+        self.columns
+            .iter_mut()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| std::mem::take(v))
+    }
+}
+
 /// Positions of the required and present optional columns, required first.
 fn column_index(
     headers: &csv::StringRecord,
     file: &str,
+    required: &[&str],
+    optional: &[&str],
 ) -> Result<Vec<(String, usize)>, RecordError> {
     let header_err = |message: String| RecordError::Header {
         file: file.to_string(),
@@ -175,18 +226,18 @@ fn column_index(
     }
     let find = |name: &str| headers.iter().position(|h| h == name);
     let mut index = Vec::new();
-    for name in REQUIRED {
+    for name in required {
         let i = find(name).ok_or_else(|| {
             let found: Vec<&str> = headers.iter().collect();
             header_err(format!(
                 "missing required column `{name}` (need {}; found: {})",
-                REQUIRED.join(", "),
+                required.join(", "),
                 found.join(", ")
             ))
         })?;
         index.push((name.to_string(), i));
     }
-    for name in OPTIONAL {
+    for name in optional {
         if let Some(i) = find(name) {
             index.push((name.to_string(), i));
         }
@@ -209,25 +260,6 @@ fn parse_field(text: &str, file: &str, line: u64, column: &str) -> Result<f64, R
         Ok(v)
     } else {
         Err(err(format!("`{text}` is not a finite number")))
-    }
-}
-
-fn assemble(file: &str, index: &[(String, usize)], mut columns: Vec<Vec<f64>>) -> Record {
-    let mut take = |name: &str| -> Option<Vec<f64>> {
-        index
-            .iter()
-            .position(|(n, _)| n == name)
-            .map(|c| std::mem::take(&mut columns[c]))
-    };
-    Record {
-        file: file.to_string(),
-        time_s: take("time_s").unwrap_or_default(),
-        x_ref_mm: take("x_ref_mm").unwrap_or_default(),
-        x_mm: take("x_mm").unwrap_or_default(),
-        p1_bar: take("p1_bar"),
-        p2_bar: take("p2_bar"),
-        w1_rpm: take("w1_rpm"),
-        w2_rpm: take("w2_rpm"),
     }
 }
 

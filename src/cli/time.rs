@@ -330,7 +330,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
     let measured = signals_of_record(&rec);
     let mut runs = Vec::new();
     for (label, r) in variants(&rig, &args.opts.compare)? {
-        let base = baseline_of_record(&rec, &r);
+        let base = Baseline::of_record(&rec, &r);
         let s = response::simulate(&r, &rec.time_s, &rec.x_ref_mm, &base)?;
         let mse = mse_window(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
         runs.push((label, s, mse));
@@ -371,26 +371,6 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         let _ = writeln!(s, "  {label:<24} position MSE {mse:.5} mm²");
     }
     Ok(s)
-}
-
-/// Initial steady state of a record (SPEC §9), with the rig's operating point for signals the
-/// record lacks.
-fn baseline_of_record(rec: &Record, rig: &Rig) -> Baseline {
-    let op = Baseline::of_rig(rig);
-    let mean =
-        |s: &Option<Vec<f64>>, fallback: f64| s.as_ref().map_or(fallback, |v| rec.initial_mean(v));
-    Baseline {
-        x_ref_mm: rec.initial_mean(&rec.x_ref_mm),
-        x_mm: rec.initial_mean(&rec.x_mm),
-        p_bar: [
-            mean(&rec.p1_bar, op.p_bar[0]),
-            mean(&rec.p2_bar, op.p_bar[1]),
-        ],
-        w_rpm: [
-            mean(&rec.w1_rpm, op.w_rpm[0]),
-            mean(&rec.w2_rpm, op.w_rpm[1]),
-        ],
-    }
 }
 
 /// The measured signals (absent ones empty).

@@ -57,6 +57,27 @@ impl Baseline {
             w_rpm: [op.w1 / RAD_S_PER_RPM, op.w2 / RAD_S_PER_RPM],
         }
     }
+
+    /// The initial steady state of a record (SPEC §9), with the rig's operating point for the
+    /// signals the record lacks.
+    pub fn of_record(rec: &crate::record::Record, rig: &Rig) -> Baseline {
+        let op = Self::of_rig(rig);
+        let mean = |s: &Option<Vec<f64>>, fallback: f64| {
+            s.as_ref().map_or(fallback, |v| rec.initial_mean(v))
+        };
+        Baseline {
+            x_ref_mm: rec.initial_mean(&rec.x_ref_mm),
+            x_mm: rec.initial_mean(&rec.x_mm),
+            p_bar: [
+                mean(&rec.p1_bar, op.p_bar[0]),
+                mean(&rec.p2_bar, op.p_bar[1]),
+            ],
+            w_rpm: [
+                mean(&rec.w1_rpm, op.w_rpm[0]),
+                mean(&rec.w2_rpm, op.w_rpm[1]),
+            ],
+        }
+    }
 }
 
 /// Simulate the closed loop of `rig` (sum-pressure loop as the rig says) driven by the

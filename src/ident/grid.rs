@@ -1,0 +1,201 @@
+//! Candidate grids of the two-stage search (SPEC §6.3).
+
+use serde::{Deserialize, Serialize};
+
+/// A candidate parameter set of the grid search.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// Effective bulk modulus (bar).
+    pub beta_bar: f64,
+    /// Viscous friction (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// Cross-port leakage (m⁵/(N·s)); c1, c2 follow from the standstill record.
+    pub c12_m5_per_ns: f64,
+}
+
+/// A full-factorial grid β × b × c12.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    /// Bulk modulus values (bar).
+    pub beta_bar: Vec<f64>,
+    /// Friction values (N·s/m).
+    pub viscous_friction_ns_per_m: Vec<f64>,
+    /// Cross-port leakage values (m⁵/(N·s)).
+    pub c12_m5_per_ns: Vec<f64>,
+}
+
+/// `count` values from `from` to `to`, evenly spaced (in log space when `log`).
+pub fn spaced(from: f64, to: f64, count: usize, log: bool) -> Vec<f64> {
+    if count == 1 {
+        return vec![from];
+    }
+    let (a, b) = if log {
+        (from.ln(), to.ln())
+    } else {
+        (from, to)
+    };
+    (0..count)
+        .map(|i| {
+            let v = a + (b - a) * i as f64 / (count - 1) as f64;
+            if log {
+                v.exp()
+            } else {
+                v
+            }
+        })
+        .collect()
+}
+
+/// `from`, `from + step`, … up to `to` inclusive (rounded to the step's grid).
+pub fn stepped(from: f64, to: f64, step: f64) -> Vec<f64> {
+    let n = ((to - from) / step + 1e-9).floor() as usize;
+    (0..=n).map(|i| from + step * i as f64).collect()
+}
+
+impl Grid {
+    /// The article's first grid: 16 β × 12 b × 17 c12 = 3264 candidates (SPEC §6.3).
+    pub fn article_first() -> Grid {
+        let mut beta = stepped(25.0, 250.0, 25.0);
+        beta.push(300.0);
+        beta.extend(stepped(400.0, 600.0, 100.0));
+        beta.extend([800.0, 1000.0]);
+        let mut b = stepped(50.0, 250.0, 25.0);
+        b.extend([300.0, 400.0, 500.0]);
+        Grid {
+            beta_bar: beta,
+            viscous_friction_ns_per_m: b,
+            c12_m5_per_ns: spaced(1e-13, 1e-9, 17, true),
+        }
+    }
+
+    /// The article's refined grid: 19 β × 11 b × 17 c12 = 3553 candidates (SPEC §6.3).
+    pub fn article_refined() -> Grid {
+        Grid {
+            beta_bar: stepped(130.0, 220.0, 5.0),
+            viscous_friction_ns_per_m: stepped(100.0, 600.0, 50.0),
+            c12_m5_per_ns: spaced(0.8e-10, 2.4e-10, 17, false),
+        }
+    }
+
+    /// Number of candidates.
+    pub fn len(&self) -> usize {
+        self.beta_bar.len() * self.viscous_friction_ns_per_m.len() * self.c12_m5_per_ns.len()
+    }
+
+    /// Whether the grid has no candidate.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The candidate at a flat index (c12 fastest, then b, then β).
+    pub fn candidate(&self, index: usize) -> Candidate {
+        let (nb, nc) = (
+            self.viscous_friction_ns_per_m.len(),
+            self.c12_m5_per_ns.len(),
+        );
+        Candidate {
+            beta_bar: self.beta_bar[index / (nb * nc)],
+            viscous_friction_ns_per_m: self.viscous_friction_ns_per_m[index / nc % nb],
+            c12_m5_per_ns: self.c12_m5_per_ns[index % nc],
+        }
+    }
+
+    /// Check every axis is non-empty with finite positive values.
+    pub fn validate(&self, name: &str) -> Result<(), String> {
+        for (axis, v) in [
+            ("beta_bar", &self.beta_bar),
+            ("viscous_friction_ns_per_m", &self.viscous_friction_ns_per_m),
+            ("c12_m5_per_ns", &self.c12_m5_per_ns),
+        ] {
+            if v.is_empty() {
+                return Err(format!("{name}.{axis}: needs at least one value"));
+            }
+            if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                return Err(format!("{name}.{axis}: {x} is not a finite value >= 0"));
+            }
+        }
+        if self.beta_bar.contains(&0.0) {
+            return Err(format!("{name}.beta_bar: the bulk modulus must be > 0"));
+        }
+        Ok(())
+    }
+
+    /// The refined grid derived from the bounds [lo, hi] of β, b and c12 over a set of good
+    /// candidates (`--auto-refine`): each axis spans the set's range widened to the neighbouring
+    /// values of `parent`, with the article's refined counts (19, 11, 17); an axis stays
+    /// logarithmic if the parent's is.
+    pub fn refined_from(parent: &Grid, bounds: &[[f64; 2]; 3]) -> Grid {
+        let axis = |values: &[f64], [lo, hi]: [f64; 2], count: usize| -> Vec<f64> {
+            let below = values
+                .iter()
+                .copied()
+                .filter(|v| *v < lo)
+                .max_by(f64::total_cmp)
+                .unwrap_or(lo);
+            let above = values
+                .iter()
+                .copied()
+                .filter(|v| *v > hi)
+                .min_by(f64::total_cmp)
+                .unwrap_or(hi);
+            let log = values.len() > 2 && is_log_spaced(values);
+            spaced(below, above, count, log)
+        };
+        Grid {
+            beta_bar: axis(&parent.beta_bar, bounds[0], 19),
+            viscous_friction_ns_per_m: axis(&parent.viscous_friction_ns_per_m, bounds[1], 11),
+            c12_m5_per_ns: axis(&parent.c12_m5_per_ns, bounds[2], 17),
+        }
+    }
+}
+
+/// Whether positive values have a constant ratio (log spacing) rather than a constant step.
+fn is_log_spaced(v: &[f64]) -> bool {
+    v.iter().all(|x| *x > 0.0) && {
+        let r0 = v[1] / v[0];
+        let d0 = v[1] - v[0];
+        let ratio_err = v
+            .windows(2)
+            .map(|w| (w[1] / w[0] / r0 - 1.0).abs())
+            .fold(0.0, f64::max);
+        let step_err = v
+            .windows(2)
+            .map(|w| ((w[1] - w[0]) / d0 - 1.0).abs())
+            .fold(0.0, f64::max);
+        ratio_err < step_err
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn article_grid_sizes() {
+        let first = Grid::article_first();
+        assert_eq!(first.beta_bar.len(), 16);
+        assert_eq!(first.viscous_friction_ns_per_m.len(), 12);
+        assert_eq!(first.len(), 3264);
+        assert_eq!(Grid::article_refined().len(), 3553);
+        assert_eq!(*first.beta_bar.last().unwrap(), 1000.0);
+        assert!((first.c12_m5_per_ns[8] / 1e-11 - 1.0).abs() < 1e-12);
+        let r = Grid::article_refined();
+        assert!((r.c12_m5_per_ns[4] - 1.2e-10).abs() < 1e-22);
+    }
+
+    #[test]
+    fn flat_index_enumerates_every_candidate_once() {
+        let g = Grid::article_first();
+        let mut seen = std::collections::HashSet::new();
+        for i in 0..g.len() {
+            let c = g.candidate(i);
+            seen.insert((
+                c.beta_bar.to_bits(),
+                c.viscous_friction_ns_per_m.to_bits(),
+                c.c12_m5_per_ns.to_bits(),
+            ));
+        }
+        assert_eq!(seen.len(), g.len());
+    }
+}

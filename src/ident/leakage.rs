@@ -1,0 +1,125 @@
+//! Chamber leakages from a standstill record (SPEC §6.2).
+
+use super::IdentError;
+use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use serde::{Deserialize, Serialize};
+
+/// A standstill operating point held under feedback: pump speeds feeding the leakage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Standstill {
+    /// Motor/pump 1 speed (rpm); negative: turning backwards.
+    pub w1_rpm: f64,
+    /// Motor/pump 2 speed (rpm).
+    pub w2_rpm: f64,
+    /// Chamber 1 pressure (bar gauge).
+    pub p1_bar: f64,
+}
+
+/// The leakages that hold a standstill point for a given cross-port leakage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Leakage {
+    /// Chamber 2 pressure from the force balance p1 A1 − p2 A2 = F_ext (bar gauge).
+    pub p2_bar: f64,
+    /// Cross-port leakage used (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Chamber 1 leakage (m⁵/(N·s)).
+    pub c1_m5_per_ns: f64,
+    /// Chamber 2 leakage (m⁵/(N·s)); negative values absorb a pump null shift.
+    pub c2_m5_per_ns: f64,
+}
+
+impl Standstill {
+    /// Check the values are usable (finite, positive pressure).
+    pub fn validate(&self) -> Result<(), IdentError> {
+        let bad = |key: &str, v: f64, rule: &str| {
+            Err(IdentError::Input(format!(
+                "standstill `{key}` = {v}: {rule}"
+            )))
+        };
+        for (key, v) in [
+            ("w1_rpm", self.w1_rpm),
+            ("w2_rpm", self.w2_rpm),
+            ("p1_bar", self.p1_bar),
+        ] {
+            if !v.is_finite() {
+                return bad(key, v, "must be a finite number");
+            }
+        }
+        if self.p1_bar <= 0.0 {
+            return bad(
+                "p1_bar",
+                self.p1_bar,
+                "must be > 0 (gauge pressure at standstill)",
+            );
+        }
+        Ok(())
+    }
+
+    /// c1 and c2 from the standstill continuity equations (SPEC §6.2) for a given c12:
+    /// c1 = (D1 ω1 + D2 ω2 − c12 (p1 − p2))/p1, c2 = (−D1 ω1 + c12 (p1 − p2))/p2, with p2 from
+    /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (SPEC §3's sign convention).
+    pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
+        self.validate()?;
+        let si = rig.si();
+        let p1 = self.p1_bar * PA_PER_BAR;
+        let p2 = (p1 * si.a1 - si.f_ext) / si.a2;
+        if p2 <= 0.0 {
+            return Err(IdentError::Input(format!(
+                "standstill p1_bar = {} with external force {} N gives p2 = {:.3} bar <= 0",
+                self.p1_bar,
+                si.f_ext,
+                p2 / PA_PER_BAR
+            )));
+        }
+        let (w1, w2) = (self.w1_rpm * RAD_S_PER_RPM, self.w2_rpm * RAD_S_PER_RPM);
+        let cross = c12 * (p1 - p2);
+        Ok(Leakage {
+            p2_bar: p2 / PA_PER_BAR,
+            c12_m5_per_ns: c12,
+            c1_m5_per_ns: (si.d[0] * w1 + si.d[1] * w2 - cross) / p1,
+            c2_m5_per_ns: (-si.d[0] * w1 + cross) / p2,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reproduces_the_article_leakages() {
+        let s = Standstill {
+            w1_rpm: -160.0,
+            w2_rpm: 245.0,
+            p1_bar: 3.95,
+        };
+        let l = s.leakage(&Rig::default(), 1.2e-10).unwrap();
+        assert!((l.p2_bar - 5.86).abs() < 0.01, "{l:?}");
+        assert!((l.c1_m5_per_ns / 5.49e-11 - 1.0).abs() < 0.01, "{l:?}");
+        assert!((l.c2_m5_per_ns / -1.19e-11 - 1.0).abs() < 0.02, "{l:?}");
+        // the leakages close the continuity equations at standstill exactly
+        let si = Rig::default().si();
+        let rpm = crate::rig::RAD_S_PER_RPM;
+        let (p1, p2) = (3.95e5, l.p2_bar * 1e5);
+        let q1 = si.d[0] * -160.0 * rpm + si.d[1] * 245.0 * rpm
+            - l.c1_m5_per_ns * p1
+            - 1.2e-10 * (p1 - p2);
+        let q2 = -si.d[0] * -160.0 * rpm + 1.2e-10 * (p1 - p2) - l.c2_m5_per_ns * p2;
+        assert!(q1.abs() < 1e-18 && q2.abs() < 1e-18);
+    }
+
+    #[test]
+    fn bad_standstill_is_an_error() {
+        let s = Standstill {
+            w1_rpm: -160.0,
+            w2_rpm: 245.0,
+            p1_bar: 0.0,
+        };
+        assert!(s
+            .leakage(&Rig::default(), 1e-10)
+            .unwrap_err()
+            .to_string()
+            .contains("p1_bar"));
+    }
+}

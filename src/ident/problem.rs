@@ -1,0 +1,189 @@
+//! The identification problem: datasets prepared for fast evaluation and the cost of a candidate
+//! (SPEC §6.3): the mean over datasets of the mean squared position error (mm²) inside each fit
+//! window, the model driven by the recorded reference from the record's initial steady state.
+
+use super::grid::Candidate;
+use super::leakage::Standstill;
+use super::IdentError;
+use crate::lti::{eigenvalues, is_stable, Simulator, StateSpace, Zoh};
+use crate::model::Plant;
+use crate::record::Record;
+use crate::rig::Rig;
+
+/// One dataset of an experiment, as the user describes it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetSpec {
+    /// Record file (SPEC §9 CSV), relative to the experiment file.
+    pub file: String,
+    /// Position gain used in the experiment (normalised command per metre).
+    pub kp: f64,
+    /// Effective mass during the experiment (kg).
+    pub mass_kg: f64,
+    /// End of the fit window on the record's time axis (s).
+    pub fit_end_s: f64,
+}
+
+/// A dataset ready for thousands of evaluations.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Label (the file name as given).
+    pub name: String,
+    /// The record.
+    pub record: Record,
+    /// The rig with this dataset's Kp and mass.
+    pub rig: Rig,
+    /// End of the fit window (s).
+    pub fit_end_s: f64,
+    /// Sample times inside the window (s).
+    t: Vec<f64>,
+    /// Reference deviations from the initial steady state (m).
+    u: Vec<f64>,
+    /// Measured position deviations (mm).
+    meas_mm: Vec<f64>,
+    /// Balancing scale of the nominal model's ZOH block, reused for every candidate.
+    scale: Vec<f64>,
+}
+
+impl Prepared {
+    /// Prepare a record for fitting with the dataset's gain and mass on top of `rig`.
+    pub fn new(spec: &DatasetSpec, record: Record, rig: &Rig) -> Result<Prepared, IdentError> {
+        let err = |m: String| IdentError::Input(format!("dataset `{}`: {m}", spec.file));
+        let (t0, t1) = (record.time_s[0], record.time_s[record.len() - 1]);
+        if !(spec.fit_end_s.is_finite() && spec.fit_end_s > t0 && spec.fit_end_s <= t1) {
+            return Err(err(format!(
+                "fit_end_s = {} lies outside the record ({t0} … {t1} s)",
+                spec.fit_end_s
+            )));
+        }
+        let rig = rig
+            .with_overrides(&[
+                format!("kp={}", spec.kp),
+                format!("mass_kg={}", spec.mass_kg),
+            ])
+            .map_err(|e| err(e.to_string()))?;
+        let n = record
+            .time_s
+            .iter()
+            .take_while(|&&t| t <= spec.fit_end_s)
+            .count();
+        let (r0, x0) = (
+            record.initial_mean(&record.x_ref_mm),
+            record.initial_mean(&record.x_mm),
+        );
+        let sys = Plant::new(&rig).closed_loop(rig.sum_pressure);
+        let scale = Zoh::balancing_scale(&sys.a, &sys.b, 1.0)?;
+        Ok(Prepared {
+            name: spec.file.clone(),
+            t: record.time_s[..n].to_vec(),
+            u: record.x_ref_mm[..n]
+                .iter()
+                .map(|r| (r - r0) * 1e-3)
+                .collect(),
+            meas_mm: record.x_mm[..n].iter().map(|x| x - x0).collect(),
+            record,
+            rig,
+            fit_end_s: spec.fit_end_s,
+            scale,
+        })
+    }
+
+    /// Samples inside the fit window.
+    pub fn window_len(&self) -> usize {
+        self.t.len()
+    }
+}
+
+/// The datasets, the standstill point and the rig they share.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    /// Prepared datasets.
+    pub datasets: Vec<Prepared>,
+    /// Standstill point for c1, c2.
+    pub standstill: Standstill,
+}
+
+impl Problem {
+    /// The rig of dataset `ds` with a candidate's β, b, c12 and the c1, c2 that hold the
+    /// standstill point with that c12.
+    pub fn rig_for(&self, c: &Candidate, ds: &Prepared) -> Result<Rig, IdentError> {
+        let l = self.standstill.leakage(&ds.rig, c.c12_m5_per_ns)?;
+        Ok(Rig {
+            beta_bar: c.beta_bar,
+            viscous_friction_ns_per_m: c.viscous_friction_ns_per_m,
+            c12_m5_per_ns: c.c12_m5_per_ns,
+            c1_m5_per_ns: l.c1_m5_per_ns,
+            c2_m5_per_ns: l.c2_m5_per_ns,
+            ..ds.rig.clone()
+        })
+    }
+
+    /// Closed-loop model x_ref → x of a dataset for a candidate.
+    fn model(&self, c: &Candidate, ds: &Prepared) -> Result<StateSpace, IdentError> {
+        let rig = self.rig_for(c, ds)?;
+        Ok(Plant::new(&rig).closed_loop(rig.sum_pressure))
+    }
+
+    /// Mean squared position error (mm²) of dataset `ds`; +∞ when not finite.
+    pub fn dataset_cost(&self, c: &Candidate, ds: &Prepared) -> f64 {
+        let Ok(sys) = self.model(c, ds) else {
+            return f64::INFINITY;
+        };
+        let mut sse = 0.0;
+        let x0 = vec![0.0; sys.order()];
+        let run = Simulator::with_scale(&sys, &ds.scale).run_with(&ds.t, &ds.u, &x0, |k, x| {
+            let e = x[0] * 1e3 - ds.meas_mm[k];
+            sse += e * e;
+            sse.is_finite()
+        });
+        let mse = sse / ds.t.len() as f64;
+        if run.is_ok() && mse.is_finite() {
+            mse
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The cost of a candidate: the mean of the datasets' MSE (mm²); +∞ when not finite.
+    pub fn cost(&self, c: &Candidate) -> f64 {
+        let total: f64 = self
+            .datasets
+            .iter()
+            .map(|ds| self.dataset_cost(c, ds))
+            .sum();
+        let cost = total / self.datasets.len() as f64;
+        if cost.is_finite() {
+            cost
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Whether every dataset's closed loop is stable for this candidate (closed-loop
+    /// eigenvalues).
+    pub fn is_stable(&self, c: &Candidate) -> bool {
+        self.datasets.iter().all(|ds| {
+            self.model(c, ds)
+                .ok()
+                .and_then(|sys| eigenvalues(&sys.a).ok())
+                .is_some_and(|p| is_stable(&p))
+        })
+    }
+
+    /// Simulated absolute position (mm) over the whole record of dataset `ds` for a candidate.
+    pub fn simulate(
+        &self,
+        c: &Candidate,
+        ds: &Prepared,
+    ) -> Result<crate::response::Signals, IdentError> {
+        let rig = self.rig_for(c, ds)?;
+        let rec = &ds.record;
+        let base = crate::response::Baseline::of_record(rec, &rig);
+        Ok(crate::response::simulate(
+            &rig,
+            &rec.time_s,
+            &rec.x_ref_mm,
+            &base,
+        )?)
+    }
+}

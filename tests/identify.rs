@@ -1,0 +1,184 @@
+//! Identification recovers known parameters from records simulated by the model with seeded
+//! noise (SPEC §6).
+
+use pumpcyl::ident::{finish, run_stages, Candidate, Experiment, Grid, Options};
+use pumpcyl::response::{simulate, Baseline};
+use pumpcyl::rig::Rig;
+use std::path::Path;
+
+/// Seeded Gaussian noise (xorshift + Box–Muller), no external crates.
+struct Noise(u64);
+
+impl Noise {
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn gauss(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// Write a 5 mm step record (0.5 s rest, step 340 → 345 mm) simulated with `truth`.
+fn write_record(dir: &Path, name: &str, truth: &Candidate, kp: f64, noise_mm: f64, seed: u64) {
+    let standstill = pumpcyl::ident::Standstill {
+        w1_rpm: -160.0,
+        w2_rpm: 245.0,
+        p1_bar: 3.95,
+    };
+    let base = Rig {
+        kp,
+        ..Rig::default()
+    };
+    let l = standstill.leakage(&base, truth.c12_m5_per_ns).unwrap();
+    let rig = Rig {
+        beta_bar: truth.beta_bar,
+        viscous_friction_ns_per_m: truth.viscous_friction_ns_per_m,
+        c12_m5_per_ns: truth.c12_m5_per_ns,
+        c1_m5_per_ns: l.c1_m5_per_ns,
+        c2_m5_per_ns: l.c2_m5_per_ns,
+        ..base
+    };
+    let t: Vec<f64> = (0..=400).map(|k| k as f64 * 0.01).collect();
+    let r: Vec<f64> = t
+        .iter()
+        .map(|&t| if t < 0.5 { 340.0 } else { 345.0 })
+        .collect();
+    let mut b = Baseline::of_rig(&rig);
+    b.x_ref_mm = 340.0;
+    b.x_mm = 340.0;
+    let s = simulate(&rig, &t, &r, &b).unwrap();
+    let mut noise = Noise(seed);
+    let mut csv = String::from("time_s,x_ref_mm,x_mm\n");
+    for k in 0..t.len() {
+        csv.push_str(&format!(
+            "{:.2},{},{:.6}\n",
+            t[k],
+            r[k],
+            s.x_mm[k] + noise_mm * noise.gauss()
+        ));
+    }
+    std::fs::write(dir.join(name), csv).unwrap();
+}
+
+fn experiment(dir: &Path, extra: &str) -> Experiment {
+    let text = format!(
+        "{extra}\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+         [[dataset]]\nfile = \"ident.csv\"\nkp = 25.0\nmass_kg = 10593.0\nfit_end_s = 3.7\n\
+         [[dataset]]\nfile = \"valid.csv\"\nkp = 20.0\nmass_kg = 10593.0\nfit_end_s = 3.7\n"
+    );
+    std::fs::write(dir.join("exp.toml"), text).unwrap();
+    Experiment::load(&dir.join("exp.toml")).unwrap()
+}
+
+fn opts(local_refinement: bool) -> Options {
+    Options {
+        auto_refine: false,
+        local_refinement,
+        threshold_mm2: 0.25,
+        top_n: 20,
+    }
+}
+
+#[test]
+fn grid_search_recovers_the_truth_within_one_grid_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Candidate {
+        beta_bar: 165.0,
+        viscous_friction_ns_per_m: 100.0,
+        c12_m5_per_ns: 1.2e-10,
+    };
+    write_record(dir.path(), "ident.csv", &truth, 25.0, 0.01, 11);
+    write_record(dir.path(), "valid.csv", &truth, 20.0, 0.01, 12);
+    let exp = experiment(dir.path(), "");
+    let stages = run_stages(&exp.problem, exp.grids(), &opts(false), None, &|_| {}).unwrap();
+    assert_eq!(stages[0].summary.evaluated, 3264);
+    assert_eq!(stages[1].summary.evaluated, 3553);
+    let id = finish(&exp.problem, stages, &opts(false)).unwrap();
+    let best = id.best().candidate;
+    assert!((best.beta_bar - 165.0).abs() <= 5.0, "{best:?}");
+    assert!(
+        (best.c12_m5_per_ns - 1.2e-10).abs() <= 1.0e-11 + 1e-22,
+        "{best:?}"
+    );
+    // the noise floor: cost ≈ σ² = 1e-4 mm² at the truth
+    assert!(id.best().cost_mm2 < 2e-4, "{}", id.best().cost_mm2);
+    // the article's leakages follow for c12 = 1.2e-10
+    assert!((id.leakage.c1_m5_per_ns / 5.49e-11 - 1.0).abs() < 0.05);
+}
+
+#[test]
+fn local_refinement_lands_within_two_percent_between_grid_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Candidate {
+        beta_bar: 172.5,
+        viscous_friction_ns_per_m: 130.0,
+        c12_m5_per_ns: 1.25e-10,
+    };
+    write_record(dir.path(), "ident.csv", &truth, 25.0, 0.005, 21);
+    write_record(dir.path(), "valid.csv", &truth, 20.0, 0.005, 22);
+    // a small first grid around the article's refined one keeps the test quick
+    let exp = experiment(
+        dir.path(),
+        "[grid]\nbeta_bar = [130.0, 150.0, 170.0, 190.0, 210.0]\n\
+         viscous_friction_ns_per_m = [50.0, 100.0, 200.0, 400.0]\n\
+         c12_m5_per_ns = [0.8e-10, 1.0e-10, 1.2e-10, 1.4e-10, 1.6e-10]\n\
+         [refined_grid]\nbeta_bar = [160.0, 170.0, 180.0]\nviscous_friction_ns_per_m = [100.0, 150.0]\n\
+         c12_m5_per_ns = [1.1e-10, 1.3e-10]\n",
+    );
+    let o = opts(true);
+    let stages = run_stages(&exp.problem, exp.grids(), &o, None, &|_| {}).unwrap();
+    let id = finish(&exp.problem, stages, &o).unwrap();
+    let r = id.refined.expect("refinement improves on the grid");
+    assert!(r.cost_mm2 < id.grid_best.cost_mm2);
+    let c = r.candidate;
+    assert!((c.beta_bar / 172.5 - 1.0).abs() < 0.02, "{c:?}");
+    assert!((c.c12_m5_per_ns / 1.25e-10 - 1.0).abs() < 0.02, "{c:?}");
+}
+
+#[test]
+fn sharded_search_merges_to_the_same_answer() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Candidate {
+        beta_bar: 165.0,
+        viscous_friction_ns_per_m: 100.0,
+        c12_m5_per_ns: 1.2e-10,
+    };
+    write_record(dir.path(), "ident.csv", &truth, 25.0, 0.01, 31);
+    write_record(dir.path(), "valid.csv", &truth, 20.0, 0.01, 32);
+    let exp = experiment(dir.path(), "");
+    let small = (
+        Grid {
+            beta_bar: vec![100.0, 165.0, 250.0],
+            viscous_friction_ns_per_m: vec![100.0, 200.0],
+            c12_m5_per_ns: pumpcyl::ident::spaced(1e-11, 1e-9, 7, true),
+        },
+        None,
+    );
+    let o = opts(false);
+    let whole = run_stages(&exp.problem, small.clone(), &o, None, &|_| {}).unwrap();
+    let mut merged = run_stages(&exp.problem, small.clone(), &o, Some((1, 3)), &|_| {}).unwrap();
+    for i in 2..=3 {
+        let part = run_stages(&exp.problem, small.clone(), &o, Some((i, 3)), &|_| {}).unwrap();
+        let s = merged
+            .remove(0)
+            .summary
+            .merge(part[0].summary.clone(), o.top_n);
+        merged.insert(
+            0,
+            pumpcyl::ident::Stage {
+                grid: small.0.clone(),
+                summary: s,
+            },
+        );
+    }
+    assert_eq!(merged[0].summary.evaluated, 42);
+    assert_eq!(merged[0].summary.top, whole[0].summary.top);
+    assert_eq!(
+        merged[0].summary.threshold_count,
+        whole[0].summary.threshold_count
+    );
+}
