@@ -1,6 +1,7 @@
 //! Command-line interface: argument parsing and formatting only; the work is in the library.
 
 mod analysis;
+mod ident;
 mod output;
 mod time;
 
@@ -46,6 +47,14 @@ enum Command {
     /// Replay a recorded reference (SPEC §9 CSV) through the model and compare with the
     /// measured response (position MSE in mm²).
     Simulate(time::SimulateArgs),
+    /// Chamber leakages c1, c2 from a standstill point for a given c12 (SPEC §6.2).
+    Leakage(ident::LeakageArgs),
+    /// Drive velocity-loop gain Km from a motor velocity step (SPEC §6.1).
+    IdentifyDrive(ident::DriveArgs),
+    /// Two-stage grid identification of beta, b and c12 from records (SPEC §6.3).
+    Identify(ident::IdentifyArgs),
+    /// Merge the partial results of `identify --shard I/N` into the answer of one run.
+    IdentifyMerge(ident::MergeArgs),
 }
 
 #[derive(Debug, Args)]
@@ -199,6 +208,10 @@ pub fn run() -> Result<()> {
         Command::Step(args) => time::step(&args)?,
         Command::Track(args) => time::track(&args)?,
         Command::Simulate(args) => time::simulate(&args)?,
+        Command::Leakage(args) => ident::leakage(&args)?,
+        Command::IdentifyDrive(args) => ident::drive(&args)?,
+        Command::Identify(args) => ident::identify(&args)?,
+        Command::IdentifyMerge(args) => ident::merge(&args)?,
     };
     output::emit(&text)
 }

@@ -463,7 +463,7 @@ fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> Str
 }
 
 /// Write signals as CSV or as the four-panel figure, by the file's extension.
-fn write_figure(
+pub(super) fn write_figure(
     path: &Path,
     title: &str,
     subtitle: Option<&str>,
@@ -477,7 +477,12 @@ fn write_figure(
 }
 
 /// Render panels to SVG or PNG by extension, atomically.
-fn render(path: &Path, title: &str, subtitle: Option<&str>, panels: &[Panel]) -> Result<()> {
+pub(super) fn render(
+    path: &Path,
+    title: &str,
+    subtitle: Option<&str>,
+    panels: &[Panel],
+) -> Result<()> {
     let bytes = match format_of(path, &[Format::Svg, Format::Png])? {
         Format::Png => report::panels_png(title, subtitle, panels, 1500, 1500)?,
         _ => report::panels_svg(title, subtitle, panels)?.into_bytes(),

@@ -126,11 +126,12 @@ mod tests {
             .iter()
             .map(|&t| if t < 0.1 { 0.0 } else { 500.0 })
             .collect();
+        let n = time_s.len();
         let mut rec = DriveRecord {
             file: "d.csv".into(),
             time_s,
             w_ref_rpm,
-            w_rpm: vec![],
+            w_rpm: vec![0.0; n],
         };
         let mut w = simulate(&rec, jm, wi, km).unwrap();
         // deterministic ±1 rpm "noise"

@@ -124,19 +124,23 @@ impl Problem {
         Ok(Plant::new(&rig).closed_loop(rig.sum_pressure))
     }
 
-    /// Mean squared position error (mm²) of dataset `ds`; +∞ when not finite.
-    pub fn dataset_cost(&self, c: &Candidate, ds: &Prepared) -> f64 {
+    /// Mean squared position error (mm²) of dataset `ds`; +∞ when not finite. The simulation
+    /// stops early, returning a lower bound above `stop_above`, once the partial sum already
+    /// exceeds `stop_above` (the caller cannot use the candidate then).
+    fn dataset_cost(&self, c: &Candidate, ds: &Prepared, stop_above: f64) -> f64 {
         let Ok(sys) = self.model(c, ds) else {
             return f64::INFINITY;
         };
+        let n = ds.t.len() as f64;
+        let limit = stop_above * n;
         let mut sse = 0.0;
         let x0 = vec![0.0; sys.order()];
         let run = Simulator::with_scale(&sys, &ds.scale).run_with(&ds.t, &ds.u, &x0, |k, x| {
             let e = x[0] * 1e3 - ds.meas_mm[k];
             sse += e * e;
-            sse.is_finite()
+            sse <= limit
         });
-        let mse = sse / ds.t.len() as f64;
+        let mse = sse / n;
         if run.is_ok() && mse.is_finite() {
             mse
         } else {
@@ -146,17 +150,32 @@ impl Problem {
 
     /// The cost of a candidate: the mean of the datasets' MSE (mm²); +∞ when not finite.
     pub fn cost(&self, c: &Candidate) -> f64 {
-        let total: f64 = self
-            .datasets
-            .iter()
-            .map(|ds| self.dataset_cost(c, ds))
-            .sum();
-        let cost = total / self.datasets.len() as f64;
-        if cost.is_finite() {
-            cost
-        } else {
-            f64::INFINITY
+        self.cost_below(c, f64::INFINITY).unwrap_or(f64::INFINITY)
+    }
+
+    /// The cost if it is at most `bound`, else `None` — decided as early as possible: datasets
+    /// are simulated in turn and each stops once the running total proves the cost exceeds the
+    /// bound (exact pruning for a search that only keeps candidates below a bound).
+    pub fn cost_below(&self, c: &Candidate, bound: f64) -> Option<f64> {
+        let count = self.datasets.len() as f64;
+        let mut total = 0.0;
+        for ds in &self.datasets {
+            let remaining = bound * count - total;
+            total += self.dataset_cost(c, ds, remaining);
+            if total > bound * count {
+                return if total.is_finite() {
+                    None
+                } else {
+                    Some(f64::INFINITY)
+                };
+            }
         }
+        Some(total / count)
+    }
+
+    /// Mean squared position error (mm²) of one dataset, simulated over its whole window.
+    pub fn dataset_mse(&self, c: &Candidate, ds: &Prepared) -> f64 {
+        self.dataset_cost(c, ds, f64::INFINITY)
     }
 
     /// Whether every dataset's closed loop is stable for this candidate (closed-loop

@@ -50,6 +50,8 @@ pub struct Summary {
     pub non_finite: u64,
     /// Candidates rejected as closed-loop unstable.
     pub unstable: u64,
+    /// Candidates whose simulation stopped early, proven unable to enter any result.
+    pub pruned: u64,
     /// The best candidates, best first.
     pub top: Vec<Scored>,
     /// Cost threshold of the threshold set (mm²).
@@ -68,11 +70,20 @@ impl Summary {
             evaluated: 0,
             non_finite: 0,
             unstable: 0,
+            pruned: 0,
             top: Vec::new(),
             threshold_mm2,
             threshold_count: 0,
             threshold_members: Vec::new(),
             threshold_bounds: None,
+        }
+    }
+
+    /// The cost above which a candidate can enter neither the top list nor the threshold set.
+    fn bound(&self, top_n: usize) -> f64 {
+        match self.top.last() {
+            Some(worst) if self.top.len() >= top_n => worst.cost_mm2.max(self.threshold_mm2),
+            _ => f64::INFINITY,
         }
     }
 
@@ -113,6 +124,7 @@ impl Summary {
         self.evaluated += other.evaluated;
         self.non_finite += other.non_finite;
         self.unstable += other.unstable;
+        self.pruned += other.pruned;
         self.threshold_count += other.threshold_count;
         for s in other.top {
             insert_sorted(&mut self.top, s, top_n);
@@ -164,25 +176,35 @@ pub fn search(
 ) -> Summary {
     let (shard, shards) = opts.shard.map_or((0, 1), |(i, n)| (i - 1, n));
     let mine = shard_len(grid.len(), opts.shard);
+    // fold: one accumulator per rayon split, not per chunk, so a fresh (not yet full) top list
+    // rarely forces stability checks
     (0..mine.div_ceil(CHUNK))
         .into_par_iter()
-        .map(|c| {
-            let mut acc = Summary::empty(opts.threshold_mm2);
-            let positions = c * CHUNK..((c + 1) * CHUNK).min(mine);
-            let count = positions.len();
-            for index in positions.map(|p| shard + p * shards) {
-                let candidate = grid.candidate(index);
-                let s = Scored {
-                    candidate,
-                    cost_mm2: problem.cost(&candidate),
-                    stage,
-                    index: index as u64,
-                };
-                acc.push(s, opts.top_n, |c| problem.is_stable(c));
-            }
-            progress(count as u64);
-            acc
-        })
+        .fold(
+            || Summary::empty(opts.threshold_mm2),
+            |mut acc, c| {
+                let positions = c * CHUNK..((c + 1) * CHUNK).min(mine);
+                let count = positions.len();
+                for index in positions.map(|p| shard + p * shards) {
+                    let candidate = grid.candidate(index);
+                    let Some(cost_mm2) = problem.cost_below(&candidate, acc.bound(opts.top_n))
+                    else {
+                        acc.evaluated += 1;
+                        acc.pruned += 1;
+                        continue;
+                    };
+                    let s = Scored {
+                        candidate,
+                        cost_mm2,
+                        stage,
+                        index: index as u64,
+                    };
+                    acc.push(s, opts.top_n, |c| problem.is_stable(c));
+                }
+                progress(count as u64);
+                acc
+            },
+        )
         .reduce(
             || Summary::empty(opts.threshold_mm2),
             |a, b| a.merge(b, opts.top_n),

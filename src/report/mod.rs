@@ -12,3 +12,6 @@ pub use bode::{
 };
 mod timeseries;
 pub use timeseries::*;
+
+mod heatmap;
+pub use heatmap::*;

@@ -1,0 +1,617 @@
+//! The identification commands: `leakage`, `identify-drive`, `identify`, `identify-merge`
+//! (SPEC §6).
+
+use anyhow::{Context, Result};
+use clap::Args;
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::output::{format_of, write_atomic, Format};
+use super::RigSource;
+use crate::ident::{
+    finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
+    Stage, Standstill,
+};
+use crate::report::{self, LineStyle, Panel, Trace};
+
+#[derive(Debug, Args)]
+pub struct LeakageArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Motor/pump 1 speed at standstill (rpm).
+    #[arg(long, allow_negative_numbers = true)]
+    w1_rpm: f64,
+    /// Motor/pump 2 speed at standstill (rpm).
+    #[arg(long, allow_negative_numbers = true)]
+    w2_rpm: f64,
+    /// Chamber 1 pressure at standstill (bar gauge).
+    #[arg(long)]
+    p1_bar: f64,
+    /// Cross-port leakage c12 (m⁵/(N·s)).
+    #[arg(long)]
+    c12: f64,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct DriveArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Drive step record: CSV with time_s, w_ref_rpm, w_rpm.
+    record: PathBuf,
+    /// Which motor's rotor inertia to use (1 or 2).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    motor: u8,
+    /// Overlay of measured and simulated speed: .svg, .png or .csv.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// Experiment description (TOML): rig, [set], [standstill], [[dataset]], optional grids.
+    experiment: PathBuf,
+    /// Print JSON (beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns, c1_m5_per_ns,
+    /// c2_m5_per_ns, cost_mm2, candidates_evaluated, seconds, refined, grid_best, ...).
+    #[arg(long)]
+    json: bool,
+    /// Folder for result.json, the cost landscape (CSV and heat map) and the fit overlays.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Derive the second grid from the first grid's candidates below the threshold.
+    #[arg(long)]
+    auto_refine: bool,
+    /// Skip the local (Nelder–Mead) refinement.
+    #[arg(long)]
+    no_refine: bool,
+    /// Threshold of the threshold set (mm²); default: the experiment's, else 0.25.
+    #[arg(long)]
+    threshold_mm2: Option<f64>,
+    /// Length of the top list.
+    #[arg(long, default_value_t = 20)]
+    top: usize,
+    /// Evaluate only slice I of N of the grids (1-based) and write a partial result into --out
+    /// for `pumpcyl identify-merge`.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    shard: Option<(usize, usize)>,
+}
+
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// Partial results written by `identify --shard I/N --out DIR`.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+    /// Folder for the merged result, as `identify --out`.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s.split_once('/').ok_or("expected I/N, e.g. 3/8")?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{i}` is not a shard number"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{n}` is not a shard count"))?;
+    if n == 0 || i == 0 || i > n {
+        return Err(format!("shard {i}/{n}: need 1 <= I <= N"));
+    }
+    Ok((i, n))
+}
+
+/// `pumpcyl leakage`.
+pub fn leakage(args: &LeakageArgs) -> Result<String> {
+    anyhow::ensure!(
+        args.c12.is_finite() && args.c12 >= 0.0,
+        "--c12 must be >= 0 (got {})",
+        args.c12
+    );
+    let rig = args.rig.load()?;
+    let s = Standstill {
+        w1_rpm: args.w1_rpm,
+        w2_rpm: args.w2_rpm,
+        p1_bar: args.p1_bar,
+    };
+    let l = s.leakage(&rig, args.c12)?;
+    if args.json {
+        return Ok(serde_json::to_string_pretty(&l)? + "\n");
+    }
+    Ok(format!(
+        "standstill (SPEC §6.2): w1 {} rpm, w2 {} rpm, p1 {} bar\n  p2 (force balance)  {:.3} bar\n  \
+         c12                 {:.4e} m5/(N s)\n  c1                  {:.4e} m5/(N s)\n  c2                  {:.4e} m5/(N s)\n",
+        args.w1_rpm, args.w2_rpm, args.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
+    ))
+}
+
+/// `pumpcyl identify-drive`.
+pub fn drive(args: &DriveArgs) -> Result<String> {
+    let rig = args.rig.load()?;
+    let rec = DriveRecord::read(&args.record)?;
+    let jm = if args.motor == 1 {
+        rig.motor_inertia_1_kg_mm2
+    } else {
+        rig.motor_inertia_2_kg_mm2
+    } * 1e-6;
+    let fit = identify_drive(&rec, jm, rig.current_loop_bandwidth_rad_per_s)?;
+    if let Some(path) = &args.out {
+        write_drive_overlay(path, &rec, &fit)?;
+    }
+    if args.json {
+        return Ok(serde_json::to_string_pretty(&json!({
+            "file": rec.file, "motor": args.motor, "km_nms_per_rad": fit.km_nms_per_rad,
+            "mse_rpm2": fit.mse_rpm2, "rotor_inertia_kg_m2": jm,
+        }))? + "\n");
+    }
+    Ok(format!(
+        "{}: motor {} (Jm = {:.3e} kg m2, current loop {} rad/s, feedforward off)\n  Km  {:.5} N m s/rad\n  fit MSE {:.3} rpm2 (RMS {:.2} rpm)\n",
+        rec.file,
+        args.motor,
+        jm,
+        rig.current_loop_bandwidth_rad_per_s,
+        fit.km_nms_per_rad,
+        fit.mse_rpm2,
+        fit.mse_rpm2.sqrt()
+    ))
+}
+
+fn write_drive_overlay(path: &Path, rec: &DriveRecord, fit: &crate::ident::DriveFit) -> Result<()> {
+    let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
+    if format == Format::Csv {
+        let mut s = String::from("time_s,w_ref_rpm,w_rpm,w_sim_rpm\n");
+        for k in 0..rec.time_s.len() {
+            let _ = writeln!(
+                s,
+                "{},{},{},{:.6}",
+                rec.time_s[k], rec.w_ref_rpm[k], rec.w_rpm[k], fit.w_sim_rpm[k]
+            );
+        }
+        return write_atomic(path, s.as_bytes());
+    }
+    let t = &rec.time_s;
+    let tr = |label: &str, y: &[f64], style, color| Trace {
+        label: label.into(),
+        t_s: t.clone(),
+        y: y.to_vec(),
+        style,
+        color: Some(color),
+    };
+    let panels = [Panel {
+        y_label: "Motor speed (rpm)".into(),
+        traces: vec![
+            tr("reference", &rec.w_ref_rpm, LineStyle::Dashed, 6),
+            tr("measured", &rec.w_rpm, LineStyle::Solid, 0),
+            tr(
+                &format!("model, Km = {:.4}", fit.km_nms_per_rad),
+                &fit.w_sim_rpm,
+                LineStyle::Solid,
+                1,
+            ),
+        ],
+    }];
+    let subtitle = format!("fit RMS error {:.2} rpm", fit.mse_rpm2.sqrt());
+    super::time::render(
+        path,
+        &format!("Drive step: {}", rec.file),
+        Some(&subtitle),
+        &panels,
+    )
+}
+
+/// A partial result of a sharded run.
+#[derive(Debug, Serialize, Deserialize)]
+struct Partial {
+    experiment: PathBuf,
+    digest: String,
+    shard: (usize, usize),
+    local_refinement: bool,
+    threshold_mm2: f64,
+    top: usize,
+    seconds: f64,
+    stages: Vec<Stage>,
+}
+
+fn options(args: &IdentifyArgs, exp: &Experiment) -> Result<Options> {
+    let threshold_mm2 = args.threshold_mm2.unwrap_or(exp.file.threshold_mm2);
+    anyhow::ensure!(
+        threshold_mm2.is_finite() && threshold_mm2 > 0.0,
+        "--threshold-mm2 must be > 0"
+    );
+    anyhow::ensure!(args.top >= 1, "--top must be at least 1");
+    Ok(Options {
+        auto_refine: args.auto_refine || exp.file.auto_refine,
+        local_refinement: !args.no_refine && exp.file.local_refinement,
+        threshold_mm2,
+        top_n: args.top,
+    })
+}
+
+/// A progress bar on stderr when it is a terminal; silent otherwise.
+fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    if std::io::stderr().is_terminal() {
+        let bar = indicatif::ProgressBar::new(total);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} candidates {per_sec} eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
+}
+
+/// `pumpcyl identify`.
+pub fn identify(args: &IdentifyArgs) -> Result<String> {
+    let exp = Experiment::load(&args.experiment)?;
+    let opts = options(args, &exp)?;
+    let grids = exp.grids();
+    if args.shard.is_some() {
+        anyhow::ensure!(!opts.auto_refine, "--shard needs fixed grids: --auto-refine derives the second grid from the first, so run that stage unsharded");
+        anyhow::ensure!(
+            args.out.is_some(),
+            "--shard writes a partial result: give --out DIR"
+        );
+    }
+    let total = grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len());
+    let bar = progress_bar(crate::ident::shard_len(total, args.shard) as u64);
+    let start = Instant::now();
+    let stages = run_stages(&exp.problem, grids, &opts, args.shard, &|n| bar.inc(n))?;
+    let search_seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    if let (Some(shard), Some(dir)) = (args.shard, &args.out) {
+        let part = Partial {
+            experiment: std::fs::canonicalize(&args.experiment)?,
+            digest: digest(&exp)?,
+            shard,
+            local_refinement: opts.local_refinement,
+            threshold_mm2: opts.threshold_mm2,
+            top: opts.top_n,
+            seconds: search_seconds,
+            stages,
+        };
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create", dir.display()))?;
+        let path = dir.join(format!("part-{}-of-{}.json", shard.0, shard.1));
+        write_atomic(&path, serde_json::to_string(&part)?.as_bytes())?;
+        return Ok(format!(
+            "wrote {} (shard {}/{}, {:.2} s)\n",
+            path.display(),
+            shard.0,
+            shard.1,
+            search_seconds
+        ));
+    }
+    let id = finish(&exp.problem, stages, &opts)?;
+    let seconds = start.elapsed().as_secs_f64();
+    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+}
+
+/// A fingerprint of what a shard evaluated: the experiment file and its records.
+fn digest(exp: &Experiment) -> Result<String> {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    std::fs::read(&exp.path)?.hash(&mut h);
+    for ds in &exp.problem.datasets {
+        for v in ds
+            .record
+            .time_s
+            .iter()
+            .chain(&ds.record.x_ref_mm)
+            .chain(&ds.record.x_mm)
+        {
+            v.to_bits().hash(&mut h);
+        }
+    }
+    Ok(format!("{:016x}", h.finish()))
+}
+
+/// `pumpcyl identify-merge`.
+pub fn merge(args: &MergeArgs) -> Result<String> {
+    let mut parts = Vec::new();
+    for p in &args.parts {
+        let text =
+            std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+        let part: Partial = serde_json::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
+        parts.push(part);
+    }
+    let first = &parts[0];
+    let n = first.shard.1;
+    let mut seen = vec![false; n];
+    for p in &parts {
+        anyhow::ensure!(
+            p.shard.1 == n && p.digest == first.digest && p.experiment == first.experiment,
+            "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
+            first.experiment.display(),
+            first.shard.0,
+            n,
+            p.experiment.display(),
+            p.shard.0,
+            p.shard.1
+        );
+        anyhow::ensure!(!seen[p.shard.0 - 1], "shard {}/{n} given twice", p.shard.0);
+        seen[p.shard.0 - 1] = true;
+    }
+    let missing: Vec<String> = (1..=n)
+        .filter(|i| !seen[i - 1])
+        .map(|i| i.to_string())
+        .collect();
+    anyhow::ensure!(
+        missing.is_empty(),
+        "missing shards {} of {n}",
+        missing.join(", ")
+    );
+    let exp = Experiment::load(&first.experiment)?;
+    anyhow::ensure!(
+        digest(&exp)? == first.digest,
+        "{}: the experiment or its records changed since the shards ran",
+        first.experiment.display()
+    );
+    let opts = Options {
+        auto_refine: false,
+        local_refinement: first.local_refinement,
+        threshold_mm2: first.threshold_mm2,
+        top_n: first.top,
+    };
+    let start = Instant::now();
+    let mut stages: Vec<Stage> = Vec::new();
+    for part in parts {
+        for (i, stage) in part.stages.into_iter().enumerate() {
+            match stages.get_mut(i) {
+                Some(s) => s.summary = s.summary.clone().merge(stage.summary, opts.top_n),
+                None => stages.push(stage),
+            }
+        }
+    }
+    let id = finish(&exp.problem, stages, &opts)?;
+    report_identification(
+        &exp,
+        &id,
+        start.elapsed().as_secs_f64(),
+        args.json,
+        args.out.as_deref(),
+    )
+}
+
+fn scored_json(s: &Scored, leak: Option<&crate::ident::Leakage>) -> serde_json::Value {
+    let mut v = json!({
+        "beta_bar": s.candidate.beta_bar,
+        "viscous_friction_ns_per_m": s.candidate.viscous_friction_ns_per_m,
+        "c12_m5_per_ns": s.candidate.c12_m5_per_ns,
+        "cost_mm2": s.cost_mm2,
+    });
+    if let Some(l) = leak {
+        v["c1_m5_per_ns"] = json!(l.c1_m5_per_ns);
+        v["c2_m5_per_ns"] = json!(l.c2_m5_per_ns);
+    }
+    v
+}
+
+/// The JSON of an identification (also written as result.json).
+fn identification_json(
+    exp: &Experiment,
+    id: &Identification,
+    seconds: f64,
+) -> Result<serde_json::Value> {
+    let best = id.best();
+    let grid_leak = exp
+        .problem
+        .standstill
+        .leakage(&exp.rig, id.grid_best.candidate.c12_m5_per_ns)?;
+    let mut v = scored_json(best, Some(&id.leakage));
+    v["candidates_evaluated"] = json!(id.evaluated());
+    v["seconds"] = json!(seconds);
+    v["refined"] = json!(id.refined.is_some());
+    v["grid_best"] = scored_json(&id.grid_best, Some(&grid_leak));
+    v["non_finite"] = json!(id.stages.iter().map(|s| s.summary.non_finite).sum::<u64>());
+    v["unstable"] = json!(id.stages.iter().map(|s| s.summary.unstable).sum::<u64>());
+    v["pruned"] = json!(id.stages.iter().map(|s| s.summary.pruned).sum::<u64>());
+    v["stages"] = id
+        .stages
+        .iter()
+        .map(|s| {
+            json!({
+                "candidates": s.grid.len(), "evaluated": s.summary.evaluated,
+                "threshold_mm2": s.summary.threshold_mm2, "threshold_count": s.summary.threshold_count,
+                "threshold_bounds": s.summary.threshold_bounds.map(|b| json!({
+                    "beta_bar": b[0], "viscous_friction_ns_per_m": b[1], "c12_m5_per_ns": b[2]})),
+            })
+        })
+        .collect();
+    v["top"] = id.top.iter().map(|s| scored_json(s, None)).collect();
+    v["experiment"] = json!(exp.path.display().to_string());
+    Ok(v)
+}
+
+fn report_identification(
+    exp: &Experiment,
+    id: &Identification,
+    seconds: f64,
+    json_out: bool,
+    out: Option<&Path>,
+) -> Result<String> {
+    let v = identification_json(exp, id, seconds)?;
+    if let Some(dir) = out {
+        write_outputs(dir, exp, id, &v)?;
+    }
+    if json_out {
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+    }
+    Ok(identification_text(exp, id, seconds))
+}
+
+fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
+    let mut s = String::new();
+    let sizes: Vec<String> = id
+        .stages
+        .iter()
+        .map(|st| st.grid.len().to_string())
+        .collect();
+    let (nf, us): (u64, u64) = id.stages.iter().fold((0, 0), |(a, b), st| {
+        (a + st.summary.non_finite, b + st.summary.unstable)
+    });
+    let _ = writeln!(
+        s,
+        "{}: {} datasets, {} candidates ({}) in {seconds:.3} s; {nf} non-finite, {us} rejected as unstable",
+        exp.path.display(),
+        exp.problem.datasets.len(),
+        id.evaluated(),
+        sizes.join(" + ")
+    );
+    let line = |label: &str, c: &Scored| {
+        format!(
+            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N s/m  c12 {:.4e} m5/(N s)  cost {:.5} mm2\n",
+            c.candidate.beta_bar, c.candidate.viscous_friction_ns_per_m, c.candidate.c12_m5_per_ns, c.cost_mm2
+        )
+    };
+    s.push_str(&line("best grid point", &id.grid_best));
+    match &id.refined {
+        Some(r) => s.push_str(&line("refined (N-M)", r)),
+        None => s.push_str("  refined (N-M)    off, or no improvement on the grid\n"),
+    }
+    let _ = writeln!(
+        s,
+        "  leakages         c1 {:.4e}, c2 {:.4e} m5/(N s) (standstill p2 = {:.3} bar)",
+        id.leakage.c1_m5_per_ns, id.leakage.c2_m5_per_ns, id.leakage.p2_bar
+    );
+    for (i, st) in id.stages.iter().enumerate() {
+        let bounds = st.summary.threshold_bounds.map_or("-".to_string(), |b| {
+            format!(
+                "beta {:.0}..{:.0} bar, b {:.0}..{:.0} N s/m, c12 {:.2e}..{:.2e}",
+                b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]
+            )
+        });
+        let _ = writeln!(
+            s,
+            "  stage {} threshold set (cost < {} mm2): {} candidates; {bounds}",
+            i + 1,
+            st.summary.threshold_mm2,
+            st.summary.threshold_count
+        );
+    }
+    let _ = writeln!(s, "top {}:", id.top.len());
+    for (k, c) in id.top.iter().enumerate() {
+        s.push_str(&line(&format!("{:>2}", k + 1), c));
+    }
+    s
+}
+
+/// result.json, the β × c12 landscape at the best b (CSV and heat map) and one overlay per
+/// dataset.
+fn write_outputs(
+    dir: &Path,
+    exp: &Experiment,
+    id: &Identification,
+    v: &serde_json::Value,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    write_atomic(
+        &dir.join("result.json"),
+        (serde_json::to_string_pretty(v)? + "\n").as_bytes(),
+    )?;
+    write_landscape(dir, exp, id)?;
+    for (i, ds) in exp.problem.datasets.iter().enumerate() {
+        let sim = exp.problem.simulate(&id.best().candidate, ds)?;
+        let measured = crate::response::Signals {
+            time_s: ds.record.time_s.clone(),
+            x_ref_mm: ds.record.x_ref_mm.clone(),
+            x_mm: ds.record.x_mm.clone(),
+            e_mm: ds
+                .record
+                .x_ref_mm
+                .iter()
+                .zip(&ds.record.x_mm)
+                .map(|(r, x)| r - x)
+                .collect(),
+            ..Default::default()
+        };
+        let name = format!("fit-{}.svg", i + 1);
+        let subtitle = format!(
+            "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
+            ds.name,
+            ds.rig.kp,
+            ds.rig.mass_kg,
+            ds.fit_end_s,
+            exp.problem.dataset_mse(&id.best().candidate, ds)
+        );
+        super::time::write_figure(
+            &dir.join(name),
+            &format!("Identified model against {}", ds.name),
+            Some(&subtitle),
+            &[("model".to_string(), &sim)],
+            Some(&measured),
+        )?;
+    }
+    Ok(())
+}
+
+/// The cost over β × c12 at the best b, on the stage grid that holds the best point.
+fn write_landscape(dir: &Path, exp: &Experiment, id: &Identification) -> Result<()> {
+    let best = id.grid_best;
+    let grid = &id.stages[(best.stage.max(1) - 1) as usize].grid;
+    let b = best.candidate.viscous_friction_ns_per_m;
+    let (xs, ys) = (&grid.beta_bar, &grid.c12_m5_per_ns);
+    let mut cost = vec![f64::INFINITY; xs.len() * ys.len()];
+    {
+        use rayon::prelude::*;
+        cost.par_iter_mut().enumerate().for_each(|(k, c)| {
+            let cand = crate::ident::Candidate {
+                beta_bar: xs[k % xs.len()],
+                viscous_friction_ns_per_m: b,
+                c12_m5_per_ns: ys[k / xs.len()],
+            };
+            let v = exp.problem.cost(&cand);
+            *c = if v.is_finite() && exp.problem.is_stable(&cand) {
+                v
+            } else {
+                f64::INFINITY
+            };
+        });
+    }
+    let mut csv = String::from("beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2\n");
+    for (k, c) in cost.iter().enumerate() {
+        let _ = writeln!(csv, "{},{b},{:e},{c}", xs[k % xs.len()], ys[k / xs.len()]);
+    }
+    write_atomic(&dir.join("landscape.csv"), csv.as_bytes())?;
+    let map = report::HeatMap {
+        x: xs.clone(),
+        y: ys.clone(),
+        cost,
+        x_label: "Bulk modulus beta (bar)".into(),
+        y_label: "Cross-port leakage c12 (m5/(N s))".into(),
+        y_log: ys.len() > 2
+            && ys[2] / ys[1] > 1.0 + 1e-9
+            && (ys[2] / ys[1] - ys[1] / ys[0]).abs() < 1e-6,
+        cost_label: "cost (mm²)".into(),
+    };
+    let marker = report::Marker {
+        x: best.candidate.beta_bar,
+        y: best.candidate.c12_m5_per_ns,
+        label: "best grid point".into(),
+    };
+    let svg = report::heatmap_svg(
+        "Identification cost landscape",
+        Some(&format!(
+            "b = {b} N s/m (best grid point); grey: unstable or failed"
+        )),
+        &map,
+        &[marker],
+    )?;
+    write_atomic(&dir.join("landscape.svg"), svg.as_bytes())
+}
