@@ -358,3 +358,158 @@ fn simulate_replays_a_record_and_rejects_bad_ones() {
     let err = fails(&["simulate", "--data", &path, "--fit-end-s", "99"]);
     assert!(err.contains("outside the record"), "{err}");
 }
+
+#[test]
+fn leakage_reproduces_the_article() {
+    let v = json(&[
+        "leakage", "--w1-rpm", "-160", "--w2-rpm", "245", "--p1-bar", "3.95", "--c12", "1.2e-10",
+        "--json",
+    ]);
+    assert!((v["p2_bar"].as_f64().unwrap() - 5.86).abs() < 0.01);
+    assert!((v["c1_m5_per_ns"].as_f64().unwrap() / 5.49e-11 - 1.0).abs() < 0.01);
+    assert!((v["c2_m5_per_ns"].as_f64().unwrap() / -1.19e-11 - 1.0).abs() < 0.02);
+    let err = fails(&[
+        "leakage", "--w1-rpm", "-160", "--w2-rpm", "245", "--p1-bar", "0", "--c12", "1e-10",
+    ]);
+    assert!(err.contains("p1_bar"), "{err}");
+}
+
+/// An experiment over the committed peer-benchmark records with a small grid.
+fn small_experiment(dir: &Path, extra: &str) -> String {
+    let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peer");
+    let text = format!(
+        "{extra}\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+         [grid]\nbeta_bar = [100.0, 150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0, 300.0]\n\
+         c12_m5_per_ns = [1.0e-10, 1.2e-10, 1.4e-10]\n\
+         [refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\nviscous_friction_ns_per_m = [100.0]\n\
+         c12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]\n\
+         [[dataset]]\nfile = \"{}\"\nkp = 25.0\nmass_kg = 10593.0\nfit_end_s = 3.7\n\
+         [[dataset]]\nfile = \"{}\"\nkp = 20.0\nmass_kg = 10593.0\nfit_end_s = 3.7\n",
+        peer.join("ident.csv").display(),
+        peer.join("valid.csv").display()
+    );
+    write(dir, "exp.toml", &text)
+}
+
+#[test]
+fn identify_finds_the_truth_and_writes_its_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = small_experiment(dir.path(), "");
+    let out = dir.path().join("out");
+    let v = json(&["identify", &exp, "--json", "--out", out.to_str().unwrap()]);
+    assert_eq!(v["candidates_evaluated"], 33);
+    assert!(
+        (v["grid_best"]["beta_bar"].as_f64().unwrap() - 165.0).abs() < 1e-9,
+        "{v}"
+    );
+    assert!(
+        (v["beta_bar"].as_f64().unwrap() / 165.0 - 1.0).abs() < 0.02,
+        "{v}"
+    );
+    assert!((v["c12_m5_per_ns"].as_f64().unwrap() / 1.2e-10 - 1.0).abs() < 0.02);
+    for key in [
+        "c1_m5_per_ns",
+        "c2_m5_per_ns",
+        "cost_mm2",
+        "seconds",
+        "refined",
+        "viscous_friction_ns_per_m",
+    ] {
+        assert!(!v[key].is_null(), "{key}");
+    }
+    for f in [
+        "result.json",
+        "landscape.csv",
+        "landscape.svg",
+        "fit-1.svg",
+        "fit-2.svg",
+    ] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let landscape = std::fs::read_to_string(out.join("landscape.csv")).unwrap();
+    assert_eq!(landscape.lines().count(), 1 + 4 * 3);
+}
+
+#[test]
+fn sharded_identify_merges_to_the_same_answer() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = small_experiment(dir.path(), "");
+    let whole = json(&["identify", &exp, "--json", "--no-refine"]);
+    let parts = dir.path().join("parts");
+    for i in 1..=3 {
+        ok(&[
+            "identify",
+            &exp,
+            "--no-refine",
+            "--shard",
+            &format!("{i}/3"),
+            "--out",
+            parts.to_str().unwrap(),
+        ]);
+    }
+    let p = |i: usize| {
+        parts
+            .join(format!("part-{i}-of-3.json"))
+            .to_str()
+            .unwrap()
+            .to_string()
+    };
+    let merged = json(&["identify-merge", &p(1), &p(2), &p(3), "--json"]);
+    assert_eq!(
+        merged["candidates_evaluated"],
+        whole["candidates_evaluated"]
+    );
+    assert_eq!(merged["grid_best"], whole["grid_best"]);
+    assert_eq!(merged["top"], whole["top"]);
+    let err = fails(&["identify-merge", &p(1), &p(2)]);
+    assert!(err.contains("missing shards 3"), "{err}");
+    let err = fails(&["identify", &exp, "--shard", "4/3", "--out", "x"]);
+    assert!(err.contains("4/3"), "{err}");
+}
+
+#[test]
+fn bad_experiments_name_file_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write(dir.path(), "e.toml", "[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n[[dataset]]\nfile = \"nope.csv\"\nkp = 25.0\nmass_kg = 1.0\nfit_end_s = 3.0\n");
+    let err = fails(&["identify", &exp]);
+    assert!(err.contains("nope.csv"), "{err}");
+    let exp = write(dir.path(), "u.toml", "bogus = 1\n");
+    let err = fails(&["identify", &exp]);
+    assert!(err.contains("u.toml") && err.contains("bogus"), "{err}");
+    let exp = small_experiment(dir.path(), "threshold_mm2 = -1.0");
+    let err = fails(&["identify", &exp]);
+    assert!(err.contains("threshold_mm2"), "{err}");
+}
+
+#[test]
+fn identify_drive_recovers_km() {
+    let dir = tempfile::tempdir().unwrap();
+    // a drive step simulated with Km = 0.026 on Jm1 = 1.6e-3 kg m², ωI = 1256.6 1/s:
+    // closed loop ω/ωref = Km ωI / (Jm s² + Jm ωI s + Km ωI)
+    let (jm, wi, km) = (1.6e-3f64, 1256.6f64, 0.026f64);
+    let (mut w, mut tau) = (0.0f64, 0.0f64);
+    let mut csv = String::from("time_s,w_ref_rpm,w_rpm\n");
+    let h = 1e-5;
+    for k in 0..=60_000 {
+        let t = k as f64 * h;
+        let r = if t < 0.1 { 0.0 } else { 1000.0 };
+        if k % 200 == 0 {
+            csv.push_str(&format!("{t:.3},{r},{w:.6}\n"));
+        }
+        // semi-implicit Euler at 10 µs: accurate to far better than the fit needs
+        tau += h * wi * (km * (r - w) - tau);
+        w += h * tau / jm;
+    }
+    let path = write(dir.path(), "drive.csv", &csv);
+    let v = json(&["identify-drive", &path, "--json"]);
+    assert!(
+        (v["km_nms_per_rad"].as_f64().unwrap() / km - 1.0).abs() < 0.01,
+        "{v}"
+    );
+    let svg = dir.path().join("drive.svg");
+    ok(&["identify-drive", &path, "--out", svg.to_str().unwrap()]);
+    assert!(svg.exists());
+    let bad = write(dir.path(), "bad.csv", "time_s,w_ref_rpm\n0,1\n1,2\n");
+    let err = fails(&["identify-drive", &bad]);
+    assert!(err.contains("w_rpm"), "{err}");
+}
