@@ -43,6 +43,11 @@ pub struct Prepared {
     meas_mm: Vec<f64>,
     /// Balancing scale of the nominal model's ZOH block, reused for every candidate.
     scale: Vec<f64>,
+    /// First sample whose held input is non-zero: the model stays at rest up to and including
+    /// it, so simulation starts there.
+    start: usize,
+    /// Squared error (mm²) of the samples at rest (up to and including `start`).
+    rest_sse: f64,
 }
 
 impl Prepared {
@@ -73,14 +78,17 @@ impl Prepared {
         );
         let sys = Plant::new(&rig).closed_loop(rig.sum_pressure);
         let scale = Zoh::balancing_scale(&sys.a, &sys.b, 1.0)?;
+        let u: Vec<f64> = record.x_ref_mm[..n].iter().map(|r| (r - r0) * 1e-3).collect();
+        let meas_mm: Vec<f64> = record.x_mm[..n].iter().map(|x| x - x0).collect();
+        let start = u.iter().position(|&v| v != 0.0).unwrap_or(n - 1);
+        let rest_sse = meas_mm[..=start].iter().map(|e| e * e).sum();
         Ok(Prepared {
             name: spec.file.clone(),
             t: record.time_s[..n].to_vec(),
-            u: record.x_ref_mm[..n]
-                .iter()
-                .map(|r| (r - r0) * 1e-3)
-                .collect(),
-            meas_mm: record.x_mm[..n].iter().map(|x| x - x0).collect(),
+            u,
+            meas_mm,
+            start,
+            rest_sse,
             record,
             rig,
             fit_end_s: spec.fit_end_s,
@@ -133,11 +141,14 @@ impl Problem {
         };
         let n = ds.t.len() as f64;
         let limit = stop_above * n;
-        let mut sse = 0.0;
+        let mut sse = ds.rest_sse;
         let x0 = vec![0.0; sys.order()];
-        let run = Simulator::with_scale(&sys, &ds.scale).run_with(&ds.t, &ds.u, &x0, |k, x| {
-            let e = x[0] * 1e3 - ds.meas_mm[k];
-            sse += e * e;
+        let (t, u, meas) = (&ds.t[ds.start..], &ds.u[ds.start..], &ds.meas_mm[ds.start..]);
+        let run = Simulator::with_scale(&sys, &ds.scale).run_with(t, u, &x0, |k, x| {
+            if k > 0 {
+                let e = x[0] * 1e3 - meas[k];
+                sse += e * e;
+            }
             sse <= limit
         });
         let mse = sse / n;
