@@ -78,7 +78,10 @@ impl Prepared {
         );
         let sys = Plant::new(&rig).closed_loop(rig.sum_pressure);
         let scale = Zoh::balancing_scale(&sys.a, &sys.b, 1.0)?;
-        let u: Vec<f64> = record.x_ref_mm[..n].iter().map(|r| (r - r0) * 1e-3).collect();
+        let u: Vec<f64> = record.x_ref_mm[..n]
+            .iter()
+            .map(|r| (r - r0) * 1e-3)
+            .collect();
         let meas_mm: Vec<f64> = record.x_mm[..n].iter().map(|x| x - x0).collect();
         let start = u.iter().position(|&v| v != 0.0).unwrap_or(n - 1);
         let rest_sse = meas_mm[..=start].iter().map(|e| e * e).sum();
@@ -143,7 +146,11 @@ impl Problem {
         let limit = stop_above * n;
         let mut sse = ds.rest_sse;
         let x0 = vec![0.0; sys.order()];
-        let (t, u, meas) = (&ds.t[ds.start..], &ds.u[ds.start..], &ds.meas_mm[ds.start..]);
+        let (t, u, meas) = (
+            &ds.t[ds.start..],
+            &ds.u[ds.start..],
+            &ds.meas_mm[ds.start..],
+        );
         let run = Simulator::with_scale(&sys, &ds.scale).run_with(t, u, &x0, |k, x| {
             if k > 0 {
                 let e = x[0] * 1e3 - meas[k];

@@ -7,6 +7,7 @@ use super::grid::{Candidate, Grid};
 use super::problem::Problem;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Candidates per parallel work item (and per progress update).
 const CHUNK: usize = 64;
@@ -79,22 +80,31 @@ impl Summary {
         }
     }
 
-    /// The cost above which a candidate can enter neither the top list nor the threshold set.
-    fn bound(&self, top_n: usize) -> f64 {
+    /// The worst cost of a full top list: no candidate above it can enter the final top list
+    /// (∞ while the list is not full).
+    fn top_bound(&self, top_n: usize) -> f64 {
         match self.top.last() {
-            Some(worst) if self.top.len() >= top_n => worst.cost_mm2.max(self.threshold_mm2),
+            Some(worst) if self.top.len() >= top_n => worst.cost_mm2,
             _ => f64::INFINITY,
         }
     }
 
-    /// Fold one costed candidate in; `stable` is asked only when it would enter a result.
-    fn push(&mut self, s: Scored, top_n: usize, stable: impl Fn(&Candidate) -> bool) {
+    /// Fold one costed candidate in; `top_bound` is a cost no final top-list member exceeds;
+    /// `stable` is asked only when the candidate would enter a result.
+    fn push(
+        &mut self,
+        s: Scored,
+        top_n: usize,
+        top_bound: f64,
+        stable: impl Fn(&Candidate) -> bool,
+    ) {
         self.evaluated += 1;
         if !s.cost_mm2.is_finite() {
             self.non_finite += 1;
             return;
         }
-        let enters_top = self.top.len() < top_n || self.top.last().is_some_and(|w| s.before(w));
+        let enters_top = s.cost_mm2 <= top_bound
+            && (self.top.len() < top_n || self.top.last().is_some_and(|w| s.before(w)));
         let below = s.cost_mm2 < self.threshold_mm2;
         if !(enters_top || below) {
             return;
@@ -176,19 +186,24 @@ pub fn search(
 ) -> Summary {
     let (shard, shards) = opts.shard.map_or((0, 1), |(i, n)| (i - 1, n));
     let mine = shard_len(grid.len(), opts.shard);
-    // fold: one accumulator per rayon split, not per chunk, so a fresh (not yet full) top list
-    // rarely forces stability checks
+    // One accumulator per rayon split; the best full-top bound any of them has reached is
+    // shared (positive f64 bits order like the floats), so a fresh split prunes at once too.
+    let shared = AtomicU64::new(f64::INFINITY.to_bits());
     (0..mine.div_ceil(CHUNK))
         .into_par_iter()
+        .with_min_len(4)
         .fold(
             || Summary::empty(opts.threshold_mm2),
             |mut acc, c| {
                 let positions = c * CHUNK..((c + 1) * CHUNK).min(mine);
                 let count = positions.len();
                 for index in positions.map(|p| shard + p * shards) {
+                    let local = acc.top_bound(opts.top_n);
+                    shared.fetch_min(local.to_bits(), Ordering::Relaxed);
+                    let top = f64::from_bits(shared.load(Ordering::Relaxed)).min(local);
+                    let bound = top.max(opts.threshold_mm2);
                     let candidate = grid.candidate(index);
-                    let Some(cost_mm2) = problem.cost_below(&candidate, acc.bound(opts.top_n))
-                    else {
+                    let Some(cost_mm2) = problem.cost_below(&candidate, bound) else {
                         acc.evaluated += 1;
                         acc.pruned += 1;
                         continue;
@@ -199,7 +214,7 @@ pub fn search(
                         stage,
                         index: index as u64,
                     };
-                    acc.push(s, opts.top_n, |c| problem.is_stable(c));
+                    acc.push(s, opts.top_n, top, |c| problem.is_stable(c));
                 }
                 progress(count as u64);
                 acc
