@@ -541,7 +541,6 @@ fn write_outputs(
                 .collect(),
             ..Default::default()
         };
-        let name = format!("fit-{}.svg", i + 1);
         let subtitle = format!(
             "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
             ds.name,
@@ -550,13 +549,15 @@ fn write_outputs(
             ds.fit_end_s,
             exp.problem.dataset_mse(&id.best().candidate, ds)
         );
-        super::time::write_figure(
-            &dir.join(name),
-            &format!("Identified model against {}", ds.name),
-            Some(&subtitle),
-            &[("model".to_string(), &sim)],
-            Some(&measured),
-        )?;
+        for ext in ["svg", "png"] {
+            super::time::write_figure(
+                &dir.join(format!("fit-{}.{ext}", i + 1)),
+                &format!("Identified model against {}", ds.name),
+                Some(&subtitle),
+                &[("model".to_string(), &sim)],
+                Some(&measured),
+            )?;
+        }
     }
     Ok(())
 }
@@ -605,13 +606,10 @@ fn write_landscape(dir: &Path, exp: &Experiment, id: &Identification) -> Result<
         y: best.candidate.c12_m5_per_ns,
         label: "best grid point".into(),
     };
-    let svg = report::heatmap_svg(
-        "Identification cost landscape",
-        Some(&format!(
-            "b = {b} N s/m (best grid point); grey: unstable or failed"
-        )),
-        &map,
-        &[marker],
-    )?;
-    write_atomic(&dir.join("landscape.svg"), svg.as_bytes())
+    let title = "Identification cost landscape";
+    let subtitle = format!("b = {b} N s/m (best grid point)");
+    let svg = report::heatmap_svg(title, Some(&subtitle), &map, std::slice::from_ref(&marker))?;
+    write_atomic(&dir.join("landscape.svg"), svg.as_bytes())?;
+    let png = report::heatmap_png(title, Some(&subtitle), &map, &[marker], 1350, 1050)?;
+    write_atomic(&dir.join("landscape.png"), &png)
 }
