@@ -10,6 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::font;
+use super::render;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_WIDTH_PX: u32 = 1000;
@@ -112,15 +113,7 @@ pub fn bode_svg(
     markers: Option<&BodeMarkers>,
 ) -> Result<String, ReportError> {
     let figure = Figure::prepare(title, series, markers)?;
-    font::ensure_registered().map_err(ReportError::Plot)?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX))
-            .into_drawing_area();
-        figure.render(&root, 1.0)?;
-        root.present().map_err(plot_err)?;
-    }
-    Ok(svg)
+    render::to_svg(&figure, (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX))
 }
 
 /// Same figure as [`bode_svg`], rendered to an encoded PNG file (the bytes of
@@ -137,27 +130,13 @@ pub fn bode_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, ReportError> {
-    if !(MIN_WIDTH_PX..=MAX_SIDE_PX).contains(&width)
-        || !(MIN_HEIGHT_PX..=MAX_SIDE_PX).contains(&height)
-    {
-        return Err(ReportError::Plot(format!(
-            "image size {width} x {height} px out of range \
-             ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
-        )));
-    }
     let figure = Figure::prepare(title, series, markers)?;
-    font::ensure_registered().map_err(ReportError::Plot)?;
-    let scale = (f64::from(width) / f64::from(DEFAULT_WIDTH_PX))
-        .min(f64::from(height) / f64::from(DEFAULT_HEIGHT_PX))
-        .clamp(0.4, 8.0);
-    // Bounded by MAX_SIDE_PX, so this cannot overflow.
-    let mut rgb = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        figure.render(&root, scale)?;
-        root.present().map_err(plot_err)?;
-    }
-    encode_png(&rgb, width, height)
+    render::to_png(
+        &figure,
+        width,
+        height,
+        (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX),
+    )
 }
 
 /// Encode a packed RGB8 buffer as a PNG file.
@@ -1142,6 +1121,16 @@ fn frame<DB: DrawingBackend>(
             BLACK.stroke_width(width),
         ))
         .map_err(plot_err)
+}
+
+impl render::Draw for Figure<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        self.render(root, scale)
+    }
 }
 
 #[cfg(test)]

@@ -18,10 +18,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::bode::{
-    encode_png, linear_ticks, plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX,
-};
+use super::bode::{linear_ticks, plot_err, ReportError};
 use super::font;
+use super::render::{self, steps_125};
 
 /// Default heat-map width in pixels (used for SVG output; a sensible PNG
 /// size).
@@ -174,15 +173,7 @@ pub fn heatmap_svg(
     markers: &[Marker],
 ) -> Result<String, ReportError> {
     let figure = Figure::prepare(title, subtitle, map, markers)?;
-    font::ensure_registered().map_err(ReportError::Plot)?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (HEATMAP_WIDTH_PX, HEATMAP_HEIGHT_PX))
-            .into_drawing_area();
-        figure.render(&root, 1.0)?;
-        root.present().map_err(plot_err)?;
-    }
-    Ok(svg)
+    render::to_svg(&figure, (HEATMAP_WIDTH_PX, HEATMAP_HEIGHT_PX))
 }
 
 /// Same figure as [`heatmap_svg`], rendered to an encoded PNG file (the bytes
@@ -201,27 +192,13 @@ pub fn heatmap_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, ReportError> {
-    if !(MIN_WIDTH_PX..=MAX_SIDE_PX).contains(&width)
-        || !(MIN_HEIGHT_PX..=MAX_SIDE_PX).contains(&height)
-    {
-        return Err(ReportError::Plot(format!(
-            "image size {width} x {height} px out of range \
-             ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
-        )));
-    }
     let figure = Figure::prepare(title, subtitle, map, markers)?;
-    font::ensure_registered().map_err(ReportError::Plot)?;
-    let scale = (f64::from(width) / f64::from(HEATMAP_WIDTH_PX))
-        .min(f64::from(height) / f64::from(HEATMAP_HEIGHT_PX))
-        .clamp(0.4, 8.0);
-    // Bounded by MAX_SIDE_PX, so this cannot overflow.
-    let mut rgb = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        figure.render(&root, scale)?;
-        root.present().map_err(plot_err)?;
-    }
-    encode_png(&rgb, width, height)
+    render::to_png(
+        &figure,
+        width,
+        height,
+        (HEATMAP_WIDTH_PX, HEATMAP_HEIGHT_PX),
+    )
 }
 
 // ---------------------------------------------------------------------------
@@ -438,25 +415,6 @@ fn linear_labels(values: &[f64], step: f64) -> Vec<String> {
             }
         })
         .collect()
-}
-
-/// Candidate (major, minor) 1-2-5 × 10^k steps for `span`, ascending,
-/// starting at the smallest giving at most `max_intervals` major intervals.
-fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
-    let min_step = span / max_intervals;
-    let d0 = min_step.log10().floor() as i32 - 1;
-    let steps: Vec<(f64, f64)> = (d0..=d0 + 2)
-        .flat_map(|d| {
-            let p = 10f64.powi(d);
-            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
-        })
-        .filter(|&(s, _)| s >= min_step * (1.0 - 1e-9))
-        .collect();
-    if steps.is_empty() {
-        vec![(min_step, min_step / 2.0)]
-    } else {
-        steps
-    }
 }
 
 /// Linear axis spanning exactly `lo..hi` with at most `max_intervals` major
@@ -1070,6 +1028,16 @@ impl<'a> Figure<'a> {
         ))
         .map_err(plot_err)?;
         Ok(())
+    }
+}
+
+impl render::Draw for Figure<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        self.render(root, scale)
     }
 }
 

@@ -6,6 +6,7 @@
 
 mod bode;
 mod font;
+mod render;
 
 pub use bode::{
     bode_png, bode_svg, BodeMarkers, BodeSeries, ReportError, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,

@@ -14,10 +14,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::bode::{
-    encode_png, linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX,
-    MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX, PALETTE,
+    linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
 };
 use super::font;
+use super::render::{self, steps_125};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
 /// pixels; with the gap to the next panel a panel takes 220 px.
@@ -139,15 +139,8 @@ pub fn panels_svg(
     panels: &[Panel],
 ) -> Result<String, ReportError> {
     let figure = Figure::prepare(title, subtitle, panels)?;
-    font::ensure_registered().map_err(ReportError::Plot)?;
-    let (width, height) = panels_default_size(panels.len(), figure.subtitle.is_some());
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
-        figure.render(&root, 1.0)?;
-        root.present().map_err(plot_err)?;
-    }
-    Ok(svg)
+    let size = panels_default_size(panels.len(), figure.subtitle.is_some());
+    render::to_svg(&figure, size)
 }
 
 /// Same figure as [`panels_svg`], rendered to an encoded PNG file (the bytes
@@ -166,28 +159,9 @@ pub fn panels_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, ReportError> {
-    if !(MIN_WIDTH_PX..=MAX_SIDE_PX).contains(&width)
-        || !(MIN_HEIGHT_PX..=MAX_SIDE_PX).contains(&height)
-    {
-        return Err(ReportError::Plot(format!(
-            "image size {width} x {height} px out of range \
-             ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
-        )));
-    }
     let figure = Figure::prepare(title, subtitle, panels)?;
-    font::ensure_registered().map_err(ReportError::Plot)?;
-    let (w0, h0) = panels_default_size(panels.len(), figure.subtitle.is_some());
-    let scale = (f64::from(width) / f64::from(w0))
-        .min(f64::from(height) / f64::from(h0))
-        .clamp(0.4, 8.0);
-    // Bounded by MAX_SIDE_PX, so this cannot overflow.
-    let mut rgb = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        figure.render(&root, scale)?;
-        root.present().map_err(plot_err)?;
-    }
-    encode_png(&rgb, width, height)
+    let base = panels_default_size(panels.len(), figure.subtitle.is_some());
+    render::to_png(&figure, width, height, base)
 }
 
 // ---------------------------------------------------------------------------
@@ -595,25 +569,6 @@ fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
     }
 }
 
-/// Candidate (major, minor) 1-2-5 x 10^k steps for a span, ascending,
-/// starting at the smallest giving at most `max_intervals` major intervals.
-fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
-    let min_step = span / max_intervals;
-    let d0 = min_step.log10().floor() as i32 - 1;
-    let steps: Vec<(f64, f64)> = (d0..=d0 + 2)
-        .flat_map(|d| {
-            let p = 10f64.powi(d);
-            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
-        })
-        .filter(|&(s, _)| s >= min_step * (1.0 - 1e-9))
-        .collect();
-    if steps.is_empty() {
-        vec![(min_step, min_step / 2.0)]
-    } else {
-        steps
-    }
-}
-
 /// Value ticks over `lo..hi`, the range snapped outward to the minor step.
 fn ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
     linear_ticks(lo, hi, &steps_125(hi - lo, max_intervals))
@@ -809,6 +764,16 @@ fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, 
         }
     }
     true
+}
+
+impl render::Draw for Figure<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        self.render(root, scale)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,79 @@
+//! What every figure shares: rendering a prepared figure to SVG text or PNG bytes, and the
+//! 1-2-5 tick steps of linear axes.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::bode::{encode_png, plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
+use super::font;
+
+/// A figure ready to draw on any plotters backend; `scale` multiplies text and line sizes.
+pub(super) trait Draw {
+    /// Draw onto `root`.
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError>;
+}
+
+/// Render to an SVG document of `size` pixels at scale 1.
+pub(super) fn to_svg(figure: &impl Draw, size: (u32, u32)) -> Result<String, ReportError> {
+    font::ensure_registered().map_err(ReportError::Plot)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        figure.draw(&root, 1.0)?;
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// Render to PNG bytes of `width` × `height` pixels, text and lines scaled relative to the
+/// figure's natural size `base`.
+pub(super) fn to_png(
+    figure: &impl Draw,
+    width: u32,
+    height: u32,
+    base: (u32, u32),
+) -> Result<Vec<u8>, ReportError> {
+    if !(MIN_WIDTH_PX..=MAX_SIDE_PX).contains(&width)
+        || !(MIN_HEIGHT_PX..=MAX_SIDE_PX).contains(&height)
+    {
+        return Err(ReportError::Plot(format!(
+            "image size {width} x {height} px out of range \
+             ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
+        )));
+    }
+    font::ensure_registered().map_err(ReportError::Plot)?;
+    let scale = (f64::from(width) / f64::from(base.0))
+        .min(f64::from(height) / f64::from(base.1))
+        .clamp(0.4, 8.0);
+    // Bounded by MAX_SIDE_PX, so this cannot overflow.
+    let mut rgb = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        figure.draw(&root, scale)?;
+        root.present().map_err(plot_err)?;
+    }
+    encode_png(&rgb, width, height)
+}
+
+/// Candidate (major, minor) 1-2-5 × 10^k steps for `span`, ascending, starting at the smallest
+/// giving at most `max_intervals` major intervals.
+pub(super) fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
+    let min_step = span / max_intervals;
+    let d0 = min_step.log10().floor() as i32 - 1;
+    let steps: Vec<(f64, f64)> = (d0..=d0 + 2)
+        .flat_map(|d| {
+            let p = 10f64.powi(d);
+            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
+        })
+        .filter(|&(s, _)| s >= min_step * (1.0 - 1e-9))
+        .collect();
+    if steps.is_empty() {
+        vec![(min_step, min_step / 2.0)]
+    } else {
+        steps
+    }
+}
