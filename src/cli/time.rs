@@ -160,11 +160,12 @@ fn metrics_of_step(rig: &Rig, s: &Signals, step_mm: f64) -> Result<StepMetrics> 
 
 fn step_subtitle(m: &StepMetrics) -> String {
     format!(
-        "rise {} s, overshoot {:.2} mm ({:.1} %), settling (2 %) {} s",
+        "rise {} s, overshoot {:.2} mm ({:.1} %), settling (2 %) {}",
         fmt_opt(m.rise_time_s, 3),
         m.overshoot_mm,
         m.overshoot_pct,
-        fmt_opt(m.settling_time_s, 2)
+        m.settling_time_s
+            .map_or("not within the run".into(), |t| format!("{t:.2} s"))
     )
 }
 
@@ -187,7 +188,10 @@ fn step_table(args: &StepArgs, runs: &[(String, Signals, StepMetrics)]) -> Strin
         ("overshoot (mm)", |m| format!("{:.3}", m.overshoot_mm)),
         ("overshoot (%)", |m| format!("{:.2}", m.overshoot_pct)),
         ("peak time (s)", |m| format!("{:.2}", m.peak_time_s)),
-        ("settling time 2 % (s)", |m| fmt_opt(m.settling_time_s, 2)),
+        ("settling time 2 % (s)", |m| {
+            m.settling_time_s
+                .map_or("not settled".into(), |t| format!("{t:.2}"))
+        }),
         ("steady-state error (mm)", |m| {
             format!("{:.4}", m.steady_state_error_mm)
         }),

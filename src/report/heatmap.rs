@@ -20,7 +20,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::bode::{linear_ticks, plot_err, ReportError};
 use super::font;
-use super::render::{self, steps_125};
+use super::render::{self, steps_125, SUBTITLE_COLOR};
 
 /// Default heat-map width in pixels (used for SVG output; a sensible PNG
 /// size).
@@ -29,8 +29,6 @@ pub const HEATMAP_WIDTH_PX: u32 = 900;
 /// size).
 pub const HEATMAP_HEIGHT_PX: u32 = 700;
 
-/// Colour of the subtitle (the same dark grey as the other figures).
-const SUBTITLE_COLOR: RGBColor = RGBColor(70, 70, 70);
 /// Colour of cells whose cost is not finite.
 const MISSING_COLOR: RGBColor = RGBColor(212, 212, 212);
 /// Text of the note explaining [`MISSING_COLOR`].
@@ -38,11 +36,6 @@ const MISSING_NOTE: &str = "grey: unstable/failed";
 
 // Layout at scale 1 (900 x 700 px), in pixels; the shared values are those of
 // the time-series figures.
-const TITLE_TOP: f64 = 14.0;
-const TITLE_SIZE: f64 = 24.0;
-const TITLE_GAP: f64 = 10.0;
-const SUBTITLE_SIZE: f64 = 17.0;
-const SUBTITLE_GAP: f64 = 6.0;
 const MARGIN_LEFT: f64 = 8.0;
 const MARGIN_TOP: f64 = 4.0;
 const MARGIN_BOTTOM: f64 = 8.0;
@@ -701,33 +694,8 @@ impl<'a> Figure<'a> {
         let (width, height) = (width as i32, height as i32);
 
         // Header: title and subtitle.
-        let mut header_h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
-        if self.subtitle.is_some() {
-            header_h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
-        }
-        let (header, body) = root.split_vertically(header_h);
-        let centre = width / 2;
-        header
-            .draw(&Text::new(
-                self.title.to_string(),
-                (centre, px(TITLE_TOP)),
-                text(TITLE_SIZE).pos(Pos::new(HPos::Center, VPos::Top)),
-            ))
-            .map_err(plot_err)?;
-        if let Some(subtitle) = self.subtitle {
-            header
-                .draw(&Text::new(
-                    subtitle.to_string(),
-                    (
-                        centre,
-                        px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP) - px(2.0),
-                    ),
-                    text(SUBTITLE_SIZE)
-                        .color(&SUBTITLE_COLOR)
-                        .pos(Pos::new(HPos::Center, VPos::Top)),
-                ))
-                .map_err(plot_err)?;
-        }
+        let body = render::draw_header(root, self.title, self.subtitle, scale)?;
+        let header_h = render::header_height(scale, self.subtitle.is_some());
 
         // Vertical layout.
         let (m_top, m_bottom, x_label_area) = (px(MARGIN_TOP), px(MARGIN_BOTTOM), px(X_LABEL_AREA));

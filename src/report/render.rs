@@ -77,3 +77,55 @@ pub(super) fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
         steps
     }
 }
+
+/// Subtitle colour shared by the figures.
+pub(super) const SUBTITLE_COLOR: RGBColor = RGBColor(70, 70, 70);
+/// Header layout at scale 1 (px): title top margin, title size, gap, subtitle size, gap.
+pub(super) const TITLE_TOP: f64 = 14.0;
+pub(super) const TITLE_SIZE: f64 = 24.0;
+pub(super) const TITLE_GAP: f64 = 10.0;
+pub(super) const SUBTITLE_SIZE: f64 = 17.0;
+pub(super) const SUBTITLE_GAP: f64 = 6.0;
+
+/// Height (px) of the title block, with or without a subtitle.
+pub(super) fn header_height(scale: f64, with_subtitle: bool) -> i32 {
+    let px = |v: f64| (v * scale).round() as i32;
+    let mut h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
+    if with_subtitle {
+        h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
+    }
+    h
+}
+
+/// Draw the centred title and optional grey subtitle; returns the area below them.
+pub(super) fn draw_header<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    subtitle: Option<&str>,
+    scale: f64,
+) -> Result<DrawingArea<DB, Shift>, ReportError> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let px = |v: f64| (v * scale).round() as i32;
+    let text = |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+    let (header, body) = root.split_vertically(header_height(scale, subtitle.is_some()));
+    let centre = (root.dim_in_pixel().0 / 2) as i32;
+    let top = Pos::new(HPos::Center, VPos::Top);
+    header
+        .draw(&Text::new(
+            title.to_string(),
+            (centre, px(TITLE_TOP)),
+            text(TITLE_SIZE).pos(top),
+        ))
+        .map_err(plot_err)?;
+    if let Some(subtitle) = subtitle {
+        let y = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP) - px(2.0);
+        header
+            .draw(&Text::new(
+                subtitle.to_string(),
+                (centre, y),
+                text(SUBTITLE_SIZE).color(&SUBTITLE_COLOR).pos(top),
+            ))
+            .map_err(plot_err)?;
+    }
+    Ok(body)
+}

@@ -11,27 +11,18 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::bode::{
     linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
 };
 use super::font;
-use super::render::{self, steps_125};
+use super::render::{self, header_height, steps_125};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
 /// pixels; with the gap to the next panel a panel takes 220 px.
 pub const PANEL_PLOT_HEIGHT_PX: u32 = 200;
 
-/// Colour of the subtitle (the same dark grey as the Bode margin summary).
-const SUBTITLE_COLOR: RGBColor = RGBColor(70, 70, 70);
-
 // Layout at scale 1 (1000 px wide), in pixels.
-const TITLE_TOP: f64 = 14.0;
-const TITLE_SIZE: f64 = 24.0;
-const TITLE_GAP: f64 = 10.0;
-const SUBTITLE_SIZE: f64 = 17.0;
-const SUBTITLE_GAP: f64 = 6.0;
 const MARGIN_LEFT: f64 = 8.0;
 const MARGIN_RIGHT: f64 = 30.0;
 const MARGIN_TOP: f64 = 4.0;
@@ -363,30 +354,8 @@ impl<'a> Figure<'a> {
         let (width, height) = root.dim_in_pixel();
 
         // Header: title and subtitle.
-        let header_h = header_height(scale, self.subtitle.is_some());
-        let (header, body) = root.split_vertically(header_h);
-        let centre = (width / 2) as i32;
-        header
-            .draw(&Text::new(
-                self.title.to_string(),
-                (centre, px(TITLE_TOP)),
-                text(TITLE_SIZE).pos(Pos::new(HPos::Center, VPos::Top)),
-            ))
-            .map_err(plot_err)?;
-        if let Some(subtitle) = self.subtitle {
-            header
-                .draw(&Text::new(
-                    subtitle.to_string(),
-                    (
-                        centre,
-                        px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP) - px(2.0),
-                    ),
-                    text(SUBTITLE_SIZE)
-                        .color(&SUBTITLE_COLOR)
-                        .pos(Pos::new(HPos::Center, VPos::Top)),
-                ))
-                .map_err(plot_err)?;
-        }
+        let body = render::draw_header(root, self.title, self.subtitle, scale)?;
+        let header_h = render::header_height(scale, self.subtitle.is_some());
 
         // Vertical layout: equal plotting heights.
         let n = self.panels.len() as i32;
@@ -546,16 +515,6 @@ impl<'a> Figure<'a> {
         }
         Ok(())
     }
-}
-
-/// Height of the title block in pixels at `scale`.
-fn header_height(scale: f64, with_subtitle: bool) -> i32 {
-    let px = |v: f64| (v * scale).round() as i32;
-    let mut h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
-    if with_subtitle {
-        h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
-    }
-    h
 }
 
 /// Error unless `lo..hi` is a finite, non-empty range.
