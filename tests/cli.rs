@@ -513,3 +513,41 @@ fn identify_drive_recovers_km() {
     let err = fails(&["identify-drive", &bad]);
     assert!(err.contains("w_rpm"), "{err}");
 }
+
+#[test]
+fn auto_refine_derives_the_second_grid_from_the_threshold_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = small_experiment(dir.path(), "");
+    let v = json(&[
+        "identify",
+        &exp,
+        "--json",
+        "--no-refine",
+        "--auto-refine",
+        "--threshold-mm2",
+        "0.05",
+    ]);
+    let stages = v["stages"].as_array().unwrap();
+    assert_eq!(stages[1]["candidates"], 19 * 11 * 17);
+    // the refined β axis spans the first grid's good set widened to its neighbours
+    let b = &stages[0]["threshold_bounds"]["beta_bar"];
+    assert!(
+        b[0].as_f64().unwrap() <= 165.0 && b[1].as_f64().unwrap() >= 165.0,
+        "{v}"
+    );
+    assert!(
+        (v["beta_bar"].as_f64().unwrap() / 165.0 - 1.0).abs() < 0.03,
+        "{v}"
+    );
+    let err = fails(&[
+        "identify",
+        &exp,
+        "--auto-refine",
+        "--threshold-mm2",
+        "1e-12",
+    ]);
+    assert!(
+        err.contains("--auto-refine") && err.contains("threshold"),
+        "{err}"
+    );
+}
