@@ -82,11 +82,7 @@ const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 impl Record {
     /// Read and check a record file.
     pub fn read(path: &Path) -> Result<Record, RecordError> {
-        let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| RecordError::Io {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
+        let (bytes, file) = read_bytes(path)?;
         Self::parse(&bytes, &file)
     }
 
@@ -144,11 +140,7 @@ pub struct Table {
 impl Table {
     /// Read a file with the `required` columns (the first is time) and any `optional` ones.
     pub fn read(path: &Path, required: &[&str], optional: &[&str]) -> Result<Table, RecordError> {
-        let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| RecordError::Io {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
+        let (bytes, file) = read_bytes(path)?;
         Self::parse(&bytes, &file, required, optional)
     }
 
@@ -206,6 +198,16 @@ impl Table {
             .find(|(n, _)| n == name)
             .map(|(_, v)| std::mem::take(v))
     }
+}
+
+/// The bytes of a file and its name for messages.
+fn read_bytes(path: &Path) -> Result<(Vec<u8>, String), RecordError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| RecordError::Io {
+        file: file.clone(),
+        message: e.to_string(),
+    })?;
+    Ok((bytes, file))
 }
 
 /// Positions of the required and present optional columns, required first.

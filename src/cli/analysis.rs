@@ -271,23 +271,34 @@ pub fn poles(args: &PolesArgs) -> Result<String> {
             lti::eigenvalues(&full.a)?,
         ));
     }
-    let info: Vec<(&str, &str, Vec<PoleInfo>)> = sets
+    let info: Vec<(&str, &str, Vec<PoleInfo>, bool)> = sets
         .into_iter()
-        .map(|(k, d, p)| (k, d, p.into_iter().map(PoleInfo::from).collect()))
+        .map(|(k, d, p)| {
+            (
+                k,
+                d,
+                p.iter().copied().map(PoleInfo::from).collect(),
+                lti::is_stable(&p),
+            )
+        })
         .collect();
     if args.json {
         let mut obj = serde_json::Map::new();
         obj.insert("loop".into(), json!(lp.description));
-        for (key, _, p) in &info {
+        for (key, _, p, stable) in &info {
             obj.insert(key.to_string(), json!(p));
-            let stable = p.iter().all(|q| q.re < -1e-10 * q.natural_freq_hz.max(1.0));
             obj.insert(format!("{key}_stable"), json!(stable));
         }
         return Ok(serde_json::to_string_pretty(&obj)? + "\n");
     }
     let mut s = format!("{}\n", lp.description);
-    for (_, desc, p) in &info {
-        let _ = writeln!(s, "\n{desc}:");
+    for (_, desc, p, stable) in &info {
+        let verdict = if *stable {
+            "asymptotically stable"
+        } else {
+            "not asymptotically stable (a pole on or right of the imaginary axis)"
+        };
+        let _ = writeln!(s, "\n{desc}: {verdict}");
         let _ = writeln!(
             s,
             "  {:>14} {:>14} {:>12} {:>9}",

@@ -528,19 +528,7 @@ fn write_outputs(
     write_landscape(dir, exp, id)?;
     for (i, ds) in exp.problem.datasets.iter().enumerate() {
         let sim = exp.problem.simulate(&id.best().candidate, ds)?;
-        let measured = crate::response::Signals {
-            time_s: ds.record.time_s.clone(),
-            x_ref_mm: ds.record.x_ref_mm.clone(),
-            x_mm: ds.record.x_mm.clone(),
-            e_mm: ds
-                .record
-                .x_ref_mm
-                .iter()
-                .zip(&ds.record.x_mm)
-                .map(|(r, x)| r - x)
-                .collect(),
-            ..Default::default()
-        };
+        let measured = crate::response::Signals::of_record(&ds.record);
         let subtitle = format!(
             "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
             ds.name,

@@ -331,7 +331,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         None => rec.time_s[rec.len() - 1],
     };
     let rig = args.rig.load()?;
-    let measured = signals_of_record(&rec);
+    let measured = Signals::of_record(&rec);
     let mut runs = Vec::new();
     for (label, r) in variants(&rig, &args.opts.compare)? {
         let base = Baseline::of_record(&rec, &r);
@@ -375,26 +375,6 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         let _ = writeln!(s, "  {label:<24} position MSE {mse:.5} mm²");
     }
     Ok(s)
-}
-
-/// The measured signals (absent ones empty).
-fn signals_of_record(rec: &Record) -> Signals {
-    let opt = |v: &Option<Vec<f64>>| v.clone().unwrap_or_default();
-    Signals {
-        time_s: rec.time_s.clone(),
-        x_ref_mm: rec.x_ref_mm.clone(),
-        x_mm: rec.x_mm.clone(),
-        e_mm: rec
-            .x_ref_mm
-            .iter()
-            .zip(&rec.x_mm)
-            .map(|(r, x)| r - x)
-            .collect(),
-        p1_bar: opt(&rec.p1_bar),
-        p2_bar: opt(&rec.p2_bar),
-        w1_rpm: opt(&rec.w1_rpm),
-        w2_rpm: opt(&rec.w2_rpm),
-    }
 }
 
 /// Mean squared position error (mm²) over samples with t ≤ `end`.

@@ -32,6 +32,29 @@ pub struct Signals {
     pub w2_rpm: Vec<f64>,
 }
 
+impl Signals {
+    /// The measured signals of a record (absent ones empty), with the control error
+    /// e = x_ref − x.
+    pub fn of_record(rec: &crate::record::Record) -> Signals {
+        let opt = |v: &Option<Vec<f64>>| v.clone().unwrap_or_default();
+        Signals {
+            time_s: rec.time_s.clone(),
+            x_ref_mm: rec.x_ref_mm.clone(),
+            x_mm: rec.x_mm.clone(),
+            e_mm: rec
+                .x_ref_mm
+                .iter()
+                .zip(&rec.x_mm)
+                .map(|(r, x)| r - x)
+                .collect(),
+            p1_bar: opt(&rec.p1_bar),
+            p2_bar: opt(&rec.p2_bar),
+            w1_rpm: opt(&rec.w1_rpm),
+            w2_rpm: opt(&rec.w2_rpm),
+        }
+    }
+}
+
 /// The steady state the deviations are taken from, in user units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Baseline {
