@@ -9,6 +9,7 @@
 //! SPEC refers to `shared/SPEC.md`, the restatement of Gøytil, Hansen & Tvilde, *Effective Bulk
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
 
+pub mod bulk;
 pub mod cli;
 pub mod ident;
 pub mod lti;

@@ -551,3 +551,45 @@ fn auto_refine_derives_the_second_grid_from_the_threshold_set() {
         "{err}"
     );
 }
+
+#[test]
+fn bulk_modulus_reports_gas_fraction_table_and_margins() {
+    let v = json(&[
+        "bulk-modulus",
+        "--beta-bar",
+        "165",
+        "--p-mean-bar",
+        "4.4",
+        "--json",
+    ]);
+    let x = v["gas_fraction"].as_f64().unwrap();
+    assert!((x - 0.026415).abs() < 1e-5, "{x}");
+    let table = v["table"].as_array().unwrap();
+    assert_eq!(table.len(), 10);
+    assert!((table[0]["p_bar"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert!((table[0]["beta_bar"].as_f64().unwrap() - 37.8).abs() < 0.05);
+    assert!((table[9]["beta_bar"].as_f64().unwrap() - 370.0).abs() < 1.0);
+    // the margins at each pressure are the rig's with that bulk modulus
+    let at10 = json(&[
+        "margins",
+        "--json",
+        "--set",
+        &format!("beta_bar={}", table[9]["beta_bar"]),
+    ]);
+    let (a, b) = (
+        table[9]["gain_margin_db"].as_f64().unwrap(),
+        at10["gain_margin_db"].as_f64().unwrap(),
+    );
+    assert!((a - b).abs() < 1e-8, "{a} vs {b}");
+    for key in ["gain_margin_db", "phase_margin_deg"] {
+        assert!(table[5][key].is_number(), "{key}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("b.svg");
+    ok(&["bulk-modulus", "--out", svg.to_str().unwrap()]);
+    assert!(std::fs::read_to_string(&svg)
+        .unwrap()
+        .contains("Mean chamber pressure (bar)"));
+    let err = fails(&["bulk-modulus", "--beta-bar", "2", "--p-mean-bar", "4.4"]);
+    assert!(err.contains("beta_bar"), "{err}");
+}

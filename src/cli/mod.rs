@@ -1,6 +1,7 @@
 //! Command-line interface: argument parsing and formatting only; the work is in the library.
 
 mod analysis;
+mod bulk;
 mod ident;
 mod output;
 mod time;
@@ -55,6 +56,9 @@ enum Command {
     Identify(ident::IdentifyArgs),
     /// Merge the partial results of `identify --shard I/N` into the answer of one run.
     IdentifyMerge(ident::MergeArgs),
+    /// Gas fraction from an identified bulk modulus, beta_e against mean pressure, and the
+    /// margins at each pressure (SPEC §7).
+    BulkModulus(bulk::BulkArgs),
 }
 
 #[derive(Debug, Args)]
@@ -212,6 +216,7 @@ pub fn run() -> Result<()> {
         Command::IdentifyDrive(args) => ident::drive(&args)?,
         Command::Identify(args) => ident::identify(&args)?,
         Command::IdentifyMerge(args) => ident::merge(&args)?,
+        Command::BulkModulus(args) => bulk::bulk(&args)?,
     };
     output::emit(&text)
 }

@@ -129,7 +129,19 @@ pub fn panels_svg(
     subtitle: Option<&str>,
     panels: &[Panel],
 ) -> Result<String, ReportError> {
-    let figure = Figure::prepare(title, subtitle, panels)?;
+    panels_xy_svg(title, subtitle, "Time (s)", panels)
+}
+
+/// As [`panels_svg`] with another shared x axis than time: `x_label` names it with its unit
+/// (e.g. "Mean pressure (bar)") and the traces' `t_s` hold the x values.
+pub fn panels_xy_svg(
+    title: &str,
+    subtitle: Option<&str>,
+    x_label: &str,
+    panels: &[Panel],
+) -> Result<String, ReportError> {
+    let mut figure = Figure::prepare(title, subtitle, panels)?;
+    figure.x_label = x_label.to_string();
     let size = panels_default_size(panels.len(), figure.subtitle.is_some());
     render::to_svg(&figure, size)
 }
@@ -150,7 +162,20 @@ pub fn panels_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, ReportError> {
-    let figure = Figure::prepare(title, subtitle, panels)?;
+    panels_xy_png(title, subtitle, "Time (s)", panels, width, height)
+}
+
+/// As [`panels_png`] with another shared x axis (see [`panels_xy_svg`]).
+pub fn panels_xy_png(
+    title: &str,
+    subtitle: Option<&str>,
+    x_label: &str,
+    panels: &[Panel],
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
+    let mut figure = Figure::prepare(title, subtitle, panels)?;
+    figure.x_label = x_label.to_string();
     let base = panels_default_size(panels.len(), figure.subtitle.is_some());
     render::to_png(&figure, width, height, base)
 }
@@ -258,6 +283,8 @@ struct PanelData<'a> {
 struct Figure<'a> {
     title: &'a str,
     subtitle: Option<&'a str>,
+    /// Label of the shared x axis, with unit.
+    x_label: String,
     /// Shared time range, in s.
     t_range: (f64, f64),
     panels: Vec<PanelData<'a>>,
@@ -333,6 +360,7 @@ impl<'a> Figure<'a> {
         Ok(Figure {
             title,
             subtitle: subtitle.filter(|s| !s.trim().is_empty()),
+            x_label: "Time (s)".to_string(),
             t_range,
             panels,
         })
@@ -439,7 +467,7 @@ impl<'a> Figure<'a> {
                 .bold_line_style(bold_grid)
                 .light_line_style(light_grid);
             if last {
-                mesh.x_desc("Time (s)");
+                mesh.x_desc(self.x_label.as_str());
             }
             mesh.draw().map_err(plot_err)?;
 

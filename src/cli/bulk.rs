@@ -1,0 +1,163 @@
+//! `pumpcyl bulk-modulus`: gas fraction, β_e against pressure and the margins there (SPEC §7).
+
+use anyhow::Result;
+use clap::Args;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use super::output::{fmt_opt, format_of, write_atomic, Format};
+use super::RigSource;
+use crate::bulk::{gas_fraction, table, Row, BETA_OIL_BAR};
+use crate::report::{self, LineStyle, Panel, Trace};
+
+#[derive(Debug, Args)]
+pub struct BulkArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Identified effective bulk modulus (bar).
+    #[arg(long, default_value_t = 165.0)]
+    beta_bar: f64,
+    /// Mean chamber pressure during the identification (bar).
+    #[arg(long, default_value_t = 4.4)]
+    p_mean_bar: f64,
+    /// Pure-oil bulk modulus (bar).
+    #[arg(long, default_value_t = BETA_OIL_BAR)]
+    beta_oil_bar: f64,
+    /// Lowest mean pressure of the table (bar).
+    #[arg(long, default_value_t = 1.0)]
+    from_bar: f64,
+    /// Highest mean pressure of the table (bar).
+    #[arg(long, default_value_t = 10.0)]
+    to_bar: f64,
+    /// Table rows, evenly spaced.
+    #[arg(long, default_value_t = 10)]
+    points: usize,
+    /// Print JSON: gas_fraction and table rows (p_bar, beta_bar, gain_margin_db,
+    /// phase_margin_deg, closed_loop_stable).
+    #[arg(long)]
+    json: bool,
+    /// Output: .csv (a fine table) or .svg / .png (β_e, GM and PM against pressure).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+}
+
+/// `pumpcyl bulk-modulus`.
+pub fn bulk(args: &BulkArgs) -> Result<String> {
+    anyhow::ensure!(
+        args.from_bar > 0.0 && args.to_bar > args.from_bar && args.to_bar.is_finite(),
+        "--from-bar and --to-bar must satisfy 0 < from < to (got {} and {})",
+        args.from_bar,
+        args.to_bar
+    );
+    anyhow::ensure!(args.points >= 2, "--points must be at least 2");
+    let rig = args.rig.load()?;
+    let x = gas_fraction(args.beta_bar, args.p_mean_bar, args.beta_oil_bar)?;
+    let pressures = crate::ident::spaced(args.from_bar, args.to_bar, args.points, false);
+    let rows = table(&rig, x, args.beta_oil_bar, &pressures)?;
+    if let Some(path) = &args.out {
+        let fine = crate::ident::spaced(args.from_bar, args.to_bar, 91, false);
+        let fine_rows = table(&rig, x, args.beta_oil_bar, &fine)?;
+        write_output(path, args, x, &fine_rows)?;
+    }
+    if args.json {
+        return Ok(serde_json::to_string_pretty(
+            &json!({"gas_fraction": x, "beta_oil_bar": args.beta_oil_bar, "table": rows}),
+        )? + "\n");
+    }
+    let mut s = format!(
+        "gas fraction X = {x:.5} (beta_e = {} bar at {} bar mean pressure, beta_oil = {} bar; SPEC §7)\n",
+        args.beta_bar, args.p_mean_bar, args.beta_oil_bar
+    );
+    let _ = writeln!(
+        s,
+        "{:>8} {:>10} {:>9} {:>9}  closed loop",
+        "p_bar", "beta_bar", "GM_dB", "PM_deg"
+    );
+    for r in &rows {
+        let verdict = if r.closed_loop_stable {
+            "stable"
+        } else {
+            "UNSTABLE"
+        };
+        let _ = writeln!(
+            s,
+            "{:>8.2} {:>10.1} {:>9} {:>9}  {verdict}",
+            r.p_bar,
+            r.beta_bar,
+            fmt_opt(r.gain_margin_db, 2),
+            fmt_opt(r.phase_margin_deg, 1)
+        );
+    }
+    Ok(s)
+}
+
+fn write_output(path: &std::path::Path, args: &BulkArgs, x: f64, rows: &[Row]) -> Result<()> {
+    let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
+    if format == Format::Csv {
+        let mut s =
+            String::from("p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable\n");
+        for r in rows {
+            let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
+            let _ = writeln!(
+                s,
+                "{},{:.6},{},{},{}",
+                r.p_bar,
+                r.beta_bar,
+                opt(r.gain_margin_db),
+                opt(r.phase_margin_deg),
+                r.closed_loop_stable
+            );
+        }
+        return write_atomic(path, s.as_bytes());
+    }
+    let p: Vec<f64> = rows.iter().map(|r| r.p_bar).collect();
+    let line = |label: &str, y: Vec<f64>, color: usize| Trace {
+        label: label.into(),
+        t_s: p.clone(),
+        y,
+        style: LineStyle::Solid,
+        color: Some(color),
+    };
+    let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
+    let panels = [
+        Panel {
+            y_label: "Effective bulk modulus (bar)".into(),
+            traces: vec![line("beta_e", rows.iter().map(|r| r.beta_bar).collect(), 0)],
+        },
+        Panel {
+            y_label: "Gain margin (dB)".into(),
+            traces: vec![
+                line(
+                    "GM",
+                    rows.iter().map(|r| nan(r.gain_margin_db)).collect(),
+                    1,
+                ),
+                line("0 dB", vec![0.0; p.len()], 6),
+            ],
+        },
+        Panel {
+            y_label: "Phase margin (deg)".into(),
+            traces: vec![
+                line(
+                    "PM",
+                    rows.iter().map(|r| nan(r.phase_margin_deg)).collect(),
+                    2,
+                ),
+                line("0 deg", vec![0.0; p.len()], 6),
+            ],
+        },
+    ];
+    let title = "Effective bulk modulus and margins against mean chamber pressure";
+    let subtitle = format!(
+        "gas fraction X = {x:.4} from {} bar at {} bar (beta_oil {} bar); below 0 dB / 0 deg the loop is unstable",
+        args.beta_bar, args.p_mean_bar, args.beta_oil_bar
+    );
+    let x_label = "Mean chamber pressure (bar)";
+    let bytes = if format == Format::Png {
+        report::panels_xy_png(title, Some(&subtitle), x_label, &panels, 1500, 1200)?
+    } else {
+        report::panels_xy_svg(title, Some(&subtitle), x_label, &panels)?.into_bytes()
+    };
+    write_atomic(path, &bytes)
+}
