@@ -1,0 +1,306 @@
+//! The nonlinear rig emulator (issue 5, in progress): the continuous dynamics of the DPM rig
+//! with what the LTI model leaves out — chamber volumes that follow the piston, a
+//! pressure-dependent bulk modulus (SPEC §7), cavitation, motor torque and speed limits, pump
+//! low-speed flow loss, Coulomb friction and a stroke-dependent mass. Each effect can be
+//! switched off; with all of them off the right-hand side linearises to the analytic model of
+//! `model` (a test checks every entry of A and B).
+//!
+//! Not yet here: the stiff ODE integration, the 100 Hz PLC with sensor noise, and the
+//! `pumpcyl emulate` command.
+
+use crate::bulk::effective_beta;
+use crate::model::{Layout, Plant};
+use crate::rig::{MotorModel, Rig, RigSi, PA_PER_BAR};
+
+/// The effects beyond the LTI model, each switchable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Effects {
+    /// Chamber volumes V1 = VL1 + A1 x, V2 = VL2 + A2 (x_max − x) instead of fixed at x0.
+    pub varying_volumes: bool,
+    /// Gas fraction X of the bulk-modulus model (β_e from the chamber's own pressure); `None`
+    /// keeps β constant.
+    pub gas_fraction: Option<f64>,
+    /// Pure-oil bulk modulus (bar) for the gas-fraction model.
+    pub beta_oil_bar: f64,
+    /// Motor torque limit as a multiple of the rated torque; `None` = unlimited.
+    pub peak_torque_factor: Option<f64>,
+    /// Pumps cannot be driven beyond their maximum speed (the rig's `pump_max_speed_rpm`).
+    pub pump_speed_limit: bool,
+    /// Pump speed below which the delivered flow fades out (rad/s); 0 = ideal pumps.
+    pub dead_band_rad_s: f64,
+    /// Coulomb friction force (N); 0 = none.
+    pub coulomb_n: f64,
+    /// Effective mass change per metre of stroke away from x0 (kg/m); 0 = constant mass.
+    pub mass_slope_kg_per_m: f64,
+}
+
+impl Effects {
+    /// Everything off: the dynamics linearise to the analytic model.
+    pub fn none() -> Effects {
+        Effects {
+            varying_volumes: false,
+            gas_fraction: None,
+            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
+            peak_torque_factor: None,
+            pump_speed_limit: false,
+            dead_band_rad_s: 0.0,
+            coulomb_n: 0.0,
+            mass_slope_kg_per_m: 0.0,
+        }
+    }
+}
+
+/// Absolute pressure of a gauge pressure of 0 (Pa): cavitation floor is −1 bar gauge.
+const ATMOSPHERE_PA: f64 = 1e5;
+/// Velocity scale of the smooth Coulomb friction sign (m/s).
+const COULOMB_SMOOTHING_M_S: f64 = 1e-3;
+
+/// The continuous dynamics of the rig, states as in [`Layout`] (absolute position, gauge
+/// pressures), inputs the drive speed references ω_ref1, ω_ref2 (rad/s).
+#[derive(Debug, Clone)]
+pub struct Dynamics {
+    si: RigSi,
+    layout: Layout,
+    x_max: f64,
+    vl: [f64; 2],
+    rated_torque: f64,
+    max_pump_speed: f64,
+    effects: Effects,
+}
+
+impl Dynamics {
+    /// The dynamics of a rig (full motor model only) with the chosen effects.
+    pub fn new(rig: &Rig, effects: Effects) -> Result<Dynamics, String> {
+        if rig.motor_model != MotorModel::Full {
+            return Err("the emulator needs motor_model = \"full\"".into());
+        }
+        let plant = Plant::new(rig);
+        Ok(Dynamics {
+            si: plant.si,
+            layout: plant.layout,
+            x_max: rig.stroke_mm * 1e-3,
+            vl: [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3],
+            rated_torque: rig.motor_rated_torque_nm,
+            max_pump_speed: rig.pump_max_speed_rpm * crate::rig::RAD_S_PER_RPM,
+            effects,
+        })
+    }
+
+    /// Number of states.
+    pub fn order(&self) -> usize {
+        self.layout.n
+    }
+
+    /// Bulk modulus (Pa) at a gauge pressure (Pa).
+    fn beta(&self, p_gauge: f64) -> f64 {
+        match self.effects.gas_fraction {
+            None => self.si.beta,
+            Some(x) => {
+                let p_bar = (p_gauge / PA_PER_BAR).max(1e-3);
+                effective_beta(x, p_bar, self.effects.beta_oil_bar) * PA_PER_BAR
+            }
+        }
+    }
+
+    /// Pump flow factor at speed ω: 1 above the dead band, fading smoothly to 0 at standstill.
+    fn pump_factor(&self, w: f64) -> f64 {
+        let db = self.effects.dead_band_rad_s;
+        if db <= 0.0 {
+            1.0
+        } else {
+            let r = (w / db).abs();
+            if r >= 1.0 {
+                1.0
+            } else {
+                r * r * (3.0 - 2.0 * r)
+            }
+        }
+    }
+
+    /// ẋ = f(x, u) into `dx`.
+    pub fn rhs(&self, x: &[f64], u: &[f64; 2], dx: &mut [f64]) {
+        let (si, l, e) = (&self.si, &self.layout, &self.effects);
+        let (pos, v) = (x[l.x], x[l.v]);
+        let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
+        let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
+        // mechanics
+        let mass = si.mass + e.mass_slope_kg_per_m * (pos - si.x0);
+        let coulomb = e.coulomb_n * (v / COULOMB_SMOOTHING_M_S).tanh();
+        dx[l.x] = v;
+        dx[l.v] = (p1 * si.a1 - p2 * si.a2 - si.f_ext - si.b * v - coulomb) / mass;
+        // hydraulics
+        let (v1, v2) = if e.varying_volumes {
+            (
+                self.vl[0] + si.a1 * pos,
+                self.vl[1] + si.a2 * (self.x_max - pos),
+            )
+        } else {
+            (si.v1, si.v2)
+        };
+        let q1 = si.d[0] * w1 * self.pump_factor(w1);
+        let q2 = si.d[1] * w2 * self.pump_factor(w2);
+        let cross = si.c12 * (p1 - p2);
+        let dp1 = self.beta(p1) / v1 * (q1 + q2 - si.a1 * v - si.c1 * p1 - cross);
+        let dp2 = self.beta(p2) / v2 * (-q1 + si.a2 * v - si.c2 * p2 + cross);
+        // cavitation: gauge pressure cannot fall below −1 bar
+        let floor = -ATMOSPHERE_PA;
+        dx[l.p[0]] = if p1 <= floor && dp1 < 0.0 { 0.0 } else { dp1 };
+        dx[l.p[1]] = if p2 <= floor && dp2 < 0.0 { 0.0 } else { dp2 };
+        // motors, drives (the full model's layout always has tau)
+        let tau = l.tau.expect("full motor model");
+        let load = [si.d[0] * (p1 - p2), si.d[1] * p1];
+        let limit = e.peak_torque_factor.map(|f| f * self.rated_torque);
+        for i in 0..2 {
+            let w = x[l.w[i]];
+            let mut t_ref = si.km[i] * (u[i] - w);
+            if let Some(ff) = l.ff {
+                t_ref += si.kff / si.tau_ff * (u[i] - x[ff[i]]);
+                dx[ff[i]] = (u[i] - x[ff[i]]) / si.tau_ff;
+            }
+            if let Some(lim) = limit {
+                t_ref = t_ref.clamp(-lim, lim);
+            }
+            dx[tau[i]] = si.omega_i * (t_ref - x[tau[i]]);
+            let mut acc = (x[tau[i]] - load[i]) / si.j[i];
+            if e.pump_speed_limit && w.abs() >= self.max_pump_speed && acc * w > 0.0 {
+                acc = 0.0;
+            }
+            dx[l.w[i]] = acc;
+        }
+    }
+
+    /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage
+    /// speeds, drive torques equal to the load) and the speed references that hold it.
+    pub fn operating_point(&self, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
+        let op = Plant::new(rig).operating_point();
+        let l = &self.layout;
+        let si = &self.si;
+        let mut x = vec![0.0; l.n];
+        x[l.x] = op.x;
+        x[l.p[0]] = op.p1;
+        x[l.p[1]] = op.p2;
+        x[l.w[0]] = op.w1;
+        x[l.w[1]] = op.w2;
+        let load = [si.d[0] * (op.p1 - op.p2), si.d[1] * op.p1];
+        let w = [op.w1, op.w2];
+        let mut u = [0.0; 2];
+        let tau = l.tau.expect("full motor model");
+        for i in 0..2 {
+            x[tau[i]] = load[i];
+            // τ = Km (u − ω) at rest (the feedforward filter has settled: z = u)
+            u[i] = w[i] + load[i] / si.km[i];
+            if let Some(ff) = l.ff {
+                x[ff[i]] = u[i];
+            }
+        }
+        (x, u)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Central-difference Jacobians (A, B) of the dynamics at (x, u).
+    fn jacobians(d: &Dynamics, x: &[f64], u: &[f64; 2], scale: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let n = x.len();
+        let mut a = vec![0.0; n * n];
+        let mut b = vec![0.0; n * 2];
+        let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
+        for j in 0..n {
+            let h = 1e-6 * scale[j];
+            let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+            xp[j] += h;
+            xm[j] -= h;
+            d.rhs(&xp, u, &mut fp);
+            d.rhs(&xm, u, &mut fm);
+            for i in 0..n {
+                a[i * n + j] = (fp[i] - fm[i]) / (2.0 * h);
+            }
+        }
+        for j in 0..2 {
+            let h = 1e-6 * 10.0;
+            let (mut up, mut um) = (*u, *u);
+            up[j] += h;
+            um[j] -= h;
+            d.rhs(x, &up, &mut fp);
+            d.rhs(x, &um, &mut fm);
+            for i in 0..n {
+                b[i * 2 + j] = (fp[i] - fm[i]) / (2.0 * h);
+            }
+        }
+        (a, b)
+    }
+
+    #[test]
+    fn operating_point_is_an_equilibrium() {
+        let rig = Rig::default();
+        let d = Dynamics::new(&rig, Effects::none()).unwrap();
+        let (x, u) = d.operating_point(&rig);
+        let mut dx = vec![0.0; x.len()];
+        d.rhs(&x, &u, &mut dx);
+        let typical = [1e-3, 1e-2, 1e5, 1e5, 10.0, 10.0, 0.1, 0.1, 10.0, 10.0];
+        for (i, v) in dx.iter().enumerate() {
+            assert!(v.abs() < 1e-9 * typical[i] * 1e3, "state {i}: {v}");
+        }
+    }
+
+    #[test]
+    fn linearisation_matches_the_analytic_model() {
+        // varying volumes on: at the equilibrium the flows vanish, so A and B are unchanged
+        let rig = Rig::default();
+        let effects = Effects {
+            varying_volumes: true,
+            ..Effects::none()
+        };
+        let d = Dynamics::new(&rig, effects).unwrap();
+        let (x, u) = d.operating_point(&rig);
+        let typical = [1e-3, 1e-2, 1e5, 1e5, 10.0, 10.0, 0.1, 0.1, 10.0, 10.0];
+        let (a, b) = jacobians(&d, &x, &u, &typical);
+        let plant = Plant::new(&rig);
+        let n = d.order();
+        for i in 0..n {
+            for j in 0..n {
+                let (fd, an) = (a[i * n + j], plant.a[(i, j)]);
+                // entries the model has as zero must be zero up to rounding of the scaled row
+                let floor = 1e-9 * typical[i] / typical[j];
+                assert!(
+                    (fd - an).abs() <= 1e-4 * an.abs() + floor,
+                    "A[{i}][{j}]: {fd} vs {an}"
+                );
+            }
+            for j in 0..2 {
+                let (fd, an) = (b[i * 2 + j], plant.b[(i, j)]);
+                let floor = 1e-9 * typical[i] / 10.0;
+                assert!(
+                    (fd - an).abs() <= 1e-4 * an.abs() + floor,
+                    "B[{i}][{j}]: {fd} vs {an}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn cavitation_and_torque_limit_act() {
+        let rig = Rig::default();
+        let effects = Effects {
+            peak_torque_factor: Some(3.0),
+            ..Effects::none()
+        };
+        let d = Dynamics::new(&rig, effects).unwrap();
+        let (mut x, _) = d.operating_point(&rig);
+        let l = Plant::new(&rig).layout;
+        // a huge speed demand: the torque reference saturates at 3 × rated
+        let mut dx = vec![0.0; x.len()];
+        d.rhs(&x, &[1e4, 1e4], &mut dx);
+        let t = l.tau.unwrap()[0];
+        let want = rig.si().omega_i * (3.0 * rig.motor_rated_torque_nm - x[t]);
+        assert!((dx[t] - want).abs() < 1e-9 * want.abs());
+        // chamber 1 at −1 bar gauge while the piston runs out of it (v > 0 grows V1): the
+        // pressure would fall further, cavitation holds it
+        x[l.p[0]] = -1e5;
+        x[l.v] = 1.0;
+        d.rhs(&x, &[0.0, 0.0], &mut dx);
+        assert_eq!(dx[l.p[0]], 0.0);
+    }
+}
