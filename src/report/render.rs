@@ -129,3 +129,24 @@ pub(super) fn draw_header<DB: DrawingBackend>(
     }
     Ok(body)
 }
+
+/// Test support: check PNG bytes (signature, IHDR size, decodable at that size) and return the
+/// decoded RGB image.
+#[cfg(test)]
+pub(super) fn decode_png(png: &[u8], width: u32, height: u32) -> image::RgbImage {
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR: width and height, big endian, at bytes 16..24.
+    assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), width);
+    assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), height);
+    let img = image::load_from_memory_with_format(png, image::ImageFormat::Png).unwrap();
+    assert_eq!((img.width(), img.height()), (width, height));
+    img.to_rgb8()
+}
+
+/// Test support: the number of dark pixels (text, curves) of an image.
+#[cfg(test)]
+pub(super) fn dark_pixels(rgb: &image::RgbImage) -> usize {
+    rgb.pixels()
+        .filter(|p| p.0.iter().all(|&c| c < 100))
+        .count()
+}

@@ -848,18 +848,9 @@ mod tests {
     #[test]
     fn png_signature_and_size() {
         let png = panels_png("PNG", None, &step_panels(), 900, 800).unwrap();
-        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-        assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 900);
-        assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), 800);
-        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap();
-        assert_eq!((img.width(), img.height()), (900, 800));
-        let rgb = img.to_rgb8();
-        assert!(
-            rgb.pixels()
-                .filter(|p| p.0.iter().all(|&c| c < 100))
-                .count()
-                > 1000
-        );
+        let rgb = render::decode_png(&png, 900, 800);
+        // Not a blank image: some dark pixels (text, curves).
+        assert!(render::dark_pixels(&rgb) > 1000);
     }
 
     #[test]
