@@ -5,8 +5,11 @@
 //! switched off; with all of them off the right-hand side linearises to the analytic model of
 //! `model` (a test checks every entry of A and B).
 //!
-//! Not yet here: the stiff ODE integration, the 100 Hz PLC with sensor noise, and the
-//! `pumpcyl emulate` command.
+//! [`plc`] closes the loop at the PLC's rate and integrates these dynamics between samples.
+
+mod plc;
+
+pub use plc::{emulate, Plc};
 
 use crate::bulk::effective_beta;
 use crate::model::{Layout, Plant};
@@ -60,7 +63,7 @@ const COULOMB_SMOOTHING_M_S: f64 = 1e-3;
 #[derive(Debug, Clone)]
 pub struct Dynamics {
     si: RigSi,
-    layout: Layout,
+    pub(crate) layout: Layout,
     x_max: f64,
     vl: [f64; 2],
     rated_torque: f64,
@@ -302,5 +305,41 @@ mod tests {
         x[l.v] = 1.0;
         d.rhs(&x, &[0.0, 0.0], &mut dx);
         assert_eq!(dx[l.p[0]], 0.0);
+    }
+}
+
+#[cfg(test)]
+mod emulate_tests {
+    use super::*;
+    use crate::response::{simulate, Baseline};
+
+    #[test]
+    fn effects_off_and_a_fast_plc_reproduce_the_lti_step() {
+        // at 1 kHz the sampled controller is close to the LTI model's continuous one. The
+        // sum-pressure loop stays open: with K_pres per bar its 156 Hz mode (ζ ≈ 0.02) is
+        // destabilised by any sampling delay (see the README's modelling question).
+        let rig = Rig {
+            sum_pressure: false,
+            ..Rig::default()
+        };
+        let d = Dynamics::new(&rig, Effects::none()).unwrap();
+        let step = |t: f64| if t < 0.2 { 345.0 } else { 350.0 };
+        let em = emulate(&rig, &d, &Plc::ideal(1000.0), 5.0, 2.0, step).unwrap();
+        // compare deviations from the settled state, as SPEC §9 does with records
+        let mut base = Baseline::of_rig(&rig);
+        base.x_mm = em.x_mm[0];
+        base.p_bar = [em.p1_bar[0], em.p2_bar[0]];
+        let lti = simulate(&rig, &em.time_s, &em.x_ref_mm, &base).unwrap();
+        let worst = em
+            .x_mm
+            .iter()
+            .zip(&lti.x_mm)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        // 2 % of the step: the 1 kHz sampling delay and the settled (not LTI) operating point
+        assert!(worst < 0.1, "largest difference {worst} mm on a 5 mm step");
+        // Pressures are not compared: without the sum-pressure loop nothing holds p1 + p2, and
+        // the leakage drains it towards 0.2 bar while the run goes on, a drift the deviation
+        // model cannot show (the README's modelling question).
     }
 }

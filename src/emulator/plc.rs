@@ -1,0 +1,228 @@
+//! The PLC around the emulated rig: 100 Hz sampling, sensor noise and quantisation, the DPM
+//! control law of SPEC §3 in absolute terms (the 10 bar sum-pressure set-point matters here),
+//! commands held between samples, and the plant integrated between samples by diffsol's BDF
+//! (the current loop at 1257 1/s makes the dynamics stiff).
+
+use super::Dynamics;
+use crate::response::Signals;
+use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, VectorCommon};
+
+/// Sampling, sensors and randomness of the PLC.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plc {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Position sensor noise, standard deviation (mm).
+    pub noise_x_mm: f64,
+    /// Position quantisation step (mm); 0 = none.
+    pub quant_x_mm: f64,
+    /// Pressure sensor noise (bar).
+    pub noise_p_bar: f64,
+    /// Speed measurement noise (rpm).
+    pub noise_w_rpm: f64,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+impl Plc {
+    /// Noise-free, unquantised sampling at `rate_hz`.
+    pub fn ideal(rate_hz: f64) -> Plc {
+        Plc {
+            rate_hz,
+            noise_x_mm: 0.0,
+            quant_x_mm: 0.0,
+            noise_p_bar: 0.0,
+            noise_w_rpm: 0.0,
+            seed: 1,
+        }
+    }
+}
+
+/// Seeded Gaussian noise (xorshift64 and Box–Muller): deterministic for a seed.
+struct Noise(u64);
+
+impl Noise {
+    fn new(seed: u64) -> Noise {
+        Noise(seed.max(1).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    fn gauss(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform(), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// Typical magnitude of each state (SI), for finite-difference steps and tolerances.
+fn typical(d: &Dynamics) -> Vec<f64> {
+    let l = &d.layout;
+    let mut t = vec![1.0; l.n];
+    t[l.x] = 1e-3;
+    t[l.v] = 1e-2;
+    for i in 0..2 {
+        t[l.p[i]] = 1e5;
+        t[l.w[i]] = 10.0;
+    }
+    if let Some(tau) = l.tau {
+        t[tau[0]] = 0.1;
+        t[tau[1]] = 0.1;
+    }
+    if let Some(ff) = l.ff {
+        t[ff[0]] = 10.0;
+        t[ff[1]] = 10.0;
+    }
+    t
+}
+
+/// Integrate the dynamics over [t0, t1] with the speed references `u` held, from `x`.
+fn integrate(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f64>, String> {
+    let n = x.len();
+    let scale = typical(d);
+    let scale = &scale;
+    let x0 = x.to_vec();
+    let err = |e: diffsol::error::DiffsolError| format!("ODE solver: {e}");
+    let problem = OdeBuilder::<NalgebraMat<f64>>::new()
+        .t0(t0)
+        .rtol(1e-7)
+        .atol(scale.iter().map(|s| s * 1e-7).collect::<Vec<f64>>())
+        .rhs_implicit(
+            move |x: &[f64], _p: &[f64], _t: f64, y: &mut [f64]| d.rhs(x, &u, y),
+            move |x: &[f64], _p: &[f64], _t: f64, v: &[f64], y: &mut [f64]| {
+                jac_vec(d, x, &u, v, scale, y)
+            },
+        )
+        .init(
+            move |_p: &[f64], _t: f64, y: &mut [f64]| y.copy_from_slice(&x0),
+            n,
+        )
+        .build()
+        .map_err(err)?;
+    let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(err)?;
+    solver.solve(t1).map_err(err)?;
+    let y = solver.state().y.inner().as_slice().to_vec();
+    Ok(y)
+}
+
+/// J(x)·v by a forward difference along v, the step scaled so no state moves by more than
+/// 1e-7 of its typical size.
+fn jac_vec(d: &Dynamics, x: &[f64], u: &[f64; 2], v: &[f64], scale: &[f64], y: &mut [f64]) {
+    let vmax = v
+        .iter()
+        .zip(scale)
+        .map(|(v, s)| (v / s).abs())
+        .fold(0.0, f64::max);
+    if vmax == 0.0 {
+        y.fill(0.0);
+        return;
+    }
+    let eps = 1e-7 / vmax;
+    let xp: Vec<f64> = x.iter().zip(v).map(|(x, v)| x + eps * v).collect();
+    let mut f0 = vec![0.0; x.len()];
+    d.rhs(x, u, &mut f0);
+    d.rhs(&xp, u, y);
+    for (yi, f) in y.iter_mut().zip(&f0) {
+        *yi = (*yi - f) / eps;
+    }
+}
+
+/// Emulate the closed loop for the reference `x_ref_mm(t)` from `t = 0` to `duration_s`.
+/// The loop first settles for `settle_s` (not recorded) with the reference held at its t = 0
+/// value, starting from the LTI operating point: the P position loop needs a small steady
+/// error to turn the pumps that feed the leakage, which the LTI deviation model never sees.
+/// Returns the PLC's record (measured signals, in user units).
+pub fn emulate(
+    rig: &Rig,
+    dynamics: &Dynamics,
+    plc: &Plc,
+    settle_s: f64,
+    duration_s: f64,
+    x_ref_mm: impl Fn(f64) -> f64,
+) -> Result<Signals, String> {
+    let l = dynamics.layout;
+    let (mut x, _) = dynamics.operating_point(rig);
+    x[l.x] = x_ref_mm(0.0) * 1e-3;
+    let mut noise = Noise::new(plc.seed);
+    let ts = 1.0 / plc.rate_hz;
+    let r0 = x_ref_mm(0.0);
+    let settle_steps = (settle_s * plc.rate_hz).round() as usize;
+    for k in 0..settle_steps {
+        let t = -settle_s + k as f64 * ts;
+        let m = measure(&x, dynamics, plc, &mut noise);
+        x = integrate(dynamics, &x, control(rig, r0, &m), t, t + ts)?;
+    }
+    record(rig, dynamics, plc, &mut noise, x, duration_s, x_ref_mm)
+}
+
+/// What the PLC reads: position (mm), pressures (bar), speeds (rpm), with noise and
+/// quantisation.
+struct Measured {
+    x_mm: f64,
+    p_bar: [f64; 2],
+    w_rpm: [f64; 2],
+}
+
+fn measure(x: &[f64], d: &Dynamics, plc: &Plc, noise: &mut Noise) -> Measured {
+    let l = d.layout;
+    let quant = |v: f64, q: f64| if q > 0.0 { (v / q).round() * q } else { v };
+    Measured {
+        x_mm: quant(
+            x[l.x] * 1e3 + plc.noise_x_mm * noise.gauss(),
+            plc.quant_x_mm,
+        ),
+        p_bar: [0, 1].map(|i| x[l.p[i]] / PA_PER_BAR + plc.noise_p_bar * noise.gauss()),
+        w_rpm: [0, 1].map(|i| x[l.w[i]] / RAD_S_PER_RPM + plc.noise_w_rpm * noise.gauss()),
+    }
+}
+
+/// The DPM control law of SPEC §3 on the measurements (sum pressure in bar): the speed
+/// references (rad/s).
+fn control(rig: &Rig, r_mm: f64, m: &Measured) -> [f64; 2] {
+    let si = rig.si();
+    let e = (r_mm - m.x_mm) * 1e-3;
+    let e_p = rig.p_sum_ref_bar - (m.p_bar[0] + m.p_bar[1]);
+    let k_pres = if rig.sum_pressure {
+        rig.k_pres_per_bar
+    } else {
+        0.0
+    };
+    let u1 = si.kp * e - k_pres * e_p;
+    let u2 = si.kp * si.alpha * e + k_pres * si.k_beta * e_p;
+    [si.k_scale * u1, si.k_scale * u2]
+}
+
+/// The recorded run from t = 0.
+fn record(
+    rig: &Rig,
+    dynamics: &Dynamics,
+    plc: &Plc,
+    noise: &mut Noise,
+    mut x: Vec<f64>,
+    duration_s: f64,
+    x_ref_mm: impl Fn(f64) -> f64,
+) -> Result<Signals, String> {
+    let ts = 1.0 / plc.rate_hz;
+    let steps = (duration_s * plc.rate_hz).round() as usize;
+    let mut out = Signals::default();
+    for k in 0..=steps {
+        let t = k as f64 * ts;
+        let r = x_ref_mm(t);
+        let m = measure(&x, dynamics, plc, noise);
+        out.time_s.push(t);
+        out.x_ref_mm.push(r);
+        out.x_mm.push(m.x_mm);
+        out.e_mm.push(r - m.x_mm);
+        out.p1_bar.push(m.p_bar[0]);
+        out.p2_bar.push(m.p_bar[1]);
+        out.w1_rpm.push(m.w_rpm[0]);
+        out.w2_rpm.push(m.w_rpm[1]);
+        if k < steps {
+            x = integrate(dynamics, &x, control(rig, r, &m), t, t + ts)?;
+        }
+    }
+    Ok(out)
+}
