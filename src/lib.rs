@@ -11,6 +11,7 @@
 
 pub mod bulk;
 pub mod cli;
+pub mod design;
 pub mod emulator;
 pub mod ident;
 pub mod lti;

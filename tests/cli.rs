@@ -593,3 +593,31 @@ fn bulk_modulus_reports_gas_fraction_table_and_margins() {
     let err = fails(&["bulk-modulus", "--beta-bar", "2", "--p-mean-bar", "4.4"]);
     assert!(err.contains("beta_bar"), "{err}");
 }
+
+#[test]
+fn design_keeps_the_article_gain_and_flags_low_pressure() {
+    let d = json(&["design", "--target-pm-deg", "34", "--json"]);
+    let kp = d["kp_max"].as_f64().unwrap();
+    assert!((kp - 25.0).abs() <= 1.0, "{kp}");
+    assert_eq!(d["conditions"].as_array().unwrap().len(), 3);
+    let d = json(&[
+        "design",
+        "--target-pm-deg",
+        "34",
+        "--p-mean-bar",
+        "1",
+        "--p-mean-bar",
+        "10",
+        "--wave",
+        "0.2:35",
+        "--json",
+    ]);
+    assert_eq!(d["verdict"], "use_higher_pressure");
+    assert_eq!(d["worst_case"]["p_mean_bar"], 1.0);
+    let wr = d["tracking"][0]["wave_reduction"].as_f64().unwrap();
+    assert!(wr > 0.0 && wr < 1.0);
+    let text = ok(&["design", "--target-pm-deg", "30"]);
+    assert!(text.contains("verdict:"), "{text}");
+    let err = fails(&["design", "--wave", "0.2"]);
+    assert!(err.contains("FREQ_HZ:AMP_MM"), "{err}");
+}

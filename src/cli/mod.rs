@@ -2,6 +2,7 @@
 
 mod analysis;
 mod bulk;
+mod design;
 mod ident;
 mod output;
 mod time;
@@ -59,6 +60,9 @@ enum Command {
     /// Gas fraction from an identified bulk modulus, beta_e against mean pressure, and the
     /// margins at each pressure (SPEC §7).
     BulkModulus(bulk::BulkArgs),
+    /// SPEC §8 for a rig before it is built: the largest Kp meeting margin targets, margins
+    /// across stroke, mass and pressure, predicted tracking, and a verdict.
+    Design(design::DesignArgs),
 }
 
 #[derive(Debug, Args)]
@@ -217,6 +221,7 @@ pub fn run() -> Result<()> {
         Command::Identify(args) => ident::identify(&args)?,
         Command::IdentifyMerge(args) => ident::merge(&args)?,
         Command::BulkModulus(args) => bulk::bulk(&args)?,
+        Command::Design(args) => design::run(&args)?,
     };
     output::emit(&text)
 }

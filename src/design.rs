@@ -1,0 +1,329 @@
+//! The control design method of SPEC §8 for a rig before it is built: the largest position gain
+//! meeting the margin targets at the design point, the margins across stroke, mass and
+//! accumulator pressure, the predicted tracking of given waves, and a verdict.
+
+use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
+use crate::lti::{margins, LtiError, Margins};
+use crate::model::Plant;
+use crate::response::{sine, track_metrics, TrackMetrics};
+use crate::rig::{Rig, RigError};
+use serde::Serialize;
+
+/// Errors of the design.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// Inputs out of range.
+    #[error("{0}")]
+    Input(String),
+    /// A rig override failed.
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    /// A numerical failure.
+    #[error(transparent)]
+    Lti(#[from] LtiError),
+    /// The bulk-modulus model.
+    #[error(transparent)]
+    Bulk(#[from] crate::bulk::BulkError),
+}
+
+/// What the design asks for.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Targets {
+    /// Phase margin target (deg).
+    pub pm_deg: f64,
+    /// Gain margin target (dB).
+    pub gm_db: f64,
+    /// Stroke excursion checked on each side of x0 (mm).
+    pub stroke_mm: f64,
+    /// Mean chamber pressures checked (bar); empty = the rig's β only.
+    pub p_mean_bar: Vec<f64>,
+    /// Mean pressure at which the rig's β holds (bar), for the gas-fraction model.
+    pub p_beta_bar: f64,
+    /// Masses checked (kg); empty = the rig's mass only.
+    pub mass_kg: Vec<f64>,
+    /// Sinusoidal waves to track: (frequency Hz, amplitude mm).
+    pub waves: Vec<(f64, f64)>,
+}
+
+/// One operating condition and the loop's margins there at the designed gain.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Condition {
+    /// Position (mm).
+    pub x_mm: f64,
+    /// Mass (kg).
+    pub mass_kg: f64,
+    /// Mean pressure (bar), if pressure was varied.
+    pub p_mean_bar: Option<f64>,
+    /// Bulk modulus there (bar).
+    pub beta_bar: f64,
+    /// Gain margin (dB), `None` = infinite.
+    pub gain_margin_db: Option<f64>,
+    /// Phase margin (deg), `None` = infinite.
+    pub phase_margin_deg: Option<f64>,
+    /// Closed-loop stability.
+    pub closed_loop_stable: bool,
+    /// Largest Kp meeting the targets at this condition.
+    pub kp_max: f64,
+}
+
+/// The verdict.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Every condition meets the targets with the designed gain.
+    Adequate,
+    /// Every condition is stable, some below the targets.
+    Marginal,
+    /// Some condition is unstable with the designed gain: raise the pressure level.
+    UseHigherPressure,
+}
+
+/// The design result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Design {
+    /// The targets.
+    pub targets: Targets,
+    /// Largest Kp meeting the targets at the design point (the rig's own operating point,
+    /// SPEC §8 step 5).
+    pub kp_max: f64,
+    /// Largest Kp meeting the targets at every checked condition.
+    pub kp_max_worst_case: f64,
+    /// The condition with the smallest phase margin at `kp_max`.
+    pub worst_case: Condition,
+    /// Every checked condition, at `kp_max`.
+    pub conditions: Vec<Condition>,
+    /// Predicted tracking at `kp_max` (design point).
+    pub tracking: Vec<TrackMetrics>,
+    /// The verdict and the numbers that decided it.
+    pub verdict: Verdict,
+    /// Why, in words.
+    pub reasons: Vec<String>,
+}
+
+/// Whether margins meet the targets.
+fn meets(m: &Margins, t: &Targets) -> bool {
+    m.closed_loop_stable
+        && m.phase_margin_deg.is_none_or(|pm| pm >= t.pm_deg)
+        && m.gain_margin_db.is_none_or(|gm| gm >= t.gm_db)
+}
+
+/// Margins of the SPEC §4 loop of `rig` with gain `kp`.
+fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
+    let r = Rig { kp, ..rig.clone() };
+    Ok(margins(&Plant::new(&r).open_loop(false))?)
+}
+
+/// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by bisection on log Kp (the
+/// margins fall as the gain rises); 0 if even a tiny gain fails.
+pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
+    let ok = |kp: f64| -> Result<bool, DesignError> { Ok(meets(&margins_at(rig, kp)?, t)) };
+    let (mut lo, mut hi) = (1e-3f64, 1e4f64);
+    if !ok(lo)? {
+        return Ok(0.0);
+    }
+    if ok(hi)? {
+        return Ok(hi);
+    }
+    for _ in 0..60 {
+        let mid = (lo * hi).sqrt();
+        if ok(mid)? {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(lo)
+}
+
+/// Apply SPEC §8 to `rig`.
+pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
+    for (name, v) in [
+        ("target PM", t.pm_deg),
+        ("target GM", t.gm_db),
+        ("stroke", t.stroke_mm),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(DesignError::Input(format!(
+                "{name} = {v}: must be a finite value >= 0"
+            )));
+        }
+    }
+    let kp = kp_max(rig, t)?;
+    if kp == 0.0 {
+        return Err(DesignError::Input(
+            "no position gain meets the margin targets at the design point: lower the targets"
+                .into(),
+        ));
+    }
+    let designed = Rig { kp, ..rig.clone() };
+    let conditions = conditions(&designed, t)?;
+    let worst = conditions
+        .iter()
+        .min_by(|a, b| pm_key(a).total_cmp(&pm_key(b)))
+        .cloned()
+        .expect("at least the design point");
+    let kp_max_worst_case = conditions
+        .iter()
+        .map(|c| c.kp_max)
+        .fold(f64::INFINITY, f64::min);
+    let tracking = t
+        .waves
+        .iter()
+        .map(|&(f, a)| -> Result<TrackMetrics, DesignError> {
+            let s = sine(&designed, f, a, 3.0, 100.0)?;
+            Ok(track_metrics(&s.time_s, &s.e_mm, f, a))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let (verdict, reasons) = judge(&conditions, t, kp, kp_max_worst_case);
+    Ok(Design {
+        targets: t.clone(),
+        kp_max: kp,
+        kp_max_worst_case,
+        worst_case: worst,
+        conditions,
+        tracking,
+        verdict,
+        reasons,
+    })
+}
+
+fn pm_key(c: &Condition) -> f64 {
+    if !c.closed_loop_stable {
+        return f64::NEG_INFINITY;
+    }
+    c.phase_margin_deg.unwrap_or(f64::INFINITY)
+}
+
+/// Every combination of stroke position, mass and pressure, at the designed gain.
+fn conditions(rig: &Rig, t: &Targets) -> Result<Vec<Condition>, DesignError> {
+    let positions = [rig.x0_mm - t.stroke_mm, rig.x0_mm, rig.x0_mm + t.stroke_mm];
+    let masses = if t.mass_kg.is_empty() {
+        vec![rig.mass_kg]
+    } else {
+        t.mass_kg.clone()
+    };
+    let pressures: Vec<Option<f64>> = if t.p_mean_bar.is_empty() {
+        vec![None]
+    } else {
+        t.p_mean_bar.iter().map(|p| Some(*p)).collect()
+    };
+    let x = if t.p_mean_bar.is_empty() {
+        0.0
+    } else {
+        gas_fraction(rig.beta_bar, t.p_beta_bar, BETA_OIL_BAR)?
+    };
+    let mut out = Vec::new();
+    for &x_mm in positions.iter().filter(|&&x| x > 0.0 && x < rig.stroke_mm) {
+        for &m in &masses {
+            for &p in &pressures {
+                let beta = p.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR));
+                let r = Rig {
+                    x0_mm: x_mm,
+                    mass_kg: m,
+                    beta_bar: beta,
+                    ..rig.clone()
+                };
+                r.validate("design condition")?;
+                let mm = margins_at(&r, rig.kp)?;
+                out.push(Condition {
+                    x_mm,
+                    mass_kg: m,
+                    p_mean_bar: p,
+                    beta_bar: beta,
+                    gain_margin_db: mm.gain_margin_db,
+                    phase_margin_deg: mm.phase_margin_deg,
+                    closed_loop_stable: mm.closed_loop_stable,
+                    kp_max: kp_max(&r, t)?,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The verdict from the conditions at the designed gain.
+fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verdict, Vec<String>) {
+    let unstable: Vec<&Condition> = conditions
+        .iter()
+        .filter(|c| !c.closed_loop_stable)
+        .collect();
+    let below: Vec<&Condition> = conditions
+        .iter()
+        .filter(|c| c.closed_loop_stable && c.kp_max < kp)
+        .collect();
+    let describe = |c: &Condition| {
+        format!(
+            "x {} mm, m {} kg{}, beta {:.0} bar: PM {} deg, GM {} dB",
+            c.x_mm,
+            c.mass_kg,
+            c.p_mean_bar
+                .map_or(String::new(), |p| format!(", p {p} bar")),
+            c.beta_bar,
+            c.phase_margin_deg
+                .map_or("inf".into(), |v| format!("{v:.1}")),
+            c.gain_margin_db.map_or("inf".into(), |v| format!("{v:.2}"))
+        )
+    };
+    let mut reasons = vec![format!(
+        "Kp = {kp:.2} meets PM >= {} deg and GM >= {} dB at the design point; {kp_worst:.2} would meet them everywhere checked",
+        t.pm_deg, t.gm_db
+    )];
+    if !unstable.is_empty() {
+        reasons.extend(
+            unstable
+                .iter()
+                .map(|c| format!("unstable at {}", describe(c))),
+        );
+        return (Verdict::UseHigherPressure, reasons);
+    }
+    if !below.is_empty() {
+        reasons.extend(
+            below
+                .iter()
+                .map(|c| format!("below target at {}", describe(c))),
+        );
+        return (Verdict::Marginal, reasons);
+    }
+    reasons.push("every checked condition meets the targets".into());
+    (Verdict::Adequate, reasons)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn targets(pm: f64) -> Targets {
+        Targets {
+            pm_deg: pm,
+            gm_db: 0.0,
+            stroke_mm: 50.0,
+            p_mean_bar: vec![],
+            p_beta_bar: 4.4,
+            mass_kg: vec![],
+            waves: vec![],
+        }
+    }
+
+    #[test]
+    fn article_gain_from_its_phase_margin() {
+        // the article keeps Kp = 25 with PM ≈ 34°: asking for 34° gives Kp within ±1 of 25
+        let kp = kp_max(&Rig::default(), &targets(34.0)).unwrap();
+        assert!((kp - 25.0).abs() <= 1.0, "{kp}");
+        // and at that gain the phase margin is the target
+        let m = margins_at(&Rig::default(), kp).unwrap();
+        assert!((m.phase_margin_deg.unwrap() - 34.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn low_pressure_gives_the_higher_pressure_verdict() {
+        let mut t = targets(30.0);
+        t.p_mean_bar = vec![1.0, 4.4, 10.0];
+        let d = design(&Rig::default(), &t).unwrap();
+        assert_eq!(d.verdict, Verdict::UseHigherPressure);
+        assert!(d.worst_case.p_mean_bar == Some(1.0) && !d.worst_case.closed_loop_stable);
+        assert!(d.kp_max_worst_case < d.kp_max);
+        let d = design(&Rig::default(), &targets(30.0)).unwrap();
+        assert_ne!(d.verdict, Verdict::UseHigherPressure);
+        assert_eq!(d.conditions.len(), 3);
+    }
+}
