@@ -27,6 +27,9 @@ pub(super) const MAX_SIDE_PX: u32 = 16_384;
 /// Deeper notches and roll-offs are clipped at the bottom of the panel.
 const MAG_WINDOW_DB: f64 = 200.0;
 
+/// Lowest phase shown, relative to the largest finite phase, in degrees.
+const PHASE_WINDOW_DEG: f64 = 720.0;
+
 /// Okabe–Ito colour-blind-friendly palette, in the order series use it
 /// (yellow last: it has the least contrast on white).
 pub(super) const PALETTE: [RGBColor; 8] = [
@@ -366,15 +369,19 @@ fn phase_steps() -> Vec<(f64, f64)> {
     steps
 }
 
-/// Pick the smallest step giving at most `MAX_MAJOR` intervals over `lo..hi`
-/// and snap the range outward to the minor step (so the data fill the panel;
-/// the edges need not carry a label).
+/// Pick the smallest step giving at most 8 intervals over `lo..hi` and snap
+/// the range outward to the minor step (so the data fill the panel; the
+/// edges need not carry a label).
 pub(super) fn linear_ticks(lo: f64, hi: f64, steps: &[(f64, f64)]) -> LinearTicks {
-    const MAX_MAJOR: f64 = 8.0;
+    linear_ticks_max(lo, hi, steps, 8.0)
+}
+
+/// As [`linear_ticks`], with at most `max_major` intervals.
+fn linear_ticks_max(lo: f64, hi: f64, steps: &[(f64, f64)], max_major: f64) -> LinearTicks {
     let span = hi - lo;
     let &(step, minor_step) = steps
         .iter()
-        .find(|(s, _)| span / s <= MAX_MAJOR)
+        .find(|(s, _)| span / s <= max_major)
         .unwrap_or_else(|| steps.last().expect("non-empty step table"));
     let per = ((step / minor_step).round() as i64).max(1);
     let j0 = (lo / minor_step - 1e-9).floor() as i64;
@@ -411,6 +418,7 @@ fn value_ticks(
     hi: f64,
     reference: Option<f64>,
     steps: &[(f64, f64)],
+    max_major: f64,
     pad_min: f64,
 ) -> LinearTicks {
     let (mut lo, mut hi) = (lo, hi);
@@ -423,7 +431,7 @@ fn value_ticks(
         }
     }
     let pad = ((hi - lo) * 0.05).max(pad_min * 0.05);
-    linear_ticks(lo - pad, hi + pad, steps)
+    linear_ticks_max(lo - pad, hi + pad, steps, max_major)
 }
 
 /// Decimal representation with at most `max_decimals` decimals, trailing
@@ -629,6 +637,8 @@ struct Figure<'a> {
     x: FreqTicks,
     mag: LinearTicks,
     phase: LinearTicks,
+    /// Phase reference line (-180 deg, or another odd multiple of 180 deg).
+    phase_ref: f64,
     mag_pieces: Vec<Pieces>,
     phase_pieces: Vec<Pieces>,
     /// Gain margin bar: (phase crossover Hz, from dB, to dB).
@@ -705,14 +715,21 @@ impl<'a> Figure<'a> {
         // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
         let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
         let m_lo = m_lo.max(m_hi - MAG_WINDOW_DB);
-        let mag = value_ticks(m_lo, m_hi, Some(0.0), &nice_steps_125(), 10.0);
+        let mag = value_ticks(m_lo, m_hi, Some(0.0), &nice_steps_125(), 8.0, 10.0);
 
-        // Phase: include the -180 deg line (or the odd multiple of 180 deg
-        // nearest to the data).
+        // Phase: clamp to PHASE_WINDOW_DEG below the maximum (long delays
+        // would squash everything else); include the -180 deg reference, or
+        // the odd multiple of 180 deg nearest the data when the caller's
+        // unwrapping put the phase elsewhere.
         let (p_lo, p_hi) = phase_ext.unwrap_or((-180.0, 0.0));
-        let mid = 0.5 * (p_lo + p_hi);
-        let ref180 = ((mid + 180.0) / 360.0).round() * 360.0 - 180.0;
-        let phase = value_ticks(p_lo, p_hi, Some(ref180), &phase_steps(), 20.0);
+        let p_lo = p_lo.max(p_hi - PHASE_WINDOW_DEG);
+        let phase_ref = if (p_lo..=p_hi).contains(&-180.0) {
+            -180.0
+        } else {
+            let mid = 0.5 * (p_lo + p_hi);
+            ((mid + 180.0) / 360.0).round() * 360.0 - 180.0
+        };
+        let phase = value_ticks(p_lo, p_hi, Some(phase_ref), &phase_steps(), 9.0, 20.0);
 
         let mag_pieces = series
             .iter()
@@ -777,6 +794,7 @@ impl<'a> Figure<'a> {
             x,
             mag,
             phase,
+            phase_ref,
             mag_pieces,
             phase_pieces,
             gm_bar,
@@ -873,7 +891,7 @@ impl<'a> Figure<'a> {
 
         // Panels with plotting areas of equal height.
         let y_label_area = px(82.0);
-        let x_label_area = px(58.0);
+        let x_label_area = px(50.0);
         let (m_left, m_right, m_top, m_gap, m_bottom) =
             (px(8.0), px(30.0), px(4.0), px(10.0), px(8.0));
         let body_h = height as i32 - header_h;
@@ -884,10 +902,9 @@ impl<'a> Figure<'a> {
         let desc_style = text(17.0);
         let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
         let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
-        let line_w = upx(2.0);
+        let line_w = upx(2.0).max(2);
         let ref_style = REF_COLOR.stroke_width(upx(1.5));
         let marker_style = REF_COLOR.mix(0.9).stroke_width(upx(1.2));
-        let bar_style = BLACK.stroke_width(upx(3.0));
 
         // --- Magnitude panel ---------------------------------------------
         let mut top = ChartBuilder::on(&top_area)
@@ -927,11 +944,14 @@ impl<'a> Figure<'a> {
             .map_err(plot_err)?;
         }
         let multi = self.series.len() > 1;
-        for (i, (s, pieces)) in self.series.iter().zip(&self.mag_pieces).enumerate() {
-            let color = PALETTE[i % PALETTE.len()];
-            draw_pieces(&mut top, pieces, color, line_w, upx(3.0))?;
-            if multi {
-                let legend_style = color.stroke_width(line_w);
+        // Later series first, so the first series (the one the markers
+        // refer to) is drawn on top.
+        for (i, pieces) in self.mag_pieces.iter().enumerate().rev() {
+            draw_pieces(&mut top, pieces, series_color(i), line_w, upx(3.0))?;
+        }
+        if multi {
+            for (i, s) in self.series.iter().enumerate() {
+                let legend_style = series_color(i).stroke_width(line_w);
                 let len = px(28.0);
                 top.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
                     .map_err(plot_err)?
@@ -940,20 +960,7 @@ impl<'a> Figure<'a> {
             }
         }
         if let Some((f, lo, hi)) = self.gm_bar {
-            top.draw_series(std::iter::once(PathElement::new(
-                [(f, lo), (f, hi)],
-                bar_style,
-            )))
-            .map_err(plot_err)?;
-            top.draw_series(std::iter::once(
-                EmptyElement::at((f, 0.5 * (lo + hi)))
-                    + Text::new(
-                        "GM",
-                        (px(7.0), 0),
-                        text(16.0).pos(Pos::new(HPos::Left, VPos::Center)),
-                    ),
-            ))
-            .map_err(plot_err)?;
+            margin_bar(&mut top, f, (lo, hi), &self.mag, "GM", scale)?;
         }
         if multi {
             let (pw, ph) = top.plotting_area().dim_in_pixel();
@@ -1005,14 +1012,10 @@ impl<'a> Figure<'a> {
             .light_line_style(light_grid)
             .draw()
             .map_err(plot_err)?;
-        // Dashed reference at every odd multiple of 180 deg in range.
-        let k0 = ((self.phase.lo + 180.0) / 360.0).ceil() as i64;
-        let k1 = ((self.phase.hi + 180.0) / 360.0).floor() as i64;
-        for k in k0..=k1.min(k0 + 8) {
-            let v = k as f64 * 360.0 - 180.0;
+        if self.phase.contains(self.phase_ref) {
             bottom
                 .draw_series(DashedLineSeries::new(
-                    [(self.x.lo, v), (self.x.hi, v)],
+                    [(self.x.lo, self.phase_ref), (self.x.hi, self.phase_ref)],
                     px(8.0),
                     px(5.0),
                     ref_style,
@@ -1029,32 +1032,11 @@ impl<'a> Figure<'a> {
                 ))
                 .map_err(plot_err)?;
         }
-        for (i, pieces) in self.phase_pieces.iter().enumerate() {
-            draw_pieces(
-                &mut bottom,
-                pieces,
-                PALETTE[i % PALETTE.len()],
-                line_w,
-                upx(3.0),
-            )?;
+        for (i, pieces) in self.phase_pieces.iter().enumerate().rev() {
+            draw_pieces(&mut bottom, pieces, series_color(i), line_w, upx(3.0))?;
         }
         if let Some((f, lo, hi)) = self.pm_bar {
-            bottom
-                .draw_series(std::iter::once(PathElement::new(
-                    [(f, lo), (f, hi)],
-                    bar_style,
-                )))
-                .map_err(plot_err)?;
-            bottom
-                .draw_series(std::iter::once(
-                    EmptyElement::at((f, 0.5 * (lo + hi)))
-                        + Text::new(
-                            "PM",
-                            (-px(7.0), 0),
-                            text(16.0).pos(Pos::new(HPos::Right, VPos::Center)),
-                        ),
-                ))
-                .map_err(plot_err)?;
+            margin_bar(&mut bottom, f, (lo, hi), &self.phase, "PM", scale)?;
         }
         frame(
             &bottom,
@@ -1070,6 +1052,51 @@ impl<'a> Figure<'a> {
 
 type BodeChart<'b, DB> =
     ChartContext<'b, DB, Cartesian2d<TickedAxis<LogCoord<f64>>, TickedAxis<RangedCoordf64>>>;
+
+/// Colour of series number `i` (cycling through the palette).
+fn series_color(i: usize) -> RGBColor {
+    PALETTE[i % PALETTE.len()]
+}
+
+/// Thick vertical bar at `f` Hz between `a` and `b` (panel units) showing a
+/// stability margin, labelled `label` to the left of its lower end, just
+/// below it (above it when too close to the bottom of the panel). Left of the
+/// crossover the curve lies above the lower end of the bar, so the label does
+/// not sit on the curve the markers refer to.
+fn margin_bar<DB: DrawingBackend>(
+    chart: &mut BodeChart<'_, DB>,
+    f: f64,
+    (a, b): (f64, f64),
+    panel: &LinearTicks,
+    label: &'static str,
+    scale: f64,
+) -> Result<(), ReportError> {
+    let px = |v: f64| (v * scale).round() as i32;
+    let font_size = 16.0 * scale;
+    let lower = a.min(b);
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            [(f, a), (f, b)],
+            BLACK.stroke_width((3.0 * scale).round().max(2.0) as u32),
+        )))
+        .map_err(plot_err)?;
+    let (_, plot_h) = chart.plotting_area().dim_in_pixel();
+    let below_px = (lower - panel.lo) / (panel.hi - panel.lo) * f64::from(plot_h);
+    let (dy, vpos) = if below_px > 26.0 * scale {
+        (px(7.0), VPos::Top)
+    } else {
+        (-px(7.0), VPos::Bottom)
+    };
+    let style = TextStyle::from((font::FAMILY, font_size).into_font())
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Right, vpos));
+    chart
+        .draw_series(std::iter::once(
+            EmptyElement::at((f, lower)) + Text::new(label, (-px(6.0), dy), style),
+        ))
+        .map_err(plot_err)?;
+    Ok(())
+}
 
 /// Draw the polylines and isolated points of one series.
 fn draw_pieces<DB: DrawingBackend>(
@@ -1356,10 +1383,10 @@ mod tests {
         assert_eq!(format_freq_tick(2e6), "2e6");
         let t = freq_ticks(2.0, 8.0);
         assert!(t.major.len() >= 2);
-        let p = value_ticks(-250.0, -90.0, Some(-180.0), &phase_steps(), 20.0);
+        let p = value_ticks(-250.0, -90.0, Some(-180.0), &phase_steps(), 9.0, 20.0);
         assert!(p.major.iter().all(|v| v % 45.0 == 0.0), "{p:?}");
         assert!(p.lo <= -250.0 && p.hi >= -90.0);
-        let m = value_ticks(-80.0, 40.0, Some(0.0), &nice_steps_125(), 10.0);
+        let m = value_ticks(-80.0, 40.0, Some(0.0), &nice_steps_125(), 8.0, 10.0);
         assert!(m.major.contains(&0.0));
         assert_eq!(format_freq_hz(4.5678), "4.57");
         assert_eq!(format_freq_hz(0.012345), "0.0123");

@@ -11,6 +11,7 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::bode::{
     linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
@@ -35,8 +36,6 @@ const MIN_Y_LABEL_AREA: f64 = 82.0;
 const TICK_LABEL_SIZE: f64 = 15.0;
 const AXIS_DESC_SIZE: f64 = 17.0;
 const LEGEND_FONT_SIZE: f64 = 15.0;
-const LEGEND_MARGIN: f64 = 10.0;
-const LEGEND_AREA: f64 = 36.0;
 const LEGEND_SAMPLE: f64 = 28.0;
 /// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
 const MIN_PLOT_HEIGHT_PX: i32 = 40;
@@ -115,9 +114,12 @@ pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32
 /// data". The time axis spans the union of the finite times of all traces;
 /// each panel's value axis spans its finite values with 5 % padding (a
 /// constant signal gets ±5 % of its value, or ±1 around 0). A panel with
-/// more than one trace or a labelled trace gets a legend of its labelled
-/// traces, in the top-right corner unless another corner hides less of the
-/// curves.
+/// labelled traces gets a legend of them (semi-transparent box): in the
+/// top-right corner if it hides no curve there, else in the first free corner
+/// (top left, bottom right, bottom left), using up to 4 columns if one column
+/// fits nowhere; if every placement hides a curve, the top of the value axis
+/// is raised (legend at most 40 % of the panel height) to make room above
+/// the data, and failing that the legend covers the fewest curve segments.
 ///
 /// # Errors
 /// [`ReportError::Empty`] when `panels` is empty or no trace has a point with
@@ -403,7 +405,7 @@ impl<'a> Figure<'a> {
 
         // Ticks: at most one labelled value per ~36 px of panel height.
         let max_y_intervals = (f64::from(plot_h) / (36.0 * scale)).floor().clamp(2.0, 8.0);
-        let y_ticks: Vec<LinearTicks> = self
+        let mut y_ticks: Vec<LinearTicks> = self
             .panels
             .iter()
             .map(|p| ticks(p.y_range.0, p.y_range.1, max_y_intervals))
@@ -411,22 +413,97 @@ impl<'a> Figure<'a> {
 
         // Horizontal layout: the y label area fits the widest tick label.
         let label_style = text(TICK_LABEL_SIZE);
-        let mut widest = 0u32;
-        for t in &y_ticks {
-            let axis = t.axis();
-            for v in &t.major {
-                let s = axis.format_ext(v);
-                let (w, _) = root
-                    .estimate_text_size(&s, &label_style)
-                    .map_err(plot_err)?;
-                widest = widest.max(w);
+        let y_label_area = |y_ticks: &[LinearTicks]| -> Result<i32, ReportError> {
+            let mut widest = 0u32;
+            for t in y_ticks {
+                let axis = t.axis();
+                for v in &t.major {
+                    let s = axis.format_ext(v);
+                    let (w, _) = root
+                        .estimate_text_size(&s, &label_style)
+                        .map_err(plot_err)?;
+                    widest = widest.max(w);
+                }
             }
-        }
-        let y_label_area = px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0));
+            Ok(px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0)))
+        };
         let (m_left, m_right) = (px(MARGIN_LEFT), px(MARGIN_RIGHT));
-        let plot_w = (width as i32 - m_left - m_right - y_label_area).max(10);
+        let plot_w = (width as i32 - m_left - m_right - y_label_area(&y_ticks)?).max(10);
         let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
         let x_ticks = time_ticks(self.t_range.0, self.t_range.1, max_x_intervals);
+
+        // Legends: size, corner and columns; headroom above the data when
+        // every placement would hide part of the curves.
+        let styles = TraceStyles {
+            line_w: upx(2.0),
+            dot_r: upx(3.0),
+            dash: (px(10.0).max(2), px(6.0).max(2)),
+            dot: (px(2.0).max(1), px(6.0).max(2)),
+        };
+        let legend_metrics = LegendMetrics {
+            font: text(LEGEND_FONT_SIZE),
+            row_h: px(LEGEND_FONT_SIZE * 1.4),
+            pad: px(8.0),
+            sample_len: px(LEGEND_SAMPLE),
+            sample_gap: px(8.0),
+            col_gap: px(20.0),
+            inset: px(6.0),
+        };
+        let mut legends = Vec::with_capacity(self.panels.len());
+        for (data, yt) in self.panels.iter().zip(y_ticks.iter_mut()) {
+            let entries = legend_entries(data, &styles);
+            if entries.is_empty() {
+                legends.push(None);
+                continue;
+            }
+            let mut label_w = Vec::with_capacity(entries.len());
+            for e in &entries {
+                let (w, _) = root
+                    .estimate_text_size(&e.label, &legend_metrics.font)
+                    .map_err(plot_err)?;
+                label_w.push(w as i32);
+            }
+            let plot = (plot_w, plot_h);
+            let x_range = (x_ticks.lo, x_ticks.hi);
+            let (mut layout, hits) = place_legend(
+                data,
+                x_range,
+                (yt.lo, yt.hi),
+                &label_w,
+                &legend_metrics,
+                plot,
+            );
+            if hits > 0 {
+                // Raise the top of the axis until the legend fits above the
+                // data (the most compact layout, at most 40 % of the panel).
+                if let Some(compact) = compact_legend(&label_w, &legend_metrics, plot_w) {
+                    let frac = f64::from(compact.h + 2 * legend_metrics.inset) / f64::from(plot_h);
+                    if frac <= 0.4 {
+                        let top = data.y_range.1;
+                        let mut raised = yt.clone();
+                        for _ in 0..4 {
+                            let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
+                            raised = ticks(raised.lo, hi, max_y_intervals);
+                            let (l, h) = place_legend(
+                                data,
+                                x_range,
+                                (raised.lo, raised.hi),
+                                &label_w,
+                                &legend_metrics,
+                                plot,
+                            );
+                            if h == 0 {
+                                *yt = raised;
+                                layout = l;
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+            legends.push(Some((entries, label_w, layout)));
+        }
+        let y_label_area = y_label_area(&y_ticks)?;
 
         // Panel areas, top to bottom.
         let mut breaks = Vec::with_capacity(self.panels.len());
@@ -440,15 +517,15 @@ impl<'a> Figure<'a> {
         let desc_style = text(AXIS_DESC_SIZE);
         let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
         let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
-        let styles = TraceStyles {
-            line_w: upx(2.0),
-            dot_r: upx(3.0),
-            dash: (px(10.0).max(2), px(6.0).max(2)),
-            dot: (px(2.0).max(1), px(6.0).max(2)),
-            legend_len: px(LEGEND_SAMPLE),
-        };
 
-        for (i, ((data, area), yt)) in self.panels.iter().zip(&areas).zip(&y_ticks).enumerate() {
+        for (i, (((data, area), yt), legend)) in self
+            .panels
+            .iter()
+            .zip(&areas)
+            .zip(&y_ticks)
+            .zip(&legends)
+            .enumerate()
+        {
             let first = i == 0;
             let last = i + 1 == self.panels.len();
             let mut chart = ChartBuilder::on(area)
@@ -471,7 +548,7 @@ impl<'a> Figure<'a> {
             }
             mesh.draw().map_err(plot_err)?;
 
-            let (pw, ph) = chart.plotting_area().dim_in_pixel();
+            let (pw, _) = chart.plotting_area().dim_in_pixel();
             let bucket_count = (pw as usize).max(1) * 2;
             for ((trace, pieces), &color) in
                 data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
@@ -485,48 +562,16 @@ impl<'a> Figure<'a> {
                     (x_ticks.lo, x_ticks.hi, bucket_count),
                 )?;
             }
-
-            let labelled: Vec<&str> = data
-                .panel
-                .traces
-                .iter()
-                .map(|t| t.label.as_str())
-                .filter(|l| !l.is_empty())
-                .collect();
-            if !labelled.is_empty() {
-                let legend_font = text(LEGEND_FONT_SIZE);
-                let mut longest = 0u32;
-                for l in &labelled {
-                    let (w, _) = root.estimate_text_size(l, &legend_font).map_err(plot_err)?;
-                    longest = longest.max(w);
-                }
-                // Box size as plotters lays it out, plus its 5 px inset.
-                let box_w = f64::from(longest)
-                    + f64::from(px(LEGEND_AREA))
-                    + 2.0 * f64::from(px(LEGEND_MARGIN))
-                    + 5.0;
-                let box_h = (labelled.len() as f64 * 1.25 * LEGEND_FONT_SIZE * scale)
-                    + 2.0 * f64::from(px(LEGEND_MARGIN))
-                    + 5.0;
-                let position = legend_position(
-                    data,
-                    (x_ticks.lo, x_ticks.hi),
-                    (yt.lo, yt.hi),
-                    box_w / f64::from(pw.max(1)),
-                    box_h / f64::from(ph.max(1)),
-                );
-                chart
-                    .configure_series_labels()
-                    .position(position)
-                    .margin(px(LEGEND_MARGIN))
-                    .legend_area_size(px(LEGEND_AREA))
-                    .label_font(legend_font)
-                    .background_style(WHITE.mix(0.88))
-                    .border_style(BLACK.mix(0.45))
-                    .draw()
-                    .map_err(plot_err)?;
+            if let Some((entries, label_w, layout)) = legend {
+                draw_legend(
+                    &chart.plotting_area().strip_coord_spec(),
+                    entries,
+                    label_w,
+                    layout,
+                    &legend_metrics,
+                    upx(1.0),
+                )?;
             }
-
             chart
                 .plotting_area()
                 .draw(&PathElement::new(
@@ -581,13 +626,24 @@ struct TraceStyles {
     dash: (i32, i32),
     /// (dot, gap) of [`LineStyle::Dotted`].
     dot: (i32, i32),
-    legend_len: i32,
+}
+
+impl TraceStyles {
+    /// (dash, gap) in pixels of a line style; `None` for a solid line.
+    fn pattern(&self, style: LineStyle) -> Option<(i32, i32)> {
+        match style {
+            LineStyle::Solid => None,
+            LineStyle::Dashed => Some(self.dash),
+            LineStyle::Dotted => Some(self.dot),
+        }
+    }
 }
 
 type PanelChart<'b, DB> =
     ChartContext<'b, DB, Cartesian2d<TickedAxis<RangedCoordf64>, TickedAxis<RangedCoordf64>>>;
 
-/// Draw one trace (lines, isolated dots) and register its legend entry.
+/// Draw one trace: its polylines (decimated to `buckets` columns over
+/// `t_lo..t_hi`) and its isolated points.
 fn draw_trace<DB: DrawingBackend>(
     chart: &mut PanelChart<'_, DB>,
     trace: &Trace,
@@ -601,12 +657,7 @@ fn draw_trace<DB: DrawingBackend>(
         .lines
         .iter()
         .map(|line| decimate(line, t_lo, t_hi, buckets));
-    let pattern = match trace.style {
-        LineStyle::Solid => None,
-        LineStyle::Dashed => Some(styles.dash),
-        LineStyle::Dotted => Some(styles.dot),
-    };
-    match pattern {
+    match styles.pattern(trace.style) {
         None => {
             chart
                 .draw_series(lines.map(|l| PathElement::new(l, style)))
@@ -618,7 +669,7 @@ fn draw_trace<DB: DrawingBackend>(
                 .map_err(plot_err)?;
         }
     }
-    let anno = chart
+    chart
         .draw_series(
             pieces
                 .dots
@@ -626,20 +677,6 @@ fn draw_trace<DB: DrawingBackend>(
                 .map(|&p| Circle::new(p, styles.dot_r, color.filled())),
         )
         .map_err(plot_err)?;
-    if !trace.label.is_empty() {
-        let len = styles.legend_len;
-        let anno = anno.label(trace.label.clone());
-        match pattern {
-            None => {
-                anno.legend(move |(x, y)| PathElement::new([(x, y), (x + len, y)], style));
-            }
-            Some((on, off)) => {
-                anno.legend(move |(x, y)| {
-                    DashedPathElement::new(vec![(x, y), (x + len, y)], on, off, style)
-                });
-            }
-        }
-    }
     Ok(())
 }
 
@@ -679,48 +716,186 @@ fn decimate(line: &[(f64, f64)], t_lo: f64, t_hi: f64, buckets: usize) -> Polyli
     out
 }
 
-/// Legend corner hiding the fewest curve segments, preferring the top
-/// right, given the legend size as fractions of the plotting area.
-fn legend_position(
+/// One legend row: a line sample and a label.
+struct LegendEntry {
+    label: String,
+    style: ShapeStyle,
+    pattern: Option<(i32, i32)>,
+}
+
+/// Legend entries of a panel: its traces with a non-empty label, in order.
+fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry> {
+    data.panel
+        .traces
+        .iter()
+        .zip(&data.colors)
+        .filter(|(t, _)| !t.label.is_empty())
+        .map(|(t, &c)| LegendEntry {
+            label: t.label.clone(),
+            style: PALETTE[c].stroke_width(styles.line_w),
+            pattern: styles.pattern(t.style),
+        })
+        .collect()
+}
+
+/// Pixel sizes of the legend box.
+struct LegendMetrics<'f> {
+    font: TextStyle<'f>,
+    row_h: i32,
+    /// Padding inside the box.
+    pad: i32,
+    sample_len: i32,
+    /// Gap between sample and label.
+    sample_gap: i32,
+    /// Gap between columns.
+    col_gap: i32,
+    /// Distance of the box from the plotting-area edges.
+    inset: i32,
+}
+
+/// Legend box: columns (entries fill them top to bottom), corner and size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LegendLayout {
+    columns: usize,
+    rows: usize,
+    /// (right, top): true for the right / top corner.
+    corner: (bool, bool),
+    w: i32,
+    h: i32,
+}
+
+/// Legend of `label_w.len()` entries in `columns` columns, unplaced.
+fn legend_box(label_w: &[i32], m: &LegendMetrics<'_>, columns: usize) -> LegendLayout {
+    let rows = label_w.len().div_ceil(columns.max(1)).max(1);
+    let columns = label_w.len().div_ceil(rows).max(1);
+    let col_w: i32 = label_w
+        .chunks(rows)
+        .map(|c| c.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap)
+        .sum();
+    LegendLayout {
+        columns,
+        rows,
+        corner: (true, true),
+        w: col_w + (columns as i32 - 1) * m.col_gap + 2 * m.pad,
+        h: rows as i32 * m.row_h + 2 * m.pad - (m.row_h - m.font.font.get_size() as i32).max(0),
+    }
+}
+
+/// The lowest legend (most columns) that fits in a plot `plot_w` px wide.
+fn compact_legend(label_w: &[i32], m: &LegendMetrics<'_>, plot_w: i32) -> Option<LegendLayout> {
+    (1..=label_w.len().min(4))
+        .rev()
+        .map(|c| legend_box(label_w, m, c))
+        .find(|l| l.w + 2 * m.inset <= plot_w)
+}
+
+/// Legend layout hiding the fewest curve segments, and how many it hides;
+/// fewer columns first, then the corners top right, top left, bottom right,
+/// bottom left. `plot` is the plotting-area size in pixels.
+fn place_legend(
     data: &PanelData<'_>,
     (t_lo, t_hi): (f64, f64),
     (y_lo, y_hi): (f64, f64),
-    legend_w: f64,
-    legend_h: f64,
-) -> SeriesLabelPosition {
-    let (lw, lh) = (legend_w.min(1.0), legend_h.min(1.0));
-    let candidates = [
-        (SeriesLabelPosition::UpperRight, 1.0 - lw, 1.0 - lh),
-        (SeriesLabelPosition::UpperLeft, 0.0, 1.0 - lh),
-        (SeriesLabelPosition::LowerRight, 1.0 - lw, 0.0),
-        (SeriesLabelPosition::LowerLeft, 0.0, 0.0),
-    ];
+    label_w: &[i32],
+    m: &LegendMetrics<'_>,
+    (plot_w, plot_h): (i32, i32),
+) -> (LegendLayout, usize) {
     let norm = |(t, y): (f64, f64)| ((t - t_lo) / (t_hi - t_lo), (y - y_lo) / (y_hi - y_lo));
-    let mut best = (usize::MAX, SeriesLabelPosition::UpperRight);
-    for (pos, x0, y0) in candidates {
-        let rect = (x0, y0, x0 + lw, y0 + lh);
-        let mut hits = 0;
-        for pieces in &data.pieces {
-            for line in &pieces.lines {
-                hits += line
-                    .windows(2)
-                    .filter(|w| segment_hits_rect(norm(w[0]), norm(w[1]), rect))
+    let (pw, ph) = (f64::from(plot_w.max(1)), f64::from(plot_h.max(1)));
+    let mut best: Option<(LegendLayout, usize)> = None;
+    for columns in 1..=label_w.len().min(4) {
+        let mut layout = legend_box(label_w, m, columns);
+        if layout.columns != columns || (columns > 1 && layout.w + 2 * m.inset > plot_w) {
+            continue;
+        }
+        // Box as fractions of the plotting area, y upwards.
+        let (lw, lh) = (
+            f64::from(layout.w + m.inset) / pw,
+            f64::from(layout.h + m.inset) / ph,
+        );
+        for corner in [(true, true), (false, true), (true, false), (false, false)] {
+            let x0 = if corner.0 { 1.0 - lw } else { 0.0 };
+            let y0 = if corner.1 { 1.0 - lh } else { 0.0 };
+            let rect = (x0, y0, x0 + lw, y0 + lh);
+            let mut hits = 0;
+            for pieces in &data.pieces {
+                for line in &pieces.lines {
+                    hits += line
+                        .windows(2)
+                        .filter(|w| segment_hits_rect(norm(w[0]), norm(w[1]), rect))
+                        .count();
+                }
+                hits += pieces
+                    .dots
+                    .iter()
+                    .filter(|&&p| segment_hits_rect(norm(p), norm(p), rect))
                     .count();
             }
-            hits += pieces
-                .dots
-                .iter()
-                .filter(|&&p| segment_hits_rect(norm(p), norm(p), rect))
-                .count();
-        }
-        if hits < best.0 {
-            best = (hits, pos);
-        }
-        if hits == 0 {
-            break;
+            let better = match &best {
+                Some((_, h)) => hits < *h,
+                None => true,
+            };
+            if better {
+                layout.corner = corner;
+                best = Some((layout, hits));
+            }
+            if hits == 0 {
+                return (layout, 0);
+            }
         }
     }
-    best.1
+    best.unwrap_or_else(|| (legend_box(label_w, m, 1), 0))
+}
+
+/// Draw a legend box in the pixel coordinates of the plotting area.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+    label_w: &[i32],
+    layout: &LegendLayout,
+    m: &LegendMetrics<'_>,
+    border_w: u32,
+) -> Result<(), ReportError> {
+    let (pw, ph) = area.dim_in_pixel();
+    let x0 = if layout.corner.0 {
+        pw as i32 - m.inset - layout.w
+    } else {
+        m.inset
+    };
+    let y0 = if layout.corner.1 {
+        m.inset
+    } else {
+        ph as i32 - m.inset - layout.h
+    };
+    let corners = [(x0, y0), (x0 + layout.w, y0 + layout.h)];
+    area.draw(&Rectangle::new(corners, WHITE.mix(0.88).filled()))
+        .map_err(plot_err)?;
+    area.draw(&Rectangle::new(
+        corners,
+        BLACK.mix(0.45).stroke_width(border_w),
+    ))
+    .map_err(plot_err)?;
+    let text_style = m.font.pos(Pos::new(HPos::Left, VPos::Center));
+    let mut x = x0 + m.pad;
+    for (col, widths) in entries.chunks(layout.rows).zip(label_w.chunks(layout.rows)) {
+        for (row, e) in col.iter().enumerate() {
+            let y = y0 + m.pad + row as i32 * m.row_h + m.font.font.get_size() as i32 / 2;
+            let sample = [(x, y), (x + m.sample_len, y)];
+            match e.pattern {
+                None => area.draw(&PathElement::new(sample, e.style)),
+                Some((on, off)) => area.draw(&DashedPathElement::new(sample, on, off, e.style)),
+            }
+            .map_err(plot_err)?;
+            area.draw(&Text::new(
+                e.label.clone(),
+                (x + m.sample_len + m.sample_gap, y),
+                text_style.clone(),
+            ))
+            .map_err(plot_err)?;
+        }
+        x += widths.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap + m.col_gap;
+    }
+    Ok(())
 }
 
 /// Whether the segment `a`-`b` touches the rectangle `(x0, y0, x1, y1)`
@@ -1037,6 +1212,72 @@ mod tests {
         assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
         let short = &line[..50];
         assert_eq!(decimate(short, 0.0, 10.0, 100), short.to_vec());
+    }
+
+    #[test]
+    fn legend_layout_and_placement() {
+        let m = LegendMetrics {
+            font: TextStyle::from((font::FAMILY, 15.0).into_font()),
+            row_h: 21,
+            pad: 8,
+            sample_len: 28,
+            sample_gap: 8,
+            col_gap: 20,
+            inset: 6,
+        };
+        let w = [20, 30, 90, 100];
+        let one = legend_box(&w, &m, 1);
+        assert_eq!((one.columns, one.rows), (1, 4));
+        assert_eq!(one.w, 100 + 36 + 16);
+        let two = legend_box(&w, &m, 2);
+        assert_eq!((two.columns, two.rows), (2, 2));
+        assert_eq!(two.w, 30 + 36 + 100 + 36 + 20 + 16);
+        assert!(two.h < one.h);
+        // Three columns of four entries collapse to two.
+        assert_eq!(legend_box(&w, &m, 3).columns, 2);
+        let cols = |plot_w| compact_legend(&w, &m, plot_w).map(|l| l.columns);
+        assert_eq!(cols(1000), Some(4));
+        assert_eq!(compact_legend(&w, &m, 300), Some(two));
+        assert_eq!(cols(200), Some(1));
+        assert_eq!(cols(100), None);
+
+        // A curve in the upper right only: the legend goes to the upper left.
+        let t = time(101, 0.01);
+        let y: Vec<f64> = t
+            .iter()
+            .map(|&t| if t > 0.5 { 10.0 } else { 0.0 })
+            .collect();
+        let panels = [Panel {
+            y_label: "y".into(),
+            traces: vec![trace("a", &t, &y), trace("b", &t, &y)],
+        }];
+        let fig = Figure::prepare("t", None, &panels).unwrap();
+        let (layout, hits) = place_legend(
+            &fig.panels[0],
+            (0.0, 1.0),
+            (-1.0, 11.0),
+            &[30, 30],
+            &m,
+            (800, 200),
+        );
+        assert_eq!(hits, 0);
+        assert_eq!(layout.corner, (false, true));
+        // Curves everywhere: some hits remain.
+        let y: Vec<f64> = t.iter().map(|&t| (200.0 * t).sin()).collect();
+        let panels = [Panel {
+            y_label: "y".into(),
+            traces: vec![trace("a", &t, &y)],
+        }];
+        let fig = Figure::prepare("t", None, &panels).unwrap();
+        let (_, hits) = place_legend(
+            &fig.panels[0],
+            (0.0, 1.0),
+            (-1.05, 1.05),
+            &[30],
+            &m,
+            (800, 200),
+        );
+        assert!(hits > 0);
     }
 
     #[test]
