@@ -845,10 +845,12 @@ impl<'a> Figure<'a> {
         }
         best.1
     }
+}
 
+impl render::Draw for Figure<'_> {
     /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
     /// and paddings (1.0 for 1000 x 750 px).
-    fn render<DB: DrawingBackend>(
+    fn draw<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
         scale: f64,
@@ -1148,16 +1150,6 @@ fn frame<DB: DrawingBackend>(
             BLACK.stroke_width(width),
         ))
         .map_err(plot_err)
-}
-
-impl render::Draw for Figure<'_> {
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        scale: f64,
-    ) -> Result<(), ReportError> {
-        self.render(root, scale)
-    }
 }
 
 #[cfg(test)]

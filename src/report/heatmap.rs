@@ -673,9 +673,76 @@ impl<'a> Figure<'a> {
         })
     }
 
+    /// Draw one marker (white-edged cross) at pixel `(cx, cy)` and its label
+    /// in a white box, placed up-right of the cross unless that leaves the
+    /// plotting area `(left, right, top, bottom)`.
+    fn draw_marker<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        marker: &Marker,
+        (cx, cy): (i32, i32),
+        (left, right, top, bottom): (i32, i32, i32, i32),
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        let px = |v: f64| (v * scale).round() as i32;
+        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
+        let arm = px(MARKER_ARM).max(3);
+        let edge = px(1.5).max(1);
+        for (a, style) in [
+            (arm + edge, WHITE.stroke_width(upx(5.0))),
+            (arm, BLACK.stroke_width(upx(2.0))),
+        ] {
+            for path in [[(cx - a, cy), (cx + a, cy)], [(cx, cy - a), (cx, cy + a)]] {
+                root.draw(&PathElement::new(path, style))
+                    .map_err(plot_err)?;
+            }
+        }
+        if marker.label.is_empty() {
+            return Ok(());
+        }
+        let style = TextStyle::from((font::FAMILY, MARKER_LABEL_SIZE * scale).into_font())
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Left, VPos::Top));
+        let (tw, th) = root
+            .estimate_text_size(&marker.label, &style)
+            .map_err(plot_err)?;
+        let pad = px(4.0);
+        let (bw, bh) = (tw as i32 + 2 * pad, th as i32 + 2 * pad);
+        let gap = arm + px(4.0);
+        let mut x0 = cx + gap;
+        if x0 + bw > right {
+            x0 = cx - gap - bw;
+        }
+        let mut y0 = cy - gap - bh;
+        if y0 < top {
+            y0 = cy + gap;
+        }
+        let x0 = x0.min(right - bw).max(left);
+        let y0 = y0.min(bottom - bh).max(top);
+        root.draw(&Rectangle::new(
+            [(x0, y0), (x0 + bw, y0 + bh)],
+            WHITE.mix(0.85).filled(),
+        ))
+        .map_err(plot_err)?;
+        root.draw(&Rectangle::new(
+            [(x0, y0), (x0 + bw, y0 + bh)],
+            BLACK.mix(0.45).stroke_width(1),
+        ))
+        .map_err(plot_err)?;
+        root.draw(&Text::new(
+            marker.label.clone(),
+            (x0 + pad, y0 + pad),
+            style,
+        ))
+        .map_err(plot_err)?;
+        Ok(())
+    }
+}
+
+impl render::Draw for Figure<'_> {
     /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
     /// and paddings (1.0 for 900 x 700 px).
-    fn render<DB: DrawingBackend>(
+    fn draw<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
         scale: f64,
@@ -931,81 +998,6 @@ impl<'a> Figure<'a> {
             .map_err(plot_err)?;
         }
         Ok(())
-    }
-
-    /// Draw one marker (white-edged cross) at pixel `(cx, cy)` and its label
-    /// in a white box, placed up-right of the cross unless that leaves the
-    /// plotting area `(left, right, top, bottom)`.
-    fn draw_marker<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        marker: &Marker,
-        (cx, cy): (i32, i32),
-        (left, right, top, bottom): (i32, i32, i32, i32),
-        scale: f64,
-    ) -> Result<(), ReportError> {
-        let px = |v: f64| (v * scale).round() as i32;
-        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
-        let arm = px(MARKER_ARM).max(3);
-        let edge = px(1.5).max(1);
-        for (a, style) in [
-            (arm + edge, WHITE.stroke_width(upx(5.0))),
-            (arm, BLACK.stroke_width(upx(2.0))),
-        ] {
-            for path in [[(cx - a, cy), (cx + a, cy)], [(cx, cy - a), (cx, cy + a)]] {
-                root.draw(&PathElement::new(path, style))
-                    .map_err(plot_err)?;
-            }
-        }
-        if marker.label.is_empty() {
-            return Ok(());
-        }
-        let style = TextStyle::from((font::FAMILY, MARKER_LABEL_SIZE * scale).into_font())
-            .color(&BLACK)
-            .pos(Pos::new(HPos::Left, VPos::Top));
-        let (tw, th) = root
-            .estimate_text_size(&marker.label, &style)
-            .map_err(plot_err)?;
-        let pad = px(4.0);
-        let (bw, bh) = (tw as i32 + 2 * pad, th as i32 + 2 * pad);
-        let gap = arm + px(4.0);
-        let mut x0 = cx + gap;
-        if x0 + bw > right {
-            x0 = cx - gap - bw;
-        }
-        let mut y0 = cy - gap - bh;
-        if y0 < top {
-            y0 = cy + gap;
-        }
-        let x0 = x0.min(right - bw).max(left);
-        let y0 = y0.min(bottom - bh).max(top);
-        root.draw(&Rectangle::new(
-            [(x0, y0), (x0 + bw, y0 + bh)],
-            WHITE.mix(0.85).filled(),
-        ))
-        .map_err(plot_err)?;
-        root.draw(&Rectangle::new(
-            [(x0, y0), (x0 + bw, y0 + bh)],
-            BLACK.mix(0.45).stroke_width(1),
-        ))
-        .map_err(plot_err)?;
-        root.draw(&Text::new(
-            marker.label.clone(),
-            (x0 + pad, y0 + pad),
-            style,
-        ))
-        .map_err(plot_err)?;
-        Ok(())
-    }
-}
-
-impl render::Draw for Figure<'_> {
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        scale: f64,
-    ) -> Result<(), ReportError> {
-        self.render(root, scale)
     }
 }
 

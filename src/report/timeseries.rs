@@ -367,10 +367,12 @@ impl<'a> Figure<'a> {
             panels,
         })
     }
+}
 
+impl render::Draw for Figure<'_> {
     /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
     /// and paddings (1.0 for the default size).
-    fn render<DB: DrawingBackend>(
+    fn draw<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
         scale: f64,
@@ -926,16 +928,6 @@ fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, 
         }
     }
     true
-}
-
-impl render::Draw for Figure<'_> {
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        scale: f64,
-    ) -> Result<(), ReportError> {
-        self.render(root, scale)
-    }
 }
 
 #[cfg(test)]
