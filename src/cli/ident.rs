@@ -22,15 +22,26 @@ use crate::report::{self, LineStyle, Panel, Trace};
 pub struct LeakageArgs {
     #[command(flatten)]
     rig: RigSource,
+    /// A standstill record (SPEC §9 CSV with w1_rpm, w2_rpm, p1_bar): its means are used.
+    #[arg(long, value_name = "RECORD.csv", conflicts_with_all = ["w1_rpm", "w2_rpm", "p1_bar"])]
+    record: Option<PathBuf>,
     /// Motor/pump 1 speed at standstill (rpm).
-    #[arg(long, allow_negative_numbers = true)]
-    w1_rpm: f64,
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        required_unless_present = "record"
+    )]
+    w1_rpm: Option<f64>,
     /// Motor/pump 2 speed at standstill (rpm).
-    #[arg(long, allow_negative_numbers = true)]
-    w2_rpm: f64,
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        required_unless_present = "record"
+    )]
+    w2_rpm: Option<f64>,
     /// Chamber 1 pressure at standstill (bar gauge).
-    #[arg(long)]
-    p1_bar: f64,
+    #[arg(long, required_unless_present = "record")]
+    p1_bar: Option<f64>,
     /// Cross-port leakage c12 (m⁵/(N·s)).
     #[arg(long)]
     c12: f64,
@@ -122,19 +133,23 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
         args.c12
     );
     let rig = args.rig.load()?;
-    let s = Standstill {
-        w1_rpm: args.w1_rpm,
-        w2_rpm: args.w2_rpm,
-        p1_bar: args.p1_bar,
+    let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
+        (Some(path), ..) => Standstill::of_record(&crate::record::Record::read(path)?)?,
+        (None, Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Standstill {
+            w1_rpm,
+            w2_rpm,
+            p1_bar,
+        },
+        _ => anyhow::bail!("give --record or all of --w1-rpm, --w2-rpm, --p1-bar"),
     };
     let l = s.leakage(&rig, args.c12)?;
     if args.json {
         return Ok(serde_json::to_string_pretty(&l)? + "\n");
     }
     Ok(format!(
-        "standstill (SPEC §6.2): w1 {} rpm, w2 {} rpm, p1 {} bar\n  p2 (force balance)  {:.3} bar\n  \
+        "standstill (SPEC §6.2): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
          c12                 {:.4e} m5/(N s)\n  c1                  {:.4e} m5/(N s)\n  c2                  {:.4e} m5/(N s)\n",
-        args.w1_rpm, args.w2_rpm, args.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
+        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
     ))
 }
 

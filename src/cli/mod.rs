@@ -3,6 +3,7 @@
 mod analysis;
 mod bulk;
 mod design;
+mod emulate;
 mod ident;
 mod output;
 mod time;
@@ -63,6 +64,9 @@ enum Command {
     /// SPEC §8 for a rig before it is built: the largest Kp meeting margin targets, margins
     /// across stroke, mass and pressure, predicted tracking, and a verdict.
     Design(design::DesignArgs),
+    /// Records from the nonlinear rig emulator (SPEC §9 CSV): a step, a sinusoid, a standstill
+    /// or a drive step, or every embedded article record with --article-records.
+    Emulate(emulate::EmulateArgs),
 }
 
 #[derive(Debug, Args)]
@@ -83,10 +87,10 @@ struct RigArgs {
 pub struct RigSource {
     /// Rig description (TOML). Default: the embedded article rig.
     #[arg(long, value_name = "FILE.toml")]
-    rig: Option<PathBuf>,
+    pub(crate) rig: Option<PathBuf>,
     /// Override a rig key: --set beta_bar=37.8 (repeatable; same keys as the TOML).
     #[arg(long = "set", value_name = "KEY=VALUE")]
-    set: Vec<String>,
+    pub(crate) set: Vec<String>,
 }
 
 impl RigSource {
@@ -222,6 +226,7 @@ pub fn run() -> Result<()> {
         Command::IdentifyMerge(args) => ident::merge(&args)?,
         Command::BulkModulus(args) => bulk::bulk(&args)?,
         Command::Design(args) => design::run(&args)?,
+        Command::Emulate(args) => emulate::run(&args)?,
     };
     output::emit(&text)
 }

@@ -7,9 +7,12 @@
 //!
 //! [`plc`] closes the loop at the PLC's rate and integrates these dynamics between samples.
 
+pub mod article;
+mod experiment;
 mod plc;
 
-pub use plc::{emulate, Plc};
+pub use experiment::{DriveSignals, DriveStep, Experiment};
+pub use plc::{emulate, equilibrium, Plc};
 
 use crate::bulk::effective_beta;
 use crate::model::{Layout, Plant};
@@ -20,8 +23,8 @@ use crate::rig::{MotorModel, Rig, RigSi, PA_PER_BAR};
 pub struct Effects {
     /// Chamber volumes V1 = VL1 + A1 x, V2 = VL2 + A2 (x_max − x) instead of fixed at x0.
     pub varying_volumes: bool,
-    /// Gas fraction X of the bulk-modulus model (β_e from the chamber's own pressure); `None`
-    /// keeps β constant.
+    /// Gas fraction X of the bulk-modulus model: β_e of both chambers from their mean pressure
+    /// (p1 + p2)/2, as SPEC §7 defines it; `None` keeps β constant.
     pub gas_fraction: Option<f64>,
     /// Pure-oil bulk modulus (bar) for the gas-fraction model.
     pub beta_oil_bar: f64,
@@ -29,12 +32,19 @@ pub struct Effects {
     pub peak_torque_factor: Option<f64>,
     /// Pumps cannot be driven beyond their maximum speed (the rig's `pump_max_speed_rpm`).
     pub pump_speed_limit: bool,
-    /// Pump speed below which the delivered flow fades out (rad/s); 0 = ideal pumps.
+    /// Pump speed below which the delivered flow fades out and the slip leakage sets in
+    /// (rad/s); 0 = ideal pumps.
     pub dead_band_rad_s: f64,
+    /// Extra internal leakage of a pump turning slower than the dead band, across its ports
+    /// (m⁵/(N·s)): full at standstill, none at the dead-band speed.
+    pub slip_m5_per_ns: f64,
     /// Coulomb friction force (N); 0 = none.
     pub coulomb_n: f64,
-    /// Effective mass change per metre of stroke away from x0 (kg/m); 0 = constant mass.
-    pub mass_slope_kg_per_m: f64,
+    /// Relative change of the effective mass per metre of stroke away from x0 (1/m).
+    pub mass_slope_per_m: f64,
+    /// Relative curvature of the effective mass against stroke (1/m²):
+    /// m(x) = m (1 + slope d + curvature d²), d = x − x0.
+    pub mass_curvature_per_m2: f64,
 }
 
 impl Effects {
@@ -47,9 +57,34 @@ impl Effects {
             peak_torque_factor: None,
             pump_speed_limit: false,
             dead_band_rad_s: 0.0,
+            slip_m5_per_ns: 0.0,
             coulomb_n: 0.0,
-            mass_slope_kg_per_m: 0.0,
+            mass_slope_per_m: 0.0,
+            mass_curvature_per_m2: 0.0,
         }
+    }
+
+    /// Every effect on, as the emulated article rig has them (SPEC §2, §4, §7 and issue 5):
+    /// volumes following the piston, β_e(p) with the gas fraction that gives `beta_bar` at
+    /// `p_mean_bar`, a 3× peak torque, the pump speed limit, a 60 rpm pump dead band with slip
+    /// leakage, 15 N Coulomb friction, and the seesaw's effective mass against stroke
+    /// (9958 kg at −50 mm, 12 373 kg at +50 mm for 10 593 kg at x0: SPEC §4).
+    pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, String> {
+        let oil = crate::bulk::BETA_OIL_BAR;
+        let x = crate::bulk::gas_fraction(beta_bar, p_mean_bar, oil).map_err(|e| e.to_string())?;
+        let (m0, m_minus, m_plus, d) = (10_593.0, 9_958.0, 12_373.0, 0.05);
+        Ok(Effects {
+            varying_volumes: true,
+            gas_fraction: Some(x),
+            beta_oil_bar: oil,
+            peak_torque_factor: Some(3.0),
+            pump_speed_limit: true,
+            dead_band_rad_s: 60.0 * crate::rig::RAD_S_PER_RPM,
+            slip_m5_per_ns: 4e-11,
+            coulomb_n: 15.0,
+            mass_slope_per_m: (m_plus - m_minus) / (2.0 * d) / m0,
+            mass_curvature_per_m2: ((m_plus + m_minus) / 2.0 - m0) / (d * d) / m0,
+        })
     }
 }
 
@@ -94,7 +129,7 @@ impl Dynamics {
         self.layout.n
     }
 
-    /// Bulk modulus (Pa) at a gauge pressure (Pa).
+    /// Bulk modulus (Pa) at a mean chamber gauge pressure (Pa).
     fn beta(&self, p_gauge: f64) -> f64 {
         match self.effects.gas_fraction {
             None => self.si.beta,
@@ -127,7 +162,8 @@ impl Dynamics {
         let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
         let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
         // mechanics
-        let mass = si.mass + e.mass_slope_kg_per_m * (pos - si.x0);
+        let dev = pos - si.x0;
+        let mass = si.mass * (1.0 + e.mass_slope_per_m * dev + e.mass_curvature_per_m2 * dev * dev);
         let coulomb = e.coulomb_n * (v / COULOMB_SMOOTHING_M_S).tanh();
         dx[l.x] = v;
         dx[l.v] = (p1 * si.a1 - p2 * si.a2 - si.f_ext - si.b * v - coulomb) / mass;
@@ -140,11 +176,14 @@ impl Dynamics {
         } else {
             (si.v1, si.v2)
         };
-        let q1 = si.d[0] * w1 * self.pump_factor(w1);
-        let q2 = si.d[1] * w2 * self.pump_factor(w2);
+        let (f1, f2) = (self.pump_factor(w1), self.pump_factor(w2));
+        // pump 1 slips from chamber 1 to 2, pump 2 from chamber 1 to the reservoir
+        let q1 = si.d[0] * w1 * f1 - e.slip_m5_per_ns * (1.0 - f1) * (p1 - p2);
+        let q2 = si.d[1] * w2 * f2 - e.slip_m5_per_ns * (1.0 - f2) * p1;
         let cross = si.c12 * (p1 - p2);
-        let dp1 = self.beta(p1) / v1 * (q1 + q2 - si.a1 * v - si.c1 * p1 - cross);
-        let dp2 = self.beta(p2) / v2 * (-q1 + si.a2 * v - si.c2 * p2 + cross);
+        let beta = self.beta(0.5 * (p1 + p2));
+        let dp1 = beta / v1 * (q1 + q2 - si.a1 * v - si.c1 * p1 - cross);
+        let dp2 = beta / v2 * (-q1 + si.a2 * v - si.c2 * p2 + cross);
         // cavitation: gauge pressure cannot fall below −1 bar
         let floor = -ATMOSPHERE_PA;
         dx[l.p[0]] = if p1 <= floor && dp1 < 0.0 { 0.0 } else { dp1 };

@@ -40,10 +40,11 @@ impl Plc {
 }
 
 /// Seeded Gaussian noise (xorshift64 and Box–Muller): deterministic for a seed.
-struct Noise(u64);
+#[derive(Clone)]
+pub(super) struct Noise(u64);
 
 impl Noise {
-    fn new(seed: u64) -> Noise {
+    pub(super) fn new(seed: u64) -> Noise {
         Noise(seed.max(1).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
     }
     fn uniform(&mut self) -> f64 {
@@ -52,14 +53,14 @@ impl Noise {
         self.0 ^= self.0 << 17;
         ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     }
-    fn gauss(&mut self) -> f64 {
+    pub(super) fn gauss(&mut self) -> f64 {
         let (u1, u2) = (self.uniform(), self.uniform());
         (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
     }
 }
 
 /// Typical magnitude of each state (SI), for finite-difference steps and tolerances.
-fn typical(d: &Dynamics) -> Vec<f64> {
+pub(super) fn typical(d: &Dynamics) -> Vec<f64> {
     let l = &d.layout;
     let mut t = vec![1.0; l.n];
     t[l.x] = 1e-3;
@@ -79,11 +80,16 @@ fn typical(d: &Dynamics) -> Vec<f64> {
     t
 }
 
-/// Integrate the dynamics over [t0, t1] with the speed references `u` held, from `x`.
-fn integrate(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f64>, String> {
+/// Integrate ẋ = f(x) over [t0, t1] from `x` by BDF; `scale` holds each state's typical size
+/// (absolute tolerances and finite-difference steps).
+pub(super) fn integrate<F: Fn(&[f64], &mut [f64])>(
+    f: &F,
+    scale: &[f64],
+    x: &[f64],
+    t0: f64,
+    t1: f64,
+) -> Result<Vec<f64>, String> {
     let n = x.len();
-    let scale = typical(d);
-    let scale = &scale;
     let x0 = x.to_vec();
     let err = |e: diffsol::error::DiffsolError| format!("ODE solver: {e}");
     let problem = OdeBuilder::<NalgebraMat<f64>>::new()
@@ -91,9 +97,9 @@ fn integrate(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<V
         .rtol(1e-7)
         .atol(scale.iter().map(|s| s * 1e-7).collect::<Vec<f64>>())
         .rhs_implicit(
-            move |x: &[f64], _p: &[f64], _t: f64, y: &mut [f64]| d.rhs(x, &u, y),
+            move |x: &[f64], _p: &[f64], _t: f64, y: &mut [f64]| f(x, y),
             move |x: &[f64], _p: &[f64], _t: f64, v: &[f64], y: &mut [f64]| {
-                jac_vec(d, x, &u, v, scale, y)
+                jac_vec(f, x, v, scale, y)
             },
         )
         .init(
@@ -105,12 +111,15 @@ fn integrate(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<V
     let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(err)?;
     solver.solve(t1).map_err(err)?;
     let y = solver.state().y.inner().as_slice().to_vec();
+    if y.iter().any(|v| !v.is_finite()) {
+        return Err(format!("ODE solver: the state is not finite at t = {t1} s"));
+    }
     Ok(y)
 }
 
 /// J(x)·v by a forward difference along v, the step scaled so no state moves by more than
 /// 1e-7 of its typical size.
-fn jac_vec(d: &Dynamics, x: &[f64], u: &[f64; 2], v: &[f64], scale: &[f64], y: &mut [f64]) {
+fn jac_vec<F: Fn(&[f64], &mut [f64])>(f: &F, x: &[f64], v: &[f64], scale: &[f64], y: &mut [f64]) {
     let vmax = v
         .iter()
         .zip(scale)
@@ -123,18 +132,17 @@ fn jac_vec(d: &Dynamics, x: &[f64], u: &[f64; 2], v: &[f64], scale: &[f64], y: &
     let eps = 1e-7 / vmax;
     let xp: Vec<f64> = x.iter().zip(v).map(|(x, v)| x + eps * v).collect();
     let mut f0 = vec![0.0; x.len()];
-    d.rhs(x, u, &mut f0);
-    d.rhs(&xp, u, y);
+    f(x, &mut f0);
+    f(&xp, y);
     for (yi, f) in y.iter_mut().zip(&f0) {
         *yi = (*yi - f) / eps;
     }
 }
 
 /// Emulate the closed loop for the reference `x_ref_mm(t)` from `t = 0` to `duration_s`.
-/// The loop first settles for `settle_s` (not recorded) with the reference held at its t = 0
-/// value, starting from the LTI operating point: the P position loop needs a small steady
-/// error to turn the pumps that feed the leakage, which the LTI deviation model never sees.
-/// Returns the PLC's record (measured signals, in user units).
+/// The run starts at the steady state of the loop for the reference held at its t = 0 value
+/// (see [`equilibrium`]), then runs `settle_s` more with noise (not recorded) so the record
+/// opens with the PLC's own jitter. Returns the PLC's record (measured signals, user units).
 pub fn emulate(
     rig: &Rig,
     dynamics: &Dynamics,
@@ -143,19 +151,98 @@ pub fn emulate(
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
 ) -> Result<Signals, String> {
-    let l = dynamics.layout;
-    let (mut x, _) = dynamics.operating_point(rig);
-    x[l.x] = x_ref_mm(0.0) * 1e-3;
+    let r0 = x_ref_mm(0.0);
+    let mut x = equilibrium(rig, dynamics, r0)?;
     let mut noise = Noise::new(plc.seed);
     let ts = 1.0 / plc.rate_hz;
-    let r0 = x_ref_mm(0.0);
     let settle_steps = (settle_s * plc.rate_hz).round() as usize;
     for k in 0..settle_steps {
         let t = -settle_s + k as f64 * ts;
         let m = measure(&x, dynamics, plc, &mut noise);
-        x = integrate(dynamics, &x, control(rig, r0, &m), t, t + ts)?;
+        x = hold(dynamics, &x, control(rig, r0, &m), t, t + ts)?;
     }
     record(rig, dynamics, plc, &mut noise, x, duration_s, x_ref_mm)
+}
+
+/// Integrate the rig over one PLC interval with the speed references `u` held.
+fn hold(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f64>, String> {
+    integrate(
+        &|x: &[f64], y: &mut [f64]| d.rhs(x, &u, y),
+        &typical(d),
+        x,
+        t0,
+        t1,
+    )
+}
+
+/// The steady state of the emulated loop with the reference held at `r_mm` (noise-free
+/// sensors): Newton's method on f(x, control(x)) = 0 from the LTI operating point. The P
+/// position and sum-pressure loops need small steady errors to turn the pumps that feed the
+/// leakage, which the LTI deviation model never sees; this finds them.
+pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, String> {
+    // the torque and speed limits are idle at rest, but a Newton step may cross them and find
+    // a flat (singular) Jacobian there: solve without them, then check with them
+    let mut free = d.clone();
+    free.effects.peak_torque_factor = None;
+    free.effects.pump_speed_limit = false;
+    let x = steady_state(rig, &free, r_mm)?;
+    let mut f = vec![0.0; x.len()];
+    let m = measure(&x, d, &Plc::ideal(1.0), &mut Noise::new(1));
+    d.rhs(&x, &control(rig, r_mm, &m), &mut f);
+    if f.iter().zip(typical(d)).any(|(v, s)| (v / s).abs() > 1e-6) {
+        return Err(format!(
+            "the emulated loop cannot rest at x_ref = {r_mm} mm within its torque and speed limits"
+        ));
+    }
+    Ok(x)
+}
+
+fn steady_state(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, String> {
+    let l = d.layout;
+    let exact = Plc::ideal(1.0);
+    let quiet = Noise::new(1);
+    let scale = typical(d);
+    let n = l.n;
+    let g = |x: &[f64], out: &mut [f64]| {
+        let m = measure(x, d, &exact, &mut quiet.clone());
+        d.rhs(x, &control(rig, r_mm, &m), out);
+    };
+    let (mut x, _) = d.operating_point(rig);
+    x[l.x] = r_mm * 1e-3;
+    let mut f = vec![0.0; n];
+    for _ in 0..50 {
+        g(&x, &mut f);
+        let size = f
+            .iter()
+            .zip(&scale)
+            .map(|(v, s)| (v / s).abs())
+            .fold(0.0, f64::max);
+        if size < 1e-7 {
+            return Ok(x);
+        }
+        let mut jac = nalgebra::DMatrix::zeros(n, n);
+        let mut fp = vec![0.0; n];
+        for j in 0..n {
+            let mut xp = x.clone();
+            let h = 1e-6 * scale[j];
+            xp[j] += h;
+            g(&xp, &mut fp);
+            for i in 0..n {
+                jac[(i, j)] = (fp[i] - f[i]) / h;
+            }
+        }
+        let rhs = nalgebra::DVector::from_iterator(n, f.iter().map(|v| -v));
+        let dx = jac
+            .lu()
+            .solve(&rhs)
+            .ok_or("the emulated loop has no unique steady state (singular Jacobian)")?;
+        for (xi, di) in x.iter_mut().zip(dx.iter()) {
+            *xi += di;
+        }
+    }
+    Err(format!(
+        "the emulated loop found no steady state at x_ref = {r_mm} mm in 50 Newton steps"
+    ))
 }
 
 /// What the PLC reads: position (mm), pressures (bar), speeds (rpm), with noise and
@@ -221,7 +308,7 @@ fn record(
         out.w1_rpm.push(m.w_rpm[0]);
         out.w2_rpm.push(m.w_rpm[1]);
         if k < steps {
-            x = integrate(dynamics, &x, control(rig, r, &m), t, t + ts)?;
+            x = hold(dynamics, &x, control(rig, r, &m), t, t + ts)?;
         }
     }
     Ok(out)

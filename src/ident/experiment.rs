@@ -28,7 +28,7 @@ pub struct ExperimentFile {
     #[serde(default)]
     pub set: toml::Table,
     /// Standstill point for c1, c2 (SPEC §6.2).
-    pub standstill: Standstill,
+    pub standstill: StandstillSpec,
     /// The records to fit, at least one.
     pub dataset: Vec<DatasetSpec>,
     /// First grid; absent = the article's (3264 candidates).
@@ -44,6 +44,45 @@ pub struct ExperimentFile {
     /// Nelder–Mead refinement from the best grid point.
     #[serde(default = "yes")]
     pub local_refinement: bool,
+}
+
+/// The standstill point as written: its three values, or a record to average.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StandstillSpec {
+    /// A standstill record (SPEC §9 CSV with `w1_rpm`, `w2_rpm`, `p1_bar`), averaged.
+    pub record: Option<String>,
+    /// Motor/pump 1 speed (rpm).
+    pub w1_rpm: Option<f64>,
+    /// Motor/pump 2 speed (rpm).
+    pub w2_rpm: Option<f64>,
+    /// Chamber 1 pressure (bar gauge).
+    pub p1_bar: Option<f64>,
+}
+
+impl StandstillSpec {
+    /// The standstill point: the record's means, or the three values.
+    fn resolve(&self, dir: &Path) -> Result<Standstill, IdentError> {
+        let values = [self.w1_rpm, self.w2_rpm, self.p1_bar];
+        match (&self.record, values) {
+            (Some(file), [None, None, None]) => {
+                Standstill::of_record(&Record::read(&dir.join(file))?)
+            }
+            (Some(_), _) => Err(IdentError::Input(
+                "[standstill]: give either `record` or `w1_rpm`, `w2_rpm`, `p1_bar`, not both"
+                    .into(),
+            )),
+            (None, [Some(w1_rpm), Some(w2_rpm), Some(p1_bar)]) => Ok(Standstill {
+                w1_rpm,
+                w2_rpm,
+                p1_bar,
+            }),
+            (None, _) => Err(IdentError::Input(
+                "[standstill]: needs `record = \"FILE.csv\"` or all of `w1_rpm`, `w2_rpm`, `p1_bar`"
+                    .into(),
+            )),
+        }
+    }
 }
 
 /// A loaded experiment: the file, where it lives, the rig and the prepared problem.
@@ -78,9 +117,11 @@ impl Experiment {
         let rig = base
             .with_overrides(&overrides)
             .map_err(|e| in_file(format!("[set]: {e}")))?;
-        file.standstill
-            .validate()
+        let standstill = file
+            .standstill
+            .resolve(dir)
             .map_err(|e| in_file(e.to_string()))?;
+        standstill.validate().map_err(|e| in_file(e.to_string()))?;
         if file.dataset.is_empty() {
             return Err(in_file("needs at least one [[dataset]]".into()));
         }
@@ -111,7 +152,7 @@ impl Experiment {
         }
         let problem = Problem {
             datasets,
-            standstill: file.standstill,
+            standstill,
         };
         Ok(Experiment {
             path: path.to_path_buf(),

@@ -30,6 +30,25 @@ pub struct Leakage {
 }
 
 impl Standstill {
+    /// The mean speeds and chamber 1 pressure of a standstill record (SPEC §6.2).
+    pub fn of_record(rec: &crate::record::Record) -> Result<Standstill, IdentError> {
+        let mean = |v: &Option<Vec<f64>>, col: &str| {
+            v.as_ref()
+                .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+                .ok_or_else(|| {
+                    IdentError::Input(format!(
+                        "{}: a standstill record needs the column `{col}`",
+                        rec.file
+                    ))
+                })
+        };
+        Ok(Standstill {
+            w1_rpm: mean(&rec.w1_rpm, "w1_rpm")?,
+            w2_rpm: mean(&rec.w2_rpm, "w2_rpm")?,
+            p1_bar: mean(&rec.p1_bar, "p1_bar")?,
+        })
+    }
+
     /// Check the values are usable (finite, positive pressure).
     pub fn validate(&self) -> Result<(), IdentError> {
         let bad = |key: &str, v: f64, rule: &str| {

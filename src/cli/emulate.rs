@@ -1,0 +1,236 @@
+//! `pumpcyl emulate`: records from the nonlinear rig emulator (issue 5).
+
+use super::output::write_atomic;
+use super::RigSource;
+use crate::emulator::article::{self, ArticleRecord, Emulated, Kind};
+use crate::emulator::{DriveStep, Effects, Experiment, Plc};
+use crate::rig::Rig;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// The experiments the emulator can run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExperimentKind {
+    /// Position step of the closed loop.
+    Step,
+    /// Sinusoidal position reference.
+    Sine,
+    /// One drive alone, decoupled from its pump, feedforward off: a speed step.
+    DriveStep,
+    /// The reference held: the pumps only feed the leakage.
+    Standstill,
+}
+
+#[derive(Debug, Args)]
+pub struct EmulateArgs {
+    /// What the emulated rig does.
+    #[arg(long, value_enum, required_unless_present = "article_records")]
+    experiment: Option<ExperimentKind>,
+    /// Write every embedded article record, its README and an identify experiment into DIR
+    /// (how data/article/ is made).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["experiment", "out", "rig", "set"])]
+    article_records: Option<PathBuf>,
+    /// Rig (TOML). Default: the emulated article rig (SPEC §2 with the PLC's sum-pressure gain
+    /// 0.22 per bar and the set-point for 4.4 bar mean pressure; see data/article/README.md).
+    #[command(flatten)]
+    source: RigSource,
+    /// Step: reference before the step (mm). Default: x0 − 5 mm.
+    #[arg(long, value_name = "MM")]
+    from_mm: Option<f64>,
+    /// Step: reference after the step (mm). Default: x0.
+    #[arg(long, value_name = "MM")]
+    to_mm: Option<f64>,
+    /// Time of the step or the start of the sinusoid (s).
+    #[arg(long, value_name = "S", default_value_t = 0.5)]
+    at_s: f64,
+    /// Sine: amplitude (mm) about x0.
+    #[arg(long, value_name = "MM", default_value_t = 20.0)]
+    amplitude_mm: f64,
+    /// Sine: frequency (Hz).
+    #[arg(long, value_name = "HZ", default_value_t = 0.25)]
+    freq_hz: f64,
+    /// Drive step: which drive (1 or 2).
+    #[arg(long, default_value_t = 1)]
+    motor: usize,
+    /// Drive step: speed after the step (rpm), from rest.
+    #[arg(long, value_name = "RPM", default_value_t = 500.0)]
+    to_rpm: f64,
+    /// Recorded length (s). Default: 6 s, 1 s for a drive step, two periods for a sine.
+    #[arg(long, value_name = "S")]
+    duration_s: Option<f64>,
+    /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
+    #[arg(long, value_name = "HZ")]
+    rate_hz: Option<f64>,
+    /// Seed of the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Noise-free, unquantised sensors.
+    #[arg(long)]
+    no_noise: bool,
+    /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).
+    #[arg(long)]
+    no_effects: bool,
+    /// Output record (SPEC §9 CSV; a drive step writes time_s, w_ref_rpm, w_rpm).
+    #[arg(
+        long,
+        value_name = "RECORD.csv",
+        required_unless_present = "article_records"
+    )]
+    out: Option<PathBuf>,
+}
+
+/// `pumpcyl emulate`.
+pub fn run(args: &EmulateArgs) -> Result<String> {
+    if let Some(dir) = &args.article_records {
+        return article_records(dir);
+    }
+    let kind = args
+        .experiment
+        .ok_or_else(|| anyhow!("--experiment is needed"))?;
+    let out = args
+        .out
+        .as_ref()
+        .ok_or_else(|| anyhow!("--out is needed"))?;
+    let effects = if args.no_effects {
+        Effects::none()
+    } else {
+        Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR).map_err(|e| anyhow!(e))?
+    };
+    let rig = load_rig(&args.source, effects)?;
+    let rec = ArticleRecord {
+        file: "",
+        what: "",
+        kind: experiment(args, kind, &rig)?,
+        truth: article::Truth {
+            rig,
+            effects,
+            plc: plc(args, kind)?,
+        },
+    };
+    let data = rec.run().map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    write_atomic(out, data.csv().as_bytes())?;
+    let origin = match (&args.source.rig, args.source.set.is_empty()) {
+        (Some(_), _) => args.source.origin(),
+        (None, true) => "the emulated article rig".to_string(),
+        (None, false) => format!("the emulated article rig, {}", args.source.set.join(" ")),
+    };
+    let kind = kind
+        .to_possible_value()
+        .map_or(String::new(), |v| v.get_name().to_owned());
+    Ok(format!(
+        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n",
+        out.display(),
+        data.len()
+    ))
+}
+
+/// The rig: a file, or the emulated article rig, with --set applied.
+fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
+    let base = match &source.rig {
+        Some(_) => return source.load(),
+        None if effects.gas_fraction.is_some() => {
+            article::rig(25.0, 10_593.0, article::P_FIT_BAR, effects).map_err(|e| anyhow!(e))?
+        }
+        None => Rig {
+            k_pres_per_bar: article::K_PRES_HEAVY_PER_BAR,
+            ..Rig::default()
+        },
+    };
+    Ok(base.with_overrides(&source.set)?)
+}
+
+fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kind> {
+    let positive = |name: &str, v: f64| -> Result<f64> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            bail!("--{name} {v}: must be > 0")
+        }
+    };
+    let at_s = args.at_s;
+    if !(at_s.is_finite() && at_s >= 0.0) {
+        bail!("--at-s {at_s}: must be >= 0");
+    }
+    Ok(match kind {
+        ExperimentKind::Step => Kind::Loop(Experiment::Step {
+            from_mm: args.from_mm.unwrap_or(rig.x0_mm - 5.0),
+            to_mm: args.to_mm.unwrap_or(rig.x0_mm),
+            at_s,
+            duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
+        }),
+        ExperimentKind::Sine => {
+            let f = positive("freq-hz", args.freq_hz)?;
+            Kind::Loop(Experiment::Sine {
+                centre_mm: rig.x0_mm,
+                amplitude_mm: positive("amplitude-mm", args.amplitude_mm)?,
+                freq_hz: f,
+                start_s: at_s,
+                duration_s: positive("duration-s", args.duration_s.unwrap_or(at_s + 2.0 / f))?,
+            })
+        }
+        ExperimentKind::Standstill => Kind::Loop(Experiment::Standstill {
+            x_mm: rig.x0_mm,
+            duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
+        }),
+        ExperimentKind::DriveStep => Kind::Drive(DriveStep {
+            motor: args.motor,
+            from_rpm: 0.0,
+            to_rpm: args.to_rpm,
+            at_s,
+            duration_s: positive("duration-s", args.duration_s.unwrap_or(1.0))?,
+        }),
+    })
+}
+
+fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
+    let default_rate = if kind == ExperimentKind::DriveStep {
+        1000.0
+    } else {
+        100.0
+    };
+    let rate_hz = args.rate_hz.unwrap_or(default_rate);
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        bail!("--rate-hz {rate_hz}: must be > 0");
+    }
+    let base = if args.no_noise {
+        Plc::ideal(rate_hz)
+    } else {
+        article::plc(args.seed)
+    };
+    Ok(Plc {
+        rate_hz,
+        seed: args.seed,
+        ..base
+    })
+}
+
+/// Emulate every article record into `dir`, with the README and the identify experiment.
+fn article_records(dir: &Path) -> Result<String> {
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    let records = article::records().map_err(|e| anyhow!(e))?;
+    let results: Vec<Result<Emulated>> = records
+        .par_iter()
+        .map(|r| r.run().map_err(|e| anyhow!("{}: {e}", r.file)))
+        .collect();
+    let mut summary = String::new();
+    for (rec, data) in records.iter().zip(results) {
+        let data = data?;
+        let path = dir.join(rec.file);
+        write_atomic(&path, data.csv().as_bytes())?;
+        let _ = writeln!(summary, "{}: {}", path.display(), rec.what);
+    }
+    write_atomic(&dir.join("README.md"), article::readme(&records).as_bytes())?;
+    write_atomic(
+        &dir.join("identify.toml"),
+        article::identify_experiment().as_bytes(),
+    )?;
+    let _ = writeln!(
+        summary,
+        "{}: README.md and identify.toml (emulated data, not measurements)",
+        dir.display()
+    );
+    Ok(summary)
+}
