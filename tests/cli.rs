@@ -259,6 +259,7 @@ fn every_command_has_help() {
         "bulk-modulus",
         "design",
         "emulate",
+        "reproduce",
     ] {
         let text = ok(&[cmd, "--help"]);
         assert!(

@@ -58,7 +58,12 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
     if let Some(path) = &args.out {
         let fine = crate::ident::spaced(args.from_bar, args.to_bar, 91, false);
         let fine_rows = table(&rig, x, args.beta_oil_bar, &fine)?;
-        write_output(path, args, x, &fine_rows)?;
+        write_output(
+            path,
+            (args.beta_bar, args.p_mean_bar, args.beta_oil_bar),
+            x,
+            &fine_rows,
+        )?;
     }
     if args.json {
         return Ok(serde_json::to_string_pretty(
@@ -92,7 +97,14 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
     Ok(s)
 }
 
-fn write_output(path: &std::path::Path, args: &BulkArgs, x: f64, rows: &[Row]) -> Result<()> {
+/// The β_e table as CSV or as a figure (β_e, GM, PM against pressure), by extension; `fit` is
+/// (β bar, at mean pressure bar, β_oil bar) the gas fraction came from.
+pub(super) fn write_output(
+    path: &std::path::Path,
+    fit: (f64, f64, f64),
+    x: f64,
+    rows: &[Row],
+) -> Result<()> {
     let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
     if format == Format::Csv {
         let mut s =
@@ -151,7 +163,7 @@ fn write_output(path: &std::path::Path, args: &BulkArgs, x: f64, rows: &[Row]) -
     let title = "Effective bulk modulus and margins against mean chamber pressure";
     let subtitle = format!(
         "gas fraction X = {x:.4} from {} bar at {} bar (beta_oil {} bar); below 0 dB / 0 deg the loop is unstable",
-        args.beta_bar, args.p_mean_bar, args.beta_oil_bar
+        fit.0, fit.1, fit.2
     );
     let x_label = "Mean chamber pressure (bar)";
     let bytes = if format == Format::Png {

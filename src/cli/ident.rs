@@ -184,7 +184,11 @@ pub fn drive(args: &DriveArgs) -> Result<String> {
     ))
 }
 
-fn write_drive_overlay(path: &Path, rec: &DriveRecord, fit: &crate::ident::DriveFit) -> Result<()> {
+pub(super) fn write_drive_overlay(
+    path: &Path,
+    rec: &DriveRecord,
+    fit: &crate::ident::DriveFit,
+) -> Result<()> {
     let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
     if format == Format::Csv {
         let mut s = String::from("time_s,w_ref_rpm,w_rpm,w_sim_rpm\n");
@@ -256,7 +260,7 @@ fn options(args: &IdentifyArgs, exp: &Experiment) -> Result<Options> {
 }
 
 /// A progress bar on stderr when it is a terminal; silent otherwise.
-fn progress_bar(total: u64) -> indicatif::ProgressBar {
+pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
     if std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
@@ -419,7 +423,7 @@ fn scored_json(s: &Scored, leak: Option<&crate::ident::Leakage>) -> serde_json::
 }
 
 /// The JSON of an identification (also written as result.json).
-fn identification_json(
+pub(super) fn identification_json(
     exp: &Experiment,
     id: &Identification,
     seconds: f64,
@@ -529,7 +533,7 @@ fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> S
 
 /// result.json, the β × c12 landscape at the best b (CSV and heat map) and one overlay per
 /// dataset.
-fn write_outputs(
+pub(super) fn write_outputs(
     dir: &Path,
     exp: &Experiment,
     id: &Identification,

@@ -6,6 +6,7 @@ mod design;
 mod emulate;
 mod ident;
 mod output;
+mod reproduce;
 mod time;
 
 use anyhow::{Context, Result};
@@ -67,6 +68,9 @@ enum Command {
     /// Records from the nonlinear rig emulator (SPEC §9 CSV): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
+    /// The article's whole workflow on the embedded rig and emulated records: figures, a
+    /// summary.json and a self-contained report.html in one folder.
+    Reproduce(reproduce::ReproduceArgs),
 }
 
 #[derive(Debug, Args)]
@@ -227,6 +231,7 @@ pub fn run() -> Result<()> {
         Command::BulkModulus(args) => bulk::bulk(&args)?,
         Command::Design(args) => design::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,
+        Command::Reproduce(args) => reproduce::run(&args)?,
     };
     output::emit(&text)
 }

@@ -349,3 +349,45 @@ pub fn identify_experiment() -> String {
         end = STEP_AT_S + FIT_WINDOW_S,
     )
 }
+
+/// The records folder as shipped (`data/article/`), compiled into the binary so `reproduce`
+/// runs from anywhere: (file name, contents).
+pub const EMBEDDED: [(&str, &str); 10] = [
+    ("README.md", include_str!("../../data/article/README.md")),
+    (
+        "identify.toml",
+        include_str!("../../data/article/identify.toml"),
+    ),
+    (
+        "identification.csv",
+        include_str!("../../data/article/identification.csv"),
+    ),
+    (
+        "validation.csv",
+        include_str!("../../data/article/validation.csv"),
+    ),
+    (
+        "robustness.csv",
+        include_str!("../../data/article/robustness.csv"),
+    ),
+    (
+        "drive_step.csv",
+        include_str!("../../data/article/drive_step.csv"),
+    ),
+    (
+        "standstill.csv",
+        include_str!("../../data/article/standstill.csv"),
+    ),
+    (
+        "sine_0.10hz_50mm.csv",
+        include_str!("../../data/article/sine_0.10hz_50mm.csv"),
+    ),
+    (
+        "sine_0.20hz_35mm.csv",
+        include_str!("../../data/article/sine_0.20hz_35mm.csv"),
+    ),
+    (
+        "sine_0.25hz_20mm.csv",
+        include_str!("../../data/article/sine_0.25hz_20mm.csv"),
+    ),
+];

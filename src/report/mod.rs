@@ -16,3 +16,6 @@ pub use timeseries::*;
 
 mod heatmap;
 pub use heatmap::*;
+
+mod html;
+pub use html::{html_page, Block};

@@ -1,0 +1,163 @@
+//! A self-contained HTML report: headings, paragraphs, tables and figures, the figures inline
+//! as base64 SVG data, no external resource of any kind (it opens from a file, offline).
+
+use std::fmt::Write;
+
+/// One piece of the report, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Block {
+    /// A section heading.
+    Heading(String),
+    /// A paragraph of plain text (escaped).
+    Paragraph(String),
+    /// A warning paragraph, set apart (escaped).
+    Notice(String),
+    /// A table: caption, header cells, rows of cells (escaped).
+    Table {
+        caption: String,
+        header: Vec<String>,
+        rows: Vec<Vec<String>>,
+    },
+    /// A figure: an SVG document and its caption.
+    Figure { svg: String, caption: String },
+}
+
+const STYLE: &str =
+    "body{font-family:'DejaVu Sans',Arial,sans-serif;max-width:1100px;margin:2em auto;\
+padding:0 1em;color:#222;line-height:1.45}h1{font-size:1.6em}h2{font-size:1.25em;margin-top:2em;\
+border-bottom:1px solid #ccc}table{border-collapse:collapse;margin:1em 0}caption{text-align:left;\
+font-weight:bold;padding:.3em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}\
+td:first-child,th:first-child{text-align:left}th{background:#eee}figure{margin:1.5em 0}\
+figure img{width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}\
+.notice{background:#fff4d6;border-left:4px solid #e0a000;padding:.6em 1em}";
+
+/// Marks on `<body>` how many figures loaded with a non-zero size (data-figures-loaded) out of
+/// how many (data-figures-total), and flags any that did not: checked by the browser test.
+const SCRIPT: &str = "window.addEventListener('load',function(){var im=document.querySelectorAll('figure img');\
+var ok=0;im.forEach(function(i){if(i.complete&&i.naturalWidth>0&&i.getBoundingClientRect().height>0){ok++}\
+else{i.insertAdjacentHTML('afterend','<p class=notice>This figure did not load.</p>')}});\
+document.body.setAttribute('data-figures-loaded',ok);document.body.setAttribute('data-figures-total',im.length)});";
+
+/// The page: `title` and the blocks, in order.
+pub fn html_page(title: &str, blocks: &[Block]) -> String {
+    let mut s = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+         <meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">\
+         <title>{t}</title><style>{STYLE}</style><script>{SCRIPT}</script></head>\n<body>\n<h1>{t}</h1>\n",
+        t = escape(title)
+    );
+    for b in blocks {
+        match b {
+            Block::Heading(h) => {
+                let _ = writeln!(s, "<h2>{}</h2>", escape(h));
+            }
+            Block::Paragraph(p) => {
+                let _ = writeln!(s, "<p>{}</p>", escape(p));
+            }
+            Block::Notice(p) => {
+                let _ = writeln!(s, "<p class=\"notice\">{}</p>", escape(p));
+            }
+            Block::Table {
+                caption,
+                header,
+                rows,
+            } => table(&mut s, caption, header, rows),
+            Block::Figure { svg, caption } => {
+                let _ = writeln!(
+                    s,
+                    "<figure><img alt=\"{c}\" src=\"data:image/svg+xml;base64,{}\">\
+                     <figcaption>{c}</figcaption></figure>",
+                    base64(svg.as_bytes()),
+                    c = escape(caption)
+                );
+            }
+        }
+    }
+    s.push_str("</body></html>\n");
+    s
+}
+
+fn table(s: &mut String, caption: &str, header: &[String], rows: &[Vec<String>]) {
+    let _ = write!(s, "<table><caption>{}</caption><tr>", escape(caption));
+    for h in header {
+        let _ = write!(s, "<th>{}</th>", escape(h));
+    }
+    s.push_str("</tr>\n");
+    for row in rows {
+        s.push_str("<tr>");
+        for c in row {
+            let _ = write!(s, "<td>{}</td>", escape(c));
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+}
+
+/// HTML-escape text.
+fn escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Standard base64 (RFC 4648) with padding.
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(A[((n >> (18 - 6 * k)) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        for (plain, coded) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(base64(plain.as_bytes()), coded);
+        }
+    }
+
+    #[test]
+    fn page_escapes_text_and_inlines_figures() {
+        let page = html_page(
+            "a <b> & c",
+            &[
+                Block::Paragraph("x < y".into()),
+                Block::Figure {
+                    svg: "<svg/>".into(),
+                    caption: "\"fig\"".into(),
+                },
+            ],
+        );
+        assert!(page.contains("<h1>a &lt;b&gt; &amp; c</h1>"));
+        assert!(page.contains("<p>x &lt; y</p>"));
+        assert!(page.contains("data:image/svg+xml;base64,PHN2Zy8+"));
+        assert!(page.contains("<figcaption>&quot;fig&quot;</figcaption>"));
+        assert!(!page.contains("http://") && !page.contains("https://"));
+    }
+}

@@ -1,0 +1,215 @@
+//! `pumpcyl reproduce` end to end: the files, the numbers in summary.json against the
+//! emulator's truth and the article, and report.html rendered by headless Chromium (issue 6).
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// One reproduce run shared by the tests of this file: (folder, stdout).
+fn reproduced() -> &'static (PathBuf, String) {
+    static RUN: OnceLock<(PathBuf, String)> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("reproduce-test");
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+            .args(["reproduce", "--out", dir.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("[8/8"), "progress shown: {stderr}");
+        (dir, String::from_utf8(out.stdout).unwrap())
+    })
+}
+
+fn summary() -> Value {
+    let text = std::fs::read_to_string(reproduced().0.join("summary.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+fn num(v: &Value, path: &str) -> f64 {
+    path.split('.')
+        .fold(v, |v, k| &v[k])
+        .as_f64()
+        .unwrap_or_else(|| panic!("summary.json has no number at {path}"))
+}
+
+#[test]
+fn summary_carries_the_article_numbers_and_recovers_the_truth() {
+    let s = summary();
+    assert_eq!(s["emulated_inputs"], true);
+    // identification against the emulator's truth (β_e at the mean pressure, c12)
+    let beta = num(&s, "identified.beta_bar");
+    let truth = num(&s, "identified.emulator_truth.beta_bar");
+    assert!((beta - truth).abs() <= 15.0, "beta {beta} vs {truth}");
+    let c12 = num(&s, "identified.c12_m5_per_ns") / 1.2e-10;
+    assert!((1.0 / 1.5..=1.5).contains(&c12), "c12 ratio {c12}");
+    assert!((num(&s, "drive.km_nms_per_rad") / 0.026 - 1.0).abs() < 0.02);
+    // the default rig's margins are the article's (SPEC §4)
+    assert!((num(&s, "margins.default_rig.gain_margin_db") - 6.5).abs() <= 0.1);
+    assert!((num(&s, "margins.default_rig.phase_margin_deg") - 33.5).abs() <= 0.5);
+    // SPEC §7: at 1 bar the gas makes β_e so low the loop is unstable, at 10 bar the margins
+    // are larger than at the identified point
+    assert_eq!(s["margins"]["p1bar"]["closed_loop_stable"], false);
+    assert!(
+        num(&s, "margins.p10bar.gain_margin_db") > num(&s, "margins.nominal.gain_margin_db") + 3.0
+    );
+    assert!(num(&s, "margins.p1bar.beta_bar") < 50.0);
+    // the gas fraction follows from β at the mean pressure: X ≈ p/β
+    let x = num(&s, "gas_fraction");
+    let p = num(&s, "p_mean_bar");
+    assert!((x - p / beta).abs() < 0.001, "X {x} vs p/beta {}", p / beta);
+    // three tracking cases: the model predicts the emulated rig's wave reduction within 5
+    // points, and a P loop tracks the slower waves better (0.1 > 0.2 > 0.25 Hz)
+    let tracking = s["tracking"].as_array().unwrap();
+    assert_eq!(tracking.len(), 3);
+    let reduction = |t: &Value, who: &str| t[who]["wave_reduction"].as_f64().unwrap();
+    for t in tracking {
+        let (e, m) = (reduction(t, "emulated"), reduction(t, "model"));
+        assert!((e - m).abs() < 0.05, "{t}");
+        assert!(e > 0.0 && e < 1.0, "{t}");
+    }
+    assert!(reduction(&tracking[0], "model") > reduction(&tracking[1], "model"));
+    assert!(reduction(&tracking[1], "model") > reduction(&tracking[2], "model"));
+    // design: the largest Kp for PM 34° is the article's 25, within ±1 (SPEC §8)
+    let kp = num(&s, "design.kp_max");
+    assert!((kp - 25.0).abs() <= 1.0, "{kp}");
+    // robustness record (β_e 220 bar by construction)
+    let rb = num(&s, "robustness.beta_bar");
+    assert!((rb - 220.0).abs() <= 20.0, "{rb}");
+}
+
+#[test]
+fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
+    let (dir, stdout) = reproduced();
+    assert!(stdout.contains("EMULATED"), "{stdout}");
+    assert!(stdout.contains("bulk modulus beta (bar)"), "{stdout}");
+    let stems = [
+        "drive_step",
+        "robustness",
+        "bulk_modulus",
+        "bode_pressure",
+        "bode_damping",
+        "step_damping",
+        "bode_stroke",
+        "step_stroke",
+        "sine_0p10hz",
+        "sine_0p20hz",
+        "sine_0p25hz",
+    ];
+    for stem in stems {
+        for ext in ["svg", "png"] {
+            let f = dir.join("figures").join(format!("{stem}.{ext}"));
+            let len = std::fs::metadata(&f).map(|m| m.len()).unwrap_or(0);
+            assert!(len > 10_000, "{} has {len} bytes", f.display());
+        }
+    }
+    for f in [
+        "landscape.svg",
+        "landscape.png",
+        "fit-1.svg",
+        "fit-2.png",
+        "result.json",
+    ] {
+        assert!(dir.join("identification").join(f).exists(), "{f}");
+    }
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    // 11 figures, the landscape and the two fits
+    assert_eq!(html.matches("<figure>").count(), stems.len() + 3);
+    assert!(html.contains("EMULATED"));
+    assert!(
+        !html.contains("src=\"http") && !html.contains("href=\"http"),
+        "no network"
+    );
+}
+
+/// Headless Chromium: `/usr/bin/chromium` or `chromium` on the PATH.
+fn chromium() -> Option<PathBuf> {
+    let candidates = ["/usr/bin/chromium", "/usr/bin/chromium-browser"];
+    candidates.iter().map(PathBuf::from).find(|p| p.exists())
+}
+
+fn chromium_run(browser: &Path, args: &[&str], profile: &Path) -> std::process::Output {
+    Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            &format!("--user-data-dir={}", profile.display()),
+        ])
+        .args(args)
+        .output()
+        .expect("chromium runs")
+}
+
+#[test]
+fn report_renders_in_headless_chromium_with_every_figure_loaded() {
+    let Some(browser) = chromium() else {
+        // CI installs Debian's chromium and sets PUMPCYL_REQUIRE_CHROMIUM, so there this fails
+        assert!(
+            std::env::var_os("PUMPCYL_REQUIRE_CHROMIUM").is_none(),
+            "chromium is required (apt-get install chromium)"
+        );
+        eprintln!("skipped: no chromium on this machine (CI installs it)");
+        return;
+    };
+    let (dir, _) = reproduced();
+    let page = format!(
+        "file://{}",
+        dir.join("report.html").canonicalize().unwrap().display()
+    );
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let dom = chromium_run(
+        &browser,
+        &["--virtual-time-budget=10000", "--dump-dom", &page],
+        &tmp.join("chromium-dom"),
+    );
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    let attr = |name: &str| -> usize {
+        let key = format!("{name}=\"");
+        let at = dom
+            .find(&key)
+            .unwrap_or_else(|| panic!("no {name} in the rendered page"));
+        dom[at + key.len()..]
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (loaded, total) = (attr("data-figures-loaded"), attr("data-figures-total"));
+    assert_eq!(total, 14, "figures in the page");
+    assert_eq!(loaded, total, "every figure loaded with a non-zero size");
+    assert!(!dom.contains("class=\"notice\">This figure did not load"));
+    // the screenshot, kept in target/ as a CI artefact
+    let shot = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .unwrap()
+        .join("report-screenshot.png");
+    let _ = std::fs::remove_file(&shot);
+    chromium_run(
+        &browser,
+        &[
+            "--window-size=1200,3000",
+            &format!("--screenshot={}", shot.display()),
+            &page,
+        ],
+        &tmp.join("chromium-shot"),
+    );
+    let len = std::fs::metadata(&shot).map(|m| m.len()).unwrap_or(0);
+    assert!(
+        len > 50_000,
+        "screenshot {} has {len} bytes",
+        shot.display()
+    );
+}
