@@ -2,7 +2,7 @@
 
 use super::output::write_atomic;
 use super::RigSource;
-use crate::emulator::article::{self, ArticleRecord, Emulated, Kind};
+use crate::emulator::article::{self, Emulated, Kind};
 use crate::emulator::{DriveStep, Effects, Experiment, Plc};
 use crate::rig::Rig;
 use anyhow::{anyhow, bail, Context, Result};
@@ -100,17 +100,15 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR).map_err(|e| anyhow!(e))?
     };
     let rig = load_rig(&args.source, effects)?;
-    let rec = ArticleRecord {
-        file: "",
-        what: "",
-        kind: experiment(args, kind, &rig)?,
-        truth: article::Truth {
-            rig,
-            effects,
-            plc: plc(args, kind)?,
-        },
+    let plan = experiment(args, kind, &rig)?;
+    let truth = article::Truth {
+        rig,
+        effects,
+        plc: plc(args, kind)?,
     };
-    let data = rec.run().map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let data = plan
+        .run(&truth)
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
     write_atomic(out, data.csv().as_bytes())?;
     let origin = match (&args.source.rig, args.source.set.is_empty()) {
         (Some(_), _) => args.source.origin(),

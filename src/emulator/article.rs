@@ -91,14 +91,20 @@ impl Emulated {
     }
 }
 
-impl ArticleRecord {
-    /// Emulate the record.
-    pub fn run(&self) -> Result<Emulated, String> {
-        let t = &self.truth;
-        Ok(match self.kind {
+impl Kind {
+    /// Emulate this experiment with a truth.
+    pub fn run(&self, t: &Truth) -> Result<Emulated, String> {
+        Ok(match self {
             Kind::Loop(e) => Emulated::Loop(e.run(&t.rig, t.effects, &t.plc)?),
             Kind::Drive(d) => Emulated::Drive(d.run(&t.rig, t.effects, &t.plc)?),
         })
+    }
+}
+
+impl ArticleRecord {
+    /// Emulate the record.
+    pub fn run(&self) -> Result<Emulated, String> {
+        self.kind.run(&self.truth)
     }
 }
 
