@@ -855,10 +855,9 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = |v: f64| (v * scale).round() as i32;
-        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
-        let text =
-            |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+        let px = render::px(scale);
+        let upx = render::upx(scale);
+        let text = render::text(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
@@ -1073,7 +1072,7 @@ fn margin_bar<DB: DrawingBackend>(
     label: &'static str,
     scale: f64,
 ) -> Result<(), ReportError> {
-    let px = |v: f64| (v * scale).round() as i32;
+    let px = render::px(scale);
     let font_size = 16.0 * scale;
     let lower = a.min(b);
     chart

@@ -684,8 +684,8 @@ impl<'a> Figure<'a> {
         (left, right, top, bottom): (i32, i32, i32, i32),
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = |v: f64| (v * scale).round() as i32;
-        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
+        let px = render::px(scale);
+        let upx = render::upx(scale);
         let arm = px(MARKER_ARM).max(3);
         let edge = px(1.5).max(1);
         for (a, style) in [
@@ -747,10 +747,9 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = |v: f64| (v * scale).round() as i32;
-        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
-        let text =
-            |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+        let px = render::px(scale);
+        let upx = render::upx(scale);
+        let text = render::text(scale);
         let text_width = |s: &str, style: &TextStyle| -> Result<i32, ReportError> {
             let (w, _) = root.estimate_text_size(s, style).map_err(plot_err)?;
             Ok(w as i32)

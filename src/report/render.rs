@@ -87,9 +87,24 @@ pub(super) const TITLE_GAP: f64 = 10.0;
 pub(super) const SUBTITLE_SIZE: f64 = 17.0;
 pub(super) const SUBTITLE_GAP: f64 = 6.0;
 
+/// A length of `v` pixels at scale 1, scaled and rounded.
+pub(super) fn px(scale: f64) -> impl Fn(f64) -> i32 {
+    move |v| (v * scale).round() as i32
+}
+
+/// A line width of `v` pixels at scale 1, scaled, rounded and at least 1.
+pub(super) fn upx(scale: f64) -> impl Fn(f64) -> u32 {
+    move |v| (v * scale).round().max(1.0) as u32
+}
+
+/// Black text of `size` points at scale 1 in the bundled font, scaled.
+pub(super) fn text(scale: f64) -> impl Fn(f64) -> TextStyle<'static> {
+    move |size| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK)
+}
+
 /// Height (px) of the title block, with or without a subtitle.
 pub(super) fn header_height(scale: f64, with_subtitle: bool) -> i32 {
-    let px = |v: f64| (v * scale).round() as i32;
+    let px = px(scale);
     let mut h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
     if with_subtitle {
         h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
@@ -105,8 +120,7 @@ pub(super) fn draw_header<DB: DrawingBackend>(
     scale: f64,
 ) -> Result<DrawingArea<DB, Shift>, ReportError> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
-    let px = |v: f64| (v * scale).round() as i32;
-    let text = |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+    let (px, text) = (px(scale), text(scale));
     let (header, body) = root.split_vertically(header_height(scale, subtitle.is_some()));
     let centre = (root.dim_in_pixel().0 / 2) as i32;
     let top = Pos::new(HPos::Center, VPos::Top);

@@ -16,7 +16,6 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::bode::{
     linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
 };
-use super::font;
 use super::render::{self, header_height, steps_125};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
@@ -377,10 +376,9 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = |v: f64| (v * scale).round() as i32;
-        let upx = |v: f64| (v * scale).round().max(1.0) as u32;
-        let text =
-            |size: f64| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK);
+        let px = render::px(scale);
+        let upx = render::upx(scale);
+        let text = render::text(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
@@ -1209,7 +1207,7 @@ mod tests {
     #[test]
     fn legend_layout_and_placement() {
         let m = LegendMetrics {
-            font: TextStyle::from((font::FAMILY, 15.0).into_font()),
+            font: TextStyle::from((crate::report::font::FAMILY, 15.0).into_font()),
             row_h: 21,
             pad: 8,
             sample_len: 28,
