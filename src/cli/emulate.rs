@@ -110,11 +110,7 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         .run(&truth)
         .map_err(|e| anyhow!("{}: {e}", out.display()))?;
     write_atomic(out, data.csv().as_bytes())?;
-    let origin = match (&args.source.rig, args.source.set.is_empty()) {
-        (Some(_), _) => args.source.origin(),
-        (None, true) => "the emulated article rig".to_string(),
-        (None, false) => format!("the emulated article rig, {}", args.source.set.join(" ")),
-    };
+    let origin = args.source.origin_or("the emulated article rig");
     let kind = kind
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_owned());

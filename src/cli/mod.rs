@@ -109,10 +109,15 @@ impl RigSource {
 
     /// Where the rig came from, in words.
     pub fn origin(&self) -> String {
+        self.origin_or("default rig")
+    }
+
+    /// Where the rig came from, `default` naming the rig used without --rig.
+    pub fn origin_or(&self, default: &str) -> String {
         let file = self
             .rig
             .as_ref()
-            .map_or("default rig".to_string(), |p| p.display().to_string());
+            .map_or(default.to_string(), |p| p.display().to_string());
         if self.set.is_empty() {
             file
         } else {

@@ -144,11 +144,14 @@ pub fn run(args: &ReproduceArgs) -> Result<String> {
     };
     let mut sum = json!({ "emulated_inputs": true, "note": EMULATED });
     sum["drive"] = drive_step(&mut run)?;
-    let (exp, nominal, identified) = identification(&mut run)?;
+    let truth = article::records().map_err(|e| anyhow::anyhow!(e))?[0]
+        .truth
+        .clone();
+    let (exp, nominal, identified) = identification(&mut run, &truth)?;
     sum["leakage"] = identified["leakage"].clone();
     sum["identified"] = identified;
     sum["robustness"] = robustness(&mut run, &exp, &nominal)?;
-    let (margins, x, p_mean) = pressure_study(&mut run, &nominal, &exp)?;
+    let (margins, x, p_mean) = pressure_study(&mut run, &nominal, &exp, &truth)?;
     sum["margins"] = margins;
     sum["gas_fraction"] = json!(x);
     sum["p_mean_bar"] = json!(p_mean);
@@ -270,7 +273,7 @@ fn drive_step(run: &mut Run) -> Result<Value> {
 }
 
 /// Steps 2 and 3: leakage from standstill, the two-stage grid and Nelder–Mead (SPEC §6.2–6.3).
-fn identification(run: &mut Run) -> Result<(Experiment, Rig, Value)> {
+fn identification(run: &mut Run, truth: &article::Truth) -> Result<(Experiment, Rig, Value)> {
     run.step("Leakage from standstill and the two-stage grid identification (SPEC §6.2, §6.3)");
     let exp = Experiment::load(&run.dir.join("records/identify.toml"))?;
     let opts = Options {
@@ -310,10 +313,7 @@ fn identification(run: &mut Run) -> Result<(Experiment, Rig, Value)> {
         c2_m5_per_ns: l.c2_m5_per_ns,
         ..exp.rig.clone()
     };
-    let truth = article::records().map_err(|e| anyhow::anyhow!(e))?[0]
-        .truth
-        .rig
-        .beta_bar;
+    let truth = truth.rig.beta_bar;
     run.text(&format!(
         "Standstill record means: w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar (p2 {:.3} bar from the force balance). \
          {} candidates in {:.2} s; the emulator's truth is beta_e = {truth:.0} bar at the mean pressure, \
@@ -462,7 +462,12 @@ fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Result<Value> {
 }
 
 /// Step 5: gas fraction from the identified β, β_e over 1–10 bar and the margins there (§7).
-fn pressure_study(run: &mut Run, nominal: &Rig, exp: &Experiment) -> Result<(Value, f64, f64)> {
+fn pressure_study(
+    run: &mut Run,
+    nominal: &Rig,
+    exp: &Experiment,
+    truth: &article::Truth,
+) -> Result<(Value, f64, f64)> {
     run.step("Bulk modulus against pressure: gas fraction and margins (SPEC §7)");
     let rec = &exp.problem.datasets[0].record;
     let mean = |v: &Option<Vec<f64>>| {
@@ -545,11 +550,7 @@ fn pressure_study(run: &mut Run, nominal: &Rig, exp: &Experiment) -> Result<(Val
         "-",
         "-",
     );
-    let truth_x = article::records().map_err(|e| anyhow::anyhow!(e))?[0]
-        .truth
-        .effects
-        .gas_fraction
-        .unwrap_or(f64::NAN);
+    let truth_x = truth.effects.gas_fraction.unwrap_or(f64::NAN);
     run.compare(
         "gas fraction X",
         format!("{x:.5}"),
