@@ -4,7 +4,8 @@
 //! - [`rig`] — the rig parameters and their TOML form (SPEC §2);
 //! - [`model`] — the 10-state DPM model and its variants (SPEC §3–4);
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins (SPEC §4);
-//! - [`report`] — figures.
+//! - [`report`] — figures;
+//! - [`input`] — decoding user files and locating their errors.
 //!
 //! SPEC refers to `shared/SPEC.md`, the restatement of Gøytil, Hansen & Tvilde, *Effective Bulk
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
@@ -14,6 +15,7 @@ pub mod cli;
 pub mod design;
 pub mod emulator;
 pub mod ident;
+pub mod input;
 pub mod lti;
 pub mod model;
 pub mod record;

@@ -2,6 +2,7 @@
 //! columns ignored. `time_s`, `x_ref_mm`, `x_mm` are required; `p1_bar`, `p2_bar` (gauge),
 //! `w1_rpm`, `w2_rpm` are optional. Time is strictly increasing, uniform or not.
 
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 /// Errors reading a record; every one names the file, and the line and column where there is one.
@@ -80,15 +81,20 @@ const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
 impl Record {
-    /// Read and check a record file.
+    /// Read and check a record file, streamed (memory holds the used columns, not the text).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
-        let (bytes, file) = read_bytes(path)?;
-        Self::parse(&bytes, &file)
+        let (reader, file) = open(path)?;
+        Self::from_reader(reader, &file)
     }
 
     /// Parse record text; `file` names it in messages.
     pub fn parse(bytes: &[u8], file: &str) -> Result<Record, RecordError> {
-        let mut t = Table::parse(bytes, file, &REQUIRED, &OPTIONAL)?;
+        Self::from_reader(bytes, file)
+    }
+
+    /// Parse a record from a stream; `file` names it in messages.
+    pub fn from_reader<R: BufRead>(reader: R, file: &str) -> Result<Record, RecordError> {
+        let mut t = Table::from_reader(reader, file, &REQUIRED, &OPTIONAL)?;
         Ok(Record {
             file: file.to_string(),
             time_s: t.take("time_s").unwrap_or_default(),
@@ -138,10 +144,11 @@ pub struct Table {
 }
 
 impl Table {
-    /// Read a file with the `required` columns (the first is time) and any `optional` ones.
+    /// Read a file with the `required` columns (the first is time) and any `optional` ones,
+    /// streamed.
     pub fn read(path: &Path, required: &[&str], optional: &[&str]) -> Result<Table, RecordError> {
-        let (bytes, file) = read_bytes(path)?;
-        Self::parse(&bytes, &file, required, optional)
+        let (reader, file) = open(path)?;
+        Self::from_reader(reader, &file, required, optional)
     }
 
     /// Parse CSV text; `file` names it in messages.
@@ -151,44 +158,44 @@ impl Table {
         required: &[&str],
         optional: &[&str],
     ) -> Result<Table, RecordError> {
-        let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(bytes);
+        Self::from_reader(bytes, file, required, optional)
+    }
+
+    /// Parse CSV from a stream, one row at a time; `file` names it in messages. The dialect
+    /// comes from the header line (see [`Dialect`]); a UTF-8 byte-order mark is dropped.
+    pub fn from_reader<R: BufRead>(
+        mut reader: R,
+        file: &str,
+        required: &[&str],
+        optional: &[&str],
+    ) -> Result<Table, RecordError> {
+        let (header_line, dialect) = Dialect::sniff(&mut reader, file)?;
+        let mut csv = csv::ReaderBuilder::new()
+            .delimiter(dialect.delimiter)
+            .flexible(true)
+            .has_headers(true)
+            .from_reader(header_line.chain(reader));
         let csv_err = |e: csv::Error| RecordError::Csv {
             file: file.to_string(),
             line: e.position().map_or(1, |p| p.line()),
             message: e.to_string(),
         };
-        let headers = reader.headers().map_err(csv_err)?.clone();
+        let headers = header_names(csv.byte_headers().map_err(csv_err)?, file)?;
         let index = column_index(&headers, file, required, optional)?;
-        let mut columns: Vec<Vec<f64>> = vec![Vec::new(); index.len()];
-        let mut prev_time: Option<f64> = None;
-        for row in reader.records() {
-            let row = row.map_err(csv_err)?;
-            let line = row.position().map_or(0, |p| p.line());
-            for (c, (name, i)) in index.iter().enumerate() {
-                columns[c].push(parse_field(row.get(*i).unwrap_or(""), file, line, name)?);
-            }
-            let t = columns[0][columns[0].len() - 1];
-            if let Some(p) = prev_time.filter(|&p| t <= p) {
-                return Err(RecordError::Value {
-                    file: file.to_string(),
-                    line,
-                    column: index[0].0.clone(),
-                    message: format!("time must strictly increase: {t} follows {p}"),
-                });
-            }
-            prev_time = Some(t);
+        let mut rows = Rows {
+            file,
+            dialect,
+            headers: &headers,
+            index: &index,
+            columns: vec![Vec::new(); index.len()],
+            line: 1,
+        };
+        let mut row = csv::ByteRecord::new();
+        while csv.read_byte_record(&mut row).map_err(csv_err)? {
+            rows.line = row.position().map_or(rows.line + 1, |p| p.line());
+            rows.push(&row)?;
         }
-        if columns[0].len() < 2 {
-            return Err(RecordError::Empty {
-                file: file.to_string(),
-                message: format!("needs at least 2 samples, found {}", columns[0].len()),
-            });
-        }
-        Ok(Table {
-            columns: index.into_iter().map(|(n, _)| n).zip(columns).collect(),
-        })
+        rows.finish()
     }
 
     /// Take a column out of the table by name (`None` if absent).
@@ -200,19 +207,181 @@ impl Table {
     }
 }
 
-/// The bytes of a file and its name for messages.
-fn read_bytes(path: &Path) -> Result<(Vec<u8>, String), RecordError> {
+/// How a CSV file is written, decided from its header line: comma-separated with decimal points,
+/// or, as European spreadsheets write it, semicolon- (or tab-) separated with decimal commas.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dialect {
+    /// Field separator.
+    pub delimiter: u8,
+    /// Whether `,` is the decimal mark (only with `;` or tab separators).
+    pub decimal_comma: bool,
+}
+
+impl Dialect {
+    /// Read the header line (dropping a byte-order mark) and decide the dialect: `;` or tab
+    /// separators when the header has one of them and no comma. Returns the header line to be
+    /// read again by the CSV reader.
+    fn sniff<R: BufRead>(
+        reader: &mut R,
+        file: &str,
+    ) -> Result<(std::io::Cursor<Vec<u8>>, Dialect), RecordError> {
+        let mut line = Vec::new();
+        reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| RecordError::Io {
+                file: file.to_string(),
+                message: e.to_string(),
+            })?;
+        if line.starts_with(crate::input::BOM) {
+            line.drain(..crate::input::BOM.len());
+        }
+        if line.iter().all(u8::is_ascii_whitespace) {
+            return Err(RecordError::Csv {
+                file: file.to_string(),
+                line: 1,
+                message: "empty file: the first line must be a header row naming the columns"
+                    .into(),
+            });
+        }
+        let count = |c: u8| line.iter().filter(|&&b| b == c).count();
+        let delimiter = match (count(b','), count(b';'), count(b'\t')) {
+            (0, s, _) if s > 0 => b';',
+            (0, 0, t) if t > 0 => b'\t',
+            _ => b',',
+        };
+        let dialect = Dialect {
+            delimiter,
+            decimal_comma: delimiter != b',',
+        };
+        Ok((std::io::Cursor::new(line), dialect))
+    }
+}
+
+/// The column builder of [`Table::from_reader`]: checks and stores one row at a time.
+struct Rows<'a> {
+    file: &'a str,
+    dialect: Dialect,
+    headers: &'a [String],
+    index: &'a [(String, usize)],
+    columns: Vec<Vec<f64>>,
+    /// Line of the row being read (1-based).
+    line: u64,
+}
+
+impl Rows<'_> {
+    /// Check a row's length, parse its used fields and check that time increases.
+    fn push(&mut self, row: &csv::ByteRecord) -> Result<(), RecordError> {
+        let err = |message: String| RecordError::Csv {
+            file: self.file.to_string(),
+            line: self.line,
+            message,
+        };
+        let n = self.headers.len();
+        if row.len() < n {
+            return Err(err(format!(
+                "{} fields, the header has {n}: no value for `{}` and after",
+                row.len(),
+                self.headers[row.len()]
+            )));
+        }
+        if row.iter().skip(n).any(|f| !f.trim_ascii().is_empty()) {
+            return Err(err(format!(
+                "{} fields, the header has {n}: a value past the last column `{}`",
+                row.len(),
+                self.headers[n - 1]
+            )));
+        }
+        for (c, (name, i)) in self.index.iter().enumerate() {
+            let v = parse_field(&row[*i], self.dialect, self.file, self.line, name)?;
+            self.columns[c].push(v);
+        }
+        self.check_time()
+    }
+
+    /// The newest time sample must exceed the one before it.
+    fn check_time(&self) -> Result<(), RecordError> {
+        let t = &self.columns[0];
+        match t.len() {
+            0 | 1 => Ok(()),
+            k if t[k - 1] > t[k - 2] => Ok(()),
+            k => Err(RecordError::Value {
+                file: self.file.to_string(),
+                line: self.line,
+                column: self.index[0].0.clone(),
+                message: format!(
+                    "time must strictly increase: {} follows {}{}",
+                    t[k - 1],
+                    t[k - 2],
+                    if t[k - 1] == t[k - 2] {
+                        " (a repeated sample)"
+                    } else {
+                        ""
+                    }
+                ),
+            }),
+        }
+    }
+
+    /// The table, if it holds at least two samples.
+    fn finish(self) -> Result<Table, RecordError> {
+        let samples = self.columns[0].len();
+        if samples < 2 {
+            let what = if samples == 0 {
+                "no data rows after the header"
+            } else {
+                "only one data row"
+            };
+            return Err(RecordError::Csv {
+                file: self.file.to_string(),
+                line: self.line + 1,
+                message: format!("{what}: a record needs at least 2 samples"),
+            });
+        }
+        Ok(Table {
+            columns: self
+                .index
+                .iter()
+                .map(|(n, _)| n.clone())
+                .zip(self.columns)
+                .collect(),
+        })
+    }
+}
+
+/// A file opened for streaming, and its name for messages.
+fn open(path: &Path) -> Result<(BufReader<std::fs::File>, String), RecordError> {
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| RecordError::Io {
+    let f = std::fs::File::open(path).map_err(|e| RecordError::Io {
         file: file.clone(),
         message: e.to_string(),
     })?;
-    Ok((bytes, file))
+    Ok((BufReader::with_capacity(1 << 16, f), file))
+}
+
+/// The header's column names (trimmed); a name that is not UTF-8 is an error at line 1.
+fn header_names(headers: &csv::ByteRecord, file: &str) -> Result<Vec<String>, RecordError> {
+    headers
+        .iter()
+        .enumerate()
+        .map(|(i, h)| {
+            std::str::from_utf8(h.trim_ascii())
+                .map(str::to_string)
+                .map_err(|_| RecordError::Csv {
+                    file: file.to_string(),
+                    line: 1,
+                    message: format!(
+                        "header field {} (`{}`) is not UTF-8 text; save the file as UTF-8",
+                        i + 1,
+                        String::from_utf8_lossy(h)
+                    ),
+                })
+        })
+        .collect()
 }
 
 /// Positions of the required and present optional columns, required first.
 fn column_index(
-    headers: &csv::StringRecord,
+    headers: &[String],
     file: &str,
     required: &[&str],
     optional: &[&str],
@@ -221,47 +390,123 @@ fn column_index(
         file: file.to_string(),
         message,
     };
-    for (i, h) in headers.iter().enumerate() {
-        if headers.iter().skip(i + 1).any(|other| other == h) && !h.is_empty() {
-            return Err(header_err(format!("column `{h}` appears twice")));
-        }
+    let used = required.iter().chain(optional);
+    if let Some(name) = used
+        .clone()
+        .find(|n| headers.iter().filter(|h| h == n).count() > 1)
+    {
+        return Err(header_err(format!("column `{name}` appears twice")));
     }
-    let find = |name: &str| headers.iter().position(|h| h == name);
+    if let Some(h) = headers.iter().find(|h| h.chars().any(char::is_control)) {
+        return Err(header_err(format!(
+            "column name `{}` holds control characters: this is not a CSV text file",
+            h.escape_debug()
+        )));
+    }
+    if headers.iter().all(|h| h.parse::<f64>().is_ok()) {
+        return Err(header_err(format!(
+            "the first line holds numbers, not column names; add a header row naming the \
+             columns ({})",
+            required.join(", ")
+        )));
+    }
     let mut index = Vec::new();
     for name in required {
-        let i = find(name).ok_or_else(|| {
-            let found: Vec<&str> = headers.iter().collect();
-            header_err(format!(
-                "missing required column `{name}` (need {}; found: {})",
-                required.join(", "),
-                found.join(", ")
-            ))
-        })?;
+        let i = headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| header_err(missing_column(name, headers, required)))?;
         index.push((name.to_string(), i));
     }
     for name in optional {
-        if let Some(i) = find(name) {
+        if let Some(i) = headers.iter().position(|h| h == name) {
             index.push((name.to_string(), i));
         }
     }
     Ok(index)
 }
 
-/// A finite number, or an error naming line and column.
-fn parse_field(text: &str, file: &str, line: u64, column: &str) -> Result<f64, RecordError> {
+/// Why a required column is missing, with a hint when a header looks like it in another case
+/// or another unit (units are never converted silently).
+fn missing_column(name: &str, headers: &[String], required: &[&str]) -> String {
+    let stem = |s: &str| {
+        s.rsplit_once('_')
+            .map_or(s.to_string(), |(a, _)| a.to_string())
+    };
+    let hint = if let Some(h) = headers.iter().find(|h| h.eq_ignore_ascii_case(name)) {
+        format!("; `{h}` differs only in case: rename it `{name}`")
+    } else if let Some(h) = headers
+        .iter()
+        .find(|h| stem(h) == stem(name) && h.contains('_'))
+    {
+        format!(
+            "; `{h}` has another unit: convert its values to the unit of `{name}` and rename \
+             it (pumpcyl never guesses units)"
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "missing required column `{name}` (need {}; found: {}){hint}",
+        required.join(", "),
+        headers.join(", ")
+    )
+}
+
+/// A finite number, or an error naming line and column. With decimal commas, `,` is read as
+/// the decimal point.
+fn parse_field(
+    bytes: &[u8],
+    dialect: Dialect,
+    file: &str,
+    line: u64,
+    column: &str,
+) -> Result<f64, RecordError> {
     let err = |message: String| RecordError::Value {
         file: file.to_string(),
         line,
         column: column.to_string(),
         message,
     };
-    let v: f64 = text
-        .parse()
-        .map_err(|_| err(format!("`{text}` is not a number")))?;
+    let text = std::str::from_utf8(bytes.trim_ascii()).map_err(|_| {
+        err(format!(
+            "`{}` is not UTF-8 text; save the file as UTF-8",
+            String::from_utf8_lossy(bytes)
+        ))
+    })?;
+    if text.is_empty() {
+        return Err(err("empty field: every sample needs a value".into()));
+    }
+    let v: f64 = if dialect.decimal_comma {
+        text.replace(',', ".").parse()
+    } else {
+        text.parse()
+    }
+    .map_err(|_| err(not_a_number(text, dialect)))?;
     if v.is_finite() {
         Ok(v)
     } else {
         Err(err(format!("`{text}` is not a finite number")))
+    }
+}
+
+/// Why a field is not a number, with the dialect's rules when they may be the cause.
+fn not_a_number(text: &str, dialect: Dialect) -> String {
+    let sep = if dialect.delimiter == b';' {
+        "semicolon"
+    } else {
+        "tab"
+    };
+    match (dialect.decimal_comma, text.contains(',')) {
+        (false, true) => format!(
+            "`{text}` is not a number: in a comma-separated file the decimal mark is `.`; a file \
+             with decimal commas must separate its fields with `;`"
+        ),
+        (true, _) => format!(
+            "`{text}` is not a number (a {sep}-separated file: `,` is read as the decimal mark \
+             and thousands separators are not allowed)"
+        ),
+        (false, false) => format!("`{text}` is not a number"),
     }
 }
 
@@ -283,6 +528,37 @@ mod tests {
         assert_eq!(r.p2_bar, None);
         assert_eq!(r.first_change(), 1);
         assert_eq!(r.initial_mean(&r.x_mm), 340.0);
+    }
+
+    #[test]
+    fn spreadsheet_exports_are_accepted() {
+        let plain = parse("time_s,x_ref_mm,x_mm\n0,340,339.5\n0.01,345,340.25\n").unwrap();
+        let variants = [
+            // CRLF line ends, a byte-order mark, blank lines, a trailing delimiter
+            "\u{feff}time_s,x_ref_mm,x_mm\r\n0,340,339.5\r\n\r\n0.01,345,340.25,\r\n",
+            // semicolons with decimal commas, as European spreadsheets write them
+            "time_s;x_ref_mm;x_mm\n0;340;339,5\n0,01;345;340,25\n",
+            // tabs, quoted names, spaces around fields
+            "\"time_s\"\t x_ref_mm\tx_mm\n0\t340\t339,5\n0,01\t345\t 340,25\n",
+        ];
+        for text in variants {
+            let r = parse(text).unwrap_or_else(|e| panic!("{text:?}: {e}"));
+            assert_eq!(
+                (&r.time_s, &r.x_ref_mm, &r.x_mm),
+                (&plain.time_s, &plain.x_ref_mm, &plain.x_mm),
+                "{text:?}"
+            );
+        }
+        let e = parse("time_s,x_ref_mm,x_mm\n0,340,\"339,5\"\n0.01,345,340\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2") && e.contains("`;`"), "{e}");
+    }
+
+    #[test]
+    fn a_duplicated_unused_column_is_harmless() {
+        let r = parse("time_s,x_ref_mm,x_mm,note,note\n0,1,1,a,b\n1,1,1,c,d\n").unwrap();
+        assert_eq!(r.len(), 2);
     }
 
     #[test]

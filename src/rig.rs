@@ -5,6 +5,7 @@
 //! code everything is SI: [`Rig::si`] converts once and the model uses only [`RigSi`].
 //! The embedded default ([`Rig::default`]) is the article's rig.
 
+use crate::input;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::path::Path;
@@ -12,14 +13,6 @@ use std::path::Path;
 /// Errors reading, overriding or validating a rig description.
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {source}")]
-    Io {
-        /// The file.
-        file: String,
-        /// The cause.
-        source: std::io::Error,
-    },
     /// TOML syntax, unknown key or wrong type; the message names line, column and key.
     #[error("{file}: {message}")]
     Parse {
@@ -37,10 +30,12 @@ pub enum RigError {
         message: String,
     },
     /// A value outside its physical range.
-    #[error("{source_name}: key `{key}` = {value}: {rule}")]
+    #[error("{source_name}: {}key `{key}` = {value}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")))]
     Invalid {
         /// Where the rig came from (file name, `--set` or `default`).
         source_name: String,
+        /// The line of the key in the file, when it is written there.
+        line: Option<usize>,
         /// The key.
         key: &'static str,
         /// The offending value.
@@ -260,26 +255,32 @@ impl Rig {
     pub fn from_toml_str(text: &str, name: &str) -> Result<Rig, RigError> {
         let rig: Rig = toml::from_str(text).map_err(|e| RigError::Parse {
             file: name.to_string(),
-            message: e.to_string().trim_end().to_string(),
+            message: input::toml_error(&e, text),
         })?;
-        rig.validate(name)?;
+        rig.validate(name).map_err(|mut e| {
+            if let RigError::Invalid { line, key, .. } = &mut e {
+                *line = input::toml_line(text, &[input::Key::Name(key)]);
+            }
+            e
+        })?;
         Ok(rig)
     }
 
     /// Read and validate a rig file.
     pub fn from_file(path: &Path) -> Result<Rig, RigError> {
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| RigError::Io {
+        let parse_err = |message| RigError::Parse {
             file: name.clone(),
-            source,
-        })?;
-        let text = String::from_utf8(bytes).map_err(|e| RigError::Parse {
-            file: name.clone(),
-            message: format!(
-                "not UTF-8 text (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
-        })?;
+            message,
+        };
+        let text = input::read_text(path).map_err(parse_err)?;
+        if toml::from_str::<toml::Table>(&text).is_ok_and(|t| t.is_empty()) {
+            return Err(parse_err(
+                "line 1: no keys: the file is empty, so it is probably not the rig you meant; \
+                 omit --rig for the article's rig, or start from `pumpcyl rig --print-default`"
+                    .into(),
+            ));
+        }
         Self::from_toml_str(&text, &name)
     }
 
@@ -308,6 +309,7 @@ impl Rig {
     pub fn validate(&self, source_name: &str) -> Result<(), RigError> {
         let invalid = |key, value, rule| RigError::Invalid {
             source_name: source_name.to_string(),
+            line: None,
             key,
             value,
             rule,
@@ -552,10 +554,10 @@ fn parse_assignment(
                 .iter()
                 .flat_map(|(_, k)| k.iter().map(|(n, _)| *n))
                 .collect();
-            return Err(err(format!(
-                "unknown key `{key}`; known keys: {}",
-                known.join(", ")
-            )));
+            return Err(err(match input::suggest(key, &known) {
+                Some(best) => format!("unknown key `{key}`; did you mean `{best}`?"),
+                None => format!("unknown key `{key}`; known keys: {}", known.join(", ")),
+            }));
         }
     };
     let value = match (current, value) {

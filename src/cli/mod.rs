@@ -9,7 +9,7 @@ mod output;
 mod reproduce;
 mod time;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -177,29 +177,14 @@ impl ModelArgs {
     }
 }
 
-/// Read a `--ss` JSON model; errors name the file, line and column.
+/// Read a `--ss` JSON model; errors name the file, line and key.
 fn read_ss(path: &std::path::Path) -> Result<Loop> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read"))?;
-    let json: ModelJson =
-        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    let sys = json
-        .to_model()
+    let (open_loop, states) = crate::input::read_text(path)
+        .and_then(|text| ModelJson::parse(&text))
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    sys.require_siso()
-        .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    let states = if json.states.is_empty() {
-        (1..=sys.order())
-            .map(|i| StateInfo {
-                name: format!("x{i}"),
-                unit: String::new(),
-            })
-            .collect()
-    } else {
-        json.states
-    };
     Ok(Loop {
-        open_loop: sys,
+        open_loop,
         states,
         rig: None,
         description: format!("{name}: loop transfer L(s) from JSON"),

@@ -80,8 +80,10 @@ fn mse(a: &[f64], b: &[f64]) -> f64 {
 pub fn identify_drive(rec: &DriveRecord, jm: f64, omega_i: f64) -> Result<DriveFit, IdentError> {
     if first_change(&rec.w_ref_rpm) >= rec.time_s.len() {
         return Err(IdentError::Input(format!(
-            "{}: the speed reference never changes: no step to identify from",
-            rec.file
+            "{}: lines 2-{}, column `w_ref_rpm`: the speed reference never changes: no step \
+             to identify from",
+            rec.file,
+            rec.time_s.len() + 1
         )));
     }
     let cost = |log_km: f64| -> f64 {

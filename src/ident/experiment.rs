@@ -5,6 +5,7 @@ use super::grid::Grid;
 use super::leakage::Standstill;
 use super::problem::{DatasetSpec, Prepared, Problem};
 use super::IdentError;
+use crate::input::{self, Key, Key::Index, Key::Name};
 use crate::record::Record;
 use crate::rig::Rig;
 use serde::{Deserialize, Serialize};
@@ -60,6 +61,72 @@ pub struct StandstillSpec {
     pub p1_bar: Option<f64>,
 }
 
+/// Errors of an experiment file, located by key path.
+struct Locate<'a> {
+    /// The file name.
+    name: &'a str,
+    /// Its text.
+    text: &'a str,
+}
+
+impl Locate<'_> {
+    /// `FILE: line L, message`, the line being that of the key at `path` (or of the deepest
+    /// table on it that is written).
+    fn error(&self, path: &[Key], message: impl std::fmt::Display) -> IdentError {
+        let line =
+            input::toml_line(self.text, path).map_or(String::new(), |l| format!("line {l}, "));
+        IdentError::Input(format!("{}: {line}{message}", self.name))
+    }
+}
+
+impl ExperimentFile {
+    /// The rig: the named file or the embedded default, with `[set]` applied.
+    fn rig(&self, dir: &Path, at: &Locate) -> Result<Rig, IdentError> {
+        let base = match &self.rig {
+            Some(r) => Rig::from_file(&dir.join(r)).map_err(|e| at.error(&[Name("rig")], e))?,
+            None => Rig::default(),
+        };
+        let assignment = |(k, v): (&String, &toml::Value)| format!("{k}={v}");
+        // each key alone first, so an unknown key or a wrong type is found on its own line
+        for (k, v) in &self.set {
+            if let Err(e @ crate::rig::RigError::Set { .. }) =
+                base.with_overrides(&[assignment((k, v))])
+            {
+                return Err(at.error(&[Name("set"), Name(k)], format!("[set]: {e}")));
+            }
+        }
+        let all: Vec<String> = self.set.iter().map(assignment).collect();
+        base.with_overrides(&all).map_err(|e| {
+            let key = match &e {
+                crate::rig::RigError::Invalid { key, .. } => key,
+                _ => "",
+            };
+            at.error(&[Name("set"), Name(key)], format!("[set]: {e}"))
+        })
+    }
+
+    /// Dataset `i`, its record read and prepared.
+    fn dataset(
+        &self,
+        i: usize,
+        dir: &Path,
+        rig: &Rig,
+        at: &Locate,
+    ) -> Result<Prepared, IdentError> {
+        let spec = &self.dataset[i];
+        let key = |k| [Name("dataset"), Index(i), Name(k)];
+        let what = format!("dataset {} (`{}`)", i + 1, spec.file);
+        let record = Record::read(&dir.join(&spec.file))
+            .map_err(|e| at.error(&key("file"), format!("{what}: {e}")))?;
+        for (k, v) in [("kp", spec.kp), ("mass_kg", spec.mass_kg)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(at.error(&key(k), format!("{what}: {k} = {v}: must be > 0")));
+            }
+        }
+        Prepared::new(spec, record, rig).map_err(|e| at.error(&key("fit_end_s"), e))
+    }
+}
+
 impl StandstillSpec {
     /// The standstill point: the record's means, or the three values.
     fn resolve(&self, dir: &Path) -> Result<Standstill, IdentError> {
@@ -99,66 +166,47 @@ pub struct Experiment {
 }
 
 impl Experiment {
-    /// Read, check and prepare an experiment; errors name the file, and the line and key where
-    /// the TOML parser knows them.
+    /// Read, check and prepare an experiment; every error names the file, and the line and key
+    /// it concerns (a record's own errors name the record's line and column as well).
     pub fn load(path: &Path) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| IdentError::Input(format!("{name}: cannot read: {e}")))?;
+        let text = input::read_text(path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
         let file: ExperimentFile = toml::from_str(&text)
-            .map_err(|e| IdentError::Input(format!("{name}: {}", e.to_string().trim_end())))?;
-        let dir = path.parent().unwrap_or(Path::new("."));
-        let in_file = |m: String| IdentError::Input(format!("{name}: {m}"));
-        let base = match &file.rig {
-            Some(r) => Rig::from_file(&dir.join(r))?,
-            None => Rig::default(),
+            .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, &text))))?;
+        let at = Locate {
+            name: &name,
+            text: &text,
         };
-        let overrides: Vec<String> = file.set.iter().map(|(k, v)| format!("{k}={v}")).collect();
-        let rig = base
-            .with_overrides(&overrides)
-            .map_err(|e| in_file(format!("[set]: {e}")))?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let rig = file.rig(dir, &at)?;
         let standstill = file
             .standstill
             .resolve(dir)
-            .map_err(|e| in_file(e.to_string()))?;
-        standstill.validate().map_err(|e| in_file(e.to_string()))?;
+            .and_then(|s| s.validate().map(|_| s))
+            .map_err(|e| at.error(&[Name("standstill")], e))?;
         if file.dataset.is_empty() {
-            return Err(in_file("needs at least one [[dataset]]".into()));
+            return Err(at.error(&[Name("dataset")], "needs at least one [[dataset]]"));
         }
         for (key, g) in [("grid", &file.grid), ("refined_grid", &file.refined_grid)] {
-            if let Some(g) = g {
-                g.validate(key).map_err(in_file)?;
+            if let Some(Err((axis, m))) = g.as_ref().map(|g| g.validate(key)) {
+                return Err(at.error(&[Name(key), Name(axis)], m));
             }
         }
         if !(file.threshold_mm2.is_finite() && file.threshold_mm2 > 0.0) {
-            return Err(in_file(format!(
-                "threshold_mm2 = {}: must be > 0",
-                file.threshold_mm2
-            )));
+            let m = format!("threshold_mm2 = {}: must be > 0", file.threshold_mm2);
+            return Err(at.error(&[Name("threshold_mm2")], m));
         }
-        let mut datasets = Vec::new();
-        for (i, spec) in file.dataset.iter().enumerate() {
-            let record = Record::read(&dir.join(&spec.file))?;
-            for (key, v) in [("kp", spec.kp), ("mass_kg", spec.mass_kg)] {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(in_file(format!(
-                        "dataset {} (`{}`): {key} = {v}: must be > 0",
-                        i + 1,
-                        spec.file
-                    )));
-                }
-            }
-            datasets.push(Prepared::new(spec, record, &rig).map_err(|e| in_file(e.to_string()))?);
-        }
-        let problem = Problem {
-            datasets,
-            standstill,
-        };
+        let datasets = (0..file.dataset.len())
+            .map(|i| file.dataset(i, dir, &rig, &at))
+            .collect::<Result<_, _>>()?;
         Ok(Experiment {
             path: path.to_path_buf(),
             file,
             rig,
-            problem,
+            problem: Problem {
+                datasets,
+                standstill,
+            },
         })
     }
 

@@ -102,21 +102,28 @@ impl Grid {
     }
 
     /// Check every axis is non-empty with finite positive values.
-    pub fn validate(&self, name: &str) -> Result<(), String> {
+    /// The error names the axis (`beta_bar`, ...) and says what is wrong with it.
+    pub fn validate(&self, name: &str) -> Result<(), (&'static str, String)> {
         for (axis, v) in [
             ("beta_bar", &self.beta_bar),
             ("viscous_friction_ns_per_m", &self.viscous_friction_ns_per_m),
             ("c12_m5_per_ns", &self.c12_m5_per_ns),
         ] {
             if v.is_empty() {
-                return Err(format!("{name}.{axis}: needs at least one value"));
+                return Err((axis, format!("{name}.{axis}: needs at least one value")));
             }
             if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
-                return Err(format!("{name}.{axis}: {x} is not a finite value >= 0"));
+                return Err((
+                    axis,
+                    format!("{name}.{axis}: {x} is not a finite value >= 0"),
+                ));
             }
         }
         if self.beta_bar.contains(&0.0) {
-            return Err(format!("{name}.beta_bar: the bulk modulus must be > 0"));
+            return Err((
+                "beta_bar",
+                format!("{name}.beta_bar: the bulk modulus must be > 0"),
+            ));
         }
         Ok(())
     }

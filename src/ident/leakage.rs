@@ -37,7 +37,7 @@ impl Standstill {
                 .map(|v| v.iter().sum::<f64>() / v.len() as f64)
                 .ok_or_else(|| {
                     IdentError::Input(format!(
-                        "{}: a standstill record needs the column `{col}`",
+                        "{}: line 1 (header): a standstill record needs the column `{col}`",
                         rec.file
                     ))
                 })

@@ -37,6 +37,57 @@ pub struct ModelJson {
 }
 
 impl ModelJson {
+    /// Parse and check JSON text: the model and its state names, or one line naming the line,
+    /// column and key of the problem (a leading byte-order mark is allowed).
+    pub fn parse(text: &str) -> Result<(StateSpace, Vec<StateInfo>), String> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        if text.trim().is_empty() {
+            return Err(
+                "line 1: empty file: expected a JSON object {\"A\", \"B\", \"C\", \"D\"}".into(),
+            );
+        }
+        let json: ModelJson = serde_json::from_str(text).map_err(|e| {
+            let message = e.to_string();
+            let suffix = format!(" at line {} column {}", e.line(), e.column());
+            let mut message =
+                crate::input::serde_message(message.strip_suffix(&suffix).unwrap_or(&message));
+            let rest = text.lines().nth(e.line().max(1) - 1).unwrap_or("");
+            let rest = rest.get(e.column().max(1) - 1..).unwrap_or("");
+            if ["NaN", "Infinity", "-Infinity", "inf", "-inf"]
+                .iter()
+                .any(|w| rest.starts_with(w))
+            {
+                message += ": JSON has no NaN or Infinity; every entry must be a finite number";
+            }
+            format!("line {}, column {}: {message}", e.line(), e.column())
+        })?;
+        let located = |e: LtiError| {
+            let first_word = match &e {
+                LtiError::Dimension(m) => m.split_whitespace().next().unwrap_or(""),
+                LtiError::IllPosedFeedback => "D",
+                _ => "B",
+            };
+            let key = match first_word.trim_matches('`') {
+                k @ ("B" | "C" | "D" | "states") => k,
+                _ => "A",
+            };
+            format!("line {}, key `{key}`: {e}", json_key_line(text, key))
+        };
+        let sys = json.to_model().map_err(located)?;
+        sys.unity_feedback().map_err(located)?;
+        let states = if json.states.is_empty() {
+            (1..=sys.order())
+                .map(|i| StateInfo {
+                    name: format!("x{i}"),
+                    unit: String::new(),
+                })
+                .collect()
+        } else {
+            json.states
+        };
+        Ok((sys, states))
+    }
+
     /// Serialise a model with its state names.
     pub fn from_model(sys: &StateSpace, states: Vec<StateInfo>) -> Self {
         let rows = |m: &DMatrix<f64>| -> Vec<Vec<f64>> {
@@ -54,6 +105,11 @@ impl ModelJson {
     /// Build the state-space model, checking ragged rows, sizes and finiteness.
     pub fn to_model(&self) -> Result<StateSpace, LtiError> {
         let n = self.a.len();
+        if n == 0 {
+            return Err(LtiError::Dimension(
+                "A is empty: the model has no states".into(),
+            ));
+        }
         let m = self.b.first().map_or(0, Vec::len);
         let p = self.c.len();
         let a = matrix("A", &self.a, n)?;
@@ -70,6 +126,14 @@ impl ModelJson {
         debug_assert_eq!(sys.c.nrows(), p);
         Ok(sys)
     }
+}
+
+/// The line where `"key":` is written (1 when it is not).
+fn json_key_line(text: &str, key: &str) -> usize {
+    let quoted = format!("\"{key}\"");
+    text.match_indices(&quoted)
+        .find(|(i, _)| text[i + quoted.len()..].trim_start().starts_with(':'))
+        .map_or(1, |(i, _)| crate::input::line_col(&text.as_bytes()[..i]).0)
 }
 
 /// A matrix from rows that must all have `cols` entries.

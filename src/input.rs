@@ -1,0 +1,233 @@
+//! Reading the files a user writes (rig and experiment TOML, `--ss` JSON): bytes to text, and
+//! every complaint as one line naming the file, the line and the key.
+//!
+//! Text is UTF-8 with or without a byte-order mark; an invalid byte is reported by line and
+//! column. TOML errors keep the parser's position but drop its multi-line source excerpt, and
+//! an unknown key is answered with the nearest known one. Values that parse but make no sense
+//! (a negative mass) are located afterwards with [`toml_line`].
+
+use std::path::Path;
+
+/// The UTF-8 byte-order mark that spreadsheet programs put at the start of text files.
+pub const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// The text of a user file, a leading byte-order mark dropped. The error (without the file name,
+/// which the caller puts first) is `cannot read: …` or `line L, column C: not UTF-8 text …`.
+pub fn read_text(path: &Path) -> Result<String, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    decode(bytes)
+}
+
+/// Bytes to text, a leading byte-order mark dropped; the error names the line and column of the
+/// first invalid byte.
+pub fn decode(mut bytes: Vec<u8>) -> Result<String, String> {
+    if bytes.starts_with(BOM) {
+        bytes.drain(..BOM.len());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let (line, column) = line_col(&bytes[..at]);
+        format!(
+            "line {line}, column {column}: not UTF-8 text (byte 0x{:02X}); save the file as \
+             UTF-8",
+            bytes[at]
+        )
+    })
+}
+
+/// 1-based line and column (in characters) of the end of `prefix`.
+pub fn line_col(prefix: &[u8]) -> (usize, usize) {
+    let line = 1 + prefix.iter().filter(|&&b| b == b'\n').count();
+    let start = prefix
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
+    let column = 1 + String::from_utf8_lossy(&prefix[start..]).chars().count();
+    (line, column)
+}
+
+/// One step of a path into a TOML document: a key, or an index into an array of tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Key<'a> {
+    /// A key of a table.
+    Name(&'a str),
+    /// An element of an array (0-based).
+    Index(usize),
+}
+
+/// The 1-based line where the value at `path` is written (the key's line), or, when the last
+/// key is absent, the line of the deepest table on the path that exists.
+pub fn toml_line(text: &str, path: &[Key]) -> Option<usize> {
+    let doc = toml::de::DeTable::parse(text).ok()?;
+    let mut table = doc.get_ref();
+    let mut value: Option<&toml::Spanned<toml::de::DeValue>> = None;
+    let mut line = None;
+    for step in path {
+        let next = match (step, value.map(|v| v.get_ref())) {
+            (Key::Name(name), None | Some(toml::de::DeValue::Table(_))) => {
+                if let Some(toml::de::DeValue::Table(t)) = value.map(|v| v.get_ref()) {
+                    table = t;
+                }
+                table.get_key_value(*name).map(|(k, v)| (k.span().start, v))
+            }
+            (Key::Index(i), Some(toml::de::DeValue::Array(a))) => {
+                a.get(*i).map(|v| (v.span().start, v))
+            }
+            _ => None,
+        };
+        let Some((start, v)) = next else { break };
+        line = Some(line_col(&text.as_bytes()[..start]).0);
+        value = Some(v);
+    }
+    line
+}
+
+/// A TOML error as one line: `line L, column C: message`, with an unknown key answered by the
+/// nearest known one instead of the parser's list of every key.
+pub fn toml_error(err: &toml::de::Error, text: &str) -> String {
+    let at = err.span().map_or(String::new(), |s| {
+        let start = s.start.min(text.len());
+        let (line, column) = line_col(&text.as_bytes()[..start]);
+        match key_before(text, start) {
+            Some(key) => format!("line {line}, column {column}, key `{key}`: "),
+            None => format!("line {line}, column {column}: "),
+        }
+    });
+    format!("{at}{}", serde_message(err.message()))
+}
+
+/// A serde message in the words of a file's author, on one line: fields are keys, and an
+/// unknown key gets the nearest known one instead of the list of every key.
+pub fn serde_message(message: &str) -> String {
+    let message = message.trim_end();
+    match message.strip_prefix("unknown field ") {
+        Some(rest) => unknown_key(rest),
+        None => message
+            .replace('\n', " ")
+            .replace("missing field", "missing key"),
+    }
+}
+
+/// The key of a `key = value` line when `offset` lies in the value.
+fn key_before(text: &str, offset: usize) -> Option<&str> {
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let (key, _) = text[line_start..offset].split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    (!key.is_empty() && !key.contains(['[', '#'])).then_some(key)
+}
+
+/// `` `beta`, expected one of `a`, `b` `` (serde's words) to a message with a suggestion.
+fn unknown_key(serde_words: &str) -> String {
+    let names: Vec<&str> = serde_words.split('`').skip(1).step_by(2).collect();
+    let Some((unknown, known)) = names.split_first() else {
+        return format!("unknown key {serde_words}");
+    };
+    match suggest(unknown, known) {
+        Some(best) => format!("unknown key `{unknown}`; did you mean `{best}`?"),
+        None => format!(
+            "unknown key `{unknown}`; the known keys are {}",
+            known.join(", ")
+        ),
+    }
+}
+
+/// The known name closest to `unknown`: one that extends it by a unit suffix (`beta` →
+/// `beta_bar`), shares its stem with another unit (`mass_g` → `mass_kg`), or is at most a
+/// third of its length in edits away.
+pub fn suggest<'a>(unknown: &str, known: &[&'a str]) -> Option<&'a str> {
+    let lower = unknown.to_ascii_lowercase();
+    let stem = |s: &str| s.rsplit_once('_').map_or(s.to_string(), |(a, _)| a.into());
+    let score = |k: &str| -> Option<usize> {
+        if k.starts_with(&format!("{lower}_")) || stem(k) == stem(&lower) {
+            return Some(0);
+        }
+        let d = edit_distance(&lower, k);
+        (d <= 2.max(lower.len() / 3)).then_some(d)
+    };
+    known
+        .iter()
+        .filter_map(|k| score(k).map(|s| (s, *k)))
+        .min_by_key(|(s, _)| *s)
+        .map(|(_, k)| k)
+}
+
+/// Levenshtein distance between two strings (in characters).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let substitute = diagonal + usize::from(ca != *cb);
+            diagonal = row[j + 1];
+            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
+        }
+    }
+    row[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bom_is_dropped_and_bad_bytes_are_located() {
+        assert_eq!(decode(b"\xEF\xBB\xBFa = 1".to_vec()).unwrap(), "a = 1");
+        let e = decode(b"a = 1\nb = \"\xE9\"\n".to_vec()).unwrap_err();
+        assert_eq!(
+            e,
+            "line 2, column 6: not UTF-8 text (byte 0xE9); save the file as UTF-8"
+        );
+    }
+
+    #[test]
+    fn toml_line_follows_tables_and_arrays_of_tables() {
+        let text = "a = 1\n\n[s]\nx = 2\n\n[[d]]\nk = 3\n\n[[d]]\nm = 4\nk = 5\n";
+        let at = |p: &[Key]| toml_line(text, p);
+        assert_eq!(at(&[Key::Name("a")]), Some(1));
+        assert_eq!(at(&[Key::Name("s"), Key::Name("x")]), Some(4));
+        assert_eq!(
+            at(&[Key::Name("d"), Key::Index(1), Key::Name("k")]),
+            Some(11)
+        );
+        // an absent key: the deepest table that exists
+        assert_eq!(at(&[Key::Name("s"), Key::Name("y")]), Some(3));
+        assert_eq!(at(&[Key::Name("zz")]), None);
+    }
+
+    #[test]
+    fn unknown_keys_get_the_nearest_known_one() {
+        let known = ["beta_bar", "mass_kg", "kp", "c12_m5_per_ns"];
+        assert_eq!(suggest("beta", &known), Some("beta_bar"));
+        assert_eq!(suggest("mass_g", &known), Some("mass_kg"));
+        assert_eq!(suggest("Mass_kg", &known), Some("mass_kg"));
+        assert_eq!(suggest("c12_m5_per_Ns", &known), Some("c12_m5_per_ns"));
+        assert_eq!(suggest("viscosity", &known), None);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+    }
+
+    #[test]
+    fn a_bad_value_names_its_key() {
+        let text = "a = 1\nbeta_bar = \"x\"\n";
+        assert_eq!(key_before(text, 17), Some("beta_bar"));
+        assert_eq!(key_before(text, 6), None);
+    }
+
+    #[test]
+    fn toml_errors_are_one_line_with_position() {
+        #[derive(Debug, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct T {
+            beta_bar: f64,
+        }
+        let text = "\nbeta = 165\n";
+        let e = toml::from_str::<T>(text).unwrap_err();
+        assert_eq!(
+            toml_error(&e, text),
+            "line 2, column 1: unknown key `beta`; did you mean `beta_bar`?"
+        );
+    }
+}
