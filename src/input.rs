@@ -143,7 +143,7 @@ pub fn suggest<'a>(unknown: &str, known: &[&'a str]) -> Option<&'a str> {
             return Some(0);
         }
         let d = edit_distance(&lower, k);
-        (d <= 2.max(lower.len() / 3)).then_some(d)
+        (d <= lower.len() / 3).then_some(d)
     };
     known
         .iter()
@@ -205,6 +205,7 @@ mod tests {
         assert_eq!(suggest("Mass_kg", &known), Some("mass_kg"));
         assert_eq!(suggest("c12_m5_per_Ns", &known), Some("c12_m5_per_ns"));
         assert_eq!(suggest("viscosity", &known), None);
+        assert_eq!(suggest("E", &["A", "B"]), None);
         assert_eq!(edit_distance("kitten", "sitting"), 3);
     }
 

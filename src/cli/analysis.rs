@@ -27,10 +27,10 @@ pub struct BodeArgs {
     #[command(flatten)]
     model: ModelArgs,
     /// Lowest frequency (Hz).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     from_hz: f64,
     /// Highest frequency (Hz).
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true)]
     to_hz: f64,
     /// Grid density (points per decade, logarithmic).
     #[arg(long, default_value_t = 200)]

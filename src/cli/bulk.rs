@@ -16,19 +16,19 @@ pub struct BulkArgs {
     #[command(flatten)]
     rig: RigSource,
     /// Identified effective bulk modulus (bar).
-    #[arg(long, default_value_t = 165.0)]
+    #[arg(long, default_value_t = 165.0, allow_negative_numbers = true)]
     beta_bar: f64,
     /// Mean chamber pressure during the identification (bar).
-    #[arg(long, default_value_t = 4.4)]
+    #[arg(long, default_value_t = 4.4, allow_negative_numbers = true)]
     p_mean_bar: f64,
     /// Pure-oil bulk modulus (bar).
-    #[arg(long, default_value_t = BETA_OIL_BAR)]
+    #[arg(long, default_value_t = BETA_OIL_BAR, allow_negative_numbers = true)]
     beta_oil_bar: f64,
     /// Lowest mean pressure of the table (bar).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     from_bar: f64,
     /// Highest mean pressure of the table (bar).
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
     to_bar: f64,
     /// Table rows, evenly spaced.
     #[arg(long, default_value_t = 10)]

@@ -13,20 +13,20 @@ pub struct DesignArgs {
     #[command(flatten)]
     rig: RigSource,
     /// Phase margin target (deg).
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
     target_pm_deg: f64,
     /// Gain margin target (dB).
-    #[arg(long, default_value_t = 6.0)]
+    #[arg(long, default_value_t = 6.0, allow_negative_numbers = true)]
     target_gm_db: f64,
     /// Stroke excursion checked on each side of x0 (mm).
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
     stroke_mm: f64,
     /// Mean chamber pressures to check (bar), e.g. --p-mean-bar 1 --p-mean-bar 10; beta
     /// follows the gas-fraction model (SPEC §7) from the rig's beta at --p-beta-bar.
     #[arg(long)]
     p_mean_bar: Vec<f64>,
     /// Mean pressure at which the rig's beta_bar was identified (bar).
-    #[arg(long, default_value_t = 4.4)]
+    #[arg(long, default_value_t = 4.4, allow_negative_numbers = true)]
     p_beta_bar: f64,
     /// Masses to check (kg), e.g. the lightest and heaviest load.
     #[arg(long)]

@@ -38,31 +38,51 @@ pub struct EmulateArgs {
     #[command(flatten)]
     source: RigSource,
     /// Step: reference before the step (mm). Default: x0 − 5 mm.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     from_mm: Option<f64>,
     /// Step: reference after the step (mm). Default: x0.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     to_mm: Option<f64>,
     /// Time of the step or the start of the sinusoid (s).
-    #[arg(long, value_name = "S", default_value_t = 0.5)]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0.5,
+        allow_negative_numbers = true
+    )]
     at_s: f64,
     /// Sine: amplitude (mm) about x0.
-    #[arg(long, value_name = "MM", default_value_t = 20.0)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 20.0,
+        allow_negative_numbers = true
+    )]
     amplitude_mm: f64,
     /// Sine: frequency (Hz).
-    #[arg(long, value_name = "HZ", default_value_t = 0.25)]
+    #[arg(
+        long,
+        value_name = "HZ",
+        default_value_t = 0.25,
+        allow_negative_numbers = true
+    )]
     freq_hz: f64,
     /// Drive step: which drive (1 or 2).
     #[arg(long, default_value_t = 1)]
     motor: usize,
     /// Drive step: speed after the step (rpm), from rest.
-    #[arg(long, value_name = "RPM", default_value_t = 500.0)]
+    #[arg(
+        long,
+        value_name = "RPM",
+        default_value_t = 500.0,
+        allow_negative_numbers = true
+    )]
     to_rpm: f64,
     /// Recorded length (s). Default: 6 s, 1 s for a drive step, two periods for a sine.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     duration_s: Option<f64>,
     /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     rate_hz: Option<f64>,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
@@ -144,22 +164,45 @@ fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kin
             bail!("--{name} {v}: must be > 0")
         }
     };
+    let inside = |name: &str, v: f64| -> Result<f64> {
+        if v.is_finite() && v > 0.0 && v < rig.stroke_mm {
+            Ok(v)
+        } else {
+            bail!(
+                "--{name} {v}: must lie inside the stroke (0 … {} mm, `stroke_mm` of the rig)",
+                rig.stroke_mm
+            )
+        }
+    };
     let at_s = args.at_s;
     if !(at_s.is_finite() && at_s >= 0.0) {
         bail!("--at-s {at_s}: must be >= 0");
     }
     Ok(match kind {
         ExperimentKind::Step => Kind::Loop(Experiment::Step {
-            from_mm: args.from_mm.unwrap_or(rig.x0_mm - 5.0),
-            to_mm: args.to_mm.unwrap_or(rig.x0_mm),
+            from_mm: inside("from-mm", args.from_mm.unwrap_or(rig.x0_mm - 5.0))?,
+            to_mm: inside("to-mm", args.to_mm.unwrap_or(rig.x0_mm))?,
             at_s,
             duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
         }),
         ExperimentKind::Sine => {
             let f = positive("freq-hz", args.freq_hz)?;
+            let a = positive("amplitude-mm", args.amplitude_mm)?;
+            if inside("", rig.x0_mm + a)
+                .and(inside("", rig.x0_mm - a))
+                .is_err()
+            {
+                bail!(
+                    "--amplitude-mm {a}: the sine about x0_mm spans {} … {} mm, outside the \
+                     stroke (0 … {} mm)",
+                    rig.x0_mm - a,
+                    rig.x0_mm + a,
+                    rig.stroke_mm
+                );
+            }
             Kind::Loop(Experiment::Sine {
                 centre_mm: rig.x0_mm,
-                amplitude_mm: positive("amplitude-mm", args.amplitude_mm)?,
+                amplitude_mm: a,
                 freq_hz: f,
                 start_s: at_s,
                 duration_s: positive("duration-s", args.duration_s.unwrap_or(at_s + 2.0 / f))?,

@@ -40,10 +40,14 @@ pub struct LeakageArgs {
     )]
     w2_rpm: Option<f64>,
     /// Chamber 1 pressure at standstill (bar gauge).
-    #[arg(long, required_unless_present = "record")]
+    #[arg(
+        long,
+        required_unless_present = "record",
+        allow_negative_numbers = true
+    )]
     p1_bar: Option<f64>,
     /// Cross-port leakage c12 (m⁵/(N·s)).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     c12: f64,
     /// Print JSON.
     #[arg(long)]
@@ -85,7 +89,7 @@ pub struct IdentifyArgs {
     #[arg(long)]
     no_refine: bool,
     /// Threshold of the threshold set (mm²); default: the experiment's, else 0.25.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threshold_mm2: Option<f64>,
     /// Length of the top list.
     #[arg(long, default_value_t = 20)]

@@ -38,10 +38,10 @@ pub struct StepArgs {
     #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     step_mm: f64,
     /// Simulated duration (s).
-    #[arg(long, default_value_t = 4.0)]
+    #[arg(long, default_value_t = 4.0, allow_negative_numbers = true)]
     duration_s: f64,
     /// Sample rate (Hz) of the reference and the output.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true)]
     rate_hz: f64,
     #[command(flatten)]
     opts: TimeOptions,
@@ -52,16 +52,24 @@ pub struct TrackArgs {
     #[command(flatten)]
     rig: RigSource,
     /// Sine frequency (Hz).
-    #[arg(long, required_unless_present = "article_cases")]
+    #[arg(
+        long,
+        required_unless_present = "article_cases",
+        allow_negative_numbers = true
+    )]
     freq_hz: Option<f64>,
     /// Sine amplitude (mm) about x0.
-    #[arg(long, required_unless_present = "article_cases")]
+    #[arg(
+        long,
+        required_unless_present = "article_cases",
+        allow_negative_numbers = true
+    )]
     amp_mm: Option<f64>,
     /// Number of periods simulated; metrics skip the first.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     periods: f64,
     /// Sample rate (Hz).
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true)]
     rate_hz: f64,
     /// Run the article's three cases (0.1 Hz ±50 mm, 0.2 Hz ±35 mm, 0.25 Hz ±20 mm).
     #[arg(long, conflicts_with_all = ["freq_hz", "amp_mm"])]
@@ -79,7 +87,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "RECORD.csv")]
     data: PathBuf,
     /// End of the fit window on the record's time axis (s); default: the whole record.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     fit_end_s: Option<f64>,
     #[command(flatten)]
     opts: TimeOptions,
@@ -96,6 +104,72 @@ fn variants(rig: &Rig, compare: &[String]) -> Result<Vec<(String, Rig)>> {
         out.push((c.clone(), v));
     }
     Ok(out)
+}
+
+/// The runs of a time-domain command: the nominal rig's and each `--compare` variant's, and
+/// the variants set aside because their closed loop is unstable.
+struct Runs<T> {
+    /// Label and result, the nominal rig first.
+    done: Vec<(String, T)>,
+    /// Label and reason of each unstable variant.
+    unstable: Vec<(String, String)>,
+}
+
+impl<T> Runs<T> {
+    /// Run `f` on the nominal rig and on each variant. An unstable nominal rig is an error; an
+    /// unstable variant is set aside with its reason (its response would only grow).
+    fn of(
+        source: &RigSource,
+        rig: &Rig,
+        compare: &[String],
+        mut f: impl FnMut(&Rig) -> Result<T>,
+    ) -> Result<Runs<T>> {
+        let mut runs = Runs {
+            done: Vec::new(),
+            unstable: Vec::new(),
+        };
+        for (label, r) in variants(rig, compare)? {
+            match f(&r) {
+                Ok(t) => runs.done.push((label, t)),
+                Err(e) if label != "nominal" && is_unstable(&e) => {
+                    runs.unstable.push((label, e.to_string()))
+                }
+                Err(e) => return Err(e.context(which(source, &label))),
+            }
+        }
+        Ok(runs)
+    }
+}
+
+/// Unstable variants (label, reason) as JSON.
+fn unstable_json(unstable: &[(String, String)]) -> serde_json::Value {
+    unstable
+        .iter()
+        .map(|(l, why)| json!({"label": l, "unstable": why}))
+        .collect()
+}
+
+/// Unstable variants as lines for the terminal (empty when there are none).
+fn unstable_lines(unstable: &[(String, String)]) -> String {
+    unstable
+        .iter()
+        .map(|(l, why)| format!("--compare {l}: not simulated: {why}\n"))
+        .collect()
+}
+
+fn is_unstable(e: &anyhow::Error) -> bool {
+    matches!(
+        e.downcast_ref::<crate::lti::LtiError>(),
+        Some(crate::lti::LtiError::Unstable { .. })
+    )
+}
+
+/// The rig and variant a run belongs to, for messages.
+fn which(rig: &RigSource, label: &str) -> String {
+    match label {
+        "nominal" => rig.origin(),
+        variant => format!("{} with --compare {variant}", rig.origin()),
+    }
 }
 
 fn check_timing(duration_s: f64, rate_hz: f64) -> Result<()> {
@@ -118,14 +192,19 @@ pub fn step(args: &StepArgs) -> Result<String> {
         "--step-mm must be non-zero"
     );
     let rig = args.rig.load()?;
-    let mut runs = Vec::new();
-    for (label, r) in variants(&rig, &args.opts.compare)? {
-        let s = response::step(&r, args.step_mm, args.duration_s, args.rate_hz)?;
-        let m = metrics_of_step(&r, &s, args.step_mm)?;
-        runs.push((label, s, m));
-    }
+    let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
+        let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
+        let m = metrics_of_step(r, &s, args.step_mm)?;
+        Ok((s, m))
+    })?;
+    let runs: Vec<_> = all
+        .done
+        .iter()
+        .map(|(l, (s, m))| (l.clone(), s, *m))
+        .collect();
     if let Some(path) = &args.opts.out {
-        let series: Vec<(String, &Signals)> = runs.iter().map(|(l, s, _)| (l.clone(), s)).collect();
+        let series: Vec<(String, &Signals)> =
+            runs.iter().map(|(l, s, _)| (l.clone(), *s)).collect();
         let title = format!(
             "Step {:+} mm from x0 = {} mm ({})",
             args.step_mm,
@@ -144,9 +223,12 @@ pub fn step(args: &StepArgs) -> Result<String> {
                 .map(|(l, _, m)| json!({"label": l, "metrics": m}))
                 .collect();
         }
+        if !all.unstable.is_empty() {
+            v["unstable"] = unstable_json(&all.unstable);
+        }
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
-    Ok(step_table(args, &runs))
+    Ok(step_table(args, &runs) + &unstable_lines(&all.unstable))
 }
 
 /// Step metrics of a simulated step; the steady-state error comes from the DC solution.
@@ -169,7 +251,7 @@ fn step_subtitle(m: &StepMetrics) -> String {
     )
 }
 
-fn step_table(args: &StepArgs, runs: &[(String, Signals, StepMetrics)]) -> String {
+fn step_table(args: &StepArgs, runs: &[(String, &Signals, StepMetrics)]) -> String {
     let mut s = format!(
         "step {:+} mm, {} Hz, {} s ({}; sum-pressure loop as the rig says)\n",
         args.step_mm,
@@ -228,12 +310,15 @@ pub fn track(args: &TrackArgs) -> Result<String> {
     );
     let rig = args.rig.load()?;
     let mut runs = Vec::new();
+    let mut unstable = Vec::new();
     for &(f, a) in &cases {
-        for (label, r) in variants(&rig, &args.opts.compare)? {
-            let s = response::sine(&r, f, a, args.periods, args.rate_hz)?;
+        let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
+            let s = response::sine(r, f, a, args.periods, args.rate_hz)?;
             let m = response::track_metrics(&s.time_s, &s.e_mm, f, a);
-            runs.push((label, s, m));
-        }
+            Ok((s, m))
+        })?;
+        runs.extend(all.done.into_iter().map(|(l, (s, m))| (l, s, m)));
+        unstable = all.unstable;
     }
     if let Some(path) = &args.opts.out {
         write_track_output(path, &runs)?;
@@ -243,9 +328,11 @@ pub fn track(args: &TrackArgs) -> Result<String> {
             .iter()
             .map(|(l, _, m)| json!({"label": l, "metrics": m}))
             .collect();
-        return Ok(serde_json::to_string_pretty(
-            &json!({"rig": args.rig.origin(), "cases": cases}),
-        )? + "\n");
+        let mut v = json!({"rig": args.rig.origin(), "cases": cases});
+        if !unstable.is_empty() {
+            v["unstable"] = unstable_json(&unstable);
+        }
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     let mut s = format!(
         "sinusoidal tracking ({}), metrics after the first period\n",
@@ -263,7 +350,7 @@ pub fn track(args: &TrackArgs) -> Result<String> {
             m.freq_hz, m.amp_mm, m.max_error_mm, m.rms_error_mm, m.wave_reduction
         );
     }
-    Ok(s)
+    Ok(s + &unstable_lines(&unstable))
 }
 
 fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> Result<()> {
@@ -332,18 +419,18 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
     };
     let rig = args.rig.load()?;
     let measured = Signals::of_record(&rec);
-    let mut runs = Vec::new();
-    for (label, r) in variants(&rig, &args.opts.compare)? {
-        let base = Baseline::of_record(&rec, &r);
-        let s = response::simulate(&r, &rec.time_s, &rec.x_ref_mm, &base)?;
+    let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
+        let base = Baseline::of_record(&rec, r);
+        let s = response::simulate(r, &rec.time_s, &rec.x_ref_mm, &base)?;
         let mse = mse_window(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
-        runs.push((label, s, mse));
-    }
+        Ok((s, mse))
+    })?;
+    let runs: Vec<_> = all.done.iter().map(|(l, (s, m))| (l, s, *m)).collect();
     let in_window = rec.time_s.iter().filter(|&&t| t <= window_end).count();
     if let Some(path) = &args.opts.out {
         let series: Vec<(String, &Signals)> = runs
             .iter()
-            .map(|(l, s, _)| (format!("sim {l}"), s))
+            .map(|(l, s, _)| (format!("sim {l}"), *s))
             .collect();
         let title = format!("{} against the model ({})", rec.file, args.rig.origin());
         let subtitle = format!(
@@ -363,6 +450,9 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
                 .map(|(l, _, m)| json!({"label": l, "mse_mm2": m}))
                 .collect();
         }
+        if !all.unstable.is_empty() {
+            v["unstable"] = unstable_json(&all.unstable);
+        }
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     let mut s = format!(
@@ -374,7 +464,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
     for (label, _, mse) in &runs {
         let _ = writeln!(s, "  {label:<24} position MSE {mse:.5} mm²");
     }
-    Ok(s)
+    Ok(s + &unstable_lines(&all.unstable))
 }
 
 /// Mean squared position error (mm²) over samples with t ≤ `end`.

@@ -45,6 +45,20 @@ pub enum LtiError {
     /// The Schur iteration did not converge within its iteration limit.
     #[error("eigenvalue computation did not converge (Schur iteration limit reached)")]
     NoConvergence,
+    /// A time response was asked of an unstable model: it would grow without bound.
+    #[error(
+        "the closed loop is unstable (a pole at {real_per_s:+.4} {imag_rad_per_s:+.4}j rad/s, \
+         {freq_hz:.3} Hz): its response grows without bound; `pumpcyl margins` and \
+         `pumpcyl poles` show why"
+    )]
+    Unstable {
+        /// Real part of the rightmost pole (1/s).
+        real_per_s: f64,
+        /// Its imaginary part (rad/s).
+        imag_rad_per_s: f64,
+        /// Its frequency |p|/2π (Hz).
+        freq_hz: f64,
+    },
     /// Unity feedback with D = −1 has no solution.
     #[error("unity feedback is ill-posed: 1 + D = 0 (algebraic loop)")]
     IllPosedFeedback,
@@ -134,6 +148,25 @@ impl StateSpace {
     pub fn closed_loop_poles(&self) -> Result<Vec<num_complex::Complex64>, LtiError> {
         eigenvalues(&self.unity_feedback()?.a)
     }
+}
+
+/// Fail with [`LtiError::Unstable`] unless every eigenvalue of `a` lies in the open left
+/// half-plane.
+pub fn require_stable(a: &DMatrix<f64>) -> Result<(), LtiError> {
+    let poles = eigenvalues(a)?;
+    if is_stable(&poles) {
+        return Ok(());
+    }
+    let p = poles
+        .iter()
+        .copied()
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .unwrap_or_default();
+    Err(LtiError::Unstable {
+        real_per_s: p.re,
+        imag_rad_per_s: p.im.abs(),
+        freq_hz: p.norm() / (2.0 * std::f64::consts::PI),
+    })
 }
 
 /// NaN/inf check naming the first bad entry (1-based).

@@ -135,7 +135,7 @@ impl Baseline {
 
 /// Simulate the closed loop of `rig` (sum-pressure loop as the rig says) driven by the
 /// reference `x_ref_mm` sampled at `time_s` and held between samples, starting at rest in
-/// `base`.
+/// `base`. An unstable closed loop is an error ([`LtiError::Unstable`]), not a response.
 pub fn simulate(
     rig: &Rig,
     time_s: &[f64],
@@ -143,6 +143,7 @@ pub fn simulate(
     base: &Baseline,
 ) -> Result<Signals, LtiError> {
     let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    crate::lti::require_stable(&sys.a)?;
     let u: Vec<f64> = x_ref_mm
         .iter()
         .map(|r| (r - base.x_ref_mm) * 1e-3)
