@@ -14,6 +14,8 @@ pub mod bulk;
 pub mod cli;
 pub mod design;
 pub mod emulator;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod ident;
 pub mod input;
 pub mod lti;

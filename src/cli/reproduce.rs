@@ -587,6 +587,7 @@ fn variants(run: &mut Run, stem: &str, what: &str, rigs: &[(String, Rig)]) -> Re
     let mut series = Vec::new();
     let mut rows = Vec::new();
     let mut steps = Vec::new();
+    let mut unstable = Vec::new();
     let mut out = Vec::new();
     for (label, rig) in rigs {
         let m = margins_of(rig)?;
@@ -594,10 +595,14 @@ fn variants(run: &mut Run, stem: &str, what: &str, rigs: &[(String, Rig)]) -> Re
         series.push(bode_series(rig, label, &freqs)?);
         let mut v = margins_json(&m);
         v["case"] = json!(label);
-        out.push(v);
-        if m.closed_loop_stable {
-            steps.push((label.clone(), response::step(rig, 5.0, 6.0, 100.0)?));
+        // the step runs with the sum-pressure loop closed, which the margins open (SPEC §4)
+        match response::step(rig, 5.0, 6.0, 100.0) {
+            Ok(s) => steps.push((label.clone(), s)),
+            Err(lti::LtiError::Unstable { .. }) => unstable.push(label.as_str()),
+            Err(e) => return Err(e.into()),
         }
+        v["step_closed_loop_stable"] = json!(!unstable.contains(&label.as_str()));
+        out.push(v);
     }
     run.table(&format!("Margins: {what}"), &MARGIN_HEADER, rows);
     bode_figure(
@@ -607,7 +612,12 @@ fn variants(run: &mut Run, stem: &str, what: &str, rigs: &[(String, Rig)]) -> Re
         &series,
     )?;
     let refs: Vec<(String, &Signals)> = steps.iter().map(|(l, s)| (l.clone(), s)).collect();
-    let title = format!("5 mm step: {what} (stable cases, sum-pressure loop closed)");
+    let left_out = if unstable.is_empty() {
+        String::new()
+    } else {
+        format!("; unstable, not shown: {}", unstable.join(", "))
+    };
+    let title = format!("5 mm step: {what} (sum-pressure loop closed{left_out})");
     run.figure(&format!("step_{stem}"), &title, |p| {
         write_figure(p, &title, None, &refs, None)
     })?;

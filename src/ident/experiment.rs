@@ -171,11 +171,18 @@ impl Experiment {
     pub fn load(path: &Path) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
         let text = input::read_text(path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
-        let file: ExperimentFile = toml::from_str(&text)
-            .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, &text))))?;
+        Self::from_text(&text, path)
+    }
+
+    /// Check and prepare the experiment `text` of the file at `path` (which names it in
+    /// messages; the files it lists are relative to its folder).
+    pub fn from_text(text: &str, path: &Path) -> Result<Experiment, IdentError> {
+        let name = path.display().to_string();
+        let file: ExperimentFile = toml::from_str(text)
+            .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
         let at = Locate {
             name: &name,
-            text: &text,
+            text,
         };
         let dir = path.parent().unwrap_or(Path::new("."));
         let rig = file.rig(dir, &at)?;
