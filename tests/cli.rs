@@ -781,3 +781,145 @@ fn emulate_refuses_bad_options_and_writes_nothing() {
     let swing = w1_at_rest.iter().fold(0.0f64, |a, w| a.max(w.abs()));
     assert!(swing > 1000.0, "{swing} rpm");
 }
+
+/// The first lines a command prints: each must start with the expected text.
+fn assert_first_lines(args: &[&str], expected: &[&str]) {
+    let text = ok(args);
+    let lines: Vec<&str> = text.lines().collect();
+    for (i, want) in expected.iter().enumerate() {
+        let got = lines.get(i).copied().unwrap_or("");
+        assert!(
+            got.starts_with(want),
+            "{args:?} line {}: `{got}`, want `{want}…`",
+            i + 1
+        );
+    }
+}
+
+#[test]
+fn every_command_runs_a_typical_case_and_prints_its_header() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article");
+    let file = |name: &str| data.join(name).display().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).display().to_string();
+    let (validation, standstill, drive) = (
+        file("validation.csv"),
+        file("standstill.csv"),
+        file("drive_step.csv"),
+    );
+    // the article's experiment on small grids (the article's 6817 candidates take a minute in
+    // the unoptimised test build; tests/identify.rs runs them)
+    let article = std::fs::read_to_string(data.join("identify.toml")).unwrap();
+    let small = article.replace("= \"", &format!("= \"{}/", data.display()))
+        + "\n[grid]\nbeta_bar = [150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0, 600.0]\n\
+           c12_m5_per_ns = [1.0e-10, 1.2e-10]\n\n[refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\n\
+           viscous_friction_ns_per_m = [550.0, 600.0]\nc12_m5_per_ns = [1.1e-10, 1.2e-10]\n";
+    let experiment = write(dir.path(), "small.toml", &small);
+    let open_loop = "default rig: open loop x_ref -> x, position feedback removed";
+    let cases: Vec<(Vec<&str>, Vec<String>)> = vec![
+        (
+            vec!["rig", "--print-default"],
+            vec!["# pumpcyl rig description (SPEC §2).".into()],
+        ),
+        (
+            vec!["margins"],
+            vec![open_loop.into(), "  gain margin        6.45 dB".into()],
+        ),
+        (
+            vec!["bode"],
+            vec![
+                "freq_hz,mag_db,phase_deg".into(),
+                "1.000000e-2,35.07".into(),
+            ],
+        ),
+        (vec!["poles"], vec![open_loop.into()]),
+        (
+            vec!["model"],
+            vec![
+                open_loop.into(),
+                "input: position error e (m); output: x (m)".into(),
+            ],
+        ),
+        (
+            vec!["step"],
+            vec!["step +5 mm, 100 Hz, 4 s (default rig; sum-pressure loop as the rig says)".into()],
+        ),
+        (
+            vec!["track", "--article-cases"],
+            vec!["sinusoidal tracking (default rig), metrics after the first period".into()],
+        ),
+        (
+            vec!["simulate", "--data", &validation, "--fit-end-s", "3.7"],
+            vec![format!(
+                "{validation}: 651 samples, fit window up to 3.7 s (371 samples)"
+            )],
+        ),
+        (
+            vec!["leakage", "--record", &standstill, "--c12", "1.2e-10"],
+            vec!["standstill (SPEC §6.2): w1 -143.3 rpm, w2 219.5 rpm, p1 3.537 bar".into()],
+        ),
+        (
+            vec!["identify-drive", &drive],
+            vec![
+                format!("{drive}: motor 1 (Jm = 1.600e-3 kg m2"),
+                "  Km  0.02601 N m s/rad".into(),
+            ],
+        ),
+        (
+            vec!["identify", &experiment, "--no-refine"],
+            vec![
+                format!("{experiment}: 2 datasets, 24 candidates (12 + 12)"),
+                "  best grid point  beta   165.00 bar".into(),
+            ],
+        ),
+        (
+            vec!["bulk-modulus"],
+            vec!["gas fraction X = 0.02641 (beta_e = 165 bar at 4.4 bar mean pressure".into()],
+        ),
+        (
+            vec!["design"],
+            vec![
+                "design (SPEC §8) for default rig: PM >= 40 deg, GM >= 6 dB".into(),
+                "  Kp max at the design point   21.50 (1/m)".into(),
+            ],
+        ),
+    ];
+    for (args, expected) in &cases {
+        let expected: Vec<&str> = expected.iter().map(String::as_str).collect();
+        assert_first_lines(args, &expected);
+    }
+    // the commands that write files: emulate, identify in shards and their merge
+    let record = out("step.csv");
+    assert_first_lines(
+        &["emulate", "--experiment", "step", "--out", &record],
+        &[&format!(
+            "{record}: emulated step on the emulated article rig, 601 samples (emulated data"
+        )],
+    );
+    let parts: Vec<String> = (1..=2)
+        .map(|i| {
+            let shard = format!("{i}/2");
+            let folder = out(&format!("shard{i}"));
+            let part = format!("{folder}/part-{i}-of-2.json");
+            let args = [
+                "identify",
+                &experiment,
+                "--no-refine",
+                "--shard",
+                &shard,
+                "--out",
+                &folder,
+            ];
+            assert_first_lines(&args, &[&format!("wrote {part} (shard {shard}")]);
+            part
+        })
+        .collect();
+    assert_first_lines(
+        &["identify-merge", &parts[0], &parts[1]],
+        &[
+            &format!("{experiment}: 2 datasets, 24 candidates (12 + 12)"),
+            "  best grid point  beta   165.00 bar",
+        ],
+    );
+    // reproduce's first lines are checked by tests/reproduce.rs, on its one shared run
+}

@@ -87,7 +87,13 @@ fn summary_carries_the_article_numbers_and_recovers_the_truth() {
 #[test]
 fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
     let (dir, stdout) = reproduced();
-    assert!(stdout.contains("EMULATED"), "{stdout}");
+    // its first lines: where it went, and that the inputs are emulated
+    let head: Vec<&str> = stdout.lines().take(2).collect();
+    assert!(
+        head[0].starts_with("reproduced in ") && head[0].contains("report.html"),
+        "{stdout}"
+    );
+    assert!(head[1].starts_with("inputs: EMULATED records"), "{stdout}");
     assert!(stdout.contains("bulk modulus beta (bar)"), "{stdout}");
     let stems = [
         "drive_step",

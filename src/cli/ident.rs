@@ -393,6 +393,8 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
         top_n: first.top,
     };
     let start = Instant::now();
+    // the time reported is the shards' search time added up, plus the merge's own
+    let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
     let mut stages: Vec<Stage> = Vec::new();
     for part in parts {
         for (i, stage) in part.stages.into_iter().enumerate() {
@@ -406,7 +408,7 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
     report_identification(
         &exp,
         &id,
-        start.elapsed().as_secs_f64(),
+        shard_seconds + start.elapsed().as_secs_f64(),
         args.json,
         args.out.as_deref(),
     )

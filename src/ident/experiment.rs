@@ -180,10 +180,7 @@ impl Experiment {
         let name = path.display().to_string();
         let file: ExperimentFile = toml::from_str(text)
             .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
-        let at = Locate {
-            name: &name,
-            text,
-        };
+        let at = Locate { name: &name, text };
         let dir = path.parent().unwrap_or(Path::new("."));
         let rig = file.rig(dir, &at)?;
         let standstill = file

@@ -262,8 +262,10 @@ fn refine(
 }
 
 /// Analysis range (rad/s): two decades beyond the slowest and fastest non-zero poles, extended
-/// while a crossing may still lie outside (|L| < 1 at the low end with integrators, |L| > 1 at
-/// the high end of a strictly proper loop).
+/// (a decade at a time, twelve at most) while a gain crossing must still lie outside: while |L|
+/// at an end of the range is on the other side of 1 from its limit beyond that end — ∞ at
+/// ω → 0 with integrators, |L(0)| without, |D| at ω → ∞. (The poles alone do not bound the
+/// crossings: a zero far below them can lift |L| through 1 below the range.)
 fn frequency_range(
     ev: &FreqEvaluator,
     poles: &[Complex64],
@@ -280,11 +282,16 @@ fn frequency_range(
     } else {
         (1e-2, 1e2)
     };
+    let dc = if integrators > 0 {
+        f64::INFINITY
+    } else {
+        ev.eval(Complex64::new(0.0, 0.0)).norm()
+    };
     for _ in 0..12 {
-        if integrators > 0 && ev.at(lo).norm() < 1.0 {
+        if (ev.at(lo).norm() < 1.0) != (dc < 1.0) {
             lo /= 10.0;
         }
-        if d.abs() < 1.0 && ev.at(hi).norm() > 1.0 {
+        if (ev.at(hi).norm() < 1.0) != (d.abs() < 1.0) {
             hi *= 10.0;
         }
     }
