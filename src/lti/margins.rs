@@ -5,7 +5,9 @@
 //! than 20° or the magnitude more than 10 dB between neighbours; unwrap the phase from the
 //! low-frequency asymptote (−90° per integrator); find every sign change of |L| − 1 (gain
 //! crossings) and of the phase through −180° + k·360° (phase crossings), and refine each with
-//! Brent's method in log ω. Stability is decided from the closed-loop eigenvalues, never from
+//! Brent's method in log ω. A phase that only touches −180° through rounding (a double
+//! integrator) does not cross it, and phase crossings below −200 dB (where the phase is rounding
+//! noise) are not reported. Stability is decided from the closed-loop eigenvalues, never from
 //! the margins, so open-loop unstable plants are not misjudged.
 
 use super::freqresp::{nearest_branch, unwrap_anchored, FreqEvaluator};
@@ -22,6 +24,13 @@ const MAX_PHASE_STEP_DEG: f64 = 20.0;
 /// twentieth of a decade is a 200 dB/decade slope, only seen near sharp resonances (whose
 /// frequencies are seeded into the grid as well).
 const MAX_MAG_STEP_DB: f64 = 10.0;
+/// A phase that stays within this distance (deg) of −180° + k·360° on both sides of a sign
+/// change only touches the level through rounding (a double integrator sits on −180°
+/// everywhere): that is not a phase crossing.
+const PHASE_TOUCH_DEG: f64 = 1e-6;
+/// Phase crossings where |L| is below this level (dB) are not reported: there the phase is
+/// rounding noise, and a gain margin above 200 dB says nothing about stability.
+const PHASE_CROSSING_FLOOR_DB: f64 = -200.0;
 /// Bisection depth limit of the grid refinement (a factor 2¹² finer at most).
 const MAX_REFINE_DEPTH: u32 = 12;
 
@@ -191,11 +200,17 @@ impl Grid {
             }
             let k0 = ((self.phase_deg[i - 1] + 180.0) / 360.0).floor();
             let k1 = ((self.phase_deg[i] + 180.0) / 360.0).floor();
-            if k0 != k1 {
-                let level = -180.0 + 360.0 * k0.max(k1);
+            let level = -180.0 + 360.0 * k0.max(k1);
+            let away = (self.phase_deg[i - 1] - level)
+                .abs()
+                .max((self.phase_deg[i] - level).abs());
+            if k0 != k1 && away > PHASE_TOUCH_DEG {
                 let phase = |u: f64| self.phase_near(ev, u.exp(), i) - level;
                 let w = brent_log(phase, w0, w1);
-                out.push(self.crossing_at(ev, CrossingKind::Phase, w, i));
+                let c = self.crossing_at(ev, CrossingKind::Phase, w, i);
+                if c.magnitude_db > PHASE_CROSSING_FLOOR_DB {
+                    out.push(c);
+                }
             }
         }
         out.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
