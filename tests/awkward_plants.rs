@@ -861,3 +861,38 @@ fn double_integrator_in_rotated_coordinates_has_no_phase_crossing() {
     assert_eq!(m.crossings.len(), 1, "{m:#?}");
     assert_no_phase_crossing(&m);
 }
+
+/// Was a defect (found by tests/properties.rs): a resonance behind a lag whose |L| peaks only
+/// 0.053 dB above 0 dB, between 22.98 and 24.44 rad/s. The grid's seed points sit at the damped
+/// frequency, not at the magnitude peak, and both grid neighbours of the peak were below 0 dB:
+/// no gain crossing was reported. The two crossings are found by bisection on the closed form
+/// |L(jω)| = K ωn² / |ωn² − ω² + 2jζωnω| · p / |jω + p|.
+#[test]
+fn a_peak_grazing_0_db_between_grid_points_gives_its_crossing_pair() {
+    let (wn, zeta, p): (f64, f64, f64) =
+        (25.394083724233358, 0.24923106600292969, 158.41758398662677);
+    let shape = |w: f64| {
+        wn * wn / ((wn * wn - w * w).powi(2) + (2.0 * zeta * wn * w).powi(2)).sqrt() * p
+            / (w * w + p * p).sqrt()
+    };
+    let k = 1.0 / shape(24.443632328185284);
+    let mag = |w: f64| k * shape(w);
+    let resonance = tf(&[k * wn * wn], &[1.0, 2.0 * zeta * wn, wn * wn]);
+    let lag = tf(&[p], &[1.0, p]);
+    let m = margins(&cascade(&[resonance, lag])).unwrap();
+    let gains: Vec<&Crossing> = m
+        .crossings
+        .iter()
+        .filter(|c| c.kind == CrossingKind::Gain)
+        .collect();
+    assert_eq!(gains.len(), 2, "{m:#?}");
+    let peak = bisect_log(|w| wn * (1.0 - 2.0 * zeta * zeta).sqrt() - w, 1.0, 100.0);
+    let expected = [
+        bisect_log(|w| mag(w) - 1.0, 10.0, peak),
+        bisect_log(|w| 1.0 - mag(w), peak, 100.0),
+    ];
+    for (c, w) in gains.iter().zip(expected) {
+        assert_near(c.frequency_hz, hz(w), 1e-9 * hz(w), "gain crossing (Hz)");
+    }
+    assert!(m.phase_margin_deg.is_some());
+}

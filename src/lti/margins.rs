@@ -5,7 +5,9 @@
 //! than 20° or the magnitude more than 10 dB between neighbours; unwrap the phase from the
 //! low-frequency asymptote (−90° per integrator); find every sign change of |L| − 1 (gain
 //! crossings) and of the phase through −180° + k·360° (phase crossings), and refine each with
-//! Brent's method in log ω. A phase that only touches −180° through rounding (a double
+//! Brent's method in log ω. A grid-local peak of |L| just below 0 dB (or dip just above) is
+//! searched for its true extremum, so a pair of crossings between two grid points is not
+//! missed. A phase that only touches −180° through rounding (a double
 //! integrator) does not cross it, and phase crossings below −200 dB (where the phase is rounding
 //! noise) are not reported. Stability is decided from the closed-loop eigenvalues, never from
 //! the margins, so open-loop unstable plants are not misjudged.
@@ -179,6 +181,7 @@ impl Grid {
             refine(ev, prev, next, 0, &mut omega, &mut values);
             prev = next;
         }
+        let (omega, values) = with_hidden_extrema(ev, omega, values);
         let phase_deg = unwrap_anchored(ev, &values, omega[0], integrators);
         let mag_db = values.iter().map(|g| 20.0 * g.norm().log10()).collect();
         Grid {
@@ -274,6 +277,58 @@ fn refine(
         omega.push(b.0);
         values.push(b.1);
     }
+}
+
+/// Width (dB) of the band below 0 dB (above, for minima) in which a local extremum of |L| on
+/// the grid is searched for its true extremum: a peak grazing 0 dB between two grid points hides
+/// a pair of gain crossings.
+const HIDDEN_PAIR_BAND_DB: f64 = 6.0;
+
+/// The grid with the true extremum of |L| added inside every grid-local maximum lying just
+/// below 0 dB (or minimum just above), found by golden-section search in log ω over the two
+/// neighbouring intervals: where it reaches across 0 dB the crossing pair becomes visible.
+fn with_hidden_extrema(
+    ev: &FreqEvaluator,
+    omega: Vec<f64>,
+    values: Vec<Complex64>,
+) -> (Vec<f64>, Vec<Complex64>) {
+    let db: Vec<f64> = values.iter().map(|g| 20.0 * g.norm().log10()).collect();
+    let mut points: Vec<(f64, Complex64)> = omega.iter().copied().zip(values).collect();
+    for i in 1..db.len().saturating_sub(1) {
+        let peak = db[i] >= db[i - 1] && db[i] >= db[i + 1] && db[i] > -HIDDEN_PAIR_BAND_DB;
+        let dip = db[i] <= db[i - 1] && db[i] <= db[i + 1] && db[i] < HIDDEN_PAIR_BAND_DB;
+        if (peak && db[i] < 0.0) || (dip && db[i] >= 0.0) {
+            let sign = if peak { -1.0 } else { 1.0 };
+            let f = |u: f64| sign * ev.at(u.exp()).norm();
+            let u = golden_min(f, omega[i - 1].ln(), omega[i + 1].ln());
+            points.push((u.exp(), ev.at(u.exp())));
+        }
+    }
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    points.dedup_by(|a, b| (a.0 - b.0).abs() <= 1e-12 * b.0);
+    points.into_iter().unzip()
+}
+
+/// The minimiser of a unimodal `f` on [a, b] by golden-section search (to 1e-12 relative).
+fn golden_min(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let r = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..200 {
+        if (b - a).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs())) {
+            break;
+        }
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - r * (b - a);
+            fc = f(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + r * (b - a);
+            fd = f(d);
+        }
+    }
+    (a + b) / 2.0
 }
 
 /// Analysis range (rad/s): two decades beyond the slowest and fastest non-zero poles, extended
