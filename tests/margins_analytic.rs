@@ -2,32 +2,11 @@
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
-use pumpcyl::lti::{bode, margins, CrossingKind, FreqEvaluator, StateSpace};
+use pumpcyl::lti::{bode, margins, CrossingKind, FreqEvaluator};
 use std::f64::consts::PI;
 
-/// SISO model in controllable canonical form of num(s)/den(s); `den` monic, highest power
-/// first, `num` of lower degree, padded to deg(den) coefficients (highest first).
-fn tf(num: &[f64], den: &[f64]) -> StateSpace {
-    let n = den.len() - 1;
-    let mut a = DMatrix::zeros(n, n);
-    for i in 0..n - 1 {
-        a[(i, i + 1)] = 1.0;
-    }
-    for j in 0..n {
-        a[(n - 1, j)] = -den[n - j];
-    }
-    let mut b = DMatrix::zeros(n, 1);
-    b[(n - 1, 0)] = 1.0;
-    let mut padded = vec![0.0; n - num.len()];
-    padded.extend_from_slice(num);
-    let c = DMatrix::from_fn(1, n, |_, j| padded[n - 1 - j]);
-    StateSpace::new(a, b, c, DMatrix::zeros(1, 1)).unwrap()
-}
-
-fn poly(c: &[f64], s: Complex64) -> Complex64 {
-    c.iter()
-        .fold(Complex64::new(0.0, 0.0), |acc, &k| acc * s + k)
-}
+mod common;
+use common::{poly, tf};
 
 fn hz(w: f64) -> f64 {
     w / (2.0 * PI)
