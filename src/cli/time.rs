@@ -141,12 +141,14 @@ impl<T> Runs<T> {
     }
 }
 
-/// Unstable variants (label, reason) as JSON.
-fn unstable_json(unstable: &[(String, String)]) -> serde_json::Value {
-    unstable
-        .iter()
-        .map(|(l, why)| json!({"label": l, "unstable": why}))
-        .collect()
+/// Add the unstable variants (label, reason) to a JSON report as `unstable`, if there are any.
+fn add_unstable(v: &mut serde_json::Value, unstable: &[(String, String)]) {
+    if !unstable.is_empty() {
+        v["unstable"] = unstable
+            .iter()
+            .map(|(l, why)| json!({"label": l, "unstable": why}))
+            .collect();
+    }
 }
 
 /// Unstable variants as lines for the terminal (empty when there are none).
@@ -223,9 +225,7 @@ pub fn step(args: &StepArgs) -> Result<String> {
                 .map(|(l, _, m)| json!({"label": l, "metrics": m}))
                 .collect();
         }
-        if !all.unstable.is_empty() {
-            v["unstable"] = unstable_json(&all.unstable);
-        }
+        add_unstable(&mut v, &all.unstable);
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     Ok(step_table(args, &runs) + &unstable_lines(&all.unstable))
@@ -329,9 +329,7 @@ pub fn track(args: &TrackArgs) -> Result<String> {
             .map(|(l, _, m)| json!({"label": l, "metrics": m}))
             .collect();
         let mut v = json!({"rig": args.rig.origin(), "cases": cases});
-        if !unstable.is_empty() {
-            v["unstable"] = unstable_json(&unstable);
-        }
+        add_unstable(&mut v, &unstable);
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     let mut s = format!(
@@ -450,9 +448,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
                 .map(|(l, _, m)| json!({"label": l, "mse_mm2": m}))
                 .collect();
         }
-        if !all.unstable.is_empty() {
-            v["unstable"] = unstable_json(&all.unstable);
-        }
+        add_unstable(&mut v, &all.unstable);
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     let mut s = format!(
