@@ -359,17 +359,24 @@ pub fn model(args: &ModelCmdArgs) -> Result<String> {
     if !wrote.is_empty() {
         return Ok(wrote);
     }
-    let ports = |p: &[crate::matlab::Port]| {
-        p.iter()
-            .map(|p| format!("{} ({})", p.name, p.unit))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let plural = |p: &[crate::matlab::Port]| if p.len() > 1 { "s" } else { "" };
+    let outputs: Vec<String> = view
+        .outputs
+        .iter()
+        .map(|p| format!("{} ({})", p.name, p.unit))
+        .collect();
+    let inputs: Vec<String> = view
+        .inputs
+        .iter()
+        .map(|p| format!("{} {} ({})", p.meaning, p.name, p.unit))
+        .collect();
     let mut s = format!(
-        "{}\ninputs: {}; outputs: {}\nstates:\n",
+        "{}\ninput{}: {}; output{}: {}\nstates:\n",
         view.title,
-        ports(&view.inputs),
-        ports(&view.outputs)
+        plural(&view.inputs),
+        inputs.join(", "),
+        plural(&view.outputs),
+        outputs.join(", ")
     );
     for (i, st) in view.states.iter().enumerate() {
         let _ = writeln!(s, "  {:>2}  {:<6} {}", i + 1, st.name, st.unit);

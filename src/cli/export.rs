@@ -96,7 +96,12 @@ pub fn model_view(lp: &Loop, closed: bool, sum_pressure_closed: bool) -> Result<
                 .map(|((n, u), m)| Port::new(n, u, m))
                 .collect(),
             format!(
-                "closed loop x_ref -> x, p1, p2, w1, w2, e with the sum-pressure loop {sp} (as pumpcyl step simulates it)"
+                "{}: closed loop x_ref -> x, p1, p2, w1, w2, e, sum-pressure loop {sp} (as pumpcyl \
+                 step simulates it)",
+                lp.description
+                    .split(": open loop")
+                    .next()
+                    .unwrap_or(&lp.description)
             ),
         )
     } else {
@@ -104,7 +109,7 @@ pub fn model_view(lp: &Loop, closed: bool, sum_pressure_closed: bool) -> Result<
             GreyLoop::Open {
                 sum_pressure: sum_pressure_closed,
             },
-            vec![Port::new("e", "m", "position error x_ref - x")],
+            vec![Port::new("e", "m", "position error")],
             vec![Port::new("x", "m", "piston position")],
             lp.description.clone(),
         )
@@ -240,16 +245,7 @@ pub fn signals_mat(w: &mut MatWriter, series: &[(String, &Signals)], measured: O
             format!("_{}", k + 1)
         };
         labels.push(format!("{}: {label}", k + 1));
-        for (name, v) in [
-            ("time_s", &s.time_s),
-            ("x_ref_mm", &s.x_ref_mm),
-            ("x_mm", &s.x_mm),
-            ("e_mm", &s.e_mm),
-            ("p1_bar", &s.p1_bar),
-            ("p2_bar", &s.p2_bar),
-            ("w1_rpm", &s.w1_rpm),
-            ("w2_rpm", &s.w2_rpm),
-        ] {
+        for (name, v) in s.named() {
             if !v.is_empty() {
                 w.column(&format!("{name}{suffix}"), v);
             }
