@@ -208,14 +208,18 @@ fn octave_lsim_on_the_exported_closed_loop_matches_pumpcyl_step() {
     }
 }
 
-/// c1, c2 from the rig's own standstill at another c12, as the grey-box function computes them.
-fn leakages_at(c12: f64) -> (f64, f64) {
+/// c1, c2 from a standstill (default: the rig's own) at a c12, computed by pumpcyl's leakage
+/// code, to set on the rig for `model --json`.
+fn leakages_at(c12: f64, given: Option<pumpcyl::ident::Standstill>) -> [String; 2] {
     use pumpcyl::{matlab, rig::Rig};
     let rig = Rig::default();
-    let l = matlab::standstill_of(&rig, None)
+    let l = matlab::standstill_of(&rig, given)
         .leakage(&rig, c12)
         .unwrap();
-    (l.c1_m5_per_ns, l.c2_m5_per_ns)
+    [
+        format!("c1_m5_per_ns={:?}", l.c1_m5_per_ns),
+        format!("c2_m5_per_ns={:?}", l.c2_m5_per_ns),
+    ]
 }
 
 #[test]
@@ -229,11 +233,10 @@ fn octave_greybox_function_matches_model_json() {
         dir.path(),
         &["model", "--closed-loop", "--greybox", "gb_closed.m"],
     );
-    let (c1, c2) = leakages_at(2e-10);
-    let (c1, c2) = (
-        format!("c1_m5_per_ns={c1:?}"),
-        format!("c2_m5_per_ns={c2:?}"),
-    );
+    let standstill = ["--w1-rpm", "-160", "--w2-rpm", "245", "--p1-bar", "3.95"];
+    let args = [&["model", "--greybox", "gb_article.m"], &standstill[..]].concat();
+    pumpcyl(dir.path(), &args);
+    let [c1, c2] = leakages_at(2e-10, None);
     let other = [
         "--set",
         "beta_bar=100",
@@ -246,7 +249,14 @@ fn octave_greybox_function_matches_model_json() {
         "--set",
         &c2,
     ];
-    let cases: [(&str, &str, Vec<&str>); 4] = [
+    let article = pumpcyl::ident::Standstill {
+        w1_rpm: -160.0,
+        w2_rpm: 245.0,
+        p1_bar: 3.95,
+    };
+    let [a1, a2] = leakages_at(1.5e-10, Some(article));
+    let article_set = ["--set", "c12_m5_per_ns=1.5e-10", "--set", &a1, "--set", &a2];
+    let cases: [(&str, &str, Vec<&str>); 5] = [
         ("gb_open", "165, 100, 1.2e-10", vec![]),
         ("gb_closed", "165, 100, 1.2e-10", vec!["--closed-loop"]),
         ("gb_open", "100, 500, 2e-10", other.to_vec()),
@@ -255,6 +265,7 @@ fn octave_greybox_function_matches_model_json() {
             "100, 500, 2e-10",
             [&["--closed-loop"], &other[..]].concat(),
         ),
+        ("gb_article", "165, 100, 1.5e-10", article_set.to_vec()),
     ];
     for (func, params, extra) in cases {
         let mut args = vec!["model", "--json"];

@@ -74,6 +74,16 @@ pub struct ModelCmdArgs {
     /// (System Identification Toolbox), c1 and c2 from the standstill equations.
     #[arg(long, value_name = "NAME.m", conflicts_with = "ss")]
     greybox: Option<PathBuf>,
+    /// Standstill of the grey-box function (with --w2-rpm, --p1-bar): motor/pump 1 speed
+    /// (rpm). Default: the rig's own operating point, which gives back the rig's c1 and c2.
+    #[arg(long, requires_all = ["w2_rpm", "p1_bar", "greybox"], allow_negative_numbers = true)]
+    w1_rpm: Option<f64>,
+    /// Standstill motor/pump 2 speed (rpm), with --w1-rpm.
+    #[arg(long, requires = "w1_rpm", allow_negative_numbers = true)]
+    w2_rpm: Option<f64>,
+    /// Standstill chamber 1 pressure (bar gauge), with --w1-rpm.
+    #[arg(long, requires = "w1_rpm", allow_negative_numbers = true)]
+    p1_bar: Option<f64>,
 }
 
 /// `pumpcyl margins`.
@@ -345,7 +355,15 @@ pub fn model(args: &ModelCmdArgs) -> Result<String> {
     for (path, greybox) in [(&args.out, false), (&args.greybox, true)] {
         if let Some(path) = path {
             if greybox {
-                export::write_greybox(path, &view, None)?;
+                let standstill = match (args.w1_rpm, args.w2_rpm, args.p1_bar) {
+                    (Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Some(crate::ident::Standstill {
+                        w1_rpm,
+                        w2_rpm,
+                        p1_bar,
+                    }),
+                    _ => None,
+                };
+                export::write_greybox(path, &view, standstill)?;
             } else {
                 export::write_model(path, &view)?;
             }
