@@ -574,7 +574,7 @@ fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> Str
     out
 }
 
-/// Write signals as CSV or as the four-panel figure, by the file's extension.
+/// Write signals as CSV, as the four-panel figure or as a MAT-file, by the file's extension.
 pub(super) fn write_figure(
     path: &Path,
     title: &str,
@@ -582,10 +582,11 @@ pub(super) fn write_figure(
     series: &[(String, &Signals)],
     measured: Option<&Signals>,
 ) -> Result<()> {
-    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
-        return write_atomic(path, signals_csv(series, measured).as_bytes());
+    match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
+        Format::Csv => write_atomic(path, signals_csv(series, measured).as_bytes()),
+        Format::Mat => export::write_signals_mat(path, title, series, measured, &[]),
+        _ => render(path, title, subtitle, &four_panels(series, measured)),
     }
-    render(path, title, subtitle, &four_panels(series, measured))
 }
 
 /// Render panels to SVG or PNG by extension, atomically.
