@@ -5,7 +5,8 @@
 //! - [`model`] — the 10-state DPM model and its variants (SPEC §3–4);
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins (SPEC §4);
 //! - [`report`] — figures;
-//! - [`input`] — decoding user files and locating their errors.
+//! - [`input`] — decoding user files and locating their errors;
+//! - [`matfile`], [`matlab`] — MAT-files (level 5) and function files for MATLAB and Octave.
 //!
 //! SPEC refers to `shared/SPEC.md`, the restatement of Gøytil, Hansen & Tvilde, *Effective Bulk
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
@@ -19,6 +20,8 @@ pub mod fuzzing;
 pub mod ident;
 pub mod input;
 pub mod lti;
+pub mod matfile;
+pub mod matlab;
 pub mod model;
 pub mod record;
 pub mod report;

@@ -4,6 +4,7 @@ mod analysis;
 mod bulk;
 mod design;
 mod emulate;
+mod export;
 mod ident;
 mod output;
 mod reproduce;
@@ -41,7 +42,8 @@ enum Command {
     Bode(analysis::BodeArgs),
     /// Open- and closed-loop poles with natural frequency (Hz) and damping ratio.
     Poles(analysis::PolesArgs),
-    /// The open-loop state-space model (A, B, C, D and state names, SI).
+    /// The open- or closed-loop state-space model (A, B, C, D and state names, SI), also as a
+    /// MATLAB/Octave function, MAT-file or grey-box model function.
     Model(analysis::ModelCmdArgs),
     /// Closed-loop response to a position step (SPEC §5): rise, overshoot, settling, with
     /// position, error, pressures and motor speeds.

@@ -33,23 +33,30 @@ pub struct Signals {
 }
 
 impl Signals {
-    /// The signals as a SPEC §9 record: CSV with a header row, `time_s, x_ref_mm, x_mm` and
-    /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm` that hold one value per sample.
-    pub fn record_csv(&self) -> String {
-        use std::fmt::Write;
-        let n = self.time_s.len();
-        let columns: Vec<(&str, &Vec<f64>)> = [
+    /// Every signal with its column name (the record's names, and `e_mm`), in record order.
+    pub fn named(&self) -> [(&'static str, &Vec<f64>); 8] {
+        [
             ("time_s", &self.time_s),
             ("x_ref_mm", &self.x_ref_mm),
             ("x_mm", &self.x_mm),
+            ("e_mm", &self.e_mm),
             ("p1_bar", &self.p1_bar),
             ("p2_bar", &self.p2_bar),
             ("w1_rpm", &self.w1_rpm),
             ("w2_rpm", &self.w2_rpm),
         ]
-        .into_iter()
-        .filter(|(_, v)| v.len() == n)
-        .collect();
+    }
+
+    /// The signals as a SPEC §9 record: CSV with a header row, `time_s, x_ref_mm, x_mm` and
+    /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm` that hold one value per sample.
+    pub fn record_csv(&self) -> String {
+        use std::fmt::Write;
+        let n = self.time_s.len();
+        let columns: Vec<(&str, &Vec<f64>)> = self
+            .named()
+            .into_iter()
+            .filter(|(name, v)| *name != "e_mm" && v.len() == n)
+            .collect();
         let names: Vec<&str> = columns.iter().map(|(c, _)| *c).collect();
         let mut out = names.join(",");
         out.push('\n');
