@@ -1,4 +1,4 @@
-//! The control design method of SPEC §8 for a rig before it is built: the largest position gain
+//! The control design method (the article §2.2; docs/design.md) for a rig before it is built: the largest position gain
 //! meeting the margin targets at the design point, the margins across stroke, mass and
 //! accumulator pressure, the predicted tracking of given waves, and a verdict.
 
@@ -84,7 +84,7 @@ pub struct Design {
     /// The targets.
     pub targets: Targets,
     /// Largest Kp meeting the targets at the design point (the rig's own operating point,
-    /// SPEC §8 step 5).
+    /// docs/design.md#the-method, step 5).
     pub kp_max: f64,
     /// Largest Kp meeting the targets at every checked condition.
     pub kp_max_worst_case: f64,
@@ -107,7 +107,7 @@ fn meets(m: &Margins, t: &Targets) -> bool {
         && m.gain_margin_db.is_none_or(|gm| gm >= t.gm_db)
 }
 
-/// Margins of the SPEC §4 loop of `rig` with gain `kp`.
+/// Margins of the loop of docs/analysis.md#the-loop-that-is-analysed of `rig` with gain `kp`.
 fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
     let r = Rig { kp, ..rig.clone() };
     Ok(margins(&Plant::new(&r).open_loop(false))?)
@@ -135,7 +135,7 @@ pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     Ok(lo)
 }
 
-/// Apply SPEC §8 to `rig`.
+/// Apply the design method (docs/design.md) to `rig`.
 pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
     for (name, v) in [
         ("target PM", t.pm_deg),

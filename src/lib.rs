@@ -1,13 +1,20 @@
 //! pumpcyl: model, analyse, identify and design pump-controlled hydraulic cylinders.
 //!
 //! Library first; the `pumpcyl` binary is a thin command-line layer over it. Modules:
-//! - [`rig`] — the rig parameters and their TOML form (SPEC §2);
-//! - [`model`] — the 10-state DPM model and its variants (SPEC §3–4);
-//! - [`lti`] — generic state-space analysis: poles, frequency response, margins (SPEC §4);
-//! - [`report`] — figures;
-//! - [`input`] — decoding user files and locating their errors.
+//! - [`bulk`] — effective bulk modulus against pressure: gas fraction, β_e(p), margins there;
+//! - [`cli`] — the command-line interface: argument parsing and formatting only;
+//! - [`design`] — the design method: the largest position gain meeting margin targets;
+//! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
+//! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
+//! - [`input`] — decoding user files and locating their errors;
+//! - [`lti`] — generic state-space analysis: poles, frequency response, margins, ZOH responses;
+//! - [`model`] — the 10-state DPM model, its variants, open and closed loops;
+//! - [`record`] — measured or emulated records (CSV), read by column name;
+//! - [`report`] — figures (SVG and PNG) and the HTML report;
+//! - [`response`] — step, tracking and recorded-reference responses and their metrics;
+//! - [`rig`] — the rig parameters, their validation and their TOML form.
 //!
-//! SPEC refers to `shared/SPEC.md`, the restatement of Gøytil, Hansen & Tvilde, *Effective Bulk
+//! Method manual: docs/README.md. It cites Gøytil, Hansen & Tvilde, *Effective Bulk
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
 
 pub mod bulk;

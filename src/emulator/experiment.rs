@@ -1,6 +1,6 @@
-//! What the emulated rig is asked to do (issue 5): a position step, a sinusoid or a standstill
+//! What the emulated rig is asked to do (docs/emulator.md): a position step, a sinusoid or a standstill
 //! of the closed loop, or a velocity step of one drive with its motor decoupled from the pump
-//! (SPEC §6.1).
+//! (the article §2.4.1; docs/identification.md#drive-gain).
 
 use super::plc::{integrate, Noise};
 use super::{emulate, Dynamics, Effects, Plc};
@@ -19,7 +19,7 @@ pub enum Experiment {
         at_s: f64,
         duration_s: f64,
     },
-    /// x_ref = centre + amplitude sin(2π f (t − start)) from `start_s` on (SPEC §5).
+    /// x_ref = centre + amplitude sin(2π f (t − start)) from `start_s` on (docs/simulation.md#tracking-metrics).
     Sine {
         centre_mm: f64,
         amplitude_mm: f64,
@@ -27,7 +27,7 @@ pub enum Experiment {
         start_s: f64,
         duration_s: f64,
     },
-    /// The reference held at `x_mm`: the pumps only feed the leakage (SPEC §6.2).
+    /// The reference held at `x_mm`: the pumps only feed the leakage (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
     Standstill { x_mm: f64, duration_s: f64 },
 }
 
@@ -83,7 +83,7 @@ impl Experiment {
 const SETTLE_S: f64 = 0.5;
 
 /// A velocity step of one drive, its motor decoupled from the pump and the feedforward off
-/// (SPEC §6.1): Jm ω̇ = τem, τem = τref/(s/ωI + 1), τref = Km (ωref − ω), the torque reference
+/// (the article §2.4.1; docs/identification.md#drive-gain): Jm ω̇ = τem, τem = τref/(s/ωI + 1), τref = Km (ωref − ω), the torque reference
 /// limited to the peak torque.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DriveStep {
@@ -99,7 +99,7 @@ pub struct DriveStep {
     pub duration_s: f64,
 }
 
-/// A drive record: `time_s`, `w_ref_rpm`, `w_rpm` (SPEC §6.1).
+/// A drive record: `time_s`, `w_ref_rpm`, `w_rpm` (docs/formats.md#drive-record-csv).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DriveSignals {
     /// Time (s).

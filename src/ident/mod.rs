@@ -1,4 +1,4 @@
-//! Parameter identification from measured data (SPEC §6): drive gain from a velocity step,
+//! Parameter identification from measured data (the article §2.4; docs/identification.md): drive gain from a velocity step,
 //! chamber leakages from a standstill record, and the two-stage grid search for β, b and c12
 //! with a local refinement.
 

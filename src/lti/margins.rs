@@ -1,4 +1,4 @@
-//! Stability margins of a SISO loop transfer L(s) under unity negative feedback (SPEC §4).
+//! Stability margins of a SISO loop transfer L(s) under unity negative feedback (docs/analysis.md#margins).
 //!
 //! Method: evaluate L(jω) by a solve on a logarithmic grid that covers every pole's frequency
 //! ±2 decades, with extra points at lightly damped poles, refined wherever the phase moves more

@@ -1,4 +1,4 @@
-//! Poles (eigenvalues of A) with natural frequency and damping ratio (SPEC §4).
+//! Poles (eigenvalues of A) with natural frequency and damping ratio (docs/analysis.md#poles-and-damping).
 
 use super::LtiError;
 use nalgebra::linalg::balancing::balance_parlett_reinsch;

@@ -1,4 +1,4 @@
-//! Step and tracking metrics (SPEC §5) of sampled responses; times between samples are found by
+//! Step and tracking metrics (docs/simulation.md#step-metrics, #tracking-metrics) of sampled responses; times between samples are found by
 //! linear interpolation.
 
 use serde::Serialize;
@@ -83,7 +83,7 @@ fn settling_time(t: &[f64], v: &[f64], band: f64) -> Option<f64> {
     }
 }
 
-/// Sinusoidal tracking metrics (SPEC §5), measured after the first period.
+/// Sinusoidal tracking metrics (docs/simulation.md#tracking-metrics), measured after the first period.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TrackMetrics {
     /// Frequency (Hz).

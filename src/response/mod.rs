@@ -1,4 +1,4 @@
-//! Time-domain responses of the closed loop (SPEC §5): position step, sinusoidal tracking and
+//! Time-domain responses of the closed loop (the article §2.3.3; docs/simulation.md#exact-zero-order-hold): position step, sinusoidal tracking and
 //! any recorded reference, simulated exactly by zero-order hold on deviations from the operating
 //! point and reported as absolute values in user units (mm, bar gauge, rpm).
 
@@ -33,7 +33,7 @@ pub struct Signals {
 }
 
 impl Signals {
-    /// The signals as a SPEC §9 record: CSV with a header row, `time_s, x_ref_mm, x_mm` and
+    /// The signals as a record (docs/formats.md#record-csv): CSV with a header row, `time_s, x_ref_mm, x_mm` and
     /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm` that hold one value per sample.
     pub fn record_csv(&self) -> String {
         use std::fmt::Write;
@@ -111,7 +111,7 @@ impl Baseline {
         }
     }
 
-    /// The initial steady state of a record (SPEC §9), with the rig's operating point for the
+    /// The initial steady state of a record (docs/simulation.md#deviations-and-the-baseline), with the rig's operating point for the
     /// signals the record lacks.
     pub fn of_record(rec: &crate::record::Record, rig: &Rig) -> Baseline {
         let op = Self::of_rig(rig);
@@ -179,7 +179,7 @@ pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Si
     simulate(rig, &t, &r, &base)
 }
 
-/// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (SPEC §5).
+/// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (docs/simulation.md#tracking-metrics).
 pub fn sine(
     rig: &Rig,
     freq_hz: f64,
@@ -196,7 +196,7 @@ pub fn sine(
     simulate(rig, &t, &r, &base)
 }
 
-/// The three sinusoidal tracking cases of the article (SPEC §5): (frequency Hz, amplitude mm).
+/// The three sinusoidal tracking cases of the article (docs/simulation.md#tracking-metrics): (frequency Hz, amplitude mm).
 pub const ARTICLE_SINE_CASES: [(f64, f64); 3] = [(0.1, 50.0), (0.2, 35.0), (0.25, 20.0)];
 
 #[cfg(test)]
