@@ -2,6 +2,24 @@
 //! 1/β_e(p) = X/p + (1 − X)/β_oil, with X the undissolved gas volume fraction and p the mean
 //! chamber pressure in bar as the article uses it (its 4.4 bar mean gives β_e = 37.8 bar at
 //! 1 bar and 370 bar at 10 bar from 165 bar), and the rig's margins at each pressure.
+//!
+//! ```
+//! use pumpcyl::{bulk, rig::Rig};
+//!
+//! // the gas fraction that gives the identified 165 bar at the records' 4.4 bar mean pressure
+//! let x = bulk::gas_fraction(165.0, 4.4, bulk::BETA_OIL_BAR)?;
+//! assert!((x - 0.02641).abs() < 1e-5);
+//! // the article's 37.8 bar at 1 bar and 370 bar at 10 bar
+//! assert!((bulk::effective_beta(x, 1.0, bulk::BETA_OIL_BAR) - 37.8).abs() < 0.05);
+//! assert!((bulk::effective_beta(x, 10.0, bulk::BETA_OIL_BAR) - 370.5).abs() < 0.1);
+//!
+//! // the article's rig at 1, 4.4 and 10 bar: unstable at 1 bar, the margins grow with pressure
+//! let rows = bulk::table(&Rig::default(), x, bulk::BETA_OIL_BAR, &[1.0, 4.4, 10.0])?;
+//! let stable: Vec<bool> = rows.iter().map(|r| r.closed_loop_stable).collect();
+//! assert_eq!(stable, [false, true, true]);
+//! assert!(rows[2].gain_margin_db > rows[1].gain_margin_db);
+//! # Ok::<(), bulk::BulkError>(())
+//! ```
 
 use crate::lti::{margins, LtiError};
 use crate::model::Plant;

@@ -115,6 +115,32 @@ fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
 
 /// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by bisection on log Kp (the
 /// margins fall as the gain rises); 0 if even a tiny gain fails.
+///
+/// For the article's rig and its targets (PM 34°, GM 6 dB) the largest gain is the article's
+/// Kp = 25 within a few percent (docs/design.md):
+///
+/// ```
+/// use pumpcyl::{design, rig::Rig};
+///
+/// let targets = design::Targets {
+///     pm_deg: 34.0,
+///     gm_db: 6.0,
+///     stroke_mm: 50.0,
+///     p_mean_bar: vec![],
+///     p_beta_bar: 4.4,
+///     mass_kg: vec![],
+///     waves: vec![],
+/// };
+/// let kp = design::kp_max(&Rig::default(), &targets)?;
+/// assert!((24.0..26.0).contains(&kp), "Kp max {kp}");
+///
+/// // the whole check: margins over the stroke at that gain, and a verdict
+/// let d = design::design(&Rig::default(), &targets)?;
+/// assert_eq!(d.kp_max, kp);
+/// assert!(d.kp_max_worst_case <= d.kp_max);
+/// assert_eq!(d.conditions.len(), 3); // x0 − 50 mm, x0, x0 + 50 mm
+/// # Ok::<(), design::DesignError>(())
+/// ```
 pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     let ok = |kp: f64| -> Result<bool, DesignError> { Ok(meets(&margins_at(rig, kp)?, t)) };
     let (mut lo, mut hi) = (1e-3f64, 1e4f64);

@@ -16,6 +16,22 @@
 //!
 //! Method manual: docs/README.md. It cites Gøytil, Hansen & Tvilde, *Effective Bulk
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
+//!
+//! Quick start: the stability margins of a rig (docs/analysis.md#margins).
+//!
+//! ```
+//! use pumpcyl::{lti::margins, model::Plant, rig::Rig};
+//!
+//! // the article's rig with a lighter load, read as a TOML rig file would be
+//! let rig = Rig::from_toml_str("mass_kg = 4898.0\n", "my-rig.toml")?;
+//! // margins of the position loop, opened as the article opens it (sum-pressure loop open)
+//! let m = margins(&Plant::new(&rig).open_loop(false))?;
+//! println!("GM {:.2} dB, PM {:.1} deg", m.gain_margin_db.unwrap(), m.phase_margin_deg.unwrap());
+//! assert!(m.closed_loop_stable);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+#![warn(missing_docs)]
 
 pub mod bulk;
 pub mod cli;

@@ -4,6 +4,44 @@
 //! User-facing keys carry their unit in the name (`beta_bar`, `mass_kg`, `x0_mm`). Inside the
 //! code everything is SI: [`Rig::si`] converts once and the model uses only [`RigSi`].
 //! The embedded default ([`Rig::default`]) is the article's rig.
+//!
+//! Build a rig: the article's, or your own from TOML text (absent keys take the article's value):
+//!
+//! ```
+//! use pumpcyl::rig::Rig;
+//!
+//! let article = Rig::default();
+//! assert_eq!((article.beta_bar, article.mass_kg, article.kp), (165.0, 10593.0, 25.0));
+//!
+//! let mine = Rig::from_toml_str("mass_kg = 4898.0\nkp = 40.0\n", "my-rig.toml")?;
+//! assert_eq!((mine.mass_kg, mine.kp, mine.beta_bar), (4898.0, 40.0, 165.0));
+//!
+//! // the commented TOML that `pumpcyl rig --print-default` prints reads back to the same rig
+//! assert_eq!(Rig::from_toml_str(&article.to_commented_toml(), "default.toml")?, article);
+//!
+//! // a non-physical value is an error naming the file, the line and the key
+//! let err = Rig::from_toml_str("mass_kg = -1.0\n", "my-rig.toml").unwrap_err();
+//! assert_eq!(err.to_string(), "my-rig.toml: line 1, key `mass_kg` = -1: must be > 0");
+//! # Ok::<(), pumpcyl::rig::RigError>(())
+//! ```
+//!
+//! Change parameters with `KEY=VALUE` overrides, as `--set` does on the command line:
+//!
+//! ```
+//! use pumpcyl::rig::{MotorModel, Rig};
+//!
+//! let rig = Rig::default().with_overrides(&[
+//!     "beta_bar=37.8".to_string(),
+//!     "motor_model=first_order".to_string(),
+//! ])?;
+//! assert_eq!(rig.beta_bar, 37.8);
+//! assert_eq!(rig.motor_model, MotorModel::FirstOrder);
+//!
+//! // an unknown key is refused, with a suggestion
+//! let err = rig.with_overrides(&["beta_barr=1".to_string()]).unwrap_err();
+//! assert!(err.to_string().contains("did you mean `beta_bar`?"));
+//! # Ok::<(), pumpcyl::rig::RigError>(())
+//! ```
 
 use crate::input;
 use serde::{Deserialize, Serialize};
@@ -55,7 +93,7 @@ pub enum MotorModel {
     /// First-order approximation common in the literature: ω/ω_ref = 1/(τ s + 1), no load
     /// torque, no feedforward. τ is `motor_time_constant_s`, or, when absent, J_i/Km_i — the
     /// velocity loop's time constant on the motor-plus-pump inertia with feedforward off
-    /// **[choice]**.
+    /// **\[choice\]** (docs/choices.md).
     FirstOrder,
 }
 
@@ -122,7 +160,7 @@ pub struct Rig {
     pub kp: f64,
     /// Sum-pressure set-point p1 + p2 (bar).
     pub p_sum_ref_bar: f64,
-    /// Sum-pressure gain K_pres (normalised command per bar) **[choice]: per bar**.
+    /// Sum-pressure gain K_pres (normalised command per bar) **\[choice\]: per bar**.
     pub k_pres_per_bar: f64,
     /// Sum-pressure split factor Kβ (dimensionless).
     pub k_beta: f64,

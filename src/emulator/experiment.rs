@@ -14,21 +14,35 @@ use std::fmt::Write;
 pub enum Experiment {
     /// The reference jumps from `from_mm` to `to_mm` at `at_s`.
     Step {
+        /// Reference before the step (mm).
         from_mm: f64,
+        /// Reference after the step (mm).
         to_mm: f64,
+        /// Time of the step (s).
         at_s: f64,
+        /// Length of the record (s).
         duration_s: f64,
     },
     /// x_ref = centre + amplitude sin(2π f (t − start)) from `start_s` on (docs/simulation.md#tracking-metrics).
     Sine {
+        /// Centre of the sinusoid, and the reference before `start_s` (mm).
         centre_mm: f64,
+        /// Amplitude (mm).
         amplitude_mm: f64,
+        /// Frequency (Hz).
         freq_hz: f64,
+        /// Time the sinusoid starts (s).
         start_s: f64,
+        /// Length of the record (s).
         duration_s: f64,
     },
     /// The reference held at `x_mm`: the pumps only feed the leakage (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
-    Standstill { x_mm: f64, duration_s: f64 },
+    Standstill {
+        /// Reference position held (mm).
+        x_mm: f64,
+        /// Length of the record (s).
+        duration_s: f64,
+    },
 }
 
 impl Experiment {
