@@ -1,4 +1,4 @@
-//! Measured or emulated records (SPEC §9): CSV with a header row, columns by name, extra
+//! Measured or emulated records (docs/formats.md#record-csv): CSV with a header row, columns by name, extra
 //! columns ignored. `time_s`, `x_ref_mm`, `x_mm` are required; `p1_bar`, `p2_bar` (gauge),
 //! `w1_rpm`, `w2_rpm` are optional. Time is strictly increasing, uniform or not.
 
@@ -151,7 +151,7 @@ impl Record {
             .unwrap_or(self.len())
     }
 
-    /// The initial steady state of a signal (SPEC §9): the mean of the samples before the
+    /// The initial steady state of a signal (docs/simulation.md#deviations-and-the-baseline): the mean of the samples before the
     /// reference first changes, or the first sample if it changes at once.
     pub fn initial_mean(&self, signal: &[f64]) -> f64 {
         let k = self.first_change().max(1);

@@ -1,4 +1,4 @@
-//! The frequency-analysis commands: `margins`, `bode`, `poles`, `model` (SPEC §4).
+//! The frequency-analysis commands: `margins`, `bode`, `poles`, `model` (docs/analysis.md#margins).
 
 use anyhow::{Context, Result};
 use clap::Args;

@@ -1,5 +1,5 @@
 //! The identification commands: `leakage`, `identify-drive`, `identify`, `identify-merge`
-//! (SPEC §6).
+//! (the article §2.4; docs/identification.md).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -22,7 +22,7 @@ use crate::report::{self, LineStyle, Panel, Trace};
 pub struct LeakageArgs {
     #[command(flatten)]
     rig: RigSource,
-    /// A standstill record (SPEC §9 CSV with w1_rpm, w2_rpm, p1_bar): its means are used.
+    /// A standstill record (docs/formats.md#record-csv with w1_rpm, w2_rpm, p1_bar): its means are used.
     #[arg(long, value_name = "RECORD.csv", conflicts_with_all = ["w1_rpm", "w2_rpm", "p1_bar"])]
     record: Option<PathBuf>,
     /// Motor/pump 1 speed at standstill (rpm).
@@ -151,7 +151,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
         return Ok(serde_json::to_string_pretty(&l)? + "\n");
     }
     Ok(format!(
-        "standstill (SPEC §6.2): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
+        "standstill (the article §2.4): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
          c12                 {:.4e} m5/(N s)\n  c1                  {:.4e} m5/(N s)\n  c2                  {:.4e} m5/(N s)\n",
         s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
     ))

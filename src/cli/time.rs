@@ -1,4 +1,4 @@
-//! The time-domain commands: `step`, `track`, `simulate` (SPEC §5, §9).
+//! The time-domain commands: `step`, `track`, `simulate` (docs/simulation.md).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -84,7 +84,7 @@ pub struct TrackArgs {
 pub struct SimulateArgs {
     #[command(flatten)]
     rig: RigSource,
-    /// Record to replay (CSV, SPEC §9: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
+    /// Record to replay (CSV, docs/formats.md#record-csv: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
     /// w1_rpm, w2_rpm).
     #[arg(long, value_name = "RECORD.csv")]
     data: PathBuf,
@@ -419,7 +419,7 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
             .push(trace(label, &s.time_s, &s.e_mm, LineStyle::Solid, Some(i)));
     }
     panels.push(errors);
-    let title = "Sinusoidal tracking (SPEC §5)";
+    let title = "Sinusoidal tracking (the article)";
     let list = |f: fn(&TrackMetrics) -> String| -> String {
         runs.iter()
             .map(|(_, _, m)| f(m))
