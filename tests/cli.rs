@@ -11,14 +11,19 @@ fn pumpcyl(args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
-fn ok(args: &[&str]) -> String {
+/// A run that must succeed.
+fn succeeds(args: &[&str]) -> Output {
     let out = pumpcyl(args);
     assert!(
         out.status.success(),
         "{args:?} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    String::from_utf8(out.stdout).unwrap()
+    out
+}
+
+fn ok(args: &[&str]) -> String {
+    String::from_utf8(succeeds(args).stdout).unwrap()
 }
 
 fn fails(args: &[&str]) -> String {
@@ -976,13 +981,7 @@ fn simulate_replays_an_experiment_dataset_with_its_own_conditions() {
 
 /// stderr of a run that must succeed.
 fn warnings_of(args: &[&str]) -> String {
-    let out = pumpcyl(args);
-    assert!(
-        out.status.success(),
-        "{args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stderr).unwrap()
+    String::from_utf8(succeeds(args).stderr).unwrap()
 }
 
 #[test]

@@ -46,10 +46,10 @@ mod printed {
     pub const ROBUST_BETA_BAR: f64 = 220.0;
     pub const ROBUST_C12: f64 = 1.0e-10;
     pub const KP: f64 = 25.0;
-    /// Margins at 1 bar mean pressure (dB, deg), Section 3.3.
+    /// Margins at 1 bar mean pressure (dB, deg): the article's bulk-modulus study.
     pub const GM_1BAR_DB: f64 = -6.1;
     pub const PM_1BAR_DEG: f64 = -38.0;
-    /// Margins at 10 bar mean pressure (dB, deg), Section 3.3.
+    /// Margins at 10 bar mean pressure (dB, deg): the article's bulk-modulus study.
     pub const GM_10BAR_DB: f64 = 13.2;
     pub const PM_10BAR_DEG: f64 = 43.6;
     /// Kp for the nominal PM: below 25 % of 25 at 1 bar, about +40 % at 10 bar.
@@ -335,7 +335,12 @@ fn identification(run: &mut Run, truth: &article::Truth) -> Result<(Experiment, 
     for (i, ds) in exp.problem.datasets.iter().enumerate() {
         run.inline(
             &out.join(format!("fit-{}.svg", i + 1)),
-            &format!("Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds", ds.name, ds.rig.kp),
+            &format!(
+                "{}Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dotted line ends the fit window",
+                if i == 0 { "Counterpart of the article's Figure 6. " } else { "" },
+                ds.name,
+                ds.rig.kp
+            ),
         )?;
     }
     let best = id.best();
@@ -598,7 +603,7 @@ fn pressure_study(
 }
 
 /// The article's margins at 1 and 10 bar and the Kp for the nominal PM there, on its own basis:
-/// the default rig, β_e from 165 bar at 4.4 bar (Section 3.3).
+/// the default rig, β_e from 165 bar at 4.4 bar (the article's bulk-modulus study).
 fn pressure_numbers(run: &mut Run) -> Result<Value> {
     let rig = Rig::default();
     let x = gas_fraction(rig.beta_bar, article::P_FIT_BAR, BETA_OIL_BAR)?;

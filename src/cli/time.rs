@@ -599,7 +599,7 @@ pub(super) fn write_figure(
 }
 
 /// As [`write_figure`], the figure marking the end of the fit window at `fit_end_s` (s) with a
-/// dotted vertical line on every panel (the article's Figures 6 and 7 mark it so).
+/// dotted vertical line on every panel (as the article's Figure 6 does).
 pub(super) fn write_fit_figure(
     path: &Path,
     title: &str,

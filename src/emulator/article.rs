@@ -2,7 +2,7 @@
 //! not public, so these records come from the nonlinear emulator with a known truth:
 //! the default rig (the article's Section 2.3.4) with every emulator effect on
 //! ([`Effects::article`]), β_e(p) from the gas fraction that gives 165 bar at 4.4 bar (the
-//! article's Section 3.3), and a 100 Hz PLC with sensor noise. The PLC's sum-pressure gain is the
+//! article's constant gas-fraction model), and a 100 Hz PLC with sensor noise. The PLC's sum-pressure gain is the
 //! default rig's 0.22 per bar (0.15 below 10 t), so the records replay on the default rig.
 
 use super::experiment::{DriveSignals, DriveStep, Experiment};
@@ -164,7 +164,7 @@ pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, String
 pub fn records() -> Result<Vec<ArticleRecord>, String> {
     let effects = Effects::article(BETA_FIT_BAR, P_FIT_BAR)?;
     // the robustness record: more undissolved air (after a long shutdown, the article's
-    // Section 3.2), so β_e is 220 bar at the same operating pressure
+    // Results), so β_e is 220 bar at the same operating pressure
     let robust_effects = Effects::article(BETA_ROBUSTNESS_BAR, P_FIT_BAR)?;
     let heavy = |kp: f64| rig(kp, 10_593.0, P_FIT_BAR, effects);
     let truth = |rig: Rig, seed: u64| Truth {
@@ -294,8 +294,8 @@ pub fn readme(records: &[ArticleRecord]) -> String {
          c2 = {c2:.3e} m^5/(N s), b = {b} N s/m, Km = {km} N m s/rad, with these emulator effects:\n\n\
          - chamber volumes following the piston; the effective mass against stroke \
          (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: SPEC §4);\n\
-         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the gas-fraction model \
-         of the article's Section 3.3, X = {x:.5} (beta_e = {bf} bar at {pf} bar, beta_oil = {oil} bar); \
+         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the constant gas-fraction model \
+         of the article, X = {x:.5} (beta_e = {bf} bar at {pf} bar, beta_oil = {oil} bar); \
          the robustness record has more undissolved air, X = {xr:.5} (beta_e = {br} bar at {pf} bar, \
          as after a long shutdown); the table above gives beta_e at each record's mean chamber \
          pressure, the value identification should find;\n\
@@ -310,9 +310,9 @@ pub fn readme(records: &[ArticleRecord]) -> String {
          article's 22 (15) read as percent of full command per bar, so every record replays on the \
          default rig with its own Kp and mass:\n\n    \
          cargo run --release -- simulate --experiment data/article/identify.toml --dataset 1\n\n\
-         `identify.toml` runs the article's identification (Section 2.4.3) on `identification.csv` \
+         `identify.toml` runs the article's identification (Section 2.4) on `identification.csv` \
          and `validation.csv`, with c1 and c2 from `standstill.csv`, fitting up to {w25} s after the \
-         step for Kp = 25 and {w20} s for Kp = 20 (the article's Figures 6 and 7; the pumps' \
+         step for Kp = 25 and {w20} s for Kp = 20 (the article's Section 2.4 and Figure 6; the pumps' \
          low-speed dead band takes over after that):\n\n    \
          cargo run --release -- identify data/article/identify.toml\n",
         c12 = rig.c12_m5_per_ns,
@@ -349,7 +349,7 @@ pub const STEP_AT_S: f64 = 0.5;
 /// Fit window after the step for Kp = 25 (s): the article's non-LTI region starts 2.2 s after
 /// the step (its Figure 6 steps at t = 1 s and draws the line at t = 3.2 s).
 pub const FIT_WINDOW_KP25_S: f64 = 2.2;
-/// Fit window after the step for Kp = 20 (s): 1.9 s after the step (the article's Figure 7).
+/// Fit window after the step for Kp = 20 (s): 1.9 s after the step (the article's Section 2.4).
 pub const FIT_WINDOW_KP20_S: f64 = 1.9;
 
 /// The fit window after the step for a position gain (s): the article's 1.9 s for Kp = 20 and
@@ -367,11 +367,11 @@ pub fn fit_window_s(kp: f64) -> f64 {
 pub fn identify_experiment() -> String {
     let end = |kp: f64| STEP_AT_S + fit_window_s(kp);
     format!(
-        "# The article's identification (Section 2.4.3) on the emulated records of this folder\n\
+        "# The article's identification (Section 2.4) on the emulated records of this folder\n\
          # (README.md). Made by `pumpcyl emulate --article-records`. The records were made with\n\
          # the default rig's sum-pressure gain, so no [set] is needed.\n\n\
          [standstill]\n\
-         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (Section 2.4.2)\n\n\
+         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (Section 2.4)\n\n\
          [[dataset]]\n\
          file = \"identification.csv\"\n\
          kp = 25.0\n\
@@ -381,7 +381,7 @@ pub fn identify_experiment() -> String {
          file = \"validation.csv\"\n\
          kp = 20.0\n\
          mass_kg = 10593.0\n\
-         fit_end_s = {e20}   # {at} s at rest + {w20} s after the step (the article's Figure 7)\n",
+         fit_end_s = {e20}   # {at} s at rest + {w20} s after the step (the article's Section 2.4)\n",
         at = STEP_AT_S,
         w25 = FIT_WINDOW_KP25_S,
         w20 = FIT_WINDOW_KP20_S,

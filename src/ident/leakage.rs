@@ -107,7 +107,7 @@ impl Standstill {
 /// feed motion as well as leakage.
 pub const STANDSTILL_SPREAD_MM: f64 = 0.5;
 
-/// Why a record may not be a standstill (the article's Section 2.4.2 needs the piston at
+/// Why a record may not be a standstill (the article's Section 2.4 needs the piston at
 /// rest under feedback): the reference changes, or the position spreads more than
 /// [`STANDSTILL_SPREAD_MM`].
 pub fn standstill_warnings(rec: &crate::record::Record) -> Vec<String> {
