@@ -55,7 +55,7 @@ pub enum MotorModel {
     /// First-order approximation common in the literature: ω/ω_ref = 1/(τ s + 1), no load
     /// torque, no feedforward. τ is `motor_time_constant_s`, or, when absent, J_i/Km_i — the
     /// velocity loop's time constant on the motor-plus-pump inertia with feedforward off
-    /// **[choice]**.
+    /// **\[choice\]**.
     FirstOrder,
 }
 

@@ -354,7 +354,7 @@ pub const FIT_WINDOW_KP20_S: f64 = 1.9;
 
 /// The fit window after the step for a position gain (s): the article's 1.9 s for Kp = 20 and
 /// below, its 2.2 s for Kp = 25 and above (the article gives no window for the Kp = 40
-/// robustness record; it gets the Kp = 25 one) **[choice]**.
+/// robustness record; it gets the Kp = 25 one) **\[choice\]**.
 pub fn fit_window_s(kp: f64) -> f64 {
     if kp <= 20.0 {
         FIT_WINDOW_KP20_S

@@ -5,7 +5,7 @@
 //! switched off; with all of them off the right-hand side linearises to the analytic model of
 //! `model` (a test checks every entry of A and B).
 //!
-//! [`plc`] closes the loop at the PLC's rate and integrates these dynamics between samples.
+//! `plc` closes the loop at the PLC's rate and integrates these dynamics between samples.
 
 pub mod article;
 mod experiment;

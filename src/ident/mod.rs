@@ -13,7 +13,7 @@ mod search;
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
 pub use grid::{spaced, stepped, Candidate, Grid};
-pub use leakage::{standstill_warnings, Leakage, Standstill};
+pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};

@@ -78,7 +78,7 @@ pub struct Margins {
     /// Frequency of the headline phase margin (Hz).
     pub gain_crossover_hz: Option<f64>,
     /// Smallest delay margin over the gain crossings (s); 0 when the closed loop is already
-    /// unstable **[choice]**; `None` (infinite) without a gain crossing.
+    /// unstable **\[choice\]**; `None` (infinite) without a gain crossing.
     pub delay_margin_s: Option<f64>,
     /// Closed-loop stability from the closed-loop eigenvalues.
     pub closed_loop_stable: bool,

@@ -24,7 +24,7 @@ pub struct StepMetrics {
     pub final_error_mm: f64,
 }
 
-/// Metrics of the deviation response `y` (mm, starting at 0) to a step `r` (mm) at t[0];
+/// Metrics of the deviation response `y` (mm, starting at 0) to a step `r` (mm) at `t[0]`;
 /// `dc_mm` is the model's steady-state deviation.
 pub fn step_metrics(t: &[f64], y: &[f64], r: f64, dc_mm: f64) -> StepMetrics {
     let n = y.len();
