@@ -100,6 +100,21 @@ pub struct Design {
     pub reasons: Vec<String>,
 }
 
+/// Tolerance of the verdict on a phase margin (deg): a condition is below target only when its
+/// PM falls short by more than this (the gain search resolves the margins far finer, so a PM
+/// of 88.999° against 89° is on target).
+pub const PM_TOLERANCE_DEG: f64 = 0.05;
+/// Tolerance of the verdict on a gain margin (dB).
+pub const GM_TOLERANCE_DB: f64 = 0.01;
+
+/// Whether a condition falls short of the targets by more than the stated tolerances.
+fn below_target(c: &Condition, t: &Targets) -> bool {
+    c.phase_margin_deg
+        .is_some_and(|pm| pm < t.pm_deg - PM_TOLERANCE_DEG)
+        || c.gain_margin_db
+            .is_some_and(|gm| gm < t.gm_db - GM_TOLERANCE_DB)
+}
+
 /// Whether margins meet the targets.
 fn meets(m: &Margins, t: &Targets) -> bool {
     m.closed_loop_stable
@@ -275,7 +290,7 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
         .collect();
     let below: Vec<&Condition> = conditions
         .iter()
-        .filter(|c| c.closed_loop_stable && c.kp_max < kp)
+        .filter(|c| c.closed_loop_stable && below_target(c, t))
         .collect();
     let describe = |c: &Condition| {
         format!(
@@ -291,9 +306,15 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
         )
     };
     let mut reasons = vec![format!(
-        "Kp = {kp:.2} meets PM >= {} deg and GM >= {} dB at the design point; {kp_worst:.2} would meet them everywhere checked",
+        "Kp = {kp:.2} meets PM >= {} deg and GM >= {} dB at the design point; {kp_worst:.2} would meet them everywhere checked \
+         (margins within {PM_TOLERANCE_DEG} deg and {GM_TOLERANCE_DB} dB of a target count as on target)",
         t.pm_deg, t.gm_db
     )];
+    if kp_worst < kp {
+        reasons.push(format!(
+            "recommended Kp = {kp_worst:.2}: the worst case sets the gain (the article's Section 2.2, last step of the method)"
+        ));
+    }
     if !unstable.is_empty() {
         reasons.extend(
             unstable
@@ -338,6 +359,40 @@ mod tests {
         // and at that gain the phase margin is the target
         let m = margins_at(&Rig::default(), kp).unwrap();
         assert!((m.phase_margin_deg.unwrap() - 34.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_verdict_never_contradicts_its_own_numbers() {
+        // the design point at the largest Kp has PM equal to the target up to the bisection's
+        // resolution: it must not be judged below target
+        let t = targets(34.0);
+        let d = design(&Rig::default(), &t).unwrap();
+        let at_x0 = d
+            .conditions
+            .iter()
+            .find(|c| c.x_mm == Rig::default().x0_mm)
+            .unwrap();
+        assert!((at_x0.phase_margin_deg.unwrap() - 34.0).abs() < PM_TOLERANCE_DEG);
+        assert!(!d
+            .reasons
+            .iter()
+            .any(|r| r.contains("below target at x 345 mm")));
+        // every condition called below target is below by more than the tolerance
+        for c in d.conditions.iter().filter(|c| below_target(c, &t)) {
+            assert!(
+                c.phase_margin_deg.unwrap() < 34.0 - PM_TOLERANCE_DEG,
+                "{c:?}"
+            );
+        }
+        // and the worst-case gain is recommended when it is lower
+        if d.kp_max_worst_case < d.kp_max {
+            let want = format!("recommended Kp = {:.2}", d.kp_max_worst_case);
+            assert!(
+                d.reasons.iter().any(|r| r.contains(&want)),
+                "{:?}",
+                d.reasons
+            );
+        }
     }
 
     #[test]

@@ -160,7 +160,10 @@ pub struct Rig {
     pub kp: f64,
     /// Sum-pressure set-point p1 + p2 (bar).
     pub p_sum_ref_bar: f64,
-    /// Sum-pressure gain K_pres (normalised command per bar) **\[choice\]: per bar**.
+    /// Sum-pressure gain K_pres (normalised command per bar of sum-pressure error): 0.22 by
+    /// default (0.15 for the article's lighter 4898 kg load), the article's "22 (15)" (§2.3.4)
+    /// read as percent of full command per bar (docs/choices.md#the-sum-pressure-gain-022-per-bar).
+    /// Any other value, 22 included, is a valid setting.
     pub k_pres_per_bar: f64,
     /// Sum-pressure split factor Kβ (dimensionless).
     pub k_beta: f64,
@@ -213,7 +216,7 @@ impl Default for Rig {
             c2_m5_per_ns: -1.19e-11,
             kp: 25.0,
             p_sum_ref_bar: 10.0,
-            k_pres_per_bar: 22.0,
+            k_pres_per_bar: 0.22,
             k_beta: 1.4,
             motor_rated_torque_nm: 12.5,
             motor_rated_speed_rpm: 3000.0,
@@ -723,7 +726,7 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("p_sum_ref_bar", "bar, sum-pressure set-point p1 + p2"),
             (
                 "k_pres_per_bar",
-                "1/bar, sum-pressure gain: normalised command per bar",
+                "1/bar, sum-pressure gain: normalised command per bar (the article's 22 % per bar)",
             ),
             ("k_beta", "-, sum-pressure split factor"),
         ],

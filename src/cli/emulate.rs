@@ -148,10 +148,7 @@ fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
         None if effects.gas_fraction.is_some() => {
             article::rig(25.0, 10_593.0, article::P_FIT_BAR, effects).map_err(|e| anyhow!(e))?
         }
-        None => Rig {
-            k_pres_per_bar: article::K_PRES_HEAVY_PER_BAR,
-            ..Rig::default()
-        },
+        None => Rig::default(),
     };
     Ok(base.with_overrides(&source.set)?)
 }

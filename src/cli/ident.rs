@@ -138,7 +138,11 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
     );
     let rig = args.rig.load()?;
     let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
-        (Some(path), ..) => Standstill::of_record(&crate::record::Record::read(path)?)?,
+        (Some(path), ..) => {
+            let rec = crate::record::Record::read(path)?;
+            warn(&crate::ident::standstill_warnings(&rec));
+            Standstill::of_record(&rec)?
+        }
         (None, Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Standstill {
             w1_rpm,
             w2_rpm,
@@ -146,6 +150,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
         },
         _ => anyhow::bail!("give --record or all of --w1-rpm, --w2-rpm, --p1-bar"),
     };
+
     let l = s.leakage(&rig, args.c12)?;
     if args.json {
         return Ok(serde_json::to_string_pretty(&l)? + "\n");
@@ -322,7 +327,15 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     }
     let id = finish(&exp.problem, stages, &opts)?;
     let seconds = start.elapsed().as_secs_f64();
+    warn(&id.warnings());
     report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+}
+
+/// Warnings go to standard error, one line each, so `--json` output stays clean.
+fn warn(lines: &[String]) {
+    for l in lines {
+        eprintln!("warning: {l}");
+    }
 }
 
 /// A fingerprint of what a shard evaluated: the experiment file and its records.
@@ -565,12 +578,13 @@ pub(super) fn write_outputs(
             exp.problem.dataset_mse(&id.best().candidate, ds)
         );
         for ext in ["svg", "png"] {
-            super::time::write_figure(
+            super::time::write_fit_figure(
                 &dir.join(format!("fit-{}.{ext}", i + 1)),
                 &format!("Identified model against {}", ds.name),
                 Some(&subtitle),
                 &[("model".to_string(), &sim)],
                 Some(&measured),
+                Some(ds.fit_end_s),
             )?;
         }
     }

@@ -86,9 +86,21 @@ pub struct SimulateArgs {
     rig: RigSource,
     /// Record to replay (CSV, docs/formats.md#record-csv: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
     /// w1_rpm, w2_rpm).
-    #[arg(long, value_name = "RECORD.csv")]
-    data: PathBuf,
-    /// End of the fit window on the record's time axis (s); default: the whole record.
+    #[arg(
+        long,
+        value_name = "RECORD.csv",
+        required_unless_present = "experiment"
+    )]
+    data: Option<PathBuf>,
+    /// Replay a dataset of an `identify` experiment file with its own conditions: the file's
+    /// rig and [set], the dataset's Kp, mass and fit window (--set applies on top).
+    #[arg(long, value_name = "EXPERIMENT.toml", conflicts_with_all = ["data", "rig"], requires = "dataset")]
+    experiment: Option<PathBuf>,
+    /// Which [[dataset]] of --experiment to replay (1 = the first).
+    #[arg(long, value_name = "N", requires = "experiment")]
+    dataset: Option<usize>,
+    /// End of the fit window on the record's time axis (s); default: the whole record (with
+    /// --experiment: the dataset's fit_end_s).
     #[arg(long, allow_negative_numbers = true)]
     fit_end_s: Option<f64>,
     #[command(flatten)]
@@ -436,8 +448,18 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
 
 /// `pumpcyl simulate`.
 pub fn simulate(args: &SimulateArgs) -> Result<String> {
-    let rec = Record::read(&args.data)?;
-    let window_end = match args.fit_end_s {
+    let (rec, rig, dataset_end) = replayed(args)?;
+    let origin = match (&args.experiment, args.dataset) {
+        (Some(p), Some(n)) => format!(
+            "{} dataset {n}: Kp {}, m {} kg, K_pres {} per bar",
+            p.display(),
+            rig.kp,
+            rig.mass_kg,
+            rig.k_pres_per_bar
+        ),
+        _ => args.rig.origin(),
+    };
+    let window_end = match args.fit_end_s.or(dataset_end) {
         Some(t) => {
             let (t0, t1) = (rec.time_s[0], rec.time_s[rec.len() - 1]);
             anyhow::ensure!(
@@ -449,7 +471,6 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         }
         None => rec.time_s[rec.len() - 1],
     };
-    let rig = args.rig.load()?;
     let measured = Signals::of_record(&rec);
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let base = Baseline::of_record(&rec, r);
@@ -464,7 +485,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
             .iter()
             .map(|(l, s, _)| (format!("sim {l}"), *s))
             .collect();
-        let title = format!("{} against the model ({})", rec.file, args.rig.origin());
+        let title = format!("{} against the model ({})", rec.file, origin);
         let subtitle = format!(
             "position MSE {:.4} mm² up to t = {} s",
             runs[0].2, window_end
@@ -476,12 +497,20 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
             ];
             export::write_signals_mat(path, &title, &series, Some(&measured), &scalars)?;
         } else {
-            write_figure(path, &title, Some(&subtitle), &series, Some(&measured))?;
+            let mark = args.fit_end_s.or(dataset_end);
+            write_fit_figure(
+                path,
+                &title,
+                Some(&subtitle),
+                &series,
+                Some(&measured),
+                mark,
+            )?;
         }
     }
     if args.opts.json {
         let mut v = json!({
-            "file": rec.file, "rig": args.rig.origin(), "mse_mm2": runs[0].2,
+            "file": rec.file, "rig": origin, "mse_mm2": runs[0].2,
             "fit_end_s": window_end, "samples_in_window": in_window,
         });
         if runs.len() > 1 {
@@ -493,8 +522,12 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         add_unstable(&mut v, &all.unstable);
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
+    let conditions = match args.experiment {
+        Some(_) => format!(" ({origin})"),
+        None => String::new(),
+    };
     let mut s = format!(
-        "{}: {} samples, fit window up to {} s ({in_window} samples)\n",
+        "{}{conditions}: {} samples, fit window up to {} s ({in_window} samples)\n",
         rec.file,
         rec.len(),
         window_end
@@ -503,6 +536,28 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         let _ = writeln!(s, "  {label:<24} position MSE {mse:.5} mm²");
     }
     Ok(s + &unstable_lines(&all.unstable))
+}
+
+/// The record to replay, the rig to replay it on and the dataset's fit window end (s): from
+/// --data and the rig options, or from a dataset of --experiment with its own conditions.
+fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
+    let (Some(path), Some(n)) = (&args.experiment, args.dataset) else {
+        let data = args
+            .data
+            .as_ref()
+            .context("--data or --experiment is needed")?;
+        return Ok((Record::read(data)?, args.rig.load()?, None));
+    };
+    let exp = crate::ident::Experiment::load(path)?;
+    let count = exp.problem.datasets.len();
+    anyhow::ensure!(
+        (1..=count).contains(&n),
+        "{}: --dataset {n}: the file has {count} dataset(s), numbered from 1",
+        path.display()
+    );
+    let ds = &exp.problem.datasets[n - 1];
+    let rig = ds.rig.with_overrides(&args.rig.set)?;
+    Ok((ds.record.clone(), rig, Some(ds.fit_end_s)))
 }
 
 /// Mean squared position error (mm²) over samples with t ≤ `end`.
@@ -582,10 +637,52 @@ pub(super) fn write_figure(
     series: &[(String, &Signals)],
     measured: Option<&Signals>,
 ) -> Result<()> {
+    write_fit_figure(path, title, subtitle, series, measured, None)
+}
+
+/// As [`write_figure`], the figure marking the end of the fit window at `fit_end_s` (s) with a
+/// dotted vertical line on every panel (as the article's Figure 6 does).
+pub(super) fn write_fit_figure(
+    path: &Path,
+    title: &str,
+    subtitle: Option<&str>,
+    series: &[(String, &Signals)],
+    measured: Option<&Signals>,
+    fit_end_s: Option<f64>,
+) -> Result<()> {
     match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
         Format::Csv => write_atomic(path, signals_csv(series, measured).as_bytes()),
         Format::Mat => export::write_signals_mat(path, title, series, measured, &[]),
-        _ => render(path, title, subtitle, &four_panels(series, measured)),
+        _ => {
+            let mut panels = four_panels(series, measured);
+            if let Some(t) = fit_end_s {
+                mark_fit_end(&mut panels, t);
+            }
+            render(path, title, subtitle, &panels)
+        }
+    }
+}
+
+/// A dotted vertical line at `t_s` spanning each panel's values, labelled once.
+fn mark_fit_end(panels: &mut [Panel], t_s: f64) {
+    for (i, panel) in panels.iter_mut().enumerate() {
+        let (lo, hi) = panel
+            .traces
+            .iter()
+            .flat_map(|tr| tr.y.iter().copied().filter(|y| y.is_finite()))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
+                (l.min(y), h.max(y))
+            });
+        if lo <= hi {
+            let label = if i == 0 { "end of fit window" } else { "" };
+            panel.traces.push(trace(
+                label,
+                &[t_s, t_s],
+                &[lo, hi],
+                LineStyle::Dotted,
+                Some(7),
+            ));
+        }
     }
 }
 

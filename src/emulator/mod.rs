@@ -355,8 +355,7 @@ mod emulate_tests {
     #[test]
     fn effects_off_and_a_fast_plc_reproduce_the_lti_step() {
         // at 1 kHz the sampled controller is close to the LTI model's continuous one. The
-        // sum-pressure loop stays open: with K_pres per bar its 156 Hz mode (ζ ≈ 0.02) is
-        // destabilised by any sampling delay (see the README's modelling question).
+        // sum-pressure loop stays open: the comparison is of the position loop alone.
         let rig = Rig {
             sum_pressure: false,
             ..Rig::default()
@@ -379,6 +378,6 @@ mod emulate_tests {
         assert!(worst < 0.1, "largest difference {worst} mm on a 5 mm step");
         // Pressures are not compared: without the sum-pressure loop nothing holds p1 + p2, and
         // the leakage drains it towards 0.2 bar while the run goes on, a drift the deviation
-        // model cannot show (the README's modelling question).
+        // model cannot show.
     }
 }

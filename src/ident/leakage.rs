@@ -102,6 +102,40 @@ impl Standstill {
     }
 }
 
+/// Largest spread of the position (max − min, mm) a standstill record may show: more than
+/// sensor noise and a P loop's creep means the piston moved, and the pumps' mean speeds then
+/// feed motion as well as leakage.
+pub const STANDSTILL_SPREAD_MM: f64 = 0.5;
+
+/// Why a record may not be a standstill (the article's Section 2.4 needs the piston at
+/// rest under feedback): the reference changes, or the position spreads more than
+/// [`STANDSTILL_SPREAD_MM`].
+pub fn standstill_warnings(rec: &crate::record::Record) -> Vec<String> {
+    let mut out = Vec::new();
+    if rec.first_change() < rec.len() {
+        out.push(format!(
+            "{}: the reference changes at t = {} s: a standstill record holds it constant",
+            rec.file,
+            rec.time_s[rec.first_change()]
+        ));
+    }
+    let (lo, hi) = rec
+        .x_mm
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+            (l.min(x), h.max(x))
+        });
+    if hi - lo > STANDSTILL_SPREAD_MM {
+        out.push(format!(
+            "{}: the position spans {:.3} mm (more than {STANDSTILL_SPREAD_MM} mm): the piston is not at standstill, \
+             so the mean pump speeds feed motion as well as leakage",
+            rec.file,
+            hi - lo
+        ));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

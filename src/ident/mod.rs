@@ -42,7 +42,7 @@ mod search;
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
 pub use grid::{spaced, stepped, Candidate, Grid};
-pub use leakage::{Leakage, Standstill};
+pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
@@ -112,6 +112,54 @@ impl Identification {
     /// Candidates evaluated over all stages (the local refinement not counted).
     pub fn evaluated(&self) -> u64 {
         self.stages.iter().map(|s| s.summary.evaluated).sum()
+    }
+
+    /// What a user should know before trusting the answer: the best grid point on an edge of
+    /// its grid (the optimum may lie outside it), and a search where every candidate of the
+    /// top list costs the same (the records carry no excitation: the reference never moves the
+    /// loop, so the cost cannot tell the parameters apart).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let [first, .., last] = self.top.as_slice() {
+            if (last.cost_mm2 - first.cost_mm2).abs() <= 1e-12 * first.cost_mm2.abs().max(1e-300) {
+                out.push(format!(
+                    "every candidate of the top {} costs the same ({:.4e} mm²): the records carry no excitation \
+                     (does the reference step?), so the answer means nothing",
+                    self.top.len(),
+                    first.cost_mm2
+                ));
+                return out;
+            }
+        }
+        let best = &self.grid_best;
+        let Some(stage) = self.stages.get(usize::from(best.stage.max(1)) - 1) else {
+            return out;
+        };
+        let c = &best.candidate;
+        let axes = [
+            ("beta_bar", c.beta_bar, &stage.grid.beta_bar),
+            (
+                "viscous_friction_ns_per_m",
+                c.viscous_friction_ns_per_m,
+                &stage.grid.viscous_friction_ns_per_m,
+            ),
+            ("c12_m5_per_ns", c.c12_m5_per_ns, &stage.grid.c12_m5_per_ns),
+        ];
+        for (name, v, axis) in axes {
+            let (lo, hi) = axis
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            if axis.len() > 1 && (v == lo || v == hi) {
+                out.push(format!(
+                    "the best grid point has {name} = {v} on the edge of the stage {} grid ({lo} … {hi}): \
+                     the optimum may lie outside it; widen that axis",
+                    best.stage
+                ));
+            }
+        }
+        out
     }
 }
 

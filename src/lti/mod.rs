@@ -13,7 +13,7 @@ mod timeresp;
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
-pub use poles::{eigenvalues, PoleInfo};
+pub use poles::{eigenvalues, resonance, PoleInfo};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;
