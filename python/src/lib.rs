@@ -607,8 +607,18 @@ fn standstill_of(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<Standstil
     Ok(s)
 }
 
-/// Grid identification of beta, b and c12 (article Section 6.3), from an experiment TOML file
-/// or from in-memory datasets, releasing the GIL; Ctrl-C stops it.
+/// Grid identification of beta (bar), b (N s/m) and c12 (m^5/(N s)) (article Section 6.3),
+/// with c1, c2 from the standstill point (Section 6.2) and Nelder-Mead refinement.
+///
+/// Either `experiment`, an experiment TOML file as `pumpcyl identify` reads, or
+/// `datasets=[Dataset(...)]` with `standstill=dict(w1_rpm=..., w2_rpm=..., p1_bar=...)` (rpm,
+/// rpm, bar gauge) and `rig` (default: the article's). `grid` and `refined_grid` are dicts
+/// {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the file's, else the
+/// article's 3264 + 3553 candidates); `refined_grid=False` skips the second stage.
+/// `auto_refine`, `local_refinement` and `threshold_mm2` (mm^2) override the file; `top` is the
+/// length of the top list. The search runs with the GIL released; Ctrl-C stops it
+/// (KeyboardInterrupt). `progress=True` prints progress on stderr; a callable gets
+/// `(done, total)` candidates.
 #[pyfunction]
 #[pyo3(signature = (
     experiment = None, *, datasets = None, standstill = None, rig = None, grid = None,
