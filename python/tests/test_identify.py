@@ -82,18 +82,43 @@ def test_progress_true_prints_to_stderr(capsys):
     assert "identify: 45/45 candidates" in capsys.readouterr().err
 
 
+BIG = dict(beta_bar=[float(b) for b in range(50, 1050, 5)],
+           viscous_friction_ns_per_m=[float(b) for b in range(50, 550, 25)],
+           c12_m5_per_ns=[1e-11 * k for k in range(1, 21)])  # 80 000 candidates
+
+
 def test_ctrl_c_interrupts_a_long_identification():
-    big = dict(beta_bar=[float(b) for b in range(50, 1050, 5)],
-               viscous_friction_ns_per_m=[float(b) for b in range(50, 550, 25)],
-               c12_m5_per_ns=[1e-11 * k for k in range(1, 21)])  # 80 000 candidates
-    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    """SIGINT from another thread, as a terminal's Ctrl-C, while the search runs in Rust."""
+    huge = dict(beta_bar=list(range(1, 101)), viscous_friction_ns_per_m=list(range(1, 101)),
+                c12_m5_per_ns=[1e-12 * k for k in range(1, 101)])  # a million candidates
+    running, finished = threading.Event(), threading.Event()
+
+    def ctrl_c():
+        if running.wait(60) and not finished.is_set():
+            os.kill(os.getpid(), signal.SIGINT)
+
+    pressing = threading.Thread(target=ctrl_c)
+    pressing.start()
     start = time.monotonic()
-    timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=big, refined_grid=False)
-    timer.join()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=huge, refined_grid=False,
+                             progress=lambda done, total: done and running.set())
+    finally:
+        finished.set()
+        running.set()
+        pressing.join()
     # stopped within moments of the signal, not after the whole grid
-    assert time.monotonic() - start < 5.0
+    assert time.monotonic() - start < 10.0
+
+
+def test_an_error_in_the_progress_callback_stops_the_search():
+    def fail(done, total):
+        raise RuntimeError(f"stop at {done} of {total}")
+
+    with pytest.raises(RuntimeError, match="of 80000"):
+        pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=BIG, refined_grid=False,
+                         progress=fail)
 
 
 def test_identify_errors_name_what_is_wrong():
