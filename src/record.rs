@@ -1,4 +1,4 @@
-//! Measured or emulated records (SPEC §9): CSV with a header row, columns by name, extra
+//! Measured or emulated records (docs/formats.md#record-csv): CSV with a header row, columns by name, extra
 //! columns ignored. `time_s`, `x_ref_mm`, `x_mm` are required; `p1_bar`, `p2_bar` (gauge),
 //! `w1_rpm`, `w2_rpm` are optional. Time is strictly increasing, uniform or not.
 
@@ -46,6 +46,14 @@ pub enum RecordError {
         /// What is wrong.
         message: String,
     },
+    /// A MAT-file that is not a usable record (the message names the variable).
+    #[error("{file}: {message}")]
+    Mat {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// Too few samples.
     #[error("{file}: {message}")]
     Empty {
@@ -81,8 +89,14 @@ const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
 impl Record {
-    /// Read and check a record file, streamed (memory holds the used columns, not the text).
+    /// Read and check a record file, streamed (memory holds the used columns, not the text);
+    /// a `.mat` file is read as a MAT-file record ([`Table::from_mat`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
+        if is_mat(path) {
+            let file = path.display().to_string();
+            let t = Table::from_mat(&read_bytes(path)?, &file, &REQUIRED, &OPTIONAL)?;
+            return Ok(Self::from_table(t, &file));
+        }
         let (reader, file) = open(path)?;
         Self::from_reader(reader, &file)
     }
@@ -94,8 +108,18 @@ impl Record {
 
     /// Parse a record from a stream; `file` names it in messages.
     pub fn from_reader<R: BufRead>(reader: R, file: &str) -> Result<Record, RecordError> {
-        let mut t = Table::from_reader(reader, file, &REQUIRED, &OPTIONAL)?;
-        Ok(Record {
+        let t = Table::from_reader(reader, file, &REQUIRED, &OPTIONAL)?;
+        Ok(Self::from_table(t, file))
+    }
+
+    /// A record from MAT-file bytes (see [`Table::from_mat`]); `file` names it in messages.
+    pub fn parse_mat(bytes: &[u8], file: &str) -> Result<Record, RecordError> {
+        let t = Table::from_mat(bytes, file, &REQUIRED, &OPTIONAL)?;
+        Ok(Self::from_table(t, file))
+    }
+
+    fn from_table(mut t: Table, file: &str) -> Record {
+        Record {
             file: file.to_string(),
             time_s: t.take("time_s").unwrap_or_default(),
             x_ref_mm: t.take("x_ref_mm").unwrap_or_default(),
@@ -104,7 +128,7 @@ impl Record {
             p2_bar: t.take("p2_bar"),
             w1_rpm: t.take("w1_rpm"),
             w2_rpm: t.take("w2_rpm"),
-        })
+        }
     }
 
     /// A record from in-memory columns (s, mm), checked as a file is: at least 2 samples, equal
@@ -176,7 +200,7 @@ impl Record {
             .unwrap_or(self.len())
     }
 
-    /// The initial steady state of a signal (SPEC §9): the mean of the samples before the
+    /// The initial steady state of a signal (docs/simulation.md#deviations-and-the-baseline): the mean of the samples before the
     /// reference first changes, or the first sample if it changes at once.
     pub fn initial_mean(&self, signal: &[f64]) -> f64 {
         let k = self.first_change().max(1);
@@ -196,6 +220,10 @@ impl Table {
     /// Read a file with the `required` columns (the first is time) and any `optional` ones,
     /// streamed.
     pub fn read(path: &Path, required: &[&str], optional: &[&str]) -> Result<Table, RecordError> {
+        if is_mat(path) {
+            let file = path.display().to_string();
+            return Self::from_mat(&read_bytes(path)?, &file, required, optional);
+        }
         let (reader, file) = open(path)?;
         Self::from_reader(reader, &file, required, optional)
     }
@@ -245,6 +273,67 @@ impl Table {
             rows.push(&row)?;
         }
         rows.finish()
+    }
+
+    /// A table from a level-5 MAT-file (MATLAB `save -v7`/`-v6`, Octave `save -mat`): one real
+    /// vector per column, named as the CSV column (`time_s`, `x_ref_mm`, ...), all of one
+    /// length; other variables are ignored. The same checks as for CSV apply: finite values,
+    /// strictly increasing time, at least two samples.
+    pub fn from_mat(
+        bytes: &[u8],
+        file: &str,
+        required: &[&str],
+        optional: &[&str],
+    ) -> Result<Table, RecordError> {
+        let err = |message: String| RecordError::Mat {
+            file: file.to_string(),
+            message,
+        };
+        let vars = crate::matfile::read(bytes).map_err(|e| err(e.0))?;
+        let names: Vec<String> = vars.iter().map(|v| v.name.clone()).collect();
+        let mut columns = Vec::new();
+        for (k, name) in required.iter().chain(optional).enumerate() {
+            let Some(var) = vars.iter().find(|v| v.name == *name) else {
+                if k < required.len() {
+                    let message =
+                        missing_column(name, &names, required).replace("column", "variable");
+                    return Err(err(message));
+                }
+                continue;
+            };
+            let values = var
+                .vector()
+                .map_err(|why| err(format!("variable `{name}` {why}")))?;
+            if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(err(format!(
+                    "variable `{name}`, element {}: `{v}` is not a finite number",
+                    i + 1
+                )));
+            }
+            columns.push((name.to_string(), values.to_vec()));
+        }
+        let n = columns[0].1.len();
+        if let Some((name, v)) = columns.iter().find(|(_, v)| v.len() != n) {
+            return Err(err(format!(
+                "variable `{name}` has {} elements, `{}` has {n}: every column needs one value per sample",
+                v.len(),
+                columns[0].0
+            )));
+        }
+        if n < 2 {
+            return Err(err(format!("{n} samples: a record needs at least 2")));
+        }
+        if let Some(i) = columns[0].1.windows(2).position(|w| w[1] <= w[0]) {
+            let t = &columns[0].1;
+            return Err(err(format!(
+                "variable `{}`, element {}: time must strictly increase: {} follows {}",
+                columns[0].0,
+                i + 2,
+                t[i + 1],
+                t[i]
+            )));
+        }
+        Ok(Table { columns })
     }
 
     /// Take a column out of the table by name (`None` if absent).
@@ -395,6 +484,21 @@ impl Rows<'_> {
                 .collect(),
         })
     }
+}
+
+/// Whether a path names a MAT-file (extension `.mat`, any case).
+fn is_mat(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"))
+}
+
+/// A whole file's bytes.
+fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
+    std::fs::read(path).map_err(|e| RecordError::Io {
+        file: path.display().to_string(),
+        message: e.to_string(),
+    })
 }
 
 /// A file opened for streaming, and its name for messages.

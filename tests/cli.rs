@@ -760,7 +760,7 @@ fn emulate_refuses_bad_options_and_writes_nothing() {
         );
         assert!(!Path::new(out).exists(), "{args:?} left a file");
     }
-    // the SPEC's sum-pressure gain at a 100 Hz PLC (the README's modelling question): the
+    // the article's sum-pressure gain (22 per bar) at a 100 Hz PLC (the README's modelling question): the
     // sampled loop cannot hold it and rings at the torque limits, ±1000 rpm and more at rest
     ok(&[
         "emulate",
@@ -819,7 +819,9 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
     let cases: Vec<(Vec<&str>, Vec<String>)> = vec![
         (
             vec!["rig", "--print-default"],
-            vec!["# pumpcyl rig description (SPEC §2).".into()],
+            vec![
+                "# pumpcyl rig description (the article §2.3.4; docs/formats.md#rig-toml).".into(),
+            ],
         ),
         (
             vec!["margins"],
@@ -856,7 +858,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         ),
         (
             vec!["leakage", "--record", &standstill, "--c12", "1.2e-10"],
-            vec!["standstill (SPEC §6.2): w1 -143.3 rpm, w2 219.5 rpm, p1 3.537 bar".into()],
+            vec!["standstill (the article §2.4): w1 -143.3 rpm, w2 219.5 rpm, p1 3.537 bar".into()],
         ),
         (
             vec!["identify-drive", &drive],
@@ -879,7 +881,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         (
             vec!["design"],
             vec![
-                "design (SPEC §8) for default rig: PM >= 40 deg, GM >= 6 dB".into(),
+                "design (the article §2.2) for default rig: PM >= 40 deg, GM >= 6 dB".into(),
                 "  Kp max at the design point   21.50 (1/m)".into(),
             ],
         ),

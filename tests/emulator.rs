@@ -1,5 +1,5 @@
 //! The nonlinear emulator against the LTI model, and identification on the embedded emulated
-//! records recovering the emulator's truth (issue 5).
+//! records recovering the emulator's truth (docs/emulator.md#how-it-is-checked).
 
 use pumpcyl::bulk::effective_beta;
 use pumpcyl::emulator::article::{self, Kind};
@@ -145,7 +145,7 @@ fn the_drive_and_standstill_records_give_back_km_and_the_leakages() {
     let fit = identify_drive(&drive, si.jm[0], si.omega_i).unwrap();
     let km = fit.km_nms_per_rad / rig.km1_nms_per_rad;
     assert!((km - 1.0).abs() < 0.02, "Km ratio {km}");
-    // standstill: with the true c12, SPEC §6.2 returns the true c1, c2 (the pumps turn faster
+    // standstill: with the true c12, docs/identification.md#leakage-from-standstill returns the true c1, c2 (the pumps turn faster
     // than the dead band, so only noise and friction separate them)
     let s = Standstill::of_record(&Record::read(&data("standstill.csv")).unwrap()).unwrap();
     let l = s.leakage(&rig, rig.c12_m5_per_ns).unwrap();

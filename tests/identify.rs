@@ -1,5 +1,5 @@
 //! Identification recovers known parameters from records simulated by the model with seeded
-//! noise (SPEC §6).
+//! noise (the article §2.4; docs/identification.md).
 
 use pumpcyl::ident::{finish, run_stages, Candidate, Experiment, Grid, Options};
 use pumpcyl::response::{simulate, Baseline};

@@ -1,5 +1,5 @@
 //! `pumpcyl reproduce` end to end: the files, the numbers in summary.json against the
-//! emulator's truth and the article, and report.html rendered by headless Chromium (issue 6).
+//! emulator's truth and the article, and report.html rendered by headless Chromium (docs/README.md).
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -50,10 +50,10 @@ fn summary_carries_the_article_numbers_and_recovers_the_truth() {
     let c12 = num(&s, "identified.c12_m5_per_ns") / 1.2e-10;
     assert!((1.0 / 1.5..=1.5).contains(&c12), "c12 ratio {c12}");
     assert!((num(&s, "drive.km_nms_per_rad") / 0.026 - 1.0).abs() < 0.02);
-    // the default rig's margins are the article's (SPEC §4)
+    // the default rig's margins are the article's (§2.3.3)
     assert!((num(&s, "margins.default_rig.gain_margin_db") - 6.5).abs() <= 0.1);
     assert!((num(&s, "margins.default_rig.phase_margin_deg") - 33.5).abs() <= 0.5);
-    // SPEC §7: at 1 bar the gas makes β_e so low the loop is unstable, at 10 bar the margins
+    // docs/bulk-modulus.md: at 1 bar the gas makes β_e so low the loop is unstable, at 10 bar the margins
     // are larger than at the identified point
     assert_eq!(s["margins"]["p1bar"]["closed_loop_stable"], false);
     assert!(
@@ -76,7 +76,7 @@ fn summary_carries_the_article_numbers_and_recovers_the_truth() {
     }
     assert!(reduction(&tracking[0], "model") > reduction(&tracking[1], "model"));
     assert!(reduction(&tracking[1], "model") > reduction(&tracking[2], "model"));
-    // design: the largest Kp for PM 34° is the article's 25, within ±1 (SPEC §8)
+    // design: the largest Kp for PM 34° is the article's 25, within ±1 (the article §2.2)
     let kp = num(&s, "design.kp_max");
     assert!((kp - 25.0).abs() <= 1.0, "{kp}");
     // robustness record (β_e 220 bar by construction)

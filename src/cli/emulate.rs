@@ -1,4 +1,4 @@
-//! `pumpcyl emulate`: records from the nonlinear rig emulator (issue 5).
+//! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
 
 use super::output::write_atomic;
 use super::RigSource;
@@ -33,7 +33,7 @@ pub struct EmulateArgs {
     /// (how data/article/ is made).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["experiment", "out", "rig", "set"])]
     article_records: Option<PathBuf>,
-    /// Rig (TOML). Default: the emulated article rig (SPEC §2 with the PLC's sum-pressure gain
+    /// Rig (TOML). Default: the emulated article rig (the article §2.1 with the PLC's sum-pressure gain
     /// 0.22 per bar and the set-point for 4.4 bar mean pressure; see data/article/README.md).
     #[command(flatten)]
     source: RigSource,
@@ -93,7 +93,7 @@ pub struct EmulateArgs {
     /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).
     #[arg(long)]
     no_effects: bool,
-    /// Output record (SPEC §9 CSV; a drive step writes time_s, w_ref_rpm, w_rpm).
+    /// Output record (docs/formats.md#record-csv; a drive step writes time_s, w_ref_rpm, w_rpm).
     #[arg(
         long,
         value_name = "RECORD.csv",

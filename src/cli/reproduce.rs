@@ -1,4 +1,4 @@
-//! `pumpcyl reproduce`: the article's whole workflow (issue 6) on the embedded rig and the
+//! `pumpcyl reproduce`: the article's whole workflow (docs/README.md) on the embedded rig and the
 //! embedded emulated records, into one folder: figures (SVG and PNG), summary.json and a
 //! self-contained report.html.
 
@@ -32,7 +32,7 @@ pub struct ReproduceArgs {
     out: PathBuf,
 }
 
-/// What the article prints, for the side-by-side tables (SPEC §2, §4, §6).
+/// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
     pub const KM: f64 = 0.026;
     pub const BETA_BAR: f64 = 165.0;
@@ -250,9 +250,9 @@ const MARGIN_HEADER: [&str; 5] = [
     "stable",
 ];
 
-/// Step 1: Km from the drive step (SPEC §6.1).
+/// Step 1: Km from the drive step (the article §2.4.1).
 fn drive_step(run: &mut Run) -> Result<Value> {
-    run.step("Drive gain from the drive step (SPEC §6.1)");
+    run.step("Drive gain from the drive step (the article §2.4.1)");
     let rec = DriveRecord::read(&run.dir.join("records/drive_step.csv"))?;
     let si = Rig::default().si();
     let fit = identify_drive(&rec, si.jm[0], si.omega_i)?;
@@ -272,9 +272,9 @@ fn drive_step(run: &mut Run) -> Result<Value> {
     )
 }
 
-/// Steps 2 and 3: leakage from standstill, the two-stage grid and Nelder–Mead (SPEC §6.2–6.3).
+/// Steps 2 and 3: leakage from standstill, the two-stage grid and Nelder–Mead (the article §2.4; docs/identification.md).
 fn identification(run: &mut Run, truth: &article::Truth) -> Result<(Experiment, Rig, Value)> {
-    run.step("Leakage from standstill and the two-stage grid identification (SPEC §6.2, §6.3)");
+    run.step("Leakage from standstill and the two-stage grid identification (the article §2.4)");
     let exp = Experiment::load(&run.dir.join("records/identify.toml"))?;
     let opts = Options {
         auto_refine: false,
@@ -380,7 +380,7 @@ fn identification(run: &mut Run, truth: &article::Truth) -> Result<(Experiment, 
 
 /// Step 4: the robustness record (m = 4898 kg, Kp = 40): a β × c12 grid at the identified b.
 fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Result<Value> {
-    run.step("Robustness record: m = 4898 kg, Kp = 40 (SPEC §6.3)");
+    run.step("Robustness record: m = 4898 kg, Kp = 40 (the article §2.4)");
     let rig = Rig {
         k_pres_per_bar: article::K_PRES_LIGHT_PER_BAR,
         ..nominal.clone()
@@ -468,7 +468,7 @@ fn pressure_study(
     exp: &Experiment,
     truth: &article::Truth,
 ) -> Result<(Value, f64, f64)> {
-    run.step("Bulk modulus against pressure: gas fraction and margins (SPEC §7)");
+    run.step("Bulk modulus against pressure: gas fraction and margins (docs/bulk-modulus.md)");
     let rec = &exp.problem.datasets[0].record;
     let mean = |v: &Option<Vec<f64>>| {
         v.as_ref()
@@ -499,7 +499,7 @@ fn pressure_study(
     let default_m = margins_of(&Rig::default())?;
     out["default_rig"] = margins_json(&default_m);
     table.push(margins_row("identified rig (nominal)", &nominal_m));
-    table.push(margins_row("default rig (SPEC §2)", &default_m));
+    table.push(margins_row("default rig (the article §2.1)", &default_m));
     for (key, row) in ["p1bar", "p_mean", "p10bar"].iter().zip(&rows) {
         let rig = Rig {
             beta_bar: row.beta_bar,
@@ -514,7 +514,7 @@ fn pressure_study(
         series.push(bode_series(&rig, &label, &freqs)?);
     }
     run.table(
-        "Margins of the position loop (SPEC §4)",
+        "Margins of the position loop (the article §2.3.3)",
         &MARGIN_HEADER,
         table,
     );
@@ -595,7 +595,7 @@ fn variants(run: &mut Run, stem: &str, what: &str, rigs: &[(String, Rig)]) -> Re
         series.push(bode_series(rig, label, &freqs)?);
         let mut v = margins_json(&m);
         v["case"] = json!(label);
-        // the step runs with the sum-pressure loop closed, which the margins open (SPEC §4)
+        // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)
         match response::step(rig, 5.0, 6.0, 100.0) {
             Ok(s) => steps.push((label.clone(), s)),
             Err(lti::LtiError::Unstable { .. }) => unstable.push(label.as_str()),
@@ -624,9 +624,9 @@ fn variants(run: &mut Run, stem: &str, what: &str, rigs: &[(String, Rig)]) -> Re
     Ok(Value::Array(out))
 }
 
-/// Step 6: the damping studies (SPEC §4).
+/// Step 6: the damping studies (the article's Figure 14; docs/choices.md#figure-14-is-cumulative).
 fn damping_study(run: &mut Run, nominal: &Rig, standstill: &Standstill) -> Result<Value> {
-    run.step("Damping studies: leakage, motor coupling, motor model, feedforward (SPEC §4)");
+    run.step("Damping studies: leakage, motor coupling, motor model, feedforward (the article's Figure 14)");
     let c12 = nominal.c12_m5_per_ns / 10.0;
     let l = standstill.leakage(nominal, c12)?;
     let with = |f: &dyn Fn(&mut Rig)| {
@@ -660,9 +660,9 @@ fn damping_study(run: &mut Run, nominal: &Rig, standstill: &Standstill) -> Resul
     variants(run, "damping", "damping studies", &rigs)
 }
 
-/// Step 7: margins over the stroke, mass and volumes following it (SPEC §4).
+/// Step 7: margins over the stroke, mass and volumes following it (the article §2.1; docs/model.md#variants).
 fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
-    run.step("Stroke: margins at -50, 0 and +50 mm (SPEC §4)");
+    run.step("Stroke: margins at -50, 0 and +50 mm (the article §2.1)");
     let at = |dx: f64, mass: f64| Rig {
         x0_mm: nominal.x0_mm + dx,
         mass_kg: mass,
@@ -676,9 +676,9 @@ fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
     variants(run, "stroke", "stroke positions", &rigs)
 }
 
-/// Step 8: the three sinusoids of SPEC §5, emulated records against the model.
+/// Step 8: the three sinusoids of the article (docs/simulation.md#tracking-metrics), emulated records against the model.
 fn tracking(run: &mut Run, nominal: &Rig) -> Result<Value> {
-    run.step("Sinusoidal tracking (SPEC §5)");
+    run.step("Sinusoidal tracking (docs/simulation.md#tracking-metrics)");
     let files = [
         "sine_0.10hz_50mm.csv",
         "sine_0.20hz_35mm.csv",
@@ -735,9 +735,9 @@ fn tracking(run: &mut Run, nominal: &Rig) -> Result<Value> {
     Ok(Value::Array(out))
 }
 
-/// Step 9: the design check of SPEC §8 on the identified rig.
+/// Step 9: the design check of the article §2.2 on the identified rig.
 fn design_check(run: &mut Run, nominal: &Rig) -> Result<Value> {
-    run.step("Design check: SPEC §8 at the identified operating point");
+    run.step("Design check: the article §2.2 at the identified operating point");
     let targets = Targets {
         pm_deg: 34.0,
         gm_db: 6.0,

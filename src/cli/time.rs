@@ -1,4 +1,4 @@
-//! The time-domain commands: `step`, `track`, `simulate` (SPEC §5, §9).
+//! The time-domain commands: `step`, `track`, `simulate` (docs/simulation.md).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -6,6 +6,7 @@ use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use super::export;
 use super::output::{fmt_opt, format_of, write_atomic, Format};
 use super::RigSource;
 use crate::record::Record;
@@ -16,7 +17,8 @@ use crate::rig::Rig;
 /// Options shared by the time-domain commands.
 #[derive(Debug, Args)]
 pub struct TimeOptions {
-    /// Output file: .csv (signals), .svg or .png (four-panel figure).
+    /// Output file: .csv (signals), .svg or .png (four-panel figure), .mat (signals and
+    /// metrics for MATLAB/Octave, named as the CSV columns).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
     /// Print the metrics as JSON.
@@ -80,7 +82,7 @@ pub struct TrackArgs {
 pub struct SimulateArgs {
     #[command(flatten)]
     rig: RigSource,
-    /// Record to replay (CSV, SPEC §9: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
+    /// Record to replay (CSV, docs/formats.md#record-csv: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
     /// w1_rpm, w2_rpm).
     #[arg(long, value_name = "RECORD.csv")]
     data: PathBuf,
@@ -212,7 +214,26 @@ pub fn step(args: &StepArgs) -> Result<String> {
             args.rig.origin()
         );
         let subtitle = step_subtitle(&runs[0].2);
-        write_figure(path, &title, Some(&subtitle), &series, None)?;
+        if export::has_ext(path, "mat") {
+            let m: Vec<&StepMetrics> = runs.iter().map(|r| &r.2).collect();
+            let col = |f: fn(&StepMetrics) -> Option<f64>| m.iter().map(|m| f(m)).collect();
+            let scalars = [
+                ("step_mm", col(|m| Some(m.step_mm))),
+                ("rise_time_s", col(|m| m.rise_time_s)),
+                ("overshoot_mm", col(|m| Some(m.overshoot_mm))),
+                ("overshoot_pct", col(|m| Some(m.overshoot_pct))),
+                ("peak_time_s", col(|m| Some(m.peak_time_s))),
+                ("settling_time_s", col(|m| m.settling_time_s)),
+                (
+                    "steady_state_error_mm",
+                    col(|m| Some(m.steady_state_error_mm)),
+                ),
+                ("final_error_mm", col(|m| Some(m.final_error_mm))),
+            ];
+            export::write_signals_mat(path, &title, &series, None, &scalars)?;
+        } else {
+            write_figure(path, &title, Some(&subtitle), &series, None)?;
+        }
     }
     if args.opts.json {
         let mut v =
@@ -345,8 +366,21 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
         .iter()
         .map(|(l, s, m)| (format!("{} Hz ±{} mm {l}", m.freq_hz, m.amp_mm), s))
         .collect();
-    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
-        return write_atomic(path, signals_csv(&labelled, None).as_bytes());
+    match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
+        Format::Csv => return write_atomic(path, signals_csv(&labelled, None).as_bytes()),
+        Format::Mat => {
+            let col = |f: fn(&TrackMetrics) -> f64| runs.iter().map(|r| Some(f(&r.2))).collect();
+            let scalars = [
+                ("freq_hz", col(|m| m.freq_hz)),
+                ("amp_mm", col(|m| m.amp_mm)),
+                ("max_error_mm", col(|m| m.max_error_mm)),
+                ("rms_error_mm", col(|m| m.rms_error_mm)),
+                ("wave_reduction", col(|m| m.wave_reduction)),
+            ];
+            let title = "Sinusoidal tracking";
+            return export::write_signals_mat(path, title, &labelled, None, &scalars);
+        }
+        _ => {}
     }
     // one position panel per case, then all errors together
     let mut panels = Vec::new();
@@ -374,7 +408,7 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
             .push(trace(label, &s.time_s, &s.e_mm, LineStyle::Solid, Some(i)));
     }
     panels.push(errors);
-    let title = "Sinusoidal tracking (SPEC §5)";
+    let title = "Sinusoidal tracking (the article)";
     let list = |f: fn(&TrackMetrics) -> String| -> String {
         runs.iter()
             .map(|(_, _, m)| f(m))
@@ -424,7 +458,15 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
             "position MSE {:.4} mm² up to t = {} s",
             runs[0].2, window_end
         );
-        write_figure(path, &title, Some(&subtitle), &series, Some(&measured))?;
+        if export::has_ext(path, "mat") {
+            let scalars = [
+                ("mse_mm2", runs.iter().map(|r| Some(r.2)).collect()),
+                ("fit_end_s", vec![Some(window_end)]),
+            ];
+            export::write_signals_mat(path, &title, &series, Some(&measured), &scalars)?;
+        } else {
+            write_figure(path, &title, Some(&subtitle), &series, Some(&measured))?;
+        }
     }
     if args.opts.json {
         let mut v = json!({
@@ -521,7 +563,7 @@ fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> Str
     out
 }
 
-/// Write signals as CSV or as the four-panel figure, by the file's extension.
+/// Write signals as CSV, as the four-panel figure or as a MAT-file, by the file's extension.
 pub(super) fn write_figure(
     path: &Path,
     title: &str,
@@ -529,10 +571,11 @@ pub(super) fn write_figure(
     series: &[(String, &Signals)],
     measured: Option<&Signals>,
 ) -> Result<()> {
-    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
-        return write_atomic(path, signals_csv(series, measured).as_bytes());
+    match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
+        Format::Csv => write_atomic(path, signals_csv(series, measured).as_bytes()),
+        Format::Mat => export::write_signals_mat(path, title, series, measured, &[]),
+        _ => render(path, title, subtitle, &four_panels(series, measured)),
     }
-    render(path, title, subtitle, &four_panels(series, measured))
 }
 
 /// Render panels to SVG or PNG by extension, atomically.

@@ -1,10 +1,10 @@
-//! The emulated stand-ins for the article's records (issue 5). The article's measurements are
+//! The emulated stand-ins for the article's records (docs/emulator.md#the-emulated-article-records). The article's measurements are
 //! not public, so these records come from the nonlinear emulator with a known truth:
-//! the default rig (SPEC §2) with every emulator effect on ([`Effects::article`]), β_e(p) from
-//! the gas fraction that gives 165 bar at 4.4 bar (SPEC §7), and a 100 Hz PLC with sensor noise.
+//! the default rig (the article §2.1; docs/model.md#the-rig) with every emulator effect on ([`Effects::article`]), β_e(p) from
+//! the gas fraction that gives 165 bar at 4.4 bar (docs/bulk-modulus.md#fitting-the-gas-fraction), and a 100 Hz PLC with sensor noise.
 //!
-//! One deliberate departure from SPEC §2, stated wherever these records are used: the PLC's
-//! sum-pressure gain is **0.22 per bar** (0.15 below 10 t), the SPEC's 22 (15) read as percent
+//! One deliberate departure from the default rig, stated wherever these records are used: the PLC's
+//! sum-pressure gain is **0.22 per bar** (0.15 below 10 t), the article's "22 (15)" read as percent
 //! of full command per bar. At 22 per bar the sum-pressure loop gains about 23 per PLC sample and
 //! no 100 Hz controller can hold it (the README's "Known modelling question").
 
@@ -18,11 +18,11 @@ use crate::rig::{Rig, PA_PER_BAR};
 pub const K_PRES_HEAVY_PER_BAR: f64 = 0.22;
 /// … and below 10 t (1/bar).
 pub const K_PRES_LIGHT_PER_BAR: f64 = 0.15;
-/// The bulk modulus (bar) the gas fraction is fitted to, at [`P_FIT_BAR`] (SPEC §7).
+/// The bulk modulus (bar) the gas fraction is fitted to, at [`P_FIT_BAR`] (docs/bulk-modulus.md#fitting-the-gas-fraction).
 pub const BETA_FIT_BAR: f64 = 165.0;
 /// Mean chamber pressure of the fit (bar): the article's identification records.
 pub const P_FIT_BAR: f64 = 4.4;
-/// The bulk modulus of the robustness record at its operating pressure (bar, SPEC §6.3).
+/// The bulk modulus of the robustness record at its operating pressure (bar, docs/emulator.md#the-emulated-article-records).
 pub const BETA_ROBUSTNESS_BAR: f64 = 220.0;
 
 /// The rig, emulator effects and PLC a record is emulated with.
@@ -62,9 +62,9 @@ pub struct ArticleRecord {
 /// An emulated record's signals.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Emulated {
-    /// SPEC §9 record of the closed loop.
+    /// Record of the closed loop (docs/formats.md#record-csv).
     Loop(Signals),
-    /// Drive record (SPEC §6.1).
+    /// Drive record (docs/formats.md#drive-record-csv).
     Drive(DriveSignals),
 }
 
@@ -176,13 +176,13 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
     let mut out = vec![
         ArticleRecord {
             file: "identification.csv",
-            what: "5 mm step 340 -> 345 mm, Kp = 25, m = 10 593 kg (SPEC §6.3 identification set)",
+            what: "5 mm step 340 -> 345 mm, Kp = 25, m = 10 593 kg (the article §2.4 identification set)",
             kind: Kind::Loop(step),
             truth: truth(heavy(25.0)?, 1),
         },
         ArticleRecord {
             file: "validation.csv",
-            what: "the same step with Kp = 20 (SPEC §6.3 validation set)",
+            what: "the same step with Kp = 20 (the article §2.4 validation set)",
             kind: Kind::Loop(step),
             truth: truth(heavy(20.0)?, 2),
         },
@@ -194,7 +194,7 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
         },
         ArticleRecord {
             file: "drive_step.csv",
-            what: "drive 1 alone, feedforward off, speed step 0 -> 500 rpm, drive scope at 1 kHz (SPEC §6.1)",
+            what: "drive 1 alone, feedforward off, speed step 0 -> 500 rpm, drive scope at 1 kHz (the article §2.4.1)",
             kind: Kind::Drive(DriveStep {
                 motor: 1,
                 from_rpm: 0.0,
@@ -212,7 +212,7 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
         },
         ArticleRecord {
             file: "standstill.csv",
-            what: "reference held at 345 mm for 10 s, Kp = 25: the pumps feed the leakage (SPEC §6.2)",
+            what: "reference held at 345 mm for 10 s, Kp = 25: the pumps feed the leakage (the article §2.4)",
             kind: Kind::Loop(Experiment::Standstill {
                 x_mm: 345.0,
                 duration_s: 10.0,
@@ -228,7 +228,7 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
     for (file, f, a, seed) in sines {
         out.push(ArticleRecord {
             file,
-            what: "sinusoidal tracking about 345 mm, Kp = 25, two periods after 1 s at rest (SPEC §5)",
+            what: "sinusoidal tracking about 345 mm, Kp = 25, two periods after 1 s at rest (docs/simulation.md#tracking-metrics)",
             kind: Kind::Loop(Experiment::Sine {
                 centre_mm: 345.0,
                 amplitude_mm: a,
@@ -281,11 +281,11 @@ pub fn readme(records: &[ArticleRecord]) -> String {
     let _ = write!(
         s,
         "\n## The truth\n\n\
-         The default rig of SPEC §2 (`pumpcyl rig --print-default`): c12 = {c12:.2e}, c1 = {c1:.3e}, \
+         The default rig of the article §2.1 (`pumpcyl rig --print-default`): c12 = {c12:.2e}, c1 = {c1:.3e}, \
          c2 = {c2:.3e} m^5/(N s), b = {b} N s/m, Km = {km} N m s/rad, with these emulator effects:\n\n\
          - chamber volumes following the piston; the effective mass against stroke \
-         (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: SPEC §4);\n\
-         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the gas-fraction model of SPEC §7, \
+         (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: the article §2.1);\n\
+         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the gas-fraction model of docs/bulk-modulus.md, \
          X = {x:.5} (beta_e = {bf} bar at {pf} bar, beta_oil = {oil} bar); the table above gives \
          beta_e at each record's mean chamber pressure, the value identification should find;\n\
          - cavitation at -1 bar gauge; motor torque limited to {tq}x the rated {rated} N m; pump speed \
@@ -295,12 +295,12 @@ pub fn readme(records: &[ArticleRecord]) -> String {
          - Coulomb friction {fc} N on the piston;\n\
          - the PLC at 100 Hz (the drive step: the drive's own scope at 1 kHz), commands held between \
          samples, position noise 5 um (1 um resolution), pressure noise 0.01 bar, speed noise 1 rpm.\n\n\
-         One deliberate departure from SPEC §2: the PLC's sum-pressure gain is {kh} per bar ({kl} \
-         below 10 t), SPEC's 22 (15) read as percent of full command per bar. At 22 per bar the \
+         One deliberate departure from the default rig: the PLC's sum-pressure gain is {kh} per bar ({kl} \
+         below 10 t), the article's \"22 (15)\" read as percent of full command per bar. At 22 per bar the \
          sum-pressure loop gains about 23 per PLC sample, and no 100 Hz controller holds it (the \
          project README, \"Known modelling question\"). `identify.toml` sets the same gain for the \
          LTI model.\n\n\
-         `identify.toml` runs the article's identification (SPEC §6.3) on `identification.csv` and \
+         `identify.toml` runs the article's identification (§2.4) on `identification.csv` and \
          `validation.csv`, with c1 and c2 from `standstill.csv`:\n\n    \
          cargo run --release -- identify data/article/identify.toml\n",
         c12 = rig.c12_m5_per_ns,
@@ -324,7 +324,7 @@ pub fn readme(records: &[ArticleRecord]) -> String {
     s
 }
 
-/// Time of the step in the step records (s) and the fit window after it (SPEC §6.3: the
+/// Time of the step in the step records (s) and the fit window after it (docs/choices.md#fit-windows: the
 /// dead band takes over about 3.2 s after the step for Kp = 25).
 pub const STEP_AT_S: f64 = 0.5;
 /// Fit window after the step (s).
@@ -333,12 +333,12 @@ pub const FIT_WINDOW_S: f64 = 3.2;
 /// The `identify` experiment for the emulated identification and validation records.
 pub fn identify_experiment() -> String {
     format!(
-        "# The article's identification (SPEC §6.3) on the emulated records of this folder\n\
+        "# The article's identification (§2.4) on the emulated records of this folder\n\
          # (README.md). Made by `pumpcyl emulate --article-records`.\n\n\
          [set]\n\
          k_pres_per_bar = {kh}   # the emulated PLC's sum-pressure gain (README.md)\n\n\
          [standstill]\n\
-         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (SPEC §6.2)\n\n\
+         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (the article §2.4)\n\n\
          [[dataset]]\n\
          file = \"identification.csv\"\n\
          kp = 25.0\n\

@@ -1,4 +1,4 @@
-//! Chamber leakages from a standstill record (SPEC §6.2).
+//! Chamber leakages from a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
 
 use super::IdentError;
 use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
@@ -30,7 +30,7 @@ pub struct Leakage {
 }
 
 impl Standstill {
-    /// The mean speeds and chamber 1 pressure of a standstill record (SPEC §6.2).
+    /// The mean speeds and chamber 1 pressure of a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
     pub fn of_record(rec: &crate::record::Record) -> Result<Standstill, IdentError> {
         let mean = |v: &Option<Vec<f64>>, col: &str| {
             v.as_ref()
@@ -75,9 +75,9 @@ impl Standstill {
         Ok(())
     }
 
-    /// c1 and c2 from the standstill continuity equations (SPEC §6.2) for a given c12:
+    /// c1 and c2 from the standstill continuity equations (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill) for a given c12:
     /// c1 = (D1 ω1 + D2 ω2 − c12 (p1 − p2))/p1, c2 = (−D1 ω1 + c12 (p1 − p2))/p2, with p2 from
-    /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (SPEC §3's sign convention).
+    /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
         let si = rig.si();

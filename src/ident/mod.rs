@@ -1,6 +1,35 @@
-//! Parameter identification from measured data (SPEC §6): drive gain from a velocity step,
+//! Parameter identification from measured data (the article §2.4; docs/identification.md): drive gain from a velocity step,
 //! chamber leakages from a standstill record, and the two-stage grid search for β, b and c12
 //! with a local refinement.
+//!
+//! Identify β, b and c12 from the emulated article records (whose truth is β_e ≈ 165 bar,
+//! c12 = 1.2e-10 m⁵/(N·s)) on a small grid of your own (docs/identification.md):
+//!
+//! ```
+//! use pumpcyl::ident::{finish, run_stages, Experiment, Grid, Options};
+//! use std::path::Path;
+//!
+//! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml");
+//! let exp = Experiment::load(&file)?; // the records, the standstill point, the rig
+//! let grid = Grid {
+//!     beta_bar: vec![100.0, 165.0, 250.0],
+//!     viscous_friction_ns_per_m: vec![100.0, 300.0],
+//!     c12_m5_per_ns: vec![1.2e-10],
+//! };
+//! let opts = Options {
+//!     auto_refine: false,
+//!     local_refinement: false,
+//!     threshold_mm2: 0.25,
+//!     top_n: 3,
+//! };
+//! let stages = run_stages(&exp.problem, (grid, None), &opts, None, &|_| {})?;
+//! let id = finish(&exp.problem, stages, &opts)?;
+//! assert_eq!(id.evaluated(), 6);
+//! assert_eq!(id.best().candidate.beta_bar, 165.0);
+//! // c1 from the standstill record for that c12: the emulator's 5.49e-11 within 1 %
+//! assert!((id.leakage.c1_m5_per_ns / 5.49e-11 - 1.0).abs() < 0.01);
+//! # Ok::<(), pumpcyl::ident::IdentError>(())
+//! ```
 
 mod drive;
 mod experiment;

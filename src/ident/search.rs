@@ -1,6 +1,6 @@
 //! Parallel grid search in bounded memory: candidates are generated from their index, costed,
 //! and folded into a top-N list and threshold statistics per chunk; nothing per candidate is
-//! stored (SPEC §6.3). Unstable candidates are caught by their closed-loop eigenvalues before
+//! stored (docs/identification.md#pruning). Unstable candidates are caught by their closed-loop eigenvalues before
 //! they can enter any reported result.
 
 use super::grid::{Candidate, Grid};

@@ -1,4 +1,4 @@
-//! Poles (eigenvalues of A) with natural frequency and damping ratio (SPEC §4).
+//! Poles (eigenvalues of A) with natural frequency and damping ratio (docs/analysis.md#poles-and-damping).
 
 use super::LtiError;
 use nalgebra::linalg::balancing::balance_parlett_reinsch;
@@ -11,6 +11,29 @@ const SCHUR_MAX_ITER: usize = 10_000;
 
 /// Eigenvalues of `a`, balanced first (the rig's A spans ~1e-5 … 3e10), sorted by modulus.
 /// Non-finite input or a Schur iteration that does not converge is an error, never a hang.
+///
+/// Poles and damping of the article's rig (docs/analysis.md#poles-and-damping):
+///
+/// ```
+/// use pumpcyl::{lti::{eigenvalues, PoleInfo}, model::Plant, rig::Rig};
+///
+/// let rig = Rig::default();
+/// let open = Plant::new(&rig).open_loop(false);
+/// let poles: Vec<PoleInfo> = eigenvalues(&open.a)?.into_iter().map(PoleInfo::from).collect();
+/// assert_eq!(poles.len(), 10);
+/// // one pole at the origin (the piston position integrates its velocity), damping undefined
+/// assert_eq!(poles.iter().filter(|p| p.damping.is_none()).count(), 1);
+/// // the two feedforward filters contribute their poles at −1/τff
+/// let ff = poles.iter().filter(|p| (p.re + 1.0 / rig.tau_ff_s).abs() < 1e-6).count();
+/// assert_eq!(ff, 2);
+///
+/// // closed under unity position feedback, every pole is in the left half-plane
+/// let closed: Vec<PoleInfo> = open.closed_loop_poles()?.into_iter().map(PoleInfo::from).collect();
+/// assert!(closed.iter().all(|p| p.re < 0.0));
+/// let least = closed.iter().filter_map(|p| p.damping).fold(f64::INFINITY, f64::min);
+/// assert!((0.2..0.3).contains(&least), "least damping {least}");
+/// # Ok::<(), pumpcyl::lti::LtiError>(())
+/// ```
 pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>, LtiError> {
     Ok(BalancedSchur::new(a)?.eigenvalues)
 }
