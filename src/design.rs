@@ -176,6 +176,31 @@ pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     Ok(lo)
 }
 
+/// The checked pressures, masses and waves must be finite and positive.
+fn check_lists(t: &Targets) -> Result<(), DesignError> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    let lists = [
+        ("p_mean_bar", &t.p_mean_bar),
+        ("mass_kg", &t.mass_kg),
+        ("p_beta_bar", &vec![t.p_beta_bar]),
+    ];
+    for (name, values) in lists {
+        if let Some(v) = values.iter().find(|v| !positive(**v)) {
+            return Err(DesignError::Input(format!("{name} {v}: must be > 0")));
+        }
+    }
+    match t
+        .waves
+        .iter()
+        .find(|(f, a)| !(positive(*f) && positive(*a)))
+    {
+        Some((f, a)) => Err(DesignError::Input(format!(
+            "wave {f}:{a}: frequency and amplitude must be > 0"
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Apply the design method (docs/design.md) to `rig`.
 pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
     for (name, v) in [
@@ -189,6 +214,7 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
             )));
         }
     }
+    check_lists(t)?;
     let kp = kp_max(rig, t)?;
     if kp == 0.0 {
         return Err(DesignError::Input(
@@ -393,6 +419,28 @@ mod tests {
                 d.reasons
             );
         }
+    }
+
+    #[test]
+    fn bad_pressures_masses_and_waves_are_named() {
+        let bad = |f: fn(&mut Targets)| {
+            let mut t = targets(34.0);
+            f(&mut t);
+            design(&Rig::default(), &t).unwrap_err().to_string()
+        };
+        assert_eq!(
+            bad(|t| t.p_mean_bar = vec![1.0, -1.0]),
+            "p_mean_bar -1: must be > 0"
+        );
+        assert_eq!(
+            bad(|t| t.mass_kg = vec![f64::NAN]),
+            "mass_kg NaN: must be > 0"
+        );
+        assert_eq!(bad(|t| t.p_beta_bar = 0.0), "p_beta_bar 0: must be > 0");
+        assert_eq!(
+            bad(|t| t.waves = vec![(-1.0, 3.0)]),
+            "wave -1:3: frequency and amplitude must be > 0"
+        );
     }
 
     #[test]

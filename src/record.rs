@@ -131,6 +131,55 @@ impl Record {
         }
     }
 
+    /// A record from in-memory columns (s, mm), checked as a file is: at least 2 samples, equal
+    /// lengths, finite values, strictly increasing time. `name` stands for the file in
+    /// messages, which name the column and the 0-based sample.
+    pub fn from_arrays(
+        name: &str,
+        time_s: &[f64],
+        x_ref_mm: &[f64],
+        x_mm: &[f64],
+    ) -> Result<Record, RecordError> {
+        let err = |message: String| RecordError::Empty {
+            file: name.to_string(),
+            message,
+        };
+        let n = time_s.len();
+        if n < 2 {
+            return Err(err(format!(
+                "{n} samples: a record needs at least 2 samples"
+            )));
+        }
+        for (column, values) in [("time_s", time_s), ("x_ref_mm", x_ref_mm), ("x_mm", x_mm)] {
+            if values.len() != n {
+                return Err(err(format!(
+                    "column `{column}` has {} samples, `time_s` has {n}",
+                    values.len()
+                )));
+            }
+            if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+                return Err(err(format!(
+                    "column `{column}`, sample {k}: {} is not a finite number",
+                    values[k]
+                )));
+            }
+        }
+        if let Some(k) = (1..n).find(|&k| time_s[k] <= time_s[k - 1]) {
+            return Err(err(format!(
+                "column `time_s`, sample {k}: time must strictly increase: {} follows {}",
+                time_s[k],
+                time_s[k - 1]
+            )));
+        }
+        Ok(Record {
+            file: name.to_string(),
+            time_s: time_s.to_vec(),
+            x_ref_mm: x_ref_mm.to_vec(),
+            x_mm: x_mm.to_vec(),
+            ..Record::default()
+        })
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.time_s.len()
@@ -671,6 +720,34 @@ mod tests {
             parse("time_s,x_ref_mm,x_mm\n0,340,339.9\n0.01,340,340.1\n0.02,345,340.2\n").unwrap();
         assert_eq!(r.first_change(), 2);
         assert!((r.initial_mean(&r.x_mm) - 340.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arrays_are_checked_like_files() {
+        let t = [0.0, 0.01, 0.02];
+        let r = Record::from_arrays("ds", &t, &[1.0, 2.0, 2.0], &[1.0, 1.5, 2.0]).unwrap();
+        let from_text = Record::parse(b"time_s,x_ref_mm,x_mm\n0,1,1\n0.01,2,1.5\n0.02,2,2\n", "ds");
+        assert_eq!(r, from_text.unwrap());
+        assert_eq!(r.first_change(), 1);
+        let msg = |t: &[f64], r: &[f64], x: &[f64]| {
+            Record::from_arrays("ds", t, r, x).unwrap_err().to_string()
+        };
+        assert_eq!(
+            msg(&[0.0], &[1.0], &[1.0]),
+            "ds: 1 samples: a record needs at least 2 samples"
+        );
+        assert_eq!(
+            msg(&t, &[1.0, 2.0], &[1.0, 1.0, 1.0]),
+            "ds: column `x_ref_mm` has 2 samples, `time_s` has 3"
+        );
+        assert_eq!(
+            msg(&t, &[1.0, 2.0, 2.0], &[1.0, f64::NAN, 1.0]),
+            "ds: column `x_mm`, sample 1: NaN is not a finite number"
+        );
+        assert_eq!(
+            msg(&[0.0, 0.02, 0.02], &[1.0; 3], &[1.0; 3]),
+            "ds: column `time_s`, sample 2: time must strictly increase: 0.02 follows 0.02"
+        );
     }
 
     #[test]

@@ -9,8 +9,6 @@ use std::path::{Path, PathBuf};
 use super::export;
 use super::output::{fmt_opt, format_of, write_atomic, Format};
 use super::RigSource;
-use crate::lti::dc_output;
-use crate::model::Plant;
 use crate::record::Record;
 use crate::report::{self, LineStyle, Panel, Trace};
 use crate::response::{self, Baseline, Signals, StepMetrics, TrackMetrics, ARTICLE_SINE_CASES};
@@ -210,7 +208,7 @@ pub fn step(args: &StepArgs) -> Result<String> {
     let rig = args.rig.load()?;
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
-        let m = metrics_of_step(r, &s, args.step_mm)?;
+        let m = response::step_metrics_of(r, &s, args.step_mm);
         Ok((s, m))
     })?;
     let runs: Vec<_> = all
@@ -262,15 +260,6 @@ pub fn step(args: &StepArgs) -> Result<String> {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     Ok(step_table(args, &runs) + &unstable_lines(&all.unstable))
-}
-
-/// Step metrics of a simulated step; the steady-state error comes from the DC solution.
-fn metrics_of_step(rig: &Rig, s: &Signals, step_mm: f64) -> Result<StepMetrics> {
-    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
-    let dc_mm = dc_output(&sys, &[step_mm * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
-    let x0 = s.x_mm[0];
-    let y: Vec<f64> = s.x_mm.iter().map(|x| x - x0).collect();
-    Ok(response::step_metrics(&s.time_s, &y, step_mm, dc_mm))
 }
 
 fn step_subtitle(m: &StepMetrics) -> String {

@@ -64,6 +64,9 @@ pub enum IdentError {
     /// A numerical failure.
     #[error(transparent)]
     Lti(#[from] crate::lti::LtiError),
+    /// The caller stopped the search (see [`run_stages_while`]).
+    #[error("identification interrupted")]
+    Interrupted,
 }
 
 /// Options of the two-stage search.
@@ -171,13 +174,45 @@ pub fn run_stages(
     shard: Option<(usize, usize)>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<Stage>, IdentError> {
+    run_stages_while(problem, grids, opts, shard, &|n| {
+        progress(n);
+        true
+    })
+}
+
+/// [`run_stages`], stoppable: `progress(n)` is called after each chunk of n candidates and the
+/// search stops soon after it returns `false`, with [`IdentError::Interrupted`] (for callers
+/// that watch for an interrupt, such as the Python package on Ctrl-C).
+pub fn run_stages_while(
+    problem: &Problem,
+    grids: (Grid, Option<Grid>),
+    opts: &Options,
+    shard: Option<(usize, usize)>,
+    progress: &(dyn Fn(u64) -> bool + Sync),
+) -> Result<Vec<Stage>, IdentError> {
+    let stopped = std::sync::atomic::AtomicBool::new(false);
+    let progress = |n: u64| {
+        let go_on = progress(n);
+        if !go_on {
+            stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        go_on
+    };
+    let check = || {
+        if stopped.load(std::sync::atomic::Ordering::Relaxed) {
+            Err(IdentError::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
     let search_opts = SearchOptions {
         top_n: opts.top_n,
         threshold_mm2: opts.threshold_mm2,
         shard,
     };
     let (first, second) = grids;
-    let s1 = search(problem, &first, 1, search_opts, progress);
+    let s1 = search(problem, &first, 1, search_opts, &progress);
+    check()?;
     let second = match (opts.auto_refine, second) {
         (true, _) => {
             let bounds = s1.threshold_bounds.ok_or_else(|| {
@@ -196,7 +231,8 @@ pub fn run_stages(
         summary: s1,
     }];
     if let Some(grid) = second {
-        let summary = search(problem, &grid, 2, search_opts, progress);
+        let summary = search(problem, &grid, 2, search_opts, &progress);
+        check()?;
         stages.push(Stage { grid, summary });
     }
     Ok(stages)

@@ -209,6 +209,16 @@ pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Si
     simulate(rig, &t, &r, &base)
 }
 
+/// Metrics of a step response `s` of `rig` (from [`step`]) to a step of `step_mm`, the
+/// steady-state error taken from the DC solution of the closed loop (NaN when it has none).
+pub fn step_metrics_of(rig: &Rig, s: &Signals, step_mm: f64) -> StepMetrics {
+    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    let dc_mm = crate::lti::dc_output(&sys, &[step_mm * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
+    let x0 = s.x_mm[0];
+    let y: Vec<f64> = s.x_mm.iter().map(|x| x - x0).collect();
+    step_metrics(&s.time_s, &y, step_mm, dc_mm)
+}
+
 /// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (docs/simulation.md#tracking-metrics).
 ///
 /// ```
