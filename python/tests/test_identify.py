@@ -7,6 +7,8 @@ import time
 
 import pytest
 
+tomllib = pytest.importorskip("tomllib")  # Python >= 3.11 reads the experiment file
+
 import pumpcyl
 from conftest import ARTICLE, read_record
 
@@ -30,12 +32,14 @@ def from_arrays(**kwargs):
     still = read_record("standstill.csv")
     standstill = dict(w1_rpm=mean(still["w1_rpm"]), w2_rpm=mean(still["w2_rpm"]),
                       p1_bar=mean(still["p1_bar"]))
+    experiment = tomllib.loads((ARTICLE / "identify.toml").read_text())
     datasets = []
-    for name, kp in (("identification.csv", 25.0), ("validation.csv", 20.0)):
-        rec = read_record(name)
-        datasets.append(pumpcyl.Dataset(rec["time_s"], rec["x_ref_mm"], rec["x_mm"], kp=kp,
-                                        mass_kg=10593.0, fit_end_s=3.7, name=name))
-    rig = pumpcyl.Rig(k_pres_per_bar=0.22)  # the experiment file's [set]
+    for ds in experiment["dataset"]:
+        rec = read_record(ds["file"])
+        datasets.append(pumpcyl.Dataset(rec["time_s"], rec["x_ref_mm"], rec["x_mm"], kp=ds["kp"],
+                                        mass_kg=ds["mass_kg"], fit_end_s=ds["fit_end_s"],
+                                        name=ds["file"]))
+    rig = pumpcyl.Rig(**experiment.get("set", {}))  # the experiment file's [set], if any
     return pumpcyl.identify(datasets=datasets, standstill=standstill, rig=rig, **kwargs)
 
 
