@@ -18,6 +18,7 @@ pub mod emulator;
 pub mod fuzzing;
 pub mod ident;
 pub mod input;
+pub mod limits;
 pub mod lti;
 pub mod model;
 pub mod record;

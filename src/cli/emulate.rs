@@ -1,11 +1,11 @@
 //! `pumpcyl emulate`: records from the nonlinear rig emulator (issue 5).
 
-use super::output::write_atomic;
+use super::output::{write_atomic, OutDir};
 use super::RigSource;
 use crate::emulator::article::{self, Emulated, Kind};
 use crate::emulator::{DriveStep, Effects, Experiment, Plc};
 use crate::rig::Rig;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -245,8 +245,9 @@ fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
 }
 
 /// Emulate every article record into `dir`, with the README and the identify experiment.
-fn article_records(dir: &Path) -> Result<String> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+fn article_records(target: &Path) -> Result<String> {
+    let folder = OutDir::begin(target)?;
+    let dir = folder.path();
     let records = article::records().map_err(|e| anyhow!(e))?;
     let results: Vec<Result<Emulated>> = records
         .par_iter()
@@ -255,9 +256,8 @@ fn article_records(dir: &Path) -> Result<String> {
     let mut summary = String::new();
     for (rec, data) in records.iter().zip(results) {
         let data = data?;
-        let path = dir.join(rec.file);
-        write_atomic(&path, data.csv().as_bytes())?;
-        let _ = writeln!(summary, "{}: {}", path.display(), rec.what);
+        write_atomic(&dir.join(rec.file), data.csv().as_bytes())?;
+        let _ = writeln!(summary, "{}: {}", target.join(rec.file).display(), rec.what);
     }
     write_atomic(&dir.join("README.md"), article::readme(&records).as_bytes())?;
     write_atomic(
@@ -267,7 +267,8 @@ fn article_records(dir: &Path) -> Result<String> {
     let _ = writeln!(
         summary,
         "{}: README.md and identify.toml (emulated data, not measurements)",
-        dir.display()
+        target.display()
     );
+    folder.commit()?;
     Ok(summary)
 }

@@ -10,7 +10,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::output::{format_of, write_atomic, Format};
+use super::output::{ensure_folder, format_of, write_atomic, Format, OutDir};
 use super::RigSource;
 use crate::ident::{
     finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
@@ -98,6 +98,10 @@ pub struct IdentifyArgs {
     /// for `pumpcyl identify-merge`.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
+    /// Run even when the grids times the records would take hours (more than
+    /// 10^9 candidate-samples).
+    #[arg(long)]
+    allow_long_run: bool,
 }
 
 #[derive(Debug, Args)]
@@ -292,6 +296,14 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         );
     }
     let total = grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len());
+    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
+    crate::limits::check_work(
+        "identify: the grids' candidates times the records' samples",
+        crate::ident::shard_len(total, args.shard) as f64 * samples as f64,
+        crate::limits::MAX_CANDIDATE_SAMPLES,
+        args.allow_long_run,
+    )
+    .map_err(anyhow::Error::msg)?;
     let bar = progress_bar(crate::ident::shard_len(total, args.shard) as u64);
     let start = Instant::now();
     let stages = run_stages(&exp.problem, grids, &opts, args.shard, &|n| bar.inc(n))?;
@@ -308,8 +320,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
             seconds: search_seconds,
             stages,
         };
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create", dir.display()))?;
+        ensure_folder(dir)?;
         let path = dir.join(format!("part-{}-of-{}.json", shard.0, shard.1));
         write_atomic(&path, serde_json::to_string(&part)?.as_bytes())?;
         return Ok(format!(
@@ -356,8 +367,21 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
     }
     let first = &parts[0];
     let n = first.shard.1;
+    anyhow::ensure!(
+        n == parts.len(),
+        "{}: claims {n} shards, {} partial results given; give all N shards",
+        args.parts[0].display(),
+        parts.len()
+    );
     let mut seen = vec![false; n];
-    for p in &parts {
+    for (p, file) in parts.iter().zip(&args.parts) {
+        anyhow::ensure!(
+            (1..=n).contains(&p.shard.0),
+            "{}: shard {}/{}: need 1 <= I <= N",
+            file.display(),
+            p.shard.0,
+            p.shard.1
+        );
         anyhow::ensure!(
             p.shard.1 == n && p.digest == first.digest && p.experiment == first.experiment,
             "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
@@ -473,7 +497,9 @@ fn report_identification(
 ) -> Result<String> {
     let v = identification_json(exp, id, seconds)?;
     if let Some(dir) = out {
-        write_outputs(dir, exp, id, &v)?;
+        let folder = OutDir::begin(dir)?;
+        write_outputs(folder.path(), exp, id, &v)?;
+        folder.commit()?;
     }
     if json_out {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");

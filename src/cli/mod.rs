@@ -193,6 +193,7 @@ fn read_ss(path: &std::path::Path) -> Result<Loop> {
 
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
+    output::install_cleanup();
     let cli = Cli::parse();
     let text = match cli.command {
         Command::Rig(args) => {
