@@ -307,6 +307,13 @@ impl Rows<'_> {
         }
         for (c, (name, i)) in self.index.iter().enumerate() {
             let v = parse_field(&row[*i], self.dialect, self.file, self.line, name)?;
+            if let Some(limit) = physical_limit(name).filter(|l| v.abs() > *l) {
+                return Err(err(format!(
+                    "`{name}` = {}: far outside anything physical (|value| <= {limit:e} for \
+                     this unit)",
+                    crate::rig::readable(v)
+                )));
+            }
             self.columns[c].push(v);
         }
         self.check_time()
@@ -360,6 +367,15 @@ impl Rows<'_> {
                 .collect(),
         })
     }
+}
+
+/// The largest magnitude a column can hold, by its unit: positions within 100 m, pressures within
+/// 10 000 bar, speeds within 10⁶ rpm, times within 30 years. `None` for other columns.
+fn physical_limit(name: &str) -> Option<f64> {
+    [("_mm", 1e5), ("_bar", 1e4), ("_rpm", 1e6), ("_s", 1e9)]
+        .iter()
+        .find(|(unit, _)| name.ends_with(unit))
+        .map(|(_, limit)| *limit)
 }
 
 /// The longest line a record may have (bytes): far beyond any row of numbers.

@@ -84,6 +84,9 @@ pub struct EmulateArgs {
     /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
     #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     rate_hz: Option<f64>,
+    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work).
+    #[arg(long)]
+    allow_long_run: bool,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -121,11 +124,9 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     };
     let rig = load_rig(&args.source, effects)?;
     let plan = experiment(args, kind, &rig)?;
-    let truth = article::Truth {
-        rig,
-        effects,
-        plc: plc(args, kind)?,
-    };
+    let plc = plc(args, kind)?;
+    check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
+    let truth = article::Truth { rig, effects, plc };
     let data = plan
         .run(&truth)
         .map_err(|e| anyhow!("{}: {e}", out.display()))?;
@@ -220,6 +221,33 @@ fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kin
             duration_s: positive("duration-s", args.duration_s.unwrap_or(1.0))?,
         }),
     })
+}
+
+/// Refuse a run of hours (controller steps beyond the limit) unless asked for, and a sine the
+/// controller's sampling cannot represent (at or above its Nyquist frequency).
+fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
+    let duration_s = match plan {
+        Kind::Loop(e) => e.duration_s(),
+        Kind::Drive(d) => d.duration_s,
+    };
+    crate::limits::check_work(
+        "--duration-s and --rate-hz (controller steps)",
+        duration_s * rate_hz,
+        crate::limits::MAX_EMULATED_STEPS,
+        allow_long_run,
+    )
+    .map_err(anyhow::Error::msg)?;
+    if let Kind::Loop(Experiment::Sine { freq_hz, .. }) = plan {
+        if *freq_hz >= rate_hz / 2.0 {
+            bail!(
+                "--freq-hz {freq_hz}: at or above the Nyquist frequency {} Hz of --rate-hz \
+                 {rate_hz}; raise --rate-hz above {} Hz",
+                rate_hz / 2.0,
+                2.0 * freq_hz
+            );
+        }
+    }
+    Ok(())
 }
 
 fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
