@@ -310,9 +310,11 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     let search_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if let (Some(shard), Some(dir)) = (args.shard, &args.out) {
+        // the fingerprint of the experiment as the merge will load it (by its canonical path)
+        let canonical = std::fs::canonicalize(&args.experiment)?;
         let part = Partial {
-            experiment: std::fs::canonicalize(&args.experiment)?,
-            digest: digest(&exp)?,
+            digest: digest(&Experiment::load(&canonical)?, &opts)?,
+            experiment: canonical,
             shard,
             local_refinement: opts.local_refinement,
             threshold_mm2: opts.threshold_mm2,
@@ -336,23 +338,58 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
 }
 
-/// A fingerprint of what a shard evaluated: the experiment file and its records.
-fn digest(exp: &Experiment) -> Result<String> {
+/// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
+/// names with its overrides, the standstill point, every dataset's record and settings, the
+/// grids (so the number of stages), and the options (threshold, top length, refinement).
+fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
-    std::fs::read(&exp.path)?.hash(&mut h);
-    for ds in &exp.problem.datasets {
-        for v in ds
-            .record
-            .time_s
-            .iter()
-            .chain(&ds.record.x_ref_mm)
-            .chain(&ds.record.x_mm)
-        {
-            v.to_bits().hash(&mut h);
+    crate::input::read_bounded(&exp.path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
+        .hash(&mut h);
+    // Debug prints every f64 exactly (shortest round-trip form)
+    format!("{:?}", exp.rig).hash(&mut h);
+    format!("{:?}", exp.problem).hash(&mut h);
+    format!("{:?}", exp.grids()).hash(&mut h);
+    format!(
+        "{:?} {} {}",
+        opts.threshold_mm2.to_bits(),
+        opts.top_n,
+        opts.local_refinement
+    )
+    .hash(&mut h);
+    Ok(format!("{:016x}", h.finish()))
+}
+
+/// Re-simulate the best few candidates of each merged stage and compare with the costs the
+/// shards reported, and check each is the grid point its index names: an edited or foreign
+/// partial result is an error, not the answer.
+fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
+    const CHECKED: usize = 3;
+    let (first, second) = exp.grids();
+    for (k, (stage, grid)) in stages.iter().zip([Some(first), second]).enumerate() {
+        let grid = grid.unwrap_or_else(|| stage.grid.clone());
+        for s in stage.summary.top.iter().take(CHECKED) {
+            let index = usize::try_from(s.index).unwrap_or(usize::MAX);
+            anyhow::ensure!(
+                index < grid.len() && grid.candidate(index) == s.candidate,
+                "stage {}: candidate {} of the partial results is not the grid point its index \
+                 names; a partial result was edited",
+                k + 1,
+                s.index
+            );
+            let cost = exp.problem.cost(&s.candidate);
+            anyhow::ensure!(
+                (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
+                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
+                 simulated again; a partial result was edited or made by another pumpcyl",
+                k + 1,
+                s.candidate.beta_bar,
+                s.cost_mm2
+            );
         }
     }
-    Ok(format!("{:016x}", h.finish()))
+    Ok(())
 }
 
 /// `pumpcyl identify-merge`.
@@ -369,7 +406,7 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
     let n = first.shard.1;
     anyhow::ensure!(
         n == parts.len(),
-        "{}: claims {n} shards, {} partial results given; give all N shards",
+        "missing shards: {} claims {n} shards, {} partial results given; give all N",
         args.parts[0].display(),
         parts.len()
     );
@@ -383,7 +420,7 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
             p.shard.1
         );
         anyhow::ensure!(
-            p.shard.1 == n && p.digest == first.digest && p.experiment == first.experiment,
+            p.shard.1 == n && p.experiment == first.experiment,
             "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
             first.experiment.display(),
             first.shard.0,
@@ -405,17 +442,35 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
         missing.join(", ")
     );
     let exp = Experiment::load(&first.experiment)?;
-    anyhow::ensure!(
-        digest(&exp)? == first.digest,
-        "{}: the experiment or its records changed since the shards ran",
-        first.experiment.display()
-    );
     let opts = Options {
         auto_refine: false,
         local_refinement: first.local_refinement,
         threshold_mm2: first.threshold_mm2,
         top_n: first.top,
     };
+    let stage_count = 1 + usize::from(exp.grids().1.is_some());
+    for (p, file) in parts.iter().zip(&args.parts) {
+        anyhow::ensure!(
+            p.stages.len() == stage_count,
+            "{}: {} stage(s), the experiment has {stage_count}",
+            file.display(),
+            p.stages.len()
+        );
+        anyhow::ensure!(
+            p.threshold_mm2 == opts.threshold_mm2
+                && p.top == opts.top_n
+                && p.local_refinement == opts.local_refinement,
+            "{}: made with other --threshold-mm2, --top or --no-refine than {}",
+            file.display(),
+            args.parts[0].display()
+        );
+        anyhow::ensure!(
+            digest(&exp, &opts)? == p.digest,
+            "{}: the experiment, its rig, its records or the options changed since this shard \
+             ran",
+            file.display()
+        );
+    }
     let start = Instant::now();
     // the time reported is the shards' search time added up, plus the merge's own
     let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
@@ -428,6 +483,7 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
             }
         }
     }
+    verify_winners(&exp, &stages)?;
     let id = finish(&exp.problem, stages, &opts)?;
     report_identification(
         &exp,
