@@ -378,12 +378,12 @@ impl Rig {
             (
                 "line_volume_1_dm3",
                 self.line_volume_1_dm3,
-                Positive(1e-06, 1e5),
+                Positive(1e-6, 1e5),
             ),
             (
                 "line_volume_2_dm3",
                 self.line_volume_2_dm3,
-                Positive(1e-06, 1e5),
+                Positive(1e-6, 1e5),
             ),
             ("stroke_mm", self.stroke_mm, Positive(1.0, 1e5)),
             ("x0_mm", self.x0_mm, Positive(0.001, 1e5)),
@@ -422,18 +422,10 @@ impl Rig {
                 self.current_loop_bandwidth_rad_per_s,
                 Positive(0.01, 1e6),
             ),
-            (
-                "km1_nms_per_rad",
-                self.km1_nms_per_rad,
-                Positive(1e-06, 1e4),
-            ),
-            (
-                "km2_nms_per_rad",
-                self.km2_nms_per_rad,
-                Positive(1e-06, 1e4),
-            ),
+            ("km1_nms_per_rad", self.km1_nms_per_rad, Positive(1e-6, 1e4)),
+            ("km2_nms_per_rad", self.km2_nms_per_rad, Positive(1e-6, 1e4)),
             ("kff_kg_m2", self.kff_kg_m2, NonNegative(1000.0)),
-            ("tau_ff_s", self.tau_ff_s, Positive(1e-06, 1000.0)),
+            ("tau_ff_s", self.tau_ff_s, Positive(1e-6, 1000.0)),
             (
                 "k_scale_rad_per_s",
                 self.k_scale_rad_per_s,
@@ -447,10 +439,10 @@ impl Rig {
                 self.viscous_friction_ns_per_m,
                 NonNegative(1e9),
             ),
-            ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative(1e-06)),
-            ("c1_m5_per_ns", self.c1_m5_per_ns, Any(1e-06)),
-            ("c2_m5_per_ns", self.c2_m5_per_ns, Any(1e-06)),
-            ("kp", self.kp, Positive(1e-06, 1e6)),
+            ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative(1e-6)),
+            ("c1_m5_per_ns", self.c1_m5_per_ns, Any(1e-6)),
+            ("c2_m5_per_ns", self.c2_m5_per_ns, Any(1e-6)),
+            ("kp", self.kp, Positive(1e-6, 1e6)),
             ("p_sum_ref_bar", self.p_sum_ref_bar, Positive(0.001, 1e4)),
             ("k_pres_per_bar", self.k_pres_per_bar, NonNegative(1e6)),
             ("k_beta", self.k_beta, NonNegative(1000.0)),
@@ -471,7 +463,7 @@ impl Rig {
             ),
         ];
         if let Some(tau) = self.motor_time_constant_s {
-            fields.push(("motor_time_constant_s", tau, Positive(1e-06, 1000.0)));
+            fields.push(("motor_time_constant_s", tau, Positive(1e-6, 1000.0)));
         }
         fields
     }

@@ -243,7 +243,9 @@ pub fn run() -> Result<()> {
     };
     // the last line of defence: a result is never printed with a value that is not a number
     anyhow::ensure!(
-        !text.split(|c: char| !c.is_alphanumeric()).any(|w| w == "NaN"),
+        !text
+            .split(|c: char| !c.is_alphanumeric())
+            .any(|w| w == "NaN"),
         "the result holds a value that is not a number (NaN): the inputs take the model beyond \
          what double precision can evaluate"
     );
