@@ -183,7 +183,6 @@ fn read_ss(path: &std::path::Path) -> Result<Loop> {
     let (open_loop, states) = crate::input::read_text(path)
         .and_then(|text| ModelJson::parse(&text))
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    crate::lti::check_magnitudes(&open_loop.a).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
     Ok(Loop {
         open_loop,
         states,

@@ -61,8 +61,10 @@ pub enum LtiError {
     },
     /// An entry too large or too small for the eigenvalue and frequency-response numerics (their
     /// balancing does not terminate on such scales).
-    #[error("model matrix A has an entry {value:e} at row {row}, column {col}: pumpcyl analyses nonzero magnitudes from 1e-150 to 1e150")]
+    #[error("model matrix {matrix} has an entry {value:e} at row {row}, column {col}: pumpcyl analyses nonzero magnitudes from 1e-150 to 1e150")]
     Magnitude {
+        /// Which matrix (A, B, C or D).
+        matrix: &'static str,
         /// The entry.
         value: f64,
         /// Row (1-based).

@@ -15,14 +15,16 @@ pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>, LtiError> {
     Ok(BalancedSchur::new(a)?.eigenvalues)
 }
 
-/// Refuse entries of `a` outside 1e-150 … 1e150 in magnitude (zero allowed): beyond them the
-/// balancing of the eigenvalue and frequency-response numerics need not terminate.
-pub fn check_magnitudes(a: &DMatrix<f64>) -> Result<(), LtiError> {
+/// Refuse entries of matrix `matrix` outside 1e-150 … 1e150 in magnitude (zero allowed): beyond
+/// them the balancing of the eigenvalue and frequency-response numerics need not terminate, and
+/// the products of unity feedback overflow.
+pub fn check_magnitudes(matrix: &'static str, a: &DMatrix<f64>) -> Result<(), LtiError> {
     match a
         .iter()
         .position(|v| *v != 0.0 && !(1e-150..=1e150).contains(&v.abs()))
     {
         Some(k) => Err(LtiError::Magnitude {
+            matrix,
             value: a[k],
             row: k % a.nrows() + 1,
             col: k / a.nrows() + 1,
@@ -54,7 +56,7 @@ impl BalancedSchur {
                 col: k / a.nrows() + 1,
             });
         }
-        check_magnitudes(a)?;
+        check_magnitudes("A", a)?;
         let mut balanced = a.clone();
         let scale = balance_parlett_reinsch(&mut balanced);
         let schur = balanced
