@@ -620,14 +620,14 @@ fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> S
 }
 
 /// result.json, the β × c12 landscape at the best b (CSV and heat map) and one overlay per
-/// dataset.
+/// dataset, into the existing folder `dir` (a temporary [`OutDir`] folder or a subfolder of
+/// one; never created here, so an interruption's cleanup is never undone).
 pub(super) fn write_outputs(
     dir: &Path,
     exp: &Experiment,
     id: &Identification,
     v: &serde_json::Value,
 ) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     write_atomic(
         &dir.join("result.json"),
         (serde_json::to_string_pretty(v)? + "\n").as_bytes(),

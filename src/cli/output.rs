@@ -40,7 +40,13 @@ pub fn install_cleanup() {
                 // held until exit: a commit in progress finishes first, none starts after
                 let tmp = temporaries();
                 for p in tmp.iter() {
-                    remove_any(p);
+                    // a write of the main thread may race the first removal; retry
+                    for _ in 0..20 {
+                        remove_any(p);
+                        if !p.exists() {
+                            break;
+                        }
+                    }
                 }
                 eprintln!("error: interrupted; outputs left as they were before this run");
                 std::process::exit(128 + sig);
@@ -277,6 +283,14 @@ impl OutDir {
     /// Where to write the files: the temporary folder.
     pub fn path(&self) -> &Path {
         &self.tmp
+    }
+
+    /// Create the subfolder `sub` of the temporary folder (under the registry lock, so an
+    /// interruption never races it and leaves it behind).
+    pub fn create_subfolder(&self, sub: &str) -> Result<()> {
+        let _registry = temporaries();
+        let path = self.tmp.join(sub);
+        std::fs::create_dir(&path).with_context(|| format!("{}: cannot create", path.display()))
     }
 
     /// Put the finished folder in place, atomically (an exchange with the old folder on Linux).

@@ -130,8 +130,7 @@ pub fn run(args: &ReproduceArgs) -> Result<String> {
     let out = OutDir::begin(&args.out)?;
     let dir = out.path();
     for sub in ["figures", "records", "identification"] {
-        std::fs::create_dir_all(dir.join(sub))
-            .with_context(|| format!("{}: cannot create", dir.join(sub).display()))?;
+        out.create_subfolder(sub)?;
     }
     for (file, text) in EMBEDDED {
         write_atomic(&dir.join("records").join(file), text.as_bytes())?;
