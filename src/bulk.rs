@@ -1,7 +1,25 @@
-//! Effective bulk modulus against pressure (SPEC §7): the constant gas-fraction model
+//! Effective bulk modulus against pressure (docs/bulk-modulus.md): the constant gas-fraction model
 //! 1/β_e(p) = X/p + (1 − X)/β_oil, with X the undissolved gas volume fraction and p the mean
 //! chamber pressure in bar as the article uses it (its 4.4 bar mean gives β_e = 37.8 bar at
 //! 1 bar and 370 bar at 10 bar from 165 bar), and the rig's margins at each pressure.
+//!
+//! ```
+//! use pumpcyl::{bulk, rig::Rig};
+//!
+//! // the gas fraction that gives the identified 165 bar at the records' 4.4 bar mean pressure
+//! let x = bulk::gas_fraction(165.0, 4.4, bulk::BETA_OIL_BAR)?;
+//! assert!((x - 0.02641).abs() < 1e-5);
+//! // the article's 37.8 bar at 1 bar and 370 bar at 10 bar
+//! assert!((bulk::effective_beta(x, 1.0, bulk::BETA_OIL_BAR) - 37.8).abs() < 0.05);
+//! assert!((bulk::effective_beta(x, 10.0, bulk::BETA_OIL_BAR) - 370.5).abs() < 0.1);
+//!
+//! // the article's rig at 1, 4.4 and 10 bar: unstable at 1 bar, the margins grow with pressure
+//! let rows = bulk::table(&Rig::default(), x, bulk::BETA_OIL_BAR, &[1.0, 4.4, 10.0])?;
+//! let stable: Vec<bool> = rows.iter().map(|r| r.closed_loop_stable).collect();
+//! assert_eq!(stable, [false, true, true]);
+//! assert!(rows[2].gain_margin_db > rows[1].gain_margin_db);
+//! # Ok::<(), bulk::BulkError>(())
+//! ```
 
 use crate::lti::{margins, LtiError};
 use crate::model::Plant;
@@ -25,7 +43,7 @@ pub enum BulkError {
     Rig(#[from] crate::rig::RigError),
 }
 
-/// The gas fraction X that gives `beta_bar` at mean pressure `p_bar` (SPEC §7):
+/// The gas fraction X that gives `beta_bar` at mean pressure `p_bar` (docs/bulk-modulus.md#fitting-the-gas-fraction):
 /// X = (1/β − 1/β_oil) / (1/p − 1/β_oil). Needs 0 < β < β_oil and 0 < p < β_oil.
 pub fn gas_fraction(beta_bar: f64, p_bar: f64, beta_oil_bar: f64) -> Result<f64, BulkError> {
     let positive = |name: &str, v: f64| {
@@ -66,7 +84,7 @@ pub struct Row {
     pub p_bar: f64,
     /// Effective bulk modulus (bar).
     pub beta_bar: f64,
-    /// Gain margin of the SPEC §4 open loop (dB); `None` = infinite.
+    /// Gain margin of the open loop (the article §2.3.3; docs/analysis.md#the-loop-that-is-analysed) (dB); `None` = infinite.
     pub gain_margin_db: Option<f64>,
     /// Phase margin (deg); `None` = infinite.
     pub phase_margin_deg: Option<f64>,
@@ -74,7 +92,7 @@ pub struct Row {
     pub closed_loop_stable: bool,
 }
 
-/// β_e and the rig's margins (sum-pressure loop open, SPEC §4) at each pressure.
+/// β_e and the rig's margins (sum-pressure loop open, docs/bulk-modulus.md#margins-against-pressure) at each pressure.
 pub fn table(
     rig: &Rig,
     x: f64,

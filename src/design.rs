@@ -1,4 +1,4 @@
-//! The control design method of SPEC §8 for a rig before it is built: the largest position gain
+//! The control design method (the article §2.2; docs/design.md) for a rig before it is built: the largest position gain
 //! meeting the margin targets at the design point, the margins across stroke, mass and
 //! accumulator pressure, the predicted tracking of given waves, and a verdict.
 
@@ -84,7 +84,7 @@ pub struct Design {
     /// The targets.
     pub targets: Targets,
     /// Largest Kp meeting the targets at the design point (the rig's own operating point,
-    /// SPEC §8 step 5).
+    /// docs/design.md#the-method, step 5).
     pub kp_max: f64,
     /// Largest Kp meeting the targets at every checked condition.
     pub kp_max_worst_case: f64,
@@ -100,6 +100,21 @@ pub struct Design {
     pub reasons: Vec<String>,
 }
 
+/// Tolerance of the verdict on a phase margin (deg): a condition is below target only when its
+/// PM falls short by more than this (the gain search resolves the margins far finer, so a PM
+/// of 88.999° against 89° is on target).
+pub const PM_TOLERANCE_DEG: f64 = 0.05;
+/// Tolerance of the verdict on a gain margin (dB).
+pub const GM_TOLERANCE_DB: f64 = 0.01;
+
+/// Whether a condition falls short of the targets by more than the stated tolerances.
+fn below_target(c: &Condition, t: &Targets) -> bool {
+    c.phase_margin_deg
+        .is_some_and(|pm| pm < t.pm_deg - PM_TOLERANCE_DEG)
+        || c.gain_margin_db
+            .is_some_and(|gm| gm < t.gm_db - GM_TOLERANCE_DB)
+}
+
 /// Whether margins meet the targets.
 fn meets(m: &Margins, t: &Targets) -> bool {
     m.closed_loop_stable
@@ -107,7 +122,7 @@ fn meets(m: &Margins, t: &Targets) -> bool {
         && m.gain_margin_db.is_none_or(|gm| gm >= t.gm_db)
 }
 
-/// Margins of the SPEC §4 loop of `rig` with gain `kp`.
+/// Margins of the loop of docs/analysis.md#the-loop-that-is-analysed of `rig` with gain `kp`.
 fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
     let r = Rig { kp, ..rig.clone() };
     Ok(margins(&Plant::new(&r).open_loop(false))?)
@@ -115,6 +130,32 @@ fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
 
 /// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by bisection on log Kp (the
 /// margins fall as the gain rises); 0 if even a tiny gain fails.
+///
+/// For the article's rig and its targets (PM 34°, GM 6 dB) the largest gain is the article's
+/// Kp = 25 within a few percent (docs/design.md):
+///
+/// ```
+/// use pumpcyl::{design, rig::Rig};
+///
+/// let targets = design::Targets {
+///     pm_deg: 34.0,
+///     gm_db: 6.0,
+///     stroke_mm: 50.0,
+///     p_mean_bar: vec![],
+///     p_beta_bar: 4.4,
+///     mass_kg: vec![],
+///     waves: vec![],
+/// };
+/// let kp = design::kp_max(&Rig::default(), &targets)?;
+/// assert!((24.0..26.0).contains(&kp), "Kp max {kp}");
+///
+/// // the whole check: margins over the stroke at that gain, and a verdict
+/// let d = design::design(&Rig::default(), &targets)?;
+/// assert_eq!(d.kp_max, kp);
+/// assert!(d.kp_max_worst_case <= d.kp_max);
+/// assert_eq!(d.conditions.len(), 3); // x0 − 50 mm, x0, x0 + 50 mm
+/// # Ok::<(), design::DesignError>(())
+/// ```
 pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     let ok = |kp: f64| -> Result<bool, DesignError> { Ok(meets(&margins_at(rig, kp)?, t)) };
     let (mut lo, mut hi) = (1e-3f64, 1e4f64);
@@ -135,7 +176,32 @@ pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     Ok(lo)
 }
 
-/// Apply SPEC §8 to `rig`.
+/// The checked pressures, masses and waves must be finite and positive.
+fn check_lists(t: &Targets) -> Result<(), DesignError> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    let lists = [
+        ("p_mean_bar", &t.p_mean_bar),
+        ("mass_kg", &t.mass_kg),
+        ("p_beta_bar", &vec![t.p_beta_bar]),
+    ];
+    for (name, values) in lists {
+        if let Some(v) = values.iter().find(|v| !positive(**v)) {
+            return Err(DesignError::Input(format!("{name} {v}: must be > 0")));
+        }
+    }
+    match t
+        .waves
+        .iter()
+        .find(|(f, a)| !(positive(*f) && positive(*a)))
+    {
+        Some((f, a)) => Err(DesignError::Input(format!(
+            "wave {f}:{a}: frequency and amplitude must be > 0"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Apply the design method (docs/design.md) to `rig`.
 pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
     for (name, v) in [
         ("target PM", t.pm_deg),
@@ -156,6 +222,7 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
             t.stroke_mm, rig.stroke_mm
         )));
     }
+    check_lists(t)?;
     let kp = kp_max(rig, t)?;
     if kp == 0.0 {
         return Err(DesignError::Input(
@@ -257,7 +324,7 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
         .collect();
     let below: Vec<&Condition> = conditions
         .iter()
-        .filter(|c| c.closed_loop_stable && c.kp_max < kp)
+        .filter(|c| c.closed_loop_stable && below_target(c, t))
         .collect();
     let describe = |c: &Condition| {
         format!(
@@ -273,9 +340,15 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
         )
     };
     let mut reasons = vec![format!(
-        "Kp = {kp:.2} meets PM >= {} deg and GM >= {} dB at the design point; {kp_worst:.2} would meet them everywhere checked",
+        "Kp = {kp:.2} meets PM >= {} deg and GM >= {} dB at the design point; {kp_worst:.2} would meet them everywhere checked \
+         (margins within {PM_TOLERANCE_DEG} deg and {GM_TOLERANCE_DB} dB of a target count as on target)",
         t.pm_deg, t.gm_db
     )];
+    if kp_worst < kp {
+        reasons.push(format!(
+            "recommended Kp = {kp_worst:.2}: the worst case sets the gain (the article's Section 2.2, last step of the method)"
+        ));
+    }
     if !unstable.is_empty() {
         reasons.extend(
             unstable
@@ -320,6 +393,62 @@ mod tests {
         // and at that gain the phase margin is the target
         let m = margins_at(&Rig::default(), kp).unwrap();
         assert!((m.phase_margin_deg.unwrap() - 34.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_verdict_never_contradicts_its_own_numbers() {
+        // the design point at the largest Kp has PM equal to the target up to the bisection's
+        // resolution: it must not be judged below target
+        let t = targets(34.0);
+        let d = design(&Rig::default(), &t).unwrap();
+        let at_x0 = d
+            .conditions
+            .iter()
+            .find(|c| c.x_mm == Rig::default().x0_mm)
+            .unwrap();
+        assert!((at_x0.phase_margin_deg.unwrap() - 34.0).abs() < PM_TOLERANCE_DEG);
+        assert!(!d
+            .reasons
+            .iter()
+            .any(|r| r.contains("below target at x 345 mm")));
+        // every condition called below target is below by more than the tolerance
+        for c in d.conditions.iter().filter(|c| below_target(c, &t)) {
+            assert!(
+                c.phase_margin_deg.unwrap() < 34.0 - PM_TOLERANCE_DEG,
+                "{c:?}"
+            );
+        }
+        // and the worst-case gain is recommended when it is lower
+        if d.kp_max_worst_case < d.kp_max {
+            let want = format!("recommended Kp = {:.2}", d.kp_max_worst_case);
+            assert!(
+                d.reasons.iter().any(|r| r.contains(&want)),
+                "{:?}",
+                d.reasons
+            );
+        }
+    }
+
+    #[test]
+    fn bad_pressures_masses_and_waves_are_named() {
+        let bad = |f: fn(&mut Targets)| {
+            let mut t = targets(34.0);
+            f(&mut t);
+            design(&Rig::default(), &t).unwrap_err().to_string()
+        };
+        assert_eq!(
+            bad(|t| t.p_mean_bar = vec![1.0, -1.0]),
+            "p_mean_bar -1: must be > 0"
+        );
+        assert_eq!(
+            bad(|t| t.mass_kg = vec![f64::NAN]),
+            "mass_kg NaN: must be > 0"
+        );
+        assert_eq!(bad(|t| t.p_beta_bar = 0.0), "p_beta_bar 0: must be > 0");
+        assert_eq!(
+            bad(|t| t.waves = vec![(-1.0, 3.0)]),
+            "wave -1:3: frequency and amplitude must be > 0"
+        );
     }
 
     #[test]

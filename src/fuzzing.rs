@@ -17,6 +17,11 @@ pub fn record_csv(data: &[u8]) {
     let _ = Table::parse(data, "fuzz.csv", &["time_s", "w_ref_rpm", "w_rpm"], &[]);
 }
 
+/// A record from MAT-file bytes (level 5, any variables, compressed or not).
+pub fn record_mat(data: &[u8]) {
+    let _ = Record::parse_mat(data, "fuzz.mat");
+}
+
 /// A rig from TOML bytes; a rig that validates is modelled and its margins computed, so odd but
 /// valid values (1e300 kg) reach the numerics too.
 pub fn rig_toml(data: &[u8]) {
@@ -74,7 +79,7 @@ mod tests {
         assert!(corpus.len() > 80, "{}", corpus.len());
         for path in corpus {
             let data = std::fs::read(&path).unwrap();
-            for target in [record_csv, rig_toml, experiment_toml, ss_json] {
+            for target in [record_csv, record_mat, rig_toml, experiment_toml, ss_json] {
                 target(&data);
             }
         }

@@ -1,4 +1,4 @@
-//! The linear DPM cylinder model (SPEC §3) and its variants (SPEC §4).
+//! The linear DPM cylinder model (the article §2.3.1, Figure 4; docs/model.md) and its variants (docs/model.md#variants).
 //!
 //! States, in order (SI): `x` (m), `v` (m/s), `p1`, `p2` (Pa), `w1`, `w2` (rad/s), then for the
 //! full motor model `tau1`, `tau2` (N·m, electromagnetic torques) and, with feedforward on,
@@ -7,7 +7,7 @@
 //! (rad/s).
 //!
 //! The drive feedforward `Kff s/(τff s + 1)·ω_ref` is a torque added after the P gain
-//! (SPEC §3). Written with a filter state z (τff ż = ω_ref − z) it is
+//! (docs/model.md#drive-velocity-loops-and-feedforward, docs/choices.md#feedforward-as-a-torque-after-the-p-gain). Written with a filter state z (τff ż = ω_ref − z) it is
 //! `(Kff/τff)(ω_ref − z)`, so the torque reference is
 //! `τ_ref = Km (ω_ref − ω) + (Kff/τff)(ω_ref − z)`.
 
@@ -114,7 +114,7 @@ pub struct Plant {
 }
 
 impl Plant {
-    /// Assemble the plant of SPEC §3 for a rig (its variant switches included).
+    /// Assemble the plant of the article §2.3.1, Figure 4; docs/model.md for a rig (its variant switches included).
     pub fn new(rig: &Rig) -> Plant {
         let layout = Layout::for_rig(rig);
         let si = rig.si();
@@ -130,7 +130,7 @@ impl Plant {
         Plant { layout, a, b, si }
     }
 
-    /// Controller law ω_ref = Kx·x + Kr·x_ref (rad/s) of SPEC §3 with the position error
+    /// Controller law ω_ref = Kx·x + Kr·x_ref (rad/s) of docs/model.md#the-dpm-control-law with the position error
     /// e = x_ref − x and, optionally, the sum-pressure loop on −(Δp1 + Δp2):
     /// u1 = Kp e + K_pres (Δp1 + Δp2), u2 = Kp α e − K_pres Kβ (Δp1 + Δp2), ω_ref = K_scale u.
     /// Returns (Kx: 2 × n, Kr: 2 × 1).
@@ -154,9 +154,9 @@ impl Plant {
         (kx, kr)
     }
 
-    /// The open loop of SPEC §4, x_ref → x with the position feedback branch removed (SISO):
+    /// The open loop of the article §2.3.3; docs/analysis.md#the-loop-that-is-analysed, x_ref → x with the position feedback branch removed (SISO):
     /// input is the position error e (m), output x (m). With `sum_pressure` the sum-pressure
-    /// loop stays closed inside; SPEC §4 analyses it open.
+    /// loop stays closed inside; docs/analysis.md#the-loop-that-is-analysed analyses it open.
     pub fn open_loop(&self, sum_pressure: bool) -> StateSpace {
         let (kx, kr) = self.controller(sum_pressure);
         let mut kx_inner = kx;
@@ -173,7 +173,7 @@ impl Plant {
         self.siso(a, b)
     }
 
-    /// The closed loop for simulation (SPEC §5): input x_ref (m, deviation); outputs
+    /// The closed loop for simulation (the article §2.3.3; docs/simulation.md#exact-zero-order-hold): input x_ref (m, deviation); outputs
     /// [`SIM_OUTPUTS`]: x (m), p1, p2 (Pa), ω1, ω2 (rad/s) and the control error e = x_ref − x (m).
     pub fn closed_loop_outputs(&self, sum_pressure: bool) -> StateSpace {
         let (a, b) = self.closed_ab(sum_pressure);
@@ -199,7 +199,7 @@ impl Plant {
 
     /// The steady operating point the model is linearised about (SI, gauge pressures): x0, the
     /// pressures from the sum-pressure set-point and the force balance p1 A1 − p2 A2 = F_ext, and
-    /// the pump speeds that feed the leakage at standstill (SPEC §6.2 solved for ω).
+    /// the pump speeds that feed the leakage at standstill (docs/identification.md#leakage-from-standstill solved for ω).
     pub fn operating_point(&self) -> OperatingPoint {
         let si = &self.si;
         let p1 = (si.p_sum_ref * si.a2 + si.f_ext) / (si.a1 + si.a2);
@@ -224,7 +224,7 @@ impl Plant {
     }
 }
 
-/// Newton on the piston and continuity in both chambers (SPEC §3).
+/// Newton on the piston and continuity in both chambers (docs/model.md#newton, docs/model.md#continuity).
 fn hydraulics(l: &Layout, si: &RigSi, a: &mut DMatrix<f64>) {
     let (x, v, [p1, p2], [w1, w2]) = (l.x, l.v, l.p, l.w);
     a[(x, v)] = 1.0;
@@ -245,7 +245,7 @@ fn hydraulics(l: &Layout, si: &RigSi, a: &mut DMatrix<f64>) {
 }
 
 /// Full motors: inertia with load torque, first-order current loop, P velocity loop and the
-/// filtered velocity feedforward (SPEC §3).
+/// filtered velocity feedforward (docs/model.md#drive-velocity-loops-and-feedforward, docs/choices.md#feedforward-as-a-torque-after-the-p-gain).
 fn full_motors(
     l: &Layout,
     si: &RigSi,
@@ -359,7 +359,7 @@ mod tests {
 
     #[test]
     fn operating_point_reproduces_the_article_standstill() {
-        // SPEC §6.2: ω1 ≈ −160 rpm, ω2 ≈ 245 rpm at p1 ≈ 3.95 bar, p2 ≈ 5.86 bar; the model's
+        // docs/identification.md#leakage-from-standstill: ω1 ≈ −160 rpm, ω2 ≈ 245 rpm at p1 ≈ 3.95 bar, p2 ≈ 5.86 bar; the model's
         // point (p1 + p2 = 10 bar exactly) is close: within 5 %.
         let op = Plant::new(&Rig::default()).operating_point();
         let rpm = 60.0 / (2.0 * std::f64::consts::PI);

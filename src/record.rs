@@ -1,4 +1,4 @@
-//! Measured or emulated records (SPEC §9): CSV with a header row, columns by name, extra
+//! Measured or emulated records (docs/formats.md#record-csv): CSV with a header row, columns by name, extra
 //! columns ignored. `time_s`, `x_ref_mm`, `x_mm` are required; `p1_bar`, `p2_bar` (gauge),
 //! `w1_rpm`, `w2_rpm` are optional. Time is strictly increasing, uniform or not.
 
@@ -46,6 +46,14 @@ pub enum RecordError {
         /// What is wrong.
         message: String,
     },
+    /// A MAT-file that is not a usable record (the message names the variable).
+    #[error("{file}: {message}")]
+    Mat {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// Too few samples.
     #[error("{file}: {message}")]
     Empty {
@@ -81,8 +89,14 @@ const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
 impl Record {
-    /// Read and check a record file, streamed (memory holds the used columns, not the text).
+    /// Read and check a record file, streamed (memory holds the used columns, not the text);
+    /// a `.mat` file is read as a MAT-file record ([`Table::from_mat`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
+        if is_mat(path) {
+            let file = path.display().to_string();
+            let t = Table::from_mat(&read_bytes(path)?, &file, &REQUIRED, &OPTIONAL)?;
+            return Ok(Self::from_table(t, &file));
+        }
         let (reader, file) = open(path)?;
         Self::from_reader(reader, &file)
     }
@@ -94,8 +108,18 @@ impl Record {
 
     /// Parse a record from a stream; `file` names it in messages.
     pub fn from_reader<R: BufRead>(reader: R, file: &str) -> Result<Record, RecordError> {
-        let mut t = Table::from_reader(reader, file, &REQUIRED, &OPTIONAL)?;
-        Ok(Record {
+        let t = Table::from_reader(reader, file, &REQUIRED, &OPTIONAL)?;
+        Ok(Self::from_table(t, file))
+    }
+
+    /// A record from MAT-file bytes (see [`Table::from_mat`]); `file` names it in messages.
+    pub fn parse_mat(bytes: &[u8], file: &str) -> Result<Record, RecordError> {
+        let t = Table::from_mat(bytes, file, &REQUIRED, &OPTIONAL)?;
+        Ok(Self::from_table(t, file))
+    }
+
+    fn from_table(mut t: Table, file: &str) -> Record {
+        Record {
             file: file.to_string(),
             time_s: t.take("time_s").unwrap_or_default(),
             x_ref_mm: t.take("x_ref_mm").unwrap_or_default(),
@@ -104,6 +128,55 @@ impl Record {
             p2_bar: t.take("p2_bar"),
             w1_rpm: t.take("w1_rpm"),
             w2_rpm: t.take("w2_rpm"),
+        }
+    }
+
+    /// A record from in-memory columns (s, mm), checked as a file is: at least 2 samples, equal
+    /// lengths, finite values, strictly increasing time. `name` stands for the file in
+    /// messages, which name the column and the 0-based sample.
+    pub fn from_arrays(
+        name: &str,
+        time_s: &[f64],
+        x_ref_mm: &[f64],
+        x_mm: &[f64],
+    ) -> Result<Record, RecordError> {
+        let err = |message: String| RecordError::Empty {
+            file: name.to_string(),
+            message,
+        };
+        let n = time_s.len();
+        if n < 2 {
+            return Err(err(format!(
+                "{n} samples: a record needs at least 2 samples"
+            )));
+        }
+        for (column, values) in [("time_s", time_s), ("x_ref_mm", x_ref_mm), ("x_mm", x_mm)] {
+            if values.len() != n {
+                return Err(err(format!(
+                    "column `{column}` has {} samples, `time_s` has {n}",
+                    values.len()
+                )));
+            }
+            if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+                return Err(err(format!(
+                    "column `{column}`, sample {k}: {} is not a finite number",
+                    values[k]
+                )));
+            }
+        }
+        if let Some(k) = (1..n).find(|&k| time_s[k] <= time_s[k - 1]) {
+            return Err(err(format!(
+                "column `time_s`, sample {k}: time must strictly increase: {} follows {}",
+                time_s[k],
+                time_s[k - 1]
+            )));
+        }
+        Ok(Record {
+            file: name.to_string(),
+            time_s: time_s.to_vec(),
+            x_ref_mm: x_ref_mm.to_vec(),
+            x_mm: x_mm.to_vec(),
+            ..Record::default()
         })
     }
 
@@ -127,7 +200,7 @@ impl Record {
             .unwrap_or(self.len())
     }
 
-    /// The initial steady state of a signal (SPEC §9): the mean of the samples before the
+    /// The initial steady state of a signal (docs/simulation.md#deviations-and-the-baseline): the mean of the samples before the
     /// reference first changes, or the first sample if it changes at once.
     pub fn initial_mean(&self, signal: &[f64]) -> f64 {
         let k = self.first_change().max(1);
@@ -147,6 +220,10 @@ impl Table {
     /// Read a file with the `required` columns (the first is time) and any `optional` ones,
     /// streamed.
     pub fn read(path: &Path, required: &[&str], optional: &[&str]) -> Result<Table, RecordError> {
+        if is_mat(path) {
+            let file = path.display().to_string();
+            return Self::from_mat(&read_bytes(path)?, &file, required, optional);
+        }
         let (reader, file) = open(path)?;
         Self::from_reader(reader, &file, required, optional)
     }
@@ -210,6 +287,67 @@ impl Table {
             rows.push(&row)?;
         }
         rows.finish()
+    }
+
+    /// A table from a level-5 MAT-file (MATLAB `save -v7`/`-v6`, Octave `save -mat`): one real
+    /// vector per column, named as the CSV column (`time_s`, `x_ref_mm`, ...), all of one
+    /// length; other variables are ignored. The same checks as for CSV apply: finite values,
+    /// strictly increasing time, at least two samples.
+    pub fn from_mat(
+        bytes: &[u8],
+        file: &str,
+        required: &[&str],
+        optional: &[&str],
+    ) -> Result<Table, RecordError> {
+        let err = |message: String| RecordError::Mat {
+            file: file.to_string(),
+            message,
+        };
+        let vars = crate::matfile::read(bytes).map_err(|e| err(e.0))?;
+        let names: Vec<String> = vars.iter().map(|v| v.name.clone()).collect();
+        let mut columns = Vec::new();
+        for (k, name) in required.iter().chain(optional).enumerate() {
+            let Some(var) = vars.iter().find(|v| v.name == *name) else {
+                if k < required.len() {
+                    let message =
+                        missing_column(name, &names, required).replace("column", "variable");
+                    return Err(err(message));
+                }
+                continue;
+            };
+            let values = var
+                .vector()
+                .map_err(|why| err(format!("variable `{name}` {why}")))?;
+            if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(err(format!(
+                    "variable `{name}`, element {}: `{v}` is not a finite number",
+                    i + 1
+                )));
+            }
+            columns.push((name.to_string(), values.to_vec()));
+        }
+        let n = columns[0].1.len();
+        if let Some((name, v)) = columns.iter().find(|(_, v)| v.len() != n) {
+            return Err(err(format!(
+                "variable `{name}` has {} elements, `{}` has {n}: every column needs one value per sample",
+                v.len(),
+                columns[0].0
+            )));
+        }
+        if n < 2 {
+            return Err(err(format!("{n} samples: a record needs at least 2")));
+        }
+        if let Some(i) = columns[0].1.windows(2).position(|w| w[1] <= w[0]) {
+            let t = &columns[0].1;
+            return Err(err(format!(
+                "variable `{}`, element {}: time must strictly increase: {} follows {}",
+                columns[0].0,
+                i + 2,
+                t[i + 1],
+                t[i]
+            )));
+        }
+        Ok(Table { columns })
     }
 
     /// Take a column out of the table by name (`None` if absent).
@@ -402,6 +540,22 @@ impl<R: std::io::Read> std::io::Read for LineLimit<R> {
         }
         Ok(n)
     }
+}
+
+/// Whether a path names a MAT-file (extension `.mat`, any case).
+fn is_mat(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"))
+}
+
+/// A whole file's bytes (noted as an input of this run, which no output may overwrite).
+fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
+    crate::input::note_read(path);
+    std::fs::read(path).map_err(|e| RecordError::Io {
+        file: path.display().to_string(),
+        message: e.to_string(),
+    })
 }
 
 /// A file opened for streaming, and its name for messages.
@@ -624,6 +778,34 @@ mod tests {
             parse("time_s,x_ref_mm,x_mm\n0,340,339.9\n0.01,340,340.1\n0.02,345,340.2\n").unwrap();
         assert_eq!(r.first_change(), 2);
         assert!((r.initial_mean(&r.x_mm) - 340.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arrays_are_checked_like_files() {
+        let t = [0.0, 0.01, 0.02];
+        let r = Record::from_arrays("ds", &t, &[1.0, 2.0, 2.0], &[1.0, 1.5, 2.0]).unwrap();
+        let from_text = Record::parse(b"time_s,x_ref_mm,x_mm\n0,1,1\n0.01,2,1.5\n0.02,2,2\n", "ds");
+        assert_eq!(r, from_text.unwrap());
+        assert_eq!(r.first_change(), 1);
+        let msg = |t: &[f64], r: &[f64], x: &[f64]| {
+            Record::from_arrays("ds", t, r, x).unwrap_err().to_string()
+        };
+        assert_eq!(
+            msg(&[0.0], &[1.0], &[1.0]),
+            "ds: 1 samples: a record needs at least 2 samples"
+        );
+        assert_eq!(
+            msg(&t, &[1.0, 2.0], &[1.0, 1.0, 1.0]),
+            "ds: column `x_ref_mm` has 2 samples, `time_s` has 3"
+        );
+        assert_eq!(
+            msg(&t, &[1.0, 2.0, 2.0], &[1.0, f64::NAN, 1.0]),
+            "ds: column `x_mm`, sample 1: NaN is not a finite number"
+        );
+        assert_eq!(
+            msg(&[0.0, 0.02, 0.02], &[1.0; 3], &[1.0; 3]),
+            "ds: column `time_s`, sample 2: time must strictly increase: 0.02 follows 0.02"
+        );
     }
 
     #[test]

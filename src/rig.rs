@@ -1,9 +1,47 @@
 //! The rig description: every parameter of a dual-prime-mover (DPM) pump-controlled cylinder,
-//! read from and written to TOML (SPEC §2).
+//! read from and written to TOML (the article §2.3.4; docs/formats.md#rig-toml).
 //!
 //! User-facing keys carry their unit in the name (`beta_bar`, `mass_kg`, `x0_mm`). Inside the
 //! code everything is SI: [`Rig::si`] converts once and the model uses only [`RigSi`].
 //! The embedded default ([`Rig::default`]) is the article's rig.
+//!
+//! Build a rig: the article's, or your own from TOML text (absent keys take the article's value):
+//!
+//! ```
+//! use pumpcyl::rig::Rig;
+//!
+//! let article = Rig::default();
+//! assert_eq!((article.beta_bar, article.mass_kg, article.kp), (165.0, 10593.0, 25.0));
+//!
+//! let mine = Rig::from_toml_str("mass_kg = 4898.0\nkp = 40.0\n", "my-rig.toml")?;
+//! assert_eq!((mine.mass_kg, mine.kp, mine.beta_bar), (4898.0, 40.0, 165.0));
+//!
+//! // the commented TOML that `pumpcyl rig --print-default` prints reads back to the same rig
+//! assert_eq!(Rig::from_toml_str(&article.to_commented_toml(), "default.toml")?, article);
+//!
+//! // a non-physical value is an error naming the file, the line and the key
+//! let err = Rig::from_toml_str("mass_kg = -1.0\n", "my-rig.toml").unwrap_err();
+//! assert_eq!(err.to_string(), "my-rig.toml: line 1, key `mass_kg` = -1: must be > 0");
+//! # Ok::<(), pumpcyl::rig::RigError>(())
+//! ```
+//!
+//! Change parameters with `KEY=VALUE` overrides, as `--set` does on the command line:
+//!
+//! ```
+//! use pumpcyl::rig::{MotorModel, Rig};
+//!
+//! let rig = Rig::default().with_overrides(&[
+//!     "beta_bar=37.8".to_string(),
+//!     "motor_model=first_order".to_string(),
+//! ])?;
+//! assert_eq!(rig.beta_bar, 37.8);
+//! assert_eq!(rig.motor_model, MotorModel::FirstOrder);
+//!
+//! // an unknown key is refused, with a suggestion
+//! let err = rig.with_overrides(&["beta_barr=1".to_string()]).unwrap_err();
+//! assert!(err.to_string().contains("did you mean `beta_bar`?"));
+//! # Ok::<(), pumpcyl::rig::RigError>(())
+//! ```
 
 use crate::input;
 use serde::{Deserialize, Serialize};
@@ -45,22 +83,22 @@ pub enum RigError {
     },
 }
 
-/// Motor (servo drive) model used in the LTI model (SPEC §4).
+/// Motor (servo drive) model used in the LTI model (docs/model.md#variants).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MotorModel {
     /// Full model: rotor + pump inertia, P velocity loop, first-order current loop, filtered
-    /// velocity feedforward, load torque from the pressures (SPEC §3).
+    /// velocity feedforward, load torque from the pressures (docs/model.md#drive-velocity-loops-and-feedforward).
     Full,
     /// First-order approximation common in the literature: ω/ω_ref = 1/(τ s + 1), no load
     /// torque, no feedforward. τ is `motor_time_constant_s`, or, when absent, J_i/Km_i — the
     /// velocity loop's time constant on the motor-plus-pump inertia with feedforward off
-    /// **[choice]**.
+    /// **\[choice\]** (docs/choices.md).
     FirstOrder,
 }
 
 /// A DPM rig. Field names are the TOML keys; units are in the names. Absent keys in a file take
-/// the default (the article's rig, SPEC §2).
+/// the default (the article's rig, the article §2.3.4; docs/formats.md#rig-toml).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Rig {
@@ -122,7 +160,10 @@ pub struct Rig {
     pub kp: f64,
     /// Sum-pressure set-point p1 + p2 (bar).
     pub p_sum_ref_bar: f64,
-    /// Sum-pressure gain K_pres (normalised command per bar) **[choice]: per bar**.
+    /// Sum-pressure gain K_pres (normalised command per bar of sum-pressure error): 0.22 by
+    /// default (0.15 for the article's lighter 4898 kg load), the article's "22 (15)" (§2.3.4)
+    /// read as percent of full command per bar (docs/choices.md#the-sum-pressure-gain-022-per-bar).
+    /// Any other value, 22 included, is a valid setting.
     pub k_pres_per_bar: f64,
     /// Sum-pressure split factor Kβ (dimensionless).
     pub k_beta: f64,
@@ -132,11 +173,11 @@ pub struct Rig {
     pub motor_rated_speed_rpm: f64,
     /// Pump maximum speed (rpm).
     pub pump_max_speed_rpm: f64,
-    /// Drive velocity feedforward on (SPEC §3) or off.
+    /// Drive velocity feedforward on (docs/choices.md#feedforward-as-a-torque-after-the-p-gain) or off.
     pub feedforward: bool,
     /// Motor–hydraulics coupling: the D1(p1 − p2) and D2 p1 load torques on the motors.
     pub motor_coupling: bool,
-    /// Sum-pressure loop closed in closed-loop simulations. The frequency analysis of SPEC §4
+    /// Sum-pressure loop closed in closed-loop simulations. The frequency analysis of the article §2.3.3
     /// opens it regardless (see `model::LoopOptions`).
     pub sum_pressure: bool,
     /// Motor model: "full" or "first_order".
@@ -144,7 +185,7 @@ pub struct Rig {
 }
 
 impl Default for Rig {
-    /// The article's rig (SPEC §2).
+    /// The article's rig (the article §2.3.4; docs/formats.md#rig-toml).
     fn default() -> Self {
         Rig {
             piston_diameter_mm: 63.0,
@@ -175,7 +216,7 @@ impl Default for Rig {
             c2_m5_per_ns: -1.19e-11,
             kp: 25.0,
             p_sum_ref_bar: 10.0,
-            k_pres_per_bar: 22.0,
+            k_pres_per_bar: 0.22,
             k_beta: 1.4,
             motor_rated_torque_nm: 12.5,
             motor_rated_speed_rpm: 3000.0,
@@ -188,7 +229,7 @@ impl Default for Rig {
     }
 }
 
-/// The rig in SI units, with the derived quantities of SPEC §2–3.
+/// The rig in SI units, with the derived quantities of the article §2.3.1 (docs/model.md#geometry).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RigSi {
     /// Piston area A1 (m²).
@@ -314,7 +355,7 @@ impl Rig {
         Ok(rig)
     }
 
-    /// Check every value against its physical range (SPEC §2); the error names the key.
+    /// Check every value against its physical range (the article §2.3.4; docs/formats.md#rig-toml); the error names the key.
     pub fn validate(&self, source_name: &str) -> Result<(), RigError> {
         let invalid = |key, value, rule| RigError::Invalid {
             source_name: source_name.to_string(),
@@ -468,7 +509,7 @@ impl Rig {
         fields
     }
 
-    /// Convert to SI and compute the derived quantities (SPEC §2–3).
+    /// Convert to SI and compute the derived quantities (the article §2.3.1; docs/model.md#geometry).
     pub fn si(&self) -> RigSi {
         let mm = 1e-3;
         let d1 = self.piston_diameter_mm * mm;
@@ -536,7 +577,7 @@ impl Rig {
     pub fn to_commented_toml(&self) -> String {
         let table = toml::Table::try_from(self).expect("a rig always serialises");
         let mut out = String::from(
-            "# pumpcyl rig description (SPEC §2). Units are part of every key.\n\
+            "# pumpcyl rig description (the article §2.3.4; docs/formats.md#rig-toml). Units are part of every key.\n\
              # Absent keys take the article's default; unknown keys are errors.\n",
         );
         for (section, keys) in KEY_DOCS {
@@ -738,7 +779,7 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("p_sum_ref_bar", "bar, sum-pressure set-point p1 + p2"),
             (
                 "k_pres_per_bar",
-                "1/bar, sum-pressure gain: normalised command per bar",
+                "1/bar, sum-pressure gain: normalised command per bar (the article's 22 % per bar)",
             ),
             ("k_beta", "-, sum-pressure split factor"),
         ],

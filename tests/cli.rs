@@ -11,14 +11,19 @@ fn pumpcyl(args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
-fn ok(args: &[&str]) -> String {
+/// A run that must succeed.
+fn succeeds(args: &[&str]) -> Output {
     let out = pumpcyl(args);
     assert!(
         out.status.success(),
         "{args:?} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    String::from_utf8(out.stdout).unwrap()
+    out
+}
+
+fn ok(args: &[&str]) -> String {
+    String::from_utf8(succeeds(args).stdout).unwrap()
 }
 
 fn fails(args: &[&str]) -> String {
@@ -278,20 +283,27 @@ fn step_reports_metrics_and_writes_figures() {
     let rise = metrics["rise_time_s"].as_f64().unwrap();
     assert!(rise > 0.05 && rise < 2.0, "{rise}");
     assert!(metrics["steady_state_error_mm"].as_f64().unwrap().abs() < 1e-9);
-    // without the drive feedforward the default rig's closed loop is unstable (a 27.4 Hz
-    // mode): the variant is reported as such, never as a response that grows without bound
-    let text = ok(&["step", "--compare", "feedforward=false"]);
+    // with the sum-pressure gain read as 22 per bar and β = 200 bar the closed loop is
+    // unstable (its sum-pressure mode near 169 Hz): the variant is reported as such, never as
+    // a response that grows without bound
+    let text = ok(&["step", "--compare", "k_pres_per_bar=22,beta_bar=200"]);
     assert!(
         text.contains("rise time")
             && text.contains(
-                "--compare feedforward=false: not simulated: the closed loop is unstable"
+                "--compare k_pres_per_bar=22,beta_bar=200: not simulated: the closed loop is unstable"
             )
-            && text.contains("27.4"),
+            && text.contains("168.6"),
         "{text}"
     );
-    let e = fails(&["step", "--set", "feedforward=false"]);
+    let e = fails(&[
+        "step",
+        "--set",
+        "k_pres_per_bar=22",
+        "--set",
+        "beta_bar=200",
+    ]);
     assert!(
-        e.contains("feedforward=false: the closed loop is unstable"),
+        e.contains("beta_bar=200: the closed loop is unstable"),
         "{e}"
     );
     let dir = tempfile::tempdir().unwrap();
@@ -402,11 +414,12 @@ fn leakage_reproduces_the_article() {
     assert!(err.contains("p1_bar"), "{err}");
 }
 
-/// An experiment over the committed peer-benchmark records with a small grid.
+/// An experiment over the committed peer-benchmark records with a small grid (the peer model
+/// made them with the sum-pressure gain read as 22 per bar, so the experiment sets it).
 fn small_experiment(dir: &Path, extra: &str) -> String {
     let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peer");
     let text = format!(
-        "{extra}\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+        "{extra}\n[set]\nk_pres_per_bar = 22.0\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
          [grid]\nbeta_bar = [100.0, 150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0, 300.0]\n\
          c12_m5_per_ns = [1.0e-10, 1.2e-10, 1.4e-10]\n\
          [refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\nviscous_friction_ns_per_m = [100.0]\n\
@@ -679,14 +692,7 @@ fn emulate_writes_records_the_other_commands_read() {
     );
     assert_eq!(lines.count(), 301, "3 s at 100 Hz, both ends");
     // the record replays through the LTI model of the same rig
-    let sim = json(&[
-        "simulate",
-        "--data",
-        rec,
-        "--set",
-        "k_pres_per_bar=0.22",
-        "--json",
-    ]);
+    let sim = json(&["simulate", "--data", rec, "--json"]);
     let mse = sim["mse_mm2"].as_f64().unwrap_or_else(|| panic!("{sim}"));
     assert!(mse < 0.05, "{mse}");
     // a drive step feeds identify-drive
@@ -760,7 +766,7 @@ fn emulate_refuses_bad_options_and_writes_nothing() {
         );
         assert!(!Path::new(out).exists(), "{args:?} left a file");
     }
-    // the SPEC's sum-pressure gain at a 100 Hz PLC (the README's modelling question): the
+    // the other reading of the article's sum-pressure gain, 22 per bar, at a 100 Hz PLC: the
     // sampled loop cannot hold it and rings at the torque limits, ±1000 rpm and more at rest
     ok(&[
         "emulate",
@@ -819,7 +825,9 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
     let cases: Vec<(Vec<&str>, Vec<String>)> = vec![
         (
             vec!["rig", "--print-default"],
-            vec!["# pumpcyl rig description (SPEC §2).".into()],
+            vec![
+                "# pumpcyl rig description (the article §2.3.4; docs/formats.md#rig-toml).".into(),
+            ],
         ),
         (
             vec!["margins"],
@@ -856,7 +864,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         ),
         (
             vec!["leakage", "--record", &standstill, "--c12", "1.2e-10"],
-            vec!["standstill (SPEC §6.2): w1 -143.3 rpm, w2 219.5 rpm, p1 3.537 bar".into()],
+            vec!["standstill (the article §2.4): w1 -143.3 rpm, w2 219.5 rpm, p1 3.537 bar".into()],
         ),
         (
             vec!["identify-drive", &drive],
@@ -869,7 +877,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
             vec!["identify", &experiment, "--no-refine"],
             vec![
                 format!("{experiment}: 2 datasets, 24 candidates (12 + 12)"),
-                "  best grid point  beta   165.00 bar".into(),
+                "  best grid point  beta ".into(),
             ],
         ),
         (
@@ -879,7 +887,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         (
             vec!["design"],
             vec![
-                "design (SPEC §8) for default rig: PM >= 40 deg, GM >= 6 dB".into(),
+                "design (the article §2.2) for default rig: PM >= 40 deg, GM >= 6 dB".into(),
                 "  Kp max at the design point   21.50 (1/m)".into(),
             ],
         ),
@@ -918,8 +926,124 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         &["identify-merge", &parts[0], &parts[1]],
         &[
             &format!("{experiment}: 2 datasets, 24 candidates (12 + 12)"),
-            "  best grid point  beta   165.00 bar",
+            "  best grid point  beta ",
         ],
     );
     // reproduce's first lines are checked by tests/reproduce.rs, on its one shared run
+}
+
+#[test]
+fn the_default_rig_uses_the_articles_sum_pressure_gain_read_as_percent_per_bar() {
+    // the article's "22" per bar read as percent of full command: 0.22
+    let rig = ok(&["rig", "--print-default"]);
+    assert!(
+        rig.lines().any(|l| l.starts_with("k_pres_per_bar = 0.22 ")),
+        "{rig}"
+    );
+    // the 5 mm step of the default rig, sum-pressure loop closed: 2.52 mm overshoot
+    let step = json(&["step", "--json"]);
+    let overshoot = step["metrics"]["overshoot_mm"].as_f64().unwrap();
+    assert!((overshoot - 2.52).abs() <= 0.04, "{overshoot} mm");
+    // 22 stays a valid setting (the other reading of the article)
+    ok(&["rig", "--set", "k_pres_per_bar=22"]);
+}
+
+#[test]
+fn simulate_replays_an_experiment_dataset_with_its_own_conditions() {
+    let exp = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml");
+    let exp = exp.to_str().unwrap();
+    // dataset 2 is the Kp = 20 validation step, fitted up to 1.9 s after the step at 0.5 s
+    let v = json(&["simulate", "--experiment", exp, "--dataset", "2", "--json"]);
+    assert!((v["fit_end_s"].as_f64().unwrap() - 2.4).abs() < 1e-9, "{v}");
+    assert!(v["rig"].as_str().unwrap().contains("Kp 20"), "{v}");
+    // the emulated record against the LTI model of its own truth: well inside the article's
+    // 0.25 mm2 threshold
+    let mse = v["mse_mm2"].as_f64().unwrap();
+    assert!(mse < 0.05, "{mse}");
+    // a wrong Kp (the same record replayed as if Kp were 25) fits worse
+    let wrong = json(&[
+        "simulate",
+        "--experiment",
+        exp,
+        "--dataset",
+        "2",
+        "--set",
+        "kp=25",
+        "--json",
+    ]);
+    assert!(wrong["mse_mm2"].as_f64().unwrap() > 2.0 * mse, "{wrong}");
+    let err = fails(&["simulate", "--experiment", exp, "--dataset", "3"]);
+    assert!(
+        err.contains("--dataset 3") && err.contains("2 dataset"),
+        "{err}"
+    );
+    let err = fails(&["simulate", "--experiment", exp]);
+    assert!(err.contains("--dataset"), "{err}");
+}
+
+/// stderr of a run that must succeed.
+fn warnings_of(args: &[&str]) -> String {
+    String::from_utf8(succeeds(args).stderr).unwrap()
+}
+
+#[test]
+fn identify_warns_on_a_grid_edge_and_on_a_record_without_excitation() {
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peer");
+    let grid = |betas: &str| {
+        format!(
+            "[set]\nk_pres_per_bar = 22.0\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+             [grid]\nbeta_bar = [{betas}]\nviscous_friction_ns_per_m = [50.0, 100.0, 150.0]\n\
+             c12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]\n\
+             [refined_grid]\nbeta_bar = [{betas}]\nviscous_friction_ns_per_m = [100.0]\nc12_m5_per_ns = [1.2e-10]\n"
+        )
+    };
+    let dataset = |file: &str| {
+        format!("[[dataset]]\nfile = \"{file}\"\nkp = 25.0\nmass_kg = 10593.0\nfit_end_s = 3.7\n")
+    };
+    let ident = peer.join("ident.csv").display().to_string();
+    // the truth (165 bar) inside the β axis: no warning; the axis stopping at 150: a warning
+    let inside = write(
+        dir.path(),
+        "in.toml",
+        &(grid("150.0, 165.0, 180.0") + &dataset(&ident)),
+    );
+    let err = warnings_of(&["identify", &inside, "--no-refine"]);
+    assert!(!err.contains("edge"), "{err}");
+    let edge = write(
+        dir.path(),
+        "edge.toml",
+        &(grid("100.0, 125.0, 150.0") + &dataset(&ident)),
+    );
+    let err = warnings_of(&["identify", &edge, "--no-refine"]);
+    assert!(
+        err.contains("warning: the best grid point has beta_bar = 150 on the edge"),
+        "{err}"
+    );
+    // a record whose reference never moves: every candidate costs the same
+    let flat: String = std::iter::once("time_s,x_ref_mm,x_mm\n".to_string())
+        .chain((0..400).map(|i| format!("{},345,345\n", i as f64 * 0.01)))
+        .collect();
+    let flat = write(dir.path(), "flat.csv", &flat);
+    let none = write(
+        dir.path(),
+        "none.toml",
+        &(grid("150.0, 165.0, 180.0") + &dataset(&flat)),
+    );
+    let err = warnings_of(&["identify", &none, "--no-refine"]);
+    assert!(err.contains("no excitation"), "{err}");
+}
+
+#[test]
+fn leakage_warns_on_a_record_that_is_not_at_standstill() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article");
+    let still = data.join("standstill.csv").display().to_string();
+    let err = warnings_of(&["leakage", "--record", &still, "--c12", "1.2e-10"]);
+    assert!(!err.contains("warning"), "{err}");
+    let step = data.join("identification.csv").display().to_string();
+    let err = warnings_of(&["leakage", "--record", &step, "--c12", "1.2e-10"]);
+    assert!(
+        err.contains("the reference changes at t = 0.5 s") && err.contains("not at standstill"),
+        "{err}"
+    );
 }

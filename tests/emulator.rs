@@ -1,5 +1,5 @@
 //! The nonlinear emulator against the LTI model, and identification on the embedded emulated
-//! records recovering the emulator's truth (issue 5).
+//! records recovering the emulator's truth (docs/emulator.md#how-it-is-checked).
 
 use pumpcyl::bulk::effective_beta;
 use pumpcyl::emulator::article::{self, Kind};
@@ -49,11 +49,12 @@ fn the_emulated_step_settles_in_a_non_lti_way_after_the_fit_window() {
     base.p_bar = [em.p1_bar[0], em.p2_bar[0]];
     base.w_rpm = [em.w1_rpm[0], em.w2_rpm[0]];
     let lti = simulate(&rec.truth.rig, &em.time_s, &em.x_ref_mm, &base).unwrap();
-    let end = article::STEP_AT_S + article::FIT_WINDOW_S;
+    let end = article::STEP_AT_S + article::fit_window_s(rec.truth.rig.kp);
     let inside = rms_between(&em, &lti, 0.0, end);
     let after = rms_between(&em, &lti, end + 0.5, em.time_s[em.time_s.len() - 1] + 1.0);
-    // measured: 0.088 mm inside the window (under 2 % of the 5 mm step), 0.217 mm after it,
-    // where the LTI model still swings while dead band and friction damp the emulated rig
+    eprintln!("RMS emulated - LTI: {inside} mm inside the fit window, {after} mm after it");
+    // under 2 % of the 5 mm step inside the window (the article's 2.2 s after the step); after
+    // it the LTI model still swings while dead band and friction damp the emulated rig
     assert!(inside < 0.12, "inside the fit window: {inside} mm RMS");
     assert!(after > 0.15, "after the fit window: {after} mm RMS");
     assert!(
@@ -61,7 +62,8 @@ fn the_emulated_step_settles_in_a_non_lti_way_after_the_fit_window() {
         "after {after} vs inside {inside} mm RMS"
     );
     // the difference is damping: after the window the emulated rig swings about its target
-    // far less than the LTI model does (measured 0.19 against 0.38 mm RMS)
+    // less than the LTI model does (measured 0.38 against 0.51 mm RMS from 0.5 s after the
+    // window's end)
     let target = em.x_ref_mm[em.x_ref_mm.len() - 1];
     let swing = |s: &Signals| {
         rms(s
@@ -72,8 +74,9 @@ fn the_emulated_step_settles_in_a_non_lti_way_after_the_fit_window() {
             .map(|(_, x)| x - target))
     };
     let (swing_em, swing_lti) = (swing(&em), swing(&lti));
+    eprintln!("swing about the target after the window: {swing_em} emulated, {swing_lti} LTI");
     assert!(
-        swing_em < 0.6 * swing_lti,
+        swing_em < 0.8 * swing_lti,
         "swing {swing_em} vs LTI {swing_lti} mm RMS"
     );
 }
@@ -128,7 +131,7 @@ fn identification_on_the_embedded_records_recovers_the_emulator_truth() {
         "truth {beta_true} bar at {p_mean} bar"
     );
     assert!(
-        (best.beta_bar - beta_true).abs() <= 15.0,
+        (best.beta_bar - beta_true).abs() <= 10.0,
         "beta {} bar against {beta_true}",
         best.beta_bar
     );
@@ -145,7 +148,7 @@ fn the_drive_and_standstill_records_give_back_km_and_the_leakages() {
     let fit = identify_drive(&drive, si.jm[0], si.omega_i).unwrap();
     let km = fit.km_nms_per_rad / rig.km1_nms_per_rad;
     assert!((km - 1.0).abs() < 0.02, "Km ratio {km}");
-    // standstill: with the true c12, SPEC §6.2 returns the true c1, c2 (the pumps turn faster
+    // standstill: with the true c12, docs/identification.md#leakage-from-standstill returns the true c1, c2 (the pumps turn faster
     // than the dead band, so only noise and friction separate them)
     let s = Standstill::of_record(&Record::read(&data("standstill.csv")).unwrap()).unwrap();
     let l = s.leakage(&rig, rig.c12_m5_per_ns).unwrap();
@@ -167,4 +170,23 @@ fn the_records_readme_and_experiment_match_the_truth_in_the_code() {
     for r in &records {
         assert!(data(r.file).exists(), "{} is missing", r.file);
     }
+}
+
+#[test]
+fn the_pumps_leave_the_dead_band_near_the_articles_fit_window_end() {
+    // on the Kp = 25 identification record a pump speed last passes through the emulator's
+    // 60 rpm dead band about 2.2 s after the step, where the article's non-LTI region starts
+    // (measured: 2.15 s)
+    let rec = Record::read(&data("identification.csv")).unwrap();
+    let (w1, w2) = (rec.w1_rpm.as_ref().unwrap(), rec.w2_rpm.as_ref().unwrap());
+    let step = rec.time_s[rec.first_change()];
+    let last = (0..rec.len())
+        .filter(|&k| rec.time_s[k] > step && (w1[k].abs() < 60.0 || w2[k].abs() < 60.0))
+        .map(|k| rec.time_s[k] - step)
+        .fold(f64::NAN, f64::max);
+    let window = article::fit_window_s(25.0);
+    assert!(
+        (last - window).abs() <= 0.15,
+        "last in the dead band {last} s after the step"
+    );
 }

@@ -1,5 +1,5 @@
 //! Identification recovers known parameters from records simulated by the model with seeded
-//! noise (SPEC §6).
+//! noise (the article §2.4; docs/identification.md).
 
 use pumpcyl::ident::{finish, run_stages, Candidate, Experiment, Grid, Options};
 use pumpcyl::response::{simulate, Baseline};
@@ -181,4 +181,35 @@ fn sharded_search_merges_to_the_same_answer() {
         merged[0].summary.threshold_count,
         whole[0].summary.threshold_count
     );
+}
+
+#[test]
+fn a_search_stops_when_progress_says_so() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Candidate {
+        beta_bar: 165.0,
+        viscous_friction_ns_per_m: 100.0,
+        c12_m5_per_ns: 1.2e-10,
+    };
+    write_record(dir.path(), "ident.csv", &truth, 25.0, 0.01, 41);
+    write_record(dir.path(), "valid.csv", &truth, 20.0, 0.01, 42);
+    let exp = experiment(dir.path(), "");
+    let seen = AtomicU64::new(0);
+    let r = pumpcyl::ident::run_stages_while(&exp.problem, exp.grids(), &opts(false), None, &|n| {
+        seen.fetch_add(n, Ordering::Relaxed);
+        false
+    });
+    assert!(
+        matches!(r, Err(pumpcyl::ident::IdentError::Interrupted)),
+        "{r:?}"
+    );
+    // only the chunks already running finish: far fewer than the first grid's 3264
+    let seen = seen.load(Ordering::Relaxed);
+    assert!(seen > 0 && seen < 1000, "{seen} candidates evaluated");
+    // a progress that never stops gives the whole search
+    let all =
+        pumpcyl::ident::run_stages_while(&exp.problem, exp.grids(), &opts(false), None, &|_| true)
+            .unwrap();
+    assert_eq!(all[0].summary.evaluated + all[1].summary.evaluated, 6817);
 }

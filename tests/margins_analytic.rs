@@ -1,4 +1,4 @@
-//! Margins, poles and Bode of small plants against closed-form results (SPEC §4 method).
+//! Margins, poles and Bode of small plants against closed-form results (docs/analysis.md#margins).
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;

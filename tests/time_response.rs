@@ -1,4 +1,4 @@
-//! Exact ZOH simulation against closed forms and independent integration (SPEC §5).
+//! Exact ZOH simulation against closed forms and independent integration (docs/simulation.md#exact-zero-order-hold).
 
 use nalgebra::DMatrix;
 use pumpcyl::lti::{Simulator, StateSpace, Zoh};

@@ -3,9 +3,9 @@
 
 Both are a 5 mm step 340 -> 345 mm sampled at 100 Hz: 0.5 s at rest (t = 0.00 … 0.49 s),
 the step at t = 0.50 s, then 3.5 s after it (last sample t = 4.00 s, 401 samples).
-The response is the closed loop of SPEC §3 (peer_model.py) at the article's truth
-(beta = 165 bar, b = 100 N·s/m, c12 = 1.2e-10 m^5/(N·s); c1, c2 from SPEC §6.2), simulated
-exactly with a zero-order hold on the sampled reference (SPEC §9: each sample holds until the
+The response is the closed loop of docs/model.md (peer_model.py) at the article's truth
+(beta = 165 bar, b = 100 N·s/m, c12 = 1.2e-10 m^5/(N·s); c1, c2 from docs/identification.md#leakage-from-standstill), simulated
+exactly with a zero-order hold on the sampled reference (docs/simulation.md#exact-zero-order-hold: each sample holds until the
 next), plus seeded Gaussian noise of 0.01 mm on x_mm (numpy default_rng(7); ident.csv draws
 first, then valid.csv).
 

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
-"""Peer benchmark: the SPEC §6.3 identification grids done with python-control.
+"""Peer benchmark: the article's §2.4 identification grids done with python-control.
 
 For every candidate (beta, b, c12) of the article's first grid (3264) and refined grid (3553),
-6817 in all, and for every dataset of the experiment file, build the closed loop of SPEC §3
+6817 in all, and for every dataset of the experiment file, build the closed loop of docs/model.md
 (peer_model.py, the same matrices pumpcyl assembles) as `control.ss(A, B, C, D)` and run
 `control.forced_response(sys, T, U)` on the record's time vector. The cost of a candidate is the
 mean over the datasets of the position MSE (mm²) over the fit window (t <= fit_end_s, from the
 record's start), the simulated response being compared as a deviation from the record's initial
-steady state (SPEC §9), as `pumpcyl simulate` does.
+steady state (docs/simulation.md#deviations-and-the-baseline), as `pumpcyl simulate` does.
 
 Python is slow, so by default only --max-candidates (300) candidates, spread evenly over the
 6817, are evaluated and the per-candidate time is extrapolated to 6817. Only the candidate loop
@@ -18,7 +18,7 @@ input is *linearly interpolated* between samples; it has no zero-order-hold opti
 continuous systems (`interpolate=` only affects discrete-time systems). The default run uses
 that, as an engineer calling forced_response would. `--zoh` instead discretises each candidate
 with `control.c2d(sys, dt, 'zoh')` and calls forced_response on the discrete system, which
-matches SPEC §9 (and pumpcyl) exactly but costs an extra c2d per model.
+matches docs/simulation.md (and pumpcyl) exactly but costs an extra c2d per model.
 
 Prints JSON: candidates_evaluated, seconds, seconds_per_candidate, extrapolated_seconds_6817,
 best, python_control_version, input_interpolation (plus a few extra fields).
@@ -112,7 +112,7 @@ def cost(cand, standstill, datasets, zoh):
 
 
 def sanity_check():
-    """SPEC §4 open loop at the article's point: GM ≈ 6.45 dB, PM ≈ 33.5°."""
+    """The open loop (docs/analysis.md#the-loop-that-is-analysed) at the article's point: GM ≈ 6.45 dB, PM ≈ 33.5°."""
     c1, c2 = chamber_leakages(1.2e-10)
     ol = control.ss(*open_loop(165.0, 100.0, 1.2e-10, 10593.0, 25.0, c1, c2))
     gm, pm, wcg, wcp = control.margin(ol)

@@ -1,7 +1,7 @@
-"""The closed-loop LTI model of SPEC §3, in numpy, exactly as pumpcyl assembles it.
+"""The closed-loop LTI model of docs/model.md, in numpy, exactly as pumpcyl assembles it.
 
 Shared by peer_grid.py (the benchmark) and make_records.py (the synthetic records).
-SI units throughout; the embedded article rig of SPEC §2 is the only rig supported.
+SI units throughout; the embedded article rig (the article §2.1) is the only rig supported.
 
 States, in pumpcyl's order: x, v, p1, p2, w1, w2, tau1, tau2, z1, z2.
 """
@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-# --- SPEC §2, the embedded default rig (SI) ---------------------------------------------
+# --- the article §2.3.4, the embedded default rig (SI) -----------------------------------------
 D1_PISTON = 0.063
 D2_ROD = 0.036
 A1 = math.pi * D1_PISTON**2 / 4.0
@@ -29,7 +29,7 @@ KM = 0.026
 KFF = 0.0016
 TAU_FF = 0.0012
 K_SCALE = 314.1593
-K_PRES = 22.0 / 1e5  # normalised command per Pa (SPEC: 22 per bar)
+K_PRES = 22.0 / 1e5  # normalised command per Pa (the article's 22, read per bar)
 K_BETA = 1.4
 ALPHA = (DISP1 / DISP2) * (A1 / A2 - 1.0)
 
@@ -41,7 +41,7 @@ X, V, P1, P2, W1, W2, T1, T2, Z1, Z2 = range(N)
 
 
 def chamber_leakages(c12, w1_rpm=-160.0, w2_rpm=245.0, p1_bar=3.95):
-    """SPEC §6.2: c1, c2 from the standstill record for a given c12."""
+    """docs/identification.md#leakage-from-standstill: c1, c2 from the standstill record for a given c12."""
     w1 = w1_rpm * RAD_S_PER_RPM
     w2 = w2_rpm * RAD_S_PER_RPM
     p1 = p1_bar * PA_PER_BAR
@@ -112,7 +112,7 @@ def closed_loop(beta_bar, b, c12, mass, kp, c1, c2):
 
 
 def open_loop(beta_bar, b, c12, mass, kp, c1, c2):
-    """SPEC §4 open loop: position feedback removed, sum-pressure loop open; input e (m)."""
+    """The open loop (docs/analysis.md#the-loop-that-is-analysed): position feedback removed, sum-pressure loop open; input e (m)."""
     a, bm = plant(beta_bar, b, c12, mass, c1, c2)
     kx, kr = controller(kp, sum_pressure=False)
     c = np.zeros((1, N))

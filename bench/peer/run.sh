@@ -86,7 +86,7 @@ fi
 
 CPU="$(grep -m1 'model name' /proc/cpuinfo 2>/dev/null | cut -d: -f2- | sed 's/^ *//')"
 echo
-echo "== peer benchmark: SPEC §6.3 grids ($TOTAL candidates, 2 datasets)"
+echo "== peer benchmark: the article's §2.4 grids ($TOTAL candidates, 2 datasets)"
 printf '%-34s %s\n' "pumpcyl identify, $TOTAL cand. (s)" "$PC_6817${PC_CANDIDATES:+  (reported $PC_SECONDS s for $PC_CANDIDATES)}"
 printf '%-34s %s\n' "python-control, $TOTAL cand. (s)" "$(calc "round($PY_EXTRAP, 1)")  (extrapolated from $PY_N candidates, $(calc "round($PY_PER * 1e3, 2)") ms each)"
 printf '%-34s %s\n' "ratio python-control / pumpcyl" "$RATIO"

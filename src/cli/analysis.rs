@@ -1,4 +1,4 @@
-//! The frequency-analysis commands: `margins`, `bode`, `poles`, `model` (SPEC §4).
+//! The frequency-analysis commands: `margins`, `bode`, `poles`, `model` (docs/analysis.md#margins).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -6,6 +6,7 @@ use serde_json::json;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use super::export;
 use super::output::{fmt_opt, format_of, write_atomic, Format};
 use super::{Loop, ModelArgs};
 use crate::lti::{self, CrossingKind, Margins, PoleInfo};
@@ -35,8 +36,8 @@ pub struct BodeArgs {
     /// Grid density (points per decade, logarithmic).
     #[arg(long, default_value_t = 200)]
     points_per_decade: usize,
-    /// Output file: .csv (freq_hz, mag_db, phase_deg per series) or .svg / .png (Bode plot).
-    /// Without it the CSV goes to standard output.
+    /// Output file: .csv (freq_hz, mag_db, phase_deg per series), .svg / .png (Bode plot) or
+    /// .mat (MATLAB/Octave). Without it the CSV goes to standard output.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
     /// Overlay a variant: KEY=VALUE[,KEY=VALUE...] applied on top of the rig (repeatable),
@@ -61,6 +62,28 @@ pub struct ModelCmdArgs {
     /// Print JSON: {"A","B","C","D","states"} (row-major, SI).
     #[arg(long)]
     json: bool,
+    /// The closed loop as `step` simulates it (input x_ref; outputs x, p1, p2, w1, w2, e)
+    /// instead of the open loop.
+    #[arg(long)]
+    closed_loop: bool,
+    /// Write the model for MATLAB/Octave: NAME.m (a function returning an `ss` object with
+    /// named states, inputs and outputs) or NAME.mat (A, B, C, D, names, operating point).
+    #[arg(long, value_name = "FILE.m|FILE.mat")]
+    out: Option<PathBuf>,
+    /// Write a grey-box model function [A,B,C,D] = NAME(beta_bar, b, c12, Ts) for idgrey
+    /// (System Identification Toolbox), c1 and c2 from the standstill equations.
+    #[arg(long, value_name = "NAME.m", conflicts_with = "ss")]
+    greybox: Option<PathBuf>,
+    /// Standstill of the grey-box function (with --w2-rpm, --p1-bar): motor/pump 1 speed
+    /// (rpm). Default: the rig's own operating point, which gives back the rig's c1 and c2.
+    #[arg(long, requires_all = ["w2_rpm", "p1_bar", "greybox"], allow_negative_numbers = true)]
+    w1_rpm: Option<f64>,
+    /// Standstill motor/pump 2 speed (rpm), with --w1-rpm.
+    #[arg(long, requires = "w1_rpm", allow_negative_numbers = true)]
+    w2_rpm: Option<f64>,
+    /// Standstill chamber 1 pressure (bar gauge), with --w1-rpm.
+    #[arg(long, requires = "w1_rpm", allow_negative_numbers = true)]
+    p1_bar: Option<f64>,
 }
 
 /// `pumpcyl margins`.
@@ -179,12 +202,20 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
         series.push(series_of(&lp, variant, &freqs)?);
     }
     let format = match &args.out {
-        Some(path) => format_of(path, &[Format::Csv, Format::Svg, Format::Png])?,
+        Some(path) => format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])?,
         None => Format::Csv,
     };
+    if let (Some(path), Format::Mat) = (&args.out, format) {
+        export::write_bode_mat(path, &series)?;
+        return Ok(format!(
+            "wrote {} ({} series)\n",
+            path.display(),
+            series.len()
+        ));
+    }
     let bytes = match format {
         Format::Csv => bode_csv(&series).into_bytes(),
-        Format::Svg | Format::Png => {
+        _ => {
             let m = lti::margins(&base.open_loop)?;
             let markers = (series.len() == 1).then_some(BodeMarkers {
                 gain_crossover_hz: m.gain_crossover_hz,
@@ -320,15 +351,53 @@ pub fn poles(args: &PolesArgs) -> Result<String> {
 /// `pumpcyl model`.
 pub fn model(args: &ModelCmdArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
-    let json = lti::ModelJson::from_model(&lp.open_loop, lp.states.clone());
+    let view = export::model_view(&lp, args.closed_loop, args.model.sum_pressure_closed)?;
+    let mut wrote = String::new();
+    for (path, greybox) in [(&args.out, false), (&args.greybox, true)] {
+        if let Some(path) = path {
+            if greybox {
+                let standstill = match (args.w1_rpm, args.w2_rpm, args.p1_bar) {
+                    (Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Some(crate::ident::Standstill {
+                        w1_rpm,
+                        w2_rpm,
+                        p1_bar,
+                    }),
+                    _ => None,
+                };
+                export::write_greybox(path, &view, standstill)?;
+            } else {
+                export::write_model(path, &view)?;
+            }
+            let _ = writeln!(wrote, "wrote {}", path.display());
+        }
+    }
+    let json = lti::ModelJson::from_model(&view.sys, view.states.clone());
     if args.json {
         return Ok(serde_json::to_string_pretty(&json)? + "\n");
     }
+    if !wrote.is_empty() {
+        return Ok(wrote);
+    }
+    let plural = |p: &[crate::matlab::Port]| if p.len() > 1 { "s" } else { "" };
+    let outputs: Vec<String> = view
+        .outputs
+        .iter()
+        .map(|p| format!("{} ({})", p.name, p.unit))
+        .collect();
+    let inputs: Vec<String> = view
+        .inputs
+        .iter()
+        .map(|p| format!("{} {} ({})", p.meaning, p.name, p.unit))
+        .collect();
     let mut s = format!(
-        "{}\ninput: position error e (m); output: x (m)\nstates:\n",
-        lp.description
+        "{}\ninput{}: {}; output{}: {}\nstates:\n",
+        view.title,
+        plural(&view.inputs),
+        inputs.join(", "),
+        plural(&view.outputs),
+        outputs.join(", ")
     );
-    for (i, st) in lp.states.iter().enumerate() {
+    for (i, st) in view.states.iter().enumerate() {
         let _ = writeln!(s, "  {:>2}  {:<6} {}", i + 1, st.name, st.unit);
     }
     for (name, rows) in [

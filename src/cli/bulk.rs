@@ -1,4 +1,4 @@
-//! `pumpcyl bulk-modulus`: gas fraction, β_e against pressure and the margins there (SPEC §7).
+//! `pumpcyl bulk-modulus`: gas fraction, β_e against pressure and the margins there (docs/bulk-modulus.md).
 
 use anyhow::Result;
 use clap::Args;
@@ -72,7 +72,7 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
         )? + "\n");
     }
     let mut s = format!(
-        "gas fraction X = {x:.5} (beta_e = {} bar at {} bar mean pressure, beta_oil = {} bar; SPEC §7)\n",
+        "gas fraction X = {x:.5} (beta_e = {} bar at {} bar mean pressure, beta_oil = {} bar)\n",
         args.beta_bar, args.p_mean_bar, args.beta_oil_bar
     );
     let _ = writeln!(

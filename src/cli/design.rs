@@ -1,4 +1,4 @@
-//! `pumpcyl design`: SPEC §8 applied to a rig before it is built.
+//! `pumpcyl design`: the design method (the article §2.2; docs/design.md) applied to a rig before it is built.
 
 use anyhow::Result;
 use clap::Args;
@@ -22,7 +22,7 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
     stroke_mm: f64,
     /// Mean chamber pressures to check (bar), e.g. --p-mean-bar 1 --p-mean-bar 10; beta
-    /// follows the gas-fraction model (SPEC §7) from the rig's beta at --p-beta-bar.
+    /// follows the gas-fraction model (docs/bulk-modulus.md) from the rig's beta at --p-beta-bar.
     #[arg(long)]
     p_mean_bar: Vec<f64>,
     /// Mean pressure at which the rig's beta_bar was identified (bar).
@@ -86,7 +86,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         Verdict::UseHigherPressure => "USE A CIRCUIT WITH HIGHER PRESSURE",
     };
     let mut s = format!(
-        "design (SPEC §8) for {}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
+        "design (the article §2.2) for {}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
         args.rig.origin(),
         args.target_pm_deg,
         args.target_gm_db,

@@ -1,4 +1,4 @@
-//! `pumpcyl emulate`: records from the nonlinear rig emulator (issue 5).
+//! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
 
 use super::output::{write_atomic, OutDir};
 use super::RigSource;
@@ -33,7 +33,7 @@ pub struct EmulateArgs {
     /// (how data/article/ is made).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["experiment", "out", "rig", "set"])]
     article_records: Option<PathBuf>,
-    /// Rig (TOML). Default: the emulated article rig (SPEC §2 with the PLC's sum-pressure gain
+    /// Rig (TOML). Default: the emulated article rig (the article §2.1 with the PLC's sum-pressure gain
     /// 0.22 per bar and the set-point for 4.4 bar mean pressure; see data/article/README.md).
     #[command(flatten)]
     source: RigSource,
@@ -96,7 +96,7 @@ pub struct EmulateArgs {
     /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).
     #[arg(long)]
     no_effects: bool,
-    /// Output record (SPEC §9 CSV; a drive step writes time_s, w_ref_rpm, w_rpm).
+    /// Output record (docs/formats.md#record-csv; a drive step writes time_s, w_ref_rpm, w_rpm).
     #[arg(
         long,
         value_name = "RECORD.csv",
@@ -149,10 +149,7 @@ fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
         None if effects.gas_fraction.is_some() => {
             article::rig(25.0, 10_593.0, article::P_FIT_BAR, effects).map_err(|e| anyhow!(e))?
         }
-        None => Rig {
-            k_pres_per_bar: article::K_PRES_HEAVY_PER_BAR,
-            ..Rig::default()
-        },
+        None => Rig::default(),
     };
     Ok(base.with_overrides(&source.set)?)
 }

@@ -1,5 +1,5 @@
 //! The identification commands: `leakage`, `identify-drive`, `identify`, `identify-merge`
-//! (SPEC §6).
+//! (the article §2.4; docs/identification.md).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -22,7 +22,7 @@ use crate::report::{self, LineStyle, Panel, Trace};
 pub struct LeakageArgs {
     #[command(flatten)]
     rig: RigSource,
-    /// A standstill record (SPEC §9 CSV with w1_rpm, w2_rpm, p1_bar): its means are used.
+    /// A standstill record (docs/formats.md#record-csv with w1_rpm, w2_rpm, p1_bar): its means are used.
     #[arg(long, value_name = "RECORD.csv", conflicts_with_all = ["w1_rpm", "w2_rpm", "p1_bar"])]
     record: Option<PathBuf>,
     /// Motor/pump 1 speed at standstill (rpm).
@@ -142,7 +142,11 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
     );
     let rig = args.rig.load()?;
     let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
-        (Some(path), ..) => Standstill::of_record(&crate::record::Record::read(path)?)?,
+        (Some(path), ..) => {
+            let rec = crate::record::Record::read(path)?;
+            warn(&crate::ident::standstill_warnings(&rec));
+            Standstill::of_record(&rec)?
+        }
         (None, Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Standstill {
             w1_rpm,
             w2_rpm,
@@ -150,12 +154,13 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
         },
         _ => anyhow::bail!("give --record or all of --w1-rpm, --w2-rpm, --p1-bar"),
     };
+
     let l = s.leakage(&rig, args.c12)?;
     if args.json {
         return Ok(serde_json::to_string_pretty(&l)? + "\n");
     }
     Ok(format!(
-        "standstill (SPEC §6.2): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
+        "standstill (the article §2.4): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
          c12                 {:.4e} m5/(N s)\n  c1                  {:.4e} m5/(N s)\n  c2                  {:.4e} m5/(N s)\n",
         s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
     ))
@@ -335,7 +340,15 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     }
     let id = finish(&exp.problem, stages, &opts)?;
     let seconds = start.elapsed().as_secs_f64();
+    warn(&id.warnings());
     report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+}
+
+/// Warnings go to standard error, one line each, so `--json` output stays clean.
+fn warn(lines: &[String]) {
+    for l in lines {
+        eprintln!("warning: {l}");
+    }
 }
 
 /// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
@@ -632,10 +645,12 @@ pub(super) fn write_outputs(
         &dir.join("result.json"),
         (serde_json::to_string_pretty(v)? + "\n").as_bytes(),
     )?;
-    write_landscape(dir, exp, id)?;
+    let landscape = write_landscape(dir, exp, id)?;
+    let mut fits = Vec::new();
     for (i, ds) in exp.problem.datasets.iter().enumerate() {
         let sim = exp.problem.simulate(&id.best().candidate, ds)?;
         let measured = crate::response::Signals::of_record(&ds.record);
+        fits.push((ds.name.clone(), measured.clone(), sim.clone()));
         let subtitle = format!(
             "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
             ds.name,
@@ -645,20 +660,26 @@ pub(super) fn write_outputs(
             exp.problem.dataset_mse(&id.best().candidate, ds)
         );
         for ext in ["svg", "png"] {
-            super::time::write_figure(
+            super::time::write_fit_figure(
                 &dir.join(format!("fit-{}.{ext}", i + 1)),
                 &format!("Identified model against {}", ds.name),
                 Some(&subtitle),
                 &[("model".to_string(), &sim)],
                 Some(&measured),
+                Some(ds.fit_end_s),
             )?;
         }
     }
-    Ok(())
+    super::export::write_identification_mat(&dir.join("result.mat"), id, &landscape, &fits)
 }
 
-/// The cost over β × c12 at the best b, on the stage grid that holds the best point.
-fn write_landscape(dir: &Path, exp: &Experiment, id: &Identification) -> Result<()> {
+/// The cost over β × c12 at the best b, on the stage grid that holds the best point; returns
+/// it as (β bar, c12 m⁵/(N·s), cost mm² with β varying fastest).
+fn write_landscape(
+    dir: &Path,
+    exp: &Experiment,
+    id: &Identification,
+) -> Result<super::export::Landscape> {
     let best = id.grid_best;
     let grid = &id.stages[(best.stage.max(1) - 1) as usize].grid;
     let b = best.candidate.viscous_friction_ns_per_m;
@@ -706,5 +727,11 @@ fn write_landscape(dir: &Path, exp: &Experiment, id: &Identification) -> Result<
     let svg = report::heatmap_svg(title, Some(&subtitle), &map, std::slice::from_ref(&marker))?;
     write_atomic(&dir.join("landscape.svg"), svg.as_bytes())?;
     let png = report::heatmap_png(title, Some(&subtitle), &map, &[marker], 1350, 1050)?;
-    write_atomic(&dir.join("landscape.png"), &png)
+    write_atomic(&dir.join("landscape.png"), &png)?;
+    Ok(super::export::Landscape {
+        beta_bar: map.x,
+        c12_m5_per_ns: map.y,
+        viscous_friction_ns_per_m: b,
+        cost_mm2: map.cost,
+    })
 }

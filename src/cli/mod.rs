@@ -4,6 +4,7 @@ mod analysis;
 mod bulk;
 mod design;
 mod emulate;
+mod export;
 mod ident;
 mod output;
 mod reproduce;
@@ -33,7 +34,7 @@ enum Command {
     /// Print a rig description as commented TOML (the embedded default, or a file with --set
     /// overrides applied), ready to copy and edit.
     Rig(RigArgs),
-    /// Gain, phase and delay margins of the position loop (SPEC §4), every crossing, and
+    /// Gain, phase and delay margins of the position loop (docs/analysis.md#margins), every crossing, and
     /// closed-loop stability from the closed-loop eigenvalues.
     Margins(analysis::MarginsArgs),
     /// Bode diagram (magnitude dB, unwrapped phase deg) of the position open loop, as CSV or SVG,
@@ -41,31 +42,32 @@ enum Command {
     Bode(analysis::BodeArgs),
     /// Open- and closed-loop poles with natural frequency (Hz) and damping ratio.
     Poles(analysis::PolesArgs),
-    /// The open-loop state-space model (A, B, C, D and state names, SI).
+    /// The open- or closed-loop state-space model (A, B, C, D and state names, SI), also as a
+    /// MATLAB/Octave function, MAT-file or grey-box model function.
     Model(analysis::ModelCmdArgs),
-    /// Closed-loop response to a position step (SPEC §5): rise, overshoot, settling, with
+    /// Closed-loop response to a position step (docs/simulation.md#step-metrics): rise, overshoot, settling, with
     /// position, error, pressures and motor speeds.
     Step(time::StepArgs),
-    /// Sinusoidal tracking (SPEC §5): maximum and RMS error and wave reduction.
+    /// Sinusoidal tracking (docs/simulation.md#tracking-metrics): maximum and RMS error and wave reduction.
     Track(time::TrackArgs),
-    /// Replay a recorded reference (SPEC §9 CSV) through the model and compare with the
+    /// Replay a recorded reference (docs/formats.md#record-csv) through the model and compare with the
     /// measured response (position MSE in mm²).
     Simulate(time::SimulateArgs),
-    /// Chamber leakages c1, c2 from a standstill point for a given c12 (SPEC §6.2).
+    /// Chamber leakages c1, c2 from a standstill point for a given c12 (the article §2.4).
     Leakage(ident::LeakageArgs),
-    /// Drive velocity-loop gain Km from a motor velocity step (SPEC §6.1).
+    /// Drive velocity-loop gain Km from a motor velocity step (the article §2.4.1).
     IdentifyDrive(ident::DriveArgs),
-    /// Two-stage grid identification of beta, b and c12 from records (SPEC §6.3).
+    /// Two-stage grid identification of beta, b and c12 from records (the article §2.4).
     Identify(ident::IdentifyArgs),
     /// Merge the partial results of `identify --shard I/N` into the answer of one run.
     IdentifyMerge(ident::MergeArgs),
     /// Gas fraction from an identified bulk modulus, beta_e against mean pressure, and the
-    /// margins at each pressure (SPEC §7).
+    /// margins at each pressure (docs/bulk-modulus.md).
     BulkModulus(bulk::BulkArgs),
-    /// SPEC §8 for a rig before it is built: the largest Kp meeting margin targets, margins
+    /// The design method (the article §2.2) for a rig before it is built: the largest Kp meeting margin targets, margins
     /// across stroke, mass and pressure, predicted tracking, and a verdict.
     Design(design::DesignArgs),
-    /// Records from the nonlinear rig emulator (SPEC §9 CSV): a step, a sinusoid, a standstill
+    /// Records from the nonlinear rig emulator (docs/formats.md#record-csv): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
     /// The article's whole workflow on the embedded rig and emulated records: figures, a
@@ -75,7 +77,7 @@ enum Command {
 
 #[derive(Debug, Args)]
 struct RigArgs {
-    /// Print the embedded default rig (the article's, SPEC §2).
+    /// Print the embedded default rig (the article's, §2.1).
     #[arg(long, conflicts_with_all = ["rig", "set"])]
     print_default: bool,
     /// Rig description to read and print back (validated, with --set applied).
@@ -135,7 +137,7 @@ pub struct ModelArgs {
     /// rig: the model is taken as the loop transfer L(s).
     #[arg(long, value_name = "MODEL.json", conflicts_with_all = ["rig", "set"])]
     ss: Option<PathBuf>,
-    /// Keep the sum-pressure loop closed inside the analysed position loop (SPEC §4 opens it).
+    /// Keep the sum-pressure loop closed inside the analysed position loop (the article §2.3.3 opens it).
     #[arg(long, conflicts_with = "ss")]
     sum_pressure_closed: bool,
 }

@@ -360,6 +360,8 @@ pub enum Format {
     Svg,
     /// Portable network graphics.
     Png,
+    /// MAT-file, level 5 (MATLAB, GNU Octave; docs/matlab.md).
+    Mat,
 }
 
 /// Format from the extension of `path`, among `allowed`.
@@ -372,6 +374,7 @@ pub fn format_of(path: &Path, allowed: &[Format]) -> Result<Format> {
         Some("csv") => Some(Format::Csv),
         Some("svg") => Some(Format::Svg),
         Some("png") => Some(Format::Png),
+        Some("mat") => Some(Format::Mat),
         _ => None,
     };
     match format {

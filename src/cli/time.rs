@@ -1,4 +1,4 @@
-//! The time-domain commands: `step`, `track`, `simulate` (SPEC §5, §9).
+//! The time-domain commands: `step`, `track`, `simulate` (docs/simulation.md).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -6,10 +6,9 @@ use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use super::export;
 use super::output::{fmt_opt, format_of, write_atomic, Format};
 use super::RigSource;
-use crate::lti::dc_output;
-use crate::model::Plant;
 use crate::record::Record;
 use crate::report::{self, LineStyle, Panel, Trace};
 use crate::response::{self, Baseline, Signals, StepMetrics, TrackMetrics, ARTICLE_SINE_CASES};
@@ -18,7 +17,8 @@ use crate::rig::Rig;
 /// Options shared by the time-domain commands.
 #[derive(Debug, Args)]
 pub struct TimeOptions {
-    /// Output file: .csv (signals), .svg or .png (four-panel figure).
+    /// Output file: .csv (signals), .svg or .png (four-panel figure), .mat (signals and
+    /// metrics for MATLAB/Octave, named as the CSV columns).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
     /// Print the metrics as JSON.
@@ -82,11 +82,23 @@ pub struct TrackArgs {
 pub struct SimulateArgs {
     #[command(flatten)]
     rig: RigSource,
-    /// Record to replay (CSV, SPEC §9: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
+    /// Record to replay (CSV, docs/formats.md#record-csv: time_s, x_ref_mm, x_mm; optional p1_bar, p2_bar,
     /// w1_rpm, w2_rpm).
-    #[arg(long, value_name = "RECORD.csv")]
-    data: PathBuf,
-    /// End of the fit window on the record's time axis (s); default: the whole record.
+    #[arg(
+        long,
+        value_name = "RECORD.csv",
+        required_unless_present = "experiment"
+    )]
+    data: Option<PathBuf>,
+    /// Replay a dataset of an `identify` experiment file with its own conditions: the file's
+    /// rig and [set], the dataset's Kp, mass and fit window (--set applies on top).
+    #[arg(long, value_name = "EXPERIMENT.toml", conflicts_with_all = ["data", "rig"], requires = "dataset")]
+    experiment: Option<PathBuf>,
+    /// Which [[dataset]] of --experiment to replay (1 = the first).
+    #[arg(long, value_name = "N", requires = "experiment")]
+    dataset: Option<usize>,
+    /// End of the fit window on the record's time axis (s); default: the whole record (with
+    /// --experiment: the dataset's fit_end_s).
     #[arg(long, allow_negative_numbers = true)]
     fit_end_s: Option<f64>,
     #[command(flatten)]
@@ -222,7 +234,7 @@ pub fn step(args: &StepArgs) -> Result<String> {
     )?;
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
-        let m = metrics_of_step(r, &s, args.step_mm)?;
+        let m = response::step_metrics_of(r, &s, args.step_mm);
         Ok((s, m))
     })?;
     let runs: Vec<_> = all
@@ -240,7 +252,26 @@ pub fn step(args: &StepArgs) -> Result<String> {
             args.rig.origin()
         );
         let subtitle = step_subtitle(&runs[0].2);
-        write_figure(path, &title, Some(&subtitle), &series, None)?;
+        if export::has_ext(path, "mat") {
+            let m: Vec<&StepMetrics> = runs.iter().map(|r| &r.2).collect();
+            let col = |f: fn(&StepMetrics) -> Option<f64>| m.iter().map(|m| f(m)).collect();
+            let scalars = [
+                ("step_mm", col(|m| Some(m.step_mm))),
+                ("rise_time_s", col(|m| m.rise_time_s)),
+                ("overshoot_mm", col(|m| Some(m.overshoot_mm))),
+                ("overshoot_pct", col(|m| Some(m.overshoot_pct))),
+                ("peak_time_s", col(|m| Some(m.peak_time_s))),
+                ("settling_time_s", col(|m| m.settling_time_s)),
+                (
+                    "steady_state_error_mm",
+                    col(|m| Some(m.steady_state_error_mm)),
+                ),
+                ("final_error_mm", col(|m| Some(m.final_error_mm))),
+            ];
+            export::write_signals_mat(path, &title, &series, None, &scalars)?;
+        } else {
+            write_figure(path, &title, Some(&subtitle), &series, None)?;
+        }
     }
     if args.opts.json {
         let mut v =
@@ -255,15 +286,6 @@ pub fn step(args: &StepArgs) -> Result<String> {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
     Ok(step_table(args, &runs) + &unstable_lines(&all.unstable))
-}
-
-/// Step metrics of a simulated step; the steady-state error comes from the DC solution.
-fn metrics_of_step(rig: &Rig, s: &Signals, step_mm: f64) -> Result<StepMetrics> {
-    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
-    let dc_mm = dc_output(&sys, &[step_mm * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
-    let x0 = s.x_mm[0];
-    let y: Vec<f64> = s.x_mm.iter().map(|x| x - x0).collect();
-    Ok(response::step_metrics(&s.time_s, &y, step_mm, dc_mm))
 }
 
 fn step_subtitle(m: &StepMetrics) -> String {
@@ -386,8 +408,21 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
         .iter()
         .map(|(l, s, m)| (format!("{} Hz ±{} mm {l}", m.freq_hz, m.amp_mm), s))
         .collect();
-    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
-        return write_atomic(path, signals_csv(&labelled, None).as_bytes());
+    match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
+        Format::Csv => return write_atomic(path, signals_csv(&labelled, None).as_bytes()),
+        Format::Mat => {
+            let col = |f: fn(&TrackMetrics) -> f64| runs.iter().map(|r| Some(f(&r.2))).collect();
+            let scalars = [
+                ("freq_hz", col(|m| m.freq_hz)),
+                ("amp_mm", col(|m| m.amp_mm)),
+                ("max_error_mm", col(|m| m.max_error_mm)),
+                ("rms_error_mm", col(|m| m.rms_error_mm)),
+                ("wave_reduction", col(|m| m.wave_reduction)),
+            ];
+            let title = "Sinusoidal tracking";
+            return export::write_signals_mat(path, title, &labelled, None, &scalars);
+        }
+        _ => {}
     }
     // one position panel per case, then all errors together
     let mut panels = Vec::new();
@@ -415,7 +450,7 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
             .push(trace(label, &s.time_s, &s.e_mm, LineStyle::Solid, Some(i)));
     }
     panels.push(errors);
-    let title = "Sinusoidal tracking (SPEC §5)";
+    let title = "Sinusoidal tracking (the article)";
     let list = |f: fn(&TrackMetrics) -> String| -> String {
         runs.iter()
             .map(|(_, _, m)| f(m))
@@ -432,8 +467,18 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
 
 /// `pumpcyl simulate`.
 pub fn simulate(args: &SimulateArgs) -> Result<String> {
-    let rec = Record::read(&args.data)?;
-    let window_end = match args.fit_end_s {
+    let (rec, rig, dataset_end) = replayed(args)?;
+    let origin = match (&args.experiment, args.dataset) {
+        (Some(p), Some(n)) => format!(
+            "{} dataset {n}: Kp {}, m {} kg, K_pres {} per bar",
+            p.display(),
+            rig.kp,
+            rig.mass_kg,
+            rig.k_pres_per_bar
+        ),
+        _ => args.rig.origin(),
+    };
+    let window_end = match args.fit_end_s.or(dataset_end) {
         Some(t) => {
             let (t0, t1) = (rec.time_s[0], rec.time_s[rec.len() - 1]);
             anyhow::ensure!(
@@ -445,7 +490,6 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         }
         None => rec.time_s[rec.len() - 1],
     };
-    let rig = args.rig.load()?;
     let measured = Signals::of_record(&rec);
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let base = Baseline::of_record(&rec, r);
@@ -460,16 +504,32 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
             .iter()
             .map(|(l, s, _)| (format!("sim {l}"), *s))
             .collect();
-        let title = format!("{} against the model ({})", rec.file, args.rig.origin());
+        let title = format!("{} against the model ({})", rec.file, origin);
         let subtitle = format!(
             "position MSE {:.4} mm² up to t = {} s",
             runs[0].2, window_end
         );
-        write_figure(path, &title, Some(&subtitle), &series, Some(&measured))?;
+        if export::has_ext(path, "mat") {
+            let scalars = [
+                ("mse_mm2", runs.iter().map(|r| Some(r.2)).collect()),
+                ("fit_end_s", vec![Some(window_end)]),
+            ];
+            export::write_signals_mat(path, &title, &series, Some(&measured), &scalars)?;
+        } else {
+            let mark = args.fit_end_s.or(dataset_end);
+            write_fit_figure(
+                path,
+                &title,
+                Some(&subtitle),
+                &series,
+                Some(&measured),
+                mark,
+            )?;
+        }
     }
     if args.opts.json {
         let mut v = json!({
-            "file": rec.file, "rig": args.rig.origin(), "mse_mm2": runs[0].2,
+            "file": rec.file, "rig": origin, "mse_mm2": runs[0].2,
             "fit_end_s": window_end, "samples_in_window": in_window,
         });
         if runs.len() > 1 {
@@ -481,8 +541,12 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         add_unstable(&mut v, &all.unstable);
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
+    let conditions = match args.experiment {
+        Some(_) => format!(" ({origin})"),
+        None => String::new(),
+    };
     let mut s = format!(
-        "{}: {} samples, fit window up to {} s ({in_window} samples)\n",
+        "{}{conditions}: {} samples, fit window up to {} s ({in_window} samples)\n",
         rec.file,
         rec.len(),
         window_end
@@ -491,6 +555,28 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
         let _ = writeln!(s, "  {label:<24} position MSE {mse:.5} mm²");
     }
     Ok(s + &unstable_lines(&all.unstable))
+}
+
+/// The record to replay, the rig to replay it on and the dataset's fit window end (s): from
+/// --data and the rig options, or from a dataset of --experiment with its own conditions.
+fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
+    let (Some(path), Some(n)) = (&args.experiment, args.dataset) else {
+        let data = args
+            .data
+            .as_ref()
+            .context("--data or --experiment is needed")?;
+        return Ok((Record::read(data)?, args.rig.load()?, None));
+    };
+    let exp = crate::ident::Experiment::load(path)?;
+    let count = exp.problem.datasets.len();
+    anyhow::ensure!(
+        (1..=count).contains(&n),
+        "{}: --dataset {n}: the file has {count} dataset(s), numbered from 1",
+        path.display()
+    );
+    let ds = &exp.problem.datasets[n - 1];
+    let rig = ds.rig.with_overrides(&args.rig.set)?;
+    Ok((ds.record.clone(), rig, Some(ds.fit_end_s)))
 }
 
 /// Mean squared position error (mm²) over samples with t ≤ `end`.
@@ -562,7 +648,7 @@ fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> Str
     out
 }
 
-/// Write signals as CSV or as the four-panel figure, by the file's extension.
+/// Write signals as CSV, as the four-panel figure or as a MAT-file, by the file's extension.
 pub(super) fn write_figure(
     path: &Path,
     title: &str,
@@ -570,10 +656,53 @@ pub(super) fn write_figure(
     series: &[(String, &Signals)],
     measured: Option<&Signals>,
 ) -> Result<()> {
-    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
-        return write_atomic(path, signals_csv(series, measured).as_bytes());
+    write_fit_figure(path, title, subtitle, series, measured, None)
+}
+
+/// As [`write_figure`], the figure marking the end of the fit window at `fit_end_s` (s) with a
+/// dotted vertical line on every panel (as the article's Figure 6 does).
+pub(super) fn write_fit_figure(
+    path: &Path,
+    title: &str,
+    subtitle: Option<&str>,
+    series: &[(String, &Signals)],
+    measured: Option<&Signals>,
+    fit_end_s: Option<f64>,
+) -> Result<()> {
+    match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
+        Format::Csv => write_atomic(path, signals_csv(series, measured).as_bytes()),
+        Format::Mat => export::write_signals_mat(path, title, series, measured, &[]),
+        _ => {
+            let mut panels = four_panels(series, measured);
+            if let Some(t) = fit_end_s {
+                mark_fit_end(&mut panels, t);
+            }
+            render(path, title, subtitle, &panels)
+        }
     }
-    render(path, title, subtitle, &four_panels(series, measured))
+}
+
+/// A dotted vertical line at `t_s` spanning each panel's values, labelled once.
+fn mark_fit_end(panels: &mut [Panel], t_s: f64) {
+    for (i, panel) in panels.iter_mut().enumerate() {
+        let (lo, hi) = panel
+            .traces
+            .iter()
+            .flat_map(|tr| tr.y.iter().copied().filter(|y| y.is_finite()))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
+                (l.min(y), h.max(y))
+            });
+        if lo <= hi {
+            let label = if i == 0 { "end of fit window" } else { "" };
+            panel.traces.push(trace(
+                label,
+                &[t_s, t_s],
+                &[lo, hi],
+                LineStyle::Dotted,
+                Some(7),
+            ));
+        }
+    }
 }
 
 /// Render panels to SVG or PNG by extension, atomically.

@@ -1,12 +1,9 @@
-//! The emulated stand-ins for the article's records (issue 5). The article's measurements are
+//! The emulated stand-ins for the article's records (docs/emulator.md#the-emulated-article-records). The article's measurements are
 //! not public, so these records come from the nonlinear emulator with a known truth:
-//! the default rig (SPEC §2) with every emulator effect on ([`Effects::article`]), β_e(p) from
-//! the gas fraction that gives 165 bar at 4.4 bar (SPEC §7), and a 100 Hz PLC with sensor noise.
-//!
-//! One deliberate departure from SPEC §2, stated wherever these records are used: the PLC's
-//! sum-pressure gain is **0.22 per bar** (0.15 below 10 t), the SPEC's 22 (15) read as percent
-//! of full command per bar. At 22 per bar the sum-pressure loop gains about 23 per PLC sample and
-//! no 100 Hz controller can hold it (the README's "Known modelling question").
+//! the default rig (the article's Section 2.3.4) with every emulator effect on
+//! ([`Effects::article`]), β_e(p) from the gas fraction that gives 165 bar at 4.4 bar (the
+//! article's constant gas-fraction model), and a 100 Hz PLC with sensor noise. The PLC's sum-pressure gain is the
+//! default rig's 0.22 per bar (0.15 below 10 t), so the records replay on the default rig.
 
 use super::experiment::{DriveSignals, DriveStep, Experiment};
 use super::{equilibrium, Dynamics, Effects, Plc};
@@ -14,15 +11,25 @@ use crate::bulk::effective_beta;
 use crate::response::Signals;
 use crate::rig::{Rig, PA_PER_BAR};
 
-/// The PLC's sum-pressure gain of the emulated rig for masses of 10 t and more (1/bar).
+/// The sum-pressure gain for masses of 10 t and more (1/bar): the default rig's, the article's
+/// "22" read as percent of full command per bar.
 pub const K_PRES_HEAVY_PER_BAR: f64 = 0.22;
-/// … and below 10 t (1/bar).
+/// … and below 10 t (1/bar): the article's "(15)".
 pub const K_PRES_LIGHT_PER_BAR: f64 = 0.15;
-/// The bulk modulus (bar) the gas fraction is fitted to, at [`P_FIT_BAR`] (SPEC §7).
+
+/// The sum-pressure gain the article uses for a load of `mass_kg` (1/bar).
+pub fn k_pres_for_mass(mass_kg: f64) -> f64 {
+    if mass_kg >= 10_000.0 {
+        K_PRES_HEAVY_PER_BAR
+    } else {
+        K_PRES_LIGHT_PER_BAR
+    }
+}
+/// The bulk modulus (bar) the gas fraction is fitted to, at [`P_FIT_BAR`] (docs/bulk-modulus.md#fitting-the-gas-fraction).
 pub const BETA_FIT_BAR: f64 = 165.0;
 /// Mean chamber pressure of the fit (bar): the article's identification records.
 pub const P_FIT_BAR: f64 = 4.4;
-/// The bulk modulus of the robustness record at its operating pressure (bar, SPEC §6.3).
+/// The bulk modulus of the robustness record at its operating pressure (bar, docs/emulator.md#the-emulated-article-records).
 pub const BETA_ROBUSTNESS_BAR: f64 = 220.0;
 
 /// The rig, emulator effects and PLC a record is emulated with.
@@ -62,9 +69,9 @@ pub struct ArticleRecord {
 /// An emulated record's signals.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Emulated {
-    /// SPEC §9 record of the closed loop.
+    /// Record of the closed loop (docs/formats.md#record-csv).
     Loop(Signals),
-    /// Drive record (SPEC §6.1).
+    /// Drive record (docs/formats.md#drive-record-csv).
     Drive(DriveSignals),
 }
 
@@ -124,11 +131,7 @@ pub fn plc(seed: u64) -> Plc {
 /// The emulated rig for a position gain and mass, its sum-pressure set-point chosen so the
 /// mean chamber pressure at x0 is `p_mean_bar` (the P sum-pressure loop's droop included).
 pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<Rig, String> {
-    let k_pres = if mass_kg >= 10_000.0 {
-        K_PRES_HEAVY_PER_BAR
-    } else {
-        K_PRES_LIGHT_PER_BAR
-    };
+    let k_pres = k_pres_for_mass(mass_kg);
     let gas = effects
         .gas_fraction
         .ok_or("the article truth needs a gas fraction")?;
@@ -160,7 +163,9 @@ pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, String
 /// Every embedded record, in the order `reproduce` uses them.
 pub fn records() -> Result<Vec<ArticleRecord>, String> {
     let effects = Effects::article(BETA_FIT_BAR, P_FIT_BAR)?;
-    let p_robust = pressure_for_beta(&effects, BETA_ROBUSTNESS_BAR)?;
+    // the robustness record: more undissolved air (after a long shutdown, the article's
+    // Results), so β_e is 220 bar at the same operating pressure
+    let robust_effects = Effects::article(BETA_ROBUSTNESS_BAR, P_FIT_BAR)?;
     let heavy = |kp: f64| rig(kp, 10_593.0, P_FIT_BAR, effects);
     let truth = |rig: Rig, seed: u64| Truth {
         rig,
@@ -176,25 +181,29 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
     let mut out = vec![
         ArticleRecord {
             file: "identification.csv",
-            what: "5 mm step 340 -> 345 mm, Kp = 25, m = 10 593 kg (SPEC §6.3 identification set)",
+            what: "5 mm step 340 -> 345 mm, Kp = 25, m = 10 593 kg (the article §2.4 identification set)",
             kind: Kind::Loop(step),
             truth: truth(heavy(25.0)?, 1),
         },
         ArticleRecord {
             file: "validation.csv",
-            what: "the same step with Kp = 20 (SPEC §6.3 validation set)",
+            what: "the same step with Kp = 20 (the article §2.4 validation set)",
             kind: Kind::Loop(step),
             truth: truth(heavy(20.0)?, 2),
         },
         ArticleRecord {
             file: "robustness.csv",
-            what: "the same step with m = 4898 kg, Kp = 40, beta_e 220 bar at the operating pressure",
+            what: "the same step with m = 4898 kg, Kp = 40, another day's gas fraction: beta_e 220 bar at the operating pressure",
             kind: Kind::Loop(step),
-            truth: truth(rig(40.0, 4_898.0, p_robust, effects)?, 3),
+            truth: Truth {
+                rig: rig(40.0, 4_898.0, P_FIT_BAR, robust_effects)?,
+                effects: robust_effects,
+                plc: plc(3),
+            },
         },
         ArticleRecord {
             file: "drive_step.csv",
-            what: "drive 1 alone, feedforward off, speed step 0 -> 500 rpm, drive scope at 1 kHz (SPEC §6.1)",
+            what: "drive 1 alone, feedforward off, speed step 0 -> 500 rpm, drive scope at 1 kHz (the article §2.4.1)",
             kind: Kind::Drive(DriveStep {
                 motor: 1,
                 from_rpm: 0.0,
@@ -212,7 +221,7 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
         },
         ArticleRecord {
             file: "standstill.csv",
-            what: "reference held at 345 mm for 10 s, Kp = 25: the pumps feed the leakage (SPEC §6.2)",
+            what: "reference held at 345 mm for 10 s, Kp = 25: the pumps feed the leakage (the article §2.4)",
             kind: Kind::Loop(Experiment::Standstill {
                 x_mm: 345.0,
                 duration_s: 10.0,
@@ -228,7 +237,7 @@ pub fn records() -> Result<Vec<ArticleRecord>, String> {
     for (file, f, a, seed) in sines {
         out.push(ArticleRecord {
             file,
-            what: "sinusoidal tracking about 345 mm, Kp = 25, two periods after 1 s at rest (SPEC §5)",
+            what: "sinusoidal tracking about 345 mm, Kp = 25, two periods after 1 s at rest (docs/simulation.md#tracking-metrics)",
             kind: Kind::Loop(Experiment::Sine {
                 centre_mm: 345.0,
                 amplitude_mm: a,
@@ -281,13 +290,15 @@ pub fn readme(records: &[ArticleRecord]) -> String {
     let _ = write!(
         s,
         "\n## The truth\n\n\
-         The default rig of SPEC §2 (`pumpcyl rig --print-default`): c12 = {c12:.2e}, c1 = {c1:.3e}, \
+         The default rig (the article's Section 2.3.4; `pumpcyl rig --print-default`): c12 = {c12:.2e}, c1 = {c1:.3e}, \
          c2 = {c2:.3e} m^5/(N s), b = {b} N s/m, Km = {km} N m s/rad, with these emulator effects:\n\n\
          - chamber volumes following the piston; the effective mass against stroke \
-         (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: SPEC §4);\n\
-         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the gas-fraction model of SPEC §7, \
-         X = {x:.5} (beta_e = {bf} bar at {pf} bar, beta_oil = {oil} bar); the table above gives \
-         beta_e at each record's mean chamber pressure, the value identification should find;\n\
+         (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: the article §2.1);\n\
+         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the constant gas-fraction model \
+         of the article, X = {x:.5} (beta_e = {bf} bar at {pf} bar, beta_oil = {oil} bar); \
+         the robustness record has more undissolved air, X = {xr:.5} (beta_e = {br} bar at {pf} bar, \
+         as after a long shutdown); the table above gives beta_e at each record's mean chamber \
+         pressure, the value identification should find;\n\
          - cavitation at -1 bar gauge; motor torque limited to {tq}x the rated {rated} N m; pump speed \
          limit {pmax} rpm;\n\
          - pump low-speed behaviour: below {db:.0} rpm a pump's flow fades out and a slip leakage of \
@@ -295,13 +306,14 @@ pub fn readme(records: &[ArticleRecord]) -> String {
          - Coulomb friction {fc} N on the piston;\n\
          - the PLC at 100 Hz (the drive step: the drive's own scope at 1 kHz), commands held between \
          samples, position noise 5 um (1 um resolution), pressure noise 0.01 bar, speed noise 1 rpm.\n\n\
-         One deliberate departure from SPEC §2: the PLC's sum-pressure gain is {kh} per bar ({kl} \
-         below 10 t), SPEC's 22 (15) read as percent of full command per bar. At 22 per bar the \
-         sum-pressure loop gains about 23 per PLC sample, and no 100 Hz controller holds it (the \
-         project README, \"Known modelling question\"). `identify.toml` sets the same gain for the \
-         LTI model.\n\n\
-         `identify.toml` runs the article's identification (SPEC §6.3) on `identification.csv` and \
-         `validation.csv`, with c1 and c2 from `standstill.csv`:\n\n    \
+         The PLC's sum-pressure gain is the default rig's {kh} per bar ({kl} below 10 t), the \
+         article's 22 (15) read as percent of full command per bar, so every record replays on the \
+         default rig with its own Kp and mass:\n\n    \
+         cargo run --release -- simulate --experiment data/article/identify.toml --dataset 1\n\n\
+         `identify.toml` runs the article's identification (Section 2.4) on `identification.csv` \
+         and `validation.csv`, with c1 and c2 from `standstill.csv`, fitting up to {w25} s after the \
+         step for Kp = 25 and {w20} s for Kp = 20 (the article's Section 2.4 and Figure 6; the pumps' \
+         low-speed dead band takes over after that):\n\n    \
          cargo run --release -- identify data/article/identify.toml\n",
         c12 = rig.c12_m5_per_ns,
         c1 = rig.c1_m5_per_ns,
@@ -309,6 +321,14 @@ pub fn readme(records: &[ArticleRecord]) -> String {
         b = rig.viscous_friction_ns_per_m,
         km = rig.km1_nms_per_rad,
         x = e.gas_fraction.unwrap_or(0.0),
+        xr = records
+            .iter()
+            .find(|r| r.file == "robustness.csv")
+            .and_then(|r| r.truth.effects.gas_fraction)
+            .unwrap_or(f64::NAN),
+        br = BETA_ROBUSTNESS_BAR,
+        w25 = FIT_WINDOW_KP25_S,
+        w20 = FIT_WINDOW_KP20_S,
         bf = BETA_FIT_BAR,
         pf = P_FIT_BAR,
         oil = e.beta_oil_bar,
@@ -324,35 +344,49 @@ pub fn readme(records: &[ArticleRecord]) -> String {
     s
 }
 
-/// Time of the step in the step records (s) and the fit window after it (SPEC §6.3: the
-/// dead band takes over about 3.2 s after the step for Kp = 25).
+/// Time of the step in the step records (s).
 pub const STEP_AT_S: f64 = 0.5;
-/// Fit window after the step (s).
-pub const FIT_WINDOW_S: f64 = 3.2;
+/// Fit window after the step for Kp = 25 (s): the article's non-LTI region starts 2.2 s after
+/// the step (its Figure 6 steps at t = 1 s and draws the line at t = 3.2 s).
+pub const FIT_WINDOW_KP25_S: f64 = 2.2;
+/// Fit window after the step for Kp = 20 (s): 1.9 s after the step (the article's Section 2.4).
+pub const FIT_WINDOW_KP20_S: f64 = 1.9;
+
+/// The fit window after the step for a position gain (s): the article's 1.9 s for Kp = 20 and
+/// below, its 2.2 s for Kp = 25 and above (the article gives no window for the Kp = 40
+/// robustness record; it gets the Kp = 25 one) **\[choice\]**.
+pub fn fit_window_s(kp: f64) -> f64 {
+    if kp <= 20.0 {
+        FIT_WINDOW_KP20_S
+    } else {
+        FIT_WINDOW_KP25_S
+    }
+}
 
 /// The `identify` experiment for the emulated identification and validation records.
 pub fn identify_experiment() -> String {
+    let end = |kp: f64| STEP_AT_S + fit_window_s(kp);
     format!(
-        "# The article's identification (SPEC §6.3) on the emulated records of this folder\n\
-         # (README.md). Made by `pumpcyl emulate --article-records`.\n\n\
-         [set]\n\
-         k_pres_per_bar = {kh}   # the emulated PLC's sum-pressure gain (README.md)\n\n\
+        "# The article's identification (Section 2.4) on the emulated records of this folder\n\
+         # (README.md). Made by `pumpcyl emulate --article-records`. The records were made with\n\
+         # the default rig's sum-pressure gain, so no [set] is needed.\n\n\
          [standstill]\n\
-         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (SPEC §6.2)\n\n\
+         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (Section 2.4)\n\n\
          [[dataset]]\n\
          file = \"identification.csv\"\n\
          kp = 25.0\n\
          mass_kg = 10593.0\n\
-         fit_end_s = {end}   # {at} s at rest + {win} s after the step\n\n\
+         fit_end_s = {e25}   # {at} s at rest + {w25} s after the step (the article's Figure 6)\n\n\
          [[dataset]]\n\
          file = \"validation.csv\"\n\
          kp = 20.0\n\
          mass_kg = 10593.0\n\
-         fit_end_s = {end}\n",
-        kh = K_PRES_HEAVY_PER_BAR,
+         fit_end_s = {e20}   # {at} s at rest + {w20} s after the step (the article's Section 2.4)\n",
         at = STEP_AT_S,
-        win = FIT_WINDOW_S,
-        end = STEP_AT_S + FIT_WINDOW_S,
+        w25 = FIT_WINDOW_KP25_S,
+        w20 = FIT_WINDOW_KP20_S,
+        e25 = end(25.0),
+        e20 = end(20.0),
     )
 }
 

@@ -1,6 +1,6 @@
-//! What the emulated rig is asked to do (issue 5): a position step, a sinusoid or a standstill
+//! What the emulated rig is asked to do (docs/emulator.md): a position step, a sinusoid or a standstill
 //! of the closed loop, or a velocity step of one drive with its motor decoupled from the pump
-//! (SPEC §6.1).
+//! (the article §2.4.1; docs/identification.md#drive-gain).
 
 use super::plc::{integrate, Noise};
 use super::{emulate, Dynamics, Effects, Plc};
@@ -14,21 +14,35 @@ use std::fmt::Write;
 pub enum Experiment {
     /// The reference jumps from `from_mm` to `to_mm` at `at_s`.
     Step {
+        /// Reference before the step (mm).
         from_mm: f64,
+        /// Reference after the step (mm).
         to_mm: f64,
+        /// Time of the step (s).
         at_s: f64,
+        /// Length of the record (s).
         duration_s: f64,
     },
-    /// x_ref = centre + amplitude sin(2π f (t − start)) from `start_s` on (SPEC §5).
+    /// x_ref = centre + amplitude sin(2π f (t − start)) from `start_s` on (docs/simulation.md#tracking-metrics).
     Sine {
+        /// Centre of the sinusoid, and the reference before `start_s` (mm).
         centre_mm: f64,
+        /// Amplitude (mm).
         amplitude_mm: f64,
+        /// Frequency (Hz).
         freq_hz: f64,
+        /// Time the sinusoid starts (s).
         start_s: f64,
+        /// Length of the record (s).
         duration_s: f64,
     },
-    /// The reference held at `x_mm`: the pumps only feed the leakage (SPEC §6.2).
-    Standstill { x_mm: f64, duration_s: f64 },
+    /// The reference held at `x_mm`: the pumps only feed the leakage (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
+    Standstill {
+        /// Reference position held (mm).
+        x_mm: f64,
+        /// Length of the record (s).
+        duration_s: f64,
+    },
 }
 
 impl Experiment {
@@ -83,7 +97,7 @@ impl Experiment {
 const SETTLE_S: f64 = 0.5;
 
 /// A velocity step of one drive, its motor decoupled from the pump and the feedforward off
-/// (SPEC §6.1): Jm ω̇ = τem, τem = τref/(s/ωI + 1), τref = Km (ωref − ω), the torque reference
+/// (the article §2.4.1; docs/identification.md#drive-gain): Jm ω̇ = τem, τem = τref/(s/ωI + 1), τref = Km (ωref − ω), the torque reference
 /// limited to the peak torque.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DriveStep {
@@ -99,7 +113,7 @@ pub struct DriveStep {
     pub duration_s: f64,
 }
 
-/// A drive record: `time_s`, `w_ref_rpm`, `w_rpm` (SPEC §6.1).
+/// A drive record: `time_s`, `w_ref_rpm`, `w_rpm` (docs/formats.md#drive-record-csv).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DriveSignals {
     /// Time (s).

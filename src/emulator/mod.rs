@@ -1,11 +1,11 @@
-//! The nonlinear rig emulator (issue 5, in progress): the continuous dynamics of the DPM rig
+//! The nonlinear rig emulator (docs/emulator.md): the continuous dynamics of the DPM rig
 //! with what the LTI model leaves out — chamber volumes that follow the piston, a
-//! pressure-dependent bulk modulus (SPEC §7), cavitation, motor torque and speed limits, pump
+//! pressure-dependent bulk modulus (docs/bulk-modulus.md), cavitation, motor torque and speed limits, pump
 //! low-speed flow loss, Coulomb friction and a stroke-dependent mass. Each effect can be
 //! switched off; with all of them off the right-hand side linearises to the analytic model of
 //! `model` (a test checks every entry of A and B).
 //!
-//! [`plc`] closes the loop at the PLC's rate and integrates these dynamics between samples.
+//! `plc` closes the loop at the PLC's rate and integrates these dynamics between samples.
 
 pub mod article;
 mod experiment;
@@ -24,7 +24,7 @@ pub struct Effects {
     /// Chamber volumes V1 = VL1 + A1 x, V2 = VL2 + A2 (x_max − x) instead of fixed at x0.
     pub varying_volumes: bool,
     /// Gas fraction X of the bulk-modulus model: β_e of both chambers from their mean pressure
-    /// (p1 + p2)/2, as SPEC §7 defines it; `None` keeps β constant.
+    /// (p1 + p2)/2, as docs/bulk-modulus.md#the-constant-gas-fraction-model defines it; `None` keeps β constant.
     pub gas_fraction: Option<f64>,
     /// Pure-oil bulk modulus (bar) for the gas-fraction model.
     pub beta_oil_bar: f64,
@@ -64,11 +64,11 @@ impl Effects {
         }
     }
 
-    /// Every effect on, as the emulated article rig has them (SPEC §2, §4, §7 and issue 5):
+    /// Every effect on, as the emulated article rig has them (docs/emulator.md#the-dynamics):
     /// volumes following the piston, β_e(p) with the gas fraction that gives `beta_bar` at
     /// `p_mean_bar`, a 3× peak torque, the pump speed limit, a 60 rpm pump dead band with slip
     /// leakage, 15 N Coulomb friction, and the seesaw's effective mass against stroke
-    /// (9958 kg at −50 mm, 12 373 kg at +50 mm for 10 593 kg at x0: SPEC §4).
+    /// (9958 kg at −50 mm, 12 373 kg at +50 mm for 10 593 kg at x0: the article §2.1).
     pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, String> {
         let oil = crate::bulk::BETA_OIL_BAR;
         let x = crate::bulk::gas_fraction(beta_bar, p_mean_bar, oil).map_err(|e| e.to_string())?;
@@ -355,8 +355,7 @@ mod emulate_tests {
     #[test]
     fn effects_off_and_a_fast_plc_reproduce_the_lti_step() {
         // at 1 kHz the sampled controller is close to the LTI model's continuous one. The
-        // sum-pressure loop stays open: with K_pres per bar its 156 Hz mode (ζ ≈ 0.02) is
-        // destabilised by any sampling delay (see the README's modelling question).
+        // sum-pressure loop stays open: the comparison is of the position loop alone.
         let rig = Rig {
             sum_pressure: false,
             ..Rig::default()
@@ -364,7 +363,7 @@ mod emulate_tests {
         let d = Dynamics::new(&rig, Effects::none()).unwrap();
         let step = |t: f64| if t < 0.2 { 345.0 } else { 350.0 };
         let em = emulate(&rig, &d, &Plc::ideal(1000.0), 5.0, 2.0, step).unwrap();
-        // compare deviations from the settled state, as SPEC §9 does with records
+        // compare deviations from the settled state, as docs/simulation.md#deviations-and-the-baseline does with records
         let mut base = Baseline::of_rig(&rig);
         base.x_mm = em.x_mm[0];
         base.p_bar = [em.p1_bar[0], em.p2_bar[0]];
@@ -379,6 +378,6 @@ mod emulate_tests {
         assert!(worst < 0.1, "largest difference {worst} mm on a 5 mm step");
         // Pressures are not compared: without the sum-pressure loop nothing holds p1 + p2, and
         // the leakage drains it towards 0.2 bar while the run goes on, a drift the deviation
-        // model cannot show (the README's modelling question).
+        // model cannot show.
     }
 }

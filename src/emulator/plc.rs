@@ -1,5 +1,5 @@
 //! The PLC around the emulated rig: 100 Hz sampling, sensor noise and quantisation, the DPM
-//! control law of SPEC §3 in absolute terms (the 10 bar sum-pressure set-point matters here),
+//! control law of docs/model.md#the-dpm-control-law in absolute terms (the 10 bar sum-pressure set-point matters here),
 //! commands held between samples, and the plant integrated between samples by diffsol's BDF
 //! (the current loop at 1257 1/s makes the dynamics stiff).
 
@@ -266,7 +266,7 @@ fn measure(x: &[f64], d: &Dynamics, plc: &Plc, noise: &mut Noise) -> Measured {
     }
 }
 
-/// The DPM control law of SPEC §3 on the measurements (sum pressure in bar): the speed
+/// The DPM control law of docs/model.md#the-dpm-control-law on the measurements (sum pressure in bar): the speed
 /// references (rad/s).
 fn control(rig: &Rig, r_mm: f64, m: &Measured) -> [f64; 2] {
     let si = rig.si();

@@ -1,4 +1,4 @@
-//! Drive velocity-loop gain from a motor velocity step (SPEC §6.1): the motor alone, decoupled
+//! Drive velocity-loop gain from a motor velocity step (the article §2.4.1; docs/identification.md#drive-gain): the motor alone, decoupled
 //! from the pump, feedforward off: Jm ω̇ = τem, τem = τref/(s/ωI + 1), τref = Km (ωref − ω).
 
 use super::IdentError;

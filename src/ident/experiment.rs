@@ -28,7 +28,7 @@ pub struct ExperimentFile {
     /// Rig key overrides (same keys as the rig TOML).
     #[serde(default)]
     pub set: toml::Table,
-    /// Standstill point for c1, c2 (SPEC §6.2).
+    /// Standstill point for c1, c2 (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
     pub standstill: StandstillSpec,
     /// The records to fit, at least one.
     pub dataset: Vec<DatasetSpec>,
@@ -51,7 +51,7 @@ pub struct ExperimentFile {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StandstillSpec {
-    /// A standstill record (SPEC §9 CSV with `w1_rpm`, `w2_rpm`, `p1_bar`), averaged.
+    /// A standstill record (docs/formats.md#record-csv with `w1_rpm`, `w2_rpm`, `p1_bar`), averaged.
     pub record: Option<String>,
     /// Motor/pump 1 speed (rpm).
     pub w1_rpm: Option<f64>,
@@ -218,7 +218,7 @@ impl Experiment {
         })
     }
 
-    /// The two grids: the file's, else the article's (SPEC §6.3).
+    /// The two grids: the file's, else the article's (docs/identification.md#the-two-grids).
     pub fn grids(&self) -> (Grid, Option<Grid>) {
         (
             self.file.grid.clone().unwrap_or_else(Grid::article_first),

@@ -1,4 +1,4 @@
-//! Candidate grids of the two-stage search (SPEC §6.3).
+//! Candidate grids of the two-stage search (docs/identification.md#the-two-grids).
 
 use serde::{Deserialize, Serialize};
 
@@ -54,7 +54,7 @@ pub fn stepped(from: f64, to: f64, step: f64) -> Vec<f64> {
 }
 
 impl Grid {
-    /// The article's first grid: 16 β × 12 b × 17 c12 = 3264 candidates (SPEC §6.3).
+    /// The article's first grid: 16 β × 12 b × 17 c12 = 3264 candidates (docs/identification.md#the-two-grids).
     pub fn article_first() -> Grid {
         let mut beta = stepped(25.0, 250.0, 25.0);
         beta.push(300.0);
@@ -69,7 +69,7 @@ impl Grid {
         }
     }
 
-    /// The article's refined grid: 19 β × 11 b × 17 c12 = 3553 candidates (SPEC §6.3).
+    /// The article's refined grid: 19 β × 11 b × 17 c12 = 3553 candidates (docs/identification.md#the-two-grids).
     pub fn article_refined() -> Grid {
         Grid {
             beta_bar: stepped(130.0, 220.0, 5.0),

@@ -1,4 +1,4 @@
-//! Chamber leakages from a standstill record (SPEC §6.2).
+//! Chamber leakages from a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
 
 use super::IdentError;
 
@@ -35,7 +35,7 @@ pub struct Leakage {
 }
 
 impl Standstill {
-    /// The mean speeds and chamber 1 pressure of a standstill record (SPEC §6.2).
+    /// The mean speeds and chamber 1 pressure of a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
     pub fn of_record(rec: &crate::record::Record) -> Result<Standstill, IdentError> {
         let mean = |v: &Option<Vec<f64>>, col: &str| {
             v.as_ref()
@@ -91,9 +91,9 @@ impl Standstill {
         Ok(())
     }
 
-    /// c1 and c2 from the standstill continuity equations (SPEC §6.2) for a given c12:
+    /// c1 and c2 from the standstill continuity equations (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill) for a given c12:
     /// c1 = (D1 ω1 + D2 ω2 − c12 (p1 − p2))/p1, c2 = (−D1 ω1 + c12 (p1 − p2))/p2, with p2 from
-    /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (SPEC §3's sign convention).
+    /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
         let si = rig.si();
@@ -116,6 +116,40 @@ impl Standstill {
             c2_m5_per_ns: (-si.d[0] * w1 + cross) / p2,
         })
     }
+}
+
+/// Largest spread of the position (max − min, mm) a standstill record may show: more than
+/// sensor noise and a P loop's creep means the piston moved, and the pumps' mean speeds then
+/// feed motion as well as leakage.
+pub const STANDSTILL_SPREAD_MM: f64 = 0.5;
+
+/// Why a record may not be a standstill (the article's Section 2.4 needs the piston at
+/// rest under feedback): the reference changes, or the position spreads more than
+/// [`STANDSTILL_SPREAD_MM`].
+pub fn standstill_warnings(rec: &crate::record::Record) -> Vec<String> {
+    let mut out = Vec::new();
+    if rec.first_change() < rec.len() {
+        out.push(format!(
+            "{}: the reference changes at t = {} s: a standstill record holds it constant",
+            rec.file,
+            rec.time_s[rec.first_change()]
+        ));
+    }
+    let (lo, hi) = rec
+        .x_mm
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+            (l.min(x), h.max(x))
+        });
+    if hi - lo > STANDSTILL_SPREAD_MM {
+        out.push(format!(
+            "{}: the position spans {:.3} mm (more than {STANDSTILL_SPREAD_MM} mm): the piston is not at standstill, \
+             so the mean pump speeds feed motion as well as leakage",
+            rec.file,
+            hi - lo
+        ));
+    }
+    out
 }
 
 #[cfg(test)]

@@ -1,6 +1,35 @@
-//! Parameter identification from measured data (SPEC §6): drive gain from a velocity step,
+//! Parameter identification from measured data (the article §2.4; docs/identification.md): drive gain from a velocity step,
 //! chamber leakages from a standstill record, and the two-stage grid search for β, b and c12
 //! with a local refinement.
+//!
+//! Identify β, b and c12 from the emulated article records (whose truth is β_e ≈ 165 bar,
+//! c12 = 1.2e-10 m⁵/(N·s)) on a small grid of your own (docs/identification.md):
+//!
+//! ```
+//! use pumpcyl::ident::{finish, run_stages, Experiment, Grid, Options};
+//! use std::path::Path;
+//!
+//! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml");
+//! let exp = Experiment::load(&file)?; // the records, the standstill point, the rig
+//! let grid = Grid {
+//!     beta_bar: vec![100.0, 165.0, 250.0],
+//!     viscous_friction_ns_per_m: vec![100.0, 300.0],
+//!     c12_m5_per_ns: vec![1.2e-10],
+//! };
+//! let opts = Options {
+//!     auto_refine: false,
+//!     local_refinement: false,
+//!     threshold_mm2: 0.25,
+//!     top_n: 3,
+//! };
+//! let stages = run_stages(&exp.problem, (grid, None), &opts, None, &|_| {})?;
+//! let id = finish(&exp.problem, stages, &opts)?;
+//! assert_eq!(id.evaluated(), 6);
+//! assert_eq!(id.best().candidate.beta_bar, 165.0);
+//! // c1 from the standstill record for that c12: the emulator's 5.49e-11 within 1 %
+//! assert!((id.leakage.c1_m5_per_ns / 5.49e-11 - 1.0).abs() < 0.01);
+//! # Ok::<(), pumpcyl::ident::IdentError>(())
+//! ```
 
 mod drive;
 mod experiment;
@@ -13,7 +42,7 @@ mod search;
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
 pub use grid::{spaced, stepped, Candidate, Grid};
-pub use leakage::{Leakage, Standstill};
+pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
@@ -35,6 +64,9 @@ pub enum IdentError {
     /// A numerical failure.
     #[error(transparent)]
     Lti(#[from] crate::lti::LtiError),
+    /// The caller stopped the search (see [`run_stages_while`]).
+    #[error("identification interrupted")]
+    Interrupted,
 }
 
 /// Options of the two-stage search.
@@ -84,6 +116,54 @@ impl Identification {
     pub fn evaluated(&self) -> u64 {
         self.stages.iter().map(|s| s.summary.evaluated).sum()
     }
+
+    /// What a user should know before trusting the answer: the best grid point on an edge of
+    /// its grid (the optimum may lie outside it), and a search where every candidate of the
+    /// top list costs the same (the records carry no excitation: the reference never moves the
+    /// loop, so the cost cannot tell the parameters apart).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let [first, .., last] = self.top.as_slice() {
+            if (last.cost_mm2 - first.cost_mm2).abs() <= 1e-12 * first.cost_mm2.abs().max(1e-300) {
+                out.push(format!(
+                    "every candidate of the top {} costs the same ({:.4e} mm²): the records carry no excitation \
+                     (does the reference step?), so the answer means nothing",
+                    self.top.len(),
+                    first.cost_mm2
+                ));
+                return out;
+            }
+        }
+        let best = &self.grid_best;
+        let Some(stage) = self.stages.get(usize::from(best.stage.max(1)) - 1) else {
+            return out;
+        };
+        let c = &best.candidate;
+        let axes = [
+            ("beta_bar", c.beta_bar, &stage.grid.beta_bar),
+            (
+                "viscous_friction_ns_per_m",
+                c.viscous_friction_ns_per_m,
+                &stage.grid.viscous_friction_ns_per_m,
+            ),
+            ("c12_m5_per_ns", c.c12_m5_per_ns, &stage.grid.c12_m5_per_ns),
+        ];
+        for (name, v, axis) in axes {
+            let (lo, hi) = axis
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            if axis.len() > 1 && (v == lo || v == hi) {
+                out.push(format!(
+                    "the best grid point has {name} = {v} on the edge of the stage {} grid ({lo} … {hi}): \
+                     the optimum may lie outside it; widen that axis",
+                    best.stage
+                ));
+            }
+        }
+        out
+    }
 }
 
 /// Run the search stages (both grids; the second derived from the first with `auto_refine`).
@@ -94,13 +174,45 @@ pub fn run_stages(
     shard: Option<(usize, usize)>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<Stage>, IdentError> {
+    run_stages_while(problem, grids, opts, shard, &|n| {
+        progress(n);
+        true
+    })
+}
+
+/// [`run_stages`], stoppable: `progress(n)` is called after each chunk of n candidates and the
+/// search stops soon after it returns `false`, with [`IdentError::Interrupted`] (for callers
+/// that watch for an interrupt, such as the Python package on Ctrl-C).
+pub fn run_stages_while(
+    problem: &Problem,
+    grids: (Grid, Option<Grid>),
+    opts: &Options,
+    shard: Option<(usize, usize)>,
+    progress: &(dyn Fn(u64) -> bool + Sync),
+) -> Result<Vec<Stage>, IdentError> {
+    let stopped = std::sync::atomic::AtomicBool::new(false);
+    let progress = |n: u64| {
+        let go_on = progress(n);
+        if !go_on {
+            stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        go_on
+    };
+    let check = || {
+        if stopped.load(std::sync::atomic::Ordering::Relaxed) {
+            Err(IdentError::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
     let search_opts = SearchOptions {
         top_n: opts.top_n,
         threshold_mm2: opts.threshold_mm2,
         shard,
     };
     let (first, second) = grids;
-    let s1 = search(problem, &first, 1, search_opts, progress);
+    let s1 = search(problem, &first, 1, search_opts, &progress);
+    check()?;
     let second = match (opts.auto_refine, second) {
         (true, _) => {
             let bounds = s1.threshold_bounds.ok_or_else(|| {
@@ -119,7 +231,8 @@ pub fn run_stages(
         summary: s1,
     }];
     if let Some(grid) = second {
-        let summary = search(problem, &grid, 2, search_opts, progress);
+        let summary = search(problem, &grid, 2, search_opts, &progress);
+        check()?;
         stages.push(Stage { grid, summary });
     }
     Ok(stages)

@@ -1,5 +1,5 @@
 //! The identification problem: datasets prepared for fast evaluation and the cost of a candidate
-//! (SPEC §6.3): the mean over datasets of the mean squared position error (mm²) inside each fit
+//! (docs/identification.md#the-cost): the mean over datasets of the mean squared position error (mm²) inside each fit
 //! window, the model driven by the recorded reference from the record's initial steady state.
 
 use super::grid::Candidate;
@@ -14,7 +14,7 @@ use crate::rig::Rig;
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DatasetSpec {
-    /// Record file (SPEC §9 CSV), relative to the experiment file.
+    /// Record file (docs/formats.md#record-csv), relative to the experiment file.
     pub file: String,
     /// Position gain used in the experiment (normalised command per metre).
     pub kp: f64,

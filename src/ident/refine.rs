@@ -1,5 +1,5 @@
 //! Local refinement of the best grid point by Nelder–Mead (argmin) on the logarithms of β, b
-//! and c12, so the parameters stay positive without bounds (SPEC §6.3, after the grids).
+//! and c12, so the parameters stay positive without bounds (docs/identification.md#neldermead-refinement).
 
 use super::grid::Candidate;
 use super::problem::Problem;

@@ -1,13 +1,13 @@
 //! Parallel grid search in bounded memory: candidates are generated from their index, costed,
 //! and folded into a top-N list and threshold statistics per chunk; nothing per candidate is
-//! stored (SPEC §6.3). Unstable candidates are caught by their closed-loop eigenvalues before
+//! stored (docs/identification.md#pruning). Unstable candidates are caught by their closed-loop eigenvalues before
 //! they can enter any reported result.
 
 use super::grid::{Candidate, Grid};
 use super::problem::Problem;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Candidates per parallel work item (and per progress update).
 const CHUNK: usize = 64;
@@ -176,14 +176,16 @@ pub struct SearchOptions {
 }
 
 /// Evaluate every candidate of `grid` (or of the shard) in parallel. `progress(n)` is called
-/// after each chunk of n candidates.
+/// after each chunk of n candidates; once it returns `false` the remaining chunks are skipped
+/// (the summary then covers only the chunks evaluated: the caller that stops discards it).
 pub fn search(
     problem: &Problem,
     grid: &Grid,
     stage: u8,
     opts: SearchOptions,
-    progress: &(dyn Fn(u64) + Sync),
+    progress: &(dyn Fn(u64) -> bool + Sync),
 ) -> Summary {
+    let stopped = AtomicBool::new(false);
     let (shard, shards) = opts.shard.map_or((0, 1), |(i, n)| (i - 1, n));
     let mine = shard_len(grid.len(), opts.shard);
     // One accumulator per rayon split; the best full-top bound any of them has reached is
@@ -195,6 +197,9 @@ pub fn search(
         .fold(
             || Summary::empty(opts.threshold_mm2),
             |mut acc, c| {
+                if stopped.load(Ordering::Relaxed) {
+                    return acc;
+                }
                 let positions = c * CHUNK..((c + 1) * CHUNK).min(mine);
                 let count = positions.len();
                 for index in positions.map(|p| shard + p * shards) {
@@ -216,7 +221,9 @@ pub fn search(
                     };
                     acc.push(s, opts.top_n, top, |c| problem.is_stable(c));
                 }
-                progress(count as u64);
+                if !progress(count as u64) {
+                    stopped.store(true, Ordering::Relaxed);
+                }
                 acc
             },
         )

@@ -1,4 +1,4 @@
-//! Frequency response C(sI − A)⁻¹B + D of a SISO model, by a solve (SPEC §4).
+//! Frequency response C(sI − A)⁻¹B + D of a SISO model, by a solve (docs/analysis.md#frequency-response).
 //!
 //! Setup once: balance A (Parlett–Reinsch) and take its real Schur form T = Qᵀ A Q (orthogonal
 //! Q, so no conditioning is lost). Each frequency then costs one complex back-substitution

@@ -1,5 +1,5 @@
 //! Generic continuous-time linear time-invariant state-space models: `ẋ = A x + B u`,
-//! `y = C x + D u`, and the analyses of SPEC §4 on them — poles, frequency response (Bode) and
+//! `y = C x + D u`, and the analyses of docs/analysis.md#margins on them — poles, frequency response (Bode) and
 //! stability margins — computed on the state-space form, never through transfer-function
 //! polynomials (see DEPENDENCIES.md for the numerical pitfalls this module avoids).
 
@@ -13,7 +13,7 @@ mod timeresp;
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
-pub use poles::{check_magnitudes, eigenvalues, PoleInfo};
+pub use poles::{check_magnitudes, eigenvalues, resonance, PoleInfo};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;

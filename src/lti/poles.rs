@@ -1,4 +1,4 @@
-//! Poles (eigenvalues of A) with natural frequency and damping ratio (SPEC §4).
+//! Poles (eigenvalues of A) with natural frequency and damping ratio (docs/analysis.md#poles-and-damping).
 
 use super::LtiError;
 use nalgebra::linalg::balancing::balance_parlett_reinsch;
@@ -11,6 +11,29 @@ const SCHUR_MAX_ITER: usize = 10_000;
 
 /// Eigenvalues of `a`, balanced first (the rig's A spans ~1e-5 … 3e10), sorted by modulus.
 /// Non-finite input or a Schur iteration that does not converge is an error, never a hang.
+///
+/// Poles and damping of the article's rig (docs/analysis.md#poles-and-damping):
+///
+/// ```
+/// use pumpcyl::{lti::{eigenvalues, PoleInfo}, model::Plant, rig::Rig};
+///
+/// let rig = Rig::default();
+/// let open = Plant::new(&rig).open_loop(false);
+/// let poles: Vec<PoleInfo> = eigenvalues(&open.a)?.into_iter().map(PoleInfo::from).collect();
+/// assert_eq!(poles.len(), 10);
+/// // one pole at the origin (the piston position integrates its velocity), damping undefined
+/// assert_eq!(poles.iter().filter(|p| p.damping.is_none()).count(), 1);
+/// // the two feedforward filters contribute their poles at −1/τff
+/// let ff = poles.iter().filter(|p| (p.re + 1.0 / rig.tau_ff_s).abs() < 1e-6).count();
+/// assert_eq!(ff, 2);
+///
+/// // closed under unity position feedback, every pole is in the left half-plane
+/// let closed: Vec<PoleInfo> = open.closed_loop_poles()?.into_iter().map(PoleInfo::from).collect();
+/// assert!(closed.iter().all(|p| p.re < 0.0));
+/// let least = closed.iter().filter_map(|p| p.damping).fold(f64::INFINITY, f64::min);
+/// assert!((0.2..0.3).contains(&least), "least damping {least}");
+/// # Ok::<(), pumpcyl::lti::LtiError>(())
+/// ```
 pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>, LtiError> {
     Ok(BalancedSchur::new(a)?.eigenvalues)
 }
@@ -99,10 +122,44 @@ impl From<Complex64> for PoleInfo {
     }
 }
 
+/// The resonance of a set of poles: the least-damped complex pair whose natural frequency lies
+/// in `[from_hz, to_hz]` (the article's Figure 14 reads it off the Bode peak), `None` if there
+/// is no complex pole there.
+pub fn resonance(poles: &[Complex64], from_hz: f64, to_hz: f64) -> Option<PoleInfo> {
+    poles
+        .iter()
+        .filter(|p| p.im > 0.0)
+        .map(|p| PoleInfo::from(*p))
+        .filter(|i| (from_hz..=to_hz).contains(&i.natural_freq_hz))
+        .min_by(|a, b| {
+            let z = |i: &PoleInfo| i.damping.unwrap_or(f64::INFINITY);
+            z(a).total_cmp(&z(b))
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn resonance_is_the_least_damped_pair_in_the_band() {
+        // two second-order modes, 1 Hz ζ 0.5 and 5 Hz ζ 0.05, and a real pole
+        let mode = |f: f64, z: f64| {
+            let w = 2.0 * PI * f;
+            let d = w * (1.0 - z * z).sqrt();
+            [Complex64::new(-z * w, d), Complex64::new(-z * w, -d)]
+        };
+        let mut p = vec![Complex64::new(-3.0, 0.0)];
+        p.extend(mode(1.0, 0.5));
+        p.extend(mode(5.0, 0.05));
+        let r = resonance(&p, 0.1, 10.0).unwrap();
+        assert_relative_eq!(r.natural_freq_hz, 5.0, max_relative = 1e-12);
+        assert_relative_eq!(r.damping.unwrap(), 0.05, max_relative = 1e-12);
+        let r = resonance(&p, 0.1, 2.0).unwrap();
+        assert_relative_eq!(r.damping.unwrap(), 0.5, max_relative = 1e-12);
+        assert!(resonance(&p, 10.0, 100.0).is_none());
+    }
 
     #[test]
     fn second_order_poles_give_wn_and_zeta() {

@@ -1,4 +1,4 @@
-//! Exact time responses of an LTI model under a zero-order-hold input (SPEC §5).
+//! Exact time responses of an LTI model under a zero-order-hold input (the article §2.3.3; docs/simulation.md#exact-zero-order-hold).
 //!
 //! For a step h the input is held constant, so x(t+h) = Φ x(t) + Γ u(t) exactly, with
 //! Φ = e^{Ah} and Γ = ∫₀ʰ e^{As} ds B, both read off one exponential of the block matrix

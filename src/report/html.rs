@@ -14,12 +14,20 @@ pub enum Block {
     Notice(String),
     /// A table: caption, header cells, rows of cells (escaped).
     Table {
+        /// Caption above the table.
         caption: String,
+        /// Header cells.
         header: Vec<String>,
+        /// Rows of cells.
         rows: Vec<Vec<String>>,
     },
     /// A figure: an SVG document and its caption.
-    Figure { svg: String, caption: String },
+    Figure {
+        /// The SVG document, inlined.
+        svg: String,
+        /// Caption below the figure.
+        caption: String,
+    },
 }
 
 const STYLE: &str =

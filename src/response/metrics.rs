@@ -1,4 +1,4 @@
-//! Step and tracking metrics (SPEC §5) of sampled responses; times between samples are found by
+//! Step and tracking metrics (docs/simulation.md#step-metrics, #tracking-metrics) of sampled responses; times between samples are found by
 //! linear interpolation.
 
 use serde::Serialize;
@@ -24,7 +24,7 @@ pub struct StepMetrics {
     pub final_error_mm: f64,
 }
 
-/// Metrics of the deviation response `y` (mm, starting at 0) to a step `r` (mm) at t[0];
+/// Metrics of the deviation response `y` (mm, starting at 0) to a step `r` (mm) at `t[0]`;
 /// `dc_mm` is the model's steady-state deviation.
 pub fn step_metrics(t: &[f64], y: &[f64], r: f64, dc_mm: f64) -> StepMetrics {
     let n = y.len();
@@ -83,7 +83,7 @@ fn settling_time(t: &[f64], v: &[f64], band: f64) -> Option<f64> {
     }
 }
 
-/// Sinusoidal tracking metrics (SPEC §5), measured after the first period.
+/// Sinusoidal tracking metrics (docs/simulation.md#tracking-metrics), measured after the first period.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TrackMetrics {
     /// Frequency (Hz).

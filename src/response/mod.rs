@@ -1,4 +1,4 @@
-//! Time-domain responses of the closed loop (SPEC §5): position step, sinusoidal tracking and
+//! Time-domain responses of the closed loop (the article §2.3.3; docs/simulation.md#exact-zero-order-hold): position step, sinusoidal tracking and
 //! any recorded reference, simulated exactly by zero-order hold on deviations from the operating
 //! point and reported as absolute values in user units (mm, bar gauge, rpm).
 
@@ -33,23 +33,30 @@ pub struct Signals {
 }
 
 impl Signals {
-    /// The signals as a SPEC §9 record: CSV with a header row, `time_s, x_ref_mm, x_mm` and
-    /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm` that hold one value per sample.
-    pub fn record_csv(&self) -> String {
-        use std::fmt::Write;
-        let n = self.time_s.len();
-        let columns: Vec<(&str, &Vec<f64>)> = [
+    /// Every signal with its column name (the record's names, and `e_mm`), in record order.
+    pub fn named(&self) -> [(&'static str, &Vec<f64>); 8] {
+        [
             ("time_s", &self.time_s),
             ("x_ref_mm", &self.x_ref_mm),
             ("x_mm", &self.x_mm),
+            ("e_mm", &self.e_mm),
             ("p1_bar", &self.p1_bar),
             ("p2_bar", &self.p2_bar),
             ("w1_rpm", &self.w1_rpm),
             ("w2_rpm", &self.w2_rpm),
         ]
-        .into_iter()
-        .filter(|(_, v)| v.len() == n)
-        .collect();
+    }
+
+    /// The signals as a record (docs/formats.md#record-csv): CSV with a header row, `time_s, x_ref_mm, x_mm` and
+    /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm` that hold one value per sample.
+    pub fn record_csv(&self) -> String {
+        use std::fmt::Write;
+        let n = self.time_s.len();
+        let columns: Vec<(&str, &Vec<f64>)> = self
+            .named()
+            .into_iter()
+            .filter(|(name, v)| *name != "e_mm" && v.len() == n)
+            .collect();
         let names: Vec<&str> = columns.iter().map(|(c, _)| *c).collect();
         let mut out = names.join(",");
         out.push('\n');
@@ -111,7 +118,7 @@ impl Baseline {
         }
     }
 
-    /// The initial steady state of a record (SPEC §9), with the rig's operating point for the
+    /// The initial steady state of a record (docs/simulation.md#deviations-and-the-baseline), with the rig's operating point for the
     /// signals the record lacks.
     pub fn of_record(rec: &crate::record::Record, rig: &Rig) -> Baseline {
         let op = Self::of_rig(rig);
@@ -172,6 +179,29 @@ pub fn sample_times(duration_s: f64, rate_hz: f64) -> Vec<f64> {
 }
 
 /// Step response: the reference jumps by `step_mm` at t = 0 from the rig's operating point.
+///
+/// A 5 mm step of the article's rig with the sum-pressure loop open, sampled at 1 kHz, and its
+/// metrics (docs/simulation.md#step-metrics): the overshoot is the article's 40 %.
+///
+/// ```
+/// use pumpcyl::{lti::dc_output, model::Plant, response, rig::Rig};
+///
+/// let rig = Rig::default().with_overrides(&["sum_pressure=false".to_string()])?;
+/// let s = response::step(&rig, 5.0, 3.0, 1000.0)?;
+/// assert_eq!(s.time_s.len(), 3001);
+/// assert!((s.x_mm[0] - rig.x0_mm).abs() < 1e-9); // starts at the operating point
+///
+/// // the steady state of the closed loop (its DC solution), then the metrics
+/// let sys = Plant::new(&rig).closed_loop_outputs(false);
+/// let dc_mm = dc_output(&sys, &[5e-3]).unwrap()[0] * 1e3;
+/// assert!((dc_mm - 5.0).abs() < 1e-9); // the integrating loop has no steady-state error
+/// let y: Vec<f64> = s.x_mm.iter().map(|x| x - s.x_mm[0]).collect();
+/// let m = response::step_metrics(&s.time_s, &y, 5.0, dc_mm);
+/// assert!((39.0..40.5).contains(&m.overshoot_pct), "overshoot {} %", m.overshoot_pct);
+/// assert!((0.3..0.45).contains(&m.rise_time_s.unwrap()));
+/// assert!(m.settling_time_s.unwrap() < 3.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Signals, LtiError> {
     let base = Baseline::of_rig(rig);
     let t = sample_times(duration_s, rate_hz);
@@ -179,7 +209,30 @@ pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Si
     simulate(rig, &t, &r, &base)
 }
 
-/// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (SPEC §5).
+/// Metrics of a step response `s` of `rig` (from [`step`]) to a step of `step_mm`, the
+/// steady-state error taken from the DC solution of the closed loop (NaN when it has none).
+pub fn step_metrics_of(rig: &Rig, s: &Signals, step_mm: f64) -> StepMetrics {
+    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    let dc_mm = crate::lti::dc_output(&sys, &[step_mm * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
+    let x0 = s.x_mm[0];
+    let y: Vec<f64> = s.x_mm.iter().map(|x| x - x0).collect();
+    step_metrics(&s.time_s, &y, step_mm, dc_mm)
+}
+
+/// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (docs/simulation.md#tracking-metrics).
+///
+/// ```
+/// use pumpcyl::{response, rig::Rig};
+///
+/// let rig = Rig::default().with_overrides(&["sum_pressure=false".to_string()])?;
+/// let s = response::sine(&rig, 0.2, 35.0, 3.0, 100.0)?;
+/// let m = response::track_metrics(&s.time_s, &s.e_mm, 0.2, 35.0);
+/// // a P position loop lags a 0.2 Hz, ±35 mm wave by millimetres, but reduces it
+/// assert!(m.rms_error_mm < m.max_error_mm && m.max_error_mm < 35.0);
+/// assert!((m.wave_reduction - (1.0 - m.max_error_mm / 35.0)).abs() < 1e-12);
+/// assert!((0.55..0.7).contains(&m.wave_reduction), "wave reduction {}", m.wave_reduction);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn sine(
     rig: &Rig,
     freq_hz: f64,
@@ -204,7 +257,7 @@ pub fn sine(
     simulate(rig, &t, &r, &base)
 }
 
-/// The three sinusoidal tracking cases of the article (SPEC §5): (frequency Hz, amplitude mm).
+/// The three sinusoidal tracking cases of the article (docs/simulation.md#tracking-metrics): (frequency Hz, amplitude mm).
 pub const ARTICLE_SINE_CASES: [(f64, f64); 3] = [(0.1, 50.0), (0.2, 35.0), (0.25, 20.0)];
 
 #[cfg(test)]

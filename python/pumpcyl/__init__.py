@@ -1,0 +1,67 @@
+"""pumpcyl: model, analyse, identify and design pump-controlled hydraulic cylinders.
+
+The Python face of the pumpcyl Rust library: the 10-state linear model of the dual-prime-mover
+cylinder of Gøytil, Hansen & Tvilde, "Effective Bulk Modulus in Low-Pressure Pump-Controlled
+Hydraulic Cylinders", Actuators 2025, 14(8), 366, with exact margins, Bode, zero-order-hold
+simulation, grid identification of the bulk modulus, the gas-fraction model and the design
+method. numpy arrays in and out; units are part of every name (``beta_bar``, ``f_hz``,
+``x_mm``). Errors raise :class:`PumpcylError`, a ``ValueError`` carrying the command line's
+one-line message.
+"""
+
+from ._pumpcyl import (
+    Dataset,
+    Identification,
+    Margins,
+    PumpcylError,
+    Rig,
+    Simulation,
+    StepResponse,
+    bode,
+    design,
+    effective_beta,
+    gas_fraction,
+    identify,
+    margins,
+    simulate,
+    state_space,
+    step,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Dataset",
+    "Identification",
+    "Margins",
+    "PumpcylError",
+    "Rig",
+    "Simulation",
+    "StepResponse",
+    "bode",
+    "design",
+    "effective_beta",
+    "gas_fraction",
+    "identify",
+    "margins",
+    "simulate",
+    "state_space",
+    "step",
+    "to_control",
+]
+
+
+def to_control(rig, loop="open", *, sum_pressure_closed=None):
+    """The loop of ``rig`` as a ``control.StateSpace`` (python-control must be installed).
+
+    Same loops and units as :func:`state_space`: ``loop="open"`` is the article's open loop
+    (Section 4; input the position error in m, output x in m), ``loop="closed"`` the closed
+    loop x_ref -> x (m).
+    """
+    try:
+        import control
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "pumpcyl.to_control needs python-control: pip install control"
+        ) from e
+    return control.ss(*state_space(rig, loop, sum_pressure_closed=sum_pressure_closed))

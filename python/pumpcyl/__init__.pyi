@@ -1,0 +1,26 @@
+from typing import Any, Optional
+
+from ._pumpcyl import (
+    Loop,
+    Dataset as Dataset,
+    Identification as Identification,
+    Margins as Margins,
+    PumpcylError as PumpcylError,
+    Rig as Rig,
+    Simulation as Simulation,
+    StepResponse as StepResponse,
+    bode as bode,
+    design as design,
+    effective_beta as effective_beta,
+    gas_fraction as gas_fraction,
+    identify as identify,
+    margins as margins,
+    simulate as simulate,
+    state_space as state_space,
+    step as step,
+)
+
+__version__: str
+
+def to_control(rig: Rig, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None) -> Any:
+    """The loop as a ``control.StateSpace`` (needs python-control); see ``state_space``."""

@@ -1,0 +1,237 @@
+"""Type stubs of the compiled pumpcyl module. Units are part of every name; SI in matrices."""
+
+from os import PathLike
+from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+ArrayLike = Union[Sequence[float], FloatArray]
+Loop = Literal["open", "closed"]
+
+class PumpcylError(ValueError):
+    """Bad input or a numerical failure, with the command line's one-line message."""
+
+class Rig:
+    """A rig description: the article's rig with overrides, or a TOML file.
+
+    Immutable: :meth:`replace` returns a new rig. Every TOML key is an attribute with its unit
+    in its name (``rig.beta_bar`` in bar, ``rig.mass_kg`` in kg); ``pumpcyl rig`` lists them.
+    """
+
+    def __init__(self, **overrides: Union[float, bool, str]) -> None:
+        """The article's rig with keyword overrides, same keys as the TOML."""
+    @staticmethod
+    def from_toml(path: Union[str, PathLike[str]]) -> Rig:
+        """Read a rig TOML file; absent keys take the article's values."""
+    @staticmethod
+    def from_toml_str(text: str, name: str = "<string>") -> Rig:
+        """Parse rig TOML text; ``name`` stands for the file in messages."""
+    def replace(self, **overrides: Union[float, bool, str]) -> Rig:
+        """A new rig with the overrides applied; this one is unchanged."""
+    def to_dict(self) -> Dict[str, Union[float, bool, str]]:
+        """Every key and value (units in the key names)."""
+    def to_toml(self) -> str:
+        """Commented TOML (what ``pumpcyl rig`` prints), readable by :meth:`from_toml`."""
+    # geometry
+    piston_diameter_mm: float
+    rod_diameter_mm: float
+    line_volume_1_dm3: float
+    line_volume_2_dm3: float
+    stroke_mm: float
+    x0_mm: float
+    # motors, pumps and drives
+    motor_inertia_1_kg_mm2: float
+    motor_inertia_2_kg_mm2: float
+    pump_inertia_1_kg_mm2: float
+    pump_inertia_2_kg_mm2: float
+    displacement_1_cm3_per_rev: float
+    displacement_2_cm3_per_rev: float
+    current_loop_bandwidth_rad_per_s: float
+    km1_nms_per_rad: float
+    km2_nms_per_rad: float
+    kff_kg_m2: float
+    tau_ff_s: float
+    k_scale_rad_per_s: float
+    motor_time_constant_s: Optional[float]
+    motor_rated_torque_nm: float
+    motor_rated_speed_rpm: float
+    pump_max_speed_rpm: float
+    # load and hydraulics
+    mass_kg: float
+    external_force_n: float
+    beta_bar: float
+    viscous_friction_ns_per_m: float
+    c12_m5_per_ns: float
+    c1_m5_per_ns: float
+    c2_m5_per_ns: float
+    # controller
+    kp: float
+    p_sum_ref_bar: float
+    k_pres_per_bar: float
+    k_beta: float
+    # model variants
+    feedforward: bool
+    motor_coupling: bool
+    sum_pressure: bool
+    motor_model: Literal["full", "first_order"]
+
+class Margins:
+    """Margins of the open loop (article Section 4), as ``pumpcyl margins``."""
+
+    gain_margin_db: float
+    """Headline gain margin (dB); ``inf`` without a phase crossing."""
+    phase_margin_deg: float
+    """Headline phase margin (deg); ``inf`` without a gain crossing."""
+    gain_crossover_hz: Optional[float]
+    """Frequency of the headline phase margin (Hz)."""
+    phase_crossover_hz: Optional[float]
+    """Frequency of the headline gain margin (Hz)."""
+    delay_margin_s: float
+    """Smallest delay margin (s); ``inf`` without a gain crossing."""
+    closed_loop_stable: bool
+    """Closed-loop stability from the closed-loop eigenvalues."""
+    crossings: List[Dict[str, Any]]
+    """Every crossing by increasing frequency: kind ("gain"/"phase"), frequency_hz,
+    magnitude_db, phase_deg, margin (deg at a gain crossing, dB at a phase crossing),
+    delay_margin_s."""
+    integrators: int
+    """Poles at the origin."""
+
+class Simulation:
+    """Closed-loop signals in user units, one value per sample."""
+
+    time_s: FloatArray
+    x_ref_mm: FloatArray
+    x_mm: FloatArray
+    e_mm: FloatArray
+    """Control error x_ref - x (mm)."""
+    p1_bar: FloatArray
+    """Chamber 1 pressure (bar gauge)."""
+    p2_bar: FloatArray
+    """Chamber 2 pressure (bar gauge)."""
+    w1_rpm: FloatArray
+    """Motor 1 speed (rpm)."""
+    w2_rpm: FloatArray
+    """Motor 2 speed (rpm)."""
+
+class StepResponse(Simulation):
+    """A step response with its metrics (article Section 5), as ``pumpcyl step``."""
+
+    step_mm: float
+    rise_time_s: Optional[float]
+    """10-90 % rise time (s); None if the response never reaches 90 %."""
+    overshoot_mm: float
+    overshoot_pct: float
+    peak_time_s: float
+    settling_time_s: Optional[float]
+    """2 % settling time (s); None if still outside the band at the end."""
+    steady_state_error_mm: float
+    final_error_mm: float
+
+class Dataset:
+    """One record to fit: time (s), reference and measured position (mm), the experiment's
+    position gain Kp (normalised command per metre), mass (kg) and fit-window end (s)."""
+
+    def __init__(
+        self,
+        t_s: ArrayLike,
+        x_ref_mm: ArrayLike,
+        x_mm: ArrayLike,
+        *,
+        kp: float,
+        mass_kg: float,
+        fit_end_s: float,
+        name: str = "dataset",
+    ) -> None: ...
+
+class Identification:
+    """The answer of :func:`identify`."""
+
+    beta_bar: float
+    """Effective bulk modulus (bar)."""
+    viscous_friction_ns_per_m: float
+    """Viscous friction (N s/m)."""
+    c12_m5_per_ns: float
+    """Cross-port leakage (m^5/(N s))."""
+    c1_m5_per_ns: float
+    c2_m5_per_ns: float
+    cost_mm2: float
+    """Mean over the datasets of the position MSE (mm^2)."""
+    refined: bool
+    grid_best: Dict[str, Any]
+    top: List[Dict[str, Any]]
+    candidates_evaluated: int
+    seconds: float
+    details: Dict[str, Any]
+
+def margins(rig: Rig, *, sum_pressure_closed: bool = False) -> Margins:
+    """Gain, phase and delay margins of the position loop (article Section 4), every crossing
+    and closed-loop stability."""
+
+def state_space(
+    rig: Rig, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None
+) -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(A, B, C, D), SI units. ``loop="open"``: input the position error (m), output x (m),
+    sum-pressure loop open unless ``sum_pressure_closed``; ``loop="closed"``: x_ref (m) -> x
+    (m), sum-pressure loop as the rig's ``sum_pressure`` key unless given."""
+
+def bode(
+    rig: Rig, f_hz: ArrayLike, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None
+) -> Tuple[FloatArray, FloatArray]:
+    """Magnitude (dB) and unwrapped phase (deg) at ``f_hz`` (Hz, positive, increasing)."""
+
+def simulate(rig: Rig, t_s: ArrayLike, x_ref_mm: ArrayLike) -> Simulation:
+    """Closed loop driven by ``x_ref_mm`` (mm) sampled at ``t_s`` (s) and held between
+    samples (exact zero-order hold), from rest at x = x_ref_mm[0]."""
+
+def step(
+    rig: Rig, step_mm: float = 5.0, *, duration_s: float = 4.0, rate_hz: float = 100.0
+) -> StepResponse:
+    """Response to a position step of ``step_mm`` (mm) from x0, sampled at ``rate_hz`` (Hz)
+    for ``duration_s`` (s)."""
+
+GridDict = Dict[str, Sequence[float]]
+
+def identify(
+    experiment: Optional[Union[str, PathLike[str]]] = None,
+    *,
+    datasets: Optional[Sequence[Dataset]] = None,
+    standstill: Optional[Dict[str, float]] = None,
+    rig: Optional[Rig] = None,
+    grid: Optional[GridDict] = None,
+    refined_grid: Optional[Union[GridDict, Literal[False]]] = None,
+    auto_refine: Optional[bool] = None,
+    local_refinement: Optional[bool] = None,
+    threshold_mm2: Optional[float] = None,
+    top: int = 20,
+    progress: Union[None, bool, Callable[[int, int], None]] = None,
+) -> Identification:
+    """Grid identification of beta (bar), b (N s/m) and c12 (m^5/(N s)) (article Section 6.3)
+    from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
+    w2_rpm=..., p1_bar=...)`` and ``rig``. Grids are dicts {beta_bar,
+    viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the article's);
+    ``refined_grid=False`` skips the second stage. Releases the GIL; Ctrl-C stops it;
+    ``progress=True`` prints progress on stderr, a callable gets (done, total)."""
+
+def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
+    """Gas fraction X giving ``beta_bar`` (bar) at mean pressure ``p_mean_bar`` (bar)
+    (article Section 7)."""
+
+def effective_beta(x: float, p_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
+    """Effective bulk modulus (bar) at mean pressure ``p_bar`` (bar) for gas fraction ``x``."""
+
+def design(
+    rig: Rig,
+    *,
+    target_pm_deg: float = 40.0,
+    target_gm_db: float = 6.0,
+    stroke_mm: float = 50.0,
+    p_mean_bar: Sequence[float] = ...,
+    p_beta_bar: float = 4.4,
+    mass_kg: Sequence[float] = ...,
+    waves: Sequence[Tuple[float, float]] = ...,
+) -> Dict[str, Any]:
+    """The design method (article Section 8): kp_max, kp_max_worst_case, worst_case,
+    conditions, tracking, verdict, reasons (as ``pumpcyl design --json``)."""

@@ -1,0 +1,862 @@
+//! `pumpcyl._pumpcyl`: the Python binding of the pumpcyl library, a thin layer that converts
+//! Python values and numpy arrays to the library's types, calls the library and converts back.
+//! No analysis happens here. Every library error becomes `pumpcyl.PumpcylError` (a
+//! `ValueError`) with the one-line message the command line prints.
+//!
+//! Units follow the library: the unit is part of every name (`beta_bar`, `f_hz`, `x_mm`).
+
+use numpy::ndarray::Array2;
+use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyAttributeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyInt, PyTuple};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
+use std::time::{Duration, Instant};
+
+use nalgebra::DMatrix;
+use pumpcyl::ident::{self, DatasetSpec, Experiment, Grid, Options, Prepared, Problem, Standstill};
+use pumpcyl::lti::{self, StateSpace};
+use pumpcyl::model::Plant;
+use pumpcyl::record::Record;
+use pumpcyl::response::{self, Baseline, Signals};
+use pumpcyl::rig::Rig;
+
+create_exception!(
+    pumpcyl,
+    PumpcylError,
+    PyValueError,
+    "An error of pumpcyl: bad input or a numerical failure, with the command line's message."
+);
+
+/// Any library error as `PumpcylError` with its one-line message.
+fn err(e: impl std::fmt::Display) -> PyErr {
+    PumpcylError::new_err(e.to_string())
+}
+
+/// A value serialised by the library, as plain Python data (dicts, lists, floats, None).
+fn to_py(py: Python<'_>, value: &impl serde::Serialize) -> PyResult<Py<PyAny>> {
+    let text = serde_json::to_string(value).map_err(err)?;
+    Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+}
+
+/// A Python value (dict, list) as a library type, through JSON.
+fn from_py<T: serde::de::DeserializeOwned>(
+    py: Python<'_>,
+    what: &str,
+    value: &Bound<'_, PyAny>,
+) -> PyResult<T> {
+    let text: String = py
+        .import("json")?
+        .call_method1("dumps", (value,))?
+        .extract()?;
+    serde_json::from_str(&text).map_err(|e| err(format!("{what}: {e}")))
+}
+
+/// Any 1-D numeric array or sequence, as float64.
+type Floats<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
+
+/// A 1-D array as a vector.
+fn vec_of(a: Floats<'_>) -> Vec<f64> {
+    a.as_array().to_vec()
+}
+
+fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
+    v.to_vec().into_pyarray(py)
+}
+
+fn array2<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rig
+
+/// A rig description: the article's rig with overrides, or a TOML file. Immutable; `replace`
+/// returns a new rig. Every TOML key is an attribute, with its unit in its name.
+#[pyclass(module = "pumpcyl._pumpcyl", name = "Rig", frozen, eq)]
+#[derive(Clone, PartialEq)]
+struct PyRig {
+    rig: Rig,
+}
+
+/// `KEY=VALUE` assignments (the command line's `--set`) from keyword arguments.
+fn assignments(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+    let Some(kw) = overrides else {
+        return Ok(Vec::new());
+    };
+    kw.iter()
+        .map(|(k, v)| {
+            let key: String = k.extract()?;
+            let value = if v.is_instance_of::<PyBool>() {
+                v.extract::<bool>()?.to_string()
+            } else if v.is_instance_of::<PyInt>() {
+                v.str()?.to_string()
+            } else if let Ok(x) = v.extract::<f64>() {
+                match x {
+                    x if x.is_nan() => "nan".to_string(),
+                    x if x.is_infinite() => if x > 0.0 { "inf" } else { "-inf" }.to_string(),
+                    x => format!("{x:?}"),
+                }
+            } else if let Ok(s) = v.extract::<String>() {
+                s
+            } else {
+                v.repr()?.to_string()
+            };
+            Ok(format!("{key}={value}"))
+        })
+        .collect()
+}
+
+fn toml_to_py(py: Python<'_>, v: &toml::Value) -> PyResult<Py<PyAny>> {
+    Ok(match v {
+        toml::Value::Float(x) => x.into_pyobject(py)?.into_any().unbind(),
+        toml::Value::Integer(i) => i.into_pyobject(py)?.into_any().unbind(),
+        toml::Value::Boolean(b) => b.into_pyobject(py)?.to_owned().into_any().unbind(),
+        toml::Value::String(s) => s.into_pyobject(py)?.into_any().unbind(),
+        other => other.to_string().into_pyobject(py)?.into_any().unbind(),
+    })
+}
+
+impl PyRig {
+    fn table(&self) -> toml::Table {
+        toml::Table::try_from(&self.rig).expect("a rig always serialises")
+    }
+}
+
+#[pymethods]
+impl PyRig {
+    /// The article's rig with keyword overrides, same keys as the TOML: `Rig(beta_bar=37.8)`.
+    #[new]
+    #[pyo3(signature = (**overrides))]
+    fn new(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        PyRig {
+            rig: Rig::default(),
+        }
+        .replace(overrides)
+    }
+
+    /// Read a rig TOML file (absent keys take the article's values).
+    #[staticmethod]
+    fn from_toml(path: PathBuf) -> PyResult<Self> {
+        Ok(PyRig {
+            rig: Rig::from_file(&path).map_err(err)?,
+        })
+    }
+
+    /// Parse rig TOML text; `name` stands for the file in messages.
+    #[staticmethod]
+    #[pyo3(signature = (text, name = "<string>"))]
+    fn from_toml_str(text: &str, name: &str) -> PyResult<Self> {
+        Ok(PyRig {
+            rig: Rig::from_toml_str(text, name).map_err(err)?,
+        })
+    }
+
+    /// A new rig with keyword overrides applied; this one is unchanged.
+    #[pyo3(signature = (**overrides))]
+    fn replace(&self, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        Ok(PyRig {
+            rig: self
+                .rig
+                .with_overrides(&assignments(overrides)?)
+                .map_err(err)?,
+        })
+    }
+
+    /// Every key and value, units in the key names.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (k, v) in &self.table() {
+            d.set_item(k, toml_to_py(py, v)?)?;
+        }
+        Ok(d)
+    }
+
+    /// The rig as commented TOML (what `pumpcyl rig` prints), readable by `from_toml`.
+    fn to_toml(&self) -> String {
+        self.rig.to_commented_toml()
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        match self.table().get(name) {
+            Some(v) => toml_to_py(py, v),
+            None if name == "motor_time_constant_s" => Ok(py.None()),
+            None => Err(PyAttributeError::new_err(format!(
+                "Rig has no key `{name}`"
+            ))),
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        let default = PyRig {
+            rig: Rig::default(),
+        }
+        .table();
+        let changed: Vec<String> = self
+            .table()
+            .iter()
+            .filter(|(k, v)| default.get(*k) != Some(v))
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        format!("Rig({})", changed.join(", "))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frequency domain
+
+/// The analysed loop: the open loop of the article (Section 4: x_ref -> x with the position
+/// feedback removed; input the error in m, output x in m) or the closed loop x_ref -> x (m).
+/// `sum_pressure_closed = None` opens the sum-pressure loop in the open loop (as the article
+/// analyses it) and follows the rig's `sum_pressure` key in the closed loop (as `step` and
+/// `simulate` do).
+fn loop_of(rig: &Rig, which: &str, sum_pressure_closed: Option<bool>) -> PyResult<StateSpace> {
+    let plant = Plant::new(rig);
+    match which {
+        "open" => Ok(plant.open_loop(sum_pressure_closed.unwrap_or(false))),
+        "closed" => Ok(plant.closed_loop(sum_pressure_closed.unwrap_or(rig.sum_pressure))),
+        other => Err(err(format!(
+            "loop = {other:?}: must be \"open\" or \"closed\""
+        ))),
+    }
+}
+
+/// Margins of the open loop, as the command line's `margins`.
+#[pyclass(module = "pumpcyl._pumpcyl", name = "Margins", frozen, get_all)]
+struct PyMargins {
+    /// Headline gain margin (dB); inf when there is no phase crossing.
+    gain_margin_db: f64,
+    /// Headline phase margin (deg); inf when there is no gain crossing.
+    phase_margin_deg: f64,
+    /// Frequency of the headline phase margin (Hz); None without a gain crossing.
+    gain_crossover_hz: Option<f64>,
+    /// Frequency of the headline gain margin (Hz); None without a phase crossing.
+    phase_crossover_hz: Option<f64>,
+    /// Smallest delay margin (s); inf without a gain crossing.
+    delay_margin_s: f64,
+    /// Closed-loop stability from the closed-loop eigenvalues.
+    closed_loop_stable: bool,
+    /// Every crossing by increasing frequency: dicts with kind ("gain"/"phase"),
+    /// frequency_hz, magnitude_db, phase_deg, margin (deg or dB), delay_margin_s.
+    crossings: Py<PyAny>,
+    /// Poles at the origin.
+    integrators: usize,
+}
+
+#[pymethods]
+impl PyMargins {
+    fn __repr__(&self) -> String {
+        format!(
+            "Margins(gain_margin_db={:.3}, phase_margin_deg={:.3}, closed_loop_stable={})",
+            self.gain_margin_db,
+            self.phase_margin_deg,
+            if self.closed_loop_stable {
+                "True"
+            } else {
+                "False"
+            }
+        )
+    }
+}
+
+/// Gain, phase and delay margins of the position loop (article Section 4), every crossing and
+/// closed-loop stability: the command line's `margins`.
+#[pyfunction]
+#[pyo3(signature = (rig, *, sum_pressure_closed = false))]
+fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyMargins> {
+    let m = lti::margins(&Plant::new(&rig.rig).open_loop(sum_pressure_closed)).map_err(err)?;
+    let inf = |v: Option<f64>| v.unwrap_or(f64::INFINITY);
+    Ok(PyMargins {
+        gain_margin_db: inf(m.gain_margin_db),
+        phase_margin_deg: inf(m.phase_margin_deg),
+        gain_crossover_hz: m.gain_crossover_hz,
+        phase_crossover_hz: m.phase_crossover_hz,
+        delay_margin_s: inf(m.delay_margin_s),
+        closed_loop_stable: m.closed_loop_stable,
+        crossings: to_py(py, &m.crossings)?,
+        integrators: m.integrators,
+    })
+}
+
+/// (A, B, C, D) of the open or closed loop (SI units; states as `pumpcyl model` lists them).
+#[pyfunction]
+#[pyo3(signature = (rig, r#loop = "open", *, sum_pressure_closed = None))]
+fn state_space<'py>(
+    py: Python<'py>,
+    rig: &PyRig,
+    r#loop: &str,
+    sum_pressure_closed: Option<bool>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let sys = loop_of(&rig.rig, r#loop, sum_pressure_closed)?;
+    PyTuple::new(
+        py,
+        [
+            array2(py, &sys.a),
+            array2(py, &sys.b),
+            array2(py, &sys.c),
+            array2(py, &sys.d),
+        ],
+    )
+}
+
+/// Magnitude (dB) and unwrapped phase (deg) of the loop at the frequencies `f_hz` (Hz,
+/// positive, increasing).
+#[pyfunction]
+#[pyo3(signature = (rig, f_hz, r#loop = "open", *, sum_pressure_closed = None))]
+fn bode<'py>(
+    py: Python<'py>,
+    rig: &PyRig,
+    f_hz: Floats<'py>,
+    r#loop: &str,
+    sum_pressure_closed: Option<bool>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let f = vec_of(f_hz);
+    if f.is_empty() || f.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        return Err(err("f_hz: frequencies must be finite and > 0"));
+    }
+    if f.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(err("f_hz: frequencies must strictly increase"));
+    }
+    let sys = loop_of(&rig.rig, r#loop, sum_pressure_closed)?;
+    let b = lti::bode(&sys, &f).map_err(err)?;
+    PyTuple::new(py, [array1(py, &b.mag_db), array1(py, &b.phase_deg)])
+}
+
+// ---------------------------------------------------------------------------------------------
+// Time domain
+
+/// Closed-loop signals in user units, one value per sample.
+#[pyclass(
+    module = "pumpcyl._pumpcyl",
+    name = "Simulation",
+    frozen,
+    get_all,
+    subclass
+)]
+struct PySimulation {
+    /// Time (s).
+    time_s: Py<PyArray1<f64>>,
+    /// Position reference (mm).
+    x_ref_mm: Py<PyArray1<f64>>,
+    /// Position (mm).
+    x_mm: Py<PyArray1<f64>>,
+    /// Control error x_ref - x (mm).
+    e_mm: Py<PyArray1<f64>>,
+    /// Chamber 1 pressure (bar gauge).
+    p1_bar: Py<PyArray1<f64>>,
+    /// Chamber 2 pressure (bar gauge).
+    p2_bar: Py<PyArray1<f64>>,
+    /// Motor 1 speed (rpm).
+    w1_rpm: Py<PyArray1<f64>>,
+    /// Motor 2 speed (rpm).
+    w2_rpm: Py<PyArray1<f64>>,
+}
+
+impl PySimulation {
+    fn of(py: Python<'_>, s: &Signals) -> PySimulation {
+        let a = |v: &[f64]| array1(py, v).unbind();
+        PySimulation {
+            time_s: a(&s.time_s),
+            x_ref_mm: a(&s.x_ref_mm),
+            x_mm: a(&s.x_mm),
+            e_mm: a(&s.e_mm),
+            p1_bar: a(&s.p1_bar),
+            p2_bar: a(&s.p2_bar),
+            w1_rpm: a(&s.w1_rpm),
+            w2_rpm: a(&s.w2_rpm),
+        }
+    }
+}
+
+/// Simulate the closed loop (exact zero-order hold, article Section 5) driven by `x_ref_mm`
+/// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
+/// operating-point pressures and motor speeds. An unstable closed loop is an error.
+#[pyfunction]
+fn simulate(
+    py: Python<'_>,
+    rig: &PyRig,
+    t_s: Floats<'_>,
+    x_ref_mm: Floats<'_>,
+) -> PyResult<PySimulation> {
+    let (t, r) = (vec_of(t_s), vec_of(x_ref_mm));
+    Record::from_arrays("simulate", &t, &r, &r).map_err(err)?;
+    let mut base = Baseline::of_rig(&rig.rig);
+    base.x_ref_mm = r[0];
+    base.x_mm = r[0];
+    let rig = rig.rig.clone();
+    let s = py
+        .detach(|| response::simulate(&rig, &t, &r, &base))
+        .map_err(err)?;
+    Ok(PySimulation::of(py, &s))
+}
+
+/// A step response with its metrics (article Section 5), as the command line's `step`.
+#[pyclass(module = "pumpcyl._pumpcyl", name = "StepResponse", frozen, get_all, extends = PySimulation)]
+struct PyStep {
+    /// Step size (mm).
+    step_mm: f64,
+    /// 10-90 % rise time (s); None if the response never reaches 90 %.
+    rise_time_s: Option<f64>,
+    /// Overshoot beyond the step (mm, >= 0).
+    overshoot_mm: f64,
+    /// Overshoot (% of the step).
+    overshoot_pct: f64,
+    /// Time of the largest excursion (s).
+    peak_time_s: f64,
+    /// 2 % settling time (s); None if still outside the band at the end.
+    settling_time_s: Option<f64>,
+    /// Steady-state error from the model's DC solution (mm).
+    steady_state_error_mm: f64,
+    /// Error at the end of the run (mm).
+    final_error_mm: f64,
+}
+
+/// Closed-loop response to a position step of `step_mm` from the operating point x0, sampled
+/// at `rate_hz` for `duration_s`: metrics and signals.
+#[pyfunction]
+#[pyo3(signature = (rig, step_mm = 5.0, *, duration_s = 4.0, rate_hz = 100.0))]
+fn step(
+    py: Python<'_>,
+    rig: &PyRig,
+    step_mm: f64,
+    duration_s: f64,
+    rate_hz: f64,
+) -> PyResult<Py<PyStep>> {
+    if !(duration_s.is_finite() && duration_s > 0.0) {
+        return Err(err(format!("duration_s must be > 0 (got {duration_s})")));
+    }
+    if !(rate_hz.is_finite() && rate_hz > 0.0 && duration_s * rate_hz <= 1e7) {
+        return Err(err(format!(
+            "rate_hz must be > 0 and give at most 10^7 samples (got {rate_hz})"
+        )));
+    }
+    if !(step_mm.is_finite() && step_mm != 0.0) {
+        return Err(err("step_mm must be non-zero"));
+    }
+    let rig = rig.rig.clone();
+    let (s, m) = py
+        .detach(|| {
+            let s = response::step(&rig, step_mm, duration_s, rate_hz)?;
+            let m = response::step_metrics_of(&rig, &s, step_mm);
+            Ok::<_, lti::LtiError>((s, m))
+        })
+        .map_err(err)?;
+    let init = PyClassInitializer::from(PySimulation::of(py, &s)).add_subclass(PyStep {
+        step_mm: m.step_mm,
+        rise_time_s: m.rise_time_s,
+        overshoot_mm: m.overshoot_mm,
+        overshoot_pct: m.overshoot_pct,
+        peak_time_s: m.peak_time_s,
+        settling_time_s: m.settling_time_s,
+        steady_state_error_mm: m.steady_state_error_mm,
+        final_error_mm: m.final_error_mm,
+    });
+    Py::new(py, init)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Identification
+
+/// One record to fit, from arrays: time (s), reference and measured position (mm), the
+/// experiment's position gain and mass, and the end of the fit window (s).
+#[pyclass(module = "pumpcyl._pumpcyl", name = "Dataset", frozen)]
+struct PyDataset {
+    record: Record,
+    spec: DatasetSpec,
+}
+
+#[pymethods]
+impl PyDataset {
+    #[new]
+    #[pyo3(signature = (t_s, x_ref_mm, x_mm, *, kp, mass_kg, fit_end_s, name = "dataset"))]
+    fn new(
+        t_s: Floats<'_>,
+        x_ref_mm: Floats<'_>,
+        x_mm: Floats<'_>,
+        kp: f64,
+        mass_kg: f64,
+        fit_end_s: f64,
+        name: &str,
+    ) -> PyResult<Self> {
+        let record = Record::from_arrays(name, &vec_of(t_s), &vec_of(x_ref_mm), &vec_of(x_mm))
+            .map_err(err)?;
+        Ok(PyDataset {
+            record,
+            spec: DatasetSpec {
+                file: name.to_string(),
+                kp,
+                mass_kg,
+                fit_end_s,
+            },
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Dataset(name={:?}, samples={}, kp={}, mass_kg={}, fit_end_s={})",
+            self.spec.file,
+            self.record.len(),
+            self.spec.kp,
+            self.spec.mass_kg,
+            self.spec.fit_end_s
+        )
+    }
+}
+
+/// The answer of an identification.
+#[pyclass(module = "pumpcyl._pumpcyl", name = "Identification", frozen, get_all)]
+struct PyIdentification {
+    /// Effective bulk modulus (bar).
+    beta_bar: f64,
+    /// Viscous friction (N s/m).
+    viscous_friction_ns_per_m: f64,
+    /// Cross-port leakage (m^5/(N s)).
+    c12_m5_per_ns: f64,
+    /// Chamber 1 leakage holding the standstill point (m^5/(N s)).
+    c1_m5_per_ns: f64,
+    /// Chamber 2 leakage holding the standstill point (m^5/(N s)).
+    c2_m5_per_ns: f64,
+    /// Cost: mean over the datasets of the position MSE (mm^2).
+    cost_mm2: f64,
+    /// Whether the local refinement improved on the best grid point.
+    refined: bool,
+    /// Best grid point (dict).
+    grid_best: Py<PyAny>,
+    /// Best candidates of all stages, best first (dicts with beta_bar,
+    /// viscous_friction_ns_per_m, c12_m5_per_ns, cost_mm2, stage, index).
+    top: Py<PyAny>,
+    /// Candidates evaluated over all stages.
+    candidates_evaluated: u64,
+    /// Wall time of the search and refinement (s).
+    seconds: f64,
+    /// The whole result as the library serialises it (dict: stages, grid_best, refined,
+    /// leakage, top).
+    details: Py<PyAny>,
+}
+
+#[pymethods]
+impl PyIdentification {
+    fn __repr__(&self) -> String {
+        format!(
+            "Identification(beta_bar={}, viscous_friction_ns_per_m={}, c12_m5_per_ns={:e}, cost_mm2={:e})",
+            self.beta_bar, self.viscous_friction_ns_per_m, self.c12_m5_per_ns, self.cost_mm2
+        )
+    }
+}
+
+/// Run `work` (given a progress callback returning "go on") on a worker thread with the GIL
+/// released, while this thread watches for Ctrl-C (the search stops and KeyboardInterrupt is
+/// raised) and reports progress through `tick(done)`.
+fn run_interruptible<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&(dyn Fn(u64) -> bool + Sync)) -> T + Send,
+    tick: &mut (dyn FnMut(Python<'_>, u64) -> PyResult<()> + Send),
+) -> PyResult<T> {
+    let done = AtomicU64::new(0);
+    let stop = AtomicBool::new(false);
+    let mut interrupt: Option<PyErr> = None;
+    let out = py.detach(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = std::sync::mpsc::channel();
+            let (done, stop) = (&done, &stop);
+            let worker = s.spawn(move || {
+                let r = work(&|n| {
+                    done.fetch_add(n, Ordering::Relaxed);
+                    !stop.load(Ordering::Relaxed)
+                });
+                let _ = tx.send(());
+                r
+            });
+            let timeout = Duration::from_millis(50);
+            while let Err(RecvTimeoutError::Timeout) = rx.recv_timeout(timeout) {
+                let checked = Python::attach(|py| {
+                    tick(py, done.load(Ordering::Relaxed))?;
+                    py.check_signals()
+                });
+                if let Err(e) = checked {
+                    stop.store(true, Ordering::Relaxed);
+                    interrupt.get_or_insert(e);
+                }
+            }
+            worker
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p))
+        })
+    });
+    match interrupt {
+        Some(e) => Err(e),
+        None => Ok(out),
+    }
+}
+
+/// A grid from a dict {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists, checked.
+fn grid_of(py: Python<'_>, name: &str, value: &Bound<'_, PyAny>) -> PyResult<Grid> {
+    let grid: Grid = from_py(py, name, value)?;
+    grid.validate(name)
+        .map_err(|(axis, m)| err(format!("{name}.{axis}: {m}")))?;
+    Ok(grid)
+}
+
+/// The standstill point from a dict {w1_rpm, w2_rpm, p1_bar}, checked.
+fn standstill_of(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
+    let s: Standstill = from_py(py, "standstill", value)?;
+    s.validate().map_err(err)?;
+    Ok(s)
+}
+
+/// Grid identification of beta (bar), b (N s/m) and c12 (m^5/(N s)) (article Section 6.3),
+/// with c1, c2 from the standstill point (Section 6.2) and Nelder-Mead refinement.
+///
+/// Either `experiment`, an experiment TOML file as `pumpcyl identify` reads, or
+/// `datasets=[Dataset(...)]` with `standstill=dict(w1_rpm=..., w2_rpm=..., p1_bar=...)` (rpm,
+/// rpm, bar gauge) and `rig` (default: the article's). `grid` and `refined_grid` are dicts
+/// {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the file's, else the
+/// article's 3264 + 3553 candidates); `refined_grid=False` skips the second stage.
+/// `auto_refine`, `local_refinement` and `threshold_mm2` (mm^2) override the file; `top` is the
+/// length of the top list. The search runs with the GIL released; Ctrl-C stops it
+/// (KeyboardInterrupt). `progress=True` prints progress on stderr; a callable gets
+/// `(done, total)` candidates.
+#[pyfunction]
+#[pyo3(signature = (
+    experiment = None, *, datasets = None, standstill = None, rig = None, grid = None,
+    refined_grid = None, auto_refine = None, local_refinement = None, threshold_mm2 = None,
+    top = 20, progress = None
+))]
+#[allow(clippy::too_many_arguments)]
+fn identify(
+    py: Python<'_>,
+    experiment: Option<PathBuf>,
+    datasets: Option<Vec<Bound<'_, PyDataset>>>,
+    standstill: Option<&Bound<'_, PyAny>>,
+    rig: Option<&PyRig>,
+    grid: Option<&Bound<'_, PyAny>>,
+    refined_grid: Option<&Bound<'_, PyAny>>,
+    auto_refine: Option<bool>,
+    local_refinement: Option<bool>,
+    threshold_mm2: Option<f64>,
+    top: usize,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyIdentification> {
+    let (problem, file_grids, file_opts) = match (experiment, datasets) {
+        (Some(path), None) => {
+            if standstill.is_some() || rig.is_some() {
+                return Err(err(
+                    "standstill and rig come from the experiment file: give either the file or datasets",
+                ));
+            }
+            let exp = Experiment::load(&path).map_err(err)?;
+            let opts = Options {
+                auto_refine: exp.file.auto_refine,
+                local_refinement: exp.file.local_refinement,
+                threshold_mm2: exp.file.threshold_mm2,
+                top_n: top,
+            };
+            (exp.problem.clone(), exp.grids(), opts)
+        }
+        (None, Some(sets)) => {
+            let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
+            let standstill = standstill_of(
+                py,
+                standstill.ok_or_else(|| {
+                    err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)")
+                })?,
+            )?;
+            if sets.is_empty() {
+                return Err(err("datasets: needs at least one Dataset"));
+            }
+            let datasets = sets
+                .iter()
+                .map(|d| {
+                    let d = d.get();
+                    Prepared::new(&d.spec, d.record.clone(), &rig).map_err(err)
+                })
+                .collect::<PyResult<_>>()?;
+            let opts = Options {
+                auto_refine: false,
+                local_refinement: true,
+                threshold_mm2: 0.25,
+                top_n: top,
+            };
+            let grids = (Grid::article_first(), Some(Grid::article_refined()));
+            (
+                Problem {
+                    datasets,
+                    standstill,
+                },
+                grids,
+                opts,
+            )
+        }
+        _ => {
+            return Err(err(
+                "give an experiment file or datasets=[Dataset(...)], not both",
+            ))
+        }
+    };
+    let first = match grid {
+        Some(g) => grid_of(py, "grid", g)?,
+        None => file_grids.0,
+    };
+    let second = match refined_grid {
+        Some(g) if g.is_instance_of::<PyBool>() && !g.extract::<bool>()? => None,
+        Some(g) => Some(grid_of(py, "refined_grid", g)?),
+        None => file_grids.1,
+    };
+    let opts = Options {
+        auto_refine: auto_refine.unwrap_or(file_opts.auto_refine),
+        local_refinement: local_refinement.unwrap_or(file_opts.local_refinement),
+        threshold_mm2: threshold_mm2.unwrap_or(file_opts.threshold_mm2),
+        top_n: top,
+    };
+    if !(opts.threshold_mm2.is_finite() && opts.threshold_mm2 > 0.0) {
+        return Err(err("threshold_mm2 must be > 0"));
+    }
+    if top < 1 {
+        return Err(err("top must be at least 1"));
+    }
+    let total = first.len() + second.as_ref().map_or(0, Grid::len);
+    let mut tick = progress_reporter(py, progress, total)?;
+    let start = Instant::now();
+    let id = run_interruptible(
+        py,
+        |go_on| {
+            let stages = ident::run_stages_while(&problem, (first, second), &opts, None, go_on)?;
+            ident::finish(&problem, stages, &opts)
+        },
+        &mut tick,
+    )?
+    .map_err(err)?;
+    tick(py, u64::MAX)?;
+    let best = id.best();
+    Ok(PyIdentification {
+        beta_bar: best.candidate.beta_bar,
+        viscous_friction_ns_per_m: best.candidate.viscous_friction_ns_per_m,
+        c12_m5_per_ns: best.candidate.c12_m5_per_ns,
+        c1_m5_per_ns: id.leakage.c1_m5_per_ns,
+        c2_m5_per_ns: id.leakage.c2_m5_per_ns,
+        cost_mm2: best.cost_mm2,
+        refined: id.refined.is_some(),
+        grid_best: to_py(py, &id.grid_best)?,
+        top: to_py(py, &id.top)?,
+        candidates_evaluated: id.evaluated(),
+        seconds: start.elapsed().as_secs_f64(),
+        details: to_py(py, &id)?,
+    })
+}
+
+/// Progress for `identify`: nothing, a line on `sys.stderr` (`progress=True`), or a callable
+/// `progress(done, total)`. `tick(py, u64::MAX)` marks the end.
+#[allow(clippy::type_complexity)]
+fn progress_reporter(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
+    total: usize,
+) -> PyResult<Box<dyn FnMut(Python<'_>, u64) -> PyResult<()> + Send>> {
+    let Some(p) = progress else {
+        return Ok(Box::new(|_, _| Ok(())));
+    };
+    let as_bool = p.bind(py).is_instance_of::<PyBool>();
+    if as_bool && !p.bind(py).extract::<bool>()? {
+        return Ok(Box::new(|_, _| Ok(())));
+    }
+    let total = total as u64;
+    let mut last = u64::MAX - 1;
+    Ok(Box::new(move |py, done| {
+        let end = done == u64::MAX;
+        let done = if end { total } else { done.min(total) };
+        if done == last && !end {
+            return Ok(());
+        }
+        last = done;
+        if as_bool {
+            let line = format!(
+                "\ridentify: {done}/{total} candidates{}",
+                if end { "\n" } else { "" }
+            );
+            let stderr = py.import("sys")?.getattr("stderr")?;
+            stderr.call_method1("write", (line,))?;
+            stderr.call_method0("flush")?;
+        } else {
+            p.call1(py, (done, total))?;
+        }
+        Ok(())
+    }))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bulk modulus and design
+
+/// Gas fraction X that gives `beta_bar` (bar) at mean pressure `p_mean_bar` (bar), with pure
+/// oil of `beta_oil_bar` (bar) (article Section 7).
+#[pyfunction]
+#[pyo3(signature = (beta_bar, p_mean_bar, *, beta_oil_bar = pumpcyl::bulk::BETA_OIL_BAR))]
+fn gas_fraction(beta_bar: f64, p_mean_bar: f64, beta_oil_bar: f64) -> PyResult<f64> {
+    pumpcyl::bulk::gas_fraction(beta_bar, p_mean_bar, beta_oil_bar).map_err(err)
+}
+
+/// Effective bulk modulus (bar) at mean pressure `p_bar` (bar) for gas fraction `x`.
+#[pyfunction]
+#[pyo3(signature = (x, p_bar, *, beta_oil_bar = pumpcyl::bulk::BETA_OIL_BAR))]
+fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
+    pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar)
+}
+
+/// The design method of the article (Section 8) for `rig`: the largest Kp meeting the margin
+/// targets, margins across stroke, mass and pressure, predicted tracking and a verdict; a dict
+/// as `pumpcyl design --json` prints.
+#[pyfunction]
+#[pyo3(signature = (
+    rig, *, target_pm_deg = 40.0, target_gm_db = 6.0, stroke_mm = 50.0, p_mean_bar = vec![],
+    p_beta_bar = 4.4, mass_kg = vec![], waves = vec![]
+))]
+#[allow(clippy::too_many_arguments)]
+fn design(
+    py: Python<'_>,
+    rig: &PyRig,
+    target_pm_deg: f64,
+    target_gm_db: f64,
+    stroke_mm: f64,
+    p_mean_bar: Vec<f64>,
+    p_beta_bar: f64,
+    mass_kg: Vec<f64>,
+    waves: Vec<(f64, f64)>,
+) -> PyResult<Py<PyAny>> {
+    let targets = pumpcyl::design::Targets {
+        pm_deg: target_pm_deg,
+        gm_db: target_gm_db,
+        stroke_mm,
+        p_mean_bar,
+        p_beta_bar,
+        mass_kg,
+        waves,
+    };
+    let rig = rig.rig.clone();
+    let d = py
+        .detach(|| pumpcyl::design::design(&rig, &targets))
+        .map_err(err)?;
+    to_py(py, &d)
+}
+
+#[pymodule]
+fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("PumpcylError", m.py().get_type::<PumpcylError>())?;
+    m.add_class::<PyRig>()?;
+    m.add_class::<PyMargins>()?;
+    m.add_class::<PySimulation>()?;
+    m.add_class::<PyStep>()?;
+    m.add_class::<PyDataset>()?;
+    m.add_class::<PyIdentification>()?;
+    m.add_function(wrap_pyfunction!(margins, m)?)?;
+    m.add_function(wrap_pyfunction!(state_space, m)?)?;
+    m.add_function(wrap_pyfunction!(bode, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(step, m)?)?;
+    m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
+    m.add_function(wrap_pyfunction!(effective_beta, m)?)?;
+    m.add_function(wrap_pyfunction!(design, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,376 @@
+//! MATLAB and Octave outputs of the commands: the model as a function file (`.m`) or MAT-file,
+//! the grey-box model function, and MAT-files of signals, Bode data and identification results
+//! (docs/matlab.md). The formats are in [`crate::matlab`] and [`crate::matfile`].
+
+use anyhow::Result;
+use std::path::Path;
+
+use super::output::write_atomic;
+use super::Loop;
+use crate::lti::{StateInfo, StateSpace};
+use crate::matfile::{var_name, MatWriter};
+use crate::matlab::{self, Described, GreyLoop, Port};
+use crate::model::{Plant, SIM_OUTPUTS};
+use crate::response::Signals;
+use crate::rig::Rig;
+
+/// The model the `model` command shows or exports: matrices, names and the loop it is.
+pub struct ModelView {
+    /// The matrices (SI).
+    pub sys: StateSpace,
+    /// State names and units.
+    pub states: Vec<StateInfo>,
+    /// Inputs.
+    pub inputs: Vec<Port>,
+    /// Outputs.
+    pub outputs: Vec<Port>,
+    /// What it is.
+    pub title: String,
+    /// The operating point (name, value, unit); empty for a `--ss` model.
+    pub operating_point: Vec<(String, f64, String)>,
+    /// The rig and the grey-box loop choice, when the model comes from a rig.
+    pub rig: Option<(Rig, GreyLoop)>,
+}
+
+/// Meaning of each output of the simulated closed loop, in [`SIM_OUTPUTS`] order.
+const SIM_MEANINGS: [&str; 6] = [
+    "piston position",
+    "chamber 1 pressure",
+    "chamber 2 pressure",
+    "motor/pump 1 speed",
+    "motor/pump 2 speed",
+    "control error x_ref - x",
+];
+
+/// The open loop (as analysed) or, with `closed`, the closed loop as `step` simulates it: input
+/// x_ref, outputs x, p1, p2, w1, w2 and e. For a `--ss` model the closed loop is unity feedback.
+pub fn model_view(lp: &Loop, closed: bool, sum_pressure_closed: bool) -> Result<ModelView> {
+    let Some(rig) = &lp.rig else {
+        let (sys, title, inp, out) = if closed {
+            (
+                lp.open_loop.unity_feedback()?,
+                format!("{} with unity feedback", lp.description),
+                Port::new("r", "-", "reference"),
+                Port::new("y", "-", "output"),
+            )
+        } else {
+            (
+                lp.open_loop.clone(),
+                lp.description.clone(),
+                Port::new("u", "-", "loop input"),
+                Port::new("y", "-", "loop output"),
+            )
+        };
+        return Ok(ModelView {
+            sys,
+            states: lp.states.clone(),
+            inputs: vec![inp],
+            outputs: vec![out],
+            title,
+            operating_point: Vec::new(),
+            rig: None,
+        });
+    };
+    let plant = Plant::new(rig);
+    let op = plant.operating_point();
+    let operating_point = [
+        ("x_m", op.x, "m"),
+        ("p1_Pa", op.p1, "Pa (gauge)"),
+        ("p2_Pa", op.p2, "Pa (gauge)"),
+        ("w1_rad_per_s", op.w1, "rad/s"),
+        ("w2_rad_per_s", op.w2, "rad/s"),
+    ]
+    .iter()
+    .map(|(n, v, u)| (n.to_string(), *v, u.to_string()))
+    .collect();
+    let (which, inputs, outputs, title) = if closed {
+        let sp = if rig.sum_pressure { "closed" } else { "open" };
+        (
+            GreyLoop::Closed {
+                sum_pressure: rig.sum_pressure,
+            },
+            vec![Port::new("x_ref", "m", "position reference")],
+            SIM_OUTPUTS
+                .iter()
+                .zip(SIM_MEANINGS)
+                .map(|((n, u), m)| Port::new(n, u, m))
+                .collect(),
+            format!(
+                "{}: closed loop x_ref -> x, p1, p2, w1, w2, e, sum-pressure loop {sp} (as pumpcyl \
+                 step simulates it)",
+                lp.description
+                    .split(": open loop")
+                    .next()
+                    .unwrap_or(&lp.description)
+            ),
+        )
+    } else {
+        (
+            GreyLoop::Open {
+                sum_pressure: sum_pressure_closed,
+            },
+            vec![Port::new("e", "m", "position error")],
+            vec![Port::new("x", "m", "piston position")],
+            lp.description.clone(),
+        )
+    };
+    Ok(ModelView {
+        sys: matlab::grey_loop(rig, which),
+        states: plant.layout.states(),
+        inputs,
+        outputs,
+        title,
+        operating_point,
+        rig: Some((rig.clone(), which)),
+    })
+}
+
+/// The function name a `.m` file must carry: its stem, if MATLAB accepts it.
+fn function_name(path: &Path) -> Result<String> {
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or_default();
+    anyhow::ensure!(
+        matlab::is_function_name(stem),
+        "{}: MATLAB calls a function file by its name, so `{stem}` must be a MATLAB name (a \
+         letter, then letters, digits or _, at most 63)",
+        path.display()
+    );
+    Ok(stem.to_string())
+}
+
+/// Whether a path ends in `.ext` (any case).
+pub fn has_ext(path: &Path, ext: &str) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case(ext))
+}
+
+/// `model --out FILE.m|FILE.mat`.
+pub fn write_model(path: &Path, view: &ModelView) -> Result<()> {
+    if has_ext(path, "m") {
+        let described = Described {
+            sys: &view.sys,
+            states: &view.states,
+            inputs: view.inputs.clone(),
+            outputs: view.outputs.clone(),
+            title: view.title.clone(),
+            operating_point: view.operating_point.clone(),
+        };
+        let text = matlab::ss_function(&function_name(path)?, &described);
+        return write_atomic(path, text.as_bytes());
+    }
+    anyhow::ensure!(
+        has_ext(path, "mat"),
+        "{}: unknown output format; use one of .m, .mat",
+        path.display()
+    );
+    let mut w = MatWriter::new(&view.title);
+    for (name, m) in [
+        ("A", &view.sys.a),
+        ("B", &view.sys.b),
+        ("C", &view.sys.c),
+        ("D", &view.sys.d),
+    ] {
+        w.matrix(name, m.nrows(), m.ncols(), m.as_slice());
+    }
+    let join = |v: Vec<&str>| v.join(",");
+    w.text(
+        "state_names",
+        &join(view.states.iter().map(|s| s.name.as_str()).collect()),
+    )
+    .text(
+        "state_units",
+        &join(view.states.iter().map(|s| s.unit.as_str()).collect()),
+    )
+    .text(
+        "input_names",
+        &join(view.inputs.iter().map(|s| s.name.as_str()).collect()),
+    )
+    .text(
+        "output_names",
+        &join(view.outputs.iter().map(|s| s.name.as_str()).collect()),
+    )
+    .text("description", &view.title);
+    for (name, v, _) in &view.operating_point {
+        w.scalar(&format!("op_{name}"), *v);
+    }
+    write_atomic(path, &w.into_bytes())
+}
+
+/// `model --greybox FILE.m`.
+pub fn write_greybox(
+    path: &Path,
+    view: &ModelView,
+    standstill: Option<crate::ident::Standstill>,
+) -> Result<()> {
+    anyhow::ensure!(
+        has_ext(path, "m"),
+        "{}: the grey-box model is a MATLAB function file: name it NAME.m",
+        path.display()
+    );
+    let Some((rig, which)) = &view.rig else {
+        anyhow::bail!("--greybox needs a rig (its parameters are the rig's), not --ss");
+    };
+    let standstill = matlab::standstill_of(rig, standstill);
+    // the standstill must give usable leakages (positive pressures) for the rig
+    standstill.leakage(rig, rig.c12_m5_per_ns)?;
+    let text = matlab::greybox_function(
+        &function_name(path)?,
+        rig,
+        *which,
+        standstill,
+        &view.title,
+        &view.outputs,
+        &view.inputs,
+    );
+    write_atomic(path, text.as_bytes())
+}
+
+/// Signals as MAT variables named as the CSV columns (`time_s`, `x_ref_mm`, `x_mm`, `e_mm`,
+/// `p1_bar`, `p2_bar`, `w1_rpm`, `w2_rpm`): the first block (the measured record if there is
+/// one) with plain names, block k ≥ 2 with the suffix `_k`; `series_labels` names the blocks.
+pub fn signals_mat(w: &mut MatWriter, series: &[(String, &Signals)], measured: Option<&Signals>) {
+    let mut blocks: Vec<(String, &Signals)> = Vec::new();
+    if let Some(m) = measured {
+        blocks.push(("measured".into(), m));
+    }
+    blocks.extend(series.iter().map(|(l, s)| (l.clone(), *s)));
+    let mut labels = Vec::new();
+    for (k, (label, s)) in blocks.iter().enumerate() {
+        let suffix = if k == 0 {
+            String::new()
+        } else {
+            format!("_{}", k + 1)
+        };
+        labels.push(format!("{}: {label}", k + 1));
+        for (name, v) in s.named() {
+            if !v.is_empty() {
+                w.column(&format!("{name}{suffix}"), v);
+            }
+        }
+    }
+    w.text("series_labels", &labels.join("; "));
+}
+
+/// Write a MAT-file of signals and named scalars (`None` is NaN: not reached, not settled).
+pub fn write_signals_mat(
+    path: &Path,
+    description: &str,
+    series: &[(String, &Signals)],
+    measured: Option<&Signals>,
+    scalars: &[(&str, Vec<Option<f64>>)],
+) -> Result<()> {
+    let mut w = MatWriter::new(description);
+    signals_mat(&mut w, series, measured);
+    for (name, values) in scalars {
+        let v: Vec<f64> = values.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
+        w.column(&var_name(name), &v);
+    }
+    write_atomic(path, &w.into_bytes())
+}
+
+/// `bode --out FILE.mat`: `freq_hz`, and `mag_db`, `phase_deg` (suffixed `_k` for overlay k ≥ 2),
+/// `series_labels`.
+pub fn write_bode_mat(path: &Path, series: &[crate::report::BodeSeries]) -> Result<()> {
+    let mut w = MatWriter::new("Bode diagram of the position open loop");
+    w.column("freq_hz", &series[0].freq_hz);
+    let mut labels = Vec::new();
+    for (k, s) in series.iter().enumerate() {
+        let suffix = if k == 0 {
+            String::new()
+        } else {
+            format!("_{}", k + 1)
+        };
+        labels.push(format!("{}: {}", k + 1, s.label));
+        w.column(&format!("mag_db{suffix}"), &s.mag_db)
+            .column(&format!("phase_deg{suffix}"), &s.phase_deg);
+    }
+    w.text("series_labels", &labels.join("; "));
+    write_atomic(path, &w.into_bytes())
+}
+
+/// The identification cost over β × c12 at one b.
+pub struct Landscape {
+    /// β values (bar).
+    pub beta_bar: Vec<f64>,
+    /// c12 values (m⁵/(N·s)).
+    pub c12_m5_per_ns: Vec<f64>,
+    /// The b they share (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// Cost (mm²), β varying fastest; +∞ for unstable or non-finite candidates.
+    pub cost_mm2: Vec<f64>,
+}
+
+/// `identify --out DIR`: DIR/result.mat with the answer (`beta_bar`, `viscous_friction_ns_per_m`,
+/// `c12_m5_per_ns`, `c1_m5_per_ns`, `c2_m5_per_ns`, `cost_mm2`), the top list (`top`: one row per
+/// candidate, columns β, b, c12, cost), the landscape (`landscape_beta_bar`,
+/// `landscape_c12_m5_per_ns`, `landscape_cost_mm2` with one row per c12 and one column per β) and
+/// the fits (`fitK_dataset`, `fitK_time_s`, `fitK_x_ref_mm`, `fitK_x_mm` measured and
+/// `fitK_sim_x_mm` simulated, for dataset K).
+pub fn write_identification_mat(
+    path: &Path,
+    id: &crate::ident::Identification,
+    landscape: &Landscape,
+    fits: &[(String, Signals, Signals)],
+) -> Result<()> {
+    let best = id.best();
+    let mut w = MatWriter::new("pumpcyl identification");
+    w.scalar("beta_bar", best.candidate.beta_bar)
+        .scalar(
+            "viscous_friction_ns_per_m",
+            best.candidate.viscous_friction_ns_per_m,
+        )
+        .scalar("c12_m5_per_ns", best.candidate.c12_m5_per_ns)
+        .scalar("c1_m5_per_ns", id.leakage.c1_m5_per_ns)
+        .scalar("c2_m5_per_ns", id.leakage.c2_m5_per_ns)
+        .scalar("cost_mm2", best.cost_mm2);
+    let top: Vec<Vec<f64>> = id
+        .top
+        .iter()
+        .map(|s| {
+            vec![
+                s.candidate.beta_bar,
+                s.candidate.viscous_friction_ns_per_m,
+                s.candidate.c12_m5_per_ns,
+                s.cost_mm2,
+            ]
+        })
+        .collect();
+    if top.is_empty() {
+        w.matrix("top", 0, 4, &[]);
+    } else {
+        w.rows("top", &top);
+    }
+    w.text(
+        "top_columns",
+        "beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2",
+    )
+    .column("landscape_beta_bar", &landscape.beta_bar)
+    .column("landscape_c12_m5_per_ns", &landscape.c12_m5_per_ns)
+    .scalar(
+        "landscape_viscous_friction_ns_per_m",
+        landscape.viscous_friction_ns_per_m,
+    );
+    // one row per c12, one column per β, as surf(beta, c12, cost) and imagesc expect: element
+    // (j, i) is cost[j·nβ + i], written column by column.
+    let (nb, nc) = (landscape.beta_bar.len(), landscape.c12_m5_per_ns.len());
+    let transposed: Vec<f64> = (0..nb)
+        .flat_map(|i| (0..nc).map(move |j| (i, j)))
+        .map(|(i, j)| landscape.cost_mm2[j * nb + i])
+        .collect();
+    w.matrix("landscape_cost_mm2", nc, nb, &transposed);
+    for (k, (name, measured, sim)) in fits.iter().enumerate() {
+        w.text(&format!("fit{}_dataset", k + 1), name);
+        for (col, v) in [
+            ("time_s", &measured.time_s),
+            ("x_ref_mm", &measured.x_ref_mm),
+            ("x_mm", &measured.x_mm),
+            ("sim_x_mm", &sim.x_mm),
+        ] {
+            w.column(&format!("fit{}_{col}", k + 1), v);
+        }
+    }
+    write_atomic(path, &w.into_bytes())
+}
