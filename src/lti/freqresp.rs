@@ -135,7 +135,7 @@ pub fn bode(sys: &StateSpace, freq_hz: &[f64]) -> Result<Bode, LtiError> {
     if let Some((f, _)) = freq_hz
         .iter()
         .zip(&values)
-        .find(|(_, v)| !(v.re.is_finite() && v.im.is_finite()) || v.norm() == 0.0)
+        .find(|(_, v)| !(v.re.is_finite() && v.im.is_finite()))
     {
         return Err(LtiError::NonFiniteResult {
             what: "the frequency response (dB)",
