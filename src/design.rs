@@ -214,6 +214,14 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
             )));
         }
     }
+    let (lo, hi) = (rig.x0_mm - t.stroke_mm, rig.x0_mm + t.stroke_mm);
+    if lo <= 0.0 || hi >= rig.stroke_mm {
+        return Err(DesignError::Input(format!(
+            "stroke = {} mm: the positions x0 ± stroke ({lo} … {hi} mm) leave the cylinder \
+             (0 … {} mm, `stroke_mm` of the rig)",
+            t.stroke_mm, rig.stroke_mm
+        )));
+    }
     check_lists(t)?;
     let kp = kp_max(rig, t)?;
     if kp == 0.0 {

@@ -6,7 +6,27 @@
 //! an unknown key is answered with the nearest known one. Values that parse but make no sense
 //! (a negative mass) are located afterwards with [`toml_line`].
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Every file this process has read, canonicalised (symlinks resolved), so that an output layer
+/// can refuse to write over one of them.
+static READ: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Note that `path` is an input of this run (called by every reader of user files).
+pub fn note_read(path: &Path) {
+    if let Ok(real) = std::fs::canonicalize(path) {
+        let mut read = READ.lock().unwrap_or_else(|e| e.into_inner());
+        if !read.contains(&real) {
+            read.push(real);
+        }
+    }
+}
+
+/// The files read so far, canonicalised.
+pub fn files_read() -> Vec<PathBuf> {
+    READ.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
 
 /// The UTF-8 byte-order mark that spreadsheet programs put at the start of text files.
 pub const BOM: &[u8] = b"\xEF\xBB\xBF";
@@ -14,8 +34,30 @@ pub const BOM: &[u8] = b"\xEF\xBB\xBF";
 /// The text of a user file, a leading byte-order mark dropped. The error (without the file name,
 /// which the caller puts first) is `cannot read: …` or `line L, column C: not UTF-8 text …`.
 pub fn read_text(path: &Path) -> Result<String, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    note_read(path);
+    let bytes = read_bounded(path)?;
     decode(bytes)
+}
+
+/// The largest text file (rig, experiment, `--ss` model, partial result) read whole, in bytes.
+pub const MAX_TEXT_BYTES: u64 = 64 << 20;
+
+/// The bytes of a file of at most [`MAX_TEXT_BYTES`]; a special file such as `/dev/zero` that
+/// never ends is stopped at the limit.
+pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_TEXT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if bytes.len() as u64 > MAX_TEXT_BYTES {
+        return Err(format!(
+            "larger than {} MiB, the limit for a text input",
+            MAX_TEXT_BYTES >> 20
+        ));
+    }
+    Ok(bytes)
 }
 
 /// Bytes to text, a leading byte-order mark dropped; the error names the line and column of the

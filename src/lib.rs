@@ -43,6 +43,7 @@ pub mod emulator;
 pub mod fuzzing;
 pub mod ident;
 pub mod input;
+pub mod limits;
 pub mod lti;
 pub mod matfile;
 pub mod matlab;

@@ -2,7 +2,10 @@
 
 fn main() {
     if let Err(e) = pumpcyl::cli::run() {
-        eprintln!("error: {e:#}");
+        eprintln!(
+            "error: {}",
+            pumpcyl::cli::escape_controls(&format!("{e:#}"))
+        );
         std::process::exit(1);
     }
 }

@@ -241,11 +241,15 @@ impl Table {
     /// Parse CSV from a stream, one row at a time; `file` names it in messages. The dialect
     /// comes from the header line (see [`Dialect`]); a UTF-8 byte-order mark is dropped.
     pub fn from_reader<R: BufRead>(
-        mut reader: R,
+        reader: R,
         file: &str,
         required: &[&str],
         optional: &[&str],
     ) -> Result<Table, RecordError> {
+        let mut reader = std::io::BufReader::new(LineLimit {
+            inner: reader,
+            line_bytes: 0,
+        });
         let (header_line, dialect) = Dialect::sniff(&mut reader, file)?;
         let mut csv = csv::ReaderBuilder::new()
             .delimiter(dialect.delimiter)
@@ -270,6 +274,16 @@ impl Table {
         let mut row = csv::ByteRecord::new();
         while csv.read_byte_record(&mut row).map_err(csv_err)? {
             rows.line = row.position().map_or(rows.line + 1, |p| p.line());
+            if rows.columns.first().map_or(0, Vec::len) as f64 >= crate::limits::MAX_POINTS {
+                return Err(RecordError::Csv {
+                    file: file.to_string(),
+                    line: rows.line,
+                    message: format!(
+                        "more than {:e} data rows, the limit for a record",
+                        crate::limits::MAX_POINTS
+                    ),
+                });
+            }
             rows.push(&row)?;
         }
         rows.finish()
@@ -431,6 +445,13 @@ impl Rows<'_> {
         }
         for (c, (name, i)) in self.index.iter().enumerate() {
             let v = parse_field(&row[*i], self.dialect, self.file, self.line, name)?;
+            if let Some(limit) = physical_limit(name).filter(|l| v.abs() > *l) {
+                return Err(err(format!(
+                    "`{name}` = {}: far outside anything physical (|value| <= {limit:e} for \
+                     this unit)",
+                    crate::rig::readable(v)
+                )));
+            }
             self.columns[c].push(v);
         }
         self.check_time()
@@ -486,6 +507,41 @@ impl Rows<'_> {
     }
 }
 
+/// The largest magnitude a column can hold, by its unit: positions within 100 m, pressures within
+/// 10 000 bar, speeds within 10⁶ rpm, times within 30 years. `None` for other columns.
+fn physical_limit(name: &str) -> Option<f64> {
+    [("_mm", 1e5), ("_bar", 1e4), ("_rpm", 1e6), ("_s", 1e9)]
+        .iter()
+        .find(|(unit, _)| name.ends_with(unit))
+        .map(|(_, limit)| *limit)
+}
+
+/// The longest line a record may have (bytes): far beyond any row of numbers.
+const MAX_LINE_BYTES: usize = 1 << 20;
+
+/// A reader that fails once a line grows past [`MAX_LINE_BYTES`], so a file without line ends
+/// (a binary file, `/dev/zero`) is an error instead of filling memory.
+struct LineLimit<R> {
+    inner: R,
+    line_bytes: usize,
+}
+
+impl<R: std::io::Read> std::io::Read for LineLimit<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        for &b in &buf[..n] {
+            self.line_bytes = if b == b'\n' { 0 } else { self.line_bytes + 1 };
+            if self.line_bytes > MAX_LINE_BYTES {
+                return Err(std::io::Error::other(format!(
+                    "a line longer than {} MiB: not a CSV record",
+                    MAX_LINE_BYTES >> 20
+                )));
+            }
+        }
+        Ok(n)
+    }
+}
+
 /// Whether a path names a MAT-file (extension `.mat`, any case).
 fn is_mat(path: &Path) -> bool {
     path.extension()
@@ -493,8 +549,9 @@ fn is_mat(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("mat"))
 }
 
-/// A whole file's bytes.
+/// A whole file's bytes (noted as an input of this run, which no output may overwrite).
 fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
+    crate::input::note_read(path);
     std::fs::read(path).map_err(|e| RecordError::Io {
         file: path.display().to_string(),
         message: e.to_string(),
@@ -504,6 +561,7 @@ fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
 /// A file opened for streaming, and its name for messages.
 fn open(path: &Path) -> Result<(BufReader<std::fs::File>, String), RecordError> {
     let file = path.display().to_string();
+    crate::input::note_read(path);
     let f = std::fs::File::open(path).map_err(|e| RecordError::Io {
         file: file.clone(),
         message: e.to_string(),

@@ -68,7 +68,7 @@ pub enum RigError {
         message: String,
     },
     /// A value outside its physical range.
-    #[error("{source_name}: {}key `{key}` = {value}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")))]
+    #[error("{source_name}: {}key `{key}` = {}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")), readable(*value))]
     Invalid {
         /// Where the rig came from (file name, `--set` or `default`).
         source_name: String,
@@ -79,7 +79,7 @@ pub enum RigError {
         /// The offending value.
         value: f64,
         /// The rule it breaks.
-        rule: &'static str,
+        rule: String,
     },
 }
 
@@ -286,6 +286,15 @@ pub struct RigSi {
     pub f_ext: f64,
 }
 
+/// A number as a user would write it: plain when moderate, in exponent form when huge or tiny.
+pub fn readable(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// Pascal per bar.
 pub const PA_PER_BAR: f64 = 1e5;
 /// Radians per second per rpm.
@@ -357,113 +366,145 @@ impl Rig {
         };
         for (key, value, rule) in self.numeric_fields() {
             if !value.is_finite() {
-                return Err(invalid(key, value, "must be a finite number"));
+                return Err(invalid(key, value, "must be a finite number".into()));
             }
-            let ok = match rule {
-                Range::Positive => value > 0.0,
-                Range::NonNegative => value >= 0.0,
-                Range::Any => true,
-            };
-            if !ok {
-                return Err(invalid(key, value, rule.text()));
+            if let Some(rule) = rule.violated(value) {
+                return Err(invalid(key, value, rule));
             }
         }
         if self.rod_diameter_mm >= self.piston_diameter_mm {
             return Err(invalid(
                 "rod_diameter_mm",
                 self.rod_diameter_mm,
-                "must be smaller than piston_diameter_mm",
+                "must be smaller than piston_diameter_mm".into(),
             ));
         }
         if self.x0_mm <= 0.0 || self.x0_mm >= self.stroke_mm {
             return Err(invalid(
                 "x0_mm",
                 self.x0_mm,
-                "must lie strictly inside the stroke (0, stroke_mm)",
+                "must lie strictly inside the stroke (0, stroke_mm)".into(),
             ));
         }
         Ok(())
+    }
+
+    /// What is wrong with `value` for the numeric rig key `key` (its physical range), if anything;
+    /// `None` also for a key that is not numeric.
+    pub fn check_key(key: &str, value: f64) -> Option<String> {
+        let (_, _, rule) = Rig::default()
+            .numeric_fields()
+            .into_iter()
+            .find(|(k, ..)| *k == key)?;
+        if !value.is_finite() {
+            return Some("must be a finite number".into());
+        }
+        rule.violated(value)
     }
 
     /// Every numeric key with its value and allowed range.
     fn numeric_fields(&self) -> Vec<(&'static str, f64, Range)> {
         use Range::*;
         let mut fields = vec![
-            ("piston_diameter_mm", self.piston_diameter_mm, Positive),
-            ("rod_diameter_mm", self.rod_diameter_mm, Positive),
-            ("line_volume_1_dm3", self.line_volume_1_dm3, Positive),
-            ("line_volume_2_dm3", self.line_volume_2_dm3, Positive),
-            ("stroke_mm", self.stroke_mm, Positive),
-            ("x0_mm", self.x0_mm, Positive),
+            (
+                "piston_diameter_mm",
+                self.piston_diameter_mm,
+                Positive(1.0, 5000.0),
+            ),
+            (
+                "rod_diameter_mm",
+                self.rod_diameter_mm,
+                Positive(0.5, 5000.0),
+            ),
+            (
+                "line_volume_1_dm3",
+                self.line_volume_1_dm3,
+                Positive(1e-6, 1e5),
+            ),
+            (
+                "line_volume_2_dm3",
+                self.line_volume_2_dm3,
+                Positive(1e-6, 1e5),
+            ),
+            ("stroke_mm", self.stroke_mm, Positive(1.0, 1e5)),
+            ("x0_mm", self.x0_mm, Positive(0.001, 1e5)),
             (
                 "motor_inertia_1_kg_mm2",
                 self.motor_inertia_1_kg_mm2,
-                Positive,
+                Positive(0.001, 1e10),
             ),
             (
                 "motor_inertia_2_kg_mm2",
                 self.motor_inertia_2_kg_mm2,
-                Positive,
+                Positive(0.001, 1e10),
             ),
             (
                 "pump_inertia_1_kg_mm2",
                 self.pump_inertia_1_kg_mm2,
-                NonNegative,
+                NonNegative(1e10),
             ),
             (
                 "pump_inertia_2_kg_mm2",
                 self.pump_inertia_2_kg_mm2,
-                NonNegative,
+                NonNegative(1e10),
             ),
             (
                 "displacement_1_cm3_per_rev",
                 self.displacement_1_cm3_per_rev,
-                Positive,
+                Positive(0.001, 1e5),
             ),
             (
                 "displacement_2_cm3_per_rev",
                 self.displacement_2_cm3_per_rev,
-                Positive,
+                Positive(0.001, 1e5),
             ),
             (
                 "current_loop_bandwidth_rad_per_s",
                 self.current_loop_bandwidth_rad_per_s,
-                Positive,
+                Positive(0.01, 1e6),
             ),
-            ("km1_nms_per_rad", self.km1_nms_per_rad, Positive),
-            ("km2_nms_per_rad", self.km2_nms_per_rad, Positive),
-            ("kff_kg_m2", self.kff_kg_m2, NonNegative),
-            ("tau_ff_s", self.tau_ff_s, Positive),
-            ("k_scale_rad_per_s", self.k_scale_rad_per_s, Positive),
-            ("mass_kg", self.mass_kg, Positive),
-            ("external_force_n", self.external_force_n, Any),
-            ("beta_bar", self.beta_bar, Positive),
+            ("km1_nms_per_rad", self.km1_nms_per_rad, Positive(1e-6, 1e4)),
+            ("km2_nms_per_rad", self.km2_nms_per_rad, Positive(1e-6, 1e4)),
+            ("kff_kg_m2", self.kff_kg_m2, NonNegative(1000.0)),
+            ("tau_ff_s", self.tau_ff_s, Positive(1e-6, 1000.0)),
+            (
+                "k_scale_rad_per_s",
+                self.k_scale_rad_per_s,
+                Positive(0.001, 1e6),
+            ),
+            ("mass_kg", self.mass_kg, Positive(0.001, 1e8)),
+            ("external_force_n", self.external_force_n, Any(1e9)),
+            ("beta_bar", self.beta_bar, Positive(0.01, 1e5)),
             (
                 "viscous_friction_ns_per_m",
                 self.viscous_friction_ns_per_m,
-                NonNegative,
+                NonNegative(1e9),
             ),
-            ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative),
-            ("c1_m5_per_ns", self.c1_m5_per_ns, Any),
-            ("c2_m5_per_ns", self.c2_m5_per_ns, Any),
-            ("kp", self.kp, Positive),
-            ("p_sum_ref_bar", self.p_sum_ref_bar, Positive),
-            ("k_pres_per_bar", self.k_pres_per_bar, NonNegative),
-            ("k_beta", self.k_beta, NonNegative),
+            ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative(1e-6)),
+            ("c1_m5_per_ns", self.c1_m5_per_ns, Any(1e-6)),
+            ("c2_m5_per_ns", self.c2_m5_per_ns, Any(1e-6)),
+            ("kp", self.kp, Positive(1e-6, 1e6)),
+            ("p_sum_ref_bar", self.p_sum_ref_bar, Positive(0.001, 1e4)),
+            ("k_pres_per_bar", self.k_pres_per_bar, NonNegative(1e6)),
+            ("k_beta", self.k_beta, NonNegative(1000.0)),
             (
                 "motor_rated_torque_nm",
                 self.motor_rated_torque_nm,
-                Positive,
+                Positive(0.001, 1e6),
             ),
             (
                 "motor_rated_speed_rpm",
                 self.motor_rated_speed_rpm,
-                Positive,
+                Positive(0.01, 1e6),
             ),
-            ("pump_max_speed_rpm", self.pump_max_speed_rpm, Positive),
+            (
+                "pump_max_speed_rpm",
+                self.pump_max_speed_rpm,
+                Positive(0.01, 1e6),
+            ),
         ];
         if let Some(tau) = self.motor_time_constant_s {
-            fields.push(("motor_time_constant_s", tau, Positive));
+            fields.push(("motor_time_constant_s", tau, Positive(1e-6, 1000.0)));
         }
         fields
     }
@@ -555,17 +596,29 @@ impl Rig {
 /// Allowed range of a numeric key.
 #[derive(Debug, Clone, Copy)]
 enum Range {
-    Positive,
-    NonNegative,
-    Any,
+    /// Strictly positive, at least `.0` and at most `.1` in the key's unit.
+    Positive(f64, f64),
+    /// Zero or positive, at most `.0`.
+    NonNegative(f64),
+    /// Either sign, magnitude at most `.0`.
+    Any(f64),
 }
 
 impl Range {
-    fn text(self) -> &'static str {
+    /// What is wrong with `value`, if anything. Magnitudes far outside any pump-controlled
+    /// cylinder (the limits span several decades around the article's rig, Table 1) are refused
+    /// so the numerics downstream never meet them.
+    fn violated(self, value: f64) -> Option<String> {
+        let outside = |lo: f64, hi: f64| {
+            format!("outside the physical range {lo:e} to {hi:e} that pumpcyl accepts")
+        };
         match self {
-            Range::Positive => "must be > 0",
-            Range::NonNegative => "must be >= 0",
-            Range::Any => "any finite value",
+            Range::Positive(..) if value <= 0.0 => Some("must be > 0".into()),
+            Range::Positive(lo, hi) if value < lo || value > hi => Some(outside(lo, hi)),
+            Range::NonNegative(_) if value < 0.0 => Some("must be >= 0".into()),
+            Range::NonNegative(hi) if value > hi => Some(outside(0.0, hi)),
+            Range::Any(hi) if value.abs() > hi => Some(outside(-hi, hi)),
+            _ => None,
         }
     }
 }

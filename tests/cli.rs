@@ -503,7 +503,7 @@ fn sharded_identify_merges_to_the_same_answer() {
     assert_eq!(merged["grid_best"], whole["grid_best"]);
     assert_eq!(merged["top"], whole["top"]);
     let err = fails(&["identify-merge", &p(1), &p(2)]);
-    assert!(err.contains("missing shards 3"), "{err}");
+    assert!(err.contains("missing shards"), "{err}");
     let err = fails(&["identify", &exp, "--shard", "4/3", "--out", "x"]);
     assert!(err.contains("4/3"), "{err}");
 }

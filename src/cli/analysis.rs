@@ -184,12 +184,13 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
         args.model.ss.is_none() || args.compare.is_empty(),
         "--compare overlays rig variants; it cannot be used with --ss"
     );
-    let decades = (args.to_hz / args.from_hz).log10();
-    let freqs = lti::log_grid(
-        args.from_hz,
-        args.to_hz,
-        (decades * args.points_per_decade as f64) as usize + 1,
-    );
+    let decades = args.to_hz.log10() - args.from_hz.log10();
+    let points = crate::limits::check_size(
+        "--from-hz, --to-hz and --points-per-decade",
+        (decades * args.points_per_decade as f64).floor() + 1.0,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let freqs = lti::log_grid(args.from_hz, args.to_hz, points);
     let base = args.model.build(&[])?;
     let mut series = vec![series_of(&base, "nominal", &freqs)?];
     for variant in &args.compare {

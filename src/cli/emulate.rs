@@ -1,11 +1,11 @@
 //! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
 
-use super::output::write_atomic;
+use super::output::{write_atomic, OutDir};
 use super::RigSource;
 use crate::emulator::article::{self, Emulated, Kind};
 use crate::emulator::{DriveStep, Effects, Experiment, Plc};
 use crate::rig::Rig;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -84,6 +84,9 @@ pub struct EmulateArgs {
     /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
     #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     rate_hz: Option<f64>,
+    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work).
+    #[arg(long)]
+    allow_long_run: bool,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -121,11 +124,9 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     };
     let rig = load_rig(&args.source, effects)?;
     let plan = experiment(args, kind, &rig)?;
-    let truth = article::Truth {
-        rig,
-        effects,
-        plc: plc(args, kind)?,
-    };
+    let plc = plc(args, kind)?;
+    check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
+    let truth = article::Truth { rig, effects, plc };
     let data = plan
         .run(&truth)
         .map_err(|e| anyhow!("{}: {e}", out.display()))?;
@@ -219,6 +220,33 @@ fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kin
     })
 }
 
+/// Refuse a run of hours (controller steps beyond the limit) unless asked for, and a sine the
+/// controller's sampling cannot represent (at or above its Nyquist frequency).
+fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
+    let duration_s = match plan {
+        Kind::Loop(e) => e.duration_s(),
+        Kind::Drive(d) => d.duration_s,
+    };
+    crate::limits::check_work(
+        "--duration-s and --rate-hz (controller steps)",
+        duration_s * rate_hz,
+        crate::limits::MAX_EMULATED_STEPS,
+        allow_long_run,
+    )
+    .map_err(anyhow::Error::msg)?;
+    if let Kind::Loop(Experiment::Sine { freq_hz, .. }) = plan {
+        if *freq_hz >= rate_hz / 2.0 {
+            bail!(
+                "--freq-hz {freq_hz}: at or above the Nyquist frequency {} Hz of --rate-hz \
+                 {rate_hz}; raise --rate-hz above {} Hz",
+                rate_hz / 2.0,
+                2.0 * freq_hz
+            );
+        }
+    }
+    Ok(())
+}
+
 fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
     let default_rate = if kind == ExperimentKind::DriveStep {
         1000.0
@@ -242,8 +270,9 @@ fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
 }
 
 /// Emulate every article record into `dir`, with the README and the identify experiment.
-fn article_records(dir: &Path) -> Result<String> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+fn article_records(target: &Path) -> Result<String> {
+    let folder = OutDir::begin(target)?;
+    let dir = folder.path();
     let records = article::records().map_err(|e| anyhow!(e))?;
     let results: Vec<Result<Emulated>> = records
         .par_iter()
@@ -252,9 +281,8 @@ fn article_records(dir: &Path) -> Result<String> {
     let mut summary = String::new();
     for (rec, data) in records.iter().zip(results) {
         let data = data?;
-        let path = dir.join(rec.file);
-        write_atomic(&path, data.csv().as_bytes())?;
-        let _ = writeln!(summary, "{}: {}", path.display(), rec.what);
+        write_atomic(&dir.join(rec.file), data.csv().as_bytes())?;
+        let _ = writeln!(summary, "{}: {}", target.join(rec.file).display(), rec.what);
     }
     write_atomic(&dir.join("README.md"), article::readme(&records).as_bytes())?;
     write_atomic(
@@ -264,7 +292,8 @@ fn article_records(dir: &Path) -> Result<String> {
     let _ = writeln!(
         summary,
         "{}: README.md and identify.toml (emulated data, not measurements)",
-        dir.display()
+        target.display()
     );
+    folder.commit()?;
     Ok(summary)
 }

@@ -10,7 +10,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::output::{format_of, write_atomic, Format};
+use super::output::{ensure_folder, format_of, write_atomic, Format, OutDir};
 use super::RigSource;
 use crate::ident::{
     finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
@@ -98,6 +98,10 @@ pub struct IdentifyArgs {
     /// for `pumpcyl identify-merge`.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
+    /// Run even when the grids times the records would take hours (more than
+    /// 10^9 candidate-samples).
+    #[arg(long)]
+    allow_long_run: bool,
 }
 
 #[derive(Debug, Args)]
@@ -297,15 +301,25 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         );
     }
     let total = grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len());
+    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
+    crate::limits::check_work(
+        "identify: the grids' candidates times the records' samples",
+        crate::ident::shard_len(total, args.shard) as f64 * samples as f64,
+        crate::limits::MAX_CANDIDATE_SAMPLES,
+        args.allow_long_run,
+    )
+    .map_err(anyhow::Error::msg)?;
     let bar = progress_bar(crate::ident::shard_len(total, args.shard) as u64);
     let start = Instant::now();
     let stages = run_stages(&exp.problem, grids, &opts, args.shard, &|n| bar.inc(n))?;
     let search_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if let (Some(shard), Some(dir)) = (args.shard, &args.out) {
+        // the fingerprint of the experiment as the merge will load it (by its canonical path)
+        let canonical = std::fs::canonicalize(&args.experiment)?;
         let part = Partial {
-            experiment: std::fs::canonicalize(&args.experiment)?,
-            digest: digest(&exp)?,
+            digest: digest(&Experiment::load(&canonical)?, &opts)?,
+            experiment: canonical,
             shard,
             local_refinement: opts.local_refinement,
             threshold_mm2: opts.threshold_mm2,
@@ -313,8 +327,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
             seconds: search_seconds,
             stages,
         };
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create", dir.display()))?;
+        ensure_folder(dir)?;
         let path = dir.join(format!("part-{}-of-{}.json", shard.0, shard.1));
         write_atomic(&path, serde_json::to_string(&part)?.as_bytes())?;
         return Ok(format!(
@@ -338,23 +351,58 @@ fn warn(lines: &[String]) {
     }
 }
 
-/// A fingerprint of what a shard evaluated: the experiment file and its records.
-fn digest(exp: &Experiment) -> Result<String> {
+/// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
+/// names with its overrides, the standstill point, every dataset's record and settings, the
+/// grids (so the number of stages), and the options (threshold, top length, refinement).
+fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
-    std::fs::read(&exp.path)?.hash(&mut h);
-    for ds in &exp.problem.datasets {
-        for v in ds
-            .record
-            .time_s
-            .iter()
-            .chain(&ds.record.x_ref_mm)
-            .chain(&ds.record.x_mm)
-        {
-            v.to_bits().hash(&mut h);
+    crate::input::read_bounded(&exp.path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
+        .hash(&mut h);
+    // Debug prints every f64 exactly (shortest round-trip form)
+    format!("{:?}", exp.rig).hash(&mut h);
+    format!("{:?}", exp.problem).hash(&mut h);
+    format!("{:?}", exp.grids()).hash(&mut h);
+    format!(
+        "{:?} {} {}",
+        opts.threshold_mm2.to_bits(),
+        opts.top_n,
+        opts.local_refinement
+    )
+    .hash(&mut h);
+    Ok(format!("{:016x}", h.finish()))
+}
+
+/// Re-simulate the best few candidates of each merged stage and compare with the costs the
+/// shards reported, and check each is the grid point its index names: an edited or foreign
+/// partial result is an error, not the answer.
+fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
+    const CHECKED: usize = 3;
+    let (first, second) = exp.grids();
+    for (k, (stage, grid)) in stages.iter().zip([Some(first), second]).enumerate() {
+        let grid = grid.unwrap_or_else(|| stage.grid.clone());
+        for s in stage.summary.top.iter().take(CHECKED) {
+            let index = usize::try_from(s.index).unwrap_or(usize::MAX);
+            anyhow::ensure!(
+                index < grid.len() && grid.candidate(index) == s.candidate,
+                "stage {}: candidate {} of the partial results is not the grid point its index \
+                 names; a partial result was edited",
+                k + 1,
+                s.index
+            );
+            let cost = exp.problem.cost(&s.candidate);
+            anyhow::ensure!(
+                (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
+                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
+                 simulated again; a partial result was edited or made by another pumpcyl",
+                k + 1,
+                s.candidate.beta_bar,
+                s.cost_mm2
+            );
         }
     }
-    Ok(format!("{:016x}", h.finish()))
+    Ok(())
 }
 
 /// `pumpcyl identify-merge`.
@@ -369,10 +417,23 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
     }
     let first = &parts[0];
     let n = first.shard.1;
+    anyhow::ensure!(
+        n == parts.len(),
+        "missing shards: {} claims {n} shards, {} partial results given; give all N",
+        args.parts[0].display(),
+        parts.len()
+    );
     let mut seen = vec![false; n];
-    for p in &parts {
+    for (p, file) in parts.iter().zip(&args.parts) {
         anyhow::ensure!(
-            p.shard.1 == n && p.digest == first.digest && p.experiment == first.experiment,
+            (1..=n).contains(&p.shard.0),
+            "{}: shard {}/{}: need 1 <= I <= N",
+            file.display(),
+            p.shard.0,
+            p.shard.1
+        );
+        anyhow::ensure!(
+            p.shard.1 == n && p.experiment == first.experiment,
             "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
             first.experiment.display(),
             first.shard.0,
@@ -394,17 +455,35 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
         missing.join(", ")
     );
     let exp = Experiment::load(&first.experiment)?;
-    anyhow::ensure!(
-        digest(&exp)? == first.digest,
-        "{}: the experiment or its records changed since the shards ran",
-        first.experiment.display()
-    );
     let opts = Options {
         auto_refine: false,
         local_refinement: first.local_refinement,
         threshold_mm2: first.threshold_mm2,
         top_n: first.top,
     };
+    let stage_count = 1 + usize::from(exp.grids().1.is_some());
+    for (p, file) in parts.iter().zip(&args.parts) {
+        anyhow::ensure!(
+            p.stages.len() == stage_count,
+            "{}: {} stage(s), the experiment has {stage_count}",
+            file.display(),
+            p.stages.len()
+        );
+        anyhow::ensure!(
+            p.threshold_mm2 == opts.threshold_mm2
+                && p.top == opts.top_n
+                && p.local_refinement == opts.local_refinement,
+            "{}: made with other --threshold-mm2, --top or --no-refine than {}",
+            file.display(),
+            args.parts[0].display()
+        );
+        anyhow::ensure!(
+            digest(&exp, &opts)? == p.digest,
+            "{}: the experiment, its rig, its records or the options changed since this shard \
+             ran",
+            file.display()
+        );
+    }
     let start = Instant::now();
     // the time reported is the shards' search time added up, plus the merge's own
     let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
@@ -417,6 +496,7 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
             }
         }
     }
+    verify_winners(&exp, &stages)?;
     let id = finish(&exp.problem, stages, &opts)?;
     report_identification(
         &exp,
@@ -486,7 +566,9 @@ fn report_identification(
 ) -> Result<String> {
     let v = identification_json(exp, id, seconds)?;
     if let Some(dir) = out {
-        write_outputs(dir, exp, id, &v)?;
+        let folder = OutDir::begin(dir)?;
+        write_outputs(folder.path(), exp, id, &v)?;
+        folder.commit()?;
     }
     if json_out {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
@@ -551,14 +633,14 @@ fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> S
 }
 
 /// result.json, the β × c12 landscape at the best b (CSV and heat map) and one overlay per
-/// dataset.
+/// dataset, into the existing folder `dir` (a temporary [`OutDir`] folder or a subfolder of
+/// one; never created here, so an interruption's cleanup is never undone).
 pub(super) fn write_outputs(
     dir: &Path,
     exp: &Experiment,
     id: &Identification,
     v: &serde_json::Value,
 ) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     write_atomic(
         &dir.join("result.json"),
         (serde_json::to_string_pretty(v)? + "\n").as_bytes(),

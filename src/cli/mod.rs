@@ -193,8 +193,25 @@ fn read_ss(path: &std::path::Path) -> Result<Loop> {
     })
 }
 
+/// A message with every control character (from file names, keys or values a user wrote)
+/// shown escaped, so an error stays one line and cannot move the terminal's cursor.
+pub fn escape_controls(message: &str) -> String {
+    message
+        .chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            escaped
+        })
+        .collect()
+}
+
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
+    output::install_cleanup();
     let cli = Cli::parse();
     let text = match cli.command {
         Command::Rig(args) => {
@@ -225,5 +242,13 @@ pub fn run() -> Result<()> {
         Command::Emulate(args) => emulate::run(&args)?,
         Command::Reproduce(args) => reproduce::run(&args)?,
     };
+    // the last line of defence: a result is never printed with a value that is not a number
+    anyhow::ensure!(
+        !text
+            .split(|c: char| !c.is_alphanumeric())
+            .any(|w| w == "NaN"),
+        "the result holds a value that is not a number (NaN): the inputs take the model beyond \
+         what double precision can evaluate"
+    );
     output::emit(&text)
 }

@@ -3,7 +3,7 @@
 //! self-contained report.html.
 
 use super::ident::{identification_json, write_drive_overlay, write_outputs};
-use super::output::{fmt_opt, write_atomic};
+use super::output::{fmt_opt, write_atomic, OutDir};
 use super::time::{write_figure, write_fit_figure};
 use crate::bulk::{self, gas_fraction, BETA_OIL_BAR};
 use crate::design::{design, Targets};
@@ -157,16 +157,16 @@ impl Run {
 
 /// `pumpcyl reproduce`.
 pub fn run(args: &ReproduceArgs) -> Result<String> {
-    let dir = &args.out;
+    let out = OutDir::begin(&args.out)?;
+    let dir = out.path();
     for sub in ["figures", "records", "identification"] {
-        std::fs::create_dir_all(dir.join(sub))
-            .with_context(|| format!("{}: cannot create", dir.join(sub).display()))?;
+        out.create_subfolder(sub)?;
     }
     for (file, text) in EMBEDDED {
         write_atomic(&dir.join("records").join(file), text.as_bytes())?;
     }
     let mut run = Run {
-        dir: dir.clone(),
+        dir: dir.to_path_buf(),
         blocks: Vec::new(),
         table: Vec::new(),
         start: Instant::now(),
@@ -217,7 +217,8 @@ pub fn run(args: &ReproduceArgs) -> Result<String> {
         &blocks,
     );
     write_atomic(&dir.join("report.html"), page.as_bytes())?;
-    Ok(terminal_table(&run.table, dir, seconds))
+    out.commit()?;
+    Ok(terminal_table(&run.table, &args.out, seconds))
 }
 
 fn terminal_table(rows: &[[String; 5]], dir: &Path, seconds: f64) -> String {

@@ -186,26 +186,52 @@ fn which(rig: &RigSource, label: &str) -> String {
     }
 }
 
-fn check_timing(duration_s: f64, rate_hz: f64) -> Result<()> {
+/// Check a run of `duration_s` (set by the options `duration_from`) sampled at `rate_hz`: both
+/// positive, and a number of samples within the limit, blaming the options that set it.
+fn check_timing(duration_s: f64, duration_from: &str, rate_hz: f64) -> Result<()> {
     anyhow::ensure!(
         duration_s.is_finite() && duration_s > 0.0,
-        "--duration-s must be > 0 (got {duration_s})"
+        "{duration_from} must give a duration > 0 s (got {duration_s})"
     );
     anyhow::ensure!(
-        rate_hz.is_finite() && rate_hz > 0.0 && duration_s * rate_hz <= 1e7,
-        "--rate-hz must be > 0 and give at most 10^7 samples (got {rate_hz})"
+        rate_hz.is_finite() && rate_hz > 0.0,
+        "--rate-hz must be > 0 (got {rate_hz})"
+    );
+    crate::limits::check_size(
+        &format!("{duration_from} and --rate-hz"),
+        duration_s * rate_hz,
+    )
+    .map_err(anyhow::Error::msg)?;
+    Ok(())
+}
+
+/// Refuse a reference from `lo_mm` to `hi_mm` that leaves the rig's stroke (as `emulate` does).
+fn check_in_stroke(rig: &Rig, what: &str, lo_mm: f64, hi_mm: f64) -> Result<()> {
+    anyhow::ensure!(
+        lo_mm > 0.0 && hi_mm < rig.stroke_mm,
+        "{what}: the reference spans {lo_mm} … {hi_mm} mm, outside the stroke (0 … {} mm, \
+         `stroke_mm` of the rig, about x0_mm = {} mm)",
+        rig.stroke_mm,
+        rig.x0_mm
     );
     Ok(())
 }
 
 /// `pumpcyl step`.
 pub fn step(args: &StepArgs) -> Result<String> {
-    check_timing(args.duration_s, args.rate_hz)?;
+    check_timing(args.duration_s, "--duration-s", args.rate_hz)?;
     anyhow::ensure!(
         args.step_mm != 0.0 && args.step_mm.is_finite(),
         "--step-mm must be non-zero"
     );
     let rig = args.rig.load()?;
+    let (x0, end) = (rig.x0_mm, rig.x0_mm + args.step_mm);
+    check_in_stroke(
+        &rig,
+        &format!("--step-mm {}", args.step_mm),
+        x0.min(end),
+        x0.max(end),
+    )?;
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
         let m = response::step_metrics_of(r, &s, args.step_mm);
@@ -324,13 +350,17 @@ pub fn track(args: &TrackArgs) -> Result<String> {
     for &(f, a) in &cases {
         anyhow::ensure!(f > 0.0 && f.is_finite(), "--freq-hz must be > 0 (got {f})");
         anyhow::ensure!(a > 0.0 && a.is_finite(), "--amp-mm must be > 0 (got {a})");
-        check_timing(args.periods / f, args.rate_hz)?;
+        check_timing(args.periods / f, "--periods / --freq-hz", args.rate_hz)?;
     }
     anyhow::ensure!(
         args.periods > 1.0,
         "--periods must exceed 1 (metrics skip the first period)"
     );
     let rig = args.rig.load()?;
+    for &(_, a) in &cases {
+        let what = format!("--amp-mm {a}");
+        check_in_stroke(&rig, &what, rig.x0_mm - a, rig.x0_mm + a)?;
+    }
     let mut runs = Vec::new();
     let mut unstable = Vec::new();
     for &(f, a) in &cases {

@@ -122,6 +122,10 @@ impl ExperimentFile {
             if !(v.is_finite() && v > 0.0) {
                 return Err(at.error(&key(k), format!("{what}: {k} = {v}: must be > 0")));
             }
+            if let Some(rule) = Rig::check_key(k, v) {
+                let v = crate::rig::readable(v);
+                return Err(at.error(&key(k), format!("{what}: {k} = {v}: {rule}")));
+            }
         }
         Prepared::new(spec, record, rig).map_err(|e| at.error(&key("fit_end_s"), e))
     }

@@ -80,7 +80,10 @@ impl Grid {
 
     /// Number of candidates.
     pub fn len(&self) -> usize {
-        self.beta_bar.len() * self.viscous_friction_ns_per_m.len() * self.c12_m5_per_ns.len()
+        self.beta_bar
+            .len()
+            .saturating_mul(self.viscous_friction_ns_per_m.len())
+            .saturating_mul(self.c12_m5_per_ns.len())
     }
 
     /// Whether the grid has no candidate.
@@ -104,11 +107,7 @@ impl Grid {
     /// Check every axis is non-empty with finite positive values.
     /// The error names the axis (`beta_bar`, ...) and says what is wrong with it.
     pub fn validate(&self, name: &str) -> Result<(), (&'static str, String)> {
-        for (axis, v) in [
-            ("beta_bar", &self.beta_bar),
-            ("viscous_friction_ns_per_m", &self.viscous_friction_ns_per_m),
-            ("c12_m5_per_ns", &self.c12_m5_per_ns),
-        ] {
+        for (axis, v) in self.axes() {
             if v.is_empty() {
                 return Err((axis, format!("{name}.{axis}: needs at least one value")));
             }
@@ -125,7 +124,24 @@ impl Grid {
                 format!("{name}.beta_bar: the bulk modulus must be > 0"),
             ));
         }
+        for (axis, v) in self.axes() {
+            for &x in v {
+                if let Some(rule) = crate::rig::Rig::check_key(axis, x) {
+                    let x = crate::rig::readable(x);
+                    return Err((axis, format!("{name}.{axis}: {x}: {rule}")));
+                }
+            }
+        }
         Ok(())
+    }
+
+    /// The three axes with their rig key names.
+    fn axes(&self) -> [(&'static str, &Vec<f64>); 3] {
+        [
+            ("beta_bar", &self.beta_bar),
+            ("viscous_friction_ns_per_m", &self.viscous_friction_ns_per_m),
+            ("c12_m5_per_ns", &self.c12_m5_per_ns),
+        ]
     }
 
     /// The refined grid derived from the bounds [lo, hi] of β, b and c12 over a set of good

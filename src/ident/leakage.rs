@@ -1,6 +1,11 @@
 //! Chamber leakages from a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
 
 use super::IdentError;
+
+/// The largest standstill speed accepted (rpm): far above any pump.
+const MAX_SPEED_RPM: f64 = 1e6;
+/// The largest standstill pressure accepted (bar): far above any hydraulic system.
+const MAX_PRESSURE_BAR: f64 = 1e4;
 use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
 use serde::{Deserialize, Serialize};
 
@@ -49,7 +54,8 @@ impl Standstill {
         })
     }
 
-    /// Check the values are usable (finite, positive pressure).
+    /// Check the values are usable (finite, positive pressure, magnitudes a pump-driven
+    /// cylinder can have).
     pub fn validate(&self) -> Result<(), IdentError> {
         let bad = |key: &str, v: f64, rule: &str| {
             Err(IdentError::Input(format!(
@@ -64,6 +70,16 @@ impl Standstill {
             if !v.is_finite() {
                 return bad(key, v, "must be a finite number");
             }
+        }
+        for (key, v) in [("w1_rpm", self.w1_rpm), ("w2_rpm", self.w2_rpm)] {
+            if v.abs() > MAX_SPEED_RPM {
+                let rule = format!("outside the physical range ±{MAX_SPEED_RPM:e} rpm");
+                return bad(key, v, &rule);
+            }
+        }
+        if self.p1_bar > MAX_PRESSURE_BAR {
+            let rule = format!("above the physical limit {MAX_PRESSURE_BAR:e} bar");
+            return bad("p1_bar", self.p1_bar, &rule);
         }
         if self.p1_bar <= 0.0 {
             return bad(

@@ -132,6 +132,16 @@ pub fn bode(sys: &StateSpace, freq_hz: &[f64]) -> Result<Bode, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
     let integrators = super::margins::count_integrators(ev.poles());
     let values: Vec<Complex64> = freq_hz.iter().map(|f| ev.at(2.0 * PI * f)).collect();
+    if let Some((f, _)) = freq_hz
+        .iter()
+        .zip(&values)
+        .find(|(_, v)| !(v.re.is_finite() && v.im.is_finite()))
+    {
+        return Err(LtiError::NonFiniteResult {
+            what: "the frequency response (dB)",
+            at: format!("{} Hz", crate::rig::readable(*f)),
+        });
+    }
     let phase = match freq_hz.first() {
         Some(&f0) => unwrap_anchored(&ev, &values, 2.0 * PI * f0, integrators),
         None => Vec::new(),

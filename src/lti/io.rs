@@ -65,6 +65,7 @@ impl ModelJson {
             let first_word = match &e {
                 LtiError::Dimension(m) => m.split_whitespace().next().unwrap_or(""),
                 LtiError::IllPosedFeedback => "D",
+                LtiError::Magnitude { matrix, .. } => matrix,
                 _ => "B",
             };
             let key = match first_word.trim_matches('`') {
@@ -74,6 +75,9 @@ impl ModelJson {
             format!("line {}, key `{key}`: {e}", json_key_line(text, key))
         };
         let sys = json.to_model().map_err(located)?;
+        for (name, m) in [("A", &sys.a), ("B", &sys.b), ("C", &sys.c), ("D", &sys.d)] {
+            super::check_magnitudes(name, m).map_err(located)?;
+        }
         sys.unity_feedback().map_err(located)?;
         let states = if json.states.is_empty() {
             (1..=sys.order())

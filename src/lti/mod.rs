@@ -13,7 +13,7 @@ mod timeresp;
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
-pub use poles::{eigenvalues, resonance, PoleInfo};
+pub use poles::{check_magnitudes, eigenvalues, resonance, PoleInfo};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;
@@ -58,6 +58,37 @@ pub enum LtiError {
         imag_rad_per_s: f64,
         /// Its frequency |p|/2π (Hz).
         freq_hz: f64,
+    },
+    /// An entry too large or too small for the eigenvalue and frequency-response numerics (their
+    /// balancing does not terminate on such scales).
+    #[error("model matrix {matrix} has an entry {value:e} at row {row}, column {col}: pumpcyl analyses nonzero magnitudes from 1e-150 to 1e150")]
+    Magnitude {
+        /// Which matrix (A, B, C or D).
+        matrix: &'static str,
+        /// The entry.
+        value: f64,
+        /// Row (1-based).
+        row: usize,
+        /// Column (1-based).
+        col: usize,
+    },
+    /// A result that is not a finite number (the model is numerically beyond evaluation there).
+    #[error("{what} is not a finite number at {at}: the model cannot be evaluated there in double precision")]
+    NonFiniteResult {
+        /// The quantity.
+        what: &'static str,
+        /// Where (for example the frequency).
+        at: String,
+    },
+    /// A sinusoid at or above the Nyquist frequency of its sampling would alias.
+    #[error("{freq_hz} Hz is at or above the Nyquist frequency {nyquist_hz} Hz of sampling at {rate_hz} Hz: the samples would not show the sine; raise --rate-hz above {} Hz", 2.0 * freq_hz)]
+    AboveNyquist {
+        /// The sine's frequency (Hz).
+        freq_hz: f64,
+        /// The sampling rate (Hz).
+        rate_hz: f64,
+        /// Half the sampling rate (Hz).
+        nyquist_hz: f64,
     },
     /// Unity feedback with D = −1 has no solution.
     #[error("unity feedback is ill-posed: 1 + D = 0 (algebraic loop)")]

@@ -38,6 +38,24 @@ pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>, LtiError> {
     Ok(BalancedSchur::new(a)?.eigenvalues)
 }
 
+/// Refuse entries of matrix `matrix` outside 1e-150 … 1e150 in magnitude (zero allowed): beyond
+/// them the balancing of the eigenvalue and frequency-response numerics need not terminate, and
+/// the products of unity feedback overflow.
+pub fn check_magnitudes(matrix: &'static str, a: &DMatrix<f64>) -> Result<(), LtiError> {
+    match a
+        .iter()
+        .position(|v| *v != 0.0 && !(1e-150..=1e150).contains(&v.abs()))
+    {
+        Some(k) => Err(LtiError::Magnitude {
+            matrix,
+            value: a[k],
+            row: k % a.nrows() + 1,
+            col: k / a.nrows() + 1,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Real Schur form of the balanced matrix: `D⁻¹ A D = Q T Qᵀ`, T quasi-upper-triangular with
 /// exactly zero sub-diagonal entries between its 1×1 and 2×2 blocks.
 pub(crate) struct BalancedSchur {
@@ -61,6 +79,7 @@ impl BalancedSchur {
                 col: k / a.nrows() + 1,
             });
         }
+        check_magnitudes("A", a)?;
         let mut balanced = a.clone();
         let scale = balance_parlett_reinsch(&mut balanced);
         let schur = balanced

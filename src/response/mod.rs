@@ -240,6 +240,14 @@ pub fn sine(
     periods: f64,
     rate_hz: f64,
 ) -> Result<Signals, LtiError> {
+    let nyquist_hz = rate_hz / 2.0;
+    if freq_hz >= nyquist_hz {
+        return Err(LtiError::AboveNyquist {
+            freq_hz,
+            rate_hz,
+            nyquist_hz,
+        });
+    }
     let base = Baseline::of_rig(rig);
     let t = sample_times(periods / freq_hz, rate_hz);
     let r: Vec<f64> = t

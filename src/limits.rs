@@ -1,0 +1,56 @@
+//! Limits on sizes and work derived from input: a size that would exhaust memory is refused
+//! outright; work that would take hours is refused unless the user asks for it with
+//! `--allow-long-run`. Every refusal states the limit.
+
+/// The most samples, frequency points or grid candidates any single array may hold: 50 million
+/// (0.4 GB of f64), far above any record or figure and below an allocation abort.
+pub const MAX_POINTS: f64 = 5e7;
+
+/// Emulator controller steps (duration × rate) done without `--allow-long-run`: 10⁷ is about
+/// three hours of rig time at 1 kHz, already minutes of computing.
+pub const MAX_EMULATED_STEPS: f64 = 1e7;
+
+/// Grid candidates × record samples simulated without `--allow-long-run`: 10⁹ is about 200
+/// times the article's identification (6 817 candidates × 2 × 370 samples), minutes of work.
+pub const MAX_CANDIDATE_SAMPLES: f64 = 1e9;
+
+/// Refuse `count` items of `what` beyond [`MAX_POINTS`] (or non-finite), naming the option.
+pub fn check_size(what: &str, count: f64) -> Result<usize, String> {
+    if !(0.0..=MAX_POINTS).contains(&count) {
+        return Err(format!(
+            "{what}: {} points, more than the limit of {MAX_POINTS:e}",
+            crate::rig::readable(count)
+        ));
+    }
+    Ok(count as usize)
+}
+
+/// Refuse `work` units of `what` beyond `limit` unless `allowed` (`--allow-long-run`).
+pub fn check_work(what: &str, work: f64, limit: f64, allowed: bool) -> Result<(), String> {
+    if work.is_finite() && (allowed || work <= limit) {
+        return Ok(());
+    }
+    Err(format!(
+        "{what}: about {} units of work, more than the {limit:e} done without \
+         --allow-long-run (this could take hours); reduce it or pass --allow-long-run",
+        crate::rig::readable(work.round())
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_and_work_beyond_the_limits_are_refused_with_the_limit() {
+        assert_eq!(check_size("--points", 1000.0), Ok(1000));
+        let e = check_size("--points", 1e12).unwrap_err();
+        assert!(e.contains("--points") && e.contains("5e7"), "{e}");
+        assert!(check_size("--points", f64::NAN).is_err());
+        assert!(check_work("emulate", 1e6, 2e7, false).is_ok());
+        let e = check_work("emulate", 1e15, 2e7, false).unwrap_err();
+        assert!(e.contains("--allow-long-run") && e.contains("2e7"), "{e}");
+        assert!(check_work("emulate", 1e15, 2e7, true).is_ok());
+        assert!(check_work("emulate", f64::INFINITY, 2e7, true).is_err());
+    }
+}

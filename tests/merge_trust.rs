@@ -1,0 +1,137 @@
+//! `identify-merge` trusts nothing it is given: shards made with another rig file, other
+//! options, a missing stage, an edited top list, an index out of range or an absurd shard count
+//! are errors (exit 1, no panic), never a confident wrong answer.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn pumpcyl(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// A two-stage experiment over a committed record, with its own rig file.
+fn setup(dir: &Path) {
+    let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peer/ident.csv");
+    std::fs::copy(peer, dir.join("ident.csv")).unwrap();
+    std::fs::write(dir.join("rig.toml"), "mass_kg = 10593.0\n").unwrap();
+    std::fs::write(
+        dir.join("exp.toml"),
+        "rig = \"rig.toml\"\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+         [grid]\nbeta_bar = [150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0]\n\
+         c12_m5_per_ns = [1.2e-10]\n\
+         [refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\nviscous_friction_ns_per_m = [100.0]\n\
+         c12_m5_per_ns = [1.2e-10]\n\
+         [[dataset]]\nfile = \"ident.csv\"\nkp = 25.0\nmass_kg = 10593.0\nfit_end_s = 3.7\n",
+    )
+    .unwrap();
+}
+
+fn shard(dir: &Path, i: usize, extra: &[&str]) -> PathBuf {
+    let s = format!("{i}/2");
+    let mut args = vec![
+        "identify",
+        "exp.toml",
+        "--no-refine",
+        "--shard",
+        &s,
+        "--out",
+        "parts",
+    ];
+    args.extend(extra);
+    let out = pumpcyl(dir, &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dir.join(format!("parts/part-{i}-of-2.json"))
+}
+
+/// Merge the two parts; (exit code, stderr).
+fn merge(dir: &Path) -> (Option<i32>, String) {
+    let out = pumpcyl(
+        dir,
+        &[
+            "identify-merge",
+            "parts/part-1-of-2.json",
+            "parts/part-2-of-2.json",
+            "--json",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!err.contains("panicked"), "{err}");
+    (out.status.code(), err)
+}
+
+fn edit(path: &Path, f: impl FnOnce(&mut Value)) {
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    f(&mut v);
+    std::fs::write(path, v.to_string()).unwrap();
+}
+
+fn refused(dir: &Path, words: &[&str]) {
+    let (code, err) = merge(dir);
+    assert_eq!(code, Some(1), "{err}");
+    for w in words {
+        assert!(err.contains(w), "message lacks `{w}`: {err}");
+    }
+}
+
+#[test]
+fn merge_refuses_what_it_cannot_vouch_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let p1 = shard(d, 1, &[]);
+    shard(d, 2, &[]);
+    assert_eq!(merge(d).0, Some(0));
+    let good = std::fs::read_to_string(&p1).unwrap();
+    let restore = || std::fs::write(&p1, &good).unwrap();
+
+    // an edited top list: a beta of 999 at cost 1e-9
+    edit(&p1, |v| {
+        let top = &mut v["stages"][0]["summary"]["top"][0];
+        top["cost_mm2"] = 1e-9.into();
+        top["beta_bar"] = 999.0.into();
+    });
+    refused(d, &["edited"]);
+    restore();
+    edit(&p1, |v| {
+        v["stages"][0]["summary"]["top"][0]["cost_mm2"] = 1e-9.into()
+    });
+    refused(d, &["simulated again"]);
+    restore();
+
+    // a shard missing a stage
+    edit(&p1, |v| {
+        v["stages"].as_array_mut().unwrap().pop();
+    });
+    refused(d, &["1 stage(s)", "has 2"]);
+    restore();
+
+    // an index out of range, and an absurd shard count
+    edit(&p1, |v| v["shard"] = serde_json::json!([5, 2]));
+    refused(d, &["5/2"]);
+    restore();
+    edit(&p1, |v| {
+        v["shard"] = serde_json::json!([1, 1_000_000_000_000_000u64])
+    });
+    refused(d, &["missing shards", "1000000000000000"]);
+    restore();
+    assert_eq!(merge(d).0, Some(0));
+
+    // a shard made with other options
+    shard(d, 1, &["--threshold-mm2", "0.5"]);
+    refused(d, &["--threshold-mm2"]);
+    shard(d, 1, &[]);
+    assert_eq!(merge(d).0, Some(0));
+
+    // the rig file changed after the shards ran
+    std::fs::write(d.join("rig.toml"), "mass_kg = 9000.0\n").unwrap();
+    refused(d, &["rig", "changed since this shard ran"]);
+}
