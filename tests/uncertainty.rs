@@ -1,0 +1,112 @@
+//! Uncertainty of the identification (docs/identification.md, "Uncertainty"): on records
+//! simulated by the LTI model with known β, b, c12 and Gaussian noise, the noise estimate
+//! matches the noise put in, the 95 % intervals contain the truth, and they shrink with less
+//! noise and with more data.
+
+#[path = "common/synthetic.rs"]
+mod synthetic;
+
+use pumpcyl::ident::{analyze, Candidate, Uncertainty, UncertaintyOptions};
+use synthetic::{problem, TRUTH};
+
+/// A start 10 % off the truth, as a grid search would leave it.
+const START: Candidate = Candidate {
+    beta_bar: 180.0,
+    viscous_friction_ns_per_m: 150.0,
+    c12_m5_per_ns: 1.1e-10,
+};
+
+fn run(noise_mm: f64, seed: u64, datasets: usize, profile: [bool; 3]) -> Uncertainty {
+    let p = problem(&TRUTH, noise_mm, seed, datasets);
+    let opts = UncertaintyOptions {
+        confidence: 0.95,
+        profile,
+    };
+    analyze(&p, &START, &opts).unwrap()
+}
+
+fn width(u: &Uncertainty, name: &str) -> f64 {
+    let [lo, hi] = u.profile(name).unwrap().interval;
+    hi / lo
+}
+
+#[test]
+fn intervals_contain_the_truth_and_the_noise_is_recovered() {
+    let u = run(0.02, 7, 2, [true; 3]);
+    // 2 × (0.5 s at rest + 2.2 s / 1.9 s) at 100 Hz, samples at t ≤ fit end
+    assert_eq!(u.samples, 271 + 241);
+    assert!((u.threshold - 3.841_458_8).abs() < 1e-6);
+    // σ̂² = SSE/(N − 5) is χ²-distributed: ±10 % holds with ~98 % probability for N = 512
+    assert!(
+        (u.noise_std_mm / 0.02 - 1.0).abs() < 0.1,
+        "{}",
+        u.noise_std_mm
+    );
+    let truth = [
+        ("beta_bar", TRUTH.beta_bar),
+        ("viscous_friction_ns_per_m", TRUTH.viscous_friction_ns_per_m),
+        ("c12_m5_per_ns", TRUTH.c12_m5_per_ns),
+    ];
+    for (name, t) in truth {
+        let p = u.profile(name).unwrap();
+        let [lo, hi] = p.interval;
+        assert!(lo <= t && t <= hi, "{name}: {t} outside [{lo}, {hi}]");
+        // every profile point is a least SSE: none is below the optimum's (beyond the inner
+        // searches' tolerance)
+        for q in &p.points {
+            assert!(q.statistic > -0.05, "{name}: {q:?}");
+        }
+        // the points are ordered and the optimum lies inside the interval
+        assert!(p.points.windows(2).all(|w| w[0].value <= w[1].value));
+    }
+    for name in ["beta_bar", "c12_m5_per_ns"] {
+        let p = u.profile(name).unwrap();
+        assert!(p.identifiable, "{name}: {p:?}");
+        // at σ = 0.02 mm the article's step pins β and c12 to a few per cent
+        assert!(width(&u, name) < 1.3, "{name}: {:?}", p.interval);
+        // the interval's ends are where the profile crosses χ²₁(0.95): the points just
+        // outside lie above it, the optimum's neighbours below
+        let above = p
+            .points
+            .iter()
+            .filter(|q| q.statistic > u.threshold)
+            .count();
+        assert!(above >= 2, "{name}");
+    }
+}
+
+#[test]
+fn intervals_shrink_with_less_noise_and_more_data() {
+    let two = [true, false, true];
+    let noisy = run(0.04, 3, 2, two);
+    let quiet = run(0.01, 3, 2, two);
+    let one = run(0.04, 3, 1, two);
+    for name in ["beta_bar", "c12_m5_per_ns"] {
+        let (wn, wq, w1) = (
+            width(&noisy, name).ln(),
+            width(&quiet, name).ln(),
+            width(&one, name).ln(),
+        );
+        // the interval's log-width scales with σ near the optimum: a quarter of the noise,
+        // about a quarter of the width
+        assert!(wq < 0.4 * wn, "{name}: {wq} vs {wn}");
+        assert!(wq > 0.15 * wn, "{name}: {wq} vs {wn}");
+        // the second dataset adds information
+        assert!(wn < w1, "{name}: two datasets {wn}, one {w1}");
+    }
+    // b was not profiled
+    assert!(noisy.profile("viscous_friction_ns_per_m").is_none());
+}
+
+#[test]
+fn bad_confidence_is_an_error() {
+    let p = problem(&TRUTH, 0.02, 1, 1);
+    for confidence in [0.0, 1.0, -0.5, f64::NAN] {
+        let opts = UncertaintyOptions {
+            confidence,
+            profile: [true; 3],
+        };
+        let e = analyze(&p, &START, &opts).unwrap_err().to_string();
+        assert!(e.contains("confidence"), "{e}");
+    }
+}
