@@ -110,3 +110,106 @@ fn bad_confidence_is_an_error() {
         assert!(e.contains("confidence"), "{e}");
     }
 }
+
+/// Write the simulated records and an experiment with small grids; returns its path.
+fn experiment_file(dir: &std::path::Path, noise_mm: f64) -> String {
+    let mut noise = synthetic::Noise::new(21);
+    let mut text = String::from(
+        "[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+         [grid]\nbeta_bar = [120.0, 200.0]\nviscous_friction_ns_per_m = [50.0, 300.0]\n\
+         c12_m5_per_ns = [0.8e-10, 1.6e-10]\n\
+         [refined_grid]\nbeta_bar = [150.0, 180.0]\nviscous_friction_ns_per_m = [150.0]\n\
+         c12_m5_per_ns = [1.0e-10, 1.4e-10]\n",
+    );
+    for (kp, fit_end_s) in synthetic::DATASETS {
+        let rec = synthetic::record(&TRUTH, kp, noise_mm, &mut noise);
+        let name = format!("kp{kp}.csv");
+        let mut csv = String::from("time_s,x_ref_mm,x_mm\n");
+        for k in 0..rec.len() {
+            csv += &format!("{},{},{}\n", rec.time_s[k], rec.x_ref_mm[k], rec.x_mm[k]);
+        }
+        std::fs::write(dir.join(&name), csv).unwrap();
+        text += &format!(
+            "[[dataset]]\nfile = \"{name}\"\nkp = {kp}\nmass_kg = 10593.0\nfit_end_s = {fit_end_s}\n"
+        );
+    }
+    let path = dir.join("exp.toml");
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+fn pumpcyl(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn identify_uncertainty_json_text_and_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = experiment_file(dir.path(), 0.02);
+    let out = dir.path().join("out");
+    let o = pumpcyl(&[
+        "identify",
+        &exp,
+        "--uncertainty",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["confidence"], 0.95);
+    let sigma = v["noise_std_mm"].as_f64().unwrap();
+    assert!((sigma / 0.02 - 1.0).abs() < 0.15, "{sigma}");
+    for (name, t) in [
+        ("beta_bar", TRUTH.beta_bar),
+        ("c12_m5_per_ns", TRUTH.c12_m5_per_ns),
+    ] {
+        let iv = v["intervals"][name].as_array().unwrap();
+        let (lo, hi) = (iv[0].as_f64().unwrap(), iv[1].as_f64().unwrap());
+        assert!(lo <= t && t <= hi, "{name}: {t} outside [{lo}, {hi}]");
+        assert_eq!(v["identifiable"][name], true);
+    }
+    assert!(v["identifiable"]["viscous_friction_ns_per_m"].is_boolean());
+    assert_eq!(
+        v["intervals"]["viscous_friction_ns_per_m"][1]
+            .as_f64()
+            .is_some(),
+        true
+    );
+    // the identification's own fields are still there
+    assert!(v["beta_bar"].as_f64().is_some());
+    for name in ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"] {
+        for ext in ["svg", "png"] {
+            let f = out.join(format!("profile-{name}.{ext}"));
+            assert!(std::fs::metadata(&f).unwrap().len() > 1000, "{f:?}");
+        }
+    }
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    assert_eq!(saved["intervals"], v["intervals"]);
+
+    let o = pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("90 % profile-likelihood intervals"), "{text}");
+    assert!(
+        text.contains("beta_bar") && text.contains("c12_m5_per_ns"),
+        "{text}"
+    );
+
+    for (args, needle) in [
+        (vec!["--uncertainty", "--confidence", "1.5"], "confidence"),
+        (vec!["--confidence", "0.9"], "--uncertainty"),
+    ] {
+        let mut all = vec!["identify", exp.as_str()];
+        all.extend(args);
+        let o = pumpcyl(&all);
+        assert!(!o.status.success());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains(needle), "{e}");
+        assert!(!e.contains("panicked"), "{e}");
+    }
+}

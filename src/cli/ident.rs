@@ -98,6 +98,14 @@ pub struct IdentifyArgs {
     /// for `pumpcyl identify-merge`.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
+    /// Also give the noise level and profile-likelihood intervals of beta, b and c12, saying
+    /// which the records do not bound (docs/identification.md, "Uncertainty"); with --out, the
+    /// profile figures too.
+    #[arg(long, conflicts_with = "shard")]
+    uncertainty: bool,
+    /// Confidence level of the --uncertainty intervals, in (0, 1).
+    #[arg(long, default_value_t = 0.95, requires = "uncertainty")]
+    confidence: f64,
 }
 
 #[derive(Debug, Args)]
@@ -322,6 +330,10 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     }
     let id = finish(&exp.problem, stages, &opts)?;
     let seconds = start.elapsed().as_secs_f64();
+    if args.uncertainty {
+        let out = args.out.as_deref();
+        return super::uncertainty::report(&exp, &id, seconds, args.confidence, args.json, out);
+    }
     report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
 }
 
@@ -481,7 +493,7 @@ fn report_identification(
     Ok(identification_text(exp, id, seconds))
 }
 
-fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
+pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
     let mut s = String::new();
     let sizes: Vec<String> = id
         .stages
