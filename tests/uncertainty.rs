@@ -173,12 +173,9 @@ fn identify_uncertainty_json_text_and_figures() {
         assert_eq!(v["identifiable"][name], true);
     }
     assert!(v["identifiable"]["viscous_friction_ns_per_m"].is_boolean());
-    assert_eq!(
-        v["intervals"]["viscous_friction_ns_per_m"][1]
-            .as_f64()
-            .is_some(),
-        true
-    );
+    assert!(v["intervals"]["viscous_friction_ns_per_m"][1]
+        .as_f64()
+        .is_some());
     // the identification's own fields are still there
     assert!(v["beta_bar"].as_f64().is_some());
     for name in ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"] {
