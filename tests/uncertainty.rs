@@ -36,6 +36,12 @@ fn intervals_contain_the_truth_and_the_noise_is_recovered() {
     // 2 × (0.5 s at rest + 2.2 s / 1.9 s) at 100 Hz, samples at t ≤ fit end
     assert_eq!(u.samples, 271 + 241);
     assert!((u.threshold - 3.841_458_8).abs() < 1e-6);
+    // white noise: the residuals' lag-1 autocorrelation is within about 2/√N of 0
+    assert!(
+        u.residual_autocorrelation.abs() < 0.1,
+        "{}",
+        u.residual_autocorrelation
+    );
     // σ̂² = SSE/(N − 5) is χ²-distributed: ±10 % holds with ~98 % probability for N = 512
     assert!(
         (u.noise_std_mm / 0.02 - 1.0).abs() < 0.1,

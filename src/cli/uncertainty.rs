@@ -15,6 +15,9 @@ use crate::report::{self, LineStyle, Panel, Trace};
 /// Units of the parameters, in the order of [`crate::ident::PARAMETERS`], as the text shows
 /// them.
 const UNITS: [&str; 3] = ["bar", "N s/m", "m5/(N s)"];
+/// Lag-1 autocorrelation of the residuals above which the text warns that they are not white
+/// (white noise stays within about 2/√N of 0, below 0.1 for a few hundred samples).
+const CORRELATED: f64 = 0.3;
 /// Axis labels of the profile figures, in the same order.
 const AXES: [&str; 3] = [
     "Bulk modulus beta (bar)",
@@ -74,6 +77,7 @@ fn add_json(v: &mut serde_json::Value, u: &Uncertainty, seconds: f64) {
     v["noise_std_mm"] = json!(u.noise_std_mm);
     v["chi2_threshold"] = json!(u.threshold);
     v["samples"] = json!(u.samples);
+    v["residual_autocorrelation"] = json!(u.residual_autocorrelation);
     v["sse_offset_free_mm2"] = json!(u.sse_mm2);
     v["profiles"] = profiles.into();
     v["uncertainty_seconds"] = json!(seconds);
@@ -91,6 +95,14 @@ fn text(u: &Uncertainty, seconds: f64) -> String {
         u.noise_std_mm,
         u.samples
     );
+    if u.residual_autocorrelation > CORRELATED {
+        let _ = writeln!(
+            s,
+            "  warning: the residuals are correlated (lag-1 autocorrelation {:.2}): they are \
+             mostly model error, not white noise, and the intervals are too narrow",
+            u.residual_autocorrelation
+        );
+    }
     for p in &u.profiles {
         let i = index(p.parameter);
         let verdict = if p.identifiable {

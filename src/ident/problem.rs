@@ -224,6 +224,20 @@ impl Problem {
         self.dataset_cost(c, ds, f64::INFINITY)
     }
 
+    /// The position errors (mm, model − measured) of dataset `ds` over its fit window, their
+    /// mean removed (the record's initial position fitted, as in
+    /// [`Problem::dataset_sse_offset_free`]); `None` when not finite.
+    pub fn residuals_offset_free(&self, c: &Candidate, ds: &Prepared) -> Option<Vec<f64>> {
+        let mut r: Vec<f64> = ds.meas_mm[..=ds.start].iter().map(|m| -m).collect();
+        let ok = self.errors(c, ds, |e| {
+            r.push(e);
+            true
+        });
+        let mean = r.iter().sum::<f64>() / r.len() as f64;
+        (ok && mean.is_finite() && r.iter().all(|v| v.is_finite()))
+            .then(|| r.iter().map(|v| v - mean).collect())
+    }
+
     /// Sum of squared position errors (mm²) over every dataset's fit window, each record's
     /// initial position fitted as well (one constant per dataset). With Gaussian noise of one
     /// level on every sample this is the likelihood's statistic; the cost instead weights each

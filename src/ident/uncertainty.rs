@@ -103,6 +103,10 @@ pub struct Uncertainty {
     pub confidence: f64,
     /// χ²₁(confidence): the largest ΔSSE/σ² inside an interval.
     pub threshold: f64,
+    /// Lag-1 autocorrelation of the residuals at the optimum, pooled over the datasets: near
+    /// 0 (within about 2/√N) for white noise; well above, the residuals are mostly model error
+    /// and the intervals, which assume white noise, are too narrow.
+    pub residual_autocorrelation: f64,
     /// One profile per profiled parameter, in the order (β, b, c12).
     pub profiles: Vec<Profile>,
 }
@@ -235,8 +239,23 @@ pub fn analyze(
         noise_std_mm: var.sqrt(),
         confidence: opts.confidence,
         threshold,
+        residual_autocorrelation: autocorrelation(problem, &candidate_of(&best)),
         profiles,
     })
+}
+
+/// Lag-1 autocorrelation of the offset-free residuals of a candidate, pooled over the
+/// datasets (NaN when they are not finite).
+fn autocorrelation(problem: &Problem, c: &Candidate) -> f64 {
+    let (mut lagged, mut power) = (0.0, 0.0);
+    for ds in &problem.datasets {
+        let Some(r) = problem.residuals_offset_free(c, ds) else {
+            return f64::NAN;
+        };
+        lagged += r.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+        power += r.iter().map(|v| v * v).sum::<f64>();
+    }
+    lagged / power
 }
 
 /// The least-SSE point near `start` (two simplex searches, the second restarted smaller), in
