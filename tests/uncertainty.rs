@@ -128,13 +128,9 @@ fn experiment_file(dir: &std::path::Path, noise_mm: f64) -> String {
          c12_m5_per_ns = [1.0e-10, 1.4e-10]\n",
     );
     for (kp, fit_end_s) in synthetic::DATASETS {
-        let rec = synthetic::record(&TRUTH, kp, noise_mm, &mut noise);
+        let rec = synthetic::record(&TRUTH, kp, noise_mm, &mut noise, 301);
         let name = format!("kp{kp}.csv");
-        let mut csv = String::from("time_s,x_ref_mm,x_mm\n");
-        for k in 0..rec.len() {
-            csv += &format!("{},{},{}\n", rec.time_s[k], rec.x_ref_mm[k], rec.x_mm[k]);
-        }
-        std::fs::write(dir.join(&name), csv).unwrap();
+        std::fs::write(dir.join(&name), synthetic::csv(&rec)).unwrap();
         text += &format!(
             "[[dataset]]\nfile = \"{name}\"\nkp = {kp}\nmass_kg = 10593.0\nfit_end_s = {fit_end_s}\n"
         );

@@ -2,6 +2,8 @@
 //! with known β, b, c12 and seeded Gaussian position noise: the article's 5 mm step
 //! (340 → 345 mm at t = 0.5 s) with Kp = 25 (fit window 2.2 s after the step) and Kp = 20
 //! (1.9 s), m = 10 593 kg (docs/identification.md, "The fit windows").
+// shared by several test and bench binaries, each using a part of it
+#![allow(dead_code)]
 
 use pumpcyl::ident::{Candidate, DatasetSpec, Prepared, Problem, Standstill};
 use pumpcyl::record::Record;
@@ -51,8 +53,15 @@ pub const TRUTH: Candidate = Candidate {
 /// The (Kp, fit window end in s) of the article's identification and validation sets.
 pub const DATASETS: [(f64, f64); 2] = [(25.0, 2.7), (20.0, 2.4)];
 
-/// A record of the step simulated with `truth` and gain `kp`, noise σ = `noise_mm`.
-pub fn record(truth: &Candidate, kp: f64, noise_mm: f64, noise: &mut Noise) -> Record {
+/// A record of `samples` samples at 100 Hz of the step simulated with `truth` and gain `kp`,
+/// noise σ = `noise_mm`.
+pub fn record(
+    truth: &Candidate,
+    kp: f64,
+    noise_mm: f64,
+    noise: &mut Noise,
+    samples: usize,
+) -> Record {
     let base = Rig {
         kp,
         ..Rig::default()
@@ -66,7 +75,7 @@ pub fn record(truth: &Candidate, kp: f64, noise_mm: f64, noise: &mut Noise) -> R
         c2_m5_per_ns: l.c2_m5_per_ns,
         ..base
     };
-    let time_s: Vec<f64> = (0..=300).map(|k| k as f64 * 0.01).collect();
+    let time_s: Vec<f64> = (0..samples).map(|k| k as f64 * 0.01).collect();
     let x_ref_mm: Vec<f64> = time_s
         .iter()
         .map(|&t| if t < 0.5 { 340.0 } else { 345.0 })
@@ -104,7 +113,7 @@ pub fn problem(truth: &Candidate, noise_mm: f64, seed: u64, count: usize) -> Pro
             };
             Prepared::new(
                 &spec,
-                record(truth, kp, noise_mm, &mut noise),
+                record(truth, kp, noise_mm, &mut noise, 301),
                 &Rig::default(),
             )
             .unwrap()
@@ -114,4 +123,16 @@ pub fn problem(truth: &Candidate, noise_mm: f64, seed: u64, count: usize) -> Pro
         datasets,
         standstill: STANDSTILL,
     }
+}
+
+/// A record as CSV (`time_s,x_ref_mm,x_mm`).
+pub fn csv(rec: &Record) -> String {
+    let mut s = String::from("time_s,x_ref_mm,x_mm\n");
+    for k in 0..rec.len() {
+        s += &format!(
+            "{:.2},{},{:.6}\n",
+            rec.time_s[k], rec.x_ref_mm[k], rec.x_mm[k]
+        );
+    }
+    s
 }
