@@ -105,6 +105,30 @@ fn intervals_shrink_with_less_noise_and_more_data() {
 }
 
 #[test]
+fn a_start_without_leakage_or_friction_is_moved_into_the_bounds() {
+    // a grid may hold b = 0 and c12 = 0, outside the logarithmic search bounds
+    let p = problem(&TRUTH, 0.02, 5, 1);
+    let start = Candidate {
+        beta_bar: 150.0,
+        viscous_friction_ns_per_m: 0.0,
+        c12_m5_per_ns: 0.0,
+    };
+    let opts = UncertaintyOptions {
+        confidence: 0.95,
+        profile: [false; 3],
+    };
+    // the analysis is local (it polishes the identification's answer), so from this far off it
+    // need not find the truth; it must start inside the bounds and stay there
+    let u = analyze(&p, &start, &opts).unwrap();
+    let c = u.best;
+    let values = [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns];
+    for (v, [lo, hi]) in values.into_iter().zip(pumpcyl::ident::BOUNDS) {
+        assert!(lo <= v && v <= hi, "{c:?}");
+    }
+    assert!(u.sse_mm2.is_finite() && u.noise_std_mm > 0.0);
+}
+
+#[test]
 fn bad_confidence_is_an_error() {
     let p = problem(&TRUTH, 0.02, 1, 1);
     for confidence in [0.0, 1.0, -0.5, f64::NAN] {

@@ -259,10 +259,15 @@ fn autocorrelation(problem: &Problem, c: &Candidate) -> f64 {
 }
 
 /// The least-SSE point near `start` (two simplex searches, the second restarted smaller), in
-/// (ln β, ln b, ln c12), and its SSE; `start` itself when the search finds nothing better.
+/// (ln β, ln b, ln c12), and its SSE; `start` (moved into [`BOUNDS`]) when the search finds
+/// nothing better.
 fn polish(problem: &Problem, start: &Candidate) -> (Vec<f64>, f64) {
     let f = |p: &[f64]| sse_at(problem, p);
-    let mut best = log_point(start);
+    let mut best: Vec<f64> = log_point(start)
+        .iter()
+        .zip(BOUNDS)
+        .map(|(v, [lo, hi])| v.clamp(lo.ln(), hi.ln()))
+        .collect();
     let mut cost = f(&best);
     for step in [0.1, 0.02] {
         let tol = 1e-9 * cost.max(1e-300);
