@@ -29,8 +29,8 @@ pub const PARAMETERS: [&str; 3] = ["beta_bar", "viscous_friction_ns_per_m", "c12
 pub const BOUNDS: [[f64; 2]; 3] = [[1.0, 1.0e5], [1.0, 1.0e5], [1.0e-15, 1.0e-8]];
 /// Unknowns fitted besides the datasets' offsets (β, b, c12).
 const FITTED: usize = 3;
-/// First profile offset from the optimum, in ln(parameter) (1 %).
-const FIRST_STEP: f64 = 0.01;
+/// First profile offset from the optimum, in ln(parameter) (0.2 %).
+const FIRST_STEP: f64 = 0.002;
 /// Each further offset is this much larger than the previous one.
 const GROWTH: f64 = 1.5;
 /// Profile points per side at most, before the crossing is refined.
