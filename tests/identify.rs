@@ -2,66 +2,16 @@
 //! noise (the article §2.4; docs/identification.md).
 
 use pumpcyl::ident::{finish, run_stages, Candidate, Experiment, Grid, Options};
-use pumpcyl::response::{simulate, Baseline};
-use pumpcyl::rig::Rig;
 use std::path::Path;
 
-/// Seeded Gaussian noise (xorshift + Box–Muller), no external crates.
-struct Noise(u64);
+#[path = "common/synthetic.rs"]
+mod synthetic;
 
-impl Noise {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn gauss(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
-
-/// Write a 5 mm step record (0.5 s rest, step 340 → 345 mm) simulated with `truth`.
+/// Write a 5 mm step record (0.5 s rest, step 340 → 345 mm, 4 s) simulated with `truth`.
 fn write_record(dir: &Path, name: &str, truth: &Candidate, kp: f64, noise_mm: f64, seed: u64) {
-    let standstill = pumpcyl::ident::Standstill {
-        w1_rpm: -160.0,
-        w2_rpm: 245.0,
-        p1_bar: 3.95,
-    };
-    let base = Rig {
-        kp,
-        ..Rig::default()
-    };
-    let l = standstill.leakage(&base, truth.c12_m5_per_ns).unwrap();
-    let rig = Rig {
-        beta_bar: truth.beta_bar,
-        viscous_friction_ns_per_m: truth.viscous_friction_ns_per_m,
-        c12_m5_per_ns: truth.c12_m5_per_ns,
-        c1_m5_per_ns: l.c1_m5_per_ns,
-        c2_m5_per_ns: l.c2_m5_per_ns,
-        ..base
-    };
-    let t: Vec<f64> = (0..=400).map(|k| k as f64 * 0.01).collect();
-    let r: Vec<f64> = t
-        .iter()
-        .map(|&t| if t < 0.5 { 340.0 } else { 345.0 })
-        .collect();
-    let mut b = Baseline::of_rig(&rig);
-    b.x_ref_mm = 340.0;
-    b.x_mm = 340.0;
-    let s = simulate(&rig, &t, &r, &b).unwrap();
-    let mut noise = Noise(seed);
-    let mut csv = String::from("time_s,x_ref_mm,x_mm\n");
-    for k in 0..t.len() {
-        csv.push_str(&format!(
-            "{:.2},{},{:.6}\n",
-            t[k],
-            r[k],
-            s.x_mm[k] + noise_mm * noise.gauss()
-        ));
-    }
-    std::fs::write(dir.join(name), csv).unwrap();
+    let mut noise = synthetic::Noise::new(seed);
+    let rec = synthetic::record(truth, kp, noise_mm, &mut noise, 401);
+    std::fs::write(dir.join(name), synthetic::csv(&rec)).unwrap();
 }
 
 fn experiment(dir: &Path, extra: &str) -> Experiment {

@@ -102,6 +102,14 @@ pub struct IdentifyArgs {
     /// 10^9 candidate-samples).
     #[arg(long)]
     allow_long_run: bool,
+    /// Also give the noise level and profile-likelihood intervals of beta, b and c12, saying
+    /// which the records do not bound (docs/identification.md, "Uncertainty"); with --out, the
+    /// profile figures too.
+    #[arg(long, conflicts_with = "shard")]
+    uncertainty: bool,
+    /// Confidence level of the --uncertainty intervals, in (0, 1).
+    #[arg(long, default_value_t = 0.95, requires = "uncertainty")]
+    confidence: f64,
 }
 
 #[derive(Debug, Args)]
@@ -341,6 +349,10 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     let id = finish(&exp.problem, stages, &opts)?;
     let seconds = start.elapsed().as_secs_f64();
     warn(&id.warnings());
+    if args.uncertainty {
+        let out = args.out.as_deref();
+        return super::uncertainty::report(&exp, &id, seconds, args.confidence, args.json, out);
+    }
     report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
 }
 
@@ -566,9 +578,7 @@ fn report_identification(
 ) -> Result<String> {
     let v = identification_json(exp, id, seconds)?;
     if let Some(dir) = out {
-        let folder = OutDir::begin(dir)?;
-        write_outputs(folder.path(), exp, id, &v)?;
-        folder.commit()?;
+        write_result_folder(dir, exp, id, &v, |_| Ok(()))?;
     }
     if json_out {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
@@ -576,7 +586,22 @@ fn report_identification(
     Ok(identification_text(exp, id, seconds))
 }
 
-fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
+/// Write the identification's files into the result folder `dir`, built aside and swapped in
+/// whole; `more` adds files of its own to the folder before the swap.
+pub(super) fn write_result_folder(
+    dir: &Path,
+    exp: &Experiment,
+    id: &Identification,
+    v: &serde_json::Value,
+    more: impl FnOnce(&Path) -> Result<()>,
+) -> Result<()> {
+    let folder = OutDir::begin(dir)?;
+    write_outputs(folder.path(), exp, id, v)?;
+    more(folder.path())?;
+    folder.commit()
+}
+
+pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
     let mut s = String::new();
     let sizes: Vec<String> = id
         .stages

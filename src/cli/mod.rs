@@ -9,6 +9,7 @@ mod ident;
 mod output;
 mod reproduce;
 mod time;
+mod uncertainty;
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};

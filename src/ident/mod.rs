@@ -38,6 +38,7 @@ mod leakage;
 mod problem;
 mod refine;
 mod search;
+mod uncertainty;
 
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
@@ -46,6 +47,10 @@ pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
+pub use uncertainty::{
+    analyze, chi2_1_quantile, Profile, ProfilePoint, Uncertainty, UncertaintyOptions, BOUNDS,
+    PARAMETERS,
+};
 
 use serde::{Deserialize, Serialize};
 

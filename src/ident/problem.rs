@@ -48,6 +48,8 @@ pub struct Prepared {
     start: usize,
     /// Squared error (mm²) of the samples at rest (up to and including `start`).
     rest_sse: f64,
+    /// Sum of the measured deviations (mm) of the samples at rest (the model's are 0).
+    rest_sum: f64,
 }
 
 impl Prepared {
@@ -85,6 +87,7 @@ impl Prepared {
         let meas_mm: Vec<f64> = record.x_mm[..n].iter().map(|x| x - x0).collect();
         let start = u.iter().position(|&v| v != 0.0).unwrap_or(n - 1);
         let rest_sse = meas_mm[..=start].iter().map(|e| e * e).sum();
+        let rest_sum = meas_mm[..=start].iter().sum();
         Ok(Prepared {
             name: spec.file.clone(),
             t: record.time_s[..n].to_vec(),
@@ -92,6 +95,7 @@ impl Prepared {
             meas_mm,
             start,
             rest_sse,
+            rest_sum,
             record,
             rig,
             fit_end_s: spec.fit_end_s,
@@ -135,32 +139,56 @@ impl Problem {
         Ok(Plant::new(&rig).closed_loop(rig.sum_pressure))
     }
 
-    /// Mean squared position error (mm²) of dataset `ds`; +∞ when not finite. The simulation
-    /// stops early, returning a lower bound above `stop_above`, once the partial sum already
-    /// exceeds `stop_above` (the caller cannot use the candidate then).
-    fn dataset_cost(&self, c: &Candidate, ds: &Prepared, stop_above: f64) -> f64 {
+    /// Feed the position errors (mm, model − measured) after the samples at rest of dataset
+    /// `ds` to `each`, in order, until it returns false; false when the model cannot be built
+    /// or simulated.
+    fn errors(&self, c: &Candidate, ds: &Prepared, mut each: impl FnMut(f64) -> bool) -> bool {
         let Ok(sys) = self.model(c, ds) else {
-            return f64::INFINITY;
+            return false;
         };
-        let n = ds.t.len() as f64;
-        let limit = stop_above * n;
-        let mut sse = ds.rest_sse;
         let x0 = vec![0.0; sys.order()];
         let (t, u, meas) = (
             &ds.t[ds.start..],
             &ds.u[ds.start..],
             &ds.meas_mm[ds.start..],
         );
-        let run = Simulator::with_scale(&sys, &ds.scale).run_with(t, u, &x0, |k, x| {
-            if k > 0 {
-                let e = x[0] * 1e3 - meas[k];
-                sse += e * e;
-            }
+        Simulator::with_scale(&sys, &ds.scale)
+            .run_with(t, u, &x0, |k, x| k == 0 || each(x[0] * 1e3 - meas[k]))
+            .is_ok()
+    }
+
+    /// Mean squared position error (mm²) of dataset `ds`; +∞ when not finite. The simulation
+    /// stops early, returning a lower bound above `stop_above`, once the partial sum already
+    /// exceeds `stop_above` (the caller cannot use the candidate then).
+    fn dataset_cost(&self, c: &Candidate, ds: &Prepared, stop_above: f64) -> f64 {
+        let n = ds.t.len() as f64;
+        let limit = stop_above * n;
+        let mut sse = ds.rest_sse;
+        let ok = self.errors(c, ds, |e| {
+            sse += e * e;
             sse <= limit
         });
         let mse = sse / n;
-        if run.is_ok() && mse.is_finite() {
+        if ok && mse.is_finite() {
             mse
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Sum of squared position errors (mm²) of dataset `ds` over its fit window with the
+    /// record's initial position fitted too: the errors' mean over the window is removed (the
+    /// least-squares constant offset). +∞ when not finite.
+    pub fn dataset_sse_offset_free(&self, c: &Candidate, ds: &Prepared) -> f64 {
+        let (mut sum, mut sse) = (-ds.rest_sum, ds.rest_sse);
+        let ok = self.errors(c, ds, |e| {
+            sum += e;
+            sse += e * e;
+            true
+        });
+        let v = sse - sum * sum / ds.t.len() as f64;
+        if ok && v.is_finite() {
+            v.max(0.0)
         } else {
             f64::INFINITY
         }
@@ -194,6 +222,36 @@ impl Problem {
     /// Mean squared position error (mm²) of one dataset, simulated over its whole window.
     pub fn dataset_mse(&self, c: &Candidate, ds: &Prepared) -> f64 {
         self.dataset_cost(c, ds, f64::INFINITY)
+    }
+
+    /// The position errors (mm, model − measured) of dataset `ds` over its fit window, their
+    /// mean removed (the record's initial position fitted, as in
+    /// [`Problem::dataset_sse_offset_free`]); `None` when not finite.
+    pub fn residuals_offset_free(&self, c: &Candidate, ds: &Prepared) -> Option<Vec<f64>> {
+        let mut r: Vec<f64> = ds.meas_mm[..=ds.start].iter().map(|m| -m).collect();
+        let ok = self.errors(c, ds, |e| {
+            r.push(e);
+            true
+        });
+        let mean = r.iter().sum::<f64>() / r.len() as f64;
+        (ok && mean.is_finite() && r.iter().all(|v| v.is_finite()))
+            .then(|| r.iter().map(|v| v - mean).collect())
+    }
+
+    /// Sum of squared position errors (mm²) over every dataset's fit window, each record's
+    /// initial position fitted as well (one constant per dataset). With Gaussian noise of one
+    /// level on every sample this is the likelihood's statistic; the cost instead weights each
+    /// dataset by 1/(its samples) and takes the initial position from the samples at rest.
+    pub fn sse_offset_free(&self, c: &Candidate) -> f64 {
+        self.datasets
+            .iter()
+            .map(|ds| self.dataset_sse_offset_free(c, ds))
+            .sum()
+    }
+
+    /// Samples inside the fit windows, over all datasets.
+    pub fn samples(&self) -> usize {
+        self.datasets.iter().map(Prepared::window_len).sum()
     }
 
     /// Whether every dataset's closed loop is stable for this candidate (closed-loop

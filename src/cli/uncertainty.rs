@@ -1,0 +1,203 @@
+//! `pumpcyl identify --uncertainty`: the noise level, profile-likelihood intervals of β, b and
+//! c12 and their profiles, formatted (docs/identification.md, "Uncertainty").
+
+use anyhow::Result;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use super::ident::{identification_json, identification_text, write_result_folder};
+use super::output::write_atomic;
+use crate::ident::{analyze, Experiment, Identification, Uncertainty, UncertaintyOptions};
+use crate::report::{self, LineStyle, Panel, Trace};
+
+/// Units of the parameters, in the order of [`crate::ident::PARAMETERS`], as the text shows
+/// them.
+const UNITS: [&str; 3] = ["bar", "N s/m", "m5/(N s)"];
+/// Lag-1 autocorrelation of the residuals above which the text warns that they are not white
+/// (white noise stays within about 2/√N of 0, below 0.1 for a few hundred samples).
+const CORRELATED: f64 = 0.3;
+/// Axis labels of the profile figures, in the same order.
+const AXES: [&str; 3] = [
+    "Bulk modulus beta (bar)",
+    "Viscous friction b (N s/m)",
+    "Cross-port leakage c12 (m5/(N s))",
+];
+
+/// Analyse the uncertainty of an identification and report it with the identification:
+/// JSON (the identification's fields plus `intervals`, `confidence`, `noise_std_mm`,
+/// `identifiable`, `profiles`) or text; with `out`, the identification's files plus one profile
+/// figure per parameter.
+pub(super) fn report(
+    exp: &Experiment,
+    id: &Identification,
+    seconds: f64,
+    confidence: f64,
+    json_out: bool,
+    out: Option<&Path>,
+) -> Result<String> {
+    let start = Instant::now();
+    let opts = UncertaintyOptions {
+        confidence,
+        ..UncertaintyOptions::default()
+    };
+    let u = analyze(&exp.problem, &id.best().candidate, &opts)?;
+    let unc_seconds = start.elapsed().as_secs_f64();
+    let mut v = identification_json(exp, id, seconds)?;
+    add_json(&mut v, &u, unc_seconds);
+    if let Some(dir) = out {
+        write_result_folder(dir, exp, id, &v, |folder| write_profiles(folder, &u))?;
+    }
+    if json_out {
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+    }
+    Ok(identification_text(exp, id, seconds) + &text(&u, unc_seconds))
+}
+
+/// Add the uncertainty's fields to the identification's JSON.
+fn add_json(v: &mut serde_json::Value, u: &Uncertainty, seconds: f64) {
+    let mut intervals = serde_json::Map::new();
+    let mut identifiable = serde_json::Map::new();
+    let mut profiles = serde_json::Map::new();
+    for p in &u.profiles {
+        intervals.insert(p.parameter.into(), json!(p.interval));
+        identifiable.insert(p.parameter.into(), json!(p.identifiable));
+        let points: Vec<_> = p
+            .points
+            .iter()
+            .map(|q| json!({"value": q.value, "statistic": q.statistic, "sse_mm2": q.sse_mm2}))
+            .collect();
+        profiles.insert(p.parameter.into(), json!(points));
+    }
+    v["intervals"] = intervals.into();
+    v["identifiable"] = identifiable.into();
+    v["confidence"] = json!(u.confidence);
+    v["noise_std_mm"] = json!(u.noise_std_mm);
+    v["chi2_threshold"] = json!(u.threshold);
+    v["samples"] = json!(u.samples);
+    v["residual_autocorrelation"] = json!(u.residual_autocorrelation);
+    v["sse_offset_free_mm2"] = json!(u.sse_mm2);
+    v["profiles"] = profiles.into();
+    v["uncertainty_seconds"] = json!(seconds);
+}
+
+/// The text lines of the uncertainty.
+fn text(u: &Uncertainty, seconds: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "uncertainty: {:.0} % profile-likelihood intervals (Delta SSE / sigma^2 <= {:.3}), \
+         noise sigma {:.4} mm from {} samples, in {seconds:.2} s",
+        u.confidence * 100.0,
+        u.threshold,
+        u.noise_std_mm,
+        u.samples
+    );
+    if u.residual_autocorrelation > CORRELATED {
+        let _ = writeln!(
+            s,
+            "  warning: the residuals are correlated (lag-1 autocorrelation {:.2}): they are \
+             mostly model error, not white noise, and the intervals are too narrow",
+            u.residual_autocorrelation
+        );
+    }
+    for p in &u.profiles {
+        let i = index(p.parameter);
+        let verdict = if p.identifiable {
+            String::from("identifiable")
+        } else {
+            let sides: Vec<&str> = [("below", p.crossed[0]), ("above", p.crossed[1])]
+                .iter()
+                .filter(|(_, c)| !c)
+                .map(|(side, _)| *side)
+                .collect();
+            format!(
+                "NOT identifiable from these records: the profile stays under the threshold \
+                 {} the estimate up to the search bound",
+                sides.join(" and ")
+            )
+        };
+        let _ = writeln!(
+            s,
+            "  {:<26} {} .. {} {}  {verdict}",
+            p.parameter,
+            value(i, p.interval[0]),
+            value(i, p.interval[1]),
+            UNITS[i]
+        );
+    }
+    s
+}
+
+/// A value of parameter `i` as the text shows it: β and b with one decimal, c12 in
+/// scientific notation.
+fn value(i: usize, v: f64) -> String {
+    if i == 2 {
+        format!("{v:.4e}")
+    } else {
+        format!("{v:.1}")
+    }
+}
+
+/// Index of a parameter name in [`crate::ident::PARAMETERS`].
+fn index(name: &str) -> usize {
+    crate::ident::PARAMETERS
+        .iter()
+        .position(|&p| p == name)
+        .unwrap_or(0)
+}
+
+/// One figure per profile (`profile-NAME.svg` and `.png`): ΔSSE/σ² against the parameter with
+/// the threshold; points above three times the threshold are left out so that the region
+/// near the interval stays readable.
+fn write_profiles(dir: &Path, u: &Uncertainty) -> Result<()> {
+    for p in &u.profiles {
+        let i = index(p.parameter);
+        let shown: Vec<_> = p
+            .points
+            .iter()
+            .filter(|q| q.statistic <= 3.0 * u.threshold)
+            .collect();
+        let x: Vec<f64> = shown.iter().map(|q| q.value).collect();
+        let y: Vec<f64> = shown.iter().map(|q| q.statistic).collect();
+        let panels = [Panel {
+            y_label: "Delta SSE / sigma^2".into(),
+            traces: vec![
+                Trace {
+                    label: "profile".into(),
+                    t_s: x.clone(),
+                    y,
+                    style: LineStyle::Solid,
+                    color: Some(0),
+                },
+                Trace {
+                    label: format!("chi2_1({})", u.confidence),
+                    t_s: x.clone(),
+                    y: vec![u.threshold; x.len()],
+                    style: LineStyle::Dashed,
+                    color: Some(6),
+                },
+            ],
+        }];
+        let title = format!("Profile of {}", p.parameter);
+        let subtitle = format!(
+            "interval {} .. {} {}{}; noise sigma {:.4} mm",
+            value(i, p.interval[0]),
+            value(i, p.interval[1]),
+            UNITS[i],
+            if p.identifiable {
+                ""
+            } else {
+                " (not identifiable)"
+            },
+            u.noise_std_mm
+        );
+        let stem = dir.join(format!("profile-{}", p.parameter));
+        let svg = report::panels_xy_svg(&title, Some(&subtitle), AXES[i], &panels)?;
+        write_atomic(&stem.with_extension("svg"), svg.as_bytes())?;
+        let png = report::panels_xy_png(&title, Some(&subtitle), AXES[i], &panels, 1500, 900)?;
+        write_atomic(&stem.with_extension("png"), &png)?;
+    }
+    Ok(())
+}

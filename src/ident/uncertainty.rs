@@ -1,0 +1,455 @@
+//! How sure is the identification? Noise level from the residuals at the optimum and a
+//! confidence interval for each of β, b and c12 by profiling the likelihood
+//! (docs/identification.md, "Uncertainty").
+//!
+//! With independent Gaussian position noise of one level σ on every sample, minus twice the
+//! log-likelihood is SSE/σ² up to a constant, SSE being the sum of squared position errors
+//! (mm²) over every dataset's fit window (not the cost, which is a mean of per-dataset means).
+//! Each record's initial position is fitted with the parameters (a constant per dataset, in
+//! closed form): the identification takes it from the mean of the samples at rest, whose noise
+//! would otherwise shift every later sample alike and make the intervals too narrow.
+//! σ² is estimated as SSE_min/(N − p), N the samples inside the fit windows, p = 3 plus one
+//! offset per dataset. The profile of a
+//! parameter θ is, for each value of θ, the least SSE over the other two; the likelihood-ratio
+//! interval at confidence P is where ΔSSE(θ)/σ² ≤ χ²₁(P) (3.841 for 95 %). Where the profile
+//! stays below that level up to a search bound, the data do not bound the parameter: it is
+//! reported as not identifiable.
+
+use super::grid::Candidate;
+use super::problem::Problem;
+use super::refine::{candidate_of, log_point, minimize};
+use super::IdentError;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Names of the parameters, in the order (β, b, c12) of the point.
+pub const PARAMETERS: [&str; 3] = ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"];
+/// Search bounds of β (bar), b (N·s/m) and c12 (m⁵/(N·s)): a profile that reaches one without
+/// crossing the threshold means the data do not bound that side.
+pub const BOUNDS: [[f64; 2]; 3] = [[1.0, 1.0e5], [1.0, 1.0e5], [1.0e-15, 1.0e-8]];
+/// Unknowns fitted besides the datasets' offsets (β, b, c12).
+const FITTED: usize = 3;
+/// First profile offset from the optimum, in ln(parameter) (0.2 %).
+const FIRST_STEP: f64 = 0.002;
+/// Each further offset is this much larger than the previous one.
+const GROWTH: f64 = 1.5;
+/// Profile points per side at most, before the crossing is refined.
+const MAX_STEPS: usize = 40;
+/// Secant steps refining where a profile crosses the threshold.
+const CROSSING_ITERS: usize = 3;
+/// Initial simplex of the inner (warm-started) searches, in ln(parameter).
+const INNER_STEP: f64 = 0.05;
+/// Iteration limit of every simplex search.
+const MAX_ITERS: u64 = 400;
+
+/// Options of the analysis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UncertaintyOptions {
+    /// Confidence level of the intervals, in (0, 1).
+    pub confidence: f64,
+    /// Which of (β, b, c12) to profile; the others get no interval (the full range).
+    pub profile: [bool; 3],
+}
+
+impl Default for UncertaintyOptions {
+    fn default() -> Self {
+        UncertaintyOptions {
+            confidence: 0.95,
+            profile: [true; 3],
+        }
+    }
+}
+
+/// One point of a profile.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ProfilePoint {
+    /// The profiled parameter's value (its unit: bar, N·s/m or m⁵/(N·s)).
+    pub value: f64,
+    /// Least SSE (mm²) over the other two parameters.
+    pub sse_mm2: f64,
+    /// ΔSSE/σ², to compare with χ²₁(confidence).
+    pub statistic: f64,
+    /// Where the least SSE is.
+    pub candidate: Candidate,
+}
+
+/// The profile of one parameter and the interval read off it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Profile {
+    /// The parameter's name (one of [`PARAMETERS`]).
+    pub parameter: &'static str,
+    /// The points, by increasing value (the optimum among them).
+    pub points: Vec<ProfilePoint>,
+    /// The confidence interval [lo, hi]; an end the profile did not cross is the search bound.
+    pub interval: [f64; 2],
+    /// Whether the profile crossed the threshold below and above the optimum.
+    pub crossed: [bool; 2],
+    /// Whether the data bound the parameter: the profile crossed on both sides.
+    pub identifiable: bool,
+}
+
+/// The result of the analysis.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Uncertainty {
+    /// The least-SSE point (the identification's answer, polished on the SSE).
+    pub best: Candidate,
+    /// SSE (mm²) there.
+    pub sse_mm2: f64,
+    /// Samples inside the fit windows, over all datasets.
+    pub samples: usize,
+    /// Estimated noise level σ (mm).
+    pub noise_std_mm: f64,
+    /// Confidence level.
+    pub confidence: f64,
+    /// χ²₁(confidence): the largest ΔSSE/σ² inside an interval.
+    pub threshold: f64,
+    /// Lag-1 autocorrelation of the residuals at the optimum, pooled over the datasets: near
+    /// 0 (within about 2/√N) for white noise; well above, the residuals are mostly model error
+    /// and the intervals, which assume white noise, are too narrow.
+    pub residual_autocorrelation: f64,
+    /// One profile per profiled parameter, in the order (β, b, c12).
+    pub profiles: Vec<Profile>,
+}
+
+impl Uncertainty {
+    /// The profile of parameter `name` (one of [`PARAMETERS`]), if it was profiled.
+    pub fn profile(&self, name: &str) -> Option<&Profile> {
+        self.profiles.iter().find(|p| p.parameter == name)
+    }
+}
+
+/// Quantile of the χ² distribution with one degree of freedom: the square of the standard
+/// normal quantile at (1 + p)/2. `p` must lie in (0, 1).
+pub fn chi2_1_quantile(p: f64) -> f64 {
+    normal_quantile(0.5 + 0.5 * p).powi(2)
+}
+
+/// Standard normal quantile (Acklam's rational approximation, relative error below 1.2·10⁻⁹).
+fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969683028665376e1,
+        2.209460984245205e2,
+        -2.759285104469687e2,
+        1.383_577_518_672_69e2,
+        -3.066479806614716e1,
+        2.506628277459239,
+    ];
+    const B: [f64; 5] = [
+        -5.447609879822406e1,
+        1.615858368580409e2,
+        -1.556989798598866e2,
+        6.680131188771972e1,
+        -1.328068155288572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784894002430293e-3,
+        -3.223964580411365e-1,
+        -2.400758277161838,
+        -2.549732539343734,
+        4.374664141464968,
+        2.938163982698783,
+    ];
+    const D: [f64; 4] = [
+        7.784695709041462e-3,
+        3.224671290700398e-1,
+        2.445134137142996,
+        3.754408661907416,
+    ];
+    let tail = |q: f64| {
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    const LOW: f64 = 0.02425;
+    if p < LOW {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - LOW {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    }
+}
+
+/// The SSE of a point in (ln β, ln b, ln c12); +∞ outside [`BOUNDS`].
+fn sse_at(problem: &Problem, p: &[f64]) -> f64 {
+    let inside = p
+        .iter()
+        .zip(BOUNDS)
+        .all(|(v, [lo, hi])| (lo.ln()..=hi.ln()).contains(v));
+    if inside {
+        problem.sse_offset_free(&candidate_of(p))
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Analyse the uncertainty of the identification whose answer is `start`.
+pub fn analyze(
+    problem: &Problem,
+    start: &Candidate,
+    opts: &UncertaintyOptions,
+) -> Result<Uncertainty, IdentError> {
+    if !(opts.confidence > 0.0 && opts.confidence < 1.0) {
+        return Err(IdentError::Input(format!(
+            "confidence {} must lie strictly between 0 and 1",
+            opts.confidence
+        )));
+    }
+    let samples = problem.samples();
+    let fitted = FITTED + problem.datasets.len();
+    if samples <= fitted {
+        return Err(IdentError::Input(format!(
+            "{samples} samples inside the fit windows: too few to estimate the noise"
+        )));
+    }
+    let (best, sse) = polish(problem, start);
+    if !(sse.is_finite() && sse > 0.0) {
+        return Err(IdentError::Input(format!(
+            "the SSE at the optimum is {sse} mm²: no noise level can be estimated"
+        )));
+    }
+    let var = sse / (samples - fitted) as f64;
+    let threshold = chi2_1_quantile(opts.confidence);
+    let scan = Scan {
+        problem,
+        best: &best,
+        sse,
+        var,
+        threshold,
+    };
+    let tasks: Vec<(usize, f64)> = (0..3)
+        .filter(|&i| opts.profile[i])
+        .flat_map(|i| [(i, -1.0), (i, 1.0)])
+        .collect();
+    let sides: Vec<Side> = tasks
+        .par_iter()
+        .map(|&(i, dir)| scan.side(i, dir))
+        .collect();
+    let profiles = sides
+        .chunks(2)
+        .zip(tasks.chunks(2))
+        .map(|(s, t)| profile_of(t[0].0, scan.point(t[0].0, &best, sse), &s[0], &s[1]))
+        .collect();
+    Ok(Uncertainty {
+        best: candidate_of(&best),
+        sse_mm2: sse,
+        samples,
+        noise_std_mm: var.sqrt(),
+        confidence: opts.confidence,
+        threshold,
+        residual_autocorrelation: autocorrelation(problem, &candidate_of(&best)),
+        profiles,
+    })
+}
+
+/// Lag-1 autocorrelation of the offset-free residuals of a candidate, pooled over the
+/// datasets (NaN when they are not finite).
+fn autocorrelation(problem: &Problem, c: &Candidate) -> f64 {
+    let (mut lagged, mut power) = (0.0, 0.0);
+    for ds in &problem.datasets {
+        let Some(r) = problem.residuals_offset_free(c, ds) else {
+            return f64::NAN;
+        };
+        lagged += r.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+        power += r.iter().map(|v| v * v).sum::<f64>();
+    }
+    lagged / power
+}
+
+/// The least-SSE point near `start` (two simplex searches, the second restarted smaller), in
+/// (ln β, ln b, ln c12), and its SSE; `start` (moved into [`BOUNDS`]) when the search finds
+/// nothing better.
+fn polish(problem: &Problem, start: &Candidate) -> (Vec<f64>, f64) {
+    let f = |p: &[f64]| sse_at(problem, p);
+    let mut best: Vec<f64> = log_point(start)
+        .iter()
+        .zip(BOUNDS)
+        .map(|(v, [lo, hi])| v.clamp(lo.ln(), hi.ln()))
+        .collect();
+    let mut cost = f(&best);
+    for step in [0.1, 0.02] {
+        let tol = 1e-9 * cost.max(1e-300);
+        if let Some((p, c)) = minimize(&f, &best, step, tol, MAX_ITERS) {
+            if c < cost {
+                (best, cost) = (p, c);
+            }
+        }
+    }
+    (best, cost)
+}
+
+/// One side of one profile: its points (from the optimum outwards) and where it crossed the
+/// threshold, if it did.
+struct Side {
+    points: Vec<ProfilePoint>,
+    crossing: Option<f64>,
+}
+
+/// What every profile point needs.
+struct Scan<'a> {
+    problem: &'a Problem,
+    /// Optimum in (ln β, ln b, ln c12).
+    best: &'a [f64],
+    /// SSE there (mm²).
+    sse: f64,
+    /// Noise variance σ² (mm²).
+    var: f64,
+    /// χ²₁(confidence).
+    threshold: f64,
+}
+
+impl Scan<'_> {
+    /// The profile point of parameter `i` at a full point `p` in log space with SSE `sse`.
+    fn point(&self, i: usize, p: &[f64], sse: f64) -> ProfilePoint {
+        let candidate = candidate_of(p);
+        ProfilePoint {
+            value: candidate_value(&candidate, i),
+            sse_mm2: sse,
+            statistic: (sse - self.sse) / self.var,
+            candidate,
+        }
+    }
+
+    /// The least SSE with parameter `i` fixed at `v` (ln), over the other two, warm-started
+    /// from `warm` (a full point); returns the full point and the profile point.
+    fn fixed(&self, i: usize, v: f64, warm: &[f64]) -> (Vec<f64>, ProfilePoint) {
+        let others: Vec<usize> = (0..3).filter(|&j| j != i).collect();
+        let full = |q: &[f64]| {
+            let mut p = warm.to_vec();
+            p[i] = v;
+            for (k, &j) in others.iter().enumerate() {
+                p[j] = q[k];
+            }
+            p
+        };
+        let f = |q: &[f64]| sse_at(self.problem, &full(q));
+        let q0: Vec<f64> = others.iter().map(|&j| warm[j]).collect();
+        let tol = 1e-4 * self.var;
+        let (q, sse) = minimize(&f, &q0, INNER_STEP, tol, MAX_ITERS)
+            .filter(|(_, c)| c.is_finite())
+            .unwrap_or_else(|| (q0.clone(), f(&q0)));
+        let p = full(&q);
+        let point = self.point(i, &p, sse);
+        (p, point)
+    }
+
+    /// Walk from the optimum in direction `dir` (±1) along parameter `i` with widening steps
+    /// until the statistic exceeds the threshold or the search bound is reached; refine the
+    /// crossing by secant steps on the signed root of the statistic.
+    fn side(&self, i: usize, dir: f64) -> Side {
+        let bound = if dir < 0.0 {
+            BOUNDS[i][0].ln()
+        } else {
+            BOUNDS[i][1].ln()
+        };
+        let mut points = Vec::new();
+        let (mut inner, mut inner_stat) = (self.best.to_vec(), 0.0);
+        let mut offset = FIRST_STEP;
+        for _ in 0..MAX_STEPS {
+            let raw = self.best[i] + dir * offset;
+            let at_bound = (raw - bound) * dir >= 0.0;
+            let v = if at_bound { bound } else { raw };
+            let (p, point) = self.fixed(i, v, &inner);
+            points.push(point);
+            if point.statistic > self.threshold {
+                let (c, extra) = self.crossing(i, (inner, inner_stat), (p, point.statistic));
+                points.extend(extra);
+                return Side {
+                    points,
+                    crossing: Some(c),
+                };
+            }
+            if at_bound {
+                break;
+            }
+            (inner, inner_stat) = (p, point.statistic);
+            offset *= GROWTH;
+        }
+        Side {
+            points,
+            crossing: None,
+        }
+    }
+
+    /// Where the profile of parameter `i` crosses the threshold between a point below it
+    /// and one above (full points in log space with their statistics): secant steps on
+    /// √statistic, which is close to linear in the parameter near the optimum. Returns the
+    /// crossing (ln) and the profile points computed on the way.
+    fn crossing(
+        &self,
+        i: usize,
+        below: (Vec<f64>, f64),
+        above: (Vec<f64>, f64),
+    ) -> (f64, Vec<ProfilePoint>) {
+        let root = |s: f64| s.max(0.0).sqrt();
+        let target = self.threshold.sqrt();
+        let (mut lo, mut hi) = (below, above);
+        let interpolate = |lo: &(Vec<f64>, f64), hi: &(Vec<f64>, f64)| {
+            let (ra, rb) = (root(lo.1), root(hi.1));
+            let w = ((target - ra) / (rb - ra)).clamp(0.0, 1.0);
+            lo.0[i] + w * (hi.0[i] - lo.0[i])
+        };
+        let mut extra = Vec::new();
+        for _ in 0..CROSSING_ITERS {
+            let v = interpolate(&lo, &hi);
+            let (p, point) = self.fixed(i, v, &lo.0);
+            extra.push(point);
+            if point.statistic > self.threshold {
+                hi = (p, point.statistic);
+            } else {
+                lo = (p, point.statistic);
+            }
+        }
+        (interpolate(&lo, &hi), extra)
+    }
+}
+
+/// Parameter `i` of a candidate.
+fn candidate_value(c: &Candidate, i: usize) -> f64 {
+    [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns][i]
+}
+
+/// Assemble the profile of parameter `i` from the optimum and its two sides.
+fn profile_of(i: usize, optimum: ProfilePoint, below: &Side, above: &Side) -> Profile {
+    let mut points: Vec<ProfilePoint> = below
+        .points
+        .iter()
+        .chain(&above.points)
+        .copied()
+        .chain([optimum])
+        .collect();
+    points.sort_by(|a, b| a.value.total_cmp(&b.value));
+    let end = |side: &Side, bound: f64| side.crossing.map_or(bound, f64::exp);
+    let crossed = [below.crossing.is_some(), above.crossing.is_some()];
+    Profile {
+        parameter: PARAMETERS[i],
+        points,
+        interval: [end(below, BOUNDS[i][0]), end(above, BOUNDS[i][1])],
+        crossed,
+        identifiable: crossed[0] && crossed[1],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_quantiles_match_tables() {
+        // χ²₁ table values (Abramowitz & Stegun, Table 26.8)
+        for (p, q) in [
+            (0.95, 3.841_458_820_694_124),
+            (0.99, 6.634_896_601_021_213),
+            (0.90, 2.705_543_454_095_404),
+            (0.5, 0.454_936_423_119_572_7),
+            (0.999, 10.827_566_170_662_733),
+        ] {
+            let got = chi2_1_quantile(p);
+            assert!((got / q - 1.0).abs() < 1e-8, "p = {p}: {got} vs {q}");
+        }
+        // one standard deviation: P(|Z| ≤ 1) = erf(1/√2)
+        assert!((chi2_1_quantile(0.682_689_492_137_085_9) - 1.0).abs() < 1e-8);
+    }
+}
