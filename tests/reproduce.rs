@@ -147,6 +147,13 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
             let len = std::fs::metadata(&f).map(|m| m.len()).unwrap_or(0);
             assert!(len > 10_000, "{} has {len} bytes", f.display());
         }
+        // a title names a record by its file name, never by the folder it was read from (the
+        // result folder is built aside under a temporary name)
+        let svg = std::fs::read_to_string(dir.join("figures").join(format!("{stem}.svg"))).unwrap();
+        assert!(
+            !svg.contains("pumpcyl-tmp"),
+            "{stem}.svg shows a temporary path"
+        );
     }
     for f in [
         "landscape.svg",

@@ -246,7 +246,7 @@ pub(super) fn write_drive_overlay(
     let subtitle = format!("fit RMS error {:.2} rpm", fit.mse_rpm2.sqrt());
     super::time::render(
         path,
-        &format!("Drive step: {}", rec.file),
+        &format!("Drive step: {}", super::output::shown_name(&rec.file)),
         Some(&subtitle),
         &panels,
     )

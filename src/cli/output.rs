@@ -430,3 +430,11 @@ fn stdout_open() -> bool {
         !(is_null && flags & libc::O_ACCMODE == libc::O_RDWR)
     }
 }
+
+/// The last component of a file path, for figure titles: a title names the record, not the
+/// folder it happens to be read from (a temporary one, in a result folder built aside).
+pub fn shown_name(path: &str) -> String {
+    Path::new(path)
+        .file_name()
+        .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
+}

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::export;
-use super::output::{fmt_opt, format_of, write_atomic, Format};
+use super::output::{fmt_opt, format_of, shown_name, write_atomic, Format};
 use super::RigSource;
 use crate::record::Record;
 use crate::report::{self, LineStyle, Panel, Trace};
@@ -504,7 +504,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
             .iter()
             .map(|(l, s, _)| (format!("sim {l}"), *s))
             .collect();
-        let title = format!("{} against the model ({})", rec.file, origin);
+        let title = format!("{} against the model ({})", shown_name(&rec.file), origin);
         let subtitle = format!(
             "position MSE {:.4} mm² up to t = {} s",
             runs[0].2, window_end
