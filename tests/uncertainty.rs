@@ -236,3 +236,44 @@ fn identify_uncertainty_json_text_and_figures() {
         assert!(!e.contains("panicked"), "{e}");
     }
 }
+
+/// The embedded article records (emulated by the nonlinear rig, truth in data/article/README.md:
+/// β_e 165 bar at the records' mean pressure, c12 1.2e-10, b 100 N·s/m): their residuals are
+/// model error, strongly correlated, and with the AR(1) inflation the 95 % intervals contain
+/// the emulator's β and c12; a step does not bound b.
+#[test]
+fn article_records_intervals_contain_the_emulator_truth() {
+    use pumpcyl::ident::{finish, run_stages, Experiment, Options};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml");
+    let exp = Experiment::load(&path).unwrap();
+    let opts = Options {
+        auto_refine: false,
+        local_refinement: true,
+        threshold_mm2: 0.25,
+        top_n: 5,
+    };
+    let stages = run_stages(&exp.problem, exp.grids(), &opts, None, &|_| {}).unwrap();
+    let id = finish(&exp.problem, stages, &opts).unwrap();
+    let u = analyze(
+        &exp.problem,
+        &id.best().candidate,
+        &UncertaintyOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        u.residual_autocorrelation > 0.5,
+        "{}",
+        u.residual_autocorrelation
+    );
+    let rho = u.residual_autocorrelation;
+    assert!((u.variance_inflation - (1.0 + rho) / (1.0 - rho)).abs() < 1e-9);
+    for (name, truth) in [("beta_bar", 165.0), ("c12_m5_per_ns", 1.2e-10)] {
+        let p = u.profile(name).unwrap();
+        let [lo, hi] = p.interval;
+        assert!(lo <= truth && truth <= hi, "{name}: {lo} .. {hi}");
+        assert!(p.identifiable, "{name}");
+        // and still informative: narrower than ±20 %
+        assert!(hi / lo < 1.2 * 1.2, "{name}: {lo} .. {hi}");
+    }
+    assert!(!u.profile("viscous_friction_ns_per_m").unwrap().identifiable);
+}

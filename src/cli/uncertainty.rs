@@ -77,6 +77,7 @@ fn add_json(v: &mut serde_json::Value, u: &Uncertainty, seconds: f64) {
     v["chi2_threshold"] = json!(u.threshold);
     v["samples"] = json!(u.samples);
     v["residual_autocorrelation"] = json!(u.residual_autocorrelation);
+    v["variance_inflation"] = json!(u.variance_inflation);
     v["sse_offset_free_mm2"] = json!(u.sse_mm2);
     v["profiles"] = profiles.into();
     v["uncertainty_seconds"] = json!(seconds);
@@ -97,9 +98,10 @@ fn text(u: &Uncertainty, seconds: f64) -> String {
     if u.residual_autocorrelation > CORRELATED {
         let _ = writeln!(
             s,
-            "  warning: the residuals are correlated (lag-1 autocorrelation {:.2}): they are \
-             mostly model error, not white noise, and the intervals are too narrow",
-            u.residual_autocorrelation
+            "  note: the residuals are correlated (lag-1 autocorrelation {:.2}): they are \
+             mostly model error, not white noise; sigma^2 is inflated {:.0}-fold for it \
+             (docs/identification.md, \"Uncertainty\")",
+            u.residual_autocorrelation, u.variance_inflation
         );
     }
     for p in &u.profiles {

@@ -14,6 +14,12 @@
 //! interval at confidence P is where ΔSSE(θ)/σ² ≤ χ²₁(P) (3.841 for 95 %). Where the profile
 //! stays below that level up to a search bound, the data do not bound the parameter: it is
 //! reported as not identifiable.
+//!
+//! Residuals that are not white (model error rather than sensor noise, as on records of a
+//! nonlinear rig) carry less information than their number of samples suggests. With a lag-1
+//! autocorrelation ρ > 0 of the residuals, σ² in the statistic is multiplied by the AR(1)
+//! variance inflation (1 + ρ)/(1 − ρ), the ratio of N to the effective number of independent
+//! samples; for white residuals it is 1 within sampling error.
 
 use super::grid::Candidate;
 use super::problem::Problem;
@@ -41,6 +47,8 @@ const CROSSING_ITERS: usize = 3;
 const INNER_STEP: f64 = 0.05;
 /// Iteration limit of every simplex search.
 const MAX_ITERS: u64 = 400;
+/// Largest variance inflation applied for correlated residuals.
+const MAX_INFLATION: f64 = 1.0e4;
 
 /// Options of the analysis.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -107,6 +115,9 @@ pub struct Uncertainty {
     /// 0 (within about 2/√N) for white noise; well above, the residuals are mostly model error
     /// and the intervals, which assume white noise, are too narrow.
     pub residual_autocorrelation: f64,
+    /// Factor on σ² in the statistic for correlated residuals: (1 + ρ)/(1 − ρ) with ρ the
+    /// lag-1 autocorrelation when it is positive, else 1.
+    pub variance_inflation: f64,
     /// One profile per profiled parameter, in the order (β, b, c12).
     pub profiles: Vec<Profile>,
 }
@@ -212,11 +223,13 @@ pub fn analyze(
     }
     let var = sse / (samples - fitted) as f64;
     let threshold = chi2_1_quantile(opts.confidence);
+    let rho = autocorrelation(problem, &candidate_of(&best));
+    let inflation = variance_inflation(rho);
     let scan = Scan {
         problem,
         best: &best,
         sse,
-        var,
+        var: var * inflation,
         threshold,
     };
     let tasks: Vec<(usize, f64)> = (0..3)
@@ -239,9 +252,20 @@ pub fn analyze(
         noise_std_mm: var.sqrt(),
         confidence: opts.confidence,
         threshold,
-        residual_autocorrelation: autocorrelation(problem, &candidate_of(&best)),
+        residual_autocorrelation: rho,
+        variance_inflation: inflation,
         profiles,
     })
+}
+
+/// The AR(1) variance inflation (1 + ρ)/(1 − ρ) for a lag-1 autocorrelation ρ > 0, at most
+/// [`MAX_INFLATION`]; 1 for ρ ≤ 0 or not finite.
+pub fn variance_inflation(rho: f64) -> f64 {
+    if rho.is_finite() && rho > 0.0 {
+        ((1.0 + rho) / (1.0 - rho).max(f64::MIN_POSITIVE)).min(MAX_INFLATION)
+    } else {
+        1.0
+    }
 }
 
 /// Lag-1 autocorrelation of the offset-free residuals of a candidate, pooled over the
