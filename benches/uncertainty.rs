@@ -10,8 +10,7 @@ mod synthetic;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use pumpcyl::ident::{
-    analyze, finish, run_stages, search, spaced, Experiment, Grid, Options, SearchOptions,
-    UncertaintyOptions,
+    analyze, search, spaced, Experiment, Grid, Options, SearchOptions, UncertaintyOptions,
 };
 use rayon::prelude::*;
 use std::path::Path;
@@ -88,17 +87,7 @@ fn bench(c: &mut Criterion) {
     let exp =
         Experiment::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml"))
             .expect("data/article/identify.toml loads");
-    let opts = Options {
-        auto_refine: false,
-        local_refinement: true,
-        threshold_mm2: 0.25,
-        top_n: 20,
-    };
-    let stages = run_stages(&exp.problem, exp.grids(), &opts, None, &|_| {}).unwrap();
-    let best = finish(&exp.problem, stages, &opts)
-        .unwrap()
-        .best()
-        .candidate;
+    let best = exp.identify(&Options::default()).unwrap().best().candidate;
     let mut group = c.benchmark_group("uncertainty");
     group.sample_size(10);
     group.bench_function("article_records_all_three_profiles", |b| {

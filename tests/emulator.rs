@@ -4,9 +4,7 @@
 use pumpcyl::bulk::effective_beta;
 use pumpcyl::emulator::article::{self, Kind};
 use pumpcyl::emulator::{Experiment, Plc};
-use pumpcyl::ident::{
-    finish, identify_drive, run_stages, Experiment as Ident, Options, Standstill,
-};
+use pumpcyl::ident::{identify_drive, Experiment as Ident, Options, Standstill};
 use pumpcyl::record::Record;
 use pumpcyl::response::{simulate, Baseline, Signals};
 use std::path::Path;
@@ -111,14 +109,7 @@ fn the_emulated_sinusoid_tracks_the_full_stroke_of_the_wave() {
 #[test]
 fn identification_on_the_embedded_records_recovers_the_emulator_truth() {
     let exp = Ident::load(&data("identify.toml")).unwrap();
-    let opts = Options {
-        auto_refine: false,
-        local_refinement: true,
-        threshold_mm2: 0.25,
-        top_n: 5,
-    };
-    let stages = run_stages(&exp.problem, exp.grids(), &opts, None, &|_| {}).unwrap();
-    let id = finish(&exp.problem, stages, &opts).unwrap();
+    let id = exp.identify(&Options::default()).unwrap();
     let best = id.refined.unwrap_or(id.grid_best).candidate;
     // the truth: β_e at the record's mean chamber pressure by the emulator's gas fraction
     let rec = Record::read(&data("identification.csv")).unwrap();

@@ -243,17 +243,10 @@ fn identify_uncertainty_json_text_and_figures() {
 /// the emulator's β and c12; a step does not bound b.
 #[test]
 fn article_records_intervals_contain_the_emulator_truth() {
-    use pumpcyl::ident::{finish, run_stages, Experiment, Options};
+    use pumpcyl::ident::{Experiment, Options};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml");
     let exp = Experiment::load(&path).unwrap();
-    let opts = Options {
-        auto_refine: false,
-        local_refinement: true,
-        threshold_mm2: 0.25,
-        top_n: 5,
-    };
-    let stages = run_stages(&exp.problem, exp.grids(), &opts, None, &|_| {}).unwrap();
-    let id = finish(&exp.problem, stages, &opts).unwrap();
+    let id = exp.identify(&Options::default()).unwrap();
     let u = analyze(
         &exp.problem,
         &id.best().candidate,

@@ -230,4 +230,11 @@ impl Experiment {
             ),
         )
     }
+
+    /// The whole identification on this experiment's grids, in one call: both stages, then
+    /// [`finish`](super::finish) (no progress report, no sharding).
+    pub fn identify(&self, opts: &super::Options) -> Result<super::Identification, IdentError> {
+        let stages = super::run_stages(&self.problem, self.grids(), opts, None, &|_| {})?;
+        super::finish(&self.problem, stages, opts)
+    }
 }

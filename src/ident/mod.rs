@@ -87,6 +87,19 @@ pub struct Options {
     pub top_n: usize,
 }
 
+impl Default for Options {
+    /// The article's search: the two given grids, threshold 0.25 mm², Nelder–Mead after them,
+    /// a top list of 20 (docs/identification.md#the-two-grids).
+    fn default() -> Self {
+        Options {
+            auto_refine: false,
+            local_refinement: true,
+            threshold_mm2: 0.25,
+            top_n: 20,
+        }
+    }
+}
+
 /// One stage of the search: its grid and what it found.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stage {
