@@ -434,7 +434,5 @@ fn stdout_open() -> bool {
 /// The last component of a file path, for figure titles: a title names the record, not the
 /// folder it happens to be read from (a temporary one, in a result folder built aside).
 pub fn shown_name(path: &str) -> String {
-    Path::new(path)
-        .file_name()
-        .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
+    file_name(Path::new(path)).unwrap_or_else(|_| path.to_string())
 }
