@@ -9,6 +9,9 @@ use crate::response::{sine, track_metrics, TrackMetrics};
 use crate::rig::{Rig, RigError};
 use serde::Serialize;
 
+pub mod robust;
+pub use robust::{robust_design, Region, RobustDesign};
+
 /// Errors of the design.
 #[derive(Debug, thiserror::Error)]
 pub enum DesignError {
@@ -24,6 +27,9 @@ pub enum DesignError {
     /// The bulk-modulus model.
     #[error(transparent)]
     Bulk(#[from] crate::bulk::BulkError),
+    /// The leakages from the standstill point.
+    #[error(transparent)]
+    Ident(#[from] crate::ident::IdentError),
 }
 
 /// What the design asks for.
@@ -157,8 +163,19 @@ fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
 /// # Ok::<(), design::DesignError>(())
 /// ```
 pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
+    kp_max_below(rig, t, KP_CEILING)
+}
+
+/// Largest Kp searched (1/m).
+pub const KP_CEILING: f64 = 1e4;
+/// Smallest Kp searched (1/m): a rig failing the targets here gets Kp max = 0.
+pub const KP_FLOOR: f64 = 1e-3;
+
+/// [`kp_max`] with the search capped at `ceiling` (1/m): the largest Kp in (0, `ceiling`]
+/// meeting the targets for `rig`, `ceiling` itself when it meets them.
+pub fn kp_max_below(rig: &Rig, t: &Targets, ceiling: f64) -> Result<f64, DesignError> {
     let ok = |kp: f64| -> Result<bool, DesignError> { Ok(meets(&margins_at(rig, kp)?, t)) };
-    let (mut lo, mut hi) = (1e-3f64, 1e4f64);
+    let (mut lo, mut hi) = (KP_FLOOR, ceiling.max(KP_FLOOR));
     if !ok(lo)? {
         return Ok(0.0);
     }
@@ -201,8 +218,8 @@ fn check_lists(t: &Targets) -> Result<(), DesignError> {
     }
 }
 
-/// Apply the design method (docs/design.md) to `rig`.
-pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
+/// Check the targets, the stroke against the cylinder and the lists.
+fn check_inputs(rig: &Rig, t: &Targets) -> Result<(), DesignError> {
     for (name, v) in [
         ("target PM", t.pm_deg),
         ("target GM", t.gm_db),
@@ -222,7 +239,12 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
             t.stroke_mm, rig.stroke_mm
         )));
     }
-    check_lists(t)?;
+    check_lists(t)
+}
+
+/// Apply the design method (docs/design.md) to `rig`.
+pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
+    check_inputs(rig, t)?;
     let kp = kp_max(rig, t)?;
     if kp == 0.0 {
         return Err(DesignError::Input(
