@@ -3,6 +3,7 @@
 use anyhow::Result;
 use clap::Args;
 use std::fmt::Write as _;
+use std::path::PathBuf;
 
 use super::output::fmt_opt;
 use super::RigSource;
@@ -35,9 +36,31 @@ pub struct DesignArgs {
     #[arg(long, value_parser = parse_wave)]
     wave: Vec<(f64, f64)>,
     /// Print JSON (kp_max, kp_max_worst_case, worst_case, conditions, tracking, verdict,
-    /// reasons).
+    /// reasons; with --robust: kp_max, kp_max_nominal, worst_case, deciding, steps, region).
     #[arg(long)]
     json: bool,
+    /// Robust design (docs/design.md#robust-design): the largest Kp whose worst-case margins
+    /// over the parameters' uncertainty, the stroke and the pressures meet the targets, and
+    /// the article's "lower the leakage estimate and repeat" loop. Without --experiment, over
+    /// the stated default uncertainty around the rig's values.
+    #[arg(long)]
+    robust: bool,
+    /// Identification experiment (TOML, as for `identify`) whose records give the
+    /// confidence region of beta, b and c12; the experiment's rig is designed.
+    #[arg(long, value_name = "EXPERIMENT.toml", requires = "robust", conflicts_with_all = ["rig", "set"])]
+    experiment: Option<PathBuf>,
+    /// Confidence level of the region from the records, in (0, 1).
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        requires = "experiment",
+        allow_negative_numbers = true
+    )]
+    confidence: f64,
+    /// Result folder for --robust: result.json and robust-margins.svg/.png (the margins over
+    /// the stroke at the deciding parameter point).
+    #[arg(long, value_name = "DIR", requires = "robust")]
+    out: Option<PathBuf>,
 }
 
 fn parse_wave(s: &str) -> Result<(f64, f64), String> {
@@ -58,6 +81,15 @@ fn parse_wave(s: &str) -> Result<(f64, f64), String> {
     Ok((f, a))
 }
 
+/// A verdict as the text shows it.
+pub(super) fn verdict_text(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Adequate => "ADEQUATE",
+        Verdict::Marginal => "MARGINAL",
+        Verdict::UseHigherPressure => "USE A CIRCUIT WITH HIGHER PRESSURE",
+    }
+}
+
 /// `pumpcyl design`.
 pub fn run(args: &DesignArgs) -> Result<String> {
     let rig = args.rig.load()?;
@@ -76,15 +108,23 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         mass_kg: args.mass_kg.clone(),
         waves: args.wave.clone(),
     };
+    if args.robust {
+        anyhow::ensure!(
+            args.wave.is_empty(),
+            "--wave: tracking is predicted by the nominal design only; leave out --robust"
+        );
+        let src = super::robust::Source {
+            rig,
+            experiment: args.experiment.as_deref(),
+            confidence: args.confidence,
+        };
+        return super::robust::run(&src, &targets, args.json, args.out.as_deref());
+    }
     let d = design(&rig, &targets)?;
     if args.json {
         return Ok(serde_json::to_string_pretty(&d)? + "\n");
     }
-    let verdict = match d.verdict {
-        Verdict::Adequate => "ADEQUATE",
-        Verdict::Marginal => "MARGINAL",
-        Verdict::UseHigherPressure => "USE A CIRCUIT WITH HIGHER PRESSURE",
-    };
+    let verdict = verdict_text(d.verdict);
     let mut s = format!(
         "design (the article §2.2) for {}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
         args.rig.origin(),

@@ -8,6 +8,7 @@ mod export;
 mod ident;
 mod output;
 mod reproduce;
+mod robust;
 mod time;
 mod uncertainty;
 

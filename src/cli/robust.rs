@@ -1,0 +1,267 @@
+//! `pumpcyl design --robust`: the design over the uncertainty of the parameters, the stroke
+//! and the pressure range (docs/design.md#robust-design), formatted.
+
+use anyhow::Result;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use super::output::{fmt_opt, write_atomic, OutDir};
+use crate::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
+use crate::design::{robust_design, RobustDesign, Targets};
+use crate::ident::{analyze, Experiment, Options, UncertaintyOptions};
+use crate::report::{self, LineStyle, Panel, Trace};
+use crate::rig::Rig;
+
+/// Where the rig and the parameter set of a robust design come from.
+pub(super) struct Source<'a> {
+    /// The rig (used when there is no experiment).
+    pub rig: Rig,
+    /// The experiment whose records give the region, if any.
+    pub experiment: Option<&'a Path>,
+    /// Confidence of the region.
+    pub confidence: f64,
+}
+
+/// Run the robust design and format it: JSON or text; with `out`, a result folder holding
+/// result.json and the margins over the stroke at the deciding parameter point.
+pub(super) fn run(
+    src: &Source,
+    targets: &Targets,
+    json_out: bool,
+    out: Option<&Path>,
+) -> Result<String> {
+    anyhow::ensure!(
+        src.confidence > 0.0 && src.confidence < 1.0,
+        "--confidence {}: must lie strictly between 0 and 1",
+        src.confidence
+    );
+    let start = Instant::now();
+    let (rig, region) = match src.experiment {
+        Some(path) => region_of_records(path, src.confidence)?,
+        None => (src.rig.clone(), Region::stated_default(&src.rig)),
+    };
+    let identify_seconds = start.elapsed().as_secs_f64();
+    let d = robust_design(&rig, &region, targets, &RobustOptions::default())?;
+    let seconds = start.elapsed().as_secs_f64();
+    let mut v = serde_json::to_value(&d)?;
+    v["seconds"] = json!(seconds);
+    v["identification_seconds"] = json!(identify_seconds);
+    if let Some(dir) = out {
+        let folder = OutDir::begin(dir)?;
+        write_atomic(
+            &folder.path().join("result.json"),
+            (serde_json::to_string_pretty(&v)? + "\n").as_bytes(),
+        )?;
+        write_figure(folder.path(), &d)?;
+        folder.commit()?;
+    }
+    if json_out {
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+    }
+    Ok(text(&d, seconds))
+}
+
+/// Identify the experiment's records with the file's options and read the confidence region
+/// off the profiles; returns the experiment's rig with the identified parameters.
+fn region_of_records(path: &Path, confidence: f64) -> Result<(Rig, Region)> {
+    let exp = Experiment::load(path)?;
+    let opts = Options {
+        auto_refine: exp.file.auto_refine,
+        local_refinement: exp.file.local_refinement,
+        threshold_mm2: exp.file.threshold_mm2,
+        ..Options::default()
+    };
+    let id = exp.identify(&opts)?;
+    let u = analyze(
+        &exp.problem,
+        &id.best().candidate,
+        &UncertaintyOptions {
+            confidence,
+            ..UncertaintyOptions::default()
+        },
+    )?;
+    let region = Region::from_uncertainty(&u, exp.problem.standstill);
+    let leak = exp
+        .problem
+        .standstill
+        .leakage(&exp.rig, u.best.c12_m5_per_ns)?;
+    let rig = Rig {
+        beta_bar: u.best.beta_bar,
+        viscous_friction_ns_per_m: u.best.viscous_friction_ns_per_m,
+        c12_m5_per_ns: u.best.c12_m5_per_ns,
+        c1_m5_per_ns: leak.c1_m5_per_ns,
+        c2_m5_per_ns: leak.c2_m5_per_ns,
+        ..exp.rig.clone()
+    };
+    Ok((rig, region))
+}
+
+/// A worst margin as text: value, unit and where.
+fn worst_line(name: &str, unit: &str, w: &Worst, digits: usize) -> String {
+    let stable = if w.closed_loop_stable {
+        ""
+    } else {
+        " UNSTABLE"
+    };
+    format!(
+        "  {name:<14} {:>10} {unit}{stable}  at {}\n",
+        fmt_opt(w.value, digits),
+        w.at.describe()
+    )
+}
+
+/// The text report.
+fn text(d: &RobustDesign, seconds: f64) -> String {
+    let r = &d.region;
+    let mut s = match r.source {
+        RegionSource::Records => format!(
+            "robust design (docs/design.md#robust-design) over the {:.0} % confidence region of the records\n",
+            r.confidence.unwrap_or(0.0) * 100.0
+        ),
+        RegionSource::StatedDefault => String::from(
+            "robust design (docs/design.md#robust-design) over the STATED DEFAULT uncertainty (no records given: \
+             beta ±15 %, b x[0.5, 2], c12 x[0.7, 1.3])\n",
+        ),
+    };
+    let _ = writeln!(
+        s,
+        "  beta {:.1} .. {:.1} bar, b {:.1} .. {:.1} N s/m{}, c12 {:.4e} .. {:.4e} m5/(N s); {} ridge points",
+        r.beta_bar[0],
+        r.beta_bar[1],
+        r.viscous_friction_ns_per_m[0],
+        r.viscous_friction_ns_per_m[1],
+        if r.identifiable[1] { "" } else { " (not identifiable: the reported interval)" },
+        r.c12_m5_per_ns[0],
+        r.c12_m5_per_ns[1],
+        r.ridge.len()
+    );
+    let t = &d.targets;
+    let _ = writeln!(
+        s,
+        "targets PM >= {} deg, GM >= {} dB over x0 ± {} mm{}",
+        t.pm_deg,
+        t.gm_db,
+        t.stroke_mm,
+        if t.p_mean_bar.is_empty() {
+            String::new()
+        } else {
+            format!(", p {:?} bar", t.p_mean_bar)
+        }
+    );
+    let _ = writeln!(s, "  Kp max, robust     {:.2} (1/m)", d.kp_max);
+    let _ = writeln!(s, "  Kp max, nominal    {:.2} (1/m)", d.kp_max_nominal);
+    let w = &d.worst_case;
+    let _ = writeln!(
+        s,
+        "worst case over {} points at Kp = {:.2}:",
+        w.points, w.kp
+    );
+    s += &worst_line("GM (dB)", "dB", &w.gain_margin_db, 2);
+    s += &worst_line("PM (deg)", "deg", &w.phase_margin_deg, 1);
+    s += &worst_line("delay margin", "s", &w.delay_margin_s, 4);
+    let _ = writeln!(
+        s,
+        "the article's loop (lower the leakage estimate and repeat):\n  {:>5} {:>12} {:>8} {:>13} {:>9} {:>9}  holds over the set",
+        "step", "c12", "kp_max", "binds", "worst GM", "worst PM"
+    );
+    for (i, st) in d.steps.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "  {:>5} {:>12.4e} {:>8.2} {:>13} {:>9} {:>9}  {}",
+            i + 1,
+            st.c12_m5_per_ns,
+            st.kp_max,
+            binding(st.deciding.binding),
+            fmt_opt(st.worst_case.gain_margin_db.value, 2),
+            fmt_opt(st.worst_case.phase_margin_deg.value, 1),
+            if st.worst_case.meets_targets {
+                "yes"
+            } else {
+                "no"
+            }
+        );
+    }
+    let _ = writeln!(s, "verdict: {}", super::design::verdict_text(d.verdict));
+    for reason in &d.reasons {
+        let _ = writeln!(s, "  - {reason}");
+    }
+    let _ = writeln!(s, "in {seconds:.2} s");
+    s
+}
+
+/// The binding margin in words.
+fn binding(b: Binding) -> &'static str {
+    match b {
+        Binding::PhaseMargin => "phase margin",
+        Binding::GainMargin => "gain margin",
+        Binding::Stability => "stability",
+    }
+}
+
+/// `robust-margins.svg` and `.png`: PM and GM at the robust Kp over the stroke at the deciding
+/// parameter point, one line per pressure and mass, with the targets dashed.
+fn write_figure(dir: &Path, d: &RobustDesign) -> Result<()> {
+    let panel =
+        |y_label: &str,
+         target: f64,
+         pick: fn(&crate::design::robust::StrokeCurve) -> &Vec<Option<f64>>| {
+            let mut traces: Vec<Trace> = d
+                .stroke_curves
+                .iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let (x, y): (Vec<f64>, Vec<f64>) = c
+                        .x_mm
+                        .iter()
+                        .zip(pick(c))
+                        .filter_map(|(&x, v)| v.map(|v| (x, v)))
+                        .unzip();
+                    Trace {
+                        label: format!(
+                            "m {} kg{}",
+                            c.mass_kg,
+                            c.p_mean_bar
+                                .map_or(String::new(), |p| format!(", p {p} bar"))
+                        ),
+                        t_s: x,
+                        y,
+                        style: LineStyle::Solid,
+                        color: Some(i),
+                    }
+                })
+                .collect();
+            let xs = &d.stroke_curves[0].x_mm;
+            traces.push(Trace {
+                label: "target".into(),
+                t_s: vec![xs[0], xs[xs.len() - 1]],
+                y: vec![target; 2],
+                style: LineStyle::Dashed,
+                color: Some(6),
+            });
+            Panel {
+                y_label: y_label.into(),
+                traces,
+            }
+        };
+    let panels = [
+        panel("Phase margin (deg)", d.targets.pm_deg, |c| {
+            &c.phase_margin_deg
+        }),
+        panel("Gain margin (dB)", d.targets.gm_db, |c| &c.gain_margin_db),
+    ];
+    let at = &d.deciding.at;
+    let title = format!("Margins over the stroke at Kp = {:.2} (robust)", d.kp_max);
+    let subtitle = format!(
+        "deciding parameters: beta {:.1} bar, b {:.0} N s/m, c12 {:.3e} m5/(N s)",
+        at.beta_bar, at.viscous_friction_ns_per_m, at.c12_m5_per_ns
+    );
+    let x_label = "Piston position x (mm)";
+    let stem = dir.join("robust-margins");
+    let svg = report::panels_xy_svg(&title, Some(&subtitle), x_label, &panels)?;
+    write_atomic(&stem.with_extension("svg"), svg.as_bytes())?;
+    let png = report::panels_xy_png(&title, Some(&subtitle), x_label, &panels, 1500, 900)?;
+    write_atomic(&stem.with_extension("png"), &png)?;
+    Ok(())
+}
