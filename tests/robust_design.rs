@@ -3,7 +3,7 @@
 
 use pumpcyl::design::robust::{Binding, Region, RegionSource, RobustOptions};
 use pumpcyl::design::{robust_design, Targets};
-use pumpcyl::ident::{analyze, Experiment, Options, UncertaintyOptions};
+use pumpcyl::ident::Experiment;
 
 fn pumpcyl(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
@@ -113,35 +113,21 @@ fn article_records_robust_design() {
     let start = std::time::Instant::now();
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article/identify.toml");
     let exp = Experiment::load(&path).unwrap();
-    let id = exp.identify(&Options::default()).unwrap();
-    let u = analyze(
-        &exp.problem,
-        &id.best().candidate,
-        &UncertaintyOptions::default(),
-    )
-    .unwrap();
+    let (rig, region) = Region::of_records(&exp, 0.95).unwrap();
     let identified = start.elapsed().as_secs_f64();
-    let region = Region::from_uncertainty(&u, exp.problem.standstill);
+    assert_eq!(rig.beta_bar, region.nominal.beta_bar);
     assert_eq!(region.source, RegionSource::Records);
     assert!(region.beta_bar[0] <= 165.0 && 165.0 <= region.beta_bar[1]);
     assert!(region.c12_m5_per_ns[0] <= 1.2e-10 && 1.2e-10 <= region.c12_m5_per_ns[1]);
     assert_eq!(region.identifiable, [true, false, true]);
     assert!(!region.ridge.is_empty());
-    let targets = Targets {
-        pm_deg: 34.0,
-        gm_db: 6.0,
-        stroke_mm: 50.0,
-        p_mean_bar: vec![],
-        p_beta_bar: 4.4,
-        mass_kg: vec![],
-        waves: vec![],
-    };
+    let targets = Targets::article();
     let opts = RobustOptions {
         grid: 2,
         positions: 3,
         loop_steps: 3,
     };
-    let d = robust_design(&exp.rig, &region, &targets, &opts).unwrap();
+    let d = robust_design(&rig, &region, &targets, &opts).unwrap();
     eprintln!(
         "article records: robust Kp {:.2}, nominal {:.2}; identification + uncertainty {identified:.1} s, total {:.1} s",
         d.kp_max,

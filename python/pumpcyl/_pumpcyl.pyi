@@ -223,7 +223,7 @@ def effective_beta(x: float, p_bar: float, *, beta_oil_bar: float = 17000.0) -> 
     """Effective bulk modulus (bar) at mean pressure ``p_bar`` (bar) for gas fraction ``x``."""
 
 def design(
-    rig: Rig,
+    rig: Optional[Rig] = None,
     *,
     target_pm_deg: float = 40.0,
     target_gm_db: float = 6.0,
@@ -232,6 +232,12 @@ def design(
     p_beta_bar: float = 4.4,
     mass_kg: Sequence[float] = ...,
     waves: Sequence[Tuple[float, float]] = ...,
+    robust: bool = False,
+    experiment: Optional[Union[str, PathLike[str]]] = None,
+    confidence: float = 0.95,
 ) -> Dict[str, Any]:
     """The design method (article Section 8): kp_max, kp_max_worst_case, worst_case,
-    conditions, tracking, verdict, reasons (as ``pumpcyl design --json``)."""
+    conditions, tracking, verdict, reasons (as ``pumpcyl design --json``). ``robust=True``:
+    the robust design over the confidence region of ``experiment``'s records, or the stated
+    default uncertainty around ``rig`` (as ``pumpcyl design --robust --json``): kp_max,
+    kp_max_nominal, deciding, worst_case, steps, region, verdict, reasons."""

@@ -804,18 +804,24 @@ fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
     pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar)
 }
 
-/// The design method of the article (Section 8) for `rig`: the largest Kp meeting the margin
-/// targets, margins across stroke, mass and pressure, predicted tracking and a verdict; a dict
-/// as `pumpcyl design --json` prints.
+/// The design method of the article (Section 8) for `rig` (default: the article's): the
+/// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
+/// tracking and a verdict; a dict as `pumpcyl design --json` prints.
+///
+/// `robust=True` designs over the parameters' uncertainty (docs/design.md#robust-design), as
+/// `pumpcyl design --robust --json`: over the confidence region (at `confidence`) of the
+/// records of `experiment` (an experiment TOML file; its rig is designed, so `rig` must not be
+/// given), or without `experiment` over the stated default uncertainty around `rig`.
 #[pyfunction]
 #[pyo3(signature = (
-    rig, *, target_pm_deg = 40.0, target_gm_db = 6.0, stroke_mm = 50.0, p_mean_bar = vec![],
-    p_beta_bar = 4.4, mass_kg = vec![], waves = vec![]
+    rig = None, *, target_pm_deg = 40.0, target_gm_db = 6.0, stroke_mm = 50.0,
+    p_mean_bar = vec![], p_beta_bar = 4.4, mass_kg = vec![], waves = vec![], robust = false,
+    experiment = None, confidence = 0.95
 ))]
 #[allow(clippy::too_many_arguments)]
 fn design(
     py: Python<'_>,
-    rig: &PyRig,
+    rig: Option<&PyRig>,
     target_pm_deg: f64,
     target_gm_db: f64,
     stroke_mm: f64,
@@ -823,6 +829,9 @@ fn design(
     p_beta_bar: f64,
     mass_kg: Vec<f64>,
     waves: Vec<(f64, f64)>,
+    robust: bool,
+    experiment: Option<PathBuf>,
+    confidence: f64,
 ) -> PyResult<Py<PyAny>> {
     let targets = pumpcyl::design::Targets {
         pm_deg: target_pm_deg,
@@ -833,9 +842,39 @@ fn design(
         mass_kg,
         waves,
     };
-    let rig = rig.rig.clone();
+    if experiment.is_some() && !robust {
+        return Err(err("experiment: needs robust=True"));
+    }
+    if experiment.is_some() && rig.is_some() {
+        return Err(err(
+            "the rig comes from the experiment file: give either the file or rig",
+        ));
+    }
+    let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
+    if !robust {
+        let d = py
+            .detach(|| pumpcyl::design::design(&rig, &targets))
+            .map_err(err)?;
+        return to_py(py, &d);
+    }
+    if !(confidence > 0.0 && confidence < 1.0) {
+        return Err(err(format!(
+            "confidence {confidence}: must lie strictly between 0 and 1"
+        )));
+    }
+    use pumpcyl::design::robust::{Region, RobustOptions};
     let d = py
-        .detach(|| pumpcyl::design::design(&rig, &targets))
+        .detach(|| -> Result<_, String> {
+            let (rig, region) = match experiment {
+                Some(path) => {
+                    let exp = Experiment::load(&path).map_err(|e| e.to_string())?;
+                    Region::of_records(&exp, confidence).map_err(|e| e.to_string())?
+                }
+                None => (rig.clone(), Region::stated_default(&rig)),
+            };
+            pumpcyl::design::robust_design(&rig, &region, &targets, &RobustOptions::default())
+                .map_err(|e| e.to_string())
+        })
         .map_err(err)?;
     to_py(py, &d)
 }

@@ -10,7 +10,7 @@ use std::time::Instant;
 use super::output::{fmt_opt, write_atomic, OutDir};
 use crate::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
 use crate::design::{robust_design, RobustDesign, Targets};
-use crate::ident::{analyze, Experiment, Options, UncertaintyOptions};
+use crate::ident::Experiment;
 use crate::report::{self, LineStyle, Panel, Trace};
 use crate::rig::Rig;
 
@@ -39,7 +39,7 @@ pub(super) fn run(
     );
     let start = Instant::now();
     let (rig, region) = match src.experiment {
-        Some(path) => region_of_records(path, src.confidence)?,
+        Some(path) => Region::of_records(&Experiment::load(path)?, src.confidence)?,
         None => (src.rig.clone(), Region::stated_default(&src.rig)),
     };
     let identify_seconds = start.elapsed().as_secs_f64();
@@ -63,41 +63,6 @@ pub(super) fn run(
     Ok(text(&d, seconds))
 }
 
-/// Identify the experiment's records with the file's options and read the confidence region
-/// off the profiles; returns the experiment's rig with the identified parameters.
-fn region_of_records(path: &Path, confidence: f64) -> Result<(Rig, Region)> {
-    let exp = Experiment::load(path)?;
-    let opts = Options {
-        auto_refine: exp.file.auto_refine,
-        local_refinement: exp.file.local_refinement,
-        threshold_mm2: exp.file.threshold_mm2,
-        ..Options::default()
-    };
-    let id = exp.identify(&opts)?;
-    let u = analyze(
-        &exp.problem,
-        &id.best().candidate,
-        &UncertaintyOptions {
-            confidence,
-            ..UncertaintyOptions::default()
-        },
-    )?;
-    let region = Region::from_uncertainty(&u, exp.problem.standstill);
-    let leak = exp
-        .problem
-        .standstill
-        .leakage(&exp.rig, u.best.c12_m5_per_ns)?;
-    let rig = Rig {
-        beta_bar: u.best.beta_bar,
-        viscous_friction_ns_per_m: u.best.viscous_friction_ns_per_m,
-        c12_m5_per_ns: u.best.c12_m5_per_ns,
-        c1_m5_per_ns: leak.c1_m5_per_ns,
-        c2_m5_per_ns: leak.c2_m5_per_ns,
-        ..exp.rig.clone()
-    };
-    Ok((rig, region))
-}
-
 /// A worst margin as text: value, unit and where.
 fn worst_line(name: &str, unit: &str, w: &Worst, digits: usize) -> String {
     let stable = if w.closed_loop_stable {
@@ -119,6 +84,9 @@ fn text(d: &RobustDesign, seconds: f64) -> String {
         RegionSource::Records => format!(
             "robust design (docs/design.md#robust-design) over the {:.0} % confidence region of the records\n",
             r.confidence.unwrap_or(0.0) * 100.0
+        ),
+        RegionSource::Point => String::from(
+            "robust design (docs/design.md#robust-design) at one given parameter point\n",
         ),
         RegionSource::StatedDefault => String::from(
             "robust design (docs/design.md#robust-design) over the STATED DEFAULT uncertainty (no records given: \

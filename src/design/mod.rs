@@ -51,6 +51,22 @@ pub struct Targets {
     pub waves: Vec<(f64, f64)>,
 }
 
+impl Targets {
+    /// The article's targets (§2.2: PM 34°, GM 6 dB, its Kp = 25) over x0 ± 50 mm, with β
+    /// identified at 4.4 bar and no pressure, mass or wave list.
+    pub fn article() -> Targets {
+        Targets {
+            pm_deg: 34.0,
+            gm_db: 6.0,
+            stroke_mm: 50.0,
+            p_mean_bar: vec![],
+            p_beta_bar: 4.4,
+            mass_kg: vec![],
+            waves: vec![],
+        }
+    }
+}
+
 /// One operating condition and the loop's margins there at the designed gain.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Condition {

@@ -12,7 +12,9 @@
 use super::{kp_max, kp_max_below, margins_at, meets, DesignError, Targets, Verdict};
 use super::{GM_TOLERANCE_DB, KP_CEILING, KP_FLOOR, PM_TOLERANCE_DEG};
 use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
-use crate::ident::{spaced, Candidate, Grid, Standstill, Uncertainty};
+use crate::ident::{
+    analyze, spaced, Candidate, Experiment, Grid, Standstill, Uncertainty, UncertaintyOptions,
+};
 use crate::lti::Margins;
 use crate::rig::Rig;
 use rayon::prelude::*;
@@ -44,6 +46,8 @@ pub enum RegionSource {
     Records,
     /// The stated default uncertainty around the rig's own values.
     StatedDefault,
+    /// One parameter point given by the caller (zero width).
+    Point,
 }
 
 /// The set of parameters the design must hold over.
@@ -124,10 +128,34 @@ impl Region {
         }
     }
 
+    /// Identify the experiment's records with the file's options and read the confidence
+    /// region at `confidence` off the profiles (docs/identification.md, "Uncertainty");
+    /// returns the experiment's rig carrying the estimate (β, b, c12 and c1, c2 from the
+    /// standstill) and the region.
+    pub fn of_records(exp: &Experiment, confidence: f64) -> Result<(Rig, Region), DesignError> {
+        let id = exp.identify(&exp.options())?;
+        let opts = UncertaintyOptions {
+            confidence,
+            ..UncertaintyOptions::default()
+        };
+        let u = analyze(&exp.problem, &id.best().candidate, &opts)?;
+        let region = Region::from_uncertainty(&u, exp.problem.standstill);
+        let (c1, c2) = region.leakages(&exp.rig, u.best.c12_m5_per_ns)?;
+        let rig = Rig {
+            beta_bar: u.best.beta_bar,
+            viscous_friction_ns_per_m: u.best.viscous_friction_ns_per_m,
+            c12_m5_per_ns: u.best.c12_m5_per_ns,
+            c1_m5_per_ns: c1,
+            c2_m5_per_ns: c2,
+            ..exp.rig.clone()
+        };
+        Ok((rig, region))
+    }
+
     /// A region of one point (zero width): `c` with c1, c2 from `standstill` or the rig.
     pub fn point(c: Candidate, standstill: Option<Standstill>) -> Region {
         Region {
-            source: RegionSource::StatedDefault,
+            source: RegionSource::Point,
             confidence: None,
             nominal: c,
             beta_bar: [c.beta_bar; 2],
@@ -787,6 +815,7 @@ fn judge(
             region.confidence.unwrap_or(0.0) * 100.0
         ),
         RegionSource::StatedDefault => "the stated default uncertainty (beta ±15 %, b x[0.5, 2], c12 x[0.7, 1.3]; docs/design.md)".into(),
+        RegionSource::Point => "the given parameter point".into(),
     };
     let mut reasons = vec![format!(
         "robust Kp = {kp:.2} (nominal {kp_nominal:.2}) meets PM >= {} deg and GM >= {} dB over {source}, the stroke, masses and pressures",
@@ -825,15 +854,7 @@ mod tests {
     use super::*;
 
     fn targets() -> Targets {
-        Targets {
-            pm_deg: 34.0,
-            gm_db: 6.0,
-            stroke_mm: 50.0,
-            p_mean_bar: vec![],
-            p_beta_bar: 4.4,
-            mass_kg: vec![],
-            waves: vec![],
-        }
+        Targets::article()
     }
 
     /// The robust gain on the default rig over the stated default uncertainty is below the
