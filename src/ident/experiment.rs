@@ -231,6 +231,17 @@ impl Experiment {
         )
     }
 
+    /// The search options the file asks for (its threshold, auto-refinement and local
+    /// refinement), with the default top list.
+    pub fn options(&self) -> super::Options {
+        super::Options {
+            auto_refine: self.file.auto_refine,
+            local_refinement: self.file.local_refinement,
+            threshold_mm2: self.file.threshold_mm2,
+            ..super::Options::default()
+        }
+    }
+
     /// The whole identification on this experiment's grids, in one call: both stages, then
     /// [`finish`](super::finish) (no progress report, no sharding).
     pub fn identify(&self, opts: &super::Options) -> Result<super::Identification, IdentError> {

@@ -31,6 +31,7 @@
 //! # Ok::<(), pumpcyl::ident::IdentError>(())
 //! ```
 
+mod advice;
 mod drive;
 mod experiment;
 mod grid;
@@ -40,6 +41,10 @@ mod refine;
 mod search;
 mod uncertainty;
 
+pub use advice::{
+    advise, default_designs, designs_for, designs_from_toml, gram, widths, Advice, AdviceOptions,
+    Assessment, Design, Width,
+};
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
 pub use grid::{spaced, stepped, Candidate, Grid};
