@@ -141,19 +141,12 @@ fn bad_confidence_is_an_error() {
     }
 }
 
-fn pumpcyl(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn identify_uncertainty_json_text_and_figures() {
     let dir = tempfile::tempdir().unwrap();
     let exp = synthetic::experiment_file(dir.path(), 0.02);
     let out = dir.path().join("out");
-    let o = pumpcyl(&[
+    let o = synthetic::pumpcyl(&[
         "identify",
         &exp,
         "--uncertainty",
@@ -191,7 +184,7 @@ fn identify_uncertainty_json_text_and_figures() {
         serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
     assert_eq!(saved["intervals"], v["intervals"]);
 
-    let o = pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
+    let o = synthetic::pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
     assert!(text.contains("90 % profile-likelihood intervals"), "{text}");
@@ -206,7 +199,7 @@ fn identify_uncertainty_json_text_and_figures() {
     ] {
         let mut all = vec!["identify", exp.as_str()];
         all.extend(args);
-        let o = pumpcyl(&all);
+        let o = synthetic::pumpcyl(&all);
         assert!(!o.status.success());
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(e.contains(needle), "{e}");

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::ident::{advise, designs_for, Advice, AdviceOptions, Experiment, Width};
+use crate::ident::{advise_experiment, Advice, Experiment, Width};
 
 #[derive(Debug, Args)]
 pub struct AdviseArgs {
@@ -29,37 +29,9 @@ pub struct AdviseArgs {
 
 /// Run the identification of the experiment, then the advice.
 pub fn run(args: &AdviseArgs) -> Result<String> {
-    anyhow::ensure!(
-        args.confidence > 0.0 && args.confidence < 1.0,
-        "--confidence {} must lie strictly between 0 and 1",
-        args.confidence
-    );
     let exp = Experiment::load(&args.experiment)?;
-    let (first, second) = exp.grids();
-    let candidates = first.len() + second.as_ref().map_or(0, |g| g.len());
-    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
-    crate::limits::check_work(
-        "advise: the identification's candidates times the records' samples",
-        candidates as f64 * samples as f64,
-        crate::limits::MAX_CANDIDATE_SAMPLES,
-        false,
-    )
-    .map_err(anyhow::Error::msg)?;
-    let designs = match &args.candidates {
-        Some(path) => {
-            let name = path.display().to_string();
-            let text = crate::input::read_text(path).map_err(|m| anyhow::anyhow!("{name}: {m}"))?;
-            Some(designs_for(&exp.problem, &text, &name)?)
-        }
-        None => None,
-    };
     let start = Instant::now();
-    let id = exp.identify(&exp.options())?;
-    let opts = AdviceOptions {
-        confidence: args.confidence,
-        designs,
-    };
-    let advice = advise(&exp.problem, &id.best().candidate, &opts)?;
+    let advice = advise_experiment(&exp, args.candidates.as_deref(), args.confidence)?;
     let seconds = start.elapsed().as_secs_f64();
     if args.json {
         let mut v = serde_json::to_value(&advice)?;

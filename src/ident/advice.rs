@@ -23,13 +23,14 @@ use super::grid::Candidate;
 use super::problem::{DatasetSpec, Prepared, Problem};
 use super::refine::{candidate_of, log_point};
 use super::uncertainty::{analyze, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS};
-use super::IdentError;
+use super::{Experiment, IdentError};
 use crate::input::{self, Key::Index, Key::Name};
 use crate::record::Record;
 use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
+use std::path::Path;
 
 /// Step of the central differences in ln θ (0.1 %): the truncation error, about h²/6 of the
 /// third derivative, is ~10⁻⁷ relative, while the simulation's rounding (~10⁻¹³ relative for
@@ -639,6 +640,46 @@ pub fn advise(
         skipped,
         best_for,
     })
+}
+
+/// The whole advice for a loaded experiment: its identification on its own grids and options
+/// (refused when it would take hours, as `identify` does without `--allow-long-run`), then
+/// [`advise`] on the candidates of the TOML file `candidates` or on the defaults.
+pub fn advise_experiment(
+    exp: &Experiment,
+    candidates: Option<&Path>,
+    confidence: f64,
+) -> Result<Advice, IdentError> {
+    if !(confidence > 0.0 && confidence < 1.0) {
+        return Err(IdentError::Input(format!(
+            "confidence {confidence} must lie strictly between 0 and 1"
+        )));
+    }
+    let designs = match candidates {
+        Some(path) => {
+            let name = path.display().to_string();
+            let text =
+                input::read_text(path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+            Some(designs_for(&exp.problem, &text, &name)?)
+        }
+        None => None,
+    };
+    let (first, second) = exp.grids();
+    let grid_candidates = first.len() + second.as_ref().map_or(0, |g| g.len());
+    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
+    crate::limits::check_work(
+        "advise: the identification's candidates times the records' samples",
+        grid_candidates as f64 * samples as f64,
+        crate::limits::MAX_CANDIDATE_SAMPLES,
+        false,
+    )
+    .map_err(IdentError::Input)?;
+    let id = exp.identify(&exp.options())?;
+    let opts = AdviceOptions {
+        confidence,
+        designs,
+    };
+    advise(&exp.problem, &id.best().candidate, &opts)
 }
 
 /// `before / after` for log-stds, 1 when both are infinite (no information either way).

@@ -42,8 +42,8 @@ mod search;
 mod uncertainty;
 
 pub use advice::{
-    advise, default_designs, designs_for, designs_from_toml, gram, widths, Advice, AdviceOptions,
-    Assessment, Design, Width, LOG_STEP,
+    advise, advise_experiment, default_designs, designs_for, designs_from_toml, gram, widths,
+    Advice, AdviceOptions, Assessment, Design, Width, LOG_STEP,
 };
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};

@@ -165,3 +165,11 @@ pub fn experiment_file(dir: &std::path::Path, noise_mm: f64) -> String {
     std::fs::write(&path, text).unwrap();
     path.display().to_string()
 }
+
+/// Run the pumpcyl binary with `args`.
+pub fn pumpcyl(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .unwrap()
+}
