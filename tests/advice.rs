@@ -162,6 +162,17 @@ fn more_data_never_widens_and_halving_the_noise_halves_the_widths() {
         .collect();
     let a = advice(&noisy, designs.clone());
     assert_eq!(a.candidates.len() + a.skipped.len(), designs.len());
+    // at Kp 35 the truth's closed loop has a damping ratio of 0.011 (`pumpcyl poles --set
+    // kp=35`): those candidates are skipped for it, the others kept
+    let at35 = designs.iter().filter(|d| d.kp() == 35.0).count();
+    assert!(at35 >= 1);
+    let damped: Vec<&String> = a
+        .skipped
+        .iter()
+        .filter(|s| s.contains("damping ratio 0.01"))
+        .collect();
+    assert_eq!(damped.len(), at35, "{:?}", a.skipped);
+    assert!(a.candidates.iter().all(|c| c.design.kp() < 35.0));
     for c in &a.candidates {
         for i in 0..3 {
             assert!(
