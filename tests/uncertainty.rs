@@ -141,42 +141,12 @@ fn bad_confidence_is_an_error() {
     }
 }
 
-/// Write the simulated records and an experiment with small grids; returns its path.
-fn experiment_file(dir: &std::path::Path, noise_mm: f64) -> String {
-    let mut noise = synthetic::Noise::new(21);
-    let mut text = String::from(
-        "[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
-         [grid]\nbeta_bar = [120.0, 200.0]\nviscous_friction_ns_per_m = [50.0, 300.0]\n\
-         c12_m5_per_ns = [0.8e-10, 1.6e-10]\n\
-         [refined_grid]\nbeta_bar = [150.0, 180.0]\nviscous_friction_ns_per_m = [150.0]\n\
-         c12_m5_per_ns = [1.0e-10, 1.4e-10]\n",
-    );
-    for (kp, fit_end_s) in synthetic::DATASETS {
-        let rec = synthetic::record(&TRUTH, kp, noise_mm, &mut noise, 301);
-        let name = format!("kp{kp}.csv");
-        std::fs::write(dir.join(&name), synthetic::csv(&rec)).unwrap();
-        text += &format!(
-            "[[dataset]]\nfile = \"{name}\"\nkp = {kp}\nmass_kg = 10593.0\nfit_end_s = {fit_end_s}\n"
-        );
-    }
-    let path = dir.join("exp.toml");
-    std::fs::write(&path, text).unwrap();
-    path.display().to_string()
-}
-
-fn pumpcyl(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn identify_uncertainty_json_text_and_figures() {
     let dir = tempfile::tempdir().unwrap();
-    let exp = experiment_file(dir.path(), 0.02);
+    let exp = synthetic::experiment_file(dir.path(), 0.02);
     let out = dir.path().join("out");
-    let o = pumpcyl(&[
+    let o = synthetic::pumpcyl(&[
         "identify",
         &exp,
         "--uncertainty",
@@ -214,7 +184,7 @@ fn identify_uncertainty_json_text_and_figures() {
         serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
     assert_eq!(saved["intervals"], v["intervals"]);
 
-    let o = pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
+    let o = synthetic::pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
     assert!(text.contains("90 % profile-likelihood intervals"), "{text}");
@@ -229,7 +199,7 @@ fn identify_uncertainty_json_text_and_figures() {
     ] {
         let mut all = vec!["identify", exp.as_str()];
         all.extend(args);
-        let o = pumpcyl(&all);
+        let o = synthetic::pumpcyl(&all);
         assert!(!o.status.success());
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(e.contains(needle), "{e}");

@@ -9,6 +9,7 @@ from ._pumpcyl import (
     Rig as Rig,
     Simulation as Simulation,
     StepResponse as StepResponse,
+    advise as advise,
     bode as bode,
     design as design,
     effective_beta as effective_beta,

@@ -215,6 +215,17 @@ def identify(
     ``refined_grid=False`` skips the second stage. Releases the GIL; Ctrl-C stops it;
     ``progress=True`` prints progress on stderr, a callable gets (done, total)."""
 
+def advise(
+    experiment: Union[str, PathLike[str]],
+    *,
+    confidence: float = 0.95,
+    candidates: Optional[Union[str, PathLike[str]]] = None,
+) -> Dict[str, Any]:
+    """Experiment advice: identify the experiment's records, then rank candidate further
+    records (steps, sinusoids, gains; the TOML file ``candidates`` or the defaults) by the
+    expected interval widths of beta, b and c12 (as ``pumpcyl advise --json``: point,
+    noise_std_mm, current, candidates, best_for, skipped)."""
+
 def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
     """Gas fraction X giving ``beta_bar`` (bar) at mean pressure ``p_mean_bar`` (bar)
     (article Section 7)."""

@@ -787,6 +787,29 @@ fn progress_reporter(
 }
 
 // ---------------------------------------------------------------------------------------------
+/// Experiment advice (docs/identification.md, "Experiment advice"): identify the records of
+/// `experiment` (a TOML file as for `pumpcyl identify`), then compare candidate further
+/// records (the TOML file `candidates`, else the default steps, sinusoids and gains) by the
+/// interval widths of beta, b and c12 expected after adding each, at `confidence`; a dict as
+/// `pumpcyl advise --json` prints (point, noise_std_mm, current, candidates ranked best first,
+/// best_for, skipped). Runs with the GIL released.
+#[pyfunction]
+#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None))]
+fn advise(
+    py: Python<'_>,
+    experiment: PathBuf,
+    confidence: f64,
+    candidates: Option<PathBuf>,
+) -> PyResult<Py<PyAny>> {
+    let advice = py
+        .detach(|| {
+            let exp = pumpcyl::ident::Experiment::load(&experiment)?;
+            pumpcyl::ident::advise_experiment(&exp, candidates.as_deref(), confidence)
+        })
+        .map_err(err)?;
+    to_py(py, &advice)
+}
+
 // Bulk modulus and design
 
 /// Gas fraction X that gives `beta_bar` (bar) at mean pressure `p_mean_bar` (bar), with pure
@@ -894,6 +917,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(step, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(advise, m)?)?;
     m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;

@@ -1,5 +1,6 @@
 //! Command-line interface: argument parsing and formatting only; the work is in the library.
 
+mod advise;
 mod analysis;
 mod bulk;
 mod design;
@@ -61,6 +62,9 @@ enum Command {
     IdentifyDrive(ident::DriveArgs),
     /// Two-stage grid identification of beta, b and c12 from records (the article §2.4).
     Identify(ident::IdentifyArgs),
+    /// Which further record (a step, a sinusoid, a gain) would narrow the intervals of beta,
+    /// b and c12 most, from the linearised model (docs/identification.md, "Experiment advice").
+    Advise(advise::AdviseArgs),
     /// Merge the partial results of `identify --shard I/N` into the answer of one run.
     IdentifyMerge(ident::MergeArgs),
     /// Gas fraction from an identified bulk modulus, beta_e against mean pressure, and the
@@ -239,6 +243,7 @@ pub fn run() -> Result<()> {
         Command::IdentifyDrive(args) => ident::drive(&args)?,
         Command::Identify(args) => ident::identify(&args)?,
         Command::IdentifyMerge(args) => ident::merge(&args)?,
+        Command::Advise(args) => advise::run(&args)?,
         Command::BulkModulus(args) => bulk::bulk(&args)?,
         Command::Design(args) => design::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,

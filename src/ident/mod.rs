@@ -31,6 +31,7 @@
 //! # Ok::<(), pumpcyl::ident::IdentError>(())
 //! ```
 
+mod advice;
 mod drive;
 mod experiment;
 mod grid;
@@ -40,6 +41,12 @@ mod refine;
 mod search;
 mod uncertainty;
 
+pub use advice::{
+    advise, advise_experiment, default_designs, designs_for, designs_from_toml, gram, widths,
+    Advice, AdviceOptions, Assessment, Design, Width, DEFAULT_DURATION_S, DEFAULT_FREQS_HZ,
+    DEFAULT_KPS, DEFAULT_MAX_AMP_MM, DEFAULT_STEPS_MM, LOG_STEP, MAX_CANDIDATES, MIN_DAMPING,
+    MIN_SAMPLES_PER_PERIOD, REST_S,
+};
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
 pub use grid::{spaced, stepped, Candidate, Grid};

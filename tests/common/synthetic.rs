@@ -53,6 +53,24 @@ pub const TRUTH: Candidate = Candidate {
 /// The (Kp, fit window end in s) of the article's identification and validation sets.
 pub const DATASETS: [(f64, f64); 2] = [(25.0, 2.7), (20.0, 2.4)];
 
+/// The default rig at gain `kp` with `truth`'s β, b, c12 and the c1, c2 that hold the
+/// article's standstill point with that c12.
+pub fn truth_rig(truth: &Candidate, kp: f64) -> Rig {
+    let base = Rig {
+        kp,
+        ..Rig::default()
+    };
+    let l = STANDSTILL.leakage(&base, truth.c12_m5_per_ns).unwrap();
+    Rig {
+        beta_bar: truth.beta_bar,
+        viscous_friction_ns_per_m: truth.viscous_friction_ns_per_m,
+        c12_m5_per_ns: truth.c12_m5_per_ns,
+        c1_m5_per_ns: l.c1_m5_per_ns,
+        c2_m5_per_ns: l.c2_m5_per_ns,
+        ..base
+    }
+}
+
 /// A record of `samples` samples at 100 Hz of the step simulated with `truth` and gain `kp`,
 /// noise σ = `noise_mm`.
 pub fn record(
@@ -62,19 +80,7 @@ pub fn record(
     noise: &mut Noise,
     samples: usize,
 ) -> Record {
-    let base = Rig {
-        kp,
-        ..Rig::default()
-    };
-    let l = STANDSTILL.leakage(&base, truth.c12_m5_per_ns).unwrap();
-    let rig = Rig {
-        beta_bar: truth.beta_bar,
-        viscous_friction_ns_per_m: truth.viscous_friction_ns_per_m,
-        c12_m5_per_ns: truth.c12_m5_per_ns,
-        c1_m5_per_ns: l.c1_m5_per_ns,
-        c2_m5_per_ns: l.c2_m5_per_ns,
-        ..base
-    };
+    let rig = truth_rig(truth, kp);
     let time_s: Vec<f64> = (0..samples).map(|k| k as f64 * 0.01).collect();
     let x_ref_mm: Vec<f64> = time_s
         .iter()
@@ -135,4 +141,35 @@ pub fn csv(rec: &Record) -> String {
         );
     }
     s
+}
+
+/// Write the simulated records and an experiment with small grids; returns its path.
+pub fn experiment_file(dir: &std::path::Path, noise_mm: f64) -> String {
+    let mut noise = Noise::new(21);
+    let mut text = String::from(
+        "[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+         [grid]\nbeta_bar = [120.0, 200.0]\nviscous_friction_ns_per_m = [50.0, 300.0]\n\
+         c12_m5_per_ns = [0.8e-10, 1.6e-10]\n\
+         [refined_grid]\nbeta_bar = [150.0, 180.0]\nviscous_friction_ns_per_m = [150.0]\n\
+         c12_m5_per_ns = [1.0e-10, 1.4e-10]\n",
+    );
+    for (kp, fit_end_s) in DATASETS {
+        let rec = record(&TRUTH, kp, noise_mm, &mut noise, 301);
+        let name = format!("kp{kp}.csv");
+        std::fs::write(dir.join(&name), csv(&rec)).unwrap();
+        text += &format!(
+            "[[dataset]]\nfile = \"{name}\"\nkp = {kp}\nmass_kg = 10593.0\nfit_end_s = {fit_end_s}\n"
+        );
+    }
+    let path = dir.join("exp.toml");
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+/// Run the pumpcyl binary with `args`.
+pub fn pumpcyl(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .unwrap()
 }

@@ -1,0 +1,817 @@
+//! Experiment advice: which further record would shrink the uncertainty of (β, b, c12) most
+//! (docs/identification.md, "Experiment advice").
+//!
+//! The method is the linearised (Fisher) counterpart of the profile-likelihood intervals of
+//! the uncertainty analysis. With θ = (ln β, ln b, ln c12) and position noise of variance σ²
+//! (inflated by the AR(1) factor of correlated residuals, as the uncertainty analysis does),
+//! the information of a record is JᵀJ/σ², J the sensitivities ∂x/∂θ (mm) of its simulated
+//! position, each record's initial position fitted (the sensitivities' mean over the fit
+//! window removed, which is the offset's Schur complement). The sensitivities are central
+//! differences of the exact ZOH simulation of the LTI model (docs/model.md) with a step of
+//! [`LOG_STEP`] in ln θ. The information of the existing records plus a candidate's, inverted,
+//! is the expected covariance of θ after adding that record; the interval of parameter i is
+//! θ̂ᵢ·exp(±z·sdᵢ), z the normal quantile of the confidence. The same formula without a
+//! candidate gives the current widths, so each candidate's gain reads as a ratio.
+//!
+//! A direction the records do not inform (b from the article's steps) makes the information
+//! singular or nearly so: the inverse is a pseudo-inverse on the information scaled to unit
+//! diagonal (eigenvalues below [`RCOND`] times the largest are dropped), and a parameter whose
+//! linearised interval reaches a search bound ([`BOUNDS`]) or that lies in the dropped
+//! directions is reported as unbounded, not as a meaningless huge number.
+
+use super::grid::Candidate;
+use super::problem::{DatasetSpec, Prepared, Problem};
+use super::refine::{candidate_of, log_point};
+use super::uncertainty::{analyze, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS};
+use super::{Experiment, IdentError};
+use crate::input::{self, Key::Index, Key::Name};
+use crate::lti::{eigenvalues, is_stable, PoleInfo};
+use crate::model::Plant;
+use crate::record::Record;
+use nalgebra::{Matrix3, SymmetricEigen};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// Step of the central differences in ln θ (0.1 %): the truncation error, about h²/6 of the
+/// third derivative, is ~10⁻⁷ relative, while the simulation's rounding (~10⁻¹³ relative for
+/// the balanced exact ZOH) divided by h stays ~10⁻¹⁰.
+pub const LOG_STEP: f64 = 1e-3;
+/// Relative eigenvalue below which a direction of the (unit-diagonal) information counts as
+/// not informed at all.
+pub const RCOND: f64 = 1e-12;
+/// Most candidate experiments compared in one call.
+pub const MAX_CANDIDATES: usize = 200;
+/// Longest candidate record (s) after its rest.
+pub const MAX_DURATION_S: f64 = 600.0;
+/// Most samples of one candidate record.
+pub const MAX_SAMPLES: f64 = 1e6;
+/// Time at rest before the excitation starts (s), as in the article's records.
+pub const REST_S: f64 = 0.5;
+/// Default duration of a candidate record after its rest (s): the same recording time for
+/// every candidate, one period of the slowest default sinusoid.
+pub const DEFAULT_DURATION_S: f64 = 10.0;
+/// Default step sizes (mm).
+pub const DEFAULT_STEPS_MM: [f64; 4] = [2.0, 5.0, 10.0, 20.0];
+/// Default sinusoid frequencies (Hz): across the closed loop's lightly damped pair and the hydraulic
+/// resonance of the article's rig (0.6 and 1 Hz), far below the records' Nyquist frequency.
+pub const DEFAULT_FREQS_HZ: [f64; 6] = [0.1, 0.2, 0.5, 0.8, 1.0, 1.5];
+/// Default position gains tried besides the experiment's own.
+pub const DEFAULT_KPS: [f64; 3] = [15.0, 25.0, 35.0];
+/// Largest default sinusoid amplitude (mm).
+pub const DEFAULT_MAX_AMP_MM: f64 = 20.0;
+/// Share of the speed at which pump 1 alone, at its maximum speed, moves the piston that a
+/// default sinusoid's peak velocity may use (so the pumps stay far from saturation, where the
+/// linear model holds).
+pub const VELOCITY_SHARE: f64 = 0.5;
+/// Fewest samples per period of a sinusoid.
+pub const MIN_SAMPLES_PER_PERIOD: f64 = 10.0;
+/// Least closed-loop damping ratio at the identified point of a candidate's gain: below it
+/// the loop rings for dozens of periods, too close to instability to run on a rig whose
+/// parameters are uncertain (the article's design targets of §2.2 keep it far higher).
+pub const MIN_DAMPING: f64 = 0.05;
+/// Iteration limit of the 3×3 symmetric eigen-decomposition.
+const EIGEN_ITERS: usize = 1000;
+
+/// A candidate further experiment: a record of the closed loop at gain `kp` driven by a step
+/// or a sinusoid after [`REST_S`] at rest, lasting `duration_s` after it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Design {
+    /// A reference step of `step_mm` (mm; negative retracts).
+    Step {
+        /// Step size (mm).
+        step_mm: f64,
+        /// Position gain (normalised command per metre).
+        kp: f64,
+        /// Record length after the rest (s).
+        duration_s: f64,
+    },
+    /// A reference sinusoid x0 + A·sin(2πf(t − rest)).
+    Sine {
+        /// Frequency (Hz).
+        freq_hz: f64,
+        /// Amplitude (mm).
+        amp_mm: f64,
+        /// Position gain (normalised command per metre).
+        kp: f64,
+        /// Record length after the rest (s).
+        duration_s: f64,
+    },
+}
+
+impl Design {
+    /// The position gain.
+    pub fn kp(&self) -> f64 {
+        match *self {
+            Design::Step { kp, .. } | Design::Sine { kp, .. } => kp,
+        }
+    }
+
+    /// Record length after the rest (s).
+    pub fn duration_s(&self) -> f64 {
+        match *self {
+            Design::Step { duration_s, .. } | Design::Sine { duration_s, .. } => duration_s,
+        }
+    }
+
+    /// A short label: `step 5 mm, Kp 25, 10 s` or `sine 0.5 Hz 18.4 mm, Kp 25, 10 s`.
+    pub fn label(&self) -> String {
+        let tail = format!("Kp {}, {} s", self.kp(), self.duration_s());
+        match *self {
+            Design::Step { step_mm, .. } => format!("step {step_mm} mm, {tail}"),
+            Design::Sine {
+                freq_hz, amp_mm, ..
+            } => format!("sine {freq_hz} Hz {amp_mm:.1} mm, {tail}"),
+        }
+    }
+
+    /// The reference deviation (mm) at time `t` (s) from the start of the record.
+    fn deviation_mm(&self, t: f64) -> f64 {
+        let s = t - REST_S;
+        if s < 0.0 {
+            return 0.0;
+        }
+        match *self {
+            Design::Step { step_mm, .. } => step_mm,
+            Design::Sine {
+                freq_hz, amp_mm, ..
+            } => amp_mm * (2.0 * PI * freq_hz * s).sin(),
+        }
+    }
+
+    /// Check the design against the limits, the sample rate `rate_hz` and the stroke
+    /// (`x0_mm` ± the largest deviation must lie in 0 … `stroke_mm`); the message names the
+    /// offending field.
+    pub fn check(&self, rate_hz: f64, x0_mm: f64, stroke_mm: f64) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v}: must be > 0"))
+            }
+        };
+        positive("kp", self.kp())?;
+        let d = self.duration_s();
+        positive("duration_s", d)?;
+        if d > MAX_DURATION_S {
+            return Err(format!(
+                "duration_s = {d}: longer than the limit of {MAX_DURATION_S} s"
+            ));
+        }
+        let samples = (REST_S + d) * rate_hz;
+        if samples > MAX_SAMPLES {
+            return Err(format!(
+                "duration_s = {d}: {samples:.0} samples at {rate_hz} Hz, more than the limit of {MAX_SAMPLES:e}"
+            ));
+        }
+        let reach = match *self {
+            Design::Step { step_mm, .. } => {
+                if !(step_mm.is_finite() && step_mm != 0.0) {
+                    return Err(format!("step_mm = {step_mm}: must be a non-zero number"));
+                }
+                ("step_mm", step_mm.min(0.0), step_mm.max(0.0))
+            }
+            Design::Sine {
+                freq_hz, amp_mm, ..
+            } => {
+                positive("freq_hz", freq_hz)?;
+                positive("amp_mm", amp_mm)?;
+                if freq_hz * MIN_SAMPLES_PER_PERIOD > rate_hz {
+                    return Err(format!(
+                        "freq_hz = {freq_hz}: fewer than {MIN_SAMPLES_PER_PERIOD} samples per \
+                         period at the records' {rate_hz} Hz"
+                    ));
+                }
+                ("amp_mm", -amp_mm, amp_mm)
+            }
+        };
+        let (name, lo, hi) = reach;
+        if x0_mm + lo < 0.0 || x0_mm + hi > stroke_mm {
+            return Err(format!(
+                "{name}: the reference would leave the stroke (0 … {stroke_mm} mm from x0 = {x0_mm} mm)"
+            ));
+        }
+        Ok(())
+    }
+
+    /// The design's record at `rate_hz` from the rig position `x0_mm`: time, and the reference
+    /// as both reference and position columns (only the reference matters to the
+    /// sensitivities; the measured position cancels in them).
+    pub fn record(&self, rate_hz: f64, x0_mm: f64) -> Result<Record, IdentError> {
+        let t = crate::response::sample_times(REST_S + self.duration_s(), rate_hz);
+        let r: Vec<f64> = t.iter().map(|&t| x0_mm + self.deviation_mm(t)).collect();
+        Ok(Record::from_arrays(&self.label(), &t, &r, &r)?)
+    }
+
+    /// The design as a dataset of the identification problem, on the rig and mass of
+    /// `like` (an existing dataset) at this design's gain, its fit window the whole record.
+    pub fn prepared(&self, like: &Prepared, rate_hz: f64) -> Result<Prepared, IdentError> {
+        let record = self.record(rate_hz, like.rig.x0_mm)?;
+        let spec = DatasetSpec {
+            file: self.label(),
+            kp: self.kp(),
+            mass_kg: like.rig.mass_kg,
+            fit_end_s: record.time_s[record.len() - 1],
+        };
+        Prepared::new(&spec, record, &like.rig)
+    }
+}
+
+/// The default candidates for an experiment whose datasets use the gains `kps`: steps of
+/// [`DEFAULT_STEPS_MM`] and sinusoids of [`DEFAULT_FREQS_HZ`] at each of `kps` and
+/// [`DEFAULT_KPS`], [`DEFAULT_DURATION_S`] each; a sinusoid's amplitude is the least of
+/// [`DEFAULT_MAX_AMP_MM`], the amplitude whose peak velocity is `v_max_m_per_s`, and the room
+/// in the stroke; frequencies with fewer than [`MIN_SAMPLES_PER_PERIOD`] samples per period
+/// at `rate_hz` are left out.
+pub fn default_designs(kps: &[f64], v_max_m_per_s: f64, room_mm: f64, rate_hz: f64) -> Vec<Design> {
+    let mut gains: Vec<f64> = kps.iter().chain(&DEFAULT_KPS).copied().collect();
+    gains.sort_by(f64::total_cmp);
+    gains.dedup();
+    let duration_s = DEFAULT_DURATION_S;
+    let mut out = Vec::new();
+    for &kp in &gains {
+        for step_mm in DEFAULT_STEPS_MM.into_iter().filter(|s| *s <= room_mm) {
+            out.push(Design::Step {
+                step_mm,
+                kp,
+                duration_s,
+            });
+        }
+        for freq_hz in DEFAULT_FREQS_HZ {
+            if freq_hz * MIN_SAMPLES_PER_PERIOD > rate_hz {
+                continue;
+            }
+            let amp_mm = DEFAULT_MAX_AMP_MM
+                .min(v_max_m_per_s * 1e3 / (2.0 * PI * freq_hz))
+                .min(room_mm);
+            // one decimal: the amplitude a user would type
+            let amp_mm = (amp_mm * 10.0).floor() / 10.0;
+            out.push(Design::Sine {
+                freq_hz,
+                amp_mm,
+                kp,
+                duration_s,
+            });
+        }
+    }
+    out
+}
+
+/// A candidate file as written (docs/identification.md, "Experiment advice").
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CandidateFile {
+    #[serde(default)]
+    step: Vec<StepSpec>,
+    #[serde(default)]
+    sine: Vec<SineSpec>,
+}
+
+/// A `[[step]]` entry.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StepSpec {
+    step_mm: f64,
+    kp: f64,
+    duration_s: Option<f64>,
+}
+
+/// A `[[sine]]` entry.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SineSpec {
+    freq_hz: f64,
+    amp_mm: f64,
+    kp: f64,
+    duration_s: Option<f64>,
+}
+
+/// The field a design-check message names (its first word before ` =` or `:`).
+fn field_of(message: &str) -> &str {
+    message
+        .split([' ', ':'])
+        .next()
+        .filter(|w| !w.is_empty())
+        .unwrap_or("kp")
+}
+
+/// Read candidate designs from TOML text (`[[step]]` with `step_mm`, `kp`, optional
+/// `duration_s`; `[[sine]]` with `freq_hz`, `amp_mm`, `kp`, optional `duration_s`), checked
+/// against `rate_hz`, `x0_mm` and `stroke_mm` as [`Design::check`] does. Errors are one line
+/// naming `name`, the line and the key.
+pub fn designs_from_toml(
+    text: &str,
+    name: &str,
+    rate_hz: f64,
+    x0_mm: f64,
+    stroke_mm: f64,
+) -> Result<Vec<Design>, IdentError> {
+    let file: CandidateFile = toml::from_str(text)
+        .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
+    let duration = |d: Option<f64>| d.unwrap_or(DEFAULT_DURATION_S);
+    let steps = file.step.iter().map(|s| {
+        (
+            "step",
+            Design::Step {
+                step_mm: s.step_mm,
+                kp: s.kp,
+                duration_s: duration(s.duration_s),
+            },
+        )
+    });
+    let sines = file.sine.iter().map(|s| {
+        (
+            "sine",
+            Design::Sine {
+                freq_hz: s.freq_hz,
+                amp_mm: s.amp_mm,
+                kp: s.kp,
+                duration_s: duration(s.duration_s),
+            },
+        )
+    });
+    let all: Vec<(&str, Design)> = steps.chain(sines).collect();
+    if all.is_empty() {
+        return Err(IdentError::Input(format!(
+            "{name}: no candidate: give at least one [[step]] or [[sine]]"
+        )));
+    }
+    if all.len() > MAX_CANDIDATES {
+        return Err(IdentError::Input(format!(
+            "{name}: {} candidates, more than the limit of {MAX_CANDIDATES}",
+            all.len()
+        )));
+    }
+    let mut index = [0usize; 2];
+    for (table, d) in &all {
+        let k = usize::from(*table == "sine");
+        if let Err(m) = d.check(rate_hz, x0_mm, stroke_mm) {
+            let path = [Name(table), Index(index[k]), Name(field_of(&m))];
+            let line =
+                input::toml_line(text, &path).map_or(String::new(), |l| format!("line {l}, "));
+            return Err(IdentError::Input(format!(
+                "{name}: {line}[[{table}]] {}: {m}",
+                index[k] + 1
+            )));
+        }
+        index[k] += 1;
+    }
+    Ok(all.into_iter().map(|(_, d)| d).collect())
+}
+
+/// [`designs_from_toml`] for the records of `problem`: its first dataset's sample rate,
+/// rig position and stroke.
+pub fn designs_for(problem: &Problem, text: &str, name: &str) -> Result<Vec<Design>, IdentError> {
+    let first = &problem.datasets[0];
+    designs_from_toml(
+        text,
+        name,
+        rate_hz(first),
+        first.rig.x0_mm,
+        first.rig.stroke_mm,
+    )
+}
+
+/// Options of the advice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdviceOptions {
+    /// Confidence level of the intervals, in (0, 1).
+    pub confidence: f64,
+    /// The candidates; `None` = [`default_designs`] for the experiment.
+    pub designs: Option<Vec<Design>>,
+}
+
+impl Default for AdviceOptions {
+    fn default() -> Self {
+        AdviceOptions {
+            confidence: 0.95,
+            designs: None,
+        }
+    }
+}
+
+/// The expected interval of one parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Width {
+    /// The parameter (one of [`PARAMETERS`]).
+    pub parameter: &'static str,
+    /// Standard deviation of its logarithm (∞ when not informed at all); the intervals are
+    /// θ̂·exp(±z·sd).
+    pub log_std: f64,
+    /// The expected interval in the parameter's unit (bar, N·s/m, m⁵/(N·s)); `None` when it
+    /// is unbounded (it reaches a search bound).
+    pub interval: Option<[f64; 2]>,
+    /// Its width hi − lo (the parameter's unit); `None` when unbounded.
+    pub width: Option<f64>,
+    /// The width relative to the estimate; `None` when unbounded.
+    pub relative_width: Option<f64>,
+}
+
+/// One candidate and what it is expected to give.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Assessment {
+    /// The experiment.
+    pub design: Design,
+    /// A short label of it.
+    pub label: String,
+    /// Expected intervals of (β, b, c12) after adding its record to the existing ones.
+    pub widths: [Width; 3],
+    /// Improvement factor per parameter: current log-std over the expected one (≥ 1).
+    pub improvement: [f64; 3],
+    /// The ranking score: Σ ln(expected/current log-std), the log of the product of the
+    /// width ratios (more negative is better).
+    pub score: f64,
+}
+
+/// The advice: the current widths, the candidates ranked best first, the best per parameter.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Advice {
+    /// The point the model is linearised at (the identification's answer polished on the SSE).
+    pub point: Candidate,
+    /// Noise level σ (mm) estimated from the residuals there.
+    pub noise_std_mm: f64,
+    /// Factor on σ² for correlated residuals (the uncertainty analysis's AR(1) inflation),
+    /// applied to the existing records and to every candidate's.
+    pub variance_inflation: f64,
+    /// Confidence level.
+    pub confidence: f64,
+    /// The normal quantile z of the intervals θ̂·exp(±z·sd).
+    pub z: f64,
+    /// The current widths (the existing records only), by the same formula.
+    pub current: [Width; 3],
+    /// The candidates, best (lowest score) first.
+    pub candidates: Vec<Assessment>,
+    /// Candidates left out, each with the reason (an unstable closed loop at the point).
+    pub skipped: Vec<String>,
+    /// Label of the candidate that narrows each of (β, b, c12) most.
+    pub best_for: [String; 3],
+}
+
+/// The sensitivities' Gram matrix JᵀJ (mm²) of dataset `ds` at the point `p` in
+/// (ln β, ln b, ln c12), each record's initial position fitted (residual means removed), by
+/// central differences with step `h` in ln θ. The dataset need not belong to `problem`
+/// (which gives the standstill point for c1, c2).
+pub fn gram(
+    problem: &Problem,
+    ds: &Prepared,
+    p: &[f64; 3],
+    h: f64,
+) -> Result<Matrix3<f64>, IdentError> {
+    let columns = (0..3)
+        .map(|i| {
+            let at = |sign: f64| {
+                let mut q = p.to_vec();
+                q[i] += sign * h;
+                problem
+                    .residuals_offset_free(&candidate_of(&q), ds)
+                    .ok_or_else(|| {
+                        IdentError::Input(format!(
+                            "dataset `{}`: the model cannot be simulated near the point",
+                            ds.name
+                        ))
+                    })
+            };
+            let (plus, minus) = (at(1.0)?, at(-1.0)?);
+            Ok(plus
+                .iter()
+                .zip(&minus)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<f64>>())
+        })
+        .collect::<Result<Vec<_>, IdentError>>()?;
+    Ok(Matrix3::from_fn(|i, j| {
+        columns[i].iter().zip(&columns[j]).map(|(a, b)| a * b).sum()
+    }))
+}
+
+/// The expected intervals from the information `info` (JᵀJ/σ², in ln θ) at the point
+/// `point`, with normal quantile `z`: pseudo-inverse on the unit-diagonal scaling, dropped
+/// directions and intervals reaching [`BOUNDS`] reported as unbounded.
+pub fn widths(info: &Matrix3<f64>, point: &Candidate, z: f64) -> Result<[Width; 3], IdentError> {
+    let d: Vec<f64> = (0..3).map(|i| info[(i, i)]).collect();
+    let informed: Vec<bool> = d.iter().map(|&v| v.is_finite() && v > 0.0).collect();
+    let scale: Vec<f64> = (0..3)
+        .map(|i| if informed[i] { 1.0 / d[i].sqrt() } else { 0.0 })
+        .collect();
+    let scaled = Matrix3::from_fn(|i, j| info[(i, j)] * scale[i] * scale[j]);
+    let eig = SymmetricEigen::try_new(scaled, f64::EPSILON, EIGEN_ITERS).ok_or_else(|| {
+        IdentError::Input("the information matrix has no eigen-decomposition".into())
+    })?;
+    let top = eig.eigenvalues.max().max(0.0);
+    let mut var = [0.0; 3];
+    let mut dropped = [0.0; 3];
+    for k in 0..3 {
+        let mu = eig.eigenvalues[k];
+        let v = eig.eigenvectors.column(k);
+        for i in 0..3 {
+            if top > 0.0 && mu > RCOND * top {
+                var[i] += v[i] * v[i] / mu * scale[i] * scale[i];
+            } else {
+                dropped[i] += v[i] * v[i];
+            }
+        }
+    }
+    let p = log_point(point);
+    Ok(std::array::from_fn(|i| {
+        let sd = if informed[i] && dropped[i] < 1e-6 {
+            var[i].sqrt()
+        } else {
+            f64::INFINITY
+        };
+        let (lo, hi) = ((p[i] - z * sd).exp(), (p[i] + z * sd).exp());
+        let [blo, bhi] = BOUNDS[i];
+        let bounded = sd.is_finite() && lo > blo && hi < bhi;
+        let estimate = p[i].exp();
+        Width {
+            parameter: PARAMETERS[i],
+            log_std: sd,
+            interval: bounded.then_some([lo, hi]),
+            width: bounded.then_some(hi - lo),
+            relative_width: bounded.then_some((hi - lo) / estimate),
+        }
+    }))
+}
+
+/// The sample rate (Hz) of a dataset's record: samples per second over its length.
+fn rate_hz(ds: &Prepared) -> f64 {
+    let t = &ds.record.time_s;
+    (t.len() - 1) as f64 / (t[t.len() - 1] - t[0])
+}
+
+/// The piston speed (m/s) of pump 1 alone at its maximum speed, times [`VELOCITY_SHARE`].
+fn velocity_limit(rig: &crate::rig::Rig) -> f64 {
+    let flow_m3_s = rig.pump_max_speed_rpm / 60.0 * rig.displacement_1_cm3_per_rev * 1e-6;
+    VELOCITY_SHARE * flow_m3_s / rig.si().a1
+}
+
+/// Whether the record `ds` can be run on the rig whose parameters are `c`: its closed loop
+/// stable with a least damping ratio of at least [`MIN_DAMPING`], and the motor speeds of its
+/// predicted response within the motors' rated speed (beyond it the drives saturate and the
+/// linear model no longer holds). The reason when not.
+fn runnable(problem: &Problem, c: &Candidate, ds: &Prepared) -> Result<(), String> {
+    let rig = problem.rig_for(c, ds).map_err(|e| e.to_string())?;
+    let sys = Plant::new(&rig).closed_loop(rig.sum_pressure);
+    let poles = eigenvalues(&sys.a).map_err(|e| e.to_string())?;
+    if !is_stable(&poles) {
+        return Err("the closed loop is unstable at the identified point".into());
+    }
+    let least = poles
+        .into_iter()
+        .filter_map(|p| PoleInfo::from(p).damping)
+        .fold(1.0, f64::min);
+    if least < MIN_DAMPING {
+        return Err(format!(
+            "closed-loop damping ratio {least:.3} at the identified point, below {MIN_DAMPING}: \
+             too close to instability to run"
+        ));
+    }
+    let s = problem.simulate(c, ds).map_err(|e| e.to_string())?;
+    for (k, w) in [&s.w1_rpm, &s.w2_rpm].into_iter().enumerate() {
+        let peak = w.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        if peak > rig.motor_rated_speed_rpm {
+            return Err(format!(
+                "motor {} would reach {peak:.0} rpm, above its rated {} rpm: the drives would \
+                 saturate",
+                k + 1,
+                rig.motor_rated_speed_rpm
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Compare candidate experiments for the identification `problem` whose answer is `start`:
+/// the current expected widths and each candidate's after adding its record, ranked.
+pub fn advise(
+    problem: &Problem,
+    start: &Candidate,
+    opts: &AdviceOptions,
+) -> Result<Advice, IdentError> {
+    let u = analyze(
+        problem,
+        start,
+        &UncertaintyOptions {
+            confidence: opts.confidence,
+            profile: [false; 3],
+        },
+    )?;
+    let first = &problem.datasets[0];
+    let rate = rate_hz(first);
+    let designs = match &opts.designs {
+        Some(d) => d.clone(),
+        None => {
+            let kps: Vec<f64> = problem.datasets.iter().map(|d| d.rig.kp).collect();
+            let rig = &first.rig;
+            let room = rig.x0_mm.min(rig.stroke_mm - rig.x0_mm);
+            default_designs(&kps, velocity_limit(rig), room, rate)
+        }
+    };
+    if designs.is_empty() || designs.len() > MAX_CANDIDATES {
+        return Err(IdentError::Input(format!(
+            "{} candidate experiments: give 1 to {MAX_CANDIDATES}",
+            designs.len()
+        )));
+    }
+    let p: [f64; 3] = log_point(&u.best).try_into().expect("three parameters");
+    let var = u.noise_std_mm.powi(2) * u.variance_inflation;
+    let z = chi2_1_quantile(opts.confidence).sqrt();
+    let mut existing = Matrix3::zeros();
+    for ds in &problem.datasets {
+        existing += gram(problem, ds, &p, LOG_STEP)? / var;
+    }
+    let current = widths(&existing, &u.best, z)?;
+    let assessed: Vec<Result<Result<Assessment, String>, IdentError>> = designs
+        .par_iter()
+        .map(|d| {
+            d.check(rate, first.rig.x0_mm, first.rig.stroke_mm)
+                .map_err(|m| IdentError::Input(format!("candidate `{}`: {m}", d.label())))?;
+            let ds = d.prepared(first, rate)?;
+            if let Err(why) = runnable(problem, &u.best, &ds) {
+                return Ok(Err(format!("{}: {why}", d.label())));
+            }
+            let info = existing + gram(problem, &ds, &p, LOG_STEP)? / var;
+            let w = widths(&info, &u.best, z)?;
+            let improvement: [f64; 3] =
+                std::array::from_fn(|i| ratio(current[i].log_std, w[i].log_std));
+            Ok(Ok(Assessment {
+                design: *d,
+                label: d.label(),
+                widths: w,
+                improvement,
+                score: -improvement.iter().map(|r| r.ln()).sum::<f64>(),
+            }))
+        })
+        .collect();
+    let mut candidates = Vec::new();
+    let mut skipped = Vec::new();
+    for a in assessed {
+        match a? {
+            Ok(a) => candidates.push(a),
+            Err(why) => skipped.push(why),
+        }
+    }
+    if candidates.is_empty() {
+        return Err(IdentError::Input(format!(
+            "no candidate experiment can be run at the identified point: {}",
+            skipped.join("; ")
+        )));
+    }
+    candidates.sort_by(|a, b| a.score.total_cmp(&b.score));
+    let best_for = std::array::from_fn(|i| {
+        candidates
+            .iter()
+            .min_by(|a, b| a.widths[i].log_std.total_cmp(&b.widths[i].log_std))
+            .map(|a| a.label.clone())
+            .unwrap_or_default()
+    });
+    Ok(Advice {
+        point: u.best,
+        noise_std_mm: u.noise_std_mm,
+        variance_inflation: u.variance_inflation,
+        confidence: opts.confidence,
+        z,
+        current,
+        candidates,
+        skipped,
+        best_for,
+    })
+}
+
+/// The whole advice for a loaded experiment: its identification on its own grids and options
+/// (refused when it would take hours, as `identify` does without `--allow-long-run`), then
+/// [`advise`] on the candidates of the TOML file `candidates` or on the defaults.
+pub fn advise_experiment(
+    exp: &Experiment,
+    candidates: Option<&Path>,
+    confidence: f64,
+) -> Result<Advice, IdentError> {
+    if !(confidence > 0.0 && confidence < 1.0) {
+        return Err(IdentError::Input(format!(
+            "confidence {confidence} must lie strictly between 0 and 1"
+        )));
+    }
+    let designs = match candidates {
+        Some(path) => {
+            let name = path.display().to_string();
+            let text =
+                input::read_text(path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+            Some(designs_for(&exp.problem, &text, &name)?)
+        }
+        None => None,
+    };
+    let (first, second) = exp.grids();
+    let grid_candidates = first.len() + second.as_ref().map_or(0, |g| g.len());
+    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
+    crate::limits::check_work(
+        "advise: the identification's candidates times the records' samples",
+        grid_candidates as f64 * samples as f64,
+        crate::limits::MAX_CANDIDATE_SAMPLES,
+        false,
+    )
+    .map_err(IdentError::Input)?;
+    let id = exp.identify(&exp.options())?;
+    let opts = AdviceOptions {
+        confidence,
+        designs,
+    };
+    advise(&exp.problem, &id.best().candidate, &opts)
+}
+
+/// `before / after` for log-stds, 1 when both are infinite (no information either way).
+fn ratio(before: f64, after: f64) -> f64 {
+    if before.is_infinite() && after.is_infinite() {
+        1.0
+    } else {
+        before / after
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_singular_information_gives_unbounded_not_huge() {
+        // β and c12 informed, b not at all, and a near-duplicate direction
+        let point = Candidate {
+            beta_bar: 165.0,
+            viscous_friction_ns_per_m: 100.0,
+            c12_m5_per_ns: 1.2e-10,
+        };
+        let info = Matrix3::new(4e4, 0.0, 1e3, 0.0, 0.0, 0.0, 1e3, 0.0, 1e4);
+        let w = widths(&info, &point, 1.96).unwrap();
+        assert!(w[1].interval.is_none() && w[1].log_std.is_infinite());
+        // the 2×2 block inverted by hand: var(ln β) = 1e4 / (4e8 − 1e6)
+        let var0: f64 = 1e4 / (4e8 - 1e6);
+        assert!((w[0].log_std / var0.sqrt() - 1.0).abs() < 1e-9);
+        let [lo, hi] = w[0].interval.unwrap();
+        assert!(((hi / lo).ln() - 2.0 * 1.96 * var0.sqrt()).abs() < 1e-12);
+        // a tiny but non-zero b information whose interval reaches the bounds: unbounded too
+        let weak = Matrix3::new(4e4, 0.0, 0.0, 0.0, 1e-3, 0.0, 0.0, 0.0, 1e4);
+        let w = widths(&weak, &point, 1.96).unwrap();
+        assert!(w[1].log_std.is_finite() && w[1].interval.is_none());
+        assert!(w[0].interval.is_some() && w[2].interval.is_some());
+    }
+
+    #[test]
+    fn candidate_file_errors_name_the_line_and_key() {
+        let ok = "[[step]]\nstep_mm = 5.0\nkp = 25.0\n[[sine]]\nfreq_hz = 0.5\namp_mm = 10.0\nkp = 20.0\nduration_s = 4.0\n";
+        let d = designs_from_toml(ok, "c.toml", 100.0, 345.0, 500.0).unwrap();
+        assert_eq!(d.len(), 2);
+        assert_eq!(d[1].duration_s(), 4.0);
+        let bad = [
+            (
+                "[[sine]]\nfreq_hz = 0.5\namp_mm = -3.0\nkp = 25.0\n",
+                "line 3",
+                "amp_mm",
+            ),
+            (
+                "[[step]]\nstep_mm = 5.0\nkp = 25.0\nsize = 2\n",
+                "line 4",
+                "size",
+            ),
+            ("[[step]]\nstep_mm = 400.0\nkp = 25.0\n", "line 2", "stroke"),
+            (
+                "[[sine]]\nfreq_hz = 20.0\namp_mm = 3.0\nkp = 25.0\n",
+                "line 2",
+                "samples per",
+            ),
+            (
+                "[[step]]\nstep_mm = 5.0\nkp = 25.0\nduration_s = 1e6\n",
+                "line 4",
+                "limit",
+            ),
+            ("", "c.toml", "no candidate"),
+        ];
+        for (text, line, needle) in bad {
+            let e = designs_from_toml(text, "c.toml", 100.0, 345.0, 500.0)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(line) && e.contains(needle), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
+    }
+
+    #[test]
+    fn default_sines_stay_inside_the_velocity_and_the_stroke() {
+        let d = default_designs(&[25.0, 20.0], 0.058, 155.0, 100.0);
+        // gains 15, 20, 25, 35: 4 steps + 6 sines each
+        assert_eq!(d.len(), 4 * 10);
+        for x in &d {
+            if let Design::Sine {
+                freq_hz, amp_mm, ..
+            } = *x
+            {
+                assert!(2.0 * PI * freq_hz * amp_mm * 1e-3 <= 0.058 + 1e-12);
+                assert!(amp_mm <= DEFAULT_MAX_AMP_MM);
+            }
+        }
+        // at 10 Hz sampling, the 1.5 Hz sinusoid is left out (1.0 Hz has its 10 samples)
+        assert_eq!(
+            default_designs(&[25.0], 0.058, 155.0, 10.0).len(),
+            3 * (4 + 5)
+        );
+    }
+}
