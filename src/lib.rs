@@ -11,6 +11,7 @@
 //! - [`matfile`] — MAT-files (level 5): the writer and the record reader;
 //! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
 //! - [`model`] — the 10-state DPM model, its variants, open and closed loops;
+//! - [`output`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`record`] — measured or emulated records (CSV), read by column name;
 //! - [`report`] — figures (SVG and PNG) and the HTML report;
 //! - [`response`] — step, tracking and recorded-reference responses and their metrics;
@@ -48,6 +49,7 @@ pub mod lti;
 pub mod matfile;
 pub mod matlab;
 pub mod model;
+pub mod output;
 pub mod record;
 pub mod report;
 pub mod response;
