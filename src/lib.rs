@@ -5,6 +5,7 @@
 //! - [`cli`] — the command-line interface: argument parsing and formatting only;
 //! - [`design`] — the design method: the largest position gain meeting margin targets;
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
+//! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape) as SVG and PNG;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
 //! - [`input`] — decoding user files and locating their errors;
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins, ZOH responses;
@@ -14,6 +15,7 @@
 //! - [`output`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`record`] — measured or emulated records (CSV), read by column name;
 //! - [`report`] — figures (SVG and PNG) and the HTML report;
+//! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
 //! - [`response`] — step, tracking and recorded-reference responses and their metrics;
 //! - [`rig`] — the rig parameters, their validation and their TOML form.
 //!
@@ -40,6 +42,7 @@ pub mod bulk;
 pub mod cli;
 pub mod design;
 pub mod emulator;
+pub mod figures;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod ident;
@@ -52,5 +55,6 @@ pub mod model;
 pub mod output;
 pub mod record;
 pub mod report;
+pub mod reproduce;
 pub mod response;
 pub mod rig;

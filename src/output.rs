@@ -362,3 +362,40 @@ pub fn fmt_opt(v: Option<f64>, digits: usize) -> String {
 pub fn shown_name(path: &str) -> String {
     file_name(Path::new(path)).unwrap_or_else(|_| path.to_string())
 }
+
+/// A private working folder in the system's temporary folder, removed when dropped and, like
+/// every temporary of this run, on SIGINT, SIGTERM or SIGHUP (one left by a killed run is
+/// removed by the next): for inputs a library call lays out as files (the workflow's embedded
+/// records).
+pub struct Scratch {
+    dir: tempfile::TempDir,
+}
+
+impl Scratch {
+    /// Create the folder.
+    pub fn new() -> Result<Scratch> {
+        let parent = std::env::temp_dir();
+        remove_stale(&parent, "scratch");
+        let dir = create_tracked(
+            || {
+                tempfile::Builder::new()
+                    .prefix(&tmp_prefix("scratch"))
+                    .tempdir_in(&parent)
+            },
+            |d| d.path().to_path_buf(),
+        )
+        .context("cannot create a folder in the system's temporary folder")?;
+        Ok(Scratch { dir })
+    }
+
+    /// Where it is.
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        untrack(self.dir.path());
+    }
+}

@@ -12,11 +12,12 @@ use std::time::Instant;
 
 use super::output::{ensure_folder, format_of, write_atomic, Format, OutDir};
 use super::RigSource;
+use crate::figures::Chart;
+use crate::ident::outputs;
 use crate::ident::{
     finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
     Stage, Standstill,
 };
-use crate::report::{self, LineStyle, Panel, Trace};
 
 #[derive(Debug, Args)]
 pub struct LeakageArgs {
@@ -222,34 +223,8 @@ pub(super) fn write_drive_overlay(
         }
         return write_atomic(path, s.as_bytes());
     }
-    let t = &rec.time_s;
-    let tr = |label: &str, y: &[f64], style, color| Trace {
-        label: label.into(),
-        t_s: t.clone(),
-        y: y.to_vec(),
-        style,
-        color: Some(color),
-    };
-    let panels = [Panel {
-        y_label: "Motor speed (rpm)".into(),
-        traces: vec![
-            tr("reference", &rec.w_ref_rpm, LineStyle::Dashed, 6),
-            tr("measured", &rec.w_rpm, LineStyle::Solid, 0),
-            tr(
-                &format!("model, Km = {:.4}", fit.km_nms_per_rad),
-                &fit.w_sim_rpm,
-                LineStyle::Solid,
-                1,
-            ),
-        ],
-    }];
-    let subtitle = format!("fit RMS error {:.2} rpm", fit.mse_rpm2.sqrt());
-    super::time::render(
-        path,
-        &format!("Drive step: {}", super::output::shown_name(&rec.file)),
-        Some(&subtitle),
-        &panels,
-    )
+    let chart = Chart::drive_step(rec, fit);
+    super::time::render(path, &chart)
 }
 
 /// A partial result of a sharded run.
@@ -519,54 +494,13 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
     )
 }
 
-fn scored_json(s: &Scored, leak: Option<&crate::ident::Leakage>) -> serde_json::Value {
-    let mut v = json!({
-        "beta_bar": s.candidate.beta_bar,
-        "viscous_friction_ns_per_m": s.candidate.viscous_friction_ns_per_m,
-        "c12_m5_per_ns": s.candidate.c12_m5_per_ns,
-        "cost_mm2": s.cost_mm2,
-    });
-    if let Some(l) = leak {
-        v["c1_m5_per_ns"] = json!(l.c1_m5_per_ns);
-        v["c2_m5_per_ns"] = json!(l.c2_m5_per_ns);
-    }
-    v
-}
-
 /// The JSON of an identification (also written as result.json).
 pub(super) fn identification_json(
     exp: &Experiment,
     id: &Identification,
     seconds: f64,
 ) -> Result<serde_json::Value> {
-    let best = id.best();
-    let grid_leak = exp
-        .problem
-        .standstill
-        .leakage(&exp.rig, id.grid_best.candidate.c12_m5_per_ns)?;
-    let mut v = scored_json(best, Some(&id.leakage));
-    v["candidates_evaluated"] = json!(id.evaluated());
-    v["seconds"] = json!(seconds);
-    v["refined"] = json!(id.refined.is_some());
-    v["grid_best"] = scored_json(&id.grid_best, Some(&grid_leak));
-    v["non_finite"] = json!(id.stages.iter().map(|s| s.summary.non_finite).sum::<u64>());
-    v["unstable"] = json!(id.stages.iter().map(|s| s.summary.unstable).sum::<u64>());
-    v["pruned"] = json!(id.stages.iter().map(|s| s.summary.pruned).sum::<u64>());
-    v["stages"] = id
-        .stages
-        .iter()
-        .map(|s| {
-            json!({
-                "candidates": s.grid.len(), "evaluated": s.summary.evaluated,
-                "threshold_mm2": s.summary.threshold_mm2, "threshold_count": s.summary.threshold_count,
-                "threshold_bounds": s.summary.threshold_bounds.map(|b| json!({
-                    "beta_bar": b[0], "viscous_friction_ns_per_m": b[1], "c12_m5_per_ns": b[2]})),
-            })
-        })
-        .collect();
-    v["top"] = id.top.iter().map(|s| scored_json(s, None)).collect();
-    v["experiment"] = json!(exp.path.display().to_string());
-    Ok(v)
+    outputs::identification_json(exp, id, seconds)
 }
 
 fn report_identification(
@@ -657,106 +591,17 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
     s
 }
 
-/// result.json, the β × c12 landscape at the best b (CSV and heat map) and one overlay per
-/// dataset, into the existing folder `dir` (a temporary [`OutDir`] folder or a subfolder of
-/// one; never created here, so an interruption's cleanup is never undone).
+/// The files of [`outputs::files`] into the existing folder `dir` (a temporary [`OutDir`]
+/// folder or a subfolder of one; never created here, so an interruption's cleanup is never
+/// undone).
 pub(super) fn write_outputs(
     dir: &Path,
     exp: &Experiment,
     id: &Identification,
     v: &serde_json::Value,
 ) -> Result<()> {
-    write_atomic(
-        &dir.join("result.json"),
-        (serde_json::to_string_pretty(v)? + "\n").as_bytes(),
-    )?;
-    let landscape = write_landscape(dir, exp, id)?;
-    let mut fits = Vec::new();
-    for (i, ds) in exp.problem.datasets.iter().enumerate() {
-        let sim = exp.problem.simulate(&id.best().candidate, ds)?;
-        let measured = crate::response::Signals::of_record(&ds.record);
-        fits.push((ds.name.clone(), measured.clone(), sim.clone()));
-        let subtitle = format!(
-            "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
-            ds.name,
-            ds.rig.kp,
-            ds.rig.mass_kg,
-            ds.fit_end_s,
-            exp.problem.dataset_mse(&id.best().candidate, ds)
-        );
-        for ext in ["svg", "png"] {
-            super::time::write_fit_figure(
-                &dir.join(format!("fit-{}.{ext}", i + 1)),
-                &format!("Identified model against {}", ds.name),
-                Some(&subtitle),
-                &[("model".to_string(), &sim)],
-                Some(&measured),
-                Some(ds.fit_end_s),
-            )?;
-        }
+    for (name, bytes) in outputs::files(exp, id, v)? {
+        write_atomic(&dir.join(name), &bytes)?;
     }
-    super::export::write_identification_mat(&dir.join("result.mat"), id, &landscape, &fits)
-}
-
-/// The cost over β × c12 at the best b, on the stage grid that holds the best point; returns
-/// it as (β bar, c12 m⁵/(N·s), cost mm² with β varying fastest).
-fn write_landscape(
-    dir: &Path,
-    exp: &Experiment,
-    id: &Identification,
-) -> Result<super::export::Landscape> {
-    let best = id.grid_best;
-    let grid = &id.stages[(best.stage.max(1) - 1) as usize].grid;
-    let b = best.candidate.viscous_friction_ns_per_m;
-    let (xs, ys) = (&grid.beta_bar, &grid.c12_m5_per_ns);
-    let mut cost = vec![f64::INFINITY; xs.len() * ys.len()];
-    {
-        use rayon::prelude::*;
-        cost.par_iter_mut().enumerate().for_each(|(k, c)| {
-            let cand = crate::ident::Candidate {
-                beta_bar: xs[k % xs.len()],
-                viscous_friction_ns_per_m: b,
-                c12_m5_per_ns: ys[k / xs.len()],
-            };
-            let v = exp.problem.cost(&cand);
-            *c = if v.is_finite() && exp.problem.is_stable(&cand) {
-                v
-            } else {
-                f64::INFINITY
-            };
-        });
-    }
-    let mut csv = String::from("beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2\n");
-    for (k, c) in cost.iter().enumerate() {
-        let _ = writeln!(csv, "{},{b},{:e},{c}", xs[k % xs.len()], ys[k / xs.len()]);
-    }
-    write_atomic(&dir.join("landscape.csv"), csv.as_bytes())?;
-    let map = report::HeatMap {
-        x: xs.clone(),
-        y: ys.clone(),
-        cost,
-        x_label: "Bulk modulus beta (bar)".into(),
-        y_label: "Cross-port leakage c12 (m5/(N s))".into(),
-        y_log: ys.len() > 2
-            && ys[2] / ys[1] > 1.0 + 1e-9
-            && (ys[2] / ys[1] - ys[1] / ys[0]).abs() < 1e-6,
-        cost_label: "cost (mm²)".into(),
-    };
-    let marker = report::Marker {
-        x: best.candidate.beta_bar,
-        y: best.candidate.c12_m5_per_ns,
-        label: "best grid point".into(),
-    };
-    let title = "Identification cost landscape";
-    let subtitle = format!("b = {b} N s/m (best grid point)");
-    let svg = report::heatmap_svg(title, Some(&subtitle), &map, std::slice::from_ref(&marker))?;
-    write_atomic(&dir.join("landscape.svg"), svg.as_bytes())?;
-    let png = report::heatmap_png(title, Some(&subtitle), &map, &[marker], 1350, 1050)?;
-    write_atomic(&dir.join("landscape.png"), &png)?;
-    Ok(super::export::Landscape {
-        beta_bar: map.x,
-        c12_m5_per_ns: map.y,
-        viscous_friction_ns_per_m: b,
-        cost_mm2: map.cost,
-    })
+    Ok(())
 }

@@ -35,6 +35,7 @@ mod drive;
 mod experiment;
 mod grid;
 mod leakage;
+pub mod outputs;
 mod problem;
 mod refine;
 mod search;
