@@ -318,3 +318,52 @@ fn four_panels(series: &[(String, &Signals)], measured: Option<&Signals>) -> Vec
     }
     panels
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::response::{step, Baseline};
+    use crate::rig::Rig;
+
+    #[test]
+    fn steps_at_different_strokes_start_together_about_their_operating_points() {
+        let starts: Vec<(f64, f64)> = [-50.0, 0.0, 50.0]
+            .iter()
+            .map(|dx| {
+                let rig = Rig {
+                    x0_mm: Rig::default().x0_mm + dx,
+                    ..Rig::default()
+                };
+                let s = step(&rig, 5.0, 0.5, 100.0).unwrap();
+                let about = about_operating_point(&s, Baseline::of_rig(&rig).x_ref_mm);
+                assert!(about.x_ref_mm.iter().all(|r| (r - 5.0).abs() < 1e-9));
+                assert_eq!(about.p1_bar, s.p1_bar, "only the position moves");
+                (s.x_mm[0], about.x_mm[0])
+            })
+            .collect();
+        // absolute positions 50 mm apart; about x0 all at rest at 0
+        assert!((starts[2].0 - starts[0].0 - 100.0).abs() < 1e-6);
+        assert!(starts.iter().all(|s| s.1.abs() < 1e-6), "{starts:?}");
+    }
+
+    #[test]
+    fn a_fit_window_is_marked_on_every_panel_and_labelled_once() {
+        let s = step(&Rig::default(), 5.0, 1.0, 100.0).unwrap();
+        let chart = Chart::signals("t", None, &[("model".into(), &s)], Some(&s), Some(0.5));
+        let Plot::Time(panels) = &chart.plot else {
+            panic!("a time plot")
+        };
+        assert_eq!(panels.len(), 4);
+        let marks: Vec<&Trace> = panels
+            .iter()
+            .filter_map(|p| p.traces.last())
+            .filter(|t| t.style == LineStyle::Dotted && t.t_s == [0.5, 0.5])
+            .collect();
+        assert_eq!(marks.len(), 4);
+        assert_eq!(
+            marks.iter().filter(|t| !t.label.is_empty()).count(),
+            1,
+            "one legend entry"
+        );
+    }
+}

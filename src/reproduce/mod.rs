@@ -9,7 +9,10 @@
 //! memory), the report's body and the other result files. Nothing is printed and nothing is
 //! written until [`Reproduction::write`], which puts the whole folder in place or nothing.
 //!
-//! ```
+//! (`no_run` here: about 15 s in a debug build; tests/workflow.rs runs it and checks these
+//! numbers.)
+//!
+//! ```no_run
 //! use pumpcyl::reproduce::{reproduce, ReproduceOptions};
 //!
 //! let r = reproduce(&ReproduceOptions::default())?;
@@ -18,6 +21,9 @@
 //! // the default rig's gain margin, as the article prints it (6.5 dB, §2.3.3)
 //! assert!((r.default_margins.gain_margin_db.unwrap() - 6.5).abs() < 0.1);
 //! assert_eq!(r.figures.len(), 15);
+//! // the whole result folder, swapped in at once: figures/, records/, identification/,
+//! // summary.json, report.html
+//! r.write(std::path::Path::new("reproduced"))?;
 //! # Ok::<(), anyhow::Error>(())
 //! ```
 
