@@ -3,12 +3,16 @@
 //! the default rig), its figures, its progress callbacks, and the folder it writes against the
 //! one `pumpcyl reproduce` writes.
 
+#[path = "common/tree.rs"]
+mod tree;
+
 use pumpcyl::reproduce::{reproduce, ReproduceOptions, Reproduction, STEPS};
 use pumpcyl::rig::Rig;
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
+use tree::files;
 
 /// One run shared by the tests of this file, with the steps and candidate counts it reported.
 struct Run {
@@ -176,23 +180,6 @@ fn stopping_the_search_stops_the_workflow_and_leaves_no_scratch_folder() {
     assert!(left.len() <= 1, "{left:?}");
 }
 
-/// Every file under `dir`, relative to it.
-fn tree(dir: &Path) -> BTreeSet<PathBuf> {
-    let mut out = BTreeSet::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.insert(p.strip_prefix(dir).unwrap().to_path_buf());
-            }
-        }
-    }
-    out
-}
-
 #[test]
 fn write_makes_the_folder_the_command_line_makes() {
     let r = &run().result;
@@ -204,7 +191,7 @@ fn write_makes_the_folder_the_command_line_makes() {
         .output()
         .unwrap();
     assert!(status.status.success());
-    assert_eq!(tree(&lib), tree(&cli));
+    assert_eq!(files(&lib), files(&cli));
     // the same bytes where nothing depends on the run's time
     for f in ["records/identification.csv", "identification/landscape.csv"] {
         assert_eq!(
