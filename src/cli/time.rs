@@ -495,7 +495,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let base = Baseline::of_record(&rec, r);
         let s = response::simulate(r, &rec.time_s, &rec.x_ref_mm, &base)?;
-        let mse = mse_window(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
+        let mse = response::position_mse_until(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
         Ok((s, mse))
     })?;
     let runs: Vec<_> = all.done.iter().map(|(l, (s, m))| (l, s, *m)).collect();
@@ -578,18 +578,6 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
     let ds = &exp.problem.datasets[n - 1];
     let rig = ds.rig.with_overrides(&args.rig.set)?;
     Ok((ds.record.clone(), rig, Some(ds.fit_end_s)))
-}
-
-/// Mean squared position error (mm²) over samples with t ≤ `end`.
-fn mse_window(t: &[f64], sim: &[f64], meas: &[f64], end: f64) -> f64 {
-    let (sum, n) = t
-        .iter()
-        .zip(sim.iter().zip(meas))
-        .filter(|(t, _)| **t <= end)
-        .fold((0.0, 0usize), |(s, n), (_, (a, b))| {
-            (s + (a - b).powi(2), n + 1)
-        });
-    sum / n.max(1) as f64
 }
 
 /// CSV of signals: one block of columns per series (suffixed `[label]` beyond the first), and
