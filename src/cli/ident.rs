@@ -3,7 +3,6 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
-use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
@@ -14,9 +13,10 @@ use super::output::{ensure_folder, format_of, write_atomic, Format, OutDir};
 use super::RigSource;
 use crate::figures::Chart;
 use crate::ident::outputs;
+use crate::ident::shards::{self, digest, Partial};
 use crate::ident::{
     finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
-    Stage, Standstill,
+    Standstill,
 };
 
 #[derive(Debug, Args)]
@@ -227,19 +227,6 @@ pub(super) fn write_drive_overlay(
     super::time::render(path, &chart)
 }
 
-/// A partial result of a sharded run.
-#[derive(Debug, Serialize, Deserialize)]
-struct Partial {
-    experiment: PathBuf,
-    digest: String,
-    shard: (usize, usize),
-    local_refinement: bool,
-    threshold_mm2: f64,
-    top: usize,
-    seconds: f64,
-    stages: Vec<Stage>,
-}
-
 fn options(args: &IdentifyArgs, exp: &Experiment) -> Result<Options> {
     let threshold_mm2 = args.threshold_mm2.unwrap_or(exp.file.threshold_mm2);
     anyhow::ensure!(
@@ -338,60 +325,6 @@ fn warn(lines: &[String]) {
     }
 }
 
-/// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
-/// names with its overrides, the standstill point, every dataset's record and settings, the
-/// grids (so the number of stages), and the options (threshold, top length, refinement).
-fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
-    use std::hash::{Hash, Hasher};
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    crate::input::read_bounded(&exp.path)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
-        .hash(&mut h);
-    // Debug prints every f64 exactly (shortest round-trip form)
-    format!("{:?}", exp.rig).hash(&mut h);
-    format!("{:?}", exp.problem).hash(&mut h);
-    format!("{:?}", exp.grids()).hash(&mut h);
-    format!(
-        "{:?} {} {}",
-        opts.threshold_mm2.to_bits(),
-        opts.top_n,
-        opts.local_refinement
-    )
-    .hash(&mut h);
-    Ok(format!("{:016x}", h.finish()))
-}
-
-/// Re-simulate the best few candidates of each merged stage and compare with the costs the
-/// shards reported, and check each is the grid point its index names: an edited or foreign
-/// partial result is an error, not the answer.
-fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
-    const CHECKED: usize = 3;
-    let (first, second) = exp.grids();
-    for (k, (stage, grid)) in stages.iter().zip([Some(first), second]).enumerate() {
-        let grid = grid.unwrap_or_else(|| stage.grid.clone());
-        for s in stage.summary.top.iter().take(CHECKED) {
-            let index = usize::try_from(s.index).unwrap_or(usize::MAX);
-            anyhow::ensure!(
-                index < grid.len() && grid.candidate(index) == s.candidate,
-                "stage {}: candidate {} of the partial results is not the grid point its index \
-                 names; a partial result was edited",
-                k + 1,
-                s.index
-            );
-            let cost = exp.problem.cost(&s.candidate);
-            anyhow::ensure!(
-                (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
-                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
-                 simulated again; a partial result was edited or made by another pumpcyl",
-                k + 1,
-                s.candidate.beta_bar,
-                s.cost_mm2
-            );
-        }
-    }
-    Ok(())
-}
-
 /// `pumpcyl identify-merge`.
 pub fn merge(args: &MergeArgs) -> Result<String> {
     let mut parts = Vec::new();
@@ -400,98 +333,10 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
             std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
         let part: Partial = serde_json::from_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
-        parts.push(part);
+        parts.push((p.clone(), part));
     }
-    let first = &parts[0];
-    let n = first.shard.1;
-    anyhow::ensure!(
-        n == parts.len(),
-        "missing shards: {} claims {n} shards, {} partial results given; give all N",
-        args.parts[0].display(),
-        parts.len()
-    );
-    let mut seen = vec![false; n];
-    for (p, file) in parts.iter().zip(&args.parts) {
-        anyhow::ensure!(
-            (1..=n).contains(&p.shard.0),
-            "{}: shard {}/{}: need 1 <= I <= N",
-            file.display(),
-            p.shard.0,
-            p.shard.1
-        );
-        anyhow::ensure!(
-            p.shard.1 == n && p.experiment == first.experiment,
-            "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
-            first.experiment.display(),
-            first.shard.0,
-            n,
-            p.experiment.display(),
-            p.shard.0,
-            p.shard.1
-        );
-        anyhow::ensure!(!seen[p.shard.0 - 1], "shard {}/{n} given twice", p.shard.0);
-        seen[p.shard.0 - 1] = true;
-    }
-    let missing: Vec<String> = (1..=n)
-        .filter(|i| !seen[i - 1])
-        .map(|i| i.to_string())
-        .collect();
-    anyhow::ensure!(
-        missing.is_empty(),
-        "missing shards {} of {n}",
-        missing.join(", ")
-    );
-    let exp = Experiment::load(&first.experiment)?;
-    let opts = Options {
-        auto_refine: false,
-        local_refinement: first.local_refinement,
-        threshold_mm2: first.threshold_mm2,
-        top_n: first.top,
-    };
-    let stage_count = 1 + usize::from(exp.grids().1.is_some());
-    for (p, file) in parts.iter().zip(&args.parts) {
-        anyhow::ensure!(
-            p.stages.len() == stage_count,
-            "{}: {} stage(s), the experiment has {stage_count}",
-            file.display(),
-            p.stages.len()
-        );
-        anyhow::ensure!(
-            p.threshold_mm2 == opts.threshold_mm2
-                && p.top == opts.top_n
-                && p.local_refinement == opts.local_refinement,
-            "{}: made with other --threshold-mm2, --top or --no-refine than {}",
-            file.display(),
-            args.parts[0].display()
-        );
-        anyhow::ensure!(
-            digest(&exp, &opts)? == p.digest,
-            "{}: the experiment, its rig, its records or the options changed since this shard \
-             ran",
-            file.display()
-        );
-    }
-    let start = Instant::now();
-    // the time reported is the shards' search time added up, plus the merge's own
-    let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
-    let mut stages: Vec<Stage> = Vec::new();
-    for part in parts {
-        for (i, stage) in part.stages.into_iter().enumerate() {
-            match stages.get_mut(i) {
-                Some(s) => s.summary = s.summary.clone().merge(stage.summary, opts.top_n),
-                None => stages.push(stage),
-            }
-        }
-    }
-    verify_winners(&exp, &stages)?;
-    let id = finish(&exp.problem, stages, &opts)?;
-    report_identification(
-        &exp,
-        &id,
-        shard_seconds + start.elapsed().as_secs_f64(),
-        args.json,
-        args.out.as_deref(),
-    )
+    let (exp, id, seconds) = shards::merge(parts)?;
+    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
 }
 
 /// The JSON of an identification (also written as result.json).

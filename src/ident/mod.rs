@@ -39,6 +39,7 @@ pub mod outputs;
 mod problem;
 mod refine;
 mod search;
+pub mod shards;
 mod uncertainty;
 
 pub use drive::{identify_drive, DriveFit, DriveRecord};
