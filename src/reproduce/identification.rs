@@ -127,24 +127,25 @@ pub(super) fn identification(
             "1.2e-10".into(),
             "",
         ),
-        (
-            "c1 (m5/(N s))",
-            format!("{:.3e}", l.c1_m5_per_ns),
-            "5.49e-11",
-            "5.49e-11".into(),
-            "from the identified c12 by the standstill balance, on the emulated standstill record",
-        ),
-        (
-            "c2 (m5/(N s))",
-            format!("{:.3e}", l.c2_m5_per_ns),
-            "-1.19e-11",
-            "-1.19e-11".into(),
-            "from the identified c12 by the standstill balance, on the emulated standstill record",
-        ),
     ];
+    let standstill =
+        "from the identified c12 by the standstill balance, on the emulated standstill record";
+    let leakages = [
+        ("c1 (m5/(N s))", l.c1_m5_per_ns, "5.49e-11"),
+        ("c2 (m5/(N s))", l.c2_m5_per_ns, "-1.19e-11"),
+    ]
+    .map(|(quantity, value, printed)| {
+        (
+            quantity,
+            format!("{value:.3e}"),
+            printed,
+            printed.to_string(),
+            standstill,
+        )
+    });
     let first = &id.stages[0].summary;
     let first_best = first.top.first().map_or(f64::NAN, |c| c.cost_mm2);
-    for (quantity, ours, article, truth, why) in rows {
+    for (quantity, ours, article, truth, why) in rows.into_iter().chain(leakages) {
         run.compare_why(quantity, ours, article, &truth, why);
     }
     run.compare_why(
