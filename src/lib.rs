@@ -14,7 +14,7 @@
 //! - [`model`] — the 10-state DPM model, its variants, open and closed loops;
 //! - [`output`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`record`] — measured or emulated records (CSV), read by column name;
-//! - [`report`] — figures (SVG and PNG) and the HTML report;
+//! - [`report`] — the plotting primitives (panels, Bode, heat map; SVG and PNG) and the HTML report;
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
 //! - [`response`] — step, tracking and recorded-reference responses and their metrics;
 //! - [`rig`] — the rig parameters, their validation and their TOML form.

@@ -1,7 +1,6 @@
 //! `pumpcyl reproduce`: the article's whole workflow ([`crate::reproduce`]) into one folder,
 //! with its progress on standard error and the comparison with the article on standard output.
 
-use super::output::install_cleanup;
 use crate::reproduce::{reproduce, ComparisonRow, ReproduceOptions};
 use anyhow::Result;
 use clap::Args;
@@ -18,17 +17,20 @@ pub struct ReproduceArgs {
 
 /// `pumpcyl reproduce`.
 pub fn run(args: &ReproduceArgs) -> Result<String> {
-    install_cleanup();
     // refuse a bad output folder before the work, not after it
     drop(crate::output::OutDir::begin(&args.out)?);
     let start = Instant::now();
+    let bar = super::ident::progress_bar(0);
     let on_step = |k: usize, total: usize, what: &str| {
+        // the candidates' bar belongs to the identification step: gone once a later one starts
+        if bar.length().unwrap_or(0) > 0 {
+            bar.finish_and_clear();
+        }
         eprintln!(
             "[{k}/{total} {:5.1} s] {what}",
             start.elapsed().as_secs_f64()
         );
     };
-    let bar = super::ident::progress_bar(0);
     let on_candidates = |n: u64, total: u64| {
         bar.set_length(total);
         bar.inc(n);
