@@ -8,6 +8,7 @@
 //! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape) as SVG and PNG;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
 //! - [`input`] — decoding user files and locating their errors;
+//! - [`loops`] — the loop a command analyses or exports (a rig's or a JSON model's) and its view;
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins, ZOH responses;
 //! - [`matfile`] — MAT-files (level 5): the writer and the record reader;
 //! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
@@ -48,6 +49,7 @@ pub mod fuzzing;
 pub mod ident;
 pub mod input;
 pub mod limits;
+pub mod loops;
 pub mod lti;
 pub mod matfile;
 pub mod matlab;
