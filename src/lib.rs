@@ -5,14 +5,18 @@
 //! - [`cli`] — the command-line interface: argument parsing and formatting only;
 //! - [`design`] — the design method: the largest position gain meeting margin targets;
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
+//! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape) as SVG and PNG;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
 //! - [`input`] — decoding user files and locating their errors;
+//! - [`loops`] — the loop a command analyses or exports (a rig's or a JSON model's) and its view;
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins, ZOH responses;
 //! - [`matfile`] — MAT-files (level 5): the writer and the record reader;
 //! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
 //! - [`model`] — the 10-state DPM model, its variants, open and closed loops;
+//! - [`output`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`record`] — measured or emulated records (CSV), read by column name;
-//! - [`report`] — figures (SVG and PNG) and the HTML report;
+//! - [`report`] — the plotting primitives (panels, Bode, heat map; SVG and PNG) and the HTML report;
+//! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
 //! - [`response`] — step, tracking and recorded-reference responses and their metrics;
 //! - [`rig`] — the rig parameters, their validation and their TOML form.
 //!
@@ -39,16 +43,20 @@ pub mod bulk;
 pub mod cli;
 pub mod design;
 pub mod emulator;
+pub mod figures;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod ident;
 pub mod input;
 pub mod limits;
+pub mod loops;
 pub mod lti;
 pub mod matfile;
 pub mod matlab;
 pub mod model;
+pub mod output;
 pub mod record;
 pub mod report;
+pub mod reproduce;
 pub mod response;
 pub mod rig;

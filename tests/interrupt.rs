@@ -2,27 +2,14 @@
 //! complete result (the previous or the new one), an interrupted run leaves no temporaries (a
 //! SIGKILLed one's are removed by the next run).
 
+#[path = "common/tree.rs"]
+mod tree;
+
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// Every file under `dir`, as paths relative to it.
-fn files(dir: &Path) -> BTreeSet<String> {
-    let mut out = BTreeSet::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.insert(p.strip_prefix(dir).unwrap().display().to_string());
-            }
-        }
-    }
-    out
-}
+use tree::files;
 
 /// The faults of `dir` as a complete result with the files of `reference`.
 fn incomplete(dir: &Path, reference: &BTreeSet<String>) -> Option<String> {

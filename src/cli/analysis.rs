@@ -351,7 +351,7 @@ pub fn poles(args: &PolesArgs) -> Result<String> {
 /// `pumpcyl model`.
 pub fn model(args: &ModelCmdArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
-    let view = export::model_view(&lp, args.closed_loop, args.model.sum_pressure_closed)?;
+    let view = lp.view(args.closed_loop, args.model.sum_pressure_closed)?;
     let mut wrote = String::new();
     for (path, greybox) in [(&args.out, false), (&args.greybox, true)] {
         if let Some(path) = path {

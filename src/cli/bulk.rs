@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use super::output::{fmt_opt, format_of, write_atomic, Format};
 use super::RigSource;
 use crate::bulk::{gas_fraction, table, Row, BETA_OIL_BAR};
-use crate::report::{self, LineStyle, Panel, Trace};
+use crate::figures::Chart;
 
 #[derive(Debug, Args)]
 pub struct BulkArgs {
@@ -124,53 +124,11 @@ pub(super) fn write_output(
         }
         return write_atomic(path, s.as_bytes());
     }
-    let p: Vec<f64> = rows.iter().map(|r| r.p_bar).collect();
-    let line = |label: &str, y: Vec<f64>, color: usize| Trace {
-        label: label.into(),
-        t_s: p.clone(),
-        y,
-        style: LineStyle::Solid,
-        color: Some(color),
-    };
-    let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
-    let panels = [
-        Panel {
-            y_label: "Effective bulk modulus (bar)".into(),
-            traces: vec![line("beta_e", rows.iter().map(|r| r.beta_bar).collect(), 0)],
-        },
-        Panel {
-            y_label: "Gain margin (dB)".into(),
-            traces: vec![
-                line(
-                    "GM",
-                    rows.iter().map(|r| nan(r.gain_margin_db)).collect(),
-                    1,
-                ),
-                line("0 dB", vec![0.0; p.len()], 6),
-            ],
-        },
-        Panel {
-            y_label: "Phase margin (deg)".into(),
-            traces: vec![
-                line(
-                    "PM",
-                    rows.iter().map(|r| nan(r.phase_margin_deg)).collect(),
-                    2,
-                ),
-                line("0 deg", vec![0.0; p.len()], 6),
-            ],
-        },
-    ];
-    let title = "Effective bulk modulus and margins against mean chamber pressure";
-    let subtitle = format!(
-        "gas fraction X = {x:.4} from {} bar at {} bar (beta_oil {} bar); below 0 dB / 0 deg the loop is unstable",
-        fit.0, fit.1, fit.2
-    );
-    let x_label = "Mean chamber pressure (bar)";
+    let chart = Chart::bulk_modulus(fit, x, rows);
     let bytes = if format == Format::Png {
-        report::panels_xy_png(title, Some(&subtitle), x_label, &panels, 1500, 1200)?
+        chart.png()?
     } else {
-        report::panels_xy_svg(title, Some(&subtitle), x_label, &panels)?.into_bytes()
+        chart.svg()?.into_bytes()
     };
     write_atomic(path, &bytes)
 }

@@ -3,7 +3,6 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
-use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
@@ -12,11 +11,13 @@ use std::time::Instant;
 
 use super::output::{ensure_folder, format_of, write_atomic, Format, OutDir};
 use super::RigSource;
+use crate::figures::Chart;
+use crate::ident::outputs;
+use crate::ident::shards::{self, digest, Partial};
 use crate::ident::{
     finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
-    Stage, Standstill,
+    Standstill,
 };
-use crate::report::{self, LineStyle, Panel, Trace};
 
 #[derive(Debug, Args)]
 pub struct LeakageArgs {
@@ -222,47 +223,8 @@ pub(super) fn write_drive_overlay(
         }
         return write_atomic(path, s.as_bytes());
     }
-    let t = &rec.time_s;
-    let tr = |label: &str, y: &[f64], style, color| Trace {
-        label: label.into(),
-        t_s: t.clone(),
-        y: y.to_vec(),
-        style,
-        color: Some(color),
-    };
-    let panels = [Panel {
-        y_label: "Motor speed (rpm)".into(),
-        traces: vec![
-            tr("reference", &rec.w_ref_rpm, LineStyle::Dashed, 6),
-            tr("measured", &rec.w_rpm, LineStyle::Solid, 0),
-            tr(
-                &format!("model, Km = {:.4}", fit.km_nms_per_rad),
-                &fit.w_sim_rpm,
-                LineStyle::Solid,
-                1,
-            ),
-        ],
-    }];
-    let subtitle = format!("fit RMS error {:.2} rpm", fit.mse_rpm2.sqrt());
-    super::time::render(
-        path,
-        &format!("Drive step: {}", super::output::shown_name(&rec.file)),
-        Some(&subtitle),
-        &panels,
-    )
-}
-
-/// A partial result of a sharded run.
-#[derive(Debug, Serialize, Deserialize)]
-struct Partial {
-    experiment: PathBuf,
-    digest: String,
-    shard: (usize, usize),
-    local_refinement: bool,
-    threshold_mm2: f64,
-    top: usize,
-    seconds: f64,
-    stages: Vec<Stage>,
+    let chart = Chart::drive_step(rec, fit);
+    super::time::render(path, &chart)
 }
 
 fn options(args: &IdentifyArgs, exp: &Experiment) -> Result<Options> {
@@ -363,60 +325,6 @@ fn warn(lines: &[String]) {
     }
 }
 
-/// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
-/// names with its overrides, the standstill point, every dataset's record and settings, the
-/// grids (so the number of stages), and the options (threshold, top length, refinement).
-fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
-    use std::hash::{Hash, Hasher};
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    crate::input::read_bounded(&exp.path)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
-        .hash(&mut h);
-    // Debug prints every f64 exactly (shortest round-trip form)
-    format!("{:?}", exp.rig).hash(&mut h);
-    format!("{:?}", exp.problem).hash(&mut h);
-    format!("{:?}", exp.grids()).hash(&mut h);
-    format!(
-        "{:?} {} {}",
-        opts.threshold_mm2.to_bits(),
-        opts.top_n,
-        opts.local_refinement
-    )
-    .hash(&mut h);
-    Ok(format!("{:016x}", h.finish()))
-}
-
-/// Re-simulate the best few candidates of each merged stage and compare with the costs the
-/// shards reported, and check each is the grid point its index names: an edited or foreign
-/// partial result is an error, not the answer.
-fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
-    const CHECKED: usize = 3;
-    let (first, second) = exp.grids();
-    for (k, (stage, grid)) in stages.iter().zip([Some(first), second]).enumerate() {
-        let grid = grid.unwrap_or_else(|| stage.grid.clone());
-        for s in stage.summary.top.iter().take(CHECKED) {
-            let index = usize::try_from(s.index).unwrap_or(usize::MAX);
-            anyhow::ensure!(
-                index < grid.len() && grid.candidate(index) == s.candidate,
-                "stage {}: candidate {} of the partial results is not the grid point its index \
-                 names; a partial result was edited",
-                k + 1,
-                s.index
-            );
-            let cost = exp.problem.cost(&s.candidate);
-            anyhow::ensure!(
-                (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
-                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
-                 simulated again; a partial result was edited or made by another pumpcyl",
-                k + 1,
-                s.candidate.beta_bar,
-                s.cost_mm2
-            );
-        }
-    }
-    Ok(())
-}
-
 /// `pumpcyl identify-merge`.
 pub fn merge(args: &MergeArgs) -> Result<String> {
     let mut parts = Vec::new();
@@ -425,112 +333,10 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
             std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
         let part: Partial = serde_json::from_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
-        parts.push(part);
+        parts.push((p.clone(), part));
     }
-    let first = &parts[0];
-    let n = first.shard.1;
-    anyhow::ensure!(
-        n == parts.len(),
-        "missing shards: {} claims {n} shards, {} partial results given; give all N",
-        args.parts[0].display(),
-        parts.len()
-    );
-    let mut seen = vec![false; n];
-    for (p, file) in parts.iter().zip(&args.parts) {
-        anyhow::ensure!(
-            (1..=n).contains(&p.shard.0),
-            "{}: shard {}/{}: need 1 <= I <= N",
-            file.display(),
-            p.shard.0,
-            p.shard.1
-        );
-        anyhow::ensure!(
-            p.shard.1 == n && p.experiment == first.experiment,
-            "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
-            first.experiment.display(),
-            first.shard.0,
-            n,
-            p.experiment.display(),
-            p.shard.0,
-            p.shard.1
-        );
-        anyhow::ensure!(!seen[p.shard.0 - 1], "shard {}/{n} given twice", p.shard.0);
-        seen[p.shard.0 - 1] = true;
-    }
-    let missing: Vec<String> = (1..=n)
-        .filter(|i| !seen[i - 1])
-        .map(|i| i.to_string())
-        .collect();
-    anyhow::ensure!(
-        missing.is_empty(),
-        "missing shards {} of {n}",
-        missing.join(", ")
-    );
-    let exp = Experiment::load(&first.experiment)?;
-    let opts = Options {
-        auto_refine: false,
-        local_refinement: first.local_refinement,
-        threshold_mm2: first.threshold_mm2,
-        top_n: first.top,
-    };
-    let stage_count = 1 + usize::from(exp.grids().1.is_some());
-    for (p, file) in parts.iter().zip(&args.parts) {
-        anyhow::ensure!(
-            p.stages.len() == stage_count,
-            "{}: {} stage(s), the experiment has {stage_count}",
-            file.display(),
-            p.stages.len()
-        );
-        anyhow::ensure!(
-            p.threshold_mm2 == opts.threshold_mm2
-                && p.top == opts.top_n
-                && p.local_refinement == opts.local_refinement,
-            "{}: made with other --threshold-mm2, --top or --no-refine than {}",
-            file.display(),
-            args.parts[0].display()
-        );
-        anyhow::ensure!(
-            digest(&exp, &opts)? == p.digest,
-            "{}: the experiment, its rig, its records or the options changed since this shard \
-             ran",
-            file.display()
-        );
-    }
-    let start = Instant::now();
-    // the time reported is the shards' search time added up, plus the merge's own
-    let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
-    let mut stages: Vec<Stage> = Vec::new();
-    for part in parts {
-        for (i, stage) in part.stages.into_iter().enumerate() {
-            match stages.get_mut(i) {
-                Some(s) => s.summary = s.summary.clone().merge(stage.summary, opts.top_n),
-                None => stages.push(stage),
-            }
-        }
-    }
-    verify_winners(&exp, &stages)?;
-    let id = finish(&exp.problem, stages, &opts)?;
-    report_identification(
-        &exp,
-        &id,
-        shard_seconds + start.elapsed().as_secs_f64(),
-        args.json,
-        args.out.as_deref(),
-    )
-}
-
-fn scored_json(s: &Scored, leak: Option<&crate::ident::Leakage>) -> serde_json::Value {
-    let mut v = json!({
-        "beta_bar": s.candidate.beta_bar,
-        "viscous_friction_ns_per_m": s.candidate.viscous_friction_ns_per_m,
-        "c12_m5_per_ns": s.candidate.c12_m5_per_ns,
-        "cost_mm2": s.cost_mm2,
-    });
-    if let Some(l) = leak {
-        v["c1_m5_per_ns"] = json!(l.c1_m5_per_ns);
-        v["c2_m5_per_ns"] = json!(l.c2_m5_per_ns);
-    }
-    v
+    let (exp, id, seconds) = shards::merge(parts)?;
+    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
 }
 
 /// The JSON of an identification (also written as result.json).
@@ -539,34 +345,7 @@ pub(super) fn identification_json(
     id: &Identification,
     seconds: f64,
 ) -> Result<serde_json::Value> {
-    let best = id.best();
-    let grid_leak = exp
-        .problem
-        .standstill
-        .leakage(&exp.rig, id.grid_best.candidate.c12_m5_per_ns)?;
-    let mut v = scored_json(best, Some(&id.leakage));
-    v["candidates_evaluated"] = json!(id.evaluated());
-    v["seconds"] = json!(seconds);
-    v["refined"] = json!(id.refined.is_some());
-    v["grid_best"] = scored_json(&id.grid_best, Some(&grid_leak));
-    v["non_finite"] = json!(id.stages.iter().map(|s| s.summary.non_finite).sum::<u64>());
-    v["unstable"] = json!(id.stages.iter().map(|s| s.summary.unstable).sum::<u64>());
-    v["pruned"] = json!(id.stages.iter().map(|s| s.summary.pruned).sum::<u64>());
-    v["stages"] = id
-        .stages
-        .iter()
-        .map(|s| {
-            json!({
-                "candidates": s.grid.len(), "evaluated": s.summary.evaluated,
-                "threshold_mm2": s.summary.threshold_mm2, "threshold_count": s.summary.threshold_count,
-                "threshold_bounds": s.summary.threshold_bounds.map(|b| json!({
-                    "beta_bar": b[0], "viscous_friction_ns_per_m": b[1], "c12_m5_per_ns": b[2]})),
-            })
-        })
-        .collect();
-    v["top"] = id.top.iter().map(|s| scored_json(s, None)).collect();
-    v["experiment"] = json!(exp.path.display().to_string());
-    Ok(v)
+    outputs::identification_json(exp, id, seconds)
 }
 
 fn report_identification(
@@ -657,106 +436,17 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
     s
 }
 
-/// result.json, the β × c12 landscape at the best b (CSV and heat map) and one overlay per
-/// dataset, into the existing folder `dir` (a temporary [`OutDir`] folder or a subfolder of
-/// one; never created here, so an interruption's cleanup is never undone).
+/// The files of [`outputs::files`] into the existing folder `dir` (a temporary [`OutDir`]
+/// folder or a subfolder of one; never created here, so an interruption's cleanup is never
+/// undone).
 pub(super) fn write_outputs(
     dir: &Path,
     exp: &Experiment,
     id: &Identification,
     v: &serde_json::Value,
 ) -> Result<()> {
-    write_atomic(
-        &dir.join("result.json"),
-        (serde_json::to_string_pretty(v)? + "\n").as_bytes(),
-    )?;
-    let landscape = write_landscape(dir, exp, id)?;
-    let mut fits = Vec::new();
-    for (i, ds) in exp.problem.datasets.iter().enumerate() {
-        let sim = exp.problem.simulate(&id.best().candidate, ds)?;
-        let measured = crate::response::Signals::of_record(&ds.record);
-        fits.push((ds.name.clone(), measured.clone(), sim.clone()));
-        let subtitle = format!(
-            "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
-            ds.name,
-            ds.rig.kp,
-            ds.rig.mass_kg,
-            ds.fit_end_s,
-            exp.problem.dataset_mse(&id.best().candidate, ds)
-        );
-        for ext in ["svg", "png"] {
-            super::time::write_fit_figure(
-                &dir.join(format!("fit-{}.{ext}", i + 1)),
-                &format!("Identified model against {}", ds.name),
-                Some(&subtitle),
-                &[("model".to_string(), &sim)],
-                Some(&measured),
-                Some(ds.fit_end_s),
-            )?;
-        }
+    for (name, bytes) in outputs::files(exp, id, v)? {
+        write_atomic(&dir.join(name), &bytes)?;
     }
-    super::export::write_identification_mat(&dir.join("result.mat"), id, &landscape, &fits)
-}
-
-/// The cost over β × c12 at the best b, on the stage grid that holds the best point; returns
-/// it as (β bar, c12 m⁵/(N·s), cost mm² with β varying fastest).
-fn write_landscape(
-    dir: &Path,
-    exp: &Experiment,
-    id: &Identification,
-) -> Result<super::export::Landscape> {
-    let best = id.grid_best;
-    let grid = &id.stages[(best.stage.max(1) - 1) as usize].grid;
-    let b = best.candidate.viscous_friction_ns_per_m;
-    let (xs, ys) = (&grid.beta_bar, &grid.c12_m5_per_ns);
-    let mut cost = vec![f64::INFINITY; xs.len() * ys.len()];
-    {
-        use rayon::prelude::*;
-        cost.par_iter_mut().enumerate().for_each(|(k, c)| {
-            let cand = crate::ident::Candidate {
-                beta_bar: xs[k % xs.len()],
-                viscous_friction_ns_per_m: b,
-                c12_m5_per_ns: ys[k / xs.len()],
-            };
-            let v = exp.problem.cost(&cand);
-            *c = if v.is_finite() && exp.problem.is_stable(&cand) {
-                v
-            } else {
-                f64::INFINITY
-            };
-        });
-    }
-    let mut csv = String::from("beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2\n");
-    for (k, c) in cost.iter().enumerate() {
-        let _ = writeln!(csv, "{},{b},{:e},{c}", xs[k % xs.len()], ys[k / xs.len()]);
-    }
-    write_atomic(&dir.join("landscape.csv"), csv.as_bytes())?;
-    let map = report::HeatMap {
-        x: xs.clone(),
-        y: ys.clone(),
-        cost,
-        x_label: "Bulk modulus beta (bar)".into(),
-        y_label: "Cross-port leakage c12 (m5/(N s))".into(),
-        y_log: ys.len() > 2
-            && ys[2] / ys[1] > 1.0 + 1e-9
-            && (ys[2] / ys[1] - ys[1] / ys[0]).abs() < 1e-6,
-        cost_label: "cost (mm²)".into(),
-    };
-    let marker = report::Marker {
-        x: best.candidate.beta_bar,
-        y: best.candidate.c12_m5_per_ns,
-        label: "best grid point".into(),
-    };
-    let title = "Identification cost landscape";
-    let subtitle = format!("b = {b} N s/m (best grid point)");
-    let svg = report::heatmap_svg(title, Some(&subtitle), &map, std::slice::from_ref(&marker))?;
-    write_atomic(&dir.join("landscape.svg"), svg.as_bytes())?;
-    let png = report::heatmap_png(title, Some(&subtitle), &map, &[marker], 1350, 1050)?;
-    write_atomic(&dir.join("landscape.png"), &png)?;
-    Ok(super::export::Landscape {
-        beta_bar: map.x,
-        c12_m5_per_ns: map.y,
-        viscous_friction_ns_per_m: b,
-        cost_mm2: map.cost,
-    })
+    Ok(())
 }

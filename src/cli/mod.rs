@@ -17,8 +17,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
-use crate::lti::{ModelJson, StateInfo, StateSpace};
-use crate::model::Plant;
+pub use crate::loops::Loop;
 use crate::rig::Rig;
 
 /// pumpcyl — model, analyse, identify and design pump-controlled hydraulic cylinders.
@@ -148,18 +147,6 @@ pub struct ModelArgs {
     sum_pressure_closed: bool,
 }
 
-/// The loop to analyse, with a description for the output.
-pub struct Loop {
-    /// L(s): input the position error (m), output x (m) for a rig.
-    pub open_loop: StateSpace,
-    /// State names and units.
-    pub states: Vec<StateInfo>,
-    /// The rig, when the model comes from one.
-    pub rig: Option<Rig>,
-    /// What was analysed, in words.
-    pub description: String,
-}
-
 impl ModelArgs {
     /// Build the analysed loop, with extra overrides (for --compare).
     fn build(&self, extra: &[String]) -> Result<Loop> {
@@ -167,36 +154,20 @@ impl ModelArgs {
             return read_ss(path);
         }
         let rig = self.source.load()?.with_overrides(extra)?;
-        let plant = Plant::new(&rig);
-        let sp = if self.sum_pressure_closed {
-            "closed"
-        } else {
-            "open"
-        };
-        Ok(Loop {
-            open_loop: plant.open_loop(self.sum_pressure_closed),
-            states: plant.layout.states(),
-            description: format!(
-                "{}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}",
-                self.source.origin()
-            ),
-            rig: Some(rig),
-        })
+        Ok(Loop::of_rig(
+            rig,
+            &self.source.origin(),
+            self.sum_pressure_closed,
+        ))
     }
 }
 
 /// Read a `--ss` JSON model; errors name the file, line and key.
 fn read_ss(path: &std::path::Path) -> Result<Loop> {
     let name = path.display().to_string();
-    let (open_loop, states) = crate::input::read_text(path)
-        .and_then(|text| ModelJson::parse(&text))
-        .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    Ok(Loop {
-        open_loop,
-        states,
-        rig: None,
-        description: format!("{name}: loop transfer L(s) from JSON"),
-    })
+    crate::input::read_text(path)
+        .and_then(|text| Loop::from_json(&text, &name))
+        .map_err(|e| anyhow::anyhow!("{name}: {e}"))
 }
 
 /// A message with every control character (from file names, keys or values a user wrote)

@@ -9,8 +9,9 @@ use std::path::{Path, PathBuf};
 use super::export;
 use super::output::{fmt_opt, format_of, shown_name, write_atomic, Format};
 use super::RigSource;
+use crate::figures::{trace, Chart};
 use crate::record::Record;
-use crate::report::{self, LineStyle, Panel, Trace};
+use crate::report::{LineStyle, Panel};
 use crate::response::{self, Baseline, Signals, StepMetrics, TrackMetrics, ARTICLE_SINE_CASES};
 use crate::rig::Rig;
 
@@ -462,7 +463,7 @@ fn write_track_output(path: &Path, runs: &[(String, Signals, TrackMetrics)]) -> 
         list(|m| format!("{:.1}", m.max_error_mm)),
         list(|m| format!("{:.2}", m.wave_reduction))
     );
-    render(path, title, Some(&subtitle), &panels)
+    render(path, &Chart::time(title, Some(&subtitle), panels))
 }
 
 /// `pumpcyl simulate`.
@@ -494,7 +495,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
     let all = Runs::of(&args.rig, &rig, &args.opts.compare, |r| {
         let base = Baseline::of_record(&rec, r);
         let s = response::simulate(r, &rec.time_s, &rec.x_ref_mm, &base)?;
-        let mse = mse_window(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
+        let mse = response::position_mse_until(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
         Ok((s, mse))
     })?;
     let runs: Vec<_> = all.done.iter().map(|(l, (s, m))| (l, s, *m)).collect();
@@ -579,18 +580,6 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
     Ok((ds.record.clone(), rig, Some(ds.fit_end_s)))
 }
 
-/// Mean squared position error (mm²) over samples with t ≤ `end`.
-fn mse_window(t: &[f64], sim: &[f64], meas: &[f64], end: f64) -> f64 {
-    let (sum, n) = t
-        .iter()
-        .zip(sim.iter().zip(meas))
-        .filter(|(t, _)| **t <= end)
-        .fold((0.0, 0usize), |(s, n), (_, (a, b))| {
-            (s + (a - b).powi(2), n + 1)
-        });
-    sum / n.max(1) as f64
-}
-
 /// CSV of signals: one block of columns per series (suffixed `[label]` beyond the first), and
 /// the measured columns first when given.
 fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> String {
@@ -672,127 +661,18 @@ pub(super) fn write_fit_figure(
     match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
         Format::Csv => write_atomic(path, signals_csv(series, measured).as_bytes()),
         Format::Mat => export::write_signals_mat(path, title, series, measured, &[]),
-        _ => {
-            let mut panels = four_panels(series, measured);
-            if let Some(t) = fit_end_s {
-                mark_fit_end(&mut panels, t);
-            }
-            render(path, title, subtitle, &panels)
-        }
+        _ => render(
+            path,
+            &Chart::signals(title, subtitle, series, measured, fit_end_s),
+        ),
     }
 }
 
-/// A dotted vertical line at `t_s` spanning each panel's values, labelled once.
-fn mark_fit_end(panels: &mut [Panel], t_s: f64) {
-    for (i, panel) in panels.iter_mut().enumerate() {
-        let (lo, hi) = panel
-            .traces
-            .iter()
-            .flat_map(|tr| tr.y.iter().copied().filter(|y| y.is_finite()))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
-                (l.min(y), h.max(y))
-            });
-        if lo <= hi {
-            let label = if i == 0 { "end of fit window" } else { "" };
-            panel.traces.push(trace(
-                label,
-                &[t_s, t_s],
-                &[lo, hi],
-                LineStyle::Dotted,
-                Some(7),
-            ));
-        }
-    }
-}
-
-/// Render panels to SVG or PNG by extension, atomically.
-pub(super) fn render(
-    path: &Path,
-    title: &str,
-    subtitle: Option<&str>,
-    panels: &[Panel],
-) -> Result<()> {
+/// Render a chart to SVG or PNG by extension, atomically.
+pub(super) fn render(path: &Path, chart: &Chart) -> Result<()> {
     let bytes = match format_of(path, &[Format::Svg, Format::Png])? {
-        Format::Png => report::panels_png(title, subtitle, panels, 1500, 1500)?,
-        _ => report::panels_svg(title, subtitle, panels)?.into_bytes(),
+        Format::Png => chart.png()?,
+        _ => chart.svg()?.into_bytes(),
     };
     write_atomic(path, &bytes)
-}
-
-fn trace(label: &str, t: &[f64], y: &[f64], style: LineStyle, color: Option<usize>) -> Trace {
-    Trace {
-        label: label.to_string(),
-        t_s: t.to_vec(),
-        y: y.to_vec(),
-        style,
-        color,
-    }
-}
-
-/// Position and reference, control error, pressures, motor speeds; the measured record (if any)
-/// in black-ish solid lines, simulated series after it.
-fn four_panels(series: &[(String, &Signals)], measured: Option<&Signals>) -> Vec<Panel> {
-    let mut panels: Vec<Panel> = [
-        "Position (mm)",
-        "Control error (mm)",
-        "Pressure (bar)",
-        "Motor speed (rpm)",
-    ]
-    .iter()
-    .map(|l| Panel {
-        y_label: l.to_string(),
-        traces: Vec::new(),
-    })
-    .collect();
-    let first = measured.unwrap_or(series[0].1);
-    panels[0].traces.push(trace(
-        "x_ref",
-        &first.time_s,
-        &first.x_ref_mm,
-        LineStyle::Dashed,
-        Some(6),
-    ));
-    let mut add = |label: &str, s: &Signals, style: LineStyle, color: usize| {
-        let t = &s.time_s;
-        let suffix = if label.is_empty() {
-            String::new()
-        } else {
-            format!(" {label}")
-        };
-        let mut push = |panel: usize, name: &str, y: &[f64], color: usize| {
-            if !y.is_empty() {
-                panels[panel].traces.push(trace(
-                    &format!("{name}{suffix}"),
-                    t,
-                    y,
-                    style,
-                    Some(color),
-                ));
-            }
-        };
-        push(0, "x", &s.x_mm, color);
-        push(1, "e", &s.e_mm, color);
-        push(2, "p1", &s.p1_bar, 2 * color);
-        push(2, "p2", &s.p2_bar, 2 * color + 1);
-        push(3, "w1", &s.w1_rpm, 2 * color);
-        push(3, "w2", &s.w2_rpm, 2 * color + 1);
-    };
-    if let Some(m) = measured {
-        add("measured", m, LineStyle::Solid, 0);
-    }
-    let offset = usize::from(measured.is_some());
-    for (i, (label, s)) in series.iter().enumerate() {
-        let style = if i + offset == 0 {
-            LineStyle::Solid
-        } else {
-            LineStyle::Dashed
-        };
-        let label = if series.len() == 1 && measured.is_none() {
-            ""
-        } else {
-            label.as_str()
-        };
-        add(label, s, style, i + offset);
-    }
-    panels
 }

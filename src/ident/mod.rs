@@ -36,9 +36,11 @@ mod drive;
 mod experiment;
 mod grid;
 mod leakage;
+pub mod outputs;
 mod problem;
 mod refine;
 mod search;
+pub mod shards;
 mod uncertainty;
 
 pub use advice::{

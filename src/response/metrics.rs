@@ -118,9 +118,34 @@ pub fn track_metrics(t: &[f64], e: &[f64], freq_hz: f64, amp_mm: f64) -> TrackMe
     }
 }
 
+/// Mean squared position error (mm²) between a simulated `sim` and a measured `meas` position
+/// (mm) over the samples with time `t` ≤ `end_s` (s): how well a replayed record fits up to the
+/// end of its fit window (docs/simulation.md). 0 when no sample lies in the window.
+pub fn position_mse_until(t: &[f64], sim: &[f64], meas: &[f64], end_s: f64) -> f64 {
+    let (sum, n) = t
+        .iter()
+        .zip(sim.iter().zip(meas))
+        .filter(|(t, _)| **t <= end_s)
+        .fold((0.0, 0usize), |(s, n), (_, (a, b))| {
+            (s + (a - b).powi(2), n + 1)
+        });
+    sum / n.max(1) as f64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn position_mse_counts_only_the_fit_window() {
+        // errors 1, 2, 3, 4 mm at t = 0..3 s: up to 1.5 s the mean of 1 and 4 mm²
+        let t = [0.0, 1.0, 2.0, 3.0];
+        let meas = [0.0; 4];
+        let sim = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(position_mse_until(&t, &sim, &meas, 1.5), 2.5);
+        assert_eq!(position_mse_until(&t, &sim, &meas, 3.0), 7.5);
+        assert_eq!(position_mse_until(&t, &sim, &meas, -1.0), 0.0);
+    }
 
     #[test]
     fn second_order_step_metrics_match_closed_form() {

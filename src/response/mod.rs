@@ -4,7 +4,7 @@
 
 mod metrics;
 
-pub use metrics::{step_metrics, track_metrics, StepMetrics, TrackMetrics};
+pub use metrics::{position_mse_until, step_metrics, track_metrics, StepMetrics, TrackMetrics};
 
 use crate::lti::{LtiError, Simulator};
 use crate::model::{Plant, SIM_OUTPUTS};

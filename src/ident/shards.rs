@@ -1,0 +1,178 @@
+//! Sharded identification (docs/identification.md#sharding): the partial result each shard
+//! writes, its fingerprint, and the merge that checks the shards belong together and were not
+//! edited before it gives the answer of one run.
+
+use super::{finish, Experiment, Identification, Options, Stage};
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// A partial result of a sharded run.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct Partial {
+    /// The experiment file, by its canonical path.
+    pub experiment: PathBuf,
+    /// [`digest`] of the experiment and options the shard ran with.
+    pub digest: String,
+    /// Which shard: (I, N), I from 1.
+    pub shard: (usize, usize),
+    /// Whether the merged result is refined by Nelder–Mead.
+    pub local_refinement: bool,
+    /// The threshold of the threshold sets (mm²).
+    pub threshold_mm2: f64,
+    /// Length of the top list.
+    pub top: usize,
+    /// The shard's search time (s).
+    pub seconds: f64,
+    /// The shard's stages.
+    pub stages: Vec<Stage>,
+}
+
+/// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
+/// names with its overrides, the standstill point, every dataset's record and settings, the
+/// grids (so the number of stages), and the options (threshold, top length, refinement).
+pub fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    crate::input::read_bounded(&exp.path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
+        .hash(&mut h);
+    // Debug prints every f64 exactly (shortest round-trip form)
+    format!("{:?}", exp.rig).hash(&mut h);
+    format!("{:?}", exp.problem).hash(&mut h);
+    format!("{:?}", exp.grids()).hash(&mut h);
+    format!(
+        "{:?} {} {}",
+        opts.threshold_mm2.to_bits(),
+        opts.top_n,
+        opts.local_refinement
+    )
+    .hash(&mut h);
+    Ok(format!("{:016x}", h.finish()))
+}
+
+/// Re-simulate the best few candidates of each merged stage and compare with the costs the
+/// shards reported, and check each is the grid point its index names: an edited or foreign
+/// partial result is an error, not the answer.
+fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
+    const CHECKED: usize = 3;
+    let (first, second) = exp.grids();
+    for (k, (stage, grid)) in stages.iter().zip([Some(first), second]).enumerate() {
+        let grid = grid.unwrap_or_else(|| stage.grid.clone());
+        for s in stage.summary.top.iter().take(CHECKED) {
+            let index = usize::try_from(s.index).unwrap_or(usize::MAX);
+            anyhow::ensure!(
+                index < grid.len() && grid.candidate(index) == s.candidate,
+                "stage {}: candidate {} of the partial results is not the grid point its index \
+                 names; a partial result was edited",
+                k + 1,
+                s.index
+            );
+            let cost = exp.problem.cost(&s.candidate);
+            anyhow::ensure!(
+                (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
+                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
+                 simulated again; a partial result was edited or made by another pumpcyl",
+                k + 1,
+                s.candidate.beta_bar,
+                s.cost_mm2
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Merge the partial results `parts` (each with the file it was read from, for messages) into
+/// the identification of one unsharded run, with the time it took: the shards' search times
+/// added up, plus the merge's own (s). Refused when a shard is missing or given twice, the
+/// shards come from different runs, options or experiment contents, or a partial result was
+/// edited (its best candidates are simulated again).
+pub fn merge(parts: Vec<(PathBuf, Partial)>) -> Result<(Experiment, Identification, f64)> {
+    let (files, parts): (Vec<PathBuf>, Vec<Partial>) = parts.into_iter().unzip();
+    anyhow::ensure!(!parts.is_empty(), "no partial results given");
+    let first = &parts[0];
+    let n = first.shard.1;
+    anyhow::ensure!(
+        n == parts.len(),
+        "missing shards: {} claims {n} shards, {} partial results given; give all N",
+        files[0].display(),
+        parts.len()
+    );
+    let mut seen = vec![false; n];
+    for (p, file) in parts.iter().zip(&files) {
+        anyhow::ensure!(
+            (1..=n).contains(&p.shard.0),
+            "{}: shard {}/{}: need 1 <= I <= N",
+            file.display(),
+            p.shard.0,
+            p.shard.1
+        );
+        anyhow::ensure!(
+            p.shard.1 == n && p.experiment == first.experiment,
+            "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
+            first.experiment.display(),
+            first.shard.0,
+            n,
+            p.experiment.display(),
+            p.shard.0,
+            p.shard.1
+        );
+        anyhow::ensure!(!seen[p.shard.0 - 1], "shard {}/{n} given twice", p.shard.0);
+        seen[p.shard.0 - 1] = true;
+    }
+    let missing: Vec<String> = (1..=n)
+        .filter(|i| !seen[i - 1])
+        .map(|i| i.to_string())
+        .collect();
+    anyhow::ensure!(
+        missing.is_empty(),
+        "missing shards {} of {n}",
+        missing.join(", ")
+    );
+    let exp = Experiment::load(&first.experiment)?;
+    let opts = Options {
+        auto_refine: false,
+        local_refinement: first.local_refinement,
+        threshold_mm2: first.threshold_mm2,
+        top_n: first.top,
+    };
+    let stage_count = 1 + usize::from(exp.grids().1.is_some());
+    for (p, file) in parts.iter().zip(&files) {
+        anyhow::ensure!(
+            p.stages.len() == stage_count,
+            "{}: {} stage(s), the experiment has {stage_count}",
+            file.display(),
+            p.stages.len()
+        );
+        anyhow::ensure!(
+            p.threshold_mm2 == opts.threshold_mm2
+                && p.top == opts.top_n
+                && p.local_refinement == opts.local_refinement,
+            "{}: made with other --threshold-mm2, --top or --no-refine than {}",
+            file.display(),
+            files[0].display()
+        );
+        anyhow::ensure!(
+            digest(&exp, &opts)? == p.digest,
+            "{}: the experiment, its rig, its records or the options changed since this shard \
+             ran",
+            file.display()
+        );
+    }
+    let start = Instant::now();
+    // the time reported is the shards' search time added up, plus the merge's own
+    let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
+    let mut stages: Vec<Stage> = Vec::new();
+    for part in parts {
+        for (i, stage) in part.stages.into_iter().enumerate() {
+            match stages.get_mut(i) {
+                Some(s) => s.summary = s.summary.clone().merge(stage.summary, opts.top_n),
+                None => stages.push(stage),
+            }
+        }
+    }
+    verify_winners(&exp, &stages)?;
+    let id = finish(&exp.problem, stages, &opts)?;
+    Ok((exp, id, shard_seconds + start.elapsed().as_secs_f64()))
+}

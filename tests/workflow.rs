@@ -1,0 +1,231 @@
+//! The article workflow as a library call (`pumpcyl::reproduce`), without the command line: its
+//! numbers against independent references (the emulator's truth, the margins `lti` computes on
+//! the default rig), its figures, its progress callbacks, and the folder it writes against the
+//! one `pumpcyl reproduce` writes.
+
+#[path = "common/tree.rs"]
+mod tree;
+
+use pumpcyl::reproduce::{reproduce, ReproduceOptions, Reproduction, STEPS};
+use pumpcyl::rig::Rig;
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, OnceLock};
+use tree::files;
+
+/// One run shared by the tests of this file, with the steps and candidate counts it reported.
+struct Run {
+    result: Reproduction,
+    steps: Vec<(usize, usize, String)>,
+    candidates: u64,
+    totals: BTreeSet<u64>,
+}
+
+fn run() -> &'static Run {
+    static RUN: OnceLock<Run> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let steps = Mutex::new(Vec::new());
+        let candidates = AtomicU64::new(0);
+        let totals = Mutex::new(BTreeSet::new());
+        let on_step = |k: usize, n: usize, what: &str| {
+            steps.lock().unwrap().push((k, n, what.to_string()));
+        };
+        let on_candidates = |n: u64, total: u64| {
+            candidates.fetch_add(n, Ordering::Relaxed);
+            totals.lock().unwrap().insert(total);
+            true
+        };
+        let result = reproduce(&ReproduceOptions {
+            on_step: Some(&on_step),
+            on_candidates: Some(&on_candidates),
+        })
+        .unwrap();
+        Run {
+            result,
+            steps: steps.into_inner().unwrap(),
+            candidates: candidates.into_inner(),
+            totals: totals.into_inner().unwrap(),
+        }
+    })
+}
+
+#[test]
+fn the_identified_rig_recovers_the_emulators_truth() {
+    let r = &run().result;
+    // the emulated records were made with beta_e = 165 bar at their mean pressure and
+    // c12 = 1.2e-10 m5/(N s) (data/article/README.md)
+    let beta = r.identified.beta_bar;
+    assert!((beta - 165.0).abs() <= 10.0, "beta {beta} bar");
+    let c12 = r.identified.c12_m5_per_ns / 1.2e-10;
+    assert!((1.0 / 1.5..=1.5).contains(&c12), "c12 ratio {c12}");
+    assert!(
+        (r.km_nms_per_rad / 0.026 - 1.0).abs() < 0.02,
+        "{}",
+        r.km_nms_per_rad
+    );
+    // the typed numbers are summary.json's
+    let s = &r.summary;
+    assert_eq!(s["identified"]["beta_bar"].as_f64(), Some(beta));
+    assert_eq!(
+        s["identified"]["c12_m5_per_ns"].as_f64(),
+        Some(r.identified.c12_m5_per_ns)
+    );
+    assert_eq!(s["identified"]["cost_mm2"].as_f64(), Some(r.cost_mm2));
+    assert_eq!(
+        s["drive"]["km_nms_per_rad"].as_f64(),
+        Some(r.km_nms_per_rad)
+    );
+    assert_eq!(s["design"]["kp_max"].as_f64(), Some(r.design_kp));
+    // the gas fraction follows from beta at the mean pressure: X ≈ p/beta
+    assert!((r.gas_fraction - r.p_mean_bar / beta).abs() < 0.001);
+    // the design method gives the article's Kp = 25 within ±1 (the article §2.2)
+    assert!((r.design_kp - 25.0).abs() <= 1.0, "{}", r.design_kp);
+}
+
+#[test]
+fn the_default_rig_margins_are_those_lti_computes() {
+    let r = &run().result;
+    let m = pumpcyl::lti::margins(&pumpcyl::model::Plant::new(&Rig::default()).open_loop(false))
+        .unwrap();
+    assert_eq!(r.default_margins, m);
+    let gm = r.default_margins.gain_margin_db.unwrap();
+    assert!((gm - 6.45).abs() <= 0.05, "GM {gm} dB");
+    let identified =
+        pumpcyl::lti::margins(&pumpcyl::model::Plant::new(&r.identified).open_loop(false)).unwrap();
+    assert_eq!(r.identified_margins, identified);
+    // the comparison carries the article's printed 6.5 dB beside pumpcyl's
+    let row = r
+        .comparison
+        .iter()
+        .find(|row| row.quantity == "GM, default rig (dB)")
+        .unwrap();
+    assert_eq!(row.article, "6.5");
+    assert_eq!(row.pumpcyl, format!("{gm:.2}"));
+}
+
+#[test]
+fn progress_reports_every_step_and_every_candidate() {
+    let run = run();
+    let ks: Vec<usize> = run.steps.iter().map(|s| s.0).collect();
+    assert_eq!(ks, (1..=STEPS).collect::<Vec<_>>());
+    assert!(run.steps.iter().all(|s| s.1 == STEPS));
+    // one total: both grids of the identification, every candidate reported once
+    assert_eq!(run.totals.len(), 1, "{:?}", run.totals);
+    let total = *run.totals.iter().next().unwrap();
+    assert_eq!(run.candidates, total);
+    let stages = run.result.summary["identified"]["candidates_evaluated"]
+        .as_u64()
+        .unwrap();
+    assert!(stages <= total && stages > total / 2, "{stages} of {total}");
+    // each step heads its section of the report
+    for (k, _, what) in &run.steps {
+        let heading = format!("{k}. {what}");
+        assert!(run
+            .result
+            .blocks
+            .iter()
+            .any(|b| matches!(b, pumpcyl::report::Block::Heading(h) if *h == heading)));
+    }
+}
+
+#[test]
+fn every_figure_is_rendered_in_memory() {
+    let r = &run().result;
+    assert_eq!(r.figures.len(), 15);
+    let stems: BTreeSet<&str> = r.figures.iter().map(|f| f.stem.as_str()).collect();
+    assert_eq!(stems.len(), 15, "stems are distinct");
+    for f in &r.figures {
+        assert!(
+            f.svg.contains("<svg") && f.svg.trim_end().ends_with("</svg>"),
+            "{}",
+            f.stem
+        );
+        assert!(f.svg.len() > 10_000, "{}: {} bytes", f.stem, f.svg.len());
+        assert!(
+            f.png.starts_with(b"\x89PNG\r\n\x1a\n") && f.png.len() > 10_000,
+            "{}: not a PNG",
+            f.stem
+        );
+        assert!(!f.caption.is_empty());
+    }
+    // the stroke steps are drawn about their own operating points
+    let stroke = r.figures.iter().find(|f| f.stem == "step_stroke").unwrap();
+    assert!(stroke.svg.contains("x − x0"), "axis names the shift");
+    let html = r.report_html();
+    assert_eq!(
+        html.matches("<figure>").count(),
+        15 + 3,
+        "and the landscape and two fits"
+    );
+}
+
+#[test]
+fn stopping_the_search_stops_the_workflow_and_leaves_no_scratch_folder() {
+    let stop = |_: u64, _: u64| false;
+    let err = reproduce(&ReproduceOptions {
+        on_step: None,
+        on_candidates: Some(&stop),
+    })
+    .unwrap_err();
+    assert!(err.to_string().contains("interrupted"), "{err}");
+    let own = format!(".scratch.pumpcyl-tmp-{}-", std::process::id());
+    let left: Vec<String> = std::fs::read_dir(std::env::temp_dir())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&own))
+        .collect();
+    // the shared run may hold its own scratch folder only while it runs
+    assert!(left.len() <= 1, "{left:?}");
+}
+
+#[test]
+fn write_makes_the_folder_the_command_line_makes() {
+    let r = &run().result;
+    let tmp = tempfile::tempdir().unwrap();
+    let (lib, cli) = (tmp.path().join("lib"), tmp.path().join("cli"));
+    r.write(&lib).unwrap();
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(["reproduce", "--out", cli.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(status.status.success());
+    assert_eq!(files(&lib), files(&cli));
+    // the same bytes where nothing depends on the run's time
+    for f in ["records/identification.csv", "identification/landscape.csv"] {
+        assert_eq!(
+            std::fs::read(lib.join(f)).unwrap(),
+            std::fs::read(cli.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let read = |d: &Path| -> serde_json::Value {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap())
+                .unwrap();
+        v["seconds"] = serde_json::Value::Null;
+        v["identified"]["seconds"] = serde_json::Value::Null;
+        v
+    };
+    assert_eq!(read(&lib), read(&cli));
+    // as written, then read back (the same float parsing on both sides)
+    let written: serde_json::Value =
+        serde_json::from_str(&serde_json::to_string(&r.summary).unwrap()).unwrap();
+    assert_eq!(read(&lib)["identified"], {
+        let mut v = written["identified"].clone();
+        v["seconds"] = serde_json::Value::Null;
+        v
+    });
+    // a second write replaces the earlier result; a folder of other files is refused untouched
+    r.write(&lib).unwrap();
+    let other = tmp.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    std::fs::write(other.join("notes.txt"), "mine").unwrap();
+    let err = r.write(&other).unwrap_err();
+    assert!(err.to_string().contains("not empty"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(other.join("notes.txt")).unwrap(),
+        "mine"
+    );
+}
