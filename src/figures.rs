@@ -7,7 +7,9 @@
 //! writing the bytes is the caller's job (the command line, [`crate::reproduce`]).
 
 use crate::bulk::Row;
-use crate::ident::{DriveFit, DriveRecord};
+use crate::design::robust::StrokeCurve;
+use crate::design::RobustDesign;
+use crate::ident::{DriveFit, DriveRecord, Profile, Uncertainty, PARAMETERS};
 use crate::report::{
     self, BodeMarkers, BodeSeries, HeatMap, LineStyle, Marker, Panel, ReportError, Trace,
 };
@@ -201,6 +203,146 @@ impl Chart {
             subtitle: None,
             plot: Plot::Bode { series, markers },
         }
+    }
+}
+
+impl Chart {
+    /// The likelihood profile `p` of an uncertainty analysis (docs/identification.md,
+    /// "Uncertainty"): ΔSSE/σ² against the parameter, with the χ²₁ threshold dashed; points
+    /// above three times the threshold are left out so that the region near the interval stays
+    /// readable.
+    pub fn profile(u: &Uncertainty, p: &Profile) -> Chart {
+        let i = parameter_index(p.parameter);
+        let shown: Vec<_> = p
+            .points
+            .iter()
+            .filter(|q| q.statistic <= 3.0 * u.threshold)
+            .collect();
+        let x: Vec<f64> = shown.iter().map(|q| q.value).collect();
+        let y: Vec<f64> = shown.iter().map(|q| q.statistic).collect();
+        let threshold = vec![u.threshold; x.len()];
+        let panels = vec![Panel {
+            y_label: "ΔSSE / σ²".into(),
+            traces: vec![
+                trace("profile", &x, &y, LineStyle::Solid, Some(0)),
+                trace(
+                    &format!("χ²₁({})", u.confidence),
+                    &x,
+                    &threshold,
+                    LineStyle::Dashed,
+                    Some(6),
+                ),
+            ],
+        }];
+        let subtitle = format!(
+            "interval {} .. {} {}{}; noise σ {:.4} mm",
+            parameter_value(i, p.interval[0]),
+            parameter_value(i, p.interval[1]),
+            PARAMETER_UNITS[i],
+            if p.identifiable {
+                ""
+            } else {
+                " (not identifiable)"
+            },
+            u.noise_std_mm
+        );
+        Chart {
+            title: format!("Profile of {}", p.parameter),
+            subtitle: Some(subtitle),
+            plot: Plot::Xy {
+                x_label: PARAMETER_AXES[i].into(),
+                panels,
+            },
+        }
+    }
+
+    /// The margins of a robust design (docs/design.md#robust-design) over the stroke at the
+    /// deciding parameter point and the robust Kp: PM and GM, one line per mass and pressure,
+    /// the targets dashed.
+    pub fn robust_margins(d: &RobustDesign) -> Chart {
+        let xs = d.stroke_curves.first().map_or(&[][..], |c| &c.x_mm[..]);
+        let span = match (xs.first(), xs.last()) {
+            (Some(&a), Some(&b)) => vec![a, b],
+            _ => Vec::new(),
+        };
+        let panel = |y_label: &str, target: f64, pick: fn(&StrokeCurve) -> &Vec<Option<f64>>| {
+            let mut traces: Vec<Trace> = d
+                .stroke_curves
+                .iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let (x, y): (Vec<f64>, Vec<f64>) = c
+                        .x_mm
+                        .iter()
+                        .zip(pick(c))
+                        .filter_map(|(&x, v)| v.map(|v| (x, v)))
+                        .unzip();
+                    let p = c
+                        .p_mean_bar
+                        .map_or(String::new(), |p| format!(", p {p} bar"));
+                    trace(
+                        &format!("m {} kg{p}", c.mass_kg),
+                        &x,
+                        &y,
+                        LineStyle::Solid,
+                        Some(i),
+                    )
+                })
+                .collect();
+            traces.push(trace(
+                "target",
+                &span,
+                &vec![target; span.len()],
+                LineStyle::Dashed,
+                Some(6),
+            ));
+            Panel {
+                y_label: y_label.into(),
+                traces,
+            }
+        };
+        let at = &d.deciding.at;
+        Chart {
+            title: format!("Margins over the stroke at Kp = {:.2} (robust)", d.kp_max),
+            subtitle: Some(format!(
+                "deciding parameters: β {:.1} bar, b {:.0} N·s/m, c12 {:.3e} m⁵/(N·s)",
+                at.beta_bar, at.viscous_friction_ns_per_m, at.c12_m5_per_ns
+            )),
+            plot: Plot::Xy {
+                x_label: "Piston position x (mm)".into(),
+                panels: vec![
+                    panel("Phase margin (deg)", d.targets.pm_deg, |c| {
+                        &c.phase_margin_deg
+                    }),
+                    panel("Gain margin (dB)", d.targets.gm_db, |c| &c.gain_margin_db),
+                ],
+            },
+        }
+    }
+}
+
+/// Units of the identified parameters, in the order of [`PARAMETERS`].
+pub const PARAMETER_UNITS: [&str; 3] = ["bar", "N·s/m", "m⁵/(N·s)"];
+
+/// Axis labels of the identified parameters, in the order of [`PARAMETERS`].
+const PARAMETER_AXES: [&str; 3] = [
+    "Bulk modulus β (bar)",
+    "Viscous friction b (N·s/m)",
+    "Cross-port leakage c12 (m⁵/(N·s))",
+];
+
+/// Index of a parameter name in [`PARAMETERS`] (0 for an unknown name).
+pub fn parameter_index(name: &str) -> usize {
+    PARAMETERS.iter().position(|&p| p == name).unwrap_or(0)
+}
+
+/// A value of parameter `i` of [`PARAMETERS`] as text: β and b with one decimal, c12 in
+/// scientific notation with four.
+pub fn parameter_value(i: usize, v: f64) -> String {
+    if i == 2 {
+        format!("{v:.4e}")
+    } else {
+        format!("{v:.1}")
     }
 }
 

@@ -22,7 +22,7 @@ fn reproduced() -> &'static (PathBuf, String) {
             String::from_utf8_lossy(&out.stderr)
         );
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(stderr.contains("[8/8"), "progress shown: {stderr}");
+        assert!(stderr.contains("[9/9"), "progress shown: {stderr}");
         (dir, String::from_utf8(out.stdout).unwrap())
     })
 }
@@ -140,6 +140,10 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "sine_0p10hz",
         "sine_0p20hz",
         "sine_0p25hz",
+        "profile-beta_bar",
+        "profile-viscous_friction_ns_per_m",
+        "profile-c12_m5_per_ns",
+        "robust-margins",
     ];
     for stem in stems {
         for ext in ["svg", "png"] {
@@ -165,7 +169,7 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         assert!(dir.join("identification").join(f).exists(), "{f}");
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
-    // 15 figures, the landscape and the two fits
+    // 19 figures, the landscape and the two fits
     assert_eq!(html.matches("<figure>").count(), stems.len() + 3);
     assert!(html.contains("EMULATED"));
     // every number the article prints sits beside pumpcyl's
@@ -253,7 +257,7 @@ fn report_renders_in_headless_chromium_with_every_figure_loaded() {
             .unwrap()
     };
     let (loaded, total) = (attr("data-figures-loaded"), attr("data-figures-total"));
-    assert_eq!(total, 18, "figures in the page");
+    assert_eq!(total, 22, "figures in the page");
     assert_eq!(loaded, total, "every figure loaded with a non-zero size");
     assert!(!dom.contains("class=\"notice\">This figure did not load"));
     // the screenshot, kept in target/ as a CI artefact

@@ -132,9 +132,9 @@ fn progress_reports_every_step_and_every_candidate() {
 #[test]
 fn every_figure_is_rendered_in_memory() {
     let r = &run().result;
-    assert_eq!(r.figures.len(), 15);
+    assert_eq!(r.figures.len(), 19);
     let stems: BTreeSet<&str> = r.figures.iter().map(|f| f.stem.as_str()).collect();
-    assert_eq!(stems.len(), 15, "stems are distinct");
+    assert_eq!(stems.len(), 19, "stems are distinct");
     for f in &r.figures {
         assert!(
             f.svg.contains("<svg") && f.svg.trim_end().ends_with("</svg>"),
@@ -155,7 +155,7 @@ fn every_figure_is_rendered_in_memory() {
     let html = r.report_html();
     assert_eq!(
         html.matches("<figure>").count(),
-        15 + 3,
+        19 + 3,
         "and the landscape and two fits"
     );
 }
@@ -227,5 +227,77 @@ fn write_makes_the_folder_the_command_line_makes() {
     assert_eq!(
         std::fs::read_to_string(other.join("notes.txt")).unwrap(),
         "mine"
+    );
+}
+
+#[test]
+fn how_sure_holds_the_truth_and_designs_below_the_point_estimate() {
+    let r = &run().result;
+    let c = &r.certainty;
+    // the 95 % intervals hold the truth the records were emulated with (data/article/README.md)
+    let beta = c.uncertainty.profile("beta_bar").unwrap();
+    assert!(beta.identifiable);
+    assert!(
+        beta.interval[0] <= 165.0 && 165.0 <= beta.interval[1],
+        "{:?}",
+        beta.interval
+    );
+    let c12 = c.uncertainty.profile("c12_m5_per_ns").unwrap();
+    assert!(c12.identifiable);
+    assert!(
+        c12.interval[0] <= 1.2e-10 && 1.2e-10 <= c12.interval[1],
+        "{:?}",
+        c12.interval
+    );
+    // the estimate lies inside its own interval, and b is not bounded by steps alone
+    assert!(beta.interval[0] <= r.identified.beta_bar && r.identified.beta_bar <= beta.interval[1]);
+    assert!(
+        !c.uncertainty
+            .profile("viscous_friction_ns_per_m")
+            .unwrap()
+            .identifiable
+    );
+    // a design that must hold over the region is never above the point design, and the worst
+    // case at its gain meets the article's targets (PM 34 deg, GM 6 dB) within the tolerances
+    let d = &c.robust;
+    assert!(
+        d.kp_max > 0.0 && d.kp_max <= d.kp_max_nominal,
+        "{} {}",
+        d.kp_max,
+        d.kp_max_nominal
+    );
+    assert!(d.worst_case.meets_targets);
+    let gm = d.worst_case.gain_margin_db.value.unwrap();
+    let pm = d.worst_case.phase_margin_deg.value.unwrap();
+    assert!(gm >= 6.0 - 0.01 && pm >= 34.0 - 0.05, "GM {gm} PM {pm}");
+    // the nominal design is the margins' own bisection at the identified rig
+    let targets = pumpcyl::design::Targets::article();
+    let kp = pumpcyl::design::kp_max(&r.identified, &targets).unwrap();
+    assert!(
+        (kp - d.kp_max_nominal).abs() < 1e-6 * kp,
+        "{kp} {}",
+        d.kp_max_nominal
+    );
+    // the advice: no candidate record widens an interval, and one is named for b
+    let a = &c.advice;
+    assert!(!a.best_for[1].is_empty());
+    for cand in &a.candidates {
+        assert!(
+            cand.improvement.iter().all(|&f| f >= 1.0 - 1e-9),
+            "{}",
+            cand.label
+        );
+    }
+    // summary.json carries the same
+    let s = &r.summary["how_sure"];
+    assert_eq!(s["robust_design"]["kp_max"].as_f64(), Some(d.kp_max));
+    assert_eq!(s["truth_inside"]["beta_bar"], serde_json::json!(true));
+    assert!(r.figures.iter().any(|f| f.stem == "robust-margins"));
+    assert_eq!(
+        r.figures
+            .iter()
+            .filter(|f| f.stem.starts_with("profile-"))
+            .count(),
+        3
     );
 }

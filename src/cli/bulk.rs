@@ -124,11 +124,5 @@ pub(super) fn write_output(
         }
         return write_atomic(path, s.as_bytes());
     }
-    let chart = Chart::bulk_modulus(fit, x, rows);
-    let bytes = if format == Format::Png {
-        chart.png()?
-    } else {
-        chart.svg()?.into_bytes()
-    };
-    write_atomic(path, &bytes)
+    super::time::render(path, &Chart::bulk_modulus(fit, x, rows))
 }

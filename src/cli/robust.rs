@@ -8,10 +8,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::output::{fmt_opt, write_atomic, OutDir};
+use super::time::render_both;
 use crate::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
 use crate::design::{robust_design, RobustDesign, Targets};
+use crate::figures::Chart;
 use crate::ident::Experiment;
-use crate::report::{self, LineStyle, Panel, Trace};
 use crate::rig::Rig;
 
 /// Where the rig and the parameter set of a robust design come from.
@@ -168,68 +169,7 @@ fn binding(b: Binding) -> &'static str {
     }
 }
 
-/// `robust-margins.svg` and `.png`: PM and GM at the robust Kp over the stroke at the deciding
-/// parameter point, one line per pressure and mass, with the targets dashed.
+/// `robust-margins.svg` and `.png`: the margins over the stroke at the deciding parameter point.
 fn write_figure(dir: &Path, d: &RobustDesign) -> Result<()> {
-    let panel =
-        |y_label: &str,
-         target: f64,
-         pick: fn(&crate::design::robust::StrokeCurve) -> &Vec<Option<f64>>| {
-            let mut traces: Vec<Trace> = d
-                .stroke_curves
-                .iter()
-                .enumerate()
-                .map(|(i, c)| {
-                    let (x, y): (Vec<f64>, Vec<f64>) = c
-                        .x_mm
-                        .iter()
-                        .zip(pick(c))
-                        .filter_map(|(&x, v)| v.map(|v| (x, v)))
-                        .unzip();
-                    Trace {
-                        label: format!(
-                            "m {} kg{}",
-                            c.mass_kg,
-                            c.p_mean_bar
-                                .map_or(String::new(), |p| format!(", p {p} bar"))
-                        ),
-                        t_s: x,
-                        y,
-                        style: LineStyle::Solid,
-                        color: Some(i),
-                    }
-                })
-                .collect();
-            let xs = &d.stroke_curves[0].x_mm;
-            traces.push(Trace {
-                label: "target".into(),
-                t_s: vec![xs[0], xs[xs.len() - 1]],
-                y: vec![target; 2],
-                style: LineStyle::Dashed,
-                color: Some(6),
-            });
-            Panel {
-                y_label: y_label.into(),
-                traces,
-            }
-        };
-    let panels = [
-        panel("Phase margin (deg)", d.targets.pm_deg, |c| {
-            &c.phase_margin_deg
-        }),
-        panel("Gain margin (dB)", d.targets.gm_db, |c| &c.gain_margin_db),
-    ];
-    let at = &d.deciding.at;
-    let title = format!("Margins over the stroke at Kp = {:.2} (robust)", d.kp_max);
-    let subtitle = format!(
-        "deciding parameters: beta {:.1} bar, b {:.0} N s/m, c12 {:.3e} m5/(N s)",
-        at.beta_bar, at.viscous_friction_ns_per_m, at.c12_m5_per_ns
-    );
-    let x_label = "Piston position x (mm)";
-    let stem = dir.join("robust-margins");
-    let svg = report::panels_xy_svg(&title, Some(&subtitle), x_label, &panels)?;
-    write_atomic(&stem.with_extension("svg"), svg.as_bytes())?;
-    let png = report::panels_xy_png(&title, Some(&subtitle), x_label, &panels, 1500, 900)?;
-    write_atomic(&stem.with_extension("png"), &png)?;
-    Ok(())
+    render_both(&dir.join("robust-margins"), &Chart::robust_margins(d))
 }

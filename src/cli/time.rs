@@ -668,6 +668,12 @@ pub(super) fn write_fit_figure(
     }
 }
 
+/// Render a chart as `stem`.svg and `stem`.png, each atomically.
+pub(super) fn render_both(stem: &Path, chart: &Chart) -> Result<()> {
+    render(&stem.with_extension("svg"), chart)?;
+    render(&stem.with_extension("png"), chart)
+}
+
 /// Render a chart to SVG or PNG by extension, atomically.
 pub(super) fn render(path: &Path, chart: &Chart) -> Result<()> {
     let bytes = match format_of(path, &[Format::Svg, Format::Png])? {

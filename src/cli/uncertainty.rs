@@ -8,22 +8,15 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::ident::{identification_json, identification_text, write_result_folder};
-use super::output::write_atomic;
+use super::time::render_both;
+use crate::figures::{
+    parameter_index as index, parameter_value as value, Chart, PARAMETER_UNITS as UNITS,
+};
 use crate::ident::{analyze, Experiment, Identification, Uncertainty, UncertaintyOptions};
-use crate::report::{self, LineStyle, Panel, Trace};
 
-/// Units of the parameters, in the order of [`crate::ident::PARAMETERS`], as the text shows
-/// them.
-const UNITS: [&str; 3] = ["bar", "N s/m", "m5/(N s)"];
 /// Lag-1 autocorrelation of the residuals above which the text warns that they are not white
 /// (white noise stays within about 2/√N of 0, below 0.1 for a few hundred samples).
 const CORRELATED: f64 = 0.3;
-/// Axis labels of the profile figures, in the same order.
-const AXES: [&str; 3] = [
-    "Bulk modulus beta (bar)",
-    "Viscous friction b (N s/m)",
-    "Cross-port leakage c12 (m5/(N s))",
-];
 
 /// Analyse the uncertainty of an identification and report it with the identification:
 /// JSON (the identification's fields plus `intervals`, `confidence`, `noise_std_mm`,
@@ -132,74 +125,13 @@ fn text(u: &Uncertainty, seconds: f64) -> String {
     s
 }
 
-/// A value of parameter `i` as the text shows it: β and b with one decimal, c12 in
-/// scientific notation.
-fn value(i: usize, v: f64) -> String {
-    if i == 2 {
-        format!("{v:.4e}")
-    } else {
-        format!("{v:.1}")
-    }
-}
-
-/// Index of a parameter name in [`crate::ident::PARAMETERS`].
-fn index(name: &str) -> usize {
-    crate::ident::PARAMETERS
-        .iter()
-        .position(|&p| p == name)
-        .unwrap_or(0)
-}
-
-/// One figure per profile (`profile-NAME.svg` and `.png`): ΔSSE/σ² against the parameter with
-/// the threshold; points above three times the threshold are left out so that the region
-/// near the interval stays readable.
+/// One figure per profile: `profile-NAME.svg` and `.png`.
 fn write_profiles(dir: &Path, u: &Uncertainty) -> Result<()> {
     for p in &u.profiles {
-        let i = index(p.parameter);
-        let shown: Vec<_> = p
-            .points
-            .iter()
-            .filter(|q| q.statistic <= 3.0 * u.threshold)
-            .collect();
-        let x: Vec<f64> = shown.iter().map(|q| q.value).collect();
-        let y: Vec<f64> = shown.iter().map(|q| q.statistic).collect();
-        let panels = [Panel {
-            y_label: "Delta SSE / sigma^2".into(),
-            traces: vec![
-                Trace {
-                    label: "profile".into(),
-                    t_s: x.clone(),
-                    y,
-                    style: LineStyle::Solid,
-                    color: Some(0),
-                },
-                Trace {
-                    label: format!("chi2_1({})", u.confidence),
-                    t_s: x.clone(),
-                    y: vec![u.threshold; x.len()],
-                    style: LineStyle::Dashed,
-                    color: Some(6),
-                },
-            ],
-        }];
-        let title = format!("Profile of {}", p.parameter);
-        let subtitle = format!(
-            "interval {} .. {} {}{}; noise sigma {:.4} mm",
-            value(i, p.interval[0]),
-            value(i, p.interval[1]),
-            UNITS[i],
-            if p.identifiable {
-                ""
-            } else {
-                " (not identifiable)"
-            },
-            u.noise_std_mm
-        );
-        let stem = dir.join(format!("profile-{}", p.parameter));
-        let svg = report::panels_xy_svg(&title, Some(&subtitle), AXES[i], &panels)?;
-        write_atomic(&stem.with_extension("svg"), svg.as_bytes())?;
-        let png = report::panels_xy_png(&title, Some(&subtitle), AXES[i], &panels, 1500, 900)?;
-        write_atomic(&stem.with_extension("png"), &png)?;
+        render_both(
+            &dir.join(format!("profile-{}", p.parameter)),
+            &Chart::profile(u, p),
+        )?;
     }
     Ok(())
 }

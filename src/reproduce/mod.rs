@@ -27,11 +27,14 @@
 //! # Ok::<(), anyhow::Error>(())
 //! ```
 
+mod certainty;
 mod identification;
 mod studies;
+pub use certainty::Certainty;
 
 use crate::emulator::article::{self, EMBEDDED};
 use crate::figures::Chart;
+use crate::ident::Candidate;
 use crate::lti::{self, Margins};
 use crate::model::Plant;
 use crate::output::{fmt_opt, write_atomic, OutDir, Scratch};
@@ -45,7 +48,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 8;
+pub const STEPS: usize = 9;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -159,6 +162,9 @@ pub struct Reproduction {
     /// The largest Kp meeting PM 34° and GM 6 dB at the identified operating point (the
     /// article §2.2).
     pub design_kp: f64,
+    /// How sure the identification is: intervals, the design over them, the next experiment
+    /// (step 9).
+    pub certainty: Certainty,
     /// pumpcyl beside the article's printed values.
     pub comparison: Vec<ComparisonRow>,
     /// Every number, as written to summary.json.
@@ -297,6 +303,13 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     sum["tracking"] = studies::tracking(&mut run, &nominal)?;
     let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
     sum["design"] = design;
+    let truth_point = Candidate {
+        beta_bar: truth.rig.beta_bar,
+        viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
+        c12_m5_per_ns: truth.rig.c12_m5_per_ns,
+    };
+    let (certainty, how_sure) = certainty::how_sure(&mut run, &exp, &nominal, &truth_point)?;
+    sum["how_sure"] = how_sure;
     let seconds = start.elapsed().as_secs_f64();
     sum["seconds"] = json!(seconds);
     Ok(Reproduction {
@@ -308,6 +321,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         gas_fraction: pressure.gas_fraction,
         p_mean_bar: pressure.p_mean_bar,
         design_kp,
+        certainty,
         comparison: run.table,
         summary: sum,
         blocks: run.blocks,
