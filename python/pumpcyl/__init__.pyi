@@ -16,6 +16,7 @@ from ._pumpcyl import (
     gas_fraction as gas_fraction,
     identify as identify,
     margins as margins,
+    reproduce as reproduce,
     simulate as simulate,
     state_space as state_space,
     step as step,

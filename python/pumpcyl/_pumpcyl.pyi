@@ -226,6 +226,14 @@ def advise(
     expected interval widths of beta, b and c12 (as ``pumpcyl advise --json``: point,
     noise_std_mm, current, candidates, best_for, skipped)."""
 
+def reproduce(
+    out: Optional[Union[str, PathLike[str]]] = None, *, progress: bool = False
+) -> Dict[str, Any]:
+    """The article's workflow on the embedded EMULATED records (as ``pumpcyl reproduce``):
+    with ``out``, the result folder (report.html, summary.json, figures/, records/,
+    identification/) written whole or not at all; returns summary.json as a dict. Ctrl-C
+    raises KeyboardInterrupt; ``progress=True`` prints each step on stderr."""
+
 def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
     """Gas fraction X giving ``beta_bar`` (bar) at mean pressure ``p_mean_bar`` (bar)
     (article Section 7)."""

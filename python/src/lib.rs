@@ -810,6 +810,53 @@ fn advise(
     to_py(py, &advice)
 }
 
+// The article workflow
+
+/// The article's workflow on the embedded emulated records (the library's
+/// `pumpcyl::reproduce`, as `pumpcyl reproduce` runs it): with `out`, the result folder
+/// (report.html, summary.json, figures/, records/, identification/) written whole or not at
+/// all; returns summary.json as a dict. Runs with the GIL released; Ctrl-C stops it and raises
+/// KeyboardInterrupt; `progress=True` prints each step on `sys.stderr`.
+#[pyfunction]
+#[pyo3(signature = (out = None, *, progress = false))]
+fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<Py<PyAny>> {
+    let step = std::sync::Mutex::new((0usize, String::new()));
+    let mut shown = 0usize;
+    let mut tick = |py: Python<'_>, _done: u64| -> PyResult<()> {
+        let (k, what) = step.lock().map(|g| g.clone()).unwrap_or_default();
+        if progress && k != shown {
+            shown = k;
+            let line = format!("[{k}/{}] {what}\n", pumpcyl::reproduce::STEPS);
+            let stderr = py.import("sys")?.getattr("stderr")?;
+            stderr.call_method1("write", (line,))?;
+        }
+        Ok(())
+    };
+    let result = run_interruptible(
+        py,
+        |go_on| {
+            let on_step = |k: usize, _n: usize, what: &str| {
+                if let Ok(mut g) = step.lock() {
+                    *g = (k, what.to_string());
+                }
+            };
+            let on_candidates = |n: u64, _total: u64| go_on(n);
+            let r = pumpcyl::reproduce::reproduce(&pumpcyl::reproduce::ReproduceOptions {
+                on_step: Some(&on_step),
+                on_candidates: Some(&on_candidates),
+            })
+            .map_err(|e| format!("{e:#}"))?;
+            if let Some(dir) = &out {
+                r.write(dir).map_err(|e| format!("{e:#}"))?;
+            }
+            Ok::<_, String>(r.summary)
+        },
+        &mut tick,
+    )?
+    .map_err(err)?;
+    to_py(py, &result)
+}
+
 // Bulk modulus and design
 
 /// Gas fraction X that gives `beta_bar` (bar) at mean pressure `p_mean_bar` (bar), with pure
@@ -921,5 +968,6 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;
+    m.add_function(wrap_pyfunction!(reproduce, m)?)?;
     Ok(())
 }
