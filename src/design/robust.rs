@@ -128,9 +128,19 @@ impl Region {
         }
     }
 
+    /// The confidence region of `u` with the identification's answer `best` as its point
+    /// estimate, the one `identify` reports and every other step uses (the profiles' polished
+    /// optimum lies in the same region, but wanders along a flat b).
+    pub fn around(best: Candidate, u: &Uncertainty, standstill: Standstill) -> Region {
+        Region {
+            nominal: best,
+            ..Region::from_uncertainty(u, standstill)
+        }
+    }
+
     /// Identify the experiment's records with the file's options and read the confidence
     /// region at `confidence` off the profiles (docs/identification.md, "Uncertainty");
-    /// returns the experiment's rig carrying the estimate (β, b, c12 and c1, c2 from the
+    /// returns the experiment's rig carrying the identification's answer (β, b, c12 and c1, c2 from the
     /// standstill) and the region.
     pub fn of_records(exp: &Experiment, confidence: f64) -> Result<(Rig, Region), DesignError> {
         let id = exp.identify(&exp.options())?;
@@ -138,13 +148,14 @@ impl Region {
             confidence,
             ..UncertaintyOptions::default()
         };
-        let u = analyze(&exp.problem, &id.best().candidate, &opts)?;
-        let region = Region::from_uncertainty(&u, exp.problem.standstill);
-        let (c1, c2) = region.leakages(&exp.rig, u.best.c12_m5_per_ns)?;
+        let best = id.best().candidate;
+        let u = analyze(&exp.problem, &best, &opts)?;
+        let region = Region::around(best, &u, exp.problem.standstill);
+        let (c1, c2) = region.leakages(&exp.rig, best.c12_m5_per_ns)?;
         let rig = Rig {
-            beta_bar: u.best.beta_bar,
-            viscous_friction_ns_per_m: u.best.viscous_friction_ns_per_m,
-            c12_m5_per_ns: u.best.c12_m5_per_ns,
+            beta_bar: best.beta_bar,
+            viscous_friction_ns_per_m: best.viscous_friction_ns_per_m,
+            c12_m5_per_ns: best.c12_m5_per_ns,
             c1_m5_per_ns: c1,
             c2_m5_per_ns: c2,
             ..exp.rig.clone()

@@ -52,12 +52,7 @@ pub(super) fn how_sure(
     };
     let u = analyze(&exp.problem, &best, &opts)?;
     intervals(run, &u, truth)?;
-    // the point estimate is the identification's answer, the one every other step uses (the
-    // profiles' polished optimum lies in the same region, but on b's flat ridge)
-    let region = Region {
-        nominal: best,
-        ..Region::from_uncertainty(&u, exp.problem.standstill)
-    };
+    let region = Region::around(best, &u, exp.problem.standstill);
     let d = robust_design(
         nominal,
         &region,
