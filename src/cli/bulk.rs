@@ -164,7 +164,7 @@ pub(super) fn write_output(
     let title = "Effective bulk modulus and margins against mean chamber pressure";
     let subtitle = format!(
         "gas fraction X = {x:.4} from {} bar at {} bar (beta_oil {} bar); below 0 dB / 0 deg the loop is unstable",
-        fit.0, fit.1, fit.2
+        report::sig(fit.0, 4), report::sig(fit.1, 4), report::sig(fit.2, 4)
     );
     let x_label = "Mean chamber pressure (bar)";
     let bytes = if format == Format::Png {

@@ -10,6 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::font;
+use super::layout::trim_decimal;
 use super::render;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
@@ -434,22 +435,6 @@ fn value_ticks(
     linear_ticks_max(lo - pad, hi + pad, steps, max_major)
 }
 
-/// Decimal representation with at most `max_decimals` decimals, trailing
-/// zeros removed.
-fn trim_decimal(v: f64, max_decimals: usize) -> String {
-    let s = format!("{v:.max_decimals$}");
-    let s = if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    };
-    if s == "-0" {
-        "0".to_string()
-    } else {
-        s
-    }
-}
-
 /// Frequency tick label in Hz: "0.01", "1", "250", "10000", "1e6".
 fn format_freq_tick(f: f64) -> String {
     if f == 0.0 || !f.is_finite() {
@@ -860,35 +845,11 @@ impl render::Draw for Figure<'_> {
         let text = render::text(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
-        let (width, height) = root.dim_in_pixel();
+        let height = root.dim_in_pixel().1;
 
         // Header: title and margin summary.
-        let title_size = 24.0;
-        let summary_size = 17.0;
-        let mut header_h = px(14.0) + px(title_size) + px(10.0);
-        if self.summary.is_some() {
-            header_h += px(summary_size) + px(6.0);
-        }
-        let (header, body) = root.split_vertically(header_h);
-        let centre = (width / 2) as i32;
-        header
-            .draw(&Text::new(
-                self.title.to_string(),
-                (centre, px(14.0)),
-                text(title_size).pos(Pos::new(HPos::Center, VPos::Top)),
-            ))
-            .map_err(plot_err)?;
-        if let Some(summary) = &self.summary {
-            header
-                .draw(&Text::new(
-                    summary.clone(),
-                    (centre, px(14.0) + px(title_size) + px(8.0)),
-                    text(summary_size)
-                        .color(&REF_COLOR)
-                        .pos(Pos::new(HPos::Center, VPos::Top)),
-                ))
-                .map_err(plot_err)?;
-        }
+        let (body, header_h) =
+            render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
 
         // Panels with plotting areas of equal height.
         let y_label_area = px(82.0);
@@ -1234,6 +1195,34 @@ mod tests {
         let rgb = render::decode_png(&png, 800, 600);
         // Not a blank image: some dark pixels (text, curves).
         assert!(render::dark_pixels(&rgb) > 1000);
+    }
+
+    #[test]
+    fn long_title_stays_inside_a_small_figure() {
+        // 300 characters with spaces, and one unbreakable path, on a 640 px wide figure.
+        let words: String = (0..43).map(|i| format!("word{i:02} ")).collect();
+        let title: String = words.chars().take(300).collect();
+        assert_eq!(title.chars().count(), 300);
+        let path = format!("/data/{}/step_damping.csv", "x".repeat(280));
+        let s = [loop_series("a", 20.0, 80), loop_series("b", 60.0, 80)];
+        for t in [title.as_str(), path.as_str()] {
+            let fig = Figure::prepare(t, &s, Some(&markers())).unwrap();
+            let svg = render::to_svg(&fig, (640, 480)).unwrap();
+            assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
+            // The header keeps both ends of the text, shortened in the middle.
+            assert!(svg.contains('…'));
+            assert!(svg.contains(if t == path {
+                "step_damping.csv"
+            } else {
+                "word42"
+            }));
+        }
+        // The unshortened title on one line would overflow: the check can fail.
+        let svg = format!(
+            "<svg viewBox=\"0 0 640 480\"><text x=\"320\" y=\"14\" dy=\"0.76em\" \
+             text-anchor=\"middle\" font-size=\"19.35\">{title}</text></svg>"
+        );
+        assert_eq!(crate::report::text_overflow(&svg).len(), 1);
     }
 
     #[test]

@@ -760,8 +760,7 @@ impl render::Draw for Figure<'_> {
         let (width, height) = (width as i32, height as i32);
 
         // Header: title and subtitle.
-        let body = render::draw_header(root, self.title, self.subtitle, scale)?;
-        let header_h = render::header_height(scale, self.subtitle.is_some());
+        let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout.
         let (m_top, m_bottom, x_label_area) = (px(MARGIN_TOP), px(MARGIN_BOTTOM), px(X_LABEL_AREA));

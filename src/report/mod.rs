@@ -6,7 +6,9 @@
 
 mod bode;
 mod font;
+mod layout;
 mod render;
+pub use layout::{sig, text_overflow};
 
 pub use bode::{
     bode_png, bode_svg, BodeMarkers, BodeSeries, ReportError, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,

@@ -5,7 +5,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::bode::{encode_png, plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
-use super::font;
+use super::{font, layout};
 
 /// A figure ready to draw on any plotters backend; `scale` multiplies text and line sizes.
 pub(super) trait Draw {
@@ -102,46 +102,56 @@ pub(super) fn text(scale: f64) -> impl Fn(f64) -> TextStyle<'static> {
     move |size| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK)
 }
 
-/// Height (px) of the title block, with or without a subtitle.
-pub(super) fn header_height(scale: f64, with_subtitle: bool) -> i32 {
+/// Horizontal padding (px at scale 1) between the figure edge and the longest header line.
+const HEADER_PAD: f64 = 12.0;
+/// Most lines a title or a subtitle may take; longer ones are shortened in the middle.
+const HEADER_MAX_LINES: usize = 2;
+
+/// Height (px) of the title block with `title_lines` title and `subtitle_lines` subtitle lines.
+pub(super) fn header_height(scale: f64, title_lines: usize, subtitle_lines: usize) -> i32 {
     let px = px(scale);
-    let mut h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
-    if with_subtitle {
-        h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
+    let mut h = px(TITLE_TOP) + title_lines.max(1) as i32 * px(TITLE_SIZE) + px(TITLE_GAP);
+    if subtitle_lines > 0 {
+        h += subtitle_lines as i32 * px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
     }
     h
 }
 
-/// Draw the centred title and optional grey subtitle; returns the area below them.
+/// Draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
+/// shortened in the middle beyond that so that it never runs outside the figure; returns the
+/// area below them and the header's height (px).
 pub(super) fn draw_header<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     subtitle: Option<&str>,
     scale: f64,
-) -> Result<DrawingArea<DB, Shift>, ReportError> {
+) -> Result<(DrawingArea<DB, Shift>, i32), ReportError> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
     let (px, text) = (px(scale), text(scale));
-    let (header, body) = root.split_vertically(header_height(scale, subtitle.is_some()));
-    let centre = (root.dim_in_pixel().0 / 2) as i32;
+    let width = root.dim_in_pixel().0;
+    let max_w = f64::from(width) - 2.0 * f64::from(px(HEADER_PAD));
+    let fit = |s: &str, size: f64| layout::fit_lines(s, size * scale, max_w, HEADER_MAX_LINES);
+    let title_lines = fit(title, TITLE_SIZE);
+    let subtitle_lines = subtitle.map_or_else(Vec::new, |s| fit(s, SUBTITLE_SIZE));
+    let header_h = header_height(scale, title_lines.len(), subtitle_lines.len());
+    let sub_top = header_height(scale, title_lines.len(), 0) - px(2.0);
+    let (header, body) = root.split_vertically(header_h);
+    let centre = (width / 2) as i32;
     let top = Pos::new(HPos::Center, VPos::Top);
-    header
-        .draw(&Text::new(
-            title.to_string(),
-            (centre, px(TITLE_TOP)),
-            text(TITLE_SIZE).pos(top),
-        ))
-        .map_err(plot_err)?;
-    if let Some(subtitle) = subtitle {
-        let y = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP) - px(2.0);
+    for (k, line) in title_lines.into_iter().enumerate() {
+        let y = px(TITLE_TOP) + k as i32 * px(TITLE_SIZE);
         header
-            .draw(&Text::new(
-                subtitle.to_string(),
-                (centre, y),
-                text(SUBTITLE_SIZE).color(&SUBTITLE_COLOR).pos(top),
-            ))
+            .draw(&Text::new(line, (centre, y), text(TITLE_SIZE).pos(top)))
             .map_err(plot_err)?;
     }
-    Ok(body)
+    for (k, line) in subtitle_lines.into_iter().enumerate() {
+        let y = sub_top + k as i32 * px(SUBTITLE_SIZE);
+        let style = text(SUBTITLE_SIZE).color(&SUBTITLE_COLOR).pos(top);
+        header
+            .draw(&Text::new(line, (centre, y), style))
+            .map_err(plot_err)?;
+    }
+    Ok((body, header_h))
 }
 
 /// Test support: check PNG bytes (signature, IHDR size, decodable at that size) and return the

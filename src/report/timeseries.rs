@@ -95,7 +95,7 @@ pub struct Panel {
 /// sensible size for [`panels_png`].
 pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32) {
     let n = panel_count.clamp(1, 1000) as f64;
-    let h = header_height(1.0, with_subtitle) as f64
+    let h = header_height(1.0, 1, usize::from(with_subtitle)) as f64
         + MARGIN_TOP
         + n * f64::from(PANEL_PLOT_HEIGHT_PX)
         + (n - 1.0) * 2.0 * PANEL_GAP
@@ -384,8 +384,7 @@ impl render::Draw for Figure<'_> {
         let (width, height) = root.dim_in_pixel();
 
         // Header: title and subtitle.
-        let body = render::draw_header(root, self.title, self.subtitle, scale)?;
-        let header_h = render::header_height(scale, self.subtitle.is_some());
+        let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout: equal plotting heights.
         let n = self.panels.len() as i32;
