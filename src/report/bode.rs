@@ -143,16 +143,6 @@ pub fn bode_png(
     )
 }
 
-/// Encode a packed RGB8 buffer as a PNG file.
-pub(super) fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
-    use image::ImageEncoder;
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(rgb, width, height, image::ColorType::Rgb8)
-        .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))?;
-    Ok(out)
-}
-
 pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
     ReportError::Plot(e.to_string())
 }

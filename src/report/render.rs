@@ -4,7 +4,11 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::bode::{encode_png, plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
+use std::sync::{Arc, OnceLock};
+
+use resvg::{tiny_skia, usvg};
+
+use super::bode::{plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
 use super::{font, layout};
 
 /// A figure ready to draw on any plotters backend; `scale` multiplies text and line sizes.
@@ -19,18 +23,41 @@ pub(super) trait Draw {
 
 /// Render to an SVG document of `size` pixels at scale 1.
 pub(super) fn to_svg(figure: &impl Draw, size: (u32, u32)) -> Result<String, ReportError> {
+    svg_at_scale(figure, size, 1.0)
+}
+
+/// Render to an SVG document of `size` pixels, text and line sizes multiplied by `scale`.
+fn svg_at_scale(figure: &impl Draw, size: (u32, u32), scale: f64) -> Result<String, ReportError> {
     font::ensure_registered().map_err(ReportError::Plot)?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        figure.draw(&root, 1.0)?;
+        figure.draw(&root, scale)?;
         root.present().map_err(plot_err)?;
     }
     Ok(svg)
 }
 
-/// Render to PNG bytes of `width` × `height` pixels, text and lines scaled relative to the
-/// figure's natural size `base`.
+/// The font database resvg draws text with: only the embedded DejaVu Sans (no system fonts),
+/// also serving the generic `sans-serif` family the SVG names.
+fn font_db() -> Arc<usvg::fontdb::Database> {
+    static DB: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
+    DB.get_or_init(|| {
+        let mut db = usvg::fontdb::Database::new();
+        db.load_font_data(font::DEJAVU_SANS.to_vec());
+        db.set_sans_serif_family(EMBEDDED_FAMILY);
+        Arc::new(db)
+    })
+    .clone()
+}
+
+/// The family name inside the embedded font file.
+const EMBEDDED_FAMILY: &str = "DejaVu Sans";
+
+/// Render to PNG bytes of `width` × `height` pixels: the figure drawn as an SVG of that size,
+/// text and lines scaled by the image's size relative to the figure's natural size `base`,
+/// rasterised by resvg with anti-aliasing on a white background. PNG and SVG therefore show
+/// the same drawing.
 pub(super) fn to_png(
     figure: &impl Draw,
     width: u32,
@@ -45,18 +72,33 @@ pub(super) fn to_png(
              ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
         )));
     }
-    font::ensure_registered().map_err(ReportError::Plot)?;
     let scale = (f64::from(width) / f64::from(base.0))
         .min(f64::from(height) / f64::from(base.1))
         .clamp(0.4, 8.0);
-    // Bounded by MAX_SIDE_PX, so this cannot overflow.
-    let mut rgb = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        figure.draw(&root, scale)?;
-        root.present().map_err(plot_err)?;
-    }
-    encode_png(&rgb, width, height)
+    let svg = svg_at_scale(figure, (width, height), scale)?;
+    rasterise(&svg, width, height)
+}
+
+/// Rasterise the SVG document `svg` of `width` × `height` pixels onto a white image of that
+/// size and encode it as PNG.
+fn rasterise(svg: &str, width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
+    let options = usvg::Options {
+        font_family: EMBEDDED_FAMILY.to_string(),
+        fontdb: font_db(),
+        ..usvg::Options::default()
+    };
+    let tree = usvg::Tree::from_str(svg, &options).map_err(plot_err)?;
+    let mut pixmap = tiny_skia::Pixmap::new(width, height)
+        .ok_or_else(|| ReportError::Plot(format!("no {width} x {height} px image")))?;
+    pixmap.fill(tiny_skia::Color::WHITE);
+    resvg::render(
+        &tree,
+        tiny_skia::Transform::identity(),
+        &mut pixmap.as_mut(),
+    );
+    pixmap
+        .encode_png()
+        .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))
 }
 
 /// Candidate (major, minor) 1-2-5 × 10^k steps for `span`, ascending, starting at the smallest
