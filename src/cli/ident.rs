@@ -406,7 +406,7 @@ fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
             let cost = exp.problem.cost(&s.candidate);
             anyhow::ensure!(
                 (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
-                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
+                "stage {}: beta_bar {} reported at cost {} mm², but it costs {cost} mm² when \
                  simulated again; a partial result was edited or made by another pumpcyl",
                 k + 1,
                 s.candidate.beta_bar,
@@ -621,7 +621,7 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
     );
     let line = |label: &str, c: &Scored| {
         format!(
-            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N s/m  c12 {:.4e} m5/(N s)  cost {:.5} mm2\n",
+            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N s/m  c12 {:.4e} m5/(N s)  cost {:.5} mm²\n",
             c.candidate.beta_bar, c.candidate.viscous_friction_ns_per_m, c.candidate.c12_m5_per_ns, c.cost_mm2
         )
     };
@@ -644,7 +644,7 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
         });
         let _ = writeln!(
             s,
-            "  stage {} threshold set (cost < {} mm2): {} candidates; {bounds}",
+            "  stage {} threshold set (cost < {} mm²): {} candidates; {bounds}",
             i + 1,
             st.summary.threshold_mm2,
             st.summary.threshold_count
@@ -677,7 +677,7 @@ pub(super) fn write_outputs(
         let measured = crate::response::Signals::of_record(&ds.record);
         fits.push((ds.name.clone(), measured.clone(), sim.clone()));
         let subtitle = format!(
-            "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
+            "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm²",
             ds.name,
             ds.rig.kp,
             ds.rig.mass_kg,
