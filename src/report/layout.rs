@@ -81,6 +81,11 @@ pub(super) fn ellipsize_middle(text: &str, size: f64, max_w: f64) -> String {
 /// `size`: words wrapped greedily, the last line taking all remaining words and shortened with
 /// a middle ellipsis if it is still too wide (as is any single word wider than a line).
 pub(super) fn fit_lines(text: &str, size: f64, max_w: f64, max_lines: usize) -> Vec<String> {
+    let text = text.trim();
+    if !text.is_empty() && text_width(text, size) <= max_w {
+        // Fits: kept as written (with any runs of spaces the caller chose).
+        return vec![text.to_string()];
+    }
     let words: Vec<&str> = text.split_whitespace().collect();
     let mut lines = Vec::new();
     let mut i = 0;
@@ -446,7 +451,7 @@ mod tests {
     #[test]
     fn fit_lines_wraps_then_shortens() {
         let size = 24.0;
-        let short = "Step response";
+        let short = "GM = 6 dB      PM = 30°";
         assert_eq!(fit_lines(short, size, 600.0, 2), vec![short.to_string()]);
         let long: String = (0..60).map(|i| format!("w{i} ")).collect();
         let lines = fit_lines(&long, size, 600.0, 2);
