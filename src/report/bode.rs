@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::font;
-use super::layout::trim_decimal;
+use super::layout::{self, trim_decimal};
 use super::render;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
@@ -1000,13 +1000,12 @@ impl render::Draw for Figure<'_> {
         }
         if multi {
             let (pw, ph) = top.plotting_area().dim_in_pixel();
-            let longest = self
+            let widest = self
                 .series
                 .iter()
-                .map(|s| s.label.chars().count())
-                .max()
-                .unwrap_or(0) as f64;
-            let legend_w = (px(60.0) as f64 + longest * 9.5 * scale) / f64::from(pw.max(1));
+                .map(|s| layout::text_width(&s.label, 15.0 * scale))
+                .fold(0.0, f64::max);
+            let legend_w = (f64::from(px(60.0)) + widest) / f64::from(pw.max(1));
             let legend_h =
                 (px(20.0) as f64 + self.series.len() as f64 * 22.0 * scale) / f64::from(ph.max(1));
             top.configure_series_labels()
