@@ -992,10 +992,12 @@ impl render::Draw for Figure<'_> {
                     });
             }
         }
-        for m in &self.marks {
+        // Only the first marked series' bars are labelled, so close bars never overprint
+        // their labels; the colours and the summary tell the others apart.
+        for (k, m) in self.marks.iter().enumerate() {
             if let Some((f, lo, hi)) = m.gm_bar {
-                let c = series_color(m.series);
-                margin_bar(&mut top, f, (lo, hi), &self.mag, ("GM", c), scale)?;
+                let label = (if k == 0 { "GM" } else { "" }, series_color(m.series));
+                margin_bar(&mut top, f, (lo, hi), &self.mag, label, scale)?;
             }
         }
         if multi {
@@ -1066,10 +1068,12 @@ impl render::Draw for Figure<'_> {
         for (i, pieces) in self.phase_pieces.iter().enumerate().rev() {
             draw_pieces(&mut bottom, pieces, i, line_w, scale)?;
         }
-        for m in &self.marks {
+        // Only the first marked series' bars are labelled, so close bars never overprint
+        // their labels; the colours and the summary tell the others apart.
+        for (k, m) in self.marks.iter().enumerate() {
             if let Some((f, lo, hi)) = m.pm_bar {
-                let c = series_color(m.series);
-                margin_bar(&mut bottom, f, (lo, hi), &self.phase, ("PM", c), scale)?;
+                let label = (if k == 0 { "PM" } else { "" }, series_color(m.series));
+                margin_bar(&mut bottom, f, (lo, hi), &self.phase, label, scale)?;
             }
         }
         frame(
@@ -1141,6 +1145,9 @@ fn margin_bar<DB: DrawingBackend>(
             color.stroke_width((3.0 * scale).round().max(2.0) as u32),
         )))
         .map_err(plot_err)?;
+    if label.is_empty() {
+        return Ok(());
+    }
     let (_, plot_h) = chart.plotting_area().dim_in_pixel();
     let below_px = (lower - panel.lo) / (panel.hi - panel.lo) * f64::from(plot_h);
     let (dy, vpos) = if below_px > 26.0 * scale {
@@ -1309,7 +1316,8 @@ mod tests {
         let text: String = svg.split_whitespace().collect::<Vec<_>>().join(" ");
         assert!(text.contains("a: GM = 12.3 dB @ 5.00 Hz"), "{text}");
         assert!(text.contains("b: GM = 3.5 dB @ 8.00 Hz"));
-        // GM and PM bars labelled twice: in black-free series colours, one set in each.
+        // GM and PM bars in each series' colour, labelled for the first series only (close
+        // bars would overprint their labels).
         let labels = |colour: &str, l: &str| {
             svg.split("<text")
                 .filter(|t| {
@@ -1319,7 +1327,13 @@ mod tests {
         };
         for l in ["GM", "PM"] {
             assert_eq!(labels("#0072B2", l), 1, "{l} of a");
-            assert_eq!(labels("#D55E00", l), 1, "{l} of b");
+            assert_eq!(labels("#D55E00", l), 0, "{l} of b");
+            let bars = |colour: &str| {
+                svg.lines()
+                    .filter(|t| t.contains(&format!("stroke=\"{colour}\" stroke-width=\"3\"")))
+                    .count()
+            };
+            assert_eq!((bars("#0072B2"), bars("#D55E00")), (2, 2), "GM and PM bars");
         }
         // The second series is dashed, the first solid: count the breaks between consecutive
         // drawn pieces of each colour's curves (2 px wide; the crossover lines are 1 px).
