@@ -19,8 +19,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::bode::{linear_ticks, plot_err, ReportError};
-use super::font;
 use super::render::{self, steps_125, SUBTITLE_COLOR};
+use super::{font, layout};
 
 /// Default heat-map width in pixels (used for SVG output; a sensible PNG
 /// size).
@@ -750,10 +750,8 @@ impl render::Draw for Figure<'_> {
         let px = render::px(scale);
         let upx = render::upx(scale);
         let text = render::text(scale);
-        let text_width = |s: &str, style: &TextStyle| -> Result<i32, ReportError> {
-            let (w, _) = root.estimate_text_size(s, style).map_err(plot_err)?;
-            Ok(w as i32)
-        };
+        // Width (px) of `s` at text size `size` (scale 1).
+        let text_width = |s: &str, size: f64| layout::text_width(s, size * scale).ceil() as i32;
 
         root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
@@ -789,12 +787,12 @@ impl render::Draw for Figure<'_> {
         // Horizontal layout: label areas fit the widest tick labels.
         let mut widest_y = 0;
         for l in &y_axis.labels {
-            widest_y = widest_y.max(text_width(l, &label_style)?);
+            widest_y = widest_y.max(text_width(l, TICK_LABEL_SIZE));
         }
         let y_label_area = px(MIN_Y_LABEL_AREA).max(widest_y + px(52.0));
         let mut widest_bar = 0;
         for l in &bar_axis.labels {
-            widest_bar = widest_bar.max(text_width(l, &label_style)?);
+            widest_bar = widest_bar.max(text_width(l, TICK_LABEL_SIZE));
         }
         let mut bar_label_area = 2 * px(TICK_SIZE) + widest_bar + px(8.0);
         if !self.map.cost_label.is_empty() {
@@ -813,7 +811,7 @@ impl render::Draw for Figure<'_> {
             )));
         }
         let (x_lo, x_hi) = (self.x_edges[0], self.x_edges[self.x_edges.len() - 1]);
-        let measure = |s: &str| text_width(s, &label_style).map_or(0.0, f64::from);
+        let measure = |s: &str| f64::from(text_width(s, TICK_LABEL_SIZE));
         let x_axis = fitted_linear_axis(
             x_lo,
             x_hi,
@@ -973,7 +971,7 @@ impl render::Draw for Figure<'_> {
         // Note on grey cells, bottom right, level with the x description.
         if self.has_missing {
             let style = text(NOTE_SIZE).color(&SUBTITLE_COLOR);
-            let note_w = text_width(MISSING_NOTE, &style)?;
+            let note_w = text_width(MISSING_NOTE, NOTE_SIZE);
             let sw = px(NOTE_SIZE * 0.9).max(4);
             let y_mid = bottom + x_label_area - px(AXIS_DESC_SIZE * 0.6);
             let text_right = width - m_right;
@@ -1065,6 +1063,8 @@ mod tests {
         )
         .unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        // Every text (ticks, axis descriptions, legend, notes) lies inside the figure.
+        assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
         assert!(svg.trim_end().ends_with("</svg>"));
         for s in [
             "Identification cost",

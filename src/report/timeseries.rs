@@ -16,6 +16,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::bode::{
     linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
 };
+use super::layout;
 use super::render::{self, header_height, steps_125};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
@@ -417,11 +418,8 @@ impl render::Draw for Figure<'_> {
             for t in y_ticks {
                 let axis = t.axis();
                 for v in &t.major {
-                    let s = axis.format_ext(v);
-                    let (w, _) = root
-                        .estimate_text_size(&s, &label_style)
-                        .map_err(plot_err)?;
-                    widest = widest.max(w);
+                    let w = layout::text_width(&axis.format_ext(v), TICK_LABEL_SIZE * scale);
+                    widest = widest.max(w.ceil() as u32);
                 }
             }
             Ok(px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0)))
@@ -983,6 +981,8 @@ mod tests {
     fn svg_contains_labels() {
         let svg = panels_svg("Step response", Some("rise 0.62 s"), &step_panels()).unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        // Every text (ticks, axis descriptions, legend, notes) lies inside the figure.
+        assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
         assert!(svg.trim_end().ends_with("</svg>"));
         for s in [
             "Step response",
