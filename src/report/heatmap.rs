@@ -703,11 +703,10 @@ impl<'a> Figure<'a> {
         let style = TextStyle::from((font::FAMILY, MARKER_LABEL_SIZE * scale).into_font())
             .color(&BLACK)
             .pos(Pos::new(HPos::Left, VPos::Top));
-        let (tw, th) = root
-            .estimate_text_size(&marker.label, &style)
-            .map_err(plot_err)?;
+        let tw = layout::text_width(&marker.label, MARKER_LABEL_SIZE * scale).ceil() as i32;
+        let th = px(MARKER_LABEL_SIZE);
         let pad = px(4.0);
-        let (bw, bh) = (tw as i32 + 2 * pad, th as i32 + 2 * pad);
+        let (bw, bh) = (tw + 2 * pad, th + 2 * pad);
         let gap = arm + px(4.0);
         let mut x0 = cx + gap;
         if x0 + bw > right {

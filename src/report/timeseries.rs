@@ -453,13 +453,10 @@ impl render::Draw for Figure<'_> {
                 legends.push(None);
                 continue;
             }
-            let mut label_w = Vec::with_capacity(entries.len());
-            for e in &entries {
-                let (w, _) = root
-                    .estimate_text_size(&e.label, &legend_metrics.font)
-                    .map_err(plot_err)?;
-                label_w.push(w as i32);
-            }
+            let label_w: Vec<i32> = entries
+                .iter()
+                .map(|e| layout::text_width(&e.label, LEGEND_FONT_SIZE * scale).ceil() as i32)
+                .collect();
             let plot = (plot_w, plot_h);
             let x_range = (x_ticks.lo, x_ticks.hi);
             let (mut layout, hits) = place_legend(
