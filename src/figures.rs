@@ -186,8 +186,10 @@ impl Chart {
         Chart {
             title: "Effective bulk modulus and margins against mean chamber pressure".into(),
             subtitle: Some(format!(
-                "gas fraction X = {x:.4} from {} bar at {} bar (beta_oil {} bar); below 0 dB / 0 deg the loop is unstable",
-                fit.0, fit.1, fit.2
+                "gas fraction X = {x:.4} from {} bar at {} bar (β_oil {} bar); below 0 dB / 0 deg the loop is unstable",
+                report::sig(fit.0, 4),
+                report::sig(fit.1, 4),
+                report::sig(fit.2, 4)
             )),
             plot: Plot::Xy {
                 x_label: "Mean chamber pressure (bar)".into(),

@@ -705,19 +705,19 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
         &[
             (
                 "motor_inertia_1_kg_mm2",
-                "kg mm2, motor 1 rotor inertia Jm1",
+                "kg mm², motor 1 rotor inertia Jm1",
             ),
             (
                 "motor_inertia_2_kg_mm2",
-                "kg mm2, motor 2 rotor inertia Jm2",
+                "kg mm², motor 2 rotor inertia Jm2",
             ),
             (
                 "pump_inertia_1_kg_mm2",
-                "kg mm2, pump 1 (axial piston) inertia Jp1",
+                "kg mm², pump 1 (axial piston) inertia Jp1",
             ),
             (
                 "pump_inertia_2_kg_mm2",
-                "kg mm2, pump 2 (internal gear) inertia Jp2",
+                "kg mm², pump 2 (internal gear) inertia Jp2",
             ),
             (
                 "displacement_1_cm3_per_rev",

@@ -193,6 +193,7 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
     let freqs = lti::log_grid(args.from_hz, args.to_hz, points);
     let base = args.model.build(&[])?;
     let mut series = vec![series_of(&base, "nominal", &freqs)?];
+    let mut variants = Vec::new();
     for variant in &args.compare {
         let overrides: Vec<String> = variant.split(',').map(|s| s.trim().to_string()).collect();
         let lp = args
@@ -200,6 +201,7 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
             .build(&overrides)
             .with_context(|| format!("--compare {variant}"))?;
         series.push(series_of(&lp, variant, &freqs)?);
+        variants.push(lp);
     }
     let format = match &args.out {
         Some(path) => format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])?,
@@ -216,18 +218,24 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
     let bytes = match format {
         Format::Csv => bode_csv(&series).into_bytes(),
         _ => {
-            let m = lti::margins(&base.open_loop)?;
-            let markers = (series.len() == 1).then_some(BodeMarkers {
-                gain_crossover_hz: m.gain_crossover_hz,
-                phase_crossover_hz: m.phase_crossover_hz,
-                gain_margin_db: m.gain_margin_db,
-                phase_margin_deg: m.phase_margin_deg,
-            });
+            // Every series keeps its margin markers, drawn in its own colour.
+            let markers = std::iter::once(&base)
+                .chain(&variants)
+                .map(|lp| {
+                    let m = lti::margins(&lp.open_loop)?;
+                    Ok(Some(BodeMarkers {
+                        gain_crossover_hz: m.gain_crossover_hz,
+                        phase_crossover_hz: m.phase_crossover_hz,
+                        gain_margin_db: m.gain_margin_db,
+                        phase_margin_deg: m.phase_margin_deg,
+                    }))
+                })
+                .collect::<Result<Vec<_>>>()?;
             let title = format!("Bode: {}", base.description);
             if format == Format::Svg {
-                report::bode_svg(&title, &series, markers.as_ref())?.into_bytes()
+                report::bode_svg_marked(&title, &series, &markers)?.into_bytes()
             } else {
-                report::bode_png(&title, &series, markers.as_ref(), 1500, 1125)?
+                report::bode_png_marked(&title, &series, &markers, 1500, 1125)?
             }
         }
     };

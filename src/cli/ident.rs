@@ -400,7 +400,7 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
     );
     let line = |label: &str, c: &Scored| {
         format!(
-            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N s/m  c12 {:.4e} m5/(N s)  cost {:.5} mm2\n",
+            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N s/m  c12 {:.4e} m5/(N s)  cost {:.5} mm²\n",
             c.candidate.beta_bar, c.candidate.viscous_friction_ns_per_m, c.candidate.c12_m5_per_ns, c.cost_mm2
         )
     };
@@ -423,7 +423,7 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
         });
         let _ = writeln!(
             s,
-            "  stage {} threshold set (cost < {} mm2): {} candidates; {bounds}",
+            "  stage {} threshold set (cost < {} mm²): {} candidates; {bounds}",
             i + 1,
             st.summary.threshold_mm2,
             st.summary.threshold_count

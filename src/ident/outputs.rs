@@ -232,7 +232,7 @@ pub fn fit_chart(exp: &Experiment, id: &Identification, i: usize, fit: &Fit) -> 
     let ds = &exp.problem.datasets[i];
     let best = &id.best().candidate;
     let subtitle = format!(
-        "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm2",
+        "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm²",
         ds.name,
         ds.rig.kp,
         ds.rig.mass_kg,

@@ -72,7 +72,7 @@ fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
             let cost = exp.problem.cost(&s.candidate);
             anyhow::ensure!(
                 (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
-                "stage {}: beta_bar {} reported at cost {} mm2, but it costs {cost} mm2 when \
+                "stage {}: beta_bar {} reported at cost {} mm², but it costs {cost} mm² when \
                  simulated again; a partial result was edited or made by another pumpcyl",
                 k + 1,
                 s.candidate.beta_bar,

@@ -10,6 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::font;
+use super::layout::{self, trim_decimal};
 use super::render;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
@@ -115,8 +116,31 @@ pub fn bode_svg(
     series: &[BodeSeries],
     markers: Option<&BodeMarkers>,
 ) -> Result<String, ReportError> {
+    bode_svg_marked(title, series, &first_only(series, markers))
+}
+
+/// As [`bode_svg`], with stability-margin markers for any series: `markers[i]` belongs to
+/// `series[i]` and is drawn in that series' colour (crossover lines, GM and PM bars); the
+/// margins of every marked series are summarised under the title. Series after the first are
+/// drawn dashed or dotted (and so is their legend sample), so overlapping curves stay
+/// distinguishable without colour.
+///
+/// # Errors
+/// As [`bode_svg`].
+pub fn bode_svg_marked(
+    title: &str,
+    series: &[BodeSeries],
+    markers: &[Option<BodeMarkers>],
+) -> Result<String, ReportError> {
     let figure = Figure::prepare(title, series, markers)?;
     render::to_svg(&figure, (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX))
+}
+
+/// `markers` for the first series only, none for the others.
+fn first_only(series: &[BodeSeries], markers: Option<&BodeMarkers>) -> Vec<Option<BodeMarkers>> {
+    let mut m = vec![None; series.len().max(1)];
+    m[0] = markers.copied();
+    m
 }
 
 /// Same figure as [`bode_svg`], rendered to an encoded PNG file (the bytes of
@@ -133,6 +157,20 @@ pub fn bode_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, ReportError> {
+    bode_png_marked(title, series, &first_only(series, markers), width, height)
+}
+
+/// As [`bode_svg_marked`], rendered to PNG like [`bode_png`].
+///
+/// # Errors
+/// As [`bode_png`].
+pub fn bode_png_marked(
+    title: &str,
+    series: &[BodeSeries],
+    markers: &[Option<BodeMarkers>],
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
     let figure = Figure::prepare(title, series, markers)?;
     render::to_png(
         &figure,
@@ -140,16 +178,6 @@ pub fn bode_png(
         height,
         (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX),
     )
-}
-
-/// Encode a packed RGB8 buffer as a PNG file.
-pub(super) fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
-    use image::ImageEncoder;
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(rgb, width, height, image::ColorType::Rgb8)
-        .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))?;
-    Ok(out)
 }
 
 pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
@@ -434,22 +462,6 @@ fn value_ticks(
     linear_ticks_max(lo - pad, hi + pad, steps, max_major)
 }
 
-/// Decimal representation with at most `max_decimals` decimals, trailing
-/// zeros removed.
-fn trim_decimal(v: f64, max_decimals: usize) -> String {
-    let s = format!("{v:.max_decimals$}");
-    let s = if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    };
-    if s == "-0" {
-        "0".to_string()
-    } else {
-        s
-    }
-}
-
 /// Frequency tick label in Hz: "0.01", "1", "250", "10000", "1e6".
 fn format_freq_tick(f: f64) -> String {
     if f == 0.0 || !f.is_finite() {
@@ -641,14 +653,93 @@ struct Figure<'a> {
     phase_ref: f64,
     mag_pieces: Vec<Pieces>,
     phase_pieces: Vec<Pieces>,
+    /// Margin markers of the series that have them.
+    marks: Vec<Marks>,
+    /// Margin summary printed under the title.
+    summary: Option<String>,
+}
+
+/// The stability-margin markers of one series, in that series' colour.
+struct Marks {
+    /// Index of the series.
+    series: usize,
     /// Gain margin bar: (phase crossover Hz, from dB, to dB).
     gm_bar: Option<(f64, f64, f64)>,
     /// Phase margin bar: (gain crossover Hz, from deg, to deg).
     pm_bar: Option<(f64, f64, f64)>,
     /// Crossover frequencies (Hz) inside the frequency range.
     crossovers: Vec<f64>,
-    /// Margin summary printed under the title.
+    /// "GM = … @ … Hz      PM = … @ … Hz", if any margin or crossover is known.
     summary: Option<String>,
+}
+
+impl Marks {
+    /// The markers `m` of series number `i` (`s`) on the axes `x`, `mag`, `phase`.
+    fn new(
+        i: usize,
+        s: &BodeSeries,
+        m: &BodeMarkers,
+        x: &FreqTicks,
+        mag: &LinearTicks,
+        phase: &LinearTicks,
+    ) -> Self {
+        let gm = m.gain_margin_db.filter(|g| !g.is_nan());
+        let pm = m.phase_margin_deg.filter(|p| p.is_finite());
+        let f_pc = valid_freq(m.phase_crossover_hz);
+        let f_gc = valid_freq(m.gain_crossover_hz);
+        let gm_bar = match (f_pc, gm) {
+            (Some(f), Some(g)) if g.is_finite() && x.contains(f) && g != 0.0 => {
+                let lo = (-g).clamp(mag.lo, mag.hi);
+                let hi = 0.0f64.clamp(mag.lo, mag.hi);
+                (lo != hi).then_some((f, lo, hi))
+            }
+            _ => None,
+        };
+        let pm_bar = match (f_gc, pm) {
+            (Some(f), Some(p)) if x.contains(f) && p != 0.0 => {
+                // -180 deg shifted by the multiple of 360 deg that matches
+                // the unwrapped phase of the series at the crossover.
+                let base = interpolate_at(&s.freq_hz, &s.phase_deg, f)
+                    .map(|ph| ((ph - p + 180.0) / 360.0).round() * 360.0 - 180.0)
+                    .unwrap_or(-180.0);
+                let lo = base.clamp(phase.lo, phase.hi);
+                let hi = (base + p).clamp(phase.lo, phase.hi);
+                (lo != hi).then_some((f, lo, hi))
+            }
+            _ => None,
+        };
+        let mut crossovers: Vec<f64> = [f_gc, f_pc]
+            .into_iter()
+            .flatten()
+            .filter(|&f| x.contains(f))
+            .collect();
+        crossovers.dedup();
+
+        let mut parts = Vec::new();
+        match (gm, f_pc) {
+            (Some(g), Some(f)) => parts.push(format!(
+                "GM = {} @ {} Hz",
+                format_signed(g, "dB"),
+                format_freq_hz(f)
+            )),
+            (Some(g), None) => parts.push(format!("GM = {}", format_signed(g, "dB"))),
+            (None, Some(f)) => parts.push(format!("phase crossover @ {} Hz", format_freq_hz(f))),
+            (None, None) => {}
+        }
+        match (pm, f_gc) {
+            (Some(p), Some(f)) => parts.push(format!("PM = {p:.1}° @ {} Hz", format_freq_hz(f))),
+            (Some(p), None) => parts.push(format!("PM = {p:.1}°")),
+            (None, Some(f)) => parts.push(format!("gain crossover @ {} Hz", format_freq_hz(f))),
+            (None, None) => {}
+        }
+        Marks {
+            series: i,
+            gm_bar,
+            pm_bar,
+            crossovers,
+            summary: (!parts.is_empty()).then(|| parts.join("      ")),
+        }
+    }
 }
 
 fn valid_freq(f: Option<f64>) -> Option<f64> {
@@ -659,7 +750,7 @@ impl<'a> Figure<'a> {
     fn prepare(
         title: &'a str,
         series: &'a [BodeSeries],
-        markers: Option<&BodeMarkers>,
+        markers: &[Option<BodeMarkers>],
     ) -> Result<Self, ReportError> {
         if series.is_empty() {
             return Err(ReportError::Empty("no series given".into()));
@@ -706,12 +797,6 @@ impl<'a> Figure<'a> {
                 .map(|s| (s.freq_hz.as_slice(), s.phase_deg.as_slice())),
         );
 
-        let markers = markers.copied().unwrap_or_default();
-        let gm = markers.gain_margin_db.filter(|g| !g.is_nan());
-        let pm = markers.phase_margin_deg.filter(|p| p.is_finite());
-        let f_pc = valid_freq(markers.phase_crossover_hz);
-        let f_gc = valid_freq(markers.gain_crossover_hz);
-
         // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
         let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
         let m_lo = m_lo.max(m_hi - MAG_WINDOW_DB);
@@ -740,53 +825,26 @@ impl<'a> Figure<'a> {
             .map(|s| clip_pieces(&s.freq_hz, &s.phase_deg, phase.lo, phase.hi))
             .collect();
 
-        let first = &series[0];
-        let gm_bar = match (f_pc, gm) {
-            (Some(f), Some(g)) if g.is_finite() && x.contains(f) && g != 0.0 => {
-                let lo = (-g).clamp(mag.lo, mag.hi);
-                let hi = 0.0f64.clamp(mag.lo, mag.hi);
-                (lo != hi).then_some((f, lo, hi))
-            }
-            _ => None,
-        };
-        let pm_bar = match (f_gc, pm) {
-            (Some(f), Some(p)) if x.contains(f) && p != 0.0 => {
-                // -180 deg shifted by the multiple of 360 deg that matches
-                // the unwrapped phase of the first series at the crossover.
-                let base = interpolate_at(&first.freq_hz, &first.phase_deg, f)
-                    .map(|ph| ((ph - p + 180.0) / 360.0).round() * 360.0 - 180.0)
-                    .unwrap_or(-180.0);
-                let lo = base.clamp(phase.lo, phase.hi);
-                let hi = (base + p).clamp(phase.lo, phase.hi);
-                (lo != hi).then_some((f, lo, hi))
-            }
-            _ => None,
-        };
-        let mut crossovers: Vec<f64> = [f_gc, f_pc]
-            .into_iter()
-            .flatten()
-            .filter(|&f| x.contains(f))
+        let marks: Vec<Marks> = series
+            .iter()
+            .zip(markers)
+            .enumerate()
+            .filter_map(|(i, (s, m))| m.as_ref().map(|m| Marks::new(i, s, m, &x, &mag, &phase)))
             .collect();
-        crossovers.dedup();
-
-        let mut parts = Vec::new();
-        match (gm, f_pc) {
-            (Some(g), Some(f)) => parts.push(format!(
-                "GM = {} @ {} Hz",
-                format_signed(g, "dB"),
-                format_freq_hz(f)
-            )),
-            (Some(g), None) => parts.push(format!("GM = {}", format_signed(g, "dB"))),
-            (None, Some(f)) => parts.push(format!("phase crossover @ {} Hz", format_freq_hz(f))),
-            (None, None) => {}
-        }
-        match (pm, f_gc) {
-            (Some(p), Some(f)) => parts.push(format!("PM = {p:.1}° @ {} Hz", format_freq_hz(f))),
-            (Some(p), None) => parts.push(format!("PM = {p:.1}°")),
-            (None, Some(f)) => parts.push(format!("gain crossover @ {} Hz", format_freq_hz(f))),
-            (None, None) => {}
-        }
-        let summary = (!parts.is_empty()).then(|| parts.join("      "));
+        let summary = match &marks[..] {
+            [] => None,
+            [only] if series.len() == 1 => only.summary.clone(),
+            _ => {
+                let parts: Vec<String> = marks
+                    .iter()
+                    .filter_map(|m| {
+                        let text = m.summary.as_ref()?;
+                        Some(format!("{}: {text}", series[m.series].label))
+                    })
+                    .collect();
+                (!parts.is_empty()).then(|| parts.join("; "))
+            }
+        };
 
         Ok(Figure {
             title,
@@ -797,9 +855,7 @@ impl<'a> Figure<'a> {
             phase_ref,
             mag_pieces,
             phase_pieces,
-            gm_bar,
-            pm_bar,
-            crossovers,
+            marks,
             summary,
         })
     }
@@ -860,35 +916,11 @@ impl render::Draw for Figure<'_> {
         let text = render::text(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
-        let (width, height) = root.dim_in_pixel();
+        let height = root.dim_in_pixel().1;
 
         // Header: title and margin summary.
-        let title_size = 24.0;
-        let summary_size = 17.0;
-        let mut header_h = px(14.0) + px(title_size) + px(10.0);
-        if self.summary.is_some() {
-            header_h += px(summary_size) + px(6.0);
-        }
-        let (header, body) = root.split_vertically(header_h);
-        let centre = (width / 2) as i32;
-        header
-            .draw(&Text::new(
-                self.title.to_string(),
-                (centre, px(14.0)),
-                text(title_size).pos(Pos::new(HPos::Center, VPos::Top)),
-            ))
-            .map_err(plot_err)?;
-        if let Some(summary) = &self.summary {
-            header
-                .draw(&Text::new(
-                    summary.clone(),
-                    (centre, px(14.0) + px(title_size) + px(8.0)),
-                    text(summary_size)
-                        .color(&REF_COLOR)
-                        .pos(Pos::new(HPos::Center, VPos::Top)),
-                ))
-                .map_err(plot_err)?;
-        }
+        let (body, header_h) =
+            render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
 
         // Panels with plotting areas of equal height.
         let y_label_area = px(82.0);
@@ -905,7 +937,6 @@ impl render::Draw for Figure<'_> {
         let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
         let line_w = upx(2.0).max(2);
         let ref_style = REF_COLOR.stroke_width(upx(1.5));
-        let marker_style = REF_COLOR.mix(0.9).stroke_width(upx(1.2));
 
         // --- Magnitude panel ---------------------------------------------
         let mut top = ChartBuilder::on(&top_area)
@@ -935,43 +966,48 @@ impl render::Draw for Figure<'_> {
             ))
             .map_err(plot_err)?;
         }
-        for &f in &self.crossovers {
-            top.draw_series(DashedLineSeries::new(
-                [(f, self.mag.lo), (f, self.mag.hi)],
-                px(2.0),
-                px(4.0),
-                marker_style,
-            ))
-            .map_err(plot_err)?;
-        }
+        crossover_lines(&mut top, &self.marks, (self.mag.lo, self.mag.hi), scale)?;
         let multi = self.series.len() > 1;
         // Later series first, so the first series (the one the markers
         // refer to) is drawn on top.
         for (i, pieces) in self.mag_pieces.iter().enumerate().rev() {
-            draw_pieces(&mut top, pieces, series_color(i), line_w, upx(3.0))?;
+            draw_pieces(&mut top, pieces, i, line_w, scale)?;
         }
         if multi {
             for (i, s) in self.series.iter().enumerate() {
                 let legend_style = series_color(i).stroke_width(line_w);
-                let len = px(28.0);
+                let (len, dash) = (px(28.0), series_dash(i, scale));
                 top.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
                     .map_err(plot_err)?
                     .label(s.label.clone())
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + len, y)], legend_style));
+                    .legend(move |(x, y)| match dash {
+                        Some((d, g)) => plotters::element::DashedPathElement::new(
+                            [(x, y), (x + len, y)],
+                            d,
+                            g,
+                            legend_style,
+                        )
+                        .into_dyn(),
+                        None => PathElement::new([(x, y), (x + len, y)], legend_style).into_dyn(),
+                    });
             }
         }
-        if let Some((f, lo, hi)) = self.gm_bar {
-            margin_bar(&mut top, f, (lo, hi), &self.mag, "GM", scale)?;
+        // Only the first marked series' bars are labelled, so close bars never overprint
+        // their labels; the colours and the summary tell the others apart.
+        for (k, m) in self.marks.iter().enumerate() {
+            if let Some((f, lo, hi)) = m.gm_bar {
+                let label = (if k == 0 { "GM" } else { "" }, series_color(m.series));
+                margin_bar(&mut top, f, (lo, hi), &self.mag, label, scale)?;
+            }
         }
         if multi {
             let (pw, ph) = top.plotting_area().dim_in_pixel();
-            let longest = self
+            let widest = self
                 .series
                 .iter()
-                .map(|s| s.label.chars().count())
-                .max()
-                .unwrap_or(0) as f64;
-            let legend_w = (px(60.0) as f64 + longest * 9.5 * scale) / f64::from(pw.max(1));
+                .map(|s| layout::text_width(&s.label, 15.0 * scale))
+                .fold(0.0, f64::max);
+            let legend_w = (f64::from(px(60.0)) + widest) / f64::from(pw.max(1));
             let legend_h =
                 (px(20.0) as f64 + self.series.len() as f64 * 22.0 * scale) / f64::from(ph.max(1));
             top.configure_series_labels()
@@ -1023,21 +1059,22 @@ impl render::Draw for Figure<'_> {
                 ))
                 .map_err(plot_err)?;
         }
-        for &f in &self.crossovers {
-            bottom
-                .draw_series(DashedLineSeries::new(
-                    [(f, self.phase.lo), (f, self.phase.hi)],
-                    px(2.0),
-                    px(4.0),
-                    marker_style,
-                ))
-                .map_err(plot_err)?;
-        }
+        crossover_lines(
+            &mut bottom,
+            &self.marks,
+            (self.phase.lo, self.phase.hi),
+            scale,
+        )?;
         for (i, pieces) in self.phase_pieces.iter().enumerate().rev() {
-            draw_pieces(&mut bottom, pieces, series_color(i), line_w, upx(3.0))?;
+            draw_pieces(&mut bottom, pieces, i, line_w, scale)?;
         }
-        if let Some((f, lo, hi)) = self.pm_bar {
-            margin_bar(&mut bottom, f, (lo, hi), &self.phase, "PM", scale)?;
+        // Only the first marked series' bars are labelled, so close bars never overprint
+        // their labels; the colours and the summary tell the others apart.
+        for (k, m) in self.marks.iter().enumerate() {
+            if let Some((f, lo, hi)) = m.pm_bar {
+                let label = (if k == 0 { "PM" } else { "" }, series_color(m.series));
+                margin_bar(&mut bottom, f, (lo, hi), &self.phase, label, scale)?;
+            }
         }
         frame(
             &bottom,
@@ -1059,6 +1096,33 @@ fn series_color(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
 }
 
+/// Thin dashed vertical lines at the crossover frequencies of each marked series, in the
+/// series' colour, spanning the panel's value range `(lo, hi)`.
+fn crossover_lines<DB: DrawingBackend>(
+    chart: &mut BodeChart<'_, DB>,
+    marks: &[Marks],
+    (lo, hi): (f64, f64),
+    scale: f64,
+) -> Result<(), ReportError> {
+    let px = render::px(scale);
+    for m in marks {
+        let style = series_color(m.series)
+            .mix(0.9)
+            .stroke_width(render::upx(scale)(1.2));
+        for &f in &m.crossovers {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(f, lo), (f, hi)],
+                    px(2.0),
+                    px(4.0),
+                    style,
+                ))
+                .map_err(plot_err)?;
+        }
+    }
+    Ok(())
+}
+
 /// Thick vertical bar at `f` Hz between `a` and `b` (panel units) showing a
 /// stability margin, labelled `label` to the left of its lower end, just
 /// below it (above it when too close to the bottom of the panel). Left of the
@@ -1069,7 +1133,7 @@ fn margin_bar<DB: DrawingBackend>(
     f: f64,
     (a, b): (f64, f64),
     panel: &LinearTicks,
-    label: &'static str,
+    (label, color): (&'static str, RGBColor),
     scale: f64,
 ) -> Result<(), ReportError> {
     let px = render::px(scale);
@@ -1078,9 +1142,12 @@ fn margin_bar<DB: DrawingBackend>(
     chart
         .draw_series(std::iter::once(PathElement::new(
             [(f, a), (f, b)],
-            BLACK.stroke_width((3.0 * scale).round().max(2.0) as u32),
+            color.stroke_width((3.0 * scale).round().max(2.0) as u32),
         )))
         .map_err(plot_err)?;
+    if label.is_empty() {
+        return Ok(());
+    }
     let (_, plot_h) = chart.plotting_area().dim_in_pixel();
     let below_px = (lower - panel.lo) / (panel.hi - panel.lo) * f64::from(plot_h);
     let (dy, vpos) = if below_px > 26.0 * scale {
@@ -1089,7 +1156,7 @@ fn margin_bar<DB: DrawingBackend>(
         (-px(7.0), VPos::Bottom)
     };
     let style = TextStyle::from((font::FAMILY, font_size).into_font())
-        .color(&BLACK)
+        .color(&color)
         .pos(Pos::new(HPos::Right, vpos));
     chart
         .draw_series(std::iter::once(
@@ -1099,23 +1166,36 @@ fn margin_bar<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Draw the polylines and isolated points of one series.
+/// Dash pattern (dash, gap in px) of series number `i` at `scale`: the first series solid,
+/// the others dashed, dotted, long-dashed or short-dashed in turn, so that curves lying on
+/// top of each other stay distinguishable without colour.
+fn series_dash(i: usize, scale: f64) -> Option<(i32, i32)> {
+    const PATTERNS: [(f64, f64); 4] = [(12.0, 6.0), (3.0, 4.0), (22.0, 6.0), (7.0, 3.0)];
+    let px = render::px(scale);
+    (i > 0).then(|| {
+        let (d, g) = PATTERNS[(i - 1) % PATTERNS.len()];
+        (px(d).max(1), px(g).max(1))
+    })
+}
+
+/// Draw the polylines and isolated points of series number `i`, in its colour and dash.
 fn draw_pieces<DB: DrawingBackend>(
     chart: &mut BodeChart<'_, DB>,
     pieces: &Pieces,
-    color: RGBColor,
+    i: usize,
     line_w: u32,
-    dot_r: u32,
+    scale: f64,
 ) -> Result<(), ReportError> {
+    let color = series_color(i);
     let style = color.stroke_width(line_w);
-    chart
-        .draw_series(
-            pieces
-                .lines
-                .iter()
-                .map(|line| PathElement::new(line.clone(), style)),
-        )
+    for line in &pieces.lines {
+        match series_dash(i, scale) {
+            Some((d, g)) => chart.draw_series(DashedLineSeries::new(line.clone(), d, g, style)),
+            None => chart.draw_series(std::iter::once(PathElement::new(line.clone(), style))),
+        }
         .map_err(plot_err)?;
+    }
+    let dot_r = render::upx(scale)(3.0);
     chart
         .draw_series(
             pieces
@@ -1222,6 +1302,71 @@ mod tests {
     }
 
     #[test]
+    fn compare_keeps_each_series_markers_in_its_colour_and_dashes() {
+        let series = [loop_series("a", 20.0, 300), loop_series("b", 60.0, 300)];
+        let other = BodeMarkers {
+            gain_margin_db: Some(3.5),
+            phase_crossover_hz: Some(8.0),
+            phase_margin_deg: Some(20.0),
+            gain_crossover_hz: Some(2.0),
+        };
+        let svg = bode_svg_marked("Compare", &series, &[Some(markers()), Some(other)]).unwrap();
+        assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
+        // Both series' margins are summarised under the title, each named.
+        let text: String = svg.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(text.contains("a: GM = 12.3 dB @ 5.00 Hz"), "{text}");
+        assert!(text.contains("b: GM = 3.5 dB @ 8.00 Hz"));
+        // GM and PM bars in each series' colour, labelled for the first series only (close
+        // bars would overprint their labels).
+        let labels = |colour: &str, l: &str| {
+            svg.split("<text")
+                .filter(|t| {
+                    t.contains(&format!("fill=\"{colour}\"")) && t.contains(&format!(">\n{l}\n"))
+                })
+                .count()
+        };
+        for l in ["GM", "PM"] {
+            assert_eq!(labels("#0072B2", l), 1, "{l} of a");
+            assert_eq!(labels("#D55E00", l), 0, "{l} of b");
+            let bars = |colour: &str| {
+                svg.lines()
+                    .filter(|t| t.contains(&format!("stroke=\"{colour}\" stroke-width=\"3\"")))
+                    .count()
+            };
+            assert_eq!((bars("#0072B2"), bars("#D55E00")), (2, 2), "GM and PM bars");
+        }
+        // The second series is dashed, the first solid: count the breaks between consecutive
+        // drawn pieces of each colour's curves (2 px wide; the crossover lines are 1 px).
+        let breaks = |colour: &str| {
+            let ends: Vec<(&str, &str)> = svg
+                .lines()
+                .filter(|l| l.starts_with("<polyline") && l.contains("stroke-width=\"2\""))
+                .filter(|l| l.contains(&format!("stroke=\"{colour}\"")))
+                .map(|l| {
+                    let pts = l
+                        .split("points=\"")
+                        .nth(1)
+                        .unwrap()
+                        .split('"')
+                        .next()
+                        .unwrap();
+                    let v: Vec<&str> = pts.split_whitespace().collect();
+                    (v[0], v[v.len() - 1])
+                })
+                .collect();
+            ends.windows(2).filter(|w| w[0].1 != w[1].0).count()
+        };
+        let (solid, dashed) = (breaks("#0072B2"), breaks("#D55E00"));
+        assert!(
+            solid < 10 && dashed > 60,
+            "breaks: solid {solid}, dashed {dashed}"
+        );
+        // The old call marks the first series only.
+        let old = bode_svg("Compare", &series, Some(&markers())).unwrap();
+        assert!(old.contains("GM = 12.3 dB @ 5.00 Hz") && !old.contains("3.5 dB"));
+    }
+
+    #[test]
     fn png_signature_and_size() {
         let png = bode_png(
             "PNG",
@@ -1234,6 +1379,34 @@ mod tests {
         let rgb = render::decode_png(&png, 800, 600);
         // Not a blank image: some dark pixels (text, curves).
         assert!(render::dark_pixels(&rgb) > 1000);
+    }
+
+    #[test]
+    fn long_title_stays_inside_a_small_figure() {
+        // 300 characters with spaces, and one unbreakable path, on a 640 px wide figure.
+        let words: String = (0..43).map(|i| format!("word{i:02} ")).collect();
+        let title: String = words.chars().take(300).collect();
+        assert_eq!(title.chars().count(), 300);
+        let path = format!("/data/{}/step_damping.csv", "x".repeat(280));
+        let s = [loop_series("a", 20.0, 80), loop_series("b", 60.0, 80)];
+        for t in [title.as_str(), path.as_str()] {
+            let fig = Figure::prepare(t, &s, &[Some(markers()), None]).unwrap();
+            let svg = render::to_svg(&fig, (640, 480)).unwrap();
+            assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
+            // The header keeps both ends of the text, shortened in the middle.
+            assert!(svg.contains('…'));
+            assert!(svg.contains(if t == path {
+                "step_damping.csv"
+            } else {
+                "word42"
+            }));
+        }
+        // The unshortened title on one line would overflow: the check can fail.
+        let svg = format!(
+            "<svg viewBox=\"0 0 640 480\"><text x=\"320\" y=\"14\" dy=\"0.76em\" \
+             text-anchor=\"middle\" font-size=\"19.35\">{title}</text></svg>"
+        );
+        assert_eq!(crate::report::text_overflow(&svg).len(), 1);
     }
 
     #[test]
@@ -1339,7 +1512,7 @@ mod tests {
             phase_deg: vec![-90.0; 100],
             freq_hz: f,
         };
-        let fig = Figure::prepare("t", std::slice::from_ref(&s), None).unwrap();
+        let fig = Figure::prepare("t", std::slice::from_ref(&s), &[None]).unwrap();
         assert!(fig.mag.lo >= 150.0 - MAG_WINDOW_DB - 25.0, "{:?}", fig.mag);
         assert!(fig.mag.hi >= 150.0);
         for line in &fig.mag_pieces[0].lines {

@@ -16,7 +16,7 @@ use plotters::style::{register_font, FontStyle};
 pub(crate) const FAMILY: &str = "sans-serif";
 
 /// DejaVu Sans 2.37 (Bitstream Vera licence), embedded in the binary.
-static DEJAVU_SANS: &[u8] = include_bytes!(concat!(
+pub(super) static DEJAVU_SANS: &[u8] = include_bytes!(concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/assets/fonts/DejaVuSans.ttf"
 ));

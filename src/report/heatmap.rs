@@ -19,8 +19,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::bode::{linear_ticks, plot_err, ReportError};
-use super::font;
 use super::render::{self, steps_125, SUBTITLE_COLOR};
+use super::{font, layout};
 
 /// Default heat-map width in pixels (used for SVG output; a sensible PNG
 /// size).
@@ -703,11 +703,10 @@ impl<'a> Figure<'a> {
         let style = TextStyle::from((font::FAMILY, MARKER_LABEL_SIZE * scale).into_font())
             .color(&BLACK)
             .pos(Pos::new(HPos::Left, VPos::Top));
-        let (tw, th) = root
-            .estimate_text_size(&marker.label, &style)
-            .map_err(plot_err)?;
+        let tw = layout::text_width(&marker.label, MARKER_LABEL_SIZE * scale).ceil() as i32;
+        let th = px(MARKER_LABEL_SIZE);
         let pad = px(4.0);
-        let (bw, bh) = (tw as i32 + 2 * pad, th as i32 + 2 * pad);
+        let (bw, bh) = (tw + 2 * pad, th + 2 * pad);
         let gap = arm + px(4.0);
         let mut x0 = cx + gap;
         if x0 + bw > right {
@@ -750,18 +749,15 @@ impl render::Draw for Figure<'_> {
         let px = render::px(scale);
         let upx = render::upx(scale);
         let text = render::text(scale);
-        let text_width = |s: &str, style: &TextStyle| -> Result<i32, ReportError> {
-            let (w, _) = root.estimate_text_size(s, style).map_err(plot_err)?;
-            Ok(w as i32)
-        };
+        // Width (px) of `s` at text size `size` (scale 1).
+        let text_width = |s: &str, size: f64| layout::text_width(s, size * scale).ceil() as i32;
 
         root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
         let (width, height) = (width as i32, height as i32);
 
         // Header: title and subtitle.
-        let body = render::draw_header(root, self.title, self.subtitle, scale)?;
-        let header_h = render::header_height(scale, self.subtitle.is_some());
+        let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout.
         let (m_top, m_bottom, x_label_area) = (px(MARGIN_TOP), px(MARGIN_BOTTOM), px(X_LABEL_AREA));
@@ -790,12 +786,12 @@ impl render::Draw for Figure<'_> {
         // Horizontal layout: label areas fit the widest tick labels.
         let mut widest_y = 0;
         for l in &y_axis.labels {
-            widest_y = widest_y.max(text_width(l, &label_style)?);
+            widest_y = widest_y.max(text_width(l, TICK_LABEL_SIZE));
         }
         let y_label_area = px(MIN_Y_LABEL_AREA).max(widest_y + px(52.0));
         let mut widest_bar = 0;
         for l in &bar_axis.labels {
-            widest_bar = widest_bar.max(text_width(l, &label_style)?);
+            widest_bar = widest_bar.max(text_width(l, TICK_LABEL_SIZE));
         }
         let mut bar_label_area = 2 * px(TICK_SIZE) + widest_bar + px(8.0);
         if !self.map.cost_label.is_empty() {
@@ -814,7 +810,7 @@ impl render::Draw for Figure<'_> {
             )));
         }
         let (x_lo, x_hi) = (self.x_edges[0], self.x_edges[self.x_edges.len() - 1]);
-        let measure = |s: &str| text_width(s, &label_style).map_or(0.0, f64::from);
+        let measure = |s: &str| f64::from(text_width(s, TICK_LABEL_SIZE));
         let x_axis = fitted_linear_axis(
             x_lo,
             x_hi,
@@ -974,7 +970,7 @@ impl render::Draw for Figure<'_> {
         // Note on grey cells, bottom right, level with the x description.
         if self.has_missing {
             let style = text(NOTE_SIZE).color(&SUBTITLE_COLOR);
-            let note_w = text_width(MISSING_NOTE, &style)?;
+            let note_w = text_width(MISSING_NOTE, NOTE_SIZE);
             let sw = px(NOTE_SIZE * 0.9).max(4);
             let y_mid = bottom + x_label_area - px(AXIS_DESC_SIZE * 0.6);
             let text_right = width - m_right;
@@ -1066,6 +1062,8 @@ mod tests {
         )
         .unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        // Every text (ticks, axis descriptions, legend, notes) lies inside the figure.
+        assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
         assert!(svg.trim_end().ends_with("</svg>"));
         for s in [
             "Identification cost",

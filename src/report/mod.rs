@@ -6,10 +6,13 @@
 
 mod bode;
 mod font;
+mod layout;
 mod render;
+pub use layout::{sig, text_overflow};
 
 pub use bode::{
-    bode_png, bode_svg, BodeMarkers, BodeSeries, ReportError, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,
+    bode_png, bode_png_marked, bode_svg, bode_svg_marked, BodeMarkers, BodeSeries, ReportError,
+    DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,
 };
 mod timeseries;
 pub use timeseries::*;

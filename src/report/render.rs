@@ -4,8 +4,12 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::bode::{encode_png, plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
-use super::font;
+use std::sync::{Arc, OnceLock};
+
+use resvg::{tiny_skia, usvg};
+
+use super::bode::{plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
+use super::{font, layout};
 
 /// A figure ready to draw on any plotters backend; `scale` multiplies text and line sizes.
 pub(super) trait Draw {
@@ -19,18 +23,41 @@ pub(super) trait Draw {
 
 /// Render to an SVG document of `size` pixels at scale 1.
 pub(super) fn to_svg(figure: &impl Draw, size: (u32, u32)) -> Result<String, ReportError> {
+    svg_at_scale(figure, size, 1.0)
+}
+
+/// Render to an SVG document of `size` pixels, text and line sizes multiplied by `scale`.
+fn svg_at_scale(figure: &impl Draw, size: (u32, u32), scale: f64) -> Result<String, ReportError> {
     font::ensure_registered().map_err(ReportError::Plot)?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        figure.draw(&root, 1.0)?;
+        figure.draw(&root, scale)?;
         root.present().map_err(plot_err)?;
     }
     Ok(svg)
 }
 
-/// Render to PNG bytes of `width` × `height` pixels, text and lines scaled relative to the
-/// figure's natural size `base`.
+/// The font database resvg draws text with: only the embedded DejaVu Sans (no system fonts),
+/// also serving the generic `sans-serif` family the SVG names.
+fn font_db() -> Arc<usvg::fontdb::Database> {
+    static DB: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
+    DB.get_or_init(|| {
+        let mut db = usvg::fontdb::Database::new();
+        db.load_font_data(font::DEJAVU_SANS.to_vec());
+        db.set_sans_serif_family(EMBEDDED_FAMILY);
+        Arc::new(db)
+    })
+    .clone()
+}
+
+/// The family name inside the embedded font file.
+const EMBEDDED_FAMILY: &str = "DejaVu Sans";
+
+/// Render to PNG bytes of `width` × `height` pixels: the figure drawn as an SVG of that size,
+/// text and lines scaled by the image's size relative to the figure's natural size `base`,
+/// rasterised by resvg with anti-aliasing on a white background. PNG and SVG therefore show
+/// the same drawing.
 pub(super) fn to_png(
     figure: &impl Draw,
     width: u32,
@@ -45,18 +72,33 @@ pub(super) fn to_png(
              ({MIN_WIDTH_PX}..={MAX_SIDE_PX} x {MIN_HEIGHT_PX}..={MAX_SIDE_PX})"
         )));
     }
-    font::ensure_registered().map_err(ReportError::Plot)?;
     let scale = (f64::from(width) / f64::from(base.0))
         .min(f64::from(height) / f64::from(base.1))
         .clamp(0.4, 8.0);
-    // Bounded by MAX_SIDE_PX, so this cannot overflow.
-    let mut rgb = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        figure.draw(&root, scale)?;
-        root.present().map_err(plot_err)?;
-    }
-    encode_png(&rgb, width, height)
+    let svg = svg_at_scale(figure, (width, height), scale)?;
+    rasterise(&svg, width, height)
+}
+
+/// Rasterise the SVG document `svg` of `width` × `height` pixels onto a white image of that
+/// size and encode it as PNG.
+fn rasterise(svg: &str, width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
+    let options = usvg::Options {
+        font_family: EMBEDDED_FAMILY.to_string(),
+        fontdb: font_db(),
+        ..usvg::Options::default()
+    };
+    let tree = usvg::Tree::from_str(svg, &options).map_err(plot_err)?;
+    let mut pixmap = tiny_skia::Pixmap::new(width, height)
+        .ok_or_else(|| ReportError::Plot(format!("no {width} x {height} px image")))?;
+    pixmap.fill(tiny_skia::Color::WHITE);
+    resvg::render(
+        &tree,
+        tiny_skia::Transform::identity(),
+        &mut pixmap.as_mut(),
+    );
+    pixmap
+        .encode_png()
+        .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))
 }
 
 /// Candidate (major, minor) 1-2-5 × 10^k steps for `span`, ascending, starting at the smallest
@@ -102,46 +144,56 @@ pub(super) fn text(scale: f64) -> impl Fn(f64) -> TextStyle<'static> {
     move |size| TextStyle::from((font::FAMILY, size * scale).into_font()).color(&BLACK)
 }
 
-/// Height (px) of the title block, with or without a subtitle.
-pub(super) fn header_height(scale: f64, with_subtitle: bool) -> i32 {
+/// Horizontal padding (px at scale 1) between the figure edge and the longest header line.
+const HEADER_PAD: f64 = 12.0;
+/// Most lines a title or a subtitle may take; longer ones are shortened in the middle.
+const HEADER_MAX_LINES: usize = 2;
+
+/// Height (px) of the title block with `title_lines` title and `subtitle_lines` subtitle lines.
+pub(super) fn header_height(scale: f64, title_lines: usize, subtitle_lines: usize) -> i32 {
     let px = px(scale);
-    let mut h = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP);
-    if with_subtitle {
-        h += px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
+    let mut h = px(TITLE_TOP) + title_lines.max(1) as i32 * px(TITLE_SIZE) + px(TITLE_GAP);
+    if subtitle_lines > 0 {
+        h += subtitle_lines as i32 * px(SUBTITLE_SIZE) + px(SUBTITLE_GAP);
     }
     h
 }
 
-/// Draw the centred title and optional grey subtitle; returns the area below them.
+/// Draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
+/// shortened in the middle beyond that so that it never runs outside the figure; returns the
+/// area below them and the header's height (px).
 pub(super) fn draw_header<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     subtitle: Option<&str>,
     scale: f64,
-) -> Result<DrawingArea<DB, Shift>, ReportError> {
+) -> Result<(DrawingArea<DB, Shift>, i32), ReportError> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
     let (px, text) = (px(scale), text(scale));
-    let (header, body) = root.split_vertically(header_height(scale, subtitle.is_some()));
-    let centre = (root.dim_in_pixel().0 / 2) as i32;
+    let width = root.dim_in_pixel().0;
+    let max_w = f64::from(width) - 2.0 * f64::from(px(HEADER_PAD));
+    let fit = |s: &str, size: f64| layout::fit_lines(s, size * scale, max_w, HEADER_MAX_LINES);
+    let title_lines = fit(title, TITLE_SIZE);
+    let subtitle_lines = subtitle.map_or_else(Vec::new, |s| fit(s, SUBTITLE_SIZE));
+    let header_h = header_height(scale, title_lines.len(), subtitle_lines.len());
+    let sub_top = header_height(scale, title_lines.len(), 0) - px(2.0);
+    let (header, body) = root.split_vertically(header_h);
+    let centre = (width / 2) as i32;
     let top = Pos::new(HPos::Center, VPos::Top);
-    header
-        .draw(&Text::new(
-            title.to_string(),
-            (centre, px(TITLE_TOP)),
-            text(TITLE_SIZE).pos(top),
-        ))
-        .map_err(plot_err)?;
-    if let Some(subtitle) = subtitle {
-        let y = px(TITLE_TOP) + px(TITLE_SIZE) + px(TITLE_GAP) - px(2.0);
+    for (k, line) in title_lines.into_iter().enumerate() {
+        let y = px(TITLE_TOP) + k as i32 * px(TITLE_SIZE);
         header
-            .draw(&Text::new(
-                subtitle.to_string(),
-                (centre, y),
-                text(SUBTITLE_SIZE).color(&SUBTITLE_COLOR).pos(top),
-            ))
+            .draw(&Text::new(line, (centre, y), text(TITLE_SIZE).pos(top)))
             .map_err(plot_err)?;
     }
-    Ok(body)
+    for (k, line) in subtitle_lines.into_iter().enumerate() {
+        let y = sub_top + k as i32 * px(SUBTITLE_SIZE);
+        let style = text(SUBTITLE_SIZE).color(&SUBTITLE_COLOR).pos(top);
+        header
+            .draw(&Text::new(line, (centre, y), style))
+            .map_err(plot_err)?;
+    }
+    Ok((body, header_h))
 }
 
 /// Test support: check PNG bytes (signature, IHDR size, decodable at that size) and return the

@@ -16,6 +16,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::bode::{
     linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
 };
+use super::layout;
 use super::render::{self, header_height, steps_125};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
@@ -95,7 +96,7 @@ pub struct Panel {
 /// sensible size for [`panels_png`].
 pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32) {
     let n = panel_count.clamp(1, 1000) as f64;
-    let h = header_height(1.0, with_subtitle) as f64
+    let h = header_height(1.0, 1, usize::from(with_subtitle)) as f64
         + MARGIN_TOP
         + n * f64::from(PANEL_PLOT_HEIGHT_PX)
         + (n - 1.0) * 2.0 * PANEL_GAP
@@ -384,8 +385,7 @@ impl render::Draw for Figure<'_> {
         let (width, height) = root.dim_in_pixel();
 
         // Header: title and subtitle.
-        let body = render::draw_header(root, self.title, self.subtitle, scale)?;
-        let header_h = render::header_height(scale, self.subtitle.is_some());
+        let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout: equal plotting heights.
         let n = self.panels.len() as i32;
@@ -418,11 +418,8 @@ impl render::Draw for Figure<'_> {
             for t in y_ticks {
                 let axis = t.axis();
                 for v in &t.major {
-                    let s = axis.format_ext(v);
-                    let (w, _) = root
-                        .estimate_text_size(&s, &label_style)
-                        .map_err(plot_err)?;
-                    widest = widest.max(w);
+                    let w = layout::text_width(&axis.format_ext(v), TICK_LABEL_SIZE * scale);
+                    widest = widest.max(w.ceil() as u32);
                 }
             }
             Ok(px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0)))
@@ -456,13 +453,10 @@ impl render::Draw for Figure<'_> {
                 legends.push(None);
                 continue;
             }
-            let mut label_w = Vec::with_capacity(entries.len());
-            for e in &entries {
-                let (w, _) = root
-                    .estimate_text_size(&e.label, &legend_metrics.font)
-                    .map_err(plot_err)?;
-                label_w.push(w as i32);
-            }
+            let label_w: Vec<i32> = entries
+                .iter()
+                .map(|e| layout::text_width(&e.label, LEGEND_FONT_SIZE * scale).ceil() as i32)
+                .collect();
             let plot = (plot_w, plot_h);
             let x_range = (x_ticks.lo, x_ticks.hi);
             let (mut layout, hits) = place_legend(
@@ -984,6 +978,8 @@ mod tests {
     fn svg_contains_labels() {
         let svg = panels_svg("Step response", Some("rise 0.62 s"), &step_panels()).unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        // Every text (ticks, axis descriptions, legend, notes) lies inside the figure.
+        assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
         assert!(svg.trim_end().ends_with("</svg>"));
         for s in [
             "Step response",

@@ -156,7 +156,7 @@ pub(super) fn identification(
         "the residual on emulated records (5 um noise), not on the article's measurements",
     );
     run.compare_why(
-        "first grid: best cost (mm2) / candidates below 0.25 mm2",
+        "first grid: best cost (mm²) / candidates below 0.25 mm²",
         format!("{first_best:.4} / {}", first.threshold_count),
         "-",
         "-",
@@ -235,7 +235,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
         ),
     ];
     let subtitle = format!(
-        "cost {:.4} mm2 (best), {cost_article:.4} mm2 (article's values)",
+        "cost {:.4} mm² (best), {cost_article:.4} mm² (article's values)",
         id.best().cost_mm2
     );
     run.figure(
