@@ -281,7 +281,7 @@ impl Chart {
                         .unzip();
                     let p = c
                         .p_mean_bar
-                        .map_or(String::new(), |p| format!(", p {p} bar"));
+                        .map_or(String::new(), |p| format!(", p {p:.2} bar"));
                     trace(
                         &format!("m {} kg{p}", c.mass_kg),
                         &x,

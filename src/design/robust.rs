@@ -315,7 +315,7 @@ impl Point {
             self.x_mm,
             self.mass_kg,
             self.p_mean_bar
-                .map_or(String::new(), |p| format!(", p {p} bar")),
+                .map_or(String::new(), |p| format!(", p {p:.2} bar")),
             self.beta_e_bar
         )
     }

@@ -33,11 +33,13 @@ pub struct Certainty {
 }
 
 /// Step 9: intervals, robust design and experiment advice on the identification records;
-/// `nominal` is the identified rig, `truth` the (β, b, c12) the records were emulated with.
+/// `nominal` is the identified rig, `p_mean_bar` the mean chamber pressure (bar) its β holds
+/// at, `truth` the (β, b, c12) the records were emulated with.
 pub(super) fn how_sure(
     run: &mut Run,
     exp: &Experiment,
     nominal: &Rig,
+    p_mean_bar: f64,
     truth: &Candidate,
 ) -> Result<(Certainty, Value)> {
     run.step("How sure are we: intervals, a design that holds over them, the next experiment");
@@ -53,12 +55,12 @@ pub(super) fn how_sure(
     let u = analyze(&exp.problem, &best, &opts)?;
     intervals(run, &u, truth)?;
     let region = Region::around(best, &u, exp.problem.standstill);
-    let d = robust_design(
-        nominal,
-        &region,
-        &Targets::article(),
-        &RobustOptions::default(),
-    )?;
+    let targets = Targets {
+        p_mean_bar: pressure_range(exp, p_mean_bar),
+        p_beta_bar: p_mean_bar,
+        ..Targets::article()
+    };
+    let d = robust_design(nominal, &region, &targets, &RobustOptions::default())?;
     robust(run, &d)?;
     let advice = advise(&exp.problem, &best, &AdviceOptions::default())?;
     next_experiment(run, &advice);
@@ -92,6 +94,21 @@ pub(super) fn how_sure(
         },
         v,
     ))
+}
+
+/// The mean chamber pressures (bar) the design must hold at: the lowest, `p_mean_bar` and the
+/// highest of the mean chamber pressure (p1 + p2)/2 over the identification records, so β_e
+/// follows the gas-fraction model (docs/bulk-modulus.md) across the pressures the rig was seen at.
+fn pressure_range(exp: &Experiment, p_mean_bar: f64) -> Vec<f64> {
+    let (lo, hi) = exp
+        .problem
+        .datasets
+        .iter()
+        .filter_map(|d| Some((d.record.p1_bar.as_ref()?, d.record.p2_bar.as_ref()?)))
+        .flat_map(|(p1, p2)| p1.iter().zip(p2).map(|(a, b)| 0.5 * (a + b)))
+        .filter(|p| p.is_finite() && *p > 0.0)
+        .fold((p_mean_bar, p_mean_bar), |(l, h), p| (l.min(p), h.max(p)));
+    vec![lo, p_mean_bar, hi]
 }
 
 /// A JSON object keyed by the parameters' names, each value `f(index, name)`.
@@ -206,12 +223,19 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
         Binding::Stability => "stability",
     };
     run.text(&format!(
-        "With the article's targets (PM ≥ {} deg, GM ≥ {} dB over x0 ± {} mm), the largest \
-         Kp at the point estimate is {:.2}; over the whole {:.0} % region and the stroke it is \
-         {:.2}. It is decided by {binding} at {} (docs/design.md#robust-design). {}",
+        "With the article's targets (PM ≥ {} deg, GM ≥ {} dB over x0 ± {} mm and the mean \
+         chamber pressures {} bar the records span, β_e following the gas-fraction model), the \
+         largest Kp at the point estimate is {:.2}; over the whole {:.0} % region, the stroke \
+         and those pressures it is {:.2}. It is decided by {binding} at {} (docs/design.md#robust-design). {}",
         d.targets.pm_deg,
         d.targets.gm_db,
         d.targets.stroke_mm,
+        d.targets
+            .p_mean_bar
+            .iter()
+            .map(|p| format!("{p:.2}"))
+            .collect::<Vec<_>>()
+            .join(", "),
         d.kp_max_nominal,
         CONFIDENCE * 100.0,
         d.kp_max,
@@ -219,7 +243,7 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
         d.reasons.join(" ")
     ));
     run.compare_why(
-        "largest Kp for PM 34 deg, GM 6 dB over the 95 % region and the stroke",
+        "largest Kp for PM 34 deg, GM 6 dB over the 95 % region, stroke and pressures",
         format!("{:.2}", d.kp_max),
         "- (no uncertainty given)",
         "-",

@@ -308,7 +308,8 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
         c12_m5_per_ns: truth.rig.c12_m5_per_ns,
     };
-    let (certainty, how_sure) = certainty::how_sure(&mut run, &exp, &nominal, &truth_point)?;
+    let (certainty, how_sure) =
+        certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
     sum["how_sure"] = how_sure;
     let seconds = start.elapsed().as_secs_f64();
     sum["seconds"] = json!(seconds);
