@@ -340,11 +340,15 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
             .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
             .to_rgb8();
         // reproduce asks for 1500 px wide figures: 1500 x 1125 Bode diagrams, 1500 x 1200 for
-        // β_e against pressure, 1500 x 1500 for the stacked time series.
+        // plots against another variable than time (β_e against pressure, the likelihood
+        // profiles, the margins over the stroke), 1500 x 1500 for the stacked time series.
         let name = p.file_name().unwrap().to_string_lossy().to_string();
         let height = if name.starts_with("bode_") {
             1125
-        } else if name == "bulk_modulus.png" {
+        } else if name == "bulk_modulus.png"
+            || name.starts_with("profile-")
+            || name == "robust-margins.png"
+        {
             1200
         } else {
             1500
