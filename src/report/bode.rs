@@ -1,16 +1,13 @@
 //! Two-panel Bode diagrams (magnitude in dB over phase in degrees, shared
 //! logarithmic frequency axis in Hz), rendered to SVG or PNG in memory.
 
-use std::ops::Range;
-
-use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
-use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
 use super::font;
-use super::layout::{self, trim_decimal};
+use super::layout;
 use super::render;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
@@ -188,188 +185,20 @@ pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
 // Axes
 // ---------------------------------------------------------------------------
 
-/// How tick labels of an axis are written.
-#[derive(Debug, Clone, Copy)]
-enum TickFormat {
-    /// Frequency in Hz: plain decimal, exponent form outside 1e-3..1e6.
-    Freq,
-    /// Fixed number of decimals.
-    Fixed(usize),
-}
+/// Plot width (px at scale 1) the frequency ticks are chosen for before the layout is known.
+const NOMINAL_PLOT_W: f64 = 880.0;
+/// Smallest distance (px at scale 1) between two labelled frequency ticks.
+const FREQ_TICK_GAP: f64 = 60.0;
 
-/// A plotters axis with explicit major (labelled, bold grid) and minor
-/// (light grid) ticks, mapping values through an inner coordinate (linear or
-/// `log_scale()`).
-pub(super) struct TickedAxis<R> {
-    inner: R,
-    major: Vec<f64>,
-    minor: Vec<f64>,
-    format: TickFormat,
-}
-
-impl<R: Ranged<ValueType = f64>> Ranged for TickedAxis<R> {
-    type FormatOption = NoDefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        self.inner.map(value, limit)
-    }
-
-    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            self.minor.clone()
-        } else {
-            self.major.clone()
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.inner.range()
-    }
-}
-
-impl<R: Ranged<ValueType = f64>> ValueFormatter<f64> for TickedAxis<R> {
-    fn format(value: &f64) -> String {
-        trim_decimal(*value, 6)
-    }
-
-    fn format_ext(&self, value: &f64) -> String {
-        match self.format {
-            TickFormat::Freq => format_freq_tick(*value),
-            TickFormat::Fixed(decimals) => {
-                let s = format!("{value:.decimals$}");
-                // Avoid "-0".
-                if s.trim_start_matches('-')
-                    .chars()
-                    .all(|c| c == '0' || c == '.')
-                {
-                    s.trim_start_matches('-').to_string()
-                } else {
-                    s
-                }
-            }
-        }
-    }
-}
-
-/// Linear value range with its ticks.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) struct LinearTicks {
-    pub(super) lo: f64,
-    pub(super) hi: f64,
-    pub(super) major: Vec<f64>,
-    pub(super) minor: Vec<f64>,
-    decimals: usize,
-}
-
-impl LinearTicks {
-    pub(super) fn axis(&self) -> TickedAxis<RangedCoordf64> {
-        TickedAxis {
-            inner: (self.lo..self.hi).into(),
-            major: self.major.clone(),
-            minor: self.minor.clone(),
-            format: TickFormat::Fixed(self.decimals),
-        }
-    }
-
-    fn contains(&self, v: f64) -> bool {
-        v >= self.lo && v <= self.hi
-    }
-}
-
-/// Logarithmic frequency range (Hz) with its ticks.
-#[derive(Debug, Clone, PartialEq)]
-struct FreqTicks {
-    lo: f64,
-    hi: f64,
-    major: Vec<f64>,
-    minor: Vec<f64>,
-}
-
-impl FreqTicks {
-    fn axis(&self) -> TickedAxis<LogCoord<f64>> {
-        TickedAxis {
-            inner: (self.lo..self.hi).log_scale().into(),
-            major: self.major.clone(),
-            minor: self.minor.clone(),
-            format: TickFormat::Freq,
-        }
-    }
-
-    fn contains(&self, f: f64) -> bool {
-        f >= self.lo && f <= self.hi
-    }
-
-    /// Position of `f` along the axis, 0 at the left edge, 1 at the right.
-    fn fraction(&self, f: f64) -> f64 {
-        (f.log10() - self.lo.log10()) / (self.hi.log10() - self.lo.log10())
-    }
-}
-
-/// Ticks for the log frequency axis spanning exactly `lo..hi` (Hz).
-fn freq_ticks(lo: f64, hi: f64) -> FreqTicks {
-    let (mut lo, mut hi) = (lo, hi);
-    if hi / lo < 1.0 + 1e-9 {
-        // Single frequency: show a small band around it.
-        lo /= 1.5;
-        hi *= 1.5;
-    }
-    let tol = 1e-9;
-    let inside = |v: f64| v >= lo * (1.0 - tol) && v <= hi * (1.0 + tol);
-    let d0 = lo.log10().floor() as i32;
-    let d1 = hi.log10().ceil() as i32;
-    let multiples = |mults: &[u32]| -> Vec<f64> {
-        (d0..=d1)
-            .flat_map(|d| mults.iter().map(move |&m| f64::from(m) * pow10(d)))
-            .filter(|&v| inside(v))
-            .collect()
-    };
-
-    let decades = multiples(&[1]);
-    let (major, minor) = if decades.len() > 10 {
-        // Very wide sweep: label every n-th decade, light lines at decades.
-        let n = decades.len().div_ceil(8) as i32;
-        let (major, minor): (Vec<f64>, Vec<f64>) = decades
-            .iter()
-            .partition(|&&v| (v.log10().round() as i32).rem_euclid(n) == 0);
-        (major, minor)
-    } else if decades.len() >= 2 {
-        (decades, multiples(&[2, 3, 4, 5, 6, 7, 8, 9]))
+/// Logarithmic frequency axis (Hz) over `lo..hi` drawn `len_px` pixels long at `scale`; a
+/// single frequency gets a small band around it.
+fn freq_axis(lo: f64, hi: f64, len_px: f64, scale: f64) -> Axis {
+    let (lo, hi) = if hi / lo < 1.0 + 1e-9 {
+        (lo / 1.5, hi * 1.5)
     } else {
-        let one_two_five = multiples(&[1, 2, 5]);
-        if one_two_five.len() >= 2 {
-            (one_two_five, multiples(&[3, 4, 6, 7, 8, 9]))
-        } else {
-            let all = multiples(&[1, 2, 3, 4, 5, 6, 7, 8, 9]);
-            if all.len() >= 2 {
-                (all, Vec::new())
-            } else {
-                // Less than one 1-2-3 step wide: linear nice ticks.
-                let t = linear_ticks(lo, hi, &nice_steps_125());
-                (t.major, t.minor)
-            }
-        }
+        (lo, hi)
     };
-    FreqTicks {
-        lo,
-        hi,
-        major,
-        minor,
-    }
-}
-
-fn pow10(d: i32) -> f64 {
-    10f64.powi(d)
-}
-
-/// Candidate (major, minor) steps 1-2-5 x 10^k, ascending.
-fn nice_steps_125() -> Vec<(f64, f64)> {
-    (-6..=8)
-        .flat_map(|d| {
-            let p = pow10(d);
-            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
-        })
-        .collect()
+    log_axis(lo, hi, len_px, FREQ_TICK_GAP * scale)
 }
 
 /// Candidate (major, minor) steps for phase in degrees, ascending; multiples
@@ -397,47 +226,6 @@ fn phase_steps() -> Vec<(f64, f64)> {
     steps
 }
 
-/// Pick the smallest step giving at most 8 intervals over `lo..hi` and snap
-/// the range outward to the minor step (so the data fill the panel; the
-/// edges need not carry a label).
-pub(super) fn linear_ticks(lo: f64, hi: f64, steps: &[(f64, f64)]) -> LinearTicks {
-    linear_ticks_max(lo, hi, steps, 8.0)
-}
-
-/// As [`linear_ticks`], with at most `max_major` intervals.
-fn linear_ticks_max(lo: f64, hi: f64, steps: &[(f64, f64)], max_major: f64) -> LinearTicks {
-    let span = hi - lo;
-    let &(step, minor_step) = steps
-        .iter()
-        .find(|(s, _)| span / s <= max_major)
-        .unwrap_or_else(|| steps.last().expect("non-empty step table"));
-    let per = ((step / minor_step).round() as i64).max(1);
-    let j0 = (lo / minor_step - 1e-9).floor() as i64;
-    let j1 = (hi / minor_step + 1e-9).ceil() as i64;
-    let (mut major, mut minor) = (Vec::new(), Vec::new());
-    for j in j0..=j1 {
-        let v = j as f64 * minor_step;
-        if j.rem_euclid(per) == 0 {
-            major.push(v);
-        } else {
-            minor.push(v);
-        }
-    }
-    let (lo, hi) = (j0 as f64 * minor_step, j1 as f64 * minor_step);
-    let decimals = if step >= 1.0 {
-        0
-    } else {
-        (-step.log10()).ceil().max(0.0) as usize
-    };
-    LinearTicks {
-        lo,
-        hi,
-        major,
-        minor,
-        decimals,
-    }
-}
-
 /// Value range of one panel: data extent `(lo, hi)` padded by 5 % on each
 /// side, widened to include `reference` when that at most doubles the span,
 /// then snapped to ticks.
@@ -448,7 +236,7 @@ fn value_ticks(
     steps: &[(f64, f64)],
     max_major: f64,
     pad_min: f64,
-) -> LinearTicks {
+) -> Axis {
     let (mut lo, mut hi) = (lo, hi);
     if let Some(r) = reference {
         let span = (hi - lo).max(pad_min);
@@ -459,22 +247,7 @@ fn value_ticks(
         }
     }
     let pad = ((hi - lo) * 0.05).max(pad_min * 0.05);
-    linear_ticks_max(lo - pad, hi + pad, steps, max_major)
-}
-
-/// Frequency tick label in Hz: "0.01", "1", "250", "10000", "1e6".
-fn format_freq_tick(f: f64) -> String {
-    if f == 0.0 || !f.is_finite() {
-        return trim_decimal(f, 0);
-    }
-    let e = f.abs().log10().floor() as i32;
-    if (-3..6).contains(&e) {
-        // 6 significant digits at most.
-        trim_decimal(f, (5 - e).max(0) as usize)
-    } else {
-        let mantissa = f / pow10(e);
-        format!("{}e{}", trim_decimal(mantissa, 2), e)
-    }
+    snapped_axis(lo - pad, hi + pad, steps, max_major)
 }
 
 /// Frequency for annotations, 3 significant digits: "0.0123", "4.56", "123".
@@ -646,9 +419,9 @@ fn extent<'a>(pairs: impl Iterator<Item = (&'a [f64], &'a [f64])>) -> Option<(f6
 struct Figure<'a> {
     title: &'a str,
     series: &'a [BodeSeries],
-    x: FreqTicks,
-    mag: LinearTicks,
-    phase: LinearTicks,
+    x: Axis,
+    mag: Axis,
+    phase: Axis,
     /// Phase reference line (-180 deg, or another odd multiple of 180 deg).
     phase_ref: f64,
     mag_pieces: Vec<Pieces>,
@@ -675,14 +448,7 @@ struct Marks {
 
 impl Marks {
     /// The markers `m` of series number `i` (`s`) on the axes `x`, `mag`, `phase`.
-    fn new(
-        i: usize,
-        s: &BodeSeries,
-        m: &BodeMarkers,
-        x: &FreqTicks,
-        mag: &LinearTicks,
-        phase: &LinearTicks,
-    ) -> Self {
+    fn new(i: usize, s: &BodeSeries, m: &BodeMarkers, x: &Axis, mag: &Axis, phase: &Axis) -> Self {
         let gm = m.gain_margin_db.filter(|g| !g.is_nan());
         let pm = m.phase_margin_deg.filter(|p| p.is_finite());
         let f_pc = valid_freq(m.phase_crossover_hz);
@@ -784,7 +550,7 @@ impl<'a> Figure<'a> {
                 "no point with a finite positive frequency and a finite magnitude or phase".into(),
             ));
         };
-        let x = freq_ticks(f_lo, f_hi);
+        let x = freq_axis(f_lo, f_hi, NOMINAL_PLOT_W, 1.0);
 
         let mag_ext = extent(
             series
@@ -800,7 +566,8 @@ impl<'a> Figure<'a> {
         // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
         let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
         let m_lo = m_lo.max(m_hi - MAG_WINDOW_DB);
-        let mag = value_ticks(m_lo, m_hi, Some(0.0), &nice_steps_125(), 8.0, 10.0);
+        let steps = steps_125((m_hi - m_lo).max(10.0), 8.0);
+        let mag = value_ticks(m_lo, m_hi, Some(0.0), &steps, 8.0, 10.0);
 
         // Phase: clamp to PHASE_WINDOW_DEG below the maximum (long delays
         // would squash everything else); include the -180 deg reference, or
@@ -923,18 +690,16 @@ impl render::Draw for Figure<'_> {
             render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
 
         // Panels with plotting areas of equal height.
-        let y_label_area = px(82.0);
+        let y_label_area = axes::y_label_area([&self.mag, &self.phase], scale);
         let x_label_area = px(50.0);
         let (m_left, m_right, m_top, m_gap, m_bottom) =
             (px(8.0), px(30.0), px(4.0), px(10.0), px(8.0));
+        let plot_w = root.dim_in_pixel().0 as i32 - m_left - m_right - y_label_area;
+        let x = freq_axis(self.x.lo, self.x.hi, f64::from(plot_w.max(10)), scale);
         let body_h = height as i32 - header_h;
         let plot_h = ((body_h - m_top - 2 * m_gap - x_label_area - m_bottom) / 2).max(10);
         let (top_area, bottom_area) = body.split_vertically(m_top + plot_h + m_gap);
 
-        let label_style = text(15.0);
-        let desc_style = text(17.0);
-        let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
-        let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
         let line_w = upx(2.0).max(2);
         let ref_style = REF_COLOR.stroke_width(upx(1.5));
 
@@ -946,17 +711,9 @@ impl render::Draw for Figure<'_> {
             .margin_bottom(m_gap)
             .x_label_area_size(0)
             .y_label_area_size(y_label_area)
-            .build_cartesian_2d(self.x.axis(), self.mag.axis())
+            .build_cartesian_2d(x.clone(), self.mag.clone())
             .map_err(plot_err)?;
-        top.configure_mesh()
-            .y_desc("Magnitude (dB)")
-            .axis_desc_style(desc_style.clone())
-            .label_style(label_style.clone())
-            .bold_line_style(bold_grid)
-            .light_line_style(light_grid)
-            .y_label_offset(0)
-            .draw()
-            .map_err(plot_err)?;
+        axes::draw_axes(&mut top, (None, Some("Magnitude (dB)")), true, 0.0, scale)?;
         if self.mag.contains(0.0) {
             top.draw_series(DashedLineSeries::new(
                 [(self.x.lo, 0.0), (self.x.hi, 0.0)],
@@ -1020,14 +777,7 @@ impl render::Draw for Figure<'_> {
                 .draw()
                 .map_err(plot_err)?;
         }
-        frame(
-            &top,
-            self.x.lo,
-            self.x.hi,
-            self.mag.lo,
-            self.mag.hi,
-            upx(1.0),
-        )?;
+        axes::frame(root, axes::plot_bounds(top.plotting_area()), upx(1.0))?;
 
         // --- Phase panel -------------------------------------------------
         let mut bottom = ChartBuilder::on(&bottom_area)
@@ -1037,18 +787,10 @@ impl render::Draw for Figure<'_> {
             .margin_bottom(m_bottom)
             .x_label_area_size(x_label_area)
             .y_label_area_size(y_label_area)
-            .build_cartesian_2d(self.x.axis(), self.phase.axis())
+            .build_cartesian_2d(x, self.phase.clone())
             .map_err(plot_err)?;
-        bottom
-            .configure_mesh()
-            .x_desc("Frequency (Hz)")
-            .y_desc("Phase (deg)")
-            .axis_desc_style(desc_style)
-            .label_style(label_style)
-            .bold_line_style(bold_grid)
-            .light_line_style(light_grid)
-            .draw()
-            .map_err(plot_err)?;
+        let descs = (Some("Frequency (Hz)"), Some("Phase (deg)"));
+        axes::draw_axes(&mut bottom, descs, true, 0.0, scale)?;
         if self.phase.contains(self.phase_ref) {
             bottom
                 .draw_series(DashedLineSeries::new(
@@ -1076,20 +818,10 @@ impl render::Draw for Figure<'_> {
                 margin_bar(&mut bottom, f, (lo, hi), &self.phase, label, scale)?;
             }
         }
-        frame(
-            &bottom,
-            self.x.lo,
-            self.x.hi,
-            self.phase.lo,
-            self.phase.hi,
-            upx(1.0),
-        )?;
+        axes::frame(root, axes::plot_bounds(bottom.plotting_area()), upx(1.0))?;
         Ok(())
     }
 }
-
-type BodeChart<'b, DB> =
-    ChartContext<'b, DB, Cartesian2d<TickedAxis<LogCoord<f64>>, TickedAxis<RangedCoordf64>>>;
 
 /// Colour of series number `i` (cycling through the palette).
 fn series_color(i: usize) -> RGBColor {
@@ -1099,7 +831,7 @@ fn series_color(i: usize) -> RGBColor {
 /// Thin dashed vertical lines at the crossover frequencies of each marked series, in the
 /// series' colour, spanning the panel's value range `(lo, hi)`.
 fn crossover_lines<DB: DrawingBackend>(
-    chart: &mut BodeChart<'_, DB>,
+    chart: &mut Chart<'_, DB>,
     marks: &[Marks],
     (lo, hi): (f64, f64),
     scale: f64,
@@ -1129,10 +861,10 @@ fn crossover_lines<DB: DrawingBackend>(
 /// crossover the curve lies above the lower end of the bar, so the label does
 /// not sit on the curve the markers refer to.
 fn margin_bar<DB: DrawingBackend>(
-    chart: &mut BodeChart<'_, DB>,
+    chart: &mut Chart<'_, DB>,
     f: f64,
     (a, b): (f64, f64),
-    panel: &LinearTicks,
+    panel: &Axis,
     (label, color): (&'static str, RGBColor),
     scale: f64,
 ) -> Result<(), ReportError> {
@@ -1180,7 +912,7 @@ fn series_dash(i: usize, scale: f64) -> Option<(i32, i32)> {
 
 /// Draw the polylines and isolated points of series number `i`, in its colour and dash.
 fn draw_pieces<DB: DrawingBackend>(
-    chart: &mut BodeChart<'_, DB>,
+    chart: &mut Chart<'_, DB>,
     pieces: &Pieces,
     i: usize,
     line_w: u32,
@@ -1205,30 +937,6 @@ fn draw_pieces<DB: DrawingBackend>(
         )
         .map_err(plot_err)?;
     Ok(())
-}
-
-/// Thin frame around the plotting area.
-fn frame<DB: DrawingBackend>(
-    chart: &BodeChart<'_, DB>,
-    x_lo: f64,
-    x_hi: f64,
-    y_lo: f64,
-    y_hi: f64,
-    width: u32,
-) -> Result<(), ReportError> {
-    chart
-        .plotting_area()
-        .draw(&PathElement::new(
-            [
-                (x_lo, y_lo),
-                (x_hi, y_lo),
-                (x_hi, y_hi),
-                (x_lo, y_hi),
-                (x_lo, y_lo),
-            ],
-            BLACK.stroke_width(width),
-        ))
-        .map_err(plot_err)
 }
 
 #[cfg(test)]
@@ -1540,17 +1248,19 @@ mod tests {
 
     #[test]
     fn ticks() {
-        let t = freq_ticks(0.01, 1000.0);
+        let t = freq_axis(0.01, 1000.0, NOMINAL_PLOT_W, 1.0);
         assert_eq!(t.major.len(), 6);
-        assert_eq!(format_freq_tick(t.major[0]), "0.01");
-        assert_eq!(format_freq_tick(t.major[5]), "1000");
-        assert_eq!(format_freq_tick(2e6), "2e6");
-        let t = freq_ticks(2.0, 8.0);
+        assert_eq!(t.labels[0], "0.01");
+        assert_eq!(t.labels[5], "1000");
+        let t = freq_axis(2.0, 8.0, NOMINAL_PLOT_W, 1.0);
         assert!(t.major.len() >= 2);
+        // A single frequency gets a band around it.
+        let t = freq_axis(5.0, 5.0, NOMINAL_PLOT_W, 1.0);
+        assert!(t.lo < 5.0 && t.hi > 5.0 && t.major.len() >= 2, "{t:?}");
         let p = value_ticks(-250.0, -90.0, Some(-180.0), &phase_steps(), 9.0, 20.0);
         assert!(p.major.iter().all(|v| v % 45.0 == 0.0), "{p:?}");
         assert!(p.lo <= -250.0 && p.hi >= -90.0);
-        let m = value_ticks(-80.0, 40.0, Some(0.0), &nice_steps_125(), 8.0, 10.0);
+        let m = value_ticks(-80.0, 40.0, Some(0.0), &steps_125(120.0, 8.0), 8.0, 10.0);
         assert!(m.major.contains(&0.0));
         assert_eq!(format_freq_hz(4.5678), "4.57");
         assert_eq!(format_freq_hz(0.012345), "0.0123");

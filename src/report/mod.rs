@@ -4,6 +4,7 @@
 //! file as bytes); writing the result to disk is the caller's job. Text is
 //! drawn with an embedded copy of DejaVu Sans, so no system fonts are needed.
 
+mod axes;
 mod bode;
 mod font;
 mod layout;

@@ -1,5 +1,5 @@
 //! What every figure shares: rendering a prepared figure to SVG text or PNG bytes, and the
-//! 1-2-5 tick steps of linear axes.
+//! header (title and subtitle) above the plots.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -99,25 +99,6 @@ fn rasterise(svg: &str, width: u32, height: u32) -> Result<Vec<u8>, ReportError>
     pixmap
         .encode_png()
         .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))
-}
-
-/// Candidate (major, minor) 1-2-5 × 10^k steps for `span`, ascending, starting at the smallest
-/// giving at most `max_intervals` major intervals.
-pub(super) fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
-    let min_step = span / max_intervals;
-    let d0 = min_step.log10().floor() as i32 - 1;
-    let steps: Vec<(f64, f64)> = (d0..=d0 + 2)
-        .flat_map(|d| {
-            let p = 10f64.powi(d);
-            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
-        })
-        .filter(|&(s, _)| s >= min_step * (1.0 - 1e-9))
-        .collect();
-    if steps.is_empty() {
-        vec![(min_step, min_step / 2.0)]
-    } else {
-        steps
-    }
 }
 
 /// Subtitle colour shared by the figures.

@@ -6,18 +6,15 @@
 //! The look (fonts, sizes, grid, palette, margins) follows the Bode diagrams
 //! of [`super::bode`], so all pumpcyl figures form one family.
 
-use plotters::coord::ranged1d::ValueFormatter;
-use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::bode::{
-    linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
-};
+use super::axes::{self, linear_axis, nice_axis, Axis, Chart};
+use super::bode::{plot_err, ReportError, DEFAULT_WIDTH_PX, PALETTE};
 use super::layout;
-use super::render::{self, header_height, steps_125};
+use super::render::{self, header_height};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
 /// pixels; with the gap to the next panel a panel takes 220 px.
@@ -31,10 +28,6 @@ const MARGIN_TOP: f64 = 4.0;
 const PANEL_GAP: f64 = 10.0;
 const MARGIN_BOTTOM: f64 = 8.0;
 const X_LABEL_AREA: f64 = 58.0;
-/// Smallest y label area (room for the rotated description and labels).
-const MIN_Y_LABEL_AREA: f64 = 82.0;
-const TICK_LABEL_SIZE: f64 = 15.0;
-const AXIS_DESC_SIZE: f64 = 17.0;
 const LEGEND_FONT_SIZE: f64 = 15.0;
 const LEGEND_SAMPLE: f64 = 28.0;
 /// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
@@ -405,29 +398,18 @@ impl render::Draw for Figure<'_> {
 
         // Ticks: at most one labelled value per ~36 px of panel height.
         let max_y_intervals = (f64::from(plot_h) / (36.0 * scale)).floor().clamp(2.0, 8.0);
-        let mut y_ticks: Vec<LinearTicks> = self
+        let mut y_ticks: Vec<Axis> = self
             .panels
             .iter()
-            .map(|p| ticks(p.y_range.0, p.y_range.1, max_y_intervals))
+            .map(|p| nice_axis(p.y_range.0, p.y_range.1, max_y_intervals))
             .collect();
 
         // Horizontal layout: the y label area fits the widest tick label.
-        let label_style = text(TICK_LABEL_SIZE);
-        let y_label_area = |y_ticks: &[LinearTicks]| -> Result<i32, ReportError> {
-            let mut widest = 0u32;
-            for t in y_ticks {
-                let axis = t.axis();
-                for v in &t.major {
-                    let w = layout::text_width(&axis.format_ext(v), TICK_LABEL_SIZE * scale);
-                    widest = widest.max(w.ceil() as u32);
-                }
-            }
-            Ok(px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0)))
-        };
         let (m_left, m_right) = (px(MARGIN_LEFT), px(MARGIN_RIGHT));
-        let plot_w = (width as i32 - m_left - m_right - y_label_area(&y_ticks)?).max(10);
+        let plot_w =
+            (width as i32 - m_left - m_right - axes::y_label_area(&y_ticks, scale)).max(10);
         let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
-        let x_ticks = time_ticks(self.t_range.0, self.t_range.1, max_x_intervals);
+        let x_ticks = linear_axis(self.t_range.0, self.t_range.1, max_x_intervals);
 
         // Legends: size, corner and columns; headroom above the data when
         // every placement would hide part of the curves.
@@ -477,7 +459,7 @@ impl render::Draw for Figure<'_> {
                         let mut raised = yt.clone();
                         for _ in 0..4 {
                             let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
-                            raised = ticks(raised.lo, hi, max_y_intervals);
+                            raised = nice_axis(raised.lo, hi, max_y_intervals);
                             let (l, h) = place_legend(
                                 data,
                                 x_range,
@@ -497,7 +479,7 @@ impl render::Draw for Figure<'_> {
             }
             legends.push(Some((entries, label_w, layout)));
         }
-        let y_label_area = y_label_area(&y_ticks)?;
+        let y_label_area = axes::y_label_area(&y_ticks, scale);
 
         // Panel areas, top to bottom.
         let mut breaks = Vec::with_capacity(self.panels.len());
@@ -507,10 +489,6 @@ impl render::Draw for Figure<'_> {
             y += 2 * m_gap + plot_h;
         }
         let areas = body.split_by_breakpoints([] as [i32; 0], breaks);
-
-        let desc_style = text(AXIS_DESC_SIZE);
-        let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
-        let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
 
         for (i, (((data, area), yt), legend)) in self
             .panels
@@ -529,18 +507,11 @@ impl render::Draw for Figure<'_> {
                 .margin_bottom(if last { m_bottom } else { m_gap })
                 .x_label_area_size(if last { x_label_area } else { 0 })
                 .y_label_area_size(y_label_area)
-                .build_cartesian_2d(x_ticks.axis(), yt.axis())
+                .build_cartesian_2d(x_ticks.clone(), yt.clone())
                 .map_err(plot_err)?;
-            let mut mesh = chart.configure_mesh();
-            mesh.y_desc(data.panel.y_label.clone())
-                .axis_desc_style(desc_style.clone())
-                .label_style(label_style.clone())
-                .bold_line_style(bold_grid)
-                .light_line_style(light_grid);
-            if last {
-                mesh.x_desc(self.x_label.as_str());
-            }
-            mesh.draw().map_err(plot_err)?;
+            let x_desc = last.then_some(self.x_label.as_str());
+            let descs = (x_desc, Some(data.panel.y_label.as_str()));
+            axes::draw_axes(&mut chart, descs, true, 0.0, scale)?;
 
             let (pw, _) = chart.plotting_area().dim_in_pixel();
             let bucket_count = (pw as usize).max(1) * 2;
@@ -566,19 +537,7 @@ impl render::Draw for Figure<'_> {
                     upx(1.0),
                 )?;
             }
-            chart
-                .plotting_area()
-                .draw(&PathElement::new(
-                    [
-                        (x_ticks.lo, yt.lo),
-                        (x_ticks.hi, yt.lo),
-                        (x_ticks.hi, yt.hi),
-                        (x_ticks.lo, yt.hi),
-                        (x_ticks.lo, yt.lo),
-                    ],
-                    BLACK.stroke_width(upx(1.0)),
-                ))
-                .map_err(plot_err)?;
+            axes::frame(root, axes::plot_bounds(chart.plotting_area()), upx(1.0))?;
         }
         Ok(())
     }
@@ -593,23 +552,6 @@ fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
             "{what}: values too large to scale ({lo:e} .. {hi:e})"
         )))
     }
-}
-
-/// Value ticks over `lo..hi`, the range snapped outward to the minor step.
-fn ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
-    linear_ticks(lo, hi, &steps_125(hi - lo, max_intervals))
-}
-
-/// Time ticks over exactly `lo..hi` (no snapping: the axis spans the data).
-fn time_ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
-    let mut t = ticks(lo, hi, max_intervals);
-    let tol = 1e-9 * (hi - lo);
-    let inside = |v: &f64| *v >= lo - tol && *v <= hi + tol;
-    t.major.retain(inside);
-    t.minor.retain(inside);
-    t.lo = lo;
-    t.hi = hi;
-    t
 }
 
 /// Pixel sizes for drawing traces.
@@ -633,13 +575,10 @@ impl TraceStyles {
     }
 }
 
-type PanelChart<'b, DB> =
-    ChartContext<'b, DB, Cartesian2d<TickedAxis<RangedCoordf64>, TickedAxis<RangedCoordf64>>>;
-
 /// Draw one trace: its polylines (decimated to `buckets` columns over
 /// `t_lo..t_hi`) and its isolated points.
 fn draw_trace<DB: DrawingBackend>(
-    chart: &mut PanelChart<'_, DB>,
+    chart: &mut Chart<'_, DB>,
     trace: &Trace,
     pieces: &Pieces,
     color: RGBColor,
@@ -1168,16 +1107,6 @@ mod tests {
         );
         let many: Vec<Trace> = (0..10).map(|_| tr(None)).collect();
         assert_eq!(assign_colors(&many), vec![0, 1, 2, 3, 4, 5, 6, 7, 0, 1]);
-    }
-
-    #[test]
-    fn time_ticks_span_data_exactly() {
-        let t = time_ticks(0.0, 3.97, 8.0);
-        assert_eq!((t.lo, t.hi), (0.0, 3.97));
-        assert_eq!(t.major, vec![0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]);
-        let y = ticks(339.8, 345.5, 5.0);
-        assert!(y.lo <= 339.8 && y.hi >= 345.5);
-        assert!(y.major.len() >= 3 && y.major.len() <= 6, "{y:?}");
     }
 
     #[test]
