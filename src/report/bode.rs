@@ -7,8 +7,9 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
 use super::font;
-use super::layout;
+use super::legend::{self, LegendMetrics};
 use super::render;
+use super::series::{draw_pieces, Pieces, Polyline, Stroke, PALETTE};
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_WIDTH_PX: u32 = 1000;
@@ -27,19 +28,6 @@ const MAG_WINDOW_DB: f64 = 200.0;
 
 /// Lowest phase shown, relative to the largest finite phase, in degrees.
 const PHASE_WINDOW_DEG: f64 = 720.0;
-
-/// Okabe–Ito colour-blind-friendly palette, in the order series use it
-/// (yellow last: it has the least contrast on white).
-pub(super) const PALETTE: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),   // blue
-    RGBColor(213, 94, 0),    // vermillion
-    RGBColor(0, 158, 115),   // bluish green
-    RGBColor(204, 121, 167), // reddish purple
-    RGBColor(230, 159, 0),   // orange
-    RGBColor(86, 180, 233),  // sky blue
-    RGBColor(0, 0, 0),       // black
-    RGBColor(240, 228, 66),  // yellow
-];
 
 /// Colour of reference lines (0 dB, -180 deg) and crossover markers.
 const REF_COLOR: RGBColor = RGBColor(70, 70, 70);
@@ -278,17 +266,6 @@ fn format_signed(v: f64, unit: &str) -> String {
 // ---------------------------------------------------------------------------
 // Data preparation
 // ---------------------------------------------------------------------------
-
-/// A polyline in data coordinates (frequency in Hz, value).
-type Polyline = Vec<(f64, f64)>;
-
-/// Drawable pieces of one series in one panel.
-#[derive(Debug, Default, Clone, PartialEq)]
-struct Pieces {
-    lines: Vec<Polyline>,
-    /// Isolated finite points (no finite neighbour) inside the panel range.
-    dots: Vec<(f64, f64)>,
-}
 
 /// Split `(freq, value)` into polylines: points with a non-finite or
 /// non-positive frequency or a non-finite value break the line; segments are
@@ -626,48 +603,6 @@ impl<'a> Figure<'a> {
             summary,
         })
     }
-
-    /// Legend corner in the magnitude panel that hides the fewest points,
-    /// given the legend size as fractions of the plotting area.
-    fn legend_position(&self, legend_w: f64, legend_h: f64) -> SeriesLabelPosition {
-        let candidates = [
-            (SeriesLabelPosition::UpperRight, 1.0, 1.0),
-            (SeriesLabelPosition::LowerLeft, 0.0, 0.0),
-            (SeriesLabelPosition::UpperLeft, 0.0, 1.0),
-            (SeriesLabelPosition::LowerRight, 1.0, 0.0),
-        ];
-        let span = self.mag.hi - self.mag.lo;
-        let hits = |cx: f64, cy: f64| -> usize {
-            let (x0, x1) = if cx > 0.5 {
-                (1.0 - legend_w, 1.0)
-            } else {
-                (0.0, legend_w)
-            };
-            let (y0, y1) = if cy > 0.5 {
-                (1.0 - legend_h, 1.0)
-            } else {
-                (0.0, legend_h)
-            };
-            let inside = |&(f, v): &(f64, f64)| {
-                let fx = self.x.fraction(f);
-                let fy = (v - self.mag.lo) / span;
-                fx >= x0 && fx <= x1 && fy >= y0 && fy <= y1
-            };
-            self.mag_pieces
-                .iter()
-                .flat_map(|p| p.lines.iter().flatten().chain(p.dots.iter()))
-                .filter(|p| inside(p))
-                .count()
-        };
-        let mut best = (usize::MAX, SeriesLabelPosition::UpperRight);
-        for (pos, cx, cy) in candidates {
-            let n = hits(cx, cy);
-            if n < best.0 {
-                best = (n, pos);
-            }
-        }
-        best.1
-    }
 }
 
 impl render::Draw for Figure<'_> {
@@ -680,7 +615,6 @@ impl render::Draw for Figure<'_> {
     ) -> Result<(), ReportError> {
         let px = render::px(scale);
         let upx = render::upx(scale);
-        let text = render::text(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
         let height = root.dim_in_pixel().1;
@@ -700,7 +634,6 @@ impl render::Draw for Figure<'_> {
         let plot_h = ((body_h - m_top - 2 * m_gap - x_label_area - m_bottom) / 2).max(10);
         let (top_area, bottom_area) = body.split_vertically(m_top + plot_h + m_gap);
 
-        let line_w = upx(2.0).max(2);
         let ref_style = REF_COLOR.stroke_width(upx(1.5));
 
         // --- Magnitude panel ---------------------------------------------
@@ -724,30 +657,13 @@ impl render::Draw for Figure<'_> {
             .map_err(plot_err)?;
         }
         crossover_lines(&mut top, &self.marks, (self.mag.lo, self.mag.hi), scale)?;
-        let multi = self.series.len() > 1;
         // Later series first, so the first series (the one the markers
         // refer to) is drawn on top.
-        for (i, pieces) in self.mag_pieces.iter().enumerate().rev() {
-            draw_pieces(&mut top, pieces, i, line_w, scale)?;
-        }
-        if multi {
-            for (i, s) in self.series.iter().enumerate() {
-                let legend_style = series_color(i).stroke_width(line_w);
-                let (len, dash) = (px(28.0), series_dash(i, scale));
-                top.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
-                    .map_err(plot_err)?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| match dash {
-                        Some((d, g)) => plotters::element::DashedPathElement::new(
-                            [(x, y), (x + len, y)],
-                            d,
-                            g,
-                            legend_style,
-                        )
-                        .into_dyn(),
-                        None => PathElement::new([(x, y), (x + len, y)], legend_style).into_dyn(),
-                    });
-            }
+        let strokes: Vec<Stroke> = (0..self.series.len())
+            .map(|i| series_stroke(i, scale))
+            .collect();
+        for (pieces, stroke) in self.mag_pieces.iter().zip(&strokes).rev() {
+            draw_pieces(&mut top, pieces.lines.clone(), &pieces.dots, stroke)?;
         }
         // Only the first marked series' bars are labelled, so close bars never overprint
         // their labels; the colours and the summary tell the others apart.
@@ -757,25 +673,22 @@ impl render::Draw for Figure<'_> {
                 margin_bar(&mut top, f, (lo, hi), &self.mag, label, scale)?;
             }
         }
-        if multi {
-            let (pw, ph) = top.plotting_area().dim_in_pixel();
-            let widest = self
+        if self.series.len() > 1 {
+            // The legend in the corner of the magnitude panel hiding the fewest curve segments.
+            let entries: Vec<_> = self
                 .series
                 .iter()
-                .map(|s| layout::text_width(&s.label, 15.0 * scale))
-                .fold(0.0, f64::max);
-            let legend_w = (f64::from(px(60.0)) + widest) / f64::from(pw.max(1));
-            let legend_h =
-                (px(20.0) as f64 + self.series.len() as f64 * 22.0 * scale) / f64::from(ph.max(1));
-            top.configure_series_labels()
-                .position(self.legend_position(legend_w, legend_h))
-                .margin(px(10.0))
-                .legend_area_size(px(36.0))
-                .label_font(text(15.0))
-                .background_style(WHITE.mix(0.88))
-                .border_style(BLACK.mix(0.45))
-                .draw()
-                .map_err(plot_err)?;
+                .zip(&strokes)
+                .map(|(s, stroke)| stroke.legend_entry(&s.label))
+                .collect();
+            let m = LegendMetrics::new(scale);
+            let label_w = m.label_widths(&entries);
+            let (pw, ph) = top.plotting_area().dim_in_pixel();
+            let plot = (pw as i32, ph as i32);
+            let axes = (&x, &self.mag);
+            let (layout, _) = legend::place_legend(&self.mag_pieces, axes, &label_w, &m, plot);
+            let area = top.plotting_area().strip_coord_spec();
+            legend::draw_legend(&area, &entries, &label_w, &layout, &m, upx(1.0))?;
         }
         axes::frame(root, axes::plot_bounds(top.plotting_area()), upx(1.0))?;
 
@@ -807,8 +720,8 @@ impl render::Draw for Figure<'_> {
             (self.phase.lo, self.phase.hi),
             scale,
         )?;
-        for (i, pieces) in self.phase_pieces.iter().enumerate().rev() {
-            draw_pieces(&mut bottom, pieces, i, line_w, scale)?;
+        for (pieces, stroke) in self.phase_pieces.iter().zip(&strokes).rev() {
+            draw_pieces(&mut bottom, pieces.lines.clone(), &pieces.dots, stroke)?;
         }
         // Only the first marked series' bars are labelled, so close bars never overprint
         // their labels; the colours and the summary tell the others apart.
@@ -898,45 +811,21 @@ fn margin_bar<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Dash pattern (dash, gap in px) of series number `i` at `scale`: the first series solid,
-/// the others dashed, dotted, long-dashed or short-dashed in turn, so that curves lying on
-/// top of each other stay distinguishable without colour.
-fn series_dash(i: usize, scale: f64) -> Option<(i32, i32)> {
+/// Stroke of series number `i` at `scale`: its palette colour, 2 px wide, the first series
+/// solid, the others dashed, dotted, long-dashed or short-dashed in turn, so that curves lying
+/// on top of each other stay distinguishable without colour.
+fn series_stroke(i: usize, scale: f64) -> Stroke {
     const PATTERNS: [(f64, f64); 4] = [(12.0, 6.0), (3.0, 4.0), (22.0, 6.0), (7.0, 3.0)];
-    let px = render::px(scale);
-    (i > 0).then(|| {
-        let (d, g) = PATTERNS[(i - 1) % PATTERNS.len()];
-        (px(d).max(1), px(g).max(1))
-    })
-}
-
-/// Draw the polylines and isolated points of series number `i`, in its colour and dash.
-fn draw_pieces<DB: DrawingBackend>(
-    chart: &mut Chart<'_, DB>,
-    pieces: &Pieces,
-    i: usize,
-    line_w: u32,
-    scale: f64,
-) -> Result<(), ReportError> {
-    let color = series_color(i);
-    let style = color.stroke_width(line_w);
-    for line in &pieces.lines {
-        match series_dash(i, scale) {
-            Some((d, g)) => chart.draw_series(DashedLineSeries::new(line.clone(), d, g, style)),
-            None => chart.draw_series(std::iter::once(PathElement::new(line.clone(), style))),
-        }
-        .map_err(plot_err)?;
+    let (px, upx) = (render::px(scale), render::upx(scale));
+    Stroke {
+        color: series_color(i),
+        width: upx(2.0).max(2),
+        pattern: (i > 0).then(|| {
+            let (d, g) = PATTERNS[(i - 1) % PATTERNS.len()];
+            (px(d).max(1), px(g).max(1))
+        }),
+        dot_r: upx(3.0),
     }
-    let dot_r = render::upx(scale)(3.0);
-    chart
-        .draw_series(
-            pieces
-                .dots
-                .iter()
-                .map(|&p| Circle::new(p, dot_r, color.filled())),
-        )
-        .map_err(plot_err)?;
-    Ok(())
 }
 
 #[cfg(test)]

@@ -8,7 +8,9 @@ mod axes;
 mod bode;
 mod font;
 mod layout;
+mod legend;
 mod render;
+mod series;
 pub use layout::{sig, text_overflow};
 
 pub use bode::{

@@ -7,14 +7,13 @@
 //! of [`super::bode`], so all pumpcyl figures form one family.
 
 use plotters::coord::Shift;
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::axes::{self, linear_axis, nice_axis, Axis, Chart};
-use super::bode::{plot_err, ReportError, DEFAULT_WIDTH_PX, PALETTE};
-use super::layout;
+use super::axes::{self, linear_axis, nice_axis, Axis};
+use super::bode::{plot_err, ReportError, DEFAULT_WIDTH_PX};
+use super::legend::{self, LegendEntry, LegendMetrics};
 use super::render::{self, header_height};
+use super::series::{draw_pieces, Pieces, Polyline, Stroke, PALETTE};
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
 /// pixels; with the gap to the next panel a panel takes 220 px.
@@ -28,8 +27,6 @@ const MARGIN_TOP: f64 = 4.0;
 const PANEL_GAP: f64 = 10.0;
 const MARGIN_BOTTOM: f64 = 8.0;
 const X_LABEL_AREA: f64 = 58.0;
-const LEGEND_FONT_SIZE: f64 = 15.0;
-const LEGEND_SAMPLE: f64 = 28.0;
 /// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
 const MIN_PLOT_HEIGHT_PX: i32 = 40;
 
@@ -178,18 +175,6 @@ pub fn panels_xy_png(
 // ---------------------------------------------------------------------------
 // Data preparation
 // ---------------------------------------------------------------------------
-
-/// A polyline in data coordinates (time in s, value).
-type Polyline = Vec<(f64, f64)>;
-
-/// Drawable pieces of one trace.
-#[derive(Debug, Default, Clone, PartialEq)]
-struct Pieces {
-    /// Runs of at least two consecutive finite points.
-    lines: Vec<Polyline>,
-    /// Isolated finite points (no finite neighbour).
-    dots: Vec<(f64, f64)>,
-}
 
 /// Split a trace into runs of consecutive points with finite time and value.
 fn split_pieces(t: &[f64], y: &[f64]) -> Pieces {
@@ -372,7 +357,6 @@ impl render::Draw for Figure<'_> {
     ) -> Result<(), ReportError> {
         let px = render::px(scale);
         let upx = render::upx(scale);
-        let text = render::text(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
@@ -413,21 +397,8 @@ impl render::Draw for Figure<'_> {
 
         // Legends: size, corner and columns; headroom above the data when
         // every placement would hide part of the curves.
-        let styles = TraceStyles {
-            line_w: upx(2.0),
-            dot_r: upx(3.0),
-            dash: (px(10.0).max(2), px(6.0).max(2)),
-            dot: (px(2.0).max(1), px(6.0).max(2)),
-        };
-        let legend_metrics = LegendMetrics {
-            font: text(LEGEND_FONT_SIZE),
-            row_h: px(LEGEND_FONT_SIZE * 1.4),
-            pad: px(8.0),
-            sample_len: px(LEGEND_SAMPLE),
-            sample_gap: px(8.0),
-            col_gap: px(20.0),
-            inset: px(6.0),
-        };
+        let styles = TraceStyles::new(scale);
+        let legend_metrics = LegendMetrics::new(scale);
         let mut legends = Vec::with_capacity(self.panels.len());
         for (data, yt) in self.panels.iter().zip(y_ticks.iter_mut()) {
             let entries = legend_entries(data, &styles);
@@ -435,39 +406,23 @@ impl render::Draw for Figure<'_> {
                 legends.push(None);
                 continue;
             }
-            let label_w: Vec<i32> = entries
-                .iter()
-                .map(|e| layout::text_width(&e.label, LEGEND_FONT_SIZE * scale).ceil() as i32)
-                .collect();
+            let label_w = legend_metrics.label_widths(&entries);
             let plot = (plot_w, plot_h);
-            let x_range = (x_ticks.lo, x_ticks.hi);
-            let (mut layout, hits) = place_legend(
-                data,
-                x_range,
-                (yt.lo, yt.hi),
-                &label_w,
-                &legend_metrics,
-                plot,
-            );
+            let place = |y: &Axis| {
+                legend::place_legend(&data.pieces, (&x_ticks, y), &label_w, &legend_metrics, plot)
+            };
+            let (mut layout, hits) = place(yt);
             if hits > 0 {
                 // Raise the top of the axis until the legend fits above the
                 // data (the most compact layout, at most 40 % of the panel).
-                if let Some(compact) = compact_legend(&label_w, &legend_metrics, plot_w) {
-                    let frac = f64::from(compact.h + 2 * legend_metrics.inset) / f64::from(plot_h);
+                if let Some(frac) = legend_metrics.compact_fraction(&label_w, plot) {
                     if frac <= 0.4 {
                         let top = data.y_range.1;
                         let mut raised = yt.clone();
                         for _ in 0..4 {
                             let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
                             raised = nice_axis(raised.lo, hi, max_y_intervals);
-                            let (l, h) = place_legend(
-                                data,
-                                x_range,
-                                (raised.lo, raised.hi),
-                                &label_w,
-                                &legend_metrics,
-                                plot,
-                            );
+                            let (l, h) = place(&raised);
                             if h == 0 {
                                 *yt = raised;
                                 layout = l;
@@ -518,17 +473,19 @@ impl render::Draw for Figure<'_> {
             for ((trace, pieces), &color) in
                 data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
             {
-                draw_trace(
+                let lines = pieces
+                    .lines
+                    .iter()
+                    .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count));
+                draw_pieces(
                     &mut chart,
-                    trace,
-                    pieces,
-                    PALETTE[color],
-                    &styles,
-                    (x_ticks.lo, x_ticks.hi, bucket_count),
+                    lines,
+                    &pieces.dots,
+                    &styles.stroke(color, trace.style),
                 )?;
             }
             if let Some((entries, label_w, layout)) = legend {
-                draw_legend(
+                legend::draw_legend(
                     &chart.plotting_area().strip_coord_spec(),
                     entries,
                     label_w,
@@ -565,52 +522,30 @@ struct TraceStyles {
 }
 
 impl TraceStyles {
-    /// (dash, gap) in pixels of a line style; `None` for a solid line.
-    fn pattern(&self, style: LineStyle) -> Option<(i32, i32)> {
-        match style {
-            LineStyle::Solid => None,
-            LineStyle::Dashed => Some(self.dash),
-            LineStyle::Dotted => Some(self.dot),
+    /// The sizes at `scale`.
+    fn new(scale: f64) -> Self {
+        let (px, upx) = (render::px(scale), render::upx(scale));
+        TraceStyles {
+            line_w: upx(2.0),
+            dot_r: upx(3.0),
+            dash: (px(10.0).max(2), px(6.0).max(2)),
+            dot: (px(2.0).max(1), px(6.0).max(2)),
         }
     }
-}
 
-/// Draw one trace: its polylines (decimated to `buckets` columns over
-/// `t_lo..t_hi`) and its isolated points.
-fn draw_trace<DB: DrawingBackend>(
-    chart: &mut Chart<'_, DB>,
-    trace: &Trace,
-    pieces: &Pieces,
-    color: RGBColor,
-    styles: &TraceStyles,
-    (t_lo, t_hi, buckets): (f64, f64, usize),
-) -> Result<(), ReportError> {
-    let style = color.stroke_width(styles.line_w);
-    let lines = pieces
-        .lines
-        .iter()
-        .map(|line| decimate(line, t_lo, t_hi, buckets));
-    match styles.pattern(trace.style) {
-        None => {
-            chart
-                .draw_series(lines.map(|l| PathElement::new(l, style)))
-                .map_err(plot_err)?;
-        }
-        Some((on, off)) => {
-            chart
-                .draw_series(lines.map(|l| DashedPathElement::new(l, on, off, style)))
-                .map_err(plot_err)?;
+    /// The stroke of a trace in palette colour `color` and line style `style`.
+    fn stroke(&self, color: usize, style: LineStyle) -> Stroke {
+        Stroke {
+            color: PALETTE[color],
+            width: self.line_w,
+            pattern: match style {
+                LineStyle::Solid => None,
+                LineStyle::Dashed => Some(self.dash),
+                LineStyle::Dotted => Some(self.dot),
+            },
+            dot_r: self.dot_r,
         }
     }
-    chart
-        .draw_series(
-            pieces
-                .dots
-                .iter()
-                .map(|&p| Circle::new(p, styles.dot_r, color.filled())),
-        )
-        .map_err(plot_err)?;
-    Ok(())
 }
 
 /// Reduce a polyline to what can be seen at `buckets` columns across the
@@ -649,13 +584,6 @@ fn decimate(line: &[(f64, f64)], t_lo: f64, t_hi: f64, buckets: usize) -> Polyli
     out
 }
 
-/// One legend row: a line sample and a label.
-struct LegendEntry {
-    label: String,
-    style: ShapeStyle,
-    pattern: Option<(i32, i32)>,
-}
-
 /// Legend entries of a panel: its traces with a non-empty label, in order.
 fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry> {
     data.panel
@@ -663,202 +591,8 @@ fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry
         .iter()
         .zip(&data.colors)
         .filter(|(t, _)| !t.label.is_empty())
-        .map(|(t, &c)| LegendEntry {
-            label: t.label.clone(),
-            style: PALETTE[c].stroke_width(styles.line_w),
-            pattern: styles.pattern(t.style),
-        })
+        .map(|(t, &c)| styles.stroke(c, t.style).legend_entry(&t.label))
         .collect()
-}
-
-/// Pixel sizes of the legend box.
-struct LegendMetrics<'f> {
-    font: TextStyle<'f>,
-    row_h: i32,
-    /// Padding inside the box.
-    pad: i32,
-    sample_len: i32,
-    /// Gap between sample and label.
-    sample_gap: i32,
-    /// Gap between columns.
-    col_gap: i32,
-    /// Distance of the box from the plotting-area edges.
-    inset: i32,
-}
-
-/// Legend box: columns (entries fill them top to bottom), corner and size.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct LegendLayout {
-    columns: usize,
-    rows: usize,
-    /// (right, top): true for the right / top corner.
-    corner: (bool, bool),
-    w: i32,
-    h: i32,
-}
-
-/// Legend of `label_w.len()` entries in `columns` columns, unplaced.
-fn legend_box(label_w: &[i32], m: &LegendMetrics<'_>, columns: usize) -> LegendLayout {
-    let rows = label_w.len().div_ceil(columns.max(1)).max(1);
-    let columns = label_w.len().div_ceil(rows).max(1);
-    let col_w: i32 = label_w
-        .chunks(rows)
-        .map(|c| c.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap)
-        .sum();
-    LegendLayout {
-        columns,
-        rows,
-        corner: (true, true),
-        w: col_w + (columns as i32 - 1) * m.col_gap + 2 * m.pad,
-        h: rows as i32 * m.row_h + 2 * m.pad - (m.row_h - m.font.font.get_size() as i32).max(0),
-    }
-}
-
-/// The lowest legend (most columns) that fits in a plot `plot_w` px wide.
-fn compact_legend(label_w: &[i32], m: &LegendMetrics<'_>, plot_w: i32) -> Option<LegendLayout> {
-    (1..=label_w.len().min(4))
-        .rev()
-        .map(|c| legend_box(label_w, m, c))
-        .find(|l| l.w + 2 * m.inset <= plot_w)
-}
-
-/// Legend layout hiding the fewest curve segments, and how many it hides;
-/// fewer columns first, then the corners top right, top left, bottom right,
-/// bottom left. `plot` is the plotting-area size in pixels.
-fn place_legend(
-    data: &PanelData<'_>,
-    (t_lo, t_hi): (f64, f64),
-    (y_lo, y_hi): (f64, f64),
-    label_w: &[i32],
-    m: &LegendMetrics<'_>,
-    (plot_w, plot_h): (i32, i32),
-) -> (LegendLayout, usize) {
-    let norm = |(t, y): (f64, f64)| ((t - t_lo) / (t_hi - t_lo), (y - y_lo) / (y_hi - y_lo));
-    let (pw, ph) = (f64::from(plot_w.max(1)), f64::from(plot_h.max(1)));
-    let mut best: Option<(LegendLayout, usize)> = None;
-    for columns in 1..=label_w.len().min(4) {
-        let mut layout = legend_box(label_w, m, columns);
-        if layout.columns != columns || (columns > 1 && layout.w + 2 * m.inset > plot_w) {
-            continue;
-        }
-        // Box as fractions of the plotting area, y upwards.
-        let (lw, lh) = (
-            f64::from(layout.w + m.inset) / pw,
-            f64::from(layout.h + m.inset) / ph,
-        );
-        for corner in [(true, true), (false, true), (true, false), (false, false)] {
-            let x0 = if corner.0 { 1.0 - lw } else { 0.0 };
-            let y0 = if corner.1 { 1.0 - lh } else { 0.0 };
-            let rect = (x0, y0, x0 + lw, y0 + lh);
-            let mut hits = 0;
-            for pieces in &data.pieces {
-                for line in &pieces.lines {
-                    hits += line
-                        .windows(2)
-                        .filter(|w| segment_hits_rect(norm(w[0]), norm(w[1]), rect))
-                        .count();
-                }
-                hits += pieces
-                    .dots
-                    .iter()
-                    .filter(|&&p| segment_hits_rect(norm(p), norm(p), rect))
-                    .count();
-            }
-            let better = match &best {
-                Some((_, h)) => hits < *h,
-                None => true,
-            };
-            if better {
-                layout.corner = corner;
-                best = Some((layout, hits));
-            }
-            if hits == 0 {
-                return (layout, 0);
-            }
-        }
-    }
-    best.unwrap_or_else(|| (legend_box(label_w, m, 1), 0))
-}
-
-/// Draw a legend box in the pixel coordinates of the plotting area.
-fn draw_legend<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    entries: &[LegendEntry],
-    label_w: &[i32],
-    layout: &LegendLayout,
-    m: &LegendMetrics<'_>,
-    border_w: u32,
-) -> Result<(), ReportError> {
-    let (pw, ph) = area.dim_in_pixel();
-    let x0 = if layout.corner.0 {
-        pw as i32 - m.inset - layout.w
-    } else {
-        m.inset
-    };
-    let y0 = if layout.corner.1 {
-        m.inset
-    } else {
-        ph as i32 - m.inset - layout.h
-    };
-    let corners = [(x0, y0), (x0 + layout.w, y0 + layout.h)];
-    area.draw(&Rectangle::new(corners, WHITE.mix(0.88).filled()))
-        .map_err(plot_err)?;
-    area.draw(&Rectangle::new(
-        corners,
-        BLACK.mix(0.45).stroke_width(border_w),
-    ))
-    .map_err(plot_err)?;
-    let text_style = m.font.pos(Pos::new(HPos::Left, VPos::Center));
-    let mut x = x0 + m.pad;
-    for (col, widths) in entries.chunks(layout.rows).zip(label_w.chunks(layout.rows)) {
-        for (row, e) in col.iter().enumerate() {
-            let y = y0 + m.pad + row as i32 * m.row_h + m.font.font.get_size() as i32 / 2;
-            let sample = [(x, y), (x + m.sample_len, y)];
-            match e.pattern {
-                None => area.draw(&PathElement::new(sample, e.style)),
-                Some((on, off)) => area.draw(&DashedPathElement::new(sample, on, off, e.style)),
-            }
-            .map_err(plot_err)?;
-            area.draw(&Text::new(
-                e.label.clone(),
-                (x + m.sample_len + m.sample_gap, y),
-                text_style.clone(),
-            ))
-            .map_err(plot_err)?;
-        }
-        x += widths.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap + m.col_gap;
-    }
-    Ok(())
-}
-
-/// Whether the segment `a`-`b` touches the rectangle `(x0, y0, x1, y1)`
-/// (Liang–Barsky clipping).
-fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, f64, f64)) -> bool {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [
-        (-dx, a.0 - x0),
-        (dx, x1 - a.0),
-        (-dy, a.1 - y0),
-        (dy, y1 - a.1),
-    ] {
-        if p == 0.0 {
-            if q < 0.0 {
-                return false;
-            }
-        } else {
-            let r = q / p;
-            if p < 0.0 {
-                t0 = t0.max(r);
-            } else {
-                t1 = t1.min(r);
-            }
-            if t0 > t1 {
-                return false;
-            }
-        }
-    }
-    true
 }
 
 #[cfg(test)]
@@ -1127,80 +861,5 @@ mod tests {
         assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
         let short = &line[..50];
         assert_eq!(decimate(short, 0.0, 10.0, 100), short.to_vec());
-    }
-
-    #[test]
-    fn legend_layout_and_placement() {
-        let m = LegendMetrics {
-            font: TextStyle::from((crate::report::font::FAMILY, 15.0).into_font()),
-            row_h: 21,
-            pad: 8,
-            sample_len: 28,
-            sample_gap: 8,
-            col_gap: 20,
-            inset: 6,
-        };
-        let w = [20, 30, 90, 100];
-        let one = legend_box(&w, &m, 1);
-        assert_eq!((one.columns, one.rows), (1, 4));
-        assert_eq!(one.w, 100 + 36 + 16);
-        let two = legend_box(&w, &m, 2);
-        assert_eq!((two.columns, two.rows), (2, 2));
-        assert_eq!(two.w, 30 + 36 + 100 + 36 + 20 + 16);
-        assert!(two.h < one.h);
-        // Three columns of four entries collapse to two.
-        assert_eq!(legend_box(&w, &m, 3).columns, 2);
-        let cols = |plot_w| compact_legend(&w, &m, plot_w).map(|l| l.columns);
-        assert_eq!(cols(1000), Some(4));
-        assert_eq!(compact_legend(&w, &m, 300), Some(two));
-        assert_eq!(cols(200), Some(1));
-        assert_eq!(cols(100), None);
-
-        // A curve in the upper right only: the legend goes to the upper left.
-        let t = time(101, 0.01);
-        let y: Vec<f64> = t
-            .iter()
-            .map(|&t| if t > 0.5 { 10.0 } else { 0.0 })
-            .collect();
-        let panels = [Panel {
-            y_label: "y".into(),
-            traces: vec![trace("a", &t, &y), trace("b", &t, &y)],
-        }];
-        let fig = Figure::prepare("t", None, &panels).unwrap();
-        let (layout, hits) = place_legend(
-            &fig.panels[0],
-            (0.0, 1.0),
-            (-1.0, 11.0),
-            &[30, 30],
-            &m,
-            (800, 200),
-        );
-        assert_eq!(hits, 0);
-        assert_eq!(layout.corner, (false, true));
-        // Curves everywhere: some hits remain.
-        let y: Vec<f64> = t.iter().map(|&t| (200.0 * t).sin()).collect();
-        let panels = [Panel {
-            y_label: "y".into(),
-            traces: vec![trace("a", &t, &y)],
-        }];
-        let fig = Figure::prepare("t", None, &panels).unwrap();
-        let (_, hits) = place_legend(
-            &fig.panels[0],
-            (0.0, 1.0),
-            (-1.05, 1.05),
-            &[30],
-            &m,
-            (800, 200),
-        );
-        assert!(hits > 0);
-    }
-
-    #[test]
-    fn segment_rect() {
-        let r = (0.5, 0.5, 1.0, 1.0);
-        assert!(segment_hits_rect((0.0, 0.0), (1.0, 1.0), r));
-        assert!(!segment_hits_rect((0.0, 0.0), (1.0, 0.4), r));
-        assert!(segment_hits_rect((0.7, 0.7), (0.7, 0.7), r));
-        assert!(!segment_hits_rect((0.2, 0.7), (0.2, 0.7), r));
     }
 }

@@ -1,0 +1,80 @@
+//! What the figures draw their data with: the colour-blind-safe palette, a series split into
+//! polylines and isolated points, and the stroke (colour, width, dash pattern) it is drawn and
+//! shown in the legend with.
+
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+
+use super::axes::Chart;
+use super::bode::{plot_err, ReportError};
+use super::legend::LegendEntry;
+
+/// Okabe–Ito colour-blind-friendly palette, in the order series use it
+/// (yellow last: it has the least contrast on white).
+pub(super) const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),   // blue
+    RGBColor(213, 94, 0),    // vermillion
+    RGBColor(0, 158, 115),   // bluish green
+    RGBColor(204, 121, 167), // reddish purple
+    RGBColor(230, 159, 0),   // orange
+    RGBColor(86, 180, 233),  // sky blue
+    RGBColor(0, 0, 0),       // black
+    RGBColor(240, 228, 66),  // yellow
+];
+
+/// A polyline in data coordinates.
+pub(super) type Polyline = Vec<(f64, f64)>;
+
+/// Drawable pieces of one series: the runs of consecutive drawable points and the isolated
+/// points (no drawable neighbour), drawn as dots.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub(super) struct Pieces {
+    pub(super) lines: Vec<Polyline>,
+    pub(super) dots: Vec<(f64, f64)>,
+}
+
+/// How a series is drawn: colour, line width (px), dash pattern (dash, gap in px; `None` for
+/// a solid line) and radius (px) of its isolated points.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Stroke {
+    pub(super) color: RGBColor,
+    pub(super) width: u32,
+    pub(super) pattern: Option<(i32, i32)>,
+    pub(super) dot_r: u32,
+}
+
+impl Stroke {
+    /// The legend row showing this stroke with `label`.
+    pub(super) fn legend_entry(&self, label: &str) -> LegendEntry {
+        LegendEntry {
+            label: label.to_string(),
+            style: self.color.stroke_width(self.width),
+            pattern: self.pattern,
+        }
+    }
+}
+
+/// Draw the polylines `lines` and the points `dots` of one series with `stroke`.
+pub(super) fn draw_pieces<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    lines: impl IntoIterator<Item = Polyline>,
+    dots: &[(f64, f64)],
+    stroke: &Stroke,
+) -> Result<(), ReportError> {
+    let style = stroke.color.stroke_width(stroke.width);
+    let lines = lines.into_iter();
+    match stroke.pattern {
+        None => chart.draw_series(lines.map(|l| PathElement::new(l, style))),
+        Some((on, off)) => {
+            chart.draw_series(lines.map(|l| DashedPathElement::new(l, on, off, style)))
+        }
+    }
+    .map_err(plot_err)?;
+    chart
+        .draw_series(
+            dots.iter()
+                .map(|&p| Circle::new(p, stroke.dot_r, stroke.color.filled())),
+        )
+        .map_err(plot_err)?;
+    Ok(())
+}
