@@ -10,6 +10,7 @@ use super::font;
 use super::legend::{self, LegendMetrics};
 use super::render;
 use super::series::{draw_pieces, Pieces, Polyline, Stroke, PALETTE};
+use super::stack;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_WIDTH_PX: u32 = 1000;
@@ -613,7 +614,6 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = render::px(scale);
         let upx = render::upx(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
@@ -623,39 +623,16 @@ impl render::Draw for Figure<'_> {
         let (body, header_h) =
             render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
 
-        // Panels with plotting areas of equal height.
+        // Two plots of equal height sharing the frequency axis.
         let y_label_area = axes::y_label_area([&self.mag, &self.phase], scale);
-        let x_label_area = px(50.0);
-        let (m_left, m_right, m_top, m_gap, m_bottom) =
-            (px(8.0), px(30.0), px(4.0), px(10.0), px(8.0));
-        let plot_w = root.dim_in_pixel().0 as i32 - m_left - m_right - y_label_area;
+        let plot_w = stack::plot_width(root.dim_in_pixel().0, y_label_area, scale);
         let x = freq_axis(self.x.lo, self.x.hi, f64::from(plot_w.max(10)), scale);
-        let body_h = height as i32 - header_h;
-        let plot_h = ((body_h - m_top - 2 * m_gap - x_label_area - m_bottom) / 2).max(10);
-        let (top_area, bottom_area) = body.split_vertically(m_top + plot_h + m_gap);
-
-        let ref_style = REF_COLOR.stroke_width(upx(1.5));
-
-        // --- Magnitude panel ---------------------------------------------
-        let mut top = ChartBuilder::on(&top_area)
-            .margin_left(m_left)
-            .margin_right(m_right)
-            .margin_top(m_top)
-            .margin_bottom(m_gap)
-            .x_label_area_size(0)
-            .y_label_area_size(y_label_area)
-            .build_cartesian_2d(x.clone(), self.mag.clone())
-            .map_err(plot_err)?;
-        axes::draw_axes(&mut top, (None, Some("Magnitude (dB)")), true, 0.0, scale)?;
-        if self.mag.contains(0.0) {
-            top.draw_series(DashedLineSeries::new(
-                [(self.x.lo, 0.0), (self.x.hi, 0.0)],
-                px(8.0),
-                px(5.0),
-                ref_style,
-            ))
-            .map_err(plot_err)?;
-        }
+        let plot_h = stack::plot_height(height as i32 - header_h, 2, scale).max(10);
+        let areas = stack::areas(&body, 2, plot_h, scale);
+        let descs = ("Frequency (Hz)", "Magnitude (dB)");
+        let (axes, k) = ((x.clone(), self.mag.clone()), (0, 2));
+        let mut top = stack::chart(&areas[0], k, axes, descs, y_label_area, scale)?;
+        reference_line(&mut top, 0.0, scale)?;
         crossover_lines(&mut top, &self.marks, (self.mag.lo, self.mag.hi), scale)?;
         // Later series first, so the first series (the one the markers
         // refer to) is drawn on top.
@@ -692,28 +669,10 @@ impl render::Draw for Figure<'_> {
         }
         axes::frame(root, axes::plot_bounds(top.plotting_area()), upx(1.0))?;
 
-        // --- Phase panel -------------------------------------------------
-        let mut bottom = ChartBuilder::on(&bottom_area)
-            .margin_left(m_left)
-            .margin_right(m_right)
-            .margin_top(m_gap)
-            .margin_bottom(m_bottom)
-            .x_label_area_size(x_label_area)
-            .y_label_area_size(y_label_area)
-            .build_cartesian_2d(x, self.phase.clone())
-            .map_err(plot_err)?;
-        let descs = (Some("Frequency (Hz)"), Some("Phase (deg)"));
-        axes::draw_axes(&mut bottom, descs, true, 0.0, scale)?;
-        if self.phase.contains(self.phase_ref) {
-            bottom
-                .draw_series(DashedLineSeries::new(
-                    [(self.x.lo, self.phase_ref), (self.x.hi, self.phase_ref)],
-                    px(8.0),
-                    px(5.0),
-                    ref_style,
-                ))
-                .map_err(plot_err)?;
-        }
+        let descs = ("Frequency (Hz)", "Phase (deg)");
+        let (axes, k) = ((x, self.phase.clone()), (1, 2));
+        let mut bottom = stack::chart(&areas[1], k, axes, descs, y_label_area, scale)?;
+        reference_line(&mut bottom, self.phase_ref, scale)?;
         crossover_lines(
             &mut bottom,
             &self.marks,
@@ -739,6 +698,25 @@ impl render::Draw for Figure<'_> {
 /// Colour of series number `i` (cycling through the palette).
 fn series_color(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
+}
+
+/// Dashed horizontal reference line at `y` across `chart` (0 dB, -180 deg), if in range.
+fn reference_line<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    y: f64,
+    scale: f64,
+) -> Result<(), ReportError> {
+    let (x_axis, y_axis) = (chart.x_range(), chart.y_range());
+    if !(y_axis.start..=y_axis.end).contains(&y) {
+        return Ok(());
+    }
+    let px = render::px(scale);
+    let style = REF_COLOR.stroke_width(render::upx(scale)(1.5));
+    let ends = [(x_axis.start, y), (x_axis.end, y)];
+    chart
+        .draw_series(DashedLineSeries::new(ends, px(8.0), px(5.0), style))
+        .map_err(plot_err)?;
+    Ok(())
 }
 
 /// Thin dashed vertical lines at the crossover frequencies of each marked series, in the

@@ -11,6 +11,7 @@ mod layout;
 mod legend;
 mod render;
 mod series;
+mod stack;
 pub use layout::{sig, text_overflow};
 
 pub use bode::{

@@ -14,19 +14,12 @@ use super::bode::{plot_err, ReportError, DEFAULT_WIDTH_PX};
 use super::legend::{self, LegendEntry, LegendMetrics};
 use super::render::{self, header_height};
 use super::series::{draw_pieces, Pieces, Polyline, Stroke, PALETTE};
+use super::stack;
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
 /// pixels; with the gap to the next panel a panel takes 220 px.
 pub const PANEL_PLOT_HEIGHT_PX: u32 = 200;
 
-// Layout at scale 1 (1000 px wide), in pixels.
-const MARGIN_LEFT: f64 = 8.0;
-const MARGIN_RIGHT: f64 = 30.0;
-const MARGIN_TOP: f64 = 4.0;
-/// Margin above and below each plotting area between two panels.
-const PANEL_GAP: f64 = 10.0;
-const MARGIN_BOTTOM: f64 = 8.0;
-const X_LABEL_AREA: f64 = 58.0;
 /// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
 const MIN_PLOT_HEIGHT_PX: i32 = 40;
 
@@ -87,11 +80,7 @@ pub struct Panel {
 pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32) {
     let n = panel_count.clamp(1, 1000) as f64;
     let h = header_height(1.0, 1, usize::from(with_subtitle)) as f64
-        + MARGIN_TOP
-        + n * f64::from(PANEL_PLOT_HEIGHT_PX)
-        + (n - 1.0) * 2.0 * PANEL_GAP
-        + X_LABEL_AREA
-        + MARGIN_BOTTOM;
+        + stack::natural_height(n, f64::from(PANEL_PLOT_HEIGHT_PX));
     (DEFAULT_WIDTH_PX, h.round() as u32)
 }
 
@@ -355,7 +344,6 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = render::px(scale);
         let upx = render::upx(scale);
 
         root.fill(&WHITE).map_err(plot_err)?;
@@ -365,15 +353,8 @@ impl render::Draw for Figure<'_> {
         let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout: equal plotting heights.
-        let n = self.panels.len() as i32;
-        let (m_top, m_gap, m_bottom, x_label_area) = (
-            px(MARGIN_TOP),
-            px(PANEL_GAP),
-            px(MARGIN_BOTTOM),
-            px(X_LABEL_AREA),
-        );
-        let body_h = height as i32 - header_h;
-        let plot_h = (body_h - m_top - (n - 1) * 2 * m_gap - x_label_area - m_bottom) / n;
+        let n = self.panels.len();
+        let plot_h = stack::plot_height(height as i32 - header_h, n, scale);
         if plot_h < MIN_PLOT_HEIGHT_PX {
             return Err(ReportError::Plot(format!(
                 "image height {height} px too small for {n} panels"
@@ -389,9 +370,7 @@ impl render::Draw for Figure<'_> {
             .collect();
 
         // Horizontal layout: the y label area fits the widest tick label.
-        let (m_left, m_right) = (px(MARGIN_LEFT), px(MARGIN_RIGHT));
-        let plot_w =
-            (width as i32 - m_left - m_right - axes::y_label_area(&y_ticks, scale)).max(10);
+        let plot_w = stack::plot_width(width, axes::y_label_area(&y_ticks, scale), scale).max(10);
         let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
         let x_ticks = linear_axis(self.t_range.0, self.t_range.1, max_x_intervals);
 
@@ -436,15 +415,7 @@ impl render::Draw for Figure<'_> {
         }
         let y_label_area = axes::y_label_area(&y_ticks, scale);
 
-        // Panel areas, top to bottom.
-        let mut breaks = Vec::with_capacity(self.panels.len());
-        let mut y = m_top + plot_h + m_gap;
-        for _ in 1..n {
-            breaks.push(y);
-            y += 2 * m_gap + plot_h;
-        }
-        let areas = body.split_by_breakpoints([] as [i32; 0], breaks);
-
+        let areas = stack::areas(&body, n, plot_h, scale);
         for (i, (((data, area), yt), legend)) in self
             .panels
             .iter()
@@ -453,21 +424,9 @@ impl render::Draw for Figure<'_> {
             .zip(&legends)
             .enumerate()
         {
-            let first = i == 0;
-            let last = i + 1 == self.panels.len();
-            let mut chart = ChartBuilder::on(area)
-                .margin_left(m_left)
-                .margin_right(m_right)
-                .margin_top(if first { m_top } else { m_gap })
-                .margin_bottom(if last { m_bottom } else { m_gap })
-                .x_label_area_size(if last { x_label_area } else { 0 })
-                .y_label_area_size(y_label_area)
-                .build_cartesian_2d(x_ticks.clone(), yt.clone())
-                .map_err(plot_err)?;
-            let x_desc = last.then_some(self.x_label.as_str());
-            let descs = (x_desc, Some(data.panel.y_label.as_str()));
-            axes::draw_axes(&mut chart, descs, true, 0.0, scale)?;
-
+            let axes = (x_ticks.clone(), yt.clone());
+            let descs = (self.x_label.as_str(), data.panel.y_label.as_str());
+            let mut chart = stack::chart(area, (i, n), axes, descs, y_label_area, scale)?;
             let (pw, _) = chart.plotting_area().dim_in_pixel();
             let bucket_count = (pw as usize).max(1) * 2;
             for ((trace, pieces), &color) in
