@@ -9,7 +9,7 @@ use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
 use super::font;
 use super::legend::{self, LegendMetrics};
 use super::render;
-use super::series::{draw_pieces, Pieces, Polyline, Stroke, PALETTE};
+use super::series::{draw_pieces, finite_extent, runs, Pieces, Polyline, Stroke, PALETTE};
 use super::stack;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
@@ -273,22 +273,13 @@ fn format_signed(v: f64, unit: &str) -> String {
 /// clipped to `lo..=hi` on the value axis (interpolating in log frequency).
 fn clip_pieces(freq: &[f64], value: &[f64], lo: f64, hi: f64) -> Pieces {
     let mut pieces = Pieces::default();
-    let mut run: Vec<(f64, f64)> = Vec::new(); // (log10 f, value)
-    let valid = |f: f64, v: f64| f.is_finite() && f > 0.0 && v.is_finite();
-    let mut points = freq
+    // Runs of (log10 f, value).
+    let points = freq
         .iter()
         .zip(value)
-        .map(|(&f, &v)| valid(f, v).then(|| (f.log10(), v)))
-        .chain(std::iter::once(None));
-    loop {
-        match points.next() {
-            Some(Some(p)) => run.push(p),
-            Some(None) => {
-                clip_run(&run, lo, hi, &mut pieces);
-                run.clear();
-            }
-            None => break,
-        }
+        .map(|(&f, &v)| valid(f, v).then(|| (f.log10(), v)));
+    for run in runs(points) {
+        clip_run(&run, lo, hi, &mut pieces);
     }
     pieces
 }
@@ -377,20 +368,20 @@ fn interpolate_at(freq: &[f64], value: &[f64], f: f64) -> Option<f64> {
         })
 }
 
-/// Finite min/max of the values of points with a valid frequency.
-fn extent<'a>(pairs: impl Iterator<Item = (&'a [f64], &'a [f64])>) -> Option<(f64, f64)> {
-    let mut out: Option<(f64, f64)> = None;
-    for (freq, val) in pairs {
-        for (&f, &v) in freq.iter().zip(val) {
-            if f.is_finite() && f > 0.0 && v.is_finite() {
-                out = Some(match out {
-                    None => (v, v),
-                    Some((lo, hi)) => (lo.min(v), hi.max(v)),
-                });
-            }
-        }
-    }
-    out
+/// Whether a point at frequency `f` (Hz) with value `v` can be drawn.
+fn valid(f: f64, v: f64) -> bool {
+    f.is_finite() && f > 0.0 && v.is_finite()
+}
+
+/// Finite min/max of the values `value(s)` of the series' points with a valid frequency.
+fn extent(series: &[BodeSeries], value: impl Fn(&BodeSeries) -> &[f64]) -> Option<(f64, f64)> {
+    let points = series.iter().flat_map(|s| {
+        s.freq_hz
+            .iter()
+            .zip(value(s))
+            .filter(|(&f, &v)| valid(f, v))
+    });
+    finite_extent(points.map(|(_, &v)| v))
 }
 
 /// Everything needed to draw, computed before touching a backend.
@@ -512,17 +503,12 @@ impl<'a> Figure<'a> {
         }
 
         // Frequency extent over points with at least one finite value.
-        let mut f_ext: Option<(f64, f64)> = None;
-        for s in series {
-            for ((&f, &m), &p) in s.freq_hz.iter().zip(&s.mag_db).zip(&s.phase_deg) {
-                if f.is_finite() && f > 0.0 && (m.is_finite() || p.is_finite()) {
-                    f_ext = Some(match f_ext {
-                        None => (f, f),
-                        Some((lo, hi)) => (lo.min(f), hi.max(f)),
-                    });
-                }
-            }
-        }
+        let f_ext = finite_extent(series.iter().flat_map(|s| {
+            let points = s.freq_hz.iter().zip(&s.mag_db).zip(&s.phase_deg);
+            points
+                .filter(|((&f, &m), &p)| valid(f, m) || valid(f, p))
+                .map(|((&f, _), _)| f)
+        }));
         let Some((f_lo, f_hi)) = f_ext else {
             return Err(ReportError::Empty(
                 "no point with a finite positive frequency and a finite magnitude or phase".into(),
@@ -530,16 +516,8 @@ impl<'a> Figure<'a> {
         };
         let x = freq_axis(f_lo, f_hi, NOMINAL_PLOT_W, 1.0);
 
-        let mag_ext = extent(
-            series
-                .iter()
-                .map(|s| (s.freq_hz.as_slice(), s.mag_db.as_slice())),
-        );
-        let phase_ext = extent(
-            series
-                .iter()
-                .map(|s| (s.freq_hz.as_slice(), s.phase_deg.as_slice())),
-        );
+        let mag_ext = extent(series, |s| &s.mag_db);
+        let phase_ext = extent(series, |s| &s.phase_deg);
 
         // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
         let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
@@ -616,7 +594,6 @@ impl render::Draw for Figure<'_> {
     ) -> Result<(), ReportError> {
         let upx = render::upx(scale);
 
-        root.fill(&WHITE).map_err(plot_err)?;
         let height = root.dim_in_pixel().1;
 
         // Header: title and margin summary.

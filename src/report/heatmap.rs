@@ -448,16 +448,8 @@ impl<'a> Figure<'a> {
         }
         let x0 = x0.min(right - bw).max(left);
         let y0 = y0.min(bottom - bh).max(top);
-        root.draw(&Rectangle::new(
-            [(x0, y0), (x0 + bw, y0 + bh)],
-            WHITE.mix(0.85).filled(),
-        ))
-        .map_err(plot_err)?;
-        root.draw(&Rectangle::new(
-            [(x0, y0), (x0 + bw, y0 + bh)],
-            BLACK.mix(0.45).stroke_width(1),
-        ))
-        .map_err(plot_err)?;
+        let corners = [(x0, y0), (x0 + bw, y0 + bh)];
+        render::draw_box(root, corners, render::label_background(), upx(1.0))?;
         root.draw(&Text::new(
             marker.label.clone(),
             (x0 + pad, y0 + pad),
@@ -482,7 +474,6 @@ impl render::Draw for Figure<'_> {
         // Width (px) of `s` at text size `size` (scale 1).
         let text_width = |s: &str, size: f64| layout::text_width(s, size * scale).ceil() as i32;
 
-        root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
         let (width, height) = (width as i32, height as i32);
 
@@ -667,16 +658,8 @@ impl render::Draw for Figure<'_> {
             let y_mid = bottom + x_label_area - px(AXIS_DESC_SIZE * 0.6);
             let text_right = width - m_right;
             let sw_right = text_right - note_w - px(6.0);
-            root.draw(&Rectangle::new(
-                [(sw_right - sw, y_mid - sw / 2), (sw_right, y_mid + sw / 2)],
-                MISSING_COLOR.filled(),
-            ))
-            .map_err(plot_err)?;
-            root.draw(&Rectangle::new(
-                [(sw_right - sw, y_mid - sw / 2), (sw_right, y_mid + sw / 2)],
-                BLACK.mix(0.45).stroke_width(1),
-            ))
-            .map_err(plot_err)?;
+            let corners = [(sw_right - sw, y_mid - sw / 2), (sw_right, y_mid + sw / 2)];
+            render::draw_box(root, corners, MISSING_COLOR.filled(), upx(1.0))?;
             root.draw(&Text::new(
                 MISSING_NOTE,
                 (text_right, y_mid),

@@ -190,13 +190,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         ph as i32 - m.inset - layout.h
     };
     let corners = [(x0, y0), (x0 + layout.w, y0 + layout.h)];
-    area.draw(&Rectangle::new(corners, WHITE.mix(0.88).filled()))
-        .map_err(plot_err)?;
-    area.draw(&Rectangle::new(
-        corners,
-        BLACK.mix(0.45).stroke_width(border_w),
-    ))
-    .map_err(plot_err)?;
+    render::draw_box(area, corners, render::label_background(), border_w)?;
     let text_style = m.font.pos(Pos::new(HPos::Left, VPos::Center));
     let mut x = x0 + m.pad;
     for (col, widths) in entries.chunks(layout.rows).zip(label_w.chunks(layout.rows)) {

@@ -140,7 +140,7 @@ pub(super) fn header_height(scale: f64, title_lines: usize, subtitle_lines: usiz
     h
 }
 
-/// Draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
+/// Fill the figure white and draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
 /// shortened in the middle beyond that so that it never runs outside the figure; returns the
 /// area below them and the header's height (px).
 pub(super) fn draw_header<DB: DrawingBackend>(
@@ -158,6 +158,7 @@ pub(super) fn draw_header<DB: DrawingBackend>(
     let subtitle_lines = subtitle.map_or_else(Vec::new, |s| fit(s, SUBTITLE_SIZE));
     let header_h = header_height(scale, title_lines.len(), subtitle_lines.len());
     let sub_top = header_height(scale, title_lines.len(), 0) - px(2.0);
+    root.fill(&WHITE).map_err(plot_err)?;
     let (header, body) = root.split_vertically(header_h);
     let centre = (width / 2) as i32;
     let top = Pos::new(HPos::Center, VPos::Top);
@@ -175,6 +176,28 @@ pub(super) fn draw_header<DB: DrawingBackend>(
             .map_err(plot_err)?;
     }
     Ok((body, header_h))
+}
+
+/// A box over the pixel `corners` of `area`, filled with `fill` and edged in grey `border_w`
+/// px wide: legends, labels over a plot and colour swatches.
+pub(super) fn draw_box<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    corners: [(i32, i32); 2],
+    fill: ShapeStyle,
+    border_w: u32,
+) -> Result<(), ReportError> {
+    area.draw(&Rectangle::new(corners, fill))
+        .map_err(plot_err)?;
+    area.draw(&Rectangle::new(
+        corners,
+        BLACK.mix(0.45).stroke_width(border_w),
+    ))
+    .map_err(plot_err)
+}
+
+/// The fill of boxes drawn over a plot (legends, labels): white, slightly see-through.
+pub(super) fn label_background() -> ShapeStyle {
+    WHITE.mix(0.88).filled()
 }
 
 /// Test support: check PNG bytes (signature, IHDR size, decodable at that size) and return the

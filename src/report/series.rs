@@ -78,3 +78,84 @@ pub(super) fn draw_pieces<DB: DrawingBackend>(
         .map_err(plot_err)?;
     Ok(())
 }
+
+/// The runs of consecutive `Some` points of `points` (a `None` ends a run), in order.
+pub(super) fn runs(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Vec<Polyline> {
+    let mut out = Vec::new();
+    let mut run = Polyline::new();
+    for p in points.into_iter().chain(std::iter::once(None)) {
+        match p {
+            Some(p) => run.push(p),
+            None if !run.is_empty() => out.push(std::mem::take(&mut run)),
+            None => {}
+        }
+    }
+    out
+}
+
+impl Pieces {
+    /// The runs of consecutive `Some` points of `points` as polylines, runs of one point as dots.
+    pub(super) fn split(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Self {
+        let mut pieces = Pieces::default();
+        for run in runs(points) {
+            match run[..] {
+                [p] => pieces.dots.push(p),
+                _ => pieces.lines.push(run),
+            }
+        }
+        pieces
+    }
+}
+
+/// Smallest and largest finite value of `values`, or `None` when none is finite.
+pub(super) fn finite_extent(values: impl IntoIterator<Item = f64>) -> Option<(f64, f64)> {
+    values
+        .into_iter()
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_split_at_gaps_and_lone_points_become_dots() {
+        let p = |x: f64| Some((x, 2.0 * x));
+        let pts = [
+            p(0.0),
+            p(1.0),
+            None,
+            p(2.0),
+            None,
+            None,
+            p(3.0),
+            p(4.0),
+            p(5.0),
+        ];
+        assert_eq!(runs(pts).len(), 3);
+        let pieces = Pieces::split(pts);
+        assert_eq!(
+            pieces.lines,
+            vec![
+                vec![(0.0, 0.0), (1.0, 2.0)],
+                vec![(3.0, 6.0), (4.0, 8.0), (5.0, 10.0)]
+            ]
+        );
+        assert_eq!(pieces.dots, vec![(2.0, 4.0)]);
+        assert_eq!(Pieces::split([None, None]), Pieces::default());
+    }
+
+    #[test]
+    fn extent_skips_non_finite_values() {
+        assert_eq!(
+            finite_extent([3.0, f64::NAN, -1.0, f64::INFINITY, 2.0]),
+            Some((-1.0, 3.0))
+        );
+        assert_eq!(finite_extent([f64::NAN]), None);
+        assert_eq!(finite_extent([]), None);
+    }
+}

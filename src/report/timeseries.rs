@@ -10,10 +10,10 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::axes::{self, linear_axis, nice_axis, Axis};
-use super::bode::{plot_err, ReportError, DEFAULT_WIDTH_PX};
+use super::bode::{ReportError, DEFAULT_WIDTH_PX};
 use super::legend::{self, LegendEntry, LegendMetrics};
 use super::render::{self, header_height};
-use super::series::{draw_pieces, Pieces, Polyline, Stroke, PALETTE};
+use super::series::{draw_pieces, finite_extent, Pieces, Polyline, Stroke, PALETTE};
 use super::stack;
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
@@ -165,34 +165,10 @@ pub fn panels_xy_png(
 // Data preparation
 // ---------------------------------------------------------------------------
 
-/// Split a trace into runs of consecutive points with finite time and value.
+/// The trace `(t, y)` split into runs of consecutive points with finite time and value.
 fn split_pieces(t: &[f64], y: &[f64]) -> Pieces {
-    let mut pieces = Pieces::default();
-    let mut run: Polyline = Vec::new();
-    let mut flush = |run: &mut Polyline| match run.len() {
-        0 => {}
-        1 => pieces.dots.push(run.pop().expect("one point")),
-        _ => pieces.lines.push(std::mem::take(run)),
-    };
-    for (&t, &y) in t.iter().zip(y) {
-        if t.is_finite() && y.is_finite() {
-            run.push((t, y));
-        } else {
-            flush(&mut run);
-        }
-    }
-    flush(&mut run);
-    pieces
-}
-
-/// Finite min/max of `values`, or `None` when there is no finite value.
-fn extent(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
+    let finite = |(&t, &y): (&f64, &f64)| (t.is_finite() && y.is_finite()).then_some((t, y));
+    Pieces::split(t.iter().zip(y).map(finite))
 }
 
 /// Range with a non-zero span around the extent `lo..=hi`: unchanged when it
@@ -293,7 +269,7 @@ impl<'a> Figure<'a> {
                 "no point with a finite time and a finite value".into(),
             ));
         }
-        let (t_lo, t_hi) = extent(all_traces().flat_map(|tr| tr.t_s.iter().copied()))
+        let (t_lo, t_hi) = finite_extent(all_traces().flat_map(|tr| tr.t_s.iter().copied()))
             .expect("a finite point exists");
         let t_range = widen_degenerate(t_lo, t_hi);
         check_span(t_range, "time axis")?;
@@ -301,7 +277,7 @@ impl<'a> Figure<'a> {
         let panels = panels
             .iter()
             .map(|panel| {
-                let y_ext = extent(panel.traces.iter().flat_map(|tr| {
+                let y_ext = finite_extent(panel.traces.iter().flat_map(|tr| {
                     tr.t_s
                         .iter()
                         .zip(&tr.y)
@@ -346,7 +322,6 @@ impl render::Draw for Figure<'_> {
     ) -> Result<(), ReportError> {
         let upx = render::upx(scale);
 
-        root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
 
         // Header: title and subtitle.
