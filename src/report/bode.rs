@@ -8,20 +8,14 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
 use super::font;
 use super::legend::{self, LegendMetrics};
-use super::render;
-use super::series::{draw_pieces, finite_extent, runs, Pieces, Polyline, Stroke, PALETTE};
+use super::render::{self, plot_err, ReportError};
+use super::series::{draw_pieces, finite_extent, runs, series_color, Pieces, Polyline, Stroke};
 use super::stack;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_WIDTH_PX: u32 = 1000;
 /// Default figure height in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_HEIGHT_PX: u32 = 750;
-
-/// Smallest accepted PNG size in pixels (below it the labels cannot fit).
-pub(super) const MIN_WIDTH_PX: u32 = 320;
-pub(super) const MIN_HEIGHT_PX: u32 = 240;
-/// Largest accepted PNG side in pixels (keeps the RGB buffer reasonable).
-pub(super) const MAX_SIDE_PX: u32 = 16_384;
 
 /// Lowest magnitude shown, relative to the largest finite magnitude, in dB.
 /// Deeper notches and roll-offs are clipped at the bottom of the panel.
@@ -71,18 +65,6 @@ pub struct BodeMarkers {
     pub gain_margin_db: Option<f64>,
     /// Phase margin, in degrees (positive when the loop is stable).
     pub phase_margin_deg: Option<f64>,
-}
-
-/// Errors of the report renderers.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    /// The plotting library failed, the input is inconsistent (vector lengths
-    /// differ) or the requested image size is unusable.
-    #[error("plot: {0}")]
-    Plot(String),
-    /// Nothing to draw: no series, or no finite point in any series.
-    #[error("plot: no data to draw: {0}")]
-    Empty(String),
 }
 
 /// Render a two-panel Bode diagram (magnitude in dB on top, phase in degrees
@@ -164,10 +146,6 @@ pub fn bode_png_marked(
         height,
         (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX),
     )
-}
-
-pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
-    ReportError::Plot(e.to_string())
 }
 
 // ---------------------------------------------------------------------------
@@ -584,50 +562,61 @@ impl<'a> Figure<'a> {
     }
 }
 
-impl render::Draw for Figure<'_> {
-    /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
-    /// and paddings (1.0 for 1000 x 750 px).
-    fn draw<DB: DrawingBackend>(
+/// What differs between the two panels of a Bode diagram.
+struct PanelSpec<'p> {
+    /// Value axis, its description and the dashed reference value on it (0 dB, -180 deg).
+    y: &'p Axis,
+    y_desc: &'static str,
+    reference: f64,
+    /// Drawable pieces of each series on this panel.
+    pieces: &'p [Pieces],
+    /// The margin bar of a series' markers on this panel, and its label.
+    bar: fn(&Marks) -> Option<(f64, f64, f64)>,
+    bar_label: &'static str,
+}
+
+impl Figure<'_> {
+    /// Draw panel `i` (0 magnitude, 1 phase) on `area` over the frequency axis `x`: axes,
+    /// reference line, crossover lines, curves, margin bars, on the magnitude panel the legend,
+    /// and the frame.
+    fn draw_panel<DB: DrawingBackend>(
         &self,
-        root: &DrawingArea<DB, Shift>,
+        (root, area): (&DrawingArea<DB, Shift>, &DrawingArea<DB, Shift>),
+        (i, x, y_label_area): (usize, &Axis, i32),
+        spec: &PanelSpec<'_>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let upx = render::upx(scale);
-
-        let height = root.dim_in_pixel().1;
-
-        // Header: title and margin summary.
-        let (body, header_h) =
-            render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
-
-        // Two plots of equal height sharing the frequency axis.
-        let y_label_area = axes::y_label_area([&self.mag, &self.phase], scale);
-        let plot_w = stack::plot_width(root.dim_in_pixel().0, y_label_area, scale);
-        let x = freq_axis(self.x.lo, self.x.hi, f64::from(plot_w.max(10)), scale);
-        let plot_h = stack::plot_height(height as i32 - header_h, 2, scale).max(10);
-        let areas = stack::areas(&body, 2, plot_h, scale);
-        let descs = ("Frequency (Hz)", "Magnitude (dB)");
-        let (axes, k) = ((x.clone(), self.mag.clone()), (0, 2));
-        let mut top = stack::chart(&areas[0], k, axes, descs, y_label_area, scale)?;
-        reference_line(&mut top, 0.0, scale)?;
-        crossover_lines(&mut top, &self.marks, (self.mag.lo, self.mag.hi), scale)?;
+        let y = spec.y;
+        let descs = ("Frequency (Hz)", spec.y_desc);
+        let axes = (x.clone(), y.clone());
+        let mut chart = stack::chart(area, (i, 2), axes, descs, y_label_area, scale)?;
+        reference_line(&mut chart, spec.reference, scale)?;
+        crossover_lines(&mut chart, &self.marks, (y.lo, y.hi), scale)?;
         // Later series first, so the first series (the one the markers
         // refer to) is drawn on top.
         let strokes: Vec<Stroke> = (0..self.series.len())
             .map(|i| series_stroke(i, scale))
             .collect();
-        for (pieces, stroke) in self.mag_pieces.iter().zip(&strokes).rev() {
-            draw_pieces(&mut top, pieces.lines.clone(), &pieces.dots, stroke)?;
+        for (pieces, stroke) in spec.pieces.iter().zip(&strokes).rev() {
+            draw_pieces(&mut chart, pieces.lines.clone(), &pieces.dots, stroke)?;
         }
         // Only the first marked series' bars are labelled, so close bars never overprint
         // their labels; the colours and the summary tell the others apart.
         for (k, m) in self.marks.iter().enumerate() {
-            if let Some((f, lo, hi)) = m.gm_bar {
-                let label = (if k == 0 { "GM" } else { "" }, series_color(m.series));
-                margin_bar(&mut top, f, (lo, hi), &self.mag, label, scale)?;
+            if let Some((f, lo, hi)) = (spec.bar)(m) {
+                let label = if k == 0 { spec.bar_label } else { "" };
+                margin_bar(
+                    &mut chart,
+                    f,
+                    (lo, hi),
+                    y,
+                    (label, series_color(m.series)),
+                    scale,
+                )?;
             }
         }
-        if self.series.len() > 1 {
+        let upx = render::upx(scale);
+        if i == 0 && self.series.len() > 1 {
             // The legend in the corner of the magnitude panel hiding the fewest curve segments.
             let entries: Vec<_> = self
                 .series
@@ -637,44 +626,58 @@ impl render::Draw for Figure<'_> {
                 .collect();
             let m = LegendMetrics::new(scale);
             let label_w = m.label_widths(&entries);
-            let (pw, ph) = top.plotting_area().dim_in_pixel();
+            let (pw, ph) = chart.plotting_area().dim_in_pixel();
             let plot = (pw as i32, ph as i32);
-            let axes = (&x, &self.mag);
-            let (layout, _) = legend::place_legend(&self.mag_pieces, axes, &label_w, &m, plot);
-            let area = top.plotting_area().strip_coord_spec();
+            let (layout, _) = legend::place_legend(spec.pieces, (x, y), &label_w, &m, plot);
+            let area = chart.plotting_area().strip_coord_spec();
             legend::draw_legend(&area, &entries, &label_w, &layout, &m, upx(1.0))?;
         }
-        axes::frame(root, axes::plot_bounds(top.plotting_area()), upx(1.0))?;
-
-        let descs = ("Frequency (Hz)", "Phase (deg)");
-        let (axes, k) = ((x, self.phase.clone()), (1, 2));
-        let mut bottom = stack::chart(&areas[1], k, axes, descs, y_label_area, scale)?;
-        reference_line(&mut bottom, self.phase_ref, scale)?;
-        crossover_lines(
-            &mut bottom,
-            &self.marks,
-            (self.phase.lo, self.phase.hi),
-            scale,
-        )?;
-        for (pieces, stroke) in self.phase_pieces.iter().zip(&strokes).rev() {
-            draw_pieces(&mut bottom, pieces.lines.clone(), &pieces.dots, stroke)?;
-        }
-        // Only the first marked series' bars are labelled, so close bars never overprint
-        // their labels; the colours and the summary tell the others apart.
-        for (k, m) in self.marks.iter().enumerate() {
-            if let Some((f, lo, hi)) = m.pm_bar {
-                let label = (if k == 0 { "PM" } else { "" }, series_color(m.series));
-                margin_bar(&mut bottom, f, (lo, hi), &self.phase, label, scale)?;
-            }
-        }
-        axes::frame(root, axes::plot_bounds(bottom.plotting_area()), upx(1.0))?;
-        Ok(())
+        axes::frame(root, axes::plot_bounds(chart.plotting_area()), upx(1.0))
     }
 }
 
-/// Colour of series number `i` (cycling through the palette).
-fn series_color(i: usize) -> RGBColor {
-    PALETTE[i % PALETTE.len()]
+impl render::Draw for Figure<'_> {
+    /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
+    /// and paddings (1.0 for 1000 x 750 px).
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        // Header: title and margin summary.
+        let (body, header_h) =
+            render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
+
+        // Two plots of equal height sharing the frequency axis.
+        let (width, height) = root.dim_in_pixel();
+        let y_label_area = axes::y_label_area([&self.mag, &self.phase], scale);
+        let plot_w = stack::plot_width(width, y_label_area, scale);
+        let x = freq_axis(self.x.lo, self.x.hi, f64::from(plot_w.max(10)), scale);
+        let plot_h = stack::plot_height(height as i32 - header_h, 2, scale).max(10);
+        let areas = stack::areas(&body, 2, plot_h, scale);
+        let panels = [
+            PanelSpec {
+                y: &self.mag,
+                y_desc: "Magnitude (dB)",
+                reference: 0.0,
+                pieces: &self.mag_pieces,
+                bar: |m| m.gm_bar,
+                bar_label: "GM",
+            },
+            PanelSpec {
+                y: &self.phase,
+                y_desc: "Phase (deg)",
+                reference: self.phase_ref,
+                pieces: &self.phase_pieces,
+                bar: |m| m.pm_bar,
+                bar_label: "PM",
+            },
+        ];
+        for (i, (spec, area)) in panels.iter().zip(&areas).enumerate() {
+            self.draw_panel((root, area), (i, &x, y_label_area), spec, scale)?;
+        }
+        Ok(())
+    }
 }
 
 /// Dashed horizontal reference line at `y` across `chart` (0 dB, -180 deg), if in range.

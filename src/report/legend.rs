@@ -7,7 +7,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::Axis;
-use super::bode::{plot_err, ReportError};
+use super::render::{plot_err, ReportError};
 use super::series::Pieces;
 use super::{layout, render};
 

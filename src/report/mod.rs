@@ -13,9 +13,10 @@ mod render;
 mod series;
 mod stack;
 pub use layout::{sig, text_overflow};
+pub use render::ReportError;
 
 pub use bode::{
-    bode_png, bode_png_marked, bode_svg, bode_svg_marked, BodeMarkers, BodeSeries, ReportError,
+    bode_png, bode_png_marked, bode_svg, bode_svg_marked, BodeMarkers, BodeSeries,
     DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,
 };
 mod timeseries;

@@ -6,8 +6,8 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::axes::Chart;
-use super::bode::{plot_err, ReportError};
 use super::legend::LegendEntry;
+use super::render::{plot_err, ReportError};
 
 /// Okabe–Ito colour-blind-friendly palette, in the order series use it
 /// (yellow last: it has the least contrast on white).
@@ -21,6 +21,11 @@ pub(super) const PALETTE: [RGBColor; 8] = [
     RGBColor(0, 0, 0),       // black
     RGBColor(240, 228, 66),  // yellow
 ];
+
+/// Colour of series number `i`, cycling through the palette.
+pub(super) fn series_color(i: usize) -> RGBColor {
+    PALETTE[i % PALETTE.len()]
+}
 
 /// A polyline in data coordinates.
 pub(super) type Polyline = Vec<(f64, f64)>;

@@ -10,10 +10,11 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::axes::{self, linear_axis, nice_axis, Axis};
-use super::bode::{ReportError, DEFAULT_WIDTH_PX};
+use super::bode::DEFAULT_WIDTH_PX;
 use super::legend::{self, LegendEntry, LegendMetrics};
+use super::render::ReportError;
 use super::render::{self, header_height};
-use super::series::{draw_pieces, finite_extent, Pieces, Polyline, Stroke, PALETTE};
+use super::series::{draw_pieces, finite_extent, series_color, Pieces, Polyline, Stroke, PALETTE};
 use super::stack;
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
@@ -470,7 +471,7 @@ impl TraceStyles {
     /// The stroke of a trace in palette colour `color` and line style `style`.
     fn stroke(&self, color: usize, style: LineStyle) -> Stroke {
         Stroke {
-            color: PALETTE[color],
+            color: series_color(color),
             width: self.line_w,
             pattern: match style {
                 LineStyle::Solid => None,
