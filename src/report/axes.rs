@@ -97,21 +97,10 @@ impl ValueFormatter<f64> for Axis {
 
 /// Exponent in Unicode superscript digits: -13 → "⁻¹³".
 fn superscript(e: i32) -> String {
+    const DIGITS: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
     e.to_string()
         .chars()
-        .map(|c| match c {
-            '-' => '⁻',
-            '0' => '⁰',
-            '1' => '¹',
-            '2' => '²',
-            '3' => '³',
-            '4' => '⁴',
-            '5' => '⁵',
-            '6' => '⁶',
-            '7' => '⁷',
-            '8' => '⁸',
-            _ => '⁹',
-        })
+        .map(|c| c.to_digit(10).map_or('⁻', |d| DIGITS[d as usize]))
         .collect()
 }
 

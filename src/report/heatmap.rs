@@ -15,7 +15,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::axes::{self, fitted_linear_axis, log_axis, AXIS_DESC_SIZE, TICK_LABEL_SIZE};
+use super::axes::{self, fitted_linear_axis, log_axis, Axis, AXIS_DESC_SIZE, TICK_LABEL_SIZE};
 use super::render::{self, SUBTITLE_COLOR};
 use super::render::{plot_err, ReportError};
 use super::{font, layout};
@@ -460,6 +460,26 @@ impl<'a> Figure<'a> {
     }
 }
 
+/// Short black tick marks `width` px wide at the minor ticks of the vertical `axis` drawn
+/// over the pixel rows `top..=bottom`, from column `x` to `x + len`.
+fn minor_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    axis: &Axis,
+    (top, bottom): (i32, i32),
+    (x, len): (i32, i32),
+    width: u32,
+) -> Result<(), ReportError> {
+    for &v in &axis.minor {
+        let y = axis.map(&v, (bottom, top));
+        root.draw(&PathElement::new(
+            [(x, y), (x + len, y)],
+            BLACK.stroke_width(width),
+        ))
+        .map_err(plot_err)?;
+    }
+    Ok(())
+}
+
 impl render::Draw for Figure<'_> {
     /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
     /// and paddings (1.0 for 900 x 700 px).
@@ -580,17 +600,15 @@ impl render::Draw for Figure<'_> {
         // Frame and minor ticks of a log y axis.
         let bounds = axes::plot_bounds(chart.plotting_area());
         let (left, right, top, bottom) = bounds;
-        let frame_style = BLACK.stroke_width(upx(1.0));
         axes::frame(root, bounds, upx(1.0))?;
         if y_axis.log {
-            for &v in &y_axis.minor {
-                let y = chart.backend_coord(&(x_lo, v)).1;
-                root.draw(&PathElement::new(
-                    [(left - px(MINOR_TICK_SIZE), y), (left, y)],
-                    frame_style,
-                ))
-                .map_err(plot_err)?;
-            }
+            minor_ticks(
+                root,
+                &y_axis,
+                (top, bottom),
+                (left, -px(MINOR_TICK_SIZE)),
+                upx(1.0),
+            )?;
         }
 
         for m in &self.markers {
@@ -640,14 +658,8 @@ impl render::Draw for Figure<'_> {
             .map_err(plot_err)?;
             start = end;
         }
-        for &v in &bar_axis.minor {
-            let y = bar.backend_coord(&(1.0, v)).1;
-            root.draw(&PathElement::new(
-                [(b_right, y), (b_right + px(MINOR_TICK_SIZE), y)],
-                frame_style,
-            ))
-            .map_err(plot_err)?;
-        }
+        let at = (b_right, px(MINOR_TICK_SIZE));
+        minor_ticks(root, &bar_axis, (b_top, b_bottom), at, upx(1.0))?;
         axes::frame(root, bar_bounds, upx(1.0))?;
 
         // Note on grey cells, bottom right, level with the x description.
