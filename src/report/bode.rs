@@ -1,28 +1,21 @@
 //! Two-panel Bode diagrams (magnitude in dB over phase in degrees, shared
 //! logarithmic frequency axis in Hz), rendered to SVG or PNG in memory.
 
-use std::ops::Range;
-
-use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
-use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
 use super::font;
-use super::layout::{self, trim_decimal};
-use super::render;
+use super::legend::{self, LegendMetrics};
+use super::render::{self, plot_err, ReportError};
+use super::series::{draw_pieces, finite_extent, runs, series_color, Pieces, Polyline, Stroke};
+use super::stack;
 
 /// Default figure width in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_WIDTH_PX: u32 = 1000;
 /// Default figure height in pixels (used for SVG output; a sensible PNG size).
 pub const DEFAULT_HEIGHT_PX: u32 = 750;
-
-/// Smallest accepted PNG size in pixels (below it the labels cannot fit).
-pub(super) const MIN_WIDTH_PX: u32 = 320;
-pub(super) const MIN_HEIGHT_PX: u32 = 240;
-/// Largest accepted PNG side in pixels (keeps the RGB buffer reasonable).
-pub(super) const MAX_SIDE_PX: u32 = 16_384;
 
 /// Lowest magnitude shown, relative to the largest finite magnitude, in dB.
 /// Deeper notches and roll-offs are clipped at the bottom of the panel.
@@ -30,19 +23,6 @@ const MAG_WINDOW_DB: f64 = 200.0;
 
 /// Lowest phase shown, relative to the largest finite phase, in degrees.
 const PHASE_WINDOW_DEG: f64 = 720.0;
-
-/// Okabe–Ito colour-blind-friendly palette, in the order series use it
-/// (yellow last: it has the least contrast on white).
-pub(super) const PALETTE: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),   // blue
-    RGBColor(213, 94, 0),    // vermillion
-    RGBColor(0, 158, 115),   // bluish green
-    RGBColor(204, 121, 167), // reddish purple
-    RGBColor(230, 159, 0),   // orange
-    RGBColor(86, 180, 233),  // sky blue
-    RGBColor(0, 0, 0),       // black
-    RGBColor(240, 228, 66),  // yellow
-];
 
 /// Colour of reference lines (0 dB, -180 deg) and crossover markers.
 const REF_COLOR: RGBColor = RGBColor(70, 70, 70);
@@ -85,18 +65,6 @@ pub struct BodeMarkers {
     pub gain_margin_db: Option<f64>,
     /// Phase margin, in degrees (positive when the loop is stable).
     pub phase_margin_deg: Option<f64>,
-}
-
-/// Errors of the report renderers.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    /// The plotting library failed, the input is inconsistent (vector lengths
-    /// differ) or the requested image size is unusable.
-    #[error("plot: {0}")]
-    Plot(String),
-    /// Nothing to draw: no series, or no finite point in any series.
-    #[error("plot: no data to draw: {0}")]
-    Empty(String),
 }
 
 /// Render a two-panel Bode diagram (magnitude in dB on top, phase in degrees
@@ -180,196 +148,24 @@ pub fn bode_png_marked(
     )
 }
 
-pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
-    ReportError::Plot(e.to_string())
-}
-
 // ---------------------------------------------------------------------------
 // Axes
 // ---------------------------------------------------------------------------
 
-/// How tick labels of an axis are written.
-#[derive(Debug, Clone, Copy)]
-enum TickFormat {
-    /// Frequency in Hz: plain decimal, exponent form outside 1e-3..1e6.
-    Freq,
-    /// Fixed number of decimals.
-    Fixed(usize),
-}
+/// Plot width (px at scale 1) the frequency ticks are chosen for before the layout is known.
+const NOMINAL_PLOT_W: f64 = 880.0;
+/// Smallest distance (px at scale 1) between two labelled frequency ticks.
+const FREQ_TICK_GAP: f64 = 60.0;
 
-/// A plotters axis with explicit major (labelled, bold grid) and minor
-/// (light grid) ticks, mapping values through an inner coordinate (linear or
-/// `log_scale()`).
-pub(super) struct TickedAxis<R> {
-    inner: R,
-    major: Vec<f64>,
-    minor: Vec<f64>,
-    format: TickFormat,
-}
-
-impl<R: Ranged<ValueType = f64>> Ranged for TickedAxis<R> {
-    type FormatOption = NoDefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        self.inner.map(value, limit)
-    }
-
-    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            self.minor.clone()
-        } else {
-            self.major.clone()
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.inner.range()
-    }
-}
-
-impl<R: Ranged<ValueType = f64>> ValueFormatter<f64> for TickedAxis<R> {
-    fn format(value: &f64) -> String {
-        trim_decimal(*value, 6)
-    }
-
-    fn format_ext(&self, value: &f64) -> String {
-        match self.format {
-            TickFormat::Freq => format_freq_tick(*value),
-            TickFormat::Fixed(decimals) => {
-                let s = format!("{value:.decimals$}");
-                // Avoid "-0".
-                if s.trim_start_matches('-')
-                    .chars()
-                    .all(|c| c == '0' || c == '.')
-                {
-                    s.trim_start_matches('-').to_string()
-                } else {
-                    s
-                }
-            }
-        }
-    }
-}
-
-/// Linear value range with its ticks.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) struct LinearTicks {
-    pub(super) lo: f64,
-    pub(super) hi: f64,
-    pub(super) major: Vec<f64>,
-    pub(super) minor: Vec<f64>,
-    decimals: usize,
-}
-
-impl LinearTicks {
-    pub(super) fn axis(&self) -> TickedAxis<RangedCoordf64> {
-        TickedAxis {
-            inner: (self.lo..self.hi).into(),
-            major: self.major.clone(),
-            minor: self.minor.clone(),
-            format: TickFormat::Fixed(self.decimals),
-        }
-    }
-
-    fn contains(&self, v: f64) -> bool {
-        v >= self.lo && v <= self.hi
-    }
-}
-
-/// Logarithmic frequency range (Hz) with its ticks.
-#[derive(Debug, Clone, PartialEq)]
-struct FreqTicks {
-    lo: f64,
-    hi: f64,
-    major: Vec<f64>,
-    minor: Vec<f64>,
-}
-
-impl FreqTicks {
-    fn axis(&self) -> TickedAxis<LogCoord<f64>> {
-        TickedAxis {
-            inner: (self.lo..self.hi).log_scale().into(),
-            major: self.major.clone(),
-            minor: self.minor.clone(),
-            format: TickFormat::Freq,
-        }
-    }
-
-    fn contains(&self, f: f64) -> bool {
-        f >= self.lo && f <= self.hi
-    }
-
-    /// Position of `f` along the axis, 0 at the left edge, 1 at the right.
-    fn fraction(&self, f: f64) -> f64 {
-        (f.log10() - self.lo.log10()) / (self.hi.log10() - self.lo.log10())
-    }
-}
-
-/// Ticks for the log frequency axis spanning exactly `lo..hi` (Hz).
-fn freq_ticks(lo: f64, hi: f64) -> FreqTicks {
-    let (mut lo, mut hi) = (lo, hi);
-    if hi / lo < 1.0 + 1e-9 {
-        // Single frequency: show a small band around it.
-        lo /= 1.5;
-        hi *= 1.5;
-    }
-    let tol = 1e-9;
-    let inside = |v: f64| v >= lo * (1.0 - tol) && v <= hi * (1.0 + tol);
-    let d0 = lo.log10().floor() as i32;
-    let d1 = hi.log10().ceil() as i32;
-    let multiples = |mults: &[u32]| -> Vec<f64> {
-        (d0..=d1)
-            .flat_map(|d| mults.iter().map(move |&m| f64::from(m) * pow10(d)))
-            .filter(|&v| inside(v))
-            .collect()
-    };
-
-    let decades = multiples(&[1]);
-    let (major, minor) = if decades.len() > 10 {
-        // Very wide sweep: label every n-th decade, light lines at decades.
-        let n = decades.len().div_ceil(8) as i32;
-        let (major, minor): (Vec<f64>, Vec<f64>) = decades
-            .iter()
-            .partition(|&&v| (v.log10().round() as i32).rem_euclid(n) == 0);
-        (major, minor)
-    } else if decades.len() >= 2 {
-        (decades, multiples(&[2, 3, 4, 5, 6, 7, 8, 9]))
+/// Logarithmic frequency axis (Hz) over `lo..hi` drawn `len_px` pixels long at `scale`; a
+/// single frequency gets a small band around it.
+fn freq_axis(lo: f64, hi: f64, len_px: f64, scale: f64) -> Axis {
+    let (lo, hi) = if hi / lo < 1.0 + 1e-9 {
+        (lo / 1.5, hi * 1.5)
     } else {
-        let one_two_five = multiples(&[1, 2, 5]);
-        if one_two_five.len() >= 2 {
-            (one_two_five, multiples(&[3, 4, 6, 7, 8, 9]))
-        } else {
-            let all = multiples(&[1, 2, 3, 4, 5, 6, 7, 8, 9]);
-            if all.len() >= 2 {
-                (all, Vec::new())
-            } else {
-                // Less than one 1-2-3 step wide: linear nice ticks.
-                let t = linear_ticks(lo, hi, &nice_steps_125());
-                (t.major, t.minor)
-            }
-        }
+        (lo, hi)
     };
-    FreqTicks {
-        lo,
-        hi,
-        major,
-        minor,
-    }
-}
-
-fn pow10(d: i32) -> f64 {
-    10f64.powi(d)
-}
-
-/// Candidate (major, minor) steps 1-2-5 x 10^k, ascending.
-fn nice_steps_125() -> Vec<(f64, f64)> {
-    (-6..=8)
-        .flat_map(|d| {
-            let p = pow10(d);
-            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
-        })
-        .collect()
+    log_axis(lo, hi, len_px, FREQ_TICK_GAP * scale)
 }
 
 /// Candidate (major, minor) steps for phase in degrees, ascending; multiples
@@ -397,47 +193,6 @@ fn phase_steps() -> Vec<(f64, f64)> {
     steps
 }
 
-/// Pick the smallest step giving at most 8 intervals over `lo..hi` and snap
-/// the range outward to the minor step (so the data fill the panel; the
-/// edges need not carry a label).
-pub(super) fn linear_ticks(lo: f64, hi: f64, steps: &[(f64, f64)]) -> LinearTicks {
-    linear_ticks_max(lo, hi, steps, 8.0)
-}
-
-/// As [`linear_ticks`], with at most `max_major` intervals.
-fn linear_ticks_max(lo: f64, hi: f64, steps: &[(f64, f64)], max_major: f64) -> LinearTicks {
-    let span = hi - lo;
-    let &(step, minor_step) = steps
-        .iter()
-        .find(|(s, _)| span / s <= max_major)
-        .unwrap_or_else(|| steps.last().expect("non-empty step table"));
-    let per = ((step / minor_step).round() as i64).max(1);
-    let j0 = (lo / minor_step - 1e-9).floor() as i64;
-    let j1 = (hi / minor_step + 1e-9).ceil() as i64;
-    let (mut major, mut minor) = (Vec::new(), Vec::new());
-    for j in j0..=j1 {
-        let v = j as f64 * minor_step;
-        if j.rem_euclid(per) == 0 {
-            major.push(v);
-        } else {
-            minor.push(v);
-        }
-    }
-    let (lo, hi) = (j0 as f64 * minor_step, j1 as f64 * minor_step);
-    let decimals = if step >= 1.0 {
-        0
-    } else {
-        (-step.log10()).ceil().max(0.0) as usize
-    };
-    LinearTicks {
-        lo,
-        hi,
-        major,
-        minor,
-        decimals,
-    }
-}
-
 /// Value range of one panel: data extent `(lo, hi)` padded by 5 % on each
 /// side, widened to include `reference` when that at most doubles the span,
 /// then snapped to ticks.
@@ -448,7 +203,7 @@ fn value_ticks(
     steps: &[(f64, f64)],
     max_major: f64,
     pad_min: f64,
-) -> LinearTicks {
+) -> Axis {
     let (mut lo, mut hi) = (lo, hi);
     if let Some(r) = reference {
         let span = (hi - lo).max(pad_min);
@@ -459,22 +214,7 @@ fn value_ticks(
         }
     }
     let pad = ((hi - lo) * 0.05).max(pad_min * 0.05);
-    linear_ticks_max(lo - pad, hi + pad, steps, max_major)
-}
-
-/// Frequency tick label in Hz: "0.01", "1", "250", "10000", "1e6".
-fn format_freq_tick(f: f64) -> String {
-    if f == 0.0 || !f.is_finite() {
-        return trim_decimal(f, 0);
-    }
-    let e = f.abs().log10().floor() as i32;
-    if (-3..6).contains(&e) {
-        // 6 significant digits at most.
-        trim_decimal(f, (5 - e).max(0) as usize)
-    } else {
-        let mantissa = f / pow10(e);
-        format!("{}e{}", trim_decimal(mantissa, 2), e)
-    }
+    snapped_axis(lo - pad, hi + pad, steps, max_major)
 }
 
 /// Frequency for annotations, 3 significant digits: "0.0123", "4.56", "123".
@@ -506,38 +246,18 @@ fn format_signed(v: f64, unit: &str) -> String {
 // Data preparation
 // ---------------------------------------------------------------------------
 
-/// A polyline in data coordinates (frequency in Hz, value).
-type Polyline = Vec<(f64, f64)>;
-
-/// Drawable pieces of one series in one panel.
-#[derive(Debug, Default, Clone, PartialEq)]
-struct Pieces {
-    lines: Vec<Polyline>,
-    /// Isolated finite points (no finite neighbour) inside the panel range.
-    dots: Vec<(f64, f64)>,
-}
-
 /// Split `(freq, value)` into polylines: points with a non-finite or
 /// non-positive frequency or a non-finite value break the line; segments are
 /// clipped to `lo..=hi` on the value axis (interpolating in log frequency).
 fn clip_pieces(freq: &[f64], value: &[f64], lo: f64, hi: f64) -> Pieces {
     let mut pieces = Pieces::default();
-    let mut run: Vec<(f64, f64)> = Vec::new(); // (log10 f, value)
-    let valid = |f: f64, v: f64| f.is_finite() && f > 0.0 && v.is_finite();
-    let mut points = freq
+    // Runs of (log10 f, value).
+    let points = freq
         .iter()
         .zip(value)
-        .map(|(&f, &v)| valid(f, v).then(|| (f.log10(), v)))
-        .chain(std::iter::once(None));
-    loop {
-        match points.next() {
-            Some(Some(p)) => run.push(p),
-            Some(None) => {
-                clip_run(&run, lo, hi, &mut pieces);
-                run.clear();
-            }
-            None => break,
-        }
+        .map(|(&f, &v)| valid(f, v).then(|| (f.log10(), v)));
+    for run in runs(points) {
+        clip_run(&run, lo, hi, &mut pieces);
     }
     pieces
 }
@@ -626,29 +346,29 @@ fn interpolate_at(freq: &[f64], value: &[f64], f: f64) -> Option<f64> {
         })
 }
 
-/// Finite min/max of the values of points with a valid frequency.
-fn extent<'a>(pairs: impl Iterator<Item = (&'a [f64], &'a [f64])>) -> Option<(f64, f64)> {
-    let mut out: Option<(f64, f64)> = None;
-    for (freq, val) in pairs {
-        for (&f, &v) in freq.iter().zip(val) {
-            if f.is_finite() && f > 0.0 && v.is_finite() {
-                out = Some(match out {
-                    None => (v, v),
-                    Some((lo, hi)) => (lo.min(v), hi.max(v)),
-                });
-            }
-        }
-    }
-    out
+/// Whether a point at frequency `f` (Hz) with value `v` can be drawn.
+fn valid(f: f64, v: f64) -> bool {
+    f.is_finite() && f > 0.0 && v.is_finite()
+}
+
+/// Finite min/max of the values `value(s)` of the series' points with a valid frequency.
+fn extent(series: &[BodeSeries], value: impl Fn(&BodeSeries) -> &[f64]) -> Option<(f64, f64)> {
+    let points = series.iter().flat_map(|s| {
+        s.freq_hz
+            .iter()
+            .zip(value(s))
+            .filter(|(&f, &v)| valid(f, v))
+    });
+    finite_extent(points.map(|(_, &v)| v))
 }
 
 /// Everything needed to draw, computed before touching a backend.
 struct Figure<'a> {
     title: &'a str,
     series: &'a [BodeSeries],
-    x: FreqTicks,
-    mag: LinearTicks,
-    phase: LinearTicks,
+    x: Axis,
+    mag: Axis,
+    phase: Axis,
     /// Phase reference line (-180 deg, or another odd multiple of 180 deg).
     phase_ref: f64,
     mag_pieces: Vec<Pieces>,
@@ -675,14 +395,7 @@ struct Marks {
 
 impl Marks {
     /// The markers `m` of series number `i` (`s`) on the axes `x`, `mag`, `phase`.
-    fn new(
-        i: usize,
-        s: &BodeSeries,
-        m: &BodeMarkers,
-        x: &FreqTicks,
-        mag: &LinearTicks,
-        phase: &LinearTicks,
-    ) -> Self {
+    fn new(i: usize, s: &BodeSeries, m: &BodeMarkers, x: &Axis, mag: &Axis, phase: &Axis) -> Self {
         let gm = m.gain_margin_db.filter(|g| !g.is_nan());
         let pm = m.phase_margin_deg.filter(|p| p.is_finite());
         let f_pc = valid_freq(m.phase_crossover_hz);
@@ -768,39 +481,27 @@ impl<'a> Figure<'a> {
         }
 
         // Frequency extent over points with at least one finite value.
-        let mut f_ext: Option<(f64, f64)> = None;
-        for s in series {
-            for ((&f, &m), &p) in s.freq_hz.iter().zip(&s.mag_db).zip(&s.phase_deg) {
-                if f.is_finite() && f > 0.0 && (m.is_finite() || p.is_finite()) {
-                    f_ext = Some(match f_ext {
-                        None => (f, f),
-                        Some((lo, hi)) => (lo.min(f), hi.max(f)),
-                    });
-                }
-            }
-        }
+        let f_ext = finite_extent(series.iter().flat_map(|s| {
+            let points = s.freq_hz.iter().zip(&s.mag_db).zip(&s.phase_deg);
+            points
+                .filter(|((&f, &m), &p)| valid(f, m) || valid(f, p))
+                .map(|((&f, _), _)| f)
+        }));
         let Some((f_lo, f_hi)) = f_ext else {
             return Err(ReportError::Empty(
                 "no point with a finite positive frequency and a finite magnitude or phase".into(),
             ));
         };
-        let x = freq_ticks(f_lo, f_hi);
+        let x = freq_axis(f_lo, f_hi, NOMINAL_PLOT_W, 1.0);
 
-        let mag_ext = extent(
-            series
-                .iter()
-                .map(|s| (s.freq_hz.as_slice(), s.mag_db.as_slice())),
-        );
-        let phase_ext = extent(
-            series
-                .iter()
-                .map(|s| (s.freq_hz.as_slice(), s.phase_deg.as_slice())),
-        );
+        let mag_ext = extent(series, |s| &s.mag_db);
+        let phase_ext = extent(series, |s| &s.phase_deg);
 
         // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
         let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
         let m_lo = m_lo.max(m_hi - MAG_WINDOW_DB);
-        let mag = value_ticks(m_lo, m_hi, Some(0.0), &nice_steps_125(), 8.0, 10.0);
+        let steps = steps_125((m_hi - m_lo).max(10.0), 8.0);
+        let mag = value_ticks(m_lo, m_hi, Some(0.0), &steps, 8.0, 10.0);
 
         // Phase: clamp to PHASE_WINDOW_DEG below the maximum (long delays
         // would squash everything else); include the -180 deg reference, or
@@ -859,47 +560,79 @@ impl<'a> Figure<'a> {
             summary,
         })
     }
+}
 
-    /// Legend corner in the magnitude panel that hides the fewest points,
-    /// given the legend size as fractions of the plotting area.
-    fn legend_position(&self, legend_w: f64, legend_h: f64) -> SeriesLabelPosition {
-        let candidates = [
-            (SeriesLabelPosition::UpperRight, 1.0, 1.0),
-            (SeriesLabelPosition::LowerLeft, 0.0, 0.0),
-            (SeriesLabelPosition::UpperLeft, 0.0, 1.0),
-            (SeriesLabelPosition::LowerRight, 1.0, 0.0),
-        ];
-        let span = self.mag.hi - self.mag.lo;
-        let hits = |cx: f64, cy: f64| -> usize {
-            let (x0, x1) = if cx > 0.5 {
-                (1.0 - legend_w, 1.0)
-            } else {
-                (0.0, legend_w)
-            };
-            let (y0, y1) = if cy > 0.5 {
-                (1.0 - legend_h, 1.0)
-            } else {
-                (0.0, legend_h)
-            };
-            let inside = |&(f, v): &(f64, f64)| {
-                let fx = self.x.fraction(f);
-                let fy = (v - self.mag.lo) / span;
-                fx >= x0 && fx <= x1 && fy >= y0 && fy <= y1
-            };
-            self.mag_pieces
-                .iter()
-                .flat_map(|p| p.lines.iter().flatten().chain(p.dots.iter()))
-                .filter(|p| inside(p))
-                .count()
-        };
-        let mut best = (usize::MAX, SeriesLabelPosition::UpperRight);
-        for (pos, cx, cy) in candidates {
-            let n = hits(cx, cy);
-            if n < best.0 {
-                best = (n, pos);
+/// What differs between the two panels of a Bode diagram.
+struct PanelSpec<'p> {
+    /// Value axis, its description and the dashed reference value on it (0 dB, -180 deg).
+    y: &'p Axis,
+    y_desc: &'static str,
+    reference: f64,
+    /// Drawable pieces of each series on this panel.
+    pieces: &'p [Pieces],
+    /// The margin bar of a series' markers on this panel, and its label.
+    bar: fn(&Marks) -> Option<(f64, f64, f64)>,
+    bar_label: &'static str,
+}
+
+impl Figure<'_> {
+    /// Draw panel `i` (0 magnitude, 1 phase) on `area` over the frequency axis `x`: axes,
+    /// reference line, crossover lines, curves, margin bars, on the magnitude panel the legend,
+    /// and the frame.
+    fn draw_panel<DB: DrawingBackend>(
+        &self,
+        (root, area): (&DrawingArea<DB, Shift>, &DrawingArea<DB, Shift>),
+        (i, x, y_label_area): (usize, &Axis, i32),
+        spec: &PanelSpec<'_>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        let y = spec.y;
+        let descs = ("Frequency (Hz)", spec.y_desc);
+        let axes = (x.clone(), y.clone());
+        let mut chart = stack::chart(area, (i, 2), axes, descs, y_label_area, scale)?;
+        reference_line(&mut chart, spec.reference, scale)?;
+        crossover_lines(&mut chart, &self.marks, (y.lo, y.hi), scale)?;
+        // Later series first, so the first series (the one the markers
+        // refer to) is drawn on top.
+        let strokes: Vec<Stroke> = (0..self.series.len())
+            .map(|i| series_stroke(i, scale))
+            .collect();
+        for (pieces, stroke) in spec.pieces.iter().zip(&strokes).rev() {
+            draw_pieces(&mut chart, pieces.lines.clone(), &pieces.dots, stroke)?;
+        }
+        // Only the first marked series' bars are labelled, so close bars never overprint
+        // their labels; the colours and the summary tell the others apart.
+        for (k, m) in self.marks.iter().enumerate() {
+            if let Some((f, lo, hi)) = (spec.bar)(m) {
+                let label = if k == 0 { spec.bar_label } else { "" };
+                margin_bar(
+                    &mut chart,
+                    f,
+                    (lo, hi),
+                    y,
+                    (label, series_color(m.series)),
+                    scale,
+                )?;
             }
         }
-        best.1
+        let upx = render::upx(scale);
+        if i == 0 && self.series.len() > 1 {
+            // The legend in the corner of the magnitude panel hiding the fewest curve segments.
+            let entries: Vec<_> = self
+                .series
+                .iter()
+                .zip(&strokes)
+                .map(|(s, stroke)| stroke.legend_entry(&s.label))
+                .collect();
+            let m = LegendMetrics::new(scale);
+            let label_w = m.label_widths(&entries);
+            let (pw, ph) = chart.plotting_area().dim_in_pixel();
+            let plot = (pw as i32, ph as i32);
+            let (layout, _) = legend::place_legend(spec.pieces, (x, y), &label_w, &m, plot);
+            let area = chart.plotting_area().strip_coord_spec();
+            legend::draw_legend(&area, &entries, &label_w, &layout, &m, upx(1.0))?;
+        }
+        axes::frame(root, axes::plot_bounds(chart.plotting_area()), upx(1.0))
     }
 }
 
@@ -911,195 +644,65 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = render::px(scale);
-        let upx = render::upx(scale);
-        let text = render::text(scale);
-
-        root.fill(&WHITE).map_err(plot_err)?;
-        let height = root.dim_in_pixel().1;
-
         // Header: title and margin summary.
         let (body, header_h) =
             render::draw_header(root, self.title, self.summary.as_deref(), scale)?;
 
-        // Panels with plotting areas of equal height.
-        let y_label_area = px(82.0);
-        let x_label_area = px(50.0);
-        let (m_left, m_right, m_top, m_gap, m_bottom) =
-            (px(8.0), px(30.0), px(4.0), px(10.0), px(8.0));
-        let body_h = height as i32 - header_h;
-        let plot_h = ((body_h - m_top - 2 * m_gap - x_label_area - m_bottom) / 2).max(10);
-        let (top_area, bottom_area) = body.split_vertically(m_top + plot_h + m_gap);
-
-        let label_style = text(15.0);
-        let desc_style = text(17.0);
-        let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
-        let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
-        let line_w = upx(2.0).max(2);
-        let ref_style = REF_COLOR.stroke_width(upx(1.5));
-
-        // --- Magnitude panel ---------------------------------------------
-        let mut top = ChartBuilder::on(&top_area)
-            .margin_left(m_left)
-            .margin_right(m_right)
-            .margin_top(m_top)
-            .margin_bottom(m_gap)
-            .x_label_area_size(0)
-            .y_label_area_size(y_label_area)
-            .build_cartesian_2d(self.x.axis(), self.mag.axis())
-            .map_err(plot_err)?;
-        top.configure_mesh()
-            .y_desc("Magnitude (dB)")
-            .axis_desc_style(desc_style.clone())
-            .label_style(label_style.clone())
-            .bold_line_style(bold_grid)
-            .light_line_style(light_grid)
-            .y_label_offset(0)
-            .draw()
-            .map_err(plot_err)?;
-        if self.mag.contains(0.0) {
-            top.draw_series(DashedLineSeries::new(
-                [(self.x.lo, 0.0), (self.x.hi, 0.0)],
-                px(8.0),
-                px(5.0),
-                ref_style,
-            ))
-            .map_err(plot_err)?;
+        // Two plots of equal height sharing the frequency axis.
+        let (width, height) = root.dim_in_pixel();
+        let y_label_area = axes::y_label_area([&self.mag, &self.phase], scale);
+        let plot_w = stack::plot_width(width, y_label_area, scale);
+        let x = freq_axis(self.x.lo, self.x.hi, f64::from(plot_w.max(10)), scale);
+        let plot_h = stack::plot_height(height as i32 - header_h, 2, scale).max(10);
+        let areas = stack::areas(&body, 2, plot_h, scale);
+        let panels = [
+            PanelSpec {
+                y: &self.mag,
+                y_desc: "Magnitude (dB)",
+                reference: 0.0,
+                pieces: &self.mag_pieces,
+                bar: |m| m.gm_bar,
+                bar_label: "GM",
+            },
+            PanelSpec {
+                y: &self.phase,
+                y_desc: "Phase (deg)",
+                reference: self.phase_ref,
+                pieces: &self.phase_pieces,
+                bar: |m| m.pm_bar,
+                bar_label: "PM",
+            },
+        ];
+        for (i, (spec, area)) in panels.iter().zip(&areas).enumerate() {
+            self.draw_panel((root, area), (i, &x, y_label_area), spec, scale)?;
         }
-        crossover_lines(&mut top, &self.marks, (self.mag.lo, self.mag.hi), scale)?;
-        let multi = self.series.len() > 1;
-        // Later series first, so the first series (the one the markers
-        // refer to) is drawn on top.
-        for (i, pieces) in self.mag_pieces.iter().enumerate().rev() {
-            draw_pieces(&mut top, pieces, i, line_w, scale)?;
-        }
-        if multi {
-            for (i, s) in self.series.iter().enumerate() {
-                let legend_style = series_color(i).stroke_width(line_w);
-                let (len, dash) = (px(28.0), series_dash(i, scale));
-                top.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
-                    .map_err(plot_err)?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| match dash {
-                        Some((d, g)) => plotters::element::DashedPathElement::new(
-                            [(x, y), (x + len, y)],
-                            d,
-                            g,
-                            legend_style,
-                        )
-                        .into_dyn(),
-                        None => PathElement::new([(x, y), (x + len, y)], legend_style).into_dyn(),
-                    });
-            }
-        }
-        // Only the first marked series' bars are labelled, so close bars never overprint
-        // their labels; the colours and the summary tell the others apart.
-        for (k, m) in self.marks.iter().enumerate() {
-            if let Some((f, lo, hi)) = m.gm_bar {
-                let label = (if k == 0 { "GM" } else { "" }, series_color(m.series));
-                margin_bar(&mut top, f, (lo, hi), &self.mag, label, scale)?;
-            }
-        }
-        if multi {
-            let (pw, ph) = top.plotting_area().dim_in_pixel();
-            let widest = self
-                .series
-                .iter()
-                .map(|s| layout::text_width(&s.label, 15.0 * scale))
-                .fold(0.0, f64::max);
-            let legend_w = (f64::from(px(60.0)) + widest) / f64::from(pw.max(1));
-            let legend_h =
-                (px(20.0) as f64 + self.series.len() as f64 * 22.0 * scale) / f64::from(ph.max(1));
-            top.configure_series_labels()
-                .position(self.legend_position(legend_w, legend_h))
-                .margin(px(10.0))
-                .legend_area_size(px(36.0))
-                .label_font(text(15.0))
-                .background_style(WHITE.mix(0.88))
-                .border_style(BLACK.mix(0.45))
-                .draw()
-                .map_err(plot_err)?;
-        }
-        frame(
-            &top,
-            self.x.lo,
-            self.x.hi,
-            self.mag.lo,
-            self.mag.hi,
-            upx(1.0),
-        )?;
-
-        // --- Phase panel -------------------------------------------------
-        let mut bottom = ChartBuilder::on(&bottom_area)
-            .margin_left(m_left)
-            .margin_right(m_right)
-            .margin_top(m_gap)
-            .margin_bottom(m_bottom)
-            .x_label_area_size(x_label_area)
-            .y_label_area_size(y_label_area)
-            .build_cartesian_2d(self.x.axis(), self.phase.axis())
-            .map_err(plot_err)?;
-        bottom
-            .configure_mesh()
-            .x_desc("Frequency (Hz)")
-            .y_desc("Phase (deg)")
-            .axis_desc_style(desc_style)
-            .label_style(label_style)
-            .bold_line_style(bold_grid)
-            .light_line_style(light_grid)
-            .draw()
-            .map_err(plot_err)?;
-        if self.phase.contains(self.phase_ref) {
-            bottom
-                .draw_series(DashedLineSeries::new(
-                    [(self.x.lo, self.phase_ref), (self.x.hi, self.phase_ref)],
-                    px(8.0),
-                    px(5.0),
-                    ref_style,
-                ))
-                .map_err(plot_err)?;
-        }
-        crossover_lines(
-            &mut bottom,
-            &self.marks,
-            (self.phase.lo, self.phase.hi),
-            scale,
-        )?;
-        for (i, pieces) in self.phase_pieces.iter().enumerate().rev() {
-            draw_pieces(&mut bottom, pieces, i, line_w, scale)?;
-        }
-        // Only the first marked series' bars are labelled, so close bars never overprint
-        // their labels; the colours and the summary tell the others apart.
-        for (k, m) in self.marks.iter().enumerate() {
-            if let Some((f, lo, hi)) = m.pm_bar {
-                let label = (if k == 0 { "PM" } else { "" }, series_color(m.series));
-                margin_bar(&mut bottom, f, (lo, hi), &self.phase, label, scale)?;
-            }
-        }
-        frame(
-            &bottom,
-            self.x.lo,
-            self.x.hi,
-            self.phase.lo,
-            self.phase.hi,
-            upx(1.0),
-        )?;
         Ok(())
     }
 }
 
-type BodeChart<'b, DB> =
-    ChartContext<'b, DB, Cartesian2d<TickedAxis<LogCoord<f64>>, TickedAxis<RangedCoordf64>>>;
-
-/// Colour of series number `i` (cycling through the palette).
-fn series_color(i: usize) -> RGBColor {
-    PALETTE[i % PALETTE.len()]
+/// Dashed horizontal reference line at `y` across `chart` (0 dB, -180 deg), if in range.
+fn reference_line<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    y: f64,
+    scale: f64,
+) -> Result<(), ReportError> {
+    let (x_axis, y_axis) = (chart.x_range(), chart.y_range());
+    if !(y_axis.start..=y_axis.end).contains(&y) {
+        return Ok(());
+    }
+    let px = render::px(scale);
+    let style = REF_COLOR.stroke_width(render::upx(scale)(1.5));
+    let ends = [(x_axis.start, y), (x_axis.end, y)];
+    chart
+        .draw_series(DashedLineSeries::new(ends, px(8.0), px(5.0), style))
+        .map_err(plot_err)?;
+    Ok(())
 }
 
 /// Thin dashed vertical lines at the crossover frequencies of each marked series, in the
 /// series' colour, spanning the panel's value range `(lo, hi)`.
 fn crossover_lines<DB: DrawingBackend>(
-    chart: &mut BodeChart<'_, DB>,
+    chart: &mut Chart<'_, DB>,
     marks: &[Marks],
     (lo, hi): (f64, f64),
     scale: f64,
@@ -1129,10 +732,10 @@ fn crossover_lines<DB: DrawingBackend>(
 /// crossover the curve lies above the lower end of the bar, so the label does
 /// not sit on the curve the markers refer to.
 fn margin_bar<DB: DrawingBackend>(
-    chart: &mut BodeChart<'_, DB>,
+    chart: &mut Chart<'_, DB>,
     f: f64,
     (a, b): (f64, f64),
-    panel: &LinearTicks,
+    panel: &Axis,
     (label, color): (&'static str, RGBColor),
     scale: f64,
 ) -> Result<(), ReportError> {
@@ -1166,69 +769,21 @@ fn margin_bar<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Dash pattern (dash, gap in px) of series number `i` at `scale`: the first series solid,
-/// the others dashed, dotted, long-dashed or short-dashed in turn, so that curves lying on
-/// top of each other stay distinguishable without colour.
-fn series_dash(i: usize, scale: f64) -> Option<(i32, i32)> {
+/// Stroke of series number `i` at `scale`: its palette colour, 2 px wide, the first series
+/// solid, the others dashed, dotted, long-dashed or short-dashed in turn, so that curves lying
+/// on top of each other stay distinguishable without colour.
+fn series_stroke(i: usize, scale: f64) -> Stroke {
     const PATTERNS: [(f64, f64); 4] = [(12.0, 6.0), (3.0, 4.0), (22.0, 6.0), (7.0, 3.0)];
-    let px = render::px(scale);
-    (i > 0).then(|| {
-        let (d, g) = PATTERNS[(i - 1) % PATTERNS.len()];
-        (px(d).max(1), px(g).max(1))
-    })
-}
-
-/// Draw the polylines and isolated points of series number `i`, in its colour and dash.
-fn draw_pieces<DB: DrawingBackend>(
-    chart: &mut BodeChart<'_, DB>,
-    pieces: &Pieces,
-    i: usize,
-    line_w: u32,
-    scale: f64,
-) -> Result<(), ReportError> {
-    let color = series_color(i);
-    let style = color.stroke_width(line_w);
-    for line in &pieces.lines {
-        match series_dash(i, scale) {
-            Some((d, g)) => chart.draw_series(DashedLineSeries::new(line.clone(), d, g, style)),
-            None => chart.draw_series(std::iter::once(PathElement::new(line.clone(), style))),
-        }
-        .map_err(plot_err)?;
+    let (px, upx) = (render::px(scale), render::upx(scale));
+    Stroke {
+        color: series_color(i),
+        width: upx(2.0).max(2),
+        pattern: (i > 0).then(|| {
+            let (d, g) = PATTERNS[(i - 1) % PATTERNS.len()];
+            (px(d).max(1), px(g).max(1))
+        }),
+        dot_r: upx(3.0),
     }
-    let dot_r = render::upx(scale)(3.0);
-    chart
-        .draw_series(
-            pieces
-                .dots
-                .iter()
-                .map(|&p| Circle::new(p, dot_r, color.filled())),
-        )
-        .map_err(plot_err)?;
-    Ok(())
-}
-
-/// Thin frame around the plotting area.
-fn frame<DB: DrawingBackend>(
-    chart: &BodeChart<'_, DB>,
-    x_lo: f64,
-    x_hi: f64,
-    y_lo: f64,
-    y_hi: f64,
-    width: u32,
-) -> Result<(), ReportError> {
-    chart
-        .plotting_area()
-        .draw(&PathElement::new(
-            [
-                (x_lo, y_lo),
-                (x_hi, y_lo),
-                (x_hi, y_hi),
-                (x_lo, y_hi),
-                (x_lo, y_lo),
-            ],
-            BLACK.stroke_width(width),
-        ))
-        .map_err(plot_err)
 }
 
 #[cfg(test)]
@@ -1540,17 +1095,19 @@ mod tests {
 
     #[test]
     fn ticks() {
-        let t = freq_ticks(0.01, 1000.0);
+        let t = freq_axis(0.01, 1000.0, NOMINAL_PLOT_W, 1.0);
         assert_eq!(t.major.len(), 6);
-        assert_eq!(format_freq_tick(t.major[0]), "0.01");
-        assert_eq!(format_freq_tick(t.major[5]), "1000");
-        assert_eq!(format_freq_tick(2e6), "2e6");
-        let t = freq_ticks(2.0, 8.0);
+        assert_eq!(t.labels[0], "0.01");
+        assert_eq!(t.labels[5], "1000");
+        let t = freq_axis(2.0, 8.0, NOMINAL_PLOT_W, 1.0);
         assert!(t.major.len() >= 2);
+        // A single frequency gets a band around it.
+        let t = freq_axis(5.0, 5.0, NOMINAL_PLOT_W, 1.0);
+        assert!(t.lo < 5.0 && t.hi > 5.0 && t.major.len() >= 2, "{t:?}");
         let p = value_ticks(-250.0, -90.0, Some(-180.0), &phase_steps(), 9.0, 20.0);
         assert!(p.major.iter().all(|v| v % 45.0 == 0.0), "{p:?}");
         assert!(p.lo <= -250.0 && p.hi >= -90.0);
-        let m = value_ticks(-80.0, 40.0, Some(0.0), &nice_steps_125(), 8.0, 10.0);
+        let m = value_ticks(-80.0, 40.0, Some(0.0), &steps_125(120.0, 8.0), 8.0, 10.0);
         assert!(m.major.contains(&0.0));
         assert_eq!(format_freq_hz(4.5678), "4.57");
         assert_eq!(format_freq_hz(0.012345), "0.0123");

@@ -11,15 +11,13 @@
 //! in light grey. The look (fonts, sizes, margins)
 //! follows [`super::timeseries`] and [`super::bode`].
 
-use std::ops::Range;
-
-use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::bode::{linear_ticks, plot_err, ReportError};
-use super::render::{self, steps_125, SUBTITLE_COLOR};
+use super::axes::{self, fitted_linear_axis, log_axis, Axis, AXIS_DESC_SIZE, TICK_LABEL_SIZE};
+use super::render::{self, SUBTITLE_COLOR};
+use super::render::{plot_err, ReportError};
 use super::{font, layout};
 
 /// Default heat-map width in pixels (used for SVG output; a sensible PNG
@@ -41,10 +39,6 @@ const MARGIN_TOP: f64 = 4.0;
 const MARGIN_BOTTOM: f64 = 8.0;
 const MARGIN_RIGHT: f64 = 12.0;
 const X_LABEL_AREA: f64 = 58.0;
-/// Smallest y label area (room for the rotated description and labels).
-const MIN_Y_LABEL_AREA: f64 = 82.0;
-const TICK_LABEL_SIZE: f64 = 15.0;
-const AXIS_DESC_SIZE: f64 = 17.0;
 const NOTE_SIZE: f64 = 14.0;
 const MARKER_LABEL_SIZE: f64 = 15.0;
 /// Length of major tick marks; minor ticks (log axes) are shorter.
@@ -261,270 +255,6 @@ impl ColourScale {
 // Axes
 // ---------------------------------------------------------------------------
 
-/// A linear or logarithmic plotters axis over `lo..hi` with explicit labelled
-/// (major) ticks and unlabelled (minor) ticks. The bode module's `TickedAxis`
-/// only formats labels with fixed decimals and cannot be built with a log
-/// scale from here, hence this type for labels like "2×10⁻¹¹".
-#[derive(Debug, Clone, PartialEq)]
-struct Axis {
-    lo: f64,
-    hi: f64,
-    log: bool,
-    major: Vec<f64>,
-    /// Labels of `major`, index for index.
-    labels: Vec<String>,
-    minor: Vec<f64>,
-}
-
-impl Axis {
-    /// Position of `v` along the axis: 0 at `lo`, 1 at `hi` (clamped to
-    /// -1..=2 so that pixel positions stay small).
-    fn fraction(&self, v: f64) -> f64 {
-        let f = if self.log {
-            if v > 0.0 {
-                (v.log10() - self.lo.log10()) / (self.hi.log10() - self.lo.log10())
-            } else {
-                -1.0
-            }
-        } else {
-            (v - self.lo) / (self.hi - self.lo)
-        };
-        if f.is_nan() {
-            0.0
-        } else {
-            f.clamp(-1.0, 2.0)
-        }
-    }
-}
-
-impl Ranged for Axis {
-    type FormatOption = NoDefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        let f = self.fraction(*value);
-        (f64::from(limit.0) + f * f64::from(limit.1 - limit.0)).round() as i32
-    }
-
-    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            self.minor.clone()
-        } else {
-            self.major.clone()
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.lo..self.hi
-    }
-}
-
-impl ValueFormatter<f64> for Axis {
-    fn format(value: &f64) -> String {
-        format!("{value}")
-    }
-
-    fn format_ext(&self, value: &f64) -> String {
-        self.major
-            .iter()
-            .position(|m| m == value)
-            .map_or_else(|| Self::format(value), |i| self.labels[i].clone())
-    }
-}
-
-/// Exponent in Unicode superscript digits: -13 → "⁻¹³".
-fn superscript(e: i32) -> String {
-    e.to_string()
-        .chars()
-        .map(|c| match c {
-            '-' => '⁻',
-            '0' => '⁰',
-            '1' => '¹',
-            '2' => '²',
-            '3' => '³',
-            '4' => '⁴',
-            '5' => '⁵',
-            '6' => '⁶',
-            '7' => '⁷',
-            '8' => '⁸',
-            _ => '⁹',
-        })
-        .collect()
-}
-
-/// `v` with `decimals` decimals, without a "-0".
-fn fixed(v: f64, decimals: usize) -> String {
-    let s = format!("{v:.decimals$}");
-    if s.trim_start_matches('-')
-        .chars()
-        .all(|c| c == '0' || c == '.')
-    {
-        s.trim_start_matches('-').to_string()
-    } else {
-        s
-    }
-}
-
-/// Decimals needed to write multiples of `step` (a 1-2-5 × 10^k value).
-fn decimals_for(step: f64) -> usize {
-    (-(step.log10() + 1e-9).floor()).clamp(0.0, 12.0) as usize
-}
-
-/// Label of the log tick `m` × 10^`d` (`m` in 1..=9): plain decimals between
-/// 0.001 and 90000, else "10⁻¹³" or "2×10⁻¹³".
-fn log_label(m: u32, d: i32) -> String {
-    if (-3..=4).contains(&d) {
-        fixed(
-            f64::from(m) * 10f64.powi(d),
-            d.min(0).unsigned_abs() as usize,
-        )
-    } else if m == 1 {
-        format!("10{}", superscript(d))
-    } else {
-        format!("{m}×10{}", superscript(d))
-    }
-}
-
-/// Labels of linear ticks `values` spaced by `step`: plain decimals when the
-/// largest magnitude lies in 0.001..100000, else mantissas with a common
-/// power of ten ("0.8×10⁻¹⁰", "1.0×10⁻¹⁰", ...).
-fn linear_labels(values: &[f64], step: f64) -> Vec<String> {
-    let max_abs = values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    if max_abs == 0.0 || (1e-3..1e5).contains(&max_abs) {
-        let decimals = decimals_for(step);
-        return values.iter().map(|&v| fixed(v, decimals)).collect();
-    }
-    let e = max_abs.log10().floor() as i32;
-    let p = 10f64.powi(e);
-    let decimals = decimals_for(step / p);
-    values
-        .iter()
-        .map(|&v| {
-            let m = fixed(v / p, decimals);
-            if m.chars().all(|c| c == '0' || c == '.') {
-                "0".to_string()
-            } else {
-                format!("{m}×10{}", superscript(e))
-            }
-        })
-        .collect()
-}
-
-/// Linear axis spanning exactly `lo..hi` with at most `max_intervals` major
-/// intervals (the ticks inside the range are kept).
-fn linear_axis(lo: f64, hi: f64, max_intervals: f64) -> Axis {
-    let steps = steps_125(hi - lo, max_intervals);
-    let step = steps[0].0;
-    let t = linear_ticks(lo, hi, &steps);
-    let tol = 1e-9 * (hi - lo);
-    let inside = |v: &f64| *v >= lo - tol && *v <= hi + tol;
-    let major: Vec<f64> = t.major.into_iter().filter(inside).collect();
-    let minor: Vec<f64> = t.minor.into_iter().filter(inside).collect();
-    Axis {
-        lo,
-        hi,
-        log: false,
-        labels: linear_labels(&major, step),
-        major,
-        minor,
-    }
-}
-
-/// Linear axis over `lo..hi` whose labels keep at least `min_gap` pixels
-/// apart along `len_px` pixels; `label_len` gives a label's extent along the
-/// axis (0 for a vertical axis, where `min_gap` alone applies).
-fn fitted_linear_axis(
-    lo: f64,
-    hi: f64,
-    len_px: f64,
-    min_gap: f64,
-    label_len: &dyn Fn(&str) -> f64,
-) -> Axis {
-    let mut axis = linear_axis(lo, hi, 2.0);
-    for n in (2..=8).rev() {
-        let candidate = linear_axis(lo, hi, f64::from(n));
-        let spacing = match candidate.major.as_slice() {
-            [a, b, ..] => (b - a) / (hi - lo) * len_px,
-            _ => f64::INFINITY,
-        };
-        let longest = candidate
-            .labels
-            .iter()
-            .map(|l| label_len(l))
-            .fold(0.0, f64::max);
-        if spacing >= longest + min_gap {
-            axis = candidate;
-            break;
-        }
-    }
-    axis
-}
-
-/// Logarithmic axis over `lo..hi` (> 0) drawn `len_px` pixels long, labels
-/// at least `min_gap` pixels apart: powers of ten when the range holds three
-/// or more (every n-th when crowded, minor ticks at 2..9), else 1-2-5 or
-/// 1..9 multiples, else linear ticks.
-fn log_axis(lo: f64, hi: f64, len_px: f64, min_gap: f64) -> Axis {
-    let px_per_decade = len_px / (hi.log10() - lo.log10());
-    let tol = 1e-9;
-    let inside = |v: f64| v >= lo * (1.0 - tol) && v <= hi * (1.0 + tol);
-    let d0 = lo.log10().floor() as i32;
-    let d1 = hi.log10().ceil() as i32;
-    // (value, label, exponent) of m × 10^d for m in `mults`, in range.
-    let multiples = |mults: &[u32]| -> Vec<(f64, String, i32)> {
-        (d0..=d1)
-            .flat_map(|d| {
-                mults
-                    .iter()
-                    .map(move |&m| (f64::from(m) * 10f64.powi(d), log_label(m, d), d))
-            })
-            .filter(|t| inside(t.0))
-            .collect()
-    };
-    let make = |major: Vec<(f64, String, i32)>, minor: Vec<(f64, String, i32)>| Axis {
-        lo,
-        hi,
-        log: true,
-        major: major.iter().map(|t| t.0).collect(),
-        labels: major.into_iter().map(|t| t.1).collect(),
-        minor: minor.into_iter().map(|t| t.0).collect(),
-    };
-    let min_spacing = |ticks: &[(f64, String, i32)]| -> f64 {
-        ticks
-            .windows(2)
-            .map(|w| (w[1].0 / w[0].0).log10() * px_per_decade)
-            .fold(f64::INFINITY, f64::min)
-    };
-
-    let decades = multiples(&[1]);
-    if decades.len() >= 3 {
-        let n = (min_gap / px_per_decade).ceil().max(1.0) as i32;
-        if n == 1 {
-            return make(decades, multiples(&[2, 3, 4, 5, 6, 7, 8, 9]));
-        }
-        let (major, minor) = decades.into_iter().partition(|t| t.2.rem_euclid(n) == 0);
-        return make(major, minor);
-    }
-    for (set, rest) in [
-        (&[1, 2, 5][..], &[3, 4, 6, 7, 8, 9][..]),
-        (&[1, 2, 3, 4, 5, 6, 7, 8, 9][..], &[][..]),
-    ] {
-        let major = multiples(set);
-        if major.len() >= 2 && min_spacing(&major) >= min_gap {
-            return make(major, multiples(rest));
-        }
-    }
-    if decades.len() == 2 {
-        return make(decades, multiples(&[2, 3, 4, 5, 6, 7, 8, 9]));
-    }
-    // Less than a 1-2-3 step wide: linear ticks on the log scale.
-    let max_intervals = (len_px / min_gap).floor().clamp(2.0, 8.0);
-    Axis {
-        log: true,
-        ..linear_axis(lo, hi, max_intervals)
-    }
-}
-
 /// Cell edges of the grid values `v` (strictly increasing): midway between
 /// neighbours (in log10 space when `log`), the outer cells as wide as their
 /// inner neighbours; a single value gets ±5 % (±0.5 at 0), or ±0.25 decade
@@ -718,16 +448,8 @@ impl<'a> Figure<'a> {
         }
         let x0 = x0.min(right - bw).max(left);
         let y0 = y0.min(bottom - bh).max(top);
-        root.draw(&Rectangle::new(
-            [(x0, y0), (x0 + bw, y0 + bh)],
-            WHITE.mix(0.85).filled(),
-        ))
-        .map_err(plot_err)?;
-        root.draw(&Rectangle::new(
-            [(x0, y0), (x0 + bw, y0 + bh)],
-            BLACK.mix(0.45).stroke_width(1),
-        ))
-        .map_err(plot_err)?;
+        let corners = [(x0, y0), (x0 + bw, y0 + bh)];
+        render::draw_box(root, corners, render::label_background(), upx(1.0))?;
         root.draw(&Text::new(
             marker.label.clone(),
             (x0 + pad, y0 + pad),
@@ -736,6 +458,26 @@ impl<'a> Figure<'a> {
         .map_err(plot_err)?;
         Ok(())
     }
+}
+
+/// Short black tick marks `width` px wide at the minor ticks of the vertical `axis` drawn
+/// over the pixel rows `top..=bottom`, from column `x` to `x + len`.
+fn minor_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    axis: &Axis,
+    (top, bottom): (i32, i32),
+    (x, len): (i32, i32),
+    width: u32,
+) -> Result<(), ReportError> {
+    for &v in &axis.minor {
+        let y = axis.map(&v, (bottom, top));
+        root.draw(&PathElement::new(
+            [(x, y), (x + len, y)],
+            BLACK.stroke_width(width),
+        ))
+        .map_err(plot_err)?;
+    }
+    Ok(())
 }
 
 impl render::Draw for Figure<'_> {
@@ -752,7 +494,6 @@ impl render::Draw for Figure<'_> {
         // Width (px) of `s` at text size `size` (scale 1).
         let text_width = |s: &str, size: f64| layout::text_width(s, size * scale).ceil() as i32;
 
-        root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
         let (width, height) = (width as i32, height as i32);
 
@@ -767,8 +508,6 @@ impl render::Draw for Figure<'_> {
                 "image height {height} px too small for the heat map"
             )));
         }
-        let label_style = text(TICK_LABEL_SIZE);
-        let desc_style = text(AXIS_DESC_SIZE);
         let min_y_gap = MIN_Y_LABEL_GAP * scale;
         let (y_lo, y_hi) = (self.y_edges[0], self.y_edges[self.y_edges.len() - 1]);
         let y_axis = if self.map.y_log {
@@ -784,15 +523,8 @@ impl render::Draw for Figure<'_> {
         );
 
         // Horizontal layout: label areas fit the widest tick labels.
-        let mut widest_y = 0;
-        for l in &y_axis.labels {
-            widest_y = widest_y.max(text_width(l, TICK_LABEL_SIZE));
-        }
-        let y_label_area = px(MIN_Y_LABEL_AREA).max(widest_y + px(52.0));
-        let mut widest_bar = 0;
-        for l in &bar_axis.labels {
-            widest_bar = widest_bar.max(text_width(l, TICK_LABEL_SIZE));
-        }
+        let y_label_area = axes::y_label_area([&y_axis], scale);
+        let widest_bar = bar_axis.widest_label(TICK_LABEL_SIZE * scale).ceil() as i32;
         let mut bar_label_area = 2 * px(TICK_SIZE) + widest_bar + px(8.0);
         if !self.map.cost_label.is_empty() {
             bar_label_area += px(6.0) + px(AXIS_DESC_SIZE * 1.2);
@@ -832,20 +564,11 @@ impl render::Draw for Figure<'_> {
             .y_label_area_size(y_label_area)
             .build_cartesian_2d(x_axis.clone(), y_axis.clone())
             .map_err(plot_err)?;
-        {
-            let mut mesh = chart.configure_mesh();
-            mesh.disable_mesh()
-                .axis_desc_style(desc_style.clone())
-                .label_style(label_style.clone())
-                .set_all_tick_mark_size(px(TICK_SIZE));
-            if !self.map.x_label.is_empty() {
-                mesh.x_desc(self.map.x_label.clone());
-            }
-            if !self.map.y_label.is_empty() {
-                mesh.y_desc(self.map.y_label.clone());
-            }
-            mesh.draw().map_err(plot_err)?;
-        }
+        let descs = (
+            Some(self.map.x_label.as_str()),
+            Some(self.map.y_label.as_str()),
+        );
+        axes::draw_axes(&mut chart, descs, false, TICK_SIZE, scale)?;
 
         let nx = self.map.x.len();
         let cells = self.map.cost.iter().enumerate().map(|(i, &c)| {
@@ -875,29 +598,17 @@ impl render::Draw for Figure<'_> {
         }
 
         // Frame and minor ticks of a log y axis.
-        let (xr, yr) = chart.plotting_area().get_pixel_range();
-        let (left, right, top, bottom) = (xr.start, xr.end - 1, yr.start, yr.end - 1);
-        let frame_style = BLACK.stroke_width(upx(1.0));
-        root.draw(&PathElement::new(
-            [
-                (left, top),
-                (right, top),
-                (right, bottom),
-                (left, bottom),
-                (left, top),
-            ],
-            frame_style,
-        ))
-        .map_err(plot_err)?;
+        let bounds = axes::plot_bounds(chart.plotting_area());
+        let (left, right, top, bottom) = bounds;
+        axes::frame(root, bounds, upx(1.0))?;
         if y_axis.log {
-            for &v in &y_axis.minor {
-                let y = chart.backend_coord(&(x_lo, v)).1;
-                root.draw(&PathElement::new(
-                    [(left - px(MINOR_TICK_SIZE), y), (left, y)],
-                    frame_style,
-                ))
-                .map_err(plot_err)?;
-            }
+            minor_ticks(
+                root,
+                &y_axis,
+                (top, bottom),
+                (left, -px(MINOR_TICK_SIZE)),
+                upx(1.0),
+            )?;
         }
 
         for m in &self.markers {
@@ -920,16 +631,16 @@ impl render::Draw for Figure<'_> {
             let mut mesh = bar.configure_mesh();
             mesh.disable_mesh()
                 .disable_x_axis()
-                .axis_desc_style(desc_style)
-                .label_style(label_style)
+                .axis_desc_style(text(AXIS_DESC_SIZE))
+                .label_style(text(TICK_LABEL_SIZE))
                 .set_all_tick_mark_size(px(TICK_SIZE));
             if !self.map.cost_label.is_empty() {
                 mesh.y_desc(self.map.cost_label.clone());
             }
             mesh.draw().map_err(plot_err)?;
         }
-        let (bxr, byr) = bar.plotting_area().get_pixel_range();
-        let (b_left, b_right, b_top, b_bottom) = (bxr.start, bxr.end - 1, byr.start, byr.end - 1);
+        let bar_bounds = axes::plot_bounds(bar.plotting_area());
+        let (b_left, b_right, b_top, b_bottom) = bar_bounds;
         // One rectangle per run of pixel rows of equal colour.
         let rows = (b_bottom - b_top + 1).max(1);
         let row_colour = |r: i32| viridis(1.0 - (f64::from(r) + 0.5) / f64::from(rows));
@@ -947,25 +658,9 @@ impl render::Draw for Figure<'_> {
             .map_err(plot_err)?;
             start = end;
         }
-        for &v in &bar_axis.minor {
-            let y = bar.backend_coord(&(1.0, v)).1;
-            root.draw(&PathElement::new(
-                [(b_right, y), (b_right + px(MINOR_TICK_SIZE), y)],
-                frame_style,
-            ))
-            .map_err(plot_err)?;
-        }
-        root.draw(&PathElement::new(
-            [
-                (b_left, b_top),
-                (b_right, b_top),
-                (b_right, b_bottom),
-                (b_left, b_bottom),
-                (b_left, b_top),
-            ],
-            frame_style,
-        ))
-        .map_err(plot_err)?;
+        let at = (b_right, px(MINOR_TICK_SIZE));
+        minor_ticks(root, &bar_axis, (b_top, b_bottom), at, upx(1.0))?;
+        axes::frame(root, bar_bounds, upx(1.0))?;
 
         // Note on grey cells, bottom right, level with the x description.
         if self.has_missing {
@@ -975,16 +670,8 @@ impl render::Draw for Figure<'_> {
             let y_mid = bottom + x_label_area - px(AXIS_DESC_SIZE * 0.6);
             let text_right = width - m_right;
             let sw_right = text_right - note_w - px(6.0);
-            root.draw(&Rectangle::new(
-                [(sw_right - sw, y_mid - sw / 2), (sw_right, y_mid + sw / 2)],
-                MISSING_COLOR.filled(),
-            ))
-            .map_err(plot_err)?;
-            root.draw(&Rectangle::new(
-                [(sw_right - sw, y_mid - sw / 2), (sw_right, y_mid + sw / 2)],
-                BLACK.mix(0.45).stroke_width(1),
-            ))
-            .map_err(plot_err)?;
+            let corners = [(sw_right - sw, y_mid - sw / 2), (sw_right, y_mid + sw / 2)];
+            render::draw_box(root, corners, MISSING_COLOR.filled(), upx(1.0))?;
             root.draw(&Text::new(
                 MISSING_NOTE,
                 (text_right, y_mid),
@@ -1322,45 +1009,5 @@ mod tests {
         assert!((flat.position(2.0).unwrap() - 0.5).abs() < 1e-9);
         let none = ColourScale::for_costs(&[0.0, f64::NAN]);
         assert!(none.lo > 0.0 && none.hi > none.lo);
-    }
-
-    #[test]
-    fn tick_labels() {
-        assert_eq!(superscript(-13), "⁻¹³");
-        assert_eq!(log_label(1, -13), "10⁻¹³");
-        assert_eq!(log_label(2, -11), "2×10⁻¹¹");
-        assert_eq!(log_label(5, -2), "0.05");
-        assert_eq!(log_label(1, 0), "1");
-        assert_eq!(log_label(2, 3), "2000");
-        assert_eq!(log_label(1, 6), "10⁶");
-        assert_eq!(
-            linear_labels(&[0.8e-10, 1.0e-10, 1.2e-10], 0.2e-10),
-            vec!["0.8×10⁻¹⁰", "1.0×10⁻¹⁰", "1.2×10⁻¹⁰"]
-        );
-        assert_eq!(
-            linear_labels(&[-0.5, 0.0, 0.5], 0.5),
-            vec!["-0.5", "0.0", "0.5"]
-        );
-        assert_eq!(linear_labels(&[200.0, 400.0], 200.0), vec!["200", "400"]);
-
-        // Five decades on 500 px: powers of ten only, minor ticks between.
-        let a = log_axis(10f64.powf(-13.125), 10f64.powf(-8.875), 500.0, 28.0);
-        assert_eq!(a.labels, vec!["10⁻¹³", "10⁻¹²", "10⁻¹¹", "10⁻¹⁰", "10⁻⁹"]);
-        assert_eq!(a.minor.len(), 2 + 4 * 8); // 8e-14, 9e-14, then 2..9 × 10^d
-                                              // Crowded: every other decade.
-        let a = log_axis(1e-20, 1e20, 300.0, 28.0);
-        assert!(a.labels.len() <= 11 && a.labels.contains(&"1".to_string()));
-        // Few decades: 1-2-5.
-        let a = log_axis(0.03, 5.0, 500.0, 28.0);
-        assert_eq!(a.labels, vec!["0.05", "0.1", "0.2", "0.5", "1", "2", "5"]);
-        // Narrow: 1..9 multiples, then linear ticks.
-        let a = log_axis(2.5, 4.5, 500.0, 28.0);
-        assert_eq!(a.labels, vec!["3", "4"]);
-        let a = log_axis(1.01, 1.05, 500.0, 28.0);
-        assert!(a.log && a.major.len() >= 2, "{a:?}");
-
-        let x = linear_axis(12.5, 1100.0, 8.0);
-        assert_eq!(x.major.first(), Some(&200.0));
-        assert!(x.major.iter().all(|v| *v >= x.lo && *v <= x.hi));
     }
 }

@@ -4,14 +4,19 @@
 //! file as bytes); writing the result to disk is the caller's job. Text is
 //! drawn with an embedded copy of DejaVu Sans, so no system fonts are needed.
 
+mod axes;
 mod bode;
 mod font;
 mod layout;
+mod legend;
 mod render;
+mod series;
+mod stack;
 pub use layout::{sig, text_overflow};
+pub use render::ReportError;
 
 pub use bode::{
-    bode_png, bode_png_marked, bode_svg, bode_svg_marked, BodeMarkers, BodeSeries, ReportError,
+    bode_png, bode_png_marked, bode_svg, bode_svg_marked, BodeMarkers, BodeSeries,
     DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,
 };
 mod timeseries;

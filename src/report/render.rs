@@ -1,5 +1,5 @@
 //! What every figure shares: rendering a prepared figure to SVG text or PNG bytes, and the
-//! 1-2-5 tick steps of linear axes.
+//! header (title and subtitle) above the plots.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -8,8 +8,30 @@ use std::sync::{Arc, OnceLock};
 
 use resvg::{tiny_skia, usvg};
 
-use super::bode::{plot_err, ReportError, MAX_SIDE_PX, MIN_HEIGHT_PX, MIN_WIDTH_PX};
 use super::{font, layout};
+
+/// Smallest accepted PNG size in pixels (below it the labels cannot fit).
+const MIN_WIDTH_PX: u32 = 320;
+const MIN_HEIGHT_PX: u32 = 240;
+/// Largest accepted PNG side in pixels (keeps the RGB buffer reasonable).
+const MAX_SIDE_PX: u32 = 16_384;
+
+/// Errors of the report renderers.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// The plotting library failed, the input is inconsistent (vector lengths
+    /// differ) or the requested image size is unusable.
+    #[error("plot: {0}")]
+    Plot(String),
+    /// Nothing to draw: no series, or no finite point in any series.
+    #[error("plot: no data to draw: {0}")]
+    Empty(String),
+}
+
+/// A plotting-library error as a [`ReportError::Plot`].
+pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
+    ReportError::Plot(e.to_string())
+}
 
 /// A figure ready to draw on any plotters backend; `scale` multiplies text and line sizes.
 pub(super) trait Draw {
@@ -101,25 +123,6 @@ fn rasterise(svg: &str, width: u32, height: u32) -> Result<Vec<u8>, ReportError>
         .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))
 }
 
-/// Candidate (major, minor) 1-2-5 × 10^k steps for `span`, ascending, starting at the smallest
-/// giving at most `max_intervals` major intervals.
-pub(super) fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
-    let min_step = span / max_intervals;
-    let d0 = min_step.log10().floor() as i32 - 1;
-    let steps: Vec<(f64, f64)> = (d0..=d0 + 2)
-        .flat_map(|d| {
-            let p = 10f64.powi(d);
-            [(p, p / 2.0), (2.0 * p, p), (5.0 * p, p)]
-        })
-        .filter(|&(s, _)| s >= min_step * (1.0 - 1e-9))
-        .collect();
-    if steps.is_empty() {
-        vec![(min_step, min_step / 2.0)]
-    } else {
-        steps
-    }
-}
-
 /// Subtitle colour shared by the figures.
 pub(super) const SUBTITLE_COLOR: RGBColor = RGBColor(70, 70, 70);
 /// Header layout at scale 1 (px): title top margin, title size, gap, subtitle size, gap.
@@ -159,7 +162,7 @@ pub(super) fn header_height(scale: f64, title_lines: usize, subtitle_lines: usiz
     h
 }
 
-/// Draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
+/// Fill the figure white and draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
 /// shortened in the middle beyond that so that it never runs outside the figure; returns the
 /// area below them and the header's height (px).
 pub(super) fn draw_header<DB: DrawingBackend>(
@@ -177,6 +180,7 @@ pub(super) fn draw_header<DB: DrawingBackend>(
     let subtitle_lines = subtitle.map_or_else(Vec::new, |s| fit(s, SUBTITLE_SIZE));
     let header_h = header_height(scale, title_lines.len(), subtitle_lines.len());
     let sub_top = header_height(scale, title_lines.len(), 0) - px(2.0);
+    root.fill(&WHITE).map_err(plot_err)?;
     let (header, body) = root.split_vertically(header_h);
     let centre = (width / 2) as i32;
     let top = Pos::new(HPos::Center, VPos::Top);
@@ -194,6 +198,28 @@ pub(super) fn draw_header<DB: DrawingBackend>(
             .map_err(plot_err)?;
     }
     Ok((body, header_h))
+}
+
+/// A box over the pixel `corners` of `area`, filled with `fill` and edged in grey `border_w`
+/// px wide: legends, labels over a plot and colour swatches.
+pub(super) fn draw_box<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    corners: [(i32, i32); 2],
+    fill: ShapeStyle,
+    border_w: u32,
+) -> Result<(), ReportError> {
+    area.draw(&Rectangle::new(corners, fill))
+        .map_err(plot_err)?;
+    area.draw(&Rectangle::new(
+        corners,
+        BLACK.mix(0.45).stroke_width(border_w),
+    ))
+    .map_err(plot_err)
+}
+
+/// The fill of boxes drawn over a plot (legends, labels): white, slightly see-through.
+pub(super) fn label_background() -> ShapeStyle {
+    WHITE.mix(0.88).filled()
 }
 
 /// Test support: check PNG bytes (signature, IHDR size, decodable at that size) and return the

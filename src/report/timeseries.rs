@@ -6,37 +6,21 @@
 //! The look (fonts, sizes, grid, palette, margins) follows the Bode diagrams
 //! of [`super::bode`], so all pumpcyl figures form one family.
 
-use plotters::coord::ranged1d::ValueFormatter;
-use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::bode::{
-    linear_ticks, plot_err, LinearTicks, ReportError, TickedAxis, DEFAULT_WIDTH_PX, PALETTE,
-};
-use super::layout;
-use super::render::{self, header_height, steps_125};
+use super::axes::{self, linear_axis, nice_axis, Axis};
+use super::bode::DEFAULT_WIDTH_PX;
+use super::legend::{self, LegendEntry, LegendMetrics};
+use super::render::ReportError;
+use super::render::{self, header_height};
+use super::series::{draw_pieces, finite_extent, series_color, Pieces, Polyline, Stroke, PALETTE};
+use super::stack;
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
 /// pixels; with the gap to the next panel a panel takes 220 px.
 pub const PANEL_PLOT_HEIGHT_PX: u32 = 200;
 
-// Layout at scale 1 (1000 px wide), in pixels.
-const MARGIN_LEFT: f64 = 8.0;
-const MARGIN_RIGHT: f64 = 30.0;
-const MARGIN_TOP: f64 = 4.0;
-/// Margin above and below each plotting area between two panels.
-const PANEL_GAP: f64 = 10.0;
-const MARGIN_BOTTOM: f64 = 8.0;
-const X_LABEL_AREA: f64 = 58.0;
-/// Smallest y label area (room for the rotated description and labels).
-const MIN_Y_LABEL_AREA: f64 = 82.0;
-const TICK_LABEL_SIZE: f64 = 15.0;
-const AXIS_DESC_SIZE: f64 = 17.0;
-const LEGEND_FONT_SIZE: f64 = 15.0;
-const LEGEND_SAMPLE: f64 = 28.0;
 /// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
 const MIN_PLOT_HEIGHT_PX: i32 = 40;
 
@@ -97,11 +81,7 @@ pub struct Panel {
 pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32) {
     let n = panel_count.clamp(1, 1000) as f64;
     let h = header_height(1.0, 1, usize::from(with_subtitle)) as f64
-        + MARGIN_TOP
-        + n * f64::from(PANEL_PLOT_HEIGHT_PX)
-        + (n - 1.0) * 2.0 * PANEL_GAP
-        + X_LABEL_AREA
-        + MARGIN_BOTTOM;
+        + stack::natural_height(n, f64::from(PANEL_PLOT_HEIGHT_PX));
     (DEFAULT_WIDTH_PX, h.round() as u32)
 }
 
@@ -186,46 +166,10 @@ pub fn panels_xy_png(
 // Data preparation
 // ---------------------------------------------------------------------------
 
-/// A polyline in data coordinates (time in s, value).
-type Polyline = Vec<(f64, f64)>;
-
-/// Drawable pieces of one trace.
-#[derive(Debug, Default, Clone, PartialEq)]
-struct Pieces {
-    /// Runs of at least two consecutive finite points.
-    lines: Vec<Polyline>,
-    /// Isolated finite points (no finite neighbour).
-    dots: Vec<(f64, f64)>,
-}
-
-/// Split a trace into runs of consecutive points with finite time and value.
+/// The trace `(t, y)` split into runs of consecutive points with finite time and value.
 fn split_pieces(t: &[f64], y: &[f64]) -> Pieces {
-    let mut pieces = Pieces::default();
-    let mut run: Polyline = Vec::new();
-    let mut flush = |run: &mut Polyline| match run.len() {
-        0 => {}
-        1 => pieces.dots.push(run.pop().expect("one point")),
-        _ => pieces.lines.push(std::mem::take(run)),
-    };
-    for (&t, &y) in t.iter().zip(y) {
-        if t.is_finite() && y.is_finite() {
-            run.push((t, y));
-        } else {
-            flush(&mut run);
-        }
-    }
-    flush(&mut run);
-    pieces
-}
-
-/// Finite min/max of `values`, or `None` when there is no finite value.
-fn extent(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
+    let finite = |(&t, &y): (&f64, &f64)| (t.is_finite() && y.is_finite()).then_some((t, y));
+    Pieces::split(t.iter().zip(y).map(finite))
 }
 
 /// Range with a non-zero span around the extent `lo..=hi`: unchanged when it
@@ -326,7 +270,7 @@ impl<'a> Figure<'a> {
                 "no point with a finite time and a finite value".into(),
             ));
         }
-        let (t_lo, t_hi) = extent(all_traces().flat_map(|tr| tr.t_s.iter().copied()))
+        let (t_lo, t_hi) = finite_extent(all_traces().flat_map(|tr| tr.t_s.iter().copied()))
             .expect("a finite point exists");
         let t_range = widen_degenerate(t_lo, t_hi);
         check_span(t_range, "time axis")?;
@@ -334,7 +278,7 @@ impl<'a> Figure<'a> {
         let panels = panels
             .iter()
             .map(|panel| {
-                let y_ext = extent(panel.traces.iter().flat_map(|tr| {
+                let y_ext = finite_extent(panel.traces.iter().flat_map(|tr| {
                     tr.t_s
                         .iter()
                         .zip(&tr.y)
@@ -377,26 +321,16 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let px = render::px(scale);
         let upx = render::upx(scale);
-        let text = render::text(scale);
 
-        root.fill(&WHITE).map_err(plot_err)?;
         let (width, height) = root.dim_in_pixel();
 
         // Header: title and subtitle.
         let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout: equal plotting heights.
-        let n = self.panels.len() as i32;
-        let (m_top, m_gap, m_bottom, x_label_area) = (
-            px(MARGIN_TOP),
-            px(PANEL_GAP),
-            px(MARGIN_BOTTOM),
-            px(X_LABEL_AREA),
-        );
-        let body_h = height as i32 - header_h;
-        let plot_h = (body_h - m_top - (n - 1) * 2 * m_gap - x_label_area - m_bottom) / n;
+        let n = self.panels.len();
+        let plot_h = stack::plot_height(height as i32 - header_h, n, scale);
         if plot_h < MIN_PLOT_HEIGHT_PX {
             return Err(ReportError::Plot(format!(
                 "image height {height} px too small for {n} panels"
@@ -405,47 +339,21 @@ impl render::Draw for Figure<'_> {
 
         // Ticks: at most one labelled value per ~36 px of panel height.
         let max_y_intervals = (f64::from(plot_h) / (36.0 * scale)).floor().clamp(2.0, 8.0);
-        let mut y_ticks: Vec<LinearTicks> = self
+        let mut y_ticks: Vec<Axis> = self
             .panels
             .iter()
-            .map(|p| ticks(p.y_range.0, p.y_range.1, max_y_intervals))
+            .map(|p| nice_axis(p.y_range.0, p.y_range.1, max_y_intervals))
             .collect();
 
         // Horizontal layout: the y label area fits the widest tick label.
-        let label_style = text(TICK_LABEL_SIZE);
-        let y_label_area = |y_ticks: &[LinearTicks]| -> Result<i32, ReportError> {
-            let mut widest = 0u32;
-            for t in y_ticks {
-                let axis = t.axis();
-                for v in &t.major {
-                    let w = layout::text_width(&axis.format_ext(v), TICK_LABEL_SIZE * scale);
-                    widest = widest.max(w.ceil() as u32);
-                }
-            }
-            Ok(px(MIN_Y_LABEL_AREA).max(widest as i32 + px(52.0)))
-        };
-        let (m_left, m_right) = (px(MARGIN_LEFT), px(MARGIN_RIGHT));
-        let plot_w = (width as i32 - m_left - m_right - y_label_area(&y_ticks)?).max(10);
+        let plot_w = stack::plot_width(width, axes::y_label_area(&y_ticks, scale), scale).max(10);
         let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
-        let x_ticks = time_ticks(self.t_range.0, self.t_range.1, max_x_intervals);
+        let x_ticks = linear_axis(self.t_range.0, self.t_range.1, max_x_intervals);
 
         // Legends: size, corner and columns; headroom above the data when
         // every placement would hide part of the curves.
-        let styles = TraceStyles {
-            line_w: upx(2.0),
-            dot_r: upx(3.0),
-            dash: (px(10.0).max(2), px(6.0).max(2)),
-            dot: (px(2.0).max(1), px(6.0).max(2)),
-        };
-        let legend_metrics = LegendMetrics {
-            font: text(LEGEND_FONT_SIZE),
-            row_h: px(LEGEND_FONT_SIZE * 1.4),
-            pad: px(8.0),
-            sample_len: px(LEGEND_SAMPLE),
-            sample_gap: px(8.0),
-            col_gap: px(20.0),
-            inset: px(6.0),
-        };
+        let styles = TraceStyles::new(scale);
+        let legend_metrics = LegendMetrics::new(scale);
         let mut legends = Vec::with_capacity(self.panels.len());
         for (data, yt) in self.panels.iter().zip(y_ticks.iter_mut()) {
             let entries = legend_entries(data, &styles);
@@ -453,39 +361,23 @@ impl render::Draw for Figure<'_> {
                 legends.push(None);
                 continue;
             }
-            let label_w: Vec<i32> = entries
-                .iter()
-                .map(|e| layout::text_width(&e.label, LEGEND_FONT_SIZE * scale).ceil() as i32)
-                .collect();
+            let label_w = legend_metrics.label_widths(&entries);
             let plot = (plot_w, plot_h);
-            let x_range = (x_ticks.lo, x_ticks.hi);
-            let (mut layout, hits) = place_legend(
-                data,
-                x_range,
-                (yt.lo, yt.hi),
-                &label_w,
-                &legend_metrics,
-                plot,
-            );
+            let place = |y: &Axis| {
+                legend::place_legend(&data.pieces, (&x_ticks, y), &label_w, &legend_metrics, plot)
+            };
+            let (mut layout, hits) = place(yt);
             if hits > 0 {
                 // Raise the top of the axis until the legend fits above the
                 // data (the most compact layout, at most 40 % of the panel).
-                if let Some(compact) = compact_legend(&label_w, &legend_metrics, plot_w) {
-                    let frac = f64::from(compact.h + 2 * legend_metrics.inset) / f64::from(plot_h);
+                if let Some(frac) = legend_metrics.compact_fraction(&label_w, plot) {
                     if frac <= 0.4 {
                         let top = data.y_range.1;
                         let mut raised = yt.clone();
                         for _ in 0..4 {
                             let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
-                            raised = ticks(raised.lo, hi, max_y_intervals);
-                            let (l, h) = place_legend(
-                                data,
-                                x_range,
-                                (raised.lo, raised.hi),
-                                &label_w,
-                                &legend_metrics,
-                                plot,
-                            );
+                            raised = nice_axis(raised.lo, hi, max_y_intervals);
+                            let (l, h) = place(&raised);
                             if h == 0 {
                                 *yt = raised;
                                 layout = l;
@@ -497,21 +389,9 @@ impl render::Draw for Figure<'_> {
             }
             legends.push(Some((entries, label_w, layout)));
         }
-        let y_label_area = y_label_area(&y_ticks)?;
+        let y_label_area = axes::y_label_area(&y_ticks, scale);
 
-        // Panel areas, top to bottom.
-        let mut breaks = Vec::with_capacity(self.panels.len());
-        let mut y = m_top + plot_h + m_gap;
-        for _ in 1..n {
-            breaks.push(y);
-            y += 2 * m_gap + plot_h;
-        }
-        let areas = body.split_by_breakpoints([] as [i32; 0], breaks);
-
-        let desc_style = text(AXIS_DESC_SIZE);
-        let bold_grid = RGBColor(0, 0, 0).mix(0.22).stroke_width(upx(1.0));
-        let light_grid = RGBColor(0, 0, 0).mix(0.08).stroke_width(upx(1.0));
-
+        let areas = stack::areas(&body, n, plot_h, scale);
         for (i, (((data, area), yt), legend)) in self
             .panels
             .iter()
@@ -520,44 +400,27 @@ impl render::Draw for Figure<'_> {
             .zip(&legends)
             .enumerate()
         {
-            let first = i == 0;
-            let last = i + 1 == self.panels.len();
-            let mut chart = ChartBuilder::on(area)
-                .margin_left(m_left)
-                .margin_right(m_right)
-                .margin_top(if first { m_top } else { m_gap })
-                .margin_bottom(if last { m_bottom } else { m_gap })
-                .x_label_area_size(if last { x_label_area } else { 0 })
-                .y_label_area_size(y_label_area)
-                .build_cartesian_2d(x_ticks.axis(), yt.axis())
-                .map_err(plot_err)?;
-            let mut mesh = chart.configure_mesh();
-            mesh.y_desc(data.panel.y_label.clone())
-                .axis_desc_style(desc_style.clone())
-                .label_style(label_style.clone())
-                .bold_line_style(bold_grid)
-                .light_line_style(light_grid);
-            if last {
-                mesh.x_desc(self.x_label.as_str());
-            }
-            mesh.draw().map_err(plot_err)?;
-
+            let axes = (x_ticks.clone(), yt.clone());
+            let descs = (self.x_label.as_str(), data.panel.y_label.as_str());
+            let mut chart = stack::chart(area, (i, n), axes, descs, y_label_area, scale)?;
             let (pw, _) = chart.plotting_area().dim_in_pixel();
             let bucket_count = (pw as usize).max(1) * 2;
             for ((trace, pieces), &color) in
                 data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
             {
-                draw_trace(
+                let lines = pieces
+                    .lines
+                    .iter()
+                    .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count));
+                draw_pieces(
                     &mut chart,
-                    trace,
-                    pieces,
-                    PALETTE[color],
-                    &styles,
-                    (x_ticks.lo, x_ticks.hi, bucket_count),
+                    lines,
+                    &pieces.dots,
+                    &styles.stroke(color, trace.style),
                 )?;
             }
             if let Some((entries, label_w, layout)) = legend {
-                draw_legend(
+                legend::draw_legend(
                     &chart.plotting_area().strip_coord_spec(),
                     entries,
                     label_w,
@@ -566,19 +429,7 @@ impl render::Draw for Figure<'_> {
                     upx(1.0),
                 )?;
             }
-            chart
-                .plotting_area()
-                .draw(&PathElement::new(
-                    [
-                        (x_ticks.lo, yt.lo),
-                        (x_ticks.hi, yt.lo),
-                        (x_ticks.hi, yt.hi),
-                        (x_ticks.lo, yt.hi),
-                        (x_ticks.lo, yt.lo),
-                    ],
-                    BLACK.stroke_width(upx(1.0)),
-                ))
-                .map_err(plot_err)?;
+            axes::frame(root, axes::plot_bounds(chart.plotting_area()), upx(1.0))?;
         }
         Ok(())
     }
@@ -595,23 +446,6 @@ fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
     }
 }
 
-/// Value ticks over `lo..hi`, the range snapped outward to the minor step.
-fn ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
-    linear_ticks(lo, hi, &steps_125(hi - lo, max_intervals))
-}
-
-/// Time ticks over exactly `lo..hi` (no snapping: the axis spans the data).
-fn time_ticks(lo: f64, hi: f64, max_intervals: f64) -> LinearTicks {
-    let mut t = ticks(lo, hi, max_intervals);
-    let tol = 1e-9 * (hi - lo);
-    let inside = |v: &f64| *v >= lo - tol && *v <= hi + tol;
-    t.major.retain(inside);
-    t.minor.retain(inside);
-    t.lo = lo;
-    t.hi = hi;
-    t
-}
-
 /// Pixel sizes for drawing traces.
 struct TraceStyles {
     line_w: u32,
@@ -623,55 +457,30 @@ struct TraceStyles {
 }
 
 impl TraceStyles {
-    /// (dash, gap) in pixels of a line style; `None` for a solid line.
-    fn pattern(&self, style: LineStyle) -> Option<(i32, i32)> {
-        match style {
-            LineStyle::Solid => None,
-            LineStyle::Dashed => Some(self.dash),
-            LineStyle::Dotted => Some(self.dot),
+    /// The sizes at `scale`.
+    fn new(scale: f64) -> Self {
+        let (px, upx) = (render::px(scale), render::upx(scale));
+        TraceStyles {
+            line_w: upx(2.0),
+            dot_r: upx(3.0),
+            dash: (px(10.0).max(2), px(6.0).max(2)),
+            dot: (px(2.0).max(1), px(6.0).max(2)),
         }
     }
-}
 
-type PanelChart<'b, DB> =
-    ChartContext<'b, DB, Cartesian2d<TickedAxis<RangedCoordf64>, TickedAxis<RangedCoordf64>>>;
-
-/// Draw one trace: its polylines (decimated to `buckets` columns over
-/// `t_lo..t_hi`) and its isolated points.
-fn draw_trace<DB: DrawingBackend>(
-    chart: &mut PanelChart<'_, DB>,
-    trace: &Trace,
-    pieces: &Pieces,
-    color: RGBColor,
-    styles: &TraceStyles,
-    (t_lo, t_hi, buckets): (f64, f64, usize),
-) -> Result<(), ReportError> {
-    let style = color.stroke_width(styles.line_w);
-    let lines = pieces
-        .lines
-        .iter()
-        .map(|line| decimate(line, t_lo, t_hi, buckets));
-    match styles.pattern(trace.style) {
-        None => {
-            chart
-                .draw_series(lines.map(|l| PathElement::new(l, style)))
-                .map_err(plot_err)?;
-        }
-        Some((on, off)) => {
-            chart
-                .draw_series(lines.map(|l| DashedPathElement::new(l, on, off, style)))
-                .map_err(plot_err)?;
+    /// The stroke of a trace in palette colour `color` and line style `style`.
+    fn stroke(&self, color: usize, style: LineStyle) -> Stroke {
+        Stroke {
+            color: series_color(color),
+            width: self.line_w,
+            pattern: match style {
+                LineStyle::Solid => None,
+                LineStyle::Dashed => Some(self.dash),
+                LineStyle::Dotted => Some(self.dot),
+            },
+            dot_r: self.dot_r,
         }
     }
-    chart
-        .draw_series(
-            pieces
-                .dots
-                .iter()
-                .map(|&p| Circle::new(p, styles.dot_r, color.filled())),
-        )
-        .map_err(plot_err)?;
-    Ok(())
 }
 
 /// Reduce a polyline to what can be seen at `buckets` columns across the
@@ -710,13 +519,6 @@ fn decimate(line: &[(f64, f64)], t_lo: f64, t_hi: f64, buckets: usize) -> Polyli
     out
 }
 
-/// One legend row: a line sample and a label.
-struct LegendEntry {
-    label: String,
-    style: ShapeStyle,
-    pattern: Option<(i32, i32)>,
-}
-
 /// Legend entries of a panel: its traces with a non-empty label, in order.
 fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry> {
     data.panel
@@ -724,202 +526,8 @@ fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry
         .iter()
         .zip(&data.colors)
         .filter(|(t, _)| !t.label.is_empty())
-        .map(|(t, &c)| LegendEntry {
-            label: t.label.clone(),
-            style: PALETTE[c].stroke_width(styles.line_w),
-            pattern: styles.pattern(t.style),
-        })
+        .map(|(t, &c)| styles.stroke(c, t.style).legend_entry(&t.label))
         .collect()
-}
-
-/// Pixel sizes of the legend box.
-struct LegendMetrics<'f> {
-    font: TextStyle<'f>,
-    row_h: i32,
-    /// Padding inside the box.
-    pad: i32,
-    sample_len: i32,
-    /// Gap between sample and label.
-    sample_gap: i32,
-    /// Gap between columns.
-    col_gap: i32,
-    /// Distance of the box from the plotting-area edges.
-    inset: i32,
-}
-
-/// Legend box: columns (entries fill them top to bottom), corner and size.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct LegendLayout {
-    columns: usize,
-    rows: usize,
-    /// (right, top): true for the right / top corner.
-    corner: (bool, bool),
-    w: i32,
-    h: i32,
-}
-
-/// Legend of `label_w.len()` entries in `columns` columns, unplaced.
-fn legend_box(label_w: &[i32], m: &LegendMetrics<'_>, columns: usize) -> LegendLayout {
-    let rows = label_w.len().div_ceil(columns.max(1)).max(1);
-    let columns = label_w.len().div_ceil(rows).max(1);
-    let col_w: i32 = label_w
-        .chunks(rows)
-        .map(|c| c.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap)
-        .sum();
-    LegendLayout {
-        columns,
-        rows,
-        corner: (true, true),
-        w: col_w + (columns as i32 - 1) * m.col_gap + 2 * m.pad,
-        h: rows as i32 * m.row_h + 2 * m.pad - (m.row_h - m.font.font.get_size() as i32).max(0),
-    }
-}
-
-/// The lowest legend (most columns) that fits in a plot `plot_w` px wide.
-fn compact_legend(label_w: &[i32], m: &LegendMetrics<'_>, plot_w: i32) -> Option<LegendLayout> {
-    (1..=label_w.len().min(4))
-        .rev()
-        .map(|c| legend_box(label_w, m, c))
-        .find(|l| l.w + 2 * m.inset <= plot_w)
-}
-
-/// Legend layout hiding the fewest curve segments, and how many it hides;
-/// fewer columns first, then the corners top right, top left, bottom right,
-/// bottom left. `plot` is the plotting-area size in pixels.
-fn place_legend(
-    data: &PanelData<'_>,
-    (t_lo, t_hi): (f64, f64),
-    (y_lo, y_hi): (f64, f64),
-    label_w: &[i32],
-    m: &LegendMetrics<'_>,
-    (plot_w, plot_h): (i32, i32),
-) -> (LegendLayout, usize) {
-    let norm = |(t, y): (f64, f64)| ((t - t_lo) / (t_hi - t_lo), (y - y_lo) / (y_hi - y_lo));
-    let (pw, ph) = (f64::from(plot_w.max(1)), f64::from(plot_h.max(1)));
-    let mut best: Option<(LegendLayout, usize)> = None;
-    for columns in 1..=label_w.len().min(4) {
-        let mut layout = legend_box(label_w, m, columns);
-        if layout.columns != columns || (columns > 1 && layout.w + 2 * m.inset > plot_w) {
-            continue;
-        }
-        // Box as fractions of the plotting area, y upwards.
-        let (lw, lh) = (
-            f64::from(layout.w + m.inset) / pw,
-            f64::from(layout.h + m.inset) / ph,
-        );
-        for corner in [(true, true), (false, true), (true, false), (false, false)] {
-            let x0 = if corner.0 { 1.0 - lw } else { 0.0 };
-            let y0 = if corner.1 { 1.0 - lh } else { 0.0 };
-            let rect = (x0, y0, x0 + lw, y0 + lh);
-            let mut hits = 0;
-            for pieces in &data.pieces {
-                for line in &pieces.lines {
-                    hits += line
-                        .windows(2)
-                        .filter(|w| segment_hits_rect(norm(w[0]), norm(w[1]), rect))
-                        .count();
-                }
-                hits += pieces
-                    .dots
-                    .iter()
-                    .filter(|&&p| segment_hits_rect(norm(p), norm(p), rect))
-                    .count();
-            }
-            let better = match &best {
-                Some((_, h)) => hits < *h,
-                None => true,
-            };
-            if better {
-                layout.corner = corner;
-                best = Some((layout, hits));
-            }
-            if hits == 0 {
-                return (layout, 0);
-            }
-        }
-    }
-    best.unwrap_or_else(|| (legend_box(label_w, m, 1), 0))
-}
-
-/// Draw a legend box in the pixel coordinates of the plotting area.
-fn draw_legend<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    entries: &[LegendEntry],
-    label_w: &[i32],
-    layout: &LegendLayout,
-    m: &LegendMetrics<'_>,
-    border_w: u32,
-) -> Result<(), ReportError> {
-    let (pw, ph) = area.dim_in_pixel();
-    let x0 = if layout.corner.0 {
-        pw as i32 - m.inset - layout.w
-    } else {
-        m.inset
-    };
-    let y0 = if layout.corner.1 {
-        m.inset
-    } else {
-        ph as i32 - m.inset - layout.h
-    };
-    let corners = [(x0, y0), (x0 + layout.w, y0 + layout.h)];
-    area.draw(&Rectangle::new(corners, WHITE.mix(0.88).filled()))
-        .map_err(plot_err)?;
-    area.draw(&Rectangle::new(
-        corners,
-        BLACK.mix(0.45).stroke_width(border_w),
-    ))
-    .map_err(plot_err)?;
-    let text_style = m.font.pos(Pos::new(HPos::Left, VPos::Center));
-    let mut x = x0 + m.pad;
-    for (col, widths) in entries.chunks(layout.rows).zip(label_w.chunks(layout.rows)) {
-        for (row, e) in col.iter().enumerate() {
-            let y = y0 + m.pad + row as i32 * m.row_h + m.font.font.get_size() as i32 / 2;
-            let sample = [(x, y), (x + m.sample_len, y)];
-            match e.pattern {
-                None => area.draw(&PathElement::new(sample, e.style)),
-                Some((on, off)) => area.draw(&DashedPathElement::new(sample, on, off, e.style)),
-            }
-            .map_err(plot_err)?;
-            area.draw(&Text::new(
-                e.label.clone(),
-                (x + m.sample_len + m.sample_gap, y),
-                text_style.clone(),
-            ))
-            .map_err(plot_err)?;
-        }
-        x += widths.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap + m.col_gap;
-    }
-    Ok(())
-}
-
-/// Whether the segment `a`-`b` touches the rectangle `(x0, y0, x1, y1)`
-/// (Liang–Barsky clipping).
-fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, f64, f64)) -> bool {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [
-        (-dx, a.0 - x0),
-        (dx, x1 - a.0),
-        (-dy, a.1 - y0),
-        (dy, y1 - a.1),
-    ] {
-        if p == 0.0 {
-            if q < 0.0 {
-                return false;
-            }
-        } else {
-            let r = q / p;
-            if p < 0.0 {
-                t0 = t0.max(r);
-            } else {
-                t1 = t1.min(r);
-            }
-            if t0 > t1 {
-                return false;
-            }
-        }
-    }
-    true
 }
 
 #[cfg(test)]
@@ -1171,16 +779,6 @@ mod tests {
     }
 
     #[test]
-    fn time_ticks_span_data_exactly() {
-        let t = time_ticks(0.0, 3.97, 8.0);
-        assert_eq!((t.lo, t.hi), (0.0, 3.97));
-        assert_eq!(t.major, vec![0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]);
-        let y = ticks(339.8, 345.5, 5.0);
-        assert!(y.lo <= 339.8 && y.hi >= 345.5);
-        assert!(y.major.len() >= 3 && y.major.len() <= 6, "{y:?}");
-    }
-
-    #[test]
     fn decimation_keeps_extremes() {
         let line: Polyline = (0..10_000)
             .map(|i| {
@@ -1198,80 +796,5 @@ mod tests {
         assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
         let short = &line[..50];
         assert_eq!(decimate(short, 0.0, 10.0, 100), short.to_vec());
-    }
-
-    #[test]
-    fn legend_layout_and_placement() {
-        let m = LegendMetrics {
-            font: TextStyle::from((crate::report::font::FAMILY, 15.0).into_font()),
-            row_h: 21,
-            pad: 8,
-            sample_len: 28,
-            sample_gap: 8,
-            col_gap: 20,
-            inset: 6,
-        };
-        let w = [20, 30, 90, 100];
-        let one = legend_box(&w, &m, 1);
-        assert_eq!((one.columns, one.rows), (1, 4));
-        assert_eq!(one.w, 100 + 36 + 16);
-        let two = legend_box(&w, &m, 2);
-        assert_eq!((two.columns, two.rows), (2, 2));
-        assert_eq!(two.w, 30 + 36 + 100 + 36 + 20 + 16);
-        assert!(two.h < one.h);
-        // Three columns of four entries collapse to two.
-        assert_eq!(legend_box(&w, &m, 3).columns, 2);
-        let cols = |plot_w| compact_legend(&w, &m, plot_w).map(|l| l.columns);
-        assert_eq!(cols(1000), Some(4));
-        assert_eq!(compact_legend(&w, &m, 300), Some(two));
-        assert_eq!(cols(200), Some(1));
-        assert_eq!(cols(100), None);
-
-        // A curve in the upper right only: the legend goes to the upper left.
-        let t = time(101, 0.01);
-        let y: Vec<f64> = t
-            .iter()
-            .map(|&t| if t > 0.5 { 10.0 } else { 0.0 })
-            .collect();
-        let panels = [Panel {
-            y_label: "y".into(),
-            traces: vec![trace("a", &t, &y), trace("b", &t, &y)],
-        }];
-        let fig = Figure::prepare("t", None, &panels).unwrap();
-        let (layout, hits) = place_legend(
-            &fig.panels[0],
-            (0.0, 1.0),
-            (-1.0, 11.0),
-            &[30, 30],
-            &m,
-            (800, 200),
-        );
-        assert_eq!(hits, 0);
-        assert_eq!(layout.corner, (false, true));
-        // Curves everywhere: some hits remain.
-        let y: Vec<f64> = t.iter().map(|&t| (200.0 * t).sin()).collect();
-        let panels = [Panel {
-            y_label: "y".into(),
-            traces: vec![trace("a", &t, &y)],
-        }];
-        let fig = Figure::prepare("t", None, &panels).unwrap();
-        let (_, hits) = place_legend(
-            &fig.panels[0],
-            (0.0, 1.0),
-            (-1.05, 1.05),
-            &[30],
-            &m,
-            (800, 200),
-        );
-        assert!(hits > 0);
-    }
-
-    #[test]
-    fn segment_rect() {
-        let r = (0.5, 0.5, 1.0, 1.0);
-        assert!(segment_hits_rect((0.0, 0.0), (1.0, 1.0), r));
-        assert!(!segment_hits_rect((0.0, 0.0), (1.0, 0.4), r));
-        assert!(segment_hits_rect((0.7, 0.7), (0.7, 0.7), r));
-        assert!(!segment_hits_rect((0.2, 0.7), (0.2, 0.7), r));
     }
 }
