@@ -27,8 +27,8 @@ def main(progress=True):
           f"PM {m.phase_margin_deg:.1f} deg at {m.gain_crossover_hz:.2f} Hz  (article: 6.5 dB, 34 deg)")
 
     r = pumpcyl.identify(str(ARTICLE / "identify.toml"), progress=progress)
-    print(f"identified: beta {r.beta_bar:.1f} bar, b {r.viscous_friction_ns_per_m:.0f} N s/m, "
-          f"c12 {r.c12_m5_per_ns:.3g} m5/(N s), cost {r.cost_mm2:.2e} mm2  (article: 165 bar, 1.2e-10)")
+    print(f"identified: beta {r.beta_bar:.1f} bar, b {r.viscous_friction_ns_per_m:.0f} N·s/m, "
+          f"c12 {r.c12_m5_per_ns:.3g} m⁵/(N·s), cost {r.cost_mm2:.2e} mm2  (article: 165 bar, 1.2e-10)")
 
     x = pumpcyl.gas_fraction(beta_bar=r.beta_bar, p_mean_bar=P_MEAN_BAR)
     betas = {p: pumpcyl.effective_beta(x, p) for p in (1.0, 10.0)}

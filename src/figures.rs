@@ -236,20 +236,29 @@ impl Chart {
                 ),
             ],
         }];
-        let subtitle = format!(
-            "interval {} .. {} {}{}; noise σ {:.4} mm",
-            parameter_value(i, p.interval[0]),
-            parameter_value(i, p.interval[1]),
-            PARAMETER_UNITS[i],
-            if p.identifiable {
-                ""
+        let end = |k: usize| {
+            let v = parameter_value(i, p.interval[k]);
+            if p.crossed[k] {
+                v
             } else {
-                " (not identifiable)"
-            },
+                format!("{v} (search bound)")
+            }
+        };
+        let verdict = if p.identifiable {
+            ""
+        } else {
+            ", not identifiable from these records"
+        };
+        let subtitle = format!(
+            "{:.0} % interval {} .. {} {}{verdict}; noise σ {:.4} mm",
+            100.0 * u.confidence,
+            end(0),
+            end(1),
+            PARAMETER_UNITS[i],
             u.noise_std_mm
         );
         Chart {
-            title: format!("Profile of {}", p.parameter),
+            title: format!("Likelihood profile of {}", PARAMETER_NAMES[i]),
             subtitle: Some(subtitle),
             plot: Plot::Xy {
                 x_label: PARAMETER_AXES[i].into(),
@@ -325,6 +334,13 @@ impl Chart {
 
 /// Units of the identified parameters, in the order of [`PARAMETERS`].
 pub const PARAMETER_UNITS: [&str; 3] = ["bar", "N·s/m", "m⁵/(N·s)"];
+
+/// Names of the identified parameters for titles, in the order of [`PARAMETERS`].
+const PARAMETER_NAMES: [&str; 3] = [
+    "the bulk modulus β",
+    "the viscous friction b",
+    "the cross-port leakage c12",
+];
 
 /// Axis labels of the identified parameters, in the order of [`PARAMETERS`].
 const PARAMETER_AXES: [&str; 3] = [

@@ -54,7 +54,7 @@ fn run() -> &'static Run {
 fn the_identified_rig_recovers_the_emulators_truth() {
     let r = &run().result;
     // the emulated records were made with beta_e = 165 bar at their mean pressure and
-    // c12 = 1.2e-10 m5/(N s) (data/article/README.md)
+    // c12 = 1.2e-10 m⁵/(N·s) (data/article/README.md)
     let beta = r.identified.beta_bar;
     assert!((beta - 165.0).abs() <= 10.0, "beta {beta} bar");
     let c12 = r.identified.c12_m5_per_ns / 1.2e-10;

@@ -152,9 +152,9 @@ class Identification:
     beta_bar: float
     """Effective bulk modulus (bar)."""
     viscous_friction_ns_per_m: float
-    """Viscous friction (N s/m)."""
+    """Viscous friction (N·s/m)."""
     c12_m5_per_ns: float
-    """Cross-port leakage (m^5/(N s))."""
+    """Cross-port leakage (m⁵/(N·s))."""
     c1_m5_per_ns: float
     c2_m5_per_ns: float
     cost_mm2: float
@@ -208,7 +208,7 @@ def identify(
     top: int = 20,
     progress: Union[None, bool, Callable[[int, int], None]] = None,
 ) -> Identification:
-    """Grid identification of beta (bar), b (N s/m) and c12 (m^5/(N s)) (article Section 6.3)
+    """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (article Section 6.3)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
     w2_rpm=..., p1_bar=...)`` and ``rig``. Grids are dicts {beta_bar,
     viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the article's);

@@ -511,13 +511,13 @@ impl PyDataset {
 struct PyIdentification {
     /// Effective bulk modulus (bar).
     beta_bar: f64,
-    /// Viscous friction (N s/m).
+    /// Viscous friction (N·s/m).
     viscous_friction_ns_per_m: f64,
-    /// Cross-port leakage (m^5/(N s)).
+    /// Cross-port leakage (m⁵/(N·s)).
     c12_m5_per_ns: f64,
-    /// Chamber 1 leakage holding the standstill point (m^5/(N s)).
+    /// Chamber 1 leakage holding the standstill point (m⁵/(N·s)).
     c1_m5_per_ns: f64,
-    /// Chamber 2 leakage holding the standstill point (m^5/(N s)).
+    /// Chamber 2 leakage holding the standstill point (m⁵/(N·s)).
     c2_m5_per_ns: f64,
     /// Cost: mean over the datasets of the position MSE (mm^2).
     cost_mm2: f64,
@@ -607,7 +607,7 @@ fn standstill_of(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<Standstil
     Ok(s)
 }
 
-/// Grid identification of beta (bar), b (N s/m) and c12 (m^5/(N s)) (article Section 6.3),
+/// Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (article Section 6.3),
 /// with c1, c2 from the standstill point (Section 6.2) and Nelder-Mead refinement.
 ///
 /// Either `experiment`, an experiment TOML file as `pumpcyl identify` reads, or

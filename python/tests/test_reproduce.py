@@ -17,7 +17,7 @@ def run(tmp_path_factory):
 def test_the_summary_recovers_the_emulators_truth(run):
     _, s = run
     assert s["emulated_inputs"] is True
-    # the records were emulated with beta_e = 165 bar and c12 = 1.2e-10 m^5/(N s)
+    # the records were emulated with beta_e = 165 bar and c12 = 1.2e-10 m⁵/(N·s)
     assert abs(s["identified"]["beta_bar"] - 165.0) <= 10.0
     lo, hi = s["how_sure"]["intervals"]["beta_bar"]
     assert lo <= 165.0 <= hi

@@ -58,8 +58,8 @@ fn text(name: &str, a: &Advice, seconds: f64) -> String {
     let p = &a.point;
     let _ = writeln!(
         s,
-        "experiment advice for {name} (linearised at beta {:.1} bar, b {:.1} N s/m, c12 {:.4e} \
-         m5/(N s); noise sigma {:.4} mm, variance inflated {:.1}-fold; {:.0} % intervals, \
+        "experiment advice for {name} (linearised at beta {:.1} bar, b {:.1} N·s/m, c12 {:.4e} \
+         m⁵/(N·s); noise sigma {:.4} mm, variance inflated {:.1}-fold; {:.0} % intervals, \
          widths relative to the estimate), in {seconds:.1} s",
         p.beta_bar,
         p.viscous_friction_ns_per_m,

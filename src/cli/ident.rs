@@ -170,7 +170,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
     }
     Ok(format!(
         "standstill (the article §2.4): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
-         c12                 {:.4e} m5/(N s)\n  c1                  {:.4e} m5/(N s)\n  c2                  {:.4e} m5/(N s)\n",
+         c12                 {:.4e} m⁵/(N·s)\n  c1                  {:.4e} m⁵/(N·s)\n  c2                  {:.4e} m⁵/(N·s)\n",
         s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
     ))
 }
@@ -195,7 +195,7 @@ pub fn drive(args: &DriveArgs) -> Result<String> {
         }))? + "\n");
     }
     Ok(format!(
-        "{}: motor {} (Jm = {:.3e} kg m2, current loop {} rad/s, feedforward off)\n  Km  {:.5} N m s/rad\n  fit MSE {:.3} rpm2 (RMS {:.2} rpm)\n",
+        "{}: motor {} (Jm = {:.3e} kg m2, current loop {} rad/s, feedforward off)\n  Km  {:.5} N·m·s/rad\n  fit MSE {:.3} rpm2 (RMS {:.2} rpm)\n",
         rec.file,
         args.motor,
         jm,
@@ -400,7 +400,7 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
     );
     let line = |label: &str, c: &Scored| {
         format!(
-            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N s/m  c12 {:.4e} m5/(N s)  cost {:.5} mm²\n",
+            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)  cost {:.5} mm²\n",
             c.candidate.beta_bar, c.candidate.viscous_friction_ns_per_m, c.candidate.c12_m5_per_ns, c.cost_mm2
         )
     };
@@ -411,13 +411,13 @@ pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds
     }
     let _ = writeln!(
         s,
-        "  leakages         c1 {:.4e}, c2 {:.4e} m5/(N s) (standstill p2 = {:.3} bar)",
+        "  leakages         c1 {:.4e}, c2 {:.4e} m⁵/(N·s) (standstill p2 = {:.3} bar)",
         id.leakage.c1_m5_per_ns, id.leakage.c2_m5_per_ns, id.leakage.p2_bar
     );
     for (i, st) in id.stages.iter().enumerate() {
         let bounds = st.summary.threshold_bounds.map_or("-".to_string(), |b| {
             format!(
-                "beta {:.0}..{:.0} bar, b {:.0}..{:.0} N s/m, c12 {:.2e}..{:.2e}",
+                "beta {:.0}..{:.0} bar, b {:.0}..{:.0} N·s/m, c12 {:.2e}..{:.2e}",
                 b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]
             )
         });

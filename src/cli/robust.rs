@@ -96,7 +96,7 @@ fn text(d: &RobustDesign, seconds: f64) -> String {
     };
     let _ = writeln!(
         s,
-        "  beta {:.1} .. {:.1} bar, b {:.1} .. {:.1} N s/m{}, c12 {:.4e} .. {:.4e} m5/(N s); {} ridge points",
+        "  beta {:.1} .. {:.1} bar, b {:.1} .. {:.1} N·s/m{}, c12 {:.4e} .. {:.4e} m⁵/(N·s); {} ridge points",
         r.beta_bar[0],
         r.beta_bar[1],
         r.viscous_friction_ns_per_m[0],

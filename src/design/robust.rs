@@ -308,7 +308,7 @@ impl Point {
     /// The point in words.
     pub fn describe(&self) -> String {
         format!(
-            "beta {:.1} bar, b {:.0} N s/m, c12 {:.3e} m5/(N s), x {:.1} mm, m {:.0} kg{}, beta_e {:.1} bar",
+            "beta {:.1} bar, b {:.0} N·s/m, c12 {:.3e} m⁵/(N·s), x {:.1} mm, m {:.0} kg{}, beta_e {:.1} bar",
             self.beta_bar,
             self.viscous_friction_ns_per_m,
             self.c12_m5_per_ns,
@@ -838,7 +838,7 @@ fn judge(
     ));
     if !region.identifiable[1] {
         reasons.push(format!(
-            "b is not identifiable from the records: its whole reported interval {:.0} .. {:.0} N s/m is searched",
+            "b is not identifiable from the records: its whole reported interval {:.0} .. {:.0} N·s/m is searched",
             region.viscous_friction_ns_per_m[0], region.viscous_friction_ns_per_m[1]
         ));
     }
@@ -916,7 +916,7 @@ mod tests {
         }
         assert!(
             d.reasons[1]
-                .starts_with("deciding condition: beta 140.3 bar, b 50 N s/m, c12 8.400e-11"),
+                .starts_with("deciding condition: beta 140.3 bar, b 50 N·s/m, c12 8.400e-11"),
             "{:?}",
             d.reasons
         );

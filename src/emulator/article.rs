@@ -291,7 +291,7 @@ pub fn readme(records: &[ArticleRecord]) -> String {
         s,
         "\n## The truth\n\n\
          The default rig (the article's Section 2.3.4; `pumpcyl rig --print-default`): c12 = {c12:.2e}, c1 = {c1:.3e}, \
-         c2 = {c2:.3e} m^5/(N s), b = {b} N s/m, Km = {km} N m s/rad, with these emulator effects:\n\n\
+         c2 = {c2:.3e} m⁵/(N·s), b = {b} N·s/m, Km = {km} N·m·s/rad, with these emulator effects:\n\n\
          - chamber volumes following the piston; the effective mass against stroke \
          (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: the article §2.1);\n\
          - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the constant gas-fraction model \
@@ -302,7 +302,7 @@ pub fn readme(records: &[ArticleRecord]) -> String {
          - cavitation at -1 bar gauge; motor torque limited to {tq}x the rated {rated} N m; pump speed \
          limit {pmax} rpm;\n\
          - pump low-speed behaviour: below {db:.0} rpm a pump's flow fades out and a slip leakage of \
-         up to {slip:.1e} m^5/(N s) across its ports sets in;\n\
+         up to {slip:.1e} m⁵/(N·s) across its ports sets in;\n\
          - Coulomb friction {fc} N on the piston;\n\
          - the PLC at 100 Hz (the drive step: the drive's own scope at 1 kHz), commands held between \
          samples, position noise 5 um (1 um resolution), pressure noise 0.01 bar, speed noise 1 rpm.\n\n\

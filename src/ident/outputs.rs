@@ -124,7 +124,7 @@ impl Landscape {
             y: ys.clone(),
             cost: self.cost_mm2.clone(),
             x_label: "Bulk modulus beta (bar)".into(),
-            y_label: "Cross-port leakage c12 (m5/(N s))".into(),
+            y_label: "Cross-port leakage c12 (m⁵/(N·s))".into(),
             y_log: ys.len() > 2
                 && ys[2] / ys[1] > 1.0 + 1e-9
                 && (ys[2] / ys[1] - ys[1] / ys[0]).abs() < 1e-6,
@@ -138,7 +138,7 @@ impl Landscape {
         Chart {
             title: "Identification cost landscape".into(),
             subtitle: Some(format!(
-                "b = {} N s/m (best grid point)",
+                "b = {} N·s/m (best grid point)",
                 self.viscous_friction_ns_per_m
             )),
             plot: Plot::HeatMap {

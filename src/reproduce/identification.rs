@@ -28,7 +28,7 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(Value, f64)> {
         &Chart::drive_step(&rec, &fit),
     )?;
     run.compare(
-        "drive gain Km (N m s/rad)",
+        "drive gain Km (N·m·s/rad)",
         format!("{:.4}", fit.km_nms_per_rad),
         &format!("{}", printed::KM),
         "0.026",
@@ -101,7 +101,7 @@ pub(super) fn identification(
     run.text(&format!(
         "Standstill record means: w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar (p2 {:.3} bar from the force balance). \
          {} candidates in {:.2} s; the emulator's truth is beta_e = {truth:.0} bar at the mean pressure, \
-         c12 = 1.2e-10 m5/(N s). The friction b absorbs the emulator's 15 N Coulomb friction, \
+         c12 = 1.2e-10 m⁵/(N·s). The friction b absorbs the emulator's 15 N Coulomb friction, \
          which the LTI model lacks.",
         s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, id.evaluated(), t0.elapsed().as_secs_f64()
     ));
@@ -114,14 +114,14 @@ pub(super) fn identification(
             "",
         ),
         (
-            "viscous friction b (N s/m)",
+            "viscous friction b (N·s/m)",
             format!("{:.0}", nominal.viscous_friction_ns_per_m),
             "100",
             "100".into(),
             "b absorbs the emulator's 15 N Coulomb friction, which the LTI model lacks",
         ),
         (
-            "cross-port leakage c12 (m5/(N s))",
+            "cross-port leakage c12 (m⁵/(N·s))",
             format!("{:.3e}", nominal.c12_m5_per_ns),
             "1.2e-10",
             "1.2e-10".into(),
@@ -131,8 +131,8 @@ pub(super) fn identification(
     let standstill =
         "from the identified c12 by the standstill balance, on the emulated standstill record";
     let leakages = [
-        ("c1 (m5/(N s))", l.c1_m5_per_ns, "5.49e-11"),
-        ("c2 (m5/(N s))", l.c2_m5_per_ns, "-1.19e-11"),
+        ("c1 (m⁵/(N·s))", l.c1_m5_per_ns, "5.49e-11"),
+        ("c2 (m⁵/(N·s))", l.c2_m5_per_ns, "-1.19e-11"),
     ]
     .map(|(quantity, value, printed)| {
         (
@@ -250,7 +250,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
         "220",
     );
     run.compare_why(
-        "robustness c12 (m5/(N s))",
+        "robustness c12 (m⁵/(N·s))",
         format!("{:.2e}", best.c12_m5_per_ns),
         "1.0e-10",
         "1.2e-10",
