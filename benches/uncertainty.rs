@@ -1,7 +1,10 @@
 //! The uncertainty analysis (docs/identification.md, "Uncertainty"): first the coverage of its
 //! 95 % intervals, measured once on records simulated by the LTI model with known truth and
 //! fresh noise (printed, and checked to lie in 90–99 %); then the time of the whole analysis of
-//! the article's emulated records (data/article/identify.toml).
+//! the article's emulated records (data/article/identify.toml), and of the rest of "How sure are
+//! we" on them: the robust design over the confidence region (docs/design.md#robust-design,
+//! identification included) and the experiment advice (docs/identification.md, "Experiment
+//! advice").
 //!
 //! `PUMPCYL_COVERAGE_RUNS` sets the number of simulated records (default 400).
 
@@ -9,8 +12,11 @@
 mod synthetic;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use pumpcyl::design::robust::RobustOptions;
+use pumpcyl::design::{robust_design, Region, Targets};
 use pumpcyl::ident::{
-    analyze, search, spaced, Experiment, Grid, Options, SearchOptions, UncertaintyOptions,
+    advise_experiment, analyze, search, spaced, Experiment, Grid, Options, SearchOptions,
+    UncertaintyOptions,
 };
 use rayon::prelude::*;
 use std::path::Path;
@@ -93,6 +99,22 @@ fn bench(c: &mut Criterion) {
     group.bench_function("article_records_all_three_profiles", |b| {
         b.iter(|| analyze(&exp.problem, &best, &UncertaintyOptions::default()).unwrap())
     });
+    group.bench_function("article_records_robust_design_with_identification", |b| {
+        b.iter(|| {
+            let (rig, region) = Region::of_records(&exp, 0.95).unwrap();
+            robust_design(
+                &rig,
+                &region,
+                &Targets::article(),
+                &RobustOptions::default(),
+            )
+            .unwrap()
+        })
+    });
+    group.bench_function(
+        "article_records_experiment_advice_with_identification",
+        |b| b.iter(|| advise_experiment(&exp, None, 0.95).unwrap()),
+    );
     group.finish();
 }
 
