@@ -343,7 +343,7 @@ const PARAMETER_NAMES: [&str; 3] = [
 ];
 
 /// Axis labels of the identified parameters, in the order of [`PARAMETERS`].
-const PARAMETER_AXES: [&str; 3] = [
+pub const PARAMETER_AXES: [&str; 3] = [
     "Bulk modulus β (bar)",
     "Viscous friction b (N·s/m)",
     "Cross-port leakage c12 (m⁵/(N·s))",

@@ -3,7 +3,7 @@
 //! (`fit-K.svg`, `.png`, the article's Figure 6 layout) and `result.mat`, built in memory.
 
 use super::{Candidate, Experiment, Identification, Scored};
-use crate::figures::{Chart, Plot};
+use crate::figures::{Chart, Plot, PARAMETER_AXES};
 use crate::matfile::MatWriter;
 use crate::report::{HeatMap, Marker};
 use crate::response::Signals;
@@ -123,8 +123,8 @@ impl Landscape {
             x: self.beta_bar.clone(),
             y: ys.clone(),
             cost: self.cost_mm2.clone(),
-            x_label: "Bulk modulus beta (bar)".into(),
-            y_label: "Cross-port leakage c12 (m⁵/(N·s))".into(),
+            x_label: PARAMETER_AXES[0].into(),
+            y_label: PARAMETER_AXES[2].into(),
             y_log: ys.len() > 2
                 && ys[2] / ys[1] > 1.0 + 1e-9
                 && (ys[2] / ys[1] - ys[1] / ys[0]).abs() < 1e-6,
