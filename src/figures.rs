@@ -10,6 +10,7 @@ use crate::bulk::Row;
 use crate::design::robust::StrokeCurve;
 use crate::design::RobustDesign;
 use crate::ident::{DriveFit, DriveRecord, Profile, Uncertainty, PARAMETERS};
+use crate::lti::Margins;
 use crate::report::{
     self, BodeMarkers, BodeSeries, HeatMap, LineStyle, Marker, Panel, ReportError, Trace,
 };
@@ -27,12 +28,13 @@ pub enum Plot {
         /// The panels, first on top.
         panels: Vec<Panel>,
     },
-    /// A Bode diagram of one or more series, with the margin markers when given.
+    /// A Bode diagram of one or more series, each with its margin markers when given.
     Bode {
         /// The overlaid series.
         series: Vec<BodeSeries>,
-        /// Crossings and margins to mark (one series only).
-        markers: Option<BodeMarkers>,
+        /// Crossings and margins to mark: `markers[i]` belongs to `series[i]` (missing or
+        /// `None` entries are not marked).
+        markers: Vec<Option<BodeMarkers>>,
     },
     /// A cost heat map with labelled markers.
     HeatMap {
@@ -70,7 +72,7 @@ impl Chart {
         match &self.plot {
             Plot::Time(panels) => report::panels_svg(title, sub, panels),
             Plot::Xy { x_label, panels } => report::panels_xy_svg(title, sub, x_label, panels),
-            Plot::Bode { series, markers } => report::bode_svg(title, series, markers.as_ref()),
+            Plot::Bode { series, markers } => report::bode_svg_marked(title, series, markers),
             Plot::HeatMap { map, markers } => report::heatmap_svg(title, sub, map, markers),
         }
     }
@@ -87,7 +89,7 @@ impl Chart {
                 report::panels_xy_png(title, sub, x_label, panels, XY_PNG.0, XY_PNG.1)
             }
             Plot::Bode { series, markers } => {
-                report::bode_png(title, series, markers.as_ref(), BODE_PNG.0, BODE_PNG.1)
+                report::bode_png_marked(title, series, markers, BODE_PNG.0, BODE_PNG.1)
             }
             Plot::HeatMap { map, markers } => {
                 report::heatmap_png(title, sub, map, markers, HEATMAP_PNG.0, HEATMAP_PNG.1)
@@ -158,7 +160,7 @@ impl Chart {
         let panels = vec![
             Panel {
                 y_label: "Effective bulk modulus (bar)".into(),
-                traces: vec![line("beta_e", rows.iter().map(|r| r.beta_bar).collect(), 0)],
+                traces: vec![line("β_e", rows.iter().map(|r| r.beta_bar).collect(), 0)],
             },
             Panel {
                 y_label: "Gain margin (dB)".into(),
@@ -198,8 +200,9 @@ impl Chart {
         }
     }
 
-    /// A Bode diagram of `series`, with the crossings and margins marked when given.
-    pub fn bode(title: &str, series: Vec<BodeSeries>, markers: Option<BodeMarkers>) -> Chart {
+    /// A Bode diagram of `series`, each marked with its crossings and margins `markers[i]`
+    /// when given (in the series' colour, summarised under the title).
+    pub fn bode(title: &str, series: Vec<BodeSeries>, markers: Vec<Option<BodeMarkers>>) -> Chart {
         Chart {
             title: title.to_string(),
             subtitle: None,
@@ -329,6 +332,16 @@ impl Chart {
                 ],
             },
         }
+    }
+}
+
+/// The margin markers of a Bode diagram for the margins `m` of its loop.
+pub fn bode_markers(m: &Margins) -> BodeMarkers {
+    BodeMarkers {
+        gain_crossover_hz: m.gain_crossover_hz,
+        phase_crossover_hz: m.phase_crossover_hz,
+        gain_margin_db: m.gain_margin_db,
+        phase_margin_deg: m.phase_margin_deg,
     }
 }
 

@@ -378,3 +378,46 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
         );
     }
 }
+
+/// Every text of an SVG, in document order, joined with no whitespace at all (a wrapped
+/// subtitle reads as one string).
+fn svg_text_squeezed(svg: &str) -> String {
+    svg.split("<text")
+        .skip(1)
+        .map(|t| &t[t.find('>').unwrap() + 1..t.find("</text>").unwrap()])
+        .collect::<String>()
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect()
+}
+
+#[test]
+fn every_bode_study_marks_each_series_margins_as_the_summary_gives_them() {
+    let s = summary();
+    let studies = [
+        ("bode_fig14_damping", &s["damping"]["figure14"]),
+        ("bode_feedforward", &s["damping"]["feedforward_off"]),
+    ];
+    for (stem, cases) in studies {
+        let svg =
+            std::fs::read_to_string(reproduced().0.join(format!("figures/{stem}.svg"))).unwrap();
+        let text = svg_text_squeezed(&svg);
+        let cases = cases.as_array().unwrap();
+        assert!(cases.len() >= 2, "{stem}: {cases:?}");
+        for c in cases {
+            let label: String = c["case"].as_str().unwrap().split_whitespace().collect();
+            let gm = c["gain_margin_db"].as_f64().unwrap();
+            let pm = c["phase_margin_deg"].as_f64().unwrap();
+            let want = format!("{label}:GM={gm:.1}dB");
+            assert!(text.contains(&want), "{stem}: {want} not in {text}");
+            assert!(text.contains(&format!("PM={pm:.1}°")), "{stem}: PM {pm:.1}");
+        }
+        // one margin summary per series, no more
+        let marked = cases.len();
+        let pm_bars = text.matches("PM=").count();
+        assert_eq!(
+            pm_bars, marked,
+            "{stem}: {pm_bars} PM summaries for {marked} series"
+        );
+    }
+}

@@ -9,9 +9,10 @@ use std::path::PathBuf;
 use super::export;
 use super::output::{fmt_opt, format_of, write_atomic, Format};
 use super::{Loop, ModelArgs};
+use crate::figures::bode_markers;
 use crate::lti::{self, CrossingKind, Margins, PoleInfo};
 use crate::model::Plant;
-use crate::report::{self, BodeMarkers, BodeSeries};
+use crate::report::{self, BodeSeries};
 
 #[derive(Debug, Args)]
 pub struct MarginsArgs {
@@ -221,15 +222,7 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
             // Every series keeps its margin markers, drawn in its own colour.
             let markers = std::iter::once(&base)
                 .chain(&variants)
-                .map(|lp| {
-                    let m = lti::margins(&lp.open_loop)?;
-                    Ok(Some(BodeMarkers {
-                        gain_crossover_hz: m.gain_crossover_hz,
-                        phase_crossover_hz: m.phase_crossover_hz,
-                        gain_margin_db: m.gain_margin_db,
-                        phase_margin_deg: m.phase_margin_deg,
-                    }))
-                })
+                .map(|lp| Ok(Some(bode_markers(&lti::margins(&lp.open_loop)?))))
                 .collect::<Result<Vec<_>>>()?;
             let title = format!("Bode: {}", base.description);
             if format == Format::Svg {

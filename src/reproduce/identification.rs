@@ -224,7 +224,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
     let series = [
         (
             format!(
-                "model, beta {:.0} bar, c12 {:.2e} (best)",
+                "model, β {:.0} bar, c12 {:.2e} (best)",
                 best.beta_bar, best.c12_m5_per_ns
             ),
             &sim_best,
@@ -240,7 +240,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
     );
     run.figure(
         "robustness",
-        "The emulated robustness record (another day's gas fraction: beta_e 220 bar at its operating pressure) against the model",
+        "The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model",
         &Chart::signals("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(&measured), Some(spec.fit_end_s)),
     )?;
     run.compare(

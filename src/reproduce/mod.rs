@@ -33,7 +33,7 @@ mod studies;
 pub use certainty::Certainty;
 
 use crate::emulator::article::{self, EMBEDDED};
-use crate::figures::Chart;
+use crate::figures::{bode_markers, Chart};
 use crate::ident::Candidate;
 use crate::lti::{self, Margins};
 use crate::model::Plant;
@@ -473,6 +473,7 @@ fn variants(
 ) -> Result<Value> {
     let freqs = lti::log_grid(0.01, 100.0, 401);
     let mut series = Vec::new();
+    let mut markers = Vec::new();
     let mut rows = Vec::new();
     let mut steps = Vec::new();
     let mut unstable = Vec::new();
@@ -481,6 +482,7 @@ fn variants(
         let m = margins_of(rig)?;
         rows.push(margins_row(label, &m));
         series.push(bode_series(rig, label, &freqs)?);
+        markers.push(Some(bode_markers(&m)));
         let mut v = margins_json(&m);
         v["case"] = json!(label);
         // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)
@@ -501,7 +503,7 @@ fn variants(
     run.figure(
         &format!("bode_{stem}"),
         &title,
-        &Chart::bode(&title, series, None),
+        &Chart::bode(&title, series, markers),
     )?;
     let refs: Vec<(String, &Signals)> = steps.iter().map(|(l, s)| (l.clone(), s)).collect();
     let left_out = if unstable.is_empty() {

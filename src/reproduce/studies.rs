@@ -9,7 +9,7 @@ use super::{
 use crate::bulk::{self, gas_fraction, BETA_OIL_BAR};
 use crate::design::{design, Targets};
 use crate::emulator::article;
-use crate::figures::Chart;
+use crate::figures::{bode_markers, Chart};
 use crate::ident::Experiment;
 use crate::lti::{self, Margins};
 use crate::model::Plant;
@@ -63,6 +63,7 @@ pub(super) fn pressure_study(
     )?;
     let freqs = lti::log_grid(0.01, 100.0, 401);
     let mut series = Vec::new();
+    let mut markers = Vec::new();
     let mut table = Vec::new();
     let mut out = json!({});
     let nominal_m = margins_of(nominal)?;
@@ -77,12 +78,13 @@ pub(super) fn pressure_study(
             ..nominal.clone()
         };
         let m = margins_of(&rig)?;
-        let label = format!("{:.1} bar, beta_e {:.0} bar", row.p_bar, row.beta_bar);
+        let label = format!("{:.1} bar, β_e {:.0} bar", row.p_bar, row.beta_bar);
         table.push(margins_row(&label, &m));
         out[*key] = margins_json(&m);
         out[*key]["p_bar"] = json!(row.p_bar);
         out[*key]["beta_bar"] = json!(row.beta_bar);
         series.push(bode_series(&rig, &label, &freqs)?);
+        markers.push(Some(bode_markers(&m)));
     }
     run.table(
         "Margins of the position loop (the article §2.3.3)",
@@ -90,11 +92,11 @@ pub(super) fn pressure_study(
         table,
     );
     run.text(&format!(
-        "Gas fraction X = {x:.5} from beta = {:.1} bar at the identification records' mean pressure {p_mean:.2} bar.",
+        "Gas fraction X = {x:.5} from β = {:.1} bar at the identification records' mean pressure {p_mean:.2} bar.",
         nominal.beta_bar
     ));
-    let title = "Bode diagram for beta_e at 1 bar, the mean pressure and 10 bar";
-    run.figure("bode_pressure", title, &Chart::bode(title, series, None))?;
+    let title = "Bode diagram for β_e at 1 bar, the mean pressure and 10 bar";
+    run.figure("bode_pressure", title, &Chart::bode(title, series, markers))?;
     run.compare(
         "GM, default rig (dB)",
         fmt_opt(default_m.gain_margin_db, 2),
@@ -163,7 +165,7 @@ fn pressure_numbers(run: &mut Run) -> Result<Value> {
             "the margins are computed exactly from the 10-state model; the article reads them off MATLAB's margin"
         };
         run.compare_why(
-            &format!("GM / PM at {p} bar, beta_e {:.1} bar", r.beta_bar),
+            &format!("GM / PM at {p} bar, β_e {:.1} bar", r.beta_bar),
             format!("{gm:.2} dB / {pm:.1} deg"),
             &format!("{gm_a} dB / {pm_a} deg"),
             "-",
