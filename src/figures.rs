@@ -349,7 +349,7 @@ pub fn bode_markers(m: &Margins) -> BodeMarkers {
 pub const PARAMETER_UNITS: [&str; 3] = ["bar", "N·s/m", "m⁵/(N·s)"];
 
 /// Names of the identified parameters for titles, in the order of [`PARAMETERS`].
-const PARAMETER_NAMES: [&str; 3] = [
+pub const PARAMETER_NAMES: [&str; 3] = [
     "the bulk modulus β",
     "the viscous friction b",
     "the cross-port leakage c12",

@@ -8,7 +8,7 @@
 use super::Run;
 use crate::design::robust::{Binding, RobustOptions};
 use crate::design::{robust_design, Region, RobustDesign, Targets};
-use crate::figures::{parameter_value, Chart, PARAMETER_UNITS};
+use crate::figures::{parameter_value, Chart, PARAMETER_AXES, PARAMETER_NAMES};
 use crate::ident::{advise, analyze, Advice, AdviceOptions, Candidate, Experiment, Uncertainty};
 use crate::ident::{UncertaintyOptions, PARAMETERS};
 use crate::output::fmt_opt;
@@ -53,7 +53,7 @@ pub(super) fn how_sure(
         ..UncertaintyOptions::default()
     };
     let u = analyze(&exp.problem, &best, &opts)?;
-    intervals(run, &u, truth)?;
+    intervals(run, &u, &best, truth)?;
     let region = Region::around(best, &u, exp.problem.standstill);
     let targets = Targets {
         p_mean_bar: pressure_range(exp, p_mean_bar),
@@ -138,15 +138,24 @@ fn inside(u: &Uncertainty, i: usize, truth: &Candidate) -> bool {
         .is_some_and(|p| p.interval[0] <= t && t <= p.interval[1])
 }
 
-/// The intervals table and the three profile figures.
-fn intervals(run: &mut Run, u: &Uncertainty, truth: &Candidate) -> Result<()> {
+/// The intervals table and the three profile figures; `identified` is the identification's
+/// answer (step 2).
+fn intervals(
+    run: &mut Run,
+    u: &Uncertainty,
+    identified: &Candidate,
+    truth: &Candidate,
+) -> Result<()> {
     run.text(&format!(
         "The article identifies β and the leakage at one worst-case point and gives no error \
          bars. Profiling the identification cost (for each value of one parameter, the least \
          cost over the other two) and reading the {:.0} % region off it with the χ²₁ threshold \
          gives the intervals below. The noise level σ = {:.4} mm comes from the residuals; \
          they are correlated (lag-1 autocorrelation {:.2}), so σ² is inflated {:.1}-fold \
-         (docs/identification.md, \"Uncertainty\").",
+         (docs/identification.md, \"Uncertainty\"). The identification's answer (step 2) \
+         minimises the mean position MSE of the records; the profiles minimise the summed squared \
+         error with each record's initial offset fitted, so their least point differs: little where the \
+         records bound a parameter, much along one they do not.",
         CONFIDENCE * 100.0,
         u.noise_std_mm,
         u.residual_autocorrelation,
@@ -158,7 +167,8 @@ fn intervals(run: &mut Run, u: &Uncertainty, truth: &Candidate) -> Result<()> {
         .map(|p| {
             let i = crate::figures::parameter_index(p.parameter);
             vec![
-                format!("{} ({})", p.parameter, PARAMETER_UNITS[i]),
+                PARAMETER_AXES[i].to_string(),
+                parameter_value(i, truth_of(identified, i)),
                 parameter_value(i, best_of(u, i)),
                 format!(
                     "{} .. {}",
@@ -189,7 +199,8 @@ fn intervals(run: &mut Run, u: &Uncertainty, truth: &Candidate) -> Result<()> {
         ),
         &[
             "parameter",
-            "estimate",
+            "identified (step 2)",
+            "least-SSE point of the profiles",
             "interval",
             "identifiable",
             "emulator truth",
@@ -201,7 +212,7 @@ fn intervals(run: &mut Run, u: &Uncertainty, truth: &Candidate) -> Result<()> {
             &format!("profile-{}", p.parameter),
             &format!(
                 "Likelihood profile of {}: where it stays below the dashed threshold is the {:.0} % interval",
-                p.parameter,
+                PARAMETER_NAMES[crate::figures::parameter_index(p.parameter)],
                 CONFIDENCE * 100.0
             ),
             &Chart::profile(u, p),
