@@ -72,7 +72,7 @@ impl Chart {
         match &self.plot {
             Plot::Time(panels) => report::panels_svg(title, sub, panels),
             Plot::Xy { x_label, panels } => report::panels_xy_svg(title, sub, x_label, panels),
-            Plot::Bode { series, markers } => report::bode_svg_marked(title, series, markers),
+            Plot::Bode { series, markers } => report::bode_svg(title, series, markers),
             Plot::HeatMap { map, markers } => report::heatmap_svg(title, sub, map, markers),
         }
     }
@@ -89,7 +89,7 @@ impl Chart {
                 report::panels_xy_png(title, sub, x_label, panels, XY_PNG.0, XY_PNG.1)
             }
             Plot::Bode { series, markers } => {
-                report::bode_png_marked(title, series, markers, BODE_PNG.0, BODE_PNG.1)
+                report::bode_png(title, series, markers, BODE_PNG.0, BODE_PNG.1)
             }
             Plot::HeatMap { map, markers } => {
                 report::heatmap_png(title, sub, map, markers, HEATMAP_PNG.0, HEATMAP_PNG.1)

@@ -226,9 +226,9 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
                 .collect::<Result<Vec<_>>>()?;
             let title = format!("Bode: {}", base.description);
             if format == Format::Svg {
-                report::bode_svg_marked(&title, &series, &markers)?.into_bytes()
+                report::bode_svg(&title, &series, &markers)?.into_bytes()
             } else {
-                report::bode_png_marked(&title, &series, &markers, 1500, 1125)?
+                report::bode_png(&title, &series, &markers, 1500, 1125)?
             }
         }
     };

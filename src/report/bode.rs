@@ -72,8 +72,14 @@ pub struct BodeMarkers {
 /// memory, [`DEFAULT_WIDTH_PX`] x [`DEFAULT_HEIGHT_PX`] pixels.
 ///
 /// `title` is printed at the top. Each series gets its own colour; a legend
-/// with the series labels is drawn when there is more than one series.
-/// `markers` (stability margins) refer to the first series.
+/// with the series labels is drawn when there is more than one series. Series
+/// after the first are drawn dashed or dotted (and so is their legend sample),
+/// so overlapping curves stay distinguishable without colour.
+///
+/// `markers[i]` (stability margins) belongs to `series[i]` and is drawn in that
+/// series' colour (crossover lines, GM and PM bars); the margins of every marked
+/// series are summarised under the title. A `None` entry, or a series beyond the
+/// end of `markers`, is not marked (`&[]` marks none).
 ///
 /// # Errors
 /// [`ReportError::Empty`] when `series` is empty or holds no finite point;
@@ -82,33 +88,10 @@ pub struct BodeMarkers {
 pub fn bode_svg(
     title: &str,
     series: &[BodeSeries],
-    markers: Option<&BodeMarkers>,
-) -> Result<String, ReportError> {
-    bode_svg_marked(title, series, &first_only(series, markers))
-}
-
-/// As [`bode_svg`], with stability-margin markers for any series: `markers[i]` belongs to
-/// `series[i]` and is drawn in that series' colour (crossover lines, GM and PM bars); the
-/// margins of every marked series are summarised under the title. Series after the first are
-/// drawn dashed or dotted (and so is their legend sample), so overlapping curves stay
-/// distinguishable without colour.
-///
-/// # Errors
-/// As [`bode_svg`].
-pub fn bode_svg_marked(
-    title: &str,
-    series: &[BodeSeries],
     markers: &[Option<BodeMarkers>],
 ) -> Result<String, ReportError> {
     let figure = Figure::prepare(title, series, markers)?;
     render::to_svg(&figure, (DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX))
-}
-
-/// `markers` for the first series only, none for the others.
-fn first_only(series: &[BodeSeries], markers: Option<&BodeMarkers>) -> Vec<Option<BodeMarkers>> {
-    let mut m = vec![None; series.len().max(1)];
-    m[0] = markers.copied();
-    m
 }
 
 /// Same figure as [`bode_svg`], rendered to an encoded PNG file (the bytes of
@@ -119,20 +102,6 @@ fn first_only(series: &[BodeSeries], markers: Option<&BodeMarkers>) -> Vec<Optio
 /// As [`bode_svg`]; additionally [`ReportError::Plot`] when the size is below
 /// 320 x 240 or above 16384 pixels on a side, or PNG encoding fails.
 pub fn bode_png(
-    title: &str,
-    series: &[BodeSeries],
-    markers: Option<&BodeMarkers>,
-    width: u32,
-    height: u32,
-) -> Result<Vec<u8>, ReportError> {
-    bode_png_marked(title, series, &first_only(series, markers), width, height)
-}
-
-/// As [`bode_svg_marked`], rendered to PNG like [`bode_png`].
-///
-/// # Errors
-/// As [`bode_png`].
-pub fn bode_png_marked(
     title: &str,
     series: &[BodeSeries],
     markers: &[Option<BodeMarkers>],
@@ -826,7 +795,7 @@ mod tests {
 
     #[test]
     fn svg_single_series() {
-        let svg = bode_svg("Open loop", &[loop_series("L1", 20.0, 200)], None).unwrap();
+        let svg = bode_svg("Open loop", &[loop_series("L1", 20.0, 200)], &[]).unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
         assert!(svg.trim_end().ends_with("</svg>"));
         for label in [
@@ -846,7 +815,7 @@ mod tests {
             loop_series("K = 60", 60.0, 300),
             loop_series("K = 200", 200.0, 300),
         ];
-        let svg = bode_svg("Loops", &series, Some(&markers())).unwrap();
+        let svg = bode_svg("Loops", &series, &[Some(markers())]).unwrap();
         assert!(svg.starts_with("<svg"));
         // Labels are XML-escaped.
         assert!(svg.contains("K = 20 &amp;lt"));
@@ -865,7 +834,7 @@ mod tests {
             phase_margin_deg: Some(20.0),
             gain_crossover_hz: Some(2.0),
         };
-        let svg = bode_svg_marked("Compare", &series, &[Some(markers()), Some(other)]).unwrap();
+        let svg = bode_svg("Compare", &series, &[Some(markers()), Some(other)]).unwrap();
         assert_eq!(crate::report::text_overflow(&svg), Vec::<String>::new());
         // Both series' margins are summarised under the title, each named.
         let text: String = svg.split_whitespace().collect::<Vec<_>>().join(" ");
@@ -916,8 +885,8 @@ mod tests {
             solid < 10 && dashed > 60,
             "breaks: solid {solid}, dashed {dashed}"
         );
-        // The old call marks the first series only.
-        let old = bode_svg("Compare", &series, Some(&markers())).unwrap();
+        // Markers for the first series only mark the first series only.
+        let old = bode_svg("Compare", &series, &[Some(markers())]).unwrap();
         assert!(old.contains("GM = 12.3 dB @ 5.00 Hz") && !old.contains("3.5 dB"));
     }
 
@@ -926,7 +895,7 @@ mod tests {
         let png = bode_png(
             "PNG",
             &[loop_series("a", 20.0, 150), loop_series("b", 60.0, 150)],
-            Some(&markers()),
+            &[Some(markers())],
             800,
             600,
         )
@@ -968,11 +937,11 @@ mod tests {
     fn png_bad_size_is_an_error() {
         let s = [loop_series("a", 20.0, 50)];
         assert!(matches!(
-            bode_png("x", &s, None, 0, 600),
+            bode_png("x", &s, &[], 0, 600),
             Err(ReportError::Plot(_))
         ));
         assert!(matches!(
-            bode_png("x", &s, None, 100_000, 600),
+            bode_png("x", &s, &[], 100_000, 600),
             Err(ReportError::Plot(_))
         ));
     }
@@ -980,7 +949,7 @@ mod tests {
     #[test]
     fn empty_input_is_empty_error() {
         assert!(matches!(
-            bode_svg("x", &[], None),
+            bode_svg("x", &[], &[]),
             Err(ReportError::Empty(_))
         ));
         let empty = BodeSeries {
@@ -988,11 +957,11 @@ mod tests {
             ..Default::default()
         };
         assert!(matches!(
-            bode_svg("x", std::slice::from_ref(&empty), None),
+            bode_svg("x", std::slice::from_ref(&empty), &[]),
             Err(ReportError::Empty(_))
         ));
         assert!(matches!(
-            bode_png("x", &[empty], None, 640, 480),
+            bode_png("x", &[empty], &[], 640, 480),
             Err(ReportError::Empty(_))
         ));
         let all_nan = BodeSeries {
@@ -1001,7 +970,7 @@ mod tests {
             mag_db: vec![f64::NAN, f64::INFINITY, 1.0],
             phase_deg: vec![f64::NAN, f64::NEG_INFINITY, 1.0],
         };
-        let err = bode_svg("x", &[all_nan], None).unwrap_err();
+        let err = bode_svg("x", &[all_nan], &[]).unwrap_err();
         assert!(matches!(err, ReportError::Empty(_)));
         assert!(err.to_string().starts_with("plot: no data to draw: "));
     }
@@ -1015,7 +984,7 @@ mod tests {
             phase_deg: vec![0.0, 1.0],
         };
         assert!(matches!(
-            bode_svg("x", &[bad], None),
+            bode_svg("x", &[bad], &[]),
             Err(ReportError::Plot(_))
         ));
     }
@@ -1037,9 +1006,9 @@ mod tests {
         };
         let other = loop_series("other", 60.0, 100);
         let series = [s, other];
-        let svg = bode_svg("holes", &series, Some(&odd_markers)).unwrap();
+        let svg = bode_svg("holes", &series, &[Some(odd_markers)]).unwrap();
         assert!(svg.contains("GM = ∞ dB"));
-        bode_png("holes", &series, Some(&markers()), 640, 480).unwrap();
+        bode_png("holes", &series, &[Some(markers())], 640, 480).unwrap();
 
         // Only magnitude finite, single points, constant data, one frequency.
         let lonely = BodeSeries {
@@ -1048,14 +1017,14 @@ mod tests {
             mag_db: vec![5.0, f64::NAN, 5.0],
             phase_deg: vec![f64::NAN; 3],
         };
-        bode_svg("lonely", &[lonely], Some(&markers())).unwrap();
+        bode_svg("lonely", &[lonely], &[Some(markers())]).unwrap();
         let single = BodeSeries {
             label: "single".into(),
             freq_hz: vec![3.0],
             mag_db: vec![-1.0],
             phase_deg: vec![-10.0],
         };
-        bode_png("single", &[single], None, 640, 480).unwrap();
+        bode_png("single", &[single], &[], 640, 480).unwrap();
     }
 
     #[test]
@@ -1075,7 +1044,7 @@ mod tests {
                 .iter()
                 .all(|&(_, v)| v >= fig.mag.lo && v <= fig.mag.hi));
         }
-        bode_svg("steep", &[s], None).unwrap();
+        bode_svg("steep", &[s], &[]).unwrap();
     }
 
     #[test]

@@ -15,10 +15,7 @@ mod stack;
 pub use layout::{sig, text_overflow};
 pub use render::ReportError;
 
-pub use bode::{
-    bode_png, bode_png_marked, bode_svg, bode_svg_marked, BodeMarkers, BodeSeries,
-    DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX,
-};
+pub use bode::{bode_png, bode_svg, BodeMarkers, BodeSeries, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX};
 mod timeseries;
 pub use timeseries::*;
 
