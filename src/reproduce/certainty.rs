@@ -122,18 +122,14 @@ fn per_parameter(f: impl Fn(usize, &str) -> Value) -> Value {
     )
 }
 
-/// The true value of parameter `i` (of [`PARAMETERS`]) of the emulated records.
-fn truth_of(truth: &Candidate, i: usize) -> f64 {
-    [
-        truth.beta_bar,
-        truth.viscous_friction_ns_per_m,
-        truth.c12_m5_per_ns,
-    ][i]
+/// The value of parameter `i` (of [`PARAMETERS`]) at `c`.
+fn value_of(c: &Candidate, i: usize) -> f64 {
+    [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns][i]
 }
 
 /// Whether parameter `i`'s interval holds the emulator's truth.
 fn inside(u: &Uncertainty, i: usize, truth: &Candidate) -> bool {
-    let t = truth_of(truth, i);
+    let t = value_of(truth, i);
     u.profile(PARAMETERS[i])
         .is_some_and(|p| p.interval[0] <= t && t <= p.interval[1])
 }
@@ -168,8 +164,8 @@ fn intervals(
             let i = crate::figures::parameter_index(p.parameter);
             vec![
                 PARAMETER_AXES[i].to_string(),
-                parameter_value(i, truth_of(identified, i)),
-                parameter_value(i, best_of(u, i)),
+                parameter_value(i, value_of(identified, i)),
+                parameter_value(i, value_of(&u.best, i)),
                 format!(
                     "{} .. {}",
                     parameter_value(i, p.interval[0]),
@@ -182,7 +178,7 @@ fn intervals(
                 },
                 format!(
                     "{} ({})",
-                    parameter_value(i, truth_of(truth, i)),
+                    parameter_value(i, value_of(truth, i)),
                     if inside(u, i, truth) {
                         "inside"
                     } else {
@@ -219,11 +215,6 @@ fn intervals(
         )?;
     }
     Ok(())
-}
-
-/// The optimum's value of parameter `i`.
-fn best_of(u: &Uncertainty, i: usize) -> f64 {
-    truth_of(&u.best, i)
 }
 
 /// The robust design: gains, deciding condition, the leakage loop and the stroke figure.
