@@ -320,8 +320,7 @@ fn no_text_runs_outside_any_svg() {
 fn titles_print_rounded_numbers() {
     let svg = std::fs::read_to_string(reproduced().0.join("figures/bulk_modulus.svg")).unwrap();
     // No number in a text with more than 6 significant digits (167.122791980682 was one).
-    for t in svg.split("<text").skip(1) {
-        let content = &t[t.find('>').unwrap() + 1..t.find("</text>").unwrap()];
+    for content in svg_texts(&svg) {
         let longest = content
             .split(|c: char| !c.is_ascii_digit())
             .map(str::len)
@@ -379,16 +378,11 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
     }
 }
 
-/// Every text of an SVG, in document order, joined with no whitespace at all (a wrapped
-/// subtitle reads as one string).
-fn svg_text_squeezed(svg: &str) -> String {
+/// The contents of an SVG's text elements, in document order.
+fn svg_texts(svg: &str) -> impl Iterator<Item = &str> {
     svg.split("<text")
         .skip(1)
         .map(|t| &t[t.find('>').unwrap() + 1..t.find("</text>").unwrap()])
-        .collect::<String>()
-        .chars()
-        .filter(|c| !c.is_whitespace())
-        .collect()
 }
 
 #[test]
@@ -401,7 +395,11 @@ fn every_bode_study_marks_each_series_margins_as_the_summary_gives_them() {
     for (stem, cases) in studies {
         let svg =
             std::fs::read_to_string(reproduced().0.join(format!("figures/{stem}.svg"))).unwrap();
-        let text = svg_text_squeezed(&svg);
+        // every text joined with no whitespace at all, so a wrapped subtitle reads as one
+        let text: String = svg_texts(&svg)
+            .flat_map(str::chars)
+            .filter(|c| !c.is_whitespace())
+            .collect();
         let cases = cases.as_array().unwrap();
         assert!(cases.len() >= 2, "{stem}: {cases:?}");
         for c in cases {
