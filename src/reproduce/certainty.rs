@@ -104,8 +104,8 @@ fn pressure_range(exp: &Experiment, p_mean_bar: f64) -> Vec<f64> {
         .problem
         .datasets
         .iter()
-        .filter_map(|d| Some((d.record.p1_bar.as_ref()?, d.record.p2_bar.as_ref()?)))
-        .flat_map(|(p1, p2)| p1.iter().zip(p2).map(|(a, b)| 0.5 * (a + b)))
+        .filter_map(|d| d.record.mean_chamber_pressure_bar())
+        .flatten()
         .filter(|p| p.is_finite() && *p > 0.0)
         .fold((p_mean_bar, p_mean_bar), |(l, h), p| (l.min(p), h.max(p)));
     vec![lo, p_mean_bar, hi]

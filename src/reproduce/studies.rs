@@ -41,11 +41,9 @@ pub(super) fn pressure_study(
 ) -> Result<Pressure> {
     run.step("Bulk modulus against pressure: gas fraction and margins (docs/bulk-modulus.md)");
     let rec = &exp.problem.datasets[0].record;
-    let mean = |v: &Option<Vec<f64>>| {
-        v.as_ref()
-            .map_or(f64::NAN, |v| v.iter().sum::<f64>() / v.len() as f64)
-    };
-    let p_mean = 0.5 * (mean(&rec.p1_bar) + mean(&rec.p2_bar));
+    let p_mean = rec
+        .mean_chamber_pressure_bar()
+        .map_or(f64::NAN, |p| p.iter().sum::<f64>() / p.len() as f64);
     let x = gas_fraction(nominal.beta_bar, p_mean, BETA_OIL_BAR)?;
     let pressures = [1.0, p_mean, 10.0];
     let rows = bulk::table(nominal, x, BETA_OIL_BAR, &pressures)?;
