@@ -687,11 +687,11 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("rod_diameter_mm", "mm, rod diameter d2"),
             (
                 "line_volume_1_dm3",
-                "dm3, line volume pump to chamber 1 (piston side), VL1",
+                "dm³, line volume pump to chamber 1 (piston side), VL1",
             ),
             (
                 "line_volume_2_dm3",
-                "dm3, line volume pump to chamber 2 (rod side), VL2",
+                "dm³, line volume pump to chamber 2 (rod side), VL2",
             ),
             ("stroke_mm", "mm, cylinder stroke x_max"),
             (
@@ -705,27 +705,27 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
         &[
             (
                 "motor_inertia_1_kg_mm2",
-                "kg mm², motor 1 rotor inertia Jm1",
+                "kg·mm², motor 1 rotor inertia Jm1",
             ),
             (
                 "motor_inertia_2_kg_mm2",
-                "kg mm², motor 2 rotor inertia Jm2",
+                "kg·mm², motor 2 rotor inertia Jm2",
             ),
             (
                 "pump_inertia_1_kg_mm2",
-                "kg mm², pump 1 (axial piston) inertia Jp1",
+                "kg·mm², pump 1 (axial piston) inertia Jp1",
             ),
             (
                 "pump_inertia_2_kg_mm2",
-                "kg mm², pump 2 (internal gear) inertia Jp2",
+                "kg·mm², pump 2 (internal gear) inertia Jp2",
             ),
             (
                 "displacement_1_cm3_per_rev",
-                "cm3/rev, pump 1 displacement D1 (chamber 2 -> chamber 1)",
+                "cm³/rev, pump 1 displacement D1 (chamber 2 -> chamber 1)",
             ),
             (
                 "displacement_2_cm3_per_rev",
-                "cm3/rev, pump 2 displacement D2 (reservoir -> chamber 1)",
+                "cm³/rev, pump 2 displacement D2 (reservoir -> chamber 1)",
             ),
             (
                 "current_loop_bandwidth_rad_per_s",
@@ -735,7 +735,7 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("km2_nms_per_rad", "N·m·s/rad, drive 2 velocity-loop P gain"),
             (
                 "kff_kg_m2",
-                "kg m2, drive velocity feedforward gain (torque per rad/s2)",
+                "kg·m², drive velocity feedforward gain (torque per rad/s²)",
             ),
             ("tau_ff_s", "s, feedforward filter time constant"),
             (
@@ -754,7 +754,7 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
     (
         "load and hydraulics",
         &[
-            ("mass_kg", "kg, effective moving mass (I/r2 for the seesaw)"),
+            ("mass_kg", "kg, effective moving mass (I/r² for the seesaw)"),
             ("external_force_n", "N, external force (0 at horizontal)"),
             ("beta_bar", "bar, effective bulk modulus"),
             ("viscous_friction_ns_per_m", "N·s/m, viscous friction"),

@@ -869,7 +869,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         (
             vec!["identify-drive", &drive],
             vec![
-                format!("{drive}: motor 1 (Jm = 1.600e-3 kg m2"),
+                format!("{drive}: motor 1 (Jm = 1.600e-3 kg·m²"),
                 "  Km  0.02601 N·m·s/rad".into(),
             ],
         ),

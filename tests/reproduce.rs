@@ -125,7 +125,7 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "{stdout}"
     );
     assert!(head[1].starts_with("inputs: EMULATED records"), "{stdout}");
-    assert!(stdout.contains("bulk modulus beta (bar)"), "{stdout}");
+    assert!(stdout.contains("bulk modulus β (bar)"), "{stdout}");
     let stems = [
         "drive_step",
         "robustness",

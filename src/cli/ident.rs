@@ -195,7 +195,7 @@ pub fn drive(args: &DriveArgs) -> Result<String> {
         }))? + "\n");
     }
     Ok(format!(
-        "{}: motor {} (Jm = {:.3e} kg m2, current loop {} rad/s, feedforward off)\n  Km  {:.5} N·m·s/rad\n  fit MSE {:.3} rpm2 (RMS {:.2} rpm)\n",
+        "{}: motor {} (Jm = {:.3e} kg·m², current loop {} rad/s, feedforward off)\n  Km  {:.5} N·m·s/rad\n  fit MSE {:.3} rpm² (RMS {:.2} rpm)\n",
         rec.file,
         args.motor,
         jm,

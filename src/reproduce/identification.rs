@@ -67,9 +67,7 @@ pub(super) fn identification(
         if name == "landscape.svg" || name.starts_with("fit-") && name.ends_with(".svg") {
             let svg = String::from_utf8(bytes.clone())?;
             let caption = match name.strip_prefix("fit-") {
-                None => {
-                    "Identification cost over beta and c12 (best b), emulated records".to_string()
-                }
+                None => "Identification cost over β and c12 (best b), emulated records".to_string(),
                 Some(rest) => {
                     let i: usize = rest.trim_end_matches(".svg").parse()?;
                     let ds = &exp.problem.datasets[i - 1];
@@ -107,7 +105,7 @@ pub(super) fn identification(
     ));
     let rows = [
         (
-            "bulk modulus beta (bar)",
+            "bulk modulus β (bar)",
             format!("{:.1}", nominal.beta_bar),
             "165",
             format!("{truth:.1}"),
@@ -149,7 +147,7 @@ pub(super) fn identification(
         run.compare_why(quantity, ours, article, &truth, why);
     }
     run.compare_why(
-        "identification cost (mm2)",
+        "identification cost (mm²)",
         format!("{:.4}", best.cost_mm2),
         &format!("{}", printed::COST_MM2),
         "-",
@@ -230,7 +228,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
             &sim_best,
         ),
         (
-            "model, beta 220 bar, c12 1.0e-10 (article)".to_string(),
+            "model, β 220 bar, c12 1.0e-10 (article)".to_string(),
             &sim_article,
         ),
     ];
@@ -244,7 +242,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
         &Chart::signals("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(&measured), Some(spec.fit_end_s)),
     )?;
     run.compare(
-        "robustness beta (bar)",
+        "robustness β (bar)",
         format!("{:.0}", best.beta_bar),
         "220",
         "220",
