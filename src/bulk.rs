@@ -1,152 +1,128 @@
-//! Effective bulk modulus against pressure (docs/bulk-modulus.md): the constant gas-fraction model
-//! 1/β_e(p) = X/p + (1 − X)/β_oil, with X the undissolved gas volume fraction and p the mean
-//! chamber pressure in bar as the article uses it (its 4.4 bar mean gives β_e = 37.8 bar at
-//! 1 bar and 370 bar at 10 bar from 165 bar), and the rig's margins at each pressure.
-//!
-//! ```
-//! use pumpcyl::{bulk, rig::Rig};
-//!
-//! // the gas fraction that gives the identified 165 bar at the records' 4.4 bar mean pressure
-//! let x = bulk::gas_fraction(165.0, 4.4, bulk::BETA_OIL_BAR)?;
-//! assert!((x - 0.02641).abs() < 1e-5);
-//! // the article's 37.8 bar at 1 bar and 370 bar at 10 bar
-//! assert!((bulk::effective_beta(x, 1.0, bulk::BETA_OIL_BAR) - 37.8).abs() < 0.05);
-//! assert!((bulk::effective_beta(x, 10.0, bulk::BETA_OIL_BAR) - 370.5).abs() < 0.1);
-//!
-//! // the article's rig at 1, 4.4 and 10 bar: unstable at 1 bar, the margins grow with pressure
-//! let rows = bulk::table(&Rig::default(), x, bulk::BETA_OIL_BAR, &[1.0, 4.4, 10.0])?;
-//! let stable: Vec<bool> = rows.iter().map(|r| r.closed_loop_stable).collect();
-//! assert_eq!(stable, [false, true, true]);
-//! assert!(rows[2].gain_margin_db > rows[1].gain_margin_db);
-//! # Ok::<(), bulk::BulkError>(())
-//! ```
+//! `pumpcyl bulk-modulus`: gas fraction, β_e against pressure and the margins there (docs/bulk-modulus.md).
 
-use crate::lti::{margins, LtiError};
-use crate::model::Plant;
-use crate::rig::Rig;
-use serde::Serialize;
+use anyhow::Result;
+use clap::Args;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::PathBuf;
 
-/// Pure-oil bulk modulus of the article (bar).
-pub const BETA_OIL_BAR: f64 = 17_000.0;
+use crate::emit::{fmt_opt, format_of, write_atomic, Format};
+use crate::RigSource;
+use pumpcyl::bulk::{gas_fraction, table, Row, BETA_OIL_BAR};
+use pumpcyl_present::figures::Chart;
 
-/// Errors of the bulk-modulus model.
-#[derive(Debug, thiserror::Error)]
-pub enum BulkError {
-    /// Values outside the model's range.
-    #[error("{0}")]
-    Input(String),
-    /// A margin computation failed.
-    #[error(transparent)]
-    Lti(#[from] LtiError),
-    /// A rig override failed.
-    #[error(transparent)]
-    Rig(#[from] crate::rig::RigError),
-}
-
-/// The gas fraction X that gives `beta_bar` at mean pressure `p_bar` (docs/bulk-modulus.md#fitting-the-gas-fraction):
-/// X = (1/β − 1/β_oil) / (1/p − 1/β_oil). Needs 0 < β < β_oil and 0 < p < β_oil.
-pub fn gas_fraction(beta_bar: f64, p_bar: f64, beta_oil_bar: f64) -> Result<f64, BulkError> {
-    let positive = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(BulkError::Input(format!(
-                "{name} = {v}: must be a finite value > 0"
-            )))
-        }
-    };
-    positive("beta_bar", beta_bar)?;
-    positive("p_mean_bar", p_bar)?;
-    positive("beta_oil_bar", beta_oil_bar)?;
-    if beta_bar >= beta_oil_bar || p_bar >= beta_oil_bar {
-        return Err(BulkError::Input(format!(
-            "beta_bar ({beta_bar}) and p_mean_bar ({p_bar}) must both be below beta_oil_bar ({beta_oil_bar})"
-        )));
-    }
-    let x = (1.0 / beta_bar - 1.0 / beta_oil_bar) / (1.0 / p_bar - 1.0 / beta_oil_bar);
-    if x > 1.0 {
-        return Err(BulkError::Input(format!(
-            "beta_bar = {beta_bar} is below p_mean_bar = {p_bar}: no gas fraction <= 1 gives it"
-        )));
-    }
-    Ok(x)
-}
-
-/// β_e at pressure `p_bar` for gas fraction `x` (bar).
-pub fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
-    1.0 / (x / p_bar + (1.0 - x) / beta_oil_bar)
-}
-
-/// One row of the β_e(p) table with the rig's margins there.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Row {
-    /// Mean chamber pressure (bar).
-    pub p_bar: f64,
-    /// Effective bulk modulus (bar).
-    pub beta_bar: f64,
-    /// Gain margin of the open loop (the article §2.3.3; docs/analysis.md#the-loop-that-is-analysed) (dB); `None` = infinite.
-    pub gain_margin_db: Option<f64>,
-    /// Phase margin (deg); `None` = infinite.
-    pub phase_margin_deg: Option<f64>,
-    /// Closed-loop stability from the eigenvalues.
-    pub closed_loop_stable: bool,
-}
-
-/// β_e and the rig's margins (sum-pressure loop open, docs/bulk-modulus.md#margins-against-pressure) at each pressure.
-pub fn table(
-    rig: &Rig,
-    x: f64,
+#[derive(Debug, Args)]
+pub struct BulkArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Identified effective bulk modulus (bar).
+    #[arg(long, default_value_t = 165.0, allow_negative_numbers = true)]
+    beta_bar: f64,
+    /// Mean chamber pressure during the identification (bar).
+    #[arg(long, default_value_t = 4.4, allow_negative_numbers = true)]
+    p_mean_bar: f64,
+    /// Pure-oil bulk modulus (bar).
+    #[arg(long, default_value_t = BETA_OIL_BAR, allow_negative_numbers = true)]
     beta_oil_bar: f64,
-    pressures_bar: &[f64],
-) -> Result<Vec<Row>, BulkError> {
-    pressures_bar
-        .iter()
-        .map(|&p| {
-            let beta = effective_beta(x, p, beta_oil_bar);
-            let r = rig.with_overrides(&[format!("beta_bar={beta}")])?;
-            let m = margins(&Plant::new(&r).open_loop(false))?;
-            Ok(Row {
-                p_bar: p,
-                beta_bar: beta,
-                gain_margin_db: m.gain_margin_db,
-                phase_margin_deg: m.phase_margin_deg,
-                closed_loop_stable: m.closed_loop_stable,
-            })
-        })
-        .collect()
+    /// Lowest mean pressure of the table (bar).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    from_bar: f64,
+    /// Highest mean pressure of the table (bar).
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
+    to_bar: f64,
+    /// Table rows, evenly spaced.
+    #[arg(long, default_value_t = 10)]
+    points: usize,
+    /// Print JSON: gas_fraction and table rows (p_bar, beta_bar, gain_margin_db,
+    /// phase_margin_deg, closed_loop_stable).
+    #[arg(long)]
+    json: bool,
+    /// Output: .csv (a fine table) or .svg / .png (β_e, GM and PM against pressure).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn reproduces_the_article_extrapolation() {
-        // X from 165 bar at 4.4 bar; the article's 37.8 bar at 1 bar and 370 bar at 10 bar
-        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
-        assert!((x - 0.026415).abs() < 1e-5, "{x}");
-        assert!((effective_beta(x, 1.0, BETA_OIL_BAR) - 37.8).abs() < 0.05);
-        assert!((effective_beta(x, 10.0, BETA_OIL_BAR) - 370.0).abs() < 1.0);
-        assert!((effective_beta(x, 4.4, BETA_OIL_BAR) - 165.0).abs() < 1e-9);
+/// `pumpcyl bulk-modulus`.
+pub fn bulk(args: &BulkArgs) -> Result<String> {
+    anyhow::ensure!(
+        args.from_bar > 0.0 && args.to_bar > args.from_bar && args.to_bar.is_finite(),
+        "--from-bar and --to-bar must satisfy 0 < from < to (got {} and {})",
+        args.from_bar,
+        args.to_bar
+    );
+    anyhow::ensure!(args.points >= 2, "--points must be at least 2");
+    pumpcyl::limits::check_size("--points", args.points as f64).map_err(anyhow::Error::msg)?;
+    let rig = args.rig.load()?;
+    let x = gas_fraction(args.beta_bar, args.p_mean_bar, args.beta_oil_bar)?;
+    let pressures = pumpcyl::ident::spaced(args.from_bar, args.to_bar, args.points, false);
+    let rows = table(&rig, x, args.beta_oil_bar, &pressures)?;
+    if let Some(path) = &args.out {
+        let fine = pumpcyl::ident::spaced(args.from_bar, args.to_bar, 91, false);
+        let fine_rows = table(&rig, x, args.beta_oil_bar, &fine)?;
+        write_output(
+            path,
+            (args.beta_bar, args.p_mean_bar, args.beta_oil_bar),
+            x,
+            &fine_rows,
+        )?;
     }
-
-    #[test]
-    fn limits_hold() {
-        // no gas: β_e = β_oil at any pressure; all gas: β_e = p (isothermal gas)
-        assert!((effective_beta(0.0, 3.0, BETA_OIL_BAR) - BETA_OIL_BAR).abs() < 1e-9);
-        assert!((effective_beta(1.0, 3.0, BETA_OIL_BAR) - 3.0).abs() < 1e-12);
-        assert!(gas_fraction(2.0, 4.4, BETA_OIL_BAR).is_err());
-        assert!(gas_fraction(-1.0, 4.4, BETA_OIL_BAR).is_err());
-        assert!(gas_fraction(165.0, 0.0, BETA_OIL_BAR).is_err());
+    if args.json {
+        return Ok(serde_json::to_string_pretty(
+            &json!({"gas_fraction": x, "beta_oil_bar": args.beta_oil_bar, "table": rows}),
+        )? + "\n");
     }
-
-    #[test]
-    fn margins_grow_with_pressure() {
-        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
-        let rows = table(&Rig::default(), x, BETA_OIL_BAR, &[1.0, 4.4, 10.0]).unwrap();
-        // at 4.4 bar the nominal margins; stiffer oil at 10 bar gives more, 1 bar is unstable
-        assert!((rows[1].gain_margin_db.unwrap() - 6.45).abs() < 0.05);
-        assert!(rows[2].gain_margin_db.unwrap() > rows[1].gain_margin_db.unwrap());
-        assert!(!rows[0].closed_loop_stable);
+    let mut s = format!(
+        "gas fraction X = {x:.5} (beta_e = {} bar at {} bar mean pressure, beta_oil = {} bar)\n",
+        args.beta_bar, args.p_mean_bar, args.beta_oil_bar
+    );
+    let _ = writeln!(
+        s,
+        "{:>8} {:>10} {:>9} {:>9}  closed loop",
+        "p_bar", "beta_bar", "GM_dB", "PM_deg"
+    );
+    for r in &rows {
+        let verdict = if r.closed_loop_stable {
+            "stable"
+        } else {
+            "UNSTABLE"
+        };
+        let _ = writeln!(
+            s,
+            "{:>8.2} {:>10.1} {:>9} {:>9}  {verdict}",
+            r.p_bar,
+            r.beta_bar,
+            fmt_opt(r.gain_margin_db, 2),
+            fmt_opt(r.phase_margin_deg, 1)
+        );
     }
+    Ok(s)
+}
+
+/// The β_e table as CSV or as a figure (β_e, GM, PM against pressure), by extension; `fit` is
+/// (β bar, at mean pressure bar, β_oil bar) the gas fraction came from.
+pub(super) fn write_output(
+    path: &std::path::Path,
+    fit: (f64, f64, f64),
+    x: f64,
+    rows: &[Row],
+) -> Result<()> {
+    let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
+    if format == Format::Csv {
+        let mut s =
+            String::from("p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable\n");
+        for r in rows {
+            let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
+            let _ = writeln!(
+                s,
+                "{},{:.6},{},{},{}",
+                r.p_bar,
+                r.beta_bar,
+                opt(r.gain_margin_db),
+                opt(r.phase_margin_deg),
+                r.closed_loop_stable
+            );
+        }
+        return write_atomic(path, s.as_bytes());
+    }
+    crate::time::render(path, &Chart::bulk_modulus(fit, x, rows))
 }

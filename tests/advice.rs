@@ -4,7 +4,7 @@
 //! (more data never widens; twice the record, √2 narrower; half the noise, half the width);
 //! the CLI's JSON and its one-line errors.
 
-#[path = "common/synthetic.rs"]
+#[path = "../crates/core/tests/common/synthetic.rs"]
 mod synthetic;
 
 use nalgebra::Matrix3;
@@ -269,7 +269,7 @@ fn advise_cli_json_and_one_line_errors() {
     )
     .unwrap();
     let c = cands.to_str().unwrap();
-    let o = synthetic::pumpcyl(&["advise", &exp, "--json", "--candidates", c]);
+    let o = pumpcyl(&["advise", &exp, "--json", "--candidates", c]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["confidence"], 0.95);
@@ -289,7 +289,7 @@ fn advise_cli_json_and_one_line_errors() {
     }
     assert_eq!(v["best_for"].as_array().unwrap().len(), 3);
 
-    let o = synthetic::pumpcyl(&["advise", &exp, "--candidates", c]);
+    let o = pumpcyl(&["advise", &exp, "--candidates", c]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
     assert!(text.contains("helps b most: "), "{text}");
@@ -305,7 +305,7 @@ fn advise_cli_json_and_one_line_errors() {
         ),
     ] {
         std::fs::write(&cands, content).unwrap();
-        let o = synthetic::pumpcyl(&["advise", &exp, "--candidates", c]);
+        let o = pumpcyl(&["advise", &exp, "--candidates", c]);
         assert!(!o.status.success());
         let e = String::from_utf8_lossy(&o.stderr);
         for n in needles {
@@ -314,7 +314,15 @@ fn advise_cli_json_and_one_line_errors() {
         assert_eq!(e.trim_end().lines().count(), 1, "{e}");
         assert!(!e.contains("panicked"), "{e}");
     }
-    let o = synthetic::pumpcyl(&["advise", &exp, "--confidence", "1.5"]);
+    let o = pumpcyl(&["advise", &exp, "--confidence", "1.5"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("confidence"));
+}
+
+/// Run the pumpcyl binary with `args`.
+fn pumpcyl(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .unwrap()
 }

@@ -211,9 +211,9 @@ fn octave_lsim_on_the_exported_closed_loop_matches_pumpcyl_step() {
 /// c1, c2 from a standstill (default: the rig's own) at a c12, computed by pumpcyl's leakage
 /// code, to set on the rig for `model --json`.
 fn leakages_at(c12: f64, given: Option<pumpcyl::ident::Standstill>) -> [String; 2] {
-    use pumpcyl::{matlab, rig::Rig};
+    use pumpcyl::{loops, rig::Rig};
     let rig = Rig::default();
-    let l = matlab::standstill_of(&rig, given)
+    let l = loops::standstill_of(&rig, given)
         .leakage(&rig, c12)
         .unwrap();
     [

@@ -305,7 +305,7 @@ fn no_text_runs_outside_any_svg() {
     for p in &svgs {
         let svg = std::fs::read_to_string(p).unwrap();
         assert!(svg.contains("<text"), "{} has no text", p.display());
-        for t in pumpcyl::report::text_overflow(&svg) {
+        for t in pumpcyl_present::plot::text_overflow(&svg) {
             bad.push(format!("{}: {t}", p.file_name().unwrap().to_string_lossy()));
         }
     }

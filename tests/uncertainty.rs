@@ -3,7 +3,7 @@
 //! matches the noise put in, the 95 % intervals contain the truth, and they shrink with less
 //! noise and with more data.
 
-#[path = "common/synthetic.rs"]
+#[path = "../crates/core/tests/common/synthetic.rs"]
 mod synthetic;
 
 use pumpcyl::ident::{analyze, Candidate, Uncertainty, UncertaintyOptions};
@@ -146,7 +146,7 @@ fn identify_uncertainty_json_text_and_figures() {
     let dir = tempfile::tempdir().unwrap();
     let exp = synthetic::experiment_file(dir.path(), 0.02);
     let out = dir.path().join("out");
-    let o = synthetic::pumpcyl(&[
+    let o = pumpcyl(&[
         "identify",
         &exp,
         "--uncertainty",
@@ -184,7 +184,7 @@ fn identify_uncertainty_json_text_and_figures() {
         serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
     assert_eq!(saved["intervals"], v["intervals"]);
 
-    let o = synthetic::pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
+    let o = pumpcyl(&["identify", &exp, "--uncertainty", "--confidence", "0.9"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
     assert!(text.contains("90 % profile-likelihood intervals"), "{text}");
@@ -199,7 +199,7 @@ fn identify_uncertainty_json_text_and_figures() {
     ] {
         let mut all = vec!["identify", exp.as_str()];
         all.extend(args);
-        let o = synthetic::pumpcyl(&all);
+        let o = pumpcyl(&all);
         assert!(!o.status.success());
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(e.contains(needle), "{e}");
@@ -239,4 +239,12 @@ fn article_records_intervals_contain_the_emulator_truth() {
         assert!(hi / lo < 1.2 * 1.2, "{name}: {lo} .. {hi}");
     }
     assert!(!u.profile("viscous_friction_ns_per_m").unwrap().identifiable);
+}
+
+/// Run the pumpcyl binary with `args`.
+fn pumpcyl(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .unwrap()
 }

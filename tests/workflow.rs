@@ -1,4 +1,4 @@
-//! The article workflow as a library call (`pumpcyl::reproduce`), without the command line: its
+//! The article workflow as a library call (`pumpcyl_present::reproduce`), without the command line: its
 //! numbers against independent references (the emulator's truth, the margins `lti` computes on
 //! the default rig), its figures, its progress callbacks, and the folder it writes against the
 //! one `pumpcyl reproduce` writes.
@@ -6,8 +6,8 @@
 #[path = "common/tree.rs"]
 mod tree;
 
-use pumpcyl::reproduce::{reproduce, ReproduceOptions, Reproduction, STEPS};
 use pumpcyl::rig::Rig;
+use pumpcyl_present::reproduce::{reproduce, ReproduceOptions, Reproduction, STEPS};
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -125,7 +125,7 @@ fn progress_reports_every_step_and_every_candidate() {
             .result
             .blocks
             .iter()
-            .any(|b| matches!(b, pumpcyl::report::Block::Heading(h) if *h == heading)));
+            .any(|b| matches!(b, pumpcyl_present::plot::Block::Heading(h) if *h == heading)));
     }
 }
 

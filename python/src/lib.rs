@@ -813,7 +813,7 @@ fn advise(
 // The article workflow
 
 /// The article's workflow on the embedded emulated records (the library's
-/// `pumpcyl::reproduce`, as `pumpcyl reproduce` runs it): with `out`, the result folder
+/// `pumpcyl_present::reproduce`, as `pumpcyl reproduce` runs it): with `out`, the result folder
 /// (report.html, summary.json, figures/, records/, identification/) written whole or not at
 /// all; returns summary.json as a dict. Runs with the GIL released; Ctrl-C stops it and raises
 /// KeyboardInterrupt; `progress=True` prints each step on `sys.stderr`.
@@ -826,7 +826,7 @@ fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<P
         let (k, what) = step.lock().map(|g| g.clone()).unwrap_or_default();
         if progress && k != shown {
             shown = k;
-            let line = format!("[{k}/{}] {what}\n", pumpcyl::reproduce::STEPS);
+            let line = format!("[{k}/{}] {what}\n", pumpcyl_present::reproduce::STEPS);
             let stderr = py.import("sys")?.getattr("stderr")?;
             stderr.call_method1("write", (line,))?;
         }
@@ -841,10 +841,12 @@ fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<P
                 }
             };
             let on_candidates = |n: u64, _total: u64| go_on(n);
-            let r = pumpcyl::reproduce::reproduce(&pumpcyl::reproduce::ReproduceOptions {
-                on_step: Some(&on_step),
-                on_candidates: Some(&on_candidates),
-            })
+            let r = pumpcyl_present::reproduce::reproduce(
+                &pumpcyl_present::reproduce::ReproduceOptions {
+                    on_step: Some(&on_step),
+                    on_candidates: Some(&on_candidates),
+                },
+            )
             .map_err(|e| format!("{e:#}"))?;
             if let Some(dir) = &out {
                 r.write(dir).map_err(|e| format!("{e:#}"))?;

@@ -1,0 +1,310 @@
+//! Parameter identification from measured data (the article §2.4; docs/identification.md): drive gain from a velocity step,
+//! chamber leakages from a standstill record, and the two-stage grid search for β, b and c12
+//! with a local refinement.
+//!
+//! Identify β, b and c12 from the emulated article records (whose truth is β_e ≈ 165 bar,
+//! c12 = 1.2e-10 m⁵/(N·s)) on a small grid of your own (docs/identification.md):
+//!
+//! ```
+//! use pumpcyl::ident::{finish, run_stages, Experiment, Grid, Options};
+//! use std::path::Path;
+//!
+//! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/article/identify.toml");
+//! let exp = Experiment::load(&file)?; // the records, the standstill point, the rig
+//! let grid = Grid {
+//!     beta_bar: vec![100.0, 165.0, 250.0],
+//!     viscous_friction_ns_per_m: vec![100.0, 300.0],
+//!     c12_m5_per_ns: vec![1.2e-10],
+//! };
+//! let opts = Options {
+//!     auto_refine: false,
+//!     local_refinement: false,
+//!     threshold_mm2: 0.25,
+//!     top_n: 3,
+//! };
+//! let stages = run_stages(&exp.problem, (grid, None), &opts, None, &|_| {})?;
+//! let id = finish(&exp.problem, stages, &opts)?;
+//! assert_eq!(id.evaluated(), 6);
+//! assert_eq!(id.best().candidate.beta_bar, 165.0);
+//! // c1 from the standstill record for that c12: the emulator's 5.49e-11 within 1 %
+//! assert!((id.leakage.c1_m5_per_ns / 5.49e-11 - 1.0).abs() < 0.01);
+//! # Ok::<(), pumpcyl::ident::IdentError>(())
+//! ```
+
+mod advice;
+mod drive;
+mod experiment;
+mod grid;
+mod leakage;
+mod problem;
+mod refine;
+mod search;
+pub mod shards;
+mod uncertainty;
+
+pub use advice::{
+    advise, advise_experiment, default_designs, designs_for, designs_from_toml, gram, widths,
+    Advice, AdviceOptions, Assessment, Design, Width, DEFAULT_DURATION_S, DEFAULT_FREQS_HZ,
+    DEFAULT_KPS, DEFAULT_MAX_AMP_MM, DEFAULT_STEPS_MM, LOG_STEP, MAX_CANDIDATES, MIN_DAMPING,
+    MIN_SAMPLES_PER_PERIOD, REST_S,
+};
+pub use drive::{identify_drive, DriveFit, DriveRecord};
+pub use experiment::{Experiment, ExperimentFile};
+pub use grid::{spaced, stepped, Candidate, Grid};
+pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
+pub use problem::{DatasetSpec, Prepared, Problem};
+pub use refine::refine;
+pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
+pub use uncertainty::{
+    analyze, chi2_1_quantile, Profile, ProfilePoint, Uncertainty, UncertaintyOptions, BOUNDS,
+    PARAMETERS,
+};
+
+use serde::{Deserialize, Serialize};
+
+/// Errors of the identification.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentError {
+    /// Bad experiment description or values.
+    #[error("{0}")]
+    Input(String),
+    /// A record that cannot be used.
+    #[error(transparent)]
+    Record(#[from] crate::record::RecordError),
+    /// A rig that cannot be used.
+    #[error(transparent)]
+    Rig(#[from] crate::rig::RigError),
+    /// A numerical failure.
+    #[error(transparent)]
+    Lti(#[from] crate::lti::LtiError),
+    /// The caller stopped the search (see [`run_stages_while`]).
+    #[error("identification interrupted")]
+    Interrupted,
+}
+
+/// Options of the two-stage search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    /// Derive the second grid from the first grid's threshold set.
+    pub auto_refine: bool,
+    /// Nelder–Mead from the best grid point.
+    pub local_refinement: bool,
+    /// Threshold of the threshold set (mm²).
+    pub threshold_mm2: f64,
+    /// Length of the reported top list.
+    pub top_n: usize,
+}
+
+impl Default for Options {
+    /// The article's search: the two given grids, threshold 0.25 mm², Nelder–Mead after them,
+    /// a top list of 20 (docs/identification.md#the-two-grids).
+    fn default() -> Self {
+        Options {
+            auto_refine: false,
+            local_refinement: true,
+            threshold_mm2: 0.25,
+            top_n: 20,
+        }
+    }
+}
+
+/// One stage of the search: its grid and what it found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stage {
+    /// The grid.
+    pub grid: Grid,
+    /// The result (over the whole grid, or over one shard).
+    pub summary: Summary,
+}
+
+/// The answer of an identification.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identification {
+    /// The stages.
+    pub stages: Vec<Stage>,
+    /// Best grid point.
+    pub grid_best: Scored,
+    /// Result of the local refinement, when it improved on the grid.
+    pub refined: Option<Scored>,
+    /// The leakages of the final answer.
+    pub leakage: Leakage,
+    /// Top list over all stages, best first.
+    pub top: Vec<Scored>,
+}
+
+impl Identification {
+    /// The final answer: the refined point if there is one, else the best grid point.
+    pub fn best(&self) -> &Scored {
+        self.refined.as_ref().unwrap_or(&self.grid_best)
+    }
+
+    /// Candidates evaluated over all stages (the local refinement not counted).
+    pub fn evaluated(&self) -> u64 {
+        self.stages.iter().map(|s| s.summary.evaluated).sum()
+    }
+
+    /// What a user should know before trusting the answer: the best grid point on an edge of
+    /// its grid (the optimum may lie outside it), and a search where every candidate of the
+    /// top list costs the same (the records carry no excitation: the reference never moves the
+    /// loop, so the cost cannot tell the parameters apart).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let [first, .., last] = self.top.as_slice() {
+            if (last.cost_mm2 - first.cost_mm2).abs() <= 1e-12 * first.cost_mm2.abs().max(1e-300) {
+                out.push(format!(
+                    "every candidate of the top {} costs the same ({:.4e} mm²): the records carry no excitation \
+                     (does the reference step?), so the answer means nothing",
+                    self.top.len(),
+                    first.cost_mm2
+                ));
+                return out;
+            }
+        }
+        let best = &self.grid_best;
+        let Some(stage) = self.stages.get(usize::from(best.stage.max(1)) - 1) else {
+            return out;
+        };
+        let c = &best.candidate;
+        let axes = [
+            ("beta_bar", c.beta_bar, &stage.grid.beta_bar),
+            (
+                "viscous_friction_ns_per_m",
+                c.viscous_friction_ns_per_m,
+                &stage.grid.viscous_friction_ns_per_m,
+            ),
+            ("c12_m5_per_ns", c.c12_m5_per_ns, &stage.grid.c12_m5_per_ns),
+        ];
+        for (name, v, axis) in axes {
+            let (lo, hi) = axis
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            if axis.len() > 1 && (v == lo || v == hi) {
+                out.push(format!(
+                    "the best grid point has {name} = {v} on the edge of the stage {} grid ({lo} … {hi}): \
+                     the optimum may lie outside it; widen that axis",
+                    best.stage
+                ));
+            }
+        }
+        out
+    }
+}
+
+/// Run the search stages (both grids; the second derived from the first with `auto_refine`).
+pub fn run_stages(
+    problem: &Problem,
+    grids: (Grid, Option<Grid>),
+    opts: &Options,
+    shard: Option<(usize, usize)>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Vec<Stage>, IdentError> {
+    run_stages_while(problem, grids, opts, shard, &|n| {
+        progress(n);
+        true
+    })
+}
+
+/// [`run_stages`], stoppable: `progress(n)` is called after each chunk of n candidates and the
+/// search stops soon after it returns `false`, with [`IdentError::Interrupted`] (for callers
+/// that watch for an interrupt, such as the Python package on Ctrl-C).
+pub fn run_stages_while(
+    problem: &Problem,
+    grids: (Grid, Option<Grid>),
+    opts: &Options,
+    shard: Option<(usize, usize)>,
+    progress: &(dyn Fn(u64) -> bool + Sync),
+) -> Result<Vec<Stage>, IdentError> {
+    let stopped = std::sync::atomic::AtomicBool::new(false);
+    let progress = |n: u64| {
+        let go_on = progress(n);
+        if !go_on {
+            stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        go_on
+    };
+    let check = || {
+        if stopped.load(std::sync::atomic::Ordering::Relaxed) {
+            Err(IdentError::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
+    let search_opts = SearchOptions {
+        top_n: opts.top_n,
+        threshold_mm2: opts.threshold_mm2,
+        shard,
+    };
+    let (first, second) = grids;
+    let s1 = search(problem, &first, 1, search_opts, &progress);
+    check()?;
+    let second = match (opts.auto_refine, second) {
+        (true, _) => {
+            let bounds = s1.threshold_bounds.ok_or_else(|| {
+                IdentError::Input(format!(
+                    "--auto-refine: no stable candidate of the first grid costs less than {} mm²; \
+                     raise threshold_mm2 or give a refined grid",
+                    opts.threshold_mm2
+                ))
+            })?;
+            Some(Grid::refined_from(&first, &bounds))
+        }
+        (false, g) => g,
+    };
+    let mut stages = vec![Stage {
+        grid: first,
+        summary: s1,
+    }];
+    if let Some(grid) = second {
+        let summary = search(problem, &grid, 2, search_opts, &progress);
+        check()?;
+        stages.push(Stage { grid, summary });
+    }
+    Ok(stages)
+}
+
+/// Combine the stages into the answer: the best grid point, refined locally if asked.
+pub fn finish(
+    problem: &Problem,
+    stages: Vec<Stage>,
+    opts: &Options,
+) -> Result<Identification, IdentError> {
+    let mut top: Vec<Scored> = stages
+        .iter()
+        .flat_map(|s| s.summary.top.iter().copied())
+        .collect();
+    top.sort_by(|a, b| {
+        a.cost_mm2
+            .total_cmp(&b.cost_mm2)
+            .then(a.stage.cmp(&b.stage))
+            .then(a.index.cmp(&b.index))
+    });
+    top.truncate(opts.top_n);
+    let grid_best = *top.first().ok_or_else(|| {
+        IdentError::Input(
+            "no stable candidate with a finite cost: check the records, gains and grids".into(),
+        )
+    })?;
+    let refined = if opts.local_refinement {
+        refine(problem, &grid_best.candidate).map(|(candidate, cost_mm2)| Scored {
+            candidate,
+            cost_mm2,
+            stage: 0,
+            index: 0,
+        })
+    } else {
+        None
+    };
+    let best = refined.unwrap_or(grid_best);
+    let leakage = problem
+        .standstill
+        .leakage(&problem.datasets[0].rig, best.candidate.c12_m5_per_ns)?;
+    Ok(Identification {
+        stages,
+        grid_best,
+        refined,
+        leakage,
+        top,
+    })
+}

@@ -1,0 +1,269 @@
+//! The loop a command analyses or exports: a rig's position loop, opened as the article opens
+//! it (§2.3.3; docs/analysis.md#the-loop-that-is-analysed), or a loop transfer L(s) read from a
+//! JSON state-space model (docs/formats.md); and its view for display and export.
+
+use crate::ident::Standstill;
+use crate::lti::{LtiError, ModelJson, StateInfo, StateSpace};
+use crate::model::{Plant, SIM_OUTPUTS};
+use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+
+/// A named signal (input or output) with its SI unit.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Port {
+    /// Name, e.g. `x_ref`.
+    pub name: String,
+    /// SI unit, e.g. `m`.
+    pub unit: String,
+    /// What it is, in words.
+    pub meaning: String,
+}
+
+impl Port {
+    /// A port from its name, unit and meaning.
+    pub fn new(name: &str, unit: &str, meaning: &str) -> Port {
+        Port {
+            name: name.into(),
+            unit: unit.into(),
+            meaning: meaning.into(),
+        }
+    }
+}
+
+/// Which loop a grey-box function returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GreyLoop {
+    /// The open loop, position error e (m) → x (m); the sum-pressure loop closed inside or not.
+    Open {
+        /// Sum-pressure loop closed inside.
+        sum_pressure: bool,
+    },
+    /// The closed loop x_ref (m) → x, p1, p2, w1, w2, e (SI), as `pumpcyl step` simulates it.
+    Closed {
+        /// Sum-pressure loop closed.
+        sum_pressure: bool,
+    },
+}
+
+/// The loop matrices of a rig for a grey-box loop choice.
+pub fn grey_loop(rig: &Rig, which: GreyLoop) -> StateSpace {
+    let plant = Plant::new(rig);
+    match which {
+        GreyLoop::Open { sum_pressure } => plant.open_loop(sum_pressure),
+        GreyLoop::Closed { sum_pressure } => plant.closed_loop_outputs(sum_pressure),
+    }
+}
+
+/// The standstill the grey-box function takes c1 and c2 from: given, or the rig's own operating
+/// point (whose speeds feed exactly the rig's leakages, so the rig's c1 and c2 come back).
+pub fn standstill_of(rig: &Rig, given: Option<Standstill>) -> Standstill {
+    given.unwrap_or_else(|| {
+        let op = Plant::new(rig).operating_point();
+        Standstill {
+            w1_rpm: op.w1 / RAD_S_PER_RPM,
+            w2_rpm: op.w2 / RAD_S_PER_RPM,
+            p1_bar: op.p1 / PA_PER_BAR,
+        }
+    })
+}
+
+/// The loop to analyse, with a description for the output.
+#[derive(Debug, Clone)]
+pub struct Loop {
+    /// L(s): input the position error (m), output x (m) for a rig.
+    pub open_loop: StateSpace,
+    /// State names and units.
+    pub states: Vec<StateInfo>,
+    /// The rig, when the model comes from one.
+    pub rig: Option<Rig>,
+    /// What was analysed, in words.
+    pub description: String,
+}
+
+/// A loop as shown or exported (the `model` command, MATLAB/Octave files, MAT-files): matrices,
+/// names and the loop it is.
+pub struct ModelView {
+    /// The matrices (SI).
+    pub sys: StateSpace,
+    /// State names and units.
+    pub states: Vec<StateInfo>,
+    /// Inputs.
+    pub inputs: Vec<Port>,
+    /// Outputs.
+    pub outputs: Vec<Port>,
+    /// What it is.
+    pub title: String,
+    /// The operating point (name, value, unit); empty for a JSON model.
+    pub operating_point: Vec<(String, f64, String)>,
+    /// The rig and the grey-box loop choice, when the model comes from a rig.
+    pub rig: Option<(Rig, GreyLoop)>,
+}
+
+/// Meaning of each output of the simulated closed loop, in [`SIM_OUTPUTS`] order.
+const SIM_MEANINGS: [&str; 6] = [
+    "piston position",
+    "chamber 1 pressure",
+    "chamber 2 pressure",
+    "motor/pump 1 speed",
+    "motor/pump 2 speed",
+    "control error x_ref - x",
+];
+
+impl Loop {
+    /// The position loop of `rig` (where it came from: `origin`) with the position feedback
+    /// removed, the sum-pressure loop closed inside it or not.
+    pub fn of_rig(rig: Rig, origin: &str, sum_pressure_closed: bool) -> Loop {
+        let plant = Plant::new(&rig);
+        let sp = if sum_pressure_closed {
+            "closed"
+        } else {
+            "open"
+        };
+        Loop {
+            open_loop: plant.open_loop(sum_pressure_closed),
+            states: plant.layout.states(),
+            description: format!(
+                "{origin}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}"
+            ),
+            rig: Some(rig),
+        }
+    }
+
+    /// A loop transfer L(s) from the JSON model `text` of the file `name`; the error (without
+    /// the name) locates the line and key.
+    pub fn from_json(text: &str, name: &str) -> Result<Loop, String> {
+        let (open_loop, states) = ModelJson::parse(text)?;
+        Ok(Loop {
+            open_loop,
+            states,
+            rig: None,
+            description: format!("{name}: loop transfer L(s) from JSON"),
+        })
+    }
+
+    /// The open loop (as analysed) or, with `closed`, the closed loop as `step` simulates it: input
+    /// x_ref, outputs x, p1, p2, w1, w2 and e. For a JSON model the closed loop is unity feedback.
+    /// `sum_pressure_closed` records how the open loop was built (for the grey-box function).
+    pub fn view(&self, closed: bool, sum_pressure_closed: bool) -> Result<ModelView, LtiError> {
+        let lp = self;
+        let Some(rig) = &lp.rig else {
+            let (sys, title, inp, out) = if closed {
+                (
+                    lp.open_loop.unity_feedback()?,
+                    format!("{} with unity feedback", lp.description),
+                    Port::new("r", "-", "reference"),
+                    Port::new("y", "-", "output"),
+                )
+            } else {
+                (
+                    lp.open_loop.clone(),
+                    lp.description.clone(),
+                    Port::new("u", "-", "loop input"),
+                    Port::new("y", "-", "loop output"),
+                )
+            };
+            return Ok(ModelView {
+                sys,
+                states: lp.states.clone(),
+                inputs: vec![inp],
+                outputs: vec![out],
+                title,
+                operating_point: Vec::new(),
+                rig: None,
+            });
+        };
+        let plant = Plant::new(rig);
+        let op = plant.operating_point();
+        let operating_point = [
+            ("x_m", op.x, "m"),
+            ("p1_Pa", op.p1, "Pa (gauge)"),
+            ("p2_Pa", op.p2, "Pa (gauge)"),
+            ("w1_rad_per_s", op.w1, "rad/s"),
+            ("w2_rad_per_s", op.w2, "rad/s"),
+        ]
+        .iter()
+        .map(|(n, v, u)| (n.to_string(), *v, u.to_string()))
+        .collect();
+        let (which, inputs, outputs, title) = if closed {
+            let sp = if rig.sum_pressure { "closed" } else { "open" };
+            (
+                GreyLoop::Closed {
+                    sum_pressure: rig.sum_pressure,
+                },
+                vec![Port::new("x_ref", "m", "position reference")],
+                SIM_OUTPUTS
+                    .iter()
+                    .zip(SIM_MEANINGS)
+                    .map(|((n, u), m)| Port::new(n, u, m))
+                    .collect(),
+                format!(
+                    "{}: closed loop x_ref -> x, p1, p2, w1, w2, e, sum-pressure loop {sp} (as pumpcyl \
+                     step simulates it)",
+                    lp.description
+                        .split(": open loop")
+                        .next()
+                        .unwrap_or(&lp.description)
+                ),
+            )
+        } else {
+            (
+                GreyLoop::Open {
+                    sum_pressure: sum_pressure_closed,
+                },
+                vec![Port::new("e", "m", "position error")],
+                vec![Port::new("x", "m", "piston position")],
+                lp.description.clone(),
+            )
+        };
+        Ok(ModelView {
+            sys: grey_loop(rig, which),
+            states: plant.layout.states(),
+            inputs,
+            outputs,
+            title,
+            operating_point,
+            rig: Some((rig.clone(), which)),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_exported_open_loop_is_the_loop_analysed() {
+        for sum_pressure_closed in [false, true] {
+            let lp = Loop::of_rig(Rig::default(), "default rig", sum_pressure_closed);
+            let view = lp.view(false, sum_pressure_closed).unwrap();
+            let freqs = [0.1, 1.0, 10.0];
+            let a = crate::lti::bode(&lp.open_loop, &freqs).unwrap();
+            let b = crate::lti::bode(&view.sys, &freqs).unwrap();
+            for k in 0..freqs.len() {
+                assert!(
+                    (a.mag_db[k] - b.mag_db[k]).abs() < 1e-9,
+                    "{sum_pressure_closed}"
+                );
+            }
+            assert_eq!(view.operating_point.len(), 5);
+        }
+        let closed = Loop::of_rig(Rig::default(), "r", false)
+            .view(true, false)
+            .unwrap();
+        assert_eq!((closed.inputs.len(), closed.outputs.len()), (1, 6));
+    }
+
+    #[test]
+    fn a_json_loop_closes_by_unity_feedback() {
+        // L(s) = 2/(s + 1): closed loop 2/(s + 3), DC gain 2/3
+        let lp = Loop::from_json(
+            r#"{"A": [[-1]], "B": [[1]], "C": [[2]], "D": [[0]]}"#,
+            "l.json",
+        )
+        .unwrap();
+        let view = lp.view(true, false).unwrap();
+        assert!((view.sys.a[(0, 0)] + 3.0).abs() < 1e-12);
+        let dc = -view.sys.c[(0, 0)] * view.sys.b[(0, 0)] / view.sys.a[(0, 0)];
+        assert!((dc - 2.0 / 3.0).abs() < 1e-12, "{dc}");
+        assert!(view.operating_point.is_empty() && view.rig.is_none());
+    }
+}

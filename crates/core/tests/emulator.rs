@@ -1,0 +1,183 @@
+//! The nonlinear emulator against the LTI model, and identification on the embedded emulated
+//! records recovering the emulator's truth (docs/emulator.md#how-it-is-checked).
+
+use pumpcyl::bulk::effective_beta;
+use pumpcyl::emulator::article::{self, Kind};
+use pumpcyl::emulator::{Experiment, Plc};
+use pumpcyl::ident::{identify_drive, Experiment as Ident, Options, Standstill};
+use pumpcyl::record::Record;
+use pumpcyl::response::{simulate, Baseline, Signals};
+use std::path::Path;
+
+fn data(file: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/article")
+        .join(file)
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    (s / n as f64).sqrt()
+}
+
+/// RMS of (emulated − LTI) position over [t0, t1).
+fn rms_between(em: &Signals, lti: &Signals, t0: f64, t1: f64) -> f64 {
+    rms(em
+        .time_s
+        .iter()
+        .zip(em.x_mm.iter().zip(&lti.x_mm))
+        .filter(|(t, _)| **t >= t0 && **t < t1)
+        .map(|(_, (a, b))| a - b))
+}
+
+#[test]
+fn the_emulated_step_settles_in_a_non_lti_way_after_the_fit_window() {
+    // the identification step on the article truth, sensors ideal, against the LTI model of
+    // the same truth (β_e at the mean pressure, the PLC's sum-pressure gain)
+    let rec = &article::records().unwrap()[0];
+    let Kind::Loop(exp) = rec.kind else {
+        panic!("the first record is the identification step")
+    };
+    let em = exp
+        .run(&rec.truth.rig, rec.truth.effects, &Plc::ideal(100.0))
+        .unwrap();
+    let mut base = Baseline::of_rig(&rec.truth.rig);
+    base.x_ref_mm = em.x_ref_mm[0];
+    base.x_mm = em.x_mm[0];
+    base.p_bar = [em.p1_bar[0], em.p2_bar[0]];
+    base.w_rpm = [em.w1_rpm[0], em.w2_rpm[0]];
+    let lti = simulate(&rec.truth.rig, &em.time_s, &em.x_ref_mm, &base).unwrap();
+    let end = article::STEP_AT_S + article::fit_window_s(rec.truth.rig.kp);
+    let inside = rms_between(&em, &lti, 0.0, end);
+    let after = rms_between(&em, &lti, end + 0.5, em.time_s[em.time_s.len() - 1] + 1.0);
+    eprintln!("RMS emulated - LTI: {inside} mm inside the fit window, {after} mm after it");
+    // under 2 % of the 5 mm step inside the window (the article's 2.2 s after the step); after
+    // it the LTI model still swings while dead band and friction damp the emulated rig
+    assert!(inside < 0.12, "inside the fit window: {inside} mm RMS");
+    assert!(after > 0.15, "after the fit window: {after} mm RMS");
+    assert!(
+        after > 1.8 * inside,
+        "after {after} vs inside {inside} mm RMS"
+    );
+    // the difference is damping: after the window the emulated rig swings about its target
+    // less than the LTI model does (measured 0.38 against 0.51 mm RMS from 0.5 s after the
+    // window's end)
+    let target = em.x_ref_mm[em.x_ref_mm.len() - 1];
+    let swing = |s: &Signals| {
+        rms(s
+            .time_s
+            .iter()
+            .zip(&s.x_mm)
+            .filter(|(t, _)| **t >= end + 0.5)
+            .map(|(_, x)| x - target))
+    };
+    let (swing_em, swing_lti) = (swing(&em), swing(&lti));
+    eprintln!("swing about the target after the window: {swing_em} emulated, {swing_lti} LTI");
+    assert!(
+        swing_em < 0.8 * swing_lti,
+        "swing {swing_em} vs LTI {swing_lti} mm RMS"
+    );
+}
+
+#[test]
+fn the_emulated_sinusoid_tracks_the_full_stroke_of_the_wave() {
+    // ±50 mm, where the volumes and the mass change with stroke: the rig still follows the
+    // wave (the loop is type 1), and the record stays inside its stroke
+    let rec = article::records()
+        .unwrap()
+        .into_iter()
+        .find(|r| r.file == "sine_0.10hz_50mm.csv")
+        .unwrap();
+    let Kind::Loop(Experiment::Sine {
+        centre_mm,
+        amplitude_mm,
+        ..
+    }) = rec.kind
+    else {
+        panic!("a sine")
+    };
+    let rec_data = Record::read(&data(rec.file)).unwrap();
+    let x = &rec_data.x_mm;
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+    // the emulated rig follows the wave to within a few millimetres of its amplitude
+    assert!((hi - centre_mm - amplitude_mm).abs() < 5.0, "top {hi}");
+    assert!((centre_mm - amplitude_mm - lo).abs() < 5.0, "bottom {lo}");
+}
+
+#[test]
+fn identification_on_the_embedded_records_recovers_the_emulator_truth() {
+    let exp = Ident::load(&data("identify.toml")).unwrap();
+    let id = exp.identify(&Options::default()).unwrap();
+    let best = id.refined.unwrap_or(id.grid_best).candidate;
+    // the truth: β_e at the record's mean chamber pressure by the emulator's gas fraction
+    let rec = Record::read(&data("identification.csv")).unwrap();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let p_mean = 0.5 * (mean(rec.p1_bar.as_ref().unwrap()) + mean(rec.p2_bar.as_ref().unwrap()));
+    let effects = article::records().unwrap()[0].truth.effects;
+    let beta_true = effective_beta(effects.gas_fraction.unwrap(), p_mean, effects.beta_oil_bar);
+    assert!(
+        (beta_true - 165.0).abs() < 2.0,
+        "truth {beta_true} bar at {p_mean} bar"
+    );
+    assert!(
+        (best.beta_bar - beta_true).abs() <= 10.0,
+        "beta {} bar against {beta_true}",
+        best.beta_bar
+    );
+    let c12_true = pumpcyl::rig::Rig::default().c12_m5_per_ns;
+    let ratio = best.c12_m5_per_ns / c12_true;
+    assert!((1.0 / 1.5..=1.5).contains(&ratio), "c12 ratio {ratio}");
+}
+
+#[test]
+fn the_drive_and_standstill_records_give_back_km_and_the_leakages() {
+    let rig = pumpcyl::rig::Rig::default();
+    let si = rig.si();
+    let drive = pumpcyl::ident::DriveRecord::read(&data("drive_step.csv")).unwrap();
+    let fit = identify_drive(&drive, si.jm[0], si.omega_i).unwrap();
+    let km = fit.km_nms_per_rad / rig.km1_nms_per_rad;
+    assert!((km - 1.0).abs() < 0.02, "Km ratio {km}");
+    // standstill: with the true c12, docs/identification.md#leakage-from-standstill returns the true c1, c2 (the pumps turn faster
+    // than the dead band, so only noise and friction separate them)
+    let s = Standstill::of_record(&Record::read(&data("standstill.csv")).unwrap()).unwrap();
+    let l = s.leakage(&rig, rig.c12_m5_per_ns).unwrap();
+    let c1 = l.c1_m5_per_ns / rig.c1_m5_per_ns;
+    let c2 = l.c2_m5_per_ns / rig.c2_m5_per_ns;
+    assert!((c1 - 1.0).abs() < 0.05, "c1 ratio {c1}");
+    assert!((c2 - 1.0).abs() < 0.10, "c2 ratio {c2}");
+}
+
+#[test]
+fn the_records_readme_and_experiment_match_the_truth_in_the_code() {
+    // data/article/ is regenerated by `pumpcyl emulate --article-records`; its README states
+    // the truth, so it must say what the code does
+    let records = article::records().unwrap();
+    let readme = std::fs::read_to_string(data("README.md")).unwrap();
+    assert_eq!(readme, article::readme(&records));
+    let toml = std::fs::read_to_string(data("identify.toml")).unwrap();
+    assert_eq!(toml, article::identify_experiment());
+    for r in &records {
+        assert!(data(r.file).exists(), "{} is missing", r.file);
+    }
+}
+
+#[test]
+fn the_pumps_leave_the_dead_band_near_the_articles_fit_window_end() {
+    // on the Kp = 25 identification record a pump speed last passes through the emulator's
+    // 60 rpm dead band about 2.2 s after the step, where the article's non-LTI region starts
+    // (measured: 2.15 s)
+    let rec = Record::read(&data("identification.csv")).unwrap();
+    let (w1, w2) = (rec.w1_rpm.as_ref().unwrap(), rec.w2_rpm.as_ref().unwrap());
+    let step = rec.time_s[rec.first_change()];
+    let last = (0..rec.len())
+        .filter(|&k| rec.time_s[k] > step && (w1[k].abs() < 60.0 || w2[k].abs() < 60.0))
+        .map(|k| rec.time_s[k] - step)
+        .fold(f64::NAN, f64::max);
+    let window = article::fit_window_s(25.0);
+    assert!(
+        (last - window).abs() <= 0.15,
+        "last in the dead band {last} s after the step"
+    );
+}

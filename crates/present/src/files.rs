@@ -1,0 +1,392 @@
+//! Safe output: file and folder writes that never lose a user's data, and number formatting.
+//!
+//! Every file pumpcyl writes (the command line, the article workflow, the Python
+//! package) goes through [`write_atomic`] and every result folder through
+//! [`OutDir`], so one place guarantees that a user's data is never lost:
+//! - no output lands on a file this run read (paths compared canonicalised, symlinks resolved);
+//! - a file appears whole or not at all (temporary sibling, then a rename), a folder likewise
+//!   (built as a temporary sibling, then swapped in), and temporaries are removed on SIGINT or
+//!   SIGTERM, or by the next run after a SIGKILL;
+//! - files are created with the permissions the user's umask gives any new file (0666 & !umask).
+
+use anyhow::{Context, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// The marker of a pumpcyl temporary in a file or folder name: `.NAME.pumpcyl-tmp-PID-XXXXXX`.
+const TMP_TAG: &str = ".pumpcyl-tmp-";
+
+/// The marker file that says a folder is a complete pumpcyl result, which a new run may replace.
+const MARKER: &str = ".pumpcyl-output";
+
+/// Temporaries of this run, removed by the signal handler.
+static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn temporaries() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Remove every temporary this process is building (files being written, result folders being
+/// assembled, scratch folders) and keep new ones from starting: for a front end's signal
+/// handler before it ends the process. Returns whether a result was put in place meanwhile is
+/// not known here; callers say only that no output was left half-written.
+///
+/// The registry's lock is held until the process ends (the guard is leaked), so a commit in
+/// progress finishes first and none starts after.
+pub fn remove_temporaries() {
+    let tmp = temporaries();
+    for p in tmp.iter() {
+        // a write of another thread may race the first removal; retry
+        for _ in 0..20 {
+            remove_any(p);
+            if !p.exists() {
+                break;
+            }
+        }
+    }
+    std::mem::forget(tmp);
+}
+
+fn remove_any(p: &Path) {
+    if p.is_dir() {
+        let _ = std::fs::remove_dir_all(p);
+    } else {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// Create a temporary with `create` and register it for removal on interruption; the registry
+/// is locked throughout, so a signal handled meanwhile waits and then removes it too.
+fn create_tracked<T>(
+    create: impl FnOnce() -> std::io::Result<T>,
+    path: impl Fn(&T) -> PathBuf,
+) -> std::io::Result<T> {
+    let mut registry = temporaries();
+    let made = create()?;
+    registry.push(path(&made));
+    Ok(made)
+}
+
+fn untrack(p: &Path) {
+    temporaries().retain(|q| q != p);
+}
+
+/// The canonical form of a path that may not exist yet: its deepest existing ancestor
+/// canonicalised (symlinks resolved), the rest appended.
+fn resolve(path: &Path) -> PathBuf {
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir().unwrap_or_default().join(path)
+    };
+    let mut rest = Vec::new();
+    let mut head = abs.as_path();
+    loop {
+        if let Ok(real) = std::fs::canonicalize(head) {
+            return rest.iter().rev().fold(real, |acc, part| acc.join(part));
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                head = parent;
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// Refuse an output at `path` that is, or (for a folder) contains, a file this run read.
+pub fn check_not_input(path: &Path) -> Result<()> {
+    let target = resolve(path);
+    for input in pumpcyl::input::files_read() {
+        if input == target {
+            anyhow::bail!(
+                "{}: is an input of this command; writing there would destroy it, choose \
+                 another output",
+                path.display()
+            );
+        }
+        if input.starts_with(&target) {
+            anyhow::bail!(
+                "{}: holds the input {}, which replacing the folder would destroy; choose \
+                 another output folder",
+                path.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The folder of `path` ("." for a bare name).
+fn parent_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Remove temporaries of `name` in `dir` left by runs that no longer exist (killed by SIGKILL or
+/// a power cut): their names carry the process id.
+fn remove_stale(dir: &Path, name: &str) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let prefix = format!(".{name}{TMP_TAG}");
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|pid| pid != std::process::id() && !alive(pid)) {
+            remove_any(&entry.path());
+        }
+    }
+}
+
+/// Whether process `pid` exists.
+fn alive(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    // SAFETY: kill with signal 0 only checks for the process; it has no memory effects.
+    let r = unsafe { libc::kill(pid, 0) };
+    r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+}
+
+/// The name prefix of this run's temporaries for `name`.
+fn tmp_prefix(name: &str) -> String {
+    format!(".{name}{TMP_TAG}{}-", std::process::id())
+}
+
+fn file_name(path: &Path) -> Result<String> {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .with_context(|| format!("{}: not a file name", path.display()))
+}
+
+/// Write `bytes` to `path` atomically: a temporary file in the same folder, then a rename, so a
+/// failure or an interruption never leaves a half-written output behind. Refuses to write over
+/// an input of this run; the file gets the permissions of any new file (0666 & !umask).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    check_not_input(path)?;
+    let dir = parent_of(path);
+    let name = file_name(path)?;
+    if path.is_dir() {
+        anyhow::bail!("{}: is a folder; give a file name", path.display());
+    }
+    remove_stale(dir, &name);
+    use std::os::unix::fs::PermissionsExt;
+    let mut tmp = create_tracked(
+        || {
+            tempfile::Builder::new()
+                .prefix(&tmp_prefix(&name))
+                .permissions(std::fs::Permissions::from_mode(0o666))
+                .tempfile_in(dir)
+        },
+        |t| t.path().to_path_buf(),
+    )
+    .with_context(|| {
+        format!(
+            "{}: cannot create a file in {}",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    let written = tmp
+        .write_all(bytes)
+        .and_then(|_| tmp.as_file().sync_all())
+        .with_context(|| format!("{}: write failed", path.display()));
+    let tmp_path = tmp.path().to_path_buf();
+    let result = written.and_then(|_| {
+        tmp.persist(path)
+            .map(|_| ())
+            .map_err(|e| e.error)
+            .with_context(|| format!("{}: cannot write", path.display()))
+    });
+    untrack(&tmp_path);
+    result
+}
+
+/// Create the folder `dir` (and its parents) for outputs written one file at a time; an existing
+/// file of that name is named as such.
+pub fn ensure_folder(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        anyhow::bail!(
+            "{}: exists and is not a folder; give a folder for --out",
+            dir.display()
+        );
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))
+}
+
+/// A result folder built as a temporary sibling and swapped in whole by [`OutDir::commit`]: at
+/// every moment the folder holds the complete previous result or the complete new one.
+pub struct OutDir {
+    target: PathBuf,
+    tmp: PathBuf,
+}
+
+impl OutDir {
+    /// Start building the folder `target`. Refused when `target` is a file, a folder that holds
+    /// an input of this run, or a non-empty folder that is not an earlier pumpcyl result (a new
+    /// run replaces the whole folder).
+    pub fn begin(target: &Path) -> Result<OutDir> {
+        check_not_input(target)?;
+        let shown = target.display();
+        if target.exists() && !target.is_dir() {
+            anyhow::bail!("{shown}: exists and is not a folder; give a folder for --out");
+        }
+        if target.is_dir() && !target.join(MARKER).exists() {
+            let mut entries = std::fs::read_dir(target)
+                .with_context(|| format!("{shown}: cannot read the folder"))?;
+            if entries.next().is_some() {
+                anyhow::bail!(
+                    "{shown}: folder is not empty and is not an earlier pumpcyl result; a run \
+                     replaces the whole folder, so give a new or empty one"
+                );
+            }
+        }
+        let parent = parent_of(target);
+        let name = file_name(target)?;
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("{}: cannot create", parent.display()))?;
+        remove_stale(parent, &name);
+        use std::os::unix::fs::PermissionsExt;
+        let tmp = create_tracked(
+            || {
+                Ok(tempfile::Builder::new()
+                    .prefix(&tmp_prefix(&name))
+                    .permissions(std::fs::Permissions::from_mode(0o777))
+                    .tempdir_in(parent)?
+                    .keep())
+            },
+            PathBuf::clone,
+        )
+        .with_context(|| format!("{shown}: cannot create a folder in {}", parent.display()))?;
+        Ok(OutDir {
+            target: target.to_path_buf(),
+            tmp,
+        })
+    }
+
+    /// Where to write the files: the temporary folder.
+    pub fn path(&self) -> &Path {
+        &self.tmp
+    }
+
+    /// Create the subfolder `sub` of the temporary folder (under the registry lock, so an
+    /// interruption never races it and leaves it behind).
+    pub fn create_subfolder(&self, sub: &str) -> Result<()> {
+        let _registry = temporaries();
+        let path = self.tmp.join(sub);
+        std::fs::create_dir(&path).with_context(|| format!("{}: cannot create", path.display()))
+    }
+
+    /// Put the finished folder in place, atomically (an exchange with the old folder on Linux).
+    pub fn commit(self) -> Result<()> {
+        std::fs::File::create(self.tmp.join(MARKER))
+            .with_context(|| format!("{}: cannot write", self.tmp.display()))?;
+        let shown = self.target.display();
+        let guard = temporaries();
+        let swapped = if self.target.is_dir() {
+            exchange(&self.tmp, &self.target)
+        } else {
+            std::fs::rename(&self.tmp, &self.target)
+        };
+        drop(guard);
+        let result = swapped.with_context(|| format!("{shown}: cannot put the result in place"));
+        // after an exchange the temporary name holds the previous result
+        remove_any(&self.tmp);
+        untrack(&self.tmp);
+        result
+    }
+}
+
+impl Drop for OutDir {
+    /// An abandoned folder (an error before commit) is removed; the target is untouched.
+    fn drop(&mut self) {
+        if self.tmp.exists() {
+            remove_any(&self.tmp);
+            untrack(&self.tmp);
+        }
+    }
+}
+
+/// Swap two folders atomically (Linux `renameat2(RENAME_EXCHANGE)`); where the file system
+/// cannot, the old folder is moved aside first.
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let ca = std::ffi::CString::new(a.as_os_str().as_bytes())?;
+        let cb = std::ffi::CString::new(b.as_os_str().as_bytes())?;
+        // SAFETY: two valid NUL-terminated paths; the call touches no memory of ours.
+        let r = unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                ca.as_ptr(),
+                libc::AT_FDCWD,
+                cb.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            )
+        };
+        if r == 0 {
+            return Ok(());
+        }
+    }
+    let aside = a.with_extension("old");
+    std::fs::rename(b, &aside)?;
+    std::fs::rename(a, b)?;
+    std::fs::rename(&aside, a)
+}
+
+/// A finite value with `digits` decimals, or "inf".
+pub fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "inf".to_string(), |x| format!("{x:.digits$}"))
+}
+
+/// The last component of a file path, for figure titles: a title names the record, not the
+/// folder it happens to be read from (a temporary one, in a result folder built aside).
+pub fn shown_name(path: &str) -> String {
+    file_name(Path::new(path)).unwrap_or_else(|_| path.to_string())
+}
+
+/// A private working folder in the system's temporary folder, removed when dropped and, like
+/// every temporary of this run, on SIGINT, SIGTERM or SIGHUP (one left by a killed run is
+/// removed by the next): for inputs a library call lays out as files (the workflow's embedded
+/// records).
+pub struct Scratch {
+    dir: tempfile::TempDir,
+}
+
+impl Scratch {
+    /// Create the folder.
+    pub fn new() -> Result<Scratch> {
+        let parent = std::env::temp_dir();
+        remove_stale(&parent, "scratch");
+        let dir = create_tracked(
+            || {
+                tempfile::Builder::new()
+                    .prefix(&tmp_prefix("scratch"))
+                    .tempdir_in(&parent)
+            },
+            |d| d.path().to_path_buf(),
+        )
+        .context("cannot create a folder in the system's temporary folder")?;
+        Ok(Scratch { dir })
+    }
+
+    /// Where it is.
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        untrack(self.dir.path());
+    }
+}

@@ -1,0 +1,281 @@
+//! The files of an identification (docs/identification.md): `result.json`, the cost landscape
+//! over β × c12 at the best b (`landscape.csv`, `.svg`, `.png`), one fit figure per dataset
+//! (`fit-K.svg`, `.png`, the article's Figure 6 layout) and `result.mat`, built in memory.
+
+use crate::figures::{Chart, Plot, PARAMETER_AXES};
+use crate::plot::{HeatMap, Marker};
+use anyhow::Result;
+use pumpcyl::ident::{Candidate, Experiment, Identification, Leakage, Scored};
+use pumpcyl::matfile::MatWriter;
+use pumpcyl::response::Signals;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+
+/// The JSON of one scored candidate, with the leakages when given.
+fn scored_json(s: &Scored, leak: Option<&Leakage>) -> Value {
+    let mut v = json!({
+        "beta_bar": s.candidate.beta_bar,
+        "viscous_friction_ns_per_m": s.candidate.viscous_friction_ns_per_m,
+        "c12_m5_per_ns": s.candidate.c12_m5_per_ns,
+        "cost_mm2": s.cost_mm2,
+    });
+    if let Some(l) = leak {
+        v["c1_m5_per_ns"] = json!(l.c1_m5_per_ns);
+        v["c2_m5_per_ns"] = json!(l.c2_m5_per_ns);
+    }
+    v
+}
+
+/// The JSON of an identification (written as result.json), `seconds` the time it took (s).
+pub fn identification_json(exp: &Experiment, id: &Identification, seconds: f64) -> Result<Value> {
+    let best = id.best();
+    let grid_leak = exp
+        .problem
+        .standstill
+        .leakage(&exp.rig, id.grid_best.candidate.c12_m5_per_ns)?;
+    let mut v = scored_json(best, Some(&id.leakage));
+    v["candidates_evaluated"] = json!(id.evaluated());
+    v["seconds"] = json!(seconds);
+    v["refined"] = json!(id.refined.is_some());
+    v["grid_best"] = scored_json(&id.grid_best, Some(&grid_leak));
+    v["non_finite"] = json!(id.stages.iter().map(|s| s.summary.non_finite).sum::<u64>());
+    v["unstable"] = json!(id.stages.iter().map(|s| s.summary.unstable).sum::<u64>());
+    v["pruned"] = json!(id.stages.iter().map(|s| s.summary.pruned).sum::<u64>());
+    v["stages"] = id
+        .stages
+        .iter()
+        .map(|s| {
+            json!({
+                "candidates": s.grid.len(), "evaluated": s.summary.evaluated,
+                "threshold_mm2": s.summary.threshold_mm2, "threshold_count": s.summary.threshold_count,
+                "threshold_bounds": s.summary.threshold_bounds.map(|b| json!({
+                    "beta_bar": b[0], "viscous_friction_ns_per_m": b[1], "c12_m5_per_ns": b[2]})),
+            })
+        })
+        .collect();
+    v["top"] = id.top.iter().map(|s| scored_json(s, None)).collect();
+    v["experiment"] = json!(exp.path.display().to_string());
+    Ok(v)
+}
+
+/// The identification cost over β × c12 at one b.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Landscape {
+    /// β values (bar).
+    pub beta_bar: Vec<f64>,
+    /// c12 values (m⁵/(N·s)).
+    pub c12_m5_per_ns: Vec<f64>,
+    /// The b they share (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// Cost (mm²), β varying fastest; +∞ for unstable or non-finite candidates.
+    pub cost_mm2: Vec<f64>,
+}
+
+impl Landscape {
+    /// The cost over β × c12 at the best grid point's b, on the stage grid that holds it.
+    pub fn of(exp: &Experiment, id: &Identification) -> Landscape {
+        use rayon::prelude::*;
+        let best = id.grid_best;
+        let grid = &id.stages[(best.stage.max(1) - 1) as usize].grid;
+        let b = best.candidate.viscous_friction_ns_per_m;
+        let (xs, ys) = (&grid.beta_bar, &grid.c12_m5_per_ns);
+        let mut cost = vec![f64::INFINITY; xs.len() * ys.len()];
+        cost.par_iter_mut().enumerate().for_each(|(k, c)| {
+            let cand = Candidate {
+                beta_bar: xs[k % xs.len()],
+                viscous_friction_ns_per_m: b,
+                c12_m5_per_ns: ys[k / xs.len()],
+            };
+            let v = exp.problem.cost(&cand);
+            *c = if v.is_finite() && exp.problem.is_stable(&cand) {
+                v
+            } else {
+                f64::INFINITY
+            };
+        });
+        Landscape {
+            beta_bar: xs.clone(),
+            c12_m5_per_ns: ys.clone(),
+            viscous_friction_ns_per_m: b,
+            cost_mm2: cost,
+        }
+    }
+
+    /// The landscape as CSV: `beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2`.
+    pub fn csv(&self) -> String {
+        let (xs, ys, b) = (
+            &self.beta_bar,
+            &self.c12_m5_per_ns,
+            self.viscous_friction_ns_per_m,
+        );
+        let mut csv = String::from("beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2\n");
+        for (k, c) in self.cost_mm2.iter().enumerate() {
+            let _ = writeln!(csv, "{},{b},{:e},{c}", xs[k % xs.len()], ys[k / xs.len()]);
+        }
+        csv
+    }
+
+    /// The heat map of the landscape with the best grid point `best` marked; c12 on a log axis
+    /// when the grid is geometric.
+    pub fn chart(&self, best: &Candidate) -> Chart {
+        let ys = &self.c12_m5_per_ns;
+        let map = HeatMap {
+            x: self.beta_bar.clone(),
+            y: ys.clone(),
+            cost: self.cost_mm2.clone(),
+            x_label: PARAMETER_AXES[0].into(),
+            y_label: PARAMETER_AXES[2].into(),
+            y_log: ys.len() > 2
+                && ys[2] / ys[1] > 1.0 + 1e-9
+                && (ys[2] / ys[1] - ys[1] / ys[0]).abs() < 1e-6,
+            cost_label: "cost (mm²)".into(),
+        };
+        let marker = Marker {
+            x: best.beta_bar,
+            y: best.c12_m5_per_ns,
+            label: "best grid point".into(),
+        };
+        Chart {
+            title: "Identification cost landscape".into(),
+            subtitle: Some(format!(
+                "b = {} N·s/m (best grid point)",
+                self.viscous_friction_ns_per_m
+            )),
+            plot: Plot::HeatMap {
+                map,
+                markers: vec![marker],
+            },
+        }
+    }
+}
+
+/// A dataset's fit: its name, the measured record's signals and the identified model's.
+pub struct Fit {
+    /// The dataset's name.
+    pub name: String,
+    /// The measured (or emulated) record.
+    pub measured: Signals,
+    /// The identified model on the same reference.
+    pub model: Signals,
+}
+
+/// result.mat: the answer (`beta_bar`, `viscous_friction_ns_per_m`, `c12_m5_per_ns`,
+/// `c1_m5_per_ns`, `c2_m5_per_ns`, `cost_mm2`), the top list (`top`: one row per candidate,
+/// columns β, b, c12, cost), the landscape (`landscape_beta_bar`, `landscape_c12_m5_per_ns`,
+/// `landscape_cost_mm2` with one row per c12 and one column per β) and the fits
+/// (`fitK_dataset`, `fitK_time_s`, `fitK_x_ref_mm`, `fitK_x_mm` measured and `fitK_sim_x_mm`
+/// simulated, for dataset K).
+pub fn identification_mat(id: &Identification, landscape: &Landscape, fits: &[Fit]) -> Vec<u8> {
+    let best = id.best();
+    let mut w = MatWriter::new("pumpcyl identification");
+    w.scalar("beta_bar", best.candidate.beta_bar)
+        .scalar(
+            "viscous_friction_ns_per_m",
+            best.candidate.viscous_friction_ns_per_m,
+        )
+        .scalar("c12_m5_per_ns", best.candidate.c12_m5_per_ns)
+        .scalar("c1_m5_per_ns", id.leakage.c1_m5_per_ns)
+        .scalar("c2_m5_per_ns", id.leakage.c2_m5_per_ns)
+        .scalar("cost_mm2", best.cost_mm2);
+    let top: Vec<Vec<f64>> = id
+        .top
+        .iter()
+        .map(|s| {
+            vec![
+                s.candidate.beta_bar,
+                s.candidate.viscous_friction_ns_per_m,
+                s.candidate.c12_m5_per_ns,
+                s.cost_mm2,
+            ]
+        })
+        .collect();
+    if top.is_empty() {
+        w.matrix("top", 0, 4, &[]);
+    } else {
+        w.rows("top", &top);
+    }
+    w.text(
+        "top_columns",
+        "beta_bar,viscous_friction_ns_per_m,c12_m5_per_ns,cost_mm2",
+    )
+    .column("landscape_beta_bar", &landscape.beta_bar)
+    .column("landscape_c12_m5_per_ns", &landscape.c12_m5_per_ns)
+    .scalar(
+        "landscape_viscous_friction_ns_per_m",
+        landscape.viscous_friction_ns_per_m,
+    );
+    // one row per c12, one column per β, as surf(beta, c12, cost) and imagesc expect: element
+    // (j, i) is cost[j·nβ + i], written column by column.
+    let (nb, nc) = (landscape.beta_bar.len(), landscape.c12_m5_per_ns.len());
+    let transposed: Vec<f64> = (0..nb)
+        .flat_map(|i| (0..nc).map(move |j| (i, j)))
+        .map(|(i, j)| landscape.cost_mm2[j * nb + i])
+        .collect();
+    w.matrix("landscape_cost_mm2", nc, nb, &transposed);
+    for (k, fit) in fits.iter().enumerate() {
+        w.text(&format!("fit{}_dataset", k + 1), &fit.name);
+        for (col, v) in [
+            ("time_s", &fit.measured.time_s),
+            ("x_ref_mm", &fit.measured.x_ref_mm),
+            ("x_mm", &fit.measured.x_mm),
+            ("sim_x_mm", &fit.model.x_mm),
+        ] {
+            w.column(&format!("fit{}_{col}", k + 1), v);
+        }
+    }
+    w.into_bytes()
+}
+
+/// The fit figure of dataset `i` (0-based): the identified model against the record, the fit
+/// window's end marked.
+pub fn fit_chart(exp: &Experiment, id: &Identification, i: usize, fit: &Fit) -> Chart {
+    let ds = &exp.problem.datasets[i];
+    let best = &id.best().candidate;
+    let subtitle = format!(
+        "{}: Kp {}, m {} kg, fit window to {} s; cost {:.4} mm²",
+        ds.name,
+        ds.rig.kp,
+        ds.rig.mass_kg,
+        ds.fit_end_s,
+        exp.problem.dataset_mse(best, ds)
+    );
+    Chart::signals(
+        &format!("Identified model against {}", ds.name),
+        Some(&subtitle),
+        &[("model".to_string(), &fit.model)],
+        Some(&fit.measured),
+        Some(ds.fit_end_s),
+    )
+}
+
+/// Every file of an identification's result folder, in memory: (file name, contents), with
+/// `v` the JSON of [`identification_json`]. The names: result.json, landscape.csv,
+/// landscape.svg, landscape.png, fit-K.svg and fit-K.png for dataset K, result.mat.
+pub fn files(exp: &Experiment, id: &Identification, v: &Value) -> Result<Vec<(String, Vec<u8>)>> {
+    let mut out = vec![(
+        "result.json".to_string(),
+        (serde_json::to_string_pretty(v)? + "\n").into_bytes(),
+    )];
+    let landscape = Landscape::of(exp, id);
+    let chart = landscape.chart(&id.grid_best.candidate);
+    out.push(("landscape.csv".into(), landscape.csv().into_bytes()));
+    out.push(("landscape.svg".into(), chart.svg()?.into_bytes()));
+    out.push(("landscape.png".into(), chart.png()?));
+    let mut fits = Vec::new();
+    for (i, ds) in exp.problem.datasets.iter().enumerate() {
+        let fit = Fit {
+            name: ds.name.clone(),
+            measured: Signals::of_record(&ds.record),
+            model: exp.problem.simulate(&id.best().candidate, ds)?,
+        };
+        let chart = fit_chart(exp, id, i, &fit);
+        out.push((format!("fit-{}.svg", i + 1), chart.svg()?.into_bytes()));
+        out.push((format!("fit-{}.png", i + 1), chart.png()?));
+        fits.push(fit);
+    }
+    out.push((
+        "result.mat".into(),
+        identification_mat(id, &landscape, &fits),
+    ));
+    Ok(out)
+}

@@ -1,0 +1,21 @@
+//! pumpcyl-present: the presentation layer of pumpcyl (docs/architecture.md).
+//!
+//! Everything a front end shows or writes is made here, once, for the command line, the Python
+//! package and any Rust program: figures, the article workflow and its report, and every JSON,
+//! text, CSV and MAT document. The numerics are in the core crate (`pumpcyl`); front ends only
+//! parse, call and show. Modules:
+//! - [`plot`] — the plotting toolkit (panels, Bode, heat map; SVG and PNG) and the HTML page;
+//! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape);
+//! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
+//! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
+//! - [`files`] — safe result files and folders: whole or not at all, never over an input;
+//! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report.
+
+#![warn(missing_docs)]
+
+pub mod figures;
+pub mod files;
+pub mod identification;
+pub mod matlab;
+pub mod plot;
+pub mod reproduce;

@@ -1,0 +1,800 @@
+//! Stacked time-series panels: one or more panels, each with its own value
+//! axis and unit, sharing one time axis in seconds, rendered to SVG or PNG in
+//! memory. Used for step responses (position, error, pressures, motor
+//! speeds), measured-vs-simulated overlays and model-variant comparisons.
+//!
+//! The look (fonts, sizes, grid, palette, margins) follows the Bode diagrams
+//! of [`super::bode`], so all pumpcyl figures form one family.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::axes::{self, linear_axis, nice_axis, Axis};
+use super::bode::DEFAULT_WIDTH_PX;
+use super::legend::{self, LegendEntry, LegendMetrics};
+use super::render::ReportError;
+use super::render::{self, header_height};
+use super::series::{draw_pieces, finite_extent, series_color, Pieces, Polyline, Stroke, PALETTE};
+use super::stack;
+
+/// Height of the plotting area of one panel in the default (SVG) layout, in
+/// pixels; with the gap to the next panel a panel takes 220 px.
+pub const PANEL_PLOT_HEIGHT_PX: u32 = 200;
+
+/// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
+const MIN_PLOT_HEIGHT_PX: i32 = 40;
+
+/// Line style of a trace.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LineStyle {
+    /// Continuous line.
+    #[default]
+    Solid,
+    /// Dashes (10 px dash, 6 px gap at the default size), e.g. for a model
+    /// variant or a reference.
+    Dashed,
+    /// Dots (2 px every 6 px at the default size), e.g. for a secondary
+    /// reference.
+    Dotted,
+}
+
+/// One curve of a panel: time in seconds and values in the panel's unit.
+///
+/// `t_s` and `y` are indexed together and must have the same length. Points
+/// whose time or value is not finite (NaN, ±inf) are skipped and break the
+/// line; a finite point without finite neighbours is drawn as a dot. Time
+/// need not be uniformly sampled.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trace {
+    /// Label shown in the panel's legend; an empty label keeps the trace out
+    /// of the legend.
+    pub label: String,
+    /// Sample times, in seconds.
+    pub t_s: Vec<f64>,
+    /// Values at the sample times, in the unit named by the panel's
+    /// [`Panel::y_label`] (e.g. mm, bar, rpm).
+    pub y: Vec<f64>,
+    /// Line style.
+    pub style: LineStyle,
+    /// Colour as an index into the colour-blind-safe palette (8 colours,
+    /// taken modulo 8: 0 blue, 1 vermillion, 2 bluish green, 3 reddish
+    /// purple, 4 orange, 5 sky blue, 6 black, 7 yellow). `None` takes the
+    /// first palette colour not yet used in the panel (neither by an explicit
+    /// `Some` of any trace of the panel nor by an earlier `None` trace).
+    pub color: Option<usize>,
+}
+
+/// One panel of the figure: a value axis and the traces drawn on it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Panel {
+    /// Value-axis description with its unit, e.g. `"Position (mm)"`.
+    pub y_label: String,
+    /// Curves of the panel, drawn in order (later ones on top).
+    pub traces: Vec<Trace>,
+}
+
+/// Default figure size in pixels, `(width, height)`, for `panel_count` panels
+/// with or without a subtitle: [`DEFAULT_WIDTH_PX`] wide and about 220 px of
+/// height per panel plus the title, subtitle and time axis (4 panels with a
+/// subtitle: 1000 x 1001). [`panels_svg`] uses this size; it is also a
+/// sensible size for [`panels_png`].
+pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32) {
+    let n = panel_count.clamp(1, 1000) as f64;
+    let h = header_height(1.0, 1, usize::from(with_subtitle)) as f64
+        + stack::natural_height(n, f64::from(PANEL_PLOT_HEIGHT_PX));
+    (DEFAULT_WIDTH_PX, h.round() as u32)
+}
+
+/// Render `panels` stacked vertically (first panel on top), sharing one time
+/// axis in seconds (labelled "Time (s)" under the bottom panel only), to an
+/// SVG document in memory of [`panels_default_size`] pixels.
+///
+/// `title` is printed at the top, `subtitle` (smaller, grey) under it, e.g.
+/// metrics like "rise 0.62 s, overshoot 4.1 %" or a notice like "emulated
+/// data". The time axis spans the union of the finite times of all traces;
+/// each panel's value axis spans its finite values with 5 % padding (a
+/// constant signal gets ±5 % of its value, or ±1 around 0). A panel with
+/// labelled traces gets a legend of them (semi-transparent box): in the
+/// top-right corner if it hides no curve there, else in the first free corner
+/// (top left, bottom right, bottom left), using up to 4 columns if one column
+/// fits nowhere; if every placement hides a curve, the top of the value axis
+/// is raised (legend at most 40 % of the panel height) to make room above
+/// the data, and failing that the legend covers the fewest curve segments.
+///
+/// # Errors
+/// [`ReportError::Empty`] when `panels` is empty or no trace has a point with
+/// finite time and value; [`ReportError::Plot`] when a trace's `t_s` and `y`
+/// differ in length (the message names the panel and trace), values are too
+/// large to scale (beyond about ±1e307) or plotting fails.
+pub fn panels_svg(
+    title: &str,
+    subtitle: Option<&str>,
+    panels: &[Panel],
+) -> Result<String, ReportError> {
+    panels_xy_svg(title, subtitle, "Time (s)", panels)
+}
+
+/// As [`panels_svg`] with another shared x axis than time: `x_label` names it with its unit
+/// (e.g. "Mean pressure (bar)") and the traces' `t_s` hold the x values.
+pub fn panels_xy_svg(
+    title: &str,
+    subtitle: Option<&str>,
+    x_label: &str,
+    panels: &[Panel],
+) -> Result<String, ReportError> {
+    let mut figure = Figure::prepare(title, subtitle, panels)?;
+    figure.x_label = x_label.to_string();
+    let size = panels_default_size(panels.len(), figure.subtitle.is_some());
+    render::to_svg(&figure, size)
+}
+
+/// Same figure as [`panels_svg`], rendered to an encoded PNG file (the bytes
+/// of the file, RGB, 8 bit), `width` x `height` pixels. Text and line widths
+/// scale with the image size relative to [`panels_default_size`]; the panels
+/// share the height left by the title and the time axis equally.
+///
+/// # Errors
+/// As [`panels_svg`]; additionally [`ReportError::Plot`] when the size is
+/// below 320 x 240 or above 16384 pixels on a side, too low for the number of
+/// panels, or PNG encoding fails.
+pub fn panels_png(
+    title: &str,
+    subtitle: Option<&str>,
+    panels: &[Panel],
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
+    panels_xy_png(title, subtitle, "Time (s)", panels, width, height)
+}
+
+/// As [`panels_png`] with another shared x axis (see [`panels_xy_svg`]).
+pub fn panels_xy_png(
+    title: &str,
+    subtitle: Option<&str>,
+    x_label: &str,
+    panels: &[Panel],
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
+    let mut figure = Figure::prepare(title, subtitle, panels)?;
+    figure.x_label = x_label.to_string();
+    let base = panels_default_size(panels.len(), figure.subtitle.is_some());
+    render::to_png(&figure, width, height, base)
+}
+
+// ---------------------------------------------------------------------------
+// Data preparation
+// ---------------------------------------------------------------------------
+
+/// The trace `(t, y)` split into runs of consecutive points with finite time and value.
+fn split_pieces(t: &[f64], y: &[f64]) -> Pieces {
+    let finite = |(&t, &y): (&f64, &f64)| (t.is_finite() && y.is_finite()).then_some((t, y));
+    Pieces::split(t.iter().zip(y).map(finite))
+}
+
+/// Range with a non-zero span around the extent `lo..=hi`: unchanged when it
+/// has a usable span, else ±5 % of the value (±1 around 0).
+fn widen_degenerate(lo: f64, hi: f64) -> (f64, f64) {
+    let mag = lo.abs().max(hi.abs());
+    let span = hi - lo;
+    if span > mag * 1e-9 && span >= 1e-100 {
+        return (lo, hi);
+    }
+    let centre = 0.5 * (lo + hi);
+    let half = if 0.05 * mag >= 1e-100 {
+        0.05 * mag
+    } else {
+        1.0
+    };
+    (centre - half, centre + half)
+}
+
+/// Palette index of every trace of a panel (see [`Trace::color`]).
+fn assign_colors(traces: &[Trace]) -> Vec<usize> {
+    let n = PALETTE.len();
+    let mut taken = vec![false; n];
+    for c in traces.iter().filter_map(|t| t.color) {
+        taken[c % n] = true;
+    }
+    let mut cycle = 0;
+    traces
+        .iter()
+        .map(|t| match t.color {
+            Some(c) => c % n,
+            None => match taken.iter().position(|&used| !used) {
+                Some(i) => {
+                    taken[i] = true;
+                    i
+                }
+                None => {
+                    // All colours in use: cycle through the palette.
+                    cycle += 1;
+                    (cycle - 1) % n
+                }
+            },
+        })
+        .collect()
+}
+
+/// Everything about one panel that does not depend on the image size.
+struct PanelData<'a> {
+    panel: &'a Panel,
+    /// Value range before tick snapping (padded extent), in panel units.
+    y_range: (f64, f64),
+    pieces: Vec<Pieces>,
+    colors: Vec<usize>,
+}
+
+/// Everything needed to draw, computed before touching a backend.
+struct Figure<'a> {
+    title: &'a str,
+    subtitle: Option<&'a str>,
+    /// Label of the shared x axis, with unit.
+    x_label: String,
+    /// Shared time range, in s.
+    t_range: (f64, f64),
+    panels: Vec<PanelData<'a>>,
+}
+
+impl<'a> Figure<'a> {
+    fn prepare(
+        title: &'a str,
+        subtitle: Option<&'a str>,
+        panels: &'a [Panel],
+    ) -> Result<Self, ReportError> {
+        if panels.is_empty() {
+            return Err(ReportError::Empty("no panels given".into()));
+        }
+        for p in panels {
+            for tr in &p.traces {
+                if tr.t_s.len() != tr.y.len() {
+                    return Err(ReportError::Plot(format!(
+                        "panel '{}', trace '{}': {} times and {} values",
+                        p.y_label,
+                        tr.label,
+                        tr.t_s.len(),
+                        tr.y.len()
+                    )));
+                }
+            }
+        }
+        let all_traces = || panels.iter().flat_map(|p| &p.traces);
+        let any_finite = all_traces().any(|tr| {
+            tr.t_s
+                .iter()
+                .zip(&tr.y)
+                .any(|(t, y)| t.is_finite() && y.is_finite())
+        });
+        if !any_finite {
+            return Err(ReportError::Empty(
+                "no point with a finite time and a finite value".into(),
+            ));
+        }
+        let (t_lo, t_hi) = finite_extent(all_traces().flat_map(|tr| tr.t_s.iter().copied()))
+            .expect("a finite point exists");
+        let t_range = widen_degenerate(t_lo, t_hi);
+        check_span(t_range, "time axis")?;
+
+        let panels = panels
+            .iter()
+            .map(|panel| {
+                let y_ext = finite_extent(panel.traces.iter().flat_map(|tr| {
+                    tr.t_s
+                        .iter()
+                        .zip(&tr.y)
+                        .filter(|(t, _)| t.is_finite())
+                        .map(|(_, &y)| y)
+                }));
+                let (lo, hi) =
+                    widen_degenerate(y_ext.map_or(0.0, |e| e.0), y_ext.map_or(0.0, |e| e.1));
+                let pad = 0.05 * (hi - lo);
+                let y_range = (lo - pad, hi + pad);
+                check_span(y_range, &format!("panel '{}'", panel.y_label))?;
+                Ok(PanelData {
+                    panel,
+                    y_range,
+                    pieces: panel
+                        .traces
+                        .iter()
+                        .map(|tr| split_pieces(&tr.t_s, &tr.y))
+                        .collect(),
+                    colors: assign_colors(&panel.traces),
+                })
+            })
+            .collect::<Result<Vec<_>, ReportError>>()?;
+
+        Ok(Figure {
+            title,
+            subtitle: subtitle.filter(|s| !s.trim().is_empty()),
+            x_label: "Time (s)".to_string(),
+            t_range,
+            panels,
+        })
+    }
+}
+
+impl render::Draw for Figure<'_> {
+    /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
+    /// and paddings (1.0 for the default size).
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        scale: f64,
+    ) -> Result<(), ReportError> {
+        let upx = render::upx(scale);
+
+        let (width, height) = root.dim_in_pixel();
+
+        // Header: title and subtitle.
+        let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
+
+        // Vertical layout: equal plotting heights.
+        let n = self.panels.len();
+        let plot_h = stack::plot_height(height as i32 - header_h, n, scale);
+        if plot_h < MIN_PLOT_HEIGHT_PX {
+            return Err(ReportError::Plot(format!(
+                "image height {height} px too small for {n} panels"
+            )));
+        }
+
+        // Ticks: at most one labelled value per ~36 px of panel height.
+        let max_y_intervals = (f64::from(plot_h) / (36.0 * scale)).floor().clamp(2.0, 8.0);
+        let mut y_ticks: Vec<Axis> = self
+            .panels
+            .iter()
+            .map(|p| nice_axis(p.y_range.0, p.y_range.1, max_y_intervals))
+            .collect();
+
+        // Horizontal layout: the y label area fits the widest tick label.
+        let plot_w = stack::plot_width(width, axes::y_label_area(&y_ticks, scale), scale).max(10);
+        let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
+        let x_ticks = linear_axis(self.t_range.0, self.t_range.1, max_x_intervals);
+
+        // Legends: size, corner and columns; headroom above the data when
+        // every placement would hide part of the curves.
+        let styles = TraceStyles::new(scale);
+        let legend_metrics = LegendMetrics::new(scale);
+        let mut legends = Vec::with_capacity(self.panels.len());
+        for (data, yt) in self.panels.iter().zip(y_ticks.iter_mut()) {
+            let entries = legend_entries(data, &styles);
+            if entries.is_empty() {
+                legends.push(None);
+                continue;
+            }
+            let label_w = legend_metrics.label_widths(&entries);
+            let plot = (plot_w, plot_h);
+            let place = |y: &Axis| {
+                legend::place_legend(&data.pieces, (&x_ticks, y), &label_w, &legend_metrics, plot)
+            };
+            let (mut layout, hits) = place(yt);
+            if hits > 0 {
+                // Raise the top of the axis until the legend fits above the
+                // data (the most compact layout, at most 40 % of the panel).
+                if let Some(frac) = legend_metrics.compact_fraction(&label_w, plot) {
+                    if frac <= 0.4 {
+                        let top = data.y_range.1;
+                        let mut raised = yt.clone();
+                        for _ in 0..4 {
+                            let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
+                            raised = nice_axis(raised.lo, hi, max_y_intervals);
+                            let (l, h) = place(&raised);
+                            if h == 0 {
+                                *yt = raised;
+                                layout = l;
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+            legends.push(Some((entries, label_w, layout)));
+        }
+        let y_label_area = axes::y_label_area(&y_ticks, scale);
+
+        let areas = stack::areas(&body, n, plot_h, scale);
+        for (i, (((data, area), yt), legend)) in self
+            .panels
+            .iter()
+            .zip(&areas)
+            .zip(&y_ticks)
+            .zip(&legends)
+            .enumerate()
+        {
+            let axes = (x_ticks.clone(), yt.clone());
+            let descs = (self.x_label.as_str(), data.panel.y_label.as_str());
+            let mut chart = stack::chart(area, (i, n), axes, descs, y_label_area, scale)?;
+            let (pw, _) = chart.plotting_area().dim_in_pixel();
+            let bucket_count = (pw as usize).max(1) * 2;
+            for ((trace, pieces), &color) in
+                data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
+            {
+                let lines = pieces
+                    .lines
+                    .iter()
+                    .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count));
+                draw_pieces(
+                    &mut chart,
+                    lines,
+                    &pieces.dots,
+                    &styles.stroke(color, trace.style),
+                )?;
+            }
+            if let Some((entries, label_w, layout)) = legend {
+                legend::draw_legend(
+                    &chart.plotting_area().strip_coord_spec(),
+                    entries,
+                    label_w,
+                    layout,
+                    &legend_metrics,
+                    upx(1.0),
+                )?;
+            }
+            axes::frame(root, axes::plot_bounds(chart.plotting_area()), upx(1.0))?;
+        }
+        Ok(())
+    }
+}
+
+/// Error unless `lo..hi` is a finite, non-empty range.
+fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
+    if lo.is_finite() && hi.is_finite() && (hi - lo).is_finite() && hi > lo {
+        Ok(())
+    } else {
+        Err(ReportError::Plot(format!(
+            "{what}: values too large to scale ({lo:e} .. {hi:e})"
+        )))
+    }
+}
+
+/// Pixel sizes for drawing traces.
+struct TraceStyles {
+    line_w: u32,
+    dot_r: u32,
+    /// (dash, gap) of [`LineStyle::Dashed`].
+    dash: (i32, i32),
+    /// (dot, gap) of [`LineStyle::Dotted`].
+    dot: (i32, i32),
+}
+
+impl TraceStyles {
+    /// The sizes at `scale`.
+    fn new(scale: f64) -> Self {
+        let (px, upx) = (render::px(scale), render::upx(scale));
+        TraceStyles {
+            line_w: upx(2.0),
+            dot_r: upx(3.0),
+            dash: (px(10.0).max(2), px(6.0).max(2)),
+            dot: (px(2.0).max(1), px(6.0).max(2)),
+        }
+    }
+
+    /// The stroke of a trace in palette colour `color` and line style `style`.
+    fn stroke(&self, color: usize, style: LineStyle) -> Stroke {
+        Stroke {
+            color: series_color(color),
+            width: self.line_w,
+            pattern: match style {
+                LineStyle::Solid => None,
+                LineStyle::Dashed => Some(self.dash),
+                LineStyle::Dotted => Some(self.dot),
+            },
+            dot_r: self.dot_r,
+        }
+    }
+}
+
+/// Reduce a polyline to what can be seen at `buckets` columns across the
+/// time range `t_lo..t_hi`: of every run of consecutive points falling in the
+/// same column, keep the first, the lowest, the highest and the last (in
+/// their original order). Short polylines are returned unchanged.
+fn decimate(line: &[(f64, f64)], t_lo: f64, t_hi: f64, buckets: usize) -> Polyline {
+    if line.len() <= 4 * buckets || t_hi <= t_lo {
+        return line.to_vec();
+    }
+    let column = |t: f64| ((t - t_lo) / (t_hi - t_lo) * buckets as f64).floor() as i64;
+    let mut out = Vec::with_capacity(4 * buckets + 4);
+    let mut start = 0;
+    while start < line.len() {
+        let col = column(line[start].0);
+        let mut end = start + 1;
+        while end < line.len() && column(line[end].0) == col {
+            end += 1;
+        }
+        let group = &line[start..end];
+        let by_value =
+            |a: &(usize, &(f64, f64)), b: &(usize, &(f64, f64))| a.1 .1.total_cmp(&b.1 .1);
+        let lo = group.iter().enumerate().min_by(by_value).map_or(0, |p| p.0);
+        let hi = group.iter().enumerate().max_by(by_value).map_or(0, |p| p.0);
+        let mut keep = [0, lo.min(hi), lo.max(hi), group.len() - 1];
+        keep.sort_unstable();
+        let mut prev = None;
+        for k in keep {
+            if prev != Some(k) {
+                out.push(group[k]);
+                prev = Some(k);
+            }
+        }
+        start = end;
+    }
+    out
+}
+
+/// Legend entries of a panel: its traces with a non-empty label, in order.
+fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry> {
+    data.panel
+        .traces
+        .iter()
+        .zip(&data.colors)
+        .filter(|(t, _)| !t.label.is_empty())
+        .map(|(t, &c)| styles.stroke(c, t.style).legend_entry(&t.label))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trace(label: &str, t: &[f64], y: &[f64]) -> Trace {
+        Trace {
+            label: label.into(),
+            t_s: t.to_vec(),
+            y: y.to_vec(),
+            ..Default::default()
+        }
+    }
+
+    fn time(n: usize, dt: f64) -> Vec<f64> {
+        (0..n).map(|i| i as f64 * dt).collect()
+    }
+
+    /// Four panels like a step response.
+    fn step_panels() -> Vec<Panel> {
+        let t = time(401, 0.01);
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&t| 340.0 + 5.0 * (1.0 - (-3.0 * t).exp() * (1.0 + 3.0 * t)))
+            .collect();
+        let x_ref: Vec<f64> = t
+            .iter()
+            .map(|&t| if t < 0.1 { 340.0 } else { 345.0 })
+            .collect();
+        let err: Vec<f64> = x_ref.iter().zip(&x).map(|(r, x)| r - x).collect();
+        let p1: Vec<f64> = t.iter().map(|&t| 4.0 + 0.3 * (-2.0 * t).exp()).collect();
+        let p2: Vec<f64> = t.iter().map(|&t| 6.0 - 0.2 * (-2.0 * t).exp()).collect();
+        let w: Vec<f64> = t.iter().map(|&t| 900.0 * (-2.0 * t).exp()).collect();
+        vec![
+            Panel {
+                y_label: "Position (mm)".into(),
+                traces: vec![trace("x", &t, &x), trace("x_ref", &t, &x_ref)],
+            },
+            Panel {
+                y_label: "Error (mm)".into(),
+                traces: vec![trace("", &t, &err)],
+            },
+            Panel {
+                y_label: "Pressure (bar)".into(),
+                traces: vec![trace("p1", &t, &p1), trace("p2", &t, &p2)],
+            },
+            Panel {
+                y_label: "Speed (rpm)".into(),
+                traces: vec![trace("w1", &t, &w), trace("w2", &t, &w)],
+            },
+        ]
+    }
+
+    #[test]
+    fn svg_contains_labels() {
+        let svg = panels_svg("Step response", Some("rise 0.62 s"), &step_panels()).unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        // Every text (ticks, axis descriptions, legend, notes) lies inside the figure.
+        assert_eq!(crate::plot::text_overflow(&svg), Vec::<String>::new());
+        assert!(svg.trim_end().ends_with("</svg>"));
+        for s in [
+            "Step response",
+            "rise 0.62 s",
+            "Position (mm)",
+            "Error (mm)",
+            "Pressure (bar)",
+            "Speed (rpm)",
+            "Time (s)",
+            "x_ref",
+            "p1",
+            "p2",
+            "w1",
+            "w2",
+        ] {
+            assert!(svg.contains(s), "missing {s}");
+        }
+        // "Time (s)" only once: on the bottom panel.
+        assert_eq!(svg.matches("Time (s)").count(), 1);
+        let (w, h) = panels_default_size(4, true);
+        assert_eq!(w, 1000);
+        assert!((950..=1050).contains(&h), "{h}");
+        assert!(svg.contains(&format!("width=\"{w}\"")));
+        assert!(svg.contains(&format!("height=\"{h}\"")));
+    }
+
+    #[test]
+    fn png_signature_and_size() {
+        let png = panels_png("PNG", None, &step_panels(), 900, 800).unwrap();
+        let rgb = render::decode_png(&png, 900, 800);
+        // Not a blank image: some dark pixels (text, curves).
+        assert!(render::dark_pixels(&rgb) > 1000);
+    }
+
+    #[test]
+    fn png_bad_size_is_an_error() {
+        let p = step_panels();
+        for (w, h) in [(0, 600), (100_000, 600), (800, 100)] {
+            assert!(matches!(
+                panels_png("x", None, &p, w, h),
+                Err(ReportError::Plot(_))
+            ));
+        }
+        // Too many panels for the height.
+        let many = vec![p[0].clone(); 12];
+        assert!(matches!(
+            panels_png("x", None, &many, 800, 400),
+            Err(ReportError::Plot(_))
+        ));
+    }
+
+    #[test]
+    fn constant_and_non_finite_do_not_panic() {
+        let t = time(50, 0.1);
+        let mut y: Vec<f64> = t.iter().map(|t| t.sin()).collect();
+        y[3] = f64::NAN;
+        y[10] = f64::INFINITY;
+        y[11] = f64::NEG_INFINITY;
+        y[20] = f64::NAN;
+        y[22] = f64::NAN; // y[21] is an isolated dot
+        let mut t_holes = t.clone();
+        t_holes[30] = f64::NAN;
+        t_holes[31] = f64::INFINITY;
+        let panels = vec![
+            Panel {
+                y_label: "Constant (bar)".into(),
+                traces: vec![trace("", &t, &[4.0; 50])],
+            },
+            Panel {
+                y_label: "Zero (mm)".into(),
+                traces: vec![trace("zero", &t, &[0.0; 50])],
+            },
+            Panel {
+                y_label: "Holes".into(),
+                traces: vec![
+                    trace("holes", &t_holes, &y),
+                    trace("nan", &t, &[f64::NAN; 50]),
+                ],
+            },
+            Panel {
+                y_label: "Nothing".into(),
+                traces: vec![],
+            },
+            Panel {
+                y_label: "Single".into(),
+                traces: vec![trace("one", &[1.0], &[2.0])],
+            },
+        ];
+        panels_svg("holes", None, &panels).unwrap();
+        panels_png("holes", Some("emulated data"), &panels, 640, 900).unwrap();
+
+        // A single point overall: degenerate time and value ranges.
+        let single = [Panel {
+            y_label: "p".into(),
+            traces: vec![trace("s", &[0.0], &[0.0])],
+        }];
+        panels_svg("single", None, &single).unwrap();
+        panels_png("single", None, &single, 400, 300).unwrap();
+
+        let fig = Figure::prepare("c", None, &panels).unwrap();
+        let (lo, hi) = fig.panels[0].y_range;
+        assert!(lo < 4.0 && hi > 4.0 && hi - lo < 1.0, "{lo} {hi}");
+        let (lo, hi) = fig.panels[1].y_range;
+        assert!(lo <= -1.0 && hi >= 1.0, "{lo} {hi}");
+        assert_eq!(fig.t_range, (0.0, 4.9));
+        assert_eq!(fig.panels[2].pieces[0].dots, vec![(2.1, y[21])]);
+    }
+
+    #[test]
+    fn huge_values_are_an_error_not_a_panic() {
+        let t = [0.0, 1.0];
+        let p = [Panel {
+            y_label: "big".into(),
+            traces: vec![trace("b", &t, &[-1.7e308, 1.7e308])],
+        }];
+        assert!(matches!(
+            panels_svg("x", None, &p),
+            Err(ReportError::Plot(_))
+        ));
+        let p = [Panel {
+            y_label: "large".into(),
+            traces: vec![trace("b", &t, &[1e20, 3e20])],
+        }];
+        panels_svg("x", None, &p).unwrap();
+    }
+
+    #[test]
+    fn empty_input_is_empty_error() {
+        assert!(matches!(
+            panels_svg("x", None, &[]),
+            Err(ReportError::Empty(_))
+        ));
+        let no_traces = [Panel::default()];
+        assert!(matches!(
+            panels_svg("x", None, &no_traces),
+            Err(ReportError::Empty(_))
+        ));
+        let all_nan = [Panel {
+            y_label: "n".into(),
+            traces: vec![trace(
+                "n",
+                &[0.0, f64::NAN, 2.0],
+                &[f64::NAN, 1.0, f64::INFINITY],
+            )],
+        }];
+        let err = panels_svg("x", None, &all_nan).unwrap_err();
+        assert!(matches!(err, ReportError::Empty(_)));
+        assert!(matches!(
+            panels_png("x", None, &all_nan, 640, 480),
+            Err(ReportError::Empty(_))
+        ));
+    }
+
+    #[test]
+    fn length_mismatch_is_plot_error_naming_trace() {
+        let p = [Panel {
+            y_label: "Position (mm)".into(),
+            traces: vec![
+                trace("ok", &[0.0, 1.0], &[0.0, 1.0]),
+                trace("bad one", &[0.0, 1.0], &[0.0]),
+            ],
+        }];
+        let err = panels_svg("x", None, &p).unwrap_err();
+        assert!(matches!(err, ReportError::Plot(_)));
+        assert!(err.to_string().contains("bad one"), "{err}");
+        assert!(matches!(
+            panels_png("x", None, &p, 640, 480),
+            Err(ReportError::Plot(_))
+        ));
+    }
+
+    #[test]
+    fn colour_assignment() {
+        let tr = |c: Option<usize>| Trace {
+            color: c,
+            ..Default::default()
+        };
+        assert_eq!(
+            assign_colors(&[tr(None), tr(None), tr(None)]),
+            vec![0, 1, 2]
+        );
+        // Explicit colours are reserved for the whole panel, taken modulo 8.
+        assert_eq!(
+            assign_colors(&[tr(None), tr(Some(9)), tr(None), tr(Some(0))]),
+            vec![2, 1, 3, 0]
+        );
+        let many: Vec<Trace> = (0..10).map(|_| tr(None)).collect();
+        assert_eq!(assign_colors(&many), vec![0, 1, 2, 3, 4, 5, 6, 7, 0, 1]);
+    }
+
+    #[test]
+    fn decimation_keeps_extremes() {
+        let line: Polyline = (0..10_000)
+            .map(|i| {
+                (
+                    i as f64 * 1e-3,
+                    if i == 5_000 { 10.0 } else { (i % 7) as f64 },
+                )
+            })
+            .collect();
+        let d = decimate(&line, 0.0, 10.0, 100);
+        assert!(d.len() <= 400 && d.len() >= 200, "{}", d.len());
+        assert!(d.contains(&(5.0, 10.0)));
+        assert_eq!(d.first(), line.first());
+        assert_eq!(d.last(), line.last());
+        assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
+        let short = &line[..50];
+        assert_eq!(decimate(short, 0.0, 10.0, 100), short.to_vec());
+    }
+}

@@ -1,0 +1,263 @@
+//! The identification steps: the drive gain (the article §2.4.1), the leakages and the
+//! two-stage grid identification (§2.4), and the robustness record.
+
+use super::{printed, Run};
+use crate::figures::Chart;
+use crate::identification as outputs;
+use anyhow::Result;
+use pumpcyl::emulator::article;
+use pumpcyl::ident::{
+    finish, identify_drive, run_stages, run_stages_while, DatasetSpec, DriveRecord, Experiment,
+    Grid, Options, Prepared, Problem,
+};
+use pumpcyl::record::Record;
+use pumpcyl::response::Signals;
+use pumpcyl::rig::Rig;
+use serde_json::{json, Value};
+use std::path::Path;
+use std::time::Instant;
+
+/// Step 1: Km from the drive step (the article §2.4.1).
+pub(super) fn drive_step(run: &mut Run) -> Result<(Value, f64)> {
+    run.step("Drive gain from the drive step (the article §2.4.1)");
+    let rec = DriveRecord::read(&run.record("drive_step.csv"))?;
+    let si = Rig::default().si();
+    let fit = identify_drive(&rec, si.jm[0], si.omega_i)?;
+    run.figure(
+        "drive_step",
+        "Drive 1 alone, feedforward off: emulated speed step and the identified model",
+        &Chart::drive_step(&rec, &fit),
+    )?;
+    run.compare(
+        "drive gain Km (N·m·s/rad)",
+        format!("{:.4}", fit.km_nms_per_rad),
+        &format!("{}", printed::KM),
+        "0.026",
+    );
+    Ok((
+        json!({"km_nms_per_rad": fit.km_nms_per_rad, "mse_rpm2": fit.mse_rpm2, "article_km_nms_per_rad": printed::KM}),
+        fit.km_nms_per_rad,
+    ))
+}
+
+/// Steps 2 and 3: leakage from standstill, the two-stage grid and Nelder–Mead (the article §2.4; docs/identification.md).
+pub(super) fn identification(
+    run: &mut Run,
+    truth: &article::Truth,
+) -> Result<(Experiment, Rig, Value, f64)> {
+    run.step("Leakage from standstill and the two-stage grid identification (the article §2.4)");
+    let mut exp = Experiment::load(&run.record("identify.toml"))?;
+    // result.json names the experiment as it lies in the result folder
+    exp.path = Path::new("records").join("identify.toml");
+    let opts = Options {
+        auto_refine: false,
+        local_refinement: true,
+        threshold_mm2: exp.file.threshold_mm2,
+        top_n: 20,
+    };
+    let grids = exp.grids();
+    let total = (grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len())) as u64;
+    let on_candidates = run.opts.on_candidates;
+    let t0 = Instant::now();
+    let stages = run_stages_while(&exp.problem, grids, &opts, None, &|n| {
+        on_candidates.is_none_or(|f| f(n, total))
+    })?;
+    let id = finish(&exp.problem, stages, &opts)?;
+    let v = outputs::identification_json(&exp, &id, t0.elapsed().as_secs_f64())?;
+    for (name, bytes) in outputs::files(&exp, &id, &v)? {
+        if name == "landscape.svg" || name.starts_with("fit-") && name.ends_with(".svg") {
+            let svg = String::from_utf8(bytes.clone())?;
+            let caption = match name.strip_prefix("fit-") {
+                None => "Identification cost over β and c12 (best b), emulated records".to_string(),
+                Some(rest) => {
+                    let i: usize = rest.trim_end_matches(".svg").parse()?;
+                    let ds = &exp.problem.datasets[i - 1];
+                    format!(
+                        "{}Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dotted line ends the fit window",
+                        if i == 1 { "Counterpart of the article's Figure 6. " } else { "" },
+                        ds.name,
+                        ds.rig.kp
+                    )
+                }
+            };
+            run.inline(&svg, &caption);
+        }
+        run.files
+            .push((Path::new("identification").join(name), bytes));
+    }
+    let best = id.best();
+    let l = id.leakage;
+    let s = exp.problem.standstill;
+    let nominal = Rig {
+        beta_bar: best.candidate.beta_bar,
+        viscous_friction_ns_per_m: best.candidate.viscous_friction_ns_per_m,
+        c12_m5_per_ns: best.candidate.c12_m5_per_ns,
+        c1_m5_per_ns: l.c1_m5_per_ns,
+        c2_m5_per_ns: l.c2_m5_per_ns,
+        ..exp.rig.clone()
+    };
+    let truth = truth.rig.beta_bar;
+    run.text(&format!(
+        "Standstill record means: w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar (p2 {:.3} bar from the force balance). \
+         {} candidates in {:.2} s; the emulator's truth is beta_e = {truth:.0} bar at the mean pressure, \
+         c12 = 1.2e-10 m⁵/(N·s). The friction b absorbs the emulator's 15 N Coulomb friction, \
+         which the LTI model lacks.",
+        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, id.evaluated(), t0.elapsed().as_secs_f64()
+    ));
+    let rows = [
+        (
+            "bulk modulus β (bar)",
+            format!("{:.1}", nominal.beta_bar),
+            "165",
+            format!("{truth:.1}"),
+            "",
+        ),
+        (
+            "viscous friction b (N·s/m)",
+            format!("{:.0}", nominal.viscous_friction_ns_per_m),
+            "100",
+            "100".into(),
+            "b absorbs the emulator's 15 N Coulomb friction, which the LTI model lacks",
+        ),
+        (
+            "cross-port leakage c12 (m⁵/(N·s))",
+            format!("{:.3e}", nominal.c12_m5_per_ns),
+            "1.2e-10",
+            "1.2e-10".into(),
+            "",
+        ),
+    ];
+    let standstill =
+        "from the identified c12 by the standstill balance, on the emulated standstill record";
+    let leakages = [
+        ("c1 (m⁵/(N·s))", l.c1_m5_per_ns, "5.49e-11"),
+        ("c2 (m⁵/(N·s))", l.c2_m5_per_ns, "-1.19e-11"),
+    ]
+    .map(|(quantity, value, printed)| {
+        (
+            quantity,
+            format!("{value:.3e}"),
+            printed,
+            printed.to_string(),
+            standstill,
+        )
+    });
+    let first = &id.stages[0].summary;
+    let first_best = first.top.first().map_or(f64::NAN, |c| c.cost_mm2);
+    for (quantity, ours, article, truth, why) in rows.into_iter().chain(leakages) {
+        run.compare_why(quantity, ours, article, &truth, why);
+    }
+    run.compare_why(
+        "identification cost (mm²)",
+        format!("{:.4}", best.cost_mm2),
+        &format!("{}", printed::COST_MM2),
+        "-",
+        "the residual on emulated records (5 um noise), not on the article's measurements",
+    );
+    run.compare_why(
+        "first grid: best cost (mm²) / candidates below 0.25 mm²",
+        format!("{first_best:.4} / {}", first.threshold_count),
+        "-",
+        "-",
+        "records emulated, not the article's: costs are not comparable",
+    );
+    let identified = json!({
+        "beta_bar": nominal.beta_bar,
+        "viscous_friction_ns_per_m": nominal.viscous_friction_ns_per_m,
+        "c12_m5_per_ns": nominal.c12_m5_per_ns,
+        "cost_mm2": best.cost_mm2,
+        "first_grid": {"best_cost_mm2": first_best, "below_threshold": first.threshold_count},
+        "candidates_evaluated": id.evaluated(),
+        "emulator_truth": {"beta_bar": truth, "c12_m5_per_ns": Rig::default().c12_m5_per_ns},
+        "article": {"beta_bar": printed::BETA_BAR, "viscous_friction_ns_per_m": printed::B_NS_PER_M,
+                    "c12_m5_per_ns": printed::C12, "cost_mm2": printed::COST_MM2},
+        "leakage": {"w1_rpm": s.w1_rpm, "w2_rpm": s.w2_rpm, "p1_bar": s.p1_bar, "p2_bar": l.p2_bar,
+                    "c1_m5_per_ns": l.c1_m5_per_ns, "c2_m5_per_ns": l.c2_m5_per_ns,
+                    "article": {"c1_m5_per_ns": printed::C1, "c2_m5_per_ns": printed::C2}},
+    });
+    Ok((exp, nominal, identified, best.cost_mm2))
+}
+
+/// Step 4: the robustness record (m = 4898 kg, Kp = 40): a β × c12 grid at the identified b.
+pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Result<Value> {
+    run.step("Robustness record: m = 4898 kg, Kp = 40 (the article §2.4)");
+    let rig = Rig {
+        k_pres_per_bar: article::k_pres_for_mass(4898.0),
+        ..nominal.clone()
+    };
+    let spec = DatasetSpec {
+        file: "robustness.csv".into(),
+        kp: 40.0,
+        mass_kg: 4898.0,
+        fit_end_s: article::STEP_AT_S + article::fit_window_s(40.0),
+    };
+    let record = Record::read(&run.record("robustness.csv"))?;
+    let problem = Problem {
+        datasets: vec![Prepared::new(&spec, record.clone(), &rig)?],
+        standstill: exp.problem.standstill,
+    };
+    let grid = Grid {
+        beta_bar: pumpcyl::ident::stepped(100.0, 400.0, 5.0),
+        viscous_friction_ns_per_m: vec![nominal.viscous_friction_ns_per_m],
+        c12_m5_per_ns: pumpcyl::ident::spaced(0.5e-10, 2.5e-10, 21, false),
+    };
+    let opts = Options {
+        auto_refine: false,
+        local_refinement: false,
+        threshold_mm2: 0.25,
+        top_n: 1,
+    };
+    let stages = run_stages(&problem, (grid, None), &opts, None, &|_| {})?;
+    let id = finish(&problem, stages, &opts)?;
+    let best = id.best().candidate;
+    let ds = &problem.datasets[0];
+    let article_candidate = pumpcyl::ident::Candidate {
+        beta_bar: printed::ROBUST_BETA_BAR,
+        viscous_friction_ns_per_m: nominal.viscous_friction_ns_per_m,
+        c12_m5_per_ns: printed::ROBUST_C12,
+    };
+    let sim_best = problem.simulate(&best, ds)?;
+    let sim_article = problem.simulate(&article_candidate, ds)?;
+    let cost_article = problem.dataset_mse(&article_candidate, ds);
+    let measured = Signals::of_record(&record);
+    let series = [
+        (
+            format!(
+                "model, β {:.0} bar, c12 {:.2e} (best)",
+                best.beta_bar, best.c12_m5_per_ns
+            ),
+            &sim_best,
+        ),
+        (
+            "model, β 220 bar, c12 1.0e-10 (article)".to_string(),
+            &sim_article,
+        ),
+    ];
+    let subtitle = format!(
+        "cost {:.4} mm² (best), {cost_article:.4} mm² (article's values)",
+        id.best().cost_mm2
+    );
+    run.figure(
+        "robustness",
+        "The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model",
+        &Chart::signals("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(&measured), Some(spec.fit_end_s)),
+    )?;
+    run.compare(
+        "robustness β (bar)",
+        format!("{:.0}", best.beta_bar),
+        "220",
+        "220",
+    );
+    run.compare_why(
+        "robustness c12 (m⁵/(N·s))",
+        format!("{:.2e}", best.c12_m5_per_ns),
+        "1.0e-10",
+        "1.2e-10",
+        "the emulated record keeps the emulator's c12; only its gas fraction differs from the others",
+    );
+    Ok(json!({
+        "beta_bar": best.beta_bar, "c12_m5_per_ns": best.c12_m5_per_ns, "cost_mm2": id.best().cost_mm2,
+        "cost_at_article_values_mm2": cost_article, "emulator_truth_beta_bar": 220.0,
+        "article": {"beta_bar": printed::ROBUST_BETA_BAR, "c12_m5_per_ns": printed::ROBUST_C12},
+    }))
+}

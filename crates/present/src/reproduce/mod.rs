@@ -1,0 +1,521 @@
+//! The article's whole workflow (docs/README.md) on the embedded rig and the embedded emulated
+//! records, as one library call: the drive gain (the article §2.4.1), the leakages and the
+//! two-stage identification (§2.4), the robustness record, the bulk modulus against pressure,
+//! the damping studies (Figures 11 and 14), the stroke (§2.1), the sinusoidal tracking and the
+//! design check (§2.2).
+//!
+//! [`reproduce`] returns a [`Reproduction`]: the numbers (typed, and as the `summary.json`
+//! document), the comparison with the article's printed values, the figures (SVG and PNG in
+//! memory), the report's body and the other result files. Nothing is printed and nothing is
+//! written until [`Reproduction::write`], which puts the whole folder in place or nothing.
+//!
+//! (`no_run` here: about 15 s in a debug build; tests/workflow.rs runs it and checks these
+//! numbers.)
+//!
+//! ```no_run
+//! use pumpcyl_present::reproduce::{reproduce, ReproduceOptions};
+//!
+//! let r = reproduce(&ReproduceOptions::default())?;
+//! // the emulated records were made with beta_e = 165 bar at their mean pressure
+//! assert!((r.identified.beta_bar - 165.0).abs() < 10.0);
+//! // the default rig's gain margin, as the article prints it (6.5 dB, §2.3.3)
+//! assert!((r.default_margins.gain_margin_db.unwrap() - 6.5).abs() < 0.1);
+//! assert_eq!(r.figures.len(), 15);
+//! // the whole result folder, swapped in at once: figures/, records/, identification/,
+//! // summary.json, report.html
+//! r.write(std::path::Path::new("reproduced"))?;
+//! # Ok::<(), anyhow::Error>(())
+//! ```
+
+mod certainty;
+mod identification;
+mod studies;
+pub use certainty::Certainty;
+
+use crate::figures::{bode_markers, Chart};
+use crate::files::{fmt_opt, write_atomic, OutDir, Scratch};
+use crate::plot::{html_page, Block, BodeSeries};
+use anyhow::Result;
+use pumpcyl::emulator::article::{self, EMBEDDED};
+use pumpcyl::ident::Candidate;
+use pumpcyl::lti::{self, Margins};
+use pumpcyl::model::Plant;
+use pumpcyl::response::{self, Signals};
+use pumpcyl::rig::Rig;
+use serde_json::{json, Value};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
+pub const STEPS: usize = 9;
+
+/// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
+mod printed {
+    pub const KM: f64 = 0.026;
+    pub const BETA_BAR: f64 = 165.0;
+    pub const B_NS_PER_M: f64 = 100.0;
+    pub const C12: f64 = 1.2e-10;
+    pub const C1: f64 = 5.49e-11;
+    pub const C2: f64 = -1.19e-11;
+    pub const COST_MM2: f64 = 0.0353;
+    pub const GM_DB: f64 = 6.5;
+    pub const PM_DEG: f64 = 34.0;
+    pub const ROBUST_BETA_BAR: f64 = 220.0;
+    pub const ROBUST_C12: f64 = 1.0e-10;
+    pub const KP: f64 = 25.0;
+    /// Margins at 1 bar mean pressure (dB, deg): the article's bulk-modulus study.
+    pub const GM_1BAR_DB: f64 = -6.1;
+    pub const PM_1BAR_DEG: f64 = -38.0;
+    /// Margins at 10 bar mean pressure (dB, deg): the article's bulk-modulus study.
+    pub const GM_10BAR_DB: f64 = 13.2;
+    pub const PM_10BAR_DEG: f64 = 43.6;
+    /// Kp for the nominal PM: below 25 % of 25 at 1 bar, about +40 % at 10 bar.
+    pub const KP_RATIO_1BAR_BELOW: f64 = 0.25;
+    pub const KP_CHANGE_10BAR: f64 = 0.40;
+    /// PM change at −50 mm and +50 mm of stroke (deg).
+    pub const PM_CHANGE_MINUS50_DEG: f64 = 1.4;
+    pub const PM_CHANGE_PLUS50_DEG: f64 = -2.0;
+    /// Maximum control error measured on the real rig (mm): 0.1 Hz ±50 mm, 0.2 Hz ±35 mm,
+    /// 0.25 Hz ±20 mm.
+    pub const TRACK_MAX_ERROR_MM: [f64; 3] = [8.52, 11.8, 8.82];
+}
+
+/// Whether `ours` rounds to `article` at the article's printed precision (half its last digit).
+fn agrees(ours: f64, article: f64, last_digit: f64) -> bool {
+    (ours - article).abs() <= 0.5 * last_digit + 1e-9
+}
+
+/// The notice that heads the report and summary.json: the inputs are emulated.
+pub const EMULATED: &str =
+    "Every record used here is EMULATED, not measured: the article's measurements are \
+not public, so pumpcyl's nonlinear rig emulator made them from a known truth (records/README.md). \
+Numbers identified from them show that the method recovers that truth; they are not the article's \
+measurements.";
+
+/// A step callback: (step from 1, [`STEPS`], what the step does).
+pub type OnStep<'a> = &'a dyn Fn(usize, usize, &str);
+
+/// A search callback: (candidates just evaluated, all candidates); `false` stops the search.
+pub type OnCandidates<'a> = &'a (dyn Fn(u64, u64) -> bool + Sync);
+
+/// How [`reproduce`] reports its progress; the default reports nothing.
+#[derive(Default, Clone, Copy)]
+pub struct ReproduceOptions<'a> {
+    /// Called as each step starts with (step, [`STEPS`], what the step does), steps from 1.
+    pub on_step: Option<OnStep<'a>>,
+    /// Called during the identification's grid search with (candidates just evaluated, all
+    /// candidates of the search); returning `false` stops the workflow with an error that
+    /// says it was interrupted.
+    pub on_candidates: Option<OnCandidates<'a>>,
+}
+
+/// One row of the comparison with the article: pumpcyl's value, the article's printed value,
+/// the truth the emulated records were made with ("-" where there is none) and one line on why
+/// pumpcyl differs (empty when it agrees to the article's printed precision).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ComparisonRow {
+    /// The quantity, with its unit.
+    pub quantity: String,
+    /// pumpcyl's value, formatted.
+    pub pumpcyl: String,
+    /// The article's printed value.
+    pub article: String,
+    /// The emulator's truth, or "-".
+    pub truth: String,
+    /// Why pumpcyl differs from the article, or "".
+    pub why: String,
+}
+
+/// A figure of the workflow, rendered: written as `figures/STEM.svg` and `figures/STEM.png`.
+#[derive(Debug, Clone)]
+pub struct Figure {
+    /// File name without extension.
+    pub stem: String,
+    /// The caption in the report.
+    pub caption: String,
+    /// The SVG document.
+    pub svg: String,
+    /// The PNG file.
+    pub png: Vec<u8>,
+}
+
+/// The workflow's result. The typed fields hold the headline numbers; [`Reproduction::summary`]
+/// holds every number, as written to summary.json.
+#[derive(Debug, Clone)]
+pub struct Reproduction {
+    /// Drive gain Km from the drive step (N·m·s/rad; the article §2.4.1).
+    pub km_nms_per_rad: f64,
+    /// The identified rig: the default rig with the identified β (bar), b (N·s/m), c12 and the
+    /// leakages c1, c2 from the standstill record (m⁵/(N·s)).
+    pub identified: Rig,
+    /// The identification cost at the identified point (mm²).
+    pub cost_mm2: f64,
+    /// Margins of the identified rig (sum-pressure loop open, the article §2.3.3).
+    pub identified_margins: Margins,
+    /// Margins of the default (the article's) rig.
+    pub default_margins: Margins,
+    /// Gas fraction from the identified β at the records' mean pressure (docs/bulk-modulus.md).
+    pub gas_fraction: f64,
+    /// The identification records' mean chamber pressure (bar).
+    pub p_mean_bar: f64,
+    /// The largest Kp meeting PM 34° and GM 6 dB at the identified operating point (the
+    /// article §2.2).
+    pub design_kp: f64,
+    /// How sure the identification is: intervals, the design over them, the next experiment
+    /// (step 9).
+    pub certainty: Certainty,
+    /// pumpcyl beside the article's printed values.
+    pub comparison: Vec<ComparisonRow>,
+    /// Every number, as written to summary.json.
+    pub summary: Value,
+    /// The report's body (after the notice, the introduction and the comparison table).
+    pub blocks: Vec<Block>,
+    /// The figures, in the order of the report.
+    pub figures: Vec<Figure>,
+    /// The other files of the result folder: the records under `records/`, the identification
+    /// under `identification/` (paths relative to the folder).
+    pub files: Vec<(PathBuf, Vec<u8>)>,
+    /// Wall-clock time of the workflow (s).
+    pub seconds: f64,
+}
+
+/// The report being assembled: the records folder, the HTML blocks, the comparison, the files.
+struct Run<'a> {
+    records: PathBuf,
+    opts: &'a ReproduceOptions<'a>,
+    blocks: Vec<Block>,
+    table: Vec<ComparisonRow>,
+    figures: Vec<Figure>,
+    files: Vec<(PathBuf, Vec<u8>)>,
+    step: usize,
+}
+
+impl Run<'_> {
+    /// Announce a step (progress) and head its section of the report.
+    fn step(&mut self, what: &str) {
+        self.step += 1;
+        if let Some(f) = self.opts.on_step {
+            f(self.step, STEPS, what);
+        }
+        self.blocks
+            .push(Block::Heading(format!("{}. {what}", self.step)));
+    }
+
+    /// A record of the embedded folder.
+    fn record(&self, file: &str) -> PathBuf {
+        self.records.join(file)
+    }
+
+    /// Render `chart` as SVG and PNG under figures/`stem`, and inline the SVG.
+    fn figure(&mut self, stem: &str, caption: &str, chart: &Chart) -> Result<()> {
+        let svg = chart.svg()?;
+        let png = chart.png()?;
+        self.inline(&svg, caption);
+        self.figures.push(Figure {
+            stem: stem.to_string(),
+            caption: caption.to_string(),
+            svg,
+            png,
+        });
+        Ok(())
+    }
+
+    /// Inline an SVG document in the report.
+    fn inline(&mut self, svg: &str, caption: &str) {
+        self.blocks.push(Block::Figure {
+            svg: svg.to_string(),
+            caption: caption.to_string(),
+        });
+    }
+
+    /// A row of the comparison: quantity, pumpcyl, the article's printed value, the truth the
+    /// emulated records were made with ("-" where there is none).
+    fn compare(&mut self, quantity: &str, ours: String, article: &str, truth: &str) {
+        self.compare_why(quantity, ours, article, truth, "");
+    }
+
+    /// As [`Run::compare`], with one line on why pumpcyl differs from the article (empty when
+    /// it agrees to the article's printed precision).
+    fn compare_why(&mut self, quantity: &str, ours: String, article: &str, truth: &str, why: &str) {
+        self.table.push(ComparisonRow {
+            quantity: quantity.to_string(),
+            pumpcyl: ours,
+            article: article.to_string(),
+            truth: truth.to_string(),
+            why: why.to_string(),
+        });
+    }
+
+    fn table(&mut self, caption: &str, header: &[&str], rows: Vec<Vec<String>>) {
+        self.blocks.push(Block::Table {
+            caption: caption.into(),
+            header: header.iter().map(|h| h.to_string()).collect(),
+            rows,
+        });
+    }
+
+    fn text(&mut self, p: &str) {
+        self.blocks.push(Block::Paragraph(p.into()));
+    }
+}
+
+/// Run the article's workflow on the embedded emulated records (about 0.4 s in a release
+/// build). Progress goes to the callbacks of `opts`; nothing is printed or written.
+///
+/// # Errors
+/// A failure of a step (none is expected on the embedded records), the system's temporary
+/// folder not writable (the records are laid out there to be read as a user's would be), or
+/// the search stopped by [`ReproduceOptions::on_candidates`].
+pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
+    let start = Instant::now();
+    let scratch = Scratch::new()?;
+    let mut files = Vec::new();
+    for (file, text) in EMBEDDED {
+        write_atomic(&scratch.path().join(file), text.as_bytes())?;
+        files.push((Path::new("records").join(file), text.as_bytes().to_vec()));
+    }
+    let mut run = Run {
+        records: scratch.path().to_path_buf(),
+        opts,
+        blocks: Vec::new(),
+        table: Vec::new(),
+        figures: Vec::new(),
+        files,
+        step: 0,
+    };
+    let mut sum = json!({ "emulated_inputs": true, "note": EMULATED });
+    let (drive, km) = identification::drive_step(&mut run)?;
+    sum["drive"] = drive;
+    let truth = article::records().map_err(anyhow::Error::msg)?[0]
+        .truth
+        .clone();
+    let (exp, nominal, identified, cost_mm2) = identification::identification(&mut run, &truth)?;
+    sum["leakage"] = identified["leakage"].clone();
+    sum["identified"] = identified;
+    sum["robustness"] = identification::robustness(&mut run, &exp, &nominal)?;
+    let pressure = studies::pressure_study(&mut run, &nominal, &exp, &truth)?;
+    sum["margins"] = pressure.json;
+    sum["gas_fraction"] = json!(pressure.gas_fraction);
+    sum["p_mean_bar"] = json!(pressure.p_mean_bar);
+    sum["damping"] = studies::damping_study(&mut run, &nominal)?;
+    sum["stroke"] = studies::stroke_study(&mut run, &nominal)?;
+    sum["tracking"] = studies::tracking(&mut run, &nominal)?;
+    let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
+    sum["design"] = design;
+    let truth_point = Candidate {
+        beta_bar: truth.rig.beta_bar,
+        viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
+        c12_m5_per_ns: truth.rig.c12_m5_per_ns,
+    };
+    let (certainty, how_sure) =
+        certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
+    sum["how_sure"] = how_sure;
+    let seconds = start.elapsed().as_secs_f64();
+    sum["seconds"] = json!(seconds);
+    Ok(Reproduction {
+        km_nms_per_rad: km,
+        identified: nominal,
+        cost_mm2,
+        identified_margins: pressure.nominal,
+        default_margins: pressure.default,
+        gas_fraction: pressure.gas_fraction,
+        p_mean_bar: pressure.p_mean_bar,
+        design_kp,
+        certainty,
+        comparison: run.table,
+        summary: sum,
+        blocks: run.blocks,
+        figures: run.figures,
+        files: run.files,
+        seconds,
+    })
+}
+
+impl Reproduction {
+    /// The self-contained report.html: the notice that the inputs are emulated, the comparison
+    /// with the article, then every step with its tables and inlined figures.
+    pub fn report_html(&self) -> String {
+        let mut blocks = vec![
+            Block::Notice(EMULATED.into()),
+            Block::Paragraph(format!(
+                "The workflow of Gøytil, Hansen & Tvilde, Actuators 2025, 14(8), 366, run by pumpcyl {} \
+                 in {:.1} s. Every number is also in summary.json; every figure is in figures/ \
+                 as SVG and PNG.",
+                env!("CARGO_PKG_VERSION"),
+                self.seconds
+            )),
+            Block::Table {
+                caption: "pumpcyl beside the article's printed values".into(),
+                header: ["quantity", "pumpcyl", "article", "emulator truth", "why they differ"]
+                    .map(String::from)
+                    .to_vec(),
+                rows: self
+                    .comparison
+                    .iter()
+                    .map(|r| {
+                        vec![
+                            r.quantity.clone(),
+                            r.pumpcyl.clone(),
+                            r.article.clone(),
+                            r.truth.clone(),
+                            r.why.clone(),
+                        ]
+                    })
+                    .collect(),
+            },
+        ];
+        blocks.extend(self.blocks.iter().cloned());
+        html_page(
+            "pumpcyl: the article reproduced on emulated records",
+            &blocks,
+        )
+    }
+
+    /// Every file of the result folder, paths relative to it: records/, identification/,
+    /// figures/ (SVG and PNG), summary.json and report.html.
+    pub fn folder(&self) -> Result<Vec<(PathBuf, Vec<u8>)>> {
+        let mut out = self.files.clone();
+        for f in &self.figures {
+            let base = Path::new("figures").join(&f.stem);
+            out.push((base.with_extension("png"), f.png.clone()));
+            out.push((base.with_extension("svg"), f.svg.clone().into_bytes()));
+        }
+        out.push((
+            "summary.json".into(),
+            (serde_json::to_string_pretty(&self.summary)? + "\n").into_bytes(),
+        ));
+        out.push(("report.html".into(), self.report_html().into_bytes()));
+        Ok(out)
+    }
+
+    /// Write the result folder `dir` whole or not at all ([`OutDir`]): built aside, then swapped
+    /// in; refused over a folder that is not an earlier pumpcyl result or that holds an input.
+    ///
+    /// # Errors
+    /// The folder refused, or a write failed (the folder is then left as it was).
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let out = OutDir::begin(dir)?;
+        let files = self.folder()?;
+        let subfolders: BTreeSet<&Path> = files
+            .iter()
+            .filter_map(|(p, _)| p.parent())
+            .filter(|p| !p.as_os_str().is_empty())
+            .collect();
+        for sub in subfolders {
+            out.create_subfolder(&sub.to_string_lossy())?;
+        }
+        for (path, bytes) in &files {
+            write_atomic(&out.path().join(path), bytes)?;
+        }
+        out.commit()
+    }
+}
+
+fn margins_json(m: &Margins) -> Value {
+    json!({
+        "gain_margin_db": m.gain_margin_db,
+        "phase_margin_deg": m.phase_margin_deg,
+        "gain_crossover_hz": m.gain_crossover_hz,
+        "phase_crossover_hz": m.phase_crossover_hz,
+        "closed_loop_stable": m.closed_loop_stable,
+    })
+}
+
+fn margins_of(rig: &Rig) -> Result<Margins> {
+    Ok(lti::margins(&Plant::new(rig).open_loop(false))?)
+}
+
+fn margins_row(label: &str, m: &Margins) -> Vec<String> {
+    vec![
+        label.to_string(),
+        fmt_opt(m.gain_margin_db, 2),
+        fmt_opt(m.phase_margin_deg, 1),
+        fmt_opt(m.gain_crossover_hz, 3),
+        if m.closed_loop_stable { "yes" } else { "NO" }.to_string(),
+    ]
+}
+
+const MARGIN_HEADER: [&str; 5] = [
+    "case",
+    "GM (dB)",
+    "PM (deg)",
+    "gain crossover (Hz)",
+    "stable",
+];
+
+fn bode_series(rig: &Rig, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
+    let b = lti::bode(&Plant::new(rig).open_loop(false), freqs)?;
+    Ok(BodeSeries {
+        label: label.to_string(),
+        freq_hz: b.freq_hz,
+        mag_db: b.mag_db,
+        phase_deg: b.phase_deg,
+    })
+}
+
+/// How the step figure of [`variants`] shows the position.
+#[derive(Clone, Copy, PartialEq)]
+enum Position {
+    /// As simulated (mm).
+    Absolute,
+    /// About each rig's own operating point, x − x0 (mm), so steps at different strokes overlay.
+    AboutX0,
+}
+
+/// Margins table, Bode overlay and step overlay of rig variants; the JSON of their margins.
+fn variants(
+    run: &mut Run,
+    stem: &str,
+    what: &str,
+    rigs: &[(String, Rig)],
+    position: Position,
+) -> Result<Value> {
+    let freqs = lti::log_grid(0.01, 100.0, 401);
+    let mut series = Vec::new();
+    let mut markers = Vec::new();
+    let mut rows = Vec::new();
+    let mut steps = Vec::new();
+    let mut unstable = Vec::new();
+    let mut out = Vec::new();
+    for (label, rig) in rigs {
+        let m = margins_of(rig)?;
+        rows.push(margins_row(label, &m));
+        series.push(bode_series(rig, label, &freqs)?);
+        markers.push(Some(bode_markers(&m)));
+        let mut v = margins_json(&m);
+        v["case"] = json!(label);
+        // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)
+        match response::step(rig, 5.0, 6.0, 100.0) {
+            Ok(s) if position == Position::AboutX0 => {
+                let x0 = response::Baseline::of_rig(rig).x_ref_mm;
+                steps.push((label.clone(), crate::figures::about_operating_point(&s, x0)));
+            }
+            Ok(s) => steps.push((label.clone(), s)),
+            Err(lti::LtiError::Unstable { .. }) => unstable.push(label.as_str()),
+            Err(e) => return Err(e.into()),
+        }
+        v["step_closed_loop_stable"] = json!(!unstable.contains(&label.as_str()));
+        out.push(v);
+    }
+    run.table(&format!("Margins: {what}"), &MARGIN_HEADER, rows);
+    let title = format!("Bode diagram: {what}");
+    run.figure(
+        &format!("bode_{stem}"),
+        &title,
+        &Chart::bode(&title, series, markers),
+    )?;
+    let refs: Vec<(String, &Signals)> = steps.iter().map(|(l, s)| (l.clone(), s)).collect();
+    let left_out = if unstable.is_empty() {
+        String::new()
+    } else {
+        format!("; unstable, not shown: {}", unstable.join(", "))
+    };
+    let title = format!("5 mm step: {what} (sum-pressure loop closed{left_out})");
+    let mut chart = Chart::signals(&title, None, &refs, None, None);
+    if let (Position::AboutX0, crate::figures::Plot::Time(panels)) = (position, &mut chart.plot) {
+        panels[0].y_label = "Position about x0, x − x0 (mm)".into();
+    }
+    run.figure(&format!("step_{stem}"), &title, &chart)?;
+    Ok(Value::Array(out))
+}

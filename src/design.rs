@@ -1,0 +1,173 @@
+//! `pumpcyl design`: the design method (the article §2.2; docs/design.md) applied to a rig before it is built.
+
+use anyhow::Result;
+use clap::Args;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use crate::emit::fmt_opt;
+use crate::RigSource;
+use pumpcyl::design::{design, Targets, Verdict};
+
+#[derive(Debug, Args)]
+pub struct DesignArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Phase margin target (deg).
+    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
+    target_pm_deg: f64,
+    /// Gain margin target (dB).
+    #[arg(long, default_value_t = 6.0, allow_negative_numbers = true)]
+    target_gm_db: f64,
+    /// Stroke excursion checked on each side of x0 (mm).
+    #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
+    stroke_mm: f64,
+    /// Mean chamber pressures to check (bar), e.g. --p-mean-bar 1 --p-mean-bar 10; beta
+    /// follows the gas-fraction model (docs/bulk-modulus.md) from the rig's beta at --p-beta-bar.
+    #[arg(long)]
+    p_mean_bar: Vec<f64>,
+    /// Mean pressure at which the rig's beta_bar was identified (bar).
+    #[arg(long, default_value_t = 4.4, allow_negative_numbers = true)]
+    p_beta_bar: f64,
+    /// Masses to check (kg), e.g. the lightest and heaviest load.
+    #[arg(long)]
+    mass_kg: Vec<f64>,
+    /// Wave to track, FREQ_HZ:AMP_MM (repeatable), e.g. --wave 0.2:35.
+    #[arg(long, value_parser = parse_wave)]
+    wave: Vec<(f64, f64)>,
+    /// Print JSON (kp_max, kp_max_worst_case, worst_case, conditions, tracking, verdict,
+    /// reasons; with --robust: kp_max, kp_max_nominal, worst_case, deciding, steps, region).
+    #[arg(long)]
+    json: bool,
+    /// Robust design (docs/design.md#robust-design): the largest Kp whose worst-case margins
+    /// over the parameters' uncertainty, the stroke and the pressures meet the targets, and
+    /// the article's "lower the leakage estimate and repeat" loop. Without --experiment, over
+    /// the stated default uncertainty around the rig's values.
+    #[arg(long)]
+    robust: bool,
+    /// Identification experiment (TOML, as for `identify`) whose records give the
+    /// confidence region of beta, b and c12; the experiment's rig is designed.
+    #[arg(long, value_name = "EXPERIMENT.toml", requires = "robust", conflicts_with_all = ["rig", "set"])]
+    experiment: Option<PathBuf>,
+    /// Confidence level of the region from the records, in (0, 1).
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        requires = "experiment",
+        allow_negative_numbers = true
+    )]
+    confidence: f64,
+    /// Result folder for --robust: result.json and robust-margins.svg/.png (the margins over
+    /// the stroke at the deciding parameter point).
+    #[arg(long, value_name = "DIR", requires = "robust")]
+    out: Option<PathBuf>,
+}
+
+fn parse_wave(s: &str) -> Result<(f64, f64), String> {
+    let (f, a) = s
+        .split_once(':')
+        .ok_or("expected FREQ_HZ:AMP_MM, e.g. 0.2:35")?;
+    let f: f64 = f
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{f}` is not a frequency"))?;
+    let a: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{a}` is not an amplitude"))?;
+    if !(f > 0.0 && f.is_finite() && a > 0.0 && a.is_finite()) {
+        return Err(format!("wave {s}: frequency and amplitude must be > 0"));
+    }
+    Ok((f, a))
+}
+
+/// A verdict as the text shows it.
+pub(super) fn verdict_text(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Adequate => "ADEQUATE",
+        Verdict::Marginal => "MARGINAL",
+        Verdict::UseHigherPressure => "USE A CIRCUIT WITH HIGHER PRESSURE",
+    }
+}
+
+/// `pumpcyl design`.
+pub fn run(args: &DesignArgs) -> Result<String> {
+    let rig = args.rig.load()?;
+    for &p in &args.p_mean_bar {
+        anyhow::ensure!(p > 0.0 && p.is_finite(), "--p-mean-bar {p}: must be > 0");
+    }
+    for &m in &args.mass_kg {
+        anyhow::ensure!(m > 0.0 && m.is_finite(), "--mass-kg {m}: must be > 0");
+    }
+    let targets = Targets {
+        pm_deg: args.target_pm_deg,
+        gm_db: args.target_gm_db,
+        stroke_mm: args.stroke_mm,
+        p_mean_bar: args.p_mean_bar.clone(),
+        p_beta_bar: args.p_beta_bar,
+        mass_kg: args.mass_kg.clone(),
+        waves: args.wave.clone(),
+    };
+    if args.robust {
+        anyhow::ensure!(
+            args.wave.is_empty(),
+            "--wave: tracking is predicted by the nominal design only; leave out --robust"
+        );
+        let src = crate::robust::Source {
+            rig,
+            experiment: args.experiment.as_deref(),
+            confidence: args.confidence,
+        };
+        return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
+    }
+    let d = design(&rig, &targets)?;
+    if args.json {
+        return Ok(serde_json::to_string_pretty(&d)? + "\n");
+    }
+    let verdict = verdict_text(d.verdict);
+    let mut s = format!(
+        "design (the article §2.2) for {}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
+        args.rig.origin(),
+        args.target_pm_deg,
+        args.target_gm_db,
+        d.kp_max,
+        d.kp_max_worst_case
+    );
+    let _ = writeln!(s, "conditions at Kp = {:.2}:", d.kp_max);
+    let _ = writeln!(
+        s,
+        "  {:>7} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}",
+        "x_mm", "mass_kg", "p_bar", "beta_bar", "GM_dB", "PM_deg", "kp_max"
+    );
+    for c in &d.conditions {
+        let p = c.p_mean_bar.map_or("-".into(), |p| format!("{p}"));
+        let stable = if c.closed_loop_stable {
+            ""
+        } else {
+            "  UNSTABLE"
+        };
+        let _ = writeln!(
+            s,
+            "  {:>7.1} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}{stable}",
+            c.x_mm,
+            c.mass_kg,
+            p,
+            c.beta_bar,
+            fmt_opt(c.gain_margin_db, 2),
+            fmt_opt(c.phase_margin_deg, 1),
+            c.kp_max
+        );
+    }
+    for t in &d.tracking {
+        let _ = writeln!(
+            s,
+            "tracking {} Hz ±{} mm: max error {:.2} mm, RMS {:.2} mm, wave reduction {:.2}",
+            t.freq_hz, t.amp_mm, t.max_error_mm, t.rms_error_mm, t.wave_reduction
+        );
+    }
+    let _ = writeln!(s, "verdict: {verdict}");
+    for r in &d.reasons {
+        let _ = writeln!(s, "  - {r}");
+    }
+    Ok(s)
+}

@@ -1,0 +1,82 @@
+//! Command-line output: the format chosen by a file's extension, and standard output. The safe
+//! file and folder writes are the library's [`pumpcyl_present::files`].
+
+use anyhow::{Context, Result};
+pub use pumpcyl_present::files::{ensure_folder, fmt_opt, shown_name, write_atomic, OutDir};
+use std::io::Write;
+use std::path::Path;
+
+/// The output format chosen by a file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Comma-separated values.
+    Csv,
+    /// Scalable vector graphics.
+    Svg,
+    /// Portable network graphics.
+    Png,
+    /// MAT-file, level 5 (MATLAB, GNU Octave; docs/matlab.md).
+    Mat,
+}
+
+/// Format from the extension of `path`, among `allowed`.
+pub fn format_of(path: &Path, allowed: &[Format]) -> Result<Format> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let format = match ext.as_deref() {
+        Some("csv") => Some(Format::Csv),
+        Some("svg") => Some(Format::Svg),
+        Some("png") => Some(Format::Png),
+        Some("mat") => Some(Format::Mat),
+        _ => None,
+    };
+    match format {
+        Some(f) if allowed.contains(&f) => Ok(f),
+        _ => {
+            let names: Vec<String> = allowed
+                .iter()
+                .map(|f| format!(".{}", format!("{f:?}").to_lowercase()))
+                .collect();
+            anyhow::bail!(
+                "{}: unknown output format; use one of {}",
+                path.display(),
+                names.join(", ")
+            )
+        }
+    }
+}
+
+/// Print the result to standard output. A closed standard output or a broken pipe is an error:
+/// the result did not reach the user.
+pub fn emit(text: &str) -> Result<()> {
+    if !stdout_open() {
+        anyhow::bail!("cannot write to standard output: it is closed");
+    }
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|_| out.flush())
+        .context("cannot write to standard output")
+}
+
+/// Whether standard output was open when the program started. The Rust runtime reopens a closed
+/// descriptor 1 on `/dev/null` for reading and writing, which a shell redirection (`>/dev/null`,
+/// write-only) never does; that combination is taken as "closed by the caller".
+fn stdout_open() -> bool {
+    // SAFETY: fcntl and fstat only query descriptor 1; `st` is a plain struct they fill.
+    unsafe {
+        let flags = libc::fcntl(1, libc::F_GETFL);
+        if flags == -1 {
+            return false;
+        }
+        let mut st: libc::stat = std::mem::zeroed();
+        let mut null: libc::stat = std::mem::zeroed();
+        let dev_null = c"/dev/null";
+        let is_null = libc::fstat(1, &mut st) == 0
+            && libc::stat(dev_null.as_ptr(), &mut null) == 0
+            && st.st_rdev == null.st_rdev
+            && (st.st_mode & libc::S_IFMT) == libc::S_IFCHR;
+        !(is_null && flags & libc::O_ACCMODE == libc::O_RDWR)
+    }
+}

@@ -1,0 +1,299 @@
+//! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
+
+use crate::emit::{write_atomic, OutDir};
+use crate::RigSource;
+use anyhow::{anyhow, bail, Result};
+use clap::{Args, ValueEnum};
+use pumpcyl::emulator::article::{self, Emulated, Kind};
+use pumpcyl::emulator::{DriveStep, Effects, Experiment, Plc};
+use pumpcyl::rig::Rig;
+use rayon::prelude::*;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// The experiments the emulator can run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExperimentKind {
+    /// Position step of the closed loop.
+    Step,
+    /// Sinusoidal position reference.
+    Sine,
+    /// One drive alone, decoupled from its pump, feedforward off: a speed step.
+    DriveStep,
+    /// The reference held: the pumps only feed the leakage.
+    Standstill,
+}
+
+#[derive(Debug, Args)]
+pub struct EmulateArgs {
+    /// What the emulated rig does.
+    #[arg(long, value_enum, required_unless_present = "article_records")]
+    experiment: Option<ExperimentKind>,
+    /// Write every embedded article record, its README and an identify experiment into DIR
+    /// (how data/article/ is made).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["experiment", "out", "rig", "set"])]
+    article_records: Option<PathBuf>,
+    /// Rig (TOML). Default: the emulated article rig (the article §2.1 with the PLC's sum-pressure gain
+    /// 0.22 per bar and the set-point for 4.4 bar mean pressure; see data/article/README.md).
+    #[command(flatten)]
+    source: RigSource,
+    /// Step: reference before the step (mm). Default: x0 − 5 mm.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    from_mm: Option<f64>,
+    /// Step: reference after the step (mm). Default: x0.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    to_mm: Option<f64>,
+    /// Time of the step or the start of the sinusoid (s).
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0.5,
+        allow_negative_numbers = true
+    )]
+    at_s: f64,
+    /// Sine: amplitude (mm) about x0.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 20.0,
+        allow_negative_numbers = true
+    )]
+    amplitude_mm: f64,
+    /// Sine: frequency (Hz).
+    #[arg(
+        long,
+        value_name = "HZ",
+        default_value_t = 0.25,
+        allow_negative_numbers = true
+    )]
+    freq_hz: f64,
+    /// Drive step: which drive (1 or 2).
+    #[arg(long, default_value_t = 1)]
+    motor: usize,
+    /// Drive step: speed after the step (rpm), from rest.
+    #[arg(
+        long,
+        value_name = "RPM",
+        default_value_t = 500.0,
+        allow_negative_numbers = true
+    )]
+    to_rpm: f64,
+    /// Recorded length (s). Default: 6 s, 1 s for a drive step, two periods for a sine.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    duration_s: Option<f64>,
+    /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    rate_hz: Option<f64>,
+    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work).
+    #[arg(long)]
+    allow_long_run: bool,
+    /// Seed of the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Noise-free, unquantised sensors.
+    #[arg(long)]
+    no_noise: bool,
+    /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).
+    #[arg(long)]
+    no_effects: bool,
+    /// Output record (docs/formats.md#record-csv; a drive step writes time_s, w_ref_rpm, w_rpm).
+    #[arg(
+        long,
+        value_name = "RECORD.csv",
+        required_unless_present = "article_records"
+    )]
+    out: Option<PathBuf>,
+}
+
+/// `pumpcyl emulate`.
+pub fn run(args: &EmulateArgs) -> Result<String> {
+    if let Some(dir) = &args.article_records {
+        return article_records(dir);
+    }
+    let kind = args
+        .experiment
+        .ok_or_else(|| anyhow!("--experiment is needed"))?;
+    let out = args
+        .out
+        .as_ref()
+        .ok_or_else(|| anyhow!("--out is needed"))?;
+    let effects = if args.no_effects {
+        Effects::none()
+    } else {
+        Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR).map_err(|e| anyhow!(e))?
+    };
+    let rig = load_rig(&args.source, effects)?;
+    let plan = experiment(args, kind, &rig)?;
+    let plc = plc(args, kind)?;
+    check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
+    let truth = article::Truth { rig, effects, plc };
+    let data = plan
+        .run(&truth)
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    write_atomic(out, data.csv().as_bytes())?;
+    let origin = args.source.origin_or("the emulated article rig");
+    let kind = kind
+        .to_possible_value()
+        .map_or(String::new(), |v| v.get_name().to_owned());
+    Ok(format!(
+        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n",
+        out.display(),
+        data.len()
+    ))
+}
+
+/// The rig: a file, or the emulated article rig, with --set applied.
+fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
+    let base = match &source.rig {
+        Some(_) => return source.load(),
+        None if effects.gas_fraction.is_some() => {
+            article::rig(25.0, 10_593.0, article::P_FIT_BAR, effects).map_err(|e| anyhow!(e))?
+        }
+        None => Rig::default(),
+    };
+    Ok(base.with_overrides(&source.set)?)
+}
+
+fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kind> {
+    let positive = |name: &str, v: f64| -> Result<f64> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            bail!("--{name} {v}: must be > 0")
+        }
+    };
+    let inside = |name: &str, v: f64| -> Result<f64> {
+        if v.is_finite() && v > 0.0 && v < rig.stroke_mm {
+            Ok(v)
+        } else {
+            bail!(
+                "--{name} {v}: must lie inside the stroke (0 … {} mm, `stroke_mm` of the rig)",
+                rig.stroke_mm
+            )
+        }
+    };
+    let at_s = args.at_s;
+    if !(at_s.is_finite() && at_s >= 0.0) {
+        bail!("--at-s {at_s}: must be >= 0");
+    }
+    Ok(match kind {
+        ExperimentKind::Step => Kind::Loop(Experiment::Step {
+            from_mm: inside("from-mm", args.from_mm.unwrap_or(rig.x0_mm - 5.0))?,
+            to_mm: inside("to-mm", args.to_mm.unwrap_or(rig.x0_mm))?,
+            at_s,
+            duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
+        }),
+        ExperimentKind::Sine => {
+            let f = positive("freq-hz", args.freq_hz)?;
+            let a = positive("amplitude-mm", args.amplitude_mm)?;
+            if inside("", rig.x0_mm + a)
+                .and(inside("", rig.x0_mm - a))
+                .is_err()
+            {
+                bail!(
+                    "--amplitude-mm {a}: the sine about x0_mm spans {} … {} mm, outside the \
+                     stroke (0 … {} mm)",
+                    rig.x0_mm - a,
+                    rig.x0_mm + a,
+                    rig.stroke_mm
+                );
+            }
+            Kind::Loop(Experiment::Sine {
+                centre_mm: rig.x0_mm,
+                amplitude_mm: a,
+                freq_hz: f,
+                start_s: at_s,
+                duration_s: positive("duration-s", args.duration_s.unwrap_or(at_s + 2.0 / f))?,
+            })
+        }
+        ExperimentKind::Standstill => Kind::Loop(Experiment::Standstill {
+            x_mm: rig.x0_mm,
+            duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
+        }),
+        ExperimentKind::DriveStep => Kind::Drive(DriveStep {
+            motor: args.motor,
+            from_rpm: 0.0,
+            to_rpm: args.to_rpm,
+            at_s,
+            duration_s: positive("duration-s", args.duration_s.unwrap_or(1.0))?,
+        }),
+    })
+}
+
+/// Refuse a run of hours (controller steps beyond the limit) unless asked for, and a sine the
+/// controller's sampling cannot represent (at or above its Nyquist frequency).
+fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
+    let duration_s = match plan {
+        Kind::Loop(e) => e.duration_s(),
+        Kind::Drive(d) => d.duration_s,
+    };
+    pumpcyl::limits::check_work(
+        "--duration-s and --rate-hz (controller steps)",
+        duration_s * rate_hz,
+        pumpcyl::limits::MAX_EMULATED_STEPS,
+        allow_long_run,
+    )
+    .map_err(anyhow::Error::msg)?;
+    if let Kind::Loop(Experiment::Sine { freq_hz, .. }) = plan {
+        if *freq_hz >= rate_hz / 2.0 {
+            bail!(
+                "--freq-hz {freq_hz}: at or above the Nyquist frequency {} Hz of --rate-hz \
+                 {rate_hz}; raise --rate-hz above {} Hz",
+                rate_hz / 2.0,
+                2.0 * freq_hz
+            );
+        }
+    }
+    Ok(())
+}
+
+fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
+    let default_rate = if kind == ExperimentKind::DriveStep {
+        1000.0
+    } else {
+        100.0
+    };
+    let rate_hz = args.rate_hz.unwrap_or(default_rate);
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        bail!("--rate-hz {rate_hz}: must be > 0");
+    }
+    let base = if args.no_noise {
+        Plc::ideal(rate_hz)
+    } else {
+        article::plc(args.seed)
+    };
+    Ok(Plc {
+        rate_hz,
+        seed: args.seed,
+        ..base
+    })
+}
+
+/// Emulate every article record into `dir`, with the README and the identify experiment.
+fn article_records(target: &Path) -> Result<String> {
+    let folder = OutDir::begin(target)?;
+    let dir = folder.path();
+    let records = article::records().map_err(|e| anyhow!(e))?;
+    let results: Vec<Result<Emulated>> = records
+        .par_iter()
+        .map(|r| r.run().map_err(|e| anyhow!("{}: {e}", r.file)))
+        .collect();
+    let mut summary = String::new();
+    for (rec, data) in records.iter().zip(results) {
+        let data = data?;
+        write_atomic(&dir.join(rec.file), data.csv().as_bytes())?;
+        let _ = writeln!(summary, "{}: {}", target.join(rec.file).display(), rec.what);
+    }
+    write_atomic(&dir.join("README.md"), article::readme(&records).as_bytes())?;
+    write_atomic(
+        &dir.join("identify.toml"),
+        article::identify_experiment().as_bytes(),
+    )?;
+    let _ = writeln!(
+        summary,
+        "{}: README.md and identify.toml (emulated data, not measurements)",
+        target.display()
+    );
+    folder.commit()?;
+    Ok(summary)
+}

@@ -1,0 +1,452 @@
+//! The identification commands: `leakage`, `identify-drive`, `identify`, `identify-merge`
+//! (the article §2.4; docs/identification.md).
+
+use anyhow::{Context, Result};
+use clap::Args;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::emit::{ensure_folder, format_of, write_atomic, Format, OutDir};
+use crate::RigSource;
+use pumpcyl::ident::shards::{self, digest, Partial};
+use pumpcyl::ident::{
+    finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
+    Standstill,
+};
+use pumpcyl_present::figures::Chart;
+use pumpcyl_present::identification as outputs;
+
+#[derive(Debug, Args)]
+pub struct LeakageArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// A standstill record (docs/formats.md#record-csv with w1_rpm, w2_rpm, p1_bar): its means are used.
+    #[arg(long, value_name = "RECORD.csv", conflicts_with_all = ["w1_rpm", "w2_rpm", "p1_bar"])]
+    record: Option<PathBuf>,
+    /// Motor/pump 1 speed at standstill (rpm).
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        required_unless_present = "record"
+    )]
+    w1_rpm: Option<f64>,
+    /// Motor/pump 2 speed at standstill (rpm).
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        required_unless_present = "record"
+    )]
+    w2_rpm: Option<f64>,
+    /// Chamber 1 pressure at standstill (bar gauge).
+    #[arg(
+        long,
+        required_unless_present = "record",
+        allow_negative_numbers = true
+    )]
+    p1_bar: Option<f64>,
+    /// Cross-port leakage c12 (m⁵/(N·s)).
+    #[arg(long, allow_negative_numbers = true)]
+    c12: f64,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct DriveArgs {
+    #[command(flatten)]
+    rig: RigSource,
+    /// Drive step record: CSV with time_s, w_ref_rpm, w_rpm.
+    record: PathBuf,
+    /// Which motor's rotor inertia to use (1 or 2).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    motor: u8,
+    /// Overlay of measured and simulated speed: .svg, .png or .csv.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// Experiment description (TOML): rig, [set], [standstill], [[dataset]], optional grids.
+    experiment: PathBuf,
+    /// Print JSON (beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns, c1_m5_per_ns,
+    /// c2_m5_per_ns, cost_mm2, candidates_evaluated, seconds, refined, grid_best, ...).
+    #[arg(long)]
+    json: bool,
+    /// Folder for result.json, the cost landscape (CSV and heat map) and the fit overlays.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Derive the second grid from the first grid's candidates below the threshold.
+    #[arg(long)]
+    auto_refine: bool,
+    /// Skip the local (Nelder–Mead) refinement.
+    #[arg(long)]
+    no_refine: bool,
+    /// Threshold of the threshold set (mm²); default: the experiment's, else 0.25.
+    #[arg(long, allow_negative_numbers = true)]
+    threshold_mm2: Option<f64>,
+    /// Length of the top list.
+    #[arg(long, default_value_t = 20)]
+    top: usize,
+    /// Evaluate only slice I of N of the grids (1-based) and write a partial result into --out
+    /// for `pumpcyl identify-merge`.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Run even when the grids times the records would take hours (more than
+    /// 10^9 candidate-samples).
+    #[arg(long)]
+    allow_long_run: bool,
+    /// Also give the noise level and profile-likelihood intervals of beta, b and c12, saying
+    /// which the records do not bound (docs/identification.md, "Uncertainty"); with --out, the
+    /// profile figures too.
+    #[arg(long, conflicts_with = "shard")]
+    uncertainty: bool,
+    /// Confidence level of the --uncertainty intervals, in (0, 1).
+    #[arg(long, default_value_t = 0.95, requires = "uncertainty")]
+    confidence: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// Partial results written by `identify --shard I/N --out DIR`.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+    /// Folder for the merged result, as `identify --out`.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s.split_once('/').ok_or("expected I/N, e.g. 3/8")?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{i}` is not a shard number"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{n}` is not a shard count"))?;
+    if n == 0 || i == 0 || i > n {
+        return Err(format!("shard {i}/{n}: need 1 <= I <= N"));
+    }
+    Ok((i, n))
+}
+
+/// `pumpcyl leakage`.
+pub fn leakage(args: &LeakageArgs) -> Result<String> {
+    anyhow::ensure!(
+        args.c12.is_finite() && args.c12 >= 0.0,
+        "--c12 must be >= 0 (got {})",
+        args.c12
+    );
+    let rig = args.rig.load()?;
+    let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
+        (Some(path), ..) => {
+            let rec = pumpcyl::record::Record::read(path)?;
+            warn(&pumpcyl::ident::standstill_warnings(&rec));
+            Standstill::of_record(&rec)?
+        }
+        (None, Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Standstill {
+            w1_rpm,
+            w2_rpm,
+            p1_bar,
+        },
+        _ => anyhow::bail!("give --record or all of --w1-rpm, --w2-rpm, --p1-bar"),
+    };
+
+    let l = s.leakage(&rig, args.c12)?;
+    if args.json {
+        return Ok(serde_json::to_string_pretty(&l)? + "\n");
+    }
+    Ok(format!(
+        "standstill (the article §2.4): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
+         c12                 {:.4e} m⁵/(N·s)\n  c1                  {:.4e} m⁵/(N·s)\n  c2                  {:.4e} m⁵/(N·s)\n",
+        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
+    ))
+}
+
+/// `pumpcyl identify-drive`.
+pub fn drive(args: &DriveArgs) -> Result<String> {
+    let rig = args.rig.load()?;
+    let rec = DriveRecord::read(&args.record)?;
+    let jm = if args.motor == 1 {
+        rig.motor_inertia_1_kg_mm2
+    } else {
+        rig.motor_inertia_2_kg_mm2
+    } * 1e-6;
+    let fit = identify_drive(&rec, jm, rig.current_loop_bandwidth_rad_per_s)?;
+    if let Some(path) = &args.out {
+        write_drive_overlay(path, &rec, &fit)?;
+    }
+    if args.json {
+        return Ok(serde_json::to_string_pretty(&json!({
+            "file": rec.file, "motor": args.motor, "km_nms_per_rad": fit.km_nms_per_rad,
+            "mse_rpm2": fit.mse_rpm2, "rotor_inertia_kg_m2": jm,
+        }))? + "\n");
+    }
+    Ok(format!(
+        "{}: motor {} (Jm = {:.3e} kg·m², current loop {} rad/s, feedforward off)\n  Km  {:.5} N·m·s/rad\n  fit MSE {:.3} rpm² (RMS {:.2} rpm)\n",
+        rec.file,
+        args.motor,
+        jm,
+        rig.current_loop_bandwidth_rad_per_s,
+        fit.km_nms_per_rad,
+        fit.mse_rpm2,
+        fit.mse_rpm2.sqrt()
+    ))
+}
+
+pub(super) fn write_drive_overlay(
+    path: &Path,
+    rec: &DriveRecord,
+    fit: &pumpcyl::ident::DriveFit,
+) -> Result<()> {
+    let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
+    if format == Format::Csv {
+        let mut s = String::from("time_s,w_ref_rpm,w_rpm,w_sim_rpm\n");
+        for k in 0..rec.time_s.len() {
+            let _ = writeln!(
+                s,
+                "{},{},{},{:.6}",
+                rec.time_s[k], rec.w_ref_rpm[k], rec.w_rpm[k], fit.w_sim_rpm[k]
+            );
+        }
+        return write_atomic(path, s.as_bytes());
+    }
+    let chart = Chart::drive_step(rec, fit);
+    crate::time::render(path, &chart)
+}
+
+fn options(args: &IdentifyArgs, exp: &Experiment) -> Result<Options> {
+    let threshold_mm2 = args.threshold_mm2.unwrap_or(exp.file.threshold_mm2);
+    anyhow::ensure!(
+        threshold_mm2.is_finite() && threshold_mm2 > 0.0,
+        "--threshold-mm2 must be > 0"
+    );
+    anyhow::ensure!(args.top >= 1, "--top must be at least 1");
+    Ok(Options {
+        auto_refine: args.auto_refine || exp.file.auto_refine,
+        local_refinement: !args.no_refine && exp.file.local_refinement,
+        threshold_mm2,
+        top_n: args.top,
+    })
+}
+
+/// A progress bar on stderr when it is a terminal; silent otherwise.
+pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    if std::io::stderr().is_terminal() {
+        let bar = indicatif::ProgressBar::new(total);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} candidates {per_sec} eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
+}
+
+/// `pumpcyl identify`.
+pub fn identify(args: &IdentifyArgs) -> Result<String> {
+    let exp = Experiment::load(&args.experiment)?;
+    let opts = options(args, &exp)?;
+    let grids = exp.grids();
+    if args.shard.is_some() {
+        anyhow::ensure!(!opts.auto_refine, "--shard needs fixed grids: --auto-refine derives the second grid from the first, so run that stage unsharded");
+        anyhow::ensure!(
+            args.out.is_some(),
+            "--shard writes a partial result: give --out DIR"
+        );
+    }
+    let total = grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len());
+    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
+    pumpcyl::limits::check_work(
+        "identify: the grids' candidates times the records' samples",
+        pumpcyl::ident::shard_len(total, args.shard) as f64 * samples as f64,
+        pumpcyl::limits::MAX_CANDIDATE_SAMPLES,
+        args.allow_long_run,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let bar = progress_bar(pumpcyl::ident::shard_len(total, args.shard) as u64);
+    let start = Instant::now();
+    let stages = run_stages(&exp.problem, grids, &opts, args.shard, &|n| bar.inc(n))?;
+    let search_seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    if let (Some(shard), Some(dir)) = (args.shard, &args.out) {
+        // the fingerprint of the experiment as the merge will load it (by its canonical path)
+        let canonical = std::fs::canonicalize(&args.experiment)?;
+        let part = Partial {
+            digest: digest(&Experiment::load(&canonical)?, &opts)?,
+            experiment: canonical,
+            shard,
+            local_refinement: opts.local_refinement,
+            threshold_mm2: opts.threshold_mm2,
+            top: opts.top_n,
+            seconds: search_seconds,
+            stages,
+        };
+        ensure_folder(dir)?;
+        let path = dir.join(format!("part-{}-of-{}.json", shard.0, shard.1));
+        write_atomic(&path, serde_json::to_string(&part)?.as_bytes())?;
+        return Ok(format!(
+            "wrote {} (shard {}/{}, {:.2} s)\n",
+            path.display(),
+            shard.0,
+            shard.1,
+            search_seconds
+        ));
+    }
+    let id = finish(&exp.problem, stages, &opts)?;
+    let seconds = start.elapsed().as_secs_f64();
+    warn(&id.warnings());
+    if args.uncertainty {
+        let out = args.out.as_deref();
+        return crate::uncertainty::report(&exp, &id, seconds, args.confidence, args.json, out);
+    }
+    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+}
+
+/// Warnings go to standard error, one line each, so `--json` output stays clean.
+fn warn(lines: &[String]) {
+    for l in lines {
+        eprintln!("warning: {l}");
+    }
+}
+
+/// `pumpcyl identify-merge`.
+pub fn merge(args: &MergeArgs) -> Result<String> {
+    let mut parts = Vec::new();
+    for p in &args.parts {
+        let text =
+            std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+        let part: Partial = serde_json::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
+        parts.push((p.clone(), part));
+    }
+    let (exp, id, seconds) = shards::merge(parts)?;
+    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+}
+
+/// The JSON of an identification (also written as result.json).
+pub(super) fn identification_json(
+    exp: &Experiment,
+    id: &Identification,
+    seconds: f64,
+) -> Result<serde_json::Value> {
+    outputs::identification_json(exp, id, seconds)
+}
+
+fn report_identification(
+    exp: &Experiment,
+    id: &Identification,
+    seconds: f64,
+    json_out: bool,
+    out: Option<&Path>,
+) -> Result<String> {
+    let v = identification_json(exp, id, seconds)?;
+    if let Some(dir) = out {
+        write_result_folder(dir, exp, id, &v, |_| Ok(()))?;
+    }
+    if json_out {
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+    }
+    Ok(identification_text(exp, id, seconds))
+}
+
+/// Write the identification's files into the result folder `dir`, built aside and swapped in
+/// whole; `more` adds files of its own to the folder before the swap.
+pub(super) fn write_result_folder(
+    dir: &Path,
+    exp: &Experiment,
+    id: &Identification,
+    v: &serde_json::Value,
+    more: impl FnOnce(&Path) -> Result<()>,
+) -> Result<()> {
+    let folder = OutDir::begin(dir)?;
+    write_outputs(folder.path(), exp, id, v)?;
+    more(folder.path())?;
+    folder.commit()
+}
+
+pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
+    let mut s = String::new();
+    let sizes: Vec<String> = id
+        .stages
+        .iter()
+        .map(|st| st.grid.len().to_string())
+        .collect();
+    let (nf, us): (u64, u64) = id.stages.iter().fold((0, 0), |(a, b), st| {
+        (a + st.summary.non_finite, b + st.summary.unstable)
+    });
+    let _ = writeln!(
+        s,
+        "{}: {} datasets, {} candidates ({}) in {seconds:.3} s; {nf} non-finite, {us} rejected as unstable",
+        exp.path.display(),
+        exp.problem.datasets.len(),
+        id.evaluated(),
+        sizes.join(" + ")
+    );
+    let line = |label: &str, c: &Scored| {
+        format!(
+            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)  cost {:.5} mm²\n",
+            c.candidate.beta_bar, c.candidate.viscous_friction_ns_per_m, c.candidate.c12_m5_per_ns, c.cost_mm2
+        )
+    };
+    s.push_str(&line("best grid point", &id.grid_best));
+    match &id.refined {
+        Some(r) => s.push_str(&line("refined (N-M)", r)),
+        None => s.push_str("  refined (N-M)    off, or no improvement on the grid\n"),
+    }
+    let _ = writeln!(
+        s,
+        "  leakages         c1 {:.4e}, c2 {:.4e} m⁵/(N·s) (standstill p2 = {:.3} bar)",
+        id.leakage.c1_m5_per_ns, id.leakage.c2_m5_per_ns, id.leakage.p2_bar
+    );
+    for (i, st) in id.stages.iter().enumerate() {
+        let bounds = st.summary.threshold_bounds.map_or("-".to_string(), |b| {
+            format!(
+                "beta {:.0}..{:.0} bar, b {:.0}..{:.0} N·s/m, c12 {:.2e}..{:.2e}",
+                b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]
+            )
+        });
+        let _ = writeln!(
+            s,
+            "  stage {} threshold set (cost < {} mm²): {} candidates; {bounds}",
+            i + 1,
+            st.summary.threshold_mm2,
+            st.summary.threshold_count
+        );
+    }
+    let _ = writeln!(s, "top {}:", id.top.len());
+    for (k, c) in id.top.iter().enumerate() {
+        s.push_str(&line(&format!("{:>2}", k + 1), c));
+    }
+    s
+}
+
+/// The files of [`outputs::files`] into the existing folder `dir` (a temporary [`OutDir`]
+/// folder or a subfolder of one; never created here, so an interruption's cleanup is never
+/// undone).
+pub(super) fn write_outputs(
+    dir: &Path,
+    exp: &Experiment,
+    id: &Identification,
+    v: &serde_json::Value,
+) -> Result<()> {
+    for (name, bytes) in outputs::files(exp, id, v)? {
+        write_atomic(&dir.join(name), &bytes)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,96 @@
+//! `pumpcyl reproduce`: the article's whole workflow ([`pumpcyl_present::reproduce`]) into one folder,
+//! with its progress on standard error and the comparison with the article on standard output.
+
+use anyhow::Result;
+use clap::Args;
+use pumpcyl_present::reproduce::{reproduce, ComparisonRow, ReproduceOptions};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct ReproduceArgs {
+    /// Output folder (created): figures/, identification/, records/, summary.json, report.html.
+    #[arg(long, value_name = "DIR", default_value = "reproduce")]
+    out: PathBuf,
+}
+
+/// `pumpcyl reproduce`.
+pub fn run(args: &ReproduceArgs) -> Result<String> {
+    // refuse a bad output folder before the work, not after it
+    drop(pumpcyl_present::files::OutDir::begin(&args.out)?);
+    let start = Instant::now();
+    let bar = crate::ident::progress_bar(0);
+    let on_step = |k: usize, total: usize, what: &str| {
+        // the candidates' bar belongs to the identification step: gone once a later one starts
+        if bar.length().unwrap_or(0) > 0 {
+            bar.finish_and_clear();
+        }
+        eprintln!(
+            "[{k}/{total} {:5.1} s] {what}",
+            start.elapsed().as_secs_f64()
+        );
+    };
+    let on_candidates = |n: u64, total: u64| {
+        bar.set_length(total);
+        bar.inc(n);
+        true
+    };
+    let result = reproduce(&ReproduceOptions {
+        on_step: Some(&on_step),
+        on_candidates: Some(&on_candidates),
+    });
+    bar.finish_and_clear();
+    let result = result?;
+    result.write(&args.out)?;
+    Ok(terminal_table(
+        &result.comparison,
+        &args.out,
+        result.seconds,
+    ))
+}
+
+/// The comparison with the article as a terminal table, under where the result went.
+fn terminal_table(rows: &[ComparisonRow], dir: &Path, seconds: f64) -> String {
+    let cells = |r: &ComparisonRow| {
+        [
+            r.quantity.clone(),
+            r.pumpcyl.clone(),
+            r.article.clone(),
+            r.truth.clone(),
+            r.why.clone(),
+        ]
+    };
+    let rows: Vec<[String; 5]> = rows.iter().map(cells).collect();
+    let width = |i: usize, head: &str| {
+        rows.iter()
+            .map(|r| r[i].chars().count())
+            .chain([head.len()])
+            .max()
+            .unwrap_or(0)
+    };
+    let (w0, w1, w2, w3) = (
+        width(0, "quantity"),
+        width(1, "pumpcyl"),
+        width(2, "article"),
+        width(3, "emulator truth"),
+    );
+    let mut s = format!(
+        "reproduced in {seconds:.1} s into {} (report.html, summary.json, figures/)\n\
+         inputs: EMULATED records (records/README.md), not the article's measurements\n\n\
+         {:<w0$}  {:<w1$}  {:<w2$}  {:<w3$}  why they differ\n",
+        dir.display(),
+        "quantity",
+        "pumpcyl",
+        "article",
+        "emulator truth"
+    );
+    for r in &rows {
+        let line = format!(
+            "{:<w0$}  {:<w1$}  {:<w2$}  {:<w3$}  {}",
+            r[0], r[1], r[2], r[3], r[4]
+        );
+        let _ = writeln!(s, "{}", line.trim_end());
+    }
+    s
+}
