@@ -2,9 +2,22 @@
 //! file and folder writes are the library's [`pumpcyl_present::files`].
 
 use anyhow::{Context, Result};
-pub use pumpcyl_present::files::{ensure_folder, fmt_opt, shown_name, write_atomic, OutDir};
+pub use pumpcyl_present::files::ensure_folder;
+pub use pumpcyl_present::format::{fmt_opt, shown_name};
+use pumpcyl_present::files::{self, OutDir};
 use std::io::Write;
 use std::path::Path;
+
+/// Write `bytes` to `path` whole or not at all, never over an input of this command.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    files::write_atomic(path, bytes, &crate::inputs::protected())
+}
+
+/// Start the result folder `dir`, built aside and swapped in whole, never over (or around) an
+/// input of this command.
+pub fn out_dir(dir: &Path) -> Result<OutDir> {
+    OutDir::begin(dir, &crate::inputs::protected())
+}
 
 /// The output format chosen by a file's extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

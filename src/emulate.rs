@@ -1,6 +1,6 @@
 //! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
 
-use crate::emit::{write_atomic, OutDir};
+use crate::emit::{write_atomic};
 use crate::RigSource;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
@@ -271,7 +271,7 @@ fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
 
 /// Emulate every article record into `dir`, with the README and the identify experiment.
 fn article_records(target: &Path) -> Result<String> {
-    let folder = OutDir::begin(target)?;
+    let folder = crate::emit::out_dir(target)?;
     let dir = folder.path();
     let records = article::records().map_err(|e| anyhow!(e))?;
     let results: Vec<Result<Emulated>> = records

@@ -1,7 +1,7 @@
 //! The identification commands: `leakage`, `identify-drive`, `identify`, `identify-merge`
 //! (the article §2.4; docs/identification.md).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -9,7 +9,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::emit::{ensure_folder, format_of, write_atomic, Format, OutDir};
+use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::{self, digest, Partial};
 use pumpcyl::ident::{
@@ -152,7 +152,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
     let rig = args.rig.load()?;
     let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
         (Some(path), ..) => {
-            let rec = pumpcyl::record::Record::read(path)?;
+            let rec = pumpcyl::record::Record::read_in(crate::inputs::files(), path)?;
             warn(&pumpcyl::ident::standstill_warnings(&rec));
             Standstill::of_record(&rec)?
         }
@@ -178,7 +178,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
 /// `pumpcyl identify-drive`.
 pub fn drive(args: &DriveArgs) -> Result<String> {
     let rig = args.rig.load()?;
-    let rec = DriveRecord::read(&args.record)?;
+    let rec = DriveRecord::read_in(crate::inputs::files(), &args.record)?;
     let jm = if args.motor == 1 {
         rig.motor_inertia_1_kg_mm2
     } else {
@@ -260,7 +260,7 @@ pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
 
 /// `pumpcyl identify`.
 pub fn identify(args: &IdentifyArgs) -> Result<String> {
-    let exp = Experiment::load(&args.experiment)?;
+    let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
     let opts = options(args, &exp)?;
     let grids = exp.grids();
     if args.shard.is_some() {
@@ -288,7 +288,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         // the fingerprint of the experiment as the merge will load it (by its canonical path)
         let canonical = std::fs::canonicalize(&args.experiment)?;
         let part = Partial {
-            digest: digest(&Experiment::load(&canonical)?, &opts)?,
+            digest: digest(&Experiment::load_in(crate::inputs::files(), &canonical)?, &opts)?,
             experiment: canonical,
             shard,
             local_refinement: opts.local_refinement,
@@ -329,13 +329,13 @@ fn warn(lines: &[String]) {
 pub fn merge(args: &MergeArgs) -> Result<String> {
     let mut parts = Vec::new();
     for p in &args.parts {
-        let text =
-            std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+        let text = pumpcyl::input::read_text(crate::inputs::files(), p)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
         let part: Partial = serde_json::from_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
         parts.push((p.clone(), part));
     }
-    let (exp, id, seconds) = shards::merge(parts)?;
+    let (exp, id, seconds) = shards::merge(crate::inputs::files(), parts)?;
     report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
 }
 
@@ -374,7 +374,7 @@ pub(super) fn write_result_folder(
     v: &serde_json::Value,
     more: impl FnOnce(&Path) -> Result<()>,
 ) -> Result<()> {
-    let folder = OutDir::begin(dir)?;
+    let folder = crate::emit::out_dir(dir)?;
     write_outputs(folder.path(), exp, id, v)?;
     more(folder.path())?;
     folder.commit()

@@ -13,6 +13,7 @@ mod design;
 mod emit;
 mod emulate;
 mod export;
+mod inputs;
 mod ident;
 mod reproduce;
 mod robust;
@@ -115,7 +116,7 @@ impl RigSource {
     /// The rig: file or default, with --set applied.
     pub fn load(&self) -> Result<Rig> {
         let base = match &self.rig {
-            Some(path) => Rig::from_file(path)?,
+            Some(path) => Rig::from_file_in(crate::inputs::files(), path)?,
             None => Rig::default(),
         };
         Ok(base.with_overrides(&self.set)?)
@@ -172,7 +173,7 @@ impl ModelArgs {
 /// Read a `--ss` JSON model; errors name the file, line and key.
 fn read_ss(path: &std::path::Path) -> Result<Loop> {
     let name = path.display().to_string();
-    pumpcyl::input::read_text(path)
+    pumpcyl::input::read_text(crate::inputs::files(), path)
         .and_then(|text| Loop::from_json(&text, &name))
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))
 }

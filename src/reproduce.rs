@@ -18,7 +18,7 @@ pub struct ReproduceArgs {
 /// `pumpcyl reproduce`.
 pub fn run(args: &ReproduceArgs) -> Result<String> {
     // refuse a bad output folder before the work, not after it
-    drop(pumpcyl_present::files::OutDir::begin(&args.out)?);
+    drop(crate::emit::out_dir(&args.out)?);
     let start = Instant::now();
     let bar = crate::ident::progress_bar(0);
     let on_step = |k: usize, total: usize, what: &str| {

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::emit::{fmt_opt, write_atomic, OutDir};
+use crate::emit::{fmt_opt, write_atomic};
 use crate::time::render_both;
 use pumpcyl::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
 use pumpcyl::design::{robust_design, RobustDesign, Targets};
@@ -40,7 +40,7 @@ pub(super) fn run(
     );
     let start = Instant::now();
     let (rig, region) = match src.experiment {
-        Some(path) => Region::of_records(&Experiment::load(path)?, src.confidence)?,
+        Some(path) => Region::of_records(&Experiment::load_in(crate::inputs::files(), path)?, src.confidence)?,
         None => (src.rig.clone(), Region::stated_default(&src.rig)),
     };
     let identify_seconds = start.elapsed().as_secs_f64();
@@ -50,7 +50,7 @@ pub(super) fn run(
     v["seconds"] = json!(seconds);
     v["identification_seconds"] = json!(identify_seconds);
     if let Some(dir) = out {
-        let folder = OutDir::begin(dir)?;
+        let folder = crate::emit::out_dir(dir)?;
         write_atomic(
             &folder.path().join("result.json"),
             (serde_json::to_string_pretty(&v)? + "\n").as_bytes(),

@@ -566,9 +566,9 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
             .data
             .as_ref()
             .context("--data or --experiment is needed")?;
-        return Ok((Record::read(data)?, args.rig.load()?, None));
+        return Ok((Record::read_in(crate::inputs::files(), data)?, args.rig.load()?, None));
     };
-    let exp = pumpcyl::ident::Experiment::load(path)?;
+    let exp = pumpcyl::ident::Experiment::load_in(crate::inputs::files(), path)?;
     let count = exp.problem.datasets.len();
     anyhow::ensure!(
         (1..=count).contains(&n),

@@ -804,7 +804,7 @@ fn advise(
     let advice = py
         .detach(|| {
             let exp = pumpcyl::ident::Experiment::load(&experiment)?;
-            pumpcyl::ident::advise_experiment(&exp, candidates.as_deref(), confidence)
+            pumpcyl::ident::advise_experiment(&exp, &pumpcyl::input::Disk, candidates.as_deref(), confidence)
         })
         .map_err(err)?;
     to_py(py, &advice)

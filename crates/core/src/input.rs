@@ -6,26 +6,27 @@
 //! an unknown key is answered with the nearest known one. Values that parse but make no sense
 //! (a negative mass) are located afterwards with [`toml_line`].
 
-use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::io::Read;
+use std::path::Path;
 
-/// Every file this process has read, canonicalised (symlinks resolved), so that an output layer
-/// can refuse to write over one of them.
-static READ: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-
-/// Note that `path` is an input of this run (called by every reader of user files).
-pub fn note_read(path: &Path) {
-    if let Ok(real) = std::fs::canonicalize(path) {
-        let mut read = READ.lock().unwrap_or_else(|e| e.into_inner());
-        if !read.contains(&real) {
-            read.push(real);
-        }
-    }
+/// Where the files a caller names are read from: the file system ([`Disk`]), or anything else
+/// that can open a path for reading, such as the embedded article records
+/// ([`crate::emulator::article::Embedded`]) or a front end's reader that notes every file a
+/// command reads so that no output of the command replaces one. Every reader of user files in
+/// this crate has a form taking `&dyn Files`; the plain form reads from [`Disk`].
+pub trait Files: Sync {
+    /// A stream of the bytes of the file at `path`.
+    fn open(&self, path: &Path) -> std::io::Result<Box<dyn Read + Send + '_>>;
 }
 
-/// The files read so far, canonicalised.
-pub fn files_read() -> Vec<PathBuf> {
-    READ.lock().unwrap_or_else(|e| e.into_inner()).clone()
+/// The file system.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Disk;
+
+impl Files for Disk {
+    fn open(&self, path: &Path) -> std::io::Result<Box<dyn Read + Send + '_>> {
+        Ok(Box::new(std::fs::File::open(path)?))
+    }
 }
 
 /// The UTF-8 byte-order mark that spreadsheet programs put at the start of text files.
@@ -33,10 +34,8 @@ pub const BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// The text of a user file, a leading byte-order mark dropped. The error (without the file name,
 /// which the caller puts first) is `cannot read: …` or `line L, column C: not UTF-8 text …`.
-pub fn read_text(path: &Path) -> Result<String, String> {
-    note_read(path);
-    let bytes = read_bounded(path)?;
-    decode(bytes)
+pub fn read_text(files: &dyn Files, path: &Path) -> Result<String, String> {
+    decode(read_bounded(files, path)?)
 }
 
 /// The largest text file (rig, experiment, `--ss` model, partial result) read whole, in bytes.
@@ -44,9 +43,8 @@ pub const MAX_TEXT_BYTES: u64 = 64 << 20;
 
 /// The bytes of a file of at most [`MAX_TEXT_BYTES`]; a special file such as `/dev/zero` that
 /// never ends is stopped at the limit.
-pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
-    use std::io::Read;
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+pub fn read_bounded(files: &dyn Files, path: &Path) -> Result<Vec<u8>, String> {
+    let file = files.open(path).map_err(|e| format!("cannot read: {e}"))?;
     let mut bytes = Vec::new();
     file.take(MAX_TEXT_BYTES + 1)
         .read_to_end(&mut bytes)

@@ -2,6 +2,7 @@
 //! columns ignored. `time_s`, `x_ref_mm`, `x_mm` are required; `p1_bar`, `p2_bar` (gauge),
 //! `w1_rpm`, `w2_rpm` are optional. Time is strictly increasing, uniform or not.
 
+use crate::input::{Disk, Files};
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
@@ -92,13 +93,13 @@ impl Record {
     /// Read and check a record file, streamed (memory holds the used columns, not the text);
     /// a `.mat` file is read as a MAT-file record ([`Table::from_mat`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {
-        if is_mat(path) {
-            let file = path.display().to_string();
-            let t = Table::from_mat(&read_bytes(path)?, &file, &REQUIRED, &OPTIONAL)?;
-            return Ok(Self::from_table(t, &file));
-        }
-        let (reader, file) = open(path)?;
-        Self::from_reader(reader, &file)
+        Self::read_in(&Disk, path)
+    }
+
+    /// [`Record::read`] from `files`.
+    pub fn read_in(files: &dyn Files, path: &Path) -> Result<Record, RecordError> {
+        let t = Table::read_in(files, path, &REQUIRED, &OPTIONAL)?;
+        Ok(Self::from_table(t, &path.display().to_string()))
     }
 
     /// Parse record text; `file` names it in messages.
@@ -227,11 +228,28 @@ impl Table {
     /// Read a file with the `required` columns (the first is time) and any `optional` ones,
     /// streamed.
     pub fn read(path: &Path, required: &[&str], optional: &[&str]) -> Result<Table, RecordError> {
+        Self::read_in(&Disk, path, required, optional)
+    }
+
+    /// [`Table::read`] from `files`.
+    pub fn read_in(
+        files: &dyn Files,
+        path: &Path,
+        required: &[&str],
+        optional: &[&str],
+    ) -> Result<Table, RecordError> {
+        let file = path.display().to_string();
+        let io = |e: std::io::Error| RecordError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        };
+        let mut stream = files.open(path).map_err(io)?;
         if is_mat(path) {
-            let file = path.display().to_string();
-            return Self::from_mat(&read_bytes(path)?, &file, required, optional);
+            let mut bytes = Vec::new();
+            stream.read_to_end(&mut bytes).map_err(io)?;
+            return Self::from_mat(&bytes, &file, required, optional);
         }
-        let (reader, file) = open(path)?;
+        let reader = BufReader::with_capacity(1 << 16, stream);
         Self::from_reader(reader, &file, required, optional)
     }
 
@@ -554,26 +572,6 @@ fn is_mat(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("mat"))
-}
-
-/// A whole file's bytes (noted as an input of this run, which no output may overwrite).
-fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
-    crate::input::note_read(path);
-    std::fs::read(path).map_err(|e| RecordError::Io {
-        file: path.display().to_string(),
-        message: e.to_string(),
-    })
-}
-
-/// A file opened for streaming, and its name for messages.
-fn open(path: &Path) -> Result<(BufReader<std::fs::File>, String), RecordError> {
-    let file = path.display().to_string();
-    crate::input::note_read(path);
-    let f = std::fs::File::open(path).map_err(|e| RecordError::Io {
-        file: file.clone(),
-        message: e.to_string(),
-    })?;
-    Ok((BufReader::with_capacity(1 << 16, f), file))
 }
 
 /// The header's column names (trimmed); a name that is not UTF-8 is an error at line 1.

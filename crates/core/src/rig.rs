@@ -318,12 +318,17 @@ impl Rig {
 
     /// Read and validate a rig file.
     pub fn from_file(path: &Path) -> Result<Rig, RigError> {
+        Self::from_file_in(&input::Disk, path)
+    }
+
+    /// [`Rig::from_file`] from `files`.
+    pub fn from_file_in(files: &dyn input::Files, path: &Path) -> Result<Rig, RigError> {
         let name = path.display().to_string();
         let parse_err = |message| RigError::Parse {
             file: name.clone(),
             message,
         };
-        let text = input::read_text(path).map_err(parse_err)?;
+        let text = input::read_text(files, path).map_err(parse_err)?;
         if toml::from_str::<toml::Table>(&text).is_ok_and(|t| t.is_empty()) {
             return Err(parse_err(
                 "line 1: no keys: the file is empty, so it is probably not the rig you meant; \

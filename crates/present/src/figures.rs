@@ -143,7 +143,7 @@ impl Chart {
         }];
         let subtitle = format!("fit RMS error {:.2} rpm", fit.mse_rpm2.sqrt());
         Chart::time(
-            &format!("Drive step: {}", crate::files::shown_name(&rec.file)),
+            &format!("Drive step: {}", crate::format::shown_name(&rec.file)),
             Some(&subtitle),
             panels,
         )

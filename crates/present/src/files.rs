@@ -1,13 +1,17 @@
-//! Safe output: file and folder writes that never lose a user's data, and number formatting.
+//! Safe output: file and folder writes that never lose a user's data.
 //!
-//! Every file pumpcyl writes (the command line, the article workflow, the Python
-//! package) goes through [`write_atomic`] and every result folder through
-//! [`OutDir`], so one place guarantees that a user's data is never lost:
-//! - no output lands on a file this run read (paths compared canonicalised, symlinks resolved);
+//! Every file pumpcyl writes (the command line, the article workflow, the Python package) goes
+//! through [`write_atomic`] and every result folder through [`OutDir`], so one place guarantees
+//! that a user's data is never lost:
+//! - no output lands on a file the caller read: the caller names those files ([`Protected`];
+//!   paths compared canonicalised, symlinks resolved);
 //! - a file appears whole or not at all (temporary sibling, then a rename), a folder likewise
-//!   (built as a temporary sibling, then swapped in), and temporaries are removed on SIGINT or
-//!   SIGTERM, or by the next run after a SIGKILL;
+//!   (built as a temporary sibling, then swapped in); temporaries are removed when an error
+//!   abandons them, by a front end's signal handler through [`remove_temporaries`], or by the
+//!   next run after a SIGKILL (their names carry the process id);
 //! - files are created with the permissions the user's umask gives any new file (0666 & !umask).
+//!
+//! Nothing here installs a signal handler or ends the process: the command line does that.
 
 use anyhow::{Context, Result};
 use std::io::Write;
@@ -96,27 +100,66 @@ fn resolve(path: &Path) -> PathBuf {
     }
 }
 
-/// Refuse an output at `path` that is, or (for a folder) contains, a file this run read.
-pub fn check_not_input(path: &Path) -> Result<()> {
-    let target = resolve(path);
-    for input in pumpcyl::input::files_read() {
-        if input == target {
-            anyhow::bail!(
-                "{}: is an input of this command; writing there would destroy it, choose \
-                 another output",
-                path.display()
-            );
+/// The files a run read, which none of its outputs may replace: a front end names them (the
+/// command line notes every file the core opens for it); a library call that reads no user file
+/// passes [`Protected::none`].
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Protected {
+    /// Canonical paths (symlinks resolved).
+    paths: Vec<PathBuf>,
+}
+
+impl Protected {
+    /// Nothing to protect.
+    pub fn none() -> Protected {
+        Protected::none_const()
+    }
+
+    /// Nothing to protect, in a constant (a front end's registry of the files it reads).
+    pub const fn none_const() -> Protected {
+        Protected { paths: Vec::new() }
+    }
+
+    /// The files `paths`; a path that does not exist (any more) protects nothing.
+    pub fn new<P: AsRef<Path>>(paths: impl IntoIterator<Item = P>) -> Protected {
+        let mut out = Protected::default();
+        for p in paths {
+            out.add(p.as_ref());
         }
-        if input.starts_with(&target) {
-            anyhow::bail!(
-                "{}: holds the input {}, which replacing the folder would destroy; choose \
-                 another output folder",
-                path.display(),
-                input.display()
-            );
+        out
+    }
+
+    /// Protect `path` as well.
+    pub fn add(&mut self, path: &Path) {
+        if let Ok(real) = std::fs::canonicalize(path) {
+            if !self.paths.contains(&real) {
+                self.paths.push(real);
+            }
         }
     }
-    Ok(())
+
+    /// Refuse an output at `path` that is, or (for a folder) contains, a protected file.
+    pub fn check(&self, path: &Path) -> Result<()> {
+        let target = resolve(path);
+        for input in &self.paths {
+            if *input == target {
+                anyhow::bail!(
+                    "{}: is an input of this command; writing there would destroy it, choose \
+                     another output",
+                    path.display()
+                );
+            }
+            if input.starts_with(&target) {
+                anyhow::bail!(
+                    "{}: holds the input {}, which replacing the folder would destroy; choose \
+                     another output folder",
+                    path.display(),
+                    input.display()
+                );
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The folder of `path` ("." for a bare name).
@@ -169,9 +212,9 @@ fn file_name(path: &Path) -> Result<String> {
 
 /// Write `bytes` to `path` atomically: a temporary file in the same folder, then a rename, so a
 /// failure or an interruption never leaves a half-written output behind. Refuses to write over
-/// an input of this run; the file gets the permissions of any new file (0666 & !umask).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    check_not_input(path)?;
+/// a `protected` file; the file gets the permissions of any new file (0666 & !umask).
+pub fn write_atomic(path: &Path, bytes: &[u8], protected: &Protected) -> Result<()> {
+    protected.check(path)?;
     let dir = parent_of(path);
     let name = file_name(path)?;
     if path.is_dir() {
@@ -231,10 +274,10 @@ pub struct OutDir {
 
 impl OutDir {
     /// Start building the folder `target`. Refused when `target` is a file, a folder that holds
-    /// an input of this run, or a non-empty folder that is not an earlier pumpcyl result (a new
+    /// a `protected` file, or a non-empty folder that is not an earlier pumpcyl result (a new
     /// run replaces the whole folder).
-    pub fn begin(target: &Path) -> Result<OutDir> {
-        check_not_input(target)?;
+    pub fn begin(target: &Path, protected: &Protected) -> Result<OutDir> {
+        protected.check(target)?;
         let shown = target.display();
         if target.exists() && !target.is_dir() {
             anyhow::bail!("{shown}: exists and is not a folder; give a folder for --out");
@@ -283,6 +326,18 @@ impl OutDir {
         let _registry = temporaries();
         let path = self.tmp.join(sub);
         std::fs::create_dir(&path).with_context(|| format!("{}: cannot create", path.display()))
+    }
+
+    /// Write `bytes` to `rel` inside the folder being built, creating its subfolders (under the
+    /// registry lock, as [`OutDir::create_subfolder`]).
+    pub fn write(&self, rel: &Path, bytes: &[u8]) -> Result<()> {
+        if let Some(parent) = rel.parent().filter(|p| !p.as_os_str().is_empty()) {
+            let _registry = temporaries();
+            let path = self.tmp.join(parent);
+            std::fs::create_dir_all(&path)
+                .with_context(|| format!("{}: cannot create", path.display()))?;
+        }
+        write_atomic(&self.tmp.join(rel), bytes, &Protected::none())
     }
 
     /// Put the finished folder in place, atomically (an exchange with the old folder on Linux).
@@ -341,52 +396,4 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
     std::fs::rename(b, &aside)?;
     std::fs::rename(a, b)?;
     std::fs::rename(&aside, a)
-}
-
-/// A finite value with `digits` decimals, or "inf".
-pub fn fmt_opt(v: Option<f64>, digits: usize) -> String {
-    v.map_or_else(|| "inf".to_string(), |x| format!("{x:.digits$}"))
-}
-
-/// The last component of a file path, for figure titles: a title names the record, not the
-/// folder it happens to be read from (a temporary one, in a result folder built aside).
-pub fn shown_name(path: &str) -> String {
-    file_name(Path::new(path)).unwrap_or_else(|_| path.to_string())
-}
-
-/// A private working folder in the system's temporary folder, removed when dropped and, like
-/// every temporary of this run, on SIGINT, SIGTERM or SIGHUP (one left by a killed run is
-/// removed by the next): for inputs a library call lays out as files (the workflow's embedded
-/// records).
-pub struct Scratch {
-    dir: tempfile::TempDir,
-}
-
-impl Scratch {
-    /// Create the folder.
-    pub fn new() -> Result<Scratch> {
-        let parent = std::env::temp_dir();
-        remove_stale(&parent, "scratch");
-        let dir = create_tracked(
-            || {
-                tempfile::Builder::new()
-                    .prefix(&tmp_prefix("scratch"))
-                    .tempdir_in(&parent)
-            },
-            |d| d.path().to_path_buf(),
-        )
-        .context("cannot create a folder in the system's temporary folder")?;
-        Ok(Scratch { dir })
-    }
-
-    /// Where it is.
-    pub fn path(&self) -> &Path {
-        self.dir.path()
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        untrack(self.dir.path());
-    }
 }

@@ -9,12 +9,14 @@
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
 //! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
+//! - [`format`] — numbers and names as the text outputs show them;
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report.
 
 #![warn(missing_docs)]
 
 pub mod figures;
 pub mod files;
+pub mod format;
 pub mod identification;
 pub mod matlab;
 pub mod plot;

@@ -434,3 +434,31 @@ pub const EMBEDDED: [(&str, &str); 10] = [
         include_str!("../../../../data/article/sine_0.25hz_20mm.csv"),
     ),
 ];
+
+/// The folder the embedded records stand for in file names and messages: `records/` (as in the
+/// result folder of the article workflow).
+pub const FOLDER: &str = "records";
+
+/// The embedded records ([`EMBEDDED`]) as files under [`FOLDER`], for the readers that take
+/// [`Files`](crate::input::Files): `Experiment::load_in(&Embedded, "records/identify.toml")`
+/// reads the identification experiment and its records from memory.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Embedded;
+
+impl crate::input::Files for Embedded {
+    fn open(
+        &self,
+        path: &std::path::Path,
+    ) -> std::io::Result<Box<dyn std::io::Read + Send + '_>> {
+        EMBEDDED
+            .iter()
+            .find(|(name, _)| std::path::Path::new(FOLDER).join(name) == path)
+            .map(|(_, text)| Box::new(text.as_bytes()) as Box<dyn std::io::Read + Send>)
+            .ok_or_else(|| {
+                std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "not one of the embedded article records",
+                )
+            })
+    }
+}

@@ -681,9 +681,11 @@ pub fn advise(
 
 /// The whole advice for a loaded experiment: its identification on its own grids and options
 /// (refused when it would take hours, as `identify` does without `--allow-long-run`), then
-/// [`advise`] on the candidates of the TOML file `candidates` or on the defaults.
+/// [`advise`] on the candidates of the TOML file `candidates` (read from `files`) or on the
+/// defaults.
 pub fn advise_experiment(
     exp: &Experiment,
+    files: &dyn input::Files,
     candidates: Option<&Path>,
     confidence: f64,
 ) -> Result<Advice, IdentError> {
@@ -696,7 +698,7 @@ pub fn advise_experiment(
         Some(path) => {
             let name = path.display().to_string();
             let text =
-                input::read_text(path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+                input::read_text(files, path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
             Some(designs_for(&exp.problem, &text, &name)?)
         }
         None => None,

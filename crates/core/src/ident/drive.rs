@@ -23,7 +23,12 @@ pub struct DriveRecord {
 impl DriveRecord {
     /// Read a drive record (CSV with a header; extra columns ignored).
     pub fn read(path: &Path) -> Result<DriveRecord, IdentError> {
-        let mut t = Table::read(path, &["time_s", "w_ref_rpm", "w_rpm"], &[])?;
+        Self::read_in(&crate::input::Disk, path)
+    }
+
+    /// [`DriveRecord::read`] from `files`.
+    pub fn read_in(files: &dyn crate::input::Files, path: &Path) -> Result<DriveRecord, IdentError> {
+        let mut t = Table::read_in(files, path, &["time_s", "w_ref_rpm", "w_rpm"], &[])?;
         Ok(DriveRecord {
             file: path.display().to_string(),
             time_s: t.take("time_s").unwrap_or_default(),

@@ -81,9 +81,9 @@ impl Locate<'_> {
 
 impl ExperimentFile {
     /// The rig: the named file or the embedded default, with `[set]` applied.
-    fn rig(&self, dir: &Path, at: &Locate) -> Result<Rig, IdentError> {
+    fn rig(&self, files: &dyn input::Files, dir: &Path, at: &Locate) -> Result<Rig, IdentError> {
         let base = match &self.rig {
-            Some(r) => Rig::from_file(&dir.join(r)).map_err(|e| at.error(&[Name("rig")], e))?,
+            Some(r) => Rig::from_file_in(files, &dir.join(r)).map_err(|e| at.error(&[Name("rig")], e))?,
             None => Rig::default(),
         };
         let assignment = |(k, v): (&String, &toml::Value)| format!("{k}={v}");
@@ -108,6 +108,7 @@ impl ExperimentFile {
     /// Dataset `i`, its record read and prepared.
     fn dataset(
         &self,
+        files: &dyn input::Files,
         i: usize,
         dir: &Path,
         rig: &Rig,
@@ -116,7 +117,7 @@ impl ExperimentFile {
         let spec = &self.dataset[i];
         let key = |k| [Name("dataset"), Index(i), Name(k)];
         let what = format!("dataset {} (`{}`)", i + 1, spec.file);
-        let record = Record::read(&dir.join(&spec.file))
+        let record = Record::read_in(files, &dir.join(&spec.file))
             .map_err(|e| at.error(&key("file"), format!("{what}: {e}")))?;
         for (k, v) in [("kp", spec.kp), ("mass_kg", spec.mass_kg)] {
             if !(v.is_finite() && v > 0.0) {
@@ -133,11 +134,11 @@ impl ExperimentFile {
 
 impl StandstillSpec {
     /// The standstill point: the record's means, or the three values.
-    fn resolve(&self, dir: &Path) -> Result<Standstill, IdentError> {
+    fn resolve(&self, files: &dyn input::Files, dir: &Path) -> Result<Standstill, IdentError> {
         let values = [self.w1_rpm, self.w2_rpm, self.p1_bar];
         match (&self.record, values) {
             (Some(file), [None, None, None]) => {
-                Standstill::of_record(&Record::read(&dir.join(file))?)
+                Standstill::of_record(&Record::read_in(files, &dir.join(file))?)
             }
             (Some(_), _) => Err(IdentError::Input(
                 "[standstill]: give either `record` or `w1_rpm`, `w2_rpm`, `p1_bar`, not both"
@@ -173,23 +174,38 @@ impl Experiment {
     /// Read, check and prepare an experiment; every error names the file, and the line and key
     /// it concerns (a record's own errors name the record's line and column as well).
     pub fn load(path: &Path) -> Result<Experiment, IdentError> {
+        Self::load_in(&input::Disk, path)
+    }
+
+    /// [`Experiment::load`], the experiment and every file it names read from `files`.
+    pub fn load_in(files: &dyn input::Files, path: &Path) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
-        let text = input::read_text(path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
-        Self::from_text(&text, path)
+        let text = input::read_text(files, path)
+            .map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+        Self::from_text_in(files, &text, path)
     }
 
     /// Check and prepare the experiment `text` of the file at `path` (which names it in
     /// messages; the files it lists are relative to its folder).
     pub fn from_text(text: &str, path: &Path) -> Result<Experiment, IdentError> {
+        Self::from_text_in(&input::Disk, text, path)
+    }
+
+    /// [`Experiment::from_text`], the files it names read from `files`.
+    pub fn from_text_in(
+        files: &dyn input::Files,
+        text: &str,
+        path: &Path,
+    ) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
         let file: ExperimentFile = toml::from_str(text)
             .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
         let at = Locate { name: &name, text };
         let dir = path.parent().unwrap_or(Path::new("."));
-        let rig = file.rig(dir, &at)?;
+        let rig = file.rig(files, dir, &at)?;
         let standstill = file
             .standstill
-            .resolve(dir)
+            .resolve(files, dir)
             .and_then(|s| s.validate().map(|_| s))
             .map_err(|e| at.error(&[Name("standstill")], e))?;
         if file.dataset.is_empty() {
@@ -205,7 +221,7 @@ impl Experiment {
             return Err(at.error(&[Name("threshold_mm2")], m));
         }
         let datasets = (0..file.dataset.len())
-            .map(|i| file.dataset(i, dir, &rig, &at))
+            .map(|i| file.dataset(files, i, dir, &rig, &at))
             .collect::<Result<_, _>>()?;
         Ok(Experiment {
             path: path.to_path_buf(),

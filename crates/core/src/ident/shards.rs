@@ -35,7 +35,7 @@ pub struct Partial {
 pub fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
-    crate::input::read_bounded(&exp.path)
+    crate::input::read_bounded(&crate::input::Disk, &exp.path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
         .hash(&mut h);
     // Debug prints every f64 exactly (shortest round-trip form)
@@ -88,7 +88,10 @@ fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
 /// added up, plus the merge's own (s). Refused when a shard is missing or given twice, the
 /// shards come from different runs, options or experiment contents, or a partial result was
 /// edited (its best candidates are simulated again).
-pub fn merge(parts: Vec<(PathBuf, Partial)>) -> Result<(Experiment, Identification, f64)> {
+pub fn merge(
+    source: &dyn crate::input::Files,
+    parts: Vec<(PathBuf, Partial)>,
+) -> Result<(Experiment, Identification, f64)> {
     let (files, parts): (Vec<PathBuf>, Vec<Partial>) = parts.into_iter().unzip();
     anyhow::ensure!(!parts.is_empty(), "no partial results given");
     let first = &parts[0];
@@ -130,7 +133,7 @@ pub fn merge(parts: Vec<(PathBuf, Partial)>) -> Result<(Experiment, Identificati
         "missing shards {} of {n}",
         missing.join(", ")
     );
-    let exp = Experiment::load(&first.experiment)?;
+    let exp = Experiment::load_in(source, &first.experiment)?;
     let opts = Options {
         auto_refine: false,
         local_refinement: first.local_refinement,

@@ -7,7 +7,7 @@
 
 use super::Run;
 use crate::figures::{parameter_value, Chart, PARAMETER_AXES, PARAMETER_NAMES};
-use crate::files::fmt_opt;
+use crate::format::fmt_opt;
 use anyhow::Result;
 use pumpcyl::design::robust::{Binding, RobustOptions};
 use pumpcyl::design::{robust_design, Region, RobustDesign, Targets};

@@ -20,7 +20,7 @@ use std::time::Instant;
 /// Step 1: Km from the drive step (the article §2.4.1).
 pub(super) fn drive_step(run: &mut Run) -> Result<(Value, f64)> {
     run.step("Drive gain from the drive step (the article §2.4.1)");
-    let rec = DriveRecord::read(&run.record("drive_step.csv"))?;
+    let rec = DriveRecord::read_in(&article::Embedded, &run.record("drive_step.csv"))?;
     let si = Rig::default().si();
     let fit = identify_drive(&rec, si.jm[0], si.omega_i)?;
     run.figure(
@@ -46,9 +46,8 @@ pub(super) fn identification(
     truth: &article::Truth,
 ) -> Result<(Experiment, Rig, Value, f64)> {
     run.step("Leakage from standstill and the two-stage grid identification (the article §2.4)");
-    let mut exp = Experiment::load(&run.record("identify.toml"))?;
-    // result.json names the experiment as it lies in the result folder
-    exp.path = Path::new("records").join("identify.toml");
+    // result.json names the experiment as it lies in the result folder, records/identify.toml
+    let exp = Experiment::load_in(&article::Embedded, &run.record("identify.toml"))?;
     let opts = Options {
         auto_refine: false,
         local_refinement: true,
@@ -191,7 +190,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
         mass_kg: 4898.0,
         fit_end_s: article::STEP_AT_S + article::fit_window_s(40.0),
     };
-    let record = Record::read(&run.record("robustness.csv"))?;
+    let record = Record::read_in(&article::Embedded, &run.record("robustness.csv"))?;
     let problem = Problem {
         datasets: vec![Prepared::new(&spec, record.clone(), &rig)?],
         standstill: exp.problem.standstill,

@@ -33,7 +33,8 @@ mod studies;
 pub use certainty::Certainty;
 
 use crate::figures::{bode_markers, Chart};
-use crate::files::{fmt_opt, write_atomic, OutDir, Scratch};
+use crate::files::{OutDir, Protected};
+use crate::format::fmt_opt;
 use crate::plot::{html_page, Block, BodeSeries};
 use anyhow::Result;
 use pumpcyl::emulator::article::{self, EMBEDDED};
@@ -43,7 +44,6 @@ use pumpcyl::model::Plant;
 use pumpcyl::response::{self, Signals};
 use pumpcyl::rig::Rig;
 use serde_json::{json, Value};
-use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -180,9 +180,8 @@ pub struct Reproduction {
     pub seconds: f64,
 }
 
-/// The report being assembled: the records folder, the HTML blocks, the comparison, the files.
+/// The report being assembled: the HTML blocks, the comparison, the files.
 struct Run<'a> {
-    records: PathBuf,
     opts: &'a ReproduceOptions<'a>,
     blocks: Vec<Block>,
     table: Vec<ComparisonRow>,
@@ -202,9 +201,9 @@ impl Run<'_> {
             .push(Block::Heading(format!("{}. {what}", self.step)));
     }
 
-    /// A record of the embedded folder.
+    /// A record of the embedded folder (read through [`article::Embedded`]).
     fn record(&self, file: &str) -> PathBuf {
-        self.records.join(file)
+        Path::new(article::FOLDER).join(file)
     }
 
     /// Render `chart` as SVG and PNG under figures/`stem`, and inline the SVG.
@@ -269,14 +268,11 @@ impl Run<'_> {
 /// the search stopped by [`ReproduceOptions::on_candidates`].
 pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     let start = Instant::now();
-    let scratch = Scratch::new()?;
-    let mut files = Vec::new();
-    for (file, text) in EMBEDDED {
-        write_atomic(&scratch.path().join(file), text.as_bytes())?;
-        files.push((Path::new("records").join(file), text.as_bytes().to_vec()));
-    }
+    let files = EMBEDDED
+        .iter()
+        .map(|(file, text)| (Path::new(article::FOLDER).join(file), text.as_bytes().to_vec()))
+        .collect();
     let mut run = Run {
-        records: scratch.path().to_path_buf(),
         opts,
         blocks: Vec::new(),
         table: Vec::new(),
@@ -395,18 +391,9 @@ impl Reproduction {
     /// # Errors
     /// The folder refused, or a write failed (the folder is then left as it was).
     pub fn write(&self, dir: &Path) -> Result<()> {
-        let out = OutDir::begin(dir)?;
-        let files = self.folder()?;
-        let subfolders: BTreeSet<&Path> = files
-            .iter()
-            .filter_map(|(p, _)| p.parent())
-            .filter(|p| !p.as_os_str().is_empty())
-            .collect();
-        for sub in subfolders {
-            out.create_subfolder(&sub.to_string_lossy())?;
-        }
-        for (path, bytes) in &files {
-            write_atomic(&out.path().join(path), bytes)?;
+        let out = OutDir::begin(dir, &Protected::none())?;
+        for (path, bytes) in &self.folder()? {
+            out.write(path, bytes)?;
         }
         out.commit()
     }

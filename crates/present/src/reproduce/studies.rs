@@ -7,7 +7,7 @@ use super::{
     MARGIN_HEADER,
 };
 use crate::figures::{bode_markers, Chart};
-use crate::files::fmt_opt;
+use crate::format::fmt_opt;
 use anyhow::Result;
 use pumpcyl::bulk::{self, gas_fraction, BETA_OIL_BAR};
 use pumpcyl::design::{design, Targets};
@@ -377,7 +377,7 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Value> {
         .zip(files)
         .zip(printed::TRACK_MAX_ERROR_MM)
     {
-        let rec = Record::read(&run.record(file))?;
+        let rec = Record::read_in(&article::Embedded, &run.record(file))?;
         let measured = Signals::of_record(&rec);
         let sim = simulate(
             nominal,
