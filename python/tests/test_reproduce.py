@@ -2,6 +2,9 @@
 (the emulator's truth, pumpcyl.margins on the default rig) and the folder it writes."""
 
 import json
+import os
+import signal
+import time
 
 import pytest
 
@@ -49,3 +52,23 @@ def test_without_a_folder_nothing_is_written(tmp_path, monkeypatch):
     s = pumpcyl.reproduce(progress=True)
     assert s["design"]["kp_max"] > 0
     assert list(tmp_path.iterdir()) == []
+
+
+def _ctrl_c():
+    """Send this process SIGINT and give Python's handler the moment it needs to run."""
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(2.0)
+
+
+def test_ctrl_c_raises_keyboard_interrupt_before_and_after_reproduce(tmp_path):
+    # the package installs no signal handler of its own: Python's stays in charge, so Ctrl-C
+    # is a KeyboardInterrupt before a call, after one (the workflow wrote a folder), and the
+    # interpreter goes on
+    with pytest.raises(KeyboardInterrupt):
+        _ctrl_c()
+    out = tmp_path / "out"
+    s = pumpcyl.reproduce(str(out))
+    assert (out / "summary.json").is_file() and s["emulated_inputs"] is True
+    with pytest.raises(KeyboardInterrupt):
+        _ctrl_c()
+    assert pumpcyl.margins(pumpcyl.Rig()).closed_loop_stable
