@@ -31,7 +31,12 @@ pub struct AdviseArgs {
 pub fn run(args: &AdviseArgs) -> Result<String> {
     let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
     let start = Instant::now();
-    let advice = advise_experiment(&exp, crate::inputs::files(), args.candidates.as_deref(), args.confidence)?;
+    let advice = advise_experiment(
+        &exp,
+        crate::inputs::files(),
+        args.candidates.as_deref(),
+        args.confidence,
+    )?;
     let seconds = start.elapsed().as_secs_f64();
     if args.json {
         let mut v = serde_json::to_value(&advice)?;

@@ -189,8 +189,7 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
     let points = pumpcyl::limits::check_size(
         "--from-hz, --to-hz and --points-per-decade",
         (decades * args.points_per_decade as f64).floor() + 1.0,
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     let freqs = lti::log_grid(args.from_hz, args.to_hz, points);
     let base = args.model.build(&[])?;
     let mut series = vec![series_of(&base, "nominal", &freqs)?];

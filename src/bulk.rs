@@ -51,7 +51,7 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
         args.to_bar
     );
     anyhow::ensure!(args.points >= 2, "--points must be at least 2");
-    pumpcyl::limits::check_size("--points", args.points as f64).map_err(anyhow::Error::msg)?;
+    pumpcyl::limits::check_size("--points", args.points as f64)?;
     let rig = args.rig.load()?;
     let x = gas_fraction(args.beta_bar, args.p_mean_bar, args.beta_oil_bar)?;
     let pressures = pumpcyl::ident::spaced(args.from_bar, args.to_bar, args.points, false);

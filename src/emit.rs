@@ -3,8 +3,8 @@
 
 use anyhow::{Context, Result};
 pub use pumpcyl_present::files::ensure_folder;
-pub use pumpcyl_present::format::{fmt_opt, shown_name};
 use pumpcyl_present::files::{self, OutDir};
+pub use pumpcyl_present::format::{fmt_opt, shown_name};
 use std::io::Write;
 use std::path::Path;
 
@@ -17,6 +17,30 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// input of this command.
 pub fn out_dir(dir: &Path) -> Result<OutDir> {
     OutDir::begin(dir, &crate::inputs::protected())
+}
+
+/// A refusal of work that could take hours, naming the option that allows it.
+pub fn long_run(e: pumpcyl::limits::LimitError) -> anyhow::Error {
+    anyhow::anyhow!("{e} (--allow-long-run)")
+}
+
+/// A library error in the command line's words: the commands and options that act on it,
+/// where the libraries say it in neutral terms.
+pub fn hinted(e: anyhow::Error) -> anyhow::Error {
+    use pumpcyl::lti::LtiError;
+    match e.downcast_ref::<LtiError>() {
+        Some(LtiError::Unstable { .. }) => {
+            anyhow::anyhow!("{e}; `pumpcyl margins` and `pumpcyl poles` show why")
+        }
+        Some(LtiError::AboveNyquist { .. }) => anyhow::anyhow!("{e} (--rate-hz)"),
+        _ => match e.downcast_ref::<pumpcyl::rig::RigError>() {
+            Some(pumpcyl::rig::RigError::Empty { .. }) => anyhow::anyhow!(
+                "{e}; omit --rig for the article's rig, or start from `pumpcyl rig \
+                 --print-default`"
+            ),
+            _ => e,
+        },
+    }
 }
 
 /// The output format chosen by a file's extension.

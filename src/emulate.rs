@@ -1,6 +1,6 @@
 //! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
 
-use crate::emit::{write_atomic};
+use crate::emit::write_atomic;
 use crate::RigSource;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
@@ -151,7 +151,7 @@ fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
         }
         None => Rig::default(),
     };
-    Ok(base.with_overrides(&source.set)?)
+    Ok(base.with_overrides_from("--set", &source.set)?)
 }
 
 fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kind> {
@@ -233,7 +233,7 @@ fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
         pumpcyl::limits::MAX_EMULATED_STEPS,
         allow_long_run,
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(crate::emit::long_run)?;
     if let Kind::Loop(Experiment::Sine { freq_hz, .. }) = plan {
         if *freq_hz >= rate_hz / 2.0 {
             bail!(

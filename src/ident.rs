@@ -278,7 +278,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         pumpcyl::limits::MAX_CANDIDATE_SAMPLES,
         args.allow_long_run,
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(crate::emit::long_run)?;
     let bar = progress_bar(pumpcyl::ident::shard_len(total, args.shard) as u64);
     let start = Instant::now();
     let stages = run_stages(&exp.problem, grids, &opts, args.shard, &|n| bar.inc(n))?;
@@ -288,7 +288,10 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         // the fingerprint of the experiment as the merge will load it (by its canonical path)
         let canonical = std::fs::canonicalize(&args.experiment)?;
         let part = Partial {
-            digest: digest(&Experiment::load_in(crate::inputs::files(), &canonical)?, &opts)?,
+            digest: digest(
+                &Experiment::load_in(crate::inputs::files(), &canonical)?,
+                &opts,
+            )?,
             experiment: canonical,
             shard,
             local_refinement: opts.local_refinement,

@@ -36,5 +36,9 @@ pub fn files() -> &'static dyn Files {
 
 /// The files read so far, which no output may replace.
 pub fn protected() -> Protected {
-    INPUTS.read.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    INPUTS
+        .read
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .clone()
 }

@@ -13,8 +13,8 @@ mod design;
 mod emit;
 mod emulate;
 mod export;
-mod inputs;
 mod ident;
+mod inputs;
 mod reproduce;
 mod robust;
 mod signals;
@@ -116,10 +116,11 @@ impl RigSource {
     /// The rig: file or default, with --set applied.
     pub fn load(&self) -> Result<Rig> {
         let base = match &self.rig {
-            Some(path) => Rig::from_file_in(crate::inputs::files(), path)?,
+            Some(path) => Rig::from_file_in(crate::inputs::files(), path)
+                .map_err(|e| crate::emit::hinted(e.into()))?,
             None => Rig::default(),
         };
-        Ok(base.with_overrides(&self.set)?)
+        Ok(base.with_overrides_from("--set", &self.set)?)
     }
 
     /// Where the rig came from, in words.
@@ -161,7 +162,7 @@ impl ModelArgs {
         if let Some(path) = &self.ss {
             return read_ss(path);
         }
-        let rig = self.source.load()?.with_overrides(extra)?;
+        let rig = self.source.load()?.with_overrides_from("--set", extra)?;
         Ok(Loop::of_rig(
             rig,
             &self.source.origin(),

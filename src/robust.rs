@@ -40,7 +40,10 @@ pub(super) fn run(
     );
     let start = Instant::now();
     let (rig, region) = match src.experiment {
-        Some(path) => Region::of_records(&Experiment::load_in(crate::inputs::files(), path)?, src.confidence)?,
+        Some(path) => Region::of_records(
+            &Experiment::load_in(crate::inputs::files(), path)?,
+            src.confidence,
+        )?,
         None => (src.rig.clone(), Region::stated_default(&src.rig)),
     };
     let identify_seconds = start.elapsed().as_secs_f64();

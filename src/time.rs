@@ -112,7 +112,7 @@ fn variants(rig: &Rig, compare: &[String]) -> Result<Vec<(String, Rig)>> {
     for c in compare {
         let overrides: Vec<String> = c.split(',').map(|s| s.trim().to_string()).collect();
         let v = rig
-            .with_overrides(&overrides)
+            .with_overrides_from("--set", &overrides)
             .with_context(|| format!("--compare {c}"))?;
         out.push((c.clone(), v));
     }
@@ -147,7 +147,7 @@ impl<T> Runs<T> {
                 Err(e) if label != "nominal" && is_unstable(&e) => {
                     runs.unstable.push((label, e.to_string()))
                 }
-                Err(e) => return Err(e.context(which(source, &label))),
+                Err(e) => return Err(crate::emit::hinted(e).context(which(source, &label))),
             }
         }
         Ok(runs)
@@ -201,8 +201,7 @@ fn check_timing(duration_s: f64, duration_from: &str, rate_hz: f64) -> Result<()
     pumpcyl::limits::check_size(
         &format!("{duration_from} and --rate-hz"),
         duration_s * rate_hz,
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     Ok(())
 }
 
@@ -566,7 +565,11 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
             .data
             .as_ref()
             .context("--data or --experiment is needed")?;
-        return Ok((Record::read_in(crate::inputs::files(), data)?, args.rig.load()?, None));
+        return Ok((
+            Record::read_in(crate::inputs::files(), data)?,
+            args.rig.load()?,
+            None,
+        ));
     };
     let exp = pumpcyl::ident::Experiment::load_in(crate::inputs::files(), path)?;
     let count = exp.problem.datasets.len();
@@ -576,7 +579,7 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
         path.display()
     );
     let ds = &exp.problem.datasets[n - 1];
-    let rig = ds.rig.with_overrides(&args.rig.set)?;
+    let rig = ds.rig.with_overrides_from("--set", &args.rig.set)?;
     Ok((ds.record.clone(), rig, Some(ds.fit_end_s)))
 }
 

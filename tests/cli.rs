@@ -588,7 +588,7 @@ fn auto_refine_derives_the_second_grid_from_the_threshold_set() {
         "1e-12",
     ]);
     assert!(
-        err.contains("--auto-refine") && err.contains("threshold"),
+        err.contains("auto-refine") && err.contains("threshold"),
         "{err}"
     );
 }

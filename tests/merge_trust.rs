@@ -127,7 +127,7 @@ fn merge_refuses_what_it_cannot_vouch_for() {
 
     // a shard made with other options
     shard(d, 1, &["--threshold-mm2", "0.5"]);
-    refused(d, &["--threshold-mm2"]);
+    refused(d, &["threshold_mm2"]);
     shard(d, 1, &[]);
     assert_eq!(merge(d).0, Some(0));
 

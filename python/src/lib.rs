@@ -595,8 +595,7 @@ fn run_interruptible<T: Send>(
 /// A grid from a dict {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists, checked.
 fn grid_of(py: Python<'_>, name: &str, value: &Bound<'_, PyAny>) -> PyResult<Grid> {
     let grid: Grid = from_py(py, name, value)?;
-    grid.validate(name)
-        .map_err(|(axis, m)| err(format!("{name}.{axis}: {m}")))?;
+    grid.validate(name).map_err(err)?;
     Ok(grid)
 }
 
@@ -804,7 +803,12 @@ fn advise(
     let advice = py
         .detach(|| {
             let exp = pumpcyl::ident::Experiment::load(&experiment)?;
-            pumpcyl::ident::advise_experiment(&exp, &pumpcyl::input::Disk, candidates.as_deref(), confidence)
+            pumpcyl::ident::advise_experiment(
+                &exp,
+                &pumpcyl::input::Disk,
+                candidates.as_deref(),
+                confidence,
+            )
         })
         .map_err(err)?;
     to_py(py, &advice)

@@ -29,12 +29,63 @@ impl Files for Disk {
     }
 }
 
+/// Why a user file cannot be used, in words that do not name the file (the caller puts its name
+/// first): it cannot be read, it is too large, it is not text, or a value in it makes no sense.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum InputError {
+    /// The file cannot be opened or read.
+    #[error("cannot read: {0}")]
+    Read(String),
+    /// The file is larger than the limit for its kind.
+    #[error("larger than {limit_mib} MiB, the limit for a text input")]
+    TooLarge {
+        /// The limit (MiB).
+        limit_mib: u64,
+    },
+    /// A byte that is not UTF-8.
+    #[error(
+        "line {line}, column {column}: not UTF-8 text (byte 0x{byte:02X}); save the file as UTF-8"
+    )]
+    NotUtf8 {
+        /// 1-based line.
+        line: usize,
+        /// 1-based column (characters).
+        column: usize,
+        /// The offending byte.
+        byte: u8,
+    },
+    /// A value or structure that makes no sense, located in words (`line 3, key `A`: ...`).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// A value of a named field that makes no sense: the field (a TOML key, a grid axis) and what is
+/// wrong, in words that name it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct FieldError {
+    /// The field (key) at fault.
+    pub field: &'static str,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+impl FieldError {
+    /// The complaint `message` about `field`.
+    pub fn new(field: &'static str, message: impl Into<String>) -> FieldError {
+        FieldError {
+            field,
+            message: message.into(),
+        }
+    }
+}
+
 /// The UTF-8 byte-order mark that spreadsheet programs put at the start of text files.
 pub const BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// The text of a user file, a leading byte-order mark dropped. The error (without the file name,
 /// which the caller puts first) is `cannot read: …` or `line L, column C: not UTF-8 text …`.
-pub fn read_text(files: &dyn Files, path: &Path) -> Result<String, String> {
+pub fn read_text(files: &dyn Files, path: &Path) -> Result<String, InputError> {
     decode(read_bounded(files, path)?)
 }
 
@@ -43,24 +94,24 @@ pub const MAX_TEXT_BYTES: u64 = 64 << 20;
 
 /// The bytes of a file of at most [`MAX_TEXT_BYTES`]; a special file such as `/dev/zero` that
 /// never ends is stopped at the limit.
-pub fn read_bounded(files: &dyn Files, path: &Path) -> Result<Vec<u8>, String> {
-    let file = files.open(path).map_err(|e| format!("cannot read: {e}"))?;
+pub fn read_bounded(files: &dyn Files, path: &Path) -> Result<Vec<u8>, InputError> {
+    let read = |e: std::io::Error| InputError::Read(e.to_string());
+    let file = files.open(path).map_err(read)?;
     let mut bytes = Vec::new();
     file.take(MAX_TEXT_BYTES + 1)
         .read_to_end(&mut bytes)
-        .map_err(|e| format!("cannot read: {e}"))?;
+        .map_err(read)?;
     if bytes.len() as u64 > MAX_TEXT_BYTES {
-        return Err(format!(
-            "larger than {} MiB, the limit for a text input",
-            MAX_TEXT_BYTES >> 20
-        ));
+        return Err(InputError::TooLarge {
+            limit_mib: MAX_TEXT_BYTES >> 20,
+        });
     }
     Ok(bytes)
 }
 
 /// Bytes to text, a leading byte-order mark dropped; the error names the line and column of the
 /// first invalid byte.
-pub fn decode(mut bytes: Vec<u8>) -> Result<String, String> {
+pub fn decode(mut bytes: Vec<u8>) -> Result<String, InputError> {
     if bytes.starts_with(BOM) {
         bytes.drain(..BOM.len());
     }
@@ -68,11 +119,11 @@ pub fn decode(mut bytes: Vec<u8>) -> Result<String, String> {
         let at = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();
         let (line, column) = line_col(&bytes[..at]);
-        format!(
-            "line {line}, column {column}: not UTF-8 text (byte 0x{:02X}); save the file as \
-             UTF-8",
-            bytes[at]
-        )
+        InputError::NotUtf8 {
+            line,
+            column,
+            byte: bytes[at],
+        }
     })
 }
 
@@ -217,7 +268,7 @@ mod tests {
         assert_eq!(decode(b"\xEF\xBB\xBFa = 1".to_vec()).unwrap(), "a = 1");
         let e = decode(b"a = 1\nb = \"\xE9\"\n".to_vec()).unwrap_err();
         assert_eq!(
-            e,
+            e.to_string(),
             "line 2, column 6: not UTF-8 text (byte 0xE9); save the file as UTF-8"
         );
     }

@@ -1,40 +1,73 @@
 //! Limits on sizes and work derived from input: a size that would exhaust memory is refused
-//! outright; work that would take hours is refused unless the user asks for it with
-//! `--allow-long-run`. Every refusal states the limit.
+//! outright; work that would take hours is refused unless the caller allows a long run (the
+//! command line's `--allow-long-run`). Every refusal states the limit.
+
+use crate::rig::readable;
 
 /// The most samples, frequency points or grid candidates any single array may hold: 50 million
 /// (0.4 GB of f64), far above any record or figure and below an allocation abort.
 pub const MAX_POINTS: f64 = 5e7;
 
-/// Emulator controller steps (duration × rate) done without `--allow-long-run`: 10⁷ is about
+/// Emulator controller steps (duration × rate) done without allowing a long run: 10⁷ is about
 /// three hours of rig time at 1 kHz, already minutes of computing.
 pub const MAX_EMULATED_STEPS: f64 = 1e7;
 
-/// Grid candidates × record samples simulated without `--allow-long-run`: 10⁹ is about 200
+/// Grid candidates × record samples simulated without allowing a long run: 10⁹ is about 200
 /// times the article's identification (6 817 candidates × 2 × 370 samples), minutes of work.
 pub const MAX_CANDIDATE_SAMPLES: f64 = 1e9;
 
-/// Refuse `count` items of `what` beyond [`MAX_POINTS`] (or non-finite), naming the option.
-pub fn check_size(what: &str, count: f64) -> Result<usize, String> {
+/// A size or an amount of work beyond its limit.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LimitError {
+    /// More items in one array than [`MAX_POINTS`] (or a count that is not a finite number).
+    #[error("{what}: {} points, more than the limit of {limit:e}", readable(*count))]
+    TooLarge {
+        /// What is counted, in the caller's words (its option or argument names).
+        what: String,
+        /// The count asked for.
+        count: f64,
+        /// The limit.
+        limit: f64,
+    },
+    /// Work that could take hours, not allowed by the caller.
+    #[error(
+        "{what}: about {} units of work, more than the {limit:e} done without allowing a long \
+         run (this could take hours); reduce it or allow a long run",
+        readable(work.round())
+    )]
+    LongRun {
+        /// What the work is, in the caller's words.
+        what: String,
+        /// The estimated work.
+        work: f64,
+        /// The limit.
+        limit: f64,
+    },
+}
+
+/// Refuse `count` items of `what` beyond [`MAX_POINTS`] (or non-finite); `what` names the
+/// caller's options or arguments that set the count.
+pub fn check_size(what: &str, count: f64) -> Result<usize, LimitError> {
     if !(0.0..=MAX_POINTS).contains(&count) {
-        return Err(format!(
-            "{what}: {} points, more than the limit of {MAX_POINTS:e}",
-            crate::rig::readable(count)
-        ));
+        return Err(LimitError::TooLarge {
+            what: what.to_string(),
+            count,
+            limit: MAX_POINTS,
+        });
     }
     Ok(count as usize)
 }
 
-/// Refuse `work` units of `what` beyond `limit` unless `allowed` (`--allow-long-run`).
-pub fn check_work(what: &str, work: f64, limit: f64, allowed: bool) -> Result<(), String> {
+/// Refuse `work` units of `what` beyond `limit` unless `allowed` (a long run asked for).
+pub fn check_work(what: &str, work: f64, limit: f64, allowed: bool) -> Result<(), LimitError> {
     if work.is_finite() && (allowed || work <= limit) {
         return Ok(());
     }
-    Err(format!(
-        "{what}: about {} units of work, more than the {limit:e} done without \
-         --allow-long-run (this could take hours); reduce it or pass --allow-long-run",
-        crate::rig::readable(work.round())
-    ))
+    Err(LimitError::LongRun {
+        what: what.to_string(),
+        work,
+        limit,
+    })
 }
 
 #[cfg(test)]
@@ -44,12 +77,14 @@ mod tests {
     #[test]
     fn sizes_and_work_beyond_the_limits_are_refused_with_the_limit() {
         assert_eq!(check_size("--points", 1000.0), Ok(1000));
-        let e = check_size("--points", 1e12).unwrap_err();
+        let e = check_size("--points", 1e12).unwrap_err().to_string();
         assert!(e.contains("--points") && e.contains("5e7"), "{e}");
         assert!(check_size("--points", f64::NAN).is_err());
         assert!(check_work("emulate", 1e6, 2e7, false).is_ok());
-        let e = check_work("emulate", 1e15, 2e7, false).unwrap_err();
-        assert!(e.contains("--allow-long-run") && e.contains("2e7"), "{e}");
+        let e = check_work("emulate", 1e15, 2e7, false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("allow a long run") && e.contains("2e7"), "{e}");
         assert!(check_work("emulate", 1e15, 2e7, true).is_ok());
         assert!(check_work("emulate", f64::INFINITY, 2e7, true).is_err());
     }

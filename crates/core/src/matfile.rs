@@ -198,18 +198,18 @@ pub struct Variable {
 
 impl Variable {
     /// The values of a real vector (one dimension may be longer than 1), or why it is not one.
-    pub fn vector(&self) -> Result<&[f64], String> {
+    pub fn vector(&self) -> Result<&[f64], MatError> {
         match &self.data {
             Data::Real(v) if self.dims.iter().filter(|&&d| d != 1).count() <= 1 => Ok(v),
-            Data::Real(_) => Err(format!(
+            Data::Real(_) => Err(MatError(format!(
                 "is a {} matrix, not a vector",
                 self.dims
                     .iter()
                     .map(usize::to_string)
                     .collect::<Vec<_>>()
                     .join("x")
-            )),
-            Data::Other(what) => Err(format!("is a {what}, not a real numeric vector")),
+            ))),
+            Data::Other(what) => Err(MatError(format!("is a {what}, not a real numeric vector"))),
         }
     }
 }
@@ -510,8 +510,8 @@ mod tests {
         assert_eq!(real(&vars[2]), [std::f64::consts::PI]);
         assert_eq!(vars[3].data, Data::Other("char array"));
         assert_eq!(vars[3].dims, [1, 15]);
-        assert!(vars[3].vector().unwrap_err().contains("char"));
-        assert!(vars[0].vector().unwrap_err().contains("2x3"));
+        assert!(vars[3].vector().unwrap_err().0.contains("char"));
+        assert!(vars[0].vector().unwrap_err().0.contains("2x3"));
     }
 
     /// A variable as MATLAB writes small ones: big endian, small-element name, int16 storage of

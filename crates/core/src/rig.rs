@@ -59,9 +59,18 @@ pub enum RigError {
         /// The parser's message, naming line and key.
         message: String,
     },
-    /// A `--set KEY=VALUE` override that does not fit.
-    #[error("--set {assignment}: {message}")]
+    /// A rig file without a single key: probably not the rig the user meant (the article's rig
+    /// is the default, and its printed form a start for one's own).
+    #[error("{file}: line 1: no keys: the file is empty, so it is probably not the rig you meant")]
+    Empty {
+        /// The file.
+        file: String,
+    },
+    /// A `KEY=VALUE` override that does not fit.
+    #[error("{source_name} {assignment}: {message}")]
     Set {
+        /// Where the overrides come from, in the caller's words (`--set`, `[set]`, `override`).
+        source_name: String,
         /// The assignment as given.
         assignment: String,
         /// What is wrong.
@@ -328,35 +337,43 @@ impl Rig {
             file: name.clone(),
             message,
         };
-        let text = input::read_text(files, path).map_err(parse_err)?;
+        let text = input::read_text(files, path).map_err(|e| parse_err(e.to_string()))?;
         if toml::from_str::<toml::Table>(&text).is_ok_and(|t| t.is_empty()) {
-            return Err(parse_err(
-                "line 1: no keys: the file is empty, so it is probably not the rig you meant; \
-                 omit --rig for the article's rig, or start from `pumpcyl rig --print-default`"
-                    .into(),
-            ));
+            return Err(RigError::Empty { file: name });
         }
         Self::from_toml_str(&text, &name)
     }
 
     /// Apply `KEY=VALUE` overrides (same keys and types as the TOML), then validate.
-    /// A bare word value (`motor_model=first_order`) is taken as a string.
+    /// A bare word value (`motor_model=first_order`) is taken as a string. Errors name the
+    /// overrides as `override`; see [`Rig::with_overrides_from`].
     pub fn with_overrides(&self, assignments: &[String]) -> Result<Rig, RigError> {
+        self.with_overrides_from("override", assignments)
+    }
+
+    /// [`Rig::with_overrides`], errors naming the overrides' source in the caller's words (the
+    /// command line's `--set`, an experiment file's `[set]`).
+    pub fn with_overrides_from(
+        &self,
+        source_name: &str,
+        assignments: &[String],
+    ) -> Result<Rig, RigError> {
         if assignments.is_empty() {
             return Ok(self.clone());
         }
         let mut table = toml::Table::try_from(self).expect("a rig always serialises");
         for assignment in assignments {
-            let (key, value) = parse_assignment(assignment, &table)?;
+            let (key, value) = parse_assignment(source_name, assignment, &table)?;
             table.insert(key, value);
         }
         let rig: Rig = table
             .try_into()
             .map_err(|e: toml::de::Error| RigError::Set {
+                source_name: source_name.to_string(),
                 assignment: assignments.join(" "),
                 message: e.to_string().trim_end().to_string(),
             })?;
-        rig.validate("--set")?;
+        rig.validate(source_name)?;
         Ok(rig)
     }
 
@@ -630,10 +647,12 @@ impl Range {
 
 /// Split `KEY=VALUE`, check the key exists and the value's type matches the default's.
 fn parse_assignment(
+    source_name: &str,
     assignment: &str,
     table: &toml::Table,
 ) -> Result<(String, toml::Value), RigError> {
     let err = |message: String| RigError::Set {
+        source_name: source_name.to_string(),
         assignment: assignment.to_string(),
         message,
     };

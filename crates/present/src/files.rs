@@ -258,7 +258,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8], protected: &Protected) -> Result<
 pub fn ensure_folder(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
         anyhow::bail!(
-            "{}: exists and is not a folder; give a folder for --out",
+            "{}: exists and is not a folder; give a folder",
             dir.display()
         );
     }
@@ -280,7 +280,7 @@ impl OutDir {
         protected.check(target)?;
         let shown = target.display();
         if target.exists() && !target.is_dir() {
-            anyhow::bail!("{shown}: exists and is not a folder; give a folder for --out");
+            anyhow::bail!("{shown}: exists and is not a folder; give a folder");
         }
         if target.is_dir() && !target.join(MARKER).exists() {
             let mut entries = std::fs::read_dir(target)

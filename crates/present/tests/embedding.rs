@@ -24,6 +24,9 @@ fn a_host_programs_sigint_handler_sees_ctrl_c_after_the_workflow() {
         }
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
-    assert!(seen.load(Ordering::SeqCst), "the host's SIGINT handler did not run");
+    assert!(
+        seen.load(Ordering::SeqCst),
+        "the host's SIGINT handler did not run"
+    );
     // still here: nothing in the libraries ended the process
 }

@@ -6,6 +6,7 @@
 //! default rig's 0.22 per bar (0.15 below 10 t), so the records replay on the default rig.
 
 use super::experiment::{DriveSignals, DriveStep, Experiment};
+use super::EmulatorError;
 use super::{equilibrium, Dynamics, Effects, Plc};
 use crate::bulk::effective_beta;
 use crate::response::Signals;
@@ -100,7 +101,7 @@ impl Emulated {
 
 impl Kind {
     /// Emulate this experiment with a truth.
-    pub fn run(&self, t: &Truth) -> Result<Emulated, String> {
+    pub fn run(&self, t: &Truth) -> Result<Emulated, EmulatorError> {
         Ok(match self {
             Kind::Loop(e) => Emulated::Loop(e.run(&t.rig, t.effects, &t.plc)?),
             Kind::Drive(d) => Emulated::Drive(d.run(&t.rig, t.effects, &t.plc)?),
@@ -110,7 +111,7 @@ impl Kind {
 
 impl ArticleRecord {
     /// Emulate the record.
-    pub fn run(&self) -> Result<Emulated, String> {
+    pub fn run(&self) -> Result<Emulated, EmulatorError> {
         self.kind.run(&self.truth)
     }
 }
@@ -130,7 +131,7 @@ pub fn plc(seed: u64) -> Plc {
 
 /// The emulated rig for a position gain and mass, its sum-pressure set-point chosen so the
 /// mean chamber pressure at x0 is `p_mean_bar` (the P sum-pressure loop's droop included).
-pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<Rig, String> {
+pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<Rig, EmulatorError> {
     let k_pres = k_pres_for_mass(mass_kg);
     let gas = effects
         .gas_fraction
@@ -151,17 +152,19 @@ pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<R
 }
 
 /// The mean chamber pressure (bar) at which the gas-fraction model gives `beta_bar`.
-pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, String> {
+pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, EmulatorError> {
     let x = effects.gas_fraction.ok_or("no gas fraction")?;
     let denom = 1.0 / beta_bar - (1.0 - x) / effects.beta_oil_bar;
     if denom <= 0.0 {
-        return Err(format!("beta {beta_bar} bar is beyond the oil's own"));
+        return Err(EmulatorError(format!(
+            "beta {beta_bar} bar is beyond the oil's own"
+        )));
     }
     Ok(x / denom)
 }
 
 /// Every embedded record, in the order `reproduce` uses them.
-pub fn records() -> Result<Vec<ArticleRecord>, String> {
+pub fn records() -> Result<Vec<ArticleRecord>, EmulatorError> {
     let effects = Effects::article(BETA_FIT_BAR, P_FIT_BAR)?;
     // the robustness record: more undissolved air (after a long shutdown, the article's
     // Results), so β_e is 220 bar at the same operating pressure
@@ -446,10 +449,7 @@ pub const FOLDER: &str = "records";
 pub struct Embedded;
 
 impl crate::input::Files for Embedded {
-    fn open(
-        &self,
-        path: &std::path::Path,
-    ) -> std::io::Result<Box<dyn std::io::Read + Send + '_>> {
+    fn open(&self, path: &std::path::Path) -> std::io::Result<Box<dyn std::io::Read + Send + '_>> {
         EMBEDDED
             .iter()
             .find(|(name, _)| std::path::Path::new(FOLDER).join(name) == path)

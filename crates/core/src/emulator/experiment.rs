@@ -3,6 +3,7 @@
 //! (the article §2.4.1; docs/identification.md#drive-gain).
 
 use super::plc::{integrate, Noise};
+use super::EmulatorError;
 use super::{emulate, Dynamics, Effects, Plc};
 use crate::response::Signals;
 use crate::rig::{Rig, RAD_S_PER_RPM};
@@ -85,7 +86,7 @@ impl Experiment {
     }
 
     /// Run it on the emulated rig: the PLC's record from t = 0.
-    pub fn run(&self, rig: &Rig, effects: Effects, plc: &Plc) -> Result<Signals, String> {
+    pub fn run(&self, rig: &Rig, effects: Effects, plc: &Plc) -> Result<Signals, EmulatorError> {
         let dynamics = Dynamics::new(rig, effects)?;
         emulate(rig, &dynamics, plc, SETTLE_S, self.duration_s(), |t| {
             self.reference_mm(t)
@@ -141,9 +142,17 @@ impl DriveSignals {
 
 impl DriveStep {
     /// Emulate the step, sampled at `plc.rate_hz` with `plc.noise_w_rpm` on the speed.
-    pub fn run(&self, rig: &Rig, effects: Effects, plc: &Plc) -> Result<DriveSignals, String> {
+    pub fn run(
+        &self,
+        rig: &Rig,
+        effects: Effects,
+        plc: &Plc,
+    ) -> Result<DriveSignals, EmulatorError> {
         if self.motor != 1 && self.motor != 2 {
-            return Err(format!("drive {} does not exist: 1 or 2", self.motor));
+            return Err(EmulatorError(format!(
+                "drive {} does not exist: 1 or 2",
+                self.motor
+            )));
         }
         let si = rig.si();
         let i = self.motor - 1;

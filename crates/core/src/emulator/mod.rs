@@ -15,6 +15,19 @@ pub use experiment::{DriveSignals, DriveStep, Experiment};
 pub use plc::{emulate, equilibrium, Plc};
 
 use crate::bulk::effective_beta;
+
+/// Why the emulator cannot run: a rig or experiment it does not model (a first-order motor, a
+/// drive that does not exist, a bulk modulus beyond the oil's own), a loop that cannot rest at
+/// its start, or the ODE solver failing.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct EmulatorError(pub String);
+
+impl From<&str> for EmulatorError {
+    fn from(message: &str) -> Self {
+        EmulatorError(message.to_string())
+    }
+}
 use crate::model::{Layout, Plant};
 use crate::rig::{MotorModel, Rig, RigSi, PA_PER_BAR};
 
@@ -69,9 +82,10 @@ impl Effects {
     /// `p_mean_bar`, a 3× peak torque, the pump speed limit, a 60 rpm pump dead band with slip
     /// leakage, 15 N Coulomb friction, and the seesaw's effective mass against stroke
     /// (9958 kg at −50 mm, 12 373 kg at +50 mm for 10 593 kg at x0: the article §2.1).
-    pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, String> {
+    pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, EmulatorError> {
         let oil = crate::bulk::BETA_OIL_BAR;
-        let x = crate::bulk::gas_fraction(beta_bar, p_mean_bar, oil).map_err(|e| e.to_string())?;
+        let x = crate::bulk::gas_fraction(beta_bar, p_mean_bar, oil)
+            .map_err(|e| EmulatorError(e.to_string()))?;
         let (m0, m_minus, m_plus, d) = (10_593.0, 9_958.0, 12_373.0, 0.05);
         Ok(Effects {
             varying_volumes: true,
@@ -108,7 +122,7 @@ pub struct Dynamics {
 
 impl Dynamics {
     /// The dynamics of a rig (full motor model only) with the chosen effects.
-    pub fn new(rig: &Rig, effects: Effects) -> Result<Dynamics, String> {
+    pub fn new(rig: &Rig, effects: Effects) -> Result<Dynamics, EmulatorError> {
         if rig.motor_model != MotorModel::Full {
             return Err("the emulator needs motor_model = \"full\"".into());
         }

@@ -4,6 +4,7 @@
 //! (the current loop at 1257 1/s makes the dynamics stiff).
 
 use super::Dynamics;
+use super::EmulatorError;
 use crate::response::Signals;
 use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, VectorCommon};
@@ -88,10 +89,10 @@ pub(super) fn integrate<F: Fn(&[f64], &mut [f64])>(
     x: &[f64],
     t0: f64,
     t1: f64,
-) -> Result<Vec<f64>, String> {
+) -> Result<Vec<f64>, EmulatorError> {
     let n = x.len();
     let x0 = x.to_vec();
-    let err = |e: diffsol::error::DiffsolError| format!("ODE solver: {e}");
+    let err = |e: diffsol::error::DiffsolError| EmulatorError(format!("ODE solver: {e}"));
     let problem = OdeBuilder::<NalgebraMat<f64>>::new()
         .t0(t0)
         .rtol(1e-7)
@@ -112,7 +113,9 @@ pub(super) fn integrate<F: Fn(&[f64], &mut [f64])>(
     solver.solve(t1).map_err(err)?;
     let y = solver.state().y.inner().as_slice().to_vec();
     if y.iter().any(|v| !v.is_finite()) {
-        return Err(format!("ODE solver: the state is not finite at t = {t1} s"));
+        return Err(EmulatorError(format!(
+            "ODE solver: the state is not finite at t = {t1} s"
+        )));
     }
     Ok(y)
 }
@@ -150,7 +153,7 @@ pub fn emulate(
     settle_s: f64,
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
-) -> Result<Signals, String> {
+) -> Result<Signals, EmulatorError> {
     let r0 = x_ref_mm(0.0);
     let mut x = equilibrium(rig, dynamics, r0)?;
     let mut noise = Noise::new(plc.seed);
@@ -165,7 +168,7 @@ pub fn emulate(
 }
 
 /// Integrate the rig over one PLC interval with the speed references `u` held.
-fn hold(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f64>, String> {
+fn hold(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f64>, EmulatorError> {
     integrate(
         &|x: &[f64], y: &mut [f64]| d.rhs(x, &u, y),
         &typical(d),
@@ -179,7 +182,7 @@ fn hold(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f6
 /// sensors): Newton's method on f(x, control(x)) = 0 from the LTI operating point. The P
 /// position and sum-pressure loops need small steady errors to turn the pumps that feed the
 /// leakage, which the LTI deviation model never sees; this finds them.
-pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, String> {
+pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, EmulatorError> {
     // the torque and speed limits are idle at rest, but a Newton step may cross them and find
     // a flat (singular) Jacobian there: solve without them, then check with them
     let mut free = d.clone();
@@ -190,14 +193,14 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Strin
     let m = measure(&x, d, &Plc::ideal(1.0), &mut Noise::new(1));
     d.rhs(&x, &control(rig, r_mm, &m), &mut f);
     if f.iter().zip(typical(d)).any(|(v, s)| (v / s).abs() > 1e-6) {
-        return Err(format!(
+        return Err(EmulatorError(format!(
             "the emulated loop cannot rest at x_ref = {r_mm} mm within its torque and speed limits"
-        ));
+        )));
     }
     Ok(x)
 }
 
-fn steady_state(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, String> {
+fn steady_state(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, EmulatorError> {
     let l = d.layout;
     let exact = Plc::ideal(1.0);
     let quiet = Noise::new(1);
@@ -240,9 +243,9 @@ fn steady_state(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, String> 
             *xi += di;
         }
     }
-    Err(format!(
+    Err(EmulatorError(format!(
         "the emulated loop found no steady state at x_ref = {r_mm} mm in 50 Newton steps"
-    ))
+    )))
 }
 
 /// What the PLC reads: position (mm), pressures (bar), speeds (rpm), with noise and
@@ -291,7 +294,7 @@ fn record(
     mut x: Vec<f64>,
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
-) -> Result<Signals, String> {
+) -> Result<Signals, EmulatorError> {
     let ts = 1.0 / plc.rate_hz;
     let steps = (duration_s * plc.rate_hz).round() as usize;
     let mut out = Signals::default();

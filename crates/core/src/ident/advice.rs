@@ -24,7 +24,7 @@ use super::problem::{DatasetSpec, Prepared, Problem};
 use super::refine::{candidate_of, log_point};
 use super::uncertainty::{analyze, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS};
 use super::{Experiment, IdentError};
-use crate::input::{self, Key::Index, Key::Name};
+use crate::input::{self, FieldError, Key::Index, Key::Name};
 use crate::lti::{eigenvalues, is_stable, PoleInfo};
 use crate::model::Plant;
 use crate::record::Record;
@@ -45,8 +45,6 @@ pub const RCOND: f64 = 1e-12;
 pub const MAX_CANDIDATES: usize = 200;
 /// Longest candidate record (s) after its rest.
 pub const MAX_DURATION_S: f64 = 600.0;
-/// Most samples of one candidate record.
-pub const MAX_SAMPLES: f64 = 1e6;
 /// Time at rest before the excitation starts (s), as in the article's records.
 pub const REST_S: f64 = 0.5;
 /// Default duration of a candidate record after its rest (s): the same recording time for
@@ -142,34 +140,46 @@ impl Design {
     }
 
     /// Check the design against the limits, the sample rate `rate_hz` and the stroke
-    /// (`x0_mm` ± the largest deviation must lie in 0 … `stroke_mm`); the message names the
+    /// (`x0_mm` ± the largest deviation must lie in 0 … `stroke_mm`); the error names the
     /// offending field.
-    pub fn check(&self, rate_hz: f64, x0_mm: f64, stroke_mm: f64) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
+    pub fn check(&self, rate_hz: f64, x0_mm: f64, stroke_mm: f64) -> Result<(), FieldError> {
+        let positive = |field: &'static str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(format!("{name} = {v}: must be > 0"))
+                Err(FieldError::new(
+                    field,
+                    format!("{field} = {v}: must be > 0"),
+                ))
             }
         };
         positive("kp", self.kp())?;
         let d = self.duration_s();
         positive("duration_s", d)?;
         if d > MAX_DURATION_S {
-            return Err(format!(
-                "duration_s = {d}: longer than the limit of {MAX_DURATION_S} s"
+            return Err(FieldError::new(
+                "duration_s",
+                format!("duration_s = {d}: longer than the limit of {MAX_DURATION_S} s"),
             ));
         }
         let samples = (REST_S + d) * rate_hz;
-        if samples > MAX_SAMPLES {
-            return Err(format!(
-                "duration_s = {d}: {samples:.0} samples at {rate_hz} Hz, more than the limit of {MAX_SAMPLES:e}"
-            ));
-        }
+        crate::limits::check_size("samples", samples).map_err(|_| {
+            FieldError::new(
+                "duration_s",
+                format!(
+                    "duration_s = {d}: {samples:.0} samples at {rate_hz} Hz, more than the limit \
+                     of {:e}",
+                    crate::limits::MAX_POINTS
+                ),
+            )
+        })?;
         let reach = match *self {
             Design::Step { step_mm, .. } => {
                 if !(step_mm.is_finite() && step_mm != 0.0) {
-                    return Err(format!("step_mm = {step_mm}: must be a non-zero number"));
+                    return Err(FieldError::new(
+                        "step_mm",
+                        format!("step_mm = {step_mm}: must be a non-zero number"),
+                    ));
                 }
                 ("step_mm", step_mm.min(0.0), step_mm.max(0.0))
             }
@@ -179,18 +189,25 @@ impl Design {
                 positive("freq_hz", freq_hz)?;
                 positive("amp_mm", amp_mm)?;
                 if freq_hz * MIN_SAMPLES_PER_PERIOD > rate_hz {
-                    return Err(format!(
-                        "freq_hz = {freq_hz}: fewer than {MIN_SAMPLES_PER_PERIOD} samples per \
-                         period at the records' {rate_hz} Hz"
+                    return Err(FieldError::new(
+                        "freq_hz",
+                        format!(
+                            "freq_hz = {freq_hz}: fewer than {MIN_SAMPLES_PER_PERIOD} samples \
+                             per period at the records' {rate_hz} Hz"
+                        ),
                     ));
                 }
                 ("amp_mm", -amp_mm, amp_mm)
             }
         };
-        let (name, lo, hi) = reach;
+        let (field, lo, hi) = reach;
         if x0_mm + lo < 0.0 || x0_mm + hi > stroke_mm {
-            return Err(format!(
-                "{name}: the reference would leave the stroke (0 … {stroke_mm} mm from x0 = {x0_mm} mm)"
+            return Err(FieldError::new(
+                field,
+                format!(
+                    "{field}: the reference would leave the stroke (0 … {stroke_mm} mm from x0 = \
+                     {x0_mm} mm)"
+                ),
             ));
         }
         Ok(())
@@ -288,15 +305,6 @@ struct SineSpec {
     duration_s: Option<f64>,
 }
 
-/// The field a design-check message names (its first word before ` =` or `:`).
-fn field_of(message: &str) -> &str {
-    message
-        .split([' ', ':'])
-        .next()
-        .filter(|w| !w.is_empty())
-        .unwrap_or("kp")
-}
-
 /// Read candidate designs from TOML text (`[[step]]` with `step_mm`, `kp`, optional
 /// `duration_s`; `[[sine]]` with `freq_hz`, `amp_mm`, `kp`, optional `duration_s`), checked
 /// against `rate_hz`, `x0_mm` and `stroke_mm` as [`Design::check`] does. Errors are one line
@@ -348,7 +356,7 @@ pub fn designs_from_toml(
     for (table, d) in &all {
         let k = usize::from(*table == "sine");
         if let Err(m) = d.check(rate_hz, x0_mm, stroke_mm) {
-            let path = [Name(table), Index(index[k]), Name(field_of(&m))];
+            let path = [Name(table), Index(index[k]), Name(m.field)];
             let line =
                 input::toml_line(text, &path).map_or(String::new(), |l| format!("line {l}, "));
             return Err(IdentError::Input(format!(
@@ -546,37 +554,43 @@ fn velocity_limit(rig: &crate::rig::Rig) -> f64 {
     VELOCITY_SHARE * flow_m3_s / rig.si().a1
 }
 
+/// Why a candidate experiment is left out of the ranking (it cannot be run at the identified
+/// point), in words.
+struct Skip(String);
+
 /// Whether the record `ds` can be run on the rig whose parameters are `c`: its closed loop
 /// stable with a least damping ratio of at least [`MIN_DAMPING`], and the motor speeds of its
 /// predicted response within the motors' rated speed (beyond it the drives saturate and the
 /// linear model no longer holds). The reason when not.
-fn runnable(problem: &Problem, c: &Candidate, ds: &Prepared) -> Result<(), String> {
-    let rig = problem.rig_for(c, ds).map_err(|e| e.to_string())?;
+fn runnable(problem: &Problem, c: &Candidate, ds: &Prepared) -> Result<(), Skip> {
+    let rig = problem.rig_for(c, ds).map_err(|e| Skip(e.to_string()))?;
     let sys = Plant::new(&rig).closed_loop(rig.sum_pressure);
-    let poles = eigenvalues(&sys.a).map_err(|e| e.to_string())?;
+    let poles = eigenvalues(&sys.a).map_err(|e| Skip(e.to_string()))?;
     if !is_stable(&poles) {
-        return Err("the closed loop is unstable at the identified point".into());
+        return Err(Skip(
+            "the closed loop is unstable at the identified point".into(),
+        ));
     }
     let least = poles
         .into_iter()
         .filter_map(|p| PoleInfo::from(p).damping)
         .fold(1.0, f64::min);
     if least < MIN_DAMPING {
-        return Err(format!(
+        return Err(Skip(format!(
             "closed-loop damping ratio {least:.3} at the identified point, below {MIN_DAMPING}: \
              too close to instability to run"
-        ));
+        )));
     }
-    let s = problem.simulate(c, ds).map_err(|e| e.to_string())?;
+    let s = problem.simulate(c, ds).map_err(|e| Skip(e.to_string()))?;
     for (k, w) in [&s.w1_rpm, &s.w2_rpm].into_iter().enumerate() {
         let peak = w.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
         if peak > rig.motor_rated_speed_rpm {
-            return Err(format!(
+            return Err(Skip(format!(
                 "motor {} would reach {peak:.0} rpm, above its rated {} rpm: the drives would \
                  saturate",
                 k + 1,
                 rig.motor_rated_speed_rpm
-            ));
+            )));
         }
     }
     Ok(())
@@ -622,14 +636,14 @@ pub fn advise(
         existing += gram(problem, ds, &p, LOG_STEP)? / var;
     }
     let current = widths(&existing, &u.best, z)?;
-    let assessed: Vec<Result<Result<Assessment, String>, IdentError>> = designs
+    let assessed: Vec<Result<Result<Assessment, Skip>, IdentError>> = designs
         .par_iter()
         .map(|d| {
             d.check(rate, first.rig.x0_mm, first.rig.stroke_mm)
                 .map_err(|m| IdentError::Input(format!("candidate `{}`: {m}", d.label())))?;
             let ds = d.prepared(first, rate)?;
-            if let Err(why) = runnable(problem, &u.best, &ds) {
-                return Ok(Err(format!("{}: {why}", d.label())));
+            if let Err(Skip(why)) = runnable(problem, &u.best, &ds) {
+                return Ok(Err(Skip(format!("{}: {why}", d.label()))));
             }
             let info = existing + gram(problem, &ds, &p, LOG_STEP)? / var;
             let w = widths(&info, &u.best, z)?;
@@ -649,7 +663,7 @@ pub fn advise(
     for a in assessed {
         match a? {
             Ok(a) => candidates.push(a),
-            Err(why) => skipped.push(why),
+            Err(Skip(why)) => skipped.push(why),
         }
     }
     if candidates.is_empty() {
@@ -697,8 +711,8 @@ pub fn advise_experiment(
     let designs = match candidates {
         Some(path) => {
             let name = path.display().to_string();
-            let text =
-                input::read_text(files, path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+            let text = input::read_text(files, path)
+                .map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
             Some(designs_for(&exp.problem, &text, &name)?)
         }
         None => None,
@@ -711,8 +725,7 @@ pub fn advise_experiment(
         grid_candidates as f64 * samples as f64,
         crate::limits::MAX_CANDIDATE_SAMPLES,
         false,
-    )
-    .map_err(IdentError::Input)?;
+    )?;
     let id = exp.identify(&exp.options())?;
     let opts = AdviceOptions {
         confidence,

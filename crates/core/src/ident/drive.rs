@@ -27,7 +27,10 @@ impl DriveRecord {
     }
 
     /// [`DriveRecord::read`] from `files`.
-    pub fn read_in(files: &dyn crate::input::Files, path: &Path) -> Result<DriveRecord, IdentError> {
+    pub fn read_in(
+        files: &dyn crate::input::Files,
+        path: &Path,
+    ) -> Result<DriveRecord, IdentError> {
         let mut t = Table::read_in(files, path, &["time_s", "w_ref_rpm", "w_rpm"], &[])?;
         Ok(DriveRecord {
             file: path.display().to_string(),

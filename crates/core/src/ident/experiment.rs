@@ -83,25 +83,27 @@ impl ExperimentFile {
     /// The rig: the named file or the embedded default, with `[set]` applied.
     fn rig(&self, files: &dyn input::Files, dir: &Path, at: &Locate) -> Result<Rig, IdentError> {
         let base = match &self.rig {
-            Some(r) => Rig::from_file_in(files, &dir.join(r)).map_err(|e| at.error(&[Name("rig")], e))?,
+            Some(r) => {
+                Rig::from_file_in(files, &dir.join(r)).map_err(|e| at.error(&[Name("rig")], e))?
+            }
             None => Rig::default(),
         };
         let assignment = |(k, v): (&String, &toml::Value)| format!("{k}={v}");
         // each key alone first, so an unknown key or a wrong type is found on its own line
         for (k, v) in &self.set {
             if let Err(e @ crate::rig::RigError::Set { .. }) =
-                base.with_overrides(&[assignment((k, v))])
+                base.with_overrides_from("[set]", &[assignment((k, v))])
             {
-                return Err(at.error(&[Name("set"), Name(k)], format!("[set]: {e}")));
+                return Err(at.error(&[Name("set"), Name(k)], e));
             }
         }
         let all: Vec<String> = self.set.iter().map(assignment).collect();
-        base.with_overrides(&all).map_err(|e| {
+        base.with_overrides_from("[set]", &all).map_err(|e| {
             let key = match &e {
                 crate::rig::RigError::Invalid { key, .. } => key,
                 _ => "",
             };
-            at.error(&[Name("set"), Name(key)], format!("[set]: {e}"))
+            at.error(&[Name("set"), Name(key)], e)
         })
     }
 
@@ -180,8 +182,8 @@ impl Experiment {
     /// [`Experiment::load`], the experiment and every file it names read from `files`.
     pub fn load_in(files: &dyn input::Files, path: &Path) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
-        let text = input::read_text(files, path)
-            .map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+        let text =
+            input::read_text(files, path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
         Self::from_text_in(files, &text, path)
     }
 
@@ -212,8 +214,8 @@ impl Experiment {
             return Err(at.error(&[Name("dataset")], "needs at least one [[dataset]]"));
         }
         for (key, g) in [("grid", &file.grid), ("refined_grid", &file.refined_grid)] {
-            if let Some(Err((axis, m))) = g.as_ref().map(|g| g.validate(key)) {
-                return Err(at.error(&[Name(key), Name(axis)], m));
+            if let Some(Err(e)) = g.as_ref().map(|g| g.validate(key)) {
+                return Err(at.error(&[Name(key), Name(e.field)], e.message));
             }
         }
         if !(file.threshold_mm2.is_finite() && file.threshold_mm2 > 0.0) {

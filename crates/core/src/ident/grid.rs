@@ -1,5 +1,6 @@
 //! Candidate grids of the two-stage search (docs/identification.md#the-two-grids).
 
+use crate::input::FieldError;
 use serde::{Deserialize, Serialize};
 
 /// A candidate parameter set of the grid search.
@@ -106,20 +107,23 @@ impl Grid {
 
     /// Check every axis is non-empty with finite positive values.
     /// The error names the axis (`beta_bar`, ...) and says what is wrong with it.
-    pub fn validate(&self, name: &str) -> Result<(), (&'static str, String)> {
+    pub fn validate(&self, name: &str) -> Result<(), FieldError> {
         for (axis, v) in self.axes() {
             if v.is_empty() {
-                return Err((axis, format!("{name}.{axis}: needs at least one value")));
+                return Err(FieldError::new(
+                    axis,
+                    format!("{name}.{axis}: needs at least one value"),
+                ));
             }
             if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
-                return Err((
+                return Err(FieldError::new(
                     axis,
                     format!("{name}.{axis}: {x} is not a finite value >= 0"),
                 ));
             }
         }
         if self.beta_bar.contains(&0.0) {
-            return Err((
+            return Err(FieldError::new(
                 "beta_bar",
                 format!("{name}.beta_bar: the bulk modulus must be > 0"),
             ));
@@ -128,7 +132,7 @@ impl Grid {
             for &x in v {
                 if let Some(rule) = crate::rig::Rig::check_key(axis, x) {
                     let x = crate::rig::readable(x);
-                    return Err((axis, format!("{name}.{axis}: {x}: {rule}")));
+                    return Err(FieldError::new(axis, format!("{name}.{axis}: {x}: {rule}")));
                 }
             }
         }

@@ -77,6 +77,9 @@ pub enum IdentError {
     /// A numerical failure.
     #[error(transparent)]
     Lti(#[from] crate::lti::LtiError),
+    /// A size or an amount of work beyond its limit.
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     /// The caller stopped the search (see [`run_stages_while`]).
     #[error("identification interrupted")]
     Interrupted,
@@ -243,7 +246,7 @@ pub fn run_stages_while(
         (true, _) => {
             let bounds = s1.threshold_bounds.ok_or_else(|| {
                 IdentError::Input(format!(
-                    "--auto-refine: no stable candidate of the first grid costs less than {} mm²; \
+                    "auto-refine: no stable candidate of the first grid costs less than {} mm²; \
                      raise threshold_mm2 or give a refined grid",
                     opts.threshold_mm2
                 ))

@@ -2,8 +2,19 @@
 //! writes, its fingerprint, and the merge that checks the shards belong together and were not
 //! edited before it gives the answer of one run.
 
+use super::IdentError;
 use super::{finish, Experiment, Identification, Options, Stage};
-use anyhow::Result;
+
+type Result<T> = std::result::Result<T, IdentError>;
+
+/// Refuse with the message when the condition does not hold.
+macro_rules! ensure {
+    ($cond:expr, $($message:tt)+) => {
+        if !$cond {
+            return Err(IdentError::Input(format!($($message)+)));
+        }
+    };
+}
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -36,7 +47,7 @@ pub fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
     crate::input::read_bounded(&crate::input::Disk, &exp.path)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?
+        .map_err(|e| IdentError::Input(format!("{}: {e}", exp.path.display())))?
         .hash(&mut h);
     // Debug prints every f64 exactly (shortest round-trip form)
     format!("{:?}", exp.rig).hash(&mut h);
@@ -62,7 +73,7 @@ fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
         let grid = grid.unwrap_or_else(|| stage.grid.clone());
         for s in stage.summary.top.iter().take(CHECKED) {
             let index = usize::try_from(s.index).unwrap_or(usize::MAX);
-            anyhow::ensure!(
+            ensure!(
                 index < grid.len() && grid.candidate(index) == s.candidate,
                 "stage {}: candidate {} of the partial results is not the grid point its index \
                  names; a partial result was edited",
@@ -70,7 +81,7 @@ fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
                 s.index
             );
             let cost = exp.problem.cost(&s.candidate);
-            anyhow::ensure!(
+            ensure!(
                 (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
                 "stage {}: beta_bar {} reported at cost {} mm², but it costs {cost} mm² when \
                  simulated again; a partial result was edited or made by another pumpcyl",
@@ -93,10 +104,10 @@ pub fn merge(
     parts: Vec<(PathBuf, Partial)>,
 ) -> Result<(Experiment, Identification, f64)> {
     let (files, parts): (Vec<PathBuf>, Vec<Partial>) = parts.into_iter().unzip();
-    anyhow::ensure!(!parts.is_empty(), "no partial results given");
+    ensure!(!parts.is_empty(), "no partial results given");
     let first = &parts[0];
     let n = first.shard.1;
-    anyhow::ensure!(
+    ensure!(
         n == parts.len(),
         "missing shards: {} claims {n} shards, {} partial results given; give all N",
         files[0].display(),
@@ -104,14 +115,14 @@ pub fn merge(
     );
     let mut seen = vec![false; n];
     for (p, file) in parts.iter().zip(&files) {
-        anyhow::ensure!(
+        ensure!(
             (1..=n).contains(&p.shard.0),
             "{}: shard {}/{}: need 1 <= I <= N",
             file.display(),
             p.shard.0,
             p.shard.1
         );
-        anyhow::ensure!(
+        ensure!(
             p.shard.1 == n && p.experiment == first.experiment,
             "partial results come from different runs ({} shard {}/{} vs {} shard {}/{})",
             first.experiment.display(),
@@ -121,14 +132,14 @@ pub fn merge(
             p.shard.0,
             p.shard.1
         );
-        anyhow::ensure!(!seen[p.shard.0 - 1], "shard {}/{n} given twice", p.shard.0);
+        ensure!(!seen[p.shard.0 - 1], "shard {}/{n} given twice", p.shard.0);
         seen[p.shard.0 - 1] = true;
     }
     let missing: Vec<String> = (1..=n)
         .filter(|i| !seen[i - 1])
         .map(|i| i.to_string())
         .collect();
-    anyhow::ensure!(
+    ensure!(
         missing.is_empty(),
         "missing shards {} of {n}",
         missing.join(", ")
@@ -142,21 +153,21 @@ pub fn merge(
     };
     let stage_count = 1 + usize::from(exp.grids().1.is_some());
     for (p, file) in parts.iter().zip(&files) {
-        anyhow::ensure!(
+        ensure!(
             p.stages.len() == stage_count,
             "{}: {} stage(s), the experiment has {stage_count}",
             file.display(),
             p.stages.len()
         );
-        anyhow::ensure!(
+        ensure!(
             p.threshold_mm2 == opts.threshold_mm2
                 && p.top == opts.top_n
                 && p.local_refinement == opts.local_refinement,
-            "{}: made with other --threshold-mm2, --top or --no-refine than {}",
+            "{}: made with another threshold_mm2, top or local_refinement than {}",
             file.display(),
             files[0].display()
         );
-        anyhow::ensure!(
+        ensure!(
             digest(&exp, &opts)? == p.digest,
             "{}: the experiment, its rig, its records or the options changed since this shard \
              ran",

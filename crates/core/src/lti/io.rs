@@ -39,12 +39,13 @@ pub struct ModelJson {
 impl ModelJson {
     /// Parse and check JSON text: the model and its state names, or one line naming the line,
     /// column and key of the problem (a leading byte-order mark is allowed).
-    pub fn parse(text: &str) -> Result<(StateSpace, Vec<StateInfo>), String> {
+    pub fn parse(text: &str) -> Result<(StateSpace, Vec<StateInfo>), crate::input::InputError> {
+        use crate::input::InputError::Invalid;
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         if text.trim().is_empty() {
-            return Err(
+            return Err(Invalid(
                 "line 1: empty file: expected a JSON object {\"A\", \"B\", \"C\", \"D\"}".into(),
-            );
+            ));
         }
         let json: ModelJson = serde_json::from_str(text).map_err(|e| {
             let message = e.to_string();
@@ -59,7 +60,11 @@ impl ModelJson {
             {
                 message += ": JSON has no NaN or Infinity; every entry must be a finite number";
             }
-            format!("line {}, column {}: {message}", e.line(), e.column())
+            Invalid(format!(
+                "line {}, column {}: {message}",
+                e.line(),
+                e.column()
+            ))
         })?;
         let located = |e: LtiError| {
             let first_word = match &e {
@@ -72,7 +77,10 @@ impl ModelJson {
                 k @ ("B" | "C" | "D" | "states") => k,
                 _ => "A",
             };
-            format!("line {}, key `{key}`: {e}", json_key_line(text, key))
+            Invalid(format!(
+                "line {}, key `{key}`: {e}",
+                json_key_line(text, key)
+            ))
         };
         let sys = json.to_model().map_err(located)?;
         for (name, m) in [("A", &sys.a), ("B", &sys.b), ("C", &sys.c), ("D", &sys.d)] {

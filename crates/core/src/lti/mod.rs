@@ -48,8 +48,7 @@ pub enum LtiError {
     /// A time response was asked of an unstable model: it would grow without bound.
     #[error(
         "the closed loop is unstable (a pole at {real_per_s:+.4} {imag_rad_per_s:+.4}j rad/s, \
-         {freq_hz:.3} Hz): its response grows without bound; `pumpcyl margins` and \
-         `pumpcyl poles` show why"
+         {freq_hz:.3} Hz): its response grows without bound"
     )]
     Unstable {
         /// Real part of the rightmost pole (1/s).
@@ -81,7 +80,7 @@ pub enum LtiError {
         at: String,
     },
     /// A sinusoid at or above the Nyquist frequency of its sampling would alias.
-    #[error("{freq_hz} Hz is at or above the Nyquist frequency {nyquist_hz} Hz of sampling at {rate_hz} Hz: the samples would not show the sine; raise --rate-hz above {} Hz", 2.0 * freq_hz)]
+    #[error("{freq_hz} Hz is at or above the Nyquist frequency {nyquist_hz} Hz of sampling at {rate_hz} Hz: the samples would not show the sine; raise the sample rate above {} Hz", 2.0 * freq_hz)]
     AboveNyquist {
         /// The sine's frequency (Hz).
         freq_hz: f64,

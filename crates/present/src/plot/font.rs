@@ -6,6 +6,7 @@
 //! `assets/fonts/LICENSE-DejaVu.txt`) and register it, once, under the family
 //! name [`FAMILY`]; all report code must use that family for its text.
 
+use super::ReportError;
 use std::sync::OnceLock;
 
 use plotters::style::{register_font, FontStyle};
@@ -21,19 +22,22 @@ pub(super) static DEJAVU_SANS: &[u8] = include_bytes!(concat!(
     "/../../assets/fonts/DejaVuSans.ttf"
 ));
 
-/// Outcome of the one registration attempt, shared by all threads.
-static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
+/// Outcome of the one registration attempt (whether the font parsed), shared by all threads.
+static REGISTERED: OnceLock<bool> = OnceLock::new();
 
 /// Register the embedded font with plotters under [`FAMILY`] (normal style;
 /// plotters falls back to it for the other styles). Thread-safe; the
 /// registration runs only on the first call, later calls return its outcome.
-pub(crate) fn ensure_registered() -> Result<(), String> {
-    REGISTERED
-        .get_or_init(|| {
-            register_font(FAMILY, FontStyle::Normal, DEJAVU_SANS)
-                .map_err(|_| "the embedded DejaVu Sans font could not be parsed".to_string())
-        })
-        .clone()
+pub(crate) fn ensure_registered() -> Result<(), ReportError> {
+    let parsed =
+        *REGISTERED.get_or_init(|| register_font(FAMILY, FontStyle::Normal, DEJAVU_SANS).is_ok());
+    if parsed {
+        Ok(())
+    } else {
+        Err(ReportError::Plot(
+            "the embedded DejaVu Sans font could not be parsed".into(),
+        ))
+    }
 }
 
 #[cfg(test)]

@@ -50,7 +50,7 @@ pub(super) fn to_svg(figure: &impl Draw, size: (u32, u32)) -> Result<String, Rep
 
 /// Render to an SVG document of `size` pixels, text and line sizes multiplied by `scale`.
 fn svg_at_scale(figure: &impl Draw, size: (u32, u32), scale: f64) -> Result<String, ReportError> {
-    font::ensure_registered().map_err(ReportError::Plot)?;
+    font::ensure_registered()?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();

@@ -270,7 +270,12 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     let start = Instant::now();
     let files = EMBEDDED
         .iter()
-        .map(|(file, text)| (Path::new(article::FOLDER).join(file), text.as_bytes().to_vec()))
+        .map(|(file, text)| {
+            (
+                Path::new(article::FOLDER).join(file),
+                text.as_bytes().to_vec(),
+            )
+        })
         .collect();
     let mut run = Run {
         opts,
