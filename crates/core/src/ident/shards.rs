@@ -10,6 +10,7 @@ type Result<T> = std::result::Result<T, IdentError>;
 /// Refuse with the message when the condition does not hold.
 macro_rules! ensure {
     ($cond:expr, $($message:tt)+) => {
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !$cond {
             return Err(IdentError::Input(format!($($message)+)));
         }
