@@ -29,6 +29,7 @@ pub struct AdviseArgs {
 
 /// Run the identification of the experiment, then the advice.
 pub fn run(args: &AdviseArgs) -> Result<String> {
+    crate::emit::check_confidence(args.confidence)?;
     let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
     let start = Instant::now();
     let advice = advise_experiment(

@@ -19,28 +19,42 @@ pub fn out_dir(dir: &Path) -> Result<OutDir> {
     OutDir::begin(dir, &crate::inputs::protected())
 }
 
-/// A refusal of work that could take hours, naming the option that allows it.
-pub fn long_run(e: pumpcyl::limits::LimitError) -> anyhow::Error {
-    anyhow::anyhow!("{e} (--allow-long-run)")
-}
-
 /// A library error in the command line's words: the commands and options that act on it,
 /// where the libraries say it in neutral terms.
 pub fn hinted(e: anyhow::Error) -> anyhow::Error {
+    use pumpcyl::ident::IdentError;
+    use pumpcyl::limits::LimitError;
     use pumpcyl::lti::LtiError;
-    match e.downcast_ref::<LtiError>() {
-        Some(LtiError::Unstable { .. }) => {
-            anyhow::anyhow!("{e}; `pumpcyl margins` and `pumpcyl poles` show why")
+    use pumpcyl::rig::RigError;
+    let long_run = matches!(e.downcast_ref(), Some(LimitError::LongRun { .. }))
+        || matches!(
+            e.downcast_ref(),
+            Some(IdentError::Limit(LimitError::LongRun { .. }))
+        );
+    let hint = match (e.downcast_ref::<LtiError>(), e.downcast_ref::<RigError>()) {
+        _ if long_run => " (--allow-long-run)",
+        (Some(LtiError::Unstable { .. }), _) => "; `pumpcyl margins` and `pumpcyl poles` show why",
+        (Some(LtiError::AboveNyquist { .. }), _) => " (--rate-hz)",
+        (_, Some(RigError::Empty { .. })) => {
+            "; omit --rig for the article's rig, or start from `pumpcyl rig --print-default`"
         }
-        Some(LtiError::AboveNyquist { .. }) => anyhow::anyhow!("{e} (--rate-hz)"),
-        _ => match e.downcast_ref::<pumpcyl::rig::RigError>() {
-            Some(pumpcyl::rig::RigError::Empty { .. }) => anyhow::anyhow!(
-                "{e}; omit --rig for the article's rig, or start from `pumpcyl rig \
-                 --print-default`"
-            ),
-            _ => e,
-        },
-    }
+        _ => return e,
+    };
+    anyhow::anyhow!("{e}{hint}")
+}
+
+/// Refuse a confidence level outside (0, 1) before any work, naming the option `--confidence`.
+pub fn check_confidence(confidence: f64) -> Result<()> {
+    pumpcyl::ident::check_confidence(confidence).map_err(|e| anyhow::anyhow!("--{e}"))?;
+    Ok(())
+}
+
+/// A core complaint about a named field (`freq_hz = 50: …`), the field shown as the option that
+/// sets it (`--freq-hz 50: …`); `option_of` maps a field to its option name.
+pub fn as_option(e: pumpcyl::input::FieldError, option_of: fn(&str) -> &str) -> anyhow::Error {
+    let rest = e.message.strip_prefix(e.field).unwrap_or(&e.message);
+    let rest = rest.strip_prefix(" =").unwrap_or(rest);
+    anyhow::anyhow!("--{}{rest}", option_of(e.field))
 }
 
 /// The output format chosen by a file's extension.

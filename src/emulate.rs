@@ -5,7 +5,9 @@ use crate::RigSource;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use pumpcyl::emulator::article::{self, Emulated, Kind};
-use pumpcyl::emulator::{DriveStep, Effects, Experiment, Plc};
+use pumpcyl::emulator::{
+    DriveStep, Effects, Experiment, Plc, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
+};
 use pumpcyl::rig::Rig;
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -123,8 +125,8 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR).map_err(|e| anyhow!(e))?
     };
     let rig = load_rig(&args.source, effects)?;
-    let plan = experiment(args, kind, &rig)?;
     let plc = plc(args, kind)?;
+    let plan = experiment(args, kind, &rig, plc.rate_hz)?;
     check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
     let truth = article::Truth { rig, effects, plc };
     let data = plan
@@ -154,74 +156,49 @@ fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
     Ok(base.with_overrides_from("--set", &source.set)?)
 }
 
-fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig) -> Result<Kind> {
-    let positive = |name: &str, v: f64| -> Result<f64> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            bail!("--{name} {v}: must be > 0")
-        }
-    };
-    let inside = |name: &str, v: f64| -> Result<f64> {
-        if v.is_finite() && v > 0.0 && v < rig.stroke_mm {
-            Ok(v)
-        } else {
-            bail!(
-                "--{name} {v}: must lie inside the stroke (0 … {} mm, `stroke_mm` of the rig)",
-                rig.stroke_mm
-            )
-        }
-    };
-    let at_s = args.at_s;
-    if !(at_s.is_finite() && at_s >= 0.0) {
-        bail!("--at-s {at_s}: must be >= 0");
-    }
-    Ok(match kind {
-        ExperimentKind::Step => Kind::Loop(Experiment::Step {
-            from_mm: inside("from-mm", args.from_mm.unwrap_or(rig.x0_mm - 5.0))?,
-            to_mm: inside("to-mm", args.to_mm.unwrap_or(rig.x0_mm))?,
-            at_s,
-            duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
-        }),
-        ExperimentKind::Sine => {
-            let f = positive("freq-hz", args.freq_hz)?;
-            let a = positive("amplitude-mm", args.amplitude_mm)?;
-            if inside("", rig.x0_mm + a)
-                .and(inside("", rig.x0_mm - a))
-                .is_err()
-            {
-                bail!(
-                    "--amplitude-mm {a}: the sine about x0_mm spans {} … {} mm, outside the \
-                     stroke (0 … {} mm)",
-                    rig.x0_mm - a,
-                    rig.x0_mm + a,
-                    rig.stroke_mm
-                );
-            }
-            Kind::Loop(Experiment::Sine {
-                centre_mm: rig.x0_mm,
-                amplitude_mm: a,
-                freq_hz: f,
-                start_s: at_s,
-                duration_s: positive("duration-s", args.duration_s.unwrap_or(at_s + 2.0 / f))?,
-            })
-        }
-        ExperimentKind::Standstill => Kind::Loop(Experiment::Standstill {
-            x_mm: rig.x0_mm,
-            duration_s: positive("duration-s", args.duration_s.unwrap_or(6.0))?,
-        }),
+/// The experiment asked for, the core's defaults where an option is absent, checked.
+fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64) -> Result<Kind> {
+    let (at, d) = (args.at_s, args.duration_s);
+    let plan = match kind {
+        ExperimentKind::Step => Kind::Loop(Experiment::step(rig, args.from_mm, args.to_mm, at, d)),
+        ExperimentKind::Sine => Kind::Loop(Experiment::sine(
+            rig,
+            args.amplitude_mm,
+            args.freq_hz,
+            at,
+            d,
+        )),
+        ExperimentKind::Standstill => Kind::Loop(Experiment::standstill(rig, d)),
         ExperimentKind::DriveStep => Kind::Drive(DriveStep {
             motor: args.motor,
             from_rpm: 0.0,
             to_rpm: args.to_rpm,
-            at_s,
-            duration_s: positive("duration-s", args.duration_s.unwrap_or(1.0))?,
+            at_s: at,
+            duration_s: d.unwrap_or(DRIVE_RECORD_S),
         }),
-    })
+    };
+    let checked = match &plan {
+        Kind::Loop(e) => e.check(rig, rate_hz),
+        Kind::Drive(d) => d.check(),
+    };
+    checked.map_err(|e| crate::emit::as_option(e, option_of))?;
+    Ok(plan)
 }
 
-/// Refuse a run of hours (controller steps beyond the limit) unless asked for, and a sine the
-/// controller's sampling cannot represent (at or above its Nyquist frequency).
+/// The option that sets an experiment's field.
+fn option_of(field: &str) -> &str {
+    match field {
+        "from_mm" => "from-mm",
+        "to_mm" => "to-mm",
+        "at_s" | "start_s" => "at-s",
+        "duration_s" => "duration-s",
+        "freq_hz" => "freq-hz",
+        "amplitude_mm" => "amplitude-mm",
+        other => other,
+    }
+}
+
+/// Refuse a run of hours (controller steps beyond the limit) unless asked for.
 fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
     let duration_s = match plan {
         Kind::Loop(e) => e.duration_s(),
@@ -233,25 +210,15 @@ fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
         pumpcyl::limits::MAX_EMULATED_STEPS,
         allow_long_run,
     )
-    .map_err(crate::emit::long_run)?;
-    if let Kind::Loop(Experiment::Sine { freq_hz, .. }) = plan {
-        if *freq_hz >= rate_hz / 2.0 {
-            bail!(
-                "--freq-hz {freq_hz}: at or above the Nyquist frequency {} Hz of --rate-hz \
-                 {rate_hz}; raise --rate-hz above {} Hz",
-                rate_hz / 2.0,
-                2.0 * freq_hz
-            );
-        }
-    }
+    .map_err(|e| crate::emit::hinted(e.into()))?;
     Ok(())
 }
 
 fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
     let default_rate = if kind == ExperimentKind::DriveStep {
-        1000.0
+        DRIVE_RATE_HZ
     } else {
-        100.0
+        PLC_RATE_HZ
     };
     let rate_hz = args.rate_hz.unwrap_or(default_rate);
     if !(rate_hz.is_finite() && rate_hz > 0.0) {

@@ -13,7 +13,7 @@ use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::{self, digest, Partial};
 use pumpcyl::ident::{
-    finish, identify_drive, run_stages, DriveRecord, Experiment, Identification, Options, Scored,
+    finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request, Scored,
     Standstill,
 };
 use pumpcyl_present::figures::Chart;
@@ -227,19 +227,15 @@ pub(super) fn write_drive_overlay(
     crate::time::render(path, &chart)
 }
 
-fn options(args: &IdentifyArgs, exp: &Experiment) -> Result<Options> {
-    let threshold_mm2 = args.threshold_mm2.unwrap_or(exp.file.threshold_mm2);
-    anyhow::ensure!(
-        threshold_mm2.is_finite() && threshold_mm2 > 0.0,
-        "--threshold-mm2 must be > 0"
-    );
-    anyhow::ensure!(args.top >= 1, "--top must be at least 1");
-    Ok(Options {
-        auto_refine: args.auto_refine || exp.file.auto_refine,
-        local_refinement: !args.no_refine && exp.file.local_refinement,
-        threshold_mm2,
+/// The experiment file's options with this command's flags on top.
+fn options(args: &IdentifyArgs, exp: &Experiment) -> Options {
+    let file = exp.options();
+    Options {
+        auto_refine: args.auto_refine || file.auto_refine,
+        local_refinement: !args.no_refine && file.local_refinement,
+        threshold_mm2: args.threshold_mm2.unwrap_or(file.threshold_mm2),
         top_n: args.top,
-    })
+    }
 }
 
 /// A progress bar on stderr when it is a terminal; silent otherwise.
@@ -260,28 +256,27 @@ pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
 
 /// `pumpcyl identify`.
 pub fn identify(args: &IdentifyArgs) -> Result<String> {
-    let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
-    let opts = options(args, &exp)?;
-    let grids = exp.grids();
-    if args.shard.is_some() {
-        anyhow::ensure!(!opts.auto_refine, "--shard needs fixed grids: --auto-refine derives the second grid from the first, so run that stage unsharded");
-        anyhow::ensure!(
-            args.out.is_some(),
-            "--shard writes a partial result: give --out DIR"
-        );
+    if args.uncertainty {
+        crate::emit::check_confidence(args.confidence)?;
     }
-    let total = grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len());
-    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
-    pumpcyl::limits::check_work(
-        "identify: the grids' candidates times the records' samples",
-        pumpcyl::ident::shard_len(total, args.shard) as f64 * samples as f64,
-        pumpcyl::limits::MAX_CANDIDATE_SAMPLES,
-        args.allow_long_run,
-    )
-    .map_err(crate::emit::long_run)?;
-    let bar = progress_bar(pumpcyl::ident::shard_len(total, args.shard) as u64);
+    let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
+    let opts = options(args, &exp);
+    anyhow::ensure!(
+        args.shard.is_none() || args.out.is_some(),
+        "--shard writes a partial result: give --out DIR"
+    );
+    let request = Request {
+        shard: args.shard,
+        allow_long_run: args.allow_long_run,
+        ..exp.request(opts)
+    };
+    request.check().map_err(|e| crate::emit::hinted(e.into()))?;
+    let bar = progress_bar(request.candidates());
     let start = Instant::now();
-    let stages = run_stages(&exp.problem, grids, &opts, args.shard, &|n| bar.inc(n))?;
+    let stages = request.search(&|n| {
+        bar.inc(n);
+        true
+    })?;
     let search_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if let (Some(shard), Some(dir)) = (args.shard, &args.out) {

@@ -33,11 +33,7 @@ pub(super) fn run(
     json_out: bool,
     out: Option<&Path>,
 ) -> Result<String> {
-    anyhow::ensure!(
-        src.confidence > 0.0 && src.confidence < 1.0,
-        "--confidence {}: must lie strictly between 0 and 1",
-        src.confidence
-    );
+    crate::emit::check_confidence(src.confidence)?;
     let start = Instant::now();
     let (rig, region) = match src.experiment {
         Some(path) => Region::of_records(

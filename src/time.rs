@@ -187,34 +187,20 @@ fn which(rig: &RigSource, label: &str) -> String {
     }
 }
 
-/// Check a run of `duration_s` (set by the options `duration_from`) sampled at `rate_hz`: both
-/// positive, and a number of samples within the limit, blaming the options that set it.
+/// Check a run of `duration_s` (set by the options `duration_from`) sampled at `rate_hz` before
+/// any work, as the core checks every record ([`pumpcyl::limits::check_samples`]), blaming the
+/// options that set it.
 fn check_timing(duration_s: f64, duration_from: &str, rate_hz: f64) -> Result<()> {
-    anyhow::ensure!(
-        duration_s.is_finite() && duration_s > 0.0,
-        "{duration_from} must give a duration > 0 s (got {duration_s})"
-    );
-    anyhow::ensure!(
-        rate_hz.is_finite() && rate_hz > 0.0,
-        "--rate-hz must be > 0 (got {rate_hz})"
-    );
-    pumpcyl::limits::check_size(
-        &format!("{duration_from} and --rate-hz"),
-        duration_s * rate_hz,
-    )?;
+    pumpcyl::limits::check_samples(duration_s, rate_hz)
+        .map_err(|e| anyhow::anyhow!("{duration_from} and --rate-hz: {e}"))?;
     Ok(())
 }
 
-/// Refuse a reference from `lo_mm` to `hi_mm` that leaves the rig's stroke (as `emulate` does).
+/// Refuse a reference from `lo_mm` to `hi_mm` that leaves the rig's stroke
+/// ([`Rig::check_reference`]), naming the options `what` that set it.
 fn check_in_stroke(rig: &Rig, what: &str, lo_mm: f64, hi_mm: f64) -> Result<()> {
-    anyhow::ensure!(
-        lo_mm > 0.0 && hi_mm < rig.stroke_mm,
-        "{what}: the reference spans {lo_mm} … {hi_mm} mm, outside the stroke (0 … {} mm, \
-         `stroke_mm` of the rig, about x0_mm = {} mm)",
-        rig.stroke_mm,
-        rig.x0_mm
-    );
-    Ok(())
+    rig.check_reference(lo_mm, hi_mm)
+        .map_err(|e| anyhow::anyhow!("{what}: {e}"))
 }
 
 /// `pumpcyl step`.

@@ -207,6 +207,7 @@ def identify(
     threshold_mm2: Optional[float] = None,
     top: int = 20,
     progress: Union[None, bool, Callable[[int, int], None]] = None,
+    allow_long_run: bool = False,
 ) -> Identification:
     """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (article Section 6.3)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,

@@ -425,14 +425,6 @@ fn step(
     duration_s: f64,
     rate_hz: f64,
 ) -> PyResult<Py<PyStep>> {
-    if !(duration_s.is_finite() && duration_s > 0.0) {
-        return Err(err(format!("duration_s must be > 0 (got {duration_s})")));
-    }
-    if !(rate_hz.is_finite() && rate_hz > 0.0 && duration_s * rate_hz <= 1e7) {
-        return Err(err(format!(
-            "rate_hz must be > 0 and give at most 10^7 samples (got {rate_hz})"
-        )));
-    }
     if !(step_mm.is_finite() && step_mm != 0.0) {
         return Err(err("step_mm must be non-zero"));
     }
@@ -615,14 +607,15 @@ fn standstill_of(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<Standstil
 /// {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the file's, else the
 /// article's 3264 + 3553 candidates); `refined_grid=False` skips the second stage.
 /// `auto_refine`, `local_refinement` and `threshold_mm2` (mm^2) override the file; `top` is the
-/// length of the top list. The search runs with the GIL released; Ctrl-C stops it
+/// length of the top list. Work beyond 10^9 candidate-samples (hours) is refused unless
+/// `allow_long_run=True`. The search runs with the GIL released; Ctrl-C stops it
 /// (KeyboardInterrupt). `progress=True` prints progress on stderr; a callable gets
 /// `(done, total)` candidates.
 #[pyfunction]
 #[pyo3(signature = (
     experiment = None, *, datasets = None, standstill = None, rig = None, grid = None,
     refined_grid = None, auto_refine = None, local_refinement = None, threshold_mm2 = None,
-    top = 20, progress = None
+    top = 20, progress = None, allow_long_run = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
@@ -638,7 +631,10 @@ fn identify(
     threshold_mm2: Option<f64>,
     top: usize,
     progress: Option<Py<PyAny>>,
+    allow_long_run: bool,
 ) -> PyResult<PyIdentification> {
+    let loaded;
+    let built;
     let (problem, file_grids, file_opts) = match (experiment, datasets) {
         (Some(path), None) => {
             if standstill.is_some() || rig.is_some() {
@@ -646,14 +642,8 @@ fn identify(
                     "standstill and rig come from the experiment file: give either the file or datasets",
                 ));
             }
-            let exp = Experiment::load(&path).map_err(err)?;
-            let opts = Options {
-                auto_refine: exp.file.auto_refine,
-                local_refinement: exp.file.local_refinement,
-                threshold_mm2: exp.file.threshold_mm2,
-                top_n: top,
-            };
-            (exp.problem.clone(), exp.grids(), opts)
+            loaded = Experiment::load(&path).map_err(err)?;
+            (&loaded.problem, loaded.grids(), loaded.options())
         }
         (None, Some(sets)) => {
             let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
@@ -673,21 +663,12 @@ fn identify(
                     Prepared::new(&d.spec, d.record.clone(), &rig).map_err(err)
                 })
                 .collect::<PyResult<_>>()?;
-            let opts = Options {
-                auto_refine: false,
-                local_refinement: true,
-                threshold_mm2: 0.25,
-                top_n: top,
+            built = Problem {
+                datasets,
+                standstill,
             };
             let grids = (Grid::article_first(), Some(Grid::article_refined()));
-            (
-                Problem {
-                    datasets,
-                    standstill,
-                },
-                grids,
-                opts,
-            )
+            (&built, grids, Options::default())
         }
         _ => {
             return Err(err(
@@ -710,24 +691,19 @@ fn identify(
         threshold_mm2: threshold_mm2.unwrap_or(file_opts.threshold_mm2),
         top_n: top,
     };
-    if !(opts.threshold_mm2.is_finite() && opts.threshold_mm2 > 0.0) {
-        return Err(err("threshold_mm2 must be > 0"));
-    }
-    if top < 1 {
-        return Err(err("top must be at least 1"));
-    }
-    let total = first.len() + second.as_ref().map_or(0, Grid::len);
-    let mut tick = progress_reporter(py, progress, total)?;
+    let request = ident::Request {
+        allow_long_run,
+        ..ident::Request::new(problem, (first, second), opts)
+    };
+    request.check().map_err(|e| match e {
+        ident::IdentError::Limit(pumpcyl::limits::LimitError::LongRun { .. }) => {
+            err(format!("{e} (allow_long_run=True)"))
+        }
+        e => err(e),
+    })?;
+    let mut tick = progress_reporter(py, progress, request.candidates())?;
     let start = Instant::now();
-    let id = run_interruptible(
-        py,
-        |go_on| {
-            let stages = ident::run_stages_while(&problem, (first, second), &opts, None, go_on)?;
-            ident::finish(&problem, stages, &opts)
-        },
-        &mut tick,
-    )?
-    .map_err(err)?;
+    let id = run_interruptible(py, |go_on| request.run(go_on), &mut tick)?.map_err(err)?;
     tick(py, u64::MAX)?;
     let best = id.best();
     Ok(PyIdentification {
@@ -752,7 +728,7 @@ fn identify(
 fn progress_reporter(
     py: Python<'_>,
     progress: Option<Py<PyAny>>,
-    total: usize,
+    total: u64,
 ) -> PyResult<Box<dyn FnMut(Python<'_>, u64) -> PyResult<()> + Send>> {
     let Some(p) = progress else {
         return Ok(Box::new(|_, _| Ok(())));
@@ -761,7 +737,6 @@ fn progress_reporter(
     if as_bool && !p.bind(py).extract::<bool>()? {
         return Ok(Box::new(|_, _| Ok(())));
     }
-    let total = total as u64;
     let mut last = u64::MAX - 1;
     Ok(Box::new(move |py, done| {
         let end = done == u64::MAX;
@@ -933,11 +908,7 @@ fn design(
             .map_err(err)?;
         return to_py(py, &d);
     }
-    if !(confidence > 0.0 && confidence < 1.0) {
-        return Err(err(format!(
-            "confidence {confidence}: must lie strictly between 0 and 1"
-        )));
-    }
+    ident::check_confidence(confidence).map_err(err)?;
     use pumpcyl::design::robust::{Region, RobustOptions};
     let d = py
         .detach(|| -> Result<_, String> {

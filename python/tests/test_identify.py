@@ -107,7 +107,8 @@ def test_ctrl_c_interrupts_a_long_identification():
     try:
         with pytest.raises(KeyboardInterrupt):
             pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=huge, refined_grid=False,
-                             progress=lambda done, total: done and running.set())
+                             progress=lambda done, total: done and running.set(),
+                             allow_long_run=True)
     finally:
         finished.set()
         running.set()
@@ -137,3 +138,10 @@ def test_identify_errors_name_what_is_wrong():
         pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=dict(beta_bar=[1.0]))
     with pytest.raises(pumpcyl.PumpcylError, match="x_mm"):
         pumpcyl.Dataset([0.0, 0.1], [1.0, 2.0], [1.0], kp=25, mass_kg=1, fit_end_s=0.1)
+
+
+def test_hours_of_work_are_refused_unless_allowed():
+    huge = dict(beta_bar=list(range(1, 101)), viscous_friction_ns_per_m=list(range(1, 101)),
+                c12_m5_per_ns=[1e-12 * k for k in range(1, 101)])  # a million candidates
+    with pytest.raises(pumpcyl.PumpcylError, match=r"allow_long_run=True"):
+        pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=huge, refined_grid=False)

@@ -103,7 +103,11 @@ pub fn table(
         .iter()
         .map(|&p| {
             let beta = effective_beta(x, p, beta_oil_bar);
-            let r = rig.with_overrides(&[format!("beta_bar={beta}")])?;
+            let r = Rig {
+                beta_bar: beta,
+                ..rig.clone()
+            };
+            r.validate("β_e from the gas-fraction model")?;
             let m = margins(&Plant::new(&r).open_loop(false))?;
             Ok(Row {
                 p_bar: p,

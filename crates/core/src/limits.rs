@@ -29,6 +29,14 @@ pub enum LimitError {
         /// The limit.
         limit: f64,
     },
+    /// A duration or a rate that sets a count of samples is not a positive number.
+    #[error("{name} = {value}: must be > 0")]
+    NotPositive {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
     /// Work that could take hours, not allowed by the caller.
     #[error(
         "{what}: about {} units of work, more than the {limit:e} done without allowing a long \
@@ -56,6 +64,20 @@ pub fn check_size(what: &str, count: f64) -> Result<usize, LimitError> {
         });
     }
     Ok(count as usize)
+}
+
+/// The number of samples of a record of `duration_s` sampled at `rate_hz` (both > 0, the count
+/// within [`MAX_POINTS`]): the one check of every record pumpcyl simulates or emulates.
+pub fn check_samples(duration_s: f64, rate_hz: f64) -> Result<usize, LimitError> {
+    for (name, value) in [("duration_s", duration_s), ("rate_hz", rate_hz)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(LimitError::NotPositive { name, value });
+        }
+    }
+    check_size(
+        "duration_s × rate_hz",
+        (duration_s * rate_hz + 1e-9).floor() + 1.0,
+    )
 }
 
 /// Refuse `work` units of `what` beyond `limit` unless `allowed` (a long run asked for).
@@ -87,5 +109,10 @@ mod tests {
         assert!(e.contains("allow a long run") && e.contains("2e7"), "{e}");
         assert!(check_work("emulate", 1e15, 2e7, true).is_ok());
         assert!(check_work("emulate", f64::INFINITY, 2e7, true).is_err());
+        assert_eq!(check_samples(4.0, 100.0), Ok(401));
+        assert!(check_samples(51.0, 1e6).is_err());
+        let e = check_samples(-1.0, 100.0).unwrap_err().to_string();
+        assert_eq!(e, "duration_s = -1: must be > 0");
+        assert!(check_samples(1.0, f64::NAN).is_err());
     }
 }

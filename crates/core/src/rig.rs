@@ -66,6 +66,21 @@ pub enum RigError {
         /// The file.
         file: String,
     },
+    /// A position reference that leaves the stroke.
+    #[error(
+        "the reference spans {lo_mm} … {hi_mm} mm, outside the stroke (0 … {stroke_mm} mm, \
+         `stroke_mm` of the rig, about x0_mm = {x0_mm} mm)"
+    )]
+    OutsideStroke {
+        /// Lowest reference (mm).
+        lo_mm: f64,
+        /// Highest reference (mm).
+        hi_mm: f64,
+        /// The rig's stroke (mm).
+        stroke_mm: f64,
+        /// The rig's operating point (mm).
+        x0_mm: f64,
+    },
     /// A `KEY=VALUE` override that does not fit.
     #[error("{source_name} {assignment}: {message}")]
     Set {
@@ -409,6 +424,21 @@ impl Rig {
             ));
         }
         Ok(())
+    }
+
+    /// Refuse a position reference from `lo_mm` to `hi_mm` that leaves the stroke (it must lie
+    /// strictly inside 0 … `stroke_mm`): the one rule for every reference pumpcyl simulates,
+    /// emulates or proposes as an experiment.
+    pub fn check_reference(&self, lo_mm: f64, hi_mm: f64) -> Result<(), RigError> {
+        if lo_mm > 0.0 && hi_mm < self.stroke_mm {
+            return Ok(());
+        }
+        Err(RigError::OutsideStroke {
+            lo_mm,
+            hi_mm,
+            stroke_mm: self.stroke_mm,
+            x0_mm: self.x0_mm,
+        })
     }
 
     /// What is wrong with `value` for the numeric rig key `key` (its physical range), if anything;

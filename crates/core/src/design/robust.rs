@@ -13,7 +13,8 @@ use super::{kp_max, kp_max_below, margins_at, meets, DesignError, Targets, Verdi
 use super::{GM_TOLERANCE_DB, KP_CEILING, KP_FLOOR, PM_TOLERANCE_DEG};
 use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
 use crate::ident::{
-    analyze, spaced, Candidate, Experiment, Grid, Standstill, Uncertainty, UncertaintyOptions,
+    analyze, check_confidence, spaced, Candidate, Experiment, Grid, Standstill, Uncertainty,
+    UncertaintyOptions,
 };
 use crate::lti::Margins;
 use crate::rig::Rig;
@@ -143,6 +144,7 @@ impl Region {
     /// returns the experiment's rig carrying the identification's answer (β, b, c12 and c1, c2 from the
     /// standstill) and the region.
     pub fn of_records(exp: &Experiment, confidence: f64) -> Result<(Rig, Region), DesignError> {
+        let confidence = check_confidence(confidence)?;
         let id = exp.identify(&exp.options())?;
         let opts = UncertaintyOptions {
             confidence,

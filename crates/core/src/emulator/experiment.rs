@@ -5,6 +5,7 @@
 use super::plc::{integrate, Noise};
 use super::EmulatorError;
 use super::{emulate, Dynamics, Effects, Plc};
+use crate::input::FieldError;
 use crate::response::Signals;
 use crate::rig::{Rig, RAD_S_PER_RPM};
 use std::f64::consts::PI;
@@ -46,7 +47,130 @@ pub enum Experiment {
     },
 }
 
+/// The closed-loop records' sample rate when none is asked for (Hz): the PLC's.
+pub const PLC_RATE_HZ: f64 = 100.0;
+/// A drive record's sample rate when none is asked for (Hz): the drive's scope.
+pub const DRIVE_RATE_HZ: f64 = 1000.0;
+/// A step or standstill record's length when none is asked for (s).
+pub const RECORD_S: f64 = 6.0;
+/// A drive step record's length when none is asked for (s).
+pub const DRIVE_RECORD_S: f64 = 1.0;
+/// A step's size when its ends are not given (mm): the article's 5 mm, ending at x0.
+pub const STEP_MM: f64 = 5.0;
+/// The periods a sine record holds after its start when no length is asked for.
+pub const SINE_PERIODS: f64 = 2.0;
+
+/// `v` if it is a finite number > 0, else the complaint about `field`.
+fn positive(field: &'static str, v: f64) -> Result<(), FieldError> {
+    if v.is_finite() && v > 0.0 {
+        return Ok(());
+    }
+    Err(FieldError::new(
+        field,
+        format!("{field} = {v}: must be > 0"),
+    ))
+}
+
+/// `t` if it is a finite time >= 0, else the complaint about `field`.
+fn not_negative(field: &'static str, t: f64) -> Result<(), FieldError> {
+    if t.is_finite() && t >= 0.0 {
+        return Ok(());
+    }
+    Err(FieldError::new(
+        field,
+        format!("{field} = {t}: must be >= 0"),
+    ))
+}
+
 impl Experiment {
+    /// A step of [`STEP_MM`] ending at the rig's operating point x0, at `at_s`, [`RECORD_S`]
+    /// long: the article's step experiment, ends and length given or not.
+    pub fn step(
+        rig: &Rig,
+        from_mm: Option<f64>,
+        to_mm: Option<f64>,
+        at_s: f64,
+        duration_s: Option<f64>,
+    ) -> Experiment {
+        Experiment::Step {
+            from_mm: from_mm.unwrap_or(rig.x0_mm - STEP_MM),
+            to_mm: to_mm.unwrap_or(rig.x0_mm),
+            at_s,
+            duration_s: duration_s.unwrap_or(RECORD_S),
+        }
+    }
+
+    /// A sinusoid about the rig's operating point x0 from `start_s`, [`SINE_PERIODS`] periods
+    /// after its start when no length is given.
+    pub fn sine(
+        rig: &Rig,
+        amplitude_mm: f64,
+        freq_hz: f64,
+        start_s: f64,
+        duration_s: Option<f64>,
+    ) -> Experiment {
+        Experiment::Sine {
+            centre_mm: rig.x0_mm,
+            amplitude_mm,
+            freq_hz,
+            start_s,
+            duration_s: duration_s.unwrap_or(start_s + SINE_PERIODS / freq_hz),
+        }
+    }
+
+    /// The reference held at the rig's operating point x0, [`RECORD_S`] long when no length is
+    /// given.
+    pub fn standstill(rig: &Rig, duration_s: Option<f64>) -> Experiment {
+        Experiment::Standstill {
+            x_mm: rig.x0_mm,
+            duration_s: duration_s.unwrap_or(RECORD_S),
+        }
+    }
+
+    /// Refuse what the rig cannot do or the record cannot show: a length or a sine that is not
+    /// positive, a time before 0, a reference that leaves the stroke
+    /// ([`Rig::check_reference`]), a sine at or above the Nyquist frequency of `rate_hz`
+    /// ([`check_nyquist`](crate::response::check_nyquist)). The error names the field.
+    pub fn check(&self, rig: &Rig, rate_hz: f64) -> Result<(), FieldError> {
+        positive("duration_s", self.duration_s())?;
+        let reach = |field: &'static str, value: f64, lo: f64, hi: f64| {
+            rig.check_reference(lo, hi)
+                .map_err(|e| FieldError::new(field, format!("{field} = {value}: {e}")))
+        };
+        match *self {
+            Experiment::Step {
+                from_mm,
+                to_mm,
+                at_s,
+                ..
+            } => {
+                not_negative("at_s", at_s)?;
+                reach("from_mm", from_mm, from_mm, from_mm)?;
+                reach("to_mm", to_mm, to_mm, to_mm)
+            }
+            Experiment::Sine {
+                centre_mm,
+                amplitude_mm,
+                freq_hz,
+                start_s,
+                ..
+            } => {
+                not_negative("start_s", start_s)?;
+                positive("freq_hz", freq_hz)?;
+                positive("amplitude_mm", amplitude_mm)?;
+                reach(
+                    "amplitude_mm",
+                    amplitude_mm,
+                    centre_mm - amplitude_mm,
+                    centre_mm + amplitude_mm,
+                )?;
+                crate::response::check_nyquist(freq_hz, rate_hz)
+                    .map_err(|e| FieldError::new("freq_hz", format!("freq_hz = {freq_hz}: {e}")))
+            }
+            Experiment::Standstill { x_mm, .. } => reach("x_mm", x_mm, x_mm, x_mm),
+        }
+    }
+
     /// Recorded length (s).
     pub fn duration_s(&self) -> f64 {
         match *self {
@@ -112,6 +236,21 @@ pub struct DriveStep {
     pub at_s: f64,
     /// Recorded length (s).
     pub duration_s: f64,
+}
+
+impl DriveStep {
+    /// Refuse a drive that does not exist, a time before 0 or a length that is not positive;
+    /// the error names the field.
+    pub fn check(&self) -> Result<(), FieldError> {
+        if !(1..=2).contains(&self.motor) {
+            return Err(FieldError::new(
+                "motor",
+                format!("motor = {}: drive 1 or 2", self.motor),
+            ));
+        }
+        not_negative("at_s", self.at_s)?;
+        positive("duration_s", self.duration_s)
+    }
 }
 
 /// A drive record: `time_s`, `w_ref_rpm`, `w_rpm` (docs/formats.md#drive-record-csv).

@@ -11,7 +11,10 @@ pub mod article;
 mod experiment;
 mod plc;
 
-pub use experiment::{DriveSignals, DriveStep, Experiment};
+pub use experiment::{
+    DriveSignals, DriveStep, Experiment, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ, RECORD_S,
+    SINE_PERIODS, STEP_MM,
+};
 pub use plc::{emulate, equilibrium, Plc};
 
 use crate::bulk::effective_beta;

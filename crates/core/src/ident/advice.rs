@@ -22,12 +22,15 @@
 use super::grid::Candidate;
 use super::problem::{DatasetSpec, Prepared, Problem};
 use super::refine::{candidate_of, log_point};
-use super::uncertainty::{analyze, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS};
+use super::uncertainty::{
+    analyze, check_confidence, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS,
+};
 use super::{Experiment, IdentError};
 use crate::input::{self, FieldError, Key::Index, Key::Name};
 use crate::lti::{eigenvalues, is_stable, PoleInfo};
 use crate::model::Plant;
 use crate::record::Record;
+use crate::rig::Rig;
 use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -139,10 +142,10 @@ impl Design {
         }
     }
 
-    /// Check the design against the limits, the sample rate `rate_hz` and the stroke
-    /// (`x0_mm` ± the largest deviation must lie in 0 … `stroke_mm`); the error names the
-    /// offending field.
-    pub fn check(&self, rate_hz: f64, x0_mm: f64, stroke_mm: f64) -> Result<(), FieldError> {
+    /// Check the design against the limits, the sample rate `rate_hz` and the stroke of `rig`
+    /// (its reference, about x0, must stay inside it: [`Rig::check_reference`]); the error names
+    /// the offending field.
+    pub fn check(&self, rate_hz: f64, rig: &Rig) -> Result<(), FieldError> {
         let positive = |field: &'static str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -163,7 +166,7 @@ impl Design {
             ));
         }
         let samples = (REST_S + d) * rate_hz;
-        crate::limits::check_size("samples", samples).map_err(|_| {
+        crate::limits::check_samples(REST_S + d, rate_hz).map_err(|_| {
             FieldError::new(
                 "duration_s",
                 format!(
@@ -201,23 +204,15 @@ impl Design {
             }
         };
         let (field, lo, hi) = reach;
-        if x0_mm + lo < 0.0 || x0_mm + hi > stroke_mm {
-            return Err(FieldError::new(
-                field,
-                format!(
-                    "{field}: the reference would leave the stroke (0 … {stroke_mm} mm from x0 = \
-                     {x0_mm} mm)"
-                ),
-            ));
-        }
-        Ok(())
+        rig.check_reference(rig.x0_mm + lo, rig.x0_mm + hi)
+            .map_err(|e| FieldError::new(field, format!("{field}: {e}")))
     }
 
     /// The design's record at `rate_hz` from the rig position `x0_mm`: time, and the reference
     /// as both reference and position columns (only the reference matters to the
     /// sensitivities; the measured position cancels in them).
     pub fn record(&self, rate_hz: f64, x0_mm: f64) -> Result<Record, IdentError> {
-        let t = crate::response::sample_times(REST_S + self.duration_s(), rate_hz);
+        let t = crate::response::sample_times(REST_S + self.duration_s(), rate_hz)?;
         let r: Vec<f64> = t.iter().map(|&t| x0_mm + self.deviation_mm(t)).collect();
         Ok(Record::from_arrays(&self.label(), &t, &r, &r)?)
     }
@@ -307,14 +302,13 @@ struct SineSpec {
 
 /// Read candidate designs from TOML text (`[[step]]` with `step_mm`, `kp`, optional
 /// `duration_s`; `[[sine]]` with `freq_hz`, `amp_mm`, `kp`, optional `duration_s`), checked
-/// against `rate_hz`, `x0_mm` and `stroke_mm` as [`Design::check`] does. Errors are one line
+/// against `rate_hz` and the stroke of `rig` as [`Design::check`] does. Errors are one line
 /// naming `name`, the line and the key.
 pub fn designs_from_toml(
     text: &str,
     name: &str,
     rate_hz: f64,
-    x0_mm: f64,
-    stroke_mm: f64,
+    rig: &Rig,
 ) -> Result<Vec<Design>, IdentError> {
     let file: CandidateFile = toml::from_str(text)
         .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
@@ -355,7 +349,7 @@ pub fn designs_from_toml(
     let mut index = [0usize; 2];
     for (table, d) in &all {
         let k = usize::from(*table == "sine");
-        if let Err(m) = d.check(rate_hz, x0_mm, stroke_mm) {
+        if let Err(m) = d.check(rate_hz, rig) {
             let path = [Name(table), Index(index[k]), Name(m.field)];
             let line =
                 input::toml_line(text, &path).map_or(String::new(), |l| format!("line {l}, "));
@@ -373,13 +367,7 @@ pub fn designs_from_toml(
 /// rig position and stroke.
 pub fn designs_for(problem: &Problem, text: &str, name: &str) -> Result<Vec<Design>, IdentError> {
     let first = &problem.datasets[0];
-    designs_from_toml(
-        text,
-        name,
-        rate_hz(first),
-        first.rig.x0_mm,
-        first.rig.stroke_mm,
-    )
+    designs_from_toml(text, name, rate_hz(first), &first.rig)
 }
 
 /// Options of the advice.
@@ -639,7 +627,7 @@ pub fn advise(
     let assessed: Vec<Result<Result<Assessment, Skip>, IdentError>> = designs
         .par_iter()
         .map(|d| {
-            d.check(rate, first.rig.x0_mm, first.rig.stroke_mm)
+            d.check(rate, &first.rig)
                 .map_err(|m| IdentError::Input(format!("candidate `{}`: {m}", d.label())))?;
             let ds = d.prepared(first, rate)?;
             if let Err(Skip(why)) = runnable(problem, &u.best, &ds) {
@@ -703,11 +691,7 @@ pub fn advise_experiment(
     candidates: Option<&Path>,
     confidence: f64,
 ) -> Result<Advice, IdentError> {
-    if !(confidence > 0.0 && confidence < 1.0) {
-        return Err(IdentError::Input(format!(
-            "confidence {confidence} must lie strictly between 0 and 1"
-        )));
-    }
+    let confidence = check_confidence(confidence)?;
     let designs = match candidates {
         Some(path) => {
             let name = path.display().to_string();
@@ -717,15 +701,6 @@ pub fn advise_experiment(
         }
         None => None,
     };
-    let (first, second) = exp.grids();
-    let grid_candidates = first.len() + second.as_ref().map_or(0, |g| g.len());
-    let samples: usize = exp.problem.datasets.iter().map(|d| d.record.len()).sum();
-    crate::limits::check_work(
-        "advise: the identification's candidates times the records' samples",
-        grid_candidates as f64 * samples as f64,
-        crate::limits::MAX_CANDIDATE_SAMPLES,
-        false,
-    )?;
     let id = exp.identify(&exp.options())?;
     let opts = AdviceOptions {
         confidence,
@@ -773,7 +748,7 @@ mod tests {
     #[test]
     fn candidate_file_errors_name_the_line_and_key() {
         let ok = "[[step]]\nstep_mm = 5.0\nkp = 25.0\n[[sine]]\nfreq_hz = 0.5\namp_mm = 10.0\nkp = 20.0\nduration_s = 4.0\n";
-        let d = designs_from_toml(ok, "c.toml", 100.0, 345.0, 500.0).unwrap();
+        let d = designs_from_toml(ok, "c.toml", 100.0, &Rig::default()).unwrap();
         assert_eq!(d.len(), 2);
         assert_eq!(d[1].duration_s(), 4.0);
         let bad = [
@@ -801,7 +776,7 @@ mod tests {
             ("", "c.toml", "no candidate"),
         ];
         for (text, line, needle) in bad {
-            let e = designs_from_toml(text, "c.toml", 100.0, 345.0, 500.0)
+            let e = designs_from_toml(text, "c.toml", 100.0, &Rig::default())
                 .unwrap_err()
                 .to_string();
             assert!(e.contains(line) && e.contains(needle), "{e}");

@@ -260,10 +260,14 @@ impl Experiment {
         }
     }
 
-    /// The whole identification on this experiment's grids, in one call: both stages, then
-    /// [`finish`](super::finish) (no progress report, no sharding).
+    /// The identification of this experiment's records on its grids with `options`.
+    pub fn request(&self, options: super::Options) -> super::Request<'_> {
+        super::Request::new(&self.problem, self.grids(), options)
+    }
+
+    /// The whole identification on this experiment's grids, in one call (no progress report,
+    /// no sharding, within the work limit): [`Request::run`](super::Request::run).
     pub fn identify(&self, opts: &super::Options) -> Result<super::Identification, IdentError> {
-        let stages = super::run_stages(&self.problem, self.grids(), opts, None, &|_| {})?;
-        super::finish(&self.problem, stages, opts)
+        self.request(*opts).run(&|_| true)
     }
 }

@@ -56,8 +56,8 @@ pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
 pub use uncertainty::{
-    analyze, chi2_1_quantile, Profile, ProfilePoint, Uncertainty, UncertaintyOptions, BOUNDS,
-    PARAMETERS,
+    analyze, check_confidence, chi2_1_quantile, Profile, ProfilePoint, Uncertainty,
+    UncertaintyOptions, BOUNDS, PARAMETERS,
 };
 
 use serde::{Deserialize, Serialize};
@@ -96,6 +96,23 @@ pub struct Options {
     pub threshold_mm2: f64,
     /// Length of the reported top list.
     pub top_n: usize,
+}
+
+impl Options {
+    /// Refuse options that cannot run: a threshold that is not a positive number, an empty top
+    /// list.
+    pub fn validate(&self) -> Result<(), IdentError> {
+        if !(self.threshold_mm2.is_finite() && self.threshold_mm2 > 0.0) {
+            return Err(IdentError::Input(format!(
+                "threshold_mm2 = {}: must be > 0",
+                self.threshold_mm2
+            )));
+        }
+        if self.top_n < 1 {
+            return Err(IdentError::Input("top: must be at least 1".into()));
+        }
+        Ok(())
+    }
 }
 
 impl Default for Options {
@@ -192,6 +209,95 @@ impl Identification {
             }
         }
         out
+    }
+}
+
+/// One identification to run (docs/identification.md): the problem, its grids, the options,
+/// and how it may run. Every front end runs an identification through this: [`Request::check`]
+/// refuses options that cannot run and work that would take hours unless allowed,
+/// [`Request::search`] runs the stages and [`Request::run`] adds [`finish`].
+#[derive(Debug, Clone)]
+pub struct Request<'a> {
+    /// The records and the standstill point.
+    pub problem: &'a Problem,
+    /// The first grid and the second (derived from the first with `auto_refine`).
+    pub grids: (Grid, Option<Grid>),
+    /// The search options.
+    pub options: Options,
+    /// Evaluate only slice I of N (1-based) of the grids, for a partial result.
+    pub shard: Option<(usize, usize)>,
+    /// Run even when the grids times the records exceed
+    /// [`MAX_CANDIDATE_SAMPLES`](crate::limits::MAX_CANDIDATE_SAMPLES).
+    pub allow_long_run: bool,
+}
+
+impl<'a> Request<'a> {
+    /// The identification of `problem` on `grids` with `options`, whole, within the work limit.
+    pub fn new(problem: &'a Problem, grids: (Grid, Option<Grid>), options: Options) -> Self {
+        Request {
+            problem,
+            grids,
+            options,
+            shard: None,
+            allow_long_run: false,
+        }
+    }
+
+    /// The candidates the search evaluates (of this shard): the total for a progress report.
+    pub fn candidates(&self) -> u64 {
+        let total = self.grids.0.len() + self.grids.1.as_ref().map_or(0, Grid::len);
+        shard_len(total, self.shard) as u64
+    }
+
+    /// The samples of the records, all of them (each candidate simulates every record).
+    fn record_samples(&self) -> usize {
+        self.problem.datasets.iter().map(|d| d.record.len()).sum()
+    }
+
+    /// Refuse options that cannot run, a shard with a derived second grid, and work beyond the
+    /// limit unless a long run is allowed.
+    pub fn check(&self) -> Result<(), IdentError> {
+        self.options.validate()?;
+        if self.shard.is_some() && self.options.auto_refine {
+            return Err(IdentError::Input(
+                "a shard needs fixed grids: auto-refine derives the second grid from the \
+                 first, so run that stage unsharded"
+                    .into(),
+            ));
+        }
+        crate::limits::check_work(
+            "identify: the grids' candidates times the records' samples",
+            self.candidates() as f64 * self.record_samples() as f64,
+            crate::limits::MAX_CANDIDATE_SAMPLES,
+            self.allow_long_run,
+        )?;
+        Ok(())
+    }
+
+    /// [`Request::check`], then the search stages; `progress(n)` after each chunk of n
+    /// candidates, the search stopping soon after it returns `false`
+    /// ([`IdentError::Interrupted`]).
+    pub fn search(
+        &self,
+        progress: &(dyn Fn(u64) -> bool + Sync),
+    ) -> Result<Vec<Stage>, IdentError> {
+        self.check()?;
+        run_stages_while(
+            self.problem,
+            self.grids.clone(),
+            &self.options,
+            self.shard,
+            progress,
+        )
+    }
+
+    /// The whole identification: [`Request::search`], then [`finish`].
+    pub fn run(
+        &self,
+        progress: &(dyn Fn(u64) -> bool + Sync),
+    ) -> Result<Identification, IdentError> {
+        let stages = self.search(progress)?;
+        finish(self.problem, stages, &self.options)
     }
 }
 

@@ -63,11 +63,12 @@ impl Prepared {
                 spec.fit_end_s
             )));
         }
-        let rig = rig
-            .with_overrides(&[
-                format!("kp={}", spec.kp),
-                format!("mass_kg={}", spec.mass_kg),
-            ])
+        let rig = Rig {
+            kp: spec.kp,
+            mass_kg: spec.mass_kg,
+            ..rig.clone()
+        };
+        rig.validate("kp and mass_kg")
             .map_err(|e| err(e.to_string()))?;
         let n = record
             .time_s

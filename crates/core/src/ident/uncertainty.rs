@@ -196,18 +196,23 @@ fn sse_at(problem: &Problem, p: &[f64]) -> f64 {
     }
 }
 
+/// Refuse a confidence level outside (0, 1); the message names the parameter `confidence`.
+pub fn check_confidence(confidence: f64) -> Result<f64, IdentError> {
+    if confidence > 0.0 && confidence < 1.0 {
+        return Ok(confidence);
+    }
+    Err(IdentError::Input(format!(
+        "confidence {confidence}: must lie strictly between 0 and 1"
+    )))
+}
+
 /// Analyse the uncertainty of the identification whose answer is `start`.
 pub fn analyze(
     problem: &Problem,
     start: &Candidate,
     opts: &UncertaintyOptions,
 ) -> Result<Uncertainty, IdentError> {
-    if !(opts.confidence > 0.0 && opts.confidence < 1.0) {
-        return Err(IdentError::Input(format!(
-            "confidence {} must lie strictly between 0 and 1",
-            opts.confidence
-        )));
-    }
+    check_confidence(opts.confidence)?;
     let samples = problem.samples();
     let fitted = FITTED + problem.datasets.len();
     if samples <= fitted {

@@ -79,6 +79,9 @@ pub enum LtiError {
         /// Where (for example the frequency).
         at: String,
     },
+    /// A record too long to simulate, or a duration or rate that is not positive.
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     /// A sinusoid at or above the Nyquist frequency of its sampling would alias.
     #[error("{freq_hz} Hz is at or above the Nyquist frequency {nyquist_hz} Hz of sampling at {rate_hz} Hz: the samples would not show the sine; raise the sample rate above {} Hz", 2.0 * freq_hz)]
     AboveNyquist {

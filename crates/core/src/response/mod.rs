@@ -172,10 +172,25 @@ pub fn simulate(
     })
 }
 
-/// Uniform sample times 0, 1/rate, … up to and including `duration_s`.
-pub fn sample_times(duration_s: f64, rate_hz: f64) -> Vec<f64> {
-    let n = (duration_s * rate_hz + 1e-9).floor() as usize;
-    (0..=n).map(|k| k as f64 / rate_hz).collect()
+/// Refuse a sinusoid of `freq_hz` sampled at `rate_hz` at or above the Nyquist frequency: the
+/// samples would not show it (the one check for every sine pumpcyl simulates or emulates).
+pub fn check_nyquist(freq_hz: f64, rate_hz: f64) -> Result<(), LtiError> {
+    let nyquist_hz = rate_hz / 2.0;
+    if freq_hz < nyquist_hz {
+        return Ok(());
+    }
+    Err(LtiError::AboveNyquist {
+        freq_hz,
+        rate_hz,
+        nyquist_hz,
+    })
+}
+
+/// Uniform sample times 0, 1/rate, … up to and including `duration_s`; refused beyond
+/// [`MAX_POINTS`](crate::limits::MAX_POINTS) samples ([`check_samples`](crate::limits::check_samples)).
+pub fn sample_times(duration_s: f64, rate_hz: f64) -> Result<Vec<f64>, crate::limits::LimitError> {
+    let n = crate::limits::check_samples(duration_s, rate_hz)?;
+    Ok((0..n).map(|k| k as f64 / rate_hz).collect())
 }
 
 /// Step response: the reference jumps by `step_mm` at t = 0 from the rig's operating point.
@@ -204,7 +219,7 @@ pub fn sample_times(duration_s: f64, rate_hz: f64) -> Vec<f64> {
 /// ```
 pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Signals, LtiError> {
     let base = Baseline::of_rig(rig);
-    let t = sample_times(duration_s, rate_hz);
+    let t = sample_times(duration_s, rate_hz)?;
     let r = vec![base.x_ref_mm + step_mm; t.len()];
     simulate(rig, &t, &r, &base)
 }
@@ -240,16 +255,9 @@ pub fn sine(
     periods: f64,
     rate_hz: f64,
 ) -> Result<Signals, LtiError> {
-    let nyquist_hz = rate_hz / 2.0;
-    if freq_hz >= nyquist_hz {
-        return Err(LtiError::AboveNyquist {
-            freq_hz,
-            rate_hz,
-            nyquist_hz,
-        });
-    }
+    check_nyquist(freq_hz, rate_hz)?;
     let base = Baseline::of_rig(rig);
-    let t = sample_times(periods / freq_hz, rate_hz);
+    let t = sample_times(periods / freq_hz, rate_hz)?;
     let r: Vec<f64> = t
         .iter()
         .map(|t| base.x_ref_mm + amp_mm * (2.0 * PI * freq_hz * t).sin())

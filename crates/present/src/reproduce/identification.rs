@@ -7,8 +7,7 @@ use crate::identification as outputs;
 use anyhow::Result;
 use pumpcyl::emulator::article;
 use pumpcyl::ident::{
-    finish, identify_drive, run_stages, run_stages_while, DatasetSpec, DriveRecord, Experiment,
-    Grid, Options, Prepared, Problem,
+    identify_drive, DatasetSpec, DriveRecord, Experiment, Grid, Options, Prepared, Problem, Request,
 };
 use pumpcyl::record::Record;
 use pumpcyl::response::Signals;
@@ -48,20 +47,11 @@ pub(super) fn identification(
     run.step("Leakage from standstill and the two-stage grid identification (the article §2.4)");
     // result.json names the experiment as it lies in the result folder, records/identify.toml
     let exp = Experiment::load_in(&article::Embedded, &run.record("identify.toml"))?;
-    let opts = Options {
-        auto_refine: false,
-        local_refinement: true,
-        threshold_mm2: exp.file.threshold_mm2,
-        top_n: 20,
-    };
-    let grids = exp.grids();
-    let total = (grids.0.len() + grids.1.as_ref().map_or(0, |g| g.len())) as u64;
+    let request = exp.request(exp.options());
+    let total = request.candidates();
     let on_candidates = run.opts.on_candidates;
     let t0 = Instant::now();
-    let stages = run_stages_while(&exp.problem, grids, &opts, None, &|n| {
-        on_candidates.is_none_or(|f| f(n, total))
-    })?;
-    let id = finish(&exp.problem, stages, &opts)?;
+    let id = request.run(&|n| on_candidates.is_none_or(|f| f(n, total)))?;
     let v = outputs::identification_json(&exp, &id, t0.elapsed().as_secs_f64())?;
     for (name, bytes) in outputs::files(&exp, &id, &v)? {
         if name == "landscape.svg" || name.starts_with("fit-") && name.ends_with(".svg") {
@@ -206,8 +196,7 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
         threshold_mm2: 0.25,
         top_n: 1,
     };
-    let stages = run_stages(&problem, (grid, None), &opts, None, &|_| {})?;
-    let id = finish(&problem, stages, &opts)?;
+    let id = Request::new(&problem, (grid, None), opts).run(&|_| true)?;
     let best = id.best().candidate;
     let ds = &problem.datasets[0];
     let article_candidate = pumpcyl::ident::Candidate {
