@@ -6,10 +6,11 @@ use serde_json::json;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::emit::{fmt_opt, format_of, write_atomic, Format};
+use crate::emit::{format_of, write_atomic, Format};
 use crate::export;
 use crate::{Loop, ModelArgs};
-use pumpcyl::lti::{self, CrossingKind, Margins, PoleInfo};
+use pumpcyl::lti::{self, PoleInfo};
+use pumpcyl_present::analysis::{margins_json, margins_text};
 use pumpcyl::model::Plant;
 use pumpcyl_present::figures::bode_markers;
 use pumpcyl_present::plot::{self, BodeSeries};
@@ -18,8 +19,9 @@ use pumpcyl_present::plot::{self, BodeSeries};
 pub struct MarginsArgs {
     #[command(flatten)]
     model: ModelArgs,
-    /// Print JSON (keys gain_margin_db, phase_margin_deg, phase_crossover_hz,
-    /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings; null = infinite).
+    /// Print JSON (keys loop, gain_margin_db, phase_margin_deg, phase_crossover_hz,
+    /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings, integrators; a null
+    /// margin is infinite: no crossing of that kind).
     #[arg(long)]
     json: bool,
 }
@@ -92,81 +94,10 @@ pub fn margins(args: &MarginsArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
     let m = lti::margins(&lp.open_loop)?;
     if args.json {
-        Ok(serde_json::to_string_pretty(&margins_json(&m, &lp))? + "\n")
+        Ok(serde_json::to_string_pretty(&margins_json(&m, &lp.description))? + "\n")
     } else {
-        Ok(margins_text(&m, &lp))
+        Ok(margins_text(&m, &lp.description))
     }
-}
-
-/// JSON form: infinite margins are `null` with an `*_infinite` flag.
-fn margins_json(m: &Margins, lp: &Loop) -> serde_json::Value {
-    json!({
-        "loop": lp.description,
-        "gain_margin_db": m.gain_margin_db,
-        "gain_margin_infinite": m.gain_margin_db.is_none(),
-        "phase_margin_deg": m.phase_margin_deg,
-        "phase_margin_infinite": m.phase_margin_deg.is_none(),
-        "phase_crossover_hz": m.phase_crossover_hz,
-        "gain_crossover_hz": m.gain_crossover_hz,
-        "delay_margin_s": m.delay_margin_s,
-        "delay_margin_infinite": m.delay_margin_s.is_none(),
-        "closed_loop_stable": m.closed_loop_stable,
-        "integrators": m.integrators,
-        "crossings": m.crossings,
-    })
-}
-
-fn margins_text(m: &Margins, lp: &Loop) -> String {
-    let at = |f: Option<f64>, what: &str| {
-        f.map_or(format!("(no {what})"), |f| format!("at {f:.4} Hz ({what})"))
-    };
-    let mut s = String::new();
-    let _ = writeln!(s, "{}", lp.description);
-    let _ = writeln!(
-        s,
-        "  gain margin   {:>9} dB  {}",
-        fmt_opt(m.gain_margin_db, 2),
-        at(m.phase_crossover_hz, "phase crossover")
-    );
-    let _ = writeln!(
-        s,
-        "  phase margin  {:>9} deg {}",
-        fmt_opt(m.phase_margin_deg, 2),
-        at(m.gain_crossover_hz, "gain crossover")
-    );
-    let _ = writeln!(s, "  delay margin  {:>9} s", fmt_opt(m.delay_margin_s, 4));
-    let verdict = if m.closed_loop_stable {
-        "stable"
-    } else {
-        "UNSTABLE"
-    };
-    let _ = writeln!(
-        s,
-        "  closed loop   {verdict} (from the closed-loop eigenvalues)"
-    );
-    let _ = writeln!(s, "crossings ({}):", m.crossings.len());
-    let _ = writeln!(s, "  kind    freq_hz    |L|_db   phase_deg  margin");
-    for c in &m.crossings {
-        let margin = match c.kind {
-            CrossingKind::Gain => format!(
-                "PM {:.2} deg, delay margin {:.4} s",
-                c.margin,
-                c.delay_margin_s.unwrap_or(f64::NAN)
-            ),
-            CrossingKind::Phase => format!("GM {:.2} dB", c.margin),
-        };
-        let kind = if c.kind == CrossingKind::Gain {
-            "gain"
-        } else {
-            "phase"
-        };
-        let _ = writeln!(
-            s,
-            "  {kind:<6} {:>9.4} {:>9.2} {:>11.2}  {margin}",
-            c.frequency_hz, c.magnitude_db, c.phase_deg
-        );
-    }
-    s
 }
 
 /// `pumpcyl bode`.

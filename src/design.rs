@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use crate::emit::fmt_opt;
 use crate::RigSource;
-use pumpcyl::design::{design, Targets, Verdict};
+use pumpcyl::design::{design, Targets};
 
 #[derive(Debug, Args)]
 pub struct DesignArgs {
@@ -81,14 +81,6 @@ fn parse_wave(s: &str) -> Result<(f64, f64), String> {
     Ok((f, a))
 }
 
-/// A verdict as the text shows it.
-pub(super) fn verdict_text(v: Verdict) -> &'static str {
-    match v {
-        Verdict::Adequate => "ADEQUATE",
-        Verdict::Marginal => "MARGINAL",
-        Verdict::UseHigherPressure => "USE A CIRCUIT WITH HIGHER PRESSURE",
-    }
-}
 
 /// `pumpcyl design`.
 pub fn run(args: &DesignArgs) -> Result<String> {
@@ -124,7 +116,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
     if args.json {
         return Ok(serde_json::to_string_pretty(&d)? + "\n");
     }
-    let verdict = verdict_text(d.verdict);
+    let verdict = pumpcyl_present::design::verdict_text(d.verdict);
     let mut s = format!(
         "design (the article §2.2) for {}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
         args.rig.origin(),

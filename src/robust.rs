@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use crate::emit::{fmt_opt, write_atomic};
 use crate::time::render_both;
-use pumpcyl::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
+use pumpcyl::design::robust::{Region, RegionSource, RobustOptions, Worst};
+use pumpcyl_present::design::{leakage_loop_table, verdict_text};
 use pumpcyl::design::{robust_design, RobustDesign, Targets};
 use pumpcyl::ident::Experiment;
 use pumpcyl::rig::Rig;
@@ -129,43 +130,13 @@ fn text(d: &RobustDesign, seconds: f64) -> String {
     s += &worst_line("GM (dB)", "dB", &w.gain_margin_db, 2);
     s += &worst_line("PM (deg)", "deg", &w.phase_margin_deg, 1);
     s += &worst_line("delay margin", "s", &w.delay_margin_s, 4);
-    let _ = writeln!(
-        s,
-        "the article's loop (lower the leakage estimate and repeat):\n  {:>5} {:>12} {:>8} {:>13} {:>9} {:>9}  holds over the set",
-        "step", "c12", "kp_max", "binds", "worst GM", "worst PM"
-    );
-    for (i, st) in d.steps.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "  {:>5} {:>12.4e} {:>8.2} {:>13} {:>9} {:>9}  {}",
-            i + 1,
-            st.c12_m5_per_ns,
-            st.kp_max,
-            binding(st.deciding.binding),
-            fmt_opt(st.worst_case.gain_margin_db.value, 2),
-            fmt_opt(st.worst_case.phase_margin_deg.value, 1),
-            if st.worst_case.meets_targets {
-                "yes"
-            } else {
-                "no"
-            }
-        );
-    }
-    let _ = writeln!(s, "verdict: {}", crate::design::verdict_text(d.verdict));
+    s += &leakage_loop_table(d).text();
+    let _ = writeln!(s, "verdict: {}", verdict_text(d.verdict));
     for reason in &d.reasons {
         let _ = writeln!(s, "  - {reason}");
     }
     let _ = writeln!(s, "in {seconds:.2} s");
     s
-}
-
-/// The binding margin in words.
-fn binding(b: Binding) -> &'static str {
-    match b {
-        Binding::PhaseMargin => "phase margin",
-        Binding::GainMargin => "gain margin",
-        Binding::Stability => "stability",
-    }
 }
 
 /// `robust-margins.svg` and `.png`: the margins over the stroke at the deciding parameter point.

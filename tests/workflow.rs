@@ -125,7 +125,7 @@ fn progress_reports_every_step_and_every_candidate() {
             .result
             .blocks
             .iter()
-            .any(|b| matches!(b, pumpcyl_present::plot::Block::Heading(h) if *h == heading)));
+            .any(|b| matches!(b, pumpcyl_present::html::Block::Heading(h) if *h == heading)));
     }
 }
 

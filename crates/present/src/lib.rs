@@ -4,20 +4,28 @@
 //! package and any Rust program: figures, the article workflow and its report, and every JSON,
 //! text, CSV and MAT document. The numerics are in the core crate (`pumpcyl`); front ends only
 //! parse, call and show. Modules:
-//! - [`plot`] — the plotting toolkit (panels, Bode, heat map; SVG and PNG) and the HTML page;
+//! - [`plot`] — the plotting toolkit (panels, Bode, heat map; SVG and PNG);
+//! - [`html`] — the self-contained HTML page of a report;
+//! - [`analysis`] — margins as a JSON document and as text;
+//! - [`design`] — the design results in words: verdict, deciding margin, leakage loop;
 //! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape);
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
 //! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`format`] — numbers and names as the text outputs show them;
-//! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report.
+//! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
+//! - [`table`] — tables of text cells, for terminals and reports.
 
 #![warn(missing_docs)]
 
+pub mod analysis;
+pub mod design;
 pub mod figures;
 pub mod files;
 pub mod format;
+pub mod html;
 pub mod identification;
 pub mod matlab;
 pub mod plot;
 pub mod reproduce;
+pub mod table;

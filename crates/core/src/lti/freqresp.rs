@@ -130,7 +130,7 @@ pub fn log_grid(from: f64, to: f64, points: usize) -> Vec<f64> {
 /// than 180° between neighbours (use `margins` for a self-refining grid).
 pub fn bode(sys: &StateSpace, freq_hz: &[f64]) -> Result<Bode, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
-    let integrators = super::margins::count_integrators(ev.poles());
+    let integrators = super::poles::count_integrators(ev.poles());
     let values: Vec<Complex64> = freq_hz.iter().map(|f| ev.at(2.0 * PI * f)).collect();
     if let Some((f, _)) = freq_hz
         .iter()

@@ -13,6 +13,7 @@
 //! the margins, so open-loop unstable plants are not misjudged.
 
 use super::freqresp::{nearest_branch, unwrap_anchored, FreqEvaluator};
+use super::poles::count_integrators;
 use super::{is_stable, roots, LtiError, StateSpace};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -123,12 +124,6 @@ pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
         crossings.splice(0..0, dc_phase_crossing(&ev));
     }
     Ok(summarise(crossings, closed_loop_stable, integrators))
-}
-
-/// Poles within 1e-8·max(1, max |λ|) of the origin.
-pub(crate) fn count_integrators(poles: &[Complex64]) -> usize {
-    let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
-    poles.iter().filter(|p| p.norm() <= 1e-8 * scale).count()
 }
 
 /// A loop without integrators whose DC gain L(0) is negative sits on −180° at ω = 0: that is a

@@ -137,6 +137,12 @@ pub fn resonance(poles: &[Complex64], from_hz: f64, to_hz: f64) -> Option<PoleIn
         })
 }
 
+/// Poles within 1e-8·max(1, max |λ|) of the origin.
+pub(crate) fn count_integrators(poles: &[Complex64]) -> usize {
+    let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
+    poles.iter().filter(|p| p.norm() <= 1e-8 * scale).count()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

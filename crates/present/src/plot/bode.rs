@@ -7,7 +7,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
 use super::font;
-use super::legend::{self, LegendMetrics};
+use super::legend::{self, LegendEntry, LegendMetrics};
 use super::render::{self, plot_err, ReportError};
 use super::series::{draw_pieces, finite_extent, runs, series_color, Pieces, Polyline, Stroke};
 use super::stack;
@@ -591,7 +591,7 @@ impl Figure<'_> {
                 .series
                 .iter()
                 .zip(&strokes)
-                .map(|(s, stroke)| stroke.legend_entry(&s.label))
+                .map(|(s, stroke)| LegendEntry::of(stroke, &s.label))
                 .collect();
             let m = LegendMetrics::new(scale);
             let label_w = m.label_widths(&entries);

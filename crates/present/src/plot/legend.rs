@@ -8,7 +8,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::Axis;
 use super::render::{plot_err, ReportError};
-use super::series::Pieces;
+use super::series::{Pieces, Stroke};
 use super::{layout, render};
 
 /// Label text size, and line-sample length (px), at scale 1.
@@ -22,6 +22,17 @@ pub(super) struct LegendEntry {
     pub(super) style: ShapeStyle,
     /// (dash, gap) in pixels of a dashed sample; `None` for a solid line.
     pub(super) pattern: Option<(i32, i32)>,
+}
+
+impl LegendEntry {
+    /// The legend row showing `stroke` with `label`.
+    pub(super) fn of(stroke: &Stroke, label: &str) -> LegendEntry {
+        LegendEntry {
+            label: label.to_string(),
+            style: stroke.color.stroke_width(stroke.width),
+            pattern: stroke.pattern,
+        }
+    }
 }
 
 /// Pixel sizes of the legend box.

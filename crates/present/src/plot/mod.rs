@@ -1,4 +1,4 @@
-//! Rendering of analysis results as figures.
+//! The plotting toolkit: analysis results drawn as figures.
 //!
 //! Everything here renders into memory (an SVG document as a `String`, a PNG
 //! file as bytes); writing the result to disk is the caller's job. Text is
@@ -22,5 +22,3 @@ pub use timeseries::*;
 mod heatmap;
 pub use heatmap::*;
 
-mod html;
-pub use html::{html_page, Block};

@@ -6,7 +6,6 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::axes::Chart;
-use super::legend::LegendEntry;
 use super::render::{plot_err, ReportError};
 
 /// Okabe–Ito colour-blind-friendly palette, in the order series use it
@@ -46,17 +45,6 @@ pub(super) struct Stroke {
     pub(super) width: u32,
     pub(super) pattern: Option<(i32, i32)>,
     pub(super) dot_r: u32,
-}
-
-impl Stroke {
-    /// The legend row showing this stroke with `label`.
-    pub(super) fn legend_entry(&self, label: &str) -> LegendEntry {
-        LegendEntry {
-            label: label.to_string(),
-            style: self.color.stroke_width(self.width),
-            pattern: self.pattern,
-        }
-    }
 }
 
 /// Draw the polylines `lines` and the points `dots` of one series with `stroke`.

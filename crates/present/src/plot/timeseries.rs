@@ -526,7 +526,7 @@ fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry
         .iter()
         .zip(&data.colors)
         .filter(|(t, _)| !t.label.is_empty())
-        .map(|(t, &c)| styles.stroke(c, t.style).legend_entry(&t.label))
+        .map(|(t, &c)| LegendEntry::of(&styles.stroke(c, t.style), &t.label))
         .collect()
 }
 

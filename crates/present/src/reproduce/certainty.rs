@@ -7,7 +7,6 @@
 
 use super::Run;
 use crate::figures::{parameter_value, Chart, PARAMETER_AXES, PARAMETER_NAMES};
-use crate::format::fmt_opt;
 use anyhow::Result;
 use pumpcyl::design::robust::{Binding, RobustOptions};
 use pumpcyl::design::{robust_design, Region, RobustDesign, Targets};
@@ -254,39 +253,7 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
             d.kp_max_nominal
         ),
     );
-    let rows = d
-        .steps
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            vec![
-                format!("{}", i + 1),
-                format!("{:.4e}", s.c12_m5_per_ns),
-                format!("{:.2}", s.kp_max),
-                fmt_opt(s.worst_case.gain_margin_db.value, 2),
-                fmt_opt(s.worst_case.phase_margin_deg.value, 1),
-                if s.worst_case.meets_targets {
-                    "yes"
-                } else {
-                    "no"
-                }
-                .into(),
-            ]
-        })
-        .collect();
-    run.table(
-        "The article's loop done automatically: lower the leakage estimate, design again, and \
-         check the gain over the whole region",
-        &[
-            "step",
-            "c12 (m⁵/(N·s))",
-            "Kp max",
-            "worst GM (dB)",
-            "worst PM (deg)",
-            "holds over the region",
-        ],
-        rows,
-    );
+    run.blocks.push(crate::design::leakage_loop_table(d).block());
     run.figure(
         "robust-margins",
         "Margins over the stroke at the robust Kp, at the parameters that decide it",

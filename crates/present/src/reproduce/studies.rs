@@ -467,7 +467,7 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(Value, f64)>
                 "largest Kp at every condition".into(),
                 format!("{:.2}", d.kp_max_worst_case),
             ],
-            vec!["verdict".into(), format!("{:?}", d.verdict)],
+            vec!["verdict".into(), crate::design::verdict_text(d.verdict).into()],
             vec!["why".into(), d.reasons.join("; ")],
         ],
     );
