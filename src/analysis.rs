@@ -10,8 +10,8 @@ use crate::emit::{format_of, write_atomic, Format};
 use crate::export;
 use crate::{Loop, ModelArgs};
 use pumpcyl::lti::{self, PoleInfo};
-use pumpcyl_present::analysis::{margins_json, margins_text};
 use pumpcyl::model::Plant;
+use pumpcyl_present::analysis::{margins_json, margins_text};
 use pumpcyl_present::figures::bode_markers;
 use pumpcyl_present::plot::{self, BodeSeries};
 

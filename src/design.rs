@@ -81,7 +81,6 @@ fn parse_wave(s: &str) -> Result<(f64, f64), String> {
     Ok((f, a))
 }
 
-
 /// `pumpcyl design`.
 pub fn run(args: &DesignArgs) -> Result<String> {
     let rig = args.rig.load()?;

@@ -10,10 +10,10 @@ use std::time::Instant;
 use crate::emit::{fmt_opt, write_atomic};
 use crate::time::render_both;
 use pumpcyl::design::robust::{Region, RegionSource, RobustOptions, Worst};
-use pumpcyl_present::design::{leakage_loop_table, verdict_text};
 use pumpcyl::design::{robust_design, RobustDesign, Targets};
 use pumpcyl::ident::Experiment;
 use pumpcyl::rig::Rig;
+use pumpcyl_present::design::{leakage_loop_table, verdict_text};
 use pumpcyl_present::figures::Chart;
 
 /// Where the rig and the parameter set of a robust design come from.

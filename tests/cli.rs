@@ -52,7 +52,10 @@ fn margins_json_of_the_default_rig_match_the_article() {
     assert!((gm - 6.5).abs() <= 0.1, "{gm}");
     assert!((pm - 33.5).abs() <= 0.5, "{pm}");
     assert_eq!(m["closed_loop_stable"], true);
-    assert!(m["loop"].as_str().unwrap().contains("sum-pressure loop open"));
+    assert!(m["loop"]
+        .as_str()
+        .unwrap()
+        .contains("sum-pressure loop open"));
     for key in ["phase_crossover_hz", "gain_crossover_hz", "delay_margin_s"] {
         assert!(m[key].as_f64().unwrap() > 0.0, "{key}");
     }

@@ -97,7 +97,13 @@ mod tests {
         let core = serde_json::to_value(&m).unwrap();
         let mut keys: Vec<&String> = v.as_object().unwrap().keys().collect();
         let mut want: Vec<&String> = core.as_object().unwrap().keys().collect();
-        want.push(&v.as_object().unwrap().keys().find(|k| *k == "loop").unwrap());
+        want.push(
+            &v.as_object()
+                .unwrap()
+                .keys()
+                .find(|k| *k == "loop")
+                .unwrap(),
+        );
         keys.sort();
         want.sort();
         assert_eq!(keys, want);

@@ -21,4 +21,3 @@ pub use timeseries::*;
 
 mod heatmap;
 pub use heatmap::*;
-

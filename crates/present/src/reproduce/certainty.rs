@@ -5,6 +5,7 @@
 //! article's §2.2 advice to lower the leakage estimate and repeat), and which further record
 //! would narrow the intervals most (docs/identification.md, "Experiment advice").
 
+use super::summary::{AdviceSummary, HowSure, PerParameter, RobustSummary};
 use super::Run;
 use crate::figures::{parameter_value, Chart, PARAMETER_AXES, PARAMETER_NAMES};
 use anyhow::Result;
@@ -13,7 +14,6 @@ use pumpcyl::design::{robust_design, Region, RobustDesign, Targets};
 use pumpcyl::ident::{advise, analyze, Advice, AdviceOptions, Candidate, Experiment, Uncertainty};
 use pumpcyl::ident::{UncertaintyOptions, PARAMETERS};
 use pumpcyl::rig::Rig;
-use serde_json::{json, Value};
 
 /// Confidence level of the intervals and of the region the design holds over.
 const CONFIDENCE: f64 = 0.95;
@@ -40,7 +40,7 @@ pub(super) fn how_sure(
     nominal: &Rig,
     p_mean_bar: f64,
     truth: &Candidate,
-) -> Result<(Certainty, Value)> {
+) -> Result<(Certainty, HowSure)> {
     run.step("How sure are we: intervals, a design that holds over them, the next experiment");
     let best = Candidate {
         beta_bar: nominal.beta_bar,
@@ -63,28 +63,28 @@ pub(super) fn how_sure(
     robust(run, &d)?;
     let advice = advise(&exp.problem, &best, &AdviceOptions::default())?;
     next_experiment(run, &advice);
-    let v = json!({
-        "confidence": CONFIDENCE,
-        "noise_std_mm": u.noise_std_mm,
-        "variance_inflation": u.variance_inflation,
-        "intervals": per_parameter(|_, n| json!(u.profile(n).map(|p| p.interval))),
-        "identifiable": per_parameter(|_, n| json!(u.profile(n).is_some_and(|p| p.identifiable))),
-        "truth_inside": per_parameter(|i, _| json!(inside(&u, i, truth))),
-        "robust_design": {
-            "kp_max": d.kp_max,
-            "kp_max_nominal": d.kp_max_nominal,
-            "deciding": d.deciding,
-            "worst_case": d.worst_case,
-            "loop": d.steps,
-            "verdict": d.verdict,
-            "reasons": d.reasons,
+    let v = HowSure {
+        confidence: CONFIDENCE,
+        noise_std_mm: u.noise_std_mm,
+        variance_inflation: u.variance_inflation,
+        intervals: PerParameter::from_fn(|_, n| u.profile(n).map(|p| p.interval)),
+        identifiable: PerParameter::from_fn(|_, n| u.profile(n).is_some_and(|p| p.identifiable)),
+        truth_inside: PerParameter::from_fn(|i, _| inside(&u, i, truth)),
+        robust_design: RobustSummary {
+            kp_max: d.kp_max,
+            kp_max_nominal: d.kp_max_nominal,
+            deciding: d.deciding.clone(),
+            worst_case: d.worst_case.clone(),
+            steps: d.steps.clone(),
+            verdict: d.verdict,
+            reasons: d.reasons.clone(),
         },
-        "advice": {
-            "current": advice.current,
-            "best_for": advice.best_for,
-            "top": advice.candidates.iter().take(LISTED).collect::<Vec<_>>(),
+        advice: AdviceSummary {
+            current: advice.current.clone(),
+            best_for: advice.best_for.clone(),
+            top: advice.candidates.iter().take(LISTED).cloned().collect(),
         },
-    });
+    };
     Ok((
         Certainty {
             uncertainty: u,
@@ -108,17 +108,6 @@ fn pressure_range(exp: &Experiment, p_mean_bar: f64) -> Vec<f64> {
         .filter(|p| p.is_finite() && *p > 0.0)
         .fold((p_mean_bar, p_mean_bar), |(l, h), p| (l.min(p), h.max(p)));
     vec![lo, p_mean_bar, hi]
-}
-
-/// A JSON object keyed by the parameters' names, each value `f(index, name)`.
-fn per_parameter(f: impl Fn(usize, &str) -> Value) -> Value {
-    Value::Object(
-        PARAMETERS
-            .iter()
-            .enumerate()
-            .map(|(i, &n)| (n.to_string(), f(i, n)))
-            .collect(),
-    )
 }
 
 /// The value of parameter `i` (of [`PARAMETERS`]) at `c`.
@@ -253,7 +242,8 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
             d.kp_max_nominal
         ),
     );
-    run.blocks.push(crate::design::leakage_loop_table(d).block());
+    run.blocks
+        .push(crate::design::leakage_loop_table(d).block());
     run.figure(
         "robust-margins",
         "Margins over the stroke at the robust Kp, at the parameters that decide it",

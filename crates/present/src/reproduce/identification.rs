@@ -1,7 +1,7 @@
 //! The identification steps: the drive gain (the article §2.4.1), the leakages and the
 //! two-stage grid identification (§2.4), and the robustness record.
 
-use super::{printed, Run};
+use super::{printed, summary, Run};
 use crate::figures::Chart;
 use crate::identification as outputs;
 use anyhow::Result;
@@ -12,12 +12,11 @@ use pumpcyl::ident::{
 use pumpcyl::record::Record;
 use pumpcyl::response::Signals;
 use pumpcyl::rig::Rig;
-use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
 
 /// Step 1: Km from the drive step (the article §2.4.1).
-pub(super) fn drive_step(run: &mut Run) -> Result<(Value, f64)> {
+pub(super) fn drive_step(run: &mut Run) -> Result<(summary::Drive, f64)> {
     run.step("Drive gain from the drive step (the article §2.4.1)");
     let rec = DriveRecord::read_in(&article::Embedded, &run.record("drive_step.csv"))?;
     let si = Rig::default().si();
@@ -34,7 +33,11 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(Value, f64)> {
         "0.026",
     );
     Ok((
-        json!({"km_nms_per_rad": fit.km_nms_per_rad, "mse_rpm2": fit.mse_rpm2, "article_km_nms_per_rad": printed::KM}),
+        summary::Drive {
+            km_nms_per_rad: fit.km_nms_per_rad,
+            mse_rpm2: fit.mse_rpm2,
+            article_km_nms_per_rad: printed::KM,
+        },
         fit.km_nms_per_rad,
     ))
 }
@@ -43,7 +46,7 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(Value, f64)> {
 pub(super) fn identification(
     run: &mut Run,
     truth: &article::Truth,
-) -> Result<(Experiment, Rig, Value, f64)> {
+) -> Result<(Experiment, Rig, summary::Identified, f64)> {
     run.step("Leakage from standstill and the two-stage grid identification (the article §2.4)");
     // result.json names the experiment as it lies in the result folder, records/identify.toml
     let exp = Experiment::load_in(&article::Embedded, &run.record("identify.toml"))?;
@@ -150,25 +153,48 @@ pub(super) fn identification(
         "-",
         "records emulated, not the article's: costs are not comparable",
     );
-    let identified = json!({
-        "beta_bar": nominal.beta_bar,
-        "viscous_friction_ns_per_m": nominal.viscous_friction_ns_per_m,
-        "c12_m5_per_ns": nominal.c12_m5_per_ns,
-        "cost_mm2": best.cost_mm2,
-        "first_grid": {"best_cost_mm2": first_best, "below_threshold": first.threshold_count},
-        "candidates_evaluated": id.evaluated(),
-        "emulator_truth": {"beta_bar": truth, "c12_m5_per_ns": Rig::default().c12_m5_per_ns},
-        "article": {"beta_bar": printed::BETA_BAR, "viscous_friction_ns_per_m": printed::B_NS_PER_M,
-                    "c12_m5_per_ns": printed::C12, "cost_mm2": printed::COST_MM2},
-        "leakage": {"w1_rpm": s.w1_rpm, "w2_rpm": s.w2_rpm, "p1_bar": s.p1_bar, "p2_bar": l.p2_bar,
-                    "c1_m5_per_ns": l.c1_m5_per_ns, "c2_m5_per_ns": l.c2_m5_per_ns,
-                    "article": {"c1_m5_per_ns": printed::C1, "c2_m5_per_ns": printed::C2}},
-    });
+    let identified = summary::Identified {
+        beta_bar: nominal.beta_bar,
+        viscous_friction_ns_per_m: nominal.viscous_friction_ns_per_m,
+        c12_m5_per_ns: nominal.c12_m5_per_ns,
+        cost_mm2: best.cost_mm2,
+        first_grid: summary::FirstGrid {
+            best_cost_mm2: first_best,
+            below_threshold: first.threshold_count,
+        },
+        candidates_evaluated: id.evaluated(),
+        emulator_truth: summary::BetaC12 {
+            beta_bar: truth,
+            c12_m5_per_ns: Rig::default().c12_m5_per_ns,
+        },
+        article: summary::ArticleIdentified {
+            beta_bar: printed::BETA_BAR,
+            viscous_friction_ns_per_m: printed::B_NS_PER_M,
+            c12_m5_per_ns: printed::C12,
+            cost_mm2: printed::COST_MM2,
+        },
+        leakage: summary::Leakage {
+            w1_rpm: s.w1_rpm,
+            w2_rpm: s.w2_rpm,
+            p1_bar: s.p1_bar,
+            p2_bar: l.p2_bar,
+            c1_m5_per_ns: l.c1_m5_per_ns,
+            c2_m5_per_ns: l.c2_m5_per_ns,
+            article: summary::ChamberLeakages {
+                c1_m5_per_ns: printed::C1,
+                c2_m5_per_ns: printed::C2,
+            },
+        },
+    };
     Ok((exp, nominal, identified, best.cost_mm2))
 }
 
 /// Step 4: the robustness record (m = 4898 kg, Kp = 40): a β × c12 grid at the identified b.
-pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Result<Value> {
+pub(super) fn robustness(
+    run: &mut Run,
+    exp: &Experiment,
+    nominal: &Rig,
+) -> Result<summary::Robustness> {
     run.step("Robustness record: m = 4898 kg, Kp = 40 (the article §2.4)");
     let rig = Rig {
         k_pres_per_bar: article::k_pres_for_mass(4898.0),
@@ -243,9 +269,15 @@ pub(super) fn robustness(run: &mut Run, exp: &Experiment, nominal: &Rig) -> Resu
         "1.2e-10",
         "the emulated record keeps the emulator's c12; only its gas fraction differs from the others",
     );
-    Ok(json!({
-        "beta_bar": best.beta_bar, "c12_m5_per_ns": best.c12_m5_per_ns, "cost_mm2": id.best().cost_mm2,
-        "cost_at_article_values_mm2": cost_article, "emulator_truth_beta_bar": 220.0,
-        "article": {"beta_bar": printed::ROBUST_BETA_BAR, "c12_m5_per_ns": printed::ROBUST_C12},
-    }))
+    Ok(summary::Robustness {
+        beta_bar: best.beta_bar,
+        c12_m5_per_ns: best.c12_m5_per_ns,
+        cost_mm2: id.best().cost_mm2,
+        cost_at_article_values_mm2: cost_article,
+        emulator_truth_beta_bar: article::BETA_ROBUSTNESS_BAR,
+        article: summary::BetaC12 {
+            beta_bar: printed::ROBUST_BETA_BAR,
+            c12_m5_per_ns: printed::ROBUST_C12,
+        },
+    })
 }

@@ -30,7 +30,9 @@
 mod certainty;
 mod identification;
 mod studies;
+pub mod summary;
 pub use certainty::Certainty;
+pub use summary::Summary;
 
 use crate::figures::{bode_markers, Chart};
 use crate::files::{OutDir, Protected};
@@ -44,7 +46,6 @@ use pumpcyl::lti::{self, Margins};
 use pumpcyl::model::Plant;
 use pumpcyl::response::{self, Signals};
 use pumpcyl::rig::Rig;
-use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -169,7 +170,7 @@ pub struct Reproduction {
     /// pumpcyl beside the article's printed values.
     pub comparison: Vec<ComparisonRow>,
     /// Every number, as written to summary.json.
-    pub summary: Value,
+    pub summary: Summary,
     /// The report's body (after the notice, the introduction and the comparison table).
     pub blocks: Vec<Block>,
     /// The figures, in the order of the report.
@@ -286,25 +287,15 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         files,
         step: 0,
     };
-    let mut sum = json!({ "emulated_inputs": true, "note": EMULATED });
     let (drive, km) = identification::drive_step(&mut run)?;
-    sum["drive"] = drive;
-    let truth = article::records().map_err(anyhow::Error::msg)?[0]
-        .truth
-        .clone();
+    let truth = article::records()?[0].truth.clone();
     let (exp, nominal, identified, cost_mm2) = identification::identification(&mut run, &truth)?;
-    sum["leakage"] = identified["leakage"].clone();
-    sum["identified"] = identified;
-    sum["robustness"] = identification::robustness(&mut run, &exp, &nominal)?;
+    let robustness = identification::robustness(&mut run, &exp, &nominal)?;
     let pressure = studies::pressure_study(&mut run, &nominal, &exp, &truth)?;
-    sum["margins"] = pressure.json;
-    sum["gas_fraction"] = json!(pressure.gas_fraction);
-    sum["p_mean_bar"] = json!(pressure.p_mean_bar);
-    sum["damping"] = studies::damping_study(&mut run, &nominal)?;
-    sum["stroke"] = studies::stroke_study(&mut run, &nominal)?;
-    sum["tracking"] = studies::tracking(&mut run, &nominal)?;
+    let damping = studies::damping_study(&mut run, &nominal)?;
+    let stroke = studies::stroke_study(&mut run, &nominal)?;
+    let tracking = studies::tracking(&mut run, &nominal)?;
     let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
-    sum["design"] = design;
     let truth_point = Candidate {
         beta_bar: truth.rig.beta_bar,
         viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
@@ -312,21 +303,36 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     };
     let (certainty, how_sure) =
         certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
-    sum["how_sure"] = how_sure;
     let seconds = start.elapsed().as_secs_f64();
-    sum["seconds"] = json!(seconds);
+    let summary = Summary {
+        emulated_inputs: true,
+        note: EMULATED.to_string(),
+        drive,
+        leakage: identified.leakage.clone(),
+        identified,
+        robustness,
+        margins: pressure.study.clone(),
+        gas_fraction: pressure.gas_fraction,
+        p_mean_bar: pressure.p_mean_bar,
+        damping,
+        stroke,
+        tracking,
+        design,
+        how_sure,
+        seconds,
+    };
     Ok(Reproduction {
         km_nms_per_rad: km,
         identified: nominal,
         cost_mm2,
-        identified_margins: pressure.nominal,
-        default_margins: pressure.default,
+        identified_margins: pressure.study.nominal,
+        default_margins: pressure.study.default_rig,
         gas_fraction: pressure.gas_fraction,
         p_mean_bar: pressure.p_mean_bar,
         design_kp,
         certainty,
         comparison: run.table,
-        summary: sum,
+        summary,
         blocks: run.blocks,
         figures: run.figures,
         files: run.files,
@@ -405,16 +411,6 @@ impl Reproduction {
     }
 }
 
-fn margins_json(m: &Margins) -> Value {
-    json!({
-        "gain_margin_db": m.gain_margin_db,
-        "phase_margin_deg": m.phase_margin_deg,
-        "gain_crossover_hz": m.gain_crossover_hz,
-        "phase_crossover_hz": m.phase_crossover_hz,
-        "closed_loop_stable": m.closed_loop_stable,
-    })
-}
-
 fn margins_of(rig: &Rig) -> Result<Margins> {
     Ok(lti::margins(&Plant::new(rig).open_loop(false))?)
 }
@@ -456,14 +452,14 @@ enum Position {
     AboutX0,
 }
 
-/// Margins table, Bode overlay and step overlay of rig variants; the JSON of their margins.
+/// Margins table, Bode overlay and step overlay of rig variants; their margins.
 fn variants(
     run: &mut Run,
     stem: &str,
     what: &str,
     rigs: &[(String, Rig)],
     position: Position,
-) -> Result<Value> {
+) -> Result<Vec<summary::Case>> {
     let freqs = lti::log_grid(0.01, 100.0, 401);
     let mut series = Vec::new();
     let mut markers = Vec::new();
@@ -476,8 +472,6 @@ fn variants(
         rows.push(margins_row(label, &m));
         series.push(bode_series(rig, label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
-        let mut v = margins_json(&m);
-        v["case"] = json!(label);
         // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)
         match response::step(rig, 5.0, 6.0, 100.0) {
             Ok(s) if position == Position::AboutX0 => {
@@ -488,8 +482,11 @@ fn variants(
             Err(lti::LtiError::Unstable { .. }) => unstable.push(label.as_str()),
             Err(e) => return Err(e.into()),
         }
-        v["step_closed_loop_stable"] = json!(!unstable.contains(&label.as_str()));
-        out.push(v);
+        out.push(summary::Case {
+            case: label.clone(),
+            step_closed_loop_stable: !unstable.contains(&label.as_str()),
+            margins: m,
+        });
     }
     run.table(&format!("Margins: {what}"), &MARGIN_HEADER, rows);
     let title = format!("Bode diagram: {what}");
@@ -510,5 +507,5 @@ fn variants(
         panels[0].y_label = "Position about x0, x − x0 (mm)".into();
     }
     run.figure(&format!("step_{stem}"), &title, &chart)?;
-    Ok(Value::Array(out))
+    Ok(out)
 }

@@ -2,9 +2,9 @@
 //! the damping studies (the article's Figures 11 and 14), the stroke (§2.1), the sinusoidal
 //! tracking (docs/simulation.md#tracking-metrics) and the design check (§2.2).
 
+use super::summary::{self, AtPressure, Case, ResonanceCase};
 use super::{
-    agrees, bode_series, margins_json, margins_of, margins_row, printed, variants, Position, Run,
-    MARGIN_HEADER,
+    agrees, bode_series, margins_of, margins_row, printed, variants, Position, Run, MARGIN_HEADER,
 };
 use crate::figures::{bode_markers, Chart};
 use crate::format::fmt_opt;
@@ -13,23 +13,21 @@ use pumpcyl::bulk::{self, gas_fraction, BETA_OIL_BAR};
 use pumpcyl::design::{design, Targets};
 use pumpcyl::emulator::article;
 use pumpcyl::ident::Experiment;
-use pumpcyl::lti::{self, Margins};
+use pumpcyl::lti;
 use pumpcyl::model::Plant;
 use pumpcyl::record::Record;
 use pumpcyl::response::{simulate, track_metrics, Baseline, Signals, ARTICLE_SINE_CASES};
 use pumpcyl::rig::Rig;
-use serde_json::{json, Value};
 
 /// Where the Figure 14 resonance is looked for (Hz): the hydraulic–mechanical mode.
 const RESONANCE_BAND_HZ: (f64, f64) = (0.1, 10.0);
 
-/// The pressure study's result: its JSON, and the headline numbers.
+/// The pressure study's result: the margins, and the gas fraction and mean pressure they rest
+/// on.
 pub(super) struct Pressure {
-    pub json: Value,
+    pub study: summary::MarginsStudy,
     pub gas_fraction: f64,
     pub p_mean_bar: f64,
-    pub nominal: Margins,
-    pub default: Margins,
 }
 
 /// Step 5: gas fraction from the identified β, β_e over 1–10 bar and the margins there (§7).
@@ -63,14 +61,12 @@ pub(super) fn pressure_study(
     let mut series = Vec::new();
     let mut markers = Vec::new();
     let mut table = Vec::new();
-    let mut out = json!({});
     let nominal_m = margins_of(nominal)?;
-    out["nominal"] = margins_json(&nominal_m);
     let default_m = margins_of(&Rig::default())?;
-    out["default_rig"] = margins_json(&default_m);
     table.push(margins_row("identified rig (nominal)", &nominal_m));
     table.push(margins_row("default rig (the article §2.1)", &default_m));
-    for (key, row) in ["p1bar", "p_mean", "p10bar"].iter().zip(&rows) {
+    let mut at = Vec::new();
+    for row in &rows {
         let rig = Rig {
             beta_bar: row.beta_bar,
             ..nominal.clone()
@@ -78,12 +74,17 @@ pub(super) fn pressure_study(
         let m = margins_of(&rig)?;
         let label = format!("{:.1} bar, β_e {:.0} bar", row.p_bar, row.beta_bar);
         table.push(margins_row(&label, &m));
-        out[*key] = margins_json(&m);
-        out[*key]["p_bar"] = json!(row.p_bar);
-        out[*key]["beta_bar"] = json!(row.beta_bar);
         series.push(bode_series(&rig, &label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
+        at.push(AtPressure {
+            p_bar: row.p_bar,
+            beta_bar: row.beta_bar,
+            margins: m,
+        });
     }
+    let [p1bar, p_mean_at, p10bar]: [AtPressure; 3] = at
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("three pressures"))?;
     run.table(
         "Margins of the position loop (the article §2.3.3)",
         &MARGIN_HEADER,
@@ -117,7 +118,7 @@ pub(super) fn pressure_study(
         "-",
         "-",
     );
-    out["article_basis"] = pressure_numbers(run)?;
+    let article_basis = pressure_numbers(run)?;
     let truth_x = truth.effects.gas_fraction.unwrap_or(f64::NAN);
     run.compare(
         "gas fraction X",
@@ -126,17 +127,22 @@ pub(super) fn pressure_study(
         &format!("{:.5}", truth_x),
     );
     Ok(Pressure {
-        json: out,
+        study: summary::MarginsStudy {
+            nominal: nominal_m,
+            default_rig: default_m,
+            p1bar,
+            p_mean: p_mean_at,
+            p10bar,
+            article_basis,
+        },
         gas_fraction: x,
         p_mean_bar: p_mean,
-        nominal: nominal_m,
-        default: default_m,
     })
 }
 
 /// The article's margins at 1 and 10 bar and the Kp for the nominal PM there, on its own basis:
 /// the default rig, β_e from 165 bar at 4.4 bar (the article's bulk-modulus study).
-fn pressure_numbers(run: &mut Run) -> Result<Value> {
+fn pressure_numbers(run: &mut Run) -> Result<Vec<summary::ArticleBasis>> {
     let rig = Rig::default();
     let x = gas_fraction(rig.beta_bar, article::P_FIT_BAR, BETA_OIL_BAR)?;
     let m0 = margins_of(&rig)?;
@@ -208,19 +214,26 @@ fn pressure_numbers(run: &mut Run) -> Result<Value> {
                 )
             },
         );
-        out.push(
-            json!({"p_bar": p, "beta_bar": r.beta_bar, "gain_margin_db": gm,
-            "phase_margin_deg": pm, "kp_same_pm": kp, "kp_change": change,
-            "article": {"gain_margin_db": gm_a, "phase_margin_deg": pm_a}}),
-        );
+        out.push(summary::ArticleBasis {
+            p_bar: p,
+            beta_bar: r.beta_bar,
+            gain_margin_db: m.gain_margin_db,
+            phase_margin_deg: m.phase_margin_deg,
+            kp_same_pm: kp,
+            kp_change: change,
+            article: summary::GmPm {
+                gain_margin_db: gm_a,
+                phase_margin_deg: pm_a,
+            },
+        });
     }
-    Ok(Value::Array(out))
+    Ok(out)
 }
 
 /// Step 6: the damping studies. The article's Figure 14 is cumulative: the original; c12, c1
 /// and c2 all divided by 10; then also the motor coupling removed. The first-order motor
 /// (its Figure 11) and the feedforward off (its text) are separate studies.
-pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
+pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Damping> {
     run.step("Damping studies: leakage and motor coupling (Figure 14), motor model (Figure 11), feedforward");
     let tenth = Rig {
         c12_m5_per_ns: nominal.c12_m5_per_ns / 10.0,
@@ -240,7 +253,7 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
             uncoupled,
         ),
     ];
-    let mut cases = variants(
+    let cases = variants(
         run,
         "fig14_damping",
         "Figure 14, cumulative damping study",
@@ -248,26 +261,30 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
         Position::Absolute,
     )?;
     let mut rows = Vec::new();
-    for ((label, rig), case) in fig14.iter().zip(cases.as_array_mut().into_iter().flatten()) {
+    let mut figure14 = Vec::new();
+    for ((label, rig), case) in fig14.iter().zip(cases) {
         let poles = lti::eigenvalues(&Plant::new(rig).open_loop(false).a)?;
         let r = lti::resonance(&poles, RESONANCE_BAND_HZ.0, RESONANCE_BAND_HZ.1);
         let (f, z) = r.map_or((None, None), |r| (Some(r.natural_freq_hz), r.damping));
-        case["resonance_hz"] = json!(f);
-        case["damping_ratio"] = json!(z);
         rows.push(vec![label.clone(), fmt_opt(f, 3), fmt_opt(z, 3)]);
+        figure14.push(ResonanceCase {
+            case,
+            resonance_hz: f,
+            damping_ratio: z,
+        });
     }
     run.table(
         "Figure 14: least-damped open-loop pole pair between 0.1 and 10 Hz (the resonance)",
         &["case", "resonance (Hz)", "damping ratio"],
         rows,
     );
-    let third = &cases[2];
+    let third = &figure14[2];
     run.compare(
         "Figure 14, third curve: resonance (Hz) / damping ratio",
         format!(
             "{} / {}",
-            fmt_opt(third["resonance_hz"].as_f64(), 3),
-            fmt_opt(third["damping_ratio"].as_f64(), 3)
+            fmt_opt(third.resonance_hz, 3),
+            fmt_opt(third.damping_ratio, 3)
         ),
         "about 0.8 / lightly damped",
         "-",
@@ -299,11 +316,15 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
         &ff,
         Position::Absolute,
     )?;
-    Ok(json!({"figure14": cases, "first_order_motor": motor, "feedforward_off": ff}))
+    Ok(summary::Damping {
+        figure14,
+        first_order_motor: motor,
+        feedforward_off: ff,
+    })
 }
 
 /// Step 7: margins over the stroke, mass and volumes following it (the article §2.1; docs/model.md#variants).
-pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
+pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<summary::Stroke> {
     run.step("Stroke: margins at -50, 0 and +50 mm (the article §2.1)");
     let at = |dx: f64, mass: f64| Rig {
         x0_mm: nominal.x0_mm + dx,
@@ -315,15 +336,16 @@ pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<Value> {
         ("x0 = 345 mm, 10 593 kg".to_string(), nominal.clone()),
         ("+50 mm, 12 373 kg".to_string(), at(50.0, 12373.0)),
     ];
-    let mut out =
-        json!({"cases": variants(run, "stroke", "stroke positions", &rigs, Position::AboutX0)?});
-    out["article_basis"] = stroke_numbers(run)?;
-    Ok(out)
+    let cases: Vec<Case> = variants(run, "stroke", "stroke positions", &rigs, Position::AboutX0)?;
+    Ok(summary::Stroke {
+        cases,
+        article_basis: stroke_numbers(run)?,
+    })
 }
 
 /// The PM changes at ±50 mm the article prints, on the default rig: mass and volumes moved
 /// together (what pumpcyl's stroke study does), and the mass alone.
-fn stroke_numbers(run: &mut Run) -> Result<Value> {
+fn stroke_numbers(run: &mut Run) -> Result<Vec<summary::StrokeBasis>> {
     let rig = Rig::default();
     let pm = |r: &Rig| -> Result<f64> { Ok(margins_of(r)?.phase_margin_deg.unwrap_or(f64::NAN)) };
     let pm0 = pm(&rig)?;
@@ -356,14 +378,19 @@ fn stroke_numbers(run: &mut Run) -> Result<Value> {
             "-",
             &why,
         );
-        out.push(json!({"dx_mm": dx, "mass_kg": mass, "pm_change_deg": both,
-            "pm_change_mass_alone_deg": mass_alone, "article_pm_change_deg": article_change}));
+        out.push(summary::StrokeBasis {
+            dx_mm: dx,
+            mass_kg: mass,
+            pm_change_deg: both,
+            pm_change_mass_alone_deg: mass_alone,
+            article_pm_change_deg: article_change,
+        });
     }
-    Ok(Value::Array(out))
+    Ok(out)
 }
 
 /// Step 8: the three sinusoids of the article (docs/simulation.md#tracking-metrics), emulated records against the model.
-pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Value> {
+pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Tracking>> {
     run.step("Sinusoidal tracking (docs/simulation.md#tracking-metrics)");
     let files = [
         "sine_0.10hz_50mm.csv",
@@ -397,8 +424,13 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Value> {
             format!("{:.1} %", 100.0 * m.wave_reduction),
             format!("{:.1} %", 100.0 * s.wave_reduction),
         ]);
-        out.push(json!({"freq_hz": f, "amp_mm": a, "emulated": m, "model": s,
-            "article_measured_max_error_mm": article_e}));
+        out.push(summary::Tracking {
+            freq_hz: *f,
+            amp_mm: *a,
+            emulated: m,
+            model: s,
+            article_measured_max_error_mm: article_e,
+        });
         let why = if agrees(s.max_error_mm, article_e, 0.01) {
             String::new()
         } else {
@@ -439,11 +471,11 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Value> {
         ],
         rows,
     );
-    Ok(Value::Array(out))
+    Ok(out)
 }
 
 /// Step 9: the design check of the article §2.2 on the identified rig.
-pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(Value, f64)> {
+pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::DesignCheck, f64)> {
     run.step("Design check: the article §2.2 at the identified operating point");
     let targets = Targets {
         pm_deg: 34.0,
@@ -467,7 +499,10 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(Value, f64)>
                 "largest Kp at every condition".into(),
                 format!("{:.2}", d.kp_max_worst_case),
             ],
-            vec!["verdict".into(), crate::design::verdict_text(d.verdict).into()],
+            vec![
+                "verdict".into(),
+                crate::design::verdict_text(d.verdict).into(),
+            ],
             vec!["why".into(), d.reasons.join("; ")],
         ],
     );
@@ -477,9 +512,16 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(Value, f64)>
         &format!("{} (kept)", printed::KP),
         "-",
     );
+    let kp_max = d.kp_max;
     Ok((
-        json!({"kp_max": d.kp_max, "kp_max_worst_case": d.kp_max_worst_case, "verdict": d.verdict,
-              "reasons": d.reasons, "targets": d.targets, "article_kp": printed::KP}),
-        d.kp_max,
+        summary::DesignCheck {
+            kp_max,
+            kp_max_worst_case: d.kp_max_worst_case,
+            verdict: d.verdict,
+            reasons: d.reasons,
+            targets: d.targets,
+            article_kp: printed::KP,
+        },
+        kp_max,
     ))
 }

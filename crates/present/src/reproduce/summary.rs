@@ -1,0 +1,380 @@
+//! summary.json, typed: every number of the workflow under stable keys, with the unit in each
+//! key (docs/README.md). The article's printed values stand under `article` beside pumpcyl's,
+//! the emulator's truth under `emulator_truth`. Margins are the core's [`Margins`], whole (a
+//! `null` margin is infinite: no crossing of that kind).
+
+use pumpcyl::design::robust::{Deciding, LoopStep, WorstCase};
+use pumpcyl::design::{Targets, Verdict};
+use pumpcyl::ident::{Assessment, Width};
+use pumpcyl::lti::Margins;
+use pumpcyl::response::TrackMetrics;
+use serde::Serialize;
+
+/// Every number of the workflow.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// Always true: the records are emulated, not the article's measurements.
+    pub emulated_inputs: bool,
+    /// The notice that says so.
+    pub note: String,
+    /// Step 1: the drive gain.
+    pub drive: Drive,
+    /// Step 2: the leakages from the standstill record.
+    pub leakage: Leakage,
+    /// Steps 2 and 3: the identification.
+    pub identified: Identified,
+    /// Step 4: the robustness record.
+    pub robustness: Robustness,
+    /// Step 5: the margins against the mean chamber pressure.
+    pub margins: MarginsStudy,
+    /// Gas fraction from the identified β at the records' mean pressure.
+    pub gas_fraction: f64,
+    /// The identification records' mean chamber pressure (bar).
+    pub p_mean_bar: f64,
+    /// Step 6: the damping studies.
+    pub damping: Damping,
+    /// Step 7: the stroke study.
+    pub stroke: Stroke,
+    /// Step 8: the sinusoidal tracking, one entry a wave.
+    pub tracking: Vec<Tracking>,
+    /// The design check (the article §2.2).
+    pub design: DesignCheck,
+    /// Step 9: how sure the identification is.
+    pub how_sure: HowSure,
+    /// Wall-clock time of the workflow (s).
+    pub seconds: f64,
+}
+
+/// The drive gain from the drive step (the article §2.4.1).
+#[derive(Debug, Clone, Serialize)]
+pub struct Drive {
+    /// Km (N·m·s/rad).
+    pub km_nms_per_rad: f64,
+    /// Fit error (rpm²).
+    pub mse_rpm2: f64,
+    /// The article's Km (N·m·s/rad).
+    pub article_km_nms_per_rad: f64,
+}
+
+/// The standstill point and the leakages it gives at the identified c12.
+#[derive(Debug, Clone, Serialize)]
+pub struct Leakage {
+    /// Motor/pump 1 speed (rpm).
+    pub w1_rpm: f64,
+    /// Motor/pump 2 speed (rpm).
+    pub w2_rpm: f64,
+    /// Chamber 1 pressure (bar gauge).
+    pub p1_bar: f64,
+    /// Chamber 2 pressure from the force balance (bar gauge).
+    pub p2_bar: f64,
+    /// c1 (m⁵/(N·s)).
+    pub c1_m5_per_ns: f64,
+    /// c2 (m⁵/(N·s)).
+    pub c2_m5_per_ns: f64,
+    /// The article's c1 and c2.
+    pub article: ChamberLeakages,
+}
+
+/// Chamber leakages (m⁵/(N·s)).
+#[derive(Debug, Clone, Serialize)]
+pub struct ChamberLeakages {
+    /// c1 (m⁵/(N·s)).
+    pub c1_m5_per_ns: f64,
+    /// c2 (m⁵/(N·s)).
+    pub c2_m5_per_ns: f64,
+}
+
+/// The identified parameters.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identified {
+    /// β (bar).
+    pub beta_bar: f64,
+    /// b (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// The cost there (mm²).
+    pub cost_mm2: f64,
+    /// The first grid's best cost and threshold set.
+    pub first_grid: FirstGrid,
+    /// Candidates evaluated over both grids.
+    pub candidates_evaluated: u64,
+    /// What the records were emulated with.
+    pub emulator_truth: BetaC12,
+    /// The article's printed values.
+    pub article: ArticleIdentified,
+    /// The leakages at the identified c12.
+    pub leakage: Leakage,
+}
+
+/// The first grid's answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct FirstGrid {
+    /// Its best cost (mm²).
+    pub best_cost_mm2: f64,
+    /// Candidates below the threshold (0.25 mm²).
+    pub below_threshold: u64,
+}
+
+/// A bulk modulus and a cross-port leakage.
+#[derive(Debug, Clone, Serialize)]
+pub struct BetaC12 {
+    /// β (bar).
+    pub beta_bar: f64,
+    /// c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+}
+
+/// The article's identified values.
+#[derive(Debug, Clone, Serialize)]
+pub struct ArticleIdentified {
+    /// β (bar).
+    pub beta_bar: f64,
+    /// b (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Its cost (mm²).
+    pub cost_mm2: f64,
+}
+
+/// The robustness record's grid answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct Robustness {
+    /// β (bar).
+    pub beta_bar: f64,
+    /// c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Its cost (mm²).
+    pub cost_mm2: f64,
+    /// The cost at the article's values (mm²).
+    pub cost_at_article_values_mm2: f64,
+    /// The β the record was emulated with (bar).
+    pub emulator_truth_beta_bar: f64,
+    /// The article's values.
+    pub article: BetaC12,
+}
+
+/// The margins of the nominal and default rigs and against the mean chamber pressure.
+#[derive(Debug, Clone, Serialize)]
+pub struct MarginsStudy {
+    /// The identified rig.
+    pub nominal: Margins,
+    /// The default (the article's) rig.
+    pub default_rig: Margins,
+    /// The identified rig at 1 bar.
+    pub p1bar: AtPressure,
+    /// … at the records' mean pressure.
+    pub p_mean: AtPressure,
+    /// … at 10 bar.
+    pub p10bar: AtPressure,
+    /// The article's 1 and 10 bar numbers on its own basis (the default rig).
+    pub article_basis: Vec<ArticleBasis>,
+}
+
+/// Margins at a mean chamber pressure.
+#[derive(Debug, Clone, Serialize)]
+pub struct AtPressure {
+    /// Mean chamber pressure (bar).
+    pub p_bar: f64,
+    /// β_e there (bar).
+    pub beta_bar: f64,
+    /// The margins.
+    #[serde(flatten)]
+    pub margins: Margins,
+}
+
+/// The article's margins at a pressure, recomputed on its basis.
+#[derive(Debug, Clone, Serialize)]
+pub struct ArticleBasis {
+    /// Mean chamber pressure (bar).
+    pub p_bar: f64,
+    /// β_e there (bar).
+    pub beta_bar: f64,
+    /// GM (dB; NaN-free: null when infinite).
+    pub gain_margin_db: Option<f64>,
+    /// PM (deg).
+    pub phase_margin_deg: Option<f64>,
+    /// The Kp that keeps the 4.4 bar PM.
+    pub kp_same_pm: f64,
+    /// Its change against the rig's Kp (fraction).
+    pub kp_change: f64,
+    /// The article's printed margins.
+    pub article: GmPm,
+}
+
+/// A gain and a phase margin as printed.
+#[derive(Debug, Clone, Serialize)]
+pub struct GmPm {
+    /// GM (dB).
+    pub gain_margin_db: f64,
+    /// PM (deg).
+    pub phase_margin_deg: f64,
+}
+
+/// One rig variant of a study: its margins (sum-pressure loop open) and whether its step
+/// (sum-pressure loop closed) is stable.
+#[derive(Debug, Clone, Serialize)]
+pub struct Case {
+    /// The variant.
+    pub case: String,
+    /// The margins.
+    #[serde(flatten)]
+    pub margins: Margins,
+    /// Whether the closed loop with the sum-pressure loop is stable (its step is drawn).
+    pub step_closed_loop_stable: bool,
+}
+
+/// A variant of the Figure 14 study with its resonance.
+#[derive(Debug, Clone, Serialize)]
+pub struct ResonanceCase {
+    /// The variant and its margins.
+    #[serde(flatten)]
+    pub case: Case,
+    /// The least-damped open-loop pole pair between 0.1 and 10 Hz (Hz).
+    pub resonance_hz: Option<f64>,
+    /// Its damping ratio.
+    pub damping_ratio: Option<f64>,
+}
+
+/// The damping studies.
+#[derive(Debug, Clone, Serialize)]
+pub struct Damping {
+    /// The article's Figure 14, cumulative.
+    pub figure14: Vec<ResonanceCase>,
+    /// The first-order motor model.
+    pub first_order_motor: Vec<Case>,
+    /// The drive feedforward removed.
+    pub feedforward_off: Vec<Case>,
+}
+
+/// The stroke study.
+#[derive(Debug, Clone, Serialize)]
+pub struct Stroke {
+    /// −50, 0 and +50 mm on the identified rig.
+    pub cases: Vec<Case>,
+    /// The article's PM changes on its basis (the default rig).
+    pub article_basis: Vec<StrokeBasis>,
+}
+
+/// A PM change at a stroke position.
+#[derive(Debug, Clone, Serialize)]
+pub struct StrokeBasis {
+    /// Position from x0 (mm).
+    pub dx_mm: f64,
+    /// Mass there (kg).
+    pub mass_kg: f64,
+    /// PM change, mass and volumes moved (deg).
+    pub pm_change_deg: f64,
+    /// PM change, the mass alone (deg).
+    pub pm_change_mass_alone_deg: f64,
+    /// The article's (deg).
+    pub article_pm_change_deg: f64,
+}
+
+/// One wave of the tracking study.
+#[derive(Debug, Clone, Serialize)]
+pub struct Tracking {
+    /// Frequency (Hz).
+    pub freq_hz: f64,
+    /// Amplitude (mm).
+    pub amp_mm: f64,
+    /// On the emulated record.
+    pub emulated: TrackMetrics,
+    /// The LTI model.
+    pub model: TrackMetrics,
+    /// The article's, measured on the real rig (mm).
+    pub article_measured_max_error_mm: f64,
+}
+
+/// The design check.
+#[derive(Debug, Clone, Serialize)]
+pub struct DesignCheck {
+    /// Largest Kp at the design point.
+    pub kp_max: f64,
+    /// Largest Kp at every condition.
+    pub kp_max_worst_case: f64,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why.
+    pub reasons: Vec<String>,
+    /// The targets.
+    pub targets: Targets,
+    /// The article's Kp.
+    pub article_kp: f64,
+}
+
+/// One value a parameter, keyed by the parameters' names.
+#[derive(Debug, Clone, Serialize)]
+pub struct PerParameter<T> {
+    /// β.
+    pub beta_bar: T,
+    /// b.
+    pub viscous_friction_ns_per_m: T,
+    /// c12.
+    pub c12_m5_per_ns: T,
+}
+
+impl<T> PerParameter<T> {
+    /// `f(index, name)` for each parameter, in the order of `pumpcyl::ident::PARAMETERS`.
+    pub fn from_fn(f: impl Fn(usize, &str) -> T) -> Self {
+        let [a, b, c] = pumpcyl::ident::PARAMETERS;
+        PerParameter {
+            beta_bar: f(0, a),
+            viscous_friction_ns_per_m: f(1, b),
+            c12_m5_per_ns: f(2, c),
+        }
+    }
+}
+
+/// How sure the identification is.
+#[derive(Debug, Clone, Serialize)]
+pub struct HowSure {
+    /// Confidence level of the intervals and the region.
+    pub confidence: f64,
+    /// The records' noise (mm).
+    pub noise_std_mm: f64,
+    /// Variance inflation for correlated residuals.
+    pub variance_inflation: f64,
+    /// The intervals, `null` for a parameter not profiled.
+    pub intervals: PerParameter<Option<[f64; 2]>>,
+    /// Whether the records bound each parameter.
+    pub identifiable: PerParameter<bool>,
+    /// Whether each interval holds the emulator's truth.
+    pub truth_inside: PerParameter<bool>,
+    /// The design over the confidence region.
+    pub robust_design: RobustSummary,
+    /// The next experiment.
+    pub advice: AdviceSummary,
+}
+
+/// The robust design's headline.
+#[derive(Debug, Clone, Serialize)]
+pub struct RobustSummary {
+    /// Largest Kp over the region.
+    pub kp_max: f64,
+    /// Largest Kp at the point estimate.
+    pub kp_max_nominal: f64,
+    /// What decides it.
+    pub deciding: Deciding,
+    /// The worst case over the region at `kp_max`.
+    pub worst_case: WorstCase,
+    /// The article's loop, step by step.
+    #[serde(rename = "loop")]
+    pub steps: Vec<LoopStep>,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why.
+    pub reasons: Vec<String>,
+}
+
+/// The experiment advice's headline.
+#[derive(Debug, Clone, Serialize)]
+pub struct AdviceSummary {
+    /// The widths today.
+    pub current: [Width; 3],
+    /// The best candidate for each parameter.
+    pub best_for: [String; 3],
+    /// The best candidates.
+    pub top: Vec<Assessment>,
+}
