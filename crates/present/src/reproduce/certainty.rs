@@ -73,14 +73,14 @@ pub(super) fn how_sure(
         robust_design: RobustSummary {
             kp_max: d.kp_max,
             kp_max_nominal: d.kp_max_nominal,
-            deciding: d.deciding.clone(),
-            worst_case: d.worst_case.clone(),
+            deciding: d.deciding,
+            worst_case: d.worst_case,
             steps: d.steps.clone(),
             verdict: d.verdict,
             reasons: d.reasons.clone(),
         },
         advice: AdviceSummary {
-            current: advice.current.clone(),
+            current: advice.current,
             best_for: advice.best_for.clone(),
             top: advice.candidates.iter().take(LISTED).cloned().collect(),
         },
