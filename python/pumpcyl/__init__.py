@@ -12,8 +12,8 @@ one-line message.
 from ._pumpcyl import (
     Dataset,
     Identification,
-    Margins,
     PumpcylError,
+    Result,
     Rig,
     Simulation,
     StepResponse,
@@ -35,8 +35,8 @@ __version__ = "0.1.0"
 __all__ = [
     "Dataset",
     "Identification",
-    "Margins",
     "PumpcylError",
+    "Result",
     "Rig",
     "Simulation",
     "StepResponse",

@@ -77,19 +77,30 @@ class Rig:
     sum_pressure: bool
     motor_model: Literal["full", "first_order"]
 
-class Margins:
-    """Margins of the open loop (article Section 4), as ``pumpcyl margins``."""
+class Result:
+    """A result as the command line's ``--json`` prints it: every field an attribute, the
+    whole a dict with :meth:`to_dict` (pumpcyl-present serialises it once for both)."""
 
-    gain_margin_db: float
-    """Headline gain margin (dB); ``inf`` without a phase crossing."""
-    phase_margin_deg: float
-    """Headline phase margin (deg); ``inf`` without a gain crossing."""
+    def __getattr__(self, name: str) -> Any: ...
+    def to_dict(self) -> Dict[str, Any]:
+        """Every field, as a new dict."""
+
+class Margins(Result):
+    """Margins of the open loop (article Section 4): the fields of ``pumpcyl margins --json``.
+    A ``None`` margin is infinite (no crossing of that kind)."""
+
+    loop: str
+    """The loop analysed, in words."""
+    gain_margin_db: Optional[float]
+    """Headline gain margin (dB); ``None`` without a phase crossing (infinite)."""
+    phase_margin_deg: Optional[float]
+    """Headline phase margin (deg); ``None`` without a gain crossing (infinite)."""
     gain_crossover_hz: Optional[float]
     """Frequency of the headline phase margin (Hz)."""
     phase_crossover_hz: Optional[float]
     """Frequency of the headline gain margin (Hz)."""
-    delay_margin_s: float
-    """Smallest delay margin (s); ``inf`` without a gain crossing."""
+    delay_margin_s: Optional[float]
+    """Smallest delay margin (s); ``None`` without a gain crossing (infinite)."""
     closed_loop_stable: bool
     """Closed-loop stability from the closed-loop eigenvalues."""
     crossings: List[Dict[str, Any]]

@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::DMatrix;
 use pumpcyl::ident::{self, DatasetSpec, Experiment, Grid, Options, Prepared, Problem, Standstill};
+use pumpcyl::loops::Loop;
 use pumpcyl::lti::{self, StateSpace};
 use pumpcyl::model::Plant;
 use pumpcyl::record::Record;
@@ -224,61 +225,77 @@ fn loop_of(rig: &Rig, which: &str, sum_pressure_closed: Option<bool>) -> PyResul
     }
 }
 
-/// Margins of the open loop, as the command line's `margins`.
-#[pyclass(module = "pumpcyl._pumpcyl", name = "Margins", frozen, get_all)]
-struct PyMargins {
-    /// Headline gain margin (dB); inf when there is no phase crossing.
-    gain_margin_db: f64,
-    /// Headline phase margin (deg); inf when there is no gain crossing.
-    phase_margin_deg: f64,
-    /// Frequency of the headline phase margin (Hz); None without a gain crossing.
-    gain_crossover_hz: Option<f64>,
-    /// Frequency of the headline gain margin (Hz); None without a phase crossing.
-    phase_crossover_hz: Option<f64>,
-    /// Smallest delay margin (s); inf without a gain crossing.
-    delay_margin_s: f64,
-    /// Closed-loop stability from the closed-loop eigenvalues.
-    closed_loop_stable: bool,
-    /// Every crossing by increasing frequency: dicts with kind ("gain"/"phase"),
-    /// frequency_hz, magnitude_db, phase_deg, margin (deg or dB), delay_margin_s.
-    crossings: Py<PyAny>,
-    /// Poles at the origin.
-    integrators: usize,
+/// A result of pumpcyl as a Python object: every field of the document the command line prints
+/// with `--json` (pumpcyl-present serialises it once for both) as an attribute, and the whole as
+/// a dict with `to_dict()`.
+#[pyclass(module = "pumpcyl._pumpcyl", name = "Result", frozen)]
+struct PyOutcome {
+    /// What the result is (`Margins`, ...), for `repr`.
+    kind: &'static str,
+    /// The fields.
+    fields: Py<PyDict>,
+}
+
+impl PyOutcome {
+    /// The result `kind` with the fields of the JSON document `value` (an object).
+    fn of(py: Python<'_>, kind: &'static str, value: &serde_json::Value) -> PyResult<Self> {
+        let fields = to_py(py, value)?
+            .bind(py)
+            .cast::<PyDict>()?
+            .clone()
+            .unbind();
+        Ok(PyOutcome { kind, fields })
+    }
 }
 
 #[pymethods]
-impl PyMargins {
-    fn __repr__(&self) -> String {
-        format!(
-            "Margins(gain_margin_db={:.3}, phase_margin_deg={:.3}, closed_loop_stable={})",
-            self.gain_margin_db,
-            self.phase_margin_deg,
-            if self.closed_loop_stable {
-                "True"
-            } else {
-                "False"
-            }
-        )
+impl PyOutcome {
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        match self.fields.bind(py).get_item(name)? {
+            Some(v) => Ok(v.unbind()),
+            None => Err(PyAttributeError::new_err(format!(
+                "{} has no field `{name}`",
+                self.kind
+            ))),
+        }
+    }
+
+    /// Every field, as a new dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.fields.bind(py).copy()
+    }
+
+    fn __dir__(&self, py: Python<'_>) -> PyResult<Vec<String>> {
+        self.fields.bind(py).keys().extract()
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let shown: Vec<String> = self
+            .fields
+            .bind(py)
+            .iter()
+            .filter(|(_, v)| {
+                !(v.is_instance_of::<pyo3::types::PyList>() || v.is_instance_of::<PyDict>())
+            })
+            .map(|(k, v)| Ok(format!("{k}={}", v.repr()?)))
+            .collect::<PyResult<_>>()?;
+        Ok(format!("{}({})", self.kind, shown.join(", ")))
     }
 }
 
 /// Gain, phase and delay margins of the position loop (article Section 4), every crossing and
-/// closed-loop stability: the command line's `margins`.
+/// closed-loop stability: the command line's `margins --json`, field for field (a `None` margin
+/// is infinite: no crossing of that kind).
 #[pyfunction]
 #[pyo3(signature = (rig, *, sum_pressure_closed = false))]
-fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyMargins> {
-    let m = lti::margins(&Plant::new(&rig.rig).open_loop(sum_pressure_closed)).map_err(err)?;
-    let inf = |v: Option<f64>| v.unwrap_or(f64::INFINITY);
-    Ok(PyMargins {
-        gain_margin_db: inf(m.gain_margin_db),
-        phase_margin_deg: inf(m.phase_margin_deg),
-        gain_crossover_hz: m.gain_crossover_hz,
-        phase_crossover_hz: m.phase_crossover_hz,
-        delay_margin_s: inf(m.delay_margin_s),
-        closed_loop_stable: m.closed_loop_stable,
-        crossings: to_py(py, &m.crossings)?,
-        integrators: m.integrators,
-    })
+fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
+    let lp = Loop::of_rig(rig.rig.clone(), &rig.__repr__(), sum_pressure_closed);
+    let m = lti::margins(&lp.open_loop).map_err(err)?;
+    PyOutcome::of(
+        py,
+        "Margins",
+        &pumpcyl_present::analysis::margins_json(&m, &lp.description),
+    )
 }
 
 /// (A, B, C, D) of the open or closed loop (SI units; states as `pumpcyl model` lists them).
@@ -930,7 +947,7 @@ fn design(
 fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("PumpcylError", m.py().get_type::<PumpcylError>())?;
     m.add_class::<PyRig>()?;
-    m.add_class::<PyMargins>()?;
+    m.add_class::<PyOutcome>()?;
     m.add_class::<PySimulation>()?;
     m.add_class::<PyStep>()?;
     m.add_class::<PyDataset>()?;

@@ -123,3 +123,23 @@ def test_cli_and_python_print_the_same_message(tmp_path):
     with pytest.raises(pumpcyl.PumpcylError) as e:
         pumpcyl.identify(str(bad))
     assert cli.stderr.strip() == "error: " + str(e.value)
+
+
+def test_margins_have_the_fields_of_the_command_lines_json():
+    """Python's margins and `pumpcyl margins --json` come from one serialisation: same keys."""
+    import json
+    import shutil
+    import subprocess
+    from pathlib import Path
+
+    exe = shutil.which("pumpcyl") or str(Path(__file__).resolve().parents[2] / "target/debug/pumpcyl")
+    if not Path(exe).exists():
+        pytest.skip("SKIPPED: the pumpcyl binary is not built (cargo build)")
+    cli = json.loads(subprocess.run([exe, "margins", "--json"], check=True,
+                                    capture_output=True, text=True).stdout)
+    m = pumpcyl.margins(pumpcyl.Rig())
+    assert sorted(m.to_dict()) == sorted(cli)
+    assert m.gain_margin_db == pytest.approx(cli["gain_margin_db"], rel=1e-12)
+    assert sorted(dir(m)) == sorted(cli)
+    # an infinite margin is None in Python, null in the JSON
+    assert "loop" in repr(m) and m.closed_loop_stable is True

@@ -96,7 +96,12 @@ mod tests {
         let v = margins_json(&m, "default rig");
         let core = serde_json::to_value(&m).unwrap();
         let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(|k| k.as_str()).collect();
-        let mut want: Vec<&str> = core.as_object().unwrap().keys().map(|k| k.as_str()).collect();
+        let mut want: Vec<&str> = core
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
         want.push("loop");
         keys.sort_unstable();
         want.sort_unstable();
