@@ -10,7 +10,7 @@ use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatte
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::render::{plot_err, ReportError};
+use super::error::{plot_err, ReportError};
 use super::{layout, render};
 
 /// A linear or logarithmic plotters axis over `lo..hi` with explicit labelled (major) ticks,

@@ -6,9 +6,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::{self, log_axis, snapped_axis, steps_125, Axis, Chart};
+use super::error::{plot_err, ReportError};
 use super::font;
 use super::legend::{self, LegendEntry, LegendMetrics};
-use super::render::{self, plot_err, ReportError};
+use super::render;
 use super::series::{draw_pieces, finite_extent, runs, series_color, Pieces, Polyline, Stroke};
 use super::stack;
 

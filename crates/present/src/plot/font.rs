@@ -6,7 +6,7 @@
 //! `assets/fonts/LICENSE-DejaVu.txt`) and register it, once, under the family
 //! name [`FAMILY`]; all report code must use that family for its text.
 
-use super::ReportError;
+use super::error::ReportError;
 use std::sync::OnceLock;
 
 use plotters::style::{register_font, FontStyle};

@@ -16,8 +16,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::{self, fitted_linear_axis, log_axis, Axis, AXIS_DESC_SIZE, TICK_LABEL_SIZE};
+use super::error::{plot_err, ReportError};
 use super::render::{self, SUBTITLE_COLOR};
-use super::render::{plot_err, ReportError};
 use super::{font, layout};
 
 /// Default heat-map width in pixels (used for SVG output; a sensible PNG

@@ -7,7 +7,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::Axis;
-use super::render::{plot_err, ReportError};
+use super::error::{plot_err, ReportError};
 use super::series::{Pieces, Stroke};
 use super::{layout, render};
 

@@ -6,14 +6,15 @@
 
 mod axes;
 mod bode;
+mod error;
 mod font;
 mod layout;
 mod legend;
 mod render;
 mod series;
 mod stack;
+pub use error::ReportError;
 pub use layout::{sig, text_overflow};
-pub use render::ReportError;
 
 pub use bode::{bode_png, bode_svg, BodeMarkers, BodeSeries, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX};
 mod timeseries;

@@ -8,6 +8,7 @@ use std::sync::{Arc, OnceLock};
 
 use resvg::{tiny_skia, usvg};
 
+use super::error::{plot_err, ReportError};
 use super::{font, layout};
 
 /// Smallest accepted PNG size in pixels (below it the labels cannot fit).
@@ -15,23 +16,6 @@ const MIN_WIDTH_PX: u32 = 320;
 const MIN_HEIGHT_PX: u32 = 240;
 /// Largest accepted PNG side in pixels (keeps the RGB buffer reasonable).
 const MAX_SIDE_PX: u32 = 16_384;
-
-/// Errors of the report renderers.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    /// The plotting library failed, the input is inconsistent (vector lengths
-    /// differ) or the requested image size is unusable.
-    #[error("plot: {0}")]
-    Plot(String),
-    /// Nothing to draw: no series, or no finite point in any series.
-    #[error("plot: no data to draw: {0}")]
-    Empty(String),
-}
-
-/// A plotting-library error as a [`ReportError::Plot`].
-pub(super) fn plot_err<E: std::fmt::Display>(e: E) -> ReportError {
-    ReportError::Plot(e.to_string())
-}
 
 /// A figure ready to draw on any plotters backend; `scale` multiplies text and line sizes.
 pub(super) trait Draw {

@@ -6,7 +6,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::axes::Chart;
-use super::render::{plot_err, ReportError};
+use super::error::{plot_err, ReportError};
 
 /// Okabe–Ito colour-blind-friendly palette, in the order series use it
 /// (yellow last: it has the least contrast on white).

@@ -6,8 +6,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::axes::{self, Axis, Chart};
+use super::error::{plot_err, ReportError};
 use super::render;
-use super::render::{plot_err, ReportError};
 
 /// Layout at scale 1 (px): margins left, right, above the first and below the last plot, the
 /// margin above and below each plot between two plots, and the x label area under the last.

@@ -11,8 +11,8 @@ use plotters::prelude::*;
 
 use super::axes::{self, linear_axis, nice_axis, Axis};
 use super::bode::DEFAULT_WIDTH_PX;
+use super::error::ReportError;
 use super::legend::{self, LegendEntry, LegendMetrics};
-use super::render::ReportError;
 use super::render::{self, header_height};
 use super::series::{draw_pieces, finite_extent, series_color, Pieces, Polyline, Stroke, PALETTE};
 use super::stack;
