@@ -17,7 +17,8 @@
 //! - [`model`] — the 10-state DPM model, its variants, open and closed loops;
 //! - [`record`] — measured or emulated records (CSV), read by column name;
 //! - [`response`] — step, tracking and recorded-reference responses and their metrics;
-//! - [`rig`] — the rig parameters, their validation and their TOML form.
+//! - [`rig`] — the rig parameters, their validation and their TOML form;
+//! - [`units`] — conversions between the user-facing units and SI, and readable numbers.
 //!
 //! Method manual: docs/README.md. It cites Gøytil, Hansen & Tvilde, *Effective Bulk
 //! Modulus in Low-Pressure Pump-Controlled Hydraulic Cylinders*, Actuators 2025, 14(8), 366.
@@ -53,3 +54,4 @@ pub mod model;
 pub mod record;
 pub mod response;
 pub mod rig;
+pub mod units;

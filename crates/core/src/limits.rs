@@ -2,7 +2,7 @@
 //! outright; work that would take hours is refused unless the caller allows a long run (the
 //! command line's `--allow-long-run`). Every refusal states the limit.
 
-use crate::rig::readable;
+use crate::units::readable;
 
 /// The most samples, frequency points or grid candidates any single array may hold: 50 million
 /// (0.4 GB of f64), far above any record or figure and below an allocation abort.

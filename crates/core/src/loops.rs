@@ -5,7 +5,8 @@
 use crate::ident::Standstill;
 use crate::lti::{LtiError, ModelJson, StateInfo, StateSpace};
 use crate::model::{Plant, SIM_OUTPUTS};
-use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use crate::rig::Rig;
+use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 
 /// A named signal (input or output) with its SI unit.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -474,7 +474,7 @@ impl Rows<'_> {
                 return Err(err(format!(
                     "`{name}` = {}: far outside anything physical (|value| <= {limit:e} for \
                      this unit)",
-                    crate::rig::readable(v)
+                    crate::units::readable(v)
                 )));
             }
             self.columns[c].push(v);

@@ -44,6 +44,7 @@
 //! ```
 
 use crate::input;
+use crate::units::{readable, PA_PER_BAR};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::path::Path;
@@ -309,20 +310,6 @@ pub struct RigSi {
     /// External force (N).
     pub f_ext: f64,
 }
-
-/// A number as a user would write it: plain when moderate, in exponent form when huge or tiny.
-pub fn readable(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
-    }
-}
-
-/// Pascal per bar.
-pub const PA_PER_BAR: f64 = 1e5;
-/// Radians per second per rpm.
-pub const RAD_S_PER_RPM: f64 = 2.0 * PI / 60.0;
 
 impl Rig {
     /// Parse a rig from TOML text; `name` is used in messages (usually the file name).

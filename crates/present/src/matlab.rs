@@ -8,7 +8,8 @@ use pumpcyl::ident::Standstill;
 use pumpcyl::loops::{grey_loop, GreyLoop, Port};
 use pumpcyl::lti::{StateInfo, StateSpace};
 use pumpcyl::model::{Layout, Plant};
-use pumpcyl::rig::{Rig, RigSi, PA_PER_BAR, RAD_S_PER_RPM};
+use pumpcyl::rig::{Rig, RigSi};
+use pumpcyl::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use std::fmt::Write as _;
 
 /// A model with everything a reader needs: matrices, names, units and what it is.

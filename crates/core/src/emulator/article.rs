@@ -10,7 +10,8 @@ use super::EmulatorError;
 use super::{equilibrium, Dynamics, Effects, Plc};
 use crate::bulk::effective_beta;
 use crate::response::Signals;
-use crate::rig::{Rig, PA_PER_BAR};
+use crate::rig::Rig;
+use crate::units::PA_PER_BAR;
 
 /// The sum-pressure gain for masses of 10 t and more (1/bar): the default rig's, the article's
 /// "22" read as percent of full command per bar.
@@ -338,7 +339,7 @@ pub fn readme(records: &[ArticleRecord]) -> String {
         tq = e.peak_torque_factor.unwrap_or(f64::INFINITY),
         rated = rig.motor_rated_torque_nm,
         pmax = rig.pump_max_speed_rpm,
-        db = e.dead_band_rad_s / crate::rig::RAD_S_PER_RPM,
+        db = e.dead_band_rad_s / crate::units::RAD_S_PER_RPM,
         slip = e.slip_m5_per_ns,
         fc = e.coulomb_n,
         kh = K_PRES_HEAVY_PER_BAR,

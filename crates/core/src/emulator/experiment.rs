@@ -7,7 +7,8 @@ use super::EmulatorError;
 use super::{emulate, Dynamics, Effects, Plc};
 use crate::input::FieldError;
 use crate::response::Signals;
-use crate::rig::{Rig, RAD_S_PER_RPM};
+use crate::rig::Rig;
+use crate::units::RAD_S_PER_RPM;
 use std::f64::consts::PI;
 use std::fmt::Write;
 

@@ -32,7 +32,8 @@ impl From<&str> for EmulatorError {
     }
 }
 use crate::model::{Layout, Plant};
-use crate::rig::{MotorModel, Rig, RigSi, PA_PER_BAR};
+use crate::rig::{MotorModel, Rig, RigSi};
+use crate::units::PA_PER_BAR;
 
 /// The effects beyond the LTI model, each switchable.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,7 +97,7 @@ impl Effects {
             beta_oil_bar: oil,
             peak_torque_factor: Some(3.0),
             pump_speed_limit: true,
-            dead_band_rad_s: 60.0 * crate::rig::RAD_S_PER_RPM,
+            dead_band_rad_s: 60.0 * crate::units::RAD_S_PER_RPM,
             slip_m5_per_ns: 4e-11,
             coulomb_n: 15.0,
             mass_slope_per_m: (m_plus - m_minus) / (2.0 * d) / m0,
@@ -136,7 +137,7 @@ impl Dynamics {
             x_max: rig.stroke_mm * 1e-3,
             vl: [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3],
             rated_torque: rig.motor_rated_torque_nm,
-            max_pump_speed: rig.pump_max_speed_rpm * crate::rig::RAD_S_PER_RPM,
+            max_pump_speed: rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM,
             effects,
         })
     }

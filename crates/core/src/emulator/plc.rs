@@ -6,7 +6,8 @@
 use super::Dynamics;
 use super::EmulatorError;
 use crate::response::Signals;
-use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use crate::rig::Rig;
+use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, VectorCommon};
 
 /// Sampling, sensors and randomness of the PLC.

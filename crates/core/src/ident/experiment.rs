@@ -126,7 +126,7 @@ impl ExperimentFile {
                 return Err(at.error(&key(k), format!("{what}: {k} = {v}: must be > 0")));
             }
             if let Some(rule) = Rig::check_key(k, v) {
-                let v = crate::rig::readable(v);
+                let v = crate::units::readable(v);
                 return Err(at.error(&key(k), format!("{what}: {k} = {v}: {rule}")));
             }
         }

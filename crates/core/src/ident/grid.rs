@@ -131,7 +131,7 @@ impl Grid {
         for (axis, v) in self.axes() {
             for &x in v {
                 if let Some(rule) = crate::rig::Rig::check_key(axis, x) {
-                    let x = crate::rig::readable(x);
+                    let x = crate::units::readable(x);
                     return Err(FieldError::new(axis, format!("{name}.{axis}: {x}: {rule}")));
                 }
             }

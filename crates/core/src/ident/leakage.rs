@@ -6,7 +6,8 @@ use super::IdentError;
 const MAX_SPEED_RPM: f64 = 1e6;
 /// The largest standstill pressure accepted (bar): far above any hydraulic system.
 const MAX_PRESSURE_BAR: f64 = 1e4;
-use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use crate::rig::Rig;
+use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use serde::{Deserialize, Serialize};
 
 /// A standstill operating point held under feedback: pump speeds feeding the leakage.
@@ -169,7 +170,7 @@ mod tests {
         assert!((l.c2_m5_per_ns / -1.19e-11 - 1.0).abs() < 0.02, "{l:?}");
         // the leakages close the continuity equations at standstill exactly
         let si = Rig::default().si();
-        let rpm = crate::rig::RAD_S_PER_RPM;
+        let rpm = crate::units::RAD_S_PER_RPM;
         let (p1, p2) = (3.95e5, l.p2_bar * 1e5);
         let q1 = si.d[0] * -160.0 * rpm + si.d[1] * 245.0 * rpm
             - l.c1_m5_per_ns * p1

@@ -139,7 +139,7 @@ pub fn bode(sys: &StateSpace, freq_hz: &[f64]) -> Result<Bode, LtiError> {
     {
         return Err(LtiError::NonFiniteResult {
             what: "the frequency response (dB)",
-            at: format!("{} Hz", crate::rig::readable(*f)),
+            at: format!("{} Hz", crate::units::readable(*f)),
         });
     }
     let phase = match freq_hz.first() {

@@ -8,7 +8,8 @@ pub use metrics::{position_mse_until, step_metrics, track_metrics, StepMetrics, 
 
 use crate::lti::{LtiError, Simulator};
 use crate::model::{Plant, SIM_OUTPUTS};
-use crate::rig::{Rig, PA_PER_BAR, RAD_S_PER_RPM};
+use crate::rig::Rig;
+use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use std::f64::consts::PI;
 
 /// Simulated (or measured) signals in user units, one value per sample.
