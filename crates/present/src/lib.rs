@@ -12,7 +12,7 @@
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
 //! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
-//! - [`format`] — numbers and names as the text outputs show them;
+//! - [`mod@format`] — numbers and names as the text outputs show them;
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
 //! - [`table`] — tables of text cells, for terminals and reports.
 
