@@ -3,8 +3,6 @@
 
 use anyhow::Result;
 use clap::Args;
-use serde_json::json;
-use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,11 +11,12 @@ use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::{self, digest, Partial};
 use pumpcyl::ident::{
-    finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request, Scored,
-    Standstill,
+    analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request,
+    Standstill, Uncertainty, UncertaintyOptions,
 };
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::identification as outputs;
+use pumpcyl_present::uncertainty::{add_uncertainty_json, profile_files, uncertainty_text};
 
 #[derive(Debug, Args)]
 pub struct LeakageArgs {
@@ -168,11 +167,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
     if args.json {
         return Ok(serde_json::to_string_pretty(&l)? + "\n");
     }
-    Ok(format!(
-        "standstill (the article §2.4): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
-         c12                 {:.4e} m⁵/(N·s)\n  c1                  {:.4e} m⁵/(N·s)\n  c2                  {:.4e} m⁵/(N·s)\n",
-        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
-    ))
+    Ok(outputs::leakage_text(&s, &l))
 }
 
 /// `pumpcyl identify-drive`.
@@ -189,20 +184,15 @@ pub fn drive(args: &DriveArgs) -> Result<String> {
         write_drive_overlay(path, &rec, &fit)?;
     }
     if args.json {
-        return Ok(serde_json::to_string_pretty(&json!({
-            "file": rec.file, "motor": args.motor, "km_nms_per_rad": fit.km_nms_per_rad,
-            "mse_rpm2": fit.mse_rpm2, "rotor_inertia_kg_m2": jm,
-        }))? + "\n");
+        let v = outputs::drive_json(&rec, args.motor, &fit, jm);
+        return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
-    Ok(format!(
-        "{}: motor {} (Jm = {:.3e} kg·m², current loop {} rad/s, feedforward off)\n  Km  {:.5} N·m·s/rad\n  fit MSE {:.3} rpm² (RMS {:.2} rpm)\n",
-        rec.file,
+    Ok(outputs::drive_text(
+        &rec,
         args.motor,
+        &fit,
         jm,
         rig.current_loop_bandwidth_rad_per_s,
-        fit.km_nms_per_rad,
-        fit.mse_rpm2,
-        fit.mse_rpm2.sqrt()
     ))
 }
 
@@ -213,15 +203,7 @@ pub(super) fn write_drive_overlay(
 ) -> Result<()> {
     let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
     if format == Format::Csv {
-        let mut s = String::from("time_s,w_ref_rpm,w_rpm,w_sim_rpm\n");
-        for k in 0..rec.time_s.len() {
-            let _ = writeln!(
-                s,
-                "{},{},{},{:.6}",
-                rec.time_s[k], rec.w_ref_rpm[k], rec.w_rpm[k], fit.w_sim_rpm[k]
-            );
-        }
-        return write_atomic(path, s.as_bytes());
+        return write_atomic(path, outputs::drive_csv(rec, fit).as_bytes());
     }
     let chart = Chart::drive_step(rec, fit);
     crate::time::render(path, &chart)
@@ -309,11 +291,19 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     let id = finish(&exp.problem, stages, &opts)?;
     let seconds = start.elapsed().as_secs_f64();
     warn(&id.warnings());
-    if args.uncertainty {
-        let out = args.out.as_deref();
-        return crate::uncertainty::report(&exp, &id, seconds, args.confidence, args.json, out);
-    }
-    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+    let uncertainty = if args.uncertainty {
+        Some(analyze_uncertainty(&exp, &id, args.confidence)?)
+    } else {
+        None
+    };
+    report_identification(
+        &exp,
+        &id,
+        seconds,
+        uncertainty.as_ref(),
+        args.json,
+        args.out.as_deref(),
+    )
 }
 
 /// Warnings go to standard error, one line each, so `--json` output stays clean.
@@ -334,117 +324,56 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
         parts.push((p.clone(), part));
     }
     let (exp, id, seconds) = shards::merge(crate::inputs::files(), parts)?;
-    report_identification(&exp, &id, seconds, args.json, args.out.as_deref())
+    report_identification(&exp, &id, seconds, None, args.json, args.out.as_deref())
 }
 
-/// The JSON of an identification (also written as result.json).
-pub(super) fn identification_json(
+/// The profile-likelihood uncertainty of the best candidate (docs/identification.md,
+/// "Uncertainty") and the seconds it took.
+fn analyze_uncertainty(
     exp: &Experiment,
     id: &Identification,
-    seconds: f64,
-) -> Result<serde_json::Value> {
-    outputs::identification_json(exp, id, seconds)
+    confidence: f64,
+) -> Result<(Uncertainty, f64)> {
+    let start = Instant::now();
+    let opts = UncertaintyOptions {
+        confidence,
+        ..UncertaintyOptions::default()
+    };
+    let u = analyze(&exp.problem, &id.best().candidate, &opts)?;
+    Ok((u, start.elapsed().as_secs_f64()))
 }
 
+/// Report an identification (with its uncertainty when analysed): JSON or text; with `out`,
+/// its result folder (docs/identification.md), built aside and swapped in whole.
 fn report_identification(
     exp: &Experiment,
     id: &Identification,
     seconds: f64,
+    uncertainty: Option<&(Uncertainty, f64)>,
     json_out: bool,
     out: Option<&Path>,
 ) -> Result<String> {
-    let v = identification_json(exp, id, seconds)?;
+    let mut v = outputs::identification_json(exp, id, seconds)?;
+    if let Some((u, s)) = uncertainty {
+        add_uncertainty_json(&mut v, u, *s);
+    }
     if let Some(dir) = out {
-        write_result_folder(dir, exp, id, &v, |_| Ok(()))?;
+        let folder = crate::emit::out_dir(dir)?;
+        let mut files = outputs::files(exp, id, &v)?;
+        if let Some((u, _)) = uncertainty {
+            files.extend(profile_files(u)?);
+        }
+        for (name, bytes) in files {
+            write_atomic(&folder.path().join(name), &bytes)?;
+        }
+        folder.commit()?;
     }
     if json_out {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
-    Ok(identification_text(exp, id, seconds))
-}
-
-/// Write the identification's files into the result folder `dir`, built aside and swapped in
-/// whole; `more` adds files of its own to the folder before the swap.
-pub(super) fn write_result_folder(
-    dir: &Path,
-    exp: &Experiment,
-    id: &Identification,
-    v: &serde_json::Value,
-    more: impl FnOnce(&Path) -> Result<()>,
-) -> Result<()> {
-    let folder = crate::emit::out_dir(dir)?;
-    write_outputs(folder.path(), exp, id, v)?;
-    more(folder.path())?;
-    folder.commit()
-}
-
-pub(super) fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
-    let mut s = String::new();
-    let sizes: Vec<String> = id
-        .stages
-        .iter()
-        .map(|st| st.grid.len().to_string())
-        .collect();
-    let (nf, us): (u64, u64) = id.stages.iter().fold((0, 0), |(a, b), st| {
-        (a + st.summary.non_finite, b + st.summary.unstable)
-    });
-    let _ = writeln!(
-        s,
-        "{}: {} datasets, {} candidates ({}) in {seconds:.3} s; {nf} non-finite, {us} rejected as unstable",
-        exp.path.display(),
-        exp.problem.datasets.len(),
-        id.evaluated(),
-        sizes.join(" + ")
-    );
-    let line = |label: &str, c: &Scored| {
-        format!(
-            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)  cost {:.5} mm²\n",
-            c.candidate.beta_bar, c.candidate.viscous_friction_ns_per_m, c.candidate.c12_m5_per_ns, c.cost_mm2
-        )
-    };
-    s.push_str(&line("best grid point", &id.grid_best));
-    match &id.refined {
-        Some(r) => s.push_str(&line("refined (N-M)", r)),
-        None => s.push_str("  refined (N-M)    off, or no improvement on the grid\n"),
+    let mut text = outputs::identification_text(exp, id, seconds);
+    if let Some((u, s)) = uncertainty {
+        text += &uncertainty_text(u, *s);
     }
-    let _ = writeln!(
-        s,
-        "  leakages         c1 {:.4e}, c2 {:.4e} m⁵/(N·s) (standstill p2 = {:.3} bar)",
-        id.leakage.c1_m5_per_ns, id.leakage.c2_m5_per_ns, id.leakage.p2_bar
-    );
-    for (i, st) in id.stages.iter().enumerate() {
-        let bounds = st.summary.threshold_bounds.map_or("-".to_string(), |b| {
-            format!(
-                "beta {:.0}..{:.0} bar, b {:.0}..{:.0} N·s/m, c12 {:.2e}..{:.2e}",
-                b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]
-            )
-        });
-        let _ = writeln!(
-            s,
-            "  stage {} threshold set (cost < {} mm²): {} candidates; {bounds}",
-            i + 1,
-            st.summary.threshold_mm2,
-            st.summary.threshold_count
-        );
-    }
-    let _ = writeln!(s, "top {}:", id.top.len());
-    for (k, c) in id.top.iter().enumerate() {
-        s.push_str(&line(&format!("{:>2}", k + 1), c));
-    }
-    s
-}
-
-/// The files of [`outputs::files`] into the existing folder `dir` (a temporary [`OutDir`]
-/// folder or a subfolder of one; never created here, so an interruption's cleanup is never
-/// undone).
-pub(super) fn write_outputs(
-    dir: &Path,
-    exp: &Experiment,
-    id: &Identification,
-    v: &serde_json::Value,
-) -> Result<()> {
-    for (name, bytes) in outputs::files(exp, id, v)? {
-        write_atomic(&dir.join(name), &bytes)?;
-    }
-    Ok(())
+    Ok(text)
 }

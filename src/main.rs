@@ -19,7 +19,6 @@ mod reproduce;
 mod robust;
 mod signals;
 mod time;
-mod uncertainty;
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};

@@ -5,7 +5,9 @@
 use crate::figures::{Chart, Plot, PARAMETER_AXES};
 use crate::plot::{HeatMap, Marker};
 use anyhow::Result;
-use pumpcyl::ident::{Candidate, Experiment, Identification, Leakage, Scored};
+use pumpcyl::ident::{
+    Candidate, DriveFit, DriveRecord, Experiment, Identification, Leakage, Scored, Standstill,
+};
 use pumpcyl::matfile::MatWriter;
 use pumpcyl::response::Signals;
 use serde_json::{json, Value};
@@ -278,4 +280,120 @@ pub fn files(exp: &Experiment, id: &Identification, v: &Value) -> Result<Vec<(St
         identification_mat(id, &landscape, &fits),
     ));
     Ok(out)
+}
+
+/// The text of an identification: the run's size and time (`seconds`), the best grid point,
+/// the refined point, the leakages, each stage's threshold set and the top candidates.
+pub fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
+    let mut s = String::new();
+    let sizes: Vec<String> = id
+        .stages
+        .iter()
+        .map(|st| st.grid.len().to_string())
+        .collect();
+    let (nf, us): (u64, u64) = id.stages.iter().fold((0, 0), |(a, b), st| {
+        (a + st.summary.non_finite, b + st.summary.unstable)
+    });
+    let _ = writeln!(
+        s,
+        "{}: {} datasets, {} candidates ({}) in {seconds:.3} s; {nf} non-finite, {us} rejected as unstable",
+        exp.path.display(),
+        exp.problem.datasets.len(),
+        id.evaluated(),
+        sizes.join(" + ")
+    );
+    s.push_str(&scored_line("best grid point", &id.grid_best));
+    match &id.refined {
+        Some(r) => s.push_str(&scored_line("refined (N-M)", r)),
+        None => s.push_str("  refined (N-M)    off, or no improvement on the grid\n"),
+    }
+    let _ = writeln!(
+        s,
+        "  leakages         c1 {:.4e}, c2 {:.4e} m⁵/(N·s) (standstill p2 = {:.3} bar)",
+        id.leakage.c1_m5_per_ns, id.leakage.c2_m5_per_ns, id.leakage.p2_bar
+    );
+    for (i, st) in id.stages.iter().enumerate() {
+        let bounds = st.summary.threshold_bounds.map_or("-".to_string(), |b| {
+            format!(
+                "beta {:.0}..{:.0} bar, b {:.0}..{:.0} N·s/m, c12 {:.2e}..{:.2e}",
+                b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]
+            )
+        });
+        let _ = writeln!(
+            s,
+            "  stage {} threshold set (cost < {} mm²): {} candidates; {bounds}",
+            i + 1,
+            st.summary.threshold_mm2,
+            st.summary.threshold_count
+        );
+    }
+    let _ = writeln!(s, "top {}:", id.top.len());
+    for (k, c) in id.top.iter().enumerate() {
+        s.push_str(&scored_line(&format!("{:>2}", k + 1), c));
+    }
+    s
+}
+
+/// One candidate and its cost as a text line.
+fn scored_line(label: &str, c: &Scored) -> String {
+    format!(
+        "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)  cost {:.5} mm²\n",
+        c.candidate.beta_bar,
+        c.candidate.viscous_friction_ns_per_m,
+        c.candidate.c12_m5_per_ns,
+        c.cost_mm2
+    )
+}
+
+/// The standstill leakages (the article §2.4) as text: the standstill `s` and its leakages `l`.
+pub fn leakage_text(s: &Standstill, l: &Leakage) -> String {
+    format!(
+        "standstill (the article §2.4): w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar\n  p2 (force balance)  {:.3} bar\n  \
+         c12                 {:.4e} m⁵/(N·s)\n  c1                  {:.4e} m⁵/(N·s)\n  c2                  {:.4e} m⁵/(N·s)\n",
+        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, l.c12_m5_per_ns, l.c1_m5_per_ns, l.c2_m5_per_ns
+    )
+}
+
+/// The drive's identified damping as JSON: the record's name, the motor (1 or 2), Km
+/// (N·m·s/rad), the fit's MSE (rpm²) and the rotor inertia used (kg·m²).
+pub fn drive_json(rec: &DriveRecord, motor: u8, fit: &DriveFit, inertia_kg_m2: f64) -> Value {
+    json!({
+        "file": rec.file, "motor": motor, "km_nms_per_rad": fit.km_nms_per_rad,
+        "mse_rpm2": fit.mse_rpm2, "rotor_inertia_kg_m2": inertia_kg_m2,
+    })
+}
+
+/// The drive's identified damping as text, with the rotor inertia (kg·m²) and the current
+/// loop's bandwidth (rad/s) it was fitted with.
+pub fn drive_text(
+    rec: &DriveRecord,
+    motor: u8,
+    fit: &DriveFit,
+    inertia_kg_m2: f64,
+    current_loop_rad_per_s: f64,
+) -> String {
+    format!(
+        "{}: motor {} (Jm = {:.3e} kg·m², current loop {} rad/s, feedforward off)\n  Km  {:.5} N·m·s/rad\n  fit MSE {:.3} rpm² (RMS {:.2} rpm)\n",
+        rec.file,
+        motor,
+        inertia_kg_m2,
+        current_loop_rad_per_s,
+        fit.km_nms_per_rad,
+        fit.mse_rpm2,
+        fit.mse_rpm2.sqrt()
+    )
+}
+
+/// The drive step record beside the fitted model as CSV: time (s), speed reference, measured
+/// and simulated speed (rpm).
+pub fn drive_csv(rec: &DriveRecord, fit: &DriveFit) -> String {
+    let mut s = String::from("time_s,w_ref_rpm,w_rpm,w_sim_rpm\n");
+    for k in 0..rec.time_s.len() {
+        let _ = writeln!(
+            s,
+            "{},{},{},{:.6}",
+            rec.time_s[k], rec.w_ref_rpm[k], rec.w_rpm[k], fit.w_sim_rpm[k]
+        );
+    }
+    s
 }

@@ -14,7 +14,8 @@
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`mod@format`] — numbers and names as the text outputs show them;
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
-//! - [`table`] — tables of text cells, for terminals and reports.
+//! - [`table`] — tables of text cells, for terminals and reports;
+//! - [`uncertainty`] — the uncertainty of an identification: JSON fields, text, profile figures.
 
 #![warn(missing_docs)]
 
@@ -29,3 +30,4 @@ pub mod matlab;
 pub mod plot;
 pub mod reproduce;
 pub mod table;
+pub mod uncertainty;

@@ -1,0 +1,270 @@
+//! The layers hold (docs/architecture.md): the core crate depends on no command-line, plotting or
+//! signal crate, the presentation crate on no command-line or signal crate, and no source file
+//! of any crate is part of a dependency cycle with another.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The packages `package` depends on at run time (`cargo tree -e normal`), by name.
+fn runtime_dependencies(package: &str) -> BTreeSet<String> {
+    let out = Command::new(env!("CARGO"))
+        .args(["tree", "-p", package, "-e", "normal", "--prefix", "none"])
+        .args(["--offline", "--locked", "--format", "{p}"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn the_core_needs_no_front_end_crate_and_present_no_command_line_crate() {
+    let core = runtime_dependencies("pumpcyl");
+    for banned in [
+        "clap",
+        "indicatif",
+        "signal-hook",
+        "plotters",
+        "resvg",
+        "tempfile",
+    ] {
+        assert!(!core.contains(banned), "the core depends on {banned}");
+    }
+    assert!(core.contains("nalgebra"), "{core:?}");
+    let present = runtime_dependencies("pumpcyl-present");
+    for banned in ["clap", "indicatif", "signal-hook"] {
+        assert!(
+            !present.contains(banned),
+            "pumpcyl-present depends on {banned}"
+        );
+    }
+    assert!(present.contains("plotters") && present.contains("pumpcyl"));
+}
+
+/// Every `.rs` file under `dir`, by its path relative to `dir`.
+fn sources(dir: &Path) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                let rel = p
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .to_string_lossy()
+                    .replace('\\', "/");
+                out.insert(rel, std::fs::read_to_string(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+/// The module path of a source file (`lti/mod.rs` → [lti], `lti/poles.rs` → [lti, poles]).
+fn module_of(rel: &str) -> Vec<String> {
+    let mut parts: Vec<String> = rel
+        .trim_end_matches(".rs")
+        .split('/')
+        .map(String::from)
+        .collect();
+    if matches!(
+        parts.last().map(String::as_str),
+        Some("mod" | "lib" | "main")
+    ) {
+        parts.pop();
+    }
+    parts
+}
+
+/// The code of a file without its tests and comments.
+fn code(text: &str) -> String {
+    let text = text.split("#[cfg(test)]").next().unwrap_or("");
+    text.lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The paths (`crate::a::b::C`, `super::d::E`, the items of a `{…}` group) a file names, as
+/// module paths from the crate root.
+fn named_paths(module: &[String], text: &str) -> Vec<Vec<String>> {
+    let mut out = Vec::new();
+    let bytes = text.as_bytes();
+    let ident = |c: u8| c.is_ascii_alphanumeric() || c == b'_';
+    let mut i = 0;
+    while i < bytes.len() {
+        if !text.is_char_boundary(i) {
+            i += 1;
+            continue;
+        }
+        let rest = &text[i..];
+        let base = ["crate::", "super::"]
+            .into_iter()
+            .find(|b| rest.starts_with(b));
+        if base.is_none() || (i > 0 && ident(bytes[i - 1])) {
+            i += 1;
+            continue;
+        }
+        let mut end = i;
+        while end < bytes.len() && (ident(bytes[end]) || bytes[end] == b':') {
+            end += 1;
+        }
+        let mut segs: Vec<String> = text[i..end]
+            .split("::")
+            .filter(|s| !s.is_empty())
+            .map(String::from)
+            .collect();
+        let mut prefix: Vec<String> = Vec::new();
+        if segs[0] == "super" {
+            // `super` of a mod.rs file's module is its parent, as for any file
+            prefix = module[..module.len().saturating_sub(1)].to_vec();
+            segs.remove(0);
+            while segs.first().is_some_and(|s| s == "super") {
+                prefix.pop();
+                segs.remove(0);
+            }
+        } else {
+            segs.remove(0);
+        }
+        let head: Vec<String> = prefix.into_iter().chain(segs).collect();
+        out.push(head.clone());
+        if text[end..].starts_with('{') {
+            let close = text[end..].find('}').map_or(text.len(), |k| end + k);
+            for item in text[end + 1..close].split(',') {
+                let item: Vec<String> = item
+                    .trim()
+                    .split("::")
+                    .map(|s| s.split_whitespace().next().unwrap_or("").to_string())
+                    .filter(|s| !s.is_empty() && s != "self")
+                    .collect();
+                out.push(head.iter().cloned().chain(item).collect());
+            }
+        }
+        i = end.max(i + 1);
+    }
+    out
+}
+
+/// The files of `src` that lie on a dependency cycle, each with its edges inside the cycle.
+fn cycles(src: &Path) -> Vec<BTreeSet<String>> {
+    let files = sources(src);
+    let by_module: BTreeMap<Vec<String>, String> =
+        files.keys().map(|f| (module_of(f), f.clone())).collect();
+    // `pub use child::{A, B}` in a module: A and B are defined in the child
+    let mut reexports: BTreeMap<(Vec<String>, String), Vec<String>> = BTreeMap::new();
+    for (f, text) in &files {
+        let m = module_of(f);
+        for line in code(text).lines() {
+            let Some(rest) = line.trim().strip_prefix("pub use ") else {
+                continue;
+            };
+            let rest = rest.trim_start_matches("self::");
+            let Some((child, items)) = rest.split_once("::") else {
+                continue;
+            };
+            if !by_module.contains_key(&[m.clone(), vec![child.to_string()]].concat()) {
+                continue;
+            }
+            for item in items
+                .split([',', '{', '}', ';', ' '])
+                .filter(|s| !s.is_empty())
+            {
+                let target = [m.clone(), vec![child.to_string()]].concat();
+                reexports.insert((m.clone(), item.to_string()), target);
+            }
+        }
+    }
+    let resolve = |path: &[String]| -> Option<String> {
+        let mut path = path.to_vec();
+        for _ in 0..8 {
+            let k = (0..=path.len())
+                .rev()
+                .find(|&k| by_module.contains_key(&path[..k]))?;
+            let module = path[..k].to_vec();
+            match path
+                .get(k)
+                .and_then(|item| reexports.get(&(module.clone(), item.clone())))
+            {
+                Some(target) if *target != module => {
+                    path = target
+                        .iter()
+                        .cloned()
+                        .chain(path[k + 1..].iter().cloned())
+                        .collect()
+                }
+                _ => return by_module.get(&module).cloned(),
+            }
+        }
+        None
+    };
+    let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (f, text) in &files {
+        for p in named_paths(&module_of(f), &code(text)) {
+            if let Some(g) = resolve(&p).filter(|g| g != f) {
+                edges.entry(f.clone()).or_default().insert(g);
+            }
+        }
+    }
+    // files that reach each other lie on a cycle
+    let reach = |from: &String| -> BTreeSet<String> {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from.clone()];
+        while let Some(v) = stack.pop() {
+            for w in edges.get(&v).into_iter().flatten() {
+                if seen.insert(w.clone()) {
+                    stack.push(w.clone());
+                }
+            }
+        }
+        seen
+    };
+    let reaches: BTreeMap<String, BTreeSet<String>> =
+        files.keys().map(|f| (f.clone(), reach(f))).collect();
+    let mut out: Vec<BTreeSet<String>> = Vec::new();
+    for f in files.keys() {
+        let comp: BTreeSet<String> = reaches[f]
+            .iter()
+            .filter(|g| reaches[*g].contains(f))
+            .cloned()
+            .collect();
+        if !comp.is_empty() && !out.iter().any(|c| c.contains(f)) {
+            out.push(comp);
+        }
+    }
+    out
+}
+
+#[test]
+fn no_source_file_is_on_a_dependency_cycle() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for src in ["crates/core/src", "crates/present/src", "src", "python/src"] {
+        let found = cycles(&root.join(src));
+        assert!(found.is_empty(), "{src}: files on a cycle: {found:?}");
+    }
+}
+
+#[test]
+fn the_cycle_check_finds_a_cycle() {
+    let dir = tempfile::tempdir().unwrap();
+    let src: PathBuf = dir.path().into();
+    std::fs::create_dir(src.join("a")).unwrap();
+    std::fs::write(src.join("lib.rs"), "mod a;\nmod b;\n").unwrap();
+    std::fs::write(src.join("a/mod.rs"), "mod x;\npub use x::X;\n").unwrap();
+    std::fs::write(src.join("a/x.rs"), "use crate::b::Y;\npub struct X;\n").unwrap();
+    std::fs::write(src.join("b.rs"), "use crate::a::X;\npub struct Y;\n").unwrap();
+    let found = cycles(&src);
+    let want: BTreeSet<String> = ["a/x.rs", "b.rs"].map(String::from).into();
+    assert_eq!(found, vec![want]);
+}
