@@ -102,7 +102,9 @@ class Margins(Result):
     delay_margin_s: Optional[float]
     """Smallest delay margin (s); ``None`` without a gain crossing (infinite)."""
     closed_loop_stable: bool
-    """Closed-loop stability from the closed-loop eigenvalues."""
+    """Closed-loop asymptotic stability proven from the closed-loop eigenvalues."""
+    closed_loop_stability: str
+    """"stable", "unstable", or "undecided" (a pole within rounding of the imaginary axis)."""
     crossings: List[Dict[str, Any]]
     """Every crossing by increasing frequency: kind ("gain"/"phase"), frequency_hz,
     magnitude_db, phase_deg, margin (deg at a gain crossing, dB at a phase crossing),

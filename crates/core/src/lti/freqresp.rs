@@ -25,6 +25,8 @@ pub struct FreqEvaluator {
     d: f64,
     /// Eigenvalues of A, sorted by modulus.
     poles: Vec<Complex64>,
+    /// Poles at the origin (integrators), decided against rounding.
+    integrators: usize,
 }
 
 /// Largest order solved in a stack buffer (larger models use the heap).
@@ -35,15 +37,14 @@ impl FreqEvaluator {
     pub fn new(sys: &StateSpace) -> Result<Self, LtiError> {
         sys.require_siso()?;
         let schur = BalancedSchur::new(&sys.a)?;
-        let b = sys.b.column(0).component_div(&schur.scale);
-        let c = sys.c.row(0).transpose().component_mul(&schur.scale);
         let n = schur.t.nrows();
         Ok(FreqEvaluator {
             n,
             t: (0..n * n).map(|k| schur.t[(k / n, k % n)]).collect(),
-            b: schur.q.tr_mul(&b).iter().copied().collect(),
-            c: schur.q.tr_mul(&c).iter().copied().collect(),
+            b: schur.input(&sys.b.column(0).into_owned()),
+            c: schur.output(&sys.c.row(0).transpose()),
             d: sys.d[(0, 0)],
+            integrators: schur.integrators(),
             poles: schur.eigenvalues,
         })
     }
@@ -51,6 +52,12 @@ impl FreqEvaluator {
     /// Eigenvalues of A (the open-loop poles), sorted by modulus.
     pub fn poles(&self) -> &[Complex64] {
         &self.poles
+    }
+
+    /// The number of poles at the origin (integrators): the smallest eigenvalues that are zero
+    /// within rounding (docs/analysis.md#margins).
+    pub fn integrators(&self) -> usize {
+        self.integrators
     }
 
     /// G(s) at a complex frequency s (rad/s). At an eigenvalue of A the result is infinite.
@@ -130,7 +137,7 @@ pub fn log_grid(from: f64, to: f64, points: usize) -> Vec<f64> {
 /// than 180° between neighbours (use `margins` for a self-refining grid).
 pub fn bode(sys: &StateSpace, freq_hz: &[f64]) -> Result<Bode, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
-    let integrators = super::poles::count_integrators(ev.poles());
+    let integrators = ev.integrators();
     let values: Vec<Complex64> = freq_hz.iter().map(|f| ev.at(2.0 * PI * f)).collect();
     if let Some((f, _)) = freq_hz
         .iter()

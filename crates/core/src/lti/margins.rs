@@ -13,8 +13,7 @@
 //! the margins, so open-loop unstable plants are not misjudged.
 
 use super::freqresp::{nearest_branch, unwrap_anchored, FreqEvaluator};
-use super::poles::count_integrators;
-use super::{is_stable, roots, LtiError, StateSpace};
+use super::{roots, LtiError, Stability, StateSpace};
 use num_complex::Complex64;
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -81,8 +80,12 @@ pub struct Margins {
     /// Smallest delay margin over the gain crossings (s); 0 when the closed loop is already
     /// unstable **\[choice\]** (docs/choices.md); `None` (infinite) without a gain crossing.
     pub delay_margin_s: Option<f64>,
-    /// Closed-loop stability from the closed-loop eigenvalues.
+    /// Closed-loop asymptotic stability proven from the closed-loop eigenvalues: true only when
+    /// [`closed_loop_stability`](Margins::closed_loop_stability) is `Stable`.
     pub closed_loop_stable: bool,
+    /// Closed-loop stability from the closed-loop eigenvalues, decided against rounding:
+    /// `stable`, `unstable`, or `undecided` when a pole lies within rounding of the imaginary axis.
+    pub closed_loop_stability: Stability,
     /// Every crossing, by increasing frequency.
     pub crossings: Vec<Crossing>,
     /// Poles at the origin counted for the phase anchor.
@@ -116,14 +119,25 @@ pub struct Margins {
 pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
     let poles = ev.poles();
-    let integrators = count_integrators(poles);
-    let closed_loop_stable = is_stable(&sys.closed_loop_poles()?);
+    let integrators = ev.integrators();
+    let stability = sys.closed_loop_stability()?;
     let grid = Grid::build(&ev, poles, integrators, sys.d[(0, 0)]);
     let mut crossings = grid.crossings(&ev);
     if integrators == 0 {
         crossings.splice(0..0, dc_phase_crossing(&ev));
     }
-    Ok(summarise(crossings, closed_loop_stable, integrators))
+    let m = summarise(crossings, stability, integrators);
+    if let Some(c) = m
+        .crossings
+        .iter()
+        .find(|c| !(c.margin.is_finite() && c.phase_deg.is_finite()))
+    {
+        return Err(LtiError::NonFiniteResult {
+            what: "the margins",
+            at: format!("{} Hz", crate::units::readable(c.frequency_hz)),
+        });
+    }
+    Ok(m)
 }
 
 /// A loop without integrators whose DC gain L(0) is negative sits on −180° at ω = 0: that is a
@@ -144,7 +158,8 @@ fn dc_phase_crossing(ev: &FreqEvaluator) -> Option<Crossing> {
 }
 
 /// Pick the headline margins from the crossings.
-fn summarise(crossings: Vec<Crossing>, closed_loop_stable: bool, integrators: usize) -> Margins {
+fn summarise(crossings: Vec<Crossing>, stability: Stability, integrators: usize) -> Margins {
+    let closed_loop_stable = stability == Stability::Stable;
     let smallest = |kind| {
         crossings
             .iter()
@@ -165,6 +180,7 @@ fn summarise(crossings: Vec<Crossing>, closed_loop_stable: bool, integrators: us
         gain_crossover_hz: pm.map(|c| c.frequency_hz),
         delay_margin_s: delay,
         closed_loop_stable,
+        closed_loop_stability: stability,
         crossings,
         integrators,
     }
@@ -189,6 +205,9 @@ impl Grid {
         );
         seeds.sort_by(f64::total_cmp);
         seeds.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * *b);
+        for w in &mut seeds {
+            *w = off_pole(ev, *w);
+        }
         let mut omega = Vec::with_capacity(seeds.len() * 2);
         let mut values = Vec::with_capacity(seeds.len() * 2);
         let mut prev = (seeds[0], ev.at(seeds[0]));
@@ -350,18 +369,22 @@ fn golden_min(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 }
 
 /// Analysis range (rad/s): two decades beyond the slowest and fastest non-zero poles, extended
-/// (a decade at a time, twelve at most) while a gain crossing must still lie outside: while |L|
-/// at an end of the range is on the other side of 1 from its limit beyond that end — ∞ at
-/// ω → 0 with integrators, |L(0)| without, |D| at ω → ∞. (The poles alone do not bound the
-/// crossings: a zero far below them can lift |L| through 1 below the range.)
+/// (a decade at a time, twelve at most) while a gain crossing must still lie outside — while |L|
+/// at an end of the range is on the other side of 1 from its limit beyond that end (∞ at
+/// ω → 0 with integrators, |L(0)| without, |D| at ω → ∞) — or while the phase has not settled
+/// to its asymptote there (it still moves more than [`SETTLED_DEG`] over the next decade) and
+/// |L| is above the phase-crossing floor. The poles alone do not bound the crossings: a zero far
+/// below or above them turns the phase and lifts |L| through 1 outside their range.
 fn frequency_range(
     ev: &FreqEvaluator,
     poles: &[Complex64],
     integrators: usize,
     d: f64,
 ) -> (f64, f64) {
-    let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
-    let nonzero = poles.iter().map(|p| p.norm()).filter(|&w| w > 1e-8 * scale);
+    let nonzero = poles[integrators..]
+        .iter()
+        .map(|p| p.norm())
+        .filter(|&w| w > 0.0);
     let (min, max) = nonzero.fold((f64::INFINITY, 0.0f64), |(lo, hi), w| {
         (lo.min(w), hi.max(w))
     });
@@ -375,16 +398,26 @@ fn frequency_range(
     } else {
         ev.eval(Complex64::new(0.0, 0.0)).norm()
     };
+    let floor = 10f64.powf(PHASE_CROSSING_FLOOR_DB / 20.0);
+    let unsettled = |w0: f64, w1: f64| {
+        let (g0, g1) = (ev.at(w0), ev.at(w1));
+        let turn = nearest_branch((g1 / g0).arg().to_degrees(), 0.0).abs();
+        !(turn <= SETTLED_DEG) && g0.norm().max(g1.norm()) > floor
+    };
     for _ in 0..12 {
-        if (ev.at(lo).norm() < 1.0) != (dc < 1.0) {
+        if (ev.at(lo).norm() < 1.0) != (dc < 1.0) || unsettled(lo / 10.0, lo) {
             lo /= 10.0;
         }
-        if (ev.at(hi).norm() < 1.0) != (d.abs() < 1.0) {
+        if (ev.at(hi).norm() < 1.0) != (d.abs() < 1.0) || unsettled(hi, hi * 10.0) {
             hi *= 10.0;
         }
     }
     (lo, hi)
 }
+
+/// The phase (deg) is settled at an end of the range when it turns less than this over the next
+/// decade: a pole or zero three decades beyond turns it by about 0.5°, four decades by 0.05°.
+const SETTLED_DEG: f64 = 0.1;
 
 /// Extra grid points around lightly damped poles (ζ < 0.5): ω_d (1 ± jζ), j ∈ {0, 1, 2, 4}.
 fn pole_points(poles: &[Complex64]) -> Vec<f64> {
@@ -394,13 +427,27 @@ fn pole_points(poles: &[Complex64]) -> Vec<f64> {
         if zeta.abs() < 0.5 {
             for j in [-4.0, -2.0, -1.0, 0.0, 1.0, 2.0, 4.0] {
                 let w = p.im * (1.0 + j * zeta.abs());
-                if w > 0.0 {
+                // never on an undamped pole itself, where |L| is infinite
+                if w > 0.0 && (j != 0.0 || zeta != 0.0) {
                     pts.push(w);
                 }
             }
         }
     }
     pts
+}
+
+/// ω itself, or just above it (by 1e-9 relative, a few times at most) where ω falls on an
+/// undamped pole and |L(jω)| is infinite.
+fn off_pole(ev: &FreqEvaluator, omega: f64) -> f64 {
+    let finite = |w: f64| {
+        let g = ev.at(w);
+        g.re.is_finite() && g.im.is_finite()
+    };
+    (0..4)
+        .map(|k| omega * (1.0 + 1e-9 * k as f64))
+        .find(|&w| finite(w))
+        .unwrap_or(omega)
 }
 
 /// Root of `f(ln ω)` between ω0 and ω1 (rad/s), returned as ω.

@@ -13,7 +13,7 @@ mod timeresp;
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
-pub use poles::{check_magnitudes, eigenvalues, resonance, PoleInfo};
+pub use poles::{check_magnitudes, eigenvalues, resonance, stability, PoleInfo, Stability};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;
@@ -177,19 +177,25 @@ impl StateSpace {
         StateSpace::new(a, &self.b / den, &self.c / den, &self.d / den)
     }
 
+    /// Stability of the closed loop under unity negative feedback (SISO), decided against
+    /// rounding ([`stability`]).
+    pub fn closed_loop_stability(&self) -> Result<Stability, LtiError> {
+        stability(&self.unity_feedback()?.a)
+    }
+
     /// Closed-loop poles under unity negative feedback (SISO).
     pub fn closed_loop_poles(&self) -> Result<Vec<num_complex::Complex64>, LtiError> {
         eigenvalues(&self.unity_feedback()?.a)
     }
 }
 
-/// Fail with [`LtiError::Unstable`] unless every eigenvalue of `a` lies in the open left
-/// half-plane.
+/// Fail with [`LtiError::Unstable`] unless `a` is provably asymptotically stable: every
+/// eigenvalue left of the imaginary axis by more than rounding ([`stability`]).
 pub fn require_stable(a: &DMatrix<f64>) -> Result<(), LtiError> {
-    let poles = eigenvalues(a)?;
-    if is_stable(&poles) {
+    if stability(a)? == Stability::Stable {
         return Ok(());
     }
+    let poles = eigenvalues(a)?;
     let p = poles
         .iter()
         .copied()

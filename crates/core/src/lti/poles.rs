@@ -56,9 +56,16 @@ pub fn check_magnitudes(matrix: &'static str, a: &DMatrix<f64>) -> Result<(), Lt
     }
 }
 
-/// Real Schur form of the balanced matrix: `D⁻¹ A D = Q T Qᵀ`, T quasi-upper-triangular with
-/// exactly zero sub-diagonal entries between its 1×1 and 2×2 blocks.
+/// Real Schur form of the permuted and balanced matrix: `D⁻¹ Pᵀ A P D = Q T Qᵀ`, T
+/// quasi-upper-triangular with exactly zero sub-diagonal entries between its 1×1 and 2×2
+/// blocks. The permutation P first isolates the eigenvalues that the sparsity of A already
+/// shows (a row or column with no off-diagonal entry in the active block, as LAPACK's `gebal`
+/// does): they are diagonal entries, exact, so integrators built in series stay at exactly 0
+/// instead of splitting into a rounding-noise cluster, and a nilpotent chain never reaches the
+/// QR iteration.
 pub(crate) struct BalancedSchur {
+    /// The permutation: row/column i of the permuted matrix is row/column `perm[i]` of A.
+    pub perm: Vec<usize>,
     /// Balancing scale D (diagonal).
     pub scale: DVector<f64>,
     /// Orthogonal Schur vectors.
@@ -67,10 +74,12 @@ pub(crate) struct BalancedSchur {
     pub t: DMatrix<f64>,
     /// Eigenvalues sorted by modulus.
     pub eigenvalues: Vec<Complex64>,
+    /// The 1-norm of the permuted, balanced A: the scale of its rounding errors.
+    pub norm: f64,
 }
 
 impl BalancedSchur {
-    /// Balance, then Schur with an iteration limit.
+    /// Permute, balance, then Schur with an iteration limit.
     pub fn new(a: &DMatrix<f64>) -> Result<Self, LtiError> {
         if let Some(k) = a.iter().position(|v| !v.is_finite()) {
             return Err(LtiError::NonFinite {
@@ -80,8 +89,14 @@ impl BalancedSchur {
             });
         }
         check_magnitudes("A", a)?;
-        let mut balanced = a.clone();
+        let perm = isolating_permutation(a);
+        let n = a.nrows();
+        let mut balanced = DMatrix::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
         let scale = balance_parlett_reinsch(&mut balanced);
+        let norm = balanced
+            .column_iter()
+            .map(|c| c.lp_norm(1))
+            .fold(0.0, f64::max);
         let schur = balanced
             .try_schur(f64::EPSILON, SCHUR_MAX_ITER)
             .ok_or(LtiError::NoConvergence)?;
@@ -89,12 +104,68 @@ impl BalancedSchur {
         eigenvalues.sort_by(|p, q| p.norm().total_cmp(&q.norm()).then(p.im.total_cmp(&q.im)));
         let (q, t) = schur.unpack();
         Ok(BalancedSchur {
+            perm,
             scale,
             q,
             t,
             eigenvalues,
+            norm,
         })
     }
+
+    /// The rounding radius of a simple eigenvalue (1/s): n·ε·‖A‖₁ of the permuted, balanced
+    /// A (first-order perturbation of a well-conditioned eigenvalue; 0 for A = 0).
+    pub fn rounding(&self) -> f64 {
+        self.t.nrows() as f64 * f64::EPSILON * self.norm
+    }
+
+    /// The number of poles at the origin ([`count_integrators`]).
+    pub fn integrators(&self) -> usize {
+        count_integrators(&self.eigenvalues, self.rounding(), self.norm)
+    }
+
+    /// An input vector b of A's basis in the Schur basis: Qᵀ D⁻¹ Pᵀ b.
+    pub fn input(&self, b: &DVector<f64>) -> Vec<f64> {
+        let pb = DVector::from_fn(b.len(), |i, _| b[self.perm[i]] / self.scale[i]);
+        self.q.tr_mul(&pb).iter().copied().collect()
+    }
+
+    /// An output row c of A's basis in the Schur basis (as a column): Qᵀ D Pᵀ cᵀ.
+    pub fn output(&self, c: &DVector<f64>) -> Vec<f64> {
+        let pc = DVector::from_fn(c.len(), |i, _| c[self.perm[i]] * self.scale[i]);
+        self.q.tr_mul(&pc).iter().copied().collect()
+    }
+}
+
+/// The symmetric permutation that isolates eigenvalues (LAPACK `gebal`, job 'P'): rows with no
+/// off-diagonal entry inside the active block go to its bottom, columns with none to its top,
+/// until neither is left; at most n passes of O(n²).
+fn isolating_permutation(a: &DMatrix<f64>) -> Vec<usize> {
+    let n = a.nrows();
+    let mut perm: Vec<usize> = (0..n).collect();
+    let (mut lo, mut hi) = (0, n);
+    let at = |perm: &[usize], i: usize, j: usize| a[(perm[i], perm[j])];
+    'rows: while hi > lo {
+        for i in (lo..hi).rev() {
+            if (lo..hi).all(|j| j == i || at(&perm, i, j) == 0.0) {
+                perm.swap(i, hi - 1);
+                hi -= 1;
+                continue 'rows;
+            }
+        }
+        break;
+    }
+    'cols: while hi > lo {
+        for j in lo..hi {
+            if (lo..hi).all(|i| i == j || at(&perm, i, j) == 0.0) {
+                perm.swap(j, lo);
+                lo += 1;
+                continue 'cols;
+            }
+        }
+        break;
+    }
+    perm
 }
 
 /// A pole with its natural frequency and damping ratio.
@@ -137,10 +208,30 @@ pub fn resonance(poles: &[Complex64], from_hz: f64, to_hz: f64) -> Option<PoleIn
         })
 }
 
-/// Poles within 1e-8·max(1, max |λ|) of the origin.
-pub(crate) fn count_integrators(poles: &[Complex64]) -> usize {
-    let scale = poles.iter().map(|p| p.norm()).fold(1.0, f64::max);
-    poles.iter().filter(|p| p.norm() <= 1e-8 * scale).count()
+/// The number of poles at the origin, from eigenvalues sorted by modulus, the rounding radius
+/// `rounding` = n·ε·‖A‖ (1/s; [`BalancedSchur::rounding`]) and ‖A‖ (`norm`).
+///
+/// A single computed eigenvalue is at the origin when it lies within 100 rounding radii of it
+/// (room for an eigenvalue condition number up to 100, a similarity of condition 10 or so). An
+/// m-fold pole at the origin (m ≥ 2, a Jordan block) is computed as a cluster of m eigenvalues
+/// of radius about (`rounding`/‖A‖)^(1/m)·‖A‖ around it whose mean stays within `rounding` of
+/// 0, since rounding perturbs the cluster's trace only to first order: m is the largest count
+/// whose m smallest eigenvalues lie inside that radius with their mean inside `rounding`. So a
+/// slow pole beside a fast one (−0.5 beside −1e9, or −3e-6 beside an integrator in a stiff rig)
+/// is not an integrator, and a double integrator that rounding split into ±1e-7 is two
+/// (docs/analysis.md#phase-unwrapping-from-the-integrators).
+pub(crate) fn count_integrators(poles: &[Complex64], rounding: f64, norm: f64) -> usize {
+    if norm == 0.0 {
+        return poles.len();
+    }
+    let cluster = (2..=poles.len()).rev().find(|&m| {
+        let radius = (rounding / norm).powf(1.0 / m as f64) * norm;
+        let mean = poles[..m].iter().sum::<Complex64>() / m as f64;
+        poles[m - 1].norm() <= radius && mean.norm() <= rounding
+    });
+    cluster.unwrap_or(usize::from(
+        poles.first().is_some_and(|p| p.norm() <= 100.0 * rounding),
+    ))
 }
 
 #[cfg(test)]
@@ -201,4 +292,34 @@ mod tests {
         let a = DMatrix::from_row_slice(1, 1, &[f64::NAN]);
         assert!(eigenvalues(&a).is_err());
     }
+}
+
+/// Asymptotic stability of a matrix's eigenvalues, decided against rounding.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stability {
+    /// Every eigenvalue lies left of the imaginary axis by more than its rounding radius.
+    Stable,
+    /// An eigenvalue lies right of the imaginary axis by more than its rounding radius.
+    Unstable,
+    /// No eigenvalue is clearly unstable, but one lies within rounding of the imaginary axis
+    /// (a pole at the origin or an undamped pair): not provably asymptotically stable.
+    Undecided,
+}
+
+/// The stability of `a`'s eigenvalues, with tolerances relative to the matrix's scale (the
+/// rounding radius n·ε·‖A‖₁ after balancing, and the integrator clusters of
+/// [`count_integrators`]), so a pole at −2e-12 of a model whose entries are 1e-12 is stable
+/// and one at −1e-9 beside poles at 1e10 is undecided (docs/analysis.md#poles-and-damping).
+pub fn stability(a: &DMatrix<f64>) -> Result<Stability, LtiError> {
+    let s = BalancedSchur::new(a)?;
+    let (rounding, at_origin) = (s.rounding(), s.integrators());
+    let rest = &s.eigenvalues[at_origin..];
+    Ok(if rest.iter().any(|p| p.re > rounding) {
+        Stability::Unstable
+    } else if at_origin > 0 || rest.iter().any(|p| p.re >= -rounding) {
+        Stability::Undecided
+    } else {
+        Stability::Stable
+    })
 }
