@@ -191,3 +191,22 @@ pub fn merge(
     let id = finish(&exp.problem, stages, &opts)?;
     Ok((exp, id, shard_seconds + start.elapsed().as_secs_f64()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Candidate, Grid};
+
+    #[test]
+    fn every_article_grid_point_survives_the_json_of_a_partial_result_exactly() {
+        // the merge checks each winner against the grid point its index names, bit for bit:
+        // JSON must give back the very same f64 (serde_json's float_roundtrip)
+        for grid in [Grid::article_first(), Grid::article_refined()] {
+            for index in 0..grid.len() {
+                let c = grid.candidate(index);
+                let back: Candidate =
+                    serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
+                assert_eq!(back, c, "grid point {index}");
+            }
+        }
+    }
+}
