@@ -135,3 +135,30 @@ fn merge_refuses_what_it_cannot_vouch_for() {
     std::fs::write(d.join("rig.toml"), "mass_kg = 9000.0\n").unwrap();
     refused(d, &["rig", "changed since this shard ran"]);
 }
+
+#[test]
+fn merge_never_replaces_the_folder_that_holds_its_parts() {
+    // the shards written into the folder an earlier result lives in, merged back into it:
+    // replacing that folder whole would delete the part files the merge reads
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    shard(d, 1, &[]);
+    shard(d, 2, &[]);
+    let out = pumpcyl(
+        d,
+        &[
+            "identify-merge",
+            "parts/part-1-of-2.json",
+            "parts/part-2-of-2.json",
+            "--out",
+            "parts",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("holds the input"), "{err}");
+    for i in 1..=2 {
+        assert!(d.join(format!("parts/part-{i}-of-2.json")).is_file());
+    }
+}
