@@ -12,8 +12,16 @@ pub fn install() {
     };
     std::thread::spawn(move || {
         if let Some(sig) = signals.forever().next() {
-            pumpcyl_present::files::remove_temporaries();
-            eprintln!("error: interrupted; outputs left as they were before this run");
+            let done = pumpcyl_present::files::remove_temporaries();
+            if done.is_empty() {
+                eprintln!("error: interrupted; outputs left as they were before this run");
+            } else {
+                let names: Vec<String> = done.iter().map(|p| p.display().to_string()).collect();
+                eprintln!(
+                    "error: interrupted; complete and in place: {}; nothing was left half-written",
+                    names.join(", ")
+                );
+            }
             std::process::exit(128 + sig);
         }
     });

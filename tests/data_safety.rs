@@ -218,3 +218,62 @@ fn an_output_folder_is_never_a_file_or_a_folder_of_other_files() {
         "temporaries left: {names:?}"
     );
 }
+
+#[test]
+fn special_files_are_written_into_never_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a FIFO with a reader gets the CSV and stays a FIFO
+    let fifo = d.join("pipe.csv");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+    };
+    let out = pumpcyl(d, &["bode", "--out", "pipe.csv"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = reader.join().unwrap();
+    assert!(text.starts_with("freq_hz,mag_db,phase_deg\n"), "{text}");
+    assert!(std::fs::symlink_metadata(&fifo)
+        .unwrap()
+        .file_type()
+        .is_fifo());
+    // a FIFO nobody reads is an error, not a hang
+    let out = pumpcyl(d, &["bode", "--out", "pipe.csv"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("FIFO needs a reader"),
+        "{}",
+        stderr(&out)
+    );
+    // a link to a character device, as /dev/stdout is: written through, the link kept
+    symlink("/dev/null", d.join("null.csv")).unwrap();
+    let out = pumpcyl(d, &["bode", "--out", "null.csv"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let meta = std::fs::symlink_metadata(d.join("null.csv")).unwrap();
+    assert!(meta.file_type().is_symlink());
+    assert!(std::fs::metadata("/dev/null")
+        .unwrap()
+        .file_type()
+        .is_char_device());
+}
+
+#[test]
+fn a_file_written_over_keeps_its_mode_and_a_link_its_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let real = d.join("real.csv");
+    std::fs::write(&real, "old").unwrap();
+    std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o600)).unwrap();
+    symlink("real.csv", d.join("link.csv")).unwrap();
+    let out = pumpcyl(d, &["bode", "--out", "link.csv"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let link = std::fs::symlink_metadata(d.join("link.csv")).unwrap();
+    assert!(link.file_type().is_symlink(), "the link was replaced");
+    let text = std::fs::read_to_string(&real).unwrap();
+    assert!(text.starts_with("freq_hz"), "{text}");
+    let mode = std::fs::metadata(&real).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600);
+}

@@ -9,7 +9,12 @@
 //!   (built as a temporary sibling, then swapped in); temporaries are removed when an error
 //!   abandons them, by a front end's signal handler through [`remove_temporaries`], or by the
 //!   next run after a SIGKILL (their names carry the process id);
-//! - files are created with the permissions the user's umask gives any new file (0666 & !umask).
+//! - files are created with the permissions the user's umask gives any new file (0666 & !umask);
+//!   a file written over keeps its permissions, and a symbolic link to a regular file is
+//!   followed (its target is replaced, the link stays);
+//! - a FIFO, a character device or a link to one (`/dev/stdout`, `/dev/null`) cannot be replaced
+//!   by a rename and must not be: the bytes are written into it directly; block devices and
+//!   sockets are refused.
 //!
 //! Nothing here installs a signal handler or ends the process: the command line does that.
 
@@ -27,19 +32,28 @@ const MARKER: &str = ".pumpcyl-output";
 /// Temporaries of this run, removed by the signal handler.
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
+/// Outputs this run has put in place (files renamed, folders swapped in), recorded under the
+/// temporaries' lock, so an interruption can say what is already complete.
+static PLACED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn placed() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    PLACED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn temporaries() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Remove every temporary this process is building (files being written, result folders being
 /// assembled, scratch folders) and keep new ones from starting: for a front end's signal
-/// handler before it ends the process. Returns whether a result was put in place meanwhile is
-/// not known here; callers say only that no output was left half-written.
+/// handler before it ends the process. Returns the outputs this run already put in place,
+/// complete (none: every output is as it was before the run).
 ///
 /// The registry's lock is held until the process ends (the guard is leaked), so a commit in
 /// progress finishes first and none starts after.
-pub fn remove_temporaries() {
+pub fn remove_temporaries() -> Vec<PathBuf> {
     let tmp = temporaries();
+    let done = completed(&placed(), &tmp);
     for p in tmp.iter() {
         // a write of another thread may race the first removal; retry
         for _ in 0..20 {
@@ -50,6 +64,18 @@ pub fn remove_temporaries() {
         }
     }
     std::mem::forget(tmp);
+    done
+}
+
+/// The outputs put in place that do not lie inside a temporary still being built (a file
+/// written into a result folder is complete only when the folder is).
+fn completed(placed: &[PathBuf], building: &[PathBuf]) -> Vec<PathBuf> {
+    let building: Vec<PathBuf> = building.iter().map(|t| resolve(t)).collect();
+    placed
+        .iter()
+        .filter(|p| !building.iter().any(|t| p.starts_with(t)))
+        .cloned()
+        .collect()
 }
 
 fn remove_any(p: &Path) {
@@ -212,14 +238,89 @@ fn file_name(path: &Path) -> Result<String> {
 
 /// Write `bytes` to `path` atomically: a temporary file in the same folder, then a rename, so a
 /// failure or an interruption never leaves a half-written output behind. Refuses to write over
-/// a `protected` file; the file gets the permissions of any new file (0666 & !umask).
+/// a `protected` file. A new file gets the permissions of any new file (0666 & !umask), a file
+/// written over keeps its own; a symbolic link to a regular file is followed. A FIFO or a
+/// character device (or a link to one) is written into directly, since no rename can replace
+/// it and none should.
 pub fn write_atomic(path: &Path, bytes: &[u8], protected: &Protected) -> Result<()> {
     protected.check(path)?;
+    match destination(path)? {
+        Destination::Stream => write_stream(path, bytes),
+        Destination::File { path: target, mode } => {
+            if target != path {
+                protected.check(&target)?;
+            }
+            replace_file(&target, bytes, mode)
+        }
+    }
+}
+
+/// Where the bytes of an output go.
+enum Destination {
+    /// A FIFO or a character device: written into, never replaced.
+    Stream,
+    /// A regular file, new or replaced (a link's target), with the mode to keep.
+    File { path: PathBuf, mode: Option<u32> },
+}
+
+/// What `path` is: a stream, or the regular file (a link's target) to replace and its mode.
+fn destination(path: &Path) -> Result<Destination> {
+    use std::os::unix::fs::{FileTypeExt, PermissionsExt};
+    let shown = path.display();
+    let Ok(link) = std::fs::symlink_metadata(path) else {
+        return Ok(Destination::File {
+            path: path.to_path_buf(),
+            mode: None,
+        });
+    };
+    let meta = std::fs::metadata(path)
+        .with_context(|| format!("{shown}: is a link to nothing; give a file name"))?;
+    let kind = meta.file_type();
+    if kind.is_dir() {
+        anyhow::bail!("{shown}: is a folder; give a file name");
+    }
+    if kind.is_fifo() || kind.is_char_device() {
+        return Ok(Destination::Stream);
+    }
+    if !kind.is_file() {
+        anyhow::bail!("{shown}: is a block device or a socket, not a file; give a file name");
+    }
+    let target = if link.file_type().is_symlink() {
+        std::fs::canonicalize(path).with_context(|| format!("{shown}: cannot follow the link"))?
+    } else {
+        path.to_path_buf()
+    };
+    let mode = Some(meta.permissions().mode() & 0o7777);
+    Ok(Destination::File { path: target, mode })
+}
+
+/// Write into a FIFO or a character device. A FIFO nobody reads is an error, not a hang: it is
+/// opened non-blocking (which fails without a reader), then written blocking.
+fn write_stream(path: &Path, bytes: &[u8]) -> Result<()> {
+    use std::os::unix::fs::OpenOptionsExt;
+    use std::os::unix::io::AsRawFd;
+    let shown = path.display();
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .with_context(|| format!("{shown}: cannot open for writing (a FIFO needs a reader)"))?;
+    let fd = file.as_raw_fd();
+    // SAFETY: fcntl on a descriptor this function owns; only the O_NONBLOCK flag changes.
+    unsafe {
+        let flags = libc::fcntl(fd, libc::F_GETFL);
+        libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK);
+    }
+    file.write_all(bytes)
+        .and_then(|_| file.flush())
+        .with_context(|| format!("{shown}: write failed"))
+}
+
+/// Replace (or create) the regular file `path` by a temporary sibling and a rename, giving it
+/// `mode` (an existing file's permissions) or those of any new file.
+fn replace_file(path: &Path, bytes: &[u8], mode: Option<u32>) -> Result<()> {
     let dir = parent_of(path);
     let name = file_name(path)?;
-    if path.is_dir() {
-        anyhow::bail!("{}: is a folder; give a file name", path.display());
-    }
     remove_stale(dir, &name);
     use std::os::unix::fs::PermissionsExt;
     let mut tmp = create_tracked(
@@ -240,12 +341,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8], protected: &Protected) -> Result<
     })?;
     let written = tmp
         .write_all(bytes)
+        .and_then(|_| match mode {
+            Some(m) => tmp
+                .as_file()
+                .set_permissions(std::fs::Permissions::from_mode(m)),
+            None => Ok(()),
+        })
         .and_then(|_| tmp.as_file().sync_all())
         .with_context(|| format!("{}: write failed", path.display()));
     let tmp_path = tmp.path().to_path_buf();
     let result = written.and_then(|_| {
+        let _registry = temporaries();
         tmp.persist(path)
-            .map(|_| ())
+            .map(|_| placed().push(resolve(path)))
             .map_err(|e| e.error)
             .with_context(|| format!("{}: cannot write", path.display()))
     });
@@ -351,6 +459,9 @@ impl OutDir {
         } else {
             std::fs::rename(&self.tmp, &self.target)
         };
+        if swapped.is_ok() {
+            placed().push(resolve(&self.target));
+        }
         drop(guard);
         let result = swapped.with_context(|| format!("{shown}: cannot put the result in place"));
         // after an exchange the temporary name holds the previous result
@@ -396,4 +507,23 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
     std::fs::rename(b, &aside)?;
     std::fs::rename(a, b)?;
     std::fs::rename(&aside, a)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_folder_swapped_in_is_complete_and_a_file_inside_one_being_built_is_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = resolve(dir.path());
+        let building = root.join(".R.pumpcyl-tmp-1-x");
+        let placed = vec![
+            root.join("R"),
+            building.join("result.json"),
+            root.join("a.csv"),
+        ];
+        let done = completed(&placed, &[building]);
+        assert_eq!(done, vec![root.join("R"), root.join("a.csv")]);
+    }
 }

@@ -402,7 +402,7 @@ fn frequency_range(
     let unsettled = |w0: f64, w1: f64| {
         let (g0, g1) = (ev.at(w0), ev.at(w1));
         let turn = nearest_branch((g1 / g0).arg().to_degrees(), 0.0).abs();
-        !(turn <= SETTLED_DEG) && g0.norm().max(g1.norm()) > floor
+        (turn.is_nan() || turn > SETTLED_DEG) && g0.norm().max(g1.norm()) > floor
     };
     for _ in 0..12 {
         if (ev.at(lo).norm() < 1.0) != (dc < 1.0) || unsettled(lo / 10.0, lo) {

@@ -145,25 +145,16 @@ fn isolating_permutation(a: &DMatrix<f64>) -> Vec<usize> {
     let mut perm: Vec<usize> = (0..n).collect();
     let (mut lo, mut hi) = (0, n);
     let at = |perm: &[usize], i: usize, j: usize| a[(perm[i], perm[j])];
-    'rows: while hi > lo {
-        for i in (lo..hi).rev() {
-            if (lo..hi).all(|j| j == i || at(&perm, i, j) == 0.0) {
-                perm.swap(i, hi - 1);
-                hi -= 1;
-                continue 'rows;
-            }
-        }
-        break;
+    while let Some(i) = (lo..hi)
+        .rev()
+        .find(|&i| (lo..hi).all(|j| j == i || at(&perm, i, j) == 0.0))
+    {
+        perm.swap(i, hi - 1);
+        hi -= 1;
     }
-    'cols: while hi > lo {
-        for j in lo..hi {
-            if (lo..hi).all(|i| i == j || at(&perm, i, j) == 0.0) {
-                perm.swap(j, lo);
-                lo += 1;
-                continue 'cols;
-            }
-        }
-        break;
+    while let Some(j) = (lo..hi).find(|&j| (lo..hi).all(|i| i == j || at(&perm, i, j) == 0.0)) {
+        perm.swap(j, lo);
+        lo += 1;
     }
     perm
 }
