@@ -8,6 +8,12 @@ use crate::units::readable;
 /// (0.4 GB of f64), far above any record or figure and below an allocation abort.
 pub const MAX_POINTS: f64 = 5e7;
 
+/// The most samples one simulated or emulated record may hold: 5·10⁶, so its eight signals
+/// (time, reference, position, error, two pressures, two speeds) take 0.3 GB of f64 and its CSV
+/// about 0.5 GB: a response computed, written and plotted within memory, not an allocation
+/// abort.
+pub const MAX_SAMPLES: f64 = 5e6;
+
 /// Emulator controller steps (duration × rate) done without allowing a long run: 10⁷ is about
 /// three hours of rig time at 1 kHz, already minutes of computing.
 pub const MAX_EMULATED_STEPS: f64 = 1e7;
@@ -67,17 +73,22 @@ pub fn check_size(what: &str, count: f64) -> Result<usize, LimitError> {
 }
 
 /// The number of samples of a record of `duration_s` sampled at `rate_hz` (both > 0, the count
-/// within [`MAX_POINTS`]): the one check of every record pumpcyl simulates or emulates.
+/// within [`MAX_SAMPLES`]): the one check of every record pumpcyl simulates or emulates.
 pub fn check_samples(duration_s: f64, rate_hz: f64) -> Result<usize, LimitError> {
     for (name, value) in [("duration_s", duration_s), ("rate_hz", rate_hz)] {
         if !(value.is_finite() && value > 0.0) {
             return Err(LimitError::NotPositive { name, value });
         }
     }
-    check_size(
-        "duration_s × rate_hz",
-        (duration_s * rate_hz + 1e-9).floor() + 1.0,
-    )
+    let count = (duration_s * rate_hz + 1e-9).floor() + 1.0;
+    if !(0.0..=MAX_SAMPLES).contains(&count) {
+        return Err(LimitError::TooLarge {
+            what: "duration_s × rate_hz".to_string(),
+            count,
+            limit: MAX_SAMPLES,
+        });
+    }
+    Ok(count as usize)
 }
 
 /// Refuse `work` units of `what` beyond `limit` unless `allowed` (a long run asked for).
@@ -111,6 +122,9 @@ mod tests {
         assert!(check_work("emulate", f64::INFINITY, 2e7, true).is_err());
         assert_eq!(check_samples(4.0, 100.0), Ok(401));
         assert!(check_samples(51.0, 1e6).is_err());
+        let e = check_samples(49.0, 1e6).unwrap_err().to_string();
+        assert!(e.contains("5e6"), "{e}");
+        assert_eq!(check_samples(4.0, 1e6), Ok(4_000_001));
         let e = check_samples(-1.0, 100.0).unwrap_err().to_string();
         assert_eq!(e, "duration_s = -1: must be > 0");
         assert!(check_samples(1.0, f64::NAN).is_err());

@@ -86,6 +86,10 @@ pub struct Record {
     pub w2_rpm: Option<Vec<f64>>,
 }
 
+/// The largest MAT-file record read, in bytes (2 GiB: 5·10⁷ samples of five columns in
+/// doubles, the sample limit, fit with room to spare).
+pub const MAX_MAT_BYTES: u64 = 2 << 30;
+
 const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
@@ -231,7 +235,8 @@ impl Table {
         Self::read_in(&Disk, path, required, optional)
     }
 
-    /// [`Table::read`] from `files`.
+    /// [`Table::read`] from `files`; a MAT-file is read whole, at most [`MAX_MAT_BYTES`] (a
+    /// special file such as `/dev/zero` that never ends is stopped there).
     pub fn read_in(
         files: &dyn Files,
         path: &Path,
@@ -243,10 +248,22 @@ impl Table {
             file: file.clone(),
             message: e.to_string(),
         };
-        let mut stream = files.open(path).map_err(io)?;
+        let stream = files.open(path).map_err(io)?;
         if is_mat(path) {
             let mut bytes = Vec::new();
-            stream.read_to_end(&mut bytes).map_err(io)?;
+            stream
+                .take(MAX_MAT_BYTES + 1)
+                .read_to_end(&mut bytes)
+                .map_err(io)?;
+            if bytes.len() as u64 > MAX_MAT_BYTES {
+                return Err(RecordError::Io {
+                    file,
+                    message: format!(
+                        "larger than {} MiB, the limit for a MAT-file record",
+                        MAX_MAT_BYTES >> 20
+                    ),
+                });
+            }
             return Self::from_mat(&bytes, &file, required, optional);
         }
         let reader = BufReader::with_capacity(1 << 16, stream);

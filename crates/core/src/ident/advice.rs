@@ -172,7 +172,7 @@ impl Design {
                 format!(
                     "duration_s = {d}: {samples:.0} samples at {rate_hz} Hz, more than the limit \
                      of {:e}",
-                    crate::limits::MAX_POINTS
+                    crate::limits::MAX_SAMPLES
                 ),
             )
         })?;

@@ -188,7 +188,7 @@ pub fn check_nyquist(freq_hz: f64, rate_hz: f64) -> Result<(), LtiError> {
 }
 
 /// Uniform sample times 0, 1/rate, … up to and including `duration_s`; refused beyond
-/// [`MAX_POINTS`](crate::limits::MAX_POINTS) samples ([`check_samples`](crate::limits::check_samples)).
+/// [`MAX_SAMPLES`](crate::limits::MAX_SAMPLES) samples ([`check_samples`](crate::limits::check_samples)).
 pub fn sample_times(duration_s: f64, rate_hz: f64) -> Result<Vec<f64>, crate::limits::LimitError> {
     let n = crate::limits::check_samples(duration_s, rate_hz)?;
     Ok((0..n).map(|k| k as f64 / rate_hz).collect())
