@@ -268,6 +268,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
             digest: digest(
                 &Experiment::load_in(crate::inputs::files(), &canonical)?,
                 &opts,
+                shard,
             )?,
             experiment: canonical,
             shard,

@@ -162,3 +162,133 @@ fn merge_never_replaces_the_folder_that_holds_its_parts() {
         assert!(d.join(format!("parts/part-{i}-of-2.json")).is_file());
     }
 }
+
+/// The answer a merge gives: the best grid point and the top list (the identified parameters).
+fn answer(v: &Value) -> (Value, Value) {
+    (v["grid_best"].clone(), v["top"].clone())
+}
+
+/// Merge the given part files; the JSON answer, or None when refused (exit 1, one line).
+fn merged(dir: &Path, parts: &[&str]) -> Option<Value> {
+    let mut args = vec!["identify-merge", "--json"];
+    args.extend(parts);
+    let out = pumpcyl(dir, &args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    match out.status.code() {
+        Some(0) => Some(serde_json::from_slice(&out.stdout).unwrap()),
+        Some(1) => {
+            assert_eq!(err.lines().count(), 1, "{err}");
+            None
+        }
+        code => panic!("exit {code:?}: {err}"),
+    }
+}
+
+#[test]
+fn every_single_edit_of_a_shard_is_refused_or_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    // a grid of 36 candidates, so the shards have real top lists and threshold sets
+    let exp = std::fs::read_to_string(d.join("exp.toml"))
+        .unwrap()
+        .replace(
+            "[grid]\nbeta_bar = [150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0]\n\
+         c12_m5_per_ns = [1.2e-10]",
+            "[grid]\nbeta_bar = [140.0, 150.0, 160.0, 170.0, 180.0, 190.0]\n\
+         viscous_friction_ns_per_m = [100.0, 150.0]\nc12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]",
+        );
+    std::fs::write(d.join("exp.toml"), exp).unwrap();
+    let whole = pumpcyl(
+        d,
+        &[
+            "identify",
+            "exp.toml",
+            "--no-refine",
+            "--json",
+            "--threshold-mm2",
+            "1",
+        ],
+    );
+    assert!(whole.status.success());
+    let whole = answer(&serde_json::from_slice(&whole.stdout).unwrap());
+    let (p1, p2) = (
+        shard(d, 1, &["--threshold-mm2", "1"]),
+        shard(d, 2, &["--threshold-mm2", "1"]),
+    );
+    let parts = ["parts/part-1-of-2.json", "parts/part-2-of-2.json"];
+    assert_eq!(merged(d, &parts).map(|v| answer(&v)), Some(whole.clone()));
+    let good = std::fs::read_to_string(&p1).unwrap();
+    let stage = |v: &mut Value| v["stages"][0]["summary"].clone();
+    assert!(stage(&mut serde_json::from_str(&good).unwrap())["threshold_count"].as_u64() > Some(0));
+
+    type Edit = (&'static str, fn(&mut Value));
+    let edits: [Edit; 16] = [
+        ("best removed", |v| {
+            v["stages"][0]["summary"]["top"]
+                .as_array_mut()
+                .unwrap()
+                .remove(0);
+        }),
+        ("evaluated", |v| {
+            v["stages"][0]["summary"]["evaluated"] = 17.into()
+        }),
+        ("non_finite", |v| {
+            v["stages"][0]["summary"]["non_finite"] = 99.into()
+        }),
+        ("unstable", |v| {
+            v["stages"][0]["summary"]["unstable"] = 99.into()
+        }),
+        ("pruned", |v| {
+            v["stages"][0]["summary"]["pruned"] = 99.into()
+        }),
+        ("slice index", |v| v["shard"] = serde_json::json!([2, 2])),
+        ("total", |v| v["shard"] = serde_json::json!([1, 1])),
+        ("grid bound", |v| {
+            v["stages"][0]["grid"]["beta_bar"][0] = 100.0.into()
+        }),
+        ("record hash", |v| v["digest"] = "0123456789abcdef".into()),
+        ("negative time", |v| v["seconds"] = (-4.96).into()),
+        ("top cost", |v| {
+            v["stages"][0]["summary"]["top"][0]["cost_mm2"] = 1e-9.into()
+        }),
+        ("top index", |v| {
+            v["stages"][0]["summary"]["top"][0]["index"] = 1.into()
+        }),
+        ("threshold count", |v| {
+            v["stages"][0]["summary"]["threshold_count"] = 1000.into()
+        }),
+        ("threshold bound", |v| {
+            v["stages"][0]["summary"]["threshold_bounds"][0][0] = 1000.0.into()
+        }),
+        ("member cost", |v| {
+            v["stages"][0]["summary"]["threshold_members"][0]["cost_mm2"] = 5.0.into()
+        }),
+        ("top order", |v| {
+            v["stages"][0]["summary"]["top"]
+                .as_array_mut()
+                .unwrap()
+                .swap(0, 1);
+        }),
+    ];
+    for (what, f) in edits {
+        edit(&p1, f);
+        if let Some(v) = merged(d, &parts) {
+            assert_eq!(answer(&v), whole, "edit `{what}` changed the answer");
+        }
+        std::fs::write(&p1, &good).unwrap();
+    }
+    // one shard relabelled as the whole run, and a shard given twice with the copy relabelled
+    edit(&p1, |v| v["shard"] = serde_json::json!([1, 1]));
+    assert_eq!(merged(d, &["parts/part-1-of-2.json"]), None);
+    std::fs::write(&p1, &good).unwrap();
+    let copy = d.join("parts/copy.json");
+    std::fs::copy(&p1, &copy).unwrap();
+    edit(&copy, |v| v["shard"] = serde_json::json!([2, 2]));
+    assert_eq!(
+        merged(d, &["parts/part-1-of-2.json", "parts/copy.json"]),
+        None
+    );
+    drop(p2);
+}

@@ -43,8 +43,9 @@ pub struct Partial {
 
 /// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
 /// names with its overrides, the standstill point, every dataset's record and settings, the
-/// grids (so the number of stages), and the options (threshold, top length, refinement).
-pub fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
+/// grids (so the number of stages), the options (threshold, top length, refinement) and which
+/// slice of the grid the shard is, (I, N).
+pub fn digest(exp: &Experiment, opts: &Options, shard: (usize, usize)) -> Result<String> {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
     crate::input::read_bounded(&crate::input::Disk, &exp.path)
@@ -61,7 +62,90 @@ pub fn digest(exp: &Experiment, opts: &Options) -> Result<String> {
         opts.local_refinement
     )
     .hash(&mut h);
+    shard.hash(&mut h);
     Ok(format!("{:016x}", h.finish()))
+}
+
+/// Check that a shard's stages are what its slice of the grids gives: each stage on the grid
+/// the experiment names, as many candidates evaluated as the slice holds, the outcome counts
+/// adding up, a top list as long as the candidates allow and every listed candidate the grid
+/// point of its index, inside the slice; a time that is a time. Only a re-run could tell an
+/// honest cost from an edited one; the merge re-simulates the winners for that
+/// ([`verify_winners`]).
+fn check_part(exp: &Experiment, p: &Partial, opts: &Options) -> std::result::Result<(), String> {
+    let fail = |what: String| Err(what + "; a partial result was edited or is damaged");
+    if !(p.seconds.is_finite() && p.seconds >= 0.0) {
+        return fail(format!("a search time of {} s", p.seconds));
+    }
+    let (first, second) = exp.grids();
+    let (i, n) = p.shard;
+    for (k, (stage, grid)) in p.stages.iter().zip([Some(first), second]).enumerate() {
+        let at = |what: String| format!("stage {}: {what}", k + 1);
+        let grid = grid.unwrap_or_else(|| stage.grid.clone());
+        if stage.grid != grid {
+            return fail(at("its grid is not the experiment's".into()));
+        }
+        let s = &stage.summary;
+        let slice = super::shard_len(grid.len(), Some(p.shard)) as u64;
+        if s.evaluated != slice {
+            return fail(at(format!(
+                "{} candidates evaluated, the slice {i}/{n} holds {slice}",
+                s.evaluated
+            )));
+        }
+        let rejected = s.non_finite + s.unstable + s.pruned;
+        let eligible = s.evaluated.checked_sub(rejected);
+        let top_ok = s.top.len() <= opts.top_n
+            && (s.top.len() == opts.top_n || eligible == Some(s.top.len() as u64));
+        if !top_ok || eligible.is_none() {
+            return fail(at(format!(
+                "a top list of {} from {} candidates ({} non-finite, {} unstable, {} pruned)",
+                s.top.len(),
+                s.evaluated,
+                s.non_finite,
+                s.unstable,
+                s.pruned
+            )));
+        }
+        let members = &s.threshold_members;
+        let bounded = |e: &super::Scored| {
+            s.threshold_bounds.is_some_and(|b| {
+                let v = [
+                    e.candidate.beta_bar,
+                    e.candidate.viscous_friction_ns_per_m,
+                    e.candidate.c12_m5_per_ns,
+                ];
+                (0..3).all(|a| b[a][0] <= v[a] && v[a] <= b[a][1])
+            })
+        };
+        let set_ok = s.threshold_mm2 == opts.threshold_mm2
+            && s.threshold_count >= members.len() as u64
+            && s.threshold_count <= eligible.unwrap_or(0)
+            && (s.threshold_count == 0) == s.threshold_bounds.is_none()
+            && members
+                .iter()
+                .all(|e| e.cost_mm2 < opts.threshold_mm2 && bounded(e));
+        if !set_ok {
+            return fail(at(format!(
+                "a threshold set of {} candidates that does not match its members and bounds",
+                s.threshold_count
+            )));
+        }
+        for e in s.top.iter().chain(&s.threshold_members) {
+            let index = usize::try_from(e.index).unwrap_or(usize::MAX);
+            let inside = index < grid.len() && index % n == i - 1;
+            if !(inside && usize::from(e.stage) == k + 1 && grid.candidate(index) == e.candidate) {
+                return fail(at(format!(
+                    "candidate {} is not the grid point of its slice",
+                    e.index
+                )));
+            }
+        }
+        if !s.top.windows(2).all(|w| w[0].cost_mm2 <= w[1].cost_mm2) {
+            return fail(at("the top list is not in order of cost".into()));
+        }
+    }
+    Ok(())
 }
 
 /// Re-simulate the best few candidates of each merged stage and compare with the costs the
@@ -169,11 +253,15 @@ pub fn merge(
             files[0].display()
         );
         ensure!(
-            digest(&exp, &opts)? == p.digest,
-            "{}: the experiment, its rig, its records or the options changed since this shard \
-             ran",
-            file.display()
+            digest(&exp, &opts, p.shard)? == p.digest,
+            "{}: the experiment, its rig, its records, the options or the shard's label {}/{} \
+             changed since this shard ran",
+            file.display(),
+            p.shard.0,
+            p.shard.1
         );
+        check_part(&exp, p, &opts)
+            .map_err(|e| IdentError::Input(format!("{}: {e}", file.display())))?;
     }
     let start = Instant::now();
     // the time reported is the shards' search time added up, plus the merge's own
