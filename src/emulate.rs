@@ -179,7 +179,7 @@ fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64)
     };
     let checked = match &plan {
         Kind::Loop(e) => e.check(rig, rate_hz),
-        Kind::Drive(d) => d.check(),
+        Kind::Drive(d) => d.check(rate_hz),
     };
     checked.map_err(|e| crate::emit::as_option(e, option_of))?;
     Ok(plan)
@@ -194,6 +194,7 @@ fn option_of(field: &str) -> &str {
         "duration_s" => "duration-s",
         "freq_hz" => "freq-hz",
         "amplitude_mm" => "amplitude-mm",
+        "rate_hz" => "rate-hz",
         other => other,
     }
 }

@@ -131,9 +131,10 @@ impl Experiment {
     /// Refuse what the rig cannot do or the record cannot show: a length or a sine that is not
     /// positive, a time before 0, a reference that leaves the stroke
     /// ([`Rig::check_reference`]), a sine at or above the Nyquist frequency of `rate_hz`
-    /// ([`check_nyquist`](crate::response::check_nyquist)). The error names the field.
+    /// ([`check_nyquist`](crate::response::check_nyquist)), or a record of fewer than two
+    /// samples, which no reader accepts. The error names the field.
     pub fn check(&self, rig: &Rig, rate_hz: f64) -> Result<(), FieldError> {
-        positive("duration_s", self.duration_s())?;
+        record_length(self.duration_s(), rate_hz)?;
         let reach = |field: &'static str, value: f64, lo: f64, hi: f64| {
             rig.check_reference(lo, hi)
                 .map_err(|e| FieldError::new(field, format!("{field} = {value}: {e}")))
@@ -240,9 +241,10 @@ pub struct DriveStep {
 }
 
 impl DriveStep {
-    /// Refuse a drive that does not exist, a time before 0 or a length that is not positive;
-    /// the error names the field.
-    pub fn check(&self) -> Result<(), FieldError> {
+    /// Refuse a drive that does not exist, a time before 0, a length that is not positive or a
+    /// record of fewer than two samples at `rate_hz`; the error names the field.
+    pub fn check(&self, rate_hz: f64) -> Result<(), FieldError> {
+        record_length(self.duration_s, rate_hz)?;
         if !(1..=2).contains(&self.motor) {
             return Err(FieldError::new(
                 "motor",
@@ -252,6 +254,21 @@ impl DriveStep {
         not_negative("at_s", self.at_s)?;
         positive("duration_s", self.duration_s)
     }
+}
+
+/// Refuse a record length that is not positive, or that holds fewer than two samples at
+/// `rate_hz` (no reader accepts one sample).
+fn record_length(duration_s: f64, rate_hz: f64) -> Result<(), FieldError> {
+    positive("duration_s", duration_s)?;
+    positive("rate_hz", rate_hz)?;
+    let samples = (duration_s * rate_hz + 1e-9).floor() + 1.0;
+    if samples < 2.0 {
+        return Err(FieldError::new(
+            "rate_hz",
+            format!("rate_hz = {rate_hz}: 1 sample in {duration_s} s; a record needs at least 2"),
+        ));
+    }
+    Ok(())
 }
 
 /// A drive record: `time_s`, `w_ref_rpm`, `w_rpm` (docs/formats.md#drive-record-csv).

@@ -83,8 +83,51 @@ fn mse(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64
 }
 
+/// The range of Km scanned (N·m·s/rad).
+const KM_MIN: f64 = 1e-5;
+const KM_MAX: f64 = 10.0;
+
+/// Samples after the step below which a record cannot show the motor's response.
+const MIN_STEP_SAMPLES: usize = 10;
+
+/// Refuse a record that cannot show a response: too few samples after the step, or a motor
+/// speed that never moves (its span below 0.1 % of the step).
+fn check_response(rec: &DriveRecord) -> Result<(), IdentError> {
+    let start = first_change(&rec.w_ref_rpm);
+    let after = rec.time_s.len() - start;
+    if after < MIN_STEP_SAMPLES {
+        return Err(IdentError::Input(format!(
+            "{}: {after} samples after the step at line {}: need at least {MIN_STEP_SAMPLES} to \
+             see the motor respond",
+            rec.file,
+            start + 2
+        )));
+    }
+    let span = |v: &[f64]| {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        hi - lo
+    };
+    let (moved, step) = (span(&rec.w_rpm), span(&rec.w_ref_rpm));
+    if moved <= 1e-3 * step {
+        return Err(IdentError::Input(format!(
+            "{}: column `w_rpm`: the motor speed spans {} rpm for a step of {} rpm: the motor \
+             does not move, so Km cannot be identified",
+            rec.file,
+            crate::units::readable(moved),
+            crate::units::readable(step)
+        )));
+    }
+    Ok(())
+}
+
 /// Identify Km: a log-spaced scan over 1e-5 … 10 N·m·s/rad, then golden-section search in the
-/// bracket around the best scan point (the cost is smooth in log Km).
+/// bracket around the best scan point (the cost is smooth in log Km). A record that shows no
+/// response, or whose best fit lies on the edge of the scan, is refused: an answer there is the
+/// scan's bound, not a measurement.
 pub fn identify_drive(rec: &DriveRecord, jm: f64, omega_i: f64) -> Result<DriveFit, IdentError> {
     if first_change(&rec.w_ref_rpm) >= rec.time_s.len() {
         return Err(IdentError::Input(format!(
@@ -94,14 +137,23 @@ pub fn identify_drive(rec: &DriveRecord, jm: f64, omega_i: f64) -> Result<DriveF
             rec.time_s.len() + 1
         )));
     }
+    check_response(rec)?;
     let cost = |log_km: f64| -> f64 {
         simulate(rec, jm, omega_i, log_km.exp()).map_or(f64::INFINITY, |w| mse(&w, &rec.w_rpm))
     };
-    let scan = super::spaced(1e-5f64.ln(), 10f64.ln(), 61, false);
+    let scan = super::spaced(KM_MIN.ln(), KM_MAX.ln(), 61, false);
     let costs: Vec<f64> = scan.iter().map(|&l| cost(l)).collect();
     let best = (0..scan.len())
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap_or(0);
+    if best == 0 || best == scan.len() - 1 {
+        return Err(IdentError::Input(format!(
+            "{}: column `w_rpm`: the best fit lies on the edge of the range scanned, Km = {} \
+             N·m·s/rad ({KM_MIN:e} … {KM_MAX}): this record does not determine Km",
+            rec.file,
+            format!("{:.3e}", scan[best].exp())
+        )));
+    }
     let (mut lo, mut hi) = (
         scan[best.saturating_sub(1)],
         scan[(best + 1).min(scan.len() - 1)],
