@@ -148,10 +148,10 @@ pub fn identify_drive(rec: &DriveRecord, jm: f64, omega_i: f64) -> Result<DriveF
         .unwrap_or(0);
     if best == 0 || best == scan.len() - 1 {
         return Err(IdentError::Input(format!(
-            "{}: column `w_rpm`: the best fit lies on the edge of the range scanned, Km = {} \
+            "{}: column `w_rpm`: the best fit lies on the edge of the range scanned, Km = {:.3e} \
              N·m·s/rad ({KM_MIN:e} … {KM_MAX}): this record does not determine Km",
             rec.file,
-            format!("{:.3e}", scan[best].exp())
+            scan[best].exp()
         )));
     }
     let (mut lo, mut hi) = (
