@@ -1,13 +1,15 @@
 //! `pumpcyl advise`: which further record would narrow the intervals of β, b and c12 most,
-//! from the linearised model (docs/identification.md, "Experiment advice"); formatting only.
+//! from the linearised model (docs/identification.md, "Experiment advice"), shown as
+//! [`pumpcyl_present::advise`] formats it.
 
 use anyhow::Result;
 use clap::Args;
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pumpcyl::ident::{advise_experiment, Advice, Experiment, Width};
+use pumpcyl::ident::{advise_experiment, Experiment};
+use pumpcyl_present::advise::{advice_json, advice_text};
+use pumpcyl_present::format::json_document;
 
 #[derive(Debug, Args)]
 pub struct AdviseArgs {
@@ -39,86 +41,9 @@ pub fn run(args: &AdviseArgs) -> Result<String> {
         args.confidence,
     )?;
     let seconds = start.elapsed().as_secs_f64();
+    let name = args.experiment.display().to_string();
     if args.json {
-        let mut v = serde_json::to_value(&advice)?;
-        v["experiment"] = serde_json::json!(args.experiment.display().to_string());
-        v["seconds"] = serde_json::json!(seconds);
-        return Ok(serde_json::to_string_pretty(&v)? + "\n");
+        return Ok(json_document(&advice_json(&advice, &name, seconds))?);
     }
-    Ok(text(
-        &args.experiment.display().to_string(),
-        &advice,
-        seconds,
-    ))
-}
-
-/// A relative width as the table shows it: `12.3 %` or `unbounded`.
-fn shown(w: &Width) -> String {
-    w.relative_width
-        .map_or("unbounded".into(), |r| format!("{:.1} %", 100.0 * r))
-}
-
-/// The advice as text: the point, the current widths, the table, the best per parameter.
-fn text(name: &str, a: &Advice, seconds: f64) -> String {
-    let mut s = String::new();
-    let p = &a.point;
-    let _ = writeln!(
-        s,
-        "experiment advice for {name} (linearised at beta {:.1} bar, b {:.1} N·s/m, c12 {:.4e} \
-         m⁵/(N·s); noise sigma {:.4} mm, variance inflated {:.1}-fold; {:.0} % intervals, \
-         widths relative to the estimate), in {seconds:.1} s",
-        p.beta_bar,
-        p.viscous_friction_ns_per_m,
-        p.c12_m5_per_ns,
-        a.noise_std_mm,
-        a.variance_inflation,
-        a.confidence * 100.0
-    );
-    let _ = writeln!(
-        s,
-        "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
-        "rank", "record added", "beta", "b", "c12", "x beta", "x b", "x c12"
-    );
-    let _ = writeln!(
-        s,
-        "{:>4}  {:<36} {:>10} {:>10} {:>10}",
-        "-",
-        "none (the current records)",
-        shown(&a.current[0]),
-        shown(&a.current[1]),
-        shown(&a.current[2])
-    );
-    for (k, c) in a.candidates.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7.2} {:>7.2} {:>7.2}",
-            k + 1,
-            c.label,
-            shown(&c.widths[0]),
-            shown(&c.widths[1]),
-            shown(&c.widths[2]),
-            c.improvement[0],
-            c.improvement[1],
-            c.improvement[2]
-        );
-    }
-    for line in &a.skipped {
-        let _ = writeln!(s, "skipped: {line}");
-    }
-    if let Some(b) = a.candidates.iter().find(|c| c.label == a.best_for[1]) {
-        let _ = writeln!(
-            s,
-            "helps b most: {} (b {} -> {}, {:.1} times narrower in log terms)",
-            b.label,
-            shown(&a.current[1]),
-            shown(&b.widths[1]),
-            b.improvement[1]
-        );
-    }
-    let _ = writeln!(
-        s,
-        "best for beta: {}; best for c12: {}",
-        a.best_for[0], a.best_for[2]
-    );
-    s
+    Ok(advice_text(&name, &advice, seconds))
 }

@@ -2,18 +2,21 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
-use serde_json::json;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::emit::{format_of, write_atomic, Format};
+use crate::emit::{format_of, render, write_atomic, Format};
 use crate::export;
 use crate::{Loop, ModelArgs};
-use pumpcyl::lti::{self, PoleInfo};
+use pumpcyl::lti;
 use pumpcyl::model::Plant;
-use pumpcyl_present::analysis::{margins_json, margins_text};
-use pumpcyl_present::figures::bode_markers;
-use pumpcyl_present::plot::{self, BodeSeries};
+use pumpcyl_present::analysis::{
+    bode_csv, margins_json, margins_text, model_text, poles_json, poles_text, PoleSet, PoleSetKind,
+};
+use pumpcyl_present::figures::{bode_markers, Chart};
+use pumpcyl_present::format::json_document;
+use pumpcyl_present::matlab::bode_mat;
+use pumpcyl_present::plot::BodeSeries;
 
 #[derive(Debug, Args)]
 pub struct MarginsArgs {
@@ -94,7 +97,7 @@ pub fn margins(args: &MarginsArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
     let m = lti::margins(&lp.open_loop)?;
     if args.json {
-        Ok(serde_json::to_string_pretty(&margins_json(&m, &lp.description))? + "\n")
+        Ok(json_document(&margins_json(&m, &lp.description))?)
     } else {
         Ok(margins_text(&m, &lp.description))
     }
@@ -134,20 +137,13 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
         series.push(series_of(&lp, variant, &freqs)?);
         variants.push(lp);
     }
-    let format = match &args.out {
-        Some(path) => format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])?,
-        None => Format::Csv,
+    let Some(path) = &args.out else {
+        return Ok(bode_csv(&series));
     };
-    if let (Some(path), Format::Mat) = (&args.out, format) {
-        export::write_bode_mat(path, &series)?;
-        return Ok(format!(
-            "wrote {} ({} series)\n",
-            path.display(),
-            series.len()
-        ));
-    }
-    let bytes = match format {
-        Format::Csv => bode_csv(&series).into_bytes(),
+    let count = series.len();
+    match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
+        Format::Csv => write_atomic(path, bode_csv(&series).as_bytes())?,
+        Format::Mat => write_atomic(path, &bode_mat(&series))?,
         _ => {
             // Every series keeps its margin markers, drawn in its own colour.
             let markers = std::iter::once(&base)
@@ -155,24 +151,10 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
                 .map(|lp| Ok(Some(bode_markers(&lti::margins(&lp.open_loop)?))))
                 .collect::<Result<Vec<_>>>()?;
             let title = format!("Bode: {}", base.description);
-            if format == Format::Svg {
-                plot::bode_svg(&title, &series, &markers)?.into_bytes()
-            } else {
-                plot::bode_png(&title, &series, &markers, 1500, 1125)?
-            }
+            render(path, &Chart::bode(&title, series, markers))?;
         }
-    };
-    match &args.out {
-        Some(path) => {
-            write_atomic(path, &bytes)?;
-            Ok(format!(
-                "wrote {} ({} series)\n",
-                path.display(),
-                series.len()
-            ))
-        }
-        None => Ok(String::from_utf8(bytes)?),
     }
+    Ok(format!("wrote {} ({count} series)\n", path.display()))
 }
 
 fn series_of(lp: &Loop, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
@@ -185,42 +167,12 @@ fn series_of(lp: &Loop, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
     })
 }
 
-/// CSV: `freq_hz,mag_db,phase_deg`, then `mag_db[variant],phase_deg[variant]` per overlay.
-fn bode_csv(series: &[BodeSeries]) -> String {
-    let mut s = String::from("freq_hz");
-    for (i, ser) in series.iter().enumerate() {
-        if i == 0 {
-            s.push_str(",mag_db,phase_deg");
-        } else {
-            let label = ser.label.replace(',', ";");
-            let _ = write!(s, ",mag_db[{label}],phase_deg[{label}]");
-        }
-    }
-    s.push('\n');
-    for (k, f) in series[0].freq_hz.iter().enumerate() {
-        let _ = write!(s, "{f:.6e}");
-        for ser in series {
-            let _ = write!(s, ",{:.6},{:.6}", ser.mag_db[k], ser.phase_deg[k]);
-        }
-        s.push('\n');
-    }
-    s
-}
-
 /// `pumpcyl poles`.
 pub fn poles(args: &PolesArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
     let mut sets = vec![
-        (
-            "open_loop",
-            "open loop (the analysed L(s))",
-            lti::eigenvalues(&lp.open_loop.a)?,
-        ),
-        (
-            "closed_loop",
-            "closed loop (unity position feedback around L(s))",
-            lp.open_loop.closed_loop_poles()?,
-        ),
+        PoleSet::new(PoleSetKind::OpenLoop, &lti::eigenvalues(&lp.open_loop.a)?),
+        PoleSet::new(PoleSetKind::ClosedLoop, &lp.open_loop.closed_loop_poles()?),
     ];
     if let Some(rig) = lp
         .rig
@@ -228,55 +180,13 @@ pub fn poles(args: &PolesArgs) -> Result<String> {
         .filter(|r| r.sum_pressure && !args.model.sum_pressure_closed)
     {
         let full = Plant::new(rig).closed_loop(true);
-        sets.push((
-            "closed_loop_with_sum_pressure",
-            "closed loop with the sum-pressure loop as well (the controller as simulated)",
-            lti::eigenvalues(&full.a)?,
-        ));
+        let poles = lti::eigenvalues(&full.a)?;
+        sets.push(PoleSet::new(PoleSetKind::ClosedLoopWithSumPressure, &poles));
     }
-    let info: Vec<(&str, &str, Vec<PoleInfo>, bool)> = sets
-        .into_iter()
-        .map(|(k, d, p)| {
-            (
-                k,
-                d,
-                p.iter().copied().map(PoleInfo::from).collect(),
-                lti::is_stable(&p),
-            )
-        })
-        .collect();
     if args.json {
-        let mut obj = serde_json::Map::new();
-        obj.insert("loop".into(), json!(lp.description));
-        for (key, _, p, stable) in &info {
-            obj.insert(key.to_string(), json!(p));
-            obj.insert(format!("{key}_stable"), json!(stable));
-        }
-        return Ok(serde_json::to_string_pretty(&obj)? + "\n");
+        return Ok(json_document(&poles_json(&lp.description, &sets))?);
     }
-    let mut s = format!("{}\n", lp.description);
-    for (_, desc, p, stable) in &info {
-        let verdict = if *stable {
-            "asymptotically stable"
-        } else {
-            "not asymptotically stable (a pole on or right of the imaginary axis)"
-        };
-        let _ = writeln!(s, "\n{desc}: {verdict}");
-        let _ = writeln!(
-            s,
-            "  {:>14} {:>14} {:>12} {:>9}",
-            "re_1_per_s", "im_rad_per_s", "f_n_hz", "damping"
-        );
-        for q in p {
-            let damping = q.damping.map_or("-".to_string(), |z| format!("{z:.4}"));
-            let _ = writeln!(
-                s,
-                "  {:>14.6} {:>14.6} {:>12.5} {:>9}",
-                q.re, q.im, q.natural_freq_hz, damping
-            );
-        }
-    }
-    Ok(s)
+    Ok(poles_text(&lp.description, &sets))
 }
 
 /// `pumpcyl model`.
@@ -304,46 +214,12 @@ pub fn model(args: &ModelCmdArgs) -> Result<String> {
             let _ = writeln!(wrote, "wrote {}", path.display());
         }
     }
-    let json = lti::ModelJson::from_model(&view.sys, view.states.clone());
     if args.json {
-        return Ok(serde_json::to_string_pretty(&json)? + "\n");
+        let json = lti::ModelJson::from_model(&view.sys, view.states.clone());
+        return Ok(json_document(&json)?);
     }
     if !wrote.is_empty() {
         return Ok(wrote);
     }
-    let plural = |p: &[pumpcyl::loops::Port]| if p.len() > 1 { "s" } else { "" };
-    let outputs: Vec<String> = view
-        .outputs
-        .iter()
-        .map(|p| format!("{} ({})", p.name, p.unit))
-        .collect();
-    let inputs: Vec<String> = view
-        .inputs
-        .iter()
-        .map(|p| format!("{} {} ({})", p.meaning, p.name, p.unit))
-        .collect();
-    let mut s = format!(
-        "{}\ninput{}: {}; output{}: {}\nstates:\n",
-        view.title,
-        plural(&view.inputs),
-        inputs.join(", "),
-        plural(&view.outputs),
-        outputs.join(", ")
-    );
-    for (i, st) in view.states.iter().enumerate() {
-        let _ = writeln!(s, "  {:>2}  {:<6} {}", i + 1, st.name, st.unit);
-    }
-    for (name, rows) in [
-        ("A", &json.a),
-        ("B", &json.b),
-        ("C", &json.c),
-        ("D", &json.d),
-    ] {
-        let _ = writeln!(s, "{name} =");
-        for r in rows {
-            let cells: Vec<String> = r.iter().map(|v| format!("{v:>11.4e}")).collect();
-            let _ = writeln!(s, "  [{}]", cells.join(" "));
-        }
-    }
-    Ok(s)
+    Ok(model_text(&view))
 }

@@ -2,12 +2,12 @@
 
 use anyhow::Result;
 use clap::Args;
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::emit::fmt_opt;
 use crate::RigSource;
 use pumpcyl::design::{design, Targets};
+use pumpcyl_present::design::design_text;
+use pumpcyl_present::format::json_document;
 
 #[derive(Debug, Args)]
 pub struct DesignArgs {
@@ -113,52 +113,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
     }
     let d = design(&rig, &targets)?;
     if args.json {
-        return Ok(serde_json::to_string_pretty(&d)? + "\n");
+        return Ok(json_document(&d)?);
     }
-    let verdict = pumpcyl_present::design::verdict_text(d.verdict);
-    let mut s = format!(
-        "design (the article §2.2) for {}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
-        args.rig.origin(),
-        args.target_pm_deg,
-        args.target_gm_db,
-        d.kp_max,
-        d.kp_max_worst_case
-    );
-    let _ = writeln!(s, "conditions at Kp = {:.2}:", d.kp_max);
-    let _ = writeln!(
-        s,
-        "  {:>7} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}",
-        "x_mm", "mass_kg", "p_bar", "beta_bar", "GM_dB", "PM_deg", "kp_max"
-    );
-    for c in &d.conditions {
-        let p = c.p_mean_bar.map_or("-".into(), |p| format!("{p}"));
-        let stable = if c.closed_loop_stable {
-            ""
-        } else {
-            "  UNSTABLE"
-        };
-        let _ = writeln!(
-            s,
-            "  {:>7.1} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}{stable}",
-            c.x_mm,
-            c.mass_kg,
-            p,
-            c.beta_bar,
-            fmt_opt(c.gain_margin_db, 2),
-            fmt_opt(c.phase_margin_deg, 1),
-            c.kp_max
-        );
-    }
-    for t in &d.tracking {
-        let _ = writeln!(
-            s,
-            "tracking {} Hz ±{} mm: max error {:.2} mm, RMS {:.2} mm, wave reduction {:.2}",
-            t.freq_hz, t.amp_mm, t.max_error_mm, t.rms_error_mm, t.wave_reduction
-        );
-    }
-    let _ = writeln!(s, "verdict: {verdict}");
-    for r in &d.reasons {
-        let _ = writeln!(s, "  - {r}");
-    }
-    Ok(s)
+    Ok(design_text(&args.rig.origin(), &d))
 }

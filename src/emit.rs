@@ -1,10 +1,11 @@
-//! Command-line output: the format chosen by a file's extension, and standard output. The safe
-//! file and folder writes are the library's [`pumpcyl_present::files`].
+//! Command-line output: the format chosen by a file's extension, charts rendered to files, and
+//! standard output. The safe file and folder writes are the library's
+//! [`pumpcyl_present::files`].
 
 use anyhow::{Context, Result};
+use pumpcyl_present::figures::Chart;
 pub use pumpcyl_present::files::ensure_folder;
 use pumpcyl_present::files::{self, OutDir};
-pub use pumpcyl_present::format::{fmt_opt, shown_name};
 use std::io::Write;
 use std::path::Path;
 
@@ -97,6 +98,22 @@ pub fn format_of(path: &Path, allowed: &[Format]) -> Result<Format> {
             )
         }
     }
+}
+
+/// Render a chart to SVG or PNG by the extension of `path`, written atomically (never over an
+/// input of this command).
+pub fn render(path: &Path, chart: &Chart) -> Result<()> {
+    let bytes = match format_of(path, &[Format::Svg, Format::Png])? {
+        Format::Png => chart.png()?,
+        _ => chart.svg()?.into_bytes(),
+    };
+    write_atomic(path, &bytes)
+}
+
+/// Render a chart as `stem`.svg and `stem`.png, each atomically.
+pub fn render_both(stem: &Path, chart: &Chart) -> Result<()> {
+    render(&stem.with_extension("svg"), chart)?;
+    render(&stem.with_extension("png"), chart)
 }
 
 /// Print the result to standard output. A closed standard output or a broken pipe is an error:

@@ -206,7 +206,7 @@ pub(super) fn write_drive_overlay(
         return write_atomic(path, outputs::drive_csv(rec, fit).as_bytes());
     }
     let chart = Chart::drive_step(rec, fit);
-    crate::time::render(path, &chart)
+    crate::emit::render(path, &chart)
 }
 
 /// The experiment file's options with this command's flags on top.

@@ -1,13 +1,17 @@
 //! The frequency analyses as every front end shows them (docs/analysis.md): margins as a JSON
-//! document and as text.
+//! document and as text, poles as JSON and text, Bode data as CSV, the model as text.
 //!
 //! One convention for margins everywhere (command line, summary.json, Python): a margin is a
 //! number, or `null` (Python `None`) when it is infinite because there is no crossing of that
 //! kind; a crossover frequency is `null` where there is no crossing. A NaN is never written.
 
 use crate::format::fmt_opt;
-use pumpcyl::lti::{CrossingKind, Margins};
+use crate::plot::BodeSeries;
+use nalgebra::{Complex, DMatrix};
+use pumpcyl::loops::{ModelView, Port};
+use pumpcyl::lti::{is_stable, CrossingKind, Margins, PoleInfo};
 use serde::Serialize;
+use serde_json::{json, Value};
 use std::fmt::Write as _;
 
 /// The margins of a loop with what the loop is: the core's [`Margins`], every field of it, and
@@ -85,6 +89,170 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
     s
 }
 
+/// Which poles of a loop a [`PoleSet`] holds (docs/analysis.md#poles-and-damping).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PoleSetKind {
+    /// The eigenvalues of the analysed loop transfer L(s).
+    OpenLoop,
+    /// The poles of unity position feedback around L(s).
+    ClosedLoop,
+    /// The closed loop with the sum-pressure loop closed as well: the controller as simulated.
+    ClosedLoopWithSumPressure,
+}
+
+impl PoleSetKind {
+    /// The set's key in the poles document (`open_loop`, `closed_loop`,
+    /// `closed_loop_with_sum_pressure`).
+    pub fn key(self) -> &'static str {
+        match self {
+            PoleSetKind::OpenLoop => "open_loop",
+            PoleSetKind::ClosedLoop => "closed_loop",
+            PoleSetKind::ClosedLoopWithSumPressure => "closed_loop_with_sum_pressure",
+        }
+    }
+
+    /// What the set is, in words.
+    pub fn description(self) -> &'static str {
+        match self {
+            PoleSetKind::OpenLoop => "open loop (the analysed L(s))",
+            PoleSetKind::ClosedLoop => "closed loop (unity position feedback around L(s))",
+            PoleSetKind::ClosedLoopWithSumPressure => {
+                "closed loop with the sum-pressure loop as well (the controller as simulated)"
+            }
+        }
+    }
+}
+
+/// A set of poles with their natural frequencies (Hz) and damping ratios, and whether they are
+/// all strictly in the left half-plane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoleSet {
+    /// Which poles.
+    pub kind: PoleSetKind,
+    /// The poles (real part 1/s, imaginary part rad/s).
+    pub poles: Vec<PoleInfo>,
+    /// Whether the set is asymptotically stable.
+    pub stable: bool,
+}
+
+impl PoleSet {
+    /// The set `kind` of the poles `poles` (1/s).
+    pub fn new(kind: PoleSetKind, poles: &[Complex<f64>]) -> PoleSet {
+        PoleSet {
+            kind,
+            poles: poles.iter().copied().map(PoleInfo::from).collect(),
+            stable: is_stable(poles),
+        }
+    }
+}
+
+/// The poles document (`poles --json`): `loop`, the loop in words, and per set its key (the
+/// core's [`PoleInfo`] of every pole) and `<key>_stable`.
+pub fn poles_json(description: &str, sets: &[PoleSet]) -> Value {
+    let mut v = json!({"loop": description});
+    for set in sets {
+        let key = set.kind.key();
+        v[key] = json!(set.poles);
+        v[format!("{key}_stable")] = json!(set.stable);
+    }
+    v
+}
+
+/// The poles as text: the loop, then per set its stability and a table of the poles (real part
+/// 1/s, imaginary part rad/s, natural frequency Hz, damping ratio; `-` for a pole at the origin).
+pub fn poles_text(description: &str, sets: &[PoleSet]) -> String {
+    let mut s = format!("{description}\n");
+    for set in sets {
+        let verdict = if set.stable {
+            "asymptotically stable"
+        } else {
+            "not asymptotically stable (a pole on or right of the imaginary axis)"
+        };
+        let _ = writeln!(s, "\n{}: {verdict}", set.kind.description());
+        let _ = writeln!(
+            s,
+            "  {:>14} {:>14} {:>12} {:>9}",
+            "re_1_per_s", "im_rad_per_s", "f_n_hz", "damping"
+        );
+        for q in &set.poles {
+            let damping = q.damping.map_or("-".to_string(), |z| format!("{z:.4}"));
+            let _ = writeln!(
+                s,
+                "  {:>14.6} {:>14.6} {:>12.5} {:>9}",
+                q.re, q.im, q.natural_freq_hz, damping
+            );
+        }
+    }
+    s
+}
+
+/// Bode data as CSV (docs/analysis.md#bode-diagrams): `freq_hz` (Hz), then `mag_db` (dB) and
+/// `phase_deg` (deg) of the first series and `mag_db[label],phase_deg[label]` of each further
+/// one (commas in a label written as `;`); every series on the first one's frequencies.
+pub fn bode_csv(series: &[BodeSeries]) -> String {
+    let mut s = String::from("freq_hz");
+    for (i, ser) in series.iter().enumerate() {
+        if i == 0 {
+            s.push_str(",mag_db,phase_deg");
+        } else {
+            let label = ser.label.replace(',', ";");
+            let _ = write!(s, ",mag_db[{label}],phase_deg[{label}]");
+        }
+    }
+    s.push('\n');
+    for (k, f) in series[0].freq_hz.iter().enumerate() {
+        let _ = write!(s, "{f:.6e}");
+        for ser in series {
+            let _ = write!(s, ",{:.6},{:.6}", ser.mag_db[k], ser.phase_deg[k]);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The model as text: what it is, its inputs and outputs with their units, the states, and the
+/// matrices A, B, C, D (SI) row by row.
+pub fn model_text(view: &ModelView) -> String {
+    let plural = |p: &[Port]| if p.len() > 1 { "s" } else { "" };
+    let outputs: Vec<String> = view
+        .outputs
+        .iter()
+        .map(|p| format!("{} ({})", p.name, p.unit))
+        .collect();
+    let inputs: Vec<String> = view
+        .inputs
+        .iter()
+        .map(|p| format!("{} {} ({})", p.meaning, p.name, p.unit))
+        .collect();
+    let mut s = format!(
+        "{}\ninput{}: {}; output{}: {}\nstates:\n",
+        view.title,
+        plural(&view.inputs),
+        inputs.join(", "),
+        plural(&view.outputs),
+        outputs.join(", ")
+    );
+    for (i, st) in view.states.iter().enumerate() {
+        let _ = writeln!(s, "  {:>2}  {:<6} {}", i + 1, st.name, st.unit);
+    }
+    let sys = &view.sys;
+    for (name, m) in [("A", &sys.a), ("B", &sys.b), ("C", &sys.c), ("D", &sys.d)] {
+        let _ = writeln!(s, "{name} =");
+        s += &matrix_rows(m);
+    }
+    s
+}
+
+/// The rows of a matrix, one a line: `  [v v v]`, each value as `{:>11.4e}`.
+fn matrix_rows(m: &DMatrix<f64>) -> String {
+    m.row_iter()
+        .map(|r| {
+            let cells: Vec<String> = r.iter().map(|v| format!("{v:>11.4e}")).collect();
+            format!("  [{}]\n", cells.join(" "))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -109,5 +277,48 @@ mod tests {
         assert_eq!(v["loop"], "default rig");
         assert_eq!(v["gain_margin_db"], core["gain_margin_db"]);
         assert!(margins_text(&m, "default rig").contains("closed loop   stable"));
+    }
+
+    #[test]
+    fn the_poles_documents_list_every_pole_of_every_set() {
+        let plant = Plant::new(&Rig::default());
+        let open = plant.open_loop(false);
+        let sets = [
+            PoleSet::new(
+                PoleSetKind::OpenLoop,
+                &pumpcyl::lti::eigenvalues(&open.a).unwrap(),
+            ),
+            PoleSet::new(PoleSetKind::ClosedLoop, &open.closed_loop_poles().unwrap()),
+        ];
+        // the article's loop has an integrator (not asymptotically stable open), a stable closed
+        assert!(!sets[0].stable && sets[1].stable);
+        let v = poles_json("default rig", &sets);
+        assert_eq!(v.as_object().unwrap().len(), 5);
+        assert_eq!(v["open_loop"].as_array().unwrap().len(), open.a.nrows());
+        assert_eq!(v["closed_loop_stable"], true);
+        let text = poles_text("default rig", &sets);
+        // the loop, then per set a blank line, the verdict, the column names and the poles
+        assert_eq!(text.lines().count(), 1 + 2 * 3 + 2 * open.a.nrows());
+    }
+
+    #[test]
+    fn the_bode_csv_has_two_columns_per_series_and_a_row_per_frequency() {
+        let series = |label: &str| BodeSeries {
+            label: label.into(),
+            freq_hz: vec![0.1, 1.0, 10.0],
+            mag_db: vec![20.0, 0.0, -20.0],
+            phase_deg: vec![-90.0, -135.0, -180.0],
+        };
+        let csv = bode_csv(&[series("nominal"), series("kp=30,beta_bar=50")]);
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next(),
+            Some("freq_hz,mag_db,phase_deg,mag_db[kp=30;beta_bar=50],phase_deg[kp=30;beta_bar=50]")
+        );
+        assert_eq!(
+            lines.next(),
+            Some("1.000000e-1,20.000000,-90.000000,20.000000,-90.000000")
+        );
+        assert_eq!(lines.count(), 2);
     }
 }

@@ -1,10 +1,14 @@
-//! The design results in words: the verdict's one spelling, the deciding margin, and the
-//! robust design's leakage loop as a table (docs/design.md).
+//! The design results in words (docs/design.md): the verdict's one spelling, the deciding
+//! margin, the nominal design as text, the robust design as JSON and text, and its leakage loop
+//! as a table. Gains are in 1/m, gain margins in dB, phase margins in deg, delay margins in s;
+//! an infinite margin is `inf` in text and `null` in JSON.
 
 use crate::format::fmt_opt;
 use crate::table::Table;
-use pumpcyl::design::robust::Binding;
-use pumpcyl::design::{RobustDesign, Verdict};
+use pumpcyl::design::robust::{Binding, RegionSource, Worst};
+use pumpcyl::design::{Design, RobustDesign, Verdict};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
 
 /// The verdict as every text output writes it.
 pub fn verdict_text(v: Verdict) -> &'static str {
@@ -58,4 +62,190 @@ pub fn leakage_loop_table(d: &RobustDesign) -> Table {
         ]);
     }
     t
+}
+
+/// The nominal design (docs/design.md#what-pumpcyl-design-does) for the rig `rig` (in words)
+/// as text: the targets, the largest gains, the margins at every condition, the predicted
+/// tracking, the verdict and its reasons.
+pub fn design_text(rig: &str, d: &Design) -> String {
+    let mut s = format!(
+        "design (the article §2.2) for {rig}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
+        d.targets.pm_deg, d.targets.gm_db, d.kp_max, d.kp_max_worst_case
+    );
+    let _ = writeln!(s, "conditions at Kp = {:.2}:", d.kp_max);
+    let _ = writeln!(
+        s,
+        "  {:>7} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}",
+        "x_mm", "mass_kg", "p_bar", "beta_bar", "GM_dB", "PM_deg", "kp_max"
+    );
+    for c in &d.conditions {
+        let p = c.p_mean_bar.map_or("-".into(), |p| format!("{p}"));
+        let stable = if c.closed_loop_stable {
+            ""
+        } else {
+            "  UNSTABLE"
+        };
+        let _ = writeln!(
+            s,
+            "  {:>7.1} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}{stable}",
+            c.x_mm,
+            c.mass_kg,
+            p,
+            c.beta_bar,
+            fmt_opt(c.gain_margin_db, 2),
+            fmt_opt(c.phase_margin_deg, 1),
+            c.kp_max
+        );
+    }
+    for t in &d.tracking {
+        let _ = writeln!(
+            s,
+            "tracking {} Hz ±{} mm: max error {:.2} mm, RMS {:.2} mm, wave reduction {:.2}",
+            t.freq_hz, t.amp_mm, t.max_error_mm, t.rms_error_mm, t.wave_reduction
+        );
+    }
+    s + &verdict_lines(d.verdict, &d.reasons)
+}
+
+/// `verdict: …` and one line per reason.
+fn verdict_lines(verdict: Verdict, reasons: &[String]) -> String {
+    let mut s = format!("verdict: {}\n", verdict_text(verdict));
+    for r in reasons {
+        let _ = writeln!(s, "  - {r}");
+    }
+    s
+}
+
+/// The robust design document (`design --robust --json`, result.json of its folder): every
+/// field of the core's [`RobustDesign`], `seconds`, the time of the whole design (s), and
+/// `identification_seconds`, the time the parameter region took (s).
+pub fn robust_json(d: &RobustDesign, seconds: f64, identification_seconds: f64) -> Value {
+    let mut v = serde_json::to_value(d).expect("a robust design serialises");
+    v["seconds"] = json!(seconds);
+    v["identification_seconds"] = json!(identification_seconds);
+    v
+}
+
+/// A worst margin as a line of text: `name`, the value with `digits` decimals and its `unit`,
+/// `UNSTABLE` if the closed loop is unstable there, and the point where it occurs.
+pub fn worst_line(name: &str, unit: &str, w: &Worst, digits: usize) -> String {
+    let stable = if w.closed_loop_stable {
+        ""
+    } else {
+        " UNSTABLE"
+    };
+    format!(
+        "  {name:<14} {:>10} {unit}{stable}  at {}\n",
+        fmt_opt(w.value, digits),
+        w.at.describe()
+    )
+}
+
+/// The robust design (docs/design.md#robust-design) as text: the parameter region, the
+/// targets, the robust and nominal gains, the worst case at the robust gain, the leakage loop,
+/// the verdict and its reasons; `seconds` the time it took (s).
+pub fn robust_text(d: &RobustDesign, seconds: f64) -> String {
+    let r = &d.region;
+    let mut s = match r.source {
+        RegionSource::Records => format!(
+            "robust design (docs/design.md#robust-design) over the {:.0} % confidence region of the records\n",
+            r.confidence.unwrap_or(0.0) * 100.0
+        ),
+        RegionSource::Point => String::from(
+            "robust design (docs/design.md#robust-design) at one given parameter point\n",
+        ),
+        RegionSource::StatedDefault => String::from(
+            "robust design (docs/design.md#robust-design) over the STATED DEFAULT uncertainty (no records given: \
+             beta ±15 %, b x[0.5, 2], c12 x[0.7, 1.3])\n",
+        ),
+    };
+    let _ = writeln!(
+        s,
+        "  beta {:.1} .. {:.1} bar, b {:.1} .. {:.1} N·s/m{}, c12 {:.4e} .. {:.4e} m⁵/(N·s); {} ridge points",
+        r.beta_bar[0],
+        r.beta_bar[1],
+        r.viscous_friction_ns_per_m[0],
+        r.viscous_friction_ns_per_m[1],
+        if r.identifiable[1] { "" } else { " (not identifiable: the reported interval)" },
+        r.c12_m5_per_ns[0],
+        r.c12_m5_per_ns[1],
+        r.ridge.len()
+    );
+    let t = &d.targets;
+    let _ = writeln!(
+        s,
+        "targets PM >= {} deg, GM >= {} dB over x0 ± {} mm{}",
+        t.pm_deg,
+        t.gm_db,
+        t.stroke_mm,
+        if t.p_mean_bar.is_empty() {
+            String::new()
+        } else {
+            format!(", p {:?} bar", t.p_mean_bar)
+        }
+    );
+    let _ = writeln!(s, "  Kp max, robust     {:.2} (1/m)", d.kp_max);
+    let _ = writeln!(s, "  Kp max, nominal    {:.2} (1/m)", d.kp_max_nominal);
+    let w = &d.worst_case;
+    let _ = writeln!(
+        s,
+        "worst case over {} points at Kp = {:.2}:",
+        w.points, w.kp
+    );
+    s += &worst_line("GM (dB)", "dB", &w.gain_margin_db, 2);
+    s += &worst_line("PM (deg)", "deg", &w.phase_margin_deg, 1);
+    s += &worst_line("delay margin", "s", &w.delay_margin_s, 4);
+    s += &leakage_loop_table(d).text();
+    s += &verdict_lines(d.verdict, &d.reasons);
+    let _ = writeln!(s, "in {seconds:.2} s");
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pumpcyl::design::robust::Point;
+    use pumpcyl::design::{design, Targets};
+    use pumpcyl::rig::Rig;
+
+    #[test]
+    fn the_design_text_has_a_row_per_condition_and_ends_with_the_verdict() {
+        let d = design(&Rig::default(), &Targets::article()).unwrap();
+        let text = design_text("default rig", &d);
+        // targets and gains (3), conditions heading and columns (2), conditions, tracking,
+        // verdict, reasons
+        let want = 5 + d.conditions.len() + d.tracking.len() + 1 + d.reasons.len();
+        assert_eq!(text.lines().count(), want, "{text}");
+        let verdict = format!("verdict: {}", verdict_text(d.verdict));
+        assert_eq!(
+            text.lines().nth(want - 1 - d.reasons.len()),
+            Some(verdict.as_str())
+        );
+    }
+
+    #[test]
+    fn a_worst_margin_line_says_infinite_and_unstable() {
+        let at = Point {
+            beta_bar: 165.0,
+            viscous_friction_ns_per_m: 2000.0,
+            c12_m5_per_ns: 1e-11,
+            c1_m5_per_ns: 1e-12,
+            c2_m5_per_ns: 1e-12,
+            x_mm: -50.0,
+            mass_kg: 300.0,
+            p_mean_bar: None,
+            beta_e_bar: 165.0,
+        };
+        let w = Worst {
+            value: None,
+            closed_loop_stable: false,
+            at,
+        };
+        let line = worst_line("GM (dB)", "dB", &w, 2);
+        assert!(line.starts_with("  GM (dB)               inf dB UNSTABLE  at beta 165.0 bar"));
+        assert!(
+            line.ends_with("x -50.0 mm, m 300 kg, beta_e 165.0 bar\n"),
+            "{line}"
+        );
+    }
 }

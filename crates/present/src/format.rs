@@ -1,6 +1,16 @@
-//! Numbers and names as the text outputs show them.
+//! Numbers, names and JSON documents as the outputs show them.
 
+use serde::Serialize;
 use std::path::Path;
+
+/// A JSON document as every output prints and writes it: pretty-printed (two-space indent)
+/// with a final newline.
+///
+/// # Errors
+/// When `v` does not serialise to JSON (a map with keys that are not strings).
+pub fn json_document(v: &impl Serialize) -> serde_json::Result<String> {
+    Ok(serde_json::to_string_pretty(v)? + "\n")
+}
 
 /// A finite value with `digits` decimals, or "inf" for `None` (an infinite margin).
 pub fn fmt_opt(v: Option<f64>, digits: usize) -> String {

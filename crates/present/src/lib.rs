@@ -6,20 +6,26 @@
 //! parse, call and show. Modules:
 //! - [`plot`] — the plotting toolkit (panels, Bode, heat map; SVG and PNG);
 //! - [`html`] — the self-contained HTML page of a report;
-//! - [`analysis`] — margins as a JSON document and as text;
-//! - [`design`] — the design results in words: verdict, deciding margin, leakage loop;
+//! - [`analysis`] — margins as a JSON document and as text; poles, Bode CSV, the model as text;
+//! - [`time`] — step, tracking and replay documents: JSON, text, signal CSV, MAT-files;
+//! - [`bulk`] — the gas fraction and β_e against pressure: JSON, text, CSV;
+//! - [`advise`] — experiment advice as JSON and text;
+//! - [`design`] — the design results in words: verdict, deciding margin, nominal and robust
+//!   design as text and JSON, leakage loop;
 //! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape);
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
-//! - [`matlab`] — MATLAB/Octave function files: the model as `ss`, the grey-box function;
+//! - [`matlab`] — MATLAB/Octave files: the model as `ss`, the grey-box function, MAT-files;
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
-//! - [`mod@format`] — numbers and names as the text outputs show them;
+//! - [`mod@format`] — numbers, names and JSON documents as the outputs show them;
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
 //! - [`table`] — tables of text cells, for terminals and reports;
 //! - [`uncertainty`] — the uncertainty of an identification: JSON fields, text, profile figures.
 
 #![warn(missing_docs)]
 
+pub mod advise;
 pub mod analysis;
+pub mod bulk;
 pub mod design;
 pub mod figures;
 pub mod files;
@@ -30,4 +36,5 @@ pub mod matlab;
 pub mod plot;
 pub mod reproduce;
 pub mod table;
+pub mod time;
 pub mod uncertainty;

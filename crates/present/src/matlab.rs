@@ -1,13 +1,17 @@
-//! MATLAB/Octave function files: the model as an `ss` object with named states, inputs and
-//! outputs, and a grey-box model function for System Identification Toolbox's `idgrey`
-//! (docs/matlab.md). Numbers are written in Rust's shortest round-trip form, so MATLAB and
-//! Octave read back exactly the f64 values pumpcyl computed with.
+//! MATLAB/Octave files: the model as an `ss` object with named states, inputs and outputs, a
+//! grey-box model function for System Identification Toolbox's `idgrey`, and MAT-files of the
+//! model, of signals and of Bode data (docs/matlab.md). Numbers in function files are written
+//! in Rust's shortest round-trip form, so MATLAB and Octave read back exactly the f64 values
+//! pumpcyl computed with.
 
+use crate::plot::BodeSeries;
 use nalgebra::DMatrix;
 use pumpcyl::ident::Standstill;
-use pumpcyl::loops::{grey_loop, GreyLoop, Port};
+use pumpcyl::loops::{grey_loop, GreyLoop, ModelView, Port};
 use pumpcyl::lti::{StateInfo, StateSpace};
+use pumpcyl::matfile::{var_name, MatWriter};
 use pumpcyl::model::{Layout, Plant};
+use pumpcyl::response::Signals;
 use pumpcyl::rig::{Rig, RigSi};
 use pumpcyl::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use std::fmt::Write as _;
@@ -278,6 +282,124 @@ pub fn greybox_function(
     s
 }
 
+/// MAT variables named as the signal CSV columns (`time_s`, `x_ref_mm`, `x_mm`, `e_mm`,
+/// `p1_bar`, `p2_bar`, `w1_rpm`, `w2_rpm`; units as the names say): the first block (the
+/// measured record if there is one) with plain names, block k ≥ 2 with the suffix `_k`, empty
+/// signals left out; `series_labels` names the blocks (`1: measured; 2: nominal`).
+fn signal_columns(w: &mut MatWriter, series: &[(String, &Signals)], measured: Option<&Signals>) {
+    let mut blocks: Vec<(&str, &Signals)> = Vec::new();
+    if let Some(m) = measured {
+        blocks.push(("measured", m));
+    }
+    blocks.extend(series.iter().map(|(l, s)| (l.as_str(), *s)));
+    let mut labels = Vec::new();
+    for (k, (label, s)) in blocks.iter().enumerate() {
+        labels.push(format!("{}: {label}", k + 1));
+        for (name, v) in s.named() {
+            if !v.is_empty() {
+                w.column(&format!("{name}{}", block_suffix(k)), v);
+            }
+        }
+    }
+    w.text("series_labels", &labels.join("; "));
+}
+
+/// The suffix of the variables of block `k` (0-based) of a MAT-file: none for the first,
+/// `_2`, `_3`, … after it.
+fn block_suffix(k: usize) -> String {
+    if k == 0 {
+        String::new()
+    } else {
+        format!("_{}", k + 1)
+    }
+}
+
+/// A MAT-file (docs/matlab.md#mat-files-of-results) of signals and named columns of scalars.
+/// The signals are named as the signal CSV columns (`time_s`, `x_ref_mm`, `x_mm`, `e_mm`,
+/// `p1_bar`, `p2_bar`, `w1_rpm`, `w2_rpm`): the first block (`measured` if given) plain, block
+/// k ≥ 2 suffixed `_k`, with `series_labels` naming the blocks. The scalars hold one value per
+/// series, `None` written as NaN (not reached, not settled); `description` heads the file.
+pub fn signals_mat(
+    description: &str,
+    series: &[(String, &Signals)],
+    measured: Option<&Signals>,
+    scalars: &[(&str, Vec<Option<f64>>)],
+) -> Vec<u8> {
+    let mut w = MatWriter::new(description);
+    signal_columns(&mut w, series, measured);
+    for (name, values) in scalars {
+        let v: Vec<f64> = values.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
+        w.column(&var_name(name), &v);
+    }
+    w.into_bytes()
+}
+
+/// The Bode MAT-file (docs/matlab.md#mat-files-of-results): `freq_hz` (Hz), `mag_db` (dB) and
+/// `phase_deg` (deg) per series (suffixed `_k` for series k ≥ 2), `series_labels`. Every
+/// series is on the first one's frequencies.
+pub fn bode_mat(series: &[BodeSeries]) -> Vec<u8> {
+    let mut w = MatWriter::new("Bode diagram of the position open loop");
+    w.column("freq_hz", &series[0].freq_hz);
+    let mut labels = Vec::new();
+    for (k, s) in series.iter().enumerate() {
+        let suffix = block_suffix(k);
+        labels.push(format!("{}: {}", k + 1, s.label));
+        w.column(&format!("mag_db{suffix}"), &s.mag_db)
+            .column(&format!("phase_deg{suffix}"), &s.phase_deg);
+    }
+    w.text("series_labels", &labels.join("; "));
+    w.into_bytes()
+}
+
+/// The model as a MAT-file (docs/matlab.md#the-model-as-an-ss-object): `A`, `B`, `C`, `D`
+/// (SI), the names `state_names`, `state_units`, `input_names`, `output_names` (comma
+/// separated), `description`, and `op_<name>` for each value of the operating point.
+pub fn model_mat(view: &ModelView) -> Vec<u8> {
+    let mut w = MatWriter::new(&view.title);
+    for (name, m) in [
+        ("A", &view.sys.a),
+        ("B", &view.sys.b),
+        ("C", &view.sys.c),
+        ("D", &view.sys.d),
+    ] {
+        w.matrix(name, m.nrows(), m.ncols(), m.as_slice());
+    }
+    let join = |v: Vec<&str>| v.join(",");
+    w.text(
+        "state_names",
+        &join(view.states.iter().map(|s| s.name.as_str()).collect()),
+    )
+    .text(
+        "state_units",
+        &join(view.states.iter().map(|s| s.unit.as_str()).collect()),
+    )
+    .text(
+        "input_names",
+        &join(view.inputs.iter().map(|s| s.name.as_str()).collect()),
+    )
+    .text(
+        "output_names",
+        &join(view.outputs.iter().map(|s| s.name.as_str()).collect()),
+    )
+    .text("description", &view.title);
+    for (name, v, _) in &view.operating_point {
+        w.scalar(&format!("op_{name}"), *v);
+    }
+    w.into_bytes()
+}
+
+/// The model of `view` with its names, as [`ss_function`] writes it.
+pub fn described(view: &ModelView) -> Described<'_> {
+    Described {
+        sys: &view.sys,
+        states: &view.states,
+        inputs: view.inputs.clone(),
+        outputs: view.outputs.clone(),
+        title: view.title.clone(),
+        operating_point: view.operating_point.clone(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -330,5 +452,50 @@ mod tests {
             assert_eq!(num(v).parse::<f64>().unwrap(), v);
         }
         assert!(is_function_name("open_loop") && !is_function_name("open-loop"));
+    }
+
+    #[test]
+    fn a_signals_mat_has_a_block_per_series_and_nan_for_none() {
+        let signals = Signals {
+            time_s: vec![0.0, 0.1, 0.2],
+            x_ref_mm: vec![5.0; 3],
+            x_mm: vec![0.0, 2.0, 4.5],
+            e_mm: vec![5.0, 3.0, 0.5],
+            ..Signals::default()
+        };
+        let series = [("nominal".to_string(), &signals)];
+        let bytes = signals_mat(
+            "test",
+            &series,
+            Some(&signals),
+            &[("rise_time_s", vec![None])],
+        );
+        let vars = pumpcyl::matfile::read(&bytes).unwrap();
+        let get = |name: &str| vars.iter().find(|v| v.name == name);
+        // the measured block plain, the series suffixed _2; the empty pressures left out
+        assert_eq!(get("x_mm").unwrap().vector().unwrap(), &[0.0, 2.0, 4.5]);
+        assert_eq!(get("e_mm_2").unwrap().vector().unwrap(), &[5.0, 3.0, 0.5]);
+        assert!(get("p1_bar").is_none() && get("x_mm_3").is_none());
+        assert!(get("series_labels").is_some());
+        assert!(get("rise_time_s").unwrap().vector().unwrap()[0].is_nan());
+    }
+
+    #[test]
+    fn a_bode_mat_suffixes_every_series_after_the_first() {
+        let series = |label: &str, mag: f64| BodeSeries {
+            label: label.into(),
+            freq_hz: vec![0.1, 1.0],
+            mag_db: vec![mag, mag - 20.0],
+            phase_deg: vec![-90.0, -120.0],
+        };
+        let bytes = bode_mat(&[series("nominal", 10.0), series("beta_bar=37.8", 4.0)]);
+        let names: Vec<String> = pumpcyl::matfile::read(&bytes)
+            .unwrap()
+            .into_iter()
+            .map(|v| v.name)
+            .collect();
+        let want = ["freq_hz", "mag_db", "phase_deg", "mag_db_2", "phase_deg_2"];
+        assert_eq!(names[..5], want);
+        assert_eq!(names[5], "series_labels");
     }
 }

@@ -7,6 +7,7 @@
 
 use super::summary::{AdviceSummary, HowSure, PerParameter, RobustSummary};
 use super::Run;
+use crate::advise::width_text;
 use crate::figures::{parameter_value, Chart, PARAMETER_AXES, PARAMETER_NAMES};
 use anyhow::Result;
 use pumpcyl::design::robust::{Binding, RobustOptions};
@@ -253,18 +254,14 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
 
 /// The candidate records ranked by the expected interval widths, and the one that helps b most.
 fn next_experiment(run: &mut Run, a: &Advice) {
-    let width = |w: &pumpcyl::ident::Width| {
-        w.relative_width
-            .map_or("unbounded".to_string(), |r| format!("{:.1} %", r * 100.0))
-    };
     let mut rows = vec![{
         let mut r = vec!["none (the records as they are)".to_string()];
-        r.extend(a.current.iter().map(width));
+        r.extend(a.current.iter().map(width_text));
         r
     }];
     rows.extend(a.candidates.iter().take(LISTED).map(|c| {
         let mut r = vec![c.label.clone()];
-        r.extend(c.widths.iter().map(width));
+        r.extend(c.widths.iter().map(width_text));
         r
     }));
     run.table(

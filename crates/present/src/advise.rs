@@ -1,0 +1,152 @@
+//! Experiment advice as every front end shows it (docs/identification.md#experiment-advice):
+//! which further record would narrow the intervals of β (bar), b (N·s/m) and c12 (m⁵/(N·s))
+//! most, as JSON and as text. Widths are relative to the estimate.
+
+use pumpcyl::ident::{Advice, Width};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+
+/// The advice document (`advise --json`): every field of the core's [`Advice`], `experiment`,
+/// the experiment file, and `seconds`, the time the advice took (s).
+pub fn advice_json(advice: &Advice, experiment: &str, seconds: f64) -> Value {
+    let mut v = serde_json::to_value(advice).expect("advice serialises");
+    v["experiment"] = json!(experiment);
+    v["seconds"] = json!(seconds);
+    v
+}
+
+/// A relative width as the tables show it: `12.3 %`, or `unbounded` when the interval reaches
+/// a search bound.
+pub fn width_text(w: &Width) -> String {
+    w.relative_width
+        .map_or("unbounded".into(), |r| format!("{:.1} %", 100.0 * r))
+}
+
+/// The advice for the experiment `name` as text: the linearisation point and noise, the
+/// current widths and each candidate's (ranked), the skipped candidates, the one that helps b
+/// most and the best for β and c12; `seconds` the time it took (s).
+pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
+    let mut s = String::new();
+    let p = &a.point;
+    let _ = writeln!(
+        s,
+        "experiment advice for {name} (linearised at beta {:.1} bar, b {:.1} N·s/m, c12 {:.4e} \
+         m⁵/(N·s); noise sigma {:.4} mm, variance inflated {:.1}-fold; {:.0} % intervals, \
+         widths relative to the estimate), in {seconds:.1} s",
+        p.beta_bar,
+        p.viscous_friction_ns_per_m,
+        p.c12_m5_per_ns,
+        a.noise_std_mm,
+        a.variance_inflation,
+        a.confidence * 100.0
+    );
+    let _ = writeln!(
+        s,
+        "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
+        "rank", "record added", "beta", "b", "c12", "x beta", "x b", "x c12"
+    );
+    let _ = writeln!(
+        s,
+        "{:>4}  {:<36} {:>10} {:>10} {:>10}",
+        "-",
+        "none (the current records)",
+        width_text(&a.current[0]),
+        width_text(&a.current[1]),
+        width_text(&a.current[2])
+    );
+    for (k, c) in a.candidates.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7.2} {:>7.2} {:>7.2}",
+            k + 1,
+            c.label,
+            width_text(&c.widths[0]),
+            width_text(&c.widths[1]),
+            width_text(&c.widths[2]),
+            c.improvement[0],
+            c.improvement[1],
+            c.improvement[2]
+        );
+    }
+    for line in &a.skipped {
+        let _ = writeln!(s, "skipped: {line}");
+    }
+    if let Some(b) = a.candidates.iter().find(|c| c.label == a.best_for[1]) {
+        let _ = writeln!(
+            s,
+            "helps b most: {} (b {} -> {}, {:.1} times narrower in log terms)",
+            b.label,
+            width_text(&a.current[1]),
+            width_text(&b.widths[1]),
+            b.improvement[1]
+        );
+    }
+    let _ = writeln!(
+        s,
+        "best for beta: {}; best for c12: {}",
+        a.best_for[0], a.best_for[2]
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pumpcyl::ident::{Assessment, Candidate, Design};
+
+    fn width(relative_width: Option<f64>) -> Width {
+        Width {
+            parameter: "beta_bar",
+            log_std: 0.05,
+            interval: relative_width.map(|r| [100.0, 100.0 + 100.0 * r]),
+            width: relative_width.map(|r| 100.0 * r),
+            relative_width,
+        }
+    }
+
+    fn candidate(label: &str, b_width: f64, b_improvement: f64) -> Assessment {
+        Assessment {
+            design: Design::Step {
+                step_mm: 5.0,
+                kp: 25.0,
+                duration_s: 4.0,
+            },
+            label: label.into(),
+            widths: [width(Some(0.1)), width(Some(b_width)), width(None)],
+            improvement: [1.0, b_improvement, 1.0],
+            score: -b_improvement.ln(),
+        }
+    }
+
+    #[test]
+    fn the_advice_names_the_candidate_that_narrows_b_most() {
+        let a = Advice {
+            point: Candidate {
+                beta_bar: 165.0,
+                viscous_friction_ns_per_m: 2000.0,
+                c12_m5_per_ns: 1e-11,
+            },
+            noise_std_mm: 0.02,
+            variance_inflation: 1.5,
+            confidence: 0.95,
+            z: 1.96,
+            current: [width(Some(0.1)), width(Some(0.8)), width(None)],
+            candidates: vec![
+                candidate("step 5 mm", 0.2, 4.0),
+                candidate("sine", 0.4, 2.0),
+            ],
+            skipped: vec!["sine 2 Hz: unstable".into()],
+            best_for: ["sine".into(), "step 5 mm".into(), "sine".into()],
+        };
+        let text = advice_text("exp.toml", &a, 1.25);
+        // heading, column names, current, two candidates, skipped, helps b, best for
+        assert_eq!(text.lines().count(), 8, "{text}");
+        assert!(text.contains("helps b most: step 5 mm (b 80.0 % -> 20.0 %, 4.0 times"));
+        assert!(text.contains("unbounded"));
+        let v = advice_json(&a, "exp.toml", 1.25);
+        assert_eq!(v["experiment"], "exp.toml");
+        assert_eq!(v["seconds"], 1.25);
+        assert_eq!(v["candidates"][1]["label"], "sine");
+        assert_eq!(v["current"][2]["relative_width"], Value::Null);
+    }
+}

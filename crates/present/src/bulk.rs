@@ -1,0 +1,93 @@
+//! The gas-fraction model's results as every front end shows them (docs/bulk-modulus.md): the
+//! gas fraction and the table of β_e and the margins against mean chamber pressure, as JSON,
+//! text and CSV. Pressures and bulk moduli are in bar, gain margins in dB, phase margins in deg;
+//! an infinite margin is `null` in JSON, `inf` in text and an empty cell in CSV.
+
+use crate::format::fmt_opt;
+use pumpcyl::bulk::Row;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+
+/// The bulk-modulus document (`bulk-modulus --json`): `gas_fraction` (the volume fraction of
+/// gas at atmospheric pressure), `beta_oil_bar` and `table`, the core's [`Row`]s.
+pub fn bulk_json(x: f64, beta_oil_bar: f64, rows: &[Row]) -> Value {
+    json!({"gas_fraction": x, "beta_oil_bar": beta_oil_bar, "table": rows})
+}
+
+/// The gas fraction `x` and the table as text; `fit` is (β bar, at mean pressure bar, β_oil
+/// bar) the gas fraction came from.
+pub fn bulk_text(fit: (f64, f64, f64), x: f64, rows: &[Row]) -> String {
+    let (beta_bar, p_mean_bar, beta_oil_bar) = fit;
+    let mut s = format!(
+        "gas fraction X = {x:.5} (beta_e = {beta_bar} bar at {p_mean_bar} bar mean pressure, beta_oil = {beta_oil_bar} bar)\n",
+    );
+    let _ = writeln!(
+        s,
+        "{:>8} {:>10} {:>9} {:>9}  closed loop",
+        "p_bar", "beta_bar", "GM_dB", "PM_deg"
+    );
+    for r in rows {
+        let verdict = if r.closed_loop_stable {
+            "stable"
+        } else {
+            "UNSTABLE"
+        };
+        let _ = writeln!(
+            s,
+            "{:>8.2} {:>10.1} {:>9} {:>9}  {verdict}",
+            r.p_bar,
+            r.beta_bar,
+            fmt_opt(r.gain_margin_db, 2),
+            fmt_opt(r.phase_margin_deg, 1)
+        );
+    }
+    s
+}
+
+/// The table as CSV: `p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable`, one
+/// row per pressure, values with six decimals (the pressure as given).
+pub fn bulk_csv(rows: &[Row]) -> String {
+    let mut s = String::from("p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable\n");
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{:.6},{},{},{}",
+            r.p_bar,
+            r.beta_bar,
+            opt(r.gain_margin_db),
+            opt(r.phase_margin_deg),
+            r.closed_loop_stable
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pumpcyl::bulk::{gas_fraction, table, BETA_OIL_BAR};
+    use pumpcyl::rig::Rig;
+
+    #[test]
+    fn the_table_has_a_row_per_pressure_in_every_form() {
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let rows = table(&Rig::default(), x, BETA_OIL_BAR, &[1.0, 4.4, 10.0]).unwrap();
+        let csv = bulk_csv(&rows);
+        assert_eq!(csv.lines().count(), 1 + 3);
+        assert!(csv.lines().all(|l| l.split(',').count() == 5), "{csv}");
+        // β_e grows with pressure
+        let beta: Vec<f64> = rows.iter().map(|r| r.beta_bar).collect();
+        assert!(beta[0] < beta[1] && beta[1] < beta[2], "{beta:?}");
+        let v = bulk_json(x, BETA_OIL_BAR, &rows);
+        assert_eq!(v["table"].as_array().unwrap().len(), 3);
+        assert!((v["table"][1]["beta_bar"].as_f64().unwrap() - 165.0).abs() < 1e-6);
+        // the gas fraction line, the column names, one line per pressure
+        assert_eq!(
+            bulk_text((165.0, 4.4, BETA_OIL_BAR), x, &rows)
+                .lines()
+                .count(),
+            5
+        );
+    }
+}

@@ -1,0 +1,489 @@
+//! The time-domain results as every front end shows them (docs/simulation.md): the documents of
+//! a position step (docs/simulation.md#step-metrics), sinusoidal tracking
+//! (docs/simulation.md#tracking-metrics) and a replayed record, each over the nominal rig and
+//! its variants, as JSON, text, CSV of the signals and MAT-files (docs/matlab.md).
+//!
+//! Positions and errors are in mm, times in s, pressures in bar gauge, speeds in rpm, as in the
+//! core's [`Signals`] and metrics.
+
+use crate::figures::{trace, Chart};
+use crate::format::{fmt_opt, shown_name};
+use crate::matlab::signals_mat;
+use crate::plot::{LineStyle, Panel};
+use pumpcyl::record::Record;
+use pumpcyl::response::{Signals, StepMetrics, TrackMetrics};
+use serde::Serialize;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+
+/// One simulated run: which rig it is, its signals and its metrics (`M`: [`StepMetrics`],
+/// [`TrackMetrics`], or the position MSE in mm² of a replay).
+#[derive(Debug, Clone)]
+pub struct Run<M> {
+    /// `nominal`, or the variant's overrides (`KEY=VALUE[,...]`).
+    pub label: String,
+    /// The simulated signals.
+    pub signals: Signals,
+    /// The metrics of the run.
+    pub metrics: M,
+}
+
+/// A variant that was not simulated because its closed loop is unstable (its response would
+/// only grow).
+#[derive(Debug, Clone)]
+pub struct Unstable {
+    /// The variant's overrides (`KEY=VALUE[,...]`).
+    pub label: String,
+    /// Why it is unstable, in words.
+    pub reason: String,
+}
+
+/// The runs of one time-domain result: the nominal rig's first, then each variant's, and the
+/// variants set aside as unstable. The documents below expect at least the nominal run.
+#[derive(Debug, Clone)]
+pub struct Runs<M> {
+    /// The simulated runs, the nominal rig first.
+    pub done: Vec<Run<M>>,
+    /// The variants not simulated.
+    pub unstable: Vec<Unstable>,
+}
+
+/// What a step simulation was asked for.
+#[derive(Debug, Clone, Copy)]
+pub struct StepSetup<'a> {
+    /// Where the rig comes from, in words.
+    pub rig: &'a str,
+    /// The step (mm) from the operating point x0.
+    pub step_mm: f64,
+    /// The simulated duration (s).
+    pub duration_s: f64,
+    /// The sample rate (Hz).
+    pub rate_hz: f64,
+}
+
+/// A record replayed through the model.
+#[derive(Debug, Clone, Copy)]
+pub struct Replay<'a> {
+    /// The record.
+    pub record: &'a Record,
+    /// The rig it was replayed on, in words.
+    pub rig: &'a str,
+    /// Whether the rig is a dataset's own conditions, which the text then names.
+    pub own_conditions: bool,
+    /// The end of the fit window (s) on the record's time axis.
+    pub fit_end_s: f64,
+}
+
+impl Replay<'_> {
+    /// The samples at or before the end of the fit window.
+    pub fn samples_in_window(&self) -> usize {
+        let end = self.fit_end_s;
+        self.record.time_s.iter().filter(|&&t| t <= end).count()
+    }
+}
+
+/// `[{"label": …, key: metrics}, …]` for `runs`.
+fn labelled<M: Serialize>(runs: &[Run<M>], key: &str) -> Value {
+    runs.iter()
+        .map(|r| json!({"label": r.label, key: r.metrics}))
+        .collect()
+}
+
+/// `v` with the unstable variants as `unstable: [{"label", "unstable": reason}]`, if any.
+fn with_unstable(mut v: Value, unstable: &[Unstable]) -> Value {
+    if !unstable.is_empty() {
+        v["unstable"] = unstable
+            .iter()
+            .map(|u| json!({"label": u.label, "unstable": u.reason}))
+            .collect();
+    }
+    v
+}
+
+/// `v` with the variants after the nominal run as `compare: [{"label", key: metrics}]`, if any.
+fn with_compare<M: Serialize>(mut v: Value, runs: &[Run<M>], key: &str) -> Value {
+    if runs.len() > 1 {
+        v["compare"] = labelled(&runs[1..], key);
+    }
+    v
+}
+
+/// The unstable variants as lines for a terminal, one each (empty when there are none).
+fn unstable_lines(unstable: &[Unstable]) -> String {
+    unstable
+        .iter()
+        .map(|u| format!("--compare {}: not simulated: {}\n", u.label, u.reason))
+        .collect()
+}
+
+/// The runs' signals with their labels, as the figures and [`signals_csv`] take them.
+pub fn series<M>(runs: &[Run<M>]) -> Vec<(String, &Signals)> {
+    series_labelled(runs, |r| r.label.clone())
+}
+
+fn series_labelled<M>(
+    runs: &[Run<M>],
+    label: impl Fn(&Run<M>) -> String,
+) -> Vec<(String, &Signals)> {
+    runs.iter().map(|r| (label(r), &r.signals)).collect()
+}
+
+/// A MAT column per metric: `f` of each run's metrics.
+fn column<M>(runs: &[Run<M>], f: impl Fn(&M) -> Option<f64>) -> Vec<Option<f64>> {
+    runs.iter().map(|r| f(&r.metrics)).collect()
+}
+
+/// The step document (`step --json`): `rig`, `step_mm`, the nominal `metrics`, and `compare`
+/// and `unstable` for the variants; the metrics are the core's [`StepMetrics`].
+pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
+    let v = json!({"rig": setup.rig, "step_mm": setup.step_mm, "metrics": runs.done[0].metrics});
+    with_unstable(with_compare(v, &runs.done, "metrics"), &runs.unstable)
+}
+
+/// The step metrics as text: a heading, one column per run and one row per metric, then the
+/// unstable variants.
+pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
+    let mut s = format!(
+        "step {:+} mm, {} Hz, {} s ({}; sum-pressure loop as the rig says)\n",
+        setup.step_mm, setup.rate_hz, setup.duration_s, setup.rig
+    );
+    let _ = write!(s, "{:<24}", "");
+    for r in &runs.done {
+        let _ = write!(s, " {:>22}", r.label);
+    }
+    s.push('\n');
+    type Row = (&'static str, fn(&StepMetrics) -> String);
+    let rows: [Row; 7] = [
+        ("rise time 10-90 % (s)", |m| fmt_opt(m.rise_time_s, 3)),
+        ("overshoot (mm)", |m| format!("{:.3}", m.overshoot_mm)),
+        ("overshoot (%)", |m| format!("{:.2}", m.overshoot_pct)),
+        ("peak time (s)", |m| format!("{:.2}", m.peak_time_s)),
+        ("settling time 2 % (s)", |m| {
+            m.settling_time_s
+                .map_or("not settled".into(), |t| format!("{t:.2}"))
+        }),
+        ("steady-state error (mm)", |m| {
+            format!("{:.4}", m.steady_state_error_mm)
+        }),
+        ("error at end (mm)", |m| format!("{:.4}", m.final_error_mm)),
+    ];
+    for (name, f) in rows {
+        let _ = write!(s, "{name:<24}");
+        for r in &runs.done {
+            let _ = write!(s, " {:>22}", f(&r.metrics));
+        }
+        s.push('\n');
+    }
+    s + &unstable_lines(&runs.unstable)
+}
+
+/// The title of a step figure or MAT-file, `x0_mm` the operating point (mm).
+pub fn step_title(setup: &StepSetup, x0_mm: f64) -> String {
+    format!(
+        "Step {:+} mm from x0 = {} mm ({})",
+        setup.step_mm, x0_mm, setup.rig
+    )
+}
+
+/// The subtitle of a step figure: rise time, overshoot and settling time of `m`.
+pub fn step_subtitle(m: &StepMetrics) -> String {
+    format!(
+        "rise {} s, overshoot {:.2} mm ({:.1} %), settling (2 %) {}",
+        fmt_opt(m.rise_time_s, 3),
+        m.overshoot_mm,
+        m.overshoot_pct,
+        m.settling_time_s
+            .map_or("not within the run".into(), |t| format!("{t:.2} s"))
+    )
+}
+
+/// The step MAT-file: the signals of every run, as [`signals_mat`], and one column per metric
+/// (`step_mm`, `rise_time_s`, …, one value per run; NaN where not reached or not settled).
+pub fn step_mat(title: &str, runs: &[Run<StepMetrics>]) -> Vec<u8> {
+    let scalars = [
+        ("step_mm", column(runs, |m| Some(m.step_mm))),
+        ("rise_time_s", column(runs, |m| m.rise_time_s)),
+        ("overshoot_mm", column(runs, |m| Some(m.overshoot_mm))),
+        ("overshoot_pct", column(runs, |m| Some(m.overshoot_pct))),
+        ("peak_time_s", column(runs, |m| Some(m.peak_time_s))),
+        ("settling_time_s", column(runs, |m| m.settling_time_s)),
+        (
+            "steady_state_error_mm",
+            column(runs, |m| Some(m.steady_state_error_mm)),
+        ),
+        ("final_error_mm", column(runs, |m| Some(m.final_error_mm))),
+    ];
+    signals_mat(title, &series(runs), None, &scalars)
+}
+
+/// The tracking document (`track --json`): `rig`, `cases` (`label` and the core's
+/// [`TrackMetrics`] of every run) and `unstable`.
+pub fn track_json(rig: &str, runs: &Runs<TrackMetrics>) -> Value {
+    let v = json!({"rig": rig, "cases": labelled(&runs.done, "metrics")});
+    with_unstable(v, &runs.unstable)
+}
+
+/// The tracking metrics as text: one row per run, then the unstable variants.
+pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
+    let mut s = format!("sinusoidal tracking ({rig}), metrics after the first period\n");
+    let _ = writeln!(
+        s,
+        "{:<22} {:>8} {:>8} {:>12} {:>12} {:>15}",
+        "variant", "freq_hz", "amp_mm", "max_err_mm", "rms_err_mm", "wave_reduction"
+    );
+    for Run {
+        label, metrics: m, ..
+    } in &runs.done
+    {
+        let _ = writeln!(
+            s,
+            "{label:<22} {:>8.3} {:>8.1} {:>12.3} {:>12.3} {:>15.3}",
+            m.freq_hz, m.amp_mm, m.max_error_mm, m.rms_error_mm, m.wave_reduction
+        );
+    }
+    s + &unstable_lines(&runs.unstable)
+}
+
+/// The tracking runs' signals, each labelled with its sine (`0.2 Hz ±35 mm nominal`).
+pub fn track_series(runs: &[Run<TrackMetrics>]) -> Vec<(String, &Signals)> {
+    series_labelled(runs, |r| {
+        format!(
+            "{} Hz ±{} mm {}",
+            r.metrics.freq_hz, r.metrics.amp_mm, r.label
+        )
+    })
+}
+
+/// The tracking MAT-file: the signals of [`track_series`] and one column per metric
+/// (`freq_hz`, `amp_mm`, `max_error_mm`, `rms_error_mm`, `wave_reduction`; one value per run).
+pub fn track_mat(runs: &[Run<TrackMetrics>]) -> Vec<u8> {
+    let scalars = [
+        ("freq_hz", column(runs, |m| Some(m.freq_hz))),
+        ("amp_mm", column(runs, |m| Some(m.amp_mm))),
+        ("max_error_mm", column(runs, |m| Some(m.max_error_mm))),
+        ("rms_error_mm", column(runs, |m| Some(m.rms_error_mm))),
+        ("wave_reduction", column(runs, |m| Some(m.wave_reduction))),
+    ];
+    signals_mat("Sinusoidal tracking", &track_series(runs), None, &scalars)
+}
+
+/// The tracking figure: one position panel per run (reference dashed), then every run's
+/// control error together; the subtitle lists the maximum errors and wave reductions.
+pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
+    let mut panels = Vec::new();
+    let mut errors = Panel {
+        y_label: "Control error (mm)".into(),
+        traces: Vec::new(),
+    };
+    for (i, ((label, s), r)) in track_series(runs).iter().zip(runs).enumerate() {
+        panels.push(Panel {
+            y_label: format!("Position (mm), {} Hz", r.metrics.freq_hz),
+            traces: vec![
+                trace("x_ref", &s.time_s, &s.x_ref_mm, LineStyle::Dashed, Some(6)),
+                trace(
+                    &format!("x {label}"),
+                    &s.time_s,
+                    &s.x_mm,
+                    LineStyle::Solid,
+                    Some(i),
+                ),
+            ],
+        });
+        errors
+            .traces
+            .push(trace(label, &s.time_s, &s.e_mm, LineStyle::Solid, Some(i)));
+    }
+    panels.push(errors);
+    let list = |f: fn(&TrackMetrics) -> String| -> String {
+        runs.iter()
+            .map(|r| f(&r.metrics))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let subtitle = format!(
+        "max|e| {} mm; wave reduction {}",
+        list(|m| format!("{:.1}", m.max_error_mm)),
+        list(|m| format!("{:.2}", m.wave_reduction))
+    );
+    let title = "Sinusoidal tracking (the article)";
+    Chart::time(title, Some(&subtitle), panels)
+}
+
+/// The replay document (`simulate --json`): `file`, `rig`, the nominal run's position MSE
+/// `mse_mm2` (mm²) over the fit window up to `fit_end_s` (s), `samples_in_window`, and
+/// `compare` (`label`, `mse_mm2`) and `unstable` for the variants.
+pub fn simulate_json(replay: &Replay, runs: &Runs<f64>) -> Value {
+    let v = json!({
+        "file": replay.record.file, "rig": replay.rig, "mse_mm2": runs.done[0].metrics,
+        "fit_end_s": replay.fit_end_s, "samples_in_window": replay.samples_in_window(),
+    });
+    with_unstable(with_compare(v, &runs.done, "mse_mm2"), &runs.unstable)
+}
+
+/// The replay as text: the record, its samples and fit window, each run's position MSE (mm²),
+/// then the unstable variants.
+pub fn simulate_text(replay: &Replay, runs: &Runs<f64>) -> String {
+    let conditions = if replay.own_conditions {
+        format!(" ({})", replay.rig)
+    } else {
+        String::new()
+    };
+    let mut s = format!(
+        "{}{conditions}: {} samples, fit window up to {} s ({} samples)\n",
+        replay.record.file,
+        replay.record.len(),
+        replay.fit_end_s,
+        replay.samples_in_window()
+    );
+    for r in &runs.done {
+        let _ = writeln!(s, "  {:<24} position MSE {:.5} mm²", r.label, r.metrics);
+    }
+    s + &unstable_lines(&runs.unstable)
+}
+
+/// The title of a replay's figure or MAT-file: the record's file name and the rig.
+pub fn simulate_title(replay: &Replay) -> String {
+    format!(
+        "{} against the model ({})",
+        shown_name(&replay.record.file),
+        replay.rig
+    )
+}
+
+/// The subtitle of a replay's figure: the nominal run's position MSE (mm²) `mse_mm2`.
+pub fn simulate_subtitle(replay: &Replay, mse_mm2: f64) -> String {
+    format!(
+        "position MSE {mse_mm2:.4} mm² up to t = {} s",
+        replay.fit_end_s
+    )
+}
+
+/// The replayed runs' signals, labelled `sim <label>`.
+pub fn simulate_series(runs: &[Run<f64>]) -> Vec<(String, &Signals)> {
+    series_labelled(runs, |r| format!("sim {}", r.label))
+}
+
+/// The replay MAT-file: the `measured` record first, the runs of [`simulate_series`], the
+/// position MSE of each run `mse_mm2` (mm²) and `fit_end_s` (s).
+pub fn simulate_mat(replay: &Replay, runs: &[Run<f64>], measured: &Signals) -> Vec<u8> {
+    let scalars = [
+        ("mse_mm2", column(runs, |m| Some(*m))),
+        ("fit_end_s", vec![Some(replay.fit_end_s)]),
+    ];
+    let series = simulate_series(runs);
+    signals_mat(&simulate_title(replay), &series, Some(measured), &scalars)
+}
+
+/// CSV of signals: `time_s`, then a block of columns `x_ref_mm, x_mm, e_mm, p1_bar, p2_bar,
+/// w1_rpm, w2_rpm` per series, the `measured` record first when given; blocks after the first
+/// carry their label as a suffix (`x_mm[label]`, commas in a label written as `;`). Values with
+/// six decimals; a series shorter than the longest leaves its cells empty.
+pub fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> String {
+    let mut blocks: Vec<(&str, &Signals)> = Vec::new();
+    if let Some(m) = measured {
+        blocks.push(("measured", m));
+    }
+    blocks.extend(series.iter().map(|(l, s)| (l.as_str(), *s)));
+    let mut out = String::from("time_s");
+    for (i, (label, s)) in blocks.iter().enumerate() {
+        for (n, _) in &s.named()[1..] {
+            if i == 0 {
+                let _ = write!(out, ",{n}");
+            } else {
+                let _ = write!(out, ",{n}[{}]", label.replace(',', ";"));
+            }
+        }
+    }
+    out.push('\n');
+    let len = blocks
+        .iter()
+        .map(|(_, s)| s.time_s.len())
+        .max()
+        .unwrap_or(0);
+    for k in 0..len {
+        let t = blocks
+            .iter()
+            .find_map(|(_, s)| s.time_s.get(k))
+            .copied()
+            .unwrap_or(f64::NAN);
+        let _ = write!(out, "{t:.6}");
+        for (_, s) in &blocks {
+            for (_, v) in &s.named()[1..] {
+                match v.get(k) {
+                    Some(x) => {
+                        let _ = write!(out, ",{x:.6}");
+                    }
+                    None => out.push(','),
+                }
+            }
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pumpcyl::response::{step, step_metrics_of};
+    use pumpcyl::rig::Rig;
+
+    fn step_runs(rigs: &[(&str, Rig)]) -> Runs<StepMetrics> {
+        let done = rigs
+            .iter()
+            .map(|(label, rig)| {
+                let signals = step(rig, 5.0, 1.0, 100.0).unwrap();
+                let metrics = step_metrics_of(rig, &signals, 5.0);
+                Run {
+                    label: label.to_string(),
+                    signals,
+                    metrics,
+                }
+            })
+            .collect();
+        Runs {
+            done,
+            unstable: vec![Unstable {
+                label: "kp=400".into(),
+                reason: "the closed loop is unstable".into(),
+            }],
+        }
+    }
+
+    #[test]
+    fn the_step_documents_hold_every_run() {
+        let rig = Rig::default();
+        let slow = rig.with_overrides_from("--set", &["kp=10".into()]).unwrap();
+        let runs = step_runs(&[("nominal", rig), ("kp=10", slow)]);
+        let setup = StepSetup {
+            rig: "default rig",
+            step_mm: 5.0,
+            duration_s: 1.0,
+            rate_hz: 100.0,
+        };
+        let v = step_json(&setup, &runs);
+        let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+        keys.sort_unstable();
+        assert_eq!(keys, ["compare", "metrics", "rig", "step_mm", "unstable"]);
+        assert_eq!(v["compare"][0]["label"], "kp=10");
+        assert_eq!(v["metrics"]["step_mm"], 5.0);
+        assert_eq!(v["unstable"][0]["label"], "kp=400");
+        let text = step_text(&setup, &runs);
+        // heading, column labels, seven metrics, one unstable variant
+        assert_eq!(text.lines().count(), 10, "{text}");
+        assert!(text.ends_with("--compare kp=400: not simulated: the closed loop is unstable\n"));
+    }
+
+    #[test]
+    fn the_signals_csv_has_a_block_per_series_and_a_row_per_sample() {
+        let runs = step_runs(&[("nominal", Rig::default())]);
+        let s = &runs.done[0].signals;
+        let csv = signals_csv(&[("a,b".to_string(), s)], Some(s));
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header.len(), 1 + 2 * 7);
+        assert_eq!(header[..3], ["time_s", "x_ref_mm", "x_mm"]);
+        assert_eq!(header[8], "x_ref_mm[a;b]");
+        assert_eq!(lines.count(), s.time_s.len());
+    }
+}
