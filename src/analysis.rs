@@ -120,9 +120,11 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
         "--compare overlays rig variants; it cannot be used with --ss"
     );
     let decades = args.to_hz.log10() - args.from_hz.log10();
-    let points = pumpcyl::limits::check_size(
+    // each point holds its frequency and a magnitude and a phase per series
+    let points = pumpcyl::limits::check_table(
         "--from-hz, --to-hz and --points-per-decade",
         (decades * args.points_per_decade as f64).floor() + 1.0,
+        1 + 2 * (1 + args.compare.len()),
     )?;
     let freqs = lti::log_grid(args.from_hz, args.to_hz, points);
     let base = args.model.build(&[])?;
@@ -171,8 +173,8 @@ fn series_of(lp: &Loop, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
 pub fn poles(args: &PolesArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
     let mut sets = vec![
-        PoleSet::new(PoleSetKind::OpenLoop, &lti::eigenvalues(&lp.open_loop.a)?),
-        PoleSet::new(PoleSetKind::ClosedLoop, &lp.open_loop.closed_loop_poles()?),
+        PoleSet::of(PoleSetKind::OpenLoop, &lp.open_loop.a)?,
+        PoleSet::of(PoleSetKind::ClosedLoop, &lp.open_loop.unity_feedback()?.a)?,
     ];
     if let Some(rig) = lp
         .rig
@@ -180,8 +182,10 @@ pub fn poles(args: &PolesArgs) -> Result<String> {
         .filter(|r| r.sum_pressure && !args.model.sum_pressure_closed)
     {
         let full = Plant::new(rig).closed_loop(true);
-        let poles = lti::eigenvalues(&full.a)?;
-        sets.push(PoleSet::new(PoleSetKind::ClosedLoopWithSumPressure, &poles));
+        sets.push(PoleSet::of(
+            PoleSetKind::ClosedLoopWithSumPressure,
+            &full.a,
+        )?);
     }
     if args.json {
         return Ok(json_document(&poles_json(&lp.description, &sets))?);

@@ -40,6 +40,9 @@ pub struct BulkArgs {
     /// Output: .csv (a fine table) or .svg / .png (β_e, GM and PM against pressure).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// Run even when the table would take long (more than 10^5 margin analyses: --points).
+    #[arg(long)]
+    allow_long_run: bool,
 }
 
 /// `pumpcyl bulk-modulus`.
@@ -52,6 +55,13 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
     );
     anyhow::ensure!(args.points >= 2, "--points must be at least 2");
     pumpcyl::limits::check_size("--points", args.points as f64)?;
+    pumpcyl::limits::check_work(
+        "--points",
+        args.points as f64,
+        pumpcyl::limits::MAX_MARGIN_ANALYSES,
+        args.allow_long_run,
+    )
+    .map_err(|e| crate::emit::hinted(e.into()))?;
     let rig = args.rig.load()?;
     let x = gas_fraction(args.beta_bar, args.p_mean_bar, args.beta_oil_bar)?;
     let pressures = pumpcyl::ident::spaced(args.from_bar, args.to_bar, args.points, false);

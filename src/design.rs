@@ -13,6 +13,9 @@ use pumpcyl_present::format::json_document;
 pub struct DesignArgs {
     #[command(flatten)]
     rig: RigSource,
+    /// Run even when the masses × pressures would take long (more than 10^5 margin analyses).
+    #[arg(long)]
+    allow_long_run: bool,
     /// Phase margin target (deg).
     #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
     target_pm_deg: f64,
@@ -99,6 +102,9 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         mass_kg: args.mass_kg.clone(),
         waves: args.wave.clone(),
     };
+    targets
+        .check_work(args.allow_long_run)
+        .map_err(|e| crate::emit::hinted(e.into()))?;
     if args.robust {
         anyhow::ensure!(
             args.wave.is_empty(),

@@ -105,3 +105,65 @@ fn emulate_refuses_a_record_no_reader_accepts() {
         assert!(!d.join("r.csv").exists());
     }
 }
+
+#[test]
+fn replays_outside_the_stroke_or_in_metres_are_refused_or_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = pumpcyl(d, &["emulate", "--experiment", "step", "--out", "mm.csv"]);
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(d.join("mm.csv")).unwrap();
+    let scaled = |f: f64| {
+        let mut lines = text.lines();
+        let mut s = format!("{}\n", lines.next().unwrap());
+        for l in lines {
+            let v: Vec<String> = l
+                .split(',')
+                .enumerate()
+                .map(|(i, x)| {
+                    let x: f64 = x.parse().unwrap();
+                    if i == 1 || i == 2 {
+                        format!("{}", x * f)
+                    } else {
+                        x.to_string()
+                    }
+                })
+                .collect();
+            s += &(v.join(",") + "\n");
+        }
+        s
+    };
+    // a 5000 mm reference on a 500 mm cylinder
+    std::fs::write(d.join("far.csv"), scaled(15.0)).unwrap();
+    refused(
+        d,
+        &["simulate", "--data", "far.csv"],
+        &["far.csv", "x_ref_mm", "stroke"],
+    );
+    // the same record in metres under _mm names: replayed, with a warning naming the values
+    std::fs::write(d.join("m.csv"), scaled(1e-3)).unwrap();
+    let out = pumpcyl(d, &["simulate", "--data", "m.csv"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: m.csv: x_ref_mm spans") && err.contains("metres"),
+        "{err}"
+    );
+}
+
+#[test]
+fn design_refuses_a_wave_that_track_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    refused(
+        d,
+        &["design", "--wave", "0.2:1e9"],
+        &["wave 0.2:1000000000", "stroke"],
+    );
+    refused(d, &["design", "--wave", "60:5"], &["wave 60:5", "Nyquist"]);
+    let out = pumpcyl(d, &["design", "--wave", "0.2:35"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

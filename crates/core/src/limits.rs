@@ -22,6 +22,11 @@ pub const MAX_EMULATED_STEPS: f64 = 1e7;
 /// times the article's identification (6 817 candidates × 2 × 370 samples), minutes of work.
 pub const MAX_CANDIDATE_SAMPLES: f64 = 1e9;
 
+/// Margin analyses (one margins computation of a loop, about 0.1 ms) done without allowing a long
+/// run: 10⁵ is seconds of work; a bulk-modulus table or a design grid beyond it could run for
+/// hours.
+pub const MAX_MARGIN_ANALYSES: f64 = 1e5;
+
 /// A size or an amount of work beyond its limit.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LimitError {
@@ -33,6 +38,21 @@ pub enum LimitError {
         /// The count asked for.
         count: f64,
         /// The limit.
+        limit: f64,
+    },
+    /// A table (points × values per point) holding more values than [`MAX_POINTS`].
+    #[error(
+        "{what}: {} points × {columns} values each, more than the limit of {limit:e} values",
+        readable(*rows)
+    )]
+    TooManyValues {
+        /// What is counted, in the caller's words (its option or argument names).
+        what: String,
+        /// The points asked for.
+        rows: f64,
+        /// Values per point (columns).
+        columns: usize,
+        /// The limit (values).
         limit: f64,
     },
     /// A duration or a rate that sets a count of samples is not a positive number.
@@ -70,6 +90,20 @@ pub fn check_size(what: &str, count: f64) -> Result<usize, LimitError> {
         });
     }
     Ok(count as usize)
+}
+
+/// Refuse a table of `rows` points of `columns` values each beyond [`MAX_POINTS`] values in all
+/// (or a non-finite count): the memory a result takes, computed before it is allocated.
+pub fn check_table(what: &str, rows: f64, columns: usize) -> Result<usize, LimitError> {
+    if !(0.0..=MAX_POINTS).contains(&(rows * columns.max(1) as f64)) {
+        return Err(LimitError::TooManyValues {
+            what: what.to_string(),
+            rows,
+            columns,
+            limit: MAX_POINTS,
+        });
+    }
+    Ok(rows as usize)
 }
 
 /// The number of samples of a record of `duration_s` sampled at `rate_hz` (both > 0, the count
@@ -120,6 +154,15 @@ mod tests {
         assert!(e.contains("allow a long run") && e.contains("2e7"), "{e}");
         assert!(check_work("emulate", 1e15, 2e7, true).is_ok());
         assert!(check_work("emulate", f64::INFINITY, 2e7, true).is_err());
+        assert_eq!(check_table("--points-per-decade", 1e6, 3), Ok(1_000_000));
+        let e = check_table("--points-per-decade", 4.8e7, 3)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("× 3 values each") && e.contains("limit of 5e7"),
+            "{e}"
+        );
+        assert!(check_table("x", f64::NAN, 3).is_err());
         assert_eq!(check_samples(4.0, 100.0), Ok(401));
         assert!(check_samples(51.0, 1e6).is_err());
         let e = check_samples(49.0, 1e6).unwrap_err().to_string();

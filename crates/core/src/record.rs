@@ -86,6 +86,14 @@ pub struct Record {
     pub w2_rpm: Option<Vec<f64>>,
 }
 
+/// The smallest and largest value of a column (∞, −∞ when empty).
+fn range(v: &[f64]) -> (f64, f64) {
+    v.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        })
+}
+
 /// The largest MAT-file record read, in bytes (2 GiB: 5·10⁷ samples of five columns in
 /// doubles, the sample limit, fit with room to spare).
 pub const MAX_MAT_BYTES: u64 = 2 << 30;
@@ -94,6 +102,28 @@ const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
 impl Record {
+    /// The smallest and largest reference position (mm).
+    pub fn reference_range_mm(&self) -> (f64, f64) {
+        range(&self.x_ref_mm)
+    }
+
+    /// Warnings that the positions look like another unit than mm: every reference and measured
+    /// position within 1 mm of 0 on a cylinder longer than 10 mm (`stroke_mm`) is a record in
+    /// metres under `_mm` column names, which would fit with an error near zero.
+    pub fn unit_warnings(&self, stroke_mm: f64) -> Vec<String> {
+        let (lo, hi) = range(&self.x_ref_mm);
+        let (xlo, xhi) = range(&self.x_mm);
+        let small = [lo, hi, xlo, xhi].iter().all(|v| v.abs() < 1.0);
+        if small && stroke_mm > 10.0 {
+            return vec![format!(
+                "{}: x_ref_mm spans {lo} … {hi} and x_mm {xlo} … {xhi}, all within 1 mm of 0 on \
+                 a {stroke_mm} mm cylinder: is the record in metres? The columns must be in mm",
+                self.file
+            )];
+        }
+        Vec::new()
+    }
+
     /// Read and check a record file, streamed (memory holds the used columns, not the text);
     /// a `.mat` file is read as a MAT-file record ([`Table::from_mat`]).
     pub fn read(path: &Path) -> Result<Record, RecordError> {

@@ -7,9 +7,9 @@
 
 use crate::format::fmt_opt;
 use crate::plot::BodeSeries;
-use nalgebra::{Complex, DMatrix};
+use nalgebra::DMatrix;
 use pumpcyl::loops::{ModelView, Port};
-use pumpcyl::lti::{is_stable, CrossingKind, Margins, PoleInfo};
+use pumpcyl::lti::{eigenvalues, stability, CrossingKind, LtiError, Margins, PoleInfo, Stability};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -57,10 +57,10 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
         at(m.gain_crossover_hz, "gain crossover")
     );
     let _ = writeln!(s, "  delay margin  {:>9} s", fmt_opt(m.delay_margin_s, 4));
-    let verdict = if m.closed_loop_stable {
-        "stable"
-    } else {
-        "UNSTABLE"
+    let verdict = match m.closed_loop_stability {
+        Stability::Stable => "stable",
+        Stability::Unstable => "UNSTABLE",
+        Stability::Undecided => "UNDECIDED: a pole lies within rounding of the imaginary axis",
     };
     let _ = writeln!(
         s,
@@ -123,37 +123,39 @@ impl PoleSetKind {
     }
 }
 
-/// A set of poles with their natural frequencies (Hz) and damping ratios, and whether they are
-/// all strictly in the left half-plane.
+/// A set of poles with their natural frequencies (Hz) and damping ratios, and their stability
+/// decided against rounding (docs/analysis.md#poles-and-damping).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PoleSet {
     /// Which poles.
     pub kind: PoleSetKind,
     /// The poles (real part 1/s, imaginary part rad/s).
     pub poles: Vec<PoleInfo>,
-    /// Whether the set is asymptotically stable.
-    pub stable: bool,
+    /// Stable, unstable, or undecided (a pole within rounding of the imaginary axis).
+    pub stability: Stability,
 }
 
 impl PoleSet {
-    /// The set `kind` of the poles `poles` (1/s).
-    pub fn new(kind: PoleSetKind, poles: &[Complex<f64>]) -> PoleSet {
-        PoleSet {
+    /// The set `kind`: the eigenvalues of the system matrix `a` and their stability.
+    pub fn of(kind: PoleSetKind, a: &DMatrix<f64>) -> Result<PoleSet, LtiError> {
+        Ok(PoleSet {
             kind,
-            poles: poles.iter().copied().map(PoleInfo::from).collect(),
-            stable: is_stable(poles),
-        }
+            poles: eigenvalues(a)?.into_iter().map(PoleInfo::from).collect(),
+            stability: stability(a)?,
+        })
     }
 }
 
 /// The poles document (`poles --json`): `loop`, the loop in words, and per set its key (the
-/// core's [`PoleInfo`] of every pole) and `<key>_stable`.
+/// core's [`PoleInfo`] of every pole), `<key>_stable` (true only when provably asymptotically
+/// stable) and `<key>_stability` (`stable`, `unstable` or `undecided`).
 pub fn poles_json(description: &str, sets: &[PoleSet]) -> Value {
     let mut v = json!({"loop": description});
     for set in sets {
         let key = set.kind.key();
         v[key] = json!(set.poles);
-        v[format!("{key}_stable")] = json!(set.stable);
+        v[format!("{key}_stable")] = json!(set.stability == Stability::Stable);
+        v[format!("{key}_stability")] = json!(set.stability);
     }
     v
 }
@@ -163,10 +165,13 @@ pub fn poles_json(description: &str, sets: &[PoleSet]) -> Value {
 pub fn poles_text(description: &str, sets: &[PoleSet]) -> String {
     let mut s = format!("{description}\n");
     for set in sets {
-        let verdict = if set.stable {
-            "asymptotically stable"
-        } else {
-            "not asymptotically stable (a pole on or right of the imaginary axis)"
+        let verdict = match set.stability {
+            Stability::Stable => "asymptotically stable",
+            Stability::Unstable => "not asymptotically stable (a pole right of the imaginary axis)",
+            Stability::Undecided => {
+                "undecided: a pole lies within rounding of the imaginary axis (an integrator or \
+                 an undamped mode; not provably asymptotically stable)"
+            }
         };
         let _ = writeln!(s, "\n{}: {verdict}", set.kind.description());
         let _ = writeln!(
@@ -284,16 +289,16 @@ mod tests {
         let plant = Plant::new(&Rig::default());
         let open = plant.open_loop(false);
         let sets = [
-            PoleSet::new(
-                PoleSetKind::OpenLoop,
-                &pumpcyl::lti::eigenvalues(&open.a).unwrap(),
-            ),
-            PoleSet::new(PoleSetKind::ClosedLoop, &open.closed_loop_poles().unwrap()),
+            PoleSet::of(PoleSetKind::OpenLoop, &open.a).unwrap(),
+            PoleSet::of(PoleSetKind::ClosedLoop, &open.unity_feedback().unwrap().a).unwrap(),
         ];
-        // the article's loop has an integrator (not asymptotically stable open), a stable closed
-        assert!(!sets[0].stable && sets[1].stable);
+        // the article's loop has an integrator (undecided open: a pole at the origin), a stable
+        // closed loop
+        assert_eq!(sets[0].stability, Stability::Undecided);
+        assert_eq!(sets[1].stability, Stability::Stable);
         let v = poles_json("default rig", &sets);
-        assert_eq!(v.as_object().unwrap().len(), 5);
+        assert_eq!(v.as_object().unwrap().len(), 7);
+        assert_eq!(v["open_loop_stability"], "undecided");
         assert_eq!(v["open_loop"].as_array().unwrap().len(), open.a.nrows());
         assert_eq!(v["closed_loop_stable"], true);
         let text = poles_text("default rig", &sets);

@@ -255,7 +255,42 @@ fn check_inputs(rig: &Rig, t: &Targets) -> Result<(), DesignError> {
             t.stroke_mm, rig.stroke_mm
         )));
     }
-    check_lists(t)
+    check_lists(t)?;
+    for &(f, a) in &t.waves {
+        let wave = |e: String| DesignError::Input(format!("wave {f}:{a}: {e}"));
+        rig.check_reference(rig.x0_mm - a, rig.x0_mm + a)
+            .map_err(|e| wave(e.to_string()))?;
+        crate::response::check_nyquist(f, TRACKING_RATE_HZ).map_err(|e| wave(e.to_string()))?;
+    }
+    Ok(())
+}
+
+/// The sample rate (Hz) of the predicted tracking of each wave.
+const TRACKING_RATE_HZ: f64 = 100.0;
+
+/// Margin analyses per operating condition: the Kp search (two ends and up to 60 bisections)
+/// and the margins at the designed gain.
+const ANALYSES_PER_CONDITION: f64 = 63.0;
+
+impl Targets {
+    /// The margin analyses the design of these targets takes at most: three stroke positions ×
+    /// masses × pressures conditions, each a Kp search, plus the design point's.
+    pub fn margin_analyses(&self) -> f64 {
+        let conditions =
+            3.0 * self.mass_kg.len().max(1) as f64 * self.p_mean_bar.len().max(1) as f64;
+        (conditions + 1.0) * ANALYSES_PER_CONDITION
+    }
+
+    /// Refuse targets whose design would run for hours (more than
+    /// [`MAX_MARGIN_ANALYSES`](crate::limits::MAX_MARGIN_ANALYSES)), unless `allow_long_run`.
+    pub fn check_work(&self, allow_long_run: bool) -> Result<(), crate::limits::LimitError> {
+        crate::limits::check_work(
+            "mass_kg × p_mean_bar conditions",
+            self.margin_analyses(),
+            crate::limits::MAX_MARGIN_ANALYSES,
+            allow_long_run,
+        )
+    }
 }
 
 /// Apply the design method (docs/design.md) to `rig`.
@@ -283,7 +318,7 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
         .waves
         .iter()
         .map(|&(f, a)| -> Result<TrackMetrics, DesignError> {
-            let s = sine(&designed, f, a, 3.0, 100.0)?;
+            let s = sine(&designed, f, a, 3.0, TRACKING_RATE_HZ)?;
             Ok(track_metrics(&s.time_s, &s.e_mm, f, a))
         })
         .collect::<Result<Vec<_>, _>>()?;

@@ -114,13 +114,20 @@ impl ModelJson {
         }
     }
 
-    /// Build the state-space model, checking ragged rows, sizes and finiteness.
+    /// Build the state-space model, checking ragged rows, sizes (at most [`MAX_STATES`] states)
+    /// and finiteness.
     pub fn to_model(&self) -> Result<StateSpace, LtiError> {
         let n = self.a.len();
         if n == 0 {
             return Err(LtiError::Dimension(
                 "A is empty: the model has no states".into(),
             ));
+        }
+        if n > MAX_STATES {
+            return Err(LtiError::Dimension(format!(
+                "A has {n} states, more than the limit of {MAX_STATES} (the eigenvalues and the \
+                 frequency response cost n³ and n² per frequency)"
+            )));
         }
         let m = self.b.first().map_or(0, Vec::len);
         let p = self.c.len();
@@ -141,6 +148,10 @@ impl ModelJson {
 }
 
 /// The line where `"key":` is written (1 when it is not).
+/// The most states a state-space model read from JSON may have: fifty times the article's rig,
+/// an analysis of seconds.
+pub const MAX_STATES: usize = 500;
+
 fn json_key_line(text: &str, key: &str) -> usize {
     let quoted = format!("\"{key}\"");
     text.match_indices(&quoted)

@@ -11,7 +11,7 @@ mod roots;
 mod timeresp;
 
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
-pub use io::{ModelJson, StateInfo};
+pub use io::{ModelJson, StateInfo, MAX_STATES};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
 pub use poles::{check_magnitudes, eigenvalues, resonance, stability, PoleInfo, Stability};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
