@@ -299,9 +299,8 @@ pub enum Stability {
 }
 
 /// The stability of `a`'s eigenvalues, with tolerances relative to the matrix's scale (the
-/// rounding radius n·ε·‖A‖₁ after balancing, and the integrator clusters of
-/// [`count_integrators`]), so a pole at −2e-12 of a model whose entries are 1e-12 is stable
-/// and one at −1e-9 beside poles at 1e10 is undecided (docs/analysis.md#poles-and-damping).
+/// rounding radius n·ε·‖A‖₁ after balancing, and poles at the origin counted by their rounding
+/// clusters), so a pole at −2e-12 of a model whose entries are 1e-12 is stable and one at −1e-9 beside poles at 1e10 is undecided (docs/analysis.md#poles-and-damping).
 pub fn stability(a: &DMatrix<f64>) -> Result<Stability, LtiError> {
     let s = BalancedSchur::new(a)?;
     let (rounding, at_origin) = (s.rounding(), s.integrators());
