@@ -6,6 +6,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+#[path = "common/tree.rs"]
+mod tree;
+
 /// The packages `package` depends on at run time (`cargo tree -e normal`), by name.
 fn runtime_dependencies(package: &str) -> BTreeSet<String> {
     let out = Command::new(env!("CARGO"))
@@ -52,24 +55,14 @@ fn the_core_needs_no_front_end_crate_and_present_no_command_line_crate() {
 
 /// Every `.rs` file under `dir`, by its path relative to `dir`.
 fn sources(dir: &Path) -> BTreeMap<String, String> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                let rel = p
-                    .strip_prefix(dir)
-                    .unwrap()
-                    .to_string_lossy()
-                    .replace('\\', "/");
-                out.insert(rel, std::fs::read_to_string(&p).unwrap());
-            }
-        }
-    }
-    out
+    tree::files(dir)
+        .into_iter()
+        .filter(|rel| rel.ends_with(".rs"))
+        .map(|rel| {
+            let text = std::fs::read_to_string(dir.join(&rel)).unwrap();
+            (rel.replace('\\', "/"), text)
+        })
+        .collect()
 }
 
 /// The module path of a source file (`lti/mod.rs` → [lti], `lti/poles.rs` → [lti, poles]).

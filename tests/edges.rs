@@ -2,24 +2,10 @@
 //! the value: never an answer with exit 0 that is only the bound of a scan.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn pumpcyl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("pumpcyl runs")
-}
-
-fn refused(dir: &Path, args: &[&str], words: &[&str]) {
-    let out = pumpcyl(dir, args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    for w in words {
-        assert!(err.contains(w), "{args:?}: message lacks `{w}`: {err}");
-    }
-}
+#[path = "common/run.rs"]
+mod run;
+use run::{pumpcyl, refused};
 
 /// An emulated drive step record in `dir`, rewritten row by row by `row` (t, w_ref, w).
 fn drive_record(dir: &Path, name: &str, row: impl Fn(&str, &str, f64) -> String) {

@@ -2,27 +2,9 @@
 //! is stopped at its documented size while it is read, and sizes derived from arguments are
 //! computed and refused, naming the option, before anything is allocated.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn pumpcyl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("pumpcyl runs")
-}
-
-/// The run fails with exit 1 and one error line holding every word of `words`.
-fn refused(dir: &Path, args: &[&str], words: &[&str]) {
-    let out = pumpcyl(dir, args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
-    for w in words {
-        assert!(err.contains(w), "{args:?}: message lacks `{w}`: {err}");
-    }
-}
+#[path = "common/run.rs"]
+mod run;
+use run::refused;
 
 #[test]
 fn inputs_that_never_end_are_stopped_at_their_limit() {
