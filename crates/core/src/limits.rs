@@ -82,14 +82,25 @@ pub enum LimitError {
 /// Refuse `count` items of `what` beyond [`MAX_POINTS`] (or non-finite); `what` names the
 /// caller's options or arguments that set the count.
 pub fn check_size(what: &str, count: f64) -> Result<usize, LimitError> {
-    if !(0.0..=MAX_POINTS).contains(&count) {
+    within(what, count, MAX_POINTS)
+}
+
+/// `count` as a size when it lies in 0 … `limit` (a non-finite count does not).
+fn within(what: &str, count: f64, limit: f64) -> Result<usize, LimitError> {
+    if !(0.0..=limit).contains(&count) {
         return Err(LimitError::TooLarge {
             what: what.to_string(),
             count,
-            limit: MAX_POINTS,
+            limit,
         });
     }
     Ok(count as usize)
+}
+
+/// The samples of a record of `duration_s` sampled at `rate_hz`, both ends included:
+/// ⌊duration × rate⌋ + 1 (with room for rounding in the product).
+pub fn sample_count(duration_s: f64, rate_hz: f64) -> f64 {
+    (duration_s * rate_hz + 1e-9).floor() + 1.0
 }
 
 /// Refuse a table of `rows` points of `columns` values each beyond [`MAX_POINTS`] values in all
@@ -114,15 +125,11 @@ pub fn check_samples(duration_s: f64, rate_hz: f64) -> Result<usize, LimitError>
             return Err(LimitError::NotPositive { name, value });
         }
     }
-    let count = (duration_s * rate_hz + 1e-9).floor() + 1.0;
-    if !(0.0..=MAX_SAMPLES).contains(&count) {
-        return Err(LimitError::TooLarge {
-            what: "duration_s × rate_hz".to_string(),
-            count,
-            limit: MAX_SAMPLES,
-        });
-    }
-    Ok(count as usize)
+    within(
+        "duration_s × rate_hz",
+        sample_count(duration_s, rate_hz),
+        MAX_SAMPLES,
+    )
 }
 
 /// Refuse `work` units of `what` beyond `limit` unless `allowed` (a long run asked for).

@@ -87,7 +87,7 @@ pub struct Record {
 }
 
 /// The smallest and largest value of a column (∞, −∞ when empty).
-fn range(v: &[f64]) -> (f64, f64) {
+pub(crate) fn range(v: &[f64]) -> (f64, f64) {
     v.iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
             (lo.min(x), hi.max(x))

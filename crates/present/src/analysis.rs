@@ -9,7 +9,7 @@ use crate::format::fmt_opt;
 use crate::plot::BodeSeries;
 use nalgebra::DMatrix;
 use pumpcyl::loops::{ModelView, Port};
-use pumpcyl::lti::{eigenvalues, stability, CrossingKind, LtiError, Margins, PoleInfo, Stability};
+use pumpcyl::lti::{poles_and_stability, CrossingKind, LtiError, Margins, PoleInfo, Stability};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -138,10 +138,11 @@ pub struct PoleSet {
 impl PoleSet {
     /// The set `kind`: the eigenvalues of the system matrix `a` and their stability.
     pub fn of(kind: PoleSetKind, a: &DMatrix<f64>) -> Result<PoleSet, LtiError> {
+        let (poles, stability) = poles_and_stability(a)?;
         Ok(PoleSet {
             kind,
-            poles: eigenvalues(a)?.into_iter().map(PoleInfo::from).collect(),
-            stability: stability(a)?,
+            poles: poles.into_iter().map(PoleInfo::from).collect(),
+            stability,
         })
     }
 }

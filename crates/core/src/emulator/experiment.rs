@@ -261,8 +261,7 @@ impl DriveStep {
 fn record_length(duration_s: f64, rate_hz: f64) -> Result<(), FieldError> {
     positive("duration_s", duration_s)?;
     positive("rate_hz", rate_hz)?;
-    let samples = (duration_s * rate_hz + 1e-9).floor() + 1.0;
-    if samples < 2.0 {
+    if crate::limits::sample_count(duration_s, rate_hz) < 2.0 {
         return Err(FieldError::new(
             "rate_hz",
             format!("rate_hz = {rate_hz}: 1 sample in {duration_s} s; a record needs at least 2"),

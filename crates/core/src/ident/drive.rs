@@ -90,10 +90,18 @@ const KM_MAX: f64 = 10.0;
 /// Samples after the step below which a record cannot show the motor's response.
 const MIN_STEP_SAMPLES: usize = 10;
 
-/// Refuse a record that cannot show a response: too few samples after the step, or a motor
-/// speed that never moves (its span below 0.1 % of the step).
+/// Refuse a record that cannot show a response: a reference that never steps, too few samples
+/// after the step, or a motor speed that never moves (its span below 0.1 % of the step).
 fn check_response(rec: &DriveRecord) -> Result<(), IdentError> {
     let start = first_change(&rec.w_ref_rpm);
+    if start >= rec.time_s.len() {
+        return Err(IdentError::Input(format!(
+            "{}: lines 2-{}, column `w_ref_rpm`: the speed reference never changes: no step \
+             to identify from",
+            rec.file,
+            rec.time_s.len() + 1
+        )));
+    }
     let after = rec.time_s.len() - start;
     if after < MIN_STEP_SAMPLES {
         return Err(IdentError::Input(format!(
@@ -104,11 +112,7 @@ fn check_response(rec: &DriveRecord) -> Result<(), IdentError> {
         )));
     }
     let span = |v: &[f64]| {
-        let (lo, hi) = v
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                (a.min(x), b.max(x))
-            });
+        let (lo, hi) = crate::record::range(v);
         hi - lo
     };
     let (moved, step) = (span(&rec.w_rpm), span(&rec.w_ref_rpm));
@@ -129,14 +133,6 @@ fn check_response(rec: &DriveRecord) -> Result<(), IdentError> {
 /// response, or whose best fit lies on the edge of the scan, is refused: an answer there is the
 /// scan's bound, not a measurement.
 pub fn identify_drive(rec: &DriveRecord, jm: f64, omega_i: f64) -> Result<DriveFit, IdentError> {
-    if first_change(&rec.w_ref_rpm) >= rec.time_s.len() {
-        return Err(IdentError::Input(format!(
-            "{}: lines 2-{}, column `w_ref_rpm`: the speed reference never changes: no step \
-             to identify from",
-            rec.file,
-            rec.time_s.len() + 1
-        )));
-    }
     check_response(rec)?;
     let cost = |log_km: f64| -> f64 {
         simulate(rec, jm, omega_i, log_km.exp()).map_or(f64::INFINITY, |w| mse(&w, &rec.w_rpm))

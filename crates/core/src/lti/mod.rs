@@ -13,7 +13,9 @@ mod timeresp;
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo, MAX_STATES};
 pub use margins::{margins, Crossing, CrossingKind, Margins};
-pub use poles::{check_magnitudes, eigenvalues, resonance, stability, PoleInfo, Stability};
+pub use poles::{
+    check_magnitudes, eigenvalues, poles_and_stability, resonance, stability, PoleInfo, Stability,
+};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;
@@ -192,10 +194,10 @@ impl StateSpace {
 /// Fail with [`LtiError::Unstable`] unless `a` is provably asymptotically stable: every
 /// eigenvalue left of the imaginary axis by more than rounding ([`stability`]).
 pub fn require_stable(a: &DMatrix<f64>) -> Result<(), LtiError> {
-    if stability(a)? == Stability::Stable {
+    let (poles, stability) = poles_and_stability(a)?;
+    if stability == Stability::Stable {
         return Ok(());
     }
-    let poles = eigenvalues(a)?;
     let p = poles
         .iter()
         .copied()

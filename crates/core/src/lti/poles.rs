@@ -300,16 +300,24 @@ pub enum Stability {
 
 /// The stability of `a`'s eigenvalues, with tolerances relative to the matrix's scale (the
 /// rounding radius n·ε·‖A‖₁ after balancing, and poles at the origin counted by their rounding
-/// clusters), so a pole at −2e-12 of a model whose entries are 1e-12 is stable and one at −1e-9 beside poles at 1e10 is undecided (docs/analysis.md#poles-and-damping).
+/// clusters), so a pole at −2e-12 of a model whose entries are 1e-12 is stable and one at
+/// −1e-9 beside poles at 1e10 is undecided (docs/analysis.md#poles-and-damping).
 pub fn stability(a: &DMatrix<f64>) -> Result<Stability, LtiError> {
+    Ok(poles_and_stability(a)?.1)
+}
+
+/// The eigenvalues of `a` sorted by modulus ([`eigenvalues`]) and their [`stability`], from one
+/// factorisation.
+pub fn poles_and_stability(a: &DMatrix<f64>) -> Result<(Vec<Complex64>, Stability), LtiError> {
     let s = BalancedSchur::new(a)?;
     let (rounding, at_origin) = (s.rounding(), s.integrators());
     let rest = &s.eigenvalues[at_origin..];
-    Ok(if rest.iter().any(|p| p.re > rounding) {
+    let stability = if rest.iter().any(|p| p.re > rounding) {
         Stability::Unstable
     } else if at_origin > 0 || rest.iter().any(|p| p.re >= -rounding) {
         Stability::Undecided
     } else {
         Stability::Stable
-    })
+    };
+    Ok((s.eigenvalues, stability))
 }
