@@ -29,6 +29,75 @@ fn runtime_dependencies(package: &str) -> BTreeSet<String> {
         .collect()
 }
 
+/// `cargo tree` with `args`, one line a package: "name version features".
+fn tree_lines(args: &[&str]) -> BTreeSet<String> {
+    let out = Command::new(env!("CARGO"))
+        .arg("tree")
+        .args(args)
+        .args([
+            "--prefix",
+            "none",
+            "--offline",
+            "--locked",
+            "--format",
+            "{p} {f}",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| l.trim_end_matches(" (*)").to_string())
+        // drop the path a workspace member shows between its version and its features
+        .map(|l| match (l.find(" ("), l.rfind(") ")) {
+            (Some(a), Some(b)) if a < b => format!("{}{}", &l[..a], &l[b + 1..]),
+            _ => l,
+        })
+        .collect()
+}
+
+/// The feature sets the dependencies of `lines` are compiled with, by "name version".
+fn feature_sets(lines: &BTreeSet<String>) -> BTreeMap<String, BTreeSet<String>> {
+    let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for l in lines {
+        let mut parts = l.splitn(3, ' ');
+        let (name, version) = (parts.next().unwrap_or(""), parts.next().unwrap_or(""));
+        let features = parts.next().unwrap_or("").trim().to_string();
+        out.entry(format!("{name} {version}"))
+            .or_default()
+            .insert(features);
+    }
+    out
+}
+
+/// The Python extension's build (maturin, `python/` alone) asks for every shared dependency
+/// with the features the test build compiled it with, so it reuses those units instead of
+/// recompiling the core (crates/unify; docs/architecture.md#build-times).
+#[test]
+fn the_python_build_reuses_the_test_builds_dependencies() {
+    let python = feature_sets(&tree_lines(&["-p", "pumpcyl-python", "-e", "normal,build"]));
+    let tests = feature_sets(&tree_lines(&["-e", "normal,build,dev"]));
+    let differ: Vec<String> = python
+        .iter()
+        .filter_map(|(package, features)| {
+            let theirs = tests.get(package)?;
+            (theirs != features)
+                .then(|| format!("{package}: python {features:?}, tests {theirs:?}"))
+        })
+        .collect();
+    assert!(
+        differ.is_empty(),
+        "add these features to crates/unify/Cargo.toml: {differ:#?}"
+    );
+    // the check sees the shared dependencies at all
+    assert!(python.contains_key("nalgebra v0.35.0") && tests.contains_key("nalgebra v0.35.0"));
+}
+
 #[test]
 fn the_core_needs_no_front_end_crate_and_present_no_command_line_crate() {
     let core = runtime_dependencies("pumpcyl");
