@@ -108,7 +108,7 @@ fn summary_carries_the_article_numbers_and_recovers_the_truth() {
     assert!((num(&basis[1], "phase_margin_deg") - 43.6).abs() <= 0.05);
     assert!((num(&basis[1], "kp_change") - 0.40).abs() <= 0.05);
     let stroke = s["stroke"]["article_basis"].as_array().unwrap();
-    assert!((num(&stroke[0], "pm_change_mass_alone_deg") - 1.4).abs() <= 0.05);
+    assert!((num(&stroke[0], "readings.mass_alone.pm_change_deg") - 1.4).abs() <= 0.05);
     assert!(num(&stroke[1], "pm_change_deg") < 0.0);
     // robustness record (β_e 220 bar by construction)
     let rb = num(&s, "robustness.beta_bar");
@@ -133,10 +133,10 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "bode_pressure",
         "bode_fig14_damping",
         "step_fig14_damping",
-        "bode_fig11_motor",
-        "step_fig11_motor",
-        "bode_feedforward",
-        "step_feedforward",
+        "bode_motor_first_order",
+        "step_motor_first_order",
+        "bode_fig11_feedforward",
+        "step_fig11_feedforward",
         "bode_stroke",
         "step_stroke",
         "sine_0p10hz",
@@ -186,6 +186,18 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "about +40 %",
         "below 25 % of Kp",
         "0.0353",
+        "0.0694 / 48",
+        "β 150–200, b 200–500, c12 = 1.0e-10",
+        "2.64 %",
+        "about 6300 / about 100 (63×)",
+        "about 0.36",
+        "83 % (real rig)",
+        "66 % (real rig)",
+        "56 % (real rig)",
+        "-160 / 245, 3.95",
+        "4.1 / 4.7",
+        "virtually unchanged",
+        "increases slightly",
     ] {
         assert!(
             html.contains(printed),
@@ -390,7 +402,7 @@ fn every_bode_study_marks_each_series_margins_as_the_summary_gives_them() {
     let s = summary();
     let studies = [
         ("bode_fig14_damping", &s["damping"]["figure14"]),
-        ("bode_feedforward", &s["damping"]["feedforward_off"]),
+        ("bode_fig11_feedforward", &s["damping"]["feedforward_off"]),
     ];
     for (stem, cases) in studies {
         let svg =
@@ -418,4 +430,140 @@ fn every_bode_study_marks_each_series_margins_as_the_summary_gives_them() {
             "{stem}: {pm_bars} PM summaries for {marked} series"
         );
     }
+}
+
+/// The report as an expert reads it with the article open: each figure names the article
+/// figure it answers (or says it is pumpcyl's own), and the numbers the article prints stand
+/// beside pumpcyl's in summary.json, checked against the article's printed values
+/// (docs/choices.md#article-figures, #the-article-against-itself).
+#[test]
+fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
+    let (dir, _) = reproduced();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let captions: Vec<&str> = html
+        .split("<figcaption>")
+        .skip(1)
+        .map(|c| c.split("</figcaption>").next().unwrap())
+        .collect();
+    assert_eq!(captions.len(), html.matches("<figure>").count());
+    let own =
+        |c: &str| c.starts_with("pumpcyl&#39;s own study") || c.starts_with("pumpcyl's own study");
+    for c in &captions {
+        assert!(
+            c.starts_with("Article Figure ") || own(c),
+            "a figure without its article figure: {c}"
+        );
+    }
+    let named = |n: &str| {
+        captions
+            .iter()
+            .filter(|c| c.starts_with(&format!("Article Figure {n}")))
+            .count()
+    };
+    // Figure 11 is the feedforward study (its Bode diagram and its steps), never the motor
+    assert_eq!(named("11."), 2);
+    assert!(captions
+        .iter()
+        .filter(|c| c.starts_with("Article Figure 11."))
+        .all(|c| c.contains("feedforward")));
+    assert!(captions
+        .iter()
+        .filter(|c| c.contains("first-order motor"))
+        .all(|c| own(c)));
+    for n in [
+        "5 ", "6.", "7 ", "8 ", "9 ", "10 ", "14.", "15.", "16 ", "17 ", "18 ",
+    ] {
+        assert!(named(n) >= 1, "no figure answers the article's Figure {n}");
+    }
+
+    let s = summary();
+    let near = |path: &str, printed: f64, half_digit: f64| {
+        let v = num(&s, path);
+        assert!(
+            (v - printed).abs() <= half_digit,
+            "{path} = {v}, the article prints {printed}"
+        );
+    };
+    // Figure 6: rise time about 0.36 s (LTI of the article's parameters and the emulated record)
+    near("rise_time.model_s", 0.36, 0.005);
+    near("rise_time.emulated_s", 0.36, 0.015);
+    near("rise_time.article_s", 0.36, 0.0);
+    // the introduction: X = 1 % gives about 6300 bar at 100 bar and about 100 bar at 1 bar, 63×
+    near("intro_example.beta_100bar", 6300.0, 50.0);
+    near("intro_example.beta_1bar", 100.0, 1.0);
+    near("intro_example.ratio", 63.0, 1.0);
+    // the gas fraction on the article's basis (165 bar at 4.4 bar) is its 2.64 %
+    near("gas_fraction_article_basis", 0.0264, 0.00005);
+    near("article_gas_fraction", 0.0264, 0.0);
+    // the first grid: the article's numbers stand beside pumpcyl's
+    near("identified.first_grid.article_best_cost_mm2", 0.0694, 0.0);
+    near("identified.first_grid.article_below_threshold", 48.0, 0.0);
+    let bounds = &s["identified"]["first_grid"]["bounds"];
+    assert!(bounds.is_array(), "the threshold set's bounds: {bounds}");
+    // the refined grid alone (the article's method), and whether b sits on that grid's edge
+    near("identified.grid_only.beta_bar", 165.0, 10.0);
+    let b = num(&s, "identified.grid_only.viscous_friction_ns_per_m");
+    assert_eq!(
+        s["identified"]["grid_only"]["on_edge"]["viscous_friction_ns_per_m"],
+        b == 100.0,
+        "b = {b} on the refined grid 100 … 600"
+    );
+    // 1 bar: keeping the GM needs below 25 % of Kp; 10 bar: the article's PM 34 deg gives +40 %
+    let basis = s["margins"]["article_basis"].as_array().unwrap();
+    assert!(num(&basis[0], "kp_same_gm_ratio") < 0.25);
+    assert!((num(&basis[0], "kp_same_gm_ratio") - 0.235).abs() < 0.005);
+    assert!((num(&basis[1], "kp_article_pm_change") - 0.40).abs() <= 0.01);
+    assert!((num(&basis[1], "gain_margin_at_kp_article_pm_db") - 10.3).abs() <= 0.05);
+    // the stroke study: the GM statements beside pumpcyl's, and no reading fits all four
+    let stroke = &s["stroke"];
+    assert_eq!(stroke["article_reproduced"], false);
+    let points = stroke["article_basis"].as_array().unwrap();
+    assert_eq!(points[0]["article_gm_change"], "virtually unchanged");
+    assert_eq!(points[1]["article_gm_change"], "increases slightly");
+    assert!((num(&points[0], "gm_change_db") + 0.52).abs() <= 0.01);
+    assert!((num(&points[1], "gm_change_db") - 1.13).abs() <= 0.01);
+    for p in points {
+        assert_eq!(p["fits"].as_array().unwrap().len(), 3);
+    }
+    assert!(html.contains("NOT REPRODUCED"));
+    // the tracking: the article's measured wave reductions
+    let tracking = s["tracking"].as_array().unwrap();
+    for (t, printed) in tracking.iter().zip([0.83, 0.66, 0.56]) {
+        assert_eq!(num(t, "article_measured_wave_reduction"), printed);
+        assert!(
+            (num(t, "model.wave_reduction") - printed).abs() < 0.1,
+            "{t}"
+        );
+    }
+    // the records' conditions: set-point, standstill and the step's mean pressures
+    near("record_conditions.p_sum_ref_bar", 9.104, 0.001);
+    near("record_conditions.article_p_sum_ref_bar", 10.0, 0.0);
+    near("record_conditions.article_standstill_p2_bar", 5.86, 0.01);
+    let c = &s["record_conditions"];
+    let pair = |k: &str| -> Vec<f64> {
+        c[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    assert_eq!(pair("article_standstill_w_rpm"), [-160.0, 245.0]);
+    assert_eq!(pair("article_step_mean_p_bar"), [4.1, 4.7]);
+    let (w, p) = (pair("standstill_w_rpm"), pair("step_mean_p_bar"));
+    assert!(
+        (w[0] + 143.0).abs() < 2.0 && (w[1] - 219.0).abs() < 2.0,
+        "{w:?}"
+    );
+    assert!(
+        (p[0] - 3.54).abs() < 0.02 && (p[1] - 5.25).abs() < 0.02,
+        "{p:?}"
+    );
+    // the emulated pair obeys the force balance p1 A1 = p2 A2 (no external force)
+    assert!((p[1] / p[0] - 1.4846).abs() < 0.01, "{p:?}");
+    // the feedforward study (Figure 11): steps and margins with and without it
+    let ff = s["damping"]["feedforward_off"].as_array().unwrap();
+    assert_eq!(ff.len(), 2);
+    let overshoot = |k: usize| num(&ff[k], "step.overshoot_pct");
+    assert!(overshoot(1) > overshoot(0) + 5.0, "{ff:?}");
+    assert!(num(&ff[1], "gain_margin_db") < num(&ff[0], "gain_margin_db"));
 }

@@ -163,6 +163,33 @@ impl Identification {
         self.stages.iter().map(|s| s.summary.evaluated).sum()
     }
 
+    /// For each parameter (in the order of [`PARAMETERS`]), the range of its axis in the grid
+    /// of the best grid point's stage when that point lies on the axis's lowest or highest
+    /// value (the optimum may lie outside the grid), else `None`.
+    pub fn grid_best_edges(&self) -> [Option<(f64, f64)>; 3] {
+        let best = &self.grid_best;
+        let Some(stage) = self.stages.get(usize::from(best.stage.max(1)) - 1) else {
+            return [None; 3];
+        };
+        let c = &best.candidate;
+        let axes = [
+            (c.beta_bar, &stage.grid.beta_bar),
+            (
+                c.viscous_friction_ns_per_m,
+                &stage.grid.viscous_friction_ns_per_m,
+            ),
+            (c.c12_m5_per_ns, &stage.grid.c12_m5_per_ns),
+        ];
+        axes.map(|(v, axis)| {
+            let (lo, hi) = axis
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            (axis.len() > 1 && (v == lo || v == hi)).then_some((lo, hi))
+        })
+    }
+
     /// What a user should know before trusting the answer: the best grid point on an edge of
     /// its grid (the optimum may lie outside it), and a search where every candidate of the
     /// top list costs the same (the records carry no excitation: the reference never moves the
@@ -181,30 +208,14 @@ impl Identification {
             }
         }
         let best = &self.grid_best;
-        let Some(stage) = self.stages.get(usize::from(best.stage.max(1)) - 1) else {
-            return out;
-        };
         let c = &best.candidate;
-        let axes = [
-            ("beta_bar", c.beta_bar, &stage.grid.beta_bar),
-            (
-                "viscous_friction_ns_per_m",
-                c.viscous_friction_ns_per_m,
-                &stage.grid.viscous_friction_ns_per_m,
-            ),
-            ("c12_m5_per_ns", c.c12_m5_per_ns, &stage.grid.c12_m5_per_ns),
-        ];
-        for (name, v, axis) in axes {
-            let (lo, hi) = axis
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                    (l.min(x), h.max(x))
-                });
-            if axis.len() > 1 && (v == lo || v == hi) {
+        let values = [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns];
+        for (k, range) in self.grid_best_edges().into_iter().enumerate() {
+            if let Some((lo, hi)) = range {
                 out.push(format!(
-                    "the best grid point has {name} = {v} on the edge of the stage {} grid ({lo} … {hi}): \
+                    "the best grid point has {} = {} on the edge of the stage {} grid ({lo} … {hi}): \
                      the optimum may lie outside it; widen that axis",
-                    best.stage
+                    PARAMETERS[k], values[k], best.stage
                 ));
             }
         }

@@ -6,7 +6,7 @@
 //! would narrow the intervals most (docs/identification.md, "Experiment advice").
 
 use super::summary::{AdviceSummary, HowSure, PerParameter, RobustSummary};
-use super::Run;
+use super::{Run, Source};
 use crate::advise::width_text;
 use crate::figures::{parameter_value, Chart, PARAMETER_AXES, PARAMETER_NAMES};
 use anyhow::Result;
@@ -42,7 +42,7 @@ pub(super) fn how_sure(
     p_mean_bar: f64,
     truth: &Candidate,
 ) -> Result<(Certainty, HowSure)> {
-    run.step("How sure are we: intervals, a design that holds over them, the next experiment");
+    run.step("How sure are we (pumpcyl's own study, not in the article): intervals, a design that holds over them, the next experiment");
     let best = Candidate {
         beta_bar: nominal.beta_bar,
         viscous_friction_ns_per_m: nominal.viscous_friction_ns_per_m,
@@ -195,6 +195,7 @@ fn intervals(
     for p in &u.profiles {
         run.figure(
             &format!("profile-{}", p.parameter),
+            Source::Own,
             &format!(
                 "Likelihood profile of {}: where it stays below the dashed threshold is the {:.0} % interval",
                 PARAMETER_NAMES[crate::figures::parameter_index(p.parameter)],
@@ -247,6 +248,7 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
         .push(crate::design::leakage_loop_table(d).block());
     run.figure(
         "robust-margins",
+        Source::Own,
         "Margins over the stroke at the robust Kp, at the parameters that decide it",
         &Chart::robust_margins(d),
     )

@@ -1,7 +1,7 @@
 //! The identification steps: the drive gain (the article §2.4.1), the leakages and the
 //! two-stage grid identification (§2.4), and the robustness record.
 
-use super::{printed, summary, Run};
+use super::{printed, summary, Run, Source};
 use crate::figures::Chart;
 use crate::identification as outputs;
 use anyhow::Result;
@@ -23,6 +23,7 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(summary::Drive, f64)> {
     let fit = identify_drive(&rec, si.jm[0], si.omega_i)?;
     run.figure(
         "drive_step",
+        Source::ArticleByOrder(5),
         "Drive 1 alone, feedforward off: emulated speed step and the identified model",
         &Chart::drive_step(&rec, &fit),
     )?;
@@ -59,20 +60,26 @@ pub(super) fn identification(
     for (name, bytes) in outputs::files(&exp, &id, &v)? {
         if name == "landscape.svg" || name.starts_with("fit-") && name.ends_with(".svg") {
             let svg = String::from_utf8(bytes.clone())?;
-            let caption = match name.strip_prefix("fit-") {
-                None => "Identification cost over β and c12 (best b), emulated records".to_string(),
+            let (source, caption) = match name.strip_prefix("fit-") {
+                None => (
+                    Source::Own,
+                    "Identification cost over β and c12 (best b), emulated records".to_string(),
+                ),
                 Some(rest) => {
                     let i: usize = rest.trim_end_matches(".svg").parse()?;
                     let ds = &exp.problem.datasets[i - 1];
-                    format!(
-                        "{}Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dotted line ends the fit window",
-                        if i == 1 { "Counterpart of the article's Figure 6. " } else { "" },
+                    let source = match i {
+                        1 => Source::Article(6),
+                        _ => Source::ArticleByOrder(7),
+                    };
+                    (source, format!(
+                        "Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dotted line ends the fit window",
                         ds.name,
                         ds.rig.kp
-                    )
+                    ))
                 }
             };
-            run.inline(&svg, &caption);
+            run.inline(&svg, source, &caption);
         }
         run.files
             .push((Path::new("identification").join(name), bytes));
@@ -149,9 +156,48 @@ pub(super) fn identification(
     run.compare_why(
         "first grid: best cost (mm²) / candidates below 0.25 mm²",
         format!("{first_best:.4} / {}", first.threshold_count),
+        &format!(
+            "{} / {}",
+            printed::FIRST_GRID_BEST_MM2,
+            printed::FIRST_GRID_BELOW
+        ),
         "-",
+        "records emulated, not the article's: costs and counts are not comparable (docs/choices.md#the-article-against-itself on the 48)",
+    );
+    run.compare_why(
+        "first grid: bounds of the threshold set (β bar, b N·s/m, c12 m⁵/(N·s))",
+        first.threshold_bounds.map_or("-".into(), |b| bounds_text(&b)),
+        &bounds_text(&printed::FIRST_GRID_BOUNDS),
         "-",
-        "records emulated, not the article's: costs are not comparable",
+        "they set the refined grid; pumpcyl's refined grid is the article's (docs/identification.md)",
+    );
+    let grid = &id.grid_best;
+    let edges = id.grid_best_edges();
+    let edge_text: Vec<String> = pumpcyl::ident::PARAMETERS
+        .iter()
+        .zip(edges)
+        .filter_map(|(name, e)| {
+            e.map(|(lo, hi)| format!("{name} on the grid's edge ({lo} … {hi})"))
+        })
+        .collect();
+    run.compare_why(
+        "the refined grid alone, the article's method: β (bar) / b (N·s/m) / c12",
+        format!(
+            "{:.0} / {:.0} / {:.2e}",
+            grid.candidate.beta_bar,
+            grid.candidate.viscous_friction_ns_per_m,
+            grid.candidate.c12_m5_per_ns
+        ),
+        &format!("{} / {} / {:.1e}", printed::BETA_BAR, printed::B_NS_PER_M, printed::C12),
+        &format!("{truth:.0} / 100 / 1.2e-10"),
+        &format!(
+            "the rows above add pumpcyl's Nelder–Mead refinement after the grid, a step the article does not take{}",
+            if edge_text.is_empty() {
+                String::new()
+            } else {
+                format!("; {}: the optimum may lie outside it", edge_text.join(", "))
+            }
+        ),
     );
     let identified = summary::Identified {
         beta_bar: nominal.beta_bar,
@@ -161,6 +207,17 @@ pub(super) fn identification(
         first_grid: summary::FirstGrid {
             best_cost_mm2: first_best,
             below_threshold: first.threshold_count,
+            bounds: first.threshold_bounds,
+            article_best_cost_mm2: printed::FIRST_GRID_BEST_MM2,
+            article_below_threshold: printed::FIRST_GRID_BELOW,
+            article_bounds: printed::FIRST_GRID_BOUNDS,
+        },
+        grid_only: summary::GridOnly {
+            beta_bar: grid.candidate.beta_bar,
+            viscous_friction_ns_per_m: grid.candidate.viscous_friction_ns_per_m,
+            c12_m5_per_ns: grid.candidate.c12_m5_per_ns,
+            cost_mm2: grid.cost_mm2,
+            on_edge: summary::PerParameter::from_fn(|k, _| edges[k].is_some()),
         },
         candidates_evaluated: id.evaluated(),
         emulator_truth: summary::BetaC12 {
@@ -253,6 +310,7 @@ pub(super) fn robustness(
     );
     run.figure(
         "robustness",
+        Source::ArticleByOrder(8),
         "The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model",
         &Chart::signals("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(&measured), Some(spec.fit_end_s)),
     )?;
@@ -279,5 +337,140 @@ pub(super) fn robustness(
             beta_bar: printed::ROBUST_BETA_BAR,
             c12_m5_per_ns: printed::ROBUST_C12,
         },
+    })
+}
+
+/// Bounds of β (bar), b (N·s/m) and c12 (m⁵/(N·s)), as "lo–hi" or "= v" where they meet.
+fn bounds_text(b: &[[f64; 2]; 3]) -> String {
+    let one = |[lo, hi]: [f64; 2], digits: usize, sci: bool| {
+        let f = |v: f64| {
+            if sci {
+                format!("{v:.1e}")
+            } else {
+                format!("{v:.digits$}")
+            }
+        };
+        if lo == hi {
+            format!("= {}", f(lo))
+        } else {
+            format!("{}–{}", f(lo), f(hi))
+        }
+    };
+    format!(
+        "β {}, b {}, c12 {}",
+        one(b[0], 0, false),
+        one(b[1], 0, false),
+        one(b[2], 0, true)
+    )
+}
+
+/// The emulated records' operating conditions beside the article's: the sum-pressure
+/// set-point, the standstill point and the identification step's mean chamber pressures.
+pub(super) fn conditions(
+    run: &mut Run,
+    exp: &Experiment,
+    truth: &article::Truth,
+) -> Result<summary::Conditions> {
+    let s = exp.problem.standstill;
+    let rec = &exp.problem.datasets[0].record;
+    let mean = |p: &Option<Vec<f64>>| {
+        p.as_ref()
+            .map_or(f64::NAN, |p| p.iter().sum::<f64>() / p.len() as f64)
+    };
+    let step_mean_p_bar = [mean(&rec.p1_bar), mean(&rec.p2_bar)];
+    // the article's standstill p1 and its force balance give p2 (the article §2.4)
+    let rig = Rig::default();
+    let si = rig.si();
+    let article_p2_bar = (printed::STANDSTILL_P1_BAR * si.a1 + si.f_ext / 1e5) / si.a2;
+    let out = summary::Conditions {
+        p_sum_ref_bar: truth.rig.p_sum_ref_bar,
+        article_p_sum_ref_bar: printed::P_SUM_REF_BAR,
+        standstill_w_rpm: [s.w1_rpm, s.w2_rpm],
+        standstill_p1_bar: s.p1_bar,
+        article_standstill_w_rpm: [printed::STANDSTILL_W1_RPM, printed::STANDSTILL_W2_RPM],
+        article_standstill_p1_bar: printed::STANDSTILL_P1_BAR,
+        article_standstill_p2_bar: article_p2_bar,
+        step_mean_p_bar,
+        article_step_mean_p_bar: printed::STEP_MEAN_P_BAR,
+    };
+    run.compare_why(
+        "emulated records: sum-pressure set-point (bar)",
+        format!("{:.3}", out.p_sum_ref_bar),
+        &format!("{}", printed::P_SUM_REF_BAR),
+        &format!("{:.3}", out.p_sum_ref_bar),
+        &format!(
+            "chosen so that the emulated mean chamber pressure at x0 is {} bar, where the article states β 165 bar; \
+             the proportional sum-pressure loop holds p1 + p2 below its set-point (docs/emulator.md)",
+            article::P_FIT_BAR
+        ),
+    );
+    run.compare_why(
+        "standstill: w1 / w2 (rpm), p1 (bar)",
+        format!("{:.0} / {:.0}, {:.2}", s.w1_rpm, s.w2_rpm, s.p1_bar),
+        &format!(
+            "{} / {}, {}",
+            printed::STANDSTILL_W1_RPM,
+            printed::STANDSTILL_W2_RPM,
+            printed::STANDSTILL_P1_BAR
+        ),
+        "-",
+        "the emulated chambers sit at the set-point above, not at the article's pressures; the leakages they feed scale with them",
+    );
+    run.compare_why(
+        "identification step: mean p1 / p2 (bar)",
+        format!("{:.2} / {:.2}", step_mean_p_bar[0], step_mean_p_bar[1]),
+        &format!(
+            "{} / {}",
+            printed::STEP_MEAN_P_BAR[0],
+            printed::STEP_MEAN_P_BAR[1]
+        ),
+        "-",
+        &format!(
+            "the emulated pair obeys the force balance p1 A1 − p2 A2 + F_ext = 0; the article's does not: \
+             at its own standstill p1 = {} bar the balance gives p2 = {article_p2_bar:.2} bar (docs/choices.md#the-article-against-itself)",
+            printed::STANDSTILL_P1_BAR
+        ),
+    );
+    Ok(out)
+}
+
+/// The identification step's 10–90 % rise time (the article's Figure 6): the LTI model of the
+/// identified rig and the emulated record.
+pub(super) fn rise_time(
+    run: &mut Run,
+    exp: &Experiment,
+    nominal: &Rig,
+) -> Result<summary::RiseTime> {
+    let rec = &exp.problem.datasets[0].record;
+    let k0 = rec.first_change();
+    let step_mm = rec.x_ref_mm[k0] - rec.x_ref_mm[0];
+    let x0 = rec.initial_mean(&rec.x_mm);
+    let t: Vec<f64> = rec.time_s[k0..]
+        .iter()
+        .map(|t| t - rec.time_s[k0])
+        .collect();
+    let y: Vec<f64> = rec.x_mm[k0..].iter().map(|x| x - x0).collect();
+    let emulated = pumpcyl::response::step_metrics(&t, &y, step_mm, step_mm).rise_time_s;
+    let lti = |rig: &Rig| -> Result<Option<f64>> {
+        let s = pumpcyl::response::step(rig, step_mm, 3.0, 1000.0)?;
+        Ok(pumpcyl::response::step_metrics_of(rig, &s, step_mm).rise_time_s)
+    };
+    let (model, identified) = (lti(&Rig::default())?, lti(nominal)?);
+    let fmt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
+    run.compare(
+        "Figure 6: 10–90 % rise time of the identification step (s)",
+        format!(
+            "{} (LTI model, default rig); {} (identified rig)",
+            fmt(model),
+            fmt(identified)
+        ),
+        &format!("about {}", printed::RISE_TIME_S),
+        &format!("{} (emulated record)", fmt(emulated)),
+    );
+    Ok(summary::RiseTime {
+        model_s: model,
+        identified_model_s: identified,
+        emulated_s: emulated,
+        article_s: printed::RISE_TIME_S,
     })
 }

@@ -1,7 +1,7 @@
 //! The article's whole workflow (docs/README.md) on the embedded rig and the embedded emulated
 //! records, as one library call: the drive gain (the article §2.4.1), the leakages and the
 //! two-stage identification (§2.4), the robustness record, the bulk modulus against pressure,
-//! the damping studies (Figures 11 and 14), the stroke (§2.1), the sinusoidal tracking and the
+//! the damping studies (Figures 11 and 14), the stroke (§3.3, Figure 15), the sinusoidal tracking and the
 //! design check (§2.2).
 //!
 //! [`reproduce`] returns a [`Reproduction`]: the numbers (typed, and as the `summary.json`
@@ -81,6 +81,57 @@ mod printed {
     /// Maximum control error measured on the real rig (mm): 0.1 Hz ±50 mm, 0.2 Hz ±35 mm,
     /// 0.25 Hz ±20 mm.
     pub const TRACK_MAX_ERROR_MM: [f64; 3] = [8.52, 11.8, 8.82];
+    /// Wave reduction measured on the real rig, same waves.
+    pub const WAVE_REDUCTION: [f64; 3] = [0.83, 0.66, 0.56];
+    /// The gas fraction from β 165 bar at 4.4 bar (the article's bulk-modulus study).
+    pub const GAS_FRACTION: f64 = 0.0264;
+    /// The introduction's example: a gas fraction of 1 % gives about 6300 bar at 100 bar and
+    /// about 100 bar at 1 bar, 63 times less.
+    pub const INTRO_GAS_FRACTION: f64 = 0.01;
+    pub const INTRO_BETA_100BAR: f64 = 6300.0;
+    pub const INTRO_BETA_1BAR: f64 = 100.0;
+    pub const INTRO_RATIO: f64 = 63.0;
+    /// The 10–90 % rise time of the identification step (s; Figure 6).
+    pub const RISE_TIME_S: f64 = 0.36;
+    /// The first grid: best cost (mm²) and candidates below 0.25 mm².
+    pub const FIRST_GRID_BEST_MM2: f64 = 0.0694;
+    pub const FIRST_GRID_BELOW: u64 = 48;
+    /// The bounds of that threshold set: β (bar), b (N·s/m), c12 (m⁵/(N·s)).
+    pub const FIRST_GRID_BOUNDS: [[f64; 2]; 3] = [[150.0, 200.0], [200.0, 500.0], [1e-10, 1e-10]];
+    /// The PLC's sum-pressure set-point (bar).
+    pub const P_SUM_REF_BAR: f64 = 10.0;
+    /// The standstill record: motor speeds (rpm) and chamber 1 pressure (bar).
+    pub const STANDSTILL_W1_RPM: f64 = -160.0;
+    pub const STANDSTILL_W2_RPM: f64 = 245.0;
+    pub const STANDSTILL_P1_BAR: f64 = 3.95;
+    /// The identification step's mean chamber pressures (bar; the bulk-modulus study).
+    pub const STEP_MEAN_P_BAR: [f64; 2] = [4.1, 4.7];
+}
+
+/// Which of the article's figures a report figure answers (docs/choices.md#article-figures).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Source {
+    /// The article's figure with this number, named in the article's text beside the numbers
+    /// the report compares (Figures 6, 11, 14, 15).
+    Article(u8),
+    /// The article's figure with this number, the number taken from the order of the article's
+    /// sections (the figure's content is the study the article describes there).
+    ArticleByOrder(u8),
+    /// A study of pumpcyl's own, not in the article.
+    Own,
+}
+
+impl Source {
+    /// The label that heads the figure's caption.
+    pub fn label(self) -> String {
+        match self {
+            Source::Article(n) => format!("Article Figure {n}. "),
+            Source::ArticleByOrder(n) => {
+                format!("Article Figure {n} (number from the article's order of figures). ")
+            }
+            Source::Own => "pumpcyl's own study, not in the article. ".to_string(),
+        }
+    }
 }
 
 /// Whether `ours` rounds to `article` at the article's printed precision (half its last digit).
@@ -208,26 +259,30 @@ impl Run<'_> {
         Path::new(article::FOLDER).join(file)
     }
 
-    /// Render `chart` as SVG and PNG under figures/`stem`, and inline the SVG.
-    fn figure(&mut self, stem: &str, caption: &str, chart: &Chart) -> Result<()> {
+    /// Render `chart` as SVG and PNG under figures/`stem`, and inline the SVG; the caption is
+    /// headed by the article figure it answers.
+    fn figure(&mut self, stem: &str, source: Source, caption: &str, chart: &Chart) -> Result<()> {
         let svg = chart.svg()?;
         let png = chart.png()?;
-        self.inline(&svg, caption);
+        let caption = self.inline(&svg, source, caption);
         self.figures.push(Figure {
             stem: stem.to_string(),
-            caption: caption.to_string(),
+            caption,
             svg,
             png,
         });
         Ok(())
     }
 
-    /// Inline an SVG document in the report.
-    fn inline(&mut self, svg: &str, caption: &str) {
+    /// Inline an SVG document in the report, its caption headed by the article figure it
+    /// answers; returns the caption.
+    fn inline(&mut self, svg: &str, source: Source, caption: &str) -> String {
+        let caption = format!("{}{caption}", source.label());
         self.blocks.push(Block::Figure {
             svg: svg.to_string(),
-            caption: caption.to_string(),
+            caption: caption.clone(),
         });
+        caption
     }
 
     /// A row of the comparison: quantity, pumpcyl, the article's printed value, the truth the
@@ -288,8 +343,11 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         step: 0,
     };
     let (drive, km) = identification::drive_step(&mut run)?;
-    let truth = article::records()?[0].truth.clone();
+    let records = article::records()?;
+    let truth = records[0].truth.clone();
     let (exp, nominal, identified, cost_mm2) = identification::identification(&mut run, &truth)?;
+    let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
+    let rise_time = identification::rise_time(&mut run, &exp, &nominal)?;
     let robustness = identification::robustness(&mut run, &exp, &nominal)?;
     let pressure = studies::pressure_study(&mut run, &nominal, &exp, &truth)?;
     let damping = studies::damping_study(&mut run, &nominal)?;
@@ -310,9 +368,14 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         drive,
         leakage: identified.leakage.clone(),
         identified,
+        record_conditions,
+        rise_time,
         robustness,
         margins: pressure.study.clone(),
         gas_fraction: pressure.gas_fraction,
+        gas_fraction_article_basis: pressure.gas_fraction_article_basis,
+        article_gas_fraction: printed::GAS_FRACTION,
+        intro_example: pressure.intro.clone(),
         p_mean_bar: pressure.p_mean_bar,
         damping,
         stroke,
@@ -443,6 +506,9 @@ fn bode_series(rig: &Rig, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
     })
 }
 
+/// The step of the studies (mm): the identification records' 5 mm step (the article §2.4).
+const STEP_MM: f64 = 5.0;
+
 /// How the step figure of [`variants`] shows the position.
 #[derive(Clone, Copy, PartialEq)]
 enum Position {
@@ -452,14 +518,24 @@ enum Position {
     AboutX0,
 }
 
-/// Margins table, Bode overlay and step overlay of rig variants; their margins.
-fn variants(
-    run: &mut Run,
-    stem: &str,
-    what: &str,
-    rigs: &[(String, Rig)],
+/// A study of rig variants: its file stem, what it is, where each variant's step is drawn, and
+/// the article figures its Bode diagram and its steps answer.
+struct Study<'a> {
+    stem: &'a str,
+    what: &'a str,
     position: Position,
-) -> Result<Vec<summary::Case>> {
+    bode: Source,
+    step: Source,
+}
+
+/// Margins table, Bode overlay and step overlay of rig variants; their margins and steps.
+fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<summary::Case>> {
+    let Study {
+        stem,
+        what,
+        position,
+        ..
+    } = *study;
     let freqs = lti::log_grid(0.01, 100.0, 401);
     let mut series = Vec::new();
     let mut markers = Vec::new();
@@ -473,25 +549,37 @@ fn variants(
         series.push(bode_series(rig, label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
         // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)
-        match response::step(rig, 5.0, 6.0, 100.0) {
-            Ok(s) if position == Position::AboutX0 => {
-                let x0 = response::Baseline::of_rig(rig).x_ref_mm;
-                steps.push((label.clone(), crate::figures::about_operating_point(&s, x0)));
+        let step = match response::step(rig, STEP_MM, 6.0, 100.0) {
+            Ok(s) => {
+                let metrics = response::step_metrics_of(rig, &s, STEP_MM);
+                let s = match position {
+                    Position::AboutX0 => {
+                        let x0 = response::Baseline::of_rig(rig).x_ref_mm;
+                        crate::figures::about_operating_point(&s, x0)
+                    }
+                    Position::Absolute => s,
+                };
+                steps.push((label.clone(), s));
+                Some(metrics)
             }
-            Ok(s) => steps.push((label.clone(), s)),
-            Err(lti::LtiError::Unstable { .. }) => unstable.push(label.as_str()),
+            Err(lti::LtiError::Unstable { .. }) => {
+                unstable.push(label.as_str());
+                None
+            }
             Err(e) => return Err(e.into()),
-        }
+        };
         out.push(summary::Case {
             case: label.clone(),
-            step_closed_loop_stable: !unstable.contains(&label.as_str()),
+            step_closed_loop_stable: step.is_some(),
             margins: m,
+            step,
         });
     }
     run.table(&format!("Margins: {what}"), &MARGIN_HEADER, rows);
     let title = format!("Bode diagram: {what}");
     run.figure(
         &format!("bode_{stem}"),
+        study.bode,
         &title,
         &Chart::bode(&title, series, markers),
     )?;
@@ -506,6 +594,6 @@ fn variants(
     if let (Position::AboutX0, crate::figures::Plot::Time(panels)) = (position, &mut chart.plot) {
         panels[0].y_label = "Position about x0, x − x0 (mm)".into();
     }
-    run.figure(&format!("step_{stem}"), &title, &chart)?;
+    run.figure(&format!("step_{stem}"), study.step, &title, &chart)?;
     Ok(out)
 }

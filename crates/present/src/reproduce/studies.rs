@@ -1,10 +1,11 @@
 //! The studies on the identified rig: the bulk modulus against pressure (docs/bulk-modulus.md),
-//! the damping studies (the article's Figures 11 and 14), the stroke (§2.1), the sinusoidal
+//! the damping studies (the article's Figures 11 and 14), the stroke (§3.3, Figure 15), the sinusoidal
 //! tracking (docs/simulation.md#tracking-metrics) and the design check (§2.2).
 
 use super::summary::{self, AtPressure, Case, ResonanceCase};
 use super::{
-    agrees, bode_series, margins_of, margins_row, printed, variants, Position, Run, MARGIN_HEADER,
+    agrees, bode_series, margins_of, margins_row, printed, variants, Position, Run, Source, Study,
+    MARGIN_HEADER,
 };
 use crate::figures::{bode_markers, Chart};
 use crate::format::fmt_opt;
@@ -27,6 +28,8 @@ const RESONANCE_BAND_HZ: (f64, f64) = (0.1, 10.0);
 pub(super) struct Pressure {
     pub study: summary::MarginsStudy,
     pub gas_fraction: f64,
+    pub gas_fraction_article_basis: f64,
+    pub intro: summary::IntroExample,
     pub p_mean_bar: f64,
 }
 
@@ -54,7 +57,9 @@ pub(super) fn pressure_study(
     let fit = (nominal.beta_bar, p_mean, BETA_OIL_BAR);
     run.figure(
         "bulk_modulus",
-        "Effective bulk modulus and margins against mean chamber pressure (gas-fraction model)",
+        Source::ArticleByOrder(9),
+        "Effective bulk modulus and margins against mean chamber pressure (gas-fraction model, identified rig; \
+         the comparison table's 1 and 10 bar rows use the article's basis, the default rig)",
         &Chart::bulk_modulus(fit, x, &fine),
     )?;
     let freqs = lti::log_grid(0.01, 100.0, 401);
@@ -90,12 +95,19 @@ pub(super) fn pressure_study(
         &MARGIN_HEADER,
         table,
     );
-    run.text(&format!(
-        "Gas fraction X = {x:.5} from β = {:.1} bar at the identification records' mean pressure {p_mean:.2} bar.",
+    let x_article = gas_fraction(article::BETA_FIT_BAR, article::P_FIT_BAR, BETA_OIL_BAR)?;
+    let basis = format!(
+        "These rows are the identified rig: β_e follows the gas fraction X = {x:.5} fitted to the identified β = {:.1} bar          at the identification records' mean pressure {p_mean:.2} bar. The comparison table's 1 and 10 bar rows are on the          article's basis instead (the default rig, X = {x_article:.5} from its β 165 bar at 4.4 bar), so their margins differ          from these by the rigs' other parameters and the two gas fractions.",
         nominal.beta_bar
-    ));
-    let title = "Bode diagram for β_e at 1 bar, the mean pressure and 10 bar";
-    run.figure("bode_pressure", title, &Chart::bode(title, series, markers))?;
+    );
+    run.text(&basis);
+    let title = "Bode diagram for β_e at 1 bar, the mean pressure and 10 bar (identified rig)";
+    run.figure(
+        "bode_pressure",
+        Source::ArticleByOrder(10),
+        &format!("{title}. {basis}"),
+        &Chart::bode(title, series, markers),
+    )?;
     run.compare(
         "GM, default rig (dB)",
         fmt_opt(default_m.gain_margin_db, 2),
@@ -120,11 +132,27 @@ pub(super) fn pressure_study(
     );
     let article_basis = pressure_numbers(run)?;
     let truth_x = truth.effects.gas_fraction.unwrap_or(f64::NAN);
-    run.compare(
+    run.compare_why(
         "gas fraction X",
-        format!("{x:.5}"),
+        format!("{x_article:.5} (its basis: β 165 bar at 4.4 bar); {x:.5} (identified β at {p_mean:.2} bar)"),
+        &format!("{} %", 100.0 * printed::GAS_FRACTION),
+        &format!("{truth_x:.5}"),
+        "",
+    );
+    let intro = intro_example();
+    run.compare(
+        "introduction: β_e at 100 bar / at 1 bar for X = 1 % (bar), and their ratio",
+        format!(
+            "{:.0} / {:.1} ({:.1}×)",
+            intro.beta_100bar, intro.beta_1bar, intro.ratio
+        ),
+        &format!(
+            "about {} / about {} ({}×)",
+            printed::INTRO_BETA_100BAR,
+            printed::INTRO_BETA_1BAR,
+            printed::INTRO_RATIO
+        ),
         "-",
-        &format!("{:.5}", truth_x),
     );
     Ok(Pressure {
         study: summary::MarginsStudy {
@@ -136,12 +164,45 @@ pub(super) fn pressure_study(
             article_basis,
         },
         gas_fraction: x,
+        gas_fraction_article_basis: x_article,
+        intro,
         p_mean_bar: p_mean,
     })
 }
 
-/// The article's margins at 1 and 10 bar and the Kp for the nominal PM there, on its own basis:
-/// the default rig, β_e from 165 bar at 4.4 bar (the article's bulk-modulus study).
+/// The article's introduction: a gas fraction of 1 % and β_e at 100 bar against 1 bar.
+fn intro_example() -> summary::IntroExample {
+    let at = |p: f64| bulk::effective_beta(printed::INTRO_GAS_FRACTION, p, BETA_OIL_BAR);
+    let (beta_100bar, beta_1bar) = (at(100.0), at(1.0));
+    summary::IntroExample {
+        gas_fraction: printed::INTRO_GAS_FRACTION,
+        beta_100bar,
+        beta_1bar,
+        ratio: beta_100bar / beta_1bar,
+        article_beta_100bar: printed::INTRO_BETA_100BAR,
+        article_beta_1bar: printed::INTRO_BETA_1BAR,
+        article_ratio: printed::INTRO_RATIO,
+    }
+}
+
+/// The Kp (on `rig`) that meets the phase margin `pm_deg` alone.
+fn kp_for_pm(rig: &Rig, pm_deg: f64) -> Result<f64> {
+    let same_pm = Targets {
+        pm_deg,
+        gm_db: 0.0,
+        stroke_mm: 0.0,
+        p_mean_bar: vec![],
+        p_beta_bar: article::P_FIT_BAR,
+        mass_kg: vec![],
+        waves: vec![],
+    };
+    Ok(pumpcyl::design::kp_max(rig, &same_pm)?)
+}
+
+/// The article's margins at 1 and 10 bar and the Kp that keeps a margin there, on its own
+/// basis: the default rig, β_e from 165 bar at 4.4 bar (the article's bulk-modulus study). At
+/// 1 bar the article's claim keeps the gain margin ("below 25 % of Kp"); at 10 bar it keeps
+/// the phase margin, computed both on its printed 34° and on pumpcyl's 33.5°.
 fn pressure_numbers(run: &mut Run) -> Result<Vec<summary::ArticleBasis>> {
     let rig = Rig::default();
     let x = gas_fraction(rig.beta_bar, article::P_FIT_BAR, BETA_OIL_BAR)?;
@@ -169,58 +230,64 @@ fn pressure_numbers(run: &mut Run) -> Result<Vec<summary::ArticleBasis>> {
             "the margins are computed exactly from the 10-state model; the article reads them off MATLAB's margin"
         };
         run.compare_why(
-            &format!("GM / PM at {p} bar, β_e {:.1} bar", r.beta_bar),
+            &format!("GM / PM at {p} bar, β_e {:.1} bar, default rig", r.beta_bar),
             format!("{gm:.2} dB / {pm:.1} deg"),
             &format!("{gm_a} dB / {pm_a} deg"),
             "-",
             why,
         );
-        let same_pm = Targets {
-            pm_deg: pm0,
-            gm_db: 0.0,
-            stroke_mm: 0.0,
-            p_mean_bar: vec![],
-            p_beta_bar: article::P_FIT_BAR,
-            mass_kg: vec![],
-            waves: vec![],
-        };
-        let kp = pumpcyl::design::kp_max(&r, &same_pm)?;
-        let change = kp / rig.kp - 1.0;
-        let (article_text, ok) = if p < 5.0 {
-            (
-                format!("below {:.0} % of Kp", 100.0 * printed::KP_RATIO_1BAR_BELOW),
-                kp / rig.kp < printed::KP_RATIO_1BAR_BELOW,
-            )
+        // the loop gain scales with Kp, so the GM moves by 20 log10 of the Kp ratio
+        let same_gm = 10f64.powf((gm - gm0) / 20.0);
+        let kp_same_pm = kp_for_pm(&r, pm0)?;
+        let kp_article_pm = kp_for_pm(&r, printed::PM_DEG)?;
+        let gm_at_article_pm = gm - 20.0 * (kp_article_pm / rig.kp).log10();
+        if p < 5.0 {
+            let ok = same_gm < printed::KP_RATIO_1BAR_BELOW;
+            run.compare_why(
+                &format!("Kp keeping the 4.4 bar GM ({gm0:.2} dB) at {p} bar, default rig"),
+                format!("{:.1} % of Kp ({:.2})", 100.0 * same_gm, same_gm * rig.kp),
+                &format!("below {:.0} % of Kp", 100.0 * printed::KP_RATIO_1BAR_BELOW),
+                "-",
+                &format!(
+                    "{}keeping the PM ({pm0:.1} deg) instead needs {:.1} % of Kp",
+                    if ok { "" } else { "NOT REPRODUCED; " },
+                    100.0 * kp_same_pm / rig.kp
+                ),
+            );
         } else {
-            (
-                format!("about +{:.0} %", 100.0 * printed::KP_CHANGE_10BAR),
-                (change - printed::KP_CHANGE_10BAR).abs() <= 0.05,
-            )
-        };
-        run.compare_why(
-            &format!("Kp for the same PM ({pm0:.1} deg) at {p} bar"),
-            format!("{kp:.2} ({:+.0} %)", 100.0 * change),
-            &article_text,
-            "-",
-            &if ok {
-                String::new()
-            } else {
-                // the loop gain scales with Kp, so the GM moves by 20 log10 of the Kp ratio
-                let same_gm = 10f64.powf((gm - gm0) / 20.0);
+            let change = kp_article_pm / rig.kp - 1.0;
+            let ok = (change - printed::KP_CHANGE_10BAR).abs() <= 0.05;
+            run.compare_why(
+                &format!(
+                    "Kp keeping the article's PM ({} deg) at {p} bar, default rig",
+                    printed::PM_DEG
+                ),
                 format!(
-                    "keeping the GM of 4.4 bar needs {:.0} % of Kp (the article's 'below 25 %'); keeping the PM needs {:.0} %",
-                    100.0 * same_gm,
-                    100.0 * kp / rig.kp
-                )
-            },
-        );
+                    "{:.2} ({:+.1} %), GM there {gm_at_article_pm:.1} dB",
+                    kp_article_pm,
+                    100.0 * change
+                ),
+                &format!("about +{:.0} %", 100.0 * printed::KP_CHANGE_10BAR),
+                "-",
+                &format!(
+                    "{}on pumpcyl's own PM ({pm0:.1} deg): {:.2} ({:+.1} %)",
+                    if ok { "" } else { "NOT REPRODUCED; " },
+                    kp_same_pm,
+                    100.0 * (kp_same_pm / rig.kp - 1.0)
+                ),
+            );
+        }
         out.push(summary::ArticleBasis {
             p_bar: p,
             beta_bar: r.beta_bar,
             gain_margin_db: m.gain_margin_db,
             phase_margin_deg: m.phase_margin_deg,
-            kp_same_pm: kp,
-            kp_change: change,
+            kp_same_pm,
+            kp_change: kp_same_pm / rig.kp - 1.0,
+            kp_same_gm_ratio: same_gm,
+            kp_article_pm,
+            kp_article_pm_change: kp_article_pm / rig.kp - 1.0,
+            gain_margin_at_kp_article_pm_db: gm_at_article_pm,
             article: summary::GmPm {
                 gain_margin_db: gm_a,
                 phase_margin_deg: pm_a,
@@ -231,10 +298,10 @@ fn pressure_numbers(run: &mut Run) -> Result<Vec<summary::ArticleBasis>> {
 }
 
 /// Step 6: the damping studies. The article's Figure 14 is cumulative: the original; c12, c1
-/// and c2 all divided by 10; then also the motor coupling removed. The first-order motor
-/// (its Figure 11) and the feedforward off (its text) are separate studies.
+/// and c2 all divided by 10; then also the motor coupling removed. Its Figure 11 removes the
+/// drive velocity feedforward; the first-order motor is pumpcyl's own study.
 pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Damping> {
-    run.step("Damping studies: leakage and motor coupling (Figure 14), motor model (Figure 11), feedforward");
+    run.step("Damping studies: leakage and motor coupling (Figure 14), the drive feedforward (Figure 11), a first-order motor (pumpcyl's own)");
     let tenth = Rig {
         c12_m5_per_ns: nominal.c12_m5_per_ns / 10.0,
         c1_m5_per_ns: nominal.c1_m5_per_ns / 10.0,
@@ -253,13 +320,14 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Dam
             uncoupled,
         ),
     ];
-    let cases = variants(
-        run,
-        "fig14_damping",
-        "Figure 14, cumulative damping study",
-        &fig14,
-        Position::Absolute,
-    )?;
+    let study = Study {
+        stem: "fig14_damping",
+        what: "Figure 14, cumulative damping study",
+        position: Position::Absolute,
+        bode: Source::Article(14),
+        step: Source::Own,
+    };
+    let cases = variants(run, &study, &fig14)?;
     let mut rows = Vec::new();
     let mut figure14 = Vec::new();
     for ((label, rig), case) in fig14.iter().zip(cases) {
@@ -301,21 +369,24 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Dam
         &|r| r.motor_model = pumpcyl::rig::MotorModel::FirstOrder,
         "first-order motor",
     );
-    let motor = variants(
-        run,
-        "fig11_motor",
-        "Figure 11, first-order motor model",
-        &motor,
-        Position::Absolute,
-    )?;
+    let study = Study {
+        stem: "motor_first_order",
+        what: "first-order motor model (pumpcyl's own study)",
+        position: Position::Absolute,
+        bode: Source::Own,
+        step: Source::Own,
+    };
+    let motor = variants(run, &study, &motor)?;
     let ff = with(&|r| r.feedforward = false, "feedforward off");
-    let ff = variants(
-        run,
-        "feedforward",
-        "drive feedforward removed",
-        &ff,
-        Position::Absolute,
-    )?;
+    let study = Study {
+        stem: "fig11_feedforward",
+        what: "Figure 11, drive velocity feedforward removed",
+        position: Position::Absolute,
+        bode: Source::Article(11),
+        step: Source::Article(11),
+    };
+    let ff = variants(run, &study, &ff)?;
+    feedforward_rows(run, &ff);
     Ok(summary::Damping {
         figure14,
         first_order_motor: motor,
@@ -323,70 +394,180 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Dam
     })
 }
 
-/// Step 7: margins over the stroke, mass and volumes following it (the article §2.1; docs/model.md#variants).
+/// The article's Figure 11 in numbers: the step's overshoot and peak time and the gain margin,
+/// with and without the drive velocity feedforward.
+fn feedforward_rows(run: &mut Run, cases: &[Case]) {
+    let cell = |c: &Case| {
+        c.step.map_or("unstable".to_string(), |s| {
+            format!("{:.1} % at {:.2} s", s.overshoot_pct, s.peak_time_s)
+        })
+    };
+    let [with, without] = cases else { return };
+    run.compare_why(
+        "Figure 11: 5 mm step overshoot and peak time, with / without feedforward",
+        format!("{} / {}", cell(with), cell(without)),
+        "its Figure 11: the response changes drastically without it",
+        "-",
+        "read the article's two curves against these numbers",
+    );
+    run.compare(
+        "Figure 11: GM with / without feedforward, identified rig (dB)",
+        format!(
+            "{} / {}",
+            fmt_opt(with.margins.gain_margin_db, 2),
+            fmt_opt(without.margins.gain_margin_db, 2)
+        ),
+        &format!("{} (default rig) / -", printed::GM_DB),
+        "-",
+    );
+}
+
+/// Step 7: margins over the stroke, mass and volumes following it (the article §3.3; docs/model.md#variants).
 pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<summary::Stroke> {
-    run.step("Stroke: margins at -50, 0 and +50 mm (the article §2.1)");
+    run.step("Stroke: margins at -50, 0 and +50 mm (the article §3.3)");
     let at = |dx: f64, mass: f64| Rig {
         x0_mm: nominal.x0_mm + dx,
         mass_kg: mass,
         ..nominal.clone()
     };
+    let [minus, plus] = STROKE_POINTS;
     let rigs = vec![
-        ("-50 mm, 9958 kg".to_string(), at(-50.0, 9958.0)),
+        ("-50 mm, 9958 kg".to_string(), at(minus.0, minus.1)),
         ("x0 = 345 mm, 10 593 kg".to_string(), nominal.clone()),
-        ("+50 mm, 12 373 kg".to_string(), at(50.0, 12373.0)),
+        ("+50 mm, 12 373 kg".to_string(), at(plus.0, plus.1)),
     ];
-    let cases: Vec<Case> = variants(run, "stroke", "stroke positions", &rigs, Position::AboutX0)?;
+    let study = Study {
+        stem: "stroke",
+        what: "stroke positions",
+        position: Position::AboutX0,
+        bode: Source::Article(15),
+        step: Source::Article(15),
+    };
+    let cases: Vec<Case> = variants(run, &study, &rigs)?;
+    let (article_basis, article_reproduced) = stroke_numbers(run)?;
     Ok(summary::Stroke {
         cases,
-        article_basis: stroke_numbers(run)?,
+        article_basis,
+        article_reproduced,
     })
 }
 
-/// The PM changes at ±50 mm the article prints, on the default rig: mass and volumes moved
-/// together (what pumpcyl's stroke study does), and the mass alone.
-fn stroke_numbers(run: &mut Run) -> Result<Vec<summary::StrokeBasis>> {
+/// The article's stroke points: position from x0 (mm) and the mass there (kg).
+const STROKE_POINTS: [(f64, f64); 2] = [(-50.0, 9958.0), (50.0, 12373.0)];
+
+/// Largest GM change (dB) that reads as "virtually unchanged".
+const GM_UNCHANGED_DB: f64 = 0.3;
+
+/// Largest GM change (dB) that reads as "increases slightly".
+const GM_SLIGHT_DB: f64 = 2.0;
+
+/// The margin changes at ±50 mm on the default rig under each reading of the article's
+/// Figure 15 (mass and volumes moved together, as pumpcyl's stroke study does; the mass alone;
+/// the volumes alone), each checked against the article's four statements.
+fn stroke_numbers(run: &mut Run) -> Result<(Vec<summary::StrokeBasis>, bool)> {
     let rig = Rig::default();
-    let pm = |r: &Rig| -> Result<f64> { Ok(margins_of(r)?.phase_margin_deg.unwrap_or(f64::NAN)) };
-    let pm0 = pm(&rig)?;
+    let m0 = margins_of(&rig)?;
+    let change = |r: &Rig| -> Result<summary::MarginChange> {
+        let m = margins_of(r)?;
+        let d = |a: Option<f64>, b: Option<f64>| a.zip(b).map_or(f64::NAN, |(a, b)| a - b);
+        Ok(summary::MarginChange {
+            pm_change_deg: d(m.phase_margin_deg, m0.phase_margin_deg),
+            gm_change_db: d(m.gain_margin_db, m0.gain_margin_db),
+        })
+    };
     let mut out = Vec::new();
-    let cases = [
-        (-50.0, 9958.0, printed::PM_CHANGE_MINUS50_DEG),
-        (50.0, 12373.0, printed::PM_CHANGE_PLUS50_DEG),
+    let printed = [
+        (printed::PM_CHANGE_MINUS50_DEG, 0.1, "virtually unchanged"),
+        (printed::PM_CHANGE_PLUS50_DEG, 1.0, "increases slightly"),
     ];
-    for (dx, mass, article_change) in cases {
-        let both = pm(&Rig {
-            x0_mm: rig.x0_mm + dx,
-            mass_kg: mass,
+    for ((dx, mass), (pm_article, pm_digit, gm_article)) in STROKE_POINTS.into_iter().zip(printed) {
+        let moved = |x: bool, m: bool| Rig {
+            x0_mm: if x { rig.x0_mm + dx } else { rig.x0_mm },
+            mass_kg: if m { mass } else { rig.mass_kg },
             ..rig.clone()
-        })? - pm0;
-        let mass_alone = pm(&Rig {
-            mass_kg: mass,
-            ..rig.clone()
-        })? - pm0;
-        let why = if agrees(both, article_change, if dx < 0.0 { 0.1 } else { 1.0 }) {
-            String::new()
-        } else {
-            format!(
-                "pumpcyl moves mass and volumes together; moving the mass alone gives {mass_alone:+.1} deg"
-            )
         };
-        run.compare_why(
-            &format!("PM change at {dx:+} mm of stroke (deg)"),
-            format!("{both:+.1}"),
-            &format!("{article_change:+}"),
-            "-",
-            &why,
-        );
+        let readings = summary::StrokeReadings {
+            mass_and_volumes: change(&moved(true, true))?,
+            mass_alone: change(&moved(false, true))?,
+            volumes_alone: change(&moved(true, false))?,
+        };
+        let gm_fits = |c: &summary::MarginChange| {
+            if dx < 0.0 {
+                c.gm_change_db.abs() <= GM_UNCHANGED_DB
+            } else {
+                c.gm_change_db > 0.0 && c.gm_change_db <= GM_SLIGHT_DB
+            }
+        };
+        let fits =
+            |c: &summary::MarginChange| agrees(c.pm_change_deg, pm_article, pm_digit) && gm_fits(c);
         out.push(summary::StrokeBasis {
             dx_mm: dx,
             mass_kg: mass,
-            pm_change_deg: both,
-            pm_change_mass_alone_deg: mass_alone,
-            article_pm_change_deg: article_change,
+            pm_change_deg: readings.mass_and_volumes.pm_change_deg,
+            gm_change_db: readings.mass_and_volumes.gm_change_db,
+            article_pm_change_deg: pm_article,
+            article_gm_change: gm_article.to_string(),
+            fits: [
+                fits(&readings.mass_and_volumes),
+                fits(&readings.mass_alone),
+                fits(&readings.volumes_alone),
+            ],
+            readings,
         });
     }
-    Ok(out)
+    let reproduced = (0..3).any(|k| out.iter().all(|b| b.fits[k]));
+    let tried = out
+        .iter()
+        .map(|b| {
+            let r = &b.readings;
+            let f = |c: &summary::MarginChange| {
+                format!("{:+.1} deg / {:+.2} dB", c.pm_change_deg, c.gm_change_db)
+            };
+            format!(
+                "at {:+} mm: mass and volumes {}, mass alone {}, volumes alone {}",
+                b.dx_mm,
+                f(&r.mass_and_volumes),
+                f(&r.mass_alone),
+                f(&r.volumes_alone)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    let why = if reproduced {
+        String::new()
+    } else {
+        format!(
+            "NOT REPRODUCED: no single reading of the article's Figure 15 gives all four of its statements (PM, GM): {tried}"
+        )
+    };
+    let see_above = if reproduced {
+        String::new()
+    } else {
+        "NOT REPRODUCED (the first Figure 15 row says why)".to_string()
+    };
+    for (k, b) in out.iter().enumerate() {
+        run.compare_why(
+            &format!(
+                "Figure 15: PM change at {:+} mm of stroke, default rig (deg)",
+                b.dx_mm
+            ),
+            format!("{:+.1}", b.pm_change_deg),
+            &format!("{:+}", b.article_pm_change_deg),
+            "-",
+            if k == 0 { &why } else { &see_above },
+        );
+        run.compare_why(
+            &format!(
+                "Figure 15: GM change at {:+} mm of stroke, default rig (dB)",
+                b.dx_mm
+            ),
+            format!("{:+.2}", b.gm_change_db),
+            &b.article_gm_change,
+            "-",
+            &see_above,
+        );
+    }
+    Ok((out, reproduced))
 }
 
 /// Step 8: the three sinusoids of the article (docs/simulation.md#tracking-metrics), emulated records against the model.
@@ -399,10 +580,16 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Trac
     ];
     let mut out = Vec::new();
     let mut rows = Vec::new();
-    for (((f, a), file), article_e) in ARTICLE_SINE_CASES
+    let stems = [16, 17, 18];
+    for ((((f, a), file), (article_e, article_r)), number) in ARTICLE_SINE_CASES
         .iter()
         .zip(files)
-        .zip(printed::TRACK_MAX_ERROR_MM)
+        .zip(
+            printed::TRACK_MAX_ERROR_MM
+                .into_iter()
+                .zip(printed::WAVE_REDUCTION),
+        )
+        .zip(stems)
     {
         let rec = Record::read_in(&article::Embedded, &run.record(file))?;
         let measured = Signals::of_record(&rec);
@@ -430,6 +617,7 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Trac
             emulated: m,
             model: s,
             article_measured_max_error_mm: article_e,
+            article_measured_wave_reduction: article_r,
         });
         let why = if agrees(s.max_error_mm, article_e, 0.01) {
             String::new()
@@ -446,6 +634,17 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Trac
             &format!("{:.2} (emulated rig)", m.max_error_mm),
             &why,
         );
+        run.compare_why(
+            &format!("wave reduction {f} Hz, ±{a} mm"),
+            format!("{:.1} % (LTI model)", 100.0 * s.wave_reduction),
+            &format!("{:.0} % (real rig)", 100.0 * article_r),
+            &format!("{:.1} % (emulated rig)", 100.0 * m.wave_reduction),
+            if agrees(100.0 * s.wave_reduction, 100.0 * article_r, 1.0) {
+                ""
+            } else {
+                "1 − max |e| / amplitude: follows the max error row above"
+            },
+        );
         let title = format!("Sinusoid {f} Hz, ±{a} mm: emulated record against the model");
         let subtitle = format!(
             "max |e|: {:.2} mm emulated, {:.2} mm model; wave reduction {:.1} % / {:.1} %",
@@ -457,7 +656,7 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Trac
         let series = [("model".to_string(), &sim)];
         let stem = format!("sine_{}hz", format!("{f:.2}").replace('.', "p"));
         let chart = Chart::signals(&title, Some(&subtitle), &series, Some(&measured), None);
-        run.figure(&stem, &title, &chart)?;
+        run.figure(&stem, Source::ArticleByOrder(number), &title, &chart)?;
     }
     run.table(
         "Tracking (after the first period)",

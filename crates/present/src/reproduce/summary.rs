@@ -7,7 +7,7 @@ use pumpcyl::design::robust::{Deciding, LoopStep, WorstCase};
 use pumpcyl::design::{Targets, Verdict};
 use pumpcyl::ident::{Assessment, Width};
 use pumpcyl::lti::Margins;
-use pumpcyl::response::TrackMetrics;
+use pumpcyl::response::{StepMetrics, TrackMetrics};
 use serde::Serialize;
 
 /// Every number of the workflow.
@@ -23,12 +23,22 @@ pub struct Summary {
     pub leakage: Leakage,
     /// Steps 2 and 3: the identification.
     pub identified: Identified,
+    /// The emulated records' operating conditions beside the article's.
+    pub record_conditions: Conditions,
+    /// The identification step's rise time (the article's Figure 6).
+    pub rise_time: RiseTime,
     /// Step 4: the robustness record.
     pub robustness: Robustness,
     /// Step 5: the margins against the mean chamber pressure.
     pub margins: MarginsStudy,
     /// Gas fraction from the identified β at the records' mean pressure.
     pub gas_fraction: f64,
+    /// Gas fraction on the article's basis: its β 165 bar at 4.4 bar.
+    pub gas_fraction_article_basis: f64,
+    /// The article's printed gas fraction.
+    pub article_gas_fraction: f64,
+    /// The introduction's example: β_e at 100 and 1 bar for a gas fraction of 1 %.
+    pub intro_example: IntroExample,
     /// The identification records' mean chamber pressure (bar).
     pub p_mean_bar: f64,
     /// Step 6: the damping studies.
@@ -43,6 +53,61 @@ pub struct Summary {
     pub how_sure: HowSure,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
+}
+
+/// The operating conditions of the emulated records beside the article's.
+#[derive(Debug, Clone, Serialize)]
+pub struct Conditions {
+    /// The emulated records' sum-pressure set-point (bar).
+    pub p_sum_ref_bar: f64,
+    /// The article's (bar).
+    pub article_p_sum_ref_bar: f64,
+    /// The emulated standstill record's mean motor speeds w1, w2 (rpm).
+    pub standstill_w_rpm: [f64; 2],
+    /// Its mean chamber 1 pressure (bar).
+    pub standstill_p1_bar: f64,
+    /// The article's standstill speeds (rpm).
+    pub article_standstill_w_rpm: [f64; 2],
+    /// The article's standstill p1 (bar).
+    pub article_standstill_p1_bar: f64,
+    /// p2 from the article's p1 by the force balance (bar).
+    pub article_standstill_p2_bar: f64,
+    /// The emulated identification step's mean p1, p2 (bar).
+    pub step_mean_p_bar: [f64; 2],
+    /// The article's (bar).
+    pub article_step_mean_p_bar: [f64; 2],
+}
+
+/// The 10–90 % rise time of the identification step.
+#[derive(Debug, Clone, Serialize)]
+pub struct RiseTime {
+    /// The LTI model of the default rig, the article's parameters (s).
+    pub model_s: Option<f64>,
+    /// The LTI model of the identified rig (s).
+    pub identified_model_s: Option<f64>,
+    /// The emulated record (s).
+    pub emulated_s: Option<f64>,
+    /// The article's (s).
+    pub article_s: f64,
+}
+
+/// The article introduction's example of the gas-fraction model.
+#[derive(Debug, Clone, Serialize)]
+pub struct IntroExample {
+    /// The gas fraction (1).
+    pub gas_fraction: f64,
+    /// β_e at 100 bar (bar).
+    pub beta_100bar: f64,
+    /// β_e at 1 bar (bar).
+    pub beta_1bar: f64,
+    /// Their ratio.
+    pub ratio: f64,
+    /// The article's "about 6300 bar".
+    pub article_beta_100bar: f64,
+    /// The article's "about 100 bar".
+    pub article_beta_1bar: f64,
+    /// The article's ratio.
+    pub article_ratio: f64,
 }
 
 /// The drive gain from the drive step (the article §2.4.1).
@@ -97,6 +162,8 @@ pub struct Identified {
     pub cost_mm2: f64,
     /// The first grid's best cost and threshold set.
     pub first_grid: FirstGrid,
+    /// The refined grid's best point before the local refinement.
+    pub grid_only: GridOnly,
     /// Candidates evaluated over both grids.
     pub candidates_evaluated: u64,
     /// What the records were emulated with.
@@ -107,13 +174,36 @@ pub struct Identified {
     pub leakage: Leakage,
 }
 
-/// The first grid's answer.
+/// The first grid's answer beside the article's.
 #[derive(Debug, Clone, Serialize)]
 pub struct FirstGrid {
     /// Its best cost (mm²).
     pub best_cost_mm2: f64,
     /// Candidates below the threshold (0.25 mm²).
     pub below_threshold: u64,
+    /// Bounds [lo, hi] of β (bar), b (N·s/m) and c12 (m⁵/(N·s)) over those candidates.
+    pub bounds: Option<[[f64; 2]; 3]>,
+    /// The article's best cost (mm²).
+    pub article_best_cost_mm2: f64,
+    /// The article's count below the threshold.
+    pub article_below_threshold: u64,
+    /// The article's bounds, as `bounds`.
+    pub article_bounds: [[f64; 2]; 3],
+}
+
+/// The refined grid's best point alone, the article's method (no Nelder–Mead after it).
+#[derive(Debug, Clone, Serialize)]
+pub struct GridOnly {
+    /// β (bar).
+    pub beta_bar: f64,
+    /// b (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Its cost (mm²).
+    pub cost_mm2: f64,
+    /// Whether each parameter lies on its grid axis's lowest or highest value.
+    pub on_edge: PerParameter<bool>,
 }
 
 /// A bulk modulus and a cross-port leakage.
@@ -195,10 +285,18 @@ pub struct ArticleBasis {
     pub gain_margin_db: Option<f64>,
     /// PM (deg).
     pub phase_margin_deg: Option<f64>,
-    /// The Kp that keeps the 4.4 bar PM.
+    /// The Kp that keeps the 4.4 bar PM (pumpcyl's, 33.5°).
     pub kp_same_pm: f64,
     /// Its change against the rig's Kp (fraction).
     pub kp_change: f64,
+    /// The fraction of the rig's Kp that keeps the 4.4 bar GM (the article's reading at 1 bar).
+    pub kp_same_gm_ratio: f64,
+    /// The Kp that meets the article's printed PM (34°).
+    pub kp_article_pm: f64,
+    /// Its change against the rig's Kp (fraction; the article's reading at 10 bar).
+    pub kp_article_pm_change: f64,
+    /// The GM at that Kp (dB).
+    pub gain_margin_at_kp_article_pm_db: f64,
     /// The article's printed margins.
     pub article: GmPm,
 }
@@ -223,6 +321,9 @@ pub struct Case {
     pub margins: Margins,
     /// Whether the closed loop with the sum-pressure loop is stable (its step is drawn).
     pub step_closed_loop_stable: bool,
+    /// The 5 mm step's metrics with the sum-pressure loop closed; `null` when that loop is
+    /// unstable.
+    pub step: Option<StepMetrics>,
 }
 
 /// A variant of the Figure 14 study with its resonance.
@@ -253,11 +354,33 @@ pub struct Damping {
 pub struct Stroke {
     /// −50, 0 and +50 mm on the identified rig.
     pub cases: Vec<Case>,
-    /// The article's PM changes on its basis (the default rig).
+    /// The article's margin changes on its basis (the default rig), at −50 and +50 mm.
     pub article_basis: Vec<StrokeBasis>,
+    /// Whether one reading gives all four of the article's statements.
+    pub article_reproduced: bool,
 }
 
-/// A PM change at a stroke position.
+/// The margin changes at a stroke position against the rig at x0.
+#[derive(Debug, Clone, Serialize)]
+pub struct MarginChange {
+    /// PM change (deg).
+    pub pm_change_deg: f64,
+    /// GM change (dB).
+    pub gm_change_db: f64,
+}
+
+/// The readings of the article's Figure 15 pumpcyl tries.
+#[derive(Debug, Clone, Serialize)]
+pub struct StrokeReadings {
+    /// Mass and chamber volumes moved together (pumpcyl's stroke study).
+    pub mass_and_volumes: MarginChange,
+    /// The mass alone, the volumes kept at x0.
+    pub mass_alone: MarginChange,
+    /// The volumes alone, the mass kept at x0's.
+    pub volumes_alone: MarginChange,
+}
+
+/// The margin changes at a stroke position on the article's basis (the default rig).
 #[derive(Debug, Clone, Serialize)]
 pub struct StrokeBasis {
     /// Position from x0 (mm).
@@ -266,10 +389,17 @@ pub struct StrokeBasis {
     pub mass_kg: f64,
     /// PM change, mass and volumes moved (deg).
     pub pm_change_deg: f64,
-    /// PM change, the mass alone (deg).
-    pub pm_change_mass_alone_deg: f64,
-    /// The article's (deg).
+    /// GM change, mass and volumes moved (dB).
+    pub gm_change_db: f64,
+    /// Every reading tried.
+    pub readings: StrokeReadings,
+    /// Whether each reading (mass and volumes, mass alone, volumes alone) gives the article's
+    /// PM change at its printed precision and its GM statement.
+    pub fits: [bool; 3],
+    /// The article's PM change (deg).
     pub article_pm_change_deg: f64,
+    /// The article's GM statement.
+    pub article_gm_change: String,
 }
 
 /// One wave of the tracking study.
@@ -285,6 +415,8 @@ pub struct Tracking {
     pub model: TrackMetrics,
     /// The article's, measured on the real rig (mm).
     pub article_measured_max_error_mm: f64,
+    /// The article's wave reduction, measured on the real rig.
+    pub article_measured_wave_reduction: f64,
 }
 
 /// The design check.
