@@ -112,12 +112,14 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         );
         let src = crate::robust::Source {
             rig,
+            origin: args.rig.origin(),
             experiment: args.experiment.as_deref(),
             confidence: args.confidence,
         };
         return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
     }
-    let d = design(&rig, &targets)?;
+    // a design error may lie in the rig (its mass table): say which rig
+    let d = design(&rig, &targets).map_err(|e| anyhow::anyhow!("{}: {e}", args.rig.origin()))?;
     if args.json {
         return Ok(json_document(&d)?);
     }

@@ -19,6 +19,8 @@ use pumpcyl_present::format::json_document;
 pub(super) struct Source<'a> {
     /// The rig (used when there is no experiment).
     pub rig: Rig,
+    /// Where the rig came from, in words (the command line's rig options).
+    pub origin: String,
     /// The experiment whose records give the region, if any.
     pub experiment: Option<&'a Path>,
     /// Confidence of the region.
@@ -44,7 +46,12 @@ pub(super) fn run(
         None => (src.rig.clone(), Region::stated_default(&src.rig)),
     };
     let identify_seconds = start.elapsed().as_secs_f64();
-    let d = robust_design(&rig, &region, targets, &RobustOptions::default())?;
+    // a design error may lie in the rig (its mass table): say which rig
+    let origin = src
+        .experiment
+        .map_or(src.origin.clone(), |p| p.display().to_string());
+    let d = robust_design(&rig, &region, targets, &RobustOptions::default())
+        .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
     let seconds = start.elapsed().as_secs_f64();
     let document = json_document(&robust_json(&d, seconds, identify_seconds))?;
     if let Some(dir) = out {

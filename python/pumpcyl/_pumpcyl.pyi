@@ -60,6 +60,8 @@ class Rig:
     pump_max_speed_rpm: float
     # load and hydraulics
     mass_kg: float
+    # the mass at each stroke position: [{"x_mm": 295.0, "mass_kg": 9958.0}, ...]; [] = constant
+    mass_by_position: List[Dict[str, float]]
     external_force_n: float
     beta_bar: float
     viscous_friction_ns_per_m: float

@@ -10,7 +10,7 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyAttributeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyInt, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyInt, PyList, PyTuple};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::RecvTimeoutError;
@@ -103,6 +103,8 @@ fn assignments(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
                 }
             } else if let Ok(s) = v.extract::<String>() {
                 s
+            } else if let Ok(points) = v.extract::<Vec<Bound<'_, PyDict>>>() {
+                toml_array_of_tables(&points)?
             } else {
                 v.repr()?.to_string()
             };
@@ -111,12 +113,48 @@ fn assignments(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
         .collect()
 }
 
+/// A list of dicts of numbers (`mass_by_position=[{"x_mm": 295.0, "mass_kg": 9958.0}, …]`) as
+/// a TOML array of inline tables.
+fn toml_array_of_tables(points: &[Bound<'_, PyDict>]) -> PyResult<String> {
+    let tables = points
+        .iter()
+        .map(|d| {
+            let fields = d
+                .iter()
+                .map(|(k, v)| {
+                    Ok(format!(
+                        "{} = {:?}",
+                        k.extract::<String>()?,
+                        v.extract::<f64>()?
+                    ))
+                })
+                .collect::<PyResult<Vec<String>>>()?;
+            Ok(format!("{{ {} }}", fields.join(", ")))
+        })
+        .collect::<PyResult<Vec<String>>>()?;
+    Ok(format!("[{}]", tables.join(", ")))
+}
+
 fn toml_to_py(py: Python<'_>, v: &toml::Value) -> PyResult<Py<PyAny>> {
     Ok(match v {
         toml::Value::Float(x) => x.into_pyobject(py)?.into_any().unbind(),
         toml::Value::Integer(i) => i.into_pyobject(py)?.into_any().unbind(),
         toml::Value::Boolean(b) => b.into_pyobject(py)?.to_owned().into_any().unbind(),
         toml::Value::String(s) => s.into_pyobject(py)?.into_any().unbind(),
+        toml::Value::Array(items) => {
+            let list = PyList::empty(py);
+            for item in items {
+                list.append(toml_to_py(py, item)?)?;
+            }
+            list.into_any().unbind()
+        }
+        toml::Value::Table(table) => {
+            let d = PyDict::new(py);
+            for (k, v) in table {
+                d.set_item(k, toml_to_py(py, v)?)?;
+            }
+            d.into_any().unbind()
+        }
         other => other.to_string().into_pyobject(py)?.into_any().unbind(),
     })
 }

@@ -69,6 +69,27 @@ def test_replace_leaves_the_original_unchanged():
     assert repr(pumpcyl.Rig(beta_bar=37.8)) == "Rig(beta_bar=37.8)"
 
 
+def test_the_mass_follows_the_stroke_as_the_geometry_ties_them():
+    rig = pumpcyl.Rig()
+    # the article's seesaw (its §3.3): 9958 kg at x0 - 50 mm, 12 373 kg at x0 + 50 mm
+    assert rig.mass_by_position == [
+        {"mass_kg": 9958.0, "x_mm": 295.0},
+        {"mass_kg": 10593.0, "x_mm": 345.0},
+        {"mass_kg": 12373.0, "x_mm": 395.0},
+    ]
+    d = pumpcyl.design(rig, target_pm_deg=34, target_gm_db=6, stroke_mm=50)
+    masses = {round(c["x_mm"]): c["mass_kg"] for c in d["conditions"]}
+    assert masses == {295: 9958.0, 345: 10593.0, 395: 12373.0}
+    flat = rig.replace(mass_by_position=[])
+    assert flat.mass_by_position == []
+    d = pumpcyl.design(flat, target_pm_deg=34, target_gm_db=6, stroke_mm=50)
+    assert {c["mass_kg"] for c in d["conditions"]} == {10593.0}
+    two = rig.replace(mass_by_position=[{"x_mm": 300.0, "mass_kg": 10000.0}, {"x_mm": 400.0, "mass_kg": 12000.0}])
+    assert two.mass_by_position[1] == {"mass_kg": 12000.0, "x_mm": 400.0}
+    with pytest.raises(ValueError, match="mass_by_position"):
+        rig.replace(mass_by_position=[{"x_mm": 300.0, "mass_kg": 10000.0}])
+
+
 def test_to_toml_round_trips_through_from_toml(tmp_path):
     rig = pumpcyl.Rig(beta_bar=220.0, mass_kg=4898, feedforward=False, c12_m5_per_ns=3.3e-11)
     path = tmp_path / "rig.toml"

@@ -82,6 +82,19 @@ pub enum RigError {
         /// The rig's operating point (mm).
         x0_mm: f64,
     },
+    /// A position beyond the `mass_by_position` table: pumpcyl does not extrapolate a mass.
+    #[error(
+        "key `mass_by_position` gives the mass from {lo_mm} to {hi_mm} mm only; the position {x_mm} mm \
+         needs a point beyond (pumpcyl does not extrapolate a mass; `mass_by_position = []` keeps it constant)"
+    )]
+    MassOutsideTable {
+        /// The position asked for (mm).
+        x_mm: f64,
+        /// The table's first position (mm).
+        lo_mm: f64,
+        /// The table's last position (mm).
+        hi_mm: f64,
+    },
     /// A `KEY=VALUE` override that does not fit.
     #[error("{source_name} {assignment}: {message}")]
     Set {
@@ -121,6 +134,37 @@ pub enum MotorModel {
     /// **\[choice\]** (docs/choices.md).
     FirstOrder,
 }
+
+/// The mass the cylinder moves at one stroke position, where the geometry ties the two (the
+/// seesaw's I/r² changes with the lever arm; the article §3.3: 9958 kg at x0 − 50 mm, 10 593 kg
+/// at x0, 12 373 kg at x0 + 50 mm).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassPoint {
+    /// Piston position (mm).
+    pub x_mm: f64,
+    /// Effective moving mass there (kg).
+    pub mass_kg: f64,
+}
+
+/// The article's rig: its masses at x0 − 50 mm, x0 and x0 + 50 mm (the article §3.3).
+pub const ARTICLE_MASS_BY_POSITION: [MassPoint; 3] = [
+    MassPoint {
+        x_mm: 295.0,
+        mass_kg: 9958.0,
+    },
+    MassPoint {
+        x_mm: 345.0,
+        mass_kg: 10593.0,
+    },
+    MassPoint {
+        x_mm: 395.0,
+        mass_kg: 12373.0,
+    },
+];
+
+/// Most points a `mass_by_position` table may hold.
+pub const MAX_MASS_POINTS: usize = 1000;
 
 /// A DPM rig. Field names are the TOML keys; units are in the names. Absent keys in a file take
 /// the default (the article's rig, the article §2.3.4; docs/formats.md#rig-toml).
@@ -167,8 +211,13 @@ pub struct Rig {
     /// `motor_model = "first_order"`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motor_time_constant_s: Option<f64>,
-    /// Effective moving mass m (kg).
+    /// Effective moving mass m (kg) at x0.
     pub mass_kg: f64,
+    /// The mass at each stroke position where the geometry ties them, increasing in `x_mm`
+    /// (docs/formats.md#rig-toml). Between points the mass is interpolated linearly; a load
+    /// case of another mass scales the same way, by its ratio to the table's mass at x0. Empty:
+    /// the mass is `mass_kg` over the whole stroke.
+    pub mass_by_position: Vec<MassPoint>,
     /// External force F_ext (N); zero at the horizontal position.
     pub external_force_n: f64,
     /// Effective bulk modulus β (bar).
@@ -233,6 +282,7 @@ impl Default for Rig {
             k_scale_rad_per_s: 314.1593,
             motor_time_constant_s: None,
             mass_kg: 10593.0,
+            mass_by_position: ARTICLE_MASS_BY_POSITION.to_vec(),
             external_force_n: 0.0,
             beta_bar: 165.0,
             viscous_friction_ns_per_m: 100.0,
@@ -410,7 +460,97 @@ impl Rig {
                 "must lie strictly inside the stroke (0, stroke_mm)".into(),
             ));
         }
+        self.validate_mass_table()
+            .map_err(|(value, rule)| invalid("mass_by_position", value, rule))
+    }
+
+    /// The `mass_by_position` rules: at most [`MAX_MASS_POINTS`] points, none or at least two,
+    /// positions finite, inside the stroke and increasing, masses in the range of `mass_kg`.
+    fn validate_mass_table(&self) -> Result<(), (f64, String)> {
+        let t = &self.mass_by_position;
+        if t.len() > MAX_MASS_POINTS {
+            return Err((
+                t.len() as f64,
+                format!("more than {MAX_MASS_POINTS} points"),
+            ));
+        }
+        if t.len() == 1 {
+            return Err((1.0, "needs no point (constant mass) or at least two".into()));
+        }
+        let mass_rule = Rig::default()
+            .numeric_fields()
+            .into_iter()
+            .find(|(k, ..)| *k == "mass_kg")
+            .map(|(_, _, r)| r);
+        for (k, p) in t.iter().enumerate() {
+            if !(p.x_mm.is_finite() && p.x_mm > 0.0 && p.x_mm < self.stroke_mm) {
+                return Err((
+                    p.x_mm,
+                    format!(
+                        "point {}: x_mm must lie strictly inside the stroke (0, stroke_mm)",
+                        k + 1
+                    ),
+                ));
+            }
+            if k > 0 && p.x_mm <= t[k - 1].x_mm {
+                return Err((
+                    p.x_mm,
+                    format!("point {}: x_mm must increase from point to point", k + 1),
+                ));
+            }
+            if !p.mass_kg.is_finite() {
+                return Err((
+                    p.mass_kg,
+                    format!("point {}: mass_kg must be a finite number", k + 1),
+                ));
+            }
+            if let Some(rule) = mass_rule.and_then(|r| r.violated(p.mass_kg)) {
+                return Err((p.mass_kg, format!("point {}: mass_kg {rule}", k + 1)));
+            }
+        }
         Ok(())
+    }
+
+    /// The moving mass (kg) at position `x_mm` of a load whose mass at x0 is `load_mass_kg`:
+    /// the load scaled by the `mass_by_position` table, interpolated linearly, at `x_mm` over
+    /// its value at `x0_mm` (the load itself without a table; docs/formats.md#rig-toml).
+    ///
+    /// ```
+    /// use pumpcyl::rig::Rig;
+    ///
+    /// let rig = Rig::default();
+    /// // the article's 9958 kg at x0 − 50 mm and 12 373 kg at x0 + 50 mm (§3.3)
+    /// assert_eq!(rig.mass_at(rig.mass_kg, 295.0)?, 9958.0);
+    /// assert_eq!(rig.mass_at(rig.mass_kg, 395.0)?, 12373.0);
+    /// # Ok::<(), pumpcyl::rig::RigError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// `x_mm` or `x0_mm` outside the table's positions: pumpcyl does not extrapolate a mass.
+    pub fn mass_at(&self, load_mass_kg: f64, x_mm: f64) -> Result<f64, RigError> {
+        if self.mass_by_position.is_empty() {
+            return Ok(load_mass_kg);
+        }
+        Ok(load_mass_kg * self.table_mass_at(x_mm)? / self.table_mass_at(self.x0_mm)?)
+    }
+
+    /// The `mass_by_position` table interpolated linearly at `x_mm` (kg).
+    fn table_mass_at(&self, x_mm: f64) -> Result<f64, RigError> {
+        let t = &self.mass_by_position;
+        let (first, last) = (t[0], t[t.len() - 1]);
+        let k = t.partition_point(|p| p.x_mm < x_mm);
+        if !(first.x_mm..=last.x_mm).contains(&x_mm) {
+            return Err(RigError::MassOutsideTable {
+                x_mm,
+                lo_mm: first.x_mm,
+                hi_mm: last.x_mm,
+            });
+        }
+        if k == 0 {
+            return Ok(first.mass_kg);
+        }
+        let (a, b) = (t[k - 1], t[k]);
+        Ok(a.mass_kg + (b.mass_kg - a.mass_kg) * (x_mm - a.x_mm) / (b.x_mm - a.x_mm))
     }
 
     /// Refuse a position reference from `lo_mm` to `hi_mm` that leaves the stroke (it must lie
@@ -795,7 +935,11 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
     (
         "load and hydraulics",
         &[
-            ("mass_kg", "kg, effective moving mass (I/r² for the seesaw)"),
+            ("mass_kg", "kg, effective moving mass at x0 (I/r² for the seesaw)"),
+            (
+                "mass_by_position",
+                "mass at each stroke position where the geometry ties them: [{ x_mm, mass_kg }, ...], [] for constant",
+            ),
             ("external_force_n", "N, external force (0 at horizontal)"),
             ("beta_bar", "bar, effective bulk modulus"),
             ("viscous_friction_ns_per_m", "N·s/m, viscous friction"),
@@ -846,6 +990,73 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    /// The article's masses at the stroke points (§3.3), linear between them, the same shape
+    /// for any load, refused outside the table, constant without one.
+    #[test]
+    fn the_mass_follows_the_stroke_where_the_geometry_ties_them() {
+        let rig = Rig::default();
+        let m = |r: &Rig, x: f64| r.mass_at(r.mass_kg, x).unwrap();
+        assert_relative_eq!(m(&rig, 295.0), 9958.0, max_relative = 1e-12);
+        assert_relative_eq!(m(&rig, 345.0), 10593.0, max_relative = 1e-12);
+        assert_relative_eq!(m(&rig, 395.0), 12373.0, max_relative = 1e-12);
+        assert_relative_eq!(
+            m(&rig, 370.0),
+            0.5 * (10593.0 + 12373.0),
+            max_relative = 1e-12
+        );
+        let light = Rig {
+            mass_kg: 4898.0,
+            ..rig.clone()
+        };
+        assert_relative_eq!(
+            m(&light, 395.0),
+            4898.0 * 12373.0 / 10593.0,
+            max_relative = 1e-12
+        );
+        let err = rig.mass_at(1.0, 400.0).unwrap_err().to_string();
+        assert!(
+            err.contains("mass_by_position") && err.contains("from 295 to 395 mm"),
+            "{err}"
+        );
+        let flat = rig.with_overrides(&["mass_by_position=[]".into()]).unwrap();
+        assert_eq!(flat.mass_at(7.0, 10.0).unwrap(), 7.0);
+    }
+
+    #[test]
+    fn a_bad_mass_table_is_refused_with_its_key_and_line() {
+        let refuse = |table: &str| {
+            Rig::from_toml_str(
+                &format!("kp = 25.0\nmass_by_position = {table}\n"),
+                "r.toml",
+            )
+            .unwrap_err()
+            .to_string()
+        };
+        let one = refuse("[{ x_mm = 300.0, mass_kg = 1e4 }]");
+        assert!(
+            one.starts_with("r.toml: line 2, key `mass_by_position`"),
+            "{one}"
+        );
+        assert!(one.contains("at least two"), "{one}");
+        let back = refuse("[{ x_mm = 300.0, mass_kg = 1e4 }, { x_mm = 290.0, mass_kg = 1e4 }]");
+        assert!(back.contains("point 2: x_mm must increase"), "{back}");
+        let outside = refuse("[{ x_mm = 300.0, mass_kg = 1e4 }, { x_mm = 600.0, mass_kg = 1e4 }]");
+        assert!(outside.contains("inside the stroke"), "{outside}");
+        let negative =
+            refuse("[{ x_mm = 300.0, mass_kg = 1e4 }, { x_mm = 400.0, mass_kg = -1.0 }]");
+        assert!(
+            negative.contains("point 2: mass_kg must be > 0"),
+            "{negative}"
+        );
+        let unknown = refuse("[{ x_mm = 300.0, mass = 1e4 }, { x_mm = 400.0, mass_kg = 1.0 }]");
+        assert!(unknown.contains("mass"), "{unknown}");
+        let many: Vec<String> = (0..=MAX_MASS_POINTS)
+            .map(|k| format!("{{ x_mm = {}, mass_kg = 1e4 }}", 1.0 + 0.4 * k as f64))
+            .collect();
+        let many = refuse(&format!("[{}]", many.join(", ")));
+        assert!(many.contains("more than 1000 points"), "{many}");
+    }
 
     #[test]
     fn commented_toml_round_trips_and_documents_every_key() {

@@ -233,6 +233,7 @@ mod tests {
             c2_m5_per_ns: 1e-12,
             x_mm: -50.0,
             mass_kg: 300.0,
+            load_mass_kg: 300.0,
             p_mean_bar: None,
             beta_e_bar: 165.0,
         };

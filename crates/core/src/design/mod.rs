@@ -362,7 +362,9 @@ fn conditions(rig: &Rig, t: &Targets) -> Result<Vec<Condition>, DesignError> {
     };
     let mut out = Vec::new();
     for &x_mm in positions.iter().filter(|&&x| x > 0.0 && x < rig.stroke_mm) {
-        for &m in &masses {
+        for &load in &masses {
+            // the mass follows the stroke where the geometry ties them
+            let m = rig.mass_at(load, x_mm)?;
             for &p in &pressures {
                 let beta = p.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR));
                 let r = Rig {
@@ -466,6 +468,39 @@ mod tests {
         // and at that gain the phase margin is the target
         let m = margins_at(&Rig::default(), kp).unwrap();
         assert!((m.phase_margin_deg.unwrap() - 34.0).abs() < 0.01);
+    }
+
+    /// The article pairs x0 − 50 mm with 9958 kg and x0 + 50 mm with 12 373 kg (§3.3); a
+    /// lighter load follows the same geometry; each condition is the LTI rig at its own mass.
+    #[test]
+    fn each_stroke_point_carries_the_mass_the_geometry_gives_it() {
+        let t = Targets {
+            mass_kg: vec![4898.0, 10593.0],
+            ..targets(34.0)
+        };
+        let d = design(&Rig::default(), &t).unwrap();
+        let at = |x: f64, load: f64| {
+            d.conditions
+                .iter()
+                .find(|c| {
+                    c.x_mm == x
+                        && (c.mass_kg / load - Rig::default().mass_at(1.0, x).unwrap()).abs()
+                            < 1e-12
+                })
+                .unwrap_or_else(|| panic!("no condition at {x} mm for the {load} kg load"))
+        };
+        assert_eq!(at(295.0, 10593.0).mass_kg, 9958.0);
+        assert_eq!(at(395.0, 10593.0).mass_kg, 12373.0);
+        assert!((at(395.0, 4898.0).mass_kg - 4898.0 * 12373.0 / 10593.0).abs() < 1e-9);
+        let c = at(395.0, 10593.0);
+        let rig = Rig {
+            x0_mm: 395.0,
+            mass_kg: 12373.0,
+            ..Rig::default()
+        };
+        let m = margins_at(&rig, d.kp_max).unwrap();
+        assert_eq!(c.phase_margin_deg, m.phase_margin_deg);
+        assert_eq!(c.gain_margin_db, m.gain_margin_db);
     }
 
     #[test]

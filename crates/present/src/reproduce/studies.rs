@@ -425,17 +425,21 @@ fn feedforward_rows(run: &mut Run, cases: &[Case]) {
 /// Step 7: margins over the stroke, mass and volumes following it (the article §3.3; docs/model.md#variants).
 pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<summary::Stroke> {
     run.step("Stroke: margins at -50, 0 and +50 mm (the article §3.3)");
-    let at = |dx: f64, mass: f64| Rig {
-        x0_mm: nominal.x0_mm + dx,
-        mass_kg: mass,
-        ..nominal.clone()
+    let at = |dx: f64| -> Result<(String, Rig)> {
+        let mass = nominal.mass_at(nominal.mass_kg, nominal.x0_mm + dx)?;
+        let label = if dx == 0.0 {
+            format!("x0 = {} mm, {mass:.0} kg", nominal.x0_mm)
+        } else {
+            format!("{dx:+} mm, {mass:.0} kg")
+        };
+        let rig = Rig {
+            x0_mm: nominal.x0_mm + dx,
+            mass_kg: mass,
+            ..nominal.clone()
+        };
+        Ok((label, rig))
     };
-    let [minus, plus] = STROKE_POINTS;
-    let rigs = vec![
-        ("-50 mm, 9958 kg".to_string(), at(minus.0, minus.1)),
-        ("x0 = 345 mm, 10 593 kg".to_string(), nominal.clone()),
-        ("+50 mm, 12 373 kg".to_string(), at(plus.0, plus.1)),
-    ];
+    let rigs = vec![at(-STROKE_MM)?, at(0.0)?, at(STROKE_MM)?];
     let study = Study {
         stem: "stroke",
         what: "stroke positions",
@@ -452,8 +456,9 @@ pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<summary::Stro
     })
 }
 
-/// The article's stroke points: position from x0 (mm) and the mass there (kg).
-const STROKE_POINTS: [(f64, f64); 2] = [(-50.0, 9958.0), (50.0, 12373.0)];
+/// The article's stroke study: x0 ± 50 mm, the mass following the rig's `mass_by_position`
+/// (9958 and 12 373 kg on the article's rig).
+const STROKE_MM: f64 = 50.0;
 
 /// Largest GM change (dB) that reads as "virtually unchanged".
 const GM_UNCHANGED_DB: f64 = 0.3;
@@ -480,7 +485,9 @@ fn stroke_numbers(run: &mut Run) -> Result<(Vec<summary::StrokeBasis>, bool)> {
         (printed::PM_CHANGE_MINUS50_DEG, 0.1, "virtually unchanged"),
         (printed::PM_CHANGE_PLUS50_DEG, 1.0, "increases slightly"),
     ];
-    for ((dx, mass), (pm_article, pm_digit, gm_article)) in STROKE_POINTS.into_iter().zip(printed) {
+    for (dx, (pm_article, pm_digit, gm_article)) in [-STROKE_MM, STROKE_MM].into_iter().zip(printed)
+    {
+        let mass = rig.mass_at(rig.mass_kg, rig.x0_mm + dx)?;
         let moved = |x: bool, m: bool| Rig {
             x0_mm: if x { rig.x0_mm + dx } else { rig.x0_mm },
             mass_kg: if m { mass } else { rig.mass_kg },
@@ -686,8 +693,17 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
         waves: ARTICLE_SINE_CASES.to_vec(),
     };
     let d = design(nominal, &targets)?;
+    // the same check with one mass over the whole stroke, as before the geometry tied them
+    let constant = design(
+        &Rig {
+            mass_by_position: vec![],
+            ..nominal.clone()
+        },
+        &targets,
+    )?;
+    let verdict = |v| crate::design::verdict_text(v);
     run.table(
-        "Design (targets PM 34 deg, GM 6 dB; stroke ±50 mm; masses 4898 and 10 593 kg)",
+        "Design (targets PM 34 deg, GM 6 dB; stroke ±50 mm; loads 4898 and 10 593 kg at x0, the mass following the stroke as the rig's geometry ties them)",
         &["quantity", "value"],
         vec![
             vec![
@@ -698,12 +714,30 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
                 "largest Kp at every condition".into(),
                 format!("{:.2}", d.kp_max_worst_case),
             ],
-            vec![
-                "verdict".into(),
-                crate::design::verdict_text(d.verdict).into(),
-            ],
+            vec!["verdict".into(), verdict(d.verdict).into()],
             vec!["why".into(), d.reasons.join("; ")],
+            vec![
+                "with one mass over the whole stroke instead: largest Kp at every condition, verdict".into(),
+                format!(
+                    "{:.2}, {}",
+                    constant.kp_max_worst_case,
+                    verdict(constant.verdict)
+                ),
+            ],
         ],
+    );
+    run.compare_why(
+        "design: largest Kp at every stroke point and load, the mass following the stroke",
+        format!(
+            "{:.2} ({}); one mass over the stroke: {:.2} ({})",
+            d.kp_max_worst_case,
+            verdict(d.verdict),
+            constant.kp_max_worst_case,
+            verdict(constant.verdict)
+        ),
+        "x0 − 50 mm with 9958 kg, x0 + 50 mm with 12 373 kg",
+        "-",
+        "the article pairs each stroke point with its mass; so does pumpcyl (the rig's mass_by_position)",
     );
     run.compare(
         "design: largest Kp for PM 34 deg",
@@ -719,6 +753,8 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
             verdict: d.verdict,
             reasons: d.reasons,
             targets: d.targets,
+            kp_max_worst_case_constant_mass: constant.kp_max_worst_case,
+            verdict_constant_mass: constant.verdict,
             article_kp: printed::KP,
         },
         kp_max,

@@ -432,6 +432,10 @@ pub struct DesignCheck {
     pub reasons: Vec<String>,
     /// The targets.
     pub targets: Targets,
+    /// Largest Kp at every condition with one mass over the whole stroke.
+    pub kp_max_worst_case_constant_mass: f64,
+    /// The verdict then.
+    pub verdict_constant_mass: Verdict,
     /// The article's Kp.
     pub article_kp: f64,
 }
