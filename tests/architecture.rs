@@ -9,11 +9,12 @@ use std::process::Command;
 #[path = "common/tree.rs"]
 mod tree;
 
-/// The packages `package` depends on at run time (`cargo tree -e normal`), by name.
-fn runtime_dependencies(package: &str) -> BTreeSet<String> {
+/// The output of `cargo tree ARGS --prefix none` on this workspace, offline.
+fn cargo_tree(args: &[&str]) -> String {
     let out = Command::new(env!("CARGO"))
-        .args(["tree", "-p", package, "-e", "normal", "--prefix", "none"])
-        .args(["--offline", "--locked", "--format", "{p}"])
+        .arg("tree")
+        .args(args)
+        .args(["--prefix", "none", "--offline", "--locked"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("cargo runs");
@@ -22,7 +23,12 @@ fn runtime_dependencies(package: &str) -> BTreeSet<String> {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    String::from_utf8_lossy(&out.stdout)
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The packages `package` depends on at run time (`cargo tree -e normal`), by name.
+fn runtime_dependencies(package: &str) -> BTreeSet<String> {
+    cargo_tree(&["-p", package, "-e", "normal", "--format", "{p}"])
         .lines()
         .filter_map(|l| l.split_whitespace().next())
         .map(str::to_string)
@@ -31,26 +37,9 @@ fn runtime_dependencies(package: &str) -> BTreeSet<String> {
 
 /// `cargo tree` with `args`, one line a package: "name version features".
 fn tree_lines(args: &[&str]) -> BTreeSet<String> {
-    let out = Command::new(env!("CARGO"))
-        .arg("tree")
-        .args(args)
-        .args([
-            "--prefix",
-            "none",
-            "--offline",
-            "--locked",
-            "--format",
-            "{p} {f}",
-        ])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("cargo runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout)
+    let mut all = args.to_vec();
+    all.extend(["--format", "{p} {f}"]);
+    cargo_tree(&all)
         .lines()
         .map(|l| l.trim_end_matches(" (*)").to_string())
         // drop the path a workspace member shows between its version and its features
