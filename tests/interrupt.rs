@@ -53,8 +53,11 @@ fn reproduce(dir: &Path) -> std::process::Child {
         .unwrap()
 }
 
-#[test]
-fn an_interrupted_reproduce_leaves_the_complete_old_or_new_result() {
+/// Interrupt `reproduce` ten times into one result folder at moments log-uniform from 20 ms
+/// to past the end of a run (dense where the folder is set up, and reaching the final swap),
+/// alternately with SIGINT and SIGKILL: after each, the folder holds the complete old or new
+/// result, and a SIGINTed run leaves none of its temporaries.
+fn interrupts(seed: u64) {
     let parent = tempfile::tempdir().unwrap();
     let dir = parent.path().join("rep");
     let start = Instant::now();
@@ -62,9 +65,7 @@ fn an_interrupted_reproduce_leaves_the_complete_old_or_new_result() {
     let full = start.elapsed().as_secs_f64();
     let reference = files(&dir);
     assert!(reference.contains("summary.json") && reference.len() > 10);
-    // moments log-uniform from 20 ms to past the end of a run: dense where the folder is set
-    // up, and reaching the final swap
-    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut seed = seed;
     let mut uniform = || {
         seed = seed
             .wrapping_mul(6_364_136_223_846_793_005)
@@ -72,7 +73,7 @@ fn an_interrupted_reproduce_leaves_the_complete_old_or_new_result() {
         (seed >> 11) as f64 / (1u64 << 53) as f64
     };
     let (lo, hi) = (0.02f64, 1.05 * full);
-    for i in 0..20 {
+    for i in 0..10 {
         let at = lo * (hi / lo).powf(uniform());
         let signal = if i % 2 == 0 {
             libc::SIGINT
@@ -103,4 +104,16 @@ fn an_interrupted_reproduce_leaves_the_complete_old_or_new_result() {
     assert!(reproduce(&dir).wait().unwrap().success());
     assert_eq!(incomplete(&dir, &reference), None);
     assert_eq!(temporaries(parent.path()), Vec::<String>::new());
+}
+
+// Two series of interrupts with their own moments, run side by side (the harness's threads).
+
+#[test]
+fn an_interrupted_reproduce_leaves_the_complete_old_or_new_result() {
+    interrupts(0x9E37_79B9_7F4A_7C15);
+}
+
+#[test]
+fn an_interrupted_reproduce_leaves_the_complete_old_or_new_result_again() {
+    interrupts(0xD1B5_4A32_D192_ED03);
 }
