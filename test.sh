@@ -8,18 +8,31 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
+# The Python test dependencies come from the package registry: fetched in the background while
+# the Rust tests build and run (downloading and unpacking, little CPU; about 25 s of a fresh run).
+VENV=target/py-venv
+PIP_LOG=target/py-venv-pip.log
+mkdir -p target
+(
+    if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
+    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control
+) > "$PIP_LOG" 2>&1 &
+PIP_PID=$!
+echo "== python3 -m venv $VENV; pip install maturin numpy pytest control (in the background: $PIP_LOG)"
+
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
     echo "== cargo test --locked $*"
-    cargo test --locked "$@"
+    if ! cargo test --locked "$@"; then
+        wait "$PIP_PID" || true
+        exit 1
+    fi
 fi
 
-VENV=target/py-venv
-if [ ! -x "$VENV/bin/python" ]; then
-    echo "== python3 -m venv $VENV"
-    python3 -m venv "$VENV"
+if ! wait "$PIP_PID"; then
+    cat "$PIP_LOG" >&2
+    echo "error: pip install of the Python test dependencies failed (the package registry)" >&2
+    exit 1
 fi
-echo "== pip install maturin numpy pytest control (the package registry)"
-"$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control
 
 # The dev profile reuses the compiled dependencies of `cargo test` (they are optimised, see
 # Cargo.toml); a release wheel is `pip install ./python` without MATURIN_PEP517_ARGS.
