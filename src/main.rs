@@ -17,6 +17,7 @@ mod ident;
 mod inputs;
 mod reproduce;
 mod robust;
+mod select;
 mod signals;
 mod time;
 
@@ -79,6 +80,10 @@ enum Command {
     /// The design method (the article §2.2) for a rig before it is built: the largest Kp meeting margin targets, margins
     /// across stroke, mass and pressure, predicted tracking, and a verdict.
     Design(design::DesignArgs),
+    /// Which circuit, at which pressure level (the article §4): for an application, each
+    /// candidate circuit and pressure level over the undissolved air's range — largest Kp,
+    /// tracking error, standing cost — and the lowest pressure that meets the requirement.
+    Select(select::SelectArgs),
     /// Records from the nonlinear rig emulator (docs/formats.md#record-csv): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
@@ -225,6 +230,7 @@ pub fn run() -> Result<()> {
         Command::Advise(args) => advise::run(&args)?,
         Command::BulkModulus(args) => bulk::bulk(&args)?,
         Command::Design(args) => design::run(&args)?,
+        Command::Select(args) => select::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,
         Command::Reproduce(args) => reproduce::run(&args)?,
     };

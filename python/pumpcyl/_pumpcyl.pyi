@@ -257,6 +257,21 @@ def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17
 def effective_beta(x: float, p_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
     """Effective bulk modulus (bar) at mean pressure ``p_bar`` (bar) for gas fraction ``x``."""
 
+def select(
+    application: Optional[Union[str, PathLike[str]]] = None,
+    *,
+    rig: Optional[Rig] = None,
+    kp: Optional[float] = None,
+    **overrides: Any,
+) -> Dict[str, Any]:
+    """Which circuit, at which pressure level (docs/select.md): the application file (None =
+    the article's application) with application keys as keyword overrides and ``rig``
+    replacing its rig; ``kp`` fixes the gain. A dict as ``pumpcyl select --json`` prints
+    (``min_mean_pressure_bar``, ``verdict``, ``reasons``, ``options``), plus ``table``: numpy
+    arrays over the options (``mean_pressure_bar``, ``beta_e_lo_bar``, ``beta_e_hi_bar``,
+    ``kp_max``, ``standing_loss_w``, ``meets``)."""
+    ...
+
 def design(
     rig: Optional[Rig] = None,
     *,

@@ -910,6 +910,67 @@ fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
     pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar)
 }
 
+/// Which circuit, at which pressure level (docs/select.md): the application of the file
+/// `application` (TOML; None = the article's application), with `overrides` as application
+/// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig;
+/// `kp` fixes the gain. A dict as `pumpcyl select --json` prints, plus `table`: numpy arrays
+/// over the options (`mean_pressure_bar`, `beta_e_lo_bar`, `beta_e_hi_bar`, `kp_max`,
+/// `standing_loss_w`, `meets`).
+#[pyfunction]
+#[pyo3(signature = (application = None, *, rig = None, kp = None, **overrides))]
+fn select(
+    py: Python<'_>,
+    application: Option<PathBuf>,
+    rig: Option<&PyRig>,
+    kp: Option<f64>,
+    overrides: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Py<PyAny>> {
+    use pumpcyl::select::Application;
+    let base = match &application {
+        Some(path) => Application::from_file_in(&pumpcyl::input::Disk, path).map_err(err)?,
+        None => Application::default(),
+    };
+    let mut app = base
+        .with_overrides("select", &assignments(overrides)?)
+        .map_err(err)?;
+    if let Some(r) = rig {
+        app.rig = r.rig.clone();
+    }
+    if let Some(kp) = kp {
+        if !(kp.is_finite() && kp > 0.0 && kp <= 1e4) {
+            return Err(err(format!("kp = {kp}: must lie in (0, 1e4] 1/m")));
+        }
+    }
+    let s = py.detach(|| app.select(kp)).map_err(err)?;
+    let out = to_py(py, &s)?;
+    let d = out.bind(py).cast::<PyDict>()?;
+    let table = PyDict::new(py);
+    let column = |f: &dyn Fn(&pumpcyl::select::Candidate) -> f64| -> Vec<f64> {
+        s.options.iter().map(f).collect()
+    };
+    table.set_item(
+        "mean_pressure_bar",
+        array1(py, &column(&|c| c.mean_pressure_bar)),
+    )?;
+    table.set_item("beta_e_lo_bar", array1(py, &column(&|c| c.beta_e_bar[0])))?;
+    table.set_item("beta_e_hi_bar", array1(py, &column(&|c| c.beta_e_bar[1])))?;
+    table.set_item("kp_max", array1(py, &column(&|c| c.kp_max)))?;
+    table.set_item(
+        "standing_loss_w",
+        array1(py, &column(&|c| c.standing_loss_w)),
+    )?;
+    table.set_item(
+        "meets",
+        s.options
+            .iter()
+            .map(|c| c.meets)
+            .collect::<Vec<bool>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item("table", table)?;
+    Ok(out)
+}
+
 /// The design method of the article (Section 8) for `rig` (default: the article's): the
 /// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
 /// tracking and a verdict; a dict as `pumpcyl design --json` prints.
@@ -1000,6 +1061,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;
+    m.add_function(wrap_pyfunction!(select, m)?)?;
     m.add_function(wrap_pyfunction!(reproduce, m)?)?;
     Ok(())
 }

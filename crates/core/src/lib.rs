@@ -54,4 +54,5 @@ pub mod model;
 pub mod record;
 pub mod response;
 pub mod rig;
+pub mod select;
 pub mod units;

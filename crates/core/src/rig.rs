@@ -818,7 +818,7 @@ fn parse_assignment(
         .ok_or_else(|| err("expected KEY=VALUE".into()))?;
     let key = key.trim();
     let raw = raw.trim();
-    let value = parse_value(raw);
+    let value = input::parse_value(raw);
     // the one optional key is absent from the table when unset: its type is float
     let float = toml::Value::Float(0.0);
     let current = match table.get(key) {
@@ -835,27 +835,13 @@ fn parse_assignment(
             }));
         }
     };
-    let value = match (current, value) {
-        (toml::Value::Float(_), toml::Value::Integer(i)) => toml::Value::Float(i as f64),
-        (c, v) if c.type_str() == v.type_str() => v,
-        (c, v) => {
-            return Err(err(format!(
-                "key `{key}` takes a {}, got {} `{raw}`",
-                c.type_str(),
-                v.type_str()
-            )))
-        }
-    };
+    let value = input::typed_like(current, value).map_err(|got| {
+        err(format!(
+            "key `{key}` takes a {}, got {got} `{raw}`",
+            current.type_str()
+        ))
+    })?;
     Ok((key.to_string(), value))
-}
-
-/// A `--set` value as TOML (number, bool, quoted string), or a bare word as a string.
-fn parse_value(raw: &str) -> toml::Value {
-    let doc = format!("v = {raw}");
-    match doc.parse::<toml::Table>() {
-        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(raw.into())),
-        Err(_) => toml::Value::String(raw.to_string()),
-    }
 }
 
 /// Sections and per-key documentation used for the commented TOML. Every serialised key must be

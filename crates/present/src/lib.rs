@@ -35,6 +35,7 @@ pub mod identification;
 pub mod matlab;
 pub mod plot;
 pub mod reproduce;
+pub mod select;
 pub mod table;
 pub mod time;
 pub mod uncertainty;

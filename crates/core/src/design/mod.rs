@@ -293,6 +293,21 @@ impl Targets {
     }
 }
 
+/// The predicted tracking of each wave (frequency Hz, amplitude mm) by `rig` at its own gain:
+/// three periods at 100 Hz, metrics after the first (docs/simulation.md#tracking-metrics).
+pub fn predicted_tracking(
+    rig: &Rig,
+    waves: &[(f64, f64)],
+) -> Result<Vec<TrackMetrics>, DesignError> {
+    waves
+        .iter()
+        .map(|&(f, a)| -> Result<TrackMetrics, DesignError> {
+            let s = sine(rig, f, a, 3.0, TRACKING_RATE_HZ)?;
+            Ok(track_metrics(&s.time_s, &s.e_mm, f, a))
+        })
+        .collect()
+}
+
 /// Apply the design method (docs/design.md) to `rig`.
 pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
     check_inputs(rig, t)?;
@@ -314,14 +329,7 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
         .iter()
         .map(|c| c.kp_max)
         .fold(f64::INFINITY, f64::min);
-    let tracking = t
-        .waves
-        .iter()
-        .map(|&(f, a)| -> Result<TrackMetrics, DesignError> {
-            let s = sine(&designed, f, a, 3.0, TRACKING_RATE_HZ)?;
-            Ok(track_metrics(&s.time_s, &s.e_mm, f, a))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let tracking = predicted_tracking(&designed, &t.waves)?;
     let (verdict, reasons) = judge(&conditions, t, kp, kp_max_worst_case);
     Ok(Design {
         targets: t.clone(),

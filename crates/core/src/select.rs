@@ -1,0 +1,848 @@
+//! Which circuit, at which pressure level? The article's closing advice (its §4) as a
+//! computation (docs/select.md): with a reference gas fraction and its range, predict before
+//! the system is built whether a pump-controlled cylinder meets an application's requirement
+//! at each candidate circuit and pressure level, and what holding that pressure costs.
+//!
+//! Each candidate is the same 10-state LTI model (docs/model.md) at the candidate's mean
+//! chamber pressure p: β_e follows the gas-fraction model at p (docs/bulk-modulus.md) over the
+//! gas-fraction range, the sum-pressure set-point is 2p. Its largest gain is the design
+//! method's worst case over the stroke and the loads (docs/design.md) at the range's ends and
+//! reference, its tracking is predicted at that gain, and its cost is the standstill leakage
+//! balance at that pressure (the article §2.4; [`standing_loss`]).
+
+use crate::bulk::effective_beta;
+use crate::design::{self, DesignError, Targets};
+use crate::response::TrackMetrics;
+use crate::rig::{Rig, RigError};
+use serde::Serialize;
+use std::f64::consts::PI;
+
+/// The two circuits pumpcyl models (docs/select.md#circuits).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Circuit {
+    /// The article's low-pressure circuit: an accumulator's pre-charge sets the pressure level
+    /// (the article's 1 to 10 bar).
+    LowPressure,
+    /// The pressurised dual-prime-mover circuit the article cites (its references 5 and 10):
+    /// the sum-pressure set-point raised so both chambers sit at tens of bar.
+    Pressurised,
+}
+
+/// A wave to track and the largest control error allowed (the article's §3 waves).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaveRequirement {
+    /// Frequency (Hz).
+    pub freq_hz: f64,
+    /// Amplitude (mm).
+    pub amp_mm: f64,
+    /// Largest control error allowed after the first period (mm).
+    pub max_error_mm: f64,
+}
+
+/// What the application needs and what is uncertain about it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Requirement {
+    /// The reference gas fraction X (dimensionless).
+    pub gas_fraction: f64,
+    /// The lowest gas fraction considered.
+    pub gas_fraction_min: f64,
+    /// The highest gas fraction considered (the worst case for β_e).
+    pub gas_fraction_max: f64,
+    /// The pure-oil bulk modulus of the gas-fraction model (bar).
+    pub beta_oil_bar: f64,
+    /// Margin targets and the stroke and loads they hold over (`p_mean_bar` and `waves` unused).
+    pub targets: Targets,
+    /// Waves to track within an error.
+    pub waves: Vec<WaveRequirement>,
+    /// External force range [lowest, highest] (N): the standstill cost is taken at both.
+    pub external_force_n: [f64; 2],
+}
+
+/// The standstill leakage balance at one pressure pair (the article §2.4): the pumps turn to
+/// feed the leakage, and that flow at those pressures is lost as heat.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StandingLoss {
+    /// Chamber pressures p1, p2 (bar gauge).
+    pub p_bar: [f64; 2],
+    /// Hydraulic power lost to leakage, Σ p × Q (W).
+    pub power_w: f64,
+    /// Pump speeds that feed it, motors 1 and 2 (rpm).
+    pub speed_rpm: [f64; 2],
+    /// Motor torques that hold the pressures, motors 1 and 2 (N·m).
+    pub torque_nm: [f64; 2],
+}
+
+/// The standstill balance of `rig` at chamber pressures `p1_bar`, `p2_bar` (docs/select.md#cost):
+/// pump 1 moves oil from chamber 2 to chamber 1 against p1 − p2, pump 2 from the reservoir to
+/// chamber 1 against p1; at rest they deliver exactly the leakage,
+/// D1 ω1 = c12 (p1 − p2) − c2 p2 and D1 ω1 + D2 ω2 = c1 p1 + c12 (p1 − p2),
+/// and the power lost is c1 p1² + c2 p2² + c12 (p1 − p2)², which equals the pumps' hydraulic
+/// power (p1 − p2) D1 ω1 + p1 D2 ω2.
+pub fn standing_loss(rig: &Rig, p1_bar: f64, p2_bar: f64) -> StandingLoss {
+    let si = rig.si();
+    let (p1, p2) = (p1_bar * 1e5, p2_bar * 1e5);
+    let q1 = rig.c12_m5_per_ns * (p1 - p2) - rig.c2_m5_per_ns * p2;
+    let q2 = rig.c1_m5_per_ns * p1 + rig.c12_m5_per_ns * (p1 - p2) - q1;
+    let power_w = rig.c1_m5_per_ns * p1 * p1
+        + rig.c2_m5_per_ns * p2 * p2
+        + rig.c12_m5_per_ns * (p1 - p2) * (p1 - p2);
+    let rpm = |q: f64, d: f64| q / d * 60.0 / (2.0 * PI);
+    StandingLoss {
+        p_bar: [p1_bar, p2_bar],
+        power_w,
+        speed_rpm: [rpm(q1, si.d[0]), rpm(q2, si.d[1])],
+        torque_nm: [si.d[0] * (p1 - p2), si.d[1] * p1],
+    }
+}
+
+/// The chamber pressures at rest (bar gauge) for the mean pressure `p_mean_bar` and the
+/// external force `force_n`: p1 + p2 = 2 p_mean (the sum-pressure loop) and
+/// p1 A1 − p2 A2 + F = 0 (the force balance).
+pub fn chamber_pressures(rig: &Rig, p_mean_bar: f64, force_n: f64) -> [f64; 2] {
+    let si = rig.si();
+    let sum = 2.0 * p_mean_bar * 1e5;
+    let p1 = (sum * si.a2 - force_n) / (si.a1 + si.a2);
+    [p1 / 1e5, (sum - p1) / 1e5]
+}
+
+/// One circuit at one pressure level, over the gas-fraction range.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Candidate {
+    /// The circuit.
+    pub circuit: Circuit,
+    /// Mean chamber pressure (bar gauge).
+    pub mean_pressure_bar: f64,
+    /// β_e there at the highest and the lowest gas fraction (bar).
+    pub beta_e_bar: [f64; 2],
+    /// The largest Kp meeting the margin targets over the stroke, the loads and the whole
+    /// gas-fraction range (1/m); 0 when none does. With a fixed gain, that gain.
+    pub kp_max: f64,
+    /// The largest Kp at the reference gas fraction (1/m).
+    pub kp_max_reference: f64,
+    /// Each wave's largest control error at `kp_max`, [at the lowest, at the highest gas
+    /// fraction] (mm); empty when `kp_max` is 0.
+    pub tracking_max_error_mm: Vec<[f64; 2]>,
+    /// The standstill cost at the lowest and the highest external force.
+    pub standing: [StandingLoss; 2],
+    /// The larger of the two standing losses (W).
+    pub standing_loss_w: f64,
+    /// Whether the requirement holds over the whole uncertainty.
+    pub meets: bool,
+    /// Whether the margin targets hold at `kp_max` at the reference gas fraction.
+    pub meets_reference: bool,
+    /// Why it does or does not.
+    pub reason: String,
+}
+
+/// The tool's answer in the article's terms (its §4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The low-pressure circuit meets the requirement over the whole uncertainty.
+    LowPressureSuitable,
+    /// Only a pressurised circuit meets it over the whole uncertainty.
+    UsePressurisedCircuit,
+    /// No candidate meets it.
+    NotAchievable,
+}
+
+/// The selection: every candidate and the answer.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Selection {
+    /// Every candidate, circuit by circuit, pressure rising.
+    pub options: Vec<Candidate>,
+    /// The lowest mean pressure at which the requirement holds over the whole uncertainty
+    /// (bar); `None` if none.
+    pub min_mean_pressure_bar: Option<f64>,
+    /// The candidate chosen (index into `options`).
+    pub chosen: Option<usize>,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why, in words.
+    pub reasons: Vec<String>,
+}
+
+/// Errors of the selection.
+#[derive(Debug, thiserror::Error)]
+pub enum SelectError {
+    /// A value that cannot be used, named.
+    #[error("{0}")]
+    Input(String),
+    /// The rig at a candidate.
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    /// The design at a candidate.
+    #[error(transparent)]
+    Design(#[from] DesignError),
+}
+
+/// Evaluate `levels` (circuit, mean pressure in bar) for `rig` against `req`; `kp` fixes the
+/// gain instead of designing it (docs/select.md).
+pub fn select(
+    rig: &Rig,
+    req: &Requirement,
+    levels: &[(Circuit, f64)],
+    kp: Option<f64>,
+) -> Result<Selection, SelectError> {
+    check(req, levels)?;
+    let options = levels
+        .iter()
+        .map(|&(circuit, p)| candidate(rig, req, circuit, p, kp))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(answer(options))
+}
+
+/// The requirement's numbers, each named when it cannot be used.
+fn check(req: &Requirement, levels: &[(Circuit, f64)]) -> Result<(), SelectError> {
+    let bad =
+        |key: &str, v: f64, rule: &str| Err(SelectError::Input(format!("{key} = {v}: {rule}")));
+    let fractions = [
+        ("gas_fraction_min", req.gas_fraction_min),
+        ("gas_fraction", req.gas_fraction),
+        ("gas_fraction_max", req.gas_fraction_max),
+    ];
+    for (key, x) in fractions {
+        if !(x.is_finite() && x > 0.0 && x < 1.0) {
+            return bad(key, x, "must lie strictly between 0 and 1");
+        }
+    }
+    if !(req.gas_fraction_min <= req.gas_fraction && req.gas_fraction <= req.gas_fraction_max) {
+        return bad(
+            "gas_fraction",
+            req.gas_fraction,
+            "must lie within gas_fraction_min … gas_fraction_max",
+        );
+    }
+    for w in &req.waves {
+        if !(w.max_error_mm.is_finite() && w.max_error_mm > 0.0) {
+            return bad("waves.max_error_mm", w.max_error_mm, "must be > 0");
+        }
+    }
+    for &(_, p) in levels {
+        if !(p.is_finite() && p > 0.0 && p <= 1000.0) {
+            return bad("mean pressure level", p, "must lie in (0, 1000] bar");
+        }
+    }
+    Ok(())
+}
+
+/// One candidate over the gas-fraction range.
+fn candidate(
+    rig: &Rig,
+    req: &Requirement,
+    circuit: Circuit,
+    p_bar: f64,
+    fixed_kp: Option<f64>,
+) -> Result<Candidate, SelectError> {
+    let at = |x: f64| Rig {
+        beta_bar: effective_beta(x, p_bar, req.beta_oil_bar),
+        p_sum_ref_bar: 2.0 * p_bar,
+        ..rig.clone()
+    };
+    let (soft, stiff, reference) = (
+        at(req.gas_fraction_max),
+        at(req.gas_fraction_min),
+        at(req.gas_fraction),
+    );
+    // the margins are monotone in β_e, so the range's ends bound it (docs/select.md)
+    let kp_reference = largest_kp(&reference, &req.targets)?;
+    let kp_range = largest_kp(&soft, &req.targets)?
+        .min(largest_kp(&stiff, &req.targets)?)
+        .min(kp_reference);
+    let kp_max = fixed_kp.unwrap_or(kp_range);
+    let standing = req.external_force_n.map(|f| {
+        let [p1, p2] = chamber_pressures(rig, p_bar, f);
+        standing_loss(rig, p1, p2)
+    });
+    let standing_loss_w = standing[0].power_w.max(standing[1].power_w);
+    let mut out = Candidate {
+        circuit,
+        mean_pressure_bar: p_bar,
+        beta_e_bar: [soft.beta_bar, stiff.beta_bar],
+        kp_max,
+        kp_max_reference: kp_reference,
+        tracking_max_error_mm: Vec::new(),
+        standing,
+        standing_loss_w,
+        meets: false,
+        meets_reference: false,
+        reason: String::new(),
+    };
+    if let Some(why) = over_rating(rig, &standing) {
+        out.reason = why;
+        return Ok(out);
+    }
+    if kp_max <= 0.0 {
+        out.reason = "no gain meets the margin targets over the gas-fraction range".into();
+        return Ok(out);
+    }
+    out.meets_reference = kp_reference > 0.0 && kp_max <= kp_reference;
+    if kp_max > kp_range {
+        out.reason = format!(
+            "Kp = {kp_max} breaks the margin targets in the gas-fraction range (largest that holds: {kp_range:.2})"
+        );
+        return Ok(out);
+    }
+    let errors = |r: &Rig| -> Result<Vec<f64>, SelectError> {
+        let waves: Vec<(f64, f64)> = req.waves.iter().map(|w| (w.freq_hz, w.amp_mm)).collect();
+        Ok(design::predicted_tracking(
+            &Rig {
+                kp: kp_max,
+                ..r.clone()
+            },
+            &waves,
+        )?
+        .iter()
+        .map(|m: &TrackMetrics| m.max_error_mm)
+        .collect())
+    };
+    let (e_stiff, e_soft) = (errors(&stiff)?, errors(&soft)?);
+    out.tracking_max_error_mm = e_stiff
+        .iter()
+        .zip(&e_soft)
+        .map(|(a, b)| [a.min(*b), a.max(*b)])
+        .collect();
+    let worst_error = |k: usize| out.tracking_max_error_mm[k][1];
+    let failing: Vec<String> = req
+        .waves
+        .iter()
+        .enumerate()
+        .filter(|(k, w)| worst_error(*k) > w.max_error_mm)
+        .map(|(k, w)| {
+            format!(
+                "{} Hz ±{} mm: error up to {:.2} mm > {} mm",
+                w.freq_hz,
+                w.amp_mm,
+                worst_error(k),
+                w.max_error_mm
+            )
+        })
+        .collect();
+    out.meets = failing.is_empty();
+    out.reason = if failing.is_empty() {
+        format!("meets every requirement at Kp = {kp_max:.2} over the gas-fraction range")
+    } else {
+        failing.join("; ")
+    };
+    Ok(out)
+}
+
+/// The largest Kp meeting the targets over the stroke and the loads (0 when none does).
+fn largest_kp(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
+    if design::kp_max(rig, t)? == 0.0 {
+        return Ok(0.0);
+    }
+    Ok(design::design(rig, t)?.kp_max_worst_case)
+}
+
+/// Why holding the pressure exceeds a motor's rating, if it does.
+fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
+    for s in standing {
+        for k in 0..2 {
+            if s.torque_nm[k].abs() > rig.motor_rated_torque_nm {
+                return Some(format!(
+                    "motor {} needs {:.1} N·m to hold p1 {:.1} / p2 {:.1} bar, above its rated {} N·m",
+                    k + 1,
+                    s.torque_nm[k].abs(),
+                    s.p_bar[0],
+                    s.p_bar[1],
+                    rig.motor_rated_torque_nm
+                ));
+            }
+            if s.speed_rpm[k].abs() > rig.motor_rated_speed_rpm {
+                return Some(format!(
+                    "motor {} turns {:.0} rpm to feed the leakage at p1 {:.1} / p2 {:.1} bar, above its rated {} rpm",
+                    k + 1,
+                    s.speed_rpm[k].abs(),
+                    s.p_bar[0],
+                    s.p_bar[1],
+                    rig.motor_rated_speed_rpm
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// The lowest pressure that meets the requirement over the whole uncertainty, and the verdict.
+fn answer(options: Vec<Candidate>) -> Selection {
+    let chosen = options
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.meets)
+        .min_by(|a, b| a.1.mean_pressure_bar.total_cmp(&b.1.mean_pressure_bar))
+        .map(|(k, _)| k);
+    let (verdict, reasons) = match chosen.map(|k| &options[k]) {
+        Some(c) if c.circuit == Circuit::LowPressure => (
+            Verdict::LowPressureSuitable,
+            vec![format!(
+                "the low-pressure circuit meets the requirement over the whole gas-fraction range from {} bar: {}",
+                c.mean_pressure_bar, c.reason
+            )],
+        ),
+        Some(c) => (
+            Verdict::UsePressurisedCircuit,
+            vec![format!(
+                "uncertain with the low-pressure circuit: use the pressurised circuit at ≥ {} bar ({})",
+                c.mean_pressure_bar, c.reason
+            )],
+        ),
+        None => (
+            Verdict::NotAchievable,
+            options
+                .iter()
+                .max_by(|a, b| a.mean_pressure_bar.total_cmp(&b.mean_pressure_bar))
+                .map(|c| {
+                    format!(
+                        "not achievable with these circuits; at the highest level ({:?}, {} bar): {}",
+                        c.circuit, c.mean_pressure_bar, c.reason
+                    )
+                })
+                .into_iter()
+                .collect(),
+        ),
+    };
+    Selection {
+        min_mean_pressure_bar: chosen.map(|k| options[k].mean_pressure_bar),
+        chosen,
+        options,
+        verdict,
+        reasons,
+    }
+}
+
+/// An application to choose a circuit for (docs/formats.md#application-toml): the rig, the
+/// uncertainty of the undissolved air, the targets, the loads, the waves and the pressure
+/// levels to try. Field names are the TOML keys; units are in the names.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Application {
+    /// The reference gas fraction X (dimensionless).
+    pub gas_fraction: f64,
+    /// The lowest gas fraction considered.
+    pub gas_fraction_min: f64,
+    /// The highest gas fraction considered.
+    pub gas_fraction_max: f64,
+    /// Pure-oil bulk modulus of the gas-fraction model (bar).
+    pub beta_oil_bar: f64,
+    /// Phase margin target (deg).
+    pub target_pm_deg: f64,
+    /// Gain margin target (dB).
+    pub target_gm_db: f64,
+    /// Stroke excursion on each side of x0 (mm).
+    pub stroke_mm: f64,
+    /// Loads, each its mass at x0 (kg); empty = the rig's `mass_kg`.
+    pub mass_kg: Vec<f64>,
+    /// External force range [lowest, highest] (N).
+    pub external_force_n: [f64; 2],
+    /// Mean chamber pressures of the low-pressure circuit to try (bar).
+    pub low_pressure_bar: Vec<f64>,
+    /// Mean chamber pressures of the pressurised circuit to try (bar).
+    pub pressurised_bar: Vec<f64>,
+    /// The waves to track within an error.
+    pub wave: Vec<WaveRequirement>,
+    /// The rig (any rig key; absent keys take the article's rig).
+    pub rig: Rig,
+}
+
+impl Default for Application {
+    /// The article's application: its rig, its gas fraction 2.64 % (β 165 bar at 4.4 bar) over
+    /// a factor 2 either way, its targets (PM 34°, GM 6 dB over x0 ± 50 mm), its two loads and
+    /// its 0.2 Hz ±35 mm wave within 14 mm (docs/select.md#the-article-s-application).
+    fn default() -> Self {
+        let x = crate::bulk::gas_fraction(165.0, 4.4, crate::bulk::BETA_OIL_BAR).unwrap_or(0.0264);
+        Application {
+            gas_fraction: x,
+            gas_fraction_min: x / 2.0,
+            gas_fraction_max: 2.0 * x,
+            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
+            target_pm_deg: 34.0,
+            target_gm_db: 6.0,
+            stroke_mm: 50.0,
+            mass_kg: vec![4898.0, 10593.0],
+            external_force_n: [0.0, 0.0],
+            low_pressure_bar: (1..=10).map(f64::from).collect(),
+            pressurised_bar: vec![20.0, 30.0, 50.0],
+            wave: vec![WaveRequirement {
+                freq_hz: 0.2,
+                amp_mm: 35.0,
+                max_error_mm: 14.0,
+            }],
+            rig: Rig::default(),
+        }
+    }
+}
+
+impl Application {
+    /// Parse an application from TOML text; `name` stands for the file in messages, which name
+    /// the line and the key.
+    pub fn from_toml_str(text: &str, name: &str) -> Result<Application, SelectError> {
+        let app: Application = toml::from_str(text).map_err(|e| {
+            SelectError::Input(format!("{name}: {}", crate::input::toml_error(&e, text)))
+        })?;
+        app.validate().map_err(|(key, message)| {
+            let path: Vec<crate::input::Key> =
+                key.split('.').map(crate::input::Key::Name).collect();
+            let line = crate::input::toml_line(text, &path)
+                .map_or(String::new(), |l| format!("line {l}, "));
+            SelectError::Input(format!("{name}: {line}key `{key}`: {message}"))
+        })?;
+        Ok(app)
+    }
+
+    /// Read and check an application file.
+    pub fn from_file_in(
+        files: &dyn crate::input::Files,
+        path: &std::path::Path,
+    ) -> Result<Application, SelectError> {
+        let name = path.display().to_string();
+        let text = crate::input::read_text(files, path)
+            .map_err(|e| SelectError::Input(format!("{name}: {e}")))?;
+        Self::from_toml_str(&text, &name)
+    }
+
+    /// Apply `KEY=VALUE` overrides (`rig.KEY=VALUE` for a rig key; values in TOML), then check;
+    /// errors name `source_name` and the key.
+    pub fn with_overrides(
+        &self,
+        source_name: &str,
+        assignments: &[String],
+    ) -> Result<Application, SelectError> {
+        if assignments.is_empty() {
+            return Ok(self.clone());
+        }
+        let err = |a: &str, m: String| SelectError::Input(format!("{source_name} {a}: {m}"));
+        let mut table = toml::Table::try_from(self).map_err(|e| err("", e.to_string()))?;
+        for a in assignments {
+            let (key, raw) = a
+                .split_once('=')
+                .ok_or_else(|| err(a, "expected KEY=VALUE".into()))?;
+            let (key, raw) = (key.trim(), raw.trim());
+            let value = crate::input::parse_value(raw);
+            let (place, leaf) = match key.strip_prefix("rig.") {
+                Some(rig_key) => (
+                    table.get_mut("rig").and_then(toml::Value::as_table_mut),
+                    rig_key,
+                ),
+                None => (Some(&mut table), key),
+            };
+            let place = place.ok_or_else(|| err(a, "no rig table".into()))?;
+            let current = place
+                .get(leaf)
+                .ok_or_else(|| err(a, format!("unknown key `{key}`")))?;
+            let value = crate::input::typed_like(current, value).map_err(|got| {
+                err(
+                    a,
+                    format!("key `{key}` takes a {}, got {got}", current.type_str()),
+                )
+            })?;
+            place.insert(leaf.to_string(), value);
+        }
+        let app: Application = table.try_into().map_err(|e: toml::de::Error| {
+            err(
+                &assignments.join(" "),
+                crate::input::serde_message(e.message()),
+            )
+        })?;
+        app.validate()
+            .map_err(|(key, m)| SelectError::Input(format!("{source_name}: key `{key}`: {m}")))?;
+        Ok(app)
+    }
+
+    /// The application as TOML with a comment per key, ready to edit (what `pumpcyl select
+    /// --print-default` prints).
+    pub fn to_commented_toml(&self) -> String {
+        let mut table = toml::Table::try_from(self).expect("an application always serialises");
+        table.remove("rig");
+        let mut out = String::from(
+            "# pumpcyl application (docs/formats.md#application-toml; docs/select.md). Units are part of every key.\n\
+             # Absent keys take the article's application; [rig] takes any rig key (`pumpcyl rig`).\n",
+        );
+        for (key, doc) in APPLICATION_KEY_DOCS {
+            if let Some(value) = table.get(*key).filter(|_| *key != "wave") {
+                out.push_str(&format!("{key} = {value}  # {doc}\n"));
+            }
+        }
+        for w in &self.wave {
+            out.push_str(&format!(
+                "\n[[wave]]  # a wave to track and the largest control error allowed\nfreq_hz = {:?}\namp_mm = {:?}\nmax_error_mm = {:?}\n",
+                w.freq_hz, w.amp_mm, w.max_error_mm
+            ));
+        }
+        out.push_str("\n[rig]  # the article's rig, with the keys that differ from it (`pumpcyl rig` lists them all)\n");
+        let ours = toml::Table::try_from(&self.rig).expect("a rig always serialises");
+        let article = toml::Table::try_from(Rig::default()).expect("a rig always serialises");
+        for (key, value) in ours.iter().filter(|(k, v)| article.get(*k) != Some(*v)) {
+            out.push_str(&format!("{key} = {value}\n"));
+        }
+        out
+    }
+
+    /// Every value checked, the error naming its key: the rig's rules, masses and forces finite
+    /// (masses > 0), at least one wave, at least one pressure level.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        self.rig.validate("rig").map_err(|e| match e {
+            RigError::Invalid {
+                key, value, rule, ..
+            } => (format!("rig.{key}"), format!("{value}: {rule}")),
+            other => ("rig".to_string(), other.to_string()),
+        })?;
+        let fail = |key: &str, message: String| Err((key.to_string(), message));
+        for m in &self.mass_kg {
+            if !(m.is_finite() && *m > 0.0 && *m <= 1e7) {
+                return fail(
+                    "mass_kg",
+                    format!("{m}: every load must lie in (0, 1e7] kg"),
+                );
+            }
+        }
+        for f in self.external_force_n {
+            if !(f.is_finite() && f.abs() <= 1e8) {
+                return fail(
+                    "external_force_n",
+                    format!("{f}: must be finite, at most 1e8 N"),
+                );
+            }
+        }
+        if self.wave.is_empty() {
+            return fail(
+                "wave",
+                "no wave: the requirement needs at least one [[wave]]".into(),
+            );
+        }
+        for w in &self.wave {
+            let ok = |v: f64| v.is_finite() && v > 0.0;
+            if !(ok(w.freq_hz) && ok(w.amp_mm) && ok(w.max_error_mm)) {
+                return fail(
+                    "wave",
+                    format!(
+                        "{} Hz ±{} mm within {} mm: every value must be > 0",
+                        w.freq_hz, w.amp_mm, w.max_error_mm
+                    ),
+                );
+            }
+        }
+        if self.low_pressure_bar.len() + self.pressurised_bar.len() == 0 {
+            return fail("low_pressure_bar", "no pressure level to try".into());
+        }
+        if self.low_pressure_bar.len() + self.pressurised_bar.len() > MAX_LEVELS {
+            return fail(
+                "low_pressure_bar",
+                format!("more than {MAX_LEVELS} pressure levels"),
+            );
+        }
+        let targets = [
+            ("target_pm_deg", self.target_pm_deg),
+            ("target_gm_db", self.target_gm_db),
+            ("stroke_mm", self.stroke_mm),
+        ];
+        for (key, v) in targets {
+            if !(v.is_finite() && v >= 0.0) {
+                return fail(key, format!("{v}: must be a finite number >= 0"));
+            }
+        }
+        check(&self.requirement(), &self.levels())
+            .map_err(|e| ("gas_fraction".to_string(), e.to_string()))
+    }
+
+    /// The requirement this application states.
+    pub fn requirement(&self) -> Requirement {
+        Requirement {
+            gas_fraction: self.gas_fraction,
+            gas_fraction_min: self.gas_fraction_min,
+            gas_fraction_max: self.gas_fraction_max,
+            beta_oil_bar: self.beta_oil_bar,
+            targets: Targets {
+                pm_deg: self.target_pm_deg,
+                gm_db: self.target_gm_db,
+                stroke_mm: self.stroke_mm,
+                p_mean_bar: vec![],
+                p_beta_bar: 4.4,
+                mass_kg: self.mass_kg.clone(),
+                waves: vec![],
+            },
+            waves: self.wave.clone(),
+            external_force_n: self.external_force_n,
+        }
+    }
+
+    /// The circuits and pressure levels to try, low-pressure first, pressure rising.
+    pub fn levels(&self) -> Vec<(Circuit, f64)> {
+        let mut out: Vec<(Circuit, f64)> = Vec::new();
+        for (circuit, ps) in [
+            (Circuit::LowPressure, &self.low_pressure_bar),
+            (Circuit::Pressurised, &self.pressurised_bar),
+        ] {
+            let mut ps = ps.clone();
+            ps.sort_by(f64::total_cmp);
+            out.extend(ps.into_iter().map(|p| (circuit, p)));
+        }
+        out
+    }
+
+    /// Run the selection ([`select`]); `kp` fixes the gain.
+    pub fn select(&self, kp: Option<f64>) -> Result<Selection, SelectError> {
+        select(&self.rig, &self.requirement(), &self.levels(), kp)
+    }
+}
+
+/// Each application key with its unit and meaning, in the order `to_commented_toml` writes them.
+pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
+    (
+        "gas_fraction",
+        "reference undissolved-gas fraction X: the article's, from beta 165 bar at 4.4 bar",
+    ),
+    (
+        "gas_fraction_min",
+        "lowest X considered (a factor 2 below: undissolved air varies between applications)",
+    ),
+    (
+        "gas_fraction_max",
+        "highest X considered (a factor 2 above; the worst case for beta_e)",
+    ),
+    (
+        "beta_oil_bar",
+        "bar, pure-oil bulk modulus of the gas-fraction model",
+    ),
+    ("target_pm_deg", "deg, phase margin target"),
+    ("target_gm_db", "dB, gain margin target"),
+    (
+        "stroke_mm",
+        "mm, stroke excursion checked on each side of x0",
+    ),
+    (
+        "mass_kg",
+        "kg, loads (each its mass at x0; along the stroke it follows rig.mass_by_position)",
+    ),
+    (
+        "external_force_n",
+        "N, external force range [lowest, highest] (the standing cost is taken at both)",
+    ),
+    (
+        "low_pressure_bar",
+        "bar, mean chamber pressures of the low-pressure circuit (accumulator pre-charge)",
+    ),
+    (
+        "pressurised_bar",
+        "bar, mean chamber pressures of the pressurised dual-prime-mover circuit",
+    ),
+    (
+        "wave",
+        "waves to track: [[wave]] freq_hz, amp_mm, max_error_mm",
+    ),
+];
+
+/// Most pressure levels an application may list.
+pub const MAX_LEVELS: usize = 200;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bulk::{gas_fraction, BETA_OIL_BAR};
+
+    fn requirement(x: [f64; 3], waves: Vec<WaveRequirement>) -> Requirement {
+        Requirement {
+            gas_fraction_min: x[0],
+            gas_fraction: x[1],
+            gas_fraction_max: x[2],
+            beta_oil_bar: BETA_OIL_BAR,
+            targets: Targets {
+                pm_deg: 30.0,
+                gm_db: 6.0,
+                stroke_mm: 0.0,
+                ..Targets::article()
+            },
+            waves,
+            external_force_n: [0.0, 0.0],
+        }
+    }
+
+    /// The standing loss is Σ pressure × leakage flow, and equals the pumps' hydraulic power
+    /// (a hand calculation at the article's standstill point: p1 3.95 bar, p2 5.865 bar).
+    #[test]
+    fn the_standing_loss_is_the_leakage_flow_times_pressure() {
+        let rig = Rig::default();
+        let [p1, p2] = chamber_pressures(&rig, 0.5 * (3.95 + 3.95 * 3117.2453 / 2099.4), 0.0);
+        assert!((p1 - 3.95).abs() < 1e-3, "{p1}");
+        let s = standing_loss(&rig, p1, p2);
+        let (pa1, pa2) = (p1 * 1e5, p2 * 1e5);
+        // by hand: c1 p1² + c2 p2² + c12 (p1 − p2)²
+        let by_hand = 5.49e-11 * pa1 * pa1 + -1.19e-11 * pa2 * pa2 + 1.2e-10 * (pa1 - pa2).powi(2);
+        assert!(
+            (s.power_w - by_hand).abs() < 1e-12,
+            "{} vs {by_hand}",
+            s.power_w
+        );
+        // the pumps' hydraulic power is the same
+        let si = rig.si();
+        let w = |rpm: f64| rpm * 2.0 * PI / 60.0;
+        let pumps = (pa1 - pa2) * si.d[0] * w(s.speed_rpm[0]) + pa1 * si.d[1] * w(s.speed_rpm[1]);
+        assert!((pumps - s.power_w).abs() < 1e-9 * s.power_w.abs().max(1.0));
+        // the article's standstill speeds: pump 1 backwards, pump 2 forwards (−160 / 245 rpm)
+        assert!(
+            s.speed_rpm[0] < 0.0 && s.speed_rpm[1] > 0.0,
+            "{:?}",
+            s.speed_rpm
+        );
+    }
+
+    /// At Kp 25 with the gas fraction fixed, a level meets GM 6 dB and PM 30° exactly when the
+    /// LTI margins at β_e(p) do; widening the range never lowers the answer.
+    #[test]
+    fn the_lowest_pressure_follows_the_margins_and_widening_the_range_never_lowers_it() {
+        let rig = Rig::default();
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let levels: Vec<(Circuit, f64)> =
+            (1..=10).map(|p| (Circuit::LowPressure, p as f64)).collect();
+        let fixed = select(&rig, &requirement([x, x, x], vec![]), &levels, Some(25.0)).unwrap();
+        for c in &fixed.options {
+            let r = Rig {
+                beta_bar: effective_beta(x, c.mean_pressure_bar, BETA_OIL_BAR),
+                ..rig.clone()
+            };
+            let m = crate::lti::margins(&crate::model::Plant::new(&r).open_loop(false)).unwrap();
+            let holds = m.closed_loop_stable
+                && m.gain_margin_db.is_none_or(|g| g >= 6.0 - 0.05)
+                && m.phase_margin_deg.is_none_or(|p| p >= 30.0 - 0.05);
+            assert_eq!(
+                c.meets, holds,
+                "{} bar: {m:?} {}",
+                c.mean_pressure_bar, c.reason
+            );
+        }
+        let wide = select(
+            &rig,
+            &requirement([x / 2.0, x, 2.0 * x], vec![]),
+            &levels,
+            Some(25.0),
+        )
+        .unwrap();
+        let (a, b) = (fixed.min_mean_pressure_bar, wide.min_mean_pressure_bar);
+        assert!(a.is_some(), "{:?}", fixed.reasons);
+        assert!(b.is_none() || b >= a, "{a:?} -> {b:?}");
+    }
+
+    /// A requirement no candidate meets gives no pressure and says why.
+    #[test]
+    fn an_impossible_requirement_says_why() {
+        let rig = Rig::default();
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let wave = WaveRequirement {
+            freq_hz: 0.2,
+            amp_mm: 35.0,
+            max_error_mm: 0.01,
+        };
+        let s = select(
+            &rig,
+            &requirement([x, x, x], vec![wave]),
+            &[(Circuit::LowPressure, 4.4)],
+            None,
+        )
+        .unwrap();
+        assert_eq!(s.min_mean_pressure_bar, None);
+        assert_eq!(s.verdict, Verdict::NotAchievable);
+        assert!(s.reasons[0].contains("0.2 Hz ±35 mm"), "{:?}", s.reasons);
+    }
+}

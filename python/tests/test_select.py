@@ -1,0 +1,37 @@
+"""pumpcyl.select against `pumpcyl select --json` (docs/select.md)."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import pumpcyl
+from conftest import ROOT
+
+
+def pumpcyl_binary():
+    exe = ROOT / "target" / "debug" / "pumpcyl"
+    if not exe.exists():
+        pytest.skip(f"SKIPPED: {exe} not built (cargo build)")
+    return str(exe)
+
+
+def test_select_matches_the_command_line():
+    args = ["--set", "low_pressure_bar=[4.0, 8.0, 10.0]", "--set", "pressurised_bar=[20.0]"]
+    cli = json.loads(subprocess.run([pumpcyl_binary(), "select", *args, "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    py = pumpcyl.select(low_pressure_bar=[4.0, 8.0, 10.0], pressurised_bar=[20.0])
+    table = py.pop("table")
+    assert py == cli
+    assert np.array_equal(table["mean_pressure_bar"], [4.0, 8.0, 10.0, 20.0])
+    assert list(table["meets"]) == [o["meets"] for o in cli["options"]]
+    assert np.allclose(table["kp_max"], [o["kp_max"] for o in cli["options"]], rtol=0, atol=0)
+
+
+def test_a_rig_and_a_fixed_gain_reach_the_selection():
+    rig = pumpcyl.Rig(mass_by_position=[])
+    s = pumpcyl.select(rig=rig, kp=20.0, low_pressure_bar=[6.0])
+    assert s["options"][0]["kp_max"] == 20.0
+    with pytest.raises(ValueError, match="gas_fractoin"):
+        pumpcyl.select(gas_fractoin=0.1)

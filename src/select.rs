@@ -1,0 +1,60 @@
+//! `pumpcyl select`: which circuit, at which pressure level (docs/select.md; the article §4).
+
+use anyhow::Result;
+use clap::Args;
+use std::path::PathBuf;
+
+use pumpcyl::select::Application;
+use pumpcyl_present::format::json_document;
+use pumpcyl_present::select::selection_text;
+
+#[derive(Debug, Args)]
+pub struct SelectArgs {
+    /// Application description (TOML, docs/formats.md#application-toml). Default: the
+    /// embedded article application.
+    #[arg(value_name = "APPLICATION.toml")]
+    application: Option<PathBuf>,
+    /// Override an application key, or a rig key as rig.KEY: --set gas_fraction_max=0.1
+    /// --set rig.kp=20 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Fix the position gain (1/m) instead of designing the largest one at each candidate.
+    #[arg(long, value_name = "KP")]
+    kp: Option<f64>,
+    /// Print the application as commented TOML (with --set applied) and stop.
+    #[arg(long)]
+    print_default: bool,
+    /// Print JSON (min_mean_pressure_bar, verdict, reasons, options: circuit,
+    /// mean_pressure_bar, beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets,
+    /// reason).
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: &SelectArgs) -> Result<String> {
+    let base = match &args.application {
+        Some(path) => Application::from_file_in(crate::inputs::files(), path)?,
+        None => Application::default(),
+    };
+    let app = base.with_overrides("--set", &args.set)?;
+    if args.print_default {
+        return Ok(app.to_commented_toml());
+    }
+    if let Some(kp) = args.kp {
+        anyhow::ensure!(
+            kp.is_finite() && kp > 0.0 && kp <= 1e4,
+            "--kp {kp}: must lie in (0, 1e4] 1/m"
+        );
+    }
+    let s = app.select(args.kp)?;
+    if args.json {
+        return Ok(json_document(&s)?);
+    }
+    let origin = args
+        .application
+        .as_ref()
+        .map_or("the article's application".to_string(), |p| {
+            p.display().to_string()
+        });
+    Ok(selection_text(&origin, &app, &s))
+}

@@ -1,0 +1,173 @@
+//! `pumpcyl select` (docs/select.md): the JSON interface, a fixed gain against the margins
+//! `pumpcyl margins` computes at β_e(p), the uncertainty never lowering the answer, the printed
+//! application reading back to the same answer, and an impossible requirement answered with
+//! exit status 0.
+
+use serde_json::Value;
+use std::path::Path;
+
+#[path = "common/run.rs"]
+#[allow(dead_code)]
+mod run;
+
+/// `pumpcyl ARGS` (successful) as JSON.
+fn json(args: &[&str]) -> Value {
+    let out = run::pumpcyl(Path::new("."), args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn select(args: &[&str]) -> Value {
+    json(&[&["select", "--json"], args].concat())
+}
+
+fn margins(beta_bar: f64) -> (f64, f64) {
+    let m = json(&[
+        "margins",
+        "--json",
+        "--set",
+        &format!("beta_bar={beta_bar}"),
+    ]);
+    (
+        m["gain_margin_db"].as_f64().unwrap_or(f64::INFINITY),
+        m["phase_margin_deg"].as_f64().unwrap_or(f64::INFINITY),
+    )
+}
+
+/// At Kp 25 with the gas fraction fixed at the article's 2.64 %, the lowest mean pressure for
+/// GM 6 dB and PM 30° is the first level whose margins (from `pumpcyl margins` at the β_e the
+/// gas-fraction model gives there) meet them; a wider range never gives a lower pressure.
+#[test]
+fn a_fixed_gain_answers_as_the_margins_do_and_uncertainty_never_lowers_it() {
+    let x = "0.026414679877929";
+    let fixed = |range: [&str; 2]| {
+        select(&[
+            "--kp",
+            "25",
+            "--set",
+            &format!("gas_fraction={x}"),
+            "--set",
+            &format!("gas_fraction_min={}", range[0]),
+            "--set",
+            &format!("gas_fraction_max={}", range[1]),
+            "--set",
+            "target_pm_deg=30",
+            "--set",
+            "stroke_mm=0",
+            "--set",
+            "mass_kg=[]",
+            "--set",
+            "wave=[{ freq_hz = 0.2, amp_mm = 35.0, max_error_mm = 100.0 }]",
+            "--set",
+            "pressurised_bar=[]",
+            "--set",
+            "low_pressure_bar=[1.0, 2.0, 3.0, 4.0, 4.4, 5.0, 6.0, 8.0, 10.0]",
+        ])
+    };
+    let narrow = fixed([x, x]);
+    let first_meeting = narrow["options"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| {
+            let beta = o["beta_e_bar"][0].as_f64().unwrap();
+            let (gm, pm) = margins(beta);
+            let holds = gm >= 6.0 && pm >= 30.0;
+            assert_eq!(o["meets"].as_bool().unwrap(), holds, "{o}: GM {gm} PM {pm}");
+            holds
+        })
+        .map(|o| o["mean_pressure_bar"].as_f64().unwrap());
+    assert_eq!(narrow["min_mean_pressure_bar"].as_f64(), first_meeting);
+    assert!(first_meeting.is_some());
+    let wide = fixed(["0.0132", "0.0528"]);
+    match wide["min_mean_pressure_bar"].as_f64() {
+        Some(p) => assert!(p >= first_meeting.unwrap()),
+        None => assert_eq!(wide["verdict"], "not_achievable"),
+    }
+}
+
+/// The interface's names, and the answer's consistency with the options.
+#[test]
+fn the_json_names_every_option_and_the_lowest_one_that_meets() {
+    let s = select(&[]);
+    let options = s["options"].as_array().unwrap();
+    assert_eq!(options.len(), 13);
+    for o in options {
+        for key in [
+            "circuit",
+            "mean_pressure_bar",
+            "beta_e_bar",
+            "kp_max",
+            "tracking_max_error_mm",
+            "standing_loss_w",
+            "meets",
+            "reason",
+        ] {
+            assert!(!o[key].is_null(), "{key} in {o}");
+        }
+        let [lo, hi] = [0, 1].map(|k| o["beta_e_bar"][k].as_f64().unwrap());
+        assert!(lo <= hi, "{o}");
+    }
+    let lowest = options
+        .iter()
+        .filter(|o| o["meets"] == true)
+        .map(|o| o["mean_pressure_bar"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(s["min_mean_pressure_bar"].as_f64(), Some(lowest));
+    assert!(["low_pressure_suitable", "use_pressurised_circuit"]
+        .contains(&s["verdict"].as_str().unwrap()));
+    // the standing loss rises with the pressure level
+    let loss: Vec<f64> = options
+        .iter()
+        .map(|o| o["standing_loss_w"].as_f64().unwrap())
+        .collect();
+    assert!(loss.windows(2).all(|w| w[1] > w[0]), "{loss:?}");
+}
+
+/// What `--print-default` prints reads back to the same selection.
+#[test]
+fn the_printed_application_reads_back_to_the_same_answer() {
+    let out = run::pumpcyl(
+        Path::new("."),
+        &[
+            "select",
+            "--print-default",
+            "--set",
+            "rig.kp=20",
+            "--set",
+            "low_pressure_bar=[4.0, 8.0]",
+        ],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("app.toml");
+    std::fs::write(&file, &out.stdout).unwrap();
+    let from_file = select(&[file.to_str().unwrap(), "--kp", "20"]);
+    let from_set = select(&[
+        "--set",
+        "rig.kp=20",
+        "--set",
+        "low_pressure_bar=[4.0, 8.0]",
+        "--kp",
+        "20",
+    ]);
+    assert_eq!(from_file, from_set);
+}
+
+/// A requirement no candidate meets: no pressure, a verdict that says why, exit status 0.
+#[test]
+fn an_impossible_requirement_is_an_answer_not_an_error() {
+    let s = select(&[
+        "--set",
+        "wave=[{ freq_hz = 0.2, amp_mm = 35.0, max_error_mm = 0.5 }]",
+    ]);
+    assert!(s["min_mean_pressure_bar"].is_null());
+    assert_eq!(s["verdict"], "not_achievable");
+    assert!(
+        s["reasons"][0].as_str().unwrap().contains("0.2 Hz ±35 mm"),
+        "{s}"
+    );
+}
