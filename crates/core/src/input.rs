@@ -259,6 +259,26 @@ fn edit_distance(a: &str, b: &str) -> usize {
     row[b.len()]
 }
 
+/// A `--set` value as TOML (number, bool, quoted string, array, inline table), or a bare word
+/// as a string.
+pub fn parse_value(raw: &str) -> toml::Value {
+    let doc = format!("v = {raw}");
+    match doc.parse::<toml::Table>() {
+        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(raw.into())),
+        Err(_) => toml::Value::String(raw.to_string()),
+    }
+}
+
+/// `value` as the type of `current` (an integer where a float is wanted becomes that float);
+/// the error is the type `value` has.
+pub fn typed_like(current: &toml::Value, value: toml::Value) -> Result<toml::Value, &'static str> {
+    match (current, value) {
+        (toml::Value::Float(_), toml::Value::Integer(i)) => Ok(toml::Value::Float(i as f64)),
+        (c, v) if c.type_str() == v.type_str() => Ok(v),
+        (_, v) => Err(v.type_str()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,25 +341,5 @@ mod tests {
             toml_error(&e, text),
             "line 2, column 1: unknown key `beta`; did you mean `beta_bar`?"
         );
-    }
-}
-
-/// A `--set` value as TOML (number, bool, quoted string, array, inline table), or a bare word
-/// as a string.
-pub fn parse_value(raw: &str) -> toml::Value {
-    let doc = format!("v = {raw}");
-    match doc.parse::<toml::Table>() {
-        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(raw.into())),
-        Err(_) => toml::Value::String(raw.to_string()),
-    }
-}
-
-/// `value` as the type of `current` (an integer where a float is wanted becomes that float);
-/// the error is the type `value` has.
-pub fn typed_like(current: &toml::Value, value: toml::Value) -> Result<toml::Value, &'static str> {
-    match (current, value) {
-        (toml::Value::Float(_), toml::Value::Integer(i)) => Ok(toml::Value::Float(i as f64)),
-        (c, v) if c.type_str() == v.type_str() => Ok(v),
-        (_, v) => Err(v.type_str()),
     }
 }
