@@ -14,6 +14,7 @@ use crate::bulk::effective_beta;
 use crate::design::{self, DesignError, Targets};
 use crate::response::TrackMetrics;
 use crate::rig::{Rig, RigError};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -187,8 +188,9 @@ pub fn select(
     kp: Option<f64>,
 ) -> Result<Selection, SelectError> {
     check(req, levels)?;
+    // the candidates are independent: one per thread
     let options = levels
-        .iter()
+        .par_iter()
         .map(|&(circuit, p)| candidate(rig, req, circuit, p, kp))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(answer(options))
@@ -247,9 +249,9 @@ fn candidate(
         at(req.gas_fraction),
     );
     // the margins are monotone in β_e, so the range's ends bound it (docs/select.md)
-    let kp_reference = largest_kp(&reference, &req.targets)?;
-    let kp_range = largest_kp(&soft, &req.targets)?
-        .min(largest_kp(&stiff, &req.targets)?)
+    let kp_reference = design::kp_max_worst_case(&reference, &req.targets)?;
+    let kp_range = design::kp_max_worst_case(&soft, &req.targets)?
+        .min(design::kp_max_worst_case(&stiff, &req.targets)?)
         .min(kp_reference);
     let kp_max = fixed_kp.unwrap_or(kp_range);
     let standing = req.external_force_n.map(|f| {
@@ -327,14 +329,6 @@ fn candidate(
         failing.join("; ")
     };
     Ok(out)
-}
-
-/// The largest Kp meeting the targets over the stroke and the loads (0 when none does).
-fn largest_kp(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
-    if design::kp_max(rig, t)? == 0.0 {
-        return Ok(0.0);
-    }
-    Ok(design::design(rig, t)?.kp_max_worst_case)
 }
 
 /// Why holding the pressure exceeds a motor's rating, if it does.

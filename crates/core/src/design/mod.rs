@@ -352,6 +352,28 @@ fn pm_key(c: &Condition) -> f64 {
 
 /// Every combination of stroke position, mass and pressure, at the designed gain.
 fn conditions(rig: &Rig, t: &Targets) -> Result<Vec<Condition>, DesignError> {
+    condition_rigs(rig, t)?
+        .into_iter()
+        .map(|(p, r)| {
+            let mm = margins_at(&r, rig.kp)?;
+            Ok(Condition {
+                x_mm: r.x0_mm,
+                mass_kg: r.mass_kg,
+                p_mean_bar: p,
+                beta_bar: r.beta_bar,
+                gain_margin_db: mm.gain_margin_db,
+                phase_margin_deg: mm.phase_margin_deg,
+                closed_loop_stable: mm.closed_loop_stable,
+                kp_max: kp_max(&r, t)?,
+            })
+        })
+        .collect()
+}
+
+/// The rig at every combination of stroke position, load and pressure the targets name (the
+/// mean pressure, when varied, beside it): the operating point moved to the position, the
+/// mass following the stroke where the geometry ties them, β_e from the gas-fraction model.
+fn condition_rigs(rig: &Rig, t: &Targets) -> Result<Vec<(Option<f64>, Rig)>, DesignError> {
     let positions = [rig.x0_mm - t.stroke_mm, rig.x0_mm, rig.x0_mm + t.stroke_mm];
     let masses = if t.mass_kg.is_empty() {
         vec![rig.mass_kg]
@@ -371,32 +393,30 @@ fn conditions(rig: &Rig, t: &Targets) -> Result<Vec<Condition>, DesignError> {
     let mut out = Vec::new();
     for &x_mm in positions.iter().filter(|&&x| x > 0.0 && x < rig.stroke_mm) {
         for &load in &masses {
-            // the mass follows the stroke where the geometry ties them
             let m = rig.mass_at(load, x_mm)?;
             for &p in &pressures {
-                let beta = p.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR));
                 let r = Rig {
                     x0_mm: x_mm,
                     mass_kg: m,
-                    beta_bar: beta,
+                    beta_bar: p.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR)),
                     ..rig.clone()
                 };
                 r.validate("design condition")?;
-                let mm = margins_at(&r, rig.kp)?;
-                out.push(Condition {
-                    x_mm,
-                    mass_kg: m,
-                    p_mean_bar: p,
-                    beta_bar: beta,
-                    gain_margin_db: mm.gain_margin_db,
-                    phase_margin_deg: mm.phase_margin_deg,
-                    closed_loop_stable: mm.closed_loop_stable,
-                    kp_max: kp_max(&r, t)?,
-                });
+                out.push((p, r));
             }
         }
     }
     Ok(out)
+}
+
+/// The largest Kp meeting the targets at every condition (stroke positions, loads, pressures)
+/// — the design's `kp_max_worst_case` without designing at the design point first; 0 when
+/// some condition admits no gain.
+pub fn kp_max_worst_case(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
+    check_inputs(rig, t)?;
+    condition_rigs(rig, t)?
+        .iter()
+        .try_fold(f64::INFINITY, |lo, (_, r)| Ok(lo.min(kp_max(r, t)?)))
 }
 
 /// The verdict from the conditions at the designed gain.
