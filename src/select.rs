@@ -4,9 +4,10 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 
+use crate::emit::{render_both, write_atomic};
 use pumpcyl::select::Application;
 use pumpcyl_present::format::json_document;
-use pumpcyl_present::select::selection_text;
+use pumpcyl_present::select::{selection_chart, selection_text};
 
 #[derive(Debug, Args)]
 pub struct SelectArgs {
@@ -24,6 +25,10 @@ pub struct SelectArgs {
     /// Print the application as commented TOML (with --set applied) and stop.
     #[arg(long)]
     print_default: bool,
+    /// Result folder: result.json (as --json prints) and select.svg/.png (the largest Kp and
+    /// the tracking-error band against the pressure level, the requirement, the chosen level).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
     /// Print JSON (min_mean_pressure_bar, verdict, reasons, options: circuit,
     /// mean_pressure_bar, beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets,
     /// reason).
@@ -47,8 +52,15 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         );
     }
     let s = app.select(args.kp)?;
+    let document = json_document(&s)?;
+    if let Some(dir) = &args.out {
+        let folder = crate::emit::out_dir(dir)?;
+        write_atomic(&folder.path().join("result.json"), document.as_bytes())?;
+        render_both(&folder.path().join("select"), &selection_chart(&app, &s))?;
+        folder.commit()?;
+    }
     if args.json {
-        return Ok(json_document(&s)?);
+        return Ok(document);
     }
     let origin = args
         .application

@@ -171,3 +171,31 @@ fn an_impossible_requirement_is_an_answer_not_an_error() {
         "{s}"
     );
 }
+
+/// `--out` writes result.json (what --json prints) and the figure, whole.
+#[test]
+fn the_result_folder_holds_the_json_and_the_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sel");
+    let args = [
+        "--set",
+        "low_pressure_bar=[4.0, 10.0]",
+        "--set",
+        "pressurised_bar=[20.0]",
+    ];
+    let printed = select(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    assert_eq!(printed, written);
+    let svg = std::fs::read_to_string(out.join("select.svg")).unwrap();
+    for label in [
+        "requirement",
+        "chosen",
+        "low-pressure, most air",
+        "Mean chamber pressure (bar)",
+    ] {
+        assert!(svg.contains(label), "select.svg lacks {label}");
+    }
+    let png = std::fs::read(out.join("select.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000);
+}

@@ -1,5 +1,7 @@
 //! The circuit selection (docs/select.md) as text: one line a candidate, then the answer.
 
+use crate::figures::{trace, Chart, Plot};
+use crate::plot::{LineStyle, Panel};
 use pumpcyl::select::{Application, Circuit, Selection, Verdict};
 use std::fmt::Write;
 
@@ -79,4 +81,96 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         let _ = writeln!(out, "  - {r}");
     }
     out
+}
+
+/// The selection as a figure: the largest Kp and each wave's tracking-error band against the
+/// mean pressure, one colour a circuit (solid: the highest gas fraction, dashed: the lowest),
+/// the requirement as a dashed line and the chosen pressure as a dotted vertical.
+pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
+    let circuits = [Circuit::LowPressure, Circuit::Pressurised];
+    let of = |c: Circuit| -> Vec<&pumpcyl::select::Candidate> {
+        s.options.iter().filter(|o| o.circuit == c).collect()
+    };
+    let chosen = s.min_mean_pressure_bar;
+    let vertical = |lo: f64, hi: f64| {
+        chosen.map(|p| trace("chosen", &[p, p], &[lo, hi], LineStyle::Dotted, Some(6)))
+    };
+    let mut kp = Panel {
+        y_label: "Largest Kp (1/m)".into(),
+        traces: Vec::new(),
+    };
+    for (k, c) in circuits.into_iter().enumerate() {
+        let o = of(c);
+        let p: Vec<f64> = o.iter().map(|o| o.mean_pressure_bar).collect();
+        let y: Vec<f64> = o.iter().map(|o| o.kp_max).collect();
+        kp.traces
+            .push(trace(circuit_text(c), &p, &y, LineStyle::Solid, Some(k)));
+    }
+    let top = s.options.iter().map(|o| o.kp_max).fold(0.0, f64::max);
+    kp.traces.extend(vertical(0.0, top));
+    let mut panels = vec![kp];
+    for (w, wave) in app.wave.iter().enumerate() {
+        let mut panel = Panel {
+            y_label: format!("max |e| (mm), {} Hz ±{} mm", wave.freq_hz, wave.amp_mm),
+            traces: Vec::new(),
+        };
+        let mut all_p = Vec::new();
+        for (k, c) in circuits.into_iter().enumerate() {
+            let o = of(c);
+            let p: Vec<f64> = o.iter().map(|o| o.mean_pressure_bar).collect();
+            let band = |i: usize| -> Vec<f64> {
+                o.iter()
+                    .map(|o| o.tracking_max_error_mm.get(w).map_or(f64::NAN, |e| e[i]))
+                    .collect()
+            };
+            let name = circuit_text(c);
+            panel.traces.push(trace(
+                &format!("{name}, most air"),
+                &p,
+                &band(1),
+                LineStyle::Solid,
+                Some(k),
+            ));
+            panel.traces.push(trace(
+                &format!("{name}, least air"),
+                &p,
+                &band(0),
+                LineStyle::Dashed,
+                Some(k),
+            ));
+            all_p.extend(p);
+        }
+        let (lo, hi) = all_p
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &p| {
+                (l.min(p), h.max(p))
+            });
+        if lo.is_finite() {
+            panel.traces.push(trace(
+                "requirement",
+                &[lo, hi],
+                &[wave.max_error_mm; 2],
+                LineStyle::Dashed,
+                Some(6),
+            ));
+        }
+        panel.traces.extend(vertical(0.0, 2.0 * wave.max_error_mm));
+        panels.push(panel);
+    }
+    Chart {
+        title: "Which circuit: largest Kp and tracking error against the pressure level".into(),
+        subtitle: Some(format!(
+            "gas fraction {:.4} … {:.4}; {}",
+            app.gas_fraction_min,
+            app.gas_fraction_max,
+            chosen.map_or("no level meets the requirement".to_string(), |p| format!(
+                "chosen: {p} bar ({})",
+                verdict_text(s.verdict).to_lowercase()
+            ))
+        )),
+        plot: Plot::Xy {
+            x_label: "Mean chamber pressure (bar)".into(),
+            panels,
+        },
+    }
 }
