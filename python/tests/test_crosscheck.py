@@ -72,3 +72,25 @@ def test_simulate_matches_python_control_zoh_on_a_nonuniform_free_signal():
     resp = control.forced_response(sysd, t_s, (x_ref_mm - x_ref_mm[0]) * 1e-3)
     np.testing.assert_allclose(res.x_mm, x_ref_mm[0] + 1e3 * np.squeeze(resp.outputs),
                                rtol=0, atol=1e-6)
+
+
+def test_select_lowest_pressure_agrees_with_python_control_margins():
+    """At Kp 25 with the gas fraction fixed at the article's 2.64 % (a zero-width range), the
+    lowest mean pressure for GM >= 6 dB and PM >= 30 deg is where python-control's margins of
+    the exported model at beta_e(p) first meet them (docs/select.md)."""
+    control = require_control()
+    x = pumpcyl.gas_fraction(beta_bar=165.0, p_mean_bar=4.4)
+    levels = [round(3.0 + 0.1 * k, 1) for k in range(51)]
+    s = pumpcyl.select(kp=25.0, gas_fraction=x, gas_fraction_min=x, gas_fraction_max=x,
+                       target_pm_deg=30.0, stroke_mm=0.0, mass_kg=[], pressurised_bar=[],
+                       low_pressure_bar=levels,
+                       wave=[{"freq_hz": 0.2, "amp_mm": 35.0, "max_error_mm": 100.0}])
+    first = None
+    for p in levels:
+        beta_e = 1.0 / (x / p + (1.0 - x) / 17000.0)  # the gas-fraction model (docs/bulk-modulus.md)
+        gm, pm, _, _ = control.margin(pumpcyl.to_control(pumpcyl.Rig(beta_bar=beta_e)))
+        if 20 * np.log10(gm) >= 6.0 and pm >= 30.0:
+            first = p
+            break
+    assert first is not None and s["min_mean_pressure_bar"] is not None
+    assert abs(s["min_mean_pressure_bar"] - first) <= 0.05, (s["min_mean_pressure_bar"], first)

@@ -249,9 +249,17 @@ fn candidate(
         at(req.gas_fraction),
     );
     // the margins are monotone in β_e, so the range's ends bound it (docs/select.md)
+    let kp_at = |r: &Rig, x: f64| -> Result<f64, DesignError> {
+        // a zero-width range (or an end at the reference) is one design, not three
+        if x == req.gas_fraction {
+            Ok(f64::INFINITY)
+        } else {
+            design::kp_max_worst_case(r, &req.targets)
+        }
+    };
     let kp_reference = design::kp_max_worst_case(&reference, &req.targets)?;
-    let kp_range = design::kp_max_worst_case(&soft, &req.targets)?
-        .min(design::kp_max_worst_case(&stiff, &req.targets)?)
+    let kp_range = kp_at(&soft, req.gas_fraction_max)?
+        .min(kp_at(&stiff, req.gas_fraction_min)?)
         .min(kp_reference);
     let kp_max = fixed_kp.unwrap_or(kp_range);
     let standing = req.external_force_n.map(|f| {
