@@ -511,6 +511,13 @@ impl Rig {
         Ok(())
     }
 
+    /// Chamber 2 pressure (bar gauge) at rest with chamber 1 at `p1_bar`: Newton with no
+    /// motion, p1 A1 − p2 A2 = F_ext (docs/model.md#newton).
+    pub fn p2_at_rest_bar(&self, p1_bar: f64) -> f64 {
+        let si = self.si();
+        (p1_bar * PA_PER_BAR * si.a1 - si.f_ext) / si.a2 / PA_PER_BAR
+    }
+
     /// The moving mass (kg) at position `x_mm` of a load whose mass at x0 is `load_mass_kg`:
     /// the load scaled by the `mass_by_position` table, interpolated linearly, at `x_mm` over
     /// its value at `x0_mm` (the load itself without a table; docs/formats.md#rig-toml).

@@ -100,12 +100,15 @@ pub fn standing_loss(rig: &Rig, p1_bar: f64, p2_bar: f64) -> StandingLoss {
 
 /// The chamber pressures at rest (bar gauge) for the mean pressure `p_mean_bar` and the
 /// external force `force_n`: p1 + p2 = 2 p_mean (the sum-pressure loop) and
-/// p1 A1 − p2 A2 + F = 0 (the force balance).
+/// p1 A1 − p2 A2 = F_ext (Newton at rest, docs/model.md#newton; [`Rig::p2_at_rest_bar`]).
 pub fn chamber_pressures(rig: &Rig, p_mean_bar: f64, force_n: f64) -> [f64; 2] {
     let si = rig.si();
-    let sum = 2.0 * p_mean_bar * 1e5;
-    let p1 = (sum * si.a2 - force_n) / (si.a1 + si.a2);
-    [p1 / 1e5, (sum - p1) / 1e5]
+    let p1_bar = (2.0 * p_mean_bar * si.a2 + force_n / 1e5) / (si.a1 + si.a2);
+    let at_force = Rig {
+        external_force_n: force_n,
+        ..rig.clone()
+    };
+    [p1_bar, at_force.p2_at_rest_bar(p1_bar)]
 }
 
 /// One circuit at one pressure level, over the gas-fraction range.
@@ -788,6 +791,22 @@ mod tests {
             "{:?}",
             s.speed_rpm
         );
+    }
+
+    /// At rest the sum-pressure loop holds p1 + p2 = 2 p and Newton holds p1 A1 − p2 A2 = F_ext
+    /// (docs/model.md#newton), the leakage identification's convention.
+    #[test]
+    fn the_chamber_pressures_hold_the_sum_and_the_load() {
+        let rig = Rig::default();
+        let si = rig.si();
+        for force in [-20_000.0, 0.0, 15_000.0] {
+            let [p1, p2] = chamber_pressures(&rig, 10.0, force);
+            assert!((p1 + p2 - 20.0).abs() < 1e-12, "{p1} {p2}");
+            assert!(
+                (p1 * 1e5 * si.a1 - p2 * 1e5 * si.a2 - force).abs() < 1e-6,
+                "{force}"
+            );
+        }
     }
 
     /// At Kp 25 with the gas fraction fixed, a level meets GM 6 dB and PM 30° exactly when the

@@ -99,7 +99,7 @@ impl Standstill {
         self.validate()?;
         let si = rig.si();
         let p1 = self.p1_bar * PA_PER_BAR;
-        let p2 = (p1 * si.a1 - si.f_ext) / si.a2;
+        let p2 = rig.p2_at_rest_bar(self.p1_bar) * PA_PER_BAR;
         if p2 <= 0.0 {
             return Err(IdentError::Input(format!(
                 "standstill p1_bar = {} with external force {} N gives p2 = {:.3} bar <= 0",

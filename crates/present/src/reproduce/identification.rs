@@ -379,9 +379,7 @@ pub(super) fn conditions(
     };
     let step_mean_p_bar = [mean(&rec.p1_bar), mean(&rec.p2_bar)];
     // the article's standstill p1 and its force balance give p2 (the article §2.4)
-    let rig = Rig::default();
-    let si = rig.si();
-    let article_p2_bar = (printed::STANDSTILL_P1_BAR * si.a1 + si.f_ext / 1e5) / si.a2;
+    let article_p2_bar = Rig::default().p2_at_rest_bar(printed::STANDSTILL_P1_BAR);
     let out = summary::Conditions {
         p_sum_ref_bar: truth.rig.p_sum_ref_bar,
         article_p_sum_ref_bar: printed::P_SUM_REF_BAR,
@@ -426,7 +424,7 @@ pub(super) fn conditions(
         ),
         "-",
         &format!(
-            "the emulated pair obeys the force balance p1 A1 − p2 A2 + F_ext = 0; the article's does not: \
+            "the emulated pair obeys the force balance at rest p1 A1 − p2 A2 = F_ext; the article's does not: \
              at its own standstill p1 = {} bar the balance gives p2 = {article_p2_bar:.2} bar (docs/choices.md#the-article-against-itself)",
             printed::STANDSTILL_P1_BAR
         ),
