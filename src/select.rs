@@ -45,12 +45,6 @@ pub fn run(args: &SelectArgs) -> Result<String> {
     if args.print_default {
         return Ok(app.to_commented_toml());
     }
-    if let Some(kp) = args.kp {
-        anyhow::ensure!(
-            kp.is_finite() && kp > 0.0 && kp <= 1e4,
-            "--kp {kp}: must lie in (0, 1e4] 1/m"
-        );
-    }
     let s = app.select(args.kp)?;
     let document = json_document(&s)?;
     if let Some(dir) = &args.out {

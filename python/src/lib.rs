@@ -936,11 +936,6 @@ fn select(
     if let Some(r) = rig {
         app.rig = r.rig.clone();
     }
-    if let Some(kp) = kp {
-        if !(kp.is_finite() && kp > 0.0 && kp <= 1e4) {
-            return Err(err(format!("kp = {kp}: must lie in (0, 1e4] 1/m")));
-        }
-    }
     let s = py.detach(|| app.select(kp)).map_err(err)?;
     let out = to_py(py, &s)?;
     let d = out.bind(py).cast::<PyDict>()?;

@@ -477,11 +477,6 @@ impl Rig {
         if t.len() == 1 {
             return Err((1.0, "needs no point (constant mass) or at least two".into()));
         }
-        let mass_rule = Rig::default()
-            .numeric_fields()
-            .into_iter()
-            .find(|(k, ..)| *k == "mass_kg")
-            .map(|(_, _, r)| r);
         for (k, p) in t.iter().enumerate() {
             if !(p.x_mm.is_finite() && p.x_mm > 0.0 && p.x_mm < self.stroke_mm) {
                 return Err((
@@ -498,13 +493,7 @@ impl Rig {
                     format!("point {}: x_mm must increase from point to point", k + 1),
                 ));
             }
-            if !p.mass_kg.is_finite() {
-                return Err((
-                    p.mass_kg,
-                    format!("point {}: mass_kg must be a finite number", k + 1),
-                ));
-            }
-            if let Some(rule) = mass_rule.and_then(|r| r.violated(p.mass_kg)) {
+            if let Some(rule) = Rig::check_key("mass_kg", p.mass_kg) {
                 return Err((p.mass_kg, format!("point {}: mass_kg {rule}", k + 1)));
             }
         }

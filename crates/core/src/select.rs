@@ -190,7 +190,7 @@ pub fn select(
     levels: &[(Circuit, f64)],
     kp: Option<f64>,
 ) -> Result<Selection, SelectError> {
-    check(req, levels)?;
+    check(rig, req, levels, kp).map_err(|(key, m)| SelectError::Input(format!("`{key}` = {m}")))?;
     // the candidates are independent: one per thread
     let options = levels
         .par_iter()
@@ -199,10 +199,16 @@ pub fn select(
     Ok(answer(options))
 }
 
-/// The requirement's numbers, each named when it cannot be used.
-fn check(req: &Requirement, levels: &[(Circuit, f64)]) -> Result<(), SelectError> {
-    let bad =
-        |key: &str, v: f64, rule: &str| Err(SelectError::Input(format!("{key} = {v}: {rule}")));
+/// What cannot be used in a selection, as (the key, why): the gas fractions, the waves (each
+/// value positive, inside the stroke, resolved by the tracking: [`design::check_wave`]), the
+/// pressure levels and the fixed gain.
+fn check(
+    rig: &Rig,
+    req: &Requirement,
+    levels: &[(Circuit, f64)],
+    kp: Option<f64>,
+) -> Result<(), (String, String)> {
+    let bad = |key: &str, m: String| Err((key.to_string(), m));
     let fractions = [
         ("gas_fraction_min", req.gas_fraction_min),
         ("gas_fraction", req.gas_fraction),
@@ -210,27 +216,51 @@ fn check(req: &Requirement, levels: &[(Circuit, f64)]) -> Result<(), SelectError
     ];
     for (key, x) in fractions {
         if !(x.is_finite() && x > 0.0 && x < 1.0) {
-            return bad(key, x, "must lie strictly between 0 and 1");
+            return bad(key, format!("{x}: must lie strictly between 0 and 1"));
         }
+    }
+    if !(req.beta_oil_bar.is_finite() && req.beta_oil_bar > 0.0 && req.beta_oil_bar <= 1e6) {
+        return bad(
+            "beta_oil_bar",
+            format!("{}: must lie in (0, 1e6] bar", req.beta_oil_bar),
+        );
     }
     if !(req.gas_fraction_min <= req.gas_fraction && req.gas_fraction <= req.gas_fraction_max) {
         return bad(
             "gas_fraction",
-            req.gas_fraction,
-            "must lie within gas_fraction_min … gas_fraction_max",
+            format!(
+                "{}: must lie within gas_fraction_min … gas_fraction_max",
+                req.gas_fraction
+            ),
         );
     }
     for w in &req.waves {
-        if !(w.max_error_mm.is_finite() && w.max_error_mm > 0.0) {
-            return bad("waves.max_error_mm", w.max_error_mm, "must be > 0");
+        let what = format!(
+            "{} Hz ±{} mm within {} mm",
+            w.freq_hz, w.amp_mm, w.max_error_mm
+        );
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !(positive(w.freq_hz) && positive(w.amp_mm) && positive(w.max_error_mm)) {
+            return bad("wave", format!("{what}: every value must be > 0"));
         }
+        design::check_wave(rig, w.freq_hz, w.amp_mm)
+            .or_else(|e| bad("wave", format!("{what}: {e}")))?;
     }
-    for &(_, p) in levels {
+    for &(circuit, p) in levels {
         if !(p.is_finite() && p > 0.0 && p <= 1000.0) {
-            return bad("mean pressure level", p, "must lie in (0, 1000] bar");
+            let key = match circuit {
+                Circuit::LowPressure => "low_pressure_bar",
+                Circuit::Pressurised => "pressurised_bar",
+            };
+            return bad(key, format!("{p}: every level must lie in (0, 1000] bar"));
         }
     }
-    Ok(())
+    match kp {
+        Some(kp) if !(kp.is_finite() && kp > 0.0 && kp <= 1e4) => {
+            bad("kp", format!("{kp}: must lie in (0, 1e4] 1/m"))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// One candidate over the gas-fraction range.
@@ -585,8 +615,9 @@ impl Application {
         out
     }
 
-    /// Every value checked, the error naming its key: the rig's rules, masses and forces finite
-    /// (masses > 0), at least one wave, at least one pressure level.
+    /// Every value checked, the error naming its key: the rig's rules, the loads in the range
+    /// of the rig's `mass_kg`, forces finite, at least one wave and one pressure level, the
+    /// targets, and what every selection checks (gas fractions, waves, levels).
     pub fn validate(&self) -> Result<(), (String, String)> {
         self.rig.validate("rig").map_err(|e| match e {
             RigError::Invalid {
@@ -595,12 +626,9 @@ impl Application {
             other => ("rig".to_string(), other.to_string()),
         })?;
         let fail = |key: &str, message: String| Err((key.to_string(), message));
-        for m in &self.mass_kg {
-            if !(m.is_finite() && *m > 0.0 && *m <= 1e7) {
-                return fail(
-                    "mass_kg",
-                    format!("{m}: every load must lie in (0, 1e7] kg"),
-                );
+        for &m in &self.mass_kg {
+            if let Some(rule) = Rig::check_key("mass_kg", m) {
+                return fail("mass_kg", format!("{m}: every load {rule}"));
             }
         }
         for f in self.external_force_n {
@@ -616,18 +644,6 @@ impl Application {
                 "wave",
                 "no wave: the requirement needs at least one [[wave]]".into(),
             );
-        }
-        for w in &self.wave {
-            let ok = |v: f64| v.is_finite() && v > 0.0;
-            if !(ok(w.freq_hz) && ok(w.amp_mm) && ok(w.max_error_mm)) {
-                return fail(
-                    "wave",
-                    format!(
-                        "{} Hz ±{} mm within {} mm: every value must be > 0",
-                        w.freq_hz, w.amp_mm, w.max_error_mm
-                    ),
-                );
-            }
         }
         if self.low_pressure_bar.len() + self.pressurised_bar.len() == 0 {
             return fail("low_pressure_bar", "no pressure level to try".into());
@@ -648,8 +664,7 @@ impl Application {
                 return fail(key, format!("{v}: must be a finite number >= 0"));
             }
         }
-        check(&self.requirement(), &self.levels())
-            .map_err(|e| ("gas_fraction".to_string(), e.to_string()))
+        check(&self.rig, &self.requirement(), &self.levels(), None)
     }
 
     /// The requirement this application states.
@@ -663,10 +678,9 @@ impl Application {
                 pm_deg: self.target_pm_deg,
                 gm_db: self.target_gm_db,
                 stroke_mm: self.stroke_mm,
-                p_mean_bar: vec![],
-                p_beta_bar: 4.4,
                 mass_kg: self.mass_kg.clone(),
-                waves: vec![],
+                // no pressure list or waves: each candidate sets β_e and tracks itself
+                ..Targets::article()
             },
             waves: self.wave.clone(),
             external_force_n: self.external_force_n,

@@ -257,12 +257,17 @@ fn check_inputs(rig: &Rig, t: &Targets) -> Result<(), DesignError> {
     }
     check_lists(t)?;
     for &(f, a) in &t.waves {
-        let wave = |e: String| DesignError::Input(format!("wave {f}:{a}: {e}"));
-        rig.check_reference(rig.x0_mm - a, rig.x0_mm + a)
-            .map_err(|e| wave(e.to_string()))?;
-        crate::response::check_nyquist(f, TRACKING_RATE_HZ).map_err(|e| wave(e.to_string()))?;
+        check_wave(rig, f, a).map_err(|e| DesignError::Input(format!("wave {f}:{a}: {e}")))?;
     }
     Ok(())
+}
+
+/// Why the wave `freq_hz` ± `amp_mm` about x0 cannot be tracked by [`predicted_tracking`], if
+/// it cannot: it leaves the stroke, or the tracking's sample rate cannot resolve it.
+pub fn check_wave(rig: &Rig, freq_hz: f64, amp_mm: f64) -> Result<(), String> {
+    rig.check_reference(rig.x0_mm - amp_mm, rig.x0_mm + amp_mm)
+        .map_err(|e| e.to_string())?;
+    crate::response::check_nyquist(freq_hz, TRACKING_RATE_HZ).map_err(|e| e.to_string())
 }
 
 /// The sample rate (Hz) of the predicted tracking of each wave.

@@ -191,10 +191,7 @@ fn kp_for_pm(rig: &Rig, pm_deg: f64) -> Result<f64> {
         pm_deg,
         gm_db: 0.0,
         stroke_mm: 0.0,
-        p_mean_bar: vec![],
-        p_beta_bar: article::P_FIT_BAR,
-        mass_kg: vec![],
-        waves: vec![],
+        ..Targets::article()
     };
     Ok(pumpcyl::design::kp_max(rig, &same_pm)?)
 }
