@@ -12,7 +12,6 @@
 
 use crate::bulk::effective_beta;
 use crate::design::{self, DesignError, Targets};
-use crate::response::TrackMetrics;
 use crate::rig::{Rig, RigError};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -328,25 +327,7 @@ fn candidate(
         );
         return Ok(out);
     }
-    let errors = |r: &Rig| -> Result<Vec<f64>, SelectError> {
-        let waves: Vec<(f64, f64)> = req.waves.iter().map(|w| (w.freq_hz, w.amp_mm)).collect();
-        Ok(design::predicted_tracking(
-            &Rig {
-                kp: kp_max,
-                ..r.clone()
-            },
-            &waves,
-        )?
-        .iter()
-        .map(|m: &TrackMetrics| m.max_error_mm)
-        .collect())
-    };
-    let (e_stiff, e_soft) = (errors(&stiff)?, errors(&soft)?);
-    out.tracking_max_error_mm = e_stiff
-        .iter()
-        .zip(&e_soft)
-        .map(|(a, b)| [a.min(*b), a.max(*b)])
-        .collect();
+    out.tracking_max_error_mm = tracking_band(&req.waves, &[&stiff, &soft], kp_max)?;
     let worst_error = |k: usize| out.tracking_max_error_mm[k][1];
     let failing: Vec<String> = req
         .waves
@@ -370,6 +351,24 @@ fn candidate(
         failing.join("; ")
     };
     Ok(out)
+}
+
+/// Each wave's largest control error at gain `kp` over `rigs` (the ends of the gas-fraction
+/// range), as [least, most] (mm).
+fn tracking_band(
+    waves: &[WaveRequirement],
+    rigs: &[&Rig],
+    kp: f64,
+) -> Result<Vec<[f64; 2]>, DesignError> {
+    let waves: Vec<(f64, f64)> = waves.iter().map(|w| (w.freq_hz, w.amp_mm)).collect();
+    let mut band = vec![[f64::INFINITY, f64::NEG_INFINITY]; waves.len()];
+    for r in rigs {
+        let at = design::predicted_tracking(&Rig { kp, ..(*r).clone() }, &waves)?;
+        for (b, m) in band.iter_mut().zip(&at) {
+            *b = [b[0].min(m.max_error_mm), b[1].max(m.max_error_mm)];
+        }
+    }
+    Ok(band)
 }
 
 /// Why holding the pressure exceeds a motor's rating, if it does.
