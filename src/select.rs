@@ -5,7 +5,8 @@ use clap::Args;
 use std::path::PathBuf;
 
 use crate::emit::{render_both, write_atomic};
-use pumpcyl::select::Application;
+use pumpcyl::ident::Experiment;
+use pumpcyl::select::{Application, BetaEvidence};
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::select::{selection_chart, selection_text};
 
@@ -22,6 +23,19 @@ pub struct SelectArgs {
     /// Fix the position gain (1/m) instead of designing the largest one at each candidate.
     #[arg(long, value_name = "KP")]
     kp: Option<f64>,
+    /// Identification experiment (TOML, as for `identify`): its records' interval of beta,
+    /// read at their mean chamber pressure, gives the gas-fraction range instead of the
+    /// application's gas_fraction keys (docs/select.md#from-an-identification).
+    #[arg(long, value_name = "EXPERIMENT.toml")]
+    experiment: Option<PathBuf>,
+    /// Confidence level of that interval, in (0, 1).
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        requires = "experiment",
+        allow_negative_numbers = true
+    )]
+    confidence: f64,
     /// Print the application as commented TOML (with --set applied) and stop.
     #[arg(long)]
     print_default: bool,
@@ -41,7 +55,15 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         Some(path) => Application::from_file_in(crate::inputs::files(), path)?,
         None => Application::default(),
     };
-    let app = base.with_overrides("--set", &args.set)?;
+    let mut app = base.with_overrides("--set", &args.set)?;
+    if let Some(path) = &args.experiment {
+        crate::emit::check_confidence(args.confidence)?;
+        let exp = Experiment::load_in(crate::inputs::files(), path)?;
+        let evidence = BetaEvidence::of_records(&exp, args.confidence)?;
+        app = app
+            .with_evidence(&evidence)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    }
     if args.print_default {
         return Ok(app.to_commented_toml());
     }

@@ -262,11 +262,14 @@ def select(
     *,
     rig: Optional[Rig] = None,
     kp: Optional[float] = None,
+    experiment: Optional[Union[str, PathLike[str]]] = None,
+    confidence: float = 0.95,
     **overrides: Any,
 ) -> Dict[str, Any]:
     """Which circuit, at which pressure level (docs/select.md): the application file (None =
     the article's application) with application keys as keyword overrides and ``rig``
-    replacing its rig; ``kp`` fixes the gain. A dict as ``pumpcyl select --json`` prints
+    replacing its rig; ``kp`` fixes the gain; ``experiment`` (an experiment TOML file) gives
+    the gas-fraction range from its records' interval of beta at ``confidence``. A dict as ``pumpcyl select --json`` prints
     (``min_mean_pressure_bar``, ``verdict``, ``reasons``, ``options``), plus ``table``: numpy
     arrays over the options (``mean_pressure_bar``, ``beta_e_lo_bar``, ``beta_e_hi_bar``,
     ``kp_max``, ``standing_loss_w``, ``meets``)."""

@@ -913,16 +913,19 @@ fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
 /// Which circuit, at which pressure level (docs/select.md): the application of the file
 /// `application` (TOML; None = the article's application), with `overrides` as application
 /// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig;
-/// `kp` fixes the gain. A dict as `pumpcyl select --json` prints, plus `table`: numpy arrays
-/// over the options (`mean_pressure_bar`, `beta_e_lo_bar`, `beta_e_hi_bar`, `kp_max`,
-/// `standing_loss_w`, `meets`).
+/// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
+/// from its records' interval of β at `confidence`. A dict as `pumpcyl select --json` prints,
+/// plus `table`: numpy arrays over the options (`mean_pressure_bar`, `beta_e_lo_bar`,
+/// `beta_e_hi_bar`, `kp_max`, `standing_loss_w`, `meets`).
 #[pyfunction]
-#[pyo3(signature = (application = None, *, rig = None, kp = None, **overrides))]
+#[pyo3(signature = (application = None, *, rig = None, kp = None, experiment = None, confidence = 0.95, **overrides))]
 fn select(
     py: Python<'_>,
     application: Option<PathBuf>,
     rig: Option<&PyRig>,
     kp: Option<f64>,
+    experiment: Option<PathBuf>,
+    confidence: f64,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
     use pumpcyl::select::Application;
@@ -936,7 +939,20 @@ fn select(
     if let Some(r) = rig {
         app.rig = r.rig.clone();
     }
-    let s = py.detach(|| app.select(kp)).map_err(err)?;
+    let s = py
+        .detach(|| -> Result<_, String> {
+            if let Some(path) = &experiment {
+                pumpcyl::ident::check_confidence(confidence).map_err(|e| e.to_string())?;
+                let exp = pumpcyl::ident::Experiment::load(path).map_err(|e| e.to_string())?;
+                let evidence = pumpcyl::select::BetaEvidence::of_records(&exp, confidence)
+                    .map_err(|e| e.to_string())?;
+                app = app
+                    .with_evidence(&evidence)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+            }
+            app.select(kp).map_err(|e| e.to_string())
+        })
+        .map_err(err)?;
     let out = to_py(py, &s)?;
     let d = out.bind(py).cast::<PyDict>()?;
     let table = PyDict::new(py);

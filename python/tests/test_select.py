@@ -35,3 +35,15 @@ def test_a_rig_and_a_fixed_gain_reach_the_selection():
     assert s["options"][0]["kp_max"] == 20.0
     with pytest.raises(ValueError, match="gas_fractoin"):
         pumpcyl.select(gas_fractoin=0.1)
+
+
+def test_an_experiment_gives_the_gas_fraction_range_as_on_the_command_line():
+    exp = str(ROOT / "data" / "article" / "identify.toml")
+    args = ["--experiment", exp, "--set", "low_pressure_bar=[5.0]", "--set", "pressurised_bar=[]"]
+    cli = json.loads(subprocess.run([pumpcyl_binary(), "select", *args, "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    py = pumpcyl.select(experiment=exp, low_pressure_bar=[5.0], pressurised_bar=[])
+    py.pop("table")
+    assert py == cli
+    lo, hi = py["gas_fraction_from"]["beta_bar"]
+    assert lo < 165.0 < hi

@@ -56,8 +56,12 @@ pub struct Requirement {
     pub targets: Targets,
     /// Waves to track within an error.
     pub waves: Vec<WaveRequirement>,
+    /// Largest 10–90 % rise time of a 5 mm step allowed (s), if required.
+    pub max_rise_time_s: Option<f64>,
     /// External force range [lowest, highest] (N): the standstill cost is taken at both.
     pub external_force_n: [f64; 2],
+    /// The identification the gas-fraction range was read from, if any.
+    pub evidence: Option<BetaEvidence>,
 }
 
 /// The standstill leakage balance at one pressure pair (the article §2.4): the pumps turn to
@@ -124,9 +128,13 @@ pub struct Candidate {
     pub kp_max: f64,
     /// The largest Kp at the reference gas fraction (1/m).
     pub kp_max_reference: f64,
-    /// Each wave's largest control error at `kp_max`, [at the lowest, at the highest gas
-    /// fraction] (mm); empty when `kp_max` is 0.
+    /// Each wave's largest control error at `kp_max` over the gas-fraction range and the
+    /// loads, [least, most] (mm); empty when `kp_max` is 0.
     pub tracking_max_error_mm: Vec<[f64; 2]>,
+    /// The 10–90 % rise time of a 5 mm step at `kp_max` over the gas-fraction range and the
+    /// loads, [least, most] (s; `null` in JSON where a step never reaches 90 %); `None` when
+    /// `kp_max` is 0.
+    pub rise_time_s: Option<[f64; 2]>,
     /// The standstill cost at the lowest and the highest external force.
     pub standing: [StandingLoss; 2],
     /// The larger of the two standing losses (W).
@@ -165,6 +173,10 @@ pub struct Selection {
     pub verdict: Verdict,
     /// Why, in words.
     pub reasons: Vec<String>,
+    /// The gas-fraction range evaluated: [lowest, reference, highest].
+    pub gas_fraction: [f64; 3],
+    /// The identification the range was read from, if any.
+    pub gas_fraction_from: Option<BetaEvidence>,
 }
 
 /// Errors of the selection.
@@ -195,7 +207,7 @@ pub fn select(
         .par_iter()
         .map(|&(circuit, p)| candidate(rig, req, circuit, p, kp))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(answer(options))
+    Ok(answer(options, req))
 }
 
 /// What cannot be used in a selection, as (the key, why): the gas fractions, the waves (each
@@ -254,6 +266,14 @@ fn check(
             return bad(key, format!("{p}: every level must lie in (0, 1000] bar"));
         }
     }
+    if let Some(t) = req.max_rise_time_s {
+        if !(t.is_finite() && t > 0.0 && t <= RISE_WINDOW_S) {
+            return bad(
+                "max_rise_time_s",
+                format!("{t}: must lie in (0, {RISE_WINDOW_S}] s"),
+            );
+        }
+    }
     match kp {
         Some(kp) if !(kp.is_finite() && kp > 0.0 && kp <= 1e4) => {
             bad("kp", format!("{kp}: must lie in (0, 1e4] 1/m"))
@@ -306,6 +326,7 @@ fn candidate(
         kp_max,
         kp_max_reference: kp_reference,
         tracking_max_error_mm: Vec::new(),
+        rise_time_s: None,
         standing,
         standing_loss_w,
         meets: false,
@@ -327,45 +348,94 @@ fn candidate(
         );
         return Ok(out);
     }
-    out.tracking_max_error_mm = tracking_band(&req.waves, &[&stiff, &soft], kp_max)?;
-    let worst_error = |k: usize| out.tracking_max_error_mm[k][1];
-    let failing: Vec<String> = req
-        .waves
-        .iter()
-        .enumerate()
-        .filter(|(k, w)| worst_error(*k) > w.max_error_mm)
-        .map(|(k, w)| {
-            format!(
-                "{} Hz ±{} mm: error up to {:.2} mm > {} mm",
-                w.freq_hz,
-                w.amp_mm,
-                worst_error(k),
-                w.max_error_mm
-            )
-        })
-        .collect();
+    let band = match response_band(req, &[&stiff, &soft], kp_max) {
+        Err(DesignError::Lti(e @ crate::lti::LtiError::Unstable { .. })) => {
+            out.reason = format!("at Kp = {kp_max:.2} with the sum-pressure loop closed: {e}");
+            return Ok(out);
+        }
+        band => band?,
+    };
+    out.tracking_max_error_mm = band.tracking_mm;
+    out.rise_time_s = Some(band.rise_time_s);
+    let failing = shortfalls(req, &out);
     out.meets = failing.is_empty();
     out.reason = if failing.is_empty() {
-        format!("meets every requirement at Kp = {kp_max:.2} over the gas-fraction range")
+        format!("meets every requirement at Kp = {kp_max:.2} over the gas-fraction range and the loads")
     } else {
         failing.join("; ")
     };
     Ok(out)
 }
 
-/// Each wave's largest control error at gain `kp` over `rigs` (the ends of the gas-fraction
-/// range), as [least, most] (mm).
-fn tracking_band(
-    waves: &[WaveRequirement],
-    rigs: &[&Rig],
-    kp: f64,
-) -> Result<Vec<[f64; 2]>, DesignError> {
-    let waves: Vec<(f64, f64)> = waves.iter().map(|w| (w.freq_hz, w.amp_mm)).collect();
-    let mut band = vec![[f64::INFINITY, f64::NEG_INFINITY]; waves.len()];
-    for r in rigs {
-        let at = design::predicted_tracking(&Rig { kp, ..(*r).clone() }, &waves)?;
-        for (b, m) in band.iter_mut().zip(&at) {
-            *b = [b[0].min(m.max_error_mm), b[1].max(m.max_error_mm)];
+/// What `c` falls short of in `req`: each wave whose worst error exceeds its bound, and the
+/// rise time; empty when it meets the requirement.
+fn shortfalls(req: &Requirement, c: &Candidate) -> Vec<String> {
+    let mut out: Vec<String> = req
+        .waves
+        .iter()
+        .zip(&c.tracking_max_error_mm)
+        .filter(|(w, [_, worst])| *worst > w.max_error_mm)
+        .map(|(w, [_, worst])| {
+            format!(
+                "{} Hz ±{} mm: error up to {worst:.2} mm > {} mm",
+                w.freq_hz, w.amp_mm, w.max_error_mm
+            )
+        })
+        .collect();
+    if let (Some(max), Some([_, worst])) = (req.max_rise_time_s, c.rise_time_s) {
+        if !(worst <= max) {
+            let worst = if worst.is_finite() {
+                format!("up to {worst:.3} s")
+            } else {
+                format!("not reached within {RISE_WINDOW_S} s")
+            };
+            out.push(format!("rise time {worst} > {max} s"));
+        }
+    }
+    out
+}
+
+/// The step whose rise time a requirement bounds (mm): the article's identification step (§2.4).
+pub const RISE_STEP_MM: f64 = 5.0;
+/// How long the rise-time step is simulated (s) and at what rate (Hz).
+const RISE_WINDOW_S: f64 = 10.0;
+const RISE_RATE_HZ: f64 = 200.0;
+
+/// The responses at one gain over the uncertainty: each wave's largest control error and the
+/// rise time, as [least, most].
+struct Band {
+    tracking_mm: Vec<[f64; 2]>,
+    rise_time_s: [f64; 2],
+}
+
+/// Each wave's largest control error and the step's rise time at gain `kp` over `ends` (the
+/// rigs at the ends of the gas-fraction range) and the loads of `req` (each its mass at x0),
+/// as [least, most]; a step that never reaches 90 % counts as an infinite rise time.
+fn response_band(req: &Requirement, ends: &[&Rig], kp: f64) -> Result<Band, DesignError> {
+    let waves: Vec<(f64, f64)> = req.waves.iter().map(|w| (w.freq_hz, w.amp_mm)).collect();
+    let widen = |b: &mut [f64; 2], v: f64| *b = [b[0].min(v), b[1].max(v)];
+    let mut band = Band {
+        tracking_mm: vec![[f64::INFINITY, f64::NEG_INFINITY]; waves.len()],
+        rise_time_s: [f64::INFINITY, f64::NEG_INFINITY],
+    };
+    for end in ends {
+        let loads = match req.targets.mass_kg.as_slice() {
+            [] => vec![end.mass_kg],
+            loads => loads.to_vec(),
+        };
+        for mass_kg in loads {
+            let r = Rig {
+                kp,
+                mass_kg,
+                ..(*end).clone()
+            };
+            let at = design::predicted_tracking(&r, &waves)?;
+            for (b, m) in band.tracking_mm.iter_mut().zip(&at) {
+                widen(b, m.max_error_mm);
+            }
+            let s = crate::response::step(&r, RISE_STEP_MM, RISE_WINDOW_S, RISE_RATE_HZ)?;
+            let rise = crate::response::step_metrics_of(&r, &s, RISE_STEP_MM).rise_time_s;
+            widen(&mut band.rise_time_s, rise.unwrap_or(f64::INFINITY));
         }
     }
     Ok(band)
@@ -400,8 +470,8 @@ fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
     None
 }
 
-/// The lowest pressure that meets the requirement over the whole uncertainty, and the verdict.
-fn answer(options: Vec<Candidate>) -> Selection {
+/// The lowest pressure that meets `req` over the whole uncertainty, and the verdict.
+fn answer(options: Vec<Candidate>, req: &Requirement) -> Selection {
     let chosen = options
         .iter()
         .enumerate()
@@ -444,6 +514,8 @@ fn answer(options: Vec<Candidate>) -> Selection {
         options,
         verdict,
         reasons,
+        gas_fraction: [req.gas_fraction_min, req.gas_fraction, req.gas_fraction_max],
+        gas_fraction_from: req.evidence,
     }
 }
 
@@ -477,8 +549,54 @@ pub struct Application {
     pub pressurised_bar: Vec<f64>,
     /// The waves to track within an error.
     pub wave: Vec<WaveRequirement>,
+    /// Largest 10–90 % rise time of a 5 mm step allowed (s); absent: not required.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_rise_time_s: Option<f64>,
     /// The rig (any rig key; absent keys take the article's rig).
     pub rig: Rig,
+    /// Where the gas-fraction range came from, when an identification gave it (not a key).
+    #[serde(skip)]
+    pub evidence: Option<BetaEvidence>,
+}
+
+/// An identification's word on the gas fraction: the interval of β its records leave, at the
+/// pressure they were taken (docs/select.md#from-an-identification).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BetaEvidence {
+    /// The β interval (bar).
+    pub beta_bar: [f64; 2],
+    /// The point estimate (bar).
+    pub beta_nominal_bar: f64,
+    /// The records' mean chamber pressure (bar gauge).
+    pub p_mean_bar: f64,
+    /// The interval's confidence level.
+    pub confidence: f64,
+}
+
+impl BetaEvidence {
+    /// Identify `exp`'s records and read the β interval at `confidence` off the profiles
+    /// (docs/identification.md, "Uncertainty"), at the first record's mean chamber pressure.
+    ///
+    /// # Errors
+    /// The identification or the profiles fail, or the first record has no chamber pressures.
+    pub fn of_records(
+        exp: &crate::ident::Experiment,
+        confidence: f64,
+    ) -> Result<BetaEvidence, SelectError> {
+        let p_mean_bar = exp.mean_chamber_pressure_bar().ok_or_else(|| {
+            SelectError::Input(format!(
+                "{}: the first dataset's record has no chamber pressures (p1_bar, p2_bar) to read the gas fraction at",
+                exp.path.display()
+            ))
+        })?;
+        let (_, region) = crate::design::Region::of_records(exp, confidence)?;
+        Ok(BetaEvidence {
+            beta_bar: region.beta_bar,
+            beta_nominal_bar: region.nominal.beta_bar,
+            p_mean_bar,
+            confidence,
+        })
+    }
 }
 
 impl Default for Application {
@@ -504,7 +622,9 @@ impl Default for Application {
                 amp_mm: 35.0,
                 max_error_mm: 14.0,
             }],
+            max_rise_time_s: None,
             rig: Rig::default(),
+            evidence: None,
         }
     }
 }
@@ -563,15 +683,17 @@ impl Application {
                 None => (Some(&mut table), key),
             };
             let place = place.ok_or_else(|| err(a, "no rig table".into()))?;
-            let current = place
-                .get(leaf)
-                .ok_or_else(|| err(a, format!("unknown key `{key}`")))?;
-            let value = crate::input::typed_like(current, value).map_err(|got| {
-                err(
-                    a,
-                    format!("key `{key}` takes a {}, got {got}", current.type_str()),
-                )
-            })?;
+            let value = match place.get(leaf) {
+                Some(current) => crate::input::typed_like(current, value).map_err(|got| {
+                    err(
+                        a,
+                        format!("key `{key}` takes a {}, got {got}", current.type_str()),
+                    )
+                })?,
+                // an optional key left out: its type is checked as the application is read
+                None if OPTIONAL_KEYS.contains(&key) => value,
+                None => return Err(err(a, format!("unknown key `{key}`"))),
+            };
             place.insert(leaf.to_string(), value);
         }
         let app: Application = table.try_into().map_err(|e: toml::de::Error| {
@@ -585,6 +707,37 @@ impl Application {
         Ok(app)
     }
 
+    /// The application with its gas-fraction range read off an identified interval of β
+    /// (docs/select.md#from-an-identification): the soft end of β gives the highest X, the
+    /// stiff end the lowest, the estimate the reference.
+    ///
+    /// # Errors
+    /// An interval that is not ordered around the estimate, or a β the gas-fraction model
+    /// cannot reach (at or above the oil's modulus).
+    pub fn with_evidence(&self, e: &BetaEvidence) -> Result<Application, SelectError> {
+        let [lo, hi] = e.beta_bar;
+        if !(lo <= e.beta_nominal_bar && e.beta_nominal_bar <= hi) {
+            return Err(SelectError::Input(format!(
+                "the beta interval [{lo}, {hi}] bar does not hold its estimate {} bar",
+                e.beta_nominal_bar
+            )));
+        }
+        let x = |b: f64| {
+            crate::bulk::gas_fraction(b, e.p_mean_bar, self.beta_oil_bar)
+                .map_err(|err| SelectError::Input(format!("gas fraction from beta {b} bar: {err}")))
+        };
+        let out = Application {
+            gas_fraction_min: x(hi)?,
+            gas_fraction: x(e.beta_nominal_bar)?,
+            gas_fraction_max: x(lo)?,
+            evidence: Some(*e),
+            ..self.clone()
+        };
+        out.validate()
+            .map_err(|(key, m)| SelectError::Input(format!("key `{key}`: {m}")))?;
+        Ok(out)
+    }
+
     /// The application as TOML with a comment per key, ready to edit (what `pumpcyl select
     /// --print-default` prints).
     pub fn to_commented_toml(&self) -> String {
@@ -594,9 +747,10 @@ impl Application {
             "# pumpcyl application (docs/formats.md#application-toml; docs/select.md). Units are part of every key.\n\
              # Absent keys take the article's application; [rig] takes any rig key (`pumpcyl rig`).\n",
         );
-        for (key, doc) in APPLICATION_KEY_DOCS {
-            if let Some(value) = table.get(*key).filter(|_| *key != "wave") {
-                out.push_str(&format!("{key} = {value}  # {doc}\n"));
+        for (key, doc) in APPLICATION_KEY_DOCS.iter().filter(|(k, _)| *k != "wave") {
+            match table.get(*key) {
+                Some(value) => out.push_str(&format!("{key} = {value}  # {doc}\n")),
+                None => out.push_str(&format!("# {key} = 0.5  # {doc}\n")),
             }
         }
         for w in &self.wave {
@@ -638,10 +792,10 @@ impl Application {
                 );
             }
         }
-        if self.wave.is_empty() {
+        if self.wave.is_empty() && self.max_rise_time_s.is_none() {
             return fail(
                 "wave",
-                "no wave: the requirement needs at least one [[wave]]".into(),
+                "no requirement: give at least one [[wave]] or max_rise_time_s".into(),
             );
         }
         if self.low_pressure_bar.len() + self.pressurised_bar.len() == 0 {
@@ -682,7 +836,9 @@ impl Application {
                 ..Targets::article()
             },
             waves: self.wave.clone(),
+            max_rise_time_s: self.max_rise_time_s,
             external_force_n: self.external_force_n,
+            evidence: self.evidence,
         }
     }
 
@@ -747,10 +903,17 @@ pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
         "bar, mean chamber pressures of the pressurised dual-prime-mover circuit",
     ),
     (
+        "max_rise_time_s",
+        "s, largest 10-90 % rise time of a 5 mm step (absent: not required)",
+    ),
+    (
         "wave",
         "waves to track: [[wave]] freq_hz, amp_mm, max_error_mm",
     ),
 ];
+
+/// The application keys that may be absent (no value to take a type from).
+const OPTIONAL_KEYS: &[&str] = &["max_rise_time_s"];
 
 /// Most pressure levels an application may list.
 pub const MAX_LEVELS: usize = 200;
@@ -773,7 +936,9 @@ mod tests {
                 ..Targets::article()
             },
             waves,
+            max_rise_time_s: None,
             external_force_n: [0.0, 0.0],
+            evidence: None,
         }
     }
 
@@ -856,6 +1021,34 @@ mod tests {
         let (a, b) = (fixed.min_mean_pressure_bar, wide.min_mean_pressure_bar);
         assert!(a.is_some(), "{:?}", fixed.reasons);
         assert!(b.is_none() || b >= a, "{a:?} -> {b:?}");
+    }
+
+    /// An identified β interval maps to the gas-fraction range end for end (the soft end of
+    /// β is the most air) and round-trips through the gas-fraction model; an interval that
+    /// does not hold its estimate is refused.
+    #[test]
+    fn an_identified_beta_interval_sets_the_gas_fraction_range() {
+        let e = BetaEvidence {
+            beta_bar: [150.0, 180.0],
+            beta_nominal_bar: 165.0,
+            p_mean_bar: 4.4,
+            confidence: 0.95,
+        };
+        let app = Application::default().with_evidence(&e).unwrap();
+        let beta = |x: f64| effective_beta(x, 4.4, app.beta_oil_bar);
+        assert!((beta(app.gas_fraction_max) - 150.0).abs() < 1e-9);
+        assert!((beta(app.gas_fraction_min) - 180.0).abs() < 1e-9);
+        assert!((beta(app.gas_fraction) - 165.0).abs() < 1e-9);
+        assert_eq!(app.requirement().evidence, Some(e));
+        let outside = BetaEvidence {
+            beta_nominal_bar: 190.0,
+            ..e
+        };
+        let err = Application::default()
+            .with_evidence(&outside)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("does not hold its estimate 190"), "{err}");
     }
 
     /// A requirement no candidate meets gives no pressure and says why.

@@ -2,7 +2,7 @@
 
 use crate::figures::{trace, Chart, Plot};
 use crate::plot::{LineStyle, Panel};
-use pumpcyl::select::{Application, Circuit, Selection, Verdict};
+use pumpcyl::select::{Application, Candidate, Circuit, Selection, Verdict, RISE_STEP_MM};
 use std::fmt::Write;
 
 /// The verdict in the article's words (its §4).
@@ -23,15 +23,33 @@ fn circuit_text(c: Circuit) -> &'static str {
     }
 }
 
+/// Where the gas-fraction range came from, in words.
+pub fn gas_fraction_text(s: &Selection) -> String {
+    let [lo, x, hi] = s.gas_fraction;
+    let from = match &s.gas_fraction_from {
+        Some(e) => format!(
+            "from the identified beta {:.1} bar ({:.1} … {:.1} bar, {:.0} % confidence) at the records' mean pressure {:.2} bar",
+            e.beta_nominal_bar,
+            e.beta_bar[0],
+            e.beta_bar[1],
+            100.0 * e.confidence,
+            e.p_mean_bar
+        ),
+        None => "as stated in the application".to_string(),
+    };
+    format!("gas fraction {x:.4} ({lo:.4} … {hi:.4}), {from}")
+}
+
 /// The selection of `app` (from `origin`) as a table and the answer.
 pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "circuit selection (docs/select.md) for {origin}: gas fraction {:.4} ({:.4} … {:.4}), targets PM >= {} deg, GM >= {} dB over x0 ± {} mm",
-        app.gas_fraction, app.gas_fraction_min, app.gas_fraction_max, app.target_pm_deg, app.target_gm_db, app.stroke_mm
+        "circuit selection (docs/select.md) for {origin}: targets PM >= {} deg, GM >= {} dB over x0 ± {} mm",
+        app.target_pm_deg, app.target_gm_db, app.stroke_mm
     );
-    let waves: Vec<String> = app
+    let _ = writeln!(out, "{}", gas_fraction_text(s));
+    let mut needs: Vec<String> = app
         .wave
         .iter()
         .map(|w| {
@@ -41,11 +59,15 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             )
         })
         .collect();
-    let _ = writeln!(out, "requirement: {}", waves.join("; "));
+    needs.extend(
+        app.max_rise_time_s
+            .map(|t| format!("rise time of a {RISE_STEP_MM} mm step within {t} s")),
+    );
+    let _ = writeln!(out, "requirement: {}", needs.join("; "));
     let _ = writeln!(
         out,
-        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>10}  {:<5} reason",
-        "circuit", "p (bar)", "beta_e (bar)", "Kp max", "max |e| (mm), worst", "loss (W)", "meets"
+        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} reason",
+        "circuit", "p (bar)", "beta_e (bar)", "Kp max", "max |e| (mm)", "rise (s)", "loss (W)", "meets"
     );
     for c in &s.options {
         let worst: Vec<String> = c
@@ -53,9 +75,12 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             .iter()
             .map(|[lo, hi]| format!("{lo:.1}…{hi:.1}"))
             .collect();
+        let rise = c
+            .rise_time_s
+            .map_or("-".to_string(), |[lo, hi]| format!("{lo:.2}…{hi:.2}"));
         let _ = writeln!(
             out,
-            "  {:<13} {:>8.1} {:>17} {:>8.2} {:>22} {:>10.1}  {:<5} {}",
+            "  {:<13} {:>8.1} {:>17} {:>8.2} {:>22} {:>12} {:>10.1}  {:<5} {}",
             circuit_text(c.circuit),
             c.mean_pressure_bar,
             format!("{:.0} … {:.0}", c.beta_e_bar[0], c.beta_e_bar[1]),
@@ -65,6 +90,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             } else {
                 worst.join(", ")
             },
+            rise,
             c.standing_loss_w,
             if c.meets { "yes" } else { "no" },
             c.reason
@@ -83,86 +109,47 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     out
 }
 
-/// The selection as a figure: the largest Kp and each wave's tracking-error band against the
-/// mean pressure, one colour a circuit (solid: the highest gas fraction, dashed: the lowest),
-/// the requirement as a dashed line and the chosen pressure as a dotted vertical.
+/// The selection as a figure: the largest Kp, each wave's tracking-error band and, when
+/// required, the rise-time band against the mean pressure, one colour a circuit (solid: the
+/// worst case over the uncertainty, dashed: the best), the requirement as a dashed line and the
+/// chosen pressure as a dotted vertical.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
-    let circuits = [Circuit::LowPressure, Circuit::Pressurised];
-    let of = |c: Circuit| -> Vec<&pumpcyl::select::Candidate> {
-        s.options.iter().filter(|o| o.circuit == c).collect()
-    };
     let chosen = s.min_mean_pressure_bar;
-    let vertical = |lo: f64, hi: f64| {
-        chosen.map(|p| trace("chosen", &[p, p], &[lo, hi], LineStyle::Dotted, Some(6)))
-    };
     let mut kp = Panel {
         y_label: "Largest Kp (1/m)".into(),
         traces: Vec::new(),
     };
-    for (k, c) in circuits.into_iter().enumerate() {
-        let o = of(c);
-        let p: Vec<f64> = o.iter().map(|o| o.mean_pressure_bar).collect();
+    for (k, c) in CIRCUITS.into_iter().enumerate() {
+        let (p, o) = of_circuit(s, c);
         let y: Vec<f64> = o.iter().map(|o| o.kp_max).collect();
         kp.traces
             .push(trace(circuit_text(c), &p, &y, LineStyle::Solid, Some(k)));
     }
     let top = s.options.iter().map(|o| o.kp_max).fold(0.0, f64::max);
-    kp.traces.extend(vertical(0.0, top));
+    kp.traces.extend(chosen_line(chosen, top));
     let mut panels = vec![kp];
     for (w, wave) in app.wave.iter().enumerate() {
-        let mut panel = Panel {
-            y_label: format!("max |e| (mm), {} Hz ±{} mm", wave.freq_hz, wave.amp_mm),
-            traces: Vec::new(),
-        };
-        let mut all_p = Vec::new();
-        for (k, c) in circuits.into_iter().enumerate() {
-            let o = of(c);
-            let p: Vec<f64> = o.iter().map(|o| o.mean_pressure_bar).collect();
-            let band = |i: usize| -> Vec<f64> {
-                o.iter()
-                    .map(|o| o.tracking_max_error_mm.get(w).map_or(f64::NAN, |e| e[i]))
-                    .collect()
-            };
-            let name = circuit_text(c);
-            panel.traces.push(trace(
-                &format!("{name}, most air"),
-                &p,
-                &band(1),
-                LineStyle::Solid,
-                Some(k),
-            ));
-            panel.traces.push(trace(
-                &format!("{name}, least air"),
-                &p,
-                &band(0),
-                LineStyle::Dashed,
-                Some(k),
-            ));
-            all_p.extend(p);
-        }
-        let (lo, hi) = all_p
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &p| {
-                (l.min(p), h.max(p))
-            });
-        if lo.is_finite() {
-            panel.traces.push(trace(
-                "requirement",
-                &[lo, hi],
-                &[wave.max_error_mm; 2],
-                LineStyle::Dashed,
-                Some(6),
-            ));
-        }
-        panel.traces.extend(vertical(0.0, 2.0 * wave.max_error_mm));
-        panels.push(panel);
+        panels.push(band_panel(
+            s,
+            format!("max |e| (mm), {} Hz ±{} mm", wave.freq_hz, wave.amp_mm),
+            &|o| o.tracking_max_error_mm.get(w).copied(),
+            wave.max_error_mm,
+        ));
+    }
+    if let Some(max) = app.max_rise_time_s {
+        panels.push(band_panel(
+            s,
+            format!("Rise time (s), {RISE_STEP_MM} mm step"),
+            &|o| o.rise_time_s,
+            max,
+        ));
     }
     Chart {
         title: "Which circuit: largest Kp and tracking error against the pressure level".into(),
         subtitle: Some(format!(
             "gas fraction {:.4} … {:.4}; {}",
-            app.gas_fraction_min,
-            app.gas_fraction_max,
+            s.gas_fraction[0],
+            s.gas_fraction[2],
             chosen.map_or("no level meets the requirement".to_string(), |p| format!(
                 "chosen: {p} bar ({})",
                 verdict_text(s.verdict).to_lowercase()
@@ -173,4 +160,69 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
             panels,
         },
     }
+}
+
+const CIRCUITS: [Circuit; 2] = [Circuit::LowPressure, Circuit::Pressurised];
+
+/// The candidates of circuit `c` and their mean pressures (bar).
+fn of_circuit(s: &Selection, c: Circuit) -> (Vec<f64>, Vec<&Candidate>) {
+    let o: Vec<&Candidate> = s.options.iter().filter(|o| o.circuit == c).collect();
+    (o.iter().map(|o| o.mean_pressure_bar).collect(), o)
+}
+
+/// The chosen pressure as a dotted vertical from 0 to `top`.
+fn chosen_line(chosen: Option<f64>, top: f64) -> Option<crate::plot::Trace> {
+    chosen.map(|p| trace("chosen", &[p, p], &[0.0, top], LineStyle::Dotted, Some(6)))
+}
+
+/// A panel of a [least, most] band per candidate (`band`; NaN where absent) against the mean
+/// pressure, one colour a circuit, with the requirement `limit` and the chosen pressure.
+fn band_panel(
+    s: &Selection,
+    y_label: String,
+    band: &dyn Fn(&Candidate) -> Option<[f64; 2]>,
+    limit: f64,
+) -> Panel {
+    let mut panel = Panel {
+        y_label,
+        traces: Vec::new(),
+    };
+    for (k, c) in CIRCUITS.into_iter().enumerate() {
+        let (p, o) = of_circuit(s, c);
+        let end = |i: usize| -> Vec<f64> {
+            o.iter()
+                .map(|o| band(o).map_or(f64::NAN, |b| b[i]))
+                .map(|v| if v.is_finite() { v } else { f64::NAN })
+                .collect()
+        };
+        let name = circuit_text(c);
+        panel.traces.push(trace(
+            &format!("{name}, worst case"),
+            &p,
+            &end(1),
+            LineStyle::Solid,
+            Some(k),
+        ));
+        panel.traces.push(trace(
+            &format!("{name}, best case"),
+            &p,
+            &end(0),
+            LineStyle::Dashed,
+            Some(k),
+        ));
+    }
+    let (lo, hi) = s.options.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), o| {
+        (l.min(o.mean_pressure_bar), h.max(o.mean_pressure_bar))
+    });
+    if lo.is_finite() {
+        panel.traces.push(trace(
+            "requirement",
+            &[lo, hi],
+            &[limit; 2],
+            LineStyle::Dashed,
+            Some(6),
+        ));
+    }
+    panel.traces.extend(chosen_line(s.min_mean_pressure_bar, 2.0 * limit));
+    panel
 }

@@ -173,6 +173,14 @@ pub struct Experiment {
 }
 
 impl Experiment {
+    /// The mean chamber pressure (bar gauge) of the first dataset's record, averaged over its
+    /// samples: the pressure its identified β holds at (docs/bulk-modulus.md#fitting-the-gas-fraction);
+    /// `None` when that record has no chamber pressures.
+    pub fn mean_chamber_pressure_bar(&self) -> Option<f64> {
+        let p = self.problem.datasets.first()?.record.mean_chamber_pressure_bar()?;
+        Some(p.iter().sum::<f64>() / p.len() as f64)
+    }
+
     /// Read, check and prepare an experiment; every error names the file, and the line and key
     /// it concerns (a record's own errors name the record's line and column as well).
     pub fn load(path: &Path) -> Result<Experiment, IdentError> {

@@ -41,10 +41,7 @@ pub(super) fn pressure_study(
     truth: &article::Truth,
 ) -> Result<Pressure> {
     run.step("Bulk modulus against pressure: gas fraction and margins (docs/bulk-modulus.md)");
-    let rec = &exp.problem.datasets[0].record;
-    let p_mean = rec
-        .mean_chamber_pressure_bar()
-        .map_or(f64::NAN, |p| p.iter().sum::<f64>() / p.len() as f64);
+    let p_mean = exp.mean_chamber_pressure_bar().unwrap_or(f64::NAN);
     let x = gas_fraction(nominal.beta_bar, p_mean, BETA_OIL_BAR)?;
     let pressures = [1.0, p_mean, 10.0];
     let rows = bulk::table(nominal, x, BETA_OIL_BAR, &pressures)?;
