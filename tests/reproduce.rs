@@ -24,7 +24,7 @@ fn reproduced() -> &'static (PathBuf, String) {
             String::from_utf8_lossy(&out.stderr)
         );
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(stderr.contains("[9/9"), "progress shown: {stderr}");
+        assert!(stderr.contains("[10/10"), "progress shown: {stderr}");
         (dir, String::from_utf8(out.stdout).unwrap())
     })
 }
@@ -146,6 +146,7 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "profile-viscous_friction_ns_per_m",
         "profile-c12_m5_per_ns",
         "robust-margins",
+        "which_circuit",
     ];
     for stem in stems {
         for ext in ["svg", "png"] {
@@ -171,7 +172,7 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         assert!(dir.join("identification").join(f).exists(), "{f}");
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
-    // 19 figures, the landscape and the two fits
+    // 20 figures, the landscape and the two fits
     assert_eq!(html.matches("<figure>").count(), stems.len() + 3);
     assert!(html.contains("EMULATED"));
     // every number the article prints sits beside pumpcyl's
@@ -352,13 +353,15 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
             .to_rgb8();
         // reproduce asks for 1500 px wide figures: 1500 x 1125 Bode diagrams, 1500 x 1200 for
         // plots against another variable than time (β_e against pressure, the likelihood
-        // profiles, the margins over the stroke), 1500 x 1500 for the stacked time series.
+        // profiles, the margins over the stroke, the selection over pressure), 1500 x 1500 for
+        // the stacked time series.
         let name = p.file_name().unwrap().to_string_lossy().to_string();
         let height = if name.starts_with("bode_") {
             1125
         } else if name == "bulk_modulus.png"
             || name.starts_with("profile-")
             || name == "robust-margins.png"
+            || name == "which_circuit.png"
         {
             1200
         } else {

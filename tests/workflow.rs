@@ -130,9 +130,9 @@ fn progress_reports_every_step_and_every_candidate() {
 #[test]
 fn every_figure_is_rendered_in_memory() {
     let r = &run().result;
-    assert_eq!(r.figures.len(), 19);
+    assert_eq!(r.figures.len(), 20);
     let stems: BTreeSet<&str> = r.figures.iter().map(|f| f.stem.as_str()).collect();
-    assert_eq!(stems.len(), 19, "stems are distinct");
+    assert_eq!(stems.len(), 20, "stems are distinct");
     for f in &r.figures {
         assert!(
             f.svg.contains("<svg") && f.svg.trim_end().ends_with("</svg>"),
@@ -153,7 +153,7 @@ fn every_figure_is_rendered_in_memory() {
     let html = r.report_html();
     assert_eq!(
         html.matches("<figure>").count(),
-        19 + 3,
+        20 + 3,
         "and the landscape and two fits"
     );
 }
@@ -299,4 +299,50 @@ fn how_sure_holds_the_truth_and_designs_below_the_point_estimate() {
             .count(),
         3
     );
+}
+
+#[test]
+fn which_circuit_answers_the_articles_advice_before_and_after_the_identification() {
+    let r = &run().result;
+    let w = &r.summary.which_circuit;
+    let records = pumpcyl::emulator::article::records().unwrap();
+    let truth_x = records[0].truth.effects.gas_fraction.unwrap();
+    // the identified gas-fraction range holds the air the records were emulated with, and
+    // lies inside the stated factor-2 range
+    let [lo, _, hi] = w.identified.gas_fraction;
+    assert!(lo <= truth_x && truth_x <= hi, "{lo} {truth_x} {hi}");
+    assert!(w.stated.gas_fraction[0] <= lo && hi <= w.stated.gas_fraction[2]);
+    // a narrower range never needs a higher pressure
+    let stated = w.stated.min_mean_pressure_bar.expect("a level meets it");
+    let identified = w
+        .identified
+        .min_mean_pressure_bar
+        .expect("a level meets it");
+    assert!(identified <= stated, "{identified} > {stated}");
+    // the article's own circuit: its gain, at the records' mean pressure; it meets the
+    // requirement exactly when its gain is within the largest that holds over the range
+    let a = &w.article_choice;
+    assert_eq!(a.kp_max, 25.0);
+    assert!((a.mean_pressure_bar - r.p_mean_bar).abs() < 1e-12);
+    assert!(a.kp_max_range > 0.0 && a.kp_max_range <= a.kp_max_reference);
+    if a.kp_max_range < 25.0 {
+        assert!(!a.meets);
+    }
+    // the largest Kp over the range at the lowest level meeting it is the design's own worst
+    // case at the softest β_e there
+    let c = w
+        .stated
+        .options
+        .iter()
+        .find(|c| c.mean_pressure_bar == stated && c.meets)
+        .unwrap();
+    let app = pumpcyl::select::Application::default();
+    let soft = pumpcyl::rig::Rig {
+        beta_bar: c.beta_e_bar[0],
+        p_sum_ref_bar: 2.0 * stated,
+        ..app.rig.clone()
+    };
+    let kp = pumpcyl::design::kp_max_worst_case(&soft, &app.requirement().targets).unwrap();
+    assert!(c.kp_max <= kp + 1e-9, "{} > {kp}", c.kp_max);
+    assert!(r.figures.iter().any(|f| f.stem == "which_circuit"));
 }

@@ -126,6 +126,9 @@ pub struct Candidate {
     /// The largest Kp meeting the margin targets over the stroke, the loads and the whole
     /// gas-fraction range (1/m); 0 when none does. With a fixed gain, that gain.
     pub kp_max: f64,
+    /// The largest Kp meeting the margin targets over the stroke, the loads and the whole
+    /// gas-fraction range (1/m), also when the gain is fixed; 0 when none does.
+    pub kp_max_range: f64,
     /// The largest Kp at the reference gas fraction (1/m).
     pub kp_max_reference: f64,
     /// Each wave's largest control error at `kp_max` over the gas-fraction range and the
@@ -324,6 +327,7 @@ fn candidate(
         mean_pressure_bar: p_bar,
         beta_e_bar: [soft.beta_bar, stiff.beta_bar],
         kp_max,
+        kp_max_range: kp_range,
         kp_max_reference: kp_reference,
         tracking_max_error_mm: Vec::new(),
         rise_time_s: None,
@@ -360,7 +364,9 @@ fn candidate(
     let failing = shortfalls(req, &out);
     out.meets = failing.is_empty();
     out.reason = if failing.is_empty() {
-        format!("meets every requirement at Kp = {kp_max:.2} over the gas-fraction range and the loads")
+        format!(
+            "meets every requirement at Kp = {kp_max:.2} over the gas-fraction range and the loads"
+        )
     } else {
         failing.join("; ")
     };
@@ -590,12 +596,18 @@ impl BetaEvidence {
             ))
         })?;
         let (_, region) = crate::design::Region::of_records(exp, confidence)?;
-        Ok(BetaEvidence {
+        Ok(BetaEvidence::of_region(&region, confidence, p_mean_bar))
+    }
+
+    /// The β interval of a confidence `region` already computed (at `confidence`), read at the
+    /// records' mean chamber pressure `p_mean_bar` (bar).
+    pub fn of_region(region: &crate::design::Region, confidence: f64, p_mean_bar: f64) -> Self {
+        BetaEvidence {
             beta_bar: region.beta_bar,
             beta_nominal_bar: region.nominal.beta_bar,
             p_mean_bar,
             confidence,
-        })
+        }
     }
 }
 

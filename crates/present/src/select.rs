@@ -28,7 +28,7 @@ pub fn gas_fraction_text(s: &Selection) -> String {
     let [lo, x, hi] = s.gas_fraction;
     let from = match &s.gas_fraction_from {
         Some(e) => format!(
-            "from the identified beta {:.1} bar ({:.1} … {:.1} bar, {:.0} % confidence) at the records' mean pressure {:.2} bar",
+            "from the identified β {:.1} bar ({:.1} … {:.1} bar, {:.0} % confidence) at the records' mean pressure {:.2} bar",
             e.beta_nominal_bar,
             e.beta_bar[0],
             e.beta_bar[1],
@@ -67,7 +67,14 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     let _ = writeln!(
         out,
         "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} reason",
-        "circuit", "p (bar)", "beta_e (bar)", "Kp max", "max |e| (mm)", "rise (s)", "loss (W)", "meets"
+        "circuit",
+        "p (bar)",
+        "beta_e (bar)",
+        "Kp max",
+        "max |e| (mm)",
+        "rise (s)",
+        "loss (W)",
+        "meets"
     );
     for c in &s.options {
         let worst: Vec<String> = c
@@ -109,10 +116,11 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     out
 }
 
-/// The selection as a figure: the largest Kp, each wave's tracking-error band and, when
-/// required, the rise-time band against the mean pressure, one colour a circuit (solid: the
-/// worst case over the uncertainty, dashed: the best), the requirement as a dashed line and the
-/// chosen pressure as a dotted vertical.
+/// The selection as a figure: the largest Kp (over the whole gas-fraction range, solid, and at
+/// the reference gas fraction, dotted), each wave's tracking-error band and, when required, the
+/// rise-time band against the mean pressure, one colour a circuit (solid: the worst case over
+/// the uncertainty, dashed: the best), the requirement as a dashed line and the chosen pressure
+/// as a dotted vertical.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     let chosen = s.min_mean_pressure_bar;
     let mut kp = Panel {
@@ -122,10 +130,28 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     for (k, c) in CIRCUITS.into_iter().enumerate() {
         let (p, o) = of_circuit(s, c);
         let y: Vec<f64> = o.iter().map(|o| o.kp_max).collect();
-        kp.traces
-            .push(trace(circuit_text(c), &p, &y, LineStyle::Solid, Some(k)));
+        let name = circuit_text(c);
+        kp.traces.push(trace(
+            &format!("{name}, worst case"),
+            &p,
+            &y,
+            LineStyle::Solid,
+            Some(k),
+        ));
+        let y: Vec<f64> = o.iter().map(|o| o.kp_max_reference).collect();
+        kp.traces.push(trace(
+            &format!("{name}, reference gas fraction"),
+            &p,
+            &y,
+            LineStyle::Dotted,
+            Some(k),
+        ));
     }
-    let top = s.options.iter().map(|o| o.kp_max).fold(0.0, f64::max);
+    let top = s
+        .options
+        .iter()
+        .map(|o| o.kp_max.max(o.kp_max_reference))
+        .fold(0.0, f64::max);
     kp.traces.extend(chosen_line(chosen, top));
     let mut panels = vec![kp];
     for (w, wave) in app.wave.iter().enumerate() {
@@ -211,9 +237,12 @@ fn band_panel(
             Some(k),
         ));
     }
-    let (lo, hi) = s.options.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), o| {
-        (l.min(o.mean_pressure_bar), h.max(o.mean_pressure_bar))
-    });
+    let (lo, hi) = s
+        .options
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), o| {
+            (l.min(o.mean_pressure_bar), h.max(o.mean_pressure_bar))
+        });
     if lo.is_finite() {
         panel.traces.push(trace(
             "requirement",
@@ -223,6 +252,8 @@ fn band_panel(
             Some(6),
         ));
     }
-    panel.traces.extend(chosen_line(s.min_mean_pressure_bar, 2.0 * limit));
+    panel
+        .traces
+        .extend(chosen_line(s.min_mean_pressure_bar, 2.0 * limit));
     panel
 }

@@ -177,7 +177,12 @@ impl Experiment {
     /// samples: the pressure its identified β holds at (docs/bulk-modulus.md#fitting-the-gas-fraction);
     /// `None` when that record has no chamber pressures.
     pub fn mean_chamber_pressure_bar(&self) -> Option<f64> {
-        let p = self.problem.datasets.first()?.record.mean_chamber_pressure_bar()?;
+        let p = self
+            .problem
+            .datasets
+            .first()?
+            .record
+            .mean_chamber_pressure_bar()?;
         Some(p.iter().sum::<f64>() / p.len() as f64)
     }
 

@@ -17,7 +17,7 @@ use pumpcyl::ident::{UncertaintyOptions, PARAMETERS};
 use pumpcyl::rig::Rig;
 
 /// Confidence level of the intervals and of the region the design holds over.
-const CONFIDENCE: f64 = 0.95;
+pub(super) const CONFIDENCE: f64 = 0.95;
 /// Candidate experiments listed in the report (the best first).
 const LISTED: usize = 6;
 

@@ -20,7 +20,7 @@
 //! assert!((r.identified.beta_bar - 165.0).abs() < 10.0);
 //! // the default rig's gain margin, as the article prints it (6.5 dB, §2.3.3)
 //! assert!((r.default_margins.gain_margin_db.unwrap() - 6.5).abs() < 0.1);
-//! assert_eq!(r.figures.len(), 15);
+//! assert_eq!(r.figures.len(), 20);
 //! // the whole result folder, swapped in at once: figures/, records/, identification/,
 //! // summary.json, report.html
 //! r.write(std::path::Path::new("reproduced"))?;
@@ -28,6 +28,7 @@
 //! ```
 
 mod certainty;
+mod circuit;
 mod identification;
 mod studies;
 pub mod summary;
@@ -50,7 +51,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 9;
+pub const STEPS: usize = 10;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -361,6 +362,12 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     };
     let (certainty, how_sure) =
         certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
+    let which_circuit = circuit::which_circuit(
+        &mut run,
+        &certainty.robust.region,
+        certainty::CONFIDENCE,
+        pressure.p_mean_bar,
+    )?;
     let seconds = start.elapsed().as_secs_f64();
     let summary = Summary {
         emulated_inputs: true,
@@ -382,6 +389,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         tracking,
         design,
         how_sure,
+        which_circuit,
         seconds,
     };
     Ok(Reproduction {

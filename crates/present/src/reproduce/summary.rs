@@ -51,6 +51,8 @@ pub struct Summary {
     pub design: DesignCheck,
     /// Step 9: how sure the identification is.
     pub how_sure: HowSure,
+    /// Step 10: which circuit, before the rig was built and after the identification.
+    pub which_circuit: WhichCircuit,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
 }
@@ -513,4 +515,17 @@ pub struct AdviceSummary {
     pub best_for: [String; 3],
     /// The best candidates.
     pub top: Vec<Assessment>,
+}
+
+/// Step 10: the article's closing advice (its §4) on its own application
+/// (docs/select.md#the-article-s-application).
+#[derive(Debug, Clone, Serialize)]
+pub struct WhichCircuit {
+    /// Over the stated gas-fraction range (the article's 2.64 %, a factor 2 either way).
+    pub stated: pumpcyl::select::Selection,
+    /// The article's own circuit: low-pressure at the records' mean pressure, Kp 25, over the
+    /// stated range.
+    pub article_choice: pumpcyl::select::Candidate,
+    /// Over the gas-fraction range read off the identification's interval of β.
+    pub identified: pumpcyl::select::Selection,
 }

@@ -1,0 +1,197 @@
+//! Step 10, "Which circuit": the article's closing advice (its §4) run on its own application
+//! (docs/select.md#the-article-s-application). Before the rig was built, with the undissolved
+//! air known only to a factor 2, would the low-pressure circuit have been a certain choice, and
+//! was the article's own (its pressure level, Kp 25)? Then the same question with the gas
+//! fraction read off the identification's interval of β (step 9).
+
+use super::summary::WhichCircuit;
+use super::{printed, Run, Source};
+use crate::select::{gas_fraction_text, selection_chart, verdict_text};
+use anyhow::Result;
+use pumpcyl::design::Region;
+use pumpcyl::select::{select, Application, BetaEvidence, Candidate, Circuit, Selection};
+
+/// Step 10: the selection on the article's application with the stated gas-fraction range and
+/// with the identified one (`region` at `confidence`, read at `p_mean_bar`), and the article's
+/// own circuit at its pressure level and gain.
+pub(super) fn which_circuit(
+    run: &mut Run,
+    region: &Region,
+    confidence: f64,
+    p_mean_bar: f64,
+) -> Result<WhichCircuit> {
+    run.step("Which circuit (the article §4): was the article's low-pressure circuit a certain choice? (docs/select.md)");
+    let app = Application::default();
+    let stated = app.select(None)?;
+    let article = select(
+        &app.rig,
+        &app.requirement(),
+        &[(Circuit::LowPressure, p_mean_bar)],
+        Some(printed::KP),
+    )?
+    .options
+    .remove(0);
+    let evidence = BetaEvidence::of_region(region, confidence, p_mean_bar);
+    let identified = app.with_evidence(&evidence)?.select(None)?;
+    run.text(&explanation(&app, &stated, &article, &identified));
+    compare(run, &stated, &article, &identified);
+    run.table(
+        "Which circuit: each level over the stated gas-fraction range (×/÷ 2) and over the identified one",
+        &HEADER,
+        stated
+            .options
+            .iter()
+            .zip(&identified.options)
+            .map(|(s, i)| row(s, i))
+            .collect(),
+    );
+    let chart = selection_chart(&app, &stated);
+    run.figure(
+        "which_circuit",
+        Source::Own,
+        "Which circuit (the article's §4 advice as a computation): the largest Kp and the 0.2 Hz ±35 mm tracking error against the mean pressure over the stated gas-fraction range",
+        &chart,
+    )?;
+    Ok(WhichCircuit {
+        stated,
+        article_choice: article,
+        identified,
+    })
+}
+
+/// The comparison rows: the lowest certain level before and after the identification, beside
+/// the article's advice (it gives no number).
+fn compare(run: &mut Run, stated: &Selection, article: &Candidate, identified: &Selection) {
+    let level = |s: &Selection| {
+        let kp = s
+            .options
+            .iter()
+            .find(|c| Some(c.mean_pressure_bar) == s.min_mean_pressure_bar && c.meets)
+            .map_or(String::new(), |c| format!(" (Kp {:.2})", c.kp_max));
+        s.min_mean_pressure_bar
+            .map_or("none".to_string(), |p| format!("{p} bar{kp}"))
+    };
+    run.compare_why(
+        "§4 advice: lowest mean pressure where the low-pressure circuit is certain, stated X ×/÷ 2 / identified X",
+        format!("{} / {}", level(stated), level(identified)),
+        "predict it before building (no number given)",
+        "-",
+        "over the article's loads, stroke, targets and its 0.2 Hz ±35 mm wave within 14 mm (docs/select.md)",
+    );
+    run.compare_why(
+        "§4 advice: the article's own circuit (low-pressure, records' mean pressure, Kp 25) certain before building?",
+        format!(
+            "{}: largest Kp over the stated X range {:.2}",
+            if article.meets { "yes" } else { "no" },
+            article.kp_max_range
+        ),
+        "the rig worked (its Figures 16-18)",
+        "-",
+        choice(article),
+    );
+}
+
+/// Whether the article's circuit was a certain choice, and why not.
+fn choice(article: &Candidate) -> &'static str {
+    match (article.meets, article.meets_reference) {
+        (true, _) => "a certain choice",
+        (false, true) => {
+            "not a certain choice before the rig was built: it holds at the reference gas fraction, not over the stated range"
+        }
+        (false, false) => {
+            "not a certain choice before the rig was built: at Kp 25 the margin targets are missed over the stroke and the loads even at the reference gas fraction (the article checks its margins at x0 with one mass)"
+        }
+    }
+}
+
+const HEADER: [&str; 9] = [
+    "circuit",
+    "p (bar)",
+    "stated X: β_e (bar)",
+    "Kp max",
+    "max |e| (mm)",
+    "identified X: β_e (bar)",
+    "Kp max",
+    "max |e| (mm)",
+    "standing loss (W)",
+];
+
+/// One level's row: the stated range beside the identified one.
+fn row(stated: &Candidate, identified: &Candidate) -> Vec<String> {
+    let beta = |c: &Candidate| format!("{:.0}–{:.0}", c.beta_e_bar[0], c.beta_e_bar[1]);
+    let error = |c: &Candidate| {
+        let e: Vec<String> = c
+            .tracking_max_error_mm
+            .iter()
+            .map(|[_, worst]| format!("{worst:.1}"))
+            .collect();
+        let e = if e.is_empty() {
+            "-".into()
+        } else {
+            e.join(", ")
+        };
+        format!("{e} {}", if c.meets { "✓" } else { "✗" })
+    };
+    vec![
+        match stated.circuit {
+            Circuit::LowPressure => "low-pressure",
+            Circuit::Pressurised => "pressurised",
+        }
+        .into(),
+        format!("{}", stated.mean_pressure_bar),
+        beta(stated),
+        format!("{:.2}", stated.kp_max),
+        error(stated),
+        beta(identified),
+        format!("{:.2}", identified.kp_max),
+        error(identified),
+        format!("{:.1}", stated.standing_loss_w),
+    ]
+}
+
+/// The answer in words: the stated range's verdict, the article's own circuit, the identified
+/// range's verdict.
+fn explanation(
+    app: &Application,
+    stated: &Selection,
+    article: &Candidate,
+    identified: &Selection,
+) -> String {
+    let level = |s: &Selection| {
+        s.min_mean_pressure_bar
+            .map_or("no level".to_string(), |p| format!("{p} bar"))
+    };
+    let w = &app.wave[0];
+    format!(
+        "The article ends (its §4) by advising to predict with LTI models, before the system is built, \
+         whether a low-pressure circuit will work, and to choose a circuit with a higher effective bulk \
+         modulus where the prediction is uncertain. pumpcyl's select (docs/select.md) does that on the \
+         article's application: its rig, its loads, PM ≥ {} deg and GM ≥ {} dB over x0 ± {} mm, and its \
+         {} Hz ±{} mm wave within {} mm. Before the rig was built, with the {}: {} from {} ({}). \
+         The article's own circuit, the low-pressure circuit at the records' mean pressure {:.2} bar with \
+         Kp {}: {}over the whole gas-fraction range ({}); at the reference gas fraction the margin \
+         targets {}. So the article's circuit was {}. With the {} (step 9), the answer is {} from {} \
+         ({}): the identification removes most of the uncertainty that made the low-pressure choice \
+         uncertain. The standing loss is the leakage's Σ p × Q at rest (docs/select.md#cost).",
+        app.target_pm_deg,
+        app.target_gm_db,
+        app.stroke_mm,
+        w.freq_hz,
+        w.amp_mm,
+        w.max_error_mm,
+        gas_fraction_text(stated),
+        verdict_text(stated.verdict).to_lowercase(),
+        level(stated),
+        stated.reasons.join("; "),
+        article.mean_pressure_bar,
+        printed::KP,
+        if article.meets { "meets the requirement " } else { "does not meet the requirement " },
+        article.reason,
+        if article.meets_reference { "hold" } else { "do not hold over the stroke and the loads" },
+        choice(article),
+        gas_fraction_text(identified),
+        verdict_text(identified.verdict).to_lowercase(),
+        level(identified),
+        identified.reasons.join("; "),
+    )
+}
