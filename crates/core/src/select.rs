@@ -389,7 +389,7 @@ fn shortfalls(req: &Requirement, c: &Candidate) -> Vec<String> {
         })
         .collect();
     if let (Some(max), Some([_, worst])) = (req.max_rise_time_s, c.rise_time_s) {
-        if !(worst <= max) {
+        if worst > max {
             let worst = if worst.is_finite() {
                 format!("up to {worst:.3} s")
             } else {
