@@ -52,14 +52,8 @@ pub struct DesignArgs {
     /// confidence region of beta, b and c12; the experiment's rig is designed.
     #[arg(long, value_name = "EXPERIMENT.toml", requires = "robust", conflicts_with_all = ["rig", "set"])]
     experiment: Option<PathBuf>,
-    /// Confidence level of the region from the records, in (0, 1).
-    #[arg(
-        long,
-        default_value_t = 0.95,
-        requires = "experiment",
-        allow_negative_numbers = true
-    )]
-    confidence: f64,
+    #[command(flatten)]
+    confidence: crate::ConfidenceArg,
     /// Result folder for --robust: result.json and robust-margins.svg/.png (the margins over
     /// the stroke at the deciding parameter point).
     #[arg(long, value_name = "DIR", requires = "robust")]
@@ -114,7 +108,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
             rig,
             origin: args.rig.origin(),
             experiment: args.experiment.as_deref(),
-            confidence: args.confidence,
+            confidence: args.confidence.confidence,
         };
         return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
     }

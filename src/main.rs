@@ -105,6 +105,20 @@ struct RigArgs {
     set: Vec<String>,
 }
 
+/// The confidence level of what `--experiment`'s records give (an interval or a region),
+/// checked in (0, 1) before any work.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct ConfidenceArg {
+    /// Confidence level of the interval or region read off the --experiment records, in (0, 1).
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        requires = "experiment",
+        allow_negative_numbers = true
+    )]
+    pub(crate) confidence: f64,
+}
+
 /// A rig: the embedded default or a file, with `--set` overrides.
 #[derive(Debug, Clone, Args)]
 pub struct RigSource {

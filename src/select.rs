@@ -28,14 +28,8 @@ pub struct SelectArgs {
     /// application's gas_fraction keys (docs/select.md#from-an-identification).
     #[arg(long, value_name = "EXPERIMENT.toml")]
     experiment: Option<PathBuf>,
-    /// Confidence level of that interval, in (0, 1).
-    #[arg(
-        long,
-        default_value_t = 0.95,
-        requires = "experiment",
-        allow_negative_numbers = true
-    )]
-    confidence: f64,
+    #[command(flatten)]
+    confidence: crate::ConfidenceArg,
     /// Print the application as commented TOML (with --set applied) and stop.
     #[arg(long)]
     print_default: bool,
@@ -57,9 +51,9 @@ pub fn run(args: &SelectArgs) -> Result<String> {
     };
     let mut app = base.with_overrides("--set", &args.set)?;
     if let Some(path) = &args.experiment {
-        crate::emit::check_confidence(args.confidence)?;
+        crate::emit::check_confidence(args.confidence.confidence)?;
         let exp = Experiment::load_in(crate::inputs::files(), path)?;
-        let evidence = BetaEvidence::of_records(&exp, args.confidence)?;
+        let evidence = BetaEvidence::of_records(&exp, args.confidence.confidence)?;
         app = app
             .with_evidence(&evidence)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
