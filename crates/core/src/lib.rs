@@ -42,6 +42,7 @@
 pub mod bulk;
 pub mod design;
 pub mod emulator;
+pub mod fmu;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod ident;

@@ -577,6 +577,11 @@ impl Rig {
         rule.violated(value)
     }
 
+    /// Every key with its documentation ("unit, meaning"), in the order of the commented TOML.
+    pub fn key_docs() -> impl Iterator<Item = (&'static str, &'static str)> {
+        KEY_DOCS.iter().flat_map(|(_, keys)| keys.iter().copied())
+    }
+
     /// Every numeric key with its value and allowed range.
     fn numeric_fields(&self) -> Vec<(&'static str, f64, Range)> {
         use Range::*;

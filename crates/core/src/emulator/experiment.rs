@@ -221,7 +221,7 @@ impl Experiment {
 }
 
 /// Noisy run-in before a record starts (s), so its first samples carry the PLC's jitter.
-const SETTLE_S: f64 = 0.5;
+pub const SETTLE_S: f64 = 0.5;
 
 /// A velocity step of one drive, its motor decoupled from the pump and the feedforward off
 /// (the article §2.4.1; docs/identification.md#drive-gain): Jm ω̇ = τem, τem = τref/(s/ωI + 1), τref = Km (ωref − ω), the torque reference

@@ -13,9 +13,9 @@ mod plc;
 
 pub use experiment::{
     DriveSignals, DriveStep, Experiment, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ, RECORD_S,
-    SINE_PERIODS, STEP_MM,
+    SETTLE_S, SINE_PERIODS, STEP_MM,
 };
-pub use plc::{emulate, equilibrium, Plc};
+pub use plc::{emulate, equilibrium, hold_speeds, Plc, PlcLoop};
 
 use crate::bulk::effective_beta;
 
@@ -140,6 +140,16 @@ impl Dynamics {
             max_pump_speed: rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM,
             effects,
         })
+    }
+
+    /// Change the external force on the piston (N).
+    pub fn set_external_force_n(&mut self, f_n: f64) {
+        self.si.f_ext = f_n;
+    }
+
+    /// The state positions.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
     }
 
     /// Number of states.

@@ -155,17 +155,95 @@ pub fn emulate(
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
 ) -> Result<Signals, EmulatorError> {
-    let r0 = x_ref_mm(0.0);
-    let mut x = equilibrium(rig, dynamics, r0)?;
-    let mut noise = Noise::new(plc.seed);
-    let ts = 1.0 / plc.rate_hz;
-    let settle_steps = (settle_s * plc.rate_hz).round() as usize;
-    for k in 0..settle_steps {
-        let t = -settle_s + k as f64 * ts;
-        let m = measure(&x, dynamics, plc, &mut noise);
-        x = hold(dynamics, &x, control(rig, r0, &m), t, t + ts)?;
+    let mut run = PlcLoop::settled(rig, dynamics, plc, x_ref_mm(0.0), settle_s)?;
+    record(&mut run, duration_s, x_ref_mm)
+}
+
+/// The PLC around the emulated rig, advanced one sample at a time: at each sample the PLC
+/// measures and computes the speed references ([`PlcLoop::sample`]), which are held while the
+/// rig is integrated to the next sample ([`PlcLoop::hold`]). [`emulate`] and the FMU
+/// (docs/fmu.md) run the same sequence, so they give the same records.
+#[derive(Clone)]
+pub struct PlcLoop {
+    rig: Rig,
+    dynamics: Dynamics,
+    plc: Plc,
+    noise: Noise,
+    x: Vec<f64>,
+}
+
+impl PlcLoop {
+    /// The loop at rest with the reference held at `r0_mm` ([`equilibrium`]), then run for
+    /// `settle_s` more at that reference with the PLC's noise, so a record opens with its jitter.
+    pub fn settled(
+        rig: &Rig,
+        dynamics: &Dynamics,
+        plc: &Plc,
+        r0_mm: f64,
+        settle_s: f64,
+    ) -> Result<PlcLoop, EmulatorError> {
+        let mut run = PlcLoop {
+            rig: rig.clone(),
+            dynamics: dynamics.clone(),
+            plc: *plc,
+            noise: Noise::new(plc.seed),
+            x: equilibrium(rig, dynamics, r0_mm)?,
+        };
+        let ts = 1.0 / plc.rate_hz;
+        let settle_steps = (settle_s * plc.rate_hz).round() as usize;
+        for k in 0..settle_steps {
+            let t = -settle_s + k as f64 * ts;
+            let (_, u) = run.sample(r0_mm);
+            run.hold(u, t, t + ts)?;
+        }
+        Ok(run)
     }
-    record(rig, dynamics, plc, &mut noise, x, duration_s, x_ref_mm)
+
+    /// One PLC sample with the reference `r_mm`: what the PLC measures and the motor speed
+    /// references (rad/s) it sends.
+    pub(crate) fn sample(&mut self, r_mm: f64) -> (Measured, [f64; 2]) {
+        let m = measure(&self.x, &self.dynamics, &self.plc, &mut self.noise);
+        let u = control(&self.rig, r_mm, &m);
+        (m, u)
+    }
+
+    /// Integrate the rig from `t0` to `t1` (s) with the speed references `u` (rad/s) held.
+    pub fn hold(&mut self, u: [f64; 2], t0: f64, t1: f64) -> Result<(), EmulatorError> {
+        self.x = hold(&self.dynamics, &self.x, u, t0, t1)?;
+        Ok(())
+    }
+
+    /// The rig's state (SI, absolute position, gauge pressures; [`crate::model::Layout`]).
+    pub fn state(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// The rig's dynamics.
+    pub fn dynamics(&self) -> &Dynamics {
+        &self.dynamics
+    }
+
+    /// Change the external force on the piston (N) from now on.
+    pub fn set_external_force_n(&mut self, f_n: f64) {
+        self.dynamics.set_external_force_n(f_n);
+    }
+
+    /// The PLC's sample period (s).
+    pub fn period_s(&self) -> f64 {
+        1.0 / self.plc.rate_hz
+    }
+}
+
+/// Integrate the rig from state `x` over [`t0`, `t1`] (s) with the speed references `u`
+/// (rad/s) held: the emulator without its PLC, driven by a controller outside.
+pub fn hold_speeds(
+    d: &Dynamics,
+    x: &[f64],
+    u: [f64; 2],
+    t0: f64,
+    t1: f64,
+) -> Result<Vec<f64>, EmulatorError> {
+    hold(d, x, u, t0, t1)
 }
 
 /// Integrate the rig over one PLC interval with the speed references `u` held.
@@ -251,10 +329,10 @@ fn steady_state(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emulator
 
 /// What the PLC reads: position (mm), pressures (bar), speeds (rpm), with noise and
 /// quantisation.
-struct Measured {
-    x_mm: f64,
-    p_bar: [f64; 2],
-    w_rpm: [f64; 2],
+pub(crate) struct Measured {
+    pub(crate) x_mm: f64,
+    pub(crate) p_bar: [f64; 2],
+    pub(crate) w_rpm: [f64; 2],
 }
 
 fn measure(x: &[f64], d: &Dynamics, plc: &Plc, noise: &mut Noise) -> Measured {
@@ -288,21 +366,17 @@ fn control(rig: &Rig, r_mm: f64, m: &Measured) -> [f64; 2] {
 
 /// The recorded run from t = 0.
 fn record(
-    rig: &Rig,
-    dynamics: &Dynamics,
-    plc: &Plc,
-    noise: &mut Noise,
-    mut x: Vec<f64>,
+    run: &mut PlcLoop,
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
 ) -> Result<Signals, EmulatorError> {
-    let ts = 1.0 / plc.rate_hz;
-    let steps = (duration_s * plc.rate_hz).round() as usize;
+    let ts = run.period_s();
+    let steps = (duration_s * run.plc.rate_hz).round() as usize;
     let mut out = Signals::default();
     for k in 0..=steps {
         let t = k as f64 * ts;
         let r = x_ref_mm(t);
-        let m = measure(&x, dynamics, plc, noise);
+        let (m, u) = run.sample(r);
         out.time_s.push(t);
         out.x_ref_mm.push(r);
         out.x_mm.push(m.x_mm);
@@ -312,7 +386,7 @@ fn record(
         out.w1_rpm.push(m.w_rpm[0]);
         out.w2_rpm.push(m.w_rpm[1]);
         if k < steps {
-            x = hold(dynamics, &x, control(rig, r, &m), t, t + ts)?;
+            run.hold(u, t, t + ts)?;
         }
     }
     Ok(out)
