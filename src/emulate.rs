@@ -145,12 +145,10 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
 }
 
 /// The rig: a file, or the emulated article rig, with --set applied.
-fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
+pub(crate) fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
     let base = match &source.rig {
         Some(_) => return source.load(),
-        None if effects.gas_fraction.is_some() => {
-            article::rig(25.0, 10_593.0, article::P_FIT_BAR, effects).map_err(|e| anyhow!(e))?
-        }
+        None if effects.gas_fraction.is_some() => article::default_rig().map_err(|e| anyhow!(e))?,
         None => Rig::default(),
     };
     Ok(base.with_overrides_from("--set", &source.set)?)

@@ -13,6 +13,7 @@ mod design;
 mod emit;
 mod emulate;
 mod export;
+mod fmu;
 mod ident;
 mod inputs;
 mod reproduce;
@@ -87,6 +88,9 @@ enum Command {
     /// Records from the nonlinear rig emulator (docs/formats.md#record-csv): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
+    /// The rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64)
+    /// for Simulink, Dymola, OpenModelica, Hopsan or any FMI tool (docs/fmu.md).
+    Fmu(fmu::FmuArgs),
     /// The article's whole workflow on the embedded rig and emulated records: figures, a
     /// summary.json and a self-contained report.html in one folder.
     Reproduce(reproduce::ReproduceArgs),
@@ -246,6 +250,7 @@ pub fn run() -> Result<()> {
         Command::Design(args) => design::run(&args)?,
         Command::Select(args) => select::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,
+        Command::Fmu(args) => fmu::run(&args)?,
         Command::Reproduce(args) => reproduce::run(&args)?,
     };
     // the last line of defence: a result is never printed with a value that is not a number

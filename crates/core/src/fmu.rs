@@ -561,6 +561,11 @@ impl Instance {
         })
     }
 
+    /// The configuration it was made from.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
     /// The variables.
     pub fn variables(&self) -> &[Variable] {
         &self.variables

@@ -29,6 +29,7 @@ pub mod bulk;
 pub mod design;
 pub mod figures;
 pub mod files;
+pub mod fmu;
 pub mod format;
 pub mod html;
 pub mod identification;

@@ -152,6 +152,14 @@ pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<R
     Ok(rig)
 }
 
+/// The emulator's own rig (what `pumpcyl emulate` and the emulator FMU run without a rig
+/// file): the article's, Kp 25, 10 593 kg, every effect on, the set-point for β 165 bar at
+/// 4.4 bar mean pressure (data/article/README.md).
+pub fn default_rig() -> Result<Rig, EmulatorError> {
+    let effects = Effects::article(BETA_FIT_BAR, P_FIT_BAR)?;
+    rig(25.0, 10_593.0, P_FIT_BAR, effects)
+}
+
 /// The mean chamber pressure (bar) at which the gas-fraction model gives `beta_bar`.
 pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, EmulatorError> {
     let x = effects.gas_fraction.ok_or("no gas fraction")?;
