@@ -15,10 +15,10 @@ PIP_LOG=target/py-venv-pip.log
 mkdir -p target
 (
     if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
-    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control
+    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy
 ) > "$PIP_LOG" 2>&1 &
 PIP_PID=$!
-echo "== python3 -m venv $VENV; pip install maturin numpy pytest control (in the background: $PIP_LOG)"
+echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy (in the background: $PIP_LOG)"
 
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
     echo "== cargo test --locked $*"

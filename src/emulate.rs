@@ -8,6 +8,7 @@ use pumpcyl::emulator::article::{self, Emulated, Kind};
 use pumpcyl::emulator::{
     DriveStep, Effects, Experiment, Plc, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
 };
+use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -148,8 +149,7 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
 pub(crate) fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
     let base = match &source.rig {
         Some(_) => return source.load(),
-        None if effects.gas_fraction.is_some() => article::default_rig().map_err(|e| anyhow!(e))?,
-        None => Rig::default(),
+        None => pumpcyl::fmu::default_rig(ModelKind::Emulator, effects.gas_fraction.is_some())?,
     };
     Ok(base.with_overrides_from("--set", &source.set)?)
 }

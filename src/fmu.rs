@@ -121,10 +121,6 @@ fn config(args: &FmuArgs) -> Result<Config> {
         }
         ModelKind::Linear => args.source.load()?,
     };
-    let config = Config::new(model, controller, effects, rig);
-    // an FMU that cannot start is refused here, not in the user's simulator
-    pumpcyl::fmu::Instance::new(config.clone())
-        .and_then(|mut i| i.initialize(0.0))
-        .map_err(|e| anyhow!("the FMU would not start: {e}"))?;
+    let config = pumpcyl::fmu::checked_config(model, controller, effects, rig)?;
     Ok(config)
 }

@@ -12,6 +12,8 @@ from ._pumpcyl import (
     advise as advise,
     bode as bode,
     design as design,
+    fmu as fmu,
+    select as select,
     effective_beta as effective_beta,
     gas_fraction as gas_fraction,
     identify as identify,

@@ -275,6 +275,21 @@ def select(
     ``kp_max``, ``standing_loss_w``, ``meets``)."""
     ...
 
+def fmu(
+    rig: Optional[Rig],
+    path: Union[str, PathLike[str]],
+    model: str = "emulator",
+    *,
+    controller: str = "article",
+    effects: bool = True,
+) -> PathLike[str]:
+    """Write the rig emulator (``model="emulator"``) or the linear model (``"linear"``) as an
+    FMU (FMI 2.0 Co-Simulation, Linux x86-64; docs/fmu.md), as ``pumpcyl fmu`` does.
+    ``controller="article"``: the input is the position reference ``x_ref_m``;
+    ``"external"``: the motor speed commands are the inputs. ``rig=None`` takes the emulator's
+    own rig or the article's (linear). Returns ``path``."""
+    ...
+
 def design(
     rig: Optional[Rig] = None,
     *,

@@ -910,6 +910,66 @@ fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
     pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar)
 }
 
+/// Write the rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64;
+/// docs/fmu.md), as `pumpcyl fmu` does: `model` "emulator" or "linear"; `controller`
+/// "article" (the input is the position reference) or "external" (the motor speed commands are
+/// the inputs; the linear model's open loop); `effects` the emulator's effects on or off.
+/// `rig` None takes the emulator's own rig (as `pumpcyl emulate`) or the article's (linear).
+/// The file appears whole or not at all. Returns `path`.
+#[pyfunction]
+#[pyo3(signature = (rig, path, model = "emulator", *, controller = "article", effects = true))]
+fn fmu(
+    py: Python<'_>,
+    rig: Option<&PyRig>,
+    path: PathBuf,
+    model: &str,
+    controller: &str,
+    effects: bool,
+) -> PyResult<PathBuf> {
+    use pumpcyl::fmu::{Controller, ModelKind};
+    let model = match model {
+        "emulator" => ModelKind::Emulator,
+        "linear" => ModelKind::Linear,
+        other => {
+            return Err(err(format!(
+                "model = {other:?}: \"emulator\" or \"linear\""
+            )))
+        }
+    };
+    let controller = match controller {
+        "article" => Controller::Article,
+        "external" => Controller::External,
+        other => {
+            return Err(err(format!(
+                "controller = {other:?}: \"article\" or \"external\""
+            )))
+        }
+    };
+    if path.extension().and_then(|e| e.to_str()) != Some("fmu") {
+        return Err(err(format!(
+            "path = {:?}: an FMU file name ends in .fmu",
+            path.display().to_string()
+        )));
+    }
+    let rig = match rig {
+        Some(r) => r.rig.clone(),
+        None => pumpcyl::fmu::default_rig(model, effects).map_err(err)?,
+    };
+    py.detach(|| -> Result<(), String> {
+        let config = pumpcyl::fmu::checked_config(model, controller, effects, rig)
+            .map_err(|e| e.to_string())?;
+        let bytes = pumpcyl_present::fmu::archive(&config).map_err(|e| format!("{e:#}"))?;
+        pumpcyl_present::files::write_atomic(
+            &path,
+            &bytes,
+            &pumpcyl_present::files::Protected::none(),
+        )
+        .map_err(|e| format!("{e:#}"))
+    })
+    .map_err(err)?;
+    Ok(path)
+}
+
 /// Which circuit, at which pressure level (docs/select.md): the application of the file
 /// `application` (TOML; None = the article's application), with `overrides` as application
 /// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig;
@@ -1073,6 +1133,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;
     m.add_function(wrap_pyfunction!(select, m)?)?;
+    m.add_function(wrap_pyfunction!(fmu, m)?)?;
     m.add_function(wrap_pyfunction!(reproduce, m)?)?;
     Ok(())
 }

@@ -29,3 +29,13 @@ def read_record(name):
     with open(ARTICLE / name, newline="") as f:
         rows = list(csv.DictReader(f))
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+def pumpcyl_binary():
+    """The command line built by ``cargo test`` (target/debug/pumpcyl), or a visible skip."""
+    exe = ROOT / "target" / "debug" / "pumpcyl"
+    if not exe.exists():
+        if os.environ.get("CI"):
+            raise FileNotFoundError(f"{exe} not built (cargo build)")
+        pytest.skip(f"SKIPPED: {exe} not built (cargo build)")
+    return str(exe)

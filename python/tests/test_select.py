@@ -7,14 +7,7 @@ import numpy as np
 import pytest
 
 import pumpcyl
-from conftest import ROOT
-
-
-def pumpcyl_binary():
-    exe = ROOT / "target" / "debug" / "pumpcyl"
-    if not exe.exists():
-        pytest.skip(f"SKIPPED: {exe} not built (cargo build)")
-    return str(exe)
+from conftest import ROOT, pumpcyl_binary
 
 
 def test_select_matches_the_command_line():

@@ -151,6 +151,36 @@ impl Config {
     }
 }
 
+/// The rig an FMU of `model` carries when none is given: the emulator's own (the article's
+/// rig with the set-point of its emulated records, as `pumpcyl emulate`) when its effects are
+/// on, the article's rig otherwise (as `pumpcyl step`).
+pub fn default_rig(model: ModelKind, effects: bool) -> Result<Rig, FmuError> {
+    Ok(match model {
+        ModelKind::Emulator if effects => article::default_rig()?,
+        _ => Rig::default(),
+    })
+}
+
+/// A configuration that starts: [`Config::new`], then an instance initialised once, so an
+/// FMU that could not start is refused when it is written, not in the user's simulator.
+pub fn checked_config(
+    model: ModelKind,
+    controller: Controller,
+    effects: bool,
+    rig: Rig,
+) -> Result<Config, FmuError> {
+    let config = Config::new(
+        model,
+        controller,
+        effects && model == ModelKind::Emulator,
+        rig,
+    );
+    Instance::new(config.clone())?
+        .initialize(0.0)
+        .map_err(|e| FmuError(format!("the FMU would not start: {e}")))?;
+    Ok(config)
+}
+
 /// A variable's role (FMI's causality).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Causality {
@@ -517,9 +547,12 @@ pub struct Instance {
 /// The simulation behind an initialised instance.
 enum Sim {
     /// The emulator with the article's PLC.
-    Plc { run: PlcLoop, u: [f64; 2] },
+    Plc { run: Box<PlcLoop>, u: [f64; 2] },
     /// The emulator driven by the speed commands.
-    Plant { dynamics: Dynamics, x: Vec<f64> },
+    Plant {
+        dynamics: Box<Dynamics>,
+        x: Vec<f64>,
+    },
     /// The linear model.
     Linear(Box<Linear>),
 }
@@ -702,11 +735,17 @@ impl Instance {
             Controller::Article => {
                 let plc = Plc::ideal(PLC_RATE_HZ);
                 let run = PlcLoop::settled(rig, &dynamics, &plc, self.inputs[0] * 1e3, SETTLE_S)?;
-                Sim::Plc { run, u: [0.0; 2] }
+                Sim::Plc {
+                    run: Box::new(run),
+                    u: [0.0; 2],
+                }
             }
             Controller::External => {
                 let (x, _) = dynamics.operating_point(rig);
-                Sim::Plant { dynamics, x }
+                Sim::Plant {
+                    dynamics: Box::new(dynamics),
+                    x,
+                }
             }
         })
     }

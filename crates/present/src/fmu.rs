@@ -108,7 +108,13 @@ pub fn model_description(config: &Config) -> Result<String> {
     );
     // and it writes an empty <Derivatives/>, which the schema forbids (a Co-Simulation FMU
     // without continuous states exposed has none)
-    let xml = xml.replacen("<Derivatives/>", "", 1);
+    let mut xml = xml.replacen("<Derivatives/>", "", 1);
+    // and its Real has no `unit` attribute: each variable states its unit besides its type's
+    // (FMPy and some importers read only the variable's own)
+    for u in used_units(&vars) {
+        let declared = format!("declaredType=\"{}\"", type_name(u.name));
+        xml = xml.replace(&declared, &format!("{declared} unit=\"{}\"", u.name));
+    }
     Ok(format!(
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{xml}\n"
     ))

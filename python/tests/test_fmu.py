@@ -1,0 +1,169 @@
+"""The FMUs of pumpcyl.fmu / `pumpcyl fmu` (docs/fmu.md) run by FMPy, the reference FMI tool in
+Python, against `pumpcyl emulate` and `pumpcyl step`. The emulator's records are emulated data,
+not measurements."""
+
+import csv
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import pumpcyl
+from conftest import pumpcyl_binary
+
+
+def require_fmpy():
+    """FMPy, or a visible skip (a failure when CI is set)."""
+    try:
+        import fmpy  # noqa: F401
+    except ImportError:
+        if os.environ.get("CI"):
+            raise
+        pytest.skip("SKIPPED: FMPy is not installed (pip install fmpy)")
+    import fmpy
+
+    return fmpy
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+def cli(*args):
+    subprocess.run([pumpcyl_binary(), *args], check=True, capture_output=True, text=True)
+
+
+def run_fmu(fmpy, path, time_s, x_ref_m, **kw):
+    """Simulate with FMPy at the record's sample period, the reference given at every sample."""
+    signal = np.array(list(zip(time_s, x_ref_m)), dtype=[("time", np.float64), ("x_ref_m", np.float64)])
+    h = time_s[1] - time_s[0]
+    return fmpy.simulate_fmu(str(path), start_time=0.0, stop_time=time_s[-1], step_size=h,
+                             output_interval=h, input=signal, **kw)
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fmu")
+    emulator = pumpcyl.fmu(None, d / "emulator.fmu")
+    linear = pumpcyl.fmu(None, d / "linear.fmu", "linear")
+    return d, emulator, linear
+
+
+def test_both_kinds_validate(fmus):
+    fmpy = require_fmpy()
+    from fmpy.validation import validate_fmu
+
+    _, emulator, linear = fmus
+    assert validate_fmu(str(emulator)) == []
+    assert validate_fmu(str(linear)) == []
+    md = fmpy.read_model_description(str(emulator))
+    units = {u.name for u in md.unitDefinitions}
+    names = {v.name: v for v in md.modelVariables}
+    for out in ["x_m", "v_m_per_s", "p1_pa", "p2_pa", "p_sum_pa", "omega1_rad_per_s",
+                "omega2_rad_per_s", "tau1_nm", "tau2_nm"]:
+        assert names[out].causality == "output", out
+    assert names["beta_bar"].causality == "parameter" and names["beta_bar"].unit == "bar"
+    assert {"m", "Pa", "bar", "rad/s", "N.m"} <= units
+
+
+@pytest.mark.parametrize("experiment,args", [
+    ("step", ["--experiment", "step"]),
+    ("sine", ["--experiment", "sine", "--freq-hz", "0.2", "--amplitude-mm", "35"]),
+])
+def test_the_emulator_fmu_gives_the_records_of_emulate(fmus, experiment, args):
+    fmpy = require_fmpy()
+    d, emulator, _ = fmus
+    record = d / f"{experiment}.csv"
+    cli("emulate", *args, "--no-noise", "--out", str(record))
+    rec = read_csv(record)
+    r = run_fmu(fmpy, emulator, rec["time_s"], rec["x_ref_mm"] * 1e-3)
+    assert len(r) == len(rec["time_s"])
+    # the record is written to 1e-6 mm and 1e-6 bar
+    assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9
+    assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0
+    assert np.max(np.abs(r["p2_pa"] - rec["p2_bar"] * 1e5)) < 1.0
+
+
+def test_the_linear_fmu_gives_the_step_response(fmus):
+    fmpy = require_fmpy()
+    d, _, linear = fmus
+    record = d / "linear-step.csv"
+    cli("step", "--out", str(record))
+    rec = read_csv(record)
+    r = run_fmu(fmpy, linear, rec["time_s"], rec["x_ref_mm"] * 1e-3)
+    assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9
+    assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0
+    assert np.max(np.abs(r["omega1_rad_per_s"] - rec["w1_rpm"] * np.pi / 30)) < 1e-4
+
+
+def test_two_instances_in_one_process_run_as_two_separate_runs(fmus):
+    fmpy = require_fmpy()
+    from fmpy.fmi2 import FMU2Slave
+
+    d, emulator, _ = fmus
+    md = fmpy.read_model_description(str(emulator))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipped = fmpy.extract(str(emulator))
+    masses = [10593.0, 4898.0]
+    x0 = 0.340
+    alone = [run_fmu(fmpy, emulator, np.arange(0, 1.001, 0.01), np.where(np.arange(0, 1.001, 0.01) < 0.2, x0, x0 + 0.005),
+                     start_values={"mass_kg": m})["x_m"] for m in masses]
+    slaves = []
+    for k, m in enumerate(masses):
+        s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName=f"rig{k}")
+        s.instantiate()
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.setReal([vr["mass_kg"], vr["x_ref_m"]], [m, x0])
+        s.exitInitializationMode()
+        slaves.append(s)
+    together = [[s.getReal([vr["x_m"]])[0]] for s in slaves]
+    for n in range(100):
+        t = n * 0.01
+        for s, out in zip(slaves, together):
+            s.setReal([vr["x_ref_m"]], [x0 if t < 0.2 else x0 + 0.005])
+            s.doStep(currentCommunicationPoint=t, communicationStepSize=0.01)
+            out.append(s.getReal([vr["x_m"]])[0])
+    for s in slaves:
+        s.terminate()
+        s.freeInstance()
+    for a, b in zip(alone, together):
+        np.testing.assert_allclose(np.array(b), a, rtol=0, atol=1e-12)
+    assert np.max(np.abs(np.array(together[0]) - np.array(together[1]))) > 1e-5
+
+
+def test_a_nan_parameter_is_an_error_with_a_logged_message(fmus):
+    fmpy = require_fmpy()
+    _, emulator, _ = fmus
+    messages = []
+
+    def logger(component, instance, status, category, message):
+        messages.append(message.decode() if isinstance(message, bytes) else str(message))
+
+    with pytest.raises(Exception):
+        fmpy.simulate_fmu(str(emulator), stop_time=0.1, step_size=0.01,
+                          start_values={"mass_kg": float("nan")}, logger=logger)
+    assert any("mass_kg" in m and "finite" in m for m in messages), messages
+
+
+def test_python_and_the_command_line_write_the_same_fmu(fmus, tmp_path):
+    d, emulator, _ = fmus
+    cli("fmu", "--out", str(tmp_path / "cli.fmu"))
+    import zipfile
+
+    with zipfile.ZipFile(emulator) as a, zipfile.ZipFile(tmp_path / "cli.fmu") as b:
+        assert a.read("modelDescription.xml") == b.read("modelDescription.xml")
+
+
+def test_bad_arguments_are_refused(tmp_path):
+    with pytest.raises(pumpcyl.PumpcylError, match="model"):
+        pumpcyl.fmu(None, tmp_path / "x.fmu", "quantum")
+    with pytest.raises(pumpcyl.PumpcylError, match=r"\.fmu"):
+        pumpcyl.fmu(None, tmp_path / "x.zip")
+    with pytest.raises(pumpcyl.PumpcylError, match="mass_kg"):
+        pumpcyl.fmu(pumpcyl.Rig(mass_kg=1e-30), tmp_path / "x.fmu")
+    assert not (tmp_path / "x.fmu").exists()
