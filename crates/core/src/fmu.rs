@@ -20,10 +20,13 @@
 //! let x = fmu.value_reference("x_m").unwrap();
 //! let x0 = fmu.get_real(x)?;
 //! fmu.set_real(x_ref, x0 + 5e-3)?;
-//! for k in 0..300 {
+//! let mut peak = x0;
+//! for k in 0..200 {
 //!     fmu.do_step(k as f64 * 0.01, 0.01)?;
+//!     peak = peak.max(fmu.get_real(x)?);
 //! }
-//! assert!((fmu.get_real(x)? - (x0 + 5e-3)).abs() < 1e-4);
+//! // the article's rig overshoots a 5 mm step by half (docs/simulation.md#step-metrics)
+//! assert!((peak - x0 - 7.5e-3).abs() < 0.1e-3);
 //! # Ok::<(), pumpcyl::fmu::FmuError>(())
 //! ```
 

@@ -160,7 +160,7 @@ pub fn emulate(
 }
 
 /// The PLC around the emulated rig, advanced one sample at a time: at each sample the PLC
-/// measures and computes the speed references ([`PlcLoop::sample`]), which are held while the
+/// measures and computes the speed references, which are held while the
 /// rig is integrated to the next sample ([`PlcLoop::hold`]). [`emulate`] and the FMU
 /// (docs/fmu.md) run the same sequence, so they give the same records.
 #[derive(Clone)]
