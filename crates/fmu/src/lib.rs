@@ -19,7 +19,6 @@ type Status = c_int;
 const OK: Status = 0;
 const DISCARD: Status = 2;
 const ERROR: Status = 3;
-const FATAL: Status = 4;
 
 type Logger =
     unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
@@ -107,12 +106,13 @@ unsafe fn with(
                 .map(String::as_str)
                 .or_else(|| panic.downcast_ref::<&str>().copied())
                 .unwrap_or("internal error");
+            // the instance's state is unknown after a panic: it refuses every later call
             comp.failed = true;
             comp.log(
-                FATAL,
+                ERROR,
                 &format!("{what}: internal error ({why}); please report it"),
             );
-            FATAL
+            ERROR
         }
     }
 }
