@@ -11,7 +11,8 @@ use crate::{Loop, ModelArgs};
 use pumpcyl::lti;
 use pumpcyl::model::Plant;
 use pumpcyl_present::analysis::{
-    bode_csv, margins_json, margins_text, model_text, poles_json, poles_text, PoleSet, PoleSetKind,
+    bode_csv, loop_margins_json, loop_margins_text, model_text, poles_json, poles_text, PoleSet,
+    PoleSetKind,
 };
 use pumpcyl_present::figures::{bode_markers, Chart};
 use pumpcyl_present::format::json_document;
@@ -97,9 +98,9 @@ pub fn margins(args: &MarginsArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
     let m = lti::margins(&lp.open_loop)?;
     if args.json {
-        Ok(json_document(&margins_json(&m, &lp.description))?)
+        Ok(json_document(&loop_margins_json(&m, &lp)?)?)
     } else {
-        Ok(margins_text(&m, &lp.description))
+        Ok(loop_margins_text(&m, &lp)?)
     }
 }
 

@@ -78,6 +78,22 @@ pub struct Loop {
     pub rig: Option<Rig>,
     /// What was analysed, in words.
     pub description: String,
+    /// Whether the sum-pressure loop is closed inside `open_loop` (a rig's loop only).
+    pub sum_pressure_closed: bool,
+}
+
+/// The closed loop as `pumpcyl step` simulates it (position and sum-pressure loops closed),
+/// where it differs from the closed loop the margins are read on (the sum-pressure loop open,
+/// the article §2.3.3; docs/analysis.md#the-loop-that-is-analysed): its stability and its
+/// rightmost pole.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SimulatedLoop {
+    /// Stability from the eigenvalues of the full closed loop.
+    pub stability: crate::lti::Stability,
+    /// The rightmost pole: real part (1/s) and imaginary part (rad/s, ≥ 0).
+    pub rightmost_pole: [f64; 2],
+    /// Its frequency |p|/2π (Hz).
+    pub rightmost_pole_hz: f64,
 }
 
 /// A loop as shown or exported (the `model` command, MATLAB/Octave files, MAT-files): matrices,
@@ -126,7 +142,33 @@ impl Loop {
                 "{origin}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}"
             ),
             rig: Some(rig),
+            sum_pressure_closed,
         }
+    }
+
+    /// The loop as simulated, where it differs from the analysed one: a rig whose
+    /// sum-pressure loop is on but open in the analysed loop. `None` otherwise (a JSON model, a
+    /// rig without the sum-pressure loop, or the loop analysed with it closed).
+    pub fn simulated(&self) -> Result<Option<SimulatedLoop>, LtiError> {
+        let Some(rig) = self
+            .rig
+            .as_ref()
+            .filter(|r| r.sum_pressure && !self.sum_pressure_closed)
+        else {
+            return Ok(None);
+        };
+        let full = Plant::new(rig).closed_loop(true);
+        let (poles, stability) = crate::lti::poles_and_stability(&full.a)?;
+        let p = poles
+            .iter()
+            .copied()
+            .max_by(|a, b| a.re.total_cmp(&b.re))
+            .unwrap_or_default();
+        Ok(Some(SimulatedLoop {
+            stability,
+            rightmost_pole: [p.re, p.im.abs()],
+            rightmost_pole_hz: p.norm() / (2.0 * std::f64::consts::PI),
+        }))
     }
 
     /// A loop transfer L(s) from the JSON model `text` of the file `name`; the error (without
@@ -138,6 +180,7 @@ impl Loop {
             states,
             rig: None,
             description: format!("{name}: loop transfer L(s) from JSON"),
+            sum_pressure_closed: false,
         })
     }
 

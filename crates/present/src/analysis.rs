@@ -8,7 +8,7 @@
 use crate::format::fmt_opt;
 use crate::plot::BodeSeries;
 use nalgebra::DMatrix;
-use pumpcyl::loops::{ModelView, Port};
+use pumpcyl::loops::{Loop, ModelView, Port, SimulatedLoop};
 use pumpcyl::lti::{poles_and_stability, CrossingKind, LtiError, Margins, PoleInfo, Stability};
 use serde::Serialize;
 use serde_json::{json, Value};
@@ -24,16 +24,61 @@ pub struct MarginsReport<'a> {
     /// The margins, every crossing, stability.
     #[serde(flatten)]
     pub margins: &'a Margins,
+    /// The closed loop as simulated (sum-pressure loop closed as well), where it differs from
+    /// the one `closed_loop_stability` is read on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub simulated_closed_loop: Option<SimulatedLoop>,
 }
 
 /// The margins of the loop `description` as a JSON document (the command line's
 /// `margins --json`, Python's `margins`).
 pub fn margins_json(m: &Margins, description: &str) -> serde_json::Value {
+    report_json(m, description, None)
+}
+
+/// The margins of the analysed loop `lp` as a JSON document, with the stability of the loop as
+/// simulated where it differs (`simulated_closed_loop`).
+pub fn loop_margins_json(m: &Margins, lp: &Loop) -> Result<serde_json::Value, LtiError> {
+    Ok(report_json(m, &lp.description, lp.simulated()?))
+}
+
+fn report_json(m: &Margins, description: &str, simulated: Option<SimulatedLoop>) -> Value {
     serde_json::to_value(MarginsReport {
         description,
         margins: m,
+        simulated_closed_loop: simulated,
     })
     .expect("margins serialise")
+}
+
+/// The margins of the analysed loop `lp` as text, with a line on the loop as simulated where it
+/// differs ([`margins_text`]).
+pub fn loop_margins_text(m: &Margins, lp: &Loop) -> Result<String, LtiError> {
+    let mut s = margins_text(m, &lp.description);
+    if let Some(sim) = lp.simulated()? {
+        let line = simulated_line(&sim);
+        let at = s.find("crossings (").unwrap_or(s.len());
+        s.insert_str(at, &line);
+    }
+    Ok(s)
+}
+
+/// The stability of the loop as simulated, in one line: which loop, and the rightmost pole when
+/// it is not stable.
+fn simulated_line(sim: &SimulatedLoop) -> String {
+    let [re, im] = sim.rightmost_pole;
+    let pole = format!(
+        "a pole at {re:+.4} ±{im:.4}j rad/s, {:.3} Hz",
+        sim.rightmost_pole_hz
+    );
+    let verdict = match sim.stability {
+        Stability::Stable => "stable".to_string(),
+        Stability::Unstable => format!("UNSTABLE: {pole}"),
+        Stability::Undecided => format!("UNDECIDED: {pole}, within rounding of the imaginary axis"),
+    };
+    format!(
+        "  as simulated  {verdict} (sum-pressure loop closed as well, as `pumpcyl step` runs it)\n"
+    )
 }
 
 /// The margins of the loop `description` as text: the headline margins, stability and every
@@ -64,7 +109,7 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
     };
     let _ = writeln!(
         s,
-        "  closed loop   {verdict} (from the closed-loop eigenvalues)"
+        "  closed loop   {verdict} (position feedback around the analysed loop; from its eigenvalues)"
     );
     let _ = writeln!(s, "crossings ({}):", m.crossings.len());
     let _ = writeln!(s, "  kind    freq_hz    |L|_db   phase_deg  margin");

@@ -486,22 +486,37 @@ fn margins_of(rig: &Rig) -> Result<Margins> {
     Ok(lti::margins(&Plant::new(rig).open_loop(false))?)
 }
 
-fn margins_row(label: &str, m: &Margins) -> Vec<String> {
+/// A row of a margins table: the margins `m` of `rig`'s analysed loop and two stabilities,
+/// each naming its loop: the position loop closed around the analysed loop (sum-pressure loop
+/// open, as the article analyses it) and the loop as simulated (sum-pressure loop as the rig
+/// says), with the rightmost pole where it is unstable.
+fn margins_row(label: &str, rig: &Rig, m: &Margins) -> Vec<String> {
+    let simulated = match lti::require_stable(&Plant::new(rig).closed_loop(rig.sum_pressure).a) {
+        Ok(()) => "yes".to_string(),
+        Err(lti::LtiError::Unstable {
+            real_per_s,
+            imag_rad_per_s,
+            ..
+        }) => format!("NO (pole {real_per_s:+.3} ±{imag_rad_per_s:.3}j rad/s)"),
+        Err(_) => "undecided".to_string(),
+    };
     vec![
         label.to_string(),
         fmt_opt(m.gain_margin_db, 2),
         fmt_opt(m.phase_margin_deg, 1),
         fmt_opt(m.gain_crossover_hz, 3),
         if m.closed_loop_stable { "yes" } else { "NO" }.to_string(),
+        simulated,
     ]
 }
 
-const MARGIN_HEADER: [&str; 5] = [
+const MARGIN_HEADER: [&str; 6] = [
     "case",
     "GM (dB)",
     "PM (deg)",
     "gain crossover (Hz)",
-    "stable",
+    "stable, sum-pressure loop open (as analysed)",
+    "stable, sum-pressure loop as simulated",
 ];
 
 fn bode_series(rig: &Rig, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
@@ -553,7 +568,7 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
     let mut out = Vec::new();
     for (label, rig) in rigs {
         let m = margins_of(rig)?;
-        rows.push(margins_row(label, &m));
+        rows.push(margins_row(label, rig, &m));
         series.push(bode_series(rig, label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
         // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)

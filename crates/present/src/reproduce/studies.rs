@@ -65,8 +65,12 @@ pub(super) fn pressure_study(
     let mut table = Vec::new();
     let nominal_m = margins_of(nominal)?;
     let default_m = margins_of(&Rig::default())?;
-    table.push(margins_row("identified rig (nominal)", &nominal_m));
-    table.push(margins_row("default rig (the article §2.1)", &default_m));
+    table.push(margins_row("identified rig (nominal)", nominal, &nominal_m));
+    table.push(margins_row(
+        "default rig (the article §2.1)",
+        &Rig::default(),
+        &default_m,
+    ));
     let mut at = Vec::new();
     for row in &rows {
         let rig = Rig {
@@ -75,7 +79,7 @@ pub(super) fn pressure_study(
         };
         let m = margins_of(&rig)?;
         let label = format!("{:.1} bar, β_e {:.0} bar", row.p_bar, row.beta_bar);
-        table.push(margins_row(&label, &m));
+        table.push(margins_row(&label, &rig, &m));
         series.push(bode_series(&rig, &label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
         at.push(AtPressure {
