@@ -16,8 +16,8 @@ pub struct DesignArgs {
     /// Run even when the masses × pressures would take long (more than 10^5 margin analyses).
     #[arg(long)]
     allow_long_run: bool,
-    /// Phase margin target (deg).
-    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
+    /// Phase margin target (deg); the default is the article's (its Kp = 25 gives PM 34°).
+    #[arg(long, default_value_t = 34.0, allow_negative_numbers = true)]
     target_pm_deg: f64,
     /// Gain margin target (dB).
     #[arg(long, default_value_t = 6.0, allow_negative_numbers = true)]
@@ -27,6 +27,8 @@ pub struct DesignArgs {
     stroke_mm: f64,
     /// Mean chamber pressures to check (bar), e.g. --p-mean-bar 1 --p-mean-bar 10; beta
     /// follows the gas-fraction model (docs/bulk-modulus.md) from the rig's beta at --p-beta-bar.
+    /// With --robust --experiment and none given: the pressures the records span, beta at the
+    /// first record's mean.
     #[arg(long)]
     p_mean_bar: Vec<f64>,
     /// Mean pressure at which the rig's beta_bar was identified (bar).

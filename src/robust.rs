@@ -38,19 +38,24 @@ pub(super) fn run(
 ) -> Result<String> {
     crate::emit::check_confidence(src.confidence)?;
     let start = Instant::now();
-    let (rig, region) = match src.experiment {
-        Some(path) => Region::of_records(
-            &Experiment::load_in(crate::inputs::files(), path)?,
-            src.confidence,
-        )?,
-        None => (src.rig.clone(), Region::stated_default(&src.rig)),
+    let (rig, region, targets) = match src.experiment {
+        Some(path) => {
+            let exp = Experiment::load_in(crate::inputs::files(), path)?;
+            let (rig, region) = Region::of_records(&exp, src.confidence)?;
+            (rig, region, targets.clone().over_records(&exp))
+        }
+        None => (
+            src.rig.clone(),
+            Region::stated_default(&src.rig),
+            targets.clone(),
+        ),
     };
     let identify_seconds = start.elapsed().as_secs_f64();
     // a design error may lie in the rig (its mass table): say which rig
     let origin = src
         .experiment
         .map_or(src.origin.clone(), |p| p.display().to_string());
-    let d = robust_design(&rig, &region, targets, &RobustOptions::default())
+    let d = robust_design(&rig, &region, &targets, &RobustOptions::default())
         .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
     let seconds = start.elapsed().as_secs_f64();
     let document = json_document(&robust_json(&d, seconds, identify_seconds))?;

@@ -346,3 +346,28 @@ fn which_circuit_answers_the_articles_advice_before_and_after_the_identification
     assert!(c.kp_max <= kp + 1e-9, "{} > {kp}", c.kp_max);
     assert!(r.figures.iter().any(|f| f.stem == "which_circuit"));
 }
+
+#[test]
+fn the_robust_design_of_design_and_of_reproduce_agree() {
+    // the same records, the same targets (the article's) and the same pressures (those the
+    // records span): one answer, whichever front end asks
+    let r = &run().result;
+    let exp = concat!(env!("CARGO_MANIFEST_DIR"), "/data/article/identify.toml");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(["design", "--robust", "--experiment", exp, "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let kp = v["kp_max"].as_f64().unwrap();
+    assert!(
+        (kp - r.certainty.robust.kp_max).abs() < 1e-9 * kp,
+        "design --robust {kp}, reproduce {}",
+        r.certainty.robust.kp_max
+    );
+    assert_eq!(v["targets"]["p_mean_bar"].as_array().unwrap().len(), 3);
+}

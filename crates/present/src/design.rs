@@ -181,7 +181,8 @@ pub fn robust_text(d: &RobustDesign, seconds: f64) -> String {
         if t.p_mean_bar.is_empty() {
             String::new()
         } else {
-            format!(", p {:?} bar", t.p_mean_bar)
+            let p: Vec<String> = t.p_mean_bar.iter().map(|p| format!("{p:.2}")).collect();
+            format!(", p {} bar (beta at {:.2} bar)", p.join(", "), t.p_beta_bar)
         }
     );
     let _ = writeln!(s, "  Kp max, robust     {:.2} (1/m)", d.kp_max);

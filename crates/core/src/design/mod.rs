@@ -52,6 +52,22 @@ pub struct Targets {
 }
 
 impl Targets {
+    /// The targets for a design over `exp`'s records: unless pressures are given, the mean
+    /// chamber pressures the records span ([`Experiment::chamber_pressure_span_bar`]), with β
+    /// holding at the first record's mean pressure, where its identification reads it.
+    ///
+    /// [`Experiment::chamber_pressure_span_bar`]: crate::ident::Experiment::chamber_pressure_span_bar
+    pub fn over_records(self, exp: &crate::ident::Experiment) -> Targets {
+        match exp.chamber_pressure_span_bar() {
+            Some(span) if self.p_mean_bar.is_empty() => Targets {
+                p_mean_bar: span.to_vec(),
+                p_beta_bar: span[1],
+                ..self
+            },
+            _ => self,
+        }
+    }
+
     /// The article's targets (§2.2: PM 34°, GM 6 dB, its Kp = 25) over x0 ± 50 mm, with β
     /// identified at 4.4 bar and no pressure, mass or wave list.
     pub fn article() -> Targets {

@@ -186,6 +186,22 @@ impl Experiment {
         Some(p.iter().sum::<f64>() / p.len() as f64)
     }
 
+    /// The mean chamber pressures (p1 + p2)/2 (bar gauge) the records span: the lowest sample
+    /// over every dataset, [`Experiment::mean_chamber_pressure_bar`], the highest sample;
+    /// `None` when the first record has no chamber pressures.
+    pub fn chamber_pressure_span_bar(&self) -> Option<[f64; 3]> {
+        let mean = self.mean_chamber_pressure_bar()?;
+        let (lo, hi) = self
+            .problem
+            .datasets
+            .iter()
+            .filter_map(|d| d.record.mean_chamber_pressure_bar())
+            .flatten()
+            .filter(|p| p.is_finite() && *p > 0.0)
+            .fold((mean, mean), |(l, h), p| (l.min(p), h.max(p)));
+        Some([lo, mean, hi])
+    }
+
     /// Read, check and prepare an experiment; every error names the file, and the line and key
     /// it concerns (a record's own errors name the record's line and column as well).
     pub fn load(path: &Path) -> Result<Experiment, IdentError> {

@@ -55,11 +55,8 @@ pub(super) fn how_sure(
     let u = analyze(&exp.problem, &best, &opts)?;
     intervals(run, &u, &best, truth)?;
     let region = Region::around(best, &u, exp.problem.standstill);
-    let targets = Targets {
-        p_mean_bar: pressure_range(exp, p_mean_bar),
-        p_beta_bar: p_mean_bar,
-        ..Targets::article()
-    };
+    let targets = Targets::article().over_records(exp);
+    debug_assert_eq!(Some(targets.p_beta_bar), Some(p_mean_bar));
     let d = robust_design(nominal, &region, &targets, &RobustOptions::default())?;
     robust(run, &d)?;
     let advice = advise(&exp.problem, &best, &AdviceOptions::default())?;
@@ -94,21 +91,6 @@ pub(super) fn how_sure(
         },
         v,
     ))
-}
-
-/// The mean chamber pressures (bar) the design must hold at: the lowest, `p_mean_bar` and the
-/// highest of the mean chamber pressure (p1 + p2)/2 over the identification records, so β_e
-/// follows the gas-fraction model (docs/bulk-modulus.md) across the pressures the rig was seen at.
-fn pressure_range(exp: &Experiment, p_mean_bar: f64) -> Vec<f64> {
-    let (lo, hi) = exp
-        .problem
-        .datasets
-        .iter()
-        .filter_map(|d| d.record.mean_chamber_pressure_bar())
-        .flatten()
-        .filter(|p| p.is_finite() && *p > 0.0)
-        .fold((p_mean_bar, p_mean_bar), |(l, h), p| (l.min(p), h.max(p)));
-    vec![lo, p_mean_bar, hi]
 }
 
 /// The value of parameter `i` (of [`PARAMETERS`]) at `c`.

@@ -78,7 +78,10 @@ pub(super) fn pressure_study(
             ..nominal.clone()
         };
         let m = margins_of(&rig)?;
-        let label = format!("{:.1} bar, β_e {:.0} bar", row.p_bar, row.beta_bar);
+        let label = format!(
+            "identified rig at {:.1} bar, β_e {:.0} bar",
+            row.p_bar, row.beta_bar
+        );
         table.push(margins_row(&label, &rig, &m));
         series.push(bode_series(&rig, &label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
@@ -92,7 +95,7 @@ pub(super) fn pressure_study(
         .try_into()
         .map_err(|_| anyhow::anyhow!("three pressures"))?;
     run.table(
-        "Margins of the position loop (the article §2.3.3)",
+        "Margins of the position loop (the article §2.3.3), each row on its rig: the pressure rows on the identified rig (the comparison table's 1 and 10 bar rows are on the article's basis, the default rig)",
         &MARGIN_HEADER,
         table,
     );
