@@ -3,8 +3,7 @@
 
 use anyhow::Result;
 use clap::Args;
-use pumpcyl_present::reproduce::{reproduce, ComparisonRow, ReproduceOptions};
-use std::fmt::Write as _;
+use pumpcyl_present::reproduce::{comparison_text, reproduce, ComparisonRow, ReproduceOptions};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -52,45 +51,13 @@ pub fn run(args: &ReproduceArgs) -> Result<String> {
 
 /// The comparison with the article as a terminal table, under where the result went.
 fn terminal_table(rows: &[ComparisonRow], dir: &Path, seconds: f64) -> String {
-    let cells = |r: &ComparisonRow| {
-        [
-            r.quantity.clone(),
-            r.pumpcyl.clone(),
-            r.article.clone(),
-            r.truth.clone(),
-            r.why.clone(),
-        ]
-    };
-    let rows: Vec<[String; 5]> = rows.iter().map(cells).collect();
-    let width = |i: usize, head: &str| {
-        rows.iter()
-            .map(|r| r[i].chars().count())
-            .chain([head.len()])
-            .max()
-            .unwrap_or(0)
-    };
-    let (w0, w1, w2, w3) = (
-        width(0, "quantity"),
-        width(1, "pumpcyl"),
-        width(2, "article"),
-        width(3, "emulator truth"),
-    );
-    let mut s = format!(
+    format!(
         "reproduced in {seconds:.1} s into {} (report.html, summary.json, figures/)\n\
-         inputs: EMULATED records (records/README.md), not the article's measurements\n\n\
-         {:<w0$}  {:<w1$}  {:<w2$}  {:<w3$}  why they differ\n",
+         inputs: EMULATED records (records/README.md), not the article's measurements\n\n{}",
         dir.display(),
-        "quantity",
-        "pumpcyl",
-        "article",
-        "emulator truth"
-    );
-    for r in &rows {
-        let line = format!(
-            "{:<w0$}  {:<w1$}  {:<w2$}  {:<w3$}  {}",
-            r[0], r[1], r[2], r[3], r[4]
-        );
-        let _ = writeln!(s, "{}", line.trim_end());
-    }
-    s
+        comparison_text(rows, TERMINAL_WIDTH)
+    )
 }
+
+/// The width the comparison is laid out for (characters).
+const TERMINAL_WIDTH: usize = 120;

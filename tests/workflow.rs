@@ -371,3 +371,28 @@ fn the_robust_design_of_design_and_of_reproduce_agree() {
     );
     assert_eq!(v["targets"]["p_mean_bar"].as_array().unwrap().len(), 3);
 }
+
+#[test]
+fn the_terminal_comparison_fits_120_columns_with_its_notes_below() {
+    let r = &run().result;
+    let text = pumpcyl_present::reproduce::comparison_text(&r.comparison, 120);
+    let widest = text.lines().map(|l| l.chars().count()).max().unwrap();
+    assert!(widest <= 120, "{widest} columns:\n{text}");
+    // every explanation is a numbered note, whole once its wrapped lines are joined
+    let flat: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let whys: Vec<&str> = r
+        .comparison
+        .iter()
+        .map(|c| c.why.as_str())
+        .filter(|w| !w.is_empty())
+        .collect();
+    assert!(!whys.is_empty());
+    for (k, why) in whys.iter().enumerate() {
+        let joined = why.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(
+            flat.contains(&format!("[{}] {joined}", k + 1)),
+            "note {}: {why}",
+            k + 1
+        );
+    }
+}

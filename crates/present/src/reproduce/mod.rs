@@ -181,6 +181,49 @@ pub struct ComparisonRow {
     pub why: String,
 }
 
+/// The comparison with the article for a terminal `width` characters wide: a table of the
+/// quantity, pumpcyl's value, the article's and the emulator's truth (cells wrapped to fit),
+/// each row with a difference pointing to a numbered note below the table.
+pub fn comparison_text(rows: &[ComparisonRow], width: usize) -> String {
+    let mut notes = Vec::new();
+    let cells: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            let note = if r.why.is_empty() {
+                String::new()
+            } else {
+                notes.push(r.why.as_str());
+                format!("[{}]", notes.len())
+            };
+            vec![
+                r.quantity.clone(),
+                r.pumpcyl.clone(),
+                r.article.clone(),
+                r.truth.clone(),
+                note,
+            ]
+        })
+        .collect();
+    let header = ["quantity", "pumpcyl", "article", "emulator truth", "note"];
+    let mut out = crate::table::wrapped_text(&header, &cells, width);
+    if !notes.is_empty() {
+        out.push_str("\nnotes: why pumpcyl differs from the article\n");
+    }
+    for (k, note) in notes.iter().enumerate() {
+        let mark = format!("[{}] ", k + 1);
+        let indent = " ".repeat(mark.len());
+        for (i, line) in crate::table::wrap(note, width - mark.len())
+            .iter()
+            .enumerate()
+        {
+            out.push_str(if i == 0 { &mark } else { &indent });
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
+
 /// A figure of the workflow, rendered: written as `figures/STEM.svg` and `figures/STEM.png`.
 #[derive(Debug, Clone)]
 pub struct Figure {
