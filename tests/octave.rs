@@ -1,9 +1,13 @@
 //! MATLAB and Octave round trips, checked with a real client: GNU Octave and its control
 //! package run the files pumpcyl exports (`model --out FILE.m`, `--greybox`, `--out FILE.mat`)
 //! and their answers are compared with pumpcyl's own (docs/matlab.md). Without `octave` these
-//! tests say SKIPPED on stderr; with the environment variable `CI` set they fail instead.
+//! tests skip: SKIPPED on the terminal and in the last line of `./test.sh`; with the environment
+//! variable `CI` set they fail instead.
 //! MAT-file records (written by Octave itself, committed in tests/awkward-inputs/) are also
 //! replayed without Octave.
+
+#[path = "common/skip.rs"]
+mod skip;
 
 use serde_json::Value;
 use std::collections::HashMap;
@@ -28,19 +32,19 @@ fn json(dir: &Path, args: &[&str]) -> Value {
     serde_json::from_str(&pumpcyl(dir, args)).unwrap()
 }
 
-/// Whether Octave with the control package is here; if not, say so (or fail under CI).
+/// Whether Octave with the control package is here; if not, the test skips (tests/common/skip.rs:
+/// said on the terminal, counted in the last line of `./test.sh`), or fails under CI.
 fn have_octave(test: &str) -> bool {
     let ok = Command::new("octave")
         .args(["--no-gui", "--quiet", "--eval", "pkg load control"])
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{test}: GNU Octave with the control package is required under CI (.ci/run installs \
-             Debian's octave and octave-control)"
+        skip::skip(
+            test,
+            "octave and octave-control",
+            "apt-get install octave octave-control",
         );
-        eprintln!("SKIPPED: {test}: GNU Octave with the control package is not installed");
     }
     ok
 }
@@ -101,7 +105,7 @@ fn matrix(v: &Value) -> Vec<Vec<f64>> {
 
 #[test]
 fn octave_margin_on_the_exported_open_loop_matches_pumpcyl() {
-    if !have_octave("margin on the exported open loop") {
+    if !have_octave("octave_margin_on_the_exported_open_loop_matches_pumpcyl") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -164,7 +168,7 @@ fn octave_margin_on_the_exported_open_loop_matches_pumpcyl() {
 
 #[test]
 fn octave_lsim_on_the_exported_closed_loop_matches_pumpcyl_step() {
-    if !have_octave("lsim on the exported closed loop") {
+    if !have_octave("octave_lsim_on_the_exported_closed_loop_matches_pumpcyl_step") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -224,7 +228,7 @@ fn leakages_at(c12: f64, given: Option<pumpcyl::ident::Standstill>) -> [String; 
 
 #[test]
 fn octave_greybox_function_matches_model_json() {
-    if !have_octave("grey-box function against model --json") {
+    if !have_octave("octave_greybox_function_matches_model_json") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -368,7 +372,7 @@ fn close(a: &[f64], b: &[f64], tol: f64, what: &str) {
 
 #[test]
 fn octave_loads_every_mat_file_pumpcyl_writes() {
-    if !have_octave("load of every .mat pumpcyl writes") {
+    if !have_octave("octave_loads_every_mat_file_pumpcyl_writes") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -3,12 +3,57 @@
 import csv
 import os
 import pathlib
+import re
 
 import numpy as np
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 ARTICLE = ROOT / "data" / "article"
+
+
+# Every skipped test is written to the skip log that ./test.sh sums up in its last line
+# (`skipped: 5 tests — …`), as the Rust tests do (tests/common/skip.rs): one line
+# `test<TAB>tool<TAB>install command`, or `test<TAB>reason<TAB>` for other skips.
+SKIP_LOG = pathlib.Path(os.environ.get("PUMPCYL_SKIP_LOG") or ROOT / "target" / "skipped-tests.txt")
+_MISSING = re.compile(r"^(?:SKIPPED: )?(?P<tool>.+) is not installed \((?P<install>[^()]+)\)$")
+
+
+def skip_missing(tool, install):
+    """Skip the running test: ``tool`` is missing and ``install`` installs it (under CI the
+    callers raise instead). The skip log's hook reads the tool and the command from this text."""
+    pytest.skip(f"SKIPPED: {tool} is not installed ({install})")
+
+
+def _log_skip(nodeid, longrepr):
+    reason = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else str(longrepr)
+    reason = " ".join(str(reason).split())
+    reason = re.sub(r"^Skipped: ", "", reason)
+    missing = _MISSING.match(reason)
+    if missing:
+        tool, install = missing["tool"], missing["install"]
+    else:
+        tool, install = re.sub(r"^SKIPPED: ", "", reason), ""
+    fields = [" ".join(f.split()) for f in (nodeid, tool, install)]
+    try:
+        with open(SKIP_LOG, "a", encoding="utf-8") as f:
+            f.write("\t".join(fields) + "\n")
+    except OSError:
+        if os.environ.get("PUMPCYL_SKIP_LOG"):
+            raise
+        # no target/ folder (pytest run by hand): the skip is still in pytest's own report
+
+
+def pytest_runtest_logreport(report):
+    """A skipped test (not an expected failure) goes to the skip log."""
+    if report.skipped and not hasattr(report, "wasxfail"):
+        _log_skip(report.nodeid, report.longrepr)
+
+
+def pytest_collectreport(report):
+    """A module skipped whole (``pytest.importorskip`` at its top) goes to the skip log."""
+    if report.skipped:
+        _log_skip(report.nodeid, report.longrepr)
 
 
 def require_control():
@@ -18,7 +63,7 @@ def require_control():
     except ImportError:
         if os.environ.get("CI"):
             raise
-        pytest.skip("SKIPPED: python-control is not installed (pip install control)")
+        skip_missing("python-control", "pip install control")
     import control
 
     return control

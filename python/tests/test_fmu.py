@@ -20,7 +20,9 @@ def require_fmpy():
     except ImportError:
         if os.environ.get("CI"):
             raise
-        pytest.skip("SKIPPED: FMPy is not installed (pip install fmpy)")
+        from conftest import skip_missing
+
+        skip_missing("FMPy", "pip install fmpy")  # counted in the last line of ./test.sh
     import fmpy
 
     return fmpy
