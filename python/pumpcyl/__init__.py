@@ -6,7 +6,8 @@ Hydraulic Cylinders", Actuators 2025, 14(8), 366, with exact margins, Bode, zero
 simulation, grid identification of the bulk modulus, the gas-fraction model and the design
 method. numpy arrays in and out; units are part of every name (``beta_bar``, ``f_hz``,
 ``x_mm``). Errors raise :class:`PumpcylError`, a ``ValueError`` carrying the command line's
-one-line message.
+one-line message; a bad argument is named with the value given
+(``Rig(beta_bar=nan): ...``, ``identify(standstill['w1_rpm']='x'): ...``).
 """
 
 from ._pumpcyl import (
@@ -17,6 +18,7 @@ from ._pumpcyl import (
     Rig,
     Simulation,
     StepResponse,
+    _loop_names,
     advise,
     bode,
     design,
@@ -63,8 +65,9 @@ def to_control(rig, loop="open", *, sum_pressure_closed=None):
     """The loop of ``rig`` as a ``control.StateSpace`` (python-control must be installed).
 
     Same loops and units as :func:`state_space`: ``loop="open"`` is the article's open loop
-    (Section 4; input the position error in m, output x in m), ``loop="closed"`` the closed
-    loop x_ref -> x (m).
+    (Section 4; input the position error ``e`` in m, output ``x`` in m), ``loop="closed"`` the
+    closed loop ``x_ref`` -> ``x`` (m). States, input and output are named as the MATLAB export
+    names them: x, v, p1, p2, w1, w2, then tau1, tau2 and z1, z2 where the rig's model has them.
     """
     try:
         import control
@@ -72,4 +75,10 @@ def to_control(rig, loop="open", *, sum_pressure_closed=None):
         raise ImportError(
             "pumpcyl.to_control needs python-control: pip install control"
         ) from e
-    return control.ss(*state_space(rig, loop, sum_pressure_closed=sum_pressure_closed))
+    states, inputs, outputs = _loop_names(rig, loop)
+    return control.ss(
+        *state_space(rig, loop, sum_pressure_closed=sum_pressure_closed),
+        states=states,
+        inputs=inputs,
+        outputs=outputs,
+    )

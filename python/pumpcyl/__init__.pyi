@@ -27,4 +27,7 @@ from ._pumpcyl import (
 __version__: str
 
 def to_control(rig: Rig, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None) -> Any:
-    """The loop as a ``control.StateSpace`` (needs python-control); see ``state_space``."""
+    """The loop as a ``control.StateSpace`` (needs python-control); see ``state_space``.
+    States x, v, p1, p2, w1, w2 (then tau1, tau2, z1, z2 where the model has them), input
+    ``e`` (open loop) or ``x_ref`` (closed loop) and output ``x`` are named as in the MATLAB
+    export."""

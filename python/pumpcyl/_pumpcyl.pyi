@@ -16,8 +16,11 @@ class PumpcylError(ValueError):
 class Rig:
     """A rig description: the article's rig with overrides, or a TOML file.
 
-    Immutable: :meth:`replace` returns a new rig. Every TOML key is an attribute with its unit
-    in its name (``rig.beta_bar`` in bar, ``rig.mass_kg`` in kg); ``pumpcyl rig`` lists them.
+    Immutable: :meth:`replace` returns a new rig. Every TOML key is a read-only attribute with
+    its unit in its name (``rig.beta_bar`` in bar, ``rig.mass_kg`` in kg), listed by ``dir``;
+    ``help(Rig)`` and ``pumpcyl rig`` give each key's unit and meaning. A value of the wrong
+    type (a str or bool for a number, a number for a bool) or out of range raises
+    :class:`PumpcylError` naming the key.
     """
 
     def __init__(self, **overrides: Union[float, bool, str]) -> None:
@@ -34,6 +37,8 @@ class Rig:
         """Every key and value (units in the key names)."""
     def to_toml(self) -> str:
         """Commented TOML (what ``pumpcyl rig`` prints), readable by :meth:`from_toml`."""
+    def __dir__(self) -> List[str]:
+        """The methods and every key."""
     # geometry
     piston_diameter_mm: float
     rod_diameter_mm: float
@@ -86,6 +91,8 @@ class Result:
     def __getattr__(self, name: str) -> Any: ...
     def to_dict(self) -> Dict[str, Any]:
         """Every field, as a new dict."""
+    def __repr__(self) -> str:
+        """The class and the scalar fields (units in their names); lists by their length."""
 
 class Margins(Result):
     """Margins of the open loop (article Section 4): the fields of ``pumpcyl margins --json``.
@@ -113,6 +120,10 @@ class Margins(Result):
     delay_margin_s."""
     integrators: int
     """Poles at the origin."""
+    simulated_closed_loop: Optional[Dict[str, Any]]
+    """Only where it differs from the loop ``closed_loop_stability`` is read on (the rig's
+    sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates
+    it, with ``stability``, ``rightmost_pole`` ([re 1/s, im rad/s]) and ``rightmost_pole_hz``."""
 
 class Simulation:
     """Closed-loop signals in user units, one value per sample."""
@@ -193,9 +204,18 @@ def state_space(
     (m), sum-pressure loop as the rig's ``sum_pressure`` key unless given."""
 
 def bode(
-    rig: Rig, f_hz: ArrayLike, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None
+    rig: Rig,
+    f_hz: Union[float, ArrayLike],
+    loop: Loop = "open",
+    *,
+    sum_pressure_closed: Optional[bool] = None,
 ) -> Tuple[FloatArray, FloatArray]:
-    """Magnitude (dB) and unwrapped phase (deg) at ``f_hz`` (Hz, positive, increasing)."""
+    """Magnitude (dB) and unwrapped phase (deg) at ``f_hz`` (Hz, positive, increasing; a
+    single frequency gives arrays of one value)."""
+
+def _loop_names(rig: Rig, loop: Loop = "open") -> Tuple[List[str], List[str], List[str]]:
+    """Names of the states, inputs and outputs of ``state_space(rig, loop)``, as the MATLAB
+    export names them (for :func:`pumpcyl.to_control`)."""
 
 def simulate(rig: Rig, t_s: ArrayLike, x_ref_mm: ArrayLike) -> Simulation:
     """Closed loop driven by ``x_ref_mm`` (mm) sampled at ``t_s`` (s) and held between
@@ -205,7 +225,8 @@ def step(
     rig: Rig, step_mm: float = 5.0, *, duration_s: float = 4.0, rate_hz: float = 100.0
 ) -> StepResponse:
     """Response to a position step of ``step_mm`` (mm) from x0, sampled at ``rate_hz`` (Hz)
-    for ``duration_s`` (s)."""
+    for ``duration_s`` (s). A step smaller than 0.05 mm in size warns (``UserWarning``):
+    ``step_mm`` is in millimetres, not metres."""
 
 GridDict = Dict[str, Sequence[float]]
 
@@ -240,7 +261,9 @@ def advise(
     """Experiment advice: identify the experiment's records, then rank candidate further
     records (steps, sinusoids, gains; the TOML file ``candidates`` or the defaults) by the
     expected interval widths of beta, b and c12 (as ``pumpcyl advise --json``: point,
-    noise_std_mm, current, candidates, best_for, skipped)."""
+    noise_std_mm, current, candidates, best_for, skipped), plus the same keyed by parameter
+    name: ``best_for_parameter`` {parameter: label} and ``ranking_by_parameter`` {parameter:
+    [{label, log_std, interval, width, relative_width}, ...], best first}."""
 
 def reproduce(
     out: Optional[Union[str, PathLike[str]]] = None, *, progress: bool = False
@@ -255,7 +278,8 @@ def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17
     (article Section 7)."""
 
 def effective_beta(x: float, p_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
-    """Effective bulk modulus (bar) at mean pressure ``p_bar`` (bar) for gas fraction ``x``."""
+    """Effective bulk modulus (bar) at mean pressure ``p_bar`` (bar) for gas fraction ``x``
+    (0 to 1); a value outside its range (a NaN too) raises :class:`PumpcylError` naming it."""
 
 def select(
     application: Optional[Union[str, PathLike[str]]] = None,
@@ -293,19 +317,22 @@ def fmu(
 def design(
     rig: Optional[Rig] = None,
     *,
-    target_pm_deg: float = 40.0,
+    target_pm_deg: float = 34.0,
     target_gm_db: float = 6.0,
     stroke_mm: float = 50.0,
-    p_mean_bar: Sequence[float] = ...,
+    p_mean_bar: Sequence[float] = (),
     p_beta_bar: float = 4.4,
-    mass_kg: Sequence[float] = ...,
-    waves: Sequence[Tuple[float, float]] = ...,
+    mass_kg: Sequence[float] = (),
+    waves: Sequence[Tuple[float, float]] = (),
     robust: bool = False,
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
 ) -> Dict[str, Any]:
     """The design method (article Section 8): kp_max, kp_max_worst_case, worst_case,
-    conditions, tracking, verdict, reasons (as ``pumpcyl design --json``). ``robust=True``:
+    conditions, tracking, verdict, reasons (as ``pumpcyl design --json``, whose defaults these
+    are: PM 34 deg and GM 6 dB as in the article, x0 +/- 50 mm, beta identified at 4.4 bar; no
+    ``p_mean_bar`` (bar) or ``mass_kg`` (kg): the rig's beta and mass only; ``waves``:
+    (freq_hz, amp_mm) pairs to track). ``robust=True``:
     the robust design over the confidence region of ``experiment``'s records, or the stated
     default uncertainty around ``rig`` (as ``pumpcyl design --robust --json``): kp_max,
     kp_max_nominal, deciding, worst_case, steps, region, verdict, reasons."""

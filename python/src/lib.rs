@@ -8,9 +8,10 @@
 use numpy::ndarray::Array2;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1};
 use pyo3::create_exception;
-use pyo3::exceptions::{PyAttributeError, PyValueError};
+use pyo3::exceptions::{PyAttributeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyInt, PyList, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use std::ffi::CString;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::RecvTimeoutError;
@@ -23,7 +24,7 @@ use pumpcyl::lti::{self, StateSpace};
 use pumpcyl::model::Plant;
 use pumpcyl::record::Record;
 use pumpcyl::response::{self, Baseline, Signals};
-use pumpcyl::rig::Rig;
+use pumpcyl::rig::{Rig, RigError};
 
 create_exception!(
     pumpcyl,
@@ -32,9 +33,15 @@ create_exception!(
     "An error of pumpcyl: bad input or a numerical failure, with the command line's message."
 );
 
-/// Any library error as `PumpcylError` with its one-line message.
+/// Any library error as `PumpcylError` with its message on one line.
 fn err(e: impl std::fmt::Display) -> PyErr {
-    PumpcylError::new_err(e.to_string())
+    let text = e.to_string();
+    let lines: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    PumpcylError::new_err(lines.join(" "))
 }
 
 /// A value serialised by the library, as plain Python data (dicts, lists, floats, None).
@@ -43,25 +50,148 @@ fn to_py(py: Python<'_>, value: &impl serde::Serialize) -> PyResult<Py<PyAny>> {
     Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
 }
 
-/// A Python value (dict, list) as a library type, through JSON.
-fn from_py<T: serde::de::DeserializeOwned>(
-    py: Python<'_>,
-    what: &str,
-    value: &Bound<'_, PyAny>,
-) -> PyResult<T> {
-    let text: String = py
-        .import("json")?
-        .call_method1("dumps", (value,))?
-        .extract()?;
-    serde_json::from_str(&text).map_err(|e| err(format!("{what}: {e}")))
+/// A Python value's `repr`, cut to a readable length.
+fn short_repr(value: &Bound<'_, PyAny>) -> String {
+    const MAX_CHARS: usize = 60;
+    let text = value.repr().map_or_else(|_| "?".into(), |r| r.to_string());
+    match text.char_indices().nth(MAX_CHARS) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text,
+    }
 }
 
-/// Any 1-D numeric array or sequence, as float64.
-type Floats<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
+/// A Python argument of a function, or an item of one (`standstill['w1_rpm']`), as messages
+/// name it: `call(name=value): problem`.
+#[derive(Debug, Clone)]
+struct Arg<'a> {
+    /// The function or class called (`Rig`, `identify`).
+    call: &'a str,
+    /// The argument's name, with the item's keys.
+    name: String,
+}
 
-/// A 1-D array as a vector.
-fn vec_of(a: Floats<'_>) -> Vec<f64> {
-    a.as_array().to_vec()
+impl<'a> Arg<'a> {
+    fn new(call: &'a str, name: &str) -> Self {
+        Arg {
+            call,
+            name: name.to_string(),
+        }
+    }
+
+    /// The item `key` (a dict key or a list index) of this argument.
+    fn item(&self, key: &Bound<'_, PyAny>) -> Self {
+        Arg {
+            call: self.call,
+            name: format!("{}[{}]", self.name, short_repr(key)),
+        }
+    }
+
+    /// `name=value`: the argument and the value given.
+    fn given(&self, value: &Bound<'_, PyAny>) -> String {
+        format!("{}={}", self.name, short_repr(value))
+    }
+
+    /// The error `problem` of the value given: `call(name=value): problem`, on one line.
+    fn error(&self, value: &Bound<'_, PyAny>, problem: impl std::fmt::Display) -> PyErr {
+        err(format!("{}({}): {problem}", self.call, self.given(value)))
+    }
+
+    /// The float value of this argument, refused with `rule` unless `ok`.
+    fn check(&self, py: Python<'_>, value: f64, ok: bool, rule: &str) -> PyResult<f64> {
+        if ok {
+            return Ok(value);
+        }
+        Err(self.error(PyFloat::new(py, value).as_any(), rule))
+    }
+}
+
+/// A Python value as TOML, types kept (bool, int, float, str, list or tuple, dict with str
+/// keys; numpy values through `tolist()`); anything else is an error naming the argument.
+fn toml_of(arg: &Arg<'_>, v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    use toml::Value as T;
+    if let Ok(b) = v.cast::<PyBool>() {
+        return Ok(T::Boolean(b.is_true()));
+    }
+    if v.is_instance_of::<PyInt>() {
+        let big = |_| arg.error(v, "an integer beyond 64 bits");
+        return v.extract::<i64>().map(T::Integer).map_err(big);
+    }
+    if let Ok(x) = v.cast::<PyFloat>() {
+        return Ok(T::Float(x.value()));
+    }
+    if let Ok(s) = v.cast::<PyString>() {
+        return Ok(T::String(s.to_cow()?.into_owned()));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let mut table = toml::Table::new();
+        for (k, x) in d {
+            let key: String = k.extract().map_err(|_| arg.error(v, "keys must be str"))?;
+            table.insert(key, toml_of(&arg.item(&k), &x)?);
+        }
+        return Ok(T::Table(table));
+    }
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        let py = v.py();
+        let items = v
+            .try_iter()?
+            .enumerate()
+            .map(|(i, x)| toml_of(&arg.item(i.into_pyobject(py)?.as_any()), &x?))
+            .collect::<PyResult<_>>()?;
+        return Ok(T::Array(items));
+    }
+    if v.hasattr("tolist")? {
+        return toml_of(arg, &v.call_method0("tolist")?);
+    }
+    let kind = v.get_type().name()?;
+    let problem = format!("takes a number, bool, str, list or dict, not a {kind}");
+    Err(arg.error(v, problem))
+}
+
+/// A dict argument (`standstill`, `grid`) as a library type; an error names the key.
+fn from_py<T: serde::de::DeserializeOwned>(arg: &Arg<'_>, value: &Bound<'_, PyAny>) -> PyResult<T> {
+    toml_of(arg, value)?
+        .try_into()
+        .map_err(|e: toml::de::Error| {
+            let problem = pumpcyl::input::serde_message(e.message());
+            // the message ends with the key path, "in `key.sub`", when it concerns a key
+            let shown = e.to_string();
+            let key = shown
+                .lines()
+                .filter_map(|l| l.trim().strip_prefix("in `")?.strip_suffix('`'))
+                .next_back()
+                .and_then(|path| path.split('.').next())
+                .map(|k| PyString::new(value.py(), k).into_any());
+            match key.and_then(|k| Some((value.get_item(&k).ok()?, k))) {
+                Some((item, k)) => arg.item(&k).error(&item, problem),
+                None => arg.error(value, problem),
+            }
+        })
+}
+
+/// Keyword arguments of `call` in the core's override form, `KEY=VALUE` with the value in
+/// TOML, each with its argument and value for messages.
+fn assignments<'a, 'py>(
+    call: &'a str,
+    overrides: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Vec<(Arg<'a>, Bound<'py, PyAny>, String)>> {
+    let Some(kw) = overrides else {
+        return Ok(Vec::new());
+    };
+    kw.iter()
+        .map(|(k, v)| {
+            let arg = Arg::new(call, &k.extract::<String>()?);
+            let assignment = format!("{}={}", arg.name, toml_of(&arg, &v)?);
+            Ok((arg, v, assignment))
+        })
+        .collect()
+}
+
+/// A 1-D array argument (a numpy array or any sequence of numbers) as float64 values.
+fn floats(arg: &Arg<'_>, value: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    value
+        .extract::<PyArrayLike1<'_, f64, AllowTypeChange>>()
+        .map(|a| a.as_array().to_vec())
+        .map_err(|_| arg.error(value, "must be a 1-D array or sequence of numbers"))
 }
 
 fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
@@ -81,58 +211,6 @@ fn array2<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
 #[derive(Clone, PartialEq)]
 struct PyRig {
     rig: Rig,
-}
-
-/// `KEY=VALUE` assignments (the command line's `--set`) from keyword arguments.
-fn assignments(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
-    let Some(kw) = overrides else {
-        return Ok(Vec::new());
-    };
-    kw.iter()
-        .map(|(k, v)| {
-            let key: String = k.extract()?;
-            let value = if v.is_instance_of::<PyBool>() {
-                v.extract::<bool>()?.to_string()
-            } else if v.is_instance_of::<PyInt>() {
-                v.str()?.to_string()
-            } else if let Ok(x) = v.extract::<f64>() {
-                match x {
-                    x if x.is_nan() => "nan".to_string(),
-                    x if x.is_infinite() => if x > 0.0 { "inf" } else { "-inf" }.to_string(),
-                    x => format!("{x:?}"),
-                }
-            } else if let Ok(s) = v.extract::<String>() {
-                s
-            } else if let Ok(points) = v.extract::<Vec<Bound<'_, PyDict>>>() {
-                toml_array_of_tables(&points)?
-            } else {
-                v.repr()?.to_string()
-            };
-            Ok(format!("{key}={value}"))
-        })
-        .collect()
-}
-
-/// A list of dicts of numbers (`mass_by_position=[{"x_mm": 295.0, "mass_kg": 9958.0}, …]`) as
-/// a TOML array of inline tables.
-fn toml_array_of_tables(points: &[Bound<'_, PyDict>]) -> PyResult<String> {
-    let tables = points
-        .iter()
-        .map(|d| {
-            let fields = d
-                .iter()
-                .map(|(k, v)| {
-                    Ok(format!(
-                        "{} = {:?}",
-                        k.extract::<String>()?,
-                        v.extract::<f64>()?
-                    ))
-                })
-                .collect::<PyResult<Vec<String>>>()?;
-            Ok(format!("{{ {} }}", fields.join(", ")))
-        })
-        .collect::<PyResult<Vec<String>>>()?;
-    Ok(format!("[{}]", tables.join(", ")))
 }
 
 fn toml_to_py(py: Python<'_>, v: &toml::Value) -> PyResult<Py<PyAny>> {
@@ -163,6 +241,42 @@ impl PyRig {
     fn table(&self) -> toml::Table {
         toml::Table::try_from(&self.rig).expect("a rig always serialises")
     }
+
+    /// This rig with the keyword overrides of `call` (`Rig`, `Rig.replace`). A value out of
+    /// range names the argument and the value given (`Rig(beta_bar=nan): key `beta_bar` = NaN:
+    /// must be a finite number`), or all of them when the rule ties keys together; a type or
+    /// key error names the assignment (`override mass_kg="4898": key `mass_kg` takes a float`).
+    fn with(&self, call: &str, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let given = assignments(call, overrides)?;
+        let all: Vec<String> = given.iter().map(|(.., a)| a.clone()).collect();
+        let rig = self.rig.with_overrides(&all).map_err(|mut e| {
+            if let RigError::Invalid {
+                source_name, key, ..
+            } = &mut e
+            {
+                let named = |(arg, v, _): &(Arg<'_>, Bound<'_, PyAny>, String)| arg.given(v);
+                let own = given.iter().filter(|(arg, ..)| arg.name == *key);
+                let mut shown: Vec<String> = own.map(named).collect();
+                if shown.is_empty() {
+                    shown = given.iter().map(named).collect();
+                }
+                *source_name = format!("{call}({})", shown.join(", "));
+            }
+            err(e)
+        })?;
+        Ok(PyRig { rig })
+    }
+}
+
+/// The class docstring of `Rig`: its own words, then every key with its unit and meaning.
+fn rig_doc(own: &str) -> String {
+    let keys: Vec<String> = Rig::key_docs()
+        .map(|(key, doc)| format!("    {key}: {doc}"))
+        .collect();
+    format!(
+        "{own}\n\nKeys (read-only attributes and keyword arguments; unit, meaning):\n{}",
+        keys.join("\n")
+    )
 }
 
 #[pymethods]
@@ -174,7 +288,7 @@ impl PyRig {
         PyRig {
             rig: Rig::default(),
         }
-        .replace(overrides)
+        .with("Rig", overrides)
     }
 
     /// Read a rig TOML file (absent keys take the article's values).
@@ -197,12 +311,7 @@ impl PyRig {
     /// A new rig with keyword overrides applied; this one is unchanged.
     #[pyo3(signature = (**overrides))]
     fn replace(&self, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        Ok(PyRig {
-            rig: self
-                .rig
-                .with_overrides(&assignments(overrides)?)
-                .map_err(err)?,
-        })
+        self.with("Rig.replace", overrides)
     }
 
     /// Every key and value, units in the key names.
@@ -227,6 +336,15 @@ impl PyRig {
                 "Rig has no key `{name}`"
             ))),
         }
+    }
+
+    /// The methods and every rig key.
+    fn __dir__(slf: &Bound<'_, Self>) -> PyResult<Vec<String>> {
+        let mut names: Vec<String> = slf.get_type().dir()?.extract()?;
+        names.extend(Rig::key_docs().map(|(key, _)| key.to_string()));
+        names.sort();
+        names.dedup();
+        Ok(names)
     }
 
     fn __repr__(&self) -> String {
@@ -308,17 +426,64 @@ impl PyOutcome {
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
-        let shown: Vec<String> = self
+        let fields: Vec<(String, Bound<'_, PyAny>)> = self
             .fields
             .bind(py)
             .iter()
-            .filter(|(_, v)| {
-                !(v.is_instance_of::<pyo3::types::PyList>() || v.is_instance_of::<PyDict>())
-            })
-            .map(|(k, v)| Ok(format!("{k}={}", v.repr()?)))
+            .map(|(k, v)| Ok((k.extract()?, v)))
             .collect::<PyResult<_>>()?;
-        Ok(format!("{}({})", self.kind, shown.join(", ")))
+        repr_of(self.kind, fields)
     }
+}
+
+/// A field's value in a `repr`: a float to 4 significant digits, a text cut short, a list,
+/// dict or array by its length (`<list of 4>`).
+fn shown(v: &Bound<'_, PyAny>) -> PyResult<String> {
+    if v.is_instance_of::<PyFloat>() {
+        return v.call_method1("__format__", (".4g",))?.extract();
+    }
+    if v.is_instance_of::<PyString>() || v.is_instance_of::<PyInt>() || v.is_none() {
+        return Ok(short_repr(v));
+    }
+    match v.len() {
+        Ok(n) => Ok(format!("<{} of {n}>", v.get_type().name()?)),
+        Err(_) => Ok(short_repr(v)),
+    }
+}
+
+/// `Kind(name=value, ...)` over a few lines: numbers and flags first, then texts, then lists,
+/// dicts and arrays by their length.
+fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<String> {
+    const WIDTH: usize = 96;
+    let rank = |v: &Bound<'_, PyAny>| match (v.is_instance_of::<PyString>(), v.len().is_ok()) {
+        (true, _) => 1,
+        (false, sized) => 2 * usize::from(sized),
+    };
+    let mut fields = fields;
+    fields.sort_by_key(|(_, v)| rank(v));
+    let mut lines = Vec::new();
+    let mut line = format!("{kind}(");
+    for (i, (k, v)) in fields.iter().enumerate() {
+        let item = format!("{k}={}", shown(v)?);
+        if i > 0 && line.len() + 2 + item.len() > WIDTH {
+            lines.push(format!("{line},"));
+            line = " ".repeat(kind.len() + 1);
+        } else if i > 0 {
+            line.push_str(", ");
+        }
+        line.push_str(&item);
+    }
+    lines.push(format!("{line})"));
+    Ok(lines.join("\n"))
+}
+
+/// `repr` of a result object from the attributes `names`.
+fn repr_attrs(obj: &Bound<'_, PyAny>, names: &[&str]) -> PyResult<String> {
+    let fields = names
+        .iter()
+        .map(|n| Ok((n.to_string(), obj.getattr(*n)?)))
+        .collect::<PyResult<_>>()?;
+    repr_of(&obj.get_type().name()?.to_string(), fields)
 }
 
 /// Gain, phase and delay margins of the position loop (article Section 4), every crossing and
@@ -329,11 +494,8 @@ impl PyOutcome {
 fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
     let lp = Loop::of_rig(rig.rig.clone(), &rig.__repr__(), sum_pressure_closed);
     let m = lti::margins(&lp.open_loop).map_err(err)?;
-    PyOutcome::of(
-        py,
-        "Margins",
-        &pumpcyl_present::analysis::margins_json(&m, &lp.description),
-    )
+    let json = pumpcyl_present::analysis::loop_margins_json(&m, &lp).map_err(err)?;
+    PyOutcome::of(py, "Margins", &json)
 }
 
 /// (A, B, C, D) of the open or closed loop (SI units; states as `pumpcyl model` lists them).
@@ -357,23 +519,45 @@ fn state_space<'py>(
     )
 }
 
+/// The names of the states, inputs and outputs of `state_space(rig, loop)`, as the MATLAB
+/// export names them (`pumpcyl model --m`): states x, v, p1, p2, w1, w2, then tau1, tau2 and
+/// z1, z2 where the rig's model has them; input e (open loop) or x_ref (closed loop); output x.
+#[pyfunction]
+#[pyo3(name = "_loop_names", signature = (rig, r#loop = "open"))]
+fn loop_names(rig: &PyRig, r#loop: &str) -> PyResult<(Vec<String>, Vec<String>, Vec<String>)> {
+    let outputs = loop_of(&rig.rig, r#loop, None)?.c.nrows();
+    let view = Loop::of_rig(rig.rig.clone(), "", false)
+        .view(r#loop == "closed", false)
+        .map_err(err)?;
+    let names = |ports: &[pumpcyl::loops::Port], n: usize| {
+        ports.iter().take(n).map(|p| p.name.clone()).collect()
+    };
+    Ok((
+        view.states.iter().map(|s| s.name.clone()).collect(),
+        names(&view.inputs, usize::MAX),
+        names(&view.outputs, outputs),
+    ))
+}
+
 /// Magnitude (dB) and unwrapped phase (deg) of the loop at the frequencies `f_hz` (Hz,
-/// positive, increasing).
+/// positive, increasing; a single frequency gives arrays of one value).
 #[pyfunction]
 #[pyo3(signature = (rig, f_hz, r#loop = "open", *, sum_pressure_closed = None))]
 fn bode<'py>(
     py: Python<'py>,
     rig: &PyRig,
-    f_hz: Floats<'py>,
+    f_hz: &Bound<'py, PyAny>,
     r#loop: &str,
     sum_pressure_closed: Option<bool>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let f = vec_of(f_hz);
+    let arg = Arg::new("bode", "f_hz");
+    let scalar = |e| f_hz.extract::<f64>().map(|x| vec![x]).map_err(|_| e);
+    let f = floats(&arg, f_hz).or_else(scalar)?;
     if f.is_empty() || f.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        return Err(err("f_hz: frequencies must be finite and > 0"));
+        return Err(arg.error(f_hz, "frequencies must be finite and > 0"));
     }
     if f.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(err("f_hz: frequencies must strictly increase"));
+        return Err(arg.error(f_hz, "frequencies must strictly increase"));
     }
     let sys = loop_of(&rig.rig, r#loop, sum_pressure_closed)?;
     let b = lti::bode(&sys, &f).map_err(err)?;
@@ -426,6 +610,18 @@ impl PySimulation {
     }
 }
 
+/// The signals of a simulation, in order.
+const SIGNALS: [&str; 8] = [
+    "time_s", "x_ref_mm", "x_mm", "e_mm", "p1_bar", "p2_bar", "w1_rpm", "w2_rpm",
+];
+
+#[pymethods]
+impl PySimulation {
+    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
+        repr_attrs(slf.as_any(), &SIGNALS)
+    }
+}
+
 /// Simulate the closed loop (exact zero-order hold, article Section 5) driven by `x_ref_mm`
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
 /// operating-point pressures and motor speeds. An unstable closed loop is an error.
@@ -433,10 +629,14 @@ impl PySimulation {
 fn simulate(
     py: Python<'_>,
     rig: &PyRig,
-    t_s: Floats<'_>,
-    x_ref_mm: Floats<'_>,
+    t_s: &Bound<'_, PyAny>,
+    x_ref_mm: &Bound<'_, PyAny>,
 ) -> PyResult<PySimulation> {
-    let (t, r) = (vec_of(t_s), vec_of(x_ref_mm));
+    let arg = |name| Arg::new("simulate", name);
+    let (t, r) = (
+        floats(&arg("t_s"), t_s)?,
+        floats(&arg("x_ref_mm"), x_ref_mm)?,
+    );
     Record::from_arrays("simulate", &t, &r, &r).map_err(err)?;
     let mut base = Baseline::of_rig(&rig.rig);
     base.x_ref_mm = r[0];
@@ -469,8 +669,30 @@ struct PyStep {
     final_error_mm: f64,
 }
 
-/// Closed-loop response to a position step of `step_mm` from the operating point x0, sampled
-/// at `rate_hz` for `duration_s`: metrics and signals.
+#[pymethods]
+impl PyStep {
+    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
+        let metrics = [
+            "step_mm",
+            "rise_time_s",
+            "overshoot_mm",
+            "overshoot_pct",
+            "peak_time_s",
+            "settling_time_s",
+            "steady_state_error_mm",
+            "final_error_mm",
+        ];
+        repr_attrs(slf.as_any(), &[&metrics[..], &SIGNALS[..]].concat())
+    }
+}
+
+/// Below this step size (mm) `step` warns: a step that small is probably metres given as
+/// millimetres.
+const STEP_WARN_BELOW_MM: f64 = 0.05;
+
+/// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
+/// sampled at `rate_hz` (Hz) for `duration_s` (s): metrics and signals. A step smaller than
+/// 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres.
 #[pyfunction]
 #[pyo3(signature = (rig, step_mm = 5.0, *, duration_s = 4.0, rate_hz = 100.0))]
 fn step(
@@ -480,8 +702,15 @@ fn step(
     duration_s: f64,
     rate_hz: f64,
 ) -> PyResult<Py<PyStep>> {
-    if !(step_mm.is_finite() && step_mm != 0.0) {
-        return Err(err("step_mm must be non-zero"));
+    let ok = step_mm.is_finite() && step_mm != 0.0;
+    Arg::new("step", "step_mm").check(py, step_mm, ok, "must be finite and non-zero")?;
+    if step_mm.abs() < STEP_WARN_BELOW_MM {
+        let message = format!(
+            "step_mm = {step_mm}: a step of {} µm is unusual; step_mm is in millimetres",
+            step_mm * 1000.0
+        );
+        let category = py.get_type::<PyUserWarning>();
+        PyErr::warn(py, category.as_any(), &CString::new(message)?, 1)?;
     }
     let rig = rig.rig.clone();
     let (s, m) = py
@@ -520,16 +749,21 @@ impl PyDataset {
     #[new]
     #[pyo3(signature = (t_s, x_ref_mm, x_mm, *, kp, mass_kg, fit_end_s, name = "dataset"))]
     fn new(
-        t_s: Floats<'_>,
-        x_ref_mm: Floats<'_>,
-        x_mm: Floats<'_>,
+        t_s: &Bound<'_, PyAny>,
+        x_ref_mm: &Bound<'_, PyAny>,
+        x_mm: &Bound<'_, PyAny>,
         kp: f64,
         mass_kg: f64,
         fit_end_s: f64,
         name: &str,
     ) -> PyResult<Self> {
-        let record = Record::from_arrays(name, &vec_of(t_s), &vec_of(x_ref_mm), &vec_of(x_mm))
-            .map_err(err)?;
+        let arg = |name| Arg::new("Dataset", name);
+        let (t, r, x) = (
+            floats(&arg("t_s"), t_s)?,
+            floats(&arg("x_ref_mm"), x_ref_mm)?,
+            floats(&arg("x_mm"), x_mm)?,
+        );
+        let record = Record::from_arrays(name, &t, &r, &x).map_err(err)?;
         Ok(PyDataset {
             record,
             spec: DatasetSpec {
@@ -586,11 +820,20 @@ struct PyIdentification {
 
 #[pymethods]
 impl PyIdentification {
-    fn __repr__(&self) -> String {
-        format!(
-            "Identification(beta_bar={}, viscous_friction_ns_per_m={}, c12_m5_per_ns={:e}, cost_mm2={:e})",
-            self.beta_bar, self.viscous_friction_ns_per_m, self.c12_m5_per_ns, self.cost_mm2
-        )
+    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
+        let fields = [
+            "beta_bar",
+            "viscous_friction_ns_per_m",
+            "c12_m5_per_ns",
+            "c1_m5_per_ns",
+            "c2_m5_per_ns",
+            "cost_mm2",
+            "refined",
+            "candidates_evaluated",
+            "seconds",
+            "top",
+        ];
+        repr_attrs(slf.as_any(), &fields)
     }
 }
 
@@ -640,15 +883,15 @@ fn run_interruptible<T: Send>(
 }
 
 /// A grid from a dict {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists, checked.
-fn grid_of(py: Python<'_>, name: &str, value: &Bound<'_, PyAny>) -> PyResult<Grid> {
-    let grid: Grid = from_py(py, name, value)?;
+fn grid_of(name: &str, value: &Bound<'_, PyAny>) -> PyResult<Grid> {
+    let grid: Grid = from_py(&Arg::new("identify", name), value)?;
     grid.validate(name).map_err(err)?;
     Ok(grid)
 }
 
 /// The standstill point from a dict {w1_rpm, w2_rpm, p1_bar}, checked.
-fn standstill_of(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
-    let s: Standstill = from_py(py, "standstill", value)?;
+fn standstill_of(value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
+    let s: Standstill = from_py(&Arg::new("identify", "standstill"), value)?;
     s.validate().map_err(err)?;
     Ok(s)
 }
@@ -702,12 +945,9 @@ fn identify(
         }
         (None, Some(sets)) => {
             let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
-            let standstill = standstill_of(
-                py,
-                standstill.ok_or_else(|| {
-                    err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)")
-                })?,
-            )?;
+            let standstill = standstill_of(standstill.ok_or_else(|| {
+                err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)")
+            })?)?;
             if sets.is_empty() {
                 return Err(err("datasets: needs at least one Dataset"));
             }
@@ -725,19 +965,25 @@ fn identify(
             let grids = (Grid::article_first(), Some(Grid::article_refined()));
             (&built, grids, Options::default())
         }
-        _ => {
+        (Some(_), Some(_)) => {
             return Err(err(
-                "give an experiment file or datasets=[Dataset(...)], not both",
+                "give either `experiment` (an experiment TOML file) or `datasets`, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(err(
+                "give `experiment` (an experiment TOML file) or `datasets=[Dataset(...)]` \
+                 with `standstill`; neither was given",
             ))
         }
     };
     let first = match grid {
-        Some(g) => grid_of(py, "grid", g)?,
+        Some(g) => grid_of("grid", g)?,
         None => file_grids.0,
     };
     let second = match refined_grid {
         Some(g) if g.is_instance_of::<PyBool>() && !g.extract::<bool>()? => None,
-        Some(g) => Some(grid_of(py, "refined_grid", g)?),
+        Some(g) => Some(grid_of("refined_grid", g)?),
         None => file_grids.1,
     };
     let opts = Options {
@@ -821,7 +1067,9 @@ fn progress_reporter(
 /// records (the TOML file `candidates`, else the default steps, sinusoids and gains) by the
 /// interval widths of beta, b and c12 expected after adding each, at `confidence`; a dict as
 /// `pumpcyl advise --json` prints (point, noise_std_mm, current, candidates ranked best first,
-/// best_for, skipped). Runs with the GIL released.
+/// best_for, skipped), plus the same keyed by parameter name: `best_for_parameter`
+/// {parameter: label} and `ranking_by_parameter` {parameter: [{label, log_std, interval, width,
+/// relative_width}, ...] best first}. Runs with the GIL released.
 #[pyfunction]
 #[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None))]
 fn advise(
@@ -841,7 +1089,37 @@ fn advise(
             )
         })
         .map_err(err)?;
-    to_py(py, &advice)
+    let out = to_py(py, &advice)?;
+    let d = out.bind(py).cast::<PyDict>()?;
+    // keyed by parameter name, in the library's order of the parameters
+    let by_parameter = |of: &dyn Fn(usize) -> PyResult<Py<PyAny>>| {
+        let keyed = PyDict::new(py);
+        for (i, w) in advice.current.iter().enumerate() {
+            keyed.set_item(w.parameter, of(i)?)?;
+        }
+        Ok::<_, PyErr>(keyed)
+    };
+    let best = |i: usize| Ok(PyString::new(py, &advice.best_for[i]).into_any().unbind());
+    d.set_item("best_for_parameter", by_parameter(&best)?)?;
+    let ranked = |i: usize| to_py(py, &ranking(&advice, i));
+    d.set_item("ranking_by_parameter", by_parameter(&ranked)?)?;
+    Ok(out)
+}
+
+/// The candidates ranked for the parameter `i` on its own, best (least expected log-std)
+/// first: [{label, log_std, interval, width, relative_width}, ...].
+fn ranking(advice: &ident::Advice, i: usize) -> Vec<serde_json::Value> {
+    let mut ranked: Vec<&ident::Assessment> = advice.candidates.iter().collect();
+    ranked.sort_by(|a, b| a.widths[i].log_std.total_cmp(&b.widths[i].log_std));
+    let entry = |c: &ident::Assessment| {
+        let mut entry = serde_json::to_value(c.widths[i]).unwrap_or_default();
+        if let Some(fields) = entry.as_object_mut() {
+            fields.remove("parameter");
+            fields.insert("label".into(), c.label.clone().into());
+        }
+        entry
+    };
+    ranked.into_iter().map(entry).collect()
 }
 
 // The article workflow
@@ -898,16 +1176,28 @@ fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<P
 /// Gas fraction X that gives `beta_bar` (bar) at mean pressure `p_mean_bar` (bar), with pure
 /// oil of `beta_oil_bar` (bar) (article Section 7).
 #[pyfunction]
-#[pyo3(signature = (beta_bar, p_mean_bar, *, beta_oil_bar = pumpcyl::bulk::BETA_OIL_BAR))]
+#[pyo3(signature = (beta_bar, p_mean_bar, *, beta_oil_bar = 17000.0))]
 fn gas_fraction(beta_bar: f64, p_mean_bar: f64, beta_oil_bar: f64) -> PyResult<f64> {
     pumpcyl::bulk::gas_fraction(beta_bar, p_mean_bar, beta_oil_bar).map_err(err)
 }
 
-/// Effective bulk modulus (bar) at mean pressure `p_bar` (bar) for gas fraction `x`.
+// the signatures above show the oil's modulus as a number: it must stay the library's
+const _: () = assert!(pumpcyl::bulk::BETA_OIL_BAR == 17000.0);
+
+/// Effective bulk modulus (bar) at mean pressure `p_bar` (bar) for gas fraction `x` (0 to 1).
 #[pyfunction]
-#[pyo3(signature = (x, p_bar, *, beta_oil_bar = pumpcyl::bulk::BETA_OIL_BAR))]
-fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
-    pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar)
+#[pyo3(signature = (x, p_bar, *, beta_oil_bar = 17000.0))]
+fn effective_beta(py: Python<'_>, x: f64, p_bar: f64, beta_oil_bar: f64) -> PyResult<f64> {
+    let arg = |name| Arg::new("effective_beta", name);
+    let (positive, rule) = (
+        |v: f64| v.is_finite() && v > 0.0,
+        "must be a finite value > 0",
+    );
+    let fraction = (0.0..=1.0).contains(&x);
+    arg("x").check(py, x, fraction, "must be a gas fraction from 0 to 1")?;
+    arg("p_bar").check(py, p_bar, positive(p_bar), rule)?;
+    arg("beta_oil_bar").check(py, beta_oil_bar, positive(beta_oil_bar), rule)?;
+    Ok(pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar))
 }
 
 /// Write the rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64;
@@ -993,9 +1283,11 @@ fn select(
         Some(path) => Application::from_file_in(&pumpcyl::input::Disk, path).map_err(err)?,
         None => Application::default(),
     };
-    let mut app = base
-        .with_overrides("select", &assignments(overrides)?)
-        .map_err(err)?;
+    let given: Vec<String> = assignments("select", overrides)?
+        .into_iter()
+        .map(|(.., a)| a)
+        .collect();
+    let mut app = base.with_overrides("select", &given).map_err(err)?;
     if let Some(r) = rig {
         app.rig = r.rig.clone();
     }
@@ -1044,18 +1336,27 @@ fn select(
 
 /// The design method of the article (Section 8) for `rig` (default: the article's): the
 /// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
-/// tracking and a verdict; a dict as `pumpcyl design --json` prints.
+/// tracking and a verdict; a dict as `pumpcyl design --json` prints. The defaults are the
+/// command line's and the article's: phase margin 34 deg, gain margin 6 dB, x0 ± 50 mm of
+/// stroke, β identified at 4.4 bar; no `p_mean_bar` (bar) or `mass_kg` (kg) checks the rig's
+/// β and mass only; `waves` are (freq_hz, amp_mm) pairs to track.
 ///
 /// `robust=True` designs over the parameters' uncertainty (docs/design.md#robust-design), as
 /// `pumpcyl design --robust --json`: over the confidence region (at `confidence`) of the
 /// records of `experiment` (an experiment TOML file; its rig is designed, so `rig` must not be
-/// given), or without `experiment` over the stated default uncertainty around `rig`.
+/// given; without `p_mean_bar`, over the mean chamber pressures its records span), or without
+/// `experiment` over the stated default uncertainty around `rig`.
 #[pyfunction]
-#[pyo3(signature = (
-    rig = None, *, target_pm_deg = 40.0, target_gm_db = 6.0, stroke_mm = 50.0,
-    p_mean_bar = vec![], p_beta_bar = 4.4, mass_kg = vec![], waves = vec![], robust = false,
-    experiment = None, confidence = 0.95
-))]
+#[pyo3(
+    signature = (
+        rig = None, *, target_pm_deg = 34.0, target_gm_db = 6.0, stroke_mm = 50.0,
+        p_mean_bar = vec![], p_beta_bar = 4.4, mass_kg = vec![], waves = vec![], robust = false,
+        experiment = None, confidence = 0.95
+    ),
+    text_signature = "(rig=None, *, target_pm_deg=34.0, target_gm_db=6.0, stroke_mm=50.0, \
+        p_mean_bar=(), p_beta_bar=4.4, mass_kg=(), waves=(), robust=False, experiment=None, \
+        confidence=0.95)"
+)]
 #[allow(clippy::too_many_arguments)]
 fn design(
     py: Python<'_>,
@@ -1099,12 +1400,14 @@ fn design(
     use pumpcyl::design::robust::{Region, RobustOptions};
     let d = py
         .detach(|| -> Result<_, String> {
-            let (rig, region) = match experiment {
+            let (rig, region, targets) = match experiment {
                 Some(path) => {
                     let exp = Experiment::load(&path).map_err(|e| e.to_string())?;
-                    Region::of_records(&exp, confidence).map_err(|e| e.to_string())?
+                    let (rig, region) =
+                        Region::of_records(&exp, confidence).map_err(|e| e.to_string())?;
+                    (rig, region, targets.over_records(&exp))
                 }
-                None => (rig.clone(), Region::stated_default(&rig)),
+                None => (rig.clone(), Region::stated_default(&rig), targets),
             };
             pumpcyl::design::robust_design(&rig, &region, &targets, &RobustOptions::default())
                 .map_err(|e| e.to_string())
@@ -1117,6 +1420,9 @@ fn design(
 fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("PumpcylError", m.py().get_type::<PumpcylError>())?;
     m.add_class::<PyRig>()?;
+    let rig_type = m.getattr("Rig")?;
+    let own: String = rig_type.getattr("__doc__")?.extract()?;
+    rig_type.setattr("__doc__", rig_doc(&own))?;
     m.add_class::<PyOutcome>()?;
     m.add_class::<PySimulation>()?;
     m.add_class::<PyStep>()?;
@@ -1124,6 +1430,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(margins, m)?)?;
     m.add_function(wrap_pyfunction!(state_space, m)?)?;
+    m.add_function(wrap_pyfunction!(loop_names, m)?)?;
     m.add_function(wrap_pyfunction!(bode, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(step, m)?)?;
