@@ -179,6 +179,13 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
     assert_eq!(html.matches("<figure>").count(), stems.len() + 3);
     assert!(html.contains("EMULATED"));
     // every number the article prints sits beside pumpcyl's
+    let page_cells: Vec<String> = html
+        .split("<td")
+        .skip(1)
+        .filter_map(|c| c.split_once('>').map(|(_, rest)| rest))
+        .filter_map(|c| c.split_once("</td>").map(|(inner, _)| strip_tags(inner)))
+        .collect();
+    let page_text = strip_tags(&html);
     for printed in [
         "8.52 (real rig)",
         "11.8 (real rig)",
@@ -203,11 +210,23 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "virtually unchanged",
         "increases slightly",
     ] {
-        assert!(
-            html.contains(printed),
-            "report.html lacks the article's {printed}"
-        );
-        assert!(stdout.contains(printed.trim_start_matches("<td>").trim_end_matches("</td>")));
+        // the page's text, its markup (number spans, cell classes) taken out
+        let cell = printed
+            .strip_prefix("<td>")
+            .and_then(|p| p.strip_suffix("</td>"));
+        let found = match cell {
+            Some(value) => page_cells.iter().any(|c| c == value),
+            None => page_text.contains(printed),
+        };
+        assert!(found, "report.html lacks the article's {printed}");
+        // the terminal wraps long cells within their column: every word is there
+        let value = printed.trim_start_matches("<td>").trim_end_matches("</td>");
+        for word in value.split_whitespace() {
+            assert!(
+                stdout.contains(word),
+                "the terminal table lacks {word} of {value}"
+            );
+        }
     }
     assert!(
         !html.contains("src=\"http") && !html.contains("href=\"http"),
@@ -265,7 +284,12 @@ fn report_renders_in_headless_chromium_with_every_figure_loaded() {
     let tmp = Path::new(env!("CARGO_TARGET_TMPDIR"));
     let dom = chromium_run(
         &browser,
-        &["--virtual-time-budget=10000", "--dump-dom", &page],
+        &[
+            "--window-size=1400,3000",
+            "--virtual-time-budget=10000",
+            "--dump-dom",
+            &page,
+        ],
         &tmp.join("chromium-dom"),
     );
     let dom = String::from_utf8_lossy(&dom.stdout);
@@ -288,6 +312,14 @@ fn report_renders_in_headless_chromium_with_every_figure_loaded() {
     );
     assert_eq!(loaded, total, "every figure loaded with a non-zero size");
     assert!(!dom.contains("class=\"notice\">This figure did not load"));
+    // at 1400 px no number wraps inside its table cell: the page measures each number cell's
+    // height against its line height (crates/present/src/html.rs)
+    let (cells, wrapped) = (attr("data-number-cells"), attr("data-wrapped-numbers"));
+    assert!(cells > 100, "{cells} number cells");
+    assert_eq!(
+        wrapped, 0,
+        "number cells wrapped onto a second line at 1400 px"
+    );
     // the screenshot, kept in target/ as a CI artefact
     let shot = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .parent()
@@ -582,4 +614,19 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
     let overshoot = |k: usize| num(&ff[k], "step.overshoot_pct");
     assert!(overshoot(1) > overshoot(0) + 5.0, "{ff:?}");
     assert!(num(&ff[1], "gain_margin_db") < num(&ff[0], "gain_margin_db"));
+}
+
+/// `html` without its tags.
+fn strip_tags(html: &str) -> String {
+    let mut out = String::with_capacity(html.len());
+    let mut in_tag = false;
+    for c in html.chars() {
+        match c {
+            '<' => in_tag = true,
+            '>' if in_tag => in_tag = false,
+            _ if !in_tag => out.push(c),
+            _ => {}
+        }
+    }
+    out
 }

@@ -21,6 +21,8 @@ pub enum Block {
         /// Rows of cells.
         rows: Vec<Vec<String>>,
     },
+    /// A bulleted list, one item a point.
+    List(Vec<String>),
     /// A figure: an SVG document and its caption.
     Figure {
         /// The SVG document, inlined.
@@ -31,20 +33,28 @@ pub enum Block {
 }
 
 const STYLE: &str =
-    "body{font-family:'DejaVu Sans',Arial,sans-serif;max-width:1100px;margin:2em auto;\
-padding:0 1em;color:#222;line-height:1.45}h1{font-size:1.6em}h2{font-size:1.25em;margin-top:2em;\
-border-bottom:1px solid #ccc}table{border-collapse:collapse;margin:1em 0}caption{text-align:left;\
-font-weight:bold;padding:.3em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}\
-td:first-child,th:first-child{text-align:left}th{background:#eee}figure{margin:1.5em 0}\
+    "body{font-family:'DejaVu Sans',Arial,sans-serif;max-width:1800px;margin:2em auto;\
+padding:0 2vw;color:#222;line-height:1.45}p,figcaption{max-width:60em}h1{font-size:1.6em}\
+h2{font-size:1.25em;margin-top:2em;border-bottom:1px solid #ccc}table{border-collapse:collapse;\
+margin:1em 0}caption{text-align:left;font-weight:bold;padding:.3em 0}td,th{border:1px solid #bbb;\
+padding:.25em .6em;text-align:left;vertical-align:top}td.num{text-align:right;white-space:nowrap}\
+.n{white-space:nowrap}th{background:#eee}figure{margin:1.5em 0;max-width:1400px}\
 figure img{width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}\
 .notice{background:#fff4d6;border-left:4px solid #e0a000;padding:.6em 1em}";
 
 /// Marks on `<body>` how many figures loaded with a non-zero size (data-figures-loaded) out of
-/// how many (data-figures-total), and flags any that did not: checked by the browser test.
+/// how many (data-figures-total), and flags any that did not; and how many number cells
+/// (data-number-cells) laid out on more than one line (data-wrapped-numbers): both checked by
+/// the browser test.
 const SCRIPT: &str = "window.addEventListener('load',function(){var im=document.querySelectorAll('figure img');\
 var ok=0;im.forEach(function(i){if(i.complete&&i.naturalWidth>0&&i.getBoundingClientRect().height>0){ok++}\
 else{i.insertAdjacentHTML('afterend','<p class=notice>This figure did not load.</p>')}});\
-document.body.setAttribute('data-figures-loaded',ok);document.body.setAttribute('data-figures-total',im.length)});";
+document.body.setAttribute('data-figures-loaded',ok);document.body.setAttribute('data-figures-total',im.length);\
+var wrapped=0,cells=document.querySelectorAll('td.num');cells.forEach(function(c){\
+var r=document.createRange();r.selectNodeContents(c);var tops={};\
+Array.prototype.forEach.call(r.getClientRects(),function(b){tops[Math.round(b.top)]=1});\
+if(Object.keys(tops).length>1){wrapped++}});\
+document.body.setAttribute('data-number-cells',cells.length);document.body.setAttribute('data-wrapped-numbers',wrapped)});";
 
 /// The page: `title` and the blocks, in order.
 pub fn html_page(title: &str, blocks: &[Block]) -> String {
@@ -64,6 +74,13 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
             }
             Block::Notice(p) => {
                 let _ = writeln!(s, "<p class=\"notice\">{}</p>", escape(p));
+            }
+            Block::List(items) => {
+                s.push_str("<ul>");
+                for i in items {
+                    let _ = write!(s, "<li>{}</li>", escape(i));
+                }
+                s.push_str("</ul>\n");
             }
             Block::Table {
                 caption,
@@ -93,20 +110,68 @@ fn table(s: &mut String, caption: &str, header: &[String], rows: &[Vec<String>])
     s.push_str("</tr>\n");
     for row in rows {
         s.push_str("<tr>");
-        for c in row {
-            let _ = write!(s, "<td>{}</td>", escape(c));
+        for (k, c) in row.iter().enumerate() {
+            let _ = write!(s, "{}", cell(c, k == 0));
         }
         s.push_str("</tr>\n");
     }
     s.push_str("</table>\n");
 }
 
-/// HTML-escape text.
+/// A table cell: a short one holding a number, past the first (naming) column, is kept on one
+/// line and right-aligned (`td.num`); any other is prose, left-aligned and wrapped at its
+/// spaces, but never inside a word that holds a digit (a number, a range, a value with its
+/// unit).
+fn cell(text: &str, first: bool) -> String {
+    let numeric = !first && text.chars().any(|c| c.is_ascii_digit());
+    if numeric && text.chars().count() <= NUMBER_CELL_CHARS {
+        return format!("<td class=\"num\">{}</td>", escape(text));
+    }
+    let words: Vec<String> = text
+        .split(' ')
+        .map(|w| {
+            if w.chars().any(|c| c.is_ascii_digit()) {
+                format!("<span class=\"n\">{}</span>", escape(w))
+            } else {
+                escape(w)
+            }
+        })
+        .collect();
+    format!("<td>{}</td>", words.join(" "))
+}
+
+/// The longest cell (characters) shown whole on one line as a number.
+const NUMBER_CELL_CHARS: usize = 32;
+
+/// HTML-escape text, written with the symbols the terminal's ASCII spells out (`>=` as ≥,
+/// `<=` as ≤, the word `beta` as β; `beta_bar` and other key names stay as they are).
 fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
+    typeset(t)
+        .replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+/// `t` with ` >= `, ` <= ` and the word `beta` (alone or in `beta_e`) as symbols.
+fn typeset(t: &str) -> String {
+    let t = t.replace(" >= ", " ≥ ").replace(" <= ", " ≤ ");
+    let mut out = String::with_capacity(t.len());
+    let mut rest = t.as_str();
+    while let Some(at) = rest.find("beta") {
+        let (before, after) = rest.split_at(at);
+        let word_start = !before.ends_with(|c: char| c.is_alphanumeric() || c == '_');
+        let tail = &after[4..];
+        let word_end = !tail.starts_with(|c: char| c.is_alphanumeric() || c == '_')
+            || tail.starts_with("_e ")
+            || tail.starts_with("_e(")
+            || tail == "_e";
+        out.push_str(before);
+        out.push_str(if word_start && word_end { "β" } else { "beta" });
+        rest = tail;
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Standard base64 (RFC 4648) with padding.
@@ -134,6 +199,14 @@ fn base64(bytes: &[u8]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn prose_is_typeset_and_key_names_kept() {
+        assert_eq!(
+            typeset("PM >= 34 deg at beta 154.6 bar, beta_e 152 bar; key beta_bar, betamax"),
+            "PM ≥ 34 deg at β 154.6 bar, β_e 152 bar; key beta_bar, betamax"
+        );
+    }
 
     #[test]
     fn base64_matches_rfc4648_vectors() {

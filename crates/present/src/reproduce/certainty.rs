@@ -200,7 +200,7 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
         "With the article's targets (PM ≥ {} deg, GM ≥ {} dB over x0 ± {} mm and the mean \
          chamber pressures {} bar the records span, β_e following the gas-fraction model), the \
          largest Kp at the point estimate is {:.2}; over the whole {:.0} % region, the stroke \
-         and those pressures it is {:.2}. It is decided by {binding} at {} (docs/design.md#robust-design). {}",
+         and those pressures it is {:.2}. It is decided by {binding} at {} (docs/design.md#robust-design). The verdict:",
         d.targets.pm_deg,
         d.targets.gm_db,
         d.targets.stroke_mm,
@@ -214,8 +214,8 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
         CONFIDENCE * 100.0,
         d.kp_max,
         d.deciding.at.describe(),
-        d.reasons.join(" ")
     ));
+    run.blocks.push(crate::html::Block::List(d.reasons.clone()));
     run.compare_why(
         "largest Kp for PM 34 deg, GM 6 dB over the 95 % region, stroke and pressures",
         format!("{:.2}", d.kp_max),
