@@ -12,13 +12,7 @@ mod run;
 
 /// `pumpcyl ARGS` (successful) as JSON.
 fn json(args: &[&str]) -> Value {
-    let out = run::pumpcyl(Path::new("."), args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+    run::json(Path::new("."), args)
 }
 
 fn select(args: &[&str]) -> Value {

@@ -22,3 +22,14 @@ pub fn refused(dir: &Path, args: &[&str], words: &[&str]) {
         assert!(err.contains(w), "{args:?}: message lacks `{w}`: {err}");
     }
 }
+
+/// `pumpcyl ARGS` in `dir`, which must succeed, its standard output read as JSON.
+pub fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let out = pumpcyl(dir, args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}"))
+}
