@@ -4,6 +4,7 @@
 use std::path::Path;
 
 #[path = "common/run.rs"]
+#[allow(dead_code)]
 mod run;
 use run::{pumpcyl, refused};
 

@@ -3,6 +3,7 @@
 //! computed and refused, naming the option, before anything is allocated.
 
 #[path = "common/run.rs"]
+#[allow(dead_code)]
 mod run;
 use run::refused;
 
