@@ -185,7 +185,8 @@ fn the_result_folder_holds_the_json_and_the_figure() {
     for label in [
         "requirement",
         "chosen",
-        "low-pressure, worst case",
+        "low-pressure",
+        "solid: worst case over the gas fraction and loads; dashed: best case",
         "Mean chamber pressure (bar)",
     ] {
         assert!(svg.contains(label), "select.svg lacks {label}");

@@ -107,7 +107,7 @@ impl Chart {
     }
 
     /// Position and reference, control error, pressures, motor speeds of simulated `series`
-    /// (labelled) and a `measured` record; with `fit_end_s` (s), a dotted vertical line on every
+    /// (labelled) and a `measured` record; with `fit_end_s` (s), a dashed vertical line on every
     /// panel marks the end of the fit window (as the article's Figure 6 does).
     pub fn signals(
         title: &str,
@@ -116,11 +116,40 @@ impl Chart {
         measured: Option<&Signals>,
         fit_end_s: Option<f64>,
     ) -> Chart {
-        let mut panels = four_panels(series, measured);
+        Chart::signals_of(
+            title,
+            subtitle,
+            series,
+            measured.map(|m| ("measured", m)),
+            fit_end_s,
+        )
+    }
+
+    /// As [`Chart::signals`], the record named `record.0` in the legend (e.g. "emulated").
+    pub fn signals_of(
+        title: &str,
+        subtitle: Option<&str>,
+        series: &[(String, &Signals)],
+        record: Option<(&str, &Signals)>,
+        fit_end_s: Option<f64>,
+    ) -> Chart {
+        let mut panels = four_panels_named(series, record);
         if let Some(t) = fit_end_s {
             mark_fit_end(&mut panels, t);
         }
         Chart::time(title, subtitle, panels)
+    }
+
+    /// The chart with every trace labelled `from` labelled `to` instead.
+    pub fn relabel(mut self, from: &str, to: &str) -> Chart {
+        if let Plot::Time(panels) | Plot::Xy { panels, .. } = &mut self.plot {
+            for t in panels.iter_mut().flat_map(|p| &mut p.traces) {
+                if t.label == from {
+                    t.label = to.to_string();
+                }
+            }
+        }
+        self
     }
 
     /// A drive step record (the article §2.4.1): reference, measured speed and the identified
@@ -170,7 +199,7 @@ impl Chart {
                         rows.iter().map(|r| nan(r.gain_margin_db)).collect(),
                         1,
                     ),
-                    line("0 dB", vec![0.0; p.len()], 6),
+                    line("stability limit", vec![0.0; p.len()], 6),
                 ],
             },
             Panel {
@@ -181,7 +210,7 @@ impl Chart {
                         rows.iter().map(|r| nan(r.phase_margin_deg)).collect(),
                         2,
                     ),
-                    line("0 deg", vec![0.0; p.len()], 6),
+                    line("stability limit", vec![0.0; p.len()], 6),
                 ],
             },
         ];
@@ -399,32 +428,30 @@ pub fn trace(label: &str, t: &[f64], y: &[f64], style: LineStyle, color: Option<
     }
 }
 
-/// A dotted vertical line at `t_s` spanning each panel's values, labelled once.
+/// A dashed dark grey vertical line at `t_s` over the full height of every panel, labelled
+/// once.
 fn mark_fit_end(panels: &mut [Panel], t_s: f64) {
     for (i, panel) in panels.iter_mut().enumerate() {
-        let (lo, hi) = panel
-            .traces
-            .iter()
-            .flat_map(|tr| tr.y.iter().copied().filter(|y| y.is_finite()))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
-                (l.min(y), h.max(y))
-            });
-        if lo <= hi {
-            let label = if i == 0 { "end of fit window" } else { "" };
-            panel.traces.push(trace(
-                label,
-                &[t_s, t_s],
-                &[lo, hi],
-                LineStyle::Dotted,
-                Some(7),
-            ));
-        }
+        let label = if i == 0 { "end of fit window" } else { "" };
+        panel.traces.push(trace(
+            label,
+            &[t_s, t_s],
+            &[f64::NEG_INFINITY, f64::INFINITY],
+            LineStyle::Dashed,
+            Some(7),
+        ));
     }
 }
 
 /// Position and reference, control error, pressures, motor speeds; the measured record (if any)
-/// in solid lines first, simulated series after it.
-fn four_panels(series: &[(String, &Signals)], measured: Option<&Signals>) -> Vec<Panel> {
+/// in solid lines first, simulated series after it. Each series has one colour in every panel
+/// and is named once, in the legend of the position panel; in the pressure and speed panels
+/// the first chamber (motor) is drawn solid and the second dashed, as a note there says.
+/// The record is named `record.0`.
+fn four_panels_named(
+    series: &[(String, &Signals)],
+    record: Option<(&str, &Signals)>,
+) -> Vec<Panel> {
     let mut panels: Vec<Panel> = [
         "Position (mm)",
         "Control error (mm)",
@@ -437,7 +464,7 @@ fn four_panels(series: &[(String, &Signals)], measured: Option<&Signals>) -> Vec
         traces: Vec::new(),
     })
     .collect();
-    let Some(first) = measured.or(series.first().map(|s| s.1)) else {
+    let Some(first) = record.map(|r| r.1).or(series.first().map(|s| s.1)) else {
         return panels;
     };
     panels[0].traces.push(trace(
@@ -449,45 +476,48 @@ fn four_panels(series: &[(String, &Signals)], measured: Option<&Signals>) -> Vec
     ));
     let mut add = |label: &str, s: &Signals, style: LineStyle, color: usize| {
         let t = &s.time_s;
-        let suffix = if label.is_empty() {
-            String::new()
-        } else {
-            format!(" {label}")
-        };
-        let mut push = |panel: usize, name: &str, y: &[f64], color: usize| {
+        let mut push = |panel: usize, name: &str, y: &[f64], style: LineStyle| {
             if !y.is_empty() {
-                panels[panel].traces.push(trace(
-                    &format!("{name}{suffix}"),
-                    t,
-                    y,
-                    style,
-                    Some(color),
-                ));
+                panels[panel]
+                    .traces
+                    .push(trace(name, t, y, style, Some(color)));
             }
         };
-        push(0, "x", &s.x_mm, color);
-        push(1, "e", &s.e_mm, color);
-        push(2, "p1", &s.p1_bar, 2 * color);
-        push(2, "p2", &s.p2_bar, 2 * color + 1);
-        push(3, "w1", &s.w1_rpm, 2 * color);
-        push(3, "w2", &s.w2_rpm, 2 * color + 1);
+        push(
+            0,
+            if label.is_empty() { "x" } else { label },
+            &s.x_mm,
+            style,
+        );
+        push(1, "", &s.e_mm, style);
+        push(2, "", &s.p1_bar, LineStyle::Solid);
+        push(2, "", &s.p2_bar, LineStyle::Dashed);
+        push(3, "", &s.w1_rpm, LineStyle::Solid);
+        push(3, "", &s.w2_rpm, LineStyle::Dashed);
     };
-    if let Some(m) = measured {
-        add("measured", m, LineStyle::Solid, 0);
+    if let Some((name, m)) = record {
+        add(name, m, LineStyle::Solid, 0);
     }
-    let offset = usize::from(measured.is_some());
+    let offset = usize::from(record.is_some());
     for (i, (label, s)) in series.iter().enumerate() {
         let style = if i + offset == 0 {
             LineStyle::Solid
         } else {
             LineStyle::Dashed
         };
-        let label = if series.len() == 1 && measured.is_none() {
+        let label = if series.len() == 1 && record.is_none() {
             ""
         } else {
             label.as_str()
         };
         add(label, s, style, i + offset);
+    }
+    for (panel, note) in [(2, "p1 solid, p2 dashed"), (3, "ω1 solid, ω2 dashed")] {
+        if !panels[panel].traces.is_empty() {
+            panels[panel]
+                .traces
+                .push(trace(note, &[], &[], LineStyle::Solid, None));
+        }
     }
     panels
 }
@@ -530,7 +560,7 @@ mod tests {
         let marks: Vec<&Trace> = panels
             .iter()
             .filter_map(|p| p.traces.last())
-            .filter(|t| t.style == LineStyle::Dotted && t.t_s == [0.5, 0.5])
+            .filter(|t| t.style == LineStyle::Dashed && t.t_s == [0.5, 0.5])
             .collect();
         assert_eq!(marks.len(), 4);
         assert_eq!(

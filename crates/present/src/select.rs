@@ -118,9 +118,9 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
 
 /// The selection as a figure: the largest Kp (over the whole gas-fraction range, solid, and at
 /// the reference gas fraction, dotted), each wave's tracking-error band and, when required, the
-/// rise-time band against the mean pressure, one colour a circuit (solid: the worst case over
-/// the uncertainty, dashed: the best), the requirement as a dashed line and the chosen pressure
-/// as a dotted vertical.
+/// rise-time band against the mean pressure, one colour a circuit in every panel (solid: the
+/// worst case over the uncertainty, dashed: the best, as a legend note says), the requirement as
+/// a dashed line and the chosen pressure as a dotted vertical.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     let chosen = s.min_mean_pressure_bar;
     let mut kp = Panel {
@@ -130,23 +130,15 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     for (k, c) in CIRCUITS.into_iter().enumerate() {
         let (p, o) = of_circuit(s, c);
         let y: Vec<f64> = o.iter().map(|o| o.kp_max).collect();
-        let name = circuit_text(c);
-        kp.traces.push(trace(
-            &format!("{name}, worst case"),
-            &p,
-            &y,
-            LineStyle::Solid,
-            Some(k),
-        ));
+        kp.traces
+            .push(trace(circuit_text(c), &p, &y, LineStyle::Solid, Some(k)));
         let y: Vec<f64> = o.iter().map(|o| o.kp_max_reference).collect();
-        kp.traces.push(trace(
-            &format!("{name}, reference gas fraction"),
-            &p,
-            &y,
-            LineStyle::Dotted,
-            Some(k),
-        ));
+        kp.traces
+            .push(trace("", &p, &y, LineStyle::Dotted, Some(k)));
     }
+    kp.traces.push(note(
+        "solid: over the gas-fraction range; dotted: at the reference gas fraction",
+    ));
     let top = s
         .options
         .iter()
@@ -196,6 +188,11 @@ fn of_circuit(s: &Selection, c: Circuit) -> (Vec<f64>, Vec<&Candidate>) {
     (o.iter().map(|o| o.mean_pressure_bar).collect(), o)
 }
 
+/// A legend line without a curve: what the line styles of a panel mean.
+fn note(text: &str) -> crate::plot::Trace {
+    trace(text, &[], &[], LineStyle::Solid, None)
+}
+
 /// The chosen pressure as a dotted vertical from 0 to `top`.
 fn chosen_line(chosen: Option<f64>, top: f64) -> Option<crate::plot::Trace> {
     chosen.map(|p| trace("chosen", &[p, p], &[0.0, top], LineStyle::Dotted, Some(6)))
@@ -221,22 +218,20 @@ fn band_panel(
                 .map(|v| if v.is_finite() { v } else { f64::NAN })
                 .collect()
         };
-        let name = circuit_text(c);
         panel.traces.push(trace(
-            &format!("{name}, worst case"),
+            circuit_text(c),
             &p,
             &end(1),
             LineStyle::Solid,
             Some(k),
         ));
-        panel.traces.push(trace(
-            &format!("{name}, best case"),
-            &p,
-            &end(0),
-            LineStyle::Dashed,
-            Some(k),
-        ));
+        panel
+            .traces
+            .push(trace("", &p, &end(0), LineStyle::Dashed, Some(k)));
     }
+    panel.traces.push(note(
+        "solid: worst case over the gas fraction and loads; dashed: best case",
+    ));
     let (lo, hi) = s
         .options
         .iter()

@@ -109,6 +109,124 @@ pub(super) fn fit_lines(text: &str, size: f64, max_w: f64, max_lines: usize) -> 
     lines
 }
 
+/// Units a number is never parted from when a subtitle wraps.
+const UNITS: [&str; 16] = [
+    "Hz",
+    "deg",
+    "°",
+    "dB",
+    "bar",
+    "mm",
+    "s",
+    "%",
+    "kg",
+    "rpm",
+    "m",
+    "N",
+    "mm²",
+    "N·s/m",
+    "rad/s",
+    "m⁵/(N·s)",
+];
+
+/// `text` wrapped onto at most `max_lines` lines of at most `max_w` pixels at text size
+/// `size`, as [`fit_lines`] does, but only at safe points: after "; ", at runs of two or
+/// more spaces, after ", " and, only when a piece is still too wide, between words, never
+/// between a number and its unit nor around " / ", " @ " or "= ".
+pub(super) fn fit_subtitle(text: &str, size: f64, max_w: f64, max_lines: usize) -> Vec<String> {
+    let text = text.trim();
+    if text.is_empty() || text_width(text, size) <= max_w {
+        return fit_lines(text, size, max_w, max_lines);
+    }
+    // Pieces, each with the separator written before it when it continues a line.
+    let mut pieces: Vec<(String, String)> = Vec::new();
+    let fits = |p: &str| text_width(p, size) <= max_w;
+    for (k, clause) in text.split("; ").enumerate() {
+        let clause_sep = if k == 0 { "" } else { "; " };
+        let mut parts = clause
+            .split("  ")
+            .filter(|p| !p.trim().is_empty())
+            .enumerate();
+        let mut first_sep = clause_sep.to_string();
+        for (j, part) in parts.by_ref() {
+            let sep = if j == 0 {
+                std::mem::take(&mut first_sep)
+            } else {
+                "      ".to_string()
+            };
+            let part = part.trim();
+            if fits(part) {
+                pieces.push((sep, part.to_string()));
+                continue;
+            }
+            for (i, item) in part.split(", ").enumerate() {
+                let sep = if i == 0 { sep.clone() } else { ", ".into() };
+                if fits(item) {
+                    pieces.push((sep, item.to_string()));
+                    continue;
+                }
+                for (w, word) in unbreakable_words(item).into_iter().enumerate() {
+                    pieces.push((if w == 0 { sep.clone() } else { " ".into() }, word));
+                }
+            }
+        }
+    }
+    // The separator "; " and ", " stay at the end of the line they close.
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    let mut i = 0;
+    while i < pieces.len() {
+        let (sep, piece) = &pieces[i];
+        let lead = sep.trim_end();
+        if line.is_empty() {
+            line = piece.clone();
+        } else if fits(&format!("{line}{sep}{piece}")) {
+            line = format!("{line}{sep}{piece}");
+        } else {
+            lines.push(format!("{line}{lead}"));
+            line = piece.clone();
+            if lines.len() + 1 >= max_lines.max(1) {
+                let rest: String = pieces[i + 1..]
+                    .iter()
+                    .map(|(s, p)| format!("{s}{p}"))
+                    .collect();
+                lines.push(ellipsize_middle(&format!("{line}{rest}"), size, max_w));
+                return lines;
+            }
+        }
+        i += 1;
+    }
+    if !line.is_empty() {
+        lines.push(ellipsize_middle(&line, size, max_w));
+    }
+    lines
+}
+
+/// The words of `text`, a number kept with the unit after it and " / ", " @ ", "= " kept
+/// with both neighbours.
+fn unbreakable_words(text: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut glue_next = false;
+    for w in text.split(' ').filter(|w| !w.is_empty()) {
+        let after_number = out
+            .last()
+            .is_some_and(|p| p.ends_with(|c: char| c.is_ascii_digit()));
+        let unit = UNITS
+            .iter()
+            .any(|u| w.trim_end_matches([',', ';', ')', '.']) == *u);
+        let glue_prev = matches!(w, "/" | "@" | "=");
+        match out.last_mut() {
+            Some(prev) if glue_next || glue_prev || (after_number && unit) => {
+                prev.push(' ');
+                prev.push_str(w);
+            }
+            _ => out.push(w.to_string()),
+        }
+        glue_next = matches!(w, "/" | "@" | "=") || w.ends_with('=');
+    }
+    out
+}
+
 /// `v` with `decimals` decimals, trailing zeros (and a bare ".") removed, never "-0".
 pub(super) fn trim_decimal(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
@@ -445,6 +563,31 @@ mod tests {
         assert_eq!(
             text_overflow(&svg(&text(30.0, 240.0, "middle", 14.0, "", label))).len(),
             1
+        );
+    }
+
+    #[test]
+    fn subtitles_wrap_at_safe_points() {
+        let size = 14.0;
+        let text = "identified rig: GM = 6.8 dB @ 0.830 Hz      PM = 33.7° @ 0.502 Hz; \
+                    c12, c1, c2 / 10: GM = -3.4 dB @ 0.880 Hz      PM = -36.6° @ 1.01 Hz; \
+                    c12, c1, c2 / 10, motor coupling removed: GM = -14.8 dB @ 0.837 Hz      PM = -79.8° @ 1.03 Hz";
+        let lines = fit_subtitle(text, size, 900.0, 2);
+        assert_eq!(lines.len(), 2, "{lines:?}");
+        assert!(
+            lines[0].ends_with(';') || lines[0].ends_with("Hz"),
+            "{lines:?}"
+        );
+        assert!(
+            lines[1].starts_with("c12, c1, c2 / 10") || lines[1].starts_with("PM"),
+            "{lines:?}"
+        );
+        for l in &lines {
+            assert!(text_width(l, size) <= 900.0, "{l}");
+        }
+        assert_eq!(
+            unbreakable_words("PM = 33.7° @ 0.502 Hz and 5 mm"),
+            vec!["PM = 33.7° @ 0.502 Hz", "and", "5 mm"]
         );
     }
 

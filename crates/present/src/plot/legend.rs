@@ -2,13 +2,12 @@
 //! placed in the corner of the plot where it hides the fewest curve segments.
 
 use plotters::coord::Shift;
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::Axis;
 use super::error::{plot_err, ReportError};
-use super::series::{Pieces, Stroke};
+use super::series::{precise_path, Pieces, Stroke};
 use super::{layout, render};
 
 /// Label text size, and line-sample length (px), at scale 1.
@@ -22,6 +21,8 @@ pub(super) struct LegendEntry {
     pub(super) style: ShapeStyle,
     /// (dash, gap) in pixels of a dashed sample; `None` for a solid line.
     pub(super) pattern: Option<(i32, i32)>,
+    /// Whether the row shows a line sample (a note has none).
+    pub(super) sample: bool,
 }
 
 impl LegendEntry {
@@ -31,6 +32,7 @@ impl LegendEntry {
             label: label.to_string(),
             style: stroke.color.stroke_width(stroke.width),
             pattern: stroke.pattern,
+            sample: true,
         }
     }
 }
@@ -70,7 +72,15 @@ impl LegendMetrics<'static> {
         let size = self.font.font.get_size();
         entries
             .iter()
-            .map(|e| layout::text_width(&e.label, size).ceil() as i32)
+            .map(|e| {
+                let w = layout::text_width(&e.label, size).ceil() as i32;
+                // A note starts where the samples do.
+                if e.sample {
+                    w
+                } else {
+                    (w - self.sample_len - self.sample_gap).max(0)
+                }
+            })
             .collect()
     }
 
@@ -207,15 +217,31 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
     for (col, widths) in entries.chunks(layout.rows).zip(label_w.chunks(layout.rows)) {
         for (row, e) in col.iter().enumerate() {
             let y = y0 + m.pad + row as i32 * m.row_h + m.font.font.get_size() as i32 / 2;
-            let sample = [(x, y), (x + m.sample_len, y)];
-            match e.pattern {
-                None => area.draw(&PathElement::new(sample, e.style)),
-                Some((on, off)) => area.draw(&DashedPathElement::new(sample, on, off, e.style)),
+            let (r, g, b) = e.style.color.rgb();
+            let stroke = Stroke {
+                color: RGBColor(r, g, b),
+                width: e.style.stroke_width,
+                pattern: e.pattern,
+                dot_r: 0,
+            };
+            let (xf, yf) = (f64::from(x), f64::from(y));
+            if e.sample {
+                precise_path(
+                    area,
+                    &[(xf, yf), (xf + f64::from(m.sample_len), yf)],
+                    &stroke,
+                )?;
             }
-            .map_err(plot_err)?;
             area.draw(&Text::new(
                 e.label.clone(),
-                (x + m.sample_len + m.sample_gap, y),
+                (
+                    if e.sample {
+                        x + m.sample_len + m.sample_gap
+                    } else {
+                        x
+                    },
+                    y,
+                ),
                 text_style.clone(),
             ))
             .map_err(plot_err)?;
@@ -330,6 +356,7 @@ mod tests {
             label: l.into(),
             style: BLACK.stroke_width(1),
             pattern: None,
+            sample: true,
         };
         let w = m.label_widths(&[e("a"), e("a longer label")]);
         assert!(w[0] > 0 && w[1] > 5 * w[0], "{w:?}");

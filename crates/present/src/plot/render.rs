@@ -35,13 +35,14 @@ pub(super) fn to_svg(figure: &impl Draw, size: (u32, u32)) -> Result<String, Rep
 /// Render to an SVG document of `size` pixels, text and line sizes multiplied by `scale`.
 fn svg_at_scale(figure: &impl Draw, size: (u32, u32), scale: f64) -> Result<String, ReportError> {
     font::ensure_registered()?;
+    super::series::reset_precise();
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         figure.draw(&root, scale)?;
         root.present().map_err(plot_err)?;
     }
-    Ok(svg)
+    Ok(super::series::substitute_precise(svg))
 }
 
 /// The font database resvg draws text with: only the embedded DejaVu Sans (no system fonts),
@@ -133,8 +134,9 @@ pub(super) fn text(scale: f64) -> impl Fn(f64) -> TextStyle<'static> {
 
 /// Horizontal padding (px at scale 1) between the figure edge and the longest header line.
 const HEADER_PAD: f64 = 12.0;
-/// Most lines a title or a subtitle may take; longer ones are shortened in the middle.
+/// Most lines a title and a subtitle may take; longer ones are shortened in the middle.
 const HEADER_MAX_LINES: usize = 2;
+const SUBTITLE_MAX_LINES: usize = 3;
 
 /// Height (px) of the title block with `title_lines` title and `subtitle_lines` subtitle lines.
 pub(super) fn header_height(scale: f64, title_lines: usize, subtitle_lines: usize) -> i32 {
@@ -146,7 +148,7 @@ pub(super) fn header_height(scale: f64, title_lines: usize, subtitle_lines: usiz
     h
 }
 
-/// Fill the figure white and draw the centred title and optional grey subtitle, each wrapped onto at most two lines and
+/// Fill the figure white and draw the centred title and optional grey subtitle, wrapped at safe points onto at most two (title) or three (subtitle) lines and
 /// shortened in the middle beyond that so that it never runs outside the figure; returns the
 /// area below them and the header's height (px).
 pub(super) fn draw_header<DB: DrawingBackend>(
@@ -159,9 +161,11 @@ pub(super) fn draw_header<DB: DrawingBackend>(
     let (px, text) = (px(scale), text(scale));
     let width = root.dim_in_pixel().0;
     let max_w = f64::from(width) - 2.0 * f64::from(px(HEADER_PAD));
-    let fit = |s: &str, size: f64| layout::fit_lines(s, size * scale, max_w, HEADER_MAX_LINES);
-    let title_lines = fit(title, TITLE_SIZE);
-    let subtitle_lines = subtitle.map_or_else(Vec::new, |s| fit(s, SUBTITLE_SIZE));
+    let fit =
+        |s: &str, size: f64, lines: usize| layout::fit_subtitle(s, size * scale, max_w, lines);
+    let title_lines = fit(title, TITLE_SIZE, HEADER_MAX_LINES);
+    let subtitle_lines =
+        subtitle.map_or_else(Vec::new, |s| fit(s, SUBTITLE_SIZE, SUBTITLE_MAX_LINES));
     let header_h = header_height(scale, title_lines.len(), subtitle_lines.len());
     let sub_top = header_height(scale, title_lines.len(), 0) - px(2.0);
     root.fill(&WHITE).map_err(plot_err)?;

@@ -2,24 +2,39 @@
 //! polylines and isolated points, and the stroke (colour, width, dash pattern) it is drawn and
 //! shown in the legend with.
 
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::axes::Chart;
 use super::error::{plot_err, ReportError};
 
-/// Okabe–Ito colour-blind-friendly palette, in the order series use it
-/// (yellow last: it has the least contrast on white).
+/// Colour-blind-friendly palette after Okabe–Ito, in the order series use it. Every colour
+/// has a contrast ratio of at least 3:1 on white (WCAG), so lines stay visible: the light
+/// orange, sky blue and yellow of Okabe–Ito are replaced by ochre, dark purple and dark grey.
 pub(super) const PALETTE: [RGBColor; 8] = [
     RGBColor(0, 114, 178),   // blue
     RGBColor(213, 94, 0),    // vermillion
     RGBColor(0, 158, 115),   // bluish green
     RGBColor(204, 121, 167), // reddish purple
-    RGBColor(230, 159, 0),   // orange
-    RGBColor(86, 180, 233),  // sky blue
+    RGBColor(170, 102, 0),   // ochre
+    RGBColor(123, 50, 148),  // dark purple
     RGBColor(0, 0, 0),       // black
-    RGBColor(240, 228, 66),  // yellow
+    RGBColor(89, 89, 89),    // dark grey
 ];
+
+/// WCAG contrast ratio of `c` on white (1 for white, 21 for black).
+#[cfg(test)]
+pub(super) fn contrast_on_white(c: RGBColor) -> f64 {
+    let lin = |v: u8| {
+        let v = f64::from(v) / 255.0;
+        if v <= 0.03928 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let l = 0.2126 * lin(c.0) + 0.7152 * lin(c.1) + 0.0722 * lin(c.2);
+    1.05 / (l + 0.05)
+}
 
 /// Colour of series number `i`, cycling through the palette.
 pub(super) fn series_color(i: usize) -> RGBColor {
@@ -47,22 +62,48 @@ pub(super) struct Stroke {
     pub(super) dot_r: u32,
 }
 
-/// Draw the polylines `lines` and the points `dots` of one series with `stroke`.
+/// Draw the polylines `lines` and the points `dots` of one series with `stroke`. The lines
+/// are written with sub-pixel coordinates (see [`precise_path`]).
 pub(super) fn draw_pieces<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     lines: impl IntoIterator<Item = Polyline>,
     dots: &[(f64, f64)],
     stroke: &Stroke,
 ) -> Result<(), ReportError> {
-    let style = stroke.color.stroke_width(stroke.width);
-    let lines = lines.into_iter();
-    match stroke.pattern {
-        None => chart.draw_series(lines.map(|l| PathElement::new(l, style))),
-        Some((on, off)) => {
-            chart.draw_series(lines.map(|l| DashedPathElement::new(l, on, off, style)))
+    let spec = chart.as_coord_spec();
+    let (xa, ya) = (spec.x_spec().clone(), spec.y_spec().clone());
+    let (x0, y0) = chart.backend_coord(&(xa.lo, ya.lo));
+    let (x1, y1) = chart.backend_coord(&(xa.hi, ya.hi));
+    let to_px = |(x, y): (f64, f64)| {
+        (
+            f64::from(x0) + xa.fraction(x) * f64::from(x1 - x0),
+            f64::from(y0) + ya.fraction(y) * f64::from(y1 - y0),
+        )
+    };
+    let area = chart.plotting_area().strip_coord_spec();
+    let (ox, oy) = area.get_base_pixel();
+    for line in lines {
+        let pts: Vec<(f64, f64)> = line
+            .into_iter()
+            .map(|p| {
+                let (x, y) = to_px(p);
+                (x - f64::from(ox), y - f64::from(oy))
+            })
+            .collect();
+        match stroke.pattern {
+            None => precise_path(&area, &pts, stroke)?,
+            Some((on, off)) => {
+                // Each dash its own path, as plotters writes dashed lines.
+                let solid = Stroke {
+                    pattern: None,
+                    ..*stroke
+                };
+                for dash in dashes(&pts, f64::from(on), f64::from(off)) {
+                    precise_path(&area, &dash, &solid)?;
+                }
+            }
         }
     }
-    .map_err(plot_err)?;
     chart
         .draw_series(
             dots.iter()
@@ -70,6 +111,154 @@ pub(super) fn draw_pieces<DB: DrawingBackend>(
         )
         .map_err(plot_err)?;
     Ok(())
+}
+
+/// The dashes of the polyline `pts` (pixels): pieces `on` px long every `on + off` px along
+/// it, the pattern running on across its vertices.
+fn dashes(pts: &[(f64, f64)], on: f64, off: f64) -> Vec<Polyline> {
+    let period = on + off;
+    if on <= 0.0 || off <= 0.0 || !period.is_finite() {
+        return vec![pts.to_vec()];
+    }
+    let mut out = Vec::new();
+    let mut dash: Polyline = Vec::new();
+    // Position within the pattern: 0..on drawn, on..period a gap.
+    let mut pos = 0.0f64;
+    for w in pts.windows(2) {
+        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+        let len = (x1 - x0).hypot(y1 - y0);
+        if !len.is_finite() {
+            continue;
+        }
+        let at = |d: f64| {
+            let t = if len > 0.0 { d / len } else { 0.0 };
+            (x0 + t * (x1 - x0), y0 + t * (y1 - y0))
+        };
+        let mut d = 0.0;
+        while d < len {
+            if pos < on {
+                if dash.is_empty() {
+                    dash.push(at(d));
+                }
+                if on - pos <= len - d {
+                    d += on - pos;
+                    pos = on;
+                    dash.push(at(d));
+                    out.push(std::mem::take(&mut dash));
+                } else {
+                    pos += len - d;
+                    d = len;
+                }
+            } else if period - pos <= len - d {
+                d += period - pos;
+                pos = 0.0;
+            } else {
+                pos += len - d;
+                d = len;
+            }
+        }
+        if !dash.is_empty() {
+            dash.push((x1, y1));
+        }
+    }
+    if dash.len() > 1 {
+        out.push(dash);
+    }
+    out
+}
+
+thread_local! {
+    /// SVG elements waiting to replace their placeholders in the document being rendered.
+    static PRECISE: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Prefix of the placeholder text standing for a precise path until [`substitute_precise`].
+const PLACEHOLDER: &str = "pumpcyl-precise-path-";
+
+/// Forget the precise paths of an earlier, unfinished rendering (call before drawing).
+pub(super) fn reset_precise() {
+    PRECISE.with(|p| p.borrow_mut().clear());
+}
+
+/// Draw the polyline `pts` (pixels relative to `area`, sub-pixel) with `stroke`, dashed as
+/// one path with `stroke-dasharray`. Plotters writes whole pixels only, so a placeholder is
+/// drawn in its place and [`substitute_precise`] writes the path into the finished SVG
+/// document with two decimals.
+pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTranslate>(
+    area: &DrawingArea<DB, CT>,
+    pts: &[(f64, f64)],
+    stroke: &Stroke,
+) -> Result<(), ReportError> {
+    use std::fmt::Write;
+    if pts.len() < 2 {
+        return Ok(());
+    }
+    let area = area.strip_coord_spec();
+    let (ox, oy) = area.get_base_pixel();
+    let mut points = String::new();
+    for &(x, y) in pts {
+        let (x, y) = (x + f64::from(ox), y + f64::from(oy));
+        write!(points, "{},{} ", short_decimal(x), short_decimal(y)).ok();
+    }
+    let c = stroke.color;
+    let dash = stroke.pattern.map_or(String::new(), |(on, off)| {
+        format!(" stroke-dasharray=\"{on} {off}\"")
+    });
+    let element = format!(
+        "<polyline fill=\"none\" opacity=\"1\" stroke=\"#{:02X}{:02X}{:02X}\" stroke-width=\"{}\"{dash} points=\"{}\"/>",
+        c.0,
+        c.1,
+        c.2,
+        stroke.width,
+        points.trim_end()
+    );
+    let k = PRECISE.with(|p| {
+        let mut p = p.borrow_mut();
+        p.push(element);
+        p.len() - 1
+    });
+    let style = TextStyle::from((super::font::FAMILY, 1.0).into_font());
+    area.draw(&Text::new(format!("{PLACEHOLDER}{k}"), (0, 0), style))
+        .map_err(plot_err)
+}
+
+/// `v` with at most two decimals, trailing zeros removed.
+fn short_decimal(v: f64) -> String {
+    let s = format!("{v:.2}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
+/// `svg` with the placeholders drawn by [`precise_path`] replaced by their paths.
+pub(super) fn substitute_precise(svg: String) -> String {
+    let paths = PRECISE.with(|p| std::mem::take(&mut *p.borrow_mut()));
+    if paths.is_empty() {
+        return svg;
+    }
+    let mut out = String::with_capacity(svg.len() + paths.iter().map(String::len).sum::<usize>());
+    let mut rest = svg.as_str();
+    while let Some(at) = rest.find(PLACEHOLDER) {
+        let start = rest[..at].rfind("<text").unwrap_or(at);
+        let digits = &rest[at + PLACEHOLDER.len()..];
+        let n_len = digits
+            .find(|c: char| !c.is_ascii_digit())
+            .unwrap_or(digits.len());
+        let k: Option<usize> = digits[..n_len].parse().ok();
+        let end = rest[at..]
+            .find("</text>")
+            .map_or(rest.len(), |e| at + e + "</text>".len());
+        out.push_str(&rest[..start]);
+        if let Some(path) = k.and_then(|k| paths.get(k)) {
+            out.push_str(path);
+        }
+        rest = &rest[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// The runs of consecutive `Some` points of `points` (a `None` ends a run), in order.
@@ -87,6 +276,101 @@ pub(super) fn runs(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Vec<
 }
 
 impl Pieces {
+    thread_local! {
+        /// SVG elements waiting to replace their placeholders in the document being rendered.
+        static PRECISE: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+
+    /// Prefix of the placeholder text standing for a precise path until [`substitute_precise`].
+    const PLACEHOLDER: &str = "pumpcyl-precise-path-";
+
+    /// Forget the precise paths of an earlier, unfinished rendering (call before drawing).
+    pub(super) fn reset_precise() {
+        PRECISE.with(|p| p.borrow_mut().clear());
+    }
+
+    /// Draw the polyline `pts` (pixels relative to `area`, sub-pixel) with `stroke`, dashed as
+    /// one path with `stroke-dasharray`. Plotters writes whole pixels only, so a placeholder is
+    /// drawn in its place and [`substitute_precise`] writes the path into the finished SVG
+    /// document with two decimals.
+    pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTranslate>(
+        area: &DrawingArea<DB, CT>,
+        pts: &[(f64, f64)],
+        stroke: &Stroke,
+    ) -> Result<(), ReportError> {
+        use std::fmt::Write;
+        if pts.len() < 2 {
+            return Ok(());
+        }
+        let area = area.strip_coord_spec();
+        let (ox, oy) = area.get_base_pixel();
+        let mut points = String::new();
+        for &(x, y) in pts {
+            let (x, y) = (x + f64::from(ox), y + f64::from(oy));
+            write!(points, "{},{} ", short_decimal(x), short_decimal(y)).ok();
+        }
+        let c = stroke.color;
+        let dash = stroke.pattern.map_or(String::new(), |(on, off)| {
+            format!(" stroke-dasharray=\"{on} {off}\"")
+        });
+        let element = format!(
+        "<polyline fill=\"none\" opacity=\"1\" stroke=\"#{:02X}{:02X}{:02X}\" stroke-width=\"{}\"{dash} points=\"{}\"/>",
+        c.0,
+        c.1,
+        c.2,
+        stroke.width,
+        points.trim_end()
+    );
+        let k = PRECISE.with(|p| {
+            let mut p = p.borrow_mut();
+            p.push(element);
+            p.len() - 1
+        });
+        let style = TextStyle::from((super::font::FAMILY, 1.0).into_font());
+        area.draw(&Text::new(format!("{PLACEHOLDER}{k}"), (0, 0), style))
+            .map_err(plot_err)
+    }
+
+    /// `v` with at most two decimals, trailing zeros removed.
+    fn short_decimal(v: f64) -> String {
+        let s = format!("{v:.2}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        if s == "-0" {
+            "0".to_string()
+        } else {
+            s.to_string()
+        }
+    }
+
+    /// `svg` with the placeholders drawn by [`precise_path`] replaced by their paths.
+    pub(super) fn substitute_precise(svg: String) -> String {
+        let paths = PRECISE.with(|p| std::mem::take(&mut *p.borrow_mut()));
+        if paths.is_empty() {
+            return svg;
+        }
+        let mut out =
+            String::with_capacity(svg.len() + paths.iter().map(String::len).sum::<usize>());
+        let mut rest = svg.as_str();
+        while let Some(at) = rest.find(PLACEHOLDER) {
+            let start = rest[..at].rfind("<text").unwrap_or(at);
+            let digits = &rest[at + PLACEHOLDER.len()..];
+            let n_len = digits
+                .find(|c: char| !c.is_ascii_digit())
+                .unwrap_or(digits.len());
+            let k: Option<usize> = digits[..n_len].parse().ok();
+            let end = rest[at..]
+                .find("</text>")
+                .map_or(rest.len(), |e| at + e + "</text>".len());
+            out.push_str(&rest[..start]);
+            if let Some(path) = k.and_then(|k| paths.get(k)) {
+                out.push_str(path);
+            }
+            rest = &rest[end..];
+        }
+        out.push_str(rest);
+        out
+    }
+
     /// The runs of consecutive `Some` points of `points` as polylines, runs of one point as dots.
     pub(super) fn split(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Self {
         let mut pieces = Pieces::default();
@@ -140,6 +424,32 @@ mod tests {
         );
         assert_eq!(pieces.dots, vec![(2.0, 4.0)]);
         assert_eq!(Pieces::split([None, None]), Pieces::default());
+    }
+
+    #[test]
+    fn every_palette_colour_shows_on_white() {
+        for c in PALETTE {
+            assert!(contrast_on_white(c) >= 3.0, "{c:?}");
+        }
+        assert!(contrast_on_white(RGBColor(240, 228, 66)) < 3.0, "yellow");
+        assert!((contrast_on_white(RGBColor(0, 0, 0)) - 21.0).abs() < 1e-9);
+        assert_eq!(short_decimal(12.345_6), "12.35");
+        assert_eq!(short_decimal(3.0), "3");
+    }
+
+    #[test]
+    fn dashes_follow_the_pattern_across_vertices() {
+        let d = dashes(&[(0.0, 0.0), (15.0, 0.0), (15.0, 20.0)], 10.0, 6.0);
+        assert_eq!(
+            d,
+            vec![
+                vec![(0.0, 0.0), (10.0, 0.0)],
+                vec![(15.0, 1.0), (15.0, 11.0)],
+                vec![(15.0, 17.0), (15.0, 20.0)],
+            ]
+        );
+        let d = dashes(&[(0.0, 0.0), (5.0, 0.0), (5.0, 5.0)], 10.0, 6.0);
+        assert_eq!(d, vec![vec![(0.0, 0.0), (5.0, 0.0), (5.0, 5.0)]]);
     }
 
     #[test]

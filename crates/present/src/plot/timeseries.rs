@@ -47,7 +47,8 @@ pub enum LineStyle {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Trace {
     /// Label shown in the panel's legend; an empty label keeps the trace out
-    /// of the legend.
+    /// of the legend. A labelled trace without points is a note in the legend
+    /// (its label without a line sample).
     pub label: String,
     /// Sample times, in seconds.
     pub t_s: Vec<f64>,
@@ -58,9 +59,15 @@ pub struct Trace {
     pub style: LineStyle,
     /// Colour as an index into the colour-blind-safe palette (8 colours,
     /// taken modulo 8: 0 blue, 1 vermillion, 2 bluish green, 3 reddish
-    /// purple, 4 orange, 5 sky blue, 6 black, 7 yellow). `None` takes the
-    /// first palette colour not yet used in the panel (neither by an explicit
-    /// `Some` of any trace of the panel nor by an earlier `None` trace).
+    /// purple, 4 ochre, 5 dark purple, 6 black, 7 dark grey). Colours keep
+    /// their meaning across the panels of a figure: a label has one colour in
+    /// every panel (the first one given for it), and a colour already naming
+    /// another label is replaced by the first colour naming none. `None` takes
+    /// the first such free colour (for an unlabelled trace: the first colour
+    /// not used in the panel).
+    ///
+    /// A trace of two points at one time with values -inf and +inf is drawn
+    /// as a vertical line over the full height of its panel (a time marker).
     pub color: Option<usize>,
 }
 
@@ -189,31 +196,84 @@ fn widen_degenerate(lo: f64, hi: f64) -> (f64, f64) {
     (centre - half, centre + half)
 }
 
-/// Palette index of every trace of a panel (see [`Trace::color`]).
-fn assign_colors(traces: &[Trace]) -> Vec<usize> {
+/// Palette index of every trace of every panel (see [`Trace::color`]): one colour per
+/// label across the whole figure, and no colour for two labels while a colour is free.
+fn assign_colors(panels: &[Panel]) -> Vec<Vec<usize>> {
     let n = PALETTE.len();
-    let mut taken = vec![false; n];
-    for c in traces.iter().filter_map(|t| t.color) {
-        taken[c % n] = true;
+    let mut of_label: Vec<(&str, usize)> = Vec::new();
+    let mut owner: Vec<Option<&str>> = vec![None; n];
+    let labelled = || {
+        panels
+            .iter()
+            .flat_map(|p| &p.traces)
+            .filter(|t| !t.label.is_empty() && !t.t_s.is_empty())
+    };
+    let find = |of: &[(&str, usize)], l: &str| of.iter().find(|e| e.0 == l).map(|e| e.1);
+    for t in labelled() {
+        if let Some(c) = t.color.map(|c| c % n) {
+            if find(&of_label, &t.label).is_none() && owner[c].is_none() {
+                owner[c] = Some(&t.label);
+                of_label.push((&t.label, c));
+            }
+        }
     }
     let mut cycle = 0;
-    traces
-        .iter()
-        .map(|t| match t.color {
-            Some(c) => c % n,
-            None => match taken.iter().position(|&used| !used) {
-                Some(i) => {
-                    taken[i] = true;
-                    i
-                }
+    for t in labelled() {
+        if find(&of_label, &t.label).is_none() {
+            let c = match owner.iter().position(Option::is_none) {
+                Some(c) => c,
                 None => {
-                    // All colours in use: cycle through the palette.
+                    // All colours name a label: cycle through the palette.
                     cycle += 1;
                     (cycle - 1) % n
                 }
-            },
+            };
+            owner[c] = Some(&t.label);
+            of_label.push((&t.label, c));
+        }
+    }
+    panels
+        .iter()
+        .map(|p| {
+            let mut colors: Vec<Option<usize>> = p
+                .traces
+                .iter()
+                .map(|t| {
+                    if t.label.is_empty() {
+                        t.color.map(|c| c % n)
+                    } else {
+                        find(&of_label, &t.label)
+                    }
+                })
+                .collect();
+            let mut used = vec![false; n];
+            for c in colors.iter().flatten() {
+                used[*c] = true;
+            }
+            let mut cycle = 0;
+            for c in colors.iter_mut().filter(|c| c.is_none()) {
+                let free = used.iter().position(|&u| !u).unwrap_or_else(|| {
+                    cycle += 1;
+                    (cycle - 1) % n
+                });
+                used[free] = true;
+                *c = Some(free);
+            }
+            colors.into_iter().map(|c| c.unwrap_or(0)).collect()
         })
         .collect()
+}
+
+/// The time of a trace drawn as a vertical line over its panel (see [`Trace`]).
+fn rule_time(trace: &Trace) -> Option<f64> {
+    match (&trace.t_s[..], &trace.y[..]) {
+        ([a, b], [lo, hi])
+            if a == b && a.is_finite() && *lo == f64::NEG_INFINITY && *hi == f64::INFINITY =>
+        {
+            Some(*a)
+        }
+        _ => None,
+    }
 }
 
 /// Everything about one panel that does not depend on the image size.
@@ -275,9 +335,11 @@ impl<'a> Figure<'a> {
         let t_range = widen_degenerate(t_lo, t_hi);
         check_span(t_range, "time axis")?;
 
+        let colors = assign_colors(panels);
         let panels = panels
             .iter()
-            .map(|panel| {
+            .zip(colors)
+            .map(|(panel, colors)| {
                 let y_ext = finite_extent(panel.traces.iter().flat_map(|tr| {
                     tr.t_s
                         .iter()
@@ -298,7 +360,7 @@ impl<'a> Figure<'a> {
                         .iter()
                         .map(|tr| split_pieces(&tr.t_s, &tr.y))
                         .collect(),
-                    colors: assign_colors(&panel.traces),
+                    colors,
                 })
             })
             .collect::<Result<Vec<_>, ReportError>>()?;
@@ -408,10 +470,12 @@ impl render::Draw for Figure<'_> {
             for ((trace, pieces), &color) in
                 data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
             {
+                let rule = rule_time(trace).map(|t| vec![(t, yt.lo), (t, yt.hi)]);
                 let lines = pieces
                     .lines
                     .iter()
-                    .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count));
+                    .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count))
+                    .chain(rule);
                 draw_pieces(
                     &mut chart,
                     lines,
@@ -526,7 +590,11 @@ fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry
         .iter()
         .zip(&data.colors)
         .filter(|(t, _)| !t.label.is_empty())
-        .map(|(t, &c)| LegendEntry::of(&styles.stroke(c, t.style), &t.label))
+        .map(|(t, &c)| {
+            let mut e = LegendEntry::of(&styles.stroke(c, t.style), &t.label);
+            e.sample = !t.t_s.is_empty();
+            e
+        })
         .collect()
 }
 
@@ -577,7 +645,7 @@ mod tests {
             },
             Panel {
                 y_label: "Speed (rpm)".into(),
-                traces: vec![trace("w1", &t, &w), trace("w2", &t, &w)],
+                traces: vec![trace("ω1", &t, &w), trace("ω2", &t, &w)],
             },
         ]
     }
@@ -600,8 +668,8 @@ mod tests {
             "x_ref",
             "p1",
             "p2",
-            "w1",
-            "w2",
+            "ω1",
+            "ω2",
         ] {
             assert!(svg.contains(s), "missing {s}");
         }
@@ -761,21 +829,40 @@ mod tests {
 
     #[test]
     fn colour_assignment() {
-        let tr = |c: Option<usize>| Trace {
+        let tr = |label: &str, c: Option<usize>| Trace {
+            label: label.into(),
+            t_s: vec![0.0],
+            y: vec![0.0],
             color: c,
             ..Default::default()
         };
+        let panel = |traces: Vec<Trace>| Panel {
+            y_label: String::new(),
+            traces,
+        };
+        let one = |traces| assign_colors(&[panel(traces)]).remove(0);
         assert_eq!(
-            assign_colors(&[tr(None), tr(None), tr(None)]),
+            one(vec![tr("", None), tr("", None), tr("", None)]),
             vec![0, 1, 2]
         );
-        // Explicit colours are reserved for the whole panel, taken modulo 8.
+        // Explicit colours are reserved, taken modulo 8.
         assert_eq!(
-            assign_colors(&[tr(None), tr(Some(9)), tr(None), tr(Some(0))]),
+            one(vec![
+                tr("", None),
+                tr("", Some(9)),
+                tr("", None),
+                tr("", Some(0))
+            ]),
             vec![2, 1, 3, 0]
         );
-        let many: Vec<Trace> = (0..10).map(|_| tr(None)).collect();
-        assert_eq!(assign_colors(&many), vec![0, 1, 2, 3, 4, 5, 6, 7, 0, 1]);
+        let many: Vec<Trace> = (0..10).map(|_| tr("", None)).collect();
+        assert_eq!(one(many), vec![0, 1, 2, 3, 4, 5, 6, 7, 0, 1]);
+        // Across panels: a label keeps its colour, a colour never names two labels.
+        let colors = assign_colors(&[
+            panel(vec![tr("a", Some(0)), tr("b", Some(2))]),
+            panel(vec![tr("b", Some(1)), tr("c", Some(2)), tr("a", None)]),
+        ]);
+        assert_eq!(colors, vec![vec![0, 2], vec![2, 1, 0]]);
     }
 
     #[test]

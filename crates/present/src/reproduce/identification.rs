@@ -25,7 +25,7 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(summary::Drive, f64)> {
         "drive_step",
         Source::ArticleByOrder(5),
         "Drive 1 alone, feedforward off: emulated speed step and the identified model",
-        &Chart::drive_step(&rec, &fit),
+        &Chart::drive_step(&rec, &fit).relabel("measured", "emulated"),
     )?;
     run.compare(
         "drive gain Km (N·m·s/rad)",
@@ -73,7 +73,7 @@ pub(super) fn identification(
                         _ => Source::ArticleByOrder(7),
                     };
                     (source, format!(
-                        "Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dotted line ends the fit window",
+                        "Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dashed grey line ends the fit window",
                         ds.name,
                         ds.rig.kp
                     ))
@@ -294,25 +294,25 @@ pub(super) fn robustness(
     let series = [
         (
             format!(
-                "model, β {:.0} bar, c12 {:.2e} (best)",
+                "model, best fit: β {:.0} bar, c12 {:.2e}",
                 best.beta_bar, best.c12_m5_per_ns
             ),
             &sim_best,
         ),
         (
-            "model, β 220 bar, c12 1.0e-10 (article)".to_string(),
+            "model, article: β 220 bar, c12 1.0e-10".to_string(),
             &sim_article,
         ),
     ];
     let subtitle = format!(
-        "cost {:.4} mm² (best), {cost_article:.4} mm² (article's values)",
+        "cost {:.4} mm² (best fit), {cost_article:.4} mm² (article's values); c12 in m⁵/(N·s)",
         id.best().cost_mm2
     );
     run.figure(
         "robustness",
         Source::ArticleByOrder(8),
         "The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model",
-        &Chart::signals("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(&measured), Some(spec.fit_end_s)),
+        &Chart::signals_of("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(("emulated", &measured)), Some(spec.fit_end_s)),
     )?;
     run.compare(
         "robustness β (bar)",

@@ -458,7 +458,7 @@ pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<summary::Stro
 }
 
 /// The article's stroke study: x0 ± 50 mm, the mass following the rig's `mass_by_position`
-/// (9958 and 12 373 kg on the article's rig).
+/// (9958 and 12373 kg on the article's rig).
 const STROKE_MM: f64 = 50.0;
 
 /// Largest GM change (dB) that reads as "virtually unchanged".
@@ -663,7 +663,13 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Trac
         );
         let series = [("model".to_string(), &sim)];
         let stem = format!("sine_{}hz", format!("{f:.2}").replace('.', "p"));
-        let chart = Chart::signals(&title, Some(&subtitle), &series, Some(&measured), None);
+        let chart = Chart::signals_of(
+            &title,
+            Some(&subtitle),
+            &series,
+            Some(("emulated", &measured)),
+            None,
+        );
         run.figure(&stem, Source::ArticleByOrder(number), &title, &chart)?;
     }
     run.table(
@@ -704,7 +710,7 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
     )?;
     let verdict = |v| crate::design::verdict_text(v);
     run.table(
-        "Design (targets PM 34 deg, GM 6 dB; stroke ±50 mm; loads 4898 and 10 593 kg at x0, the mass following the stroke as the rig's geometry ties them)",
+        "Design (targets PM 34 deg, GM 6 dB; stroke ±50 mm; loads 4898 and 10593 kg at x0, the mass following the stroke as the rig's geometry ties them)",
         &["quantity", "value"],
         vec![
             vec![
@@ -736,7 +742,7 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
             constant.kp_max_worst_case,
             verdict(constant.verdict)
         ),
-        "x0 − 50 mm with 9958 kg, x0 + 50 mm with 12 373 kg",
+        "x0 − 50 mm with 9958 kg, x0 + 50 mm with 12373 kg",
         "-",
         "the article pairs each stroke point with its mass; so does pumpcyl (the rig's mass_by_position)",
     );

@@ -1,0 +1,319 @@
+//! The figures of `pumpcyl reproduce` read as a user reads them, checked on the SVG text:
+//! colours keep their meaning across the panels of a figure, subtitles never wrap between a
+//! number and its unit, every curve shows on white, and curves keep sub-pixel precision.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// Every SVG figure of one `pumpcyl reproduce` run, shared by the tests: (name, SVG text).
+fn figures() -> &'static [(String, String)] {
+    static RUN: OnceLock<Vec<(String, String)>> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+            .args(["reproduce", "--out", dir.path().to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let mut svgs = Vec::new();
+        for sub in ["figures", "identification"] {
+            for path in svg_files(&dir.path().join(sub)) {
+                let name = path.file_name().unwrap().to_string_lossy().into_owned();
+                svgs.push((name, std::fs::read_to_string(&path).unwrap()));
+            }
+        }
+        assert!(svgs.len() >= 20, "{} figures", svgs.len());
+        svgs
+    })
+}
+
+fn svg_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// One drawn element of an SVG document, in document order.
+#[derive(Debug, Clone, PartialEq)]
+enum Element {
+    /// A polyline: its stroke colour (`#RRGGBB`), width and points.
+    Line {
+        stroke: String,
+        width: f64,
+        points: Vec<(f64, f64)>,
+    },
+    /// A text: its fill colour and content.
+    Text { fill: String, content: String },
+    /// Anything else.
+    Other,
+}
+
+fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let key = format!(" {name}=\"");
+    let at = tag.find(&key)? + key.len();
+    tag[at..].split('"').next()
+}
+
+/// The elements of `svg` in order (the figures write one tag per element).
+fn elements(svg: &str) -> Vec<Element> {
+    let mut out = Vec::new();
+    let mut rest = svg;
+    while let Some(at) = rest.find('<') {
+        rest = &rest[at..];
+        let end = rest.find('>').map_or(rest.len(), |e| e + 1);
+        let tag = &rest[..end];
+        if tag.starts_with("<polyline") {
+            let points = attr(tag, "points")
+                .unwrap_or("")
+                .split_whitespace()
+                .filter_map(|p| {
+                    let (x, y) = p.split_once(',')?;
+                    Some((x.parse().ok()?, y.parse().ok()?))
+                })
+                .collect();
+            out.push(Element::Line {
+                stroke: attr(tag, "stroke").unwrap_or("").to_uppercase(),
+                width: attr(tag, "stroke-width")
+                    .and_then(|w| w.parse().ok())
+                    .unwrap_or(0.0),
+                points,
+            });
+        } else if tag.starts_with("<text") {
+            let body = &rest[end..];
+            let close = body.find("</text>").unwrap_or(body.len());
+            out.push(Element::Text {
+                fill: attr(tag, "fill").unwrap_or("").to_uppercase(),
+                content: unescape(body[..close].trim()),
+            });
+            rest = &body[close..];
+            continue;
+        } else if !tag.starts_with("</") {
+            out.push(Element::Other);
+        }
+        rest = &rest[end..];
+    }
+    out
+}
+
+fn unescape(s: &str) -> String {
+    s.replace("&apos;", "'")
+        .replace("&quot;", "\"")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&")
+}
+
+/// The legend rows of `svg`: (label, sample colour). A legend row is a horizontal line
+/// sample 28 px long directly followed by its label.
+fn legend_rows(svg: &str) -> Vec<(String, String)> {
+    let els = elements(svg);
+    els.windows(2)
+        .filter_map(|w| match (&w[0], &w[1]) {
+            (Element::Line { stroke, points, .. }, Element::Text { content, .. })
+                if points.len() == 2
+                    && points[0].1 == points[1].1
+                    && (points[1].0 - points[0].0 - 28.0).abs() < 0.5 =>
+            {
+                Some((content.clone(), stroke.clone()))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// Problems with the legend colours of one figure: a label shown in two colours, or a colour
+/// naming two labels.
+fn legend_colour_problems(svg: &str) -> Vec<String> {
+    let mut colour_of: BTreeMap<String, String> = BTreeMap::new();
+    let mut label_of: BTreeMap<String, String> = BTreeMap::new();
+    let mut problems = Vec::new();
+    for (label, colour) in legend_rows(svg) {
+        match colour_of.get(&label) {
+            Some(c) if *c != colour => {
+                problems.push(format!("\"{label}\" drawn in {c} and {colour}"))
+            }
+            _ => {
+                colour_of.insert(label.clone(), colour.clone());
+            }
+        }
+        match label_of.get(&colour) {
+            Some(l) if *l != label => {
+                problems.push(format!("{colour} names \"{l}\" and \"{label}\""))
+            }
+            _ => {
+                label_of.insert(colour, label);
+            }
+        }
+    }
+    problems
+}
+
+/// Subtitle colour of the figures (grey text under the title).
+const SUBTITLE_FILL: &str = "#464646";
+
+/// Units a number must stay with.
+const UNITS: [&str; 12] = [
+    "Hz",
+    "deg",
+    "°",
+    "dB",
+    "bar",
+    "mm",
+    "s",
+    "%",
+    "kg",
+    "rpm",
+    "N·s/m",
+    "m⁵/(N·s)",
+];
+
+/// Places where a subtitle of `svg` wraps between a number and its unit.
+fn split_number_units(svg: &str) -> Vec<String> {
+    let lines: Vec<String> = elements(svg)
+        .into_iter()
+        .filter_map(|e| match e {
+            Element::Text { fill, content } if fill == SUBTITLE_FILL => Some(content),
+            _ => None,
+        })
+        .collect();
+    lines
+        .windows(2)
+        .filter(|w| {
+            let ends_in_digit = w[0].trim_end().ends_with(|c: char| c.is_ascii_digit());
+            let first = w[1].split_whitespace().next().unwrap_or("");
+            let first = first.trim_end_matches([',', ';', ')', '.', ':']);
+            ends_in_digit && UNITS.contains(&first)
+        })
+        .map(|w| format!("\"{}\" / \"{}\"", w[0], w[1]))
+        .collect()
+}
+
+/// WCAG contrast ratio of the colour `#RRGGBB` on white.
+fn contrast_on_white(hex: &str) -> f64 {
+    let hex = hex.trim_start_matches('#');
+    let channel = |i: usize| {
+        let v = f64::from(u8::from_str_radix(&hex[i..i + 2], 16).unwrap()) / 255.0;
+        if v <= 0.03928 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let l = 0.2126 * channel(0) + 0.7152 * channel(2) + 0.0722 * channel(4);
+    1.05 / (l + 0.05)
+}
+
+/// Series colours of `svg` (its curves, 2 px wide or more with more than two points, and its
+/// legend samples) with less than 3:1 contrast on white.
+fn faint_series(svg: &str) -> Vec<String> {
+    let curves = elements(svg).into_iter().filter_map(|e| match e {
+        Element::Line {
+            stroke,
+            width,
+            points,
+        } if width >= 2.0 && points.len() > 2 => Some(stroke),
+        _ => None,
+    });
+    let samples = legend_rows(svg).into_iter().map(|(_, colour)| colour);
+    let mut faint: Vec<String> = curves
+        .chain(samples)
+        .filter(|c| c.len() == 7 && contrast_on_white(c) < 3.0)
+        .collect();
+    faint.sort();
+    faint.dedup();
+    faint
+}
+
+#[test]
+fn each_legend_label_has_one_colour_and_each_colour_one_label() {
+    let mut checked = 0;
+    for (name, svg) in figures() {
+        let problems = legend_colour_problems(svg);
+        assert!(problems.is_empty(), "{name}: {problems:?}");
+        checked += usize::from(!legend_rows(svg).is_empty());
+    }
+    assert!(checked >= 10, "only {checked} figures with a legend found");
+    // The checker catches the fault it looks for.
+    let bad = "<polyline stroke=\"#0072B2\" stroke-width=\"2\" points=\"10,20 38,20\"/>\n\
+               <text fill=\"#000000\">\nx measured\n</text>\n\
+               <polyline stroke=\"#0072B2\" stroke-width=\"2\" points=\"10,90 38,90\"/>\n\
+               <text fill=\"#000000\">\ne measured\n</text>\n";
+    assert_eq!(legend_colour_problems(bad).len(), 1);
+}
+
+#[test]
+fn no_subtitle_line_ends_inside_a_number_and_its_unit() {
+    let mut subtitles = 0;
+    for (name, svg) in figures() {
+        assert_eq!(split_number_units(svg), Vec::<String>::new(), "{name}");
+        subtitles += usize::from(svg.contains(SUBTITLE_FILL));
+    }
+    assert!(subtitles >= 10, "only {subtitles} subtitles found");
+    // Long subtitles, wrapped wherever the width falls: the wrap never parts a number from
+    // its unit.
+    let t: Vec<f64> = (0..50).map(|i| f64::from(i) * 0.1).collect();
+    let panel = pumpcyl_present::plot::Panel {
+        y_label: "Position (mm)".into(),
+        traces: vec![pumpcyl_present::plot::Trace {
+            label: "x".into(),
+            t_s: t.clone(),
+            y: t.iter().map(|t| t.sin()).collect(),
+            ..Default::default()
+        }],
+    };
+    for pad in 0..40 {
+        let subtitle = format!(
+            "{}GM = 6.8 dB @ 0.830 Hz PM = 33.7° @ 0.502 Hz; GM = -3.4 dB @ 0.880 Hz \
+             PM = -36.6° @ 1.01 Hz; max |e| 9.66 mm, wave reduction 80.7 % at 4.394 bar \
+             and 12.5 s with 4898 kg",
+            "a".repeat(pad)
+        );
+        let svg =
+            pumpcyl_present::plot::panels_svg("t", Some(&subtitle), std::slice::from_ref(&panel))
+                .unwrap();
+        assert_eq!(split_number_units(&svg), Vec::<String>::new(), "pad {pad}");
+    }
+}
+
+#[test]
+fn every_series_colour_shows_on_white() {
+    for (name, svg) in figures() {
+        assert_eq!(faint_series(svg), Vec::<String>::new(), "{name}");
+    }
+    assert!(contrast_on_white("#F0E442") < 3.0 && contrast_on_white("#56B4E9") < 3.0);
+    assert!((contrast_on_white("#000000") - 21.0).abs() < 1e-9);
+}
+
+#[test]
+fn curves_are_written_with_sub_pixel_coordinates() {
+    for (name, svg) in figures() {
+        let coords: Vec<f64> = elements(svg)
+            .into_iter()
+            .filter_map(|e| match e {
+                Element::Line { points, .. } if points.len() > 20 => Some(points),
+                _ => None,
+            })
+            .flatten()
+            .flat_map(|(x, y)| [x, y])
+            .collect();
+        if coords.is_empty() {
+            continue; // a heat map: no curve
+        }
+        let fractional = coords.iter().filter(|v| v.fract() != 0.0).count();
+        assert!(
+            fractional * 4 > coords.len(),
+            "{name}: {fractional} of {} curve coordinates between whole pixels",
+            coords.len()
+        );
+    }
+}
