@@ -241,11 +241,13 @@ pub fn fit_chart(exp: &Experiment, id: &Identification, i: usize, fit: &Fit) -> 
         ds.fit_end_s,
         exp.problem.dataset_mse(best, ds)
     );
-    Chart::signals(
+    // "record", not "measured": the records may be emulated (`pumpcyl reproduce` fits the
+    // emulator's), and the figure's caption says which
+    Chart::signals_of(
         &format!("Identified model against {}", ds.name),
         Some(&subtitle),
         &[("model".to_string(), &fit.model)],
-        Some(&fit.measured),
+        Some(("record", &fit.measured)),
         Some(ds.fit_end_s),
     )
 }

@@ -97,7 +97,7 @@ pub(super) fn identification(
     };
     let truth = truth.rig.beta_bar;
     run.text(&format!(
-        "Standstill record means: w1 {:.1} rpm, w2 {:.1} rpm, p1 {:.3} bar (p2 {:.3} bar from the force balance). \
+        "Standstill record means: ω1 {:.1} rpm, ω2 {:.1} rpm, p1 {:.3} bar (p2 {:.3} bar from the force balance). \
          {} candidates in {:.2} s; the emulator's truth is beta_e = {truth:.0} bar at the mean pressure, \
          c12 = 1.2e-10 m⁵/(N·s). The friction b absorbs the emulator's 15 N Coulomb friction, \
          which the LTI model lacks.",
@@ -403,7 +403,7 @@ pub(super) fn conditions(
         ),
     );
     run.compare_why(
-        "standstill: w1 / w2 (rpm), p1 (bar)",
+        "standstill: ω1 / ω2 (rpm), p1 (bar)",
         format!("{:.0} / {:.0}, {:.2}", s.w1_rpm, s.w2_rpm, s.p1_bar),
         &format!(
             "{} / {}, {}",
