@@ -10,6 +10,7 @@ mod error;
 mod font;
 mod layout;
 mod legend;
+mod precise;
 mod render;
 mod series;
 mod stack;

@@ -35,14 +35,14 @@ pub(super) fn to_svg(figure: &impl Draw, size: (u32, u32)) -> Result<String, Rep
 /// Render to an SVG document of `size` pixels, text and line sizes multiplied by `scale`.
 fn svg_at_scale(figure: &impl Draw, size: (u32, u32), scale: f64) -> Result<String, ReportError> {
     font::ensure_registered()?;
-    super::series::reset_precise();
+    super::precise::reset();
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         figure.draw(&root, scale)?;
         root.present().map_err(plot_err)?;
     }
-    Ok(super::series::substitute_precise(svg))
+    Ok(super::precise::substitute(svg))
 }
 
 /// The font database resvg draws text with: only the embedded DejaVu Sans (no system fonts),

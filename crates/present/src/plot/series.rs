@@ -6,6 +6,7 @@ use plotters::prelude::*;
 
 use super::axes::Chart;
 use super::error::{plot_err, ReportError};
+use super::precise;
 
 /// Colour-blind-friendly palette after Okabe–Ito, in the order series use it. Every colour
 /// has a contrast ratio of at least 3:1 on white (WCAG), so lines stay visible: the light
@@ -167,22 +168,9 @@ fn dashes(pts: &[(f64, f64)], on: f64, off: f64) -> Vec<Polyline> {
     out
 }
 
-thread_local! {
-    /// SVG elements waiting to replace their placeholders in the document being rendered.
-    static PRECISE: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
-/// Prefix of the placeholder text standing for a precise path until [`substitute_precise`].
-const PLACEHOLDER: &str = "pumpcyl-precise-path-";
-
-/// Forget the precise paths of an earlier, unfinished rendering (call before drawing).
-pub(super) fn reset_precise() {
-    PRECISE.with(|p| p.borrow_mut().clear());
-}
-
 /// Draw the polyline `pts` (pixels relative to `area`, sub-pixel) with `stroke`, dashed as
 /// one path with `stroke-dasharray`. Plotters writes whole pixels only, so a placeholder is
-/// drawn in its place and [`substitute_precise`] writes the path into the finished SVG
+/// drawn in its place and [`precise::substitute`] writes the path into the finished SVG
 /// document with two decimals.
 pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTranslate>(
     area: &DrawingArea<DB, CT>,
@@ -198,7 +186,13 @@ pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTransla
     let mut points = String::new();
     for &(x, y) in pts {
         let (x, y) = (x + f64::from(ox), y + f64::from(oy));
-        write!(points, "{},{} ", short_decimal(x), short_decimal(y)).ok();
+        write!(
+            points,
+            "{},{} ",
+            precise::short_decimal(x),
+            precise::short_decimal(y)
+        )
+        .ok();
     }
     let c = stroke.color;
     let dash = stroke.pattern.map_or(String::new(), |(on, off)| {
@@ -212,53 +206,9 @@ pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTransla
         stroke.width,
         points.trim_end()
     );
-    let k = PRECISE.with(|p| {
-        let mut p = p.borrow_mut();
-        p.push(element);
-        p.len() - 1
-    });
     let style = TextStyle::from((super::font::FAMILY, 1.0).into_font());
-    area.draw(&Text::new(format!("{PLACEHOLDER}{k}"), (0, 0), style))
+    area.draw(&Text::new(precise::hold(element), (0, 0), style))
         .map_err(plot_err)
-}
-
-/// `v` with at most two decimals, trailing zeros removed.
-fn short_decimal(v: f64) -> String {
-    let s = format!("{v:.2}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" {
-        "0".to_string()
-    } else {
-        s.to_string()
-    }
-}
-
-/// `svg` with the placeholders drawn by [`precise_path`] replaced by their paths.
-pub(super) fn substitute_precise(svg: String) -> String {
-    let paths = PRECISE.with(|p| std::mem::take(&mut *p.borrow_mut()));
-    if paths.is_empty() {
-        return svg;
-    }
-    let mut out = String::with_capacity(svg.len() + paths.iter().map(String::len).sum::<usize>());
-    let mut rest = svg.as_str();
-    while let Some(at) = rest.find(PLACEHOLDER) {
-        let start = rest[..at].rfind("<text").unwrap_or(at);
-        let digits = &rest[at + PLACEHOLDER.len()..];
-        let n_len = digits
-            .find(|c: char| !c.is_ascii_digit())
-            .unwrap_or(digits.len());
-        let k: Option<usize> = digits[..n_len].parse().ok();
-        let end = rest[at..]
-            .find("</text>")
-            .map_or(rest.len(), |e| at + e + "</text>".len());
-        out.push_str(&rest[..start]);
-        if let Some(path) = k.and_then(|k| paths.get(k)) {
-            out.push_str(path);
-        }
-        rest = &rest[end..];
-    }
-    out.push_str(rest);
-    out
 }
 
 /// The runs of consecutive `Some` points of `points` (a `None` ends a run), in order.
@@ -276,101 +226,6 @@ pub(super) fn runs(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Vec<
 }
 
 impl Pieces {
-    thread_local! {
-        /// SVG elements waiting to replace their placeholders in the document being rendered.
-        static PRECISE: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
-    }
-
-    /// Prefix of the placeholder text standing for a precise path until [`substitute_precise`].
-    const PLACEHOLDER: &str = "pumpcyl-precise-path-";
-
-    /// Forget the precise paths of an earlier, unfinished rendering (call before drawing).
-    pub(super) fn reset_precise() {
-        PRECISE.with(|p| p.borrow_mut().clear());
-    }
-
-    /// Draw the polyline `pts` (pixels relative to `area`, sub-pixel) with `stroke`, dashed as
-    /// one path with `stroke-dasharray`. Plotters writes whole pixels only, so a placeholder is
-    /// drawn in its place and [`substitute_precise`] writes the path into the finished SVG
-    /// document with two decimals.
-    pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTranslate>(
-        area: &DrawingArea<DB, CT>,
-        pts: &[(f64, f64)],
-        stroke: &Stroke,
-    ) -> Result<(), ReportError> {
-        use std::fmt::Write;
-        if pts.len() < 2 {
-            return Ok(());
-        }
-        let area = area.strip_coord_spec();
-        let (ox, oy) = area.get_base_pixel();
-        let mut points = String::new();
-        for &(x, y) in pts {
-            let (x, y) = (x + f64::from(ox), y + f64::from(oy));
-            write!(points, "{},{} ", short_decimal(x), short_decimal(y)).ok();
-        }
-        let c = stroke.color;
-        let dash = stroke.pattern.map_or(String::new(), |(on, off)| {
-            format!(" stroke-dasharray=\"{on} {off}\"")
-        });
-        let element = format!(
-        "<polyline fill=\"none\" opacity=\"1\" stroke=\"#{:02X}{:02X}{:02X}\" stroke-width=\"{}\"{dash} points=\"{}\"/>",
-        c.0,
-        c.1,
-        c.2,
-        stroke.width,
-        points.trim_end()
-    );
-        let k = PRECISE.with(|p| {
-            let mut p = p.borrow_mut();
-            p.push(element);
-            p.len() - 1
-        });
-        let style = TextStyle::from((super::font::FAMILY, 1.0).into_font());
-        area.draw(&Text::new(format!("{PLACEHOLDER}{k}"), (0, 0), style))
-            .map_err(plot_err)
-    }
-
-    /// `v` with at most two decimals, trailing zeros removed.
-    fn short_decimal(v: f64) -> String {
-        let s = format!("{v:.2}");
-        let s = s.trim_end_matches('0').trim_end_matches('.');
-        if s == "-0" {
-            "0".to_string()
-        } else {
-            s.to_string()
-        }
-    }
-
-    /// `svg` with the placeholders drawn by [`precise_path`] replaced by their paths.
-    pub(super) fn substitute_precise(svg: String) -> String {
-        let paths = PRECISE.with(|p| std::mem::take(&mut *p.borrow_mut()));
-        if paths.is_empty() {
-            return svg;
-        }
-        let mut out =
-            String::with_capacity(svg.len() + paths.iter().map(String::len).sum::<usize>());
-        let mut rest = svg.as_str();
-        while let Some(at) = rest.find(PLACEHOLDER) {
-            let start = rest[..at].rfind("<text").unwrap_or(at);
-            let digits = &rest[at + PLACEHOLDER.len()..];
-            let n_len = digits
-                .find(|c: char| !c.is_ascii_digit())
-                .unwrap_or(digits.len());
-            let k: Option<usize> = digits[..n_len].parse().ok();
-            let end = rest[at..]
-                .find("</text>")
-                .map_or(rest.len(), |e| at + e + "</text>".len());
-            out.push_str(&rest[..start]);
-            if let Some(path) = k.and_then(|k| paths.get(k)) {
-                out.push_str(path);
-            }
-            rest = &rest[end..];
-        }
-        out.push_str(rest);
-        out
-    }
-
     /// The runs of consecutive `Some` points of `points` as polylines, runs of one point as dots.
     pub(super) fn split(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Self {
         let mut pieces = Pieces::default();
@@ -433,8 +288,8 @@ mod tests {
         }
         assert!(contrast_on_white(RGBColor(240, 228, 66)) < 3.0, "yellow");
         assert!((contrast_on_white(RGBColor(0, 0, 0)) - 21.0).abs() < 1e-9);
-        assert_eq!(short_decimal(12.345_6), "12.35");
-        assert_eq!(short_decimal(3.0), "3");
+        assert_eq!(precise::short_decimal(12.345_6), "12.35");
+        assert_eq!(precise::short_decimal(3.0), "3");
     }
 
     #[test]
