@@ -508,32 +508,18 @@ fn input_start(c: &Config) -> Vec<f64> {
     match c.controller {
         Controller::Article => vec![c.rig.x0_mm * 1e-3, f],
         Controller::External => {
-            let u = rest_speed_commands(&c.rig);
+            let (_, u) = rest(c.model, &c.rig);
             vec![u[0], u[1], f]
         }
     }
 }
 
-/// The speed commands (rad/s) that hold the rig at its operating point: the leakage speeds,
-/// plus the torque that carries the load through the drive gain (full motor model with the
-/// pressures acting on the motors).
-fn rest_speed_commands(rig: &Rig) -> [f64; 2] {
-    let plant = Plant::new(rig);
-    let op = plant.operating_point();
-    let load = rest_torques(rig, &plant);
-    let si = &plant.si;
-    [op.w1 + load[0] / si.km[0], op.w2 + load[1] / si.km[1]]
-}
-
-/// The motor torques at the operating point (N·m): the pumps' load when the model couples them.
-fn rest_torques(rig: &Rig, plant: &Plant) -> [f64; 2] {
-    let op = plant.operating_point();
-    let si = &plant.si;
-    if rig.motor_model == MotorModel::Full && rig.motor_coupling {
-        [si.d[0] * (op.p1 - op.p2), si.d[1] * op.p1]
-    } else {
-        [0.0, 0.0]
-    }
+/// The state at rest and the speed commands (rad/s) that hold it (docs/model.md): the
+/// emulated motors always carry the pumps' load, the linear ones as the rig's
+/// `motor_coupling` says.
+fn rest(model: ModelKind, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
+    let loaded = model == ModelKind::Emulator || rig.motor_coupling;
+    Plant::new(rig).rest_state(loaded)
 }
 
 /// A running FMU: its configuration, the parameters as set, the inputs, and after
@@ -839,22 +825,7 @@ impl Linear {
         let plant = Plant::new(rig);
         let l = plant.layout;
         let op = plant.operating_point();
-        let mut z_op = vec![0.0; l.n];
-        z_op[l.x] = op.x;
-        z_op[l.p[0]] = op.p1;
-        z_op[l.p[1]] = op.p2;
-        z_op[l.w[0]] = op.w1;
-        z_op[l.w[1]] = op.w2;
-        let torques = rest_torques(rig, &plant);
-        if let Some(tau) = l.tau {
-            z_op[tau[0]] = torques[0];
-            z_op[tau[1]] = torques[1];
-        }
-        let u_rest = rest_speed_commands(rig);
-        if let Some(ff) = l.ff {
-            z_op[ff[0]] = u_rest[0];
-            z_op[ff[1]] = u_rest[1];
-        }
+        let (z_op, u_rest) = rest(ModelKind::Linear, rig);
         // the force enters Newton's law: v̇ = … − F_ext / m
         let mut force = DMatrix::zeros(l.n, 1);
         force[(l.v, 0)] = -1.0 / plant.si.mass;

@@ -216,6 +216,39 @@ impl Plant {
         }
     }
 
+    /// The operating point as a state of this plant's layout (absolute x0, gauge pressures,
+    /// the leakage speeds; with the full motor model the torques that carry the pumps' load
+    /// where `loaded`, none otherwise, and the feedforward filters settled) and the speed
+    /// commands ω_ref (rad/s) that hold it.
+    pub fn rest_state(&self, loaded: bool) -> (Vec<f64>, [f64; 2]) {
+        let op = self.operating_point();
+        let (l, si) = (&self.layout, &self.si);
+        let mut x = vec![0.0; l.n];
+        x[l.x] = op.x;
+        x[l.p[0]] = op.p1;
+        x[l.p[1]] = op.p2;
+        x[l.w[0]] = op.w1;
+        x[l.w[1]] = op.w2;
+        let w = [op.w1, op.w2];
+        // first-order motors: the speed settles at its command
+        let Some(tau) = l.tau else { return (x, w) };
+        let load = if loaded {
+            [si.d[0] * (op.p1 - op.p2), si.d[1] * op.p1]
+        } else {
+            [0.0; 2]
+        };
+        let mut u = [0.0; 2];
+        for i in 0..2 {
+            x[tau[i]] = load[i];
+            // τ = Km (u − ω) at rest (the feedforward filter has settled: z = u)
+            u[i] = w[i] + load[i] / si.km[i];
+            if let Some(ff) = l.ff {
+                x[ff[i]] = u[i];
+            }
+        }
+        (x, u)
+    }
+
     /// Wrap A, B with output x and no feedthrough.
     fn siso(&self, a: DMatrix<f64>, b: DMatrix<f64>) -> StateSpace {
         let mut c = DMatrix::zeros(1, self.layout.n);

@@ -242,28 +242,8 @@ impl Dynamics {
     /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage
     /// speeds, drive torques equal to the load) and the speed references that hold it.
     pub fn operating_point(&self, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
-        let op = Plant::new(rig).operating_point();
-        let l = &self.layout;
-        let si = &self.si;
-        let mut x = vec![0.0; l.n];
-        x[l.x] = op.x;
-        x[l.p[0]] = op.p1;
-        x[l.p[1]] = op.p2;
-        x[l.w[0]] = op.w1;
-        x[l.w[1]] = op.w2;
-        let load = [si.d[0] * (op.p1 - op.p2), si.d[1] * op.p1];
-        let w = [op.w1, op.w2];
-        let mut u = [0.0; 2];
-        let tau = l.tau.expect("full motor model");
-        for i in 0..2 {
-            x[tau[i]] = load[i];
-            // τ = Km (u − ω) at rest (the feedforward filter has settled: z = u)
-            u[i] = w[i] + load[i] / si.km[i];
-            if let Some(ff) = l.ff {
-                x[ff[i]] = u[i];
-            }
-        }
-        (x, u)
+        // the emulated motors always carry the pumps' load
+        Plant::new(rig).rest_state(true)
     }
 }
 
