@@ -396,3 +396,32 @@ fn the_terminal_comparison_fits_120_columns_with_its_notes_below() {
         );
     }
 }
+
+#[test]
+fn a_variant_whose_step_diverges_is_named_in_the_legend_with_its_pole() {
+    let r = &run().result;
+    let summary = serde_json::to_value(&r.summary).unwrap();
+    for (study, stem) in [
+        ("figure14", "step_fig14_damping"),
+        ("first_order_motor", "step_motor_first_order"),
+    ] {
+        let svg = &r.figures.iter().find(|f| f.stem == stem).unwrap().svg;
+        assert!(
+            !svg.contains("not shown"),
+            "{stem}: the title lists no left-out variants"
+        );
+        let cases = summary["damping"][study].as_array().unwrap();
+        let unstable: Vec<&str> = cases
+            .iter()
+            .filter(|c| c["step_closed_loop_stable"] == false)
+            .map(|c| c["case"].as_str().unwrap())
+            .collect();
+        assert!(!unstable.is_empty(), "{study}");
+        for case in unstable {
+            let note = format!("{case}: unstable (pole +");
+            assert!(svg.contains(&note), "{stem} lacks the legend entry {note}");
+        }
+        // the one curve drawn is named by its case, not "x"
+        assert!(svg.contains(">\nidentified rig\n<"), "{stem}");
+    }
+}

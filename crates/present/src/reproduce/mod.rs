@@ -628,8 +628,14 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
                 steps.push((label.clone(), s));
                 Some(metrics)
             }
-            Err(lti::LtiError::Unstable { .. }) => {
-                unstable.push(label.as_str());
+            Err(lti::LtiError::Unstable {
+                real_per_s,
+                imag_rad_per_s,
+                ..
+            }) => {
+                unstable.push(format!(
+                    "{label}: unstable (pole {real_per_s:+.3} ±{imag_rad_per_s:.3}j rad/s), not drawn"
+                ));
                 None
             }
             Err(e) => return Err(e.into()),
@@ -650,15 +656,26 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
         &Chart::bode(&title, series, markers),
     )?;
     let refs: Vec<(String, &Signals)> = steps.iter().map(|(l, s)| (l.clone(), s)).collect();
-    let left_out = if unstable.is_empty() {
-        String::new()
-    } else {
-        format!("; unstable, not shown: {}", unstable.join(", "))
-    };
-    let title = format!("5 mm step: {what} (sum-pressure loop closed{left_out})");
+    let title = format!("5 mm step: {what} (sum-pressure loop closed)");
     let mut chart = Chart::signals(&title, None, &refs, None, None);
-    if let (Position::AboutX0, crate::figures::Plot::Time(panels)) = (position, &mut chart.plot) {
-        panels[0].y_label = "Position about x0, x − x0 (mm)".into();
+    if let ([(label, _)], false) = (&refs[..], unstable.is_empty()) {
+        // one curve beside variants that are not drawn: it is named as they are
+        chart = chart.relabel("x", label);
+    }
+    if let crate::figures::Plot::Time(panels) = &mut chart.plot {
+        if position == Position::AboutX0 {
+            panels[0].y_label = "Position about x0, x − x0 (mm)".into();
+        }
+        // each variant whose step diverges is named in the legend with its pole
+        for note in &unstable {
+            panels[0].traces.push(crate::figures::trace(
+                note,
+                &[],
+                &[],
+                crate::plot::LineStyle::Solid,
+                None,
+            ));
+        }
     }
     run.figure(&format!("step_{stem}"), study.step, &title, &chart)?;
     Ok(out)
