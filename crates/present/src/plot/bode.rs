@@ -49,7 +49,10 @@ pub struct BodeSeries {
 
 /// Optional markers: the stability margins found, drawn on the plot.
 ///
-/// Crossover frequencies are drawn as dotted vertical lines in both panels.
+/// Crossover frequencies are drawn as dotted vertical lines in both panels when one series is
+/// marked; with several, the lines would crowd the crossover region (two a series within a
+/// fraction of an octave), so the margin bars in each series' colour and the values under the
+/// title mark them.
 /// The gain margin is drawn as a bar from -GM dB up to 0 dB at the phase
 /// crossover, the phase margin as a bar from -180 deg up to -180 + PM deg at
 /// the gain crossover (shifted by the multiple of 360 deg that matches the
@@ -669,8 +672,8 @@ fn reference_line<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Thin dashed vertical lines at the crossover frequencies of each marked series, in the
-/// series' colour, spanning the panel's value range `(lo, hi)`.
+/// Thin dashed vertical lines at the crossover frequencies of the marked series, in its
+/// colour, spanning the panel's value range `(lo, hi)`; none when several series are marked.
 fn crossover_lines<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     marks: &[Marks],
@@ -678,6 +681,9 @@ fn crossover_lines<DB: DrawingBackend>(
     scale: f64,
 ) -> Result<(), ReportError> {
     let px = render::px(scale);
+    if marks.len() > 1 {
+        return Ok(());
+    }
     for m in marks {
         let style = series_color(m.series)
             .mix(0.9)
