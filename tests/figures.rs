@@ -4,18 +4,21 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::OnceLock;
+
+#[path = "common/run.rs"]
+#[allow(dead_code)]
+mod run;
 
 /// Every SVG figure of one `pumpcyl reproduce` run, shared by the tests: (name, SVG text).
 fn figures() -> &'static [(String, String)] {
     static RUN: OnceLock<Vec<(String, String)>> = OnceLock::new();
     RUN.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let out = Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-            .args(["reproduce", "--out", dir.path().to_str().unwrap()])
-            .output()
-            .unwrap();
+        let out = run::pumpcyl(
+            Path::new("."),
+            &["reproduce", "--out", dir.path().to_str().unwrap()],
+        );
         assert!(
             out.status.success(),
             "{}",

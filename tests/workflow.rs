@@ -6,6 +6,10 @@
 #[path = "common/tree.rs"]
 mod tree;
 
+#[path = "common/run.rs"]
+#[allow(dead_code)]
+mod run;
+
 use pumpcyl::rig::Rig;
 use pumpcyl_present::reproduce::{reproduce, ReproduceOptions, Reproduction, STEPS};
 use std::collections::BTreeSet;
@@ -353,16 +357,10 @@ fn the_robust_design_of_design_and_of_reproduce_agree() {
     // records span): one answer, whichever front end asks
     let r = &run().result;
     let exp = concat!(env!("CARGO_MANIFEST_DIR"), "/data/article/identify.toml");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-        .args(["design", "--robust", "--experiment", exp, "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let v = run::json(
+        Path::new("."),
+        &["design", "--robust", "--experiment", exp, "--json"],
     );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let kp = v["kp_max"].as_f64().unwrap();
     assert!(
         (kp - r.certainty.robust.kp_max).abs() < 1e-9 * kp,
