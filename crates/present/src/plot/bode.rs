@@ -895,6 +895,15 @@ mod tests {
         // Markers for the first series only mark the first series only.
         let old = bode_svg("Compare", &series, &[Some(markers())]).unwrap();
         assert!(old.contains("GM = 12.3 dB @ 5.00 Hz") && !old.contains("3.5 dB"));
+        // Crossover verticals (thin dashed lines in the series' colour) for one marked series,
+        // none when several are marked: they would crowd the crossover region.
+        let verticals = |svg: &str| {
+            svg.lines()
+                .filter(|l| l.starts_with("<polyline") && l.contains("opacity=\"0.9\""))
+                .count()
+        };
+        assert!(verticals(&old) > 10, "{}", verticals(&old));
+        assert_eq!(verticals(&svg), 0);
     }
 
     #[test]
