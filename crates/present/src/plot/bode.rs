@@ -22,6 +22,12 @@ pub const DEFAULT_HEIGHT_PX: u32 = 750;
 /// Deeper notches and roll-offs are clipped at the bottom of the panel.
 const MAG_WINDOW_DB: f64 = 200.0;
 
+/// Where the magnitude crosses 0 dB, the panel shows at most this far above and below it (dB),
+/// so the crossover region, where the margins are read, is readable rather than squeezed by the
+/// low-frequency gain and the high-frequency roll-off (clipped at the panel's edges); the gain
+/// margins drawn stay inside.
+const CROSSOVER_WINDOW_DB: f64 = 60.0;
+
 /// Lowest phase shown, relative to the largest finite phase, in degrees.
 const PHASE_WINDOW_DEG: f64 = 720.0;
 
@@ -470,9 +476,22 @@ impl<'a> Figure<'a> {
         let mag_ext = extent(series, |s| &s.mag_db);
         let phase_ext = extent(series, |s| &s.phase_deg);
 
-        // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB.
+        // Magnitude: clamp to MAG_WINDOW_DB below the maximum; include 0 dB; where the curves
+        // cross 0 dB, to CROSSOVER_WINDOW_DB about it, widened to hold every gain-margin bar.
         let (m_lo, m_hi) = mag_ext.unwrap_or((-20.0, 20.0));
         let m_lo = m_lo.max(m_hi - MAG_WINDOW_DB);
+        let (m_lo, m_hi) = if m_lo < 0.0 && m_hi > 0.0 {
+            let gm = markers
+                .iter()
+                .flatten()
+                .filter_map(|m| m.gain_margin_db)
+                .filter(|g| g.is_finite())
+                .fold(0.0_f64, |a, g| a.max(g.abs()));
+            let window = CROSSOVER_WINDOW_DB.max(gm + 10.0);
+            (m_lo.max(-window), m_hi.min(window))
+        } else {
+            (m_lo, m_hi)
+        };
         let steps = steps_125((m_hi - m_lo).max(10.0), 8.0);
         let mag = value_ticks(m_lo, m_hi, Some(0.0), &steps, 8.0, 10.0);
 
@@ -1052,15 +1071,43 @@ mod tests {
             phase_deg: vec![-90.0; 100],
             freq_hz: f,
         };
+        // it crosses 0 dB: the panel shows the crossover region, the rest clipped
         let fig = Figure::prepare("t", std::slice::from_ref(&s), &[None]).unwrap();
-        assert!(fig.mag.lo >= 150.0 - MAG_WINDOW_DB - 25.0, "{:?}", fig.mag);
-        assert!(fig.mag.hi >= 150.0);
+        assert!(
+            fig.mag.lo >= -CROSSOVER_WINDOW_DB - 25.0 && fig.mag.hi <= CROSSOVER_WINDOW_DB + 25.0,
+            "{:?}",
+            fig.mag
+        );
+        assert!(fig.mag.lo < 0.0 && fig.mag.hi > 0.0);
         for line in &fig.mag_pieces[0].lines {
             assert!(line
                 .iter()
                 .all(|&(_, v)| v >= fig.mag.lo && v <= fig.mag.hi));
         }
-        bode_svg("steep", &[s], &[]).unwrap();
+        bode_svg("steep", std::slice::from_ref(&s), &[]).unwrap();
+        // a gain margin beyond the window widens it to hold the bar
+        let deep = BodeMarkers {
+            gain_margin_db: Some(90.0),
+            ..BodeMarkers::default()
+        };
+        let gentle = BodeSeries {
+            label: "gentle".into(),
+            mag_db: (0..100).map(|i| 50.0 - 3.0 * i as f64).collect(),
+            ..s.clone()
+        };
+        let fig = Figure::prepare("t", std::slice::from_ref(&gentle), &[Some(deep)]).unwrap();
+        assert!(fig.mag.lo <= -90.0, "{:?}", fig.mag);
+        let fig = Figure::prepare("t", std::slice::from_ref(&gentle), &[None]).unwrap();
+        assert!(fig.mag.lo >= -CROSSOVER_WINDOW_DB - 25.0, "{:?}", fig.mag);
+        // a magnitude that never reaches 0 dB keeps MAG_WINDOW_DB below its maximum
+        let high = BodeSeries {
+            label: "high".into(),
+            mag_db: s.mag_db.iter().map(|m| m + 400.0).collect(),
+            ..s
+        };
+        let fig = Figure::prepare("t", std::slice::from_ref(&high), &[None]).unwrap();
+        assert!(fig.mag.hi >= 550.0, "{:?}", fig.mag);
+        assert!(fig.mag.lo >= 550.0 - MAG_WINDOW_DB - 25.0, "{:?}", fig.mag);
     }
 
     #[test]
