@@ -245,22 +245,34 @@ impl PyRig {
     /// This rig with the keyword overrides of `call` (`Rig`, `Rig.replace`). A value out of
     /// range names the argument and the value given (`Rig(beta_bar=nan): key `beta_bar` = NaN:
     /// must be a finite number`), or all of them when the rule ties keys together; a type or
-    /// key error names the assignment (`override mass_kg="4898": key `mass_kg` takes a float`).
+    /// key error likewise (`Rig(mass_kg='4898'): key `mass_kg` takes a float`).
     fn with(&self, call: &str, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
         let given = assignments(call, overrides)?;
         let all: Vec<String> = given.iter().map(|(.., a)| a.clone()).collect();
+        // the arguments a complaint about `key` concerns: its own, or all when a rule ties keys
+        let shown = |key: &str| {
+            let named = |(arg, v, _): &(Arg<'_>, Bound<'_, PyAny>, String)| arg.given(v);
+            let own = given.iter().filter(|(arg, ..)| arg.name == key);
+            let mut shown: Vec<String> = own.map(named).collect();
+            if shown.is_empty() {
+                shown = given.iter().map(named).collect();
+            }
+            format!("{call}({})", shown.join(", "))
+        };
         let rig = self.rig.with_overrides(&all).map_err(|mut e| {
-            if let RigError::Invalid {
-                source_name, key, ..
-            } = &mut e
-            {
-                let named = |(arg, v, _): &(Arg<'_>, Bound<'_, PyAny>, String)| arg.given(v);
-                let own = given.iter().filter(|(arg, ..)| arg.name == *key);
-                let mut shown: Vec<String> = own.map(named).collect();
-                if shown.is_empty() {
-                    shown = given.iter().map(named).collect();
+            match &mut e {
+                RigError::Invalid {
+                    source_name, key, ..
+                } => *source_name = shown(key),
+                RigError::Set {
+                    assignment,
+                    message,
+                    ..
+                } => {
+                    let key = assignment.split('=').next().unwrap_or_default().trim();
+                    return err(format!("{}: {message}", shown(key)));
                 }
-                *source_name = format!("{call}({})", shown.join(", "));
+                _ => {}
             }
             err(e)
         })?;

@@ -103,7 +103,7 @@ def test_pumpcyl_error_is_a_value_error_with_the_cli_message(tmp_path):
     assert issubclass(pumpcyl.PumpcylError, ValueError)
     with pytest.raises(pumpcyl.PumpcylError) as e:
         pumpcyl.Rig(bogus=1)
-    assert str(e.value).startswith("override bogus=1: unknown key `bogus`")
+    assert str(e.value).startswith("Rig(bogus=1): unknown key `bogus`")
     with pytest.raises(pumpcyl.PumpcylError, match=r"key `mass_kg` = -1: must be > 0"):
         pumpcyl.Rig(mass_kg=-1)
     with pytest.raises(ValueError, match="takes a float"):

@@ -101,6 +101,11 @@ def test_effective_beta_refuses_values_outside_their_range():
 
 def test_a_rig_key_refuses_a_value_of_another_type():
     assert "mass_kg" in message(lambda: pumpcyl.Rig(mass_kg="4898"))
+    # in the Python call's words, as a value out of range is
+    assert message(lambda: pumpcyl.Rig(mass_kg="4898")).startswith("Rig(mass_kg='4898'): ")
+    assert message(lambda: pumpcyl.Rig().replace(feedforward=1.0)).startswith(
+        "Rig.replace(feedforward=1.0): "
+    )
     assert "mass_kg" in message(lambda: pumpcyl.Rig(mass_kg=True))
     assert "feedforward" in message(lambda: pumpcyl.Rig(feedforward=1.0))
     assert "mass_kg" in message(lambda: pumpcyl.Rig(mass_kg=object()))
