@@ -120,11 +120,7 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         .out
         .as_ref()
         .ok_or_else(|| anyhow!("--out is needed"))?;
-    let effects = if args.no_effects {
-        Effects::none()
-    } else {
-        Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR).map_err(|e| anyhow!(e))?
-    };
+    let effects = article::effects(!args.no_effects).map_err(|e| anyhow!(e))?;
     let rig = load_rig(&args.source, effects)?;
     let plc = plc(args, kind)?;
     let plan = experiment(args, kind, &rig, plc.rate_hz)?;

@@ -5,7 +5,7 @@ use crate::emit::write_atomic;
 use crate::RigSource;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
-use pumpcyl::emulator::{article, Effects};
+use pumpcyl::emulator::article;
 use pumpcyl::fmu::{Config, Controller, ModelKind};
 use std::path::PathBuf;
 
@@ -110,15 +110,10 @@ fn config(args: &FmuArgs) -> Result<Config> {
         }
     };
     let rig = match model {
-        ModelKind::Emulator => {
-            let e = if effects {
-                Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR)
-                    .map_err(|e| anyhow!(e))?
-            } else {
-                Effects::none()
-            };
-            crate::emulate::load_rig(&args.source, e)?
-        }
+        ModelKind::Emulator => crate::emulate::load_rig(
+            &args.source,
+            article::effects(effects).map_err(|e| anyhow!(e))?,
+        )?,
         ModelKind::Linear => args.source.load()?,
     };
     let config = pumpcyl::fmu::checked_config(model, controller, effects, rig)?;

@@ -30,7 +30,7 @@
 //! # Ok::<(), pumpcyl::fmu::FmuError>(())
 //! ```
 
-use crate::emulator::{self, article, Dynamics, Effects, Plc, PlcLoop, PLC_RATE_HZ, SETTLE_S};
+use crate::emulator::{self, article, Dynamics, Plc, PlcLoop, PLC_RATE_HZ, SETTLE_S};
 use crate::lti::Zoh;
 use crate::model::{Layout, Plant};
 use crate::rig::{MotorModel, Rig};
@@ -714,12 +714,7 @@ impl Instance {
     }
 
     fn emulator(&self, rig: &Rig) -> Result<Sim, FmuError> {
-        let effects = if self.config.effects {
-            Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR)?
-        } else {
-            Effects::none()
-        };
-        let dynamics = Dynamics::new(rig, effects)?;
+        let dynamics = Dynamics::new(rig, article::effects(self.config.effects)?)?;
         Ok(match self.config.controller {
             Controller::Article => {
                 let plc = Plc::ideal(PLC_RATE_HZ);
@@ -913,12 +908,9 @@ mod tests {
     use super::*;
     use crate::emulator::Experiment;
 
-    fn emulated_rig() -> (Rig, Effects) {
-        let effects = Effects::article(article::BETA_FIT_BAR, article::P_FIT_BAR).unwrap();
-        (
-            article::rig(25.0, 10_593.0, article::P_FIT_BAR, effects).unwrap(),
-            effects,
-        )
+    fn emulated_rig() -> (Rig, crate::emulator::Effects) {
+        let effects = article::effects(true).unwrap();
+        (article::default_rig().unwrap(), effects)
     }
 
     /// Run an instance over `n` steps of `h` with the reference `r_mm(t)` set before each, and

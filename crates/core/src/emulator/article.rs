@@ -152,12 +152,21 @@ pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<R
     Ok(rig)
 }
 
+/// The emulated article rig's effects ([`Effects::article`] at β 165 bar and 4.4 bar, as
+/// `pumpcyl emulate` and the emulator FMU run it) when `on`, none otherwise.
+pub fn effects(on: bool) -> Result<Effects, EmulatorError> {
+    if on {
+        Effects::article(BETA_FIT_BAR, P_FIT_BAR)
+    } else {
+        Ok(Effects::none())
+    }
+}
+
 /// The emulator's own rig (what `pumpcyl emulate` and the emulator FMU run without a rig
 /// file): the article's, Kp 25, 10 593 kg, every effect on, the set-point for β 165 bar at
 /// 4.4 bar mean pressure (data/article/README.md).
 pub fn default_rig() -> Result<Rig, EmulatorError> {
-    let effects = Effects::article(BETA_FIT_BAR, P_FIT_BAR)?;
-    rig(25.0, 10_593.0, P_FIT_BAR, effects)
+    rig(25.0, 10_593.0, P_FIT_BAR, effects(true)?)
 }
 
 /// The mean chamber pressure (bar) at which the gas-fraction model gives `beta_bar`.
@@ -174,7 +183,7 @@ pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, Emulat
 
 /// Every embedded record, in the order `reproduce` uses them.
 pub fn records() -> Result<Vec<ArticleRecord>, EmulatorError> {
-    let effects = Effects::article(BETA_FIT_BAR, P_FIT_BAR)?;
+    let effects = effects(true)?;
     // the robustness record: more undissolved air (after a long shutdown, the article's
     // Results), so β_e is 220 bar at the same operating pressure
     let robust_effects = Effects::article(BETA_ROBUSTNESS_BAR, P_FIT_BAR)?;
