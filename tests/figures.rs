@@ -320,3 +320,19 @@ fn curves_are_written_with_sub_pixel_coordinates() {
         );
     }
 }
+
+#[test]
+fn every_text_names_the_embedded_font_first() {
+    // the PNGs are drawn in the embedded DejaVu Sans; the SVGs name it first so a viewer that
+    // has it, and the report that embeds it, show the same text
+    for (name, svg) in figures() {
+        let families: Vec<&str> = svg
+            .split("<text")
+            .skip(1)
+            .map(|t| attr(t, "font-family").unwrap_or("(none)"))
+            .filter(|f| !f.starts_with("DejaVu Sans,"))
+            .collect();
+        assert!(svg.contains("<text"), "{name}: no text");
+        assert_eq!(families, Vec::<&str>::new(), "{name}");
+    }
+}

@@ -312,6 +312,18 @@ fn report_renders_in_headless_chromium_with_every_figure_loaded() {
     );
     assert_eq!(loaded, total, "every figure loaded with a non-zero size");
     assert!(!dom.contains("class=\"notice\">This figure did not load"));
+    // the figures are inline SVG drawn in the PNGs' font: the page's own DejaVu Sans (a data
+    // URL, not a system font) loaded, and every text of every figure names it first
+    assert!(
+        attr("data-embedded-font") >= 1,
+        "the embedded DejaVu Sans face did not load"
+    );
+    let (texts, named) = (
+        attr("data-figure-texts"),
+        attr("data-figure-texts-embedded"),
+    );
+    assert!(texts > 500, "{texts} text elements in the figures");
+    assert_eq!(named, texts, "figure texts naming the embedded font first");
     // at 1400 px no number wraps inside its table cell: the page measures each number cell's
     // height against its line height (crates/present/src/html.rs)
     let (cells, wrapped) = (attr("data-number-cells"), attr("data-wrapped-numbers"));

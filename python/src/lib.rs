@@ -25,6 +25,7 @@ use pumpcyl::model::Plant;
 use pumpcyl::record::Record;
 use pumpcyl::response::{self, Baseline, Signals};
 use pumpcyl::rig::{Rig, RigError};
+use pumpcyl::select::SelectError;
 
 create_exception!(
     pumpcyl,
@@ -186,6 +187,18 @@ fn assignments<'a, 'py>(
         .collect()
 }
 
+/// The call with the keyword arguments a complaint about `key` concerns, `call(key=value)`:
+/// its own, or all of them when a rule ties keys together.
+fn concerned(call: &str, given: &[(Arg<'_>, Bound<'_, PyAny>, String)], key: &str) -> String {
+    let named = |(arg, v, _): &(Arg<'_>, Bound<'_, PyAny>, String)| arg.given(v);
+    let own = given.iter().filter(|(arg, ..)| arg.name == key);
+    let mut shown: Vec<String> = own.map(named).collect();
+    if shown.is_empty() {
+        shown = given.iter().map(named).collect();
+    }
+    format!("{call}({})", shown.join(", "))
+}
+
 /// A 1-D array argument (a numpy array or any sequence of numbers) as float64 values.
 fn floats(arg: &Arg<'_>, value: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     value
@@ -249,16 +262,7 @@ impl PyRig {
     fn with(&self, call: &str, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
         let given = assignments(call, overrides)?;
         let all: Vec<String> = given.iter().map(|(.., a)| a.clone()).collect();
-        // the arguments a complaint about `key` concerns: its own, or all when a rule ties keys
-        let shown = |key: &str| {
-            let named = |(arg, v, _): &(Arg<'_>, Bound<'_, PyAny>, String)| arg.given(v);
-            let own = given.iter().filter(|(arg, ..)| arg.name == key);
-            let mut shown: Vec<String> = own.map(named).collect();
-            if shown.is_empty() {
-                shown = given.iter().map(named).collect();
-            }
-            format!("{call}({})", shown.join(", "))
-        };
+        let shown = |key: &str| concerned(call, &given, key);
         let rig = self.rig.with_overrides(&all).map_err(|mut e| {
             match &mut e {
                 RigError::Invalid {
@@ -1295,11 +1299,24 @@ fn select(
         Some(path) => Application::from_file_in(&pumpcyl::input::Disk, path).map_err(err)?,
         None => Application::default(),
     };
-    let given: Vec<String> = assignments("select", overrides)?
-        .into_iter()
-        .map(|(.., a)| a)
-        .collect();
-    let mut app = base.with_overrides("select", &given).map_err(err)?;
+    let given = assignments("select", overrides)?;
+    let all: Vec<String> = given.iter().map(|(.., a)| a.clone()).collect();
+    // an override that does not fit names the keyword argument, `select(key=value): …`
+    let mut app = base.with_overrides("select", &all).map_err(|e| match e {
+        SelectError::Set {
+            assignment,
+            message,
+            ..
+        } => {
+            let key = assignment.split('=').next().unwrap_or_default().trim();
+            err(format!("{}: {message}", concerned("select", &given, key)))
+        }
+        SelectError::Invalid { key, message, .. } => err(format!(
+            "{}: key `{key}`: {message}",
+            concerned("select", &given, &key)
+        )),
+        other => err(other),
+    })?;
     if let Some(r) = rig {
         app.rig = r.rig.clone();
     }

@@ -47,6 +47,18 @@ def test_a_rig_value_out_of_range_names_the_python_argument():
     assert text.startswith("Rig(piston_diameter_mm=10): ") and "rod_diameter_mm" in text
 
 
+def test_a_select_argument_out_of_range_names_the_python_argument():
+    text = message(lambda: pumpcyl.select(target_pm_deg=float("nan")))
+    assert text.startswith("select(target_pm_deg=nan): key `target_pm_deg`: ") and "finite" in text
+    text = message(lambda: pumpcyl.select(gas_fractoin=0.1))
+    assert text.startswith("select(gas_fractoin=0.1): unknown key `gas_fractoin`")
+    text = message(lambda: pumpcyl.select(low_pressure_bar="4"))
+    assert text.startswith("select(low_pressure_bar='4'): key `low_pressure_bar` takes a")
+    text = message(lambda: pumpcyl.select(low_pressure_bar=[], pressurised_bar=[]))
+    assert text.startswith("select(low_pressure_bar=[]): key `low_pressure_bar`: no pressure level")
+    assert "KEY=VALUE" not in text and "--set" not in text
+
+
 def test_identify_without_records_names_both_arguments():
     text = message(lambda: pumpcyl.identify())
     assert "`experiment`" in text and "`datasets" in text and "neither" in text

@@ -188,6 +188,27 @@ pub enum SelectError {
     /// A value that cannot be used, named.
     #[error("{0}")]
     Input(String),
+    /// A `KEY=VALUE` override of the application that does not fit.
+    #[error("{source_name} {assignment}: {message}")]
+    Set {
+        /// Where the overrides come from, in the caller's words (`--set`).
+        source_name: String,
+        /// The assignment as given (all of them, space-separated, when the fault is in none
+        /// alone).
+        assignment: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An application value outside its range once the overrides are applied.
+    #[error("{source_name}: key `{key}`: {message}")]
+    Invalid {
+        /// Where the overrides come from, in the caller's words (`--set`).
+        source_name: String,
+        /// The key, as written in the application file (`rig.` keys prefixed).
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The rig at a candidate.
     #[error(transparent)]
     Rig(#[from] RigError),
@@ -679,7 +700,11 @@ impl Application {
         if assignments.is_empty() {
             return Ok(self.clone());
         }
-        let err = |a: &str, m: String| SelectError::Input(format!("{source_name} {a}: {m}"));
+        let err = |a: &str, message: String| SelectError::Set {
+            source_name: source_name.to_string(),
+            assignment: a.to_string(),
+            message,
+        };
         let mut table = toml::Table::try_from(self).map_err(|e| err("", e.to_string()))?;
         for a in assignments {
             let (key, raw) = a
@@ -715,7 +740,11 @@ impl Application {
             )
         })?;
         app.validate()
-            .map_err(|(key, m)| SelectError::Input(format!("{source_name}: key `{key}`: {m}")))?;
+            .map_err(|(key, message)| SelectError::Invalid {
+                source_name: source_name.to_string(),
+                key: key.to_string(),
+                message,
+            })?;
         Ok(app)
     }
 

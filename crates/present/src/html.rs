@@ -1,5 +1,6 @@
 //! A self-contained HTML report: headings, paragraphs, tables and figures, the figures inline
-//! as base64 SVG data, no external resource of any kind (it opens from a file, offline).
+//! as SVG elements, the figures' font (the embedded DejaVu Sans of the PNGs) inline as base64
+//! data, no external resource of any kind (it opens from a file, offline).
 
 use std::fmt::Write;
 
@@ -39,29 +40,48 @@ h2{font-size:1.25em;margin-top:2em;border-bottom:1px solid #ccc}table{border-col
 margin:1em 0}caption{text-align:left;font-weight:bold;padding:.3em 0}td,th{border:1px solid #bbb;\
 padding:.25em .6em;text-align:left;vertical-align:top}td.num{text-align:right;white-space:nowrap}\
 .n{white-space:nowrap}th{background:#eee}figure{margin:1.5em 0;max-width:1400px}\
-figure img{width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}\
+figure svg{display:block;width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}\
 .notice{background:#fff4d6;border-left:4px solid #e0a000;padding:.6em 1em}";
 
-/// Marks on `<body>` how many figures loaded with a non-zero size (data-figures-loaded) out of
-/// how many (data-figures-total), and flags any that did not; and how many number cells
-/// (data-number-cells) laid out on more than one line (data-wrapped-numbers): both checked by
-/// the browser test.
-const SCRIPT: &str = "window.addEventListener('load',function(){var im=document.querySelectorAll('figure img');\
-var ok=0;im.forEach(function(i){if(i.complete&&i.naturalWidth>0&&i.getBoundingClientRect().height>0){ok++}\
+/// Marks on `<body>` how many figures laid out with a non-zero size (data-figures-loaded) out
+/// of how many (data-figures-total), and flags any that did not; how many number cells
+/// (data-number-cells) laid out on more than one line (data-wrapped-numbers); and, once the
+/// fonts are ready, how many faces of the embedded font loaded (data-embedded-font) and how
+/// many of the figures' text elements (data-figure-texts) name it first (data-figure-texts-embedded):
+/// all checked by the browser test.
+const SCRIPT: &str = "window.addEventListener('load',function(){var b=document.body;\
+var im=document.querySelectorAll('figure svg');\
+var ok=0;im.forEach(function(i){if(i.getBoundingClientRect().height>0){ok++}\
 else{i.insertAdjacentHTML('afterend','<p class=notice>This figure did not load.</p>')}});\
-document.body.setAttribute('data-figures-loaded',ok);document.body.setAttribute('data-figures-total',im.length);\
+b.setAttribute('data-figures-loaded',ok);b.setAttribute('data-figures-total',im.length);\
 var wrapped=0,cells=document.querySelectorAll('td.num');cells.forEach(function(c){\
 var r=document.createRange();r.selectNodeContents(c);var tops={};\
-Array.prototype.forEach.call(r.getClientRects(),function(b){tops[Math.round(b.top)]=1});\
+Array.prototype.forEach.call(r.getClientRects(),function(q){tops[Math.round(q.top)]=1});\
 if(Object.keys(tops).length>1){wrapped++}});\
-document.body.setAttribute('data-number-cells',cells.length);document.body.setAttribute('data-wrapped-numbers',wrapped)});";
+b.setAttribute('data-number-cells',cells.length);b.setAttribute('data-wrapped-numbers',wrapped);\
+document.fonts.ready.then(function(){var faces=0;document.fonts.forEach(function(f){\
+if(f.family.replace(/[\"']/g,'')==='DejaVu Sans'&&f.status==='loaded'){faces++}});\
+var texts=document.querySelectorAll('figure svg text'),named=0;texts.forEach(function(t){\
+if(getComputedStyle(t).fontFamily.replace(/[\"']/g,'').indexOf('DejaVu Sans')===0){named++}});\
+b.setAttribute('data-embedded-font',faces);b.setAttribute('data-figure-texts',texts.length);\
+b.setAttribute('data-figure-texts-embedded',named)})});";
+
+/// The page's style with the embedded font declared first, as a data URL.
+fn style() -> String {
+    format!(
+        "@font-face{{font-family:'{}';src:url(data:font/ttf;base64,{}) format('truetype')}}{STYLE}",
+        crate::plot::font::EMBEDDED_FAMILY,
+        base64(crate::plot::font::DEJAVU_SANS)
+    )
+}
 
 /// The page: `title` and the blocks, in order.
 pub fn html_page(title: &str, blocks: &[Block]) -> String {
     let mut s = format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
          <meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">\
-         <title>{t}</title><style>{STYLE}</style><script>{SCRIPT}</script></head>\n<body>\n<h1>{t}</h1>\n",
+         <title>{t}</title><style>{}</style><script>{SCRIPT}</script></head>\n<body>\n<h1>{t}</h1>\n",
+        style(),
         t = escape(title)
     );
     for b in blocks {
@@ -90,16 +110,32 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
             Block::Figure { svg, caption } => {
                 let _ = writeln!(
                     s,
-                    "<figure><img alt=\"{c}\" src=\"data:image/svg+xml;base64,{}\">\
-                     <figcaption>{c}</figcaption></figure>",
-                    base64(svg.as_bytes()),
-                    c = escape(caption)
+                    "<figure>{}<figcaption>{}</figcaption></figure>",
+                    inline_svg(svg, caption),
+                    escape(caption)
                 );
             }
         }
     }
     s.push_str("</body></html>\n");
     s
+}
+
+/// The SVG document `svg` as an element of the page, labelled with `caption` for screen
+/// readers; the namespace, implied in HTML, dropped with any XML declaration.
+fn inline_svg(svg: &str, caption: &str) -> String {
+    let svg = svg.trim_start();
+    let svg = match svg.strip_prefix("<?xml") {
+        Some(rest) => rest
+            .split_once("?>")
+            .map_or(svg, |(_, doc)| doc.trim_start()),
+        None => svg,
+    };
+    let svg = svg.replacen(" xmlns=\"http://www.w3.org/2000/svg\"", "", 1);
+    match svg.strip_prefix("<svg") {
+        Some(rest) => format!("<svg role=\"img\" aria-label=\"{}\"{rest}", escape(caption)),
+        None => svg,
+    }
 }
 
 fn table(s: &mut String, caption: &str, header: &[String], rows: &[Vec<String>]) {
@@ -237,7 +273,9 @@ mod tests {
         );
         assert!(page.contains("<h1>a &lt;b&gt; &amp; c</h1>"));
         assert!(page.contains("<p>x &lt; y</p>"));
-        assert!(page.contains("data:image/svg+xml;base64,PHN2Zy8+"));
+        assert!(page.contains("<figure><svg role=\"img\" aria-label=\"&quot;fig&quot;\"/>"));
+        assert!(page
+            .contains("@font-face{font-family:'DejaVu Sans';src:url(data:font/ttf;base64,AAEAA"));
         assert!(page.contains("<figcaption>&quot;fig&quot;</figcaption>"));
         assert!(!page.contains("http://") && !page.contains("https://"));
     }

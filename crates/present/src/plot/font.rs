@@ -16,8 +16,11 @@ use plotters::style::{register_font, FontStyle};
 /// plotters uses by default for axis labels).
 pub(crate) const FAMILY: &str = "sans-serif";
 
+/// The family name inside the embedded font file.
+pub(crate) const EMBEDDED_FAMILY: &str = "DejaVu Sans";
+
 /// DejaVu Sans 2.37 (Bitstream Vera licence), embedded in the binary.
-pub(super) static DEJAVU_SANS: &[u8] = include_bytes!(concat!(
+pub(crate) static DEJAVU_SANS: &[u8] = include_bytes!(concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../../assets/fonts/DejaVuSans.ttf"
 ));

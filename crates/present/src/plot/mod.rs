@@ -7,7 +7,7 @@
 mod axes;
 mod bode;
 mod error;
-mod font;
+pub(crate) mod font;
 mod layout;
 mod legend;
 mod precise;

@@ -42,7 +42,21 @@ fn svg_at_scale(figure: &impl Draw, size: (u32, u32), scale: f64) -> Result<Stri
         figure.draw(&root, scale)?;
         root.present().map_err(plot_err)?;
     }
-    Ok(super::precise::substitute(svg))
+    Ok(name_embedded_font(&super::precise::substitute(svg)))
+}
+
+/// `svg` with its text naming the embedded face first (`DejaVu Sans, sans-serif`), so a
+/// viewer with DejaVu Sans, and the report that embeds it (crates/present/src/html.rs), show
+/// the SVG in the font of the PNG; plotters writes only the generic family.
+fn name_embedded_font(svg: &str) -> String {
+    svg.replace(
+        &format!("font-family=\"{}\"", font::FAMILY),
+        &format!(
+            "font-family=\"{}, {}\"",
+            font::EMBEDDED_FAMILY,
+            font::FAMILY
+        ),
+    )
 }
 
 /// The font database resvg draws text with: only the embedded DejaVu Sans (no system fonts),
@@ -52,14 +66,11 @@ fn font_db() -> Arc<usvg::fontdb::Database> {
     DB.get_or_init(|| {
         let mut db = usvg::fontdb::Database::new();
         db.load_font_data(font::DEJAVU_SANS.to_vec());
-        db.set_sans_serif_family(EMBEDDED_FAMILY);
+        db.set_sans_serif_family(font::EMBEDDED_FAMILY);
         Arc::new(db)
     })
     .clone()
 }
-
-/// The family name inside the embedded font file.
-const EMBEDDED_FAMILY: &str = "DejaVu Sans";
 
 /// Render to PNG bytes of `width` × `height` pixels: the figure drawn as an SVG of that size,
 /// text and lines scaled by the image's size relative to the figure's natural size `base`,
@@ -90,7 +101,7 @@ pub(super) fn to_png(
 /// size and encode it as PNG.
 fn rasterise(svg: &str, width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
     let options = usvg::Options {
-        font_family: EMBEDDED_FAMILY.to_string(),
+        font_family: font::EMBEDDED_FAMILY.to_string(),
         fontdb: font_db(),
         ..usvg::Options::default()
     };
