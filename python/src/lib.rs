@@ -199,6 +199,18 @@ fn concerned(call: &str, given: &[(Arg<'_>, Bound<'_, PyAny>, String)], key: &st
     format!("{call}({})", shown.join(", "))
 }
 
+/// The error of an override `KEY=VALUE` that does not fit (all of them, space-separated, when
+/// none alone is at fault), in the call's words: `call(key=value): message`.
+fn misfit(
+    call: &str,
+    given: &[(Arg<'_>, Bound<'_, PyAny>, String)],
+    assignment: &str,
+    message: &str,
+) -> PyErr {
+    let key = assignment.split('=').next().unwrap_or_default().trim();
+    err(format!("{}: {message}", concerned(call, given, key)))
+}
+
 /// A 1-D array argument (a numpy array or any sequence of numbers) as float64 values.
 fn floats(arg: &Arg<'_>, value: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     value
@@ -262,20 +274,16 @@ impl PyRig {
     fn with(&self, call: &str, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
         let given = assignments(call, overrides)?;
         let all: Vec<String> = given.iter().map(|(.., a)| a.clone()).collect();
-        let shown = |key: &str| concerned(call, &given, key);
         let rig = self.rig.with_overrides(&all).map_err(|mut e| {
             match &mut e {
                 RigError::Invalid {
                     source_name, key, ..
-                } => *source_name = shown(key),
+                } => *source_name = concerned(call, &given, key),
                 RigError::Set {
                     assignment,
                     message,
                     ..
-                } => {
-                    let key = assignment.split('=').next().unwrap_or_default().trim();
-                    return err(format!("{}: {message}", shown(key)));
-                }
+                } => return misfit(call, &given, assignment, message),
                 _ => {}
             }
             err(e)
@@ -1307,10 +1315,7 @@ fn select(
             assignment,
             message,
             ..
-        } => {
-            let key = assignment.split('=').next().unwrap_or_default().trim();
-            err(format!("{}: {message}", concerned("select", &given, key)))
-        }
+        } => misfit("select", &given, &assignment, &message),
         SelectError::Invalid { key, message, .. } => err(format!(
             "{}: key `{key}`: {message}",
             concerned("select", &given, &key)
