@@ -32,6 +32,7 @@ mod circuit;
 mod identification;
 mod studies;
 pub mod summary;
+mod tracking;
 pub use certainty::Certainty;
 pub use summary::Summary;
 
@@ -396,7 +397,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     let pressure = studies::pressure_study(&mut run, &nominal, &exp, &truth)?;
     let damping = studies::damping_study(&mut run, &nominal)?;
     let stroke = studies::stroke_study(&mut run, &nominal)?;
-    let tracking = studies::tracking(&mut run, &nominal)?;
+    let tracking = tracking::tracking(&mut run, &nominal)?;
     let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
     let truth_point = Candidate {
         beta_bar: truth.rig.beta_bar,
