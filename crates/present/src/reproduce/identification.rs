@@ -23,7 +23,7 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(summary::Drive, f64)> {
     let fit = identify_drive(&rec, si.jm[0], si.omega_i)?;
     run.figure(
         "drive_step",
-        Source::ArticleByOrder(5),
+        Source::Article(5),
         "Drive 1 alone, feedforward off: emulated speed step and the identified model",
         &Chart::drive_step(&rec, &fit).relabel("measured", "emulated"),
     )?;
@@ -69,8 +69,8 @@ pub(super) fn identification(
                     let i: usize = rest.trim_end_matches(".svg").parse()?;
                     let ds = &exp.problem.datasets[i - 1];
                     let source = match i {
-                        1 => Source::Article(6),
-                        _ => Source::ArticleByOrder(7),
+                        1 => Source::ArticleWithPanels(6, &[(7, "pressure"), (8, "motor-velocity")]),
+                        _ => Source::Article(9),
                     };
                     (source, format!(
                         "Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dashed grey line ends the fit window",
@@ -95,49 +95,51 @@ pub(super) fn identification(
         c2_m5_per_ns: l.c2_m5_per_ns,
         ..exp.rig.clone()
     };
-    let truth = truth.rig.beta_bar;
+    let truth_rig = &truth.rig;
+    let truth_beta = truth_rig.beta_bar;
     run.text(&format!(
         "Standstill record means: ω1 {:.1} rpm, ω2 {:.1} rpm, p1 {:.3} bar (p2 {:.3} bar from the force balance). \
-         {} candidates in {:.2} s; the emulator's truth is beta_e = {truth:.0} bar at the mean pressure, \
-         c12 = 1.2e-10 m⁵/(N·s). The friction b absorbs the emulator's 15 N Coulomb friction, \
+         {} candidates in {:.2} s; the emulator's truth is beta_e = {truth_beta:.0} bar at the mean pressure, \
+         c12 = {:.1e} m⁵/(N·s). The friction b absorbs the emulator's {} N Coulomb friction, \
          which the LTI model lacks.",
-        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, id.evaluated(), t0.elapsed().as_secs_f64()
+        s.w1_rpm, s.w2_rpm, s.p1_bar, l.p2_bar, id.evaluated(), t0.elapsed().as_secs_f64(),
+        truth_rig.c12_m5_per_ns, truth.effects.coulomb_n
     ));
     let rows = [
         (
             "bulk modulus β (bar)",
             format!("{:.1}", nominal.beta_bar),
             "165",
-            format!("{truth:.1}"),
+            format!("{truth_beta:.1}"),
             "",
         ),
         (
             "viscous friction b (N·s/m)",
             format!("{:.0}", nominal.viscous_friction_ns_per_m),
             "100",
-            "100".into(),
+            format!("{:.0}", truth_rig.viscous_friction_ns_per_m),
             "b absorbs the emulator's 15 N Coulomb friction, which the LTI model lacks",
         ),
         (
             "cross-port leakage c12 (m⁵/(N·s))",
             format!("{:.3e}", nominal.c12_m5_per_ns),
             "1.2e-10",
-            "1.2e-10".into(),
+            format!("{:.1e}", truth_rig.c12_m5_per_ns),
             "",
         ),
     ];
     let standstill =
         "from the identified c12 by the standstill balance, on the emulated standstill record";
     let leakages = [
-        ("c1 (m⁵/(N·s))", l.c1_m5_per_ns, "5.49e-11"),
-        ("c2 (m⁵/(N·s))", l.c2_m5_per_ns, "-1.19e-11"),
+        ("c1 (m⁵/(N·s))", l.c1_m5_per_ns, "5.49e-11", truth_rig.c1_m5_per_ns),
+        ("c2 (m⁵/(N·s))", l.c2_m5_per_ns, "-1.19e-11", truth_rig.c2_m5_per_ns),
     ]
-    .map(|(quantity, value, printed)| {
+    .map(|(quantity, value, printed, truth)| {
         (
             quantity,
             format!("{value:.3e}"),
             printed,
-            printed.to_string(),
+            format!("{truth:.2e}"),
             standstill,
         )
     });
@@ -180,6 +182,17 @@ pub(super) fn identification(
             e.map(|(lo, hi)| format!("{name} on the grid's edge ({lo} … {hi})"))
         })
         .collect();
+    let truth_point = pumpcyl::ident::Candidate {
+        beta_bar: truth_beta,
+        viscous_friction_ns_per_m: truth_rig.viscous_friction_ns_per_m,
+        c12_m5_per_ns: truth_rig.c12_m5_per_ns,
+    };
+    let (bias, bias_why) = super::bias::bias(
+        run,
+        &exp.problem,
+        (grid.candidate, grid.cost_mm2),
+        &truth_point,
+    )?;
     run.compare_why(
         "the refined grid alone, the article's method: β (bar) / b (N·s/m) / c12",
         format!(
@@ -189,9 +202,12 @@ pub(super) fn identification(
             grid.candidate.c12_m5_per_ns
         ),
         &format!("{} / {} / {:.1e}", printed::BETA_BAR, printed::B_NS_PER_M, printed::C12),
-        &format!("{truth:.0} / 100 / 1.2e-10"),
         &format!(
-            "the rows above add pumpcyl's Nelder–Mead refinement after the grid, a step the article does not take{}",
+            "{truth_beta:.0} / {:.0} / {:.1e}",
+            truth_point.viscous_friction_ns_per_m, truth_point.c12_m5_per_ns
+        ),
+        &format!(
+            "{bias_why} (the table in step 2); the rows above add pumpcyl's Nelder–Mead refinement after the grid, a step the article does not take{}",
             if edge_text.is_empty() {
                 String::new()
             } else {
@@ -218,11 +234,12 @@ pub(super) fn identification(
             c12_m5_per_ns: grid.candidate.c12_m5_per_ns,
             cost_mm2: grid.cost_mm2,
             on_edge: summary::PerParameter::from_fn(|k, _| edges[k].is_some()),
+            bias,
         },
         candidates_evaluated: id.evaluated(),
         emulator_truth: summary::BetaC12 {
-            beta_bar: truth,
-            c12_m5_per_ns: Rig::default().c12_m5_per_ns,
+            beta_bar: truth_beta,
+            c12_m5_per_ns: truth_rig.c12_m5_per_ns,
         },
         article: summary::ArticleIdentified {
             beta_bar: printed::BETA_BAR,
@@ -310,7 +327,7 @@ pub(super) fn robustness(
     );
     run.figure(
         "robustness",
-        Source::ArticleByOrder(8),
+        Source::Article(10),
         "The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model",
         &Chart::signals_of("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(("emulated", &measured)), Some(spec.fit_end_s)),
     )?;

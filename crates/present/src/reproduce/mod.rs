@@ -27,6 +27,7 @@
 //! # Ok::<(), anyhow::Error>(())
 //! ```
 
+mod bias;
 mod certainty;
 mod circuit;
 mod identification;
@@ -110,15 +111,18 @@ mod printed {
     pub const STEP_MEAN_P_BAR: [f64; 2] = [4.1, 4.7];
 }
 
-/// Which of the article's figures a report figure answers (docs/choices.md#article-figures).
+/// Which of the article's figures a report figure answers (docs/choices.md#article-figures): the
+/// article's own number, from its caption.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Source {
-    /// The article's figure with this number, named in the article's text beside the numbers
-    /// the report compares (Figures 6, 11, 14, 15).
+    /// The article's figure with this number: the report's figure shows what its caption names.
     Article(u8),
-    /// The article's figure with this number, the number taken from the order of the article's
-    /// sections (the figure's content is the study the article describes there).
-    ArticleByOrder(u8),
+    /// The article's figure with this number, whose other panels are the article's figures
+    /// listed (the identification step's position, with its pressures and motor velocities).
+    ArticleWithPanels(u8, &'static [(u8, &'static str)]),
+    /// pumpcyl's own figure beside the article's figure with this number: the same study shown
+    /// another way (a step where the article draws a Bode diagram, or the reverse).
+    Extends(u8),
     /// A study of pumpcyl's own, not in the article.
     Own,
 }
@@ -128,8 +132,15 @@ impl Source {
     pub fn label(self) -> String {
         match self {
             Source::Article(n) => format!("Article Figure {n}. "),
-            Source::ArticleByOrder(n) => {
-                format!("Article Figure {n} (number from the article's order of figures). ")
+            Source::ArticleWithPanels(n, panels) => {
+                let panels: Vec<String> = panels
+                    .iter()
+                    .map(|(k, what)| format!("its {what} panel is Article Figure {k}"))
+                    .collect();
+                format!("Article Figure {n} ({}). ", panels.join(", "))
+            }
+            Source::Extends(n) => {
+                format!("pumpcyl's own, extending Article Figure {n}. ")
             }
             Source::Own => "pumpcyl's own study, not in the article. ".to_string(),
         }

@@ -53,7 +53,7 @@ pub(super) fn pressure_study(
     let fit = (nominal.beta_bar, p_mean, BETA_OIL_BAR);
     run.figure(
         "bulk_modulus",
-        Source::ArticleByOrder(9),
+        Source::Article(12),
         "Effective bulk modulus and margins against mean chamber pressure (gas-fraction model, identified rig; \
          the comparison table's 1 and 10 bar rows use the article's basis, the default rig)",
         &Chart::bulk_modulus(fit, x, &fine),
@@ -107,7 +107,7 @@ pub(super) fn pressure_study(
     let title = "Bode diagram for β_e at 1 bar, the mean pressure and 10 bar (identified rig)";
     run.figure(
         "bode_pressure",
-        Source::ArticleByOrder(10),
+        Source::Article(13),
         &format!("{title}. {basis}"),
         &Chart::bode(title, series, markers),
     )?;

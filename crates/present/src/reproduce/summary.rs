@@ -206,6 +206,24 @@ pub struct GridOnly {
     pub cost_mm2: f64,
     /// Whether each parameter lies on its grid axis's lowest or highest value.
     pub on_edge: PerParameter<bool>,
+    /// The refined grid's best point on the same records emulated again with the emulator's
+    /// effects off, each alone, and all (why the grid misses the truth).
+    pub bias: Vec<BiasCase>,
+}
+
+/// The refined grid's best point on the fitted records emulated one way.
+#[derive(Debug, Clone, Serialize)]
+pub struct BiasCase {
+    /// How the records were emulated.
+    pub records: String,
+    /// β (bar).
+    pub beta_bar: f64,
+    /// b (N·s/m).
+    pub viscous_friction_ns_per_m: f64,
+    /// c12 (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Its cost (mm²).
+    pub cost_mm2: f64,
 }
 
 /// A bulk modulus and a cross-port leakage.

@@ -101,7 +101,7 @@ pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Trac
             Some(("emulated", &measured)),
             None,
         );
-        run.figure(&stem, Source::ArticleByOrder(number), &title, &chart)?;
+        run.figure(&stem, Source::Article(number), &title, &chart)?;
     }
     run.table(
         "Tracking (after the first period)",
