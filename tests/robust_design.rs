@@ -121,7 +121,7 @@ fn article_records_robust_design() {
     assert!(region.c12_m5_per_ns[0] <= 1.2e-10 && 1.2e-10 <= region.c12_m5_per_ns[1]);
     assert_eq!(region.identifiable, [true, false, true]);
     assert!(!region.ridge.is_empty());
-    let targets = Targets::article();
+    let targets = Targets::default();
     let opts = RobustOptions {
         grid: 2,
         positions: 3,

@@ -273,7 +273,7 @@ fn how_sure_holds_the_truth_and_designs_below_the_point_estimate() {
     let pm = d.worst_case.phase_margin_deg.value.unwrap();
     assert!(gm >= 6.0 - 0.01 && pm >= 34.0 - 0.05, "GM {gm} PM {pm}");
     // the nominal design is the margins' own bisection at the identified rig
-    let targets = pumpcyl::design::Targets::article();
+    let targets = pumpcyl::design::Targets::default();
     let kp = pumpcyl::design::kp_max(&r.identified, &targets).unwrap();
     assert!(
         (kp - d.kp_max_nominal).abs() < 1e-6 * kp,

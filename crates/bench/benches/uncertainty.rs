@@ -106,7 +106,7 @@ fn bench(c: &mut Criterion) {
             robust_design(
                 &rig,
                 &region,
-                &Targets::article(),
+                &Targets::default(),
                 &RobustOptions::default(),
             )
             .unwrap()

@@ -874,7 +874,7 @@ impl Application {
                 stroke_mm: self.stroke_mm,
                 mass_kg: self.mass_kg.clone(),
                 // no pressure list or waves: each candidate sets β_e and tracks itself
-                ..Targets::article()
+                ..Targets::default()
             },
             waves: self.wave.clone(),
             max_rise_time_s: self.max_rise_time_s,
@@ -974,7 +974,7 @@ mod tests {
                 pm_deg: 30.0,
                 gm_db: 6.0,
                 stroke_mm: 0.0,
-                ..Targets::article()
+                ..Targets::default()
             },
             waves,
             max_rise_time_s: None,

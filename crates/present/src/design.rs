@@ -211,7 +211,7 @@ mod tests {
 
     #[test]
     fn the_design_text_has_a_row_per_condition_and_ends_with_the_verdict() {
-        let d = design(&Rig::default(), &Targets::article()).unwrap();
+        let d = design(&Rig::default(), &Targets::default()).unwrap();
         let text = design_text("default rig", &d);
         // targets and gains (3), conditions heading and columns (2), conditions, tracking,
         // verdict, reasons

@@ -34,6 +34,7 @@ pub mod format;
 pub mod html;
 pub mod identification;
 pub mod matlab;
+pub mod origin;
 pub mod plot;
 pub mod reproduce;
 pub mod select;

@@ -874,7 +874,7 @@ mod tests {
     use super::*;
 
     fn targets() -> Targets {
-        Targets::article()
+        Targets::default()
     }
 
     /// The robust gain on the default rig over the stated default uncertainty is below the

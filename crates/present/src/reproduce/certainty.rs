@@ -55,7 +55,7 @@ pub(super) fn how_sure(
     let u = analyze(&exp.problem, &best, &opts)?;
     intervals(run, &u, &best, truth)?;
     let region = Region::around(best, &u, exp.problem.standstill);
-    let targets = Targets::article().over_records(exp);
+    let targets = Targets::default().over_records(exp);
     debug_assert_eq!(Some(targets.p_beta_bar), Some(p_mean_bar));
     let d = robust_design(nominal, &region, &targets, &RobustOptions::default())?;
     robust(run, &d)?;
@@ -197,13 +197,11 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
         Binding::Stability => "stability",
     };
     run.text(&format!(
-        "With the article's targets (PM ≥ {} deg, GM ≥ {} dB over x0 ± {} mm and the mean \
-         chamber pressures {} bar the records span, β_e following the gas-fraction model), the \
-         largest Kp at the point estimate is {:.2}; over the whole {:.0} % region, the stroke \
-         and those pressures it is {:.2}. It is decided by {binding} at {} (docs/design.md#robust-design). The verdict:",
-        d.targets.pm_deg,
-        d.targets.gm_db,
-        d.targets.stroke_mm,
+        "With the targets {}, at the mean chamber pressures {} bar the records span (β_e \
+         following the gas-fraction model), the largest Kp at the point estimate is {:.2}; over \
+         the whole {:.0} % region, the stroke and those pressures it is {:.2}. It is decided by \
+         {binding} at {} (docs/design.md#robust-design). The verdict:",
+        crate::origin::targets(d.targets.pm_deg, d.targets.gm_db, d.targets.stroke_mm),
         d.targets
             .p_mean_bar
             .iter()
@@ -217,7 +215,7 @@ fn robust(run: &mut Run, d: &RobustDesign) -> Result<()> {
     ));
     run.blocks.push(crate::html::Block::List(d.reasons.clone()));
     run.compare_why(
-        "largest Kp for PM 34 deg, GM 6 dB over the 95 % region, stroke and pressures",
+        "largest Kp for PM 34 deg (the article's design result) and GM 6 dB (pumpcyl's choice) over the 95 % region, stroke and pressures",
         format!("{:.2}", d.kp_max),
         "- (no uncertainty given)",
         "-",

@@ -34,7 +34,7 @@ pub(super) fn which_circuit(
     let evidence = BetaEvidence::of_region(region, confidence, p_mean_bar);
     let identified = app.with_evidence(&evidence)?.select(None)?;
     run.text(&explanation(&app, &stated, &article, &identified));
-    compare(run, &stated, &article, &identified);
+    compare(run, &app, &stated, &article, &identified);
     run.table(
         "Which circuit: each level over the stated gas-fraction range (×/÷ 2) and over the identified one",
         &HEADER,
@@ -61,7 +61,13 @@ pub(super) fn which_circuit(
 
 /// The comparison rows: the lowest certain level before and after the identification, beside
 /// the article's advice (it gives no number).
-fn compare(run: &mut Run, stated: &Selection, article: &Candidate, identified: &Selection) {
+fn compare(
+    run: &mut Run,
+    app: &Application,
+    stated: &Selection,
+    article: &Candidate,
+    identified: &Selection,
+) {
     let level = |s: &Selection| {
         let kp = s
             .options
@@ -76,7 +82,12 @@ fn compare(run: &mut Run, stated: &Selection, article: &Candidate, identified: &
         format!("{} / {}", level(stated), level(identified)),
         "predict it before building (no number given)",
         "-",
-        "over the article's loads, stroke, targets and its 0.2 Hz ±35 mm wave within 14 mm (docs/select.md)",
+        &format!(
+            "pumpcyl's requirement, not the article's (docs/select.md): {}, over the article's two loads; {}; {}",
+            crate::origin::targets(app.target_pm_deg, app.target_gm_db, app.stroke_mm),
+            app.wave.iter().map(crate::origin::wave).collect::<Vec<_>>().join("; "),
+            crate::origin::gas_fraction_range(app)
+        ),
     );
     run.compare_why(
         "§4 advice: the article's own circuit (low-pressure, records' mean pressure, Kp 25) certain before building?",
@@ -99,7 +110,7 @@ fn choice(article: &Candidate) -> &'static str {
             "not a certain choice before the rig was built: it holds at the reference gas fraction, not over the stated range"
         }
         (false, false) => {
-            "not a certain choice before the rig was built: at Kp 25 the margin targets are missed over the stroke and the loads even at the reference gas fraction (the article checks its margins at x0 with one mass)"
+            "not a certain choice before the rig was built by pumpcyl's requirement: at Kp 25 its margin targets are missed over the stroke and the loads even at the reference gas fraction. The article checks ±50 mm with 9958 kg and 12,373 kg too (§3.3, Figure 15) and keeps Kp 25 with the margins it finds there; it sets no such requirement, so the verdict rests on pumpcyl's requirement, not on the article's"
         }
     }
 }
@@ -161,24 +172,20 @@ fn explanation(
         s.min_mean_pressure_bar
             .map_or("no level".to_string(), |p| format!("{p} bar"))
     };
-    let w = &app.wave[0];
     format!(
         "The article ends (its §4) by advising to predict with LTI models, before the system is built, \
          whether a low-pressure circuit will work, and to choose a circuit with a higher effective bulk \
-         modulus where the prediction is uncertain. pumpcyl's select (docs/select.md) does that on the \
-         article's application: its rig, its loads, PM ≥ {} deg and GM ≥ {} dB over x0 ± {} mm, and its \
-         {} Hz ±{} mm wave within {} mm. Before the rig was built, with the {}: {} from {} ({}). \
+         modulus where the prediction is uncertain. It gives no number to predict against; pumpcyl's \
+         select (docs/select.md) does the prediction on the article's application, its rig and its two \
+         loads, against a requirement of pumpcyl's: {}; {}; over {}. Before the rig was built, with the {}: {} from {} ({}). \
          The article's own circuit, the low-pressure circuit at the records' mean pressure {:.2} bar with \
          Kp {}: {}over the whole gas-fraction range ({}); at the reference gas fraction the margin \
          targets {}. So the article's circuit was {}. With the {} (step 9), the answer is {} from {} \
          ({}): the identification removes most of the uncertainty that made the low-pressure choice \
          uncertain. The standing loss is the leakage's Σ p × Q at rest (docs/select.md#cost).",
-        app.target_pm_deg,
-        app.target_gm_db,
-        app.stroke_mm,
-        w.freq_hz,
-        w.amp_mm,
-        w.max_error_mm,
+        crate::origin::targets(app.target_pm_deg, app.target_gm_db, app.stroke_mm),
+        app.wave.iter().map(crate::origin::wave).collect::<Vec<_>>().join("; "),
+        crate::origin::gas_fraction_range(app),
         gas_fraction_text(stated),
         verdict_text(stated.verdict).to_lowercase(),
         level(stated),

@@ -63,7 +63,12 @@ pub(super) fn identification(
             let (source, caption) = match name.strip_prefix("fit-") {
                 None => (
                     Source::Own,
-                    "Identification cost over β and c12 (best b), emulated records".to_string(),
+                    format!(
+                        "Identification cost over β and c12 on the emulated records: the slice at b = {} N·s/m, \
+                         the refined grid's best b (after pumpcyl's local refinement the answer has b = {:.0} N·s/m)",
+                        id.grid_best.candidate.viscous_friction_ns_per_m,
+                        id.best().candidate.viscous_friction_ns_per_m
+                    ),
                 ),
                 Some(rest) => {
                     let i: usize = rest.trim_end_matches(".svg").parse()?;
@@ -131,8 +136,18 @@ pub(super) fn identification(
     let standstill =
         "from the identified c12 by the standstill balance, on the emulated standstill record";
     let leakages = [
-        ("c1 (m⁵/(N·s))", l.c1_m5_per_ns, "5.49e-11", truth_rig.c1_m5_per_ns),
-        ("c2 (m⁵/(N·s))", l.c2_m5_per_ns, "-1.19e-11", truth_rig.c2_m5_per_ns),
+        (
+            "c1 (m⁵/(N·s))",
+            l.c1_m5_per_ns,
+            "5.49e-11",
+            truth_rig.c1_m5_per_ns,
+        ),
+        (
+            "c2 (m⁵/(N·s))",
+            l.c2_m5_per_ns,
+            "-1.19e-11",
+            truth_rig.c2_m5_per_ns,
+        ),
     ]
     .map(|(quantity, value, printed, truth)| {
         (

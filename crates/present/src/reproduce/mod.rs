@@ -31,6 +31,7 @@ mod bias;
 mod certainty;
 mod circuit;
 mod identification;
+mod pressure;
 mod studies;
 pub mod summary;
 mod tracking;
@@ -94,6 +95,8 @@ mod printed {
     pub const INTRO_BETA_100BAR: f64 = 6300.0;
     pub const INTRO_BETA_1BAR: f64 = 100.0;
     pub const INTRO_RATIO: f64 = 63.0;
+    /// The article's §4: the identified β is "approximately forty-fold" below β_e at 100 bar.
+    pub const FORTY_FOLD: f64 = 40.0;
     /// The 10–90 % rise time of the identification step (s; Figure 6).
     pub const RISE_TIME_S: f64 = 0.36;
     /// The first grid: best cost (mm²) and candidates below 0.25 mm².
@@ -146,6 +149,13 @@ impl Source {
         }
     }
 }
+
+/// The rig of every number compared with the article's: its Table 1 parameters, β 165 bar at
+/// 4.4 bar mean pressure.
+pub(super) const TABLE1_RIG: &str = "the article's Table 1 rig";
+/// The rig of the numbers from the emulated records: the Table 1 rig with the identified β, b,
+/// c12 and the leakages c1, c2 from the standstill record.
+pub(super) const IDENTIFIED_RIG: &str = "the rig identified from the records";
 
 /// Whether `ours` rounds to `article` at the article's printed precision (half its last digit).
 fn agrees(ours: f64, article: f64, last_digit: f64) -> bool {
@@ -405,7 +415,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
     let rise_time = identification::rise_time(&mut run, &exp, &nominal)?;
     let robustness = identification::robustness(&mut run, &exp, &nominal)?;
-    let pressure = studies::pressure_study(&mut run, &nominal, &exp, &truth)?;
+    let pressure = pressure::pressure_study(&mut run, &nominal, &exp, &truth)?;
     let damping = studies::damping_study(&mut run, &nominal)?;
     let stroke = studies::stroke_study(&mut run, &nominal)?;
     let tracking = tracking::tracking(&mut run, &nominal)?;
@@ -451,7 +461,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         km_nms_per_rad: km,
         identified: nominal,
         cost_mm2,
-        identified_margins: pressure.study.nominal,
+        identified_margins: pressure.study.identified_rig.nominal,
         default_margins: pressure.study.default_rig,
         gas_fraction: pressure.gas_fraction,
         p_mean_bar: pressure.p_mean_bar,
@@ -552,7 +562,9 @@ fn margins_row(label: &str, rig: &Rig, m: &Margins) -> Vec<String> {
             real_per_s,
             imag_rad_per_s,
             ..
-        }) => format!("NO (pole {real_per_s:+.3} ±{imag_rad_per_s:.3}j rad/s)"),
+        }) => format!(
+            "NO: the simulated loop diverges (pole {real_per_s:+.3} ±{imag_rad_per_s:.3}j rad/s)"
+        ),
         Err(_) => "undecided".to_string(),
     };
     vec![
@@ -601,6 +613,8 @@ enum Position {
 struct Study<'a> {
     stem: &'a str,
     what: &'a str,
+    /// The rig the variants start from, in words.
+    rig: &'a str,
     position: Position,
     bode: Source,
     step: Source,
@@ -611,6 +625,7 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
     let Study {
         stem,
         what,
+        rig: base,
         position,
         ..
     } = *study;
@@ -659,16 +674,23 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
             step,
         });
     }
-    run.table(&format!("Margins: {what}"), &MARGIN_HEADER, rows);
+    run.table(&format!("Margins: {what}, on {base}"), &MARGIN_HEADER, rows);
     let title = format!("Bode diagram: {what}");
     run.figure(
         &format!("bode_{stem}"),
         study.bode,
-        &title,
+        &format!("{title}, on {base}"),
         &Chart::bode(&title, series, markers),
     )?;
     let refs: Vec<(String, &Signals)> = steps.iter().map(|(l, s)| (l.clone(), s)).collect();
-    let title = format!("5 mm step: {what} (sum-pressure loop closed)");
+    let steps_from = match position {
+        Position::Absolute => {
+            let x0 = rigs.first().map_or(f64::NAN, |(_, r)| r.x0_mm);
+            format!("{x0} → {} mm", x0 + STEP_MM)
+        }
+        Position::AboutX0 => format!("x0 → x0 + {STEP_MM} mm at each position"),
+    };
+    let title = format!("Model step {steps_from}: {what} (sum-pressure loop closed)");
     let mut chart = Chart::signals(&title, None, &refs, None, None);
     if let ([(label, _)], false) = (&refs[..], unstable.is_empty()) {
         // one curve beside variants that are not drawn: it is named as they are
@@ -689,6 +711,11 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
             ));
         }
     }
-    run.figure(&format!("step_{stem}"), study.step, &title, &chart)?;
+    run.figure(
+        &format!("step_{stem}"),
+        study.step,
+        &format!("{title}, on {base}; the model steps from its operating point, where the records step 340 → 345 mm"),
+        &chart,
+    )?;
     Ok(out)
 }

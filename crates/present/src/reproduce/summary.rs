@@ -110,6 +110,10 @@ pub struct IntroExample {
     pub article_beta_1bar: f64,
     /// The article's ratio.
     pub article_ratio: f64,
+    /// β_e at 100 bar over the article's identified β (165 bar): its §4 reduction.
+    pub forty_fold: f64,
+    /// The article's "approximately forty-fold".
+    pub article_forty_fold: f64,
 }
 
 /// The drive gain from the drive step (the article §2.4.1).
@@ -265,21 +269,39 @@ pub struct Robustness {
     pub article: BetaC12,
 }
 
-/// The margins of the nominal and default rigs and against the mean chamber pressure.
+/// The margins against the mean chamber pressure on the article's Table 1 rig (the basis of
+/// every number compared with the article's) and on the rig identified from the records.
 #[derive(Debug, Clone, Serialize)]
 pub struct MarginsStudy {
-    /// The identified rig.
-    pub nominal: Margins,
-    /// The default (the article's) rig.
+    /// The rig `default_rig`, `p1bar`, `p_fit` and `p10bar` are on, in words.
+    pub rig: String,
+    /// The article's Table 1 rig (β 165 bar at 4.4 bar).
     pub default_rig: Margins,
-    /// The identified rig at 1 bar.
+    /// That rig at 1 bar, with the Kp readings of the article's claim there.
+    pub p1bar: ArticleAtPressure,
+    /// … at the pressure of its β (4.4 bar).
+    pub p_fit: AtPressure,
+    /// … at 10 bar, with the Kp readings of the article's claim there.
+    pub p10bar: ArticleAtPressure,
+    /// The same study on the rig identified from the records.
+    pub identified_rig: IdentifiedPressures,
+}
+
+/// The pressure study on the rig identified from the records.
+#[derive(Debug, Clone, Serialize)]
+pub struct IdentifiedPressures {
+    /// The rig, in words.
+    pub rig: String,
+    /// Its gas fraction, from the identified β at the records' mean pressure (1).
+    pub gas_fraction: f64,
+    /// Its margins as identified.
+    pub nominal: Margins,
+    /// At 1 bar.
     pub p1bar: AtPressure,
-    /// … at the records' mean pressure.
+    /// At the records' mean pressure.
     pub p_mean: AtPressure,
-    /// … at 10 bar.
+    /// At 10 bar.
     pub p10bar: AtPressure,
-    /// The article's 1 and 10 bar numbers on its own basis (the default rig).
-    pub article_basis: Vec<ArticleBasis>,
 }
 
 /// Margins at a mean chamber pressure.
@@ -294,17 +316,21 @@ pub struct AtPressure {
     pub margins: Margins,
 }
 
-/// The article's margins at a pressure, recomputed on its basis.
+/// Margins at a mean chamber pressure of the article's Table 1 rig, with the readings of the
+/// article's claim there.
+#[derive(Debug, Clone, Serialize)]
+pub struct ArticleAtPressure {
+    /// The margins.
+    #[serde(flatten)]
+    pub at: AtPressure,
+    /// The Kp readings and the article's printed margins.
+    #[serde(flatten)]
+    pub article: ArticleBasis,
+}
+
+/// The Kp that keeps a margin at a pressure, and the article's printed margins there.
 #[derive(Debug, Clone, Serialize)]
 pub struct ArticleBasis {
-    /// Mean chamber pressure (bar).
-    pub p_bar: f64,
-    /// β_e there (bar).
-    pub beta_bar: f64,
-    /// GM (dB; NaN-free: null when infinite).
-    pub gain_margin_db: Option<f64>,
-    /// PM (deg).
-    pub phase_margin_deg: Option<f64>,
     /// The Kp that keeps the 4.4 bar PM (pumpcyl's, 33.5°).
     pub kp_same_pm: f64,
     /// Its change against the rig's Kp (fraction).
@@ -361,12 +387,27 @@ pub struct ResonanceCase {
 /// The damping studies.
 #[derive(Debug, Clone, Serialize)]
 pub struct Damping {
-    /// The article's Figure 14, cumulative.
+    /// The article's Figure 14, cumulative, on the rig identified from the records.
     pub figure14: Vec<ResonanceCase>,
     /// The first-order motor model.
     pub first_order_motor: Vec<Case>,
     /// The drive feedforward removed.
     pub feedforward_off: Vec<Case>,
+    /// The numbers compared with the article's, on its Table 1 rig.
+    pub table1_rig: Table1Damping,
+}
+
+/// The damping numbers compared with the article's, on its Table 1 rig.
+#[derive(Debug, Clone, Serialize)]
+pub struct Table1Damping {
+    /// The Figure 14 third case's resonance (Hz).
+    pub figure14_third_resonance_hz: Option<f64>,
+    /// Its damping ratio.
+    pub figure14_third_damping_ratio: Option<f64>,
+    /// GM with the drive velocity feedforward (dB).
+    pub gain_margin_with_feedforward_db: Option<f64>,
+    /// GM without it (dB).
+    pub gain_margin_without_feedforward_db: Option<f64>,
 }
 
 /// The stroke study.
@@ -416,6 +457,11 @@ pub struct StrokeBasis {
     /// Whether each reading (mass and volumes, mass alone, volumes alone) gives the article's
     /// PM change at its printed precision and its GM statement.
     pub fits: [bool; 3],
+    /// Whether pumpcyl's reading (mass and volumes) gives the article's PM change at its printed
+    /// precision, each statement on its own.
+    pub pm_reproduced: bool,
+    /// … and its GM statement.
+    pub gm_reproduced: bool,
     /// The article's PM change (deg).
     pub article_pm_change_deg: f64,
     /// The article's GM statement.
