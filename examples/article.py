@@ -2,12 +2,12 @@
 """The headline numbers of Gøytil, Hansen & Tvilde, "Effective Bulk Modulus in Low-Pressure
 Pump-Controlled Hydraulic Cylinders", Actuators 2025, 14(8), 366, with `import pumpcyl`.
 
-1. Margins of the article's rig (Section 4): GM 6.5 dB, PM 34 deg.
-2. The bulk modulus identified from the records in data/article/ (Section 6; emulated records
+1. Margins of the article's rig (§2.3.3, §3.3): GM 6.5 dB, PM 34 deg.
+2. The bulk modulus identified from the records in data/article/ (§2.4; emulated records
    with a known truth of 165 bar, see data/article/README.md): about 165 bar.
 3. The gas fraction at the records' 4.4 bar mean pressure and beta_e at 1 and 10 bar with the
-   margins there (Section 7): 37.8 and 370 bar in the article.
-4. The largest Kp meeting PM 34 deg and GM 6 dB (Section 8): about 25.
+   margins there (§3.1): 37.8 and 370 bar in the article.
+4. The largest Kp meeting PM 34 deg and GM 6 dB (§2.2): about 25.
 
 Run: python examples/article.py   (after `pip install ./python`)
 """
@@ -17,7 +17,7 @@ import pathlib
 import pumpcyl
 
 ARTICLE = pathlib.Path(__file__).resolve().parents[1] / "data" / "article"
-P_MEAN_BAR = 4.4  # mean chamber pressure of the identification records (article Section 7)
+P_MEAN_BAR = 4.4  # mean chamber pressure of the identification records (the article §3.1)
 
 
 def main(progress=True):

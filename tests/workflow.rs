@@ -260,7 +260,7 @@ fn how_sure_holds_the_truth_and_designs_below_the_point_estimate() {
             .identifiable
     );
     // a design that must hold over the region is never above the point design, and the worst
-    // case at its gain meets the article's targets (PM 34 deg, GM 6 dB) within the tolerances
+    // case at its gain meets the default targets (PM 34 deg, GM 6 dB) within the tolerances
     let d = &c.robust;
     assert!(
         d.kp_max > 0.0 && d.kp_max <= d.kp_max_nominal,

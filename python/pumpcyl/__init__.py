@@ -65,7 +65,7 @@ def to_control(rig, loop="open", *, sum_pressure_closed=None):
     """The loop of ``rig`` as a ``control.StateSpace`` (python-control must be installed).
 
     Same loops and units as :func:`state_space`: ``loop="open"`` is the article's open loop
-    (Section 4; input the position error ``e`` in m, output ``x`` in m), ``loop="closed"`` the
+    (the article §2.3.3; input the position error ``e`` in m, output ``x`` in m), ``loop="closed"`` the
     closed loop ``x_ref`` -> ``x`` (m). States, input and output are named as the MATLAB export
     names them: x, v, p1, p2, w1, w2, then tau1, tau2 and z1, z2 where the rig's model has them.
     """

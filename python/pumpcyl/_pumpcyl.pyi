@@ -95,7 +95,7 @@ class Result:
         """The class and the scalar fields (units in their names); lists by their length."""
 
 class Margins(Result):
-    """Margins of the open loop (article Section 4): the fields of ``pumpcyl margins --json``.
+    """Margins of the open loop (the article §2.3.3): the fields of ``pumpcyl margins --json``.
     A ``None`` margin is infinite (no crossing of that kind)."""
 
     loop: str
@@ -143,7 +143,7 @@ class Simulation:
     """Motor 2 speed (rpm)."""
 
 class StepResponse(Simulation):
-    """A step response with its metrics (article Section 5), as ``pumpcyl step``."""
+    """A step response with its metrics (docs/simulation.md#step-metrics), as ``pumpcyl step``."""
 
     step_mm: float
     rise_time_s: Optional[float]
@@ -193,7 +193,7 @@ class Identification:
     details: Dict[str, Any]
 
 def margins(rig: Rig, *, sum_pressure_closed: bool = False) -> Margins:
-    """Gain, phase and delay margins of the position loop (article Section 4), every crossing
+    """Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing
     and closed-loop stability."""
 
 def state_space(
@@ -245,7 +245,7 @@ def identify(
     progress: Union[None, bool, Callable[[int, int], None]] = None,
     allow_long_run: bool = False,
 ) -> Identification:
-    """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (article Section 6.3)
+    """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (the article §2.4.4)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
     w2_rpm=..., p1_bar=...)`` and ``rig``. Grids are dicts {beta_bar,
     viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the article's);
@@ -275,7 +275,7 @@ def reproduce(
 
 def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
     """Gas fraction X giving ``beta_bar`` (bar) at mean pressure ``p_mean_bar`` (bar)
-    (article Section 7)."""
+    (the article §3.1)."""
 
 def effective_beta(x: float, p_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
     """Effective bulk modulus (bar) at mean pressure ``p_bar`` (bar) for gas fraction ``x``
@@ -328,7 +328,7 @@ def design(
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
 ) -> Dict[str, Any]:
-    """The design method (article Section 8): kp_max, kp_max_worst_case, worst_case,
+    """The design method (the article §2.2): kp_max, kp_max_worst_case, worst_case,
     conditions, tracking, verdict, reasons (as ``pumpcyl design --json``, whose defaults these
     are: PM 34 deg and GM 6 dB as in the article, x0 +/- 50 mm, beta identified at 4.4 bar; no
     ``p_mean_bar`` (bar) or ``mass_kg`` (kg): the rig's beta and mass only; ``waves``:

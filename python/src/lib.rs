@@ -389,7 +389,7 @@ impl PyRig {
 // ---------------------------------------------------------------------------------------------
 // Frequency domain
 
-/// The analysed loop: the open loop of the article (Section 4: x_ref -> x with the position
+/// The analysed loop: the open loop of the article (the article §2.3.3: x_ref -> x with the position
 /// feedback removed; input the error in m, output x in m) or the closed loop x_ref -> x (m).
 /// `sum_pressure_closed = None` opens the sum-pressure loop in the open loop (as the article
 /// analyses it) and follows the rig's `sum_pressure` key in the closed loop (as `step` and
@@ -510,7 +510,7 @@ fn repr_attrs(obj: &Bound<'_, PyAny>, names: &[&str]) -> PyResult<String> {
     repr_of(&obj.get_type().name()?.to_string(), fields)
 }
 
-/// Gain, phase and delay margins of the position loop (article Section 4), every crossing and
+/// Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing and
 /// closed-loop stability: the command line's `margins --json`, field for field (a `None` margin
 /// is infinite: no crossing of that kind).
 #[pyfunction]
@@ -646,7 +646,7 @@ impl PySimulation {
     }
 }
 
-/// Simulate the closed loop (exact zero-order hold, article Section 5) driven by `x_ref_mm`
+/// Simulate the closed loop (exact zero-order hold, docs/simulation.md) driven by `x_ref_mm`
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
 /// operating-point pressures and motor speeds. An unstable closed loop is an error.
 #[pyfunction]
@@ -672,7 +672,7 @@ fn simulate(
     Ok(PySimulation::of(py, &s))
 }
 
-/// A step response with its metrics (article Section 5), as the command line's `step`.
+/// A step response with its metrics (docs/simulation.md#step-metrics), as the command line's `step`.
 #[pyclass(module = "pumpcyl._pumpcyl", name = "StepResponse", frozen, get_all, extends = PySimulation)]
 struct PyStep {
     /// Step size (mm).
@@ -920,8 +920,8 @@ fn standstill_of(value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
     Ok(s)
 }
 
-/// Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (article Section 6.3),
-/// with c1, c2 from the standstill point (Section 6.2) and Nelder-Mead refinement.
+/// Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (the article §2.4.4),
+/// with c1, c2 from the standstill point (the article §2.4.3) and Nelder-Mead refinement.
 ///
 /// Either `experiment`, an experiment TOML file as `pumpcyl identify` reads, or
 /// `datasets=[Dataset(...)]` with `standstill=dict(w1_rpm=..., w2_rpm=..., p1_bar=...)` (rpm,
@@ -1198,7 +1198,7 @@ fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<P
 // Bulk modulus and design
 
 /// Gas fraction X that gives `beta_bar` (bar) at mean pressure `p_mean_bar` (bar), with pure
-/// oil of `beta_oil_bar` (bar) (article Section 7).
+/// oil of `beta_oil_bar` (bar) (the article §3.1).
 #[pyfunction]
 #[pyo3(signature = (beta_bar, p_mean_bar, *, beta_oil_bar = 17000.0))]
 fn gas_fraction(beta_bar: f64, p_mean_bar: f64, beta_oil_bar: f64) -> PyResult<f64> {
@@ -1368,7 +1368,7 @@ fn select(
     Ok(out)
 }
 
-/// The design method of the article (Section 8) for `rig` (default: the article's): the
+/// The design method of the article (§2.2) for `rig` (default: the article's): the
 /// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
 /// tracking and a verdict; a dict as `pumpcyl design --json` prints. The defaults are the
 /// command line's and the article's: phase margin 34 deg, gain margin 6 dB, x0 ± 50 mm of

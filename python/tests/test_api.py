@@ -11,7 +11,7 @@ def test_the_issue_example_runs_as_written(tmp_path):
     rig = pumpcyl.Rig()
     rig = pumpcyl.Rig(beta_bar=37.8)
     path = tmp_path / "my-rig.toml"
-    assert rig.beta_bar == 37.8  # unstable at this beta (article Section 7): analysed below
+    assert rig.beta_bar == 37.8  # unstable at this beta (the article §3.1): analysed below
     path.write_text(pumpcyl.Rig(beta_bar=170.0).to_toml())
     rig = pumpcyl.Rig.from_toml(str(path))
     rig2 = rig.replace(mass_kg=4898, kp=40)

@@ -11,7 +11,7 @@ def test_article_gain_margin_and_python_control_margin_agree():
     control = require_control()
     rig = pumpcyl.Rig()
     m = pumpcyl.margins(rig)
-    # the article's rig: GM 6.5 dB, PM 34 deg (article Section 4); pumpcyl resolves 6.45
+    # the article's rig: GM 6.5 dB, PM 34 deg (the article §2.3.3); pumpcyl resolves 6.45
     assert abs(m.gain_margin_db - 6.45) <= 0.05
     assert m.closed_loop_stable
     gm, pm, wcg, wcp = control.margin(pumpcyl.to_control(rig))

@@ -175,7 +175,8 @@ fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
 /// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by bisection on log Kp (the
 /// margins fall as the gain rises); 0 if even a tiny gain fails.
 ///
-/// For the article's rig and its targets (PM 34°, GM 6 dB) the largest gain is the article's
+/// For the article's rig and pumpcyl's default targets (PM 34°, GM 6 dB; [`Targets::default`]) the
+/// largest gain is the article's
 /// Kp = 25 within a few percent (docs/design.md):
 ///
 /// ```
