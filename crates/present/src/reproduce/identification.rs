@@ -1,7 +1,7 @@
 //! The identification steps: the drive gain (the article §2.4.1), the leakages and the
 //! two-stage grid identification (§2.4), and the robustness record.
 
-use super::{printed, summary, Run, Source};
+use super::{printed, summary, Run, Source, IDENTIFIED_RIG, TABLE1_RIG};
 use crate::figures::Chart;
 use crate::identification as outputs;
 use anyhow::Result;
@@ -78,7 +78,7 @@ pub(super) fn identification(
                         _ => Source::Article(9),
                     };
                     (source, format!(
-                        "Identified model against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dashed grey line ends the fit window",
+                        "The model of {IDENTIFIED_RIG} against the emulated {} (Kp = {}): position, error, pressures, motor speeds; the dashed grey line ends the fit window",
                         ds.name,
                         ds.rig.kp
                     ))
@@ -343,7 +343,7 @@ pub(super) fn robustness(
     run.figure(
         "robustness",
         Source::Article(10),
-        "The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model",
+        &format!("The emulated robustness record (another day's gas fraction: β_e 220 bar at its operating pressure) against the model of {IDENTIFIED_RIG} at 4898 kg and Kp 40, with β and c12 fitted to this record and with the article's values"),
         &Chart::signals_of("Robustness record: m = 4898 kg, Kp = 40 (emulated)", Some(&subtitle), &series, Some(("emulated", &measured)), Some(spec.fit_end_s)),
     )?;
     run.compare(
@@ -490,7 +490,7 @@ pub(super) fn rise_time(
     run.compare(
         "Figure 6: 10–90 % rise time of the identification step (s)",
         format!(
-            "{} (LTI model, default rig); {} (identified rig)",
+            "{} (LTI model, {TABLE1_RIG}); {} ({IDENTIFIED_RIG})",
             fmt(model),
             fmt(identified)
         ),
