@@ -1,6 +1,7 @@
 //! The figures of `pumpcyl reproduce` read as a user reads them, checked on the SVG text:
-//! colours keep their meaning across the panels of a figure, subtitles never wrap between a
-//! number and its unit, every curve shows on white, and curves keep sub-pixel precision.
+//! colours keep their meaning across the panels of a figure, so does each dash pattern (one
+//! meaning a pattern, stated in the legend), subtitles never wrap between a number and its
+//! unit, every curve shows on white, and curves keep sub-pixel precision.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -49,10 +50,11 @@ fn svg_files(dir: &Path) -> Vec<PathBuf> {
 /// One drawn element of an SVG document, in document order.
 #[derive(Debug, Clone, PartialEq)]
 enum Element {
-    /// A polyline: its stroke colour (`#RRGGBB`), width and points.
+    /// A polyline: its stroke colour (`#RRGGBB`), width, dash array (`None`: solid) and points.
     Line {
         stroke: String,
         width: f64,
+        dash: Option<String>,
         points: Vec<(f64, f64)>,
     },
     /// A text: its fill colour and content.
@@ -89,6 +91,7 @@ fn elements(svg: &str) -> Vec<Element> {
                 width: attr(tag, "stroke-width")
                     .and_then(|w| w.parse().ok())
                     .unwrap_or(0.0),
+                dash: attr(tag, "stroke-dasharray").map(str::to_string),
                 points,
             });
         } else if tag.starts_with("<text") {
@@ -116,21 +119,134 @@ fn unescape(s: &str) -> String {
         .replace("&amp;", "&")
 }
 
-/// The legend rows of `svg`: (label, sample colour). A legend row is a horizontal line
-/// sample 28 px long directly followed by its label.
-fn legend_rows(svg: &str) -> Vec<(String, String)> {
+/// A legend row: its label and its line sample's colour and dash array.
+struct LegendRow {
+    label: String,
+    stroke: String,
+    dash: Option<String>,
+}
+
+/// Whether `e` followed by `next` is a legend row's line sample (a horizontal line 28 px long
+/// directly followed by its label).
+fn is_sample(e: &Element, next: Option<&Element>) -> bool {
+    matches!(
+        (e, next),
+        (Element::Line { points, .. }, Some(Element::Text { .. }))
+            if points.len() == 2
+                && points[0].1 == points[1].1
+                && (points[1].0 - points[0].0 - 28.0).abs() < 0.5
+    )
+}
+
+/// The legend rows of `svg` with a line sample, in order.
+fn legend_rows_styled(svg: &str) -> Vec<LegendRow> {
     let els = elements(svg);
     els.windows(2)
+        .filter(|w| is_sample(&w[0], w.get(1)))
         .filter_map(|w| match (&w[0], &w[1]) {
-            (Element::Line { stroke, points, .. }, Element::Text { content, .. })
-                if points.len() == 2
-                    && points[0].1 == points[1].1
-                    && (points[1].0 - points[0].0 - 28.0).abs() < 0.5 =>
-            {
-                Some((content.clone(), stroke.clone()))
+            (Element::Line { stroke, dash, .. }, Element::Text { content, .. }) => {
+                Some(LegendRow {
+                    label: content.clone(),
+                    stroke: stroke.clone(),
+                    dash: dash.clone(),
+                })
             }
             _ => None,
         })
+        .collect()
+}
+
+/// The legend rows of `svg`: (label, sample colour).
+fn legend_rows(svg: &str) -> Vec<(String, String)> {
+    legend_rows_styled(svg)
+        .into_iter()
+        .map(|r| (r.label, r.stroke))
+        .collect()
+}
+
+/// The word a reader names the dash array `dash` by: "dotted" for dots (2 or 3 px), "dashed"
+/// for longer dashes, "dash-dot" for a pattern of a dash and a dot.
+fn style_word(dash: &str) -> &'static str {
+    let v: Vec<f64> = dash
+        .split([' ', ','])
+        .filter_map(|d| d.parse().ok())
+        .collect();
+    match v[..] {
+        [a, _, c, _] if a != c => "dash-dot",
+        [a, ..] if a <= 3.0 => "dotted",
+        _ => "dashed",
+    }
+}
+
+/// The line styles a legend note of `svg` explains, "dotted: p2, ω2; …": (style word, meaning).
+fn style_notes(svg: &str) -> Vec<(String, String)> {
+    const WORDS: [&str; 4] = ["solid", "dashed", "dotted", "dash-dot"];
+    let mut out = Vec::new();
+    for e in elements(svg) {
+        let Element::Text { content, .. } = e else {
+            continue;
+        };
+        for part in content.split("; ") {
+            if let Some((word, meaning)) = part.split_once(": ") {
+                if WORDS.contains(&word) {
+                    out.push((word.to_string(), meaning.to_string()));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Problems with the dash patterns of one figure: a pattern that means two things, or a dashed
+/// or dotted curve that the legend of a figure with a legend does not explain. What a curve
+/// drawn with a dash array means: the label of the legend row of its colour and dash array, or
+/// else the meaning a legend note gives its style word ("dotted: p2, ω2"); what a legend
+/// sample means: its label. Solid lines are told apart by their colours (checked by
+/// [`legend_colour_problems`]).
+fn dash_meaning_problems(svg: &str) -> Vec<String> {
+    let els = elements(svg);
+    let rows = legend_rows_styled(svg);
+    let notes = style_notes(svg);
+    let mut meanings: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    let mut mean = |dash: &str, what: String| {
+        let m = meanings.entry(dash.to_string()).or_default();
+        if !m.contains(&what) {
+            m.push(what);
+        }
+    };
+    for row in &rows {
+        if let Some(d) = &row.dash {
+            mean(d, row.label.clone());
+        }
+    }
+    for (i, e) in els.iter().enumerate() {
+        let Element::Line {
+            stroke,
+            dash: Some(dash),
+            ..
+        } = e
+        else {
+            continue;
+        };
+        if is_sample(e, els.get(i + 1)) {
+            continue;
+        }
+        let row = rows
+            .iter()
+            .find(|r| r.stroke == *stroke && r.dash.as_deref() == Some(dash));
+        let note = notes.iter().find(|(w, _)| w == style_word(dash));
+        let what = match (row, note) {
+            (Some(r), _) => r.label.clone(),
+            (None, Some((_, m))) => m.clone(),
+            (None, None) => "(no legend entry)".to_string(),
+        };
+        mean(dash, what);
+    }
+    let has_legend = !rows.is_empty() || !notes.is_empty();
+    meanings
+        .into_iter()
+        .filter(|(_, m)| m.len() > 1 || (has_legend && m[0] == "(no legend entry)"))
+        .map(|(dash, m)| format!("{} \"{dash}\" means {m:?}", style_word(&dash)))
         .collect()
 }
 
@@ -224,6 +340,7 @@ fn faint_series(svg: &str) -> Vec<String> {
             stroke,
             width,
             points,
+            ..
         } if width >= 2.0 && points.len() > 2 => Some(stroke),
         _ => None,
     });
@@ -252,6 +369,55 @@ fn each_legend_label_has_one_colour_and_each_colour_one_label() {
                <polyline stroke=\"#0072B2\" stroke-width=\"2\" points=\"10,90 38,90\"/>\n\
                <text fill=\"#000000\">\ne measured\n</text>\n";
     assert_eq!(legend_colour_problems(bad).len(), 1);
+}
+
+#[test]
+fn each_dash_pattern_has_one_meaning_that_the_legend_states() {
+    let mut dashed = 0;
+    for (name, svg) in figures() {
+        let problems = dash_meaning_problems(svg);
+        assert!(problems.is_empty(), "{name}: {problems:?}");
+        dashed += elements(svg)
+            .iter()
+            .filter(
+                |e| matches!(e, Element::Line { dash: Some(_), points, .. } if points.len() > 2),
+            )
+            .count();
+    }
+    // dashed and dotted curves are drawn as paths with their dash array, so the check sees them
+    assert!(dashed >= 20, "only {dashed} dashed or dotted curves found");
+    // The checker catches the faults it looks for: dashed for a series and for p2 (the sample
+    // of a series and a curve of another colour explained by a note), dotted for a reference
+    // gas fraction and a chosen level, a dotted curve in a figure whose legend says nothing
+    // of dots.
+    let line = |stroke: &str, dash: &str, points: &str| {
+        format!("<polyline stroke=\"{stroke}\" stroke-width=\"2\" stroke-dasharray=\"{dash}\" points=\"{points}\"/>\n")
+    };
+    let text = |t: &str| format!("<text fill=\"#000000\">\n{t}\n</text>\n");
+    let sample =
+        |stroke: &str, dash: &str, label: &str| line(stroke, dash, "10,20 38,20") + &text(label);
+    let curve = "0,0 5,5 9,3";
+    let series_and_p2 = sample("#D55E00", "10 6", "model")
+        + &line("#D55E00", "10 6", curve)
+        + &line("#0072B2", "10 6", curve)
+        + &text("solid: p1; dashed: p2");
+    assert_eq!(dash_meaning_problems(&series_and_p2).len(), 1);
+    let reference_and_chosen = sample("#000000", "2 6", "chosen")
+        + &line("#000000", "2 6", "1,0 1,90 ")
+        + &line("#0072B2", "2 6", curve)
+        + &text("solid: over the range; dotted: at the reference gas fraction");
+    assert_eq!(dash_meaning_problems(&reference_and_chosen).len(), 1);
+    let unexplained = sample("#0072B2", "", "x") + &line("#D55E00", "2 5", curve);
+    let unexplained = unexplained.replace(" stroke-dasharray=\"\"", "");
+    assert_eq!(dash_meaning_problems(&unexplained).len(), 1);
+    // one meaning a pattern, however many panels state it, passes
+    let fine = sample("#595959", "10 6", "end of fit window")
+        + &line("#595959", "10 6", "1,0 1,90")
+        + &line("#0072B2", "2 5", curve)
+        + &line("#D55E00", "2 5", curve)
+        + &text("solid: p1, ω1; dotted: p2, ω2")
+        + &text("solid: p1, ω1; dotted: p2, ω2");
+    assert_eq!(dash_meaning_problems(&fine), Vec::<String>::new());
 }
 
 #[test]

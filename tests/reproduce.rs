@@ -171,10 +171,12 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         "which_circuit",
     ];
     for stem in stems {
-        for ext in ["svg", "png"] {
+        // a figure, not an empty page (a dashed line is one path: a figure of a few curves,
+        // the likelihood profiles, is about 7 kB of SVG)
+        for (ext, least) in [("svg", 5_000), ("png", 10_000)] {
             let f = dir.join("figures").join(format!("{stem}.{ext}"));
             let len = std::fs::metadata(&f).map(|m| m.len()).unwrap_or(0);
-            assert!(len > 10_000, "{} has {len} bytes", f.display());
+            assert!(len > least, "{} has {len} bytes", f.display());
         }
         // a title names a record by its file name, never by the folder it was read from (the
         // result folder is built aside under a temporary name)
@@ -250,6 +252,67 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
     assert!(
         !html.contains("src=\"http") && !html.contains("href=\"http"),
         "no network"
+    );
+}
+
+/// The values of attribute `name` in `html`, in order.
+fn attr_values<'a>(html: &'a str, name: &str) -> Vec<&'a str> {
+    let key = format!(" {name}=\"");
+    html.split(&key)
+        .skip(1)
+        .filter_map(|v| v.split('"').next())
+        .collect()
+}
+
+#[test]
+fn the_report_opens_with_contents_linking_every_heading_and_figure() {
+    let html = std::fs::read_to_string(reproduced().0.join("report.html")).unwrap();
+    let (nav_at, nav_end) = (html.find("<nav").unwrap(), html.find("</nav>").unwrap());
+    assert!(
+        html.find("class=\"notice\"").unwrap() < nav_at,
+        "contents after the notice"
+    );
+    let (nav, body) = (&html[nav_at..nav_end], &html[nav_end..]);
+    let links = attr_values(nav, "href");
+    let ids = attr_values(body, "id");
+    let mut unique = ids.clone();
+    unique.sort_unstable();
+    unique.dedup();
+    assert_eq!(unique.len(), ids.len(), "ids repeat: {ids:?}");
+    for link in &links {
+        let id = link.strip_prefix('#').expect("a link within the page");
+        assert!(ids.contains(&id), "{link} points at no id");
+    }
+    // every heading and every figure is listed, in the page's order
+    let headings = body.matches("<h2").count();
+    let figures = body.matches("<figure>").count();
+    assert_eq!((headings, figures), (10, 23));
+    let listed: Vec<&str> = body
+        .split("<h2 id=\"")
+        .skip(1)
+        .chain(body.split("<figure><svg id=\"").skip(1))
+        .filter_map(|rest| rest.split('"').next())
+        .collect();
+    assert_eq!(
+        listed.len(),
+        headings + figures,
+        "every heading and figure has an id"
+    );
+    let targets: Vec<&str> = links.iter().map(|l| &l[1..]).collect();
+    for id in &listed {
+        assert!(targets.contains(id), "{id} is not in the contents");
+    }
+    assert_eq!(targets.len(), listed.len());
+    let order: Vec<&&str> = ids.iter().filter(|id| targets.contains(id)).collect();
+    assert_eq!(
+        order,
+        targets.iter().collect::<Vec<_>>(),
+        "contents in page order"
+    );
+    // figures are named by their caption's first words
+    assert!(
+        nav.contains(">Article Figure 14. Bode diagram: Figure 14, cumulative damping study</a>"),
+        "{nav}"
     );
 }
 

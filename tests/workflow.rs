@@ -143,7 +143,9 @@ fn every_figure_is_rendered_in_memory() {
             "{}",
             f.stem
         );
-        assert!(f.svg.len() > 10_000, "{}: {} bytes", f.stem, f.svg.len());
+        // a figure, not an empty page (a dashed line is one path: the likelihood profiles,
+        // a few curves, are about 7 kB)
+        assert!(f.svg.len() > 5_000, "{}: {} bytes", f.stem, f.svg.len());
         assert!(
             f.png.starts_with(b"\x89PNG\r\n\x1a\n") && f.png.len() > 10_000,
             "{}: not a PNG",

@@ -428,6 +428,12 @@ pub fn trace(label: &str, t: &[f64], y: &[f64], style: LineStyle, color: Option<
     }
 }
 
+/// The style of the second chamber's pressure and the second motor's speed in the signal
+/// figures, and the legend note saying so (the same in the pressure and speed panels: one
+/// meaning).
+const SECOND_CHAMBER: LineStyle = LineStyle::Dotted;
+const CHAMBER_NOTE: &str = "solid: p1, ω1; dotted: p2, ω2";
+
 /// A dashed dark grey vertical line at `t_s` over the full height of every panel, labelled
 /// once.
 fn mark_fit_end(panels: &mut [Panel], t_s: f64) {
@@ -444,9 +450,11 @@ fn mark_fit_end(panels: &mut [Panel], t_s: f64) {
 }
 
 /// Position and reference, control error, pressures, motor speeds; the measured record (if any)
-/// in solid lines first, simulated series after it. Each series has one colour in every panel
-/// and is named once, in the legend of the position panel; in the pressure and speed panels
-/// the first chamber (motor) is drawn solid and the second dashed, as a note there says.
+/// first, simulated series after it, every series solid and told apart by its colour alone,
+/// the same in every panel, and named once, in the legend of the position panel; the reference
+/// is solid black. In the pressure and speed panels the first chamber (motor) is drawn solid
+/// and the second dotted, as one note in both panels says, so that within the figure dotted
+/// means p2 and ω2 only and dashed the end of the fit window only ([`Chart::signals`]).
 /// The record is named `record.0`.
 fn four_panels_named(
     series: &[(String, &Signals)],
@@ -471,10 +479,10 @@ fn four_panels_named(
         "x_ref",
         &first.time_s,
         &first.x_ref_mm,
-        LineStyle::Dashed,
+        LineStyle::Solid,
         Some(6),
     ));
-    let mut add = |label: &str, s: &Signals, style: LineStyle, color: usize| {
+    let mut add = |label: &str, s: &Signals, color: usize| {
         let t = &s.time_s;
         let mut push = |panel: usize, name: &str, y: &[f64], style: LineStyle| {
             if !y.is_empty() {
@@ -483,40 +491,31 @@ fn four_panels_named(
                     .push(trace(name, t, y, style, Some(color)));
             }
         };
-        push(
-            0,
-            if label.is_empty() { "x" } else { label },
-            &s.x_mm,
-            style,
-        );
-        push(1, "", &s.e_mm, style);
+        let x_label = if label.is_empty() { "x" } else { label };
+        push(0, x_label, &s.x_mm, LineStyle::Solid);
+        push(1, "", &s.e_mm, LineStyle::Solid);
         push(2, "", &s.p1_bar, LineStyle::Solid);
-        push(2, "", &s.p2_bar, LineStyle::Dashed);
+        push(2, "", &s.p2_bar, SECOND_CHAMBER);
         push(3, "", &s.w1_rpm, LineStyle::Solid);
-        push(3, "", &s.w2_rpm, LineStyle::Dashed);
+        push(3, "", &s.w2_rpm, SECOND_CHAMBER);
     };
     if let Some((name, m)) = record {
-        add(name, m, LineStyle::Solid, 0);
+        add(name, m, 0);
     }
     let offset = usize::from(record.is_some());
     for (i, (label, s)) in series.iter().enumerate() {
-        let style = if i + offset == 0 {
-            LineStyle::Solid
-        } else {
-            LineStyle::Dashed
-        };
         let label = if series.len() == 1 && record.is_none() {
             ""
         } else {
             label.as_str()
         };
-        add(label, s, style, i + offset);
+        add(label, s, i + offset);
     }
-    for (panel, note) in [(2, "p1 solid, p2 dashed"), (3, "ω1 solid, ω2 dashed")] {
-        if !panels[panel].traces.is_empty() {
-            panels[panel]
+    for panel in &mut panels[2..] {
+        if !panel.traces.is_empty() {
+            panel
                 .traces
-                .push(trace(note, &[], &[], LineStyle::Solid, None));
+                .push(trace(CHAMBER_NOTE, &[], &[], LineStyle::Solid, None));
         }
     }
     panels

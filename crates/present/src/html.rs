@@ -1,6 +1,8 @@
 //! A self-contained HTML report: headings, paragraphs, tables and figures, the figures inline
 //! as SVG elements, the figures' font (the embedded DejaVu Sans of the PNGs) inline as base64
-//! data, no external resource of any kind (it opens from a file, offline).
+//! data, no external resource of any kind (it opens from a file, offline). A table of contents
+//! after the opening notice links every heading and every figure (each has a stable id, made
+//! from its text).
 
 use std::fmt::Write;
 
@@ -41,7 +43,9 @@ margin:1em 0}caption{text-align:left;font-weight:bold;padding:.3em 0}td,th{borde
 padding:.25em .6em;text-align:left;vertical-align:top}td.num{text-align:right;white-space:nowrap}\
 .n{white-space:nowrap}th{background:#eee}figure{margin:1.5em 0;max-width:1400px}\
 figure svg{display:block;width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}\
-.notice{background:#fff4d6;border-left:4px solid #e0a000;padding:.6em 1em}";
+.notice{background:#fff4d6;border-left:4px solid #e0a000;padding:.6em 1em}\
+nav.toc{font-size:.9em;margin:1em 0}nav.toc ul{margin:.2em 0;padding-left:1.4em}\
+nav.toc>ul>li{margin-top:.3em}nav.toc ul ul{list-style:circle}";
 
 /// Marks on `<body>` how many figures laid out with a non-zero size (data-figures-loaded) out
 /// of how many (data-figures-total), and flags any that did not; how many number cells
@@ -75,7 +79,8 @@ fn style() -> String {
     )
 }
 
-/// The page: `title` and the blocks, in order.
+/// The page: `title` and the blocks, in order, with a table of contents after the first
+/// notice (at the top when there is none).
 pub fn html_page(title: &str, blocks: &[Block]) -> String {
     let mut s = format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
@@ -84,10 +89,16 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
         style(),
         t = escape(title)
     );
-    for b in blocks {
+    let ids = anchors(blocks);
+    let toc_after = blocks.iter().position(|b| matches!(b, Block::Notice(_)));
+    if toc_after.is_none() {
+        s.push_str(&contents(blocks, &ids));
+    }
+    for (k, (b, id)) in blocks.iter().zip(&ids).enumerate() {
+        let id = id.as_deref().unwrap_or("");
         match b {
             Block::Heading(h) => {
-                let _ = writeln!(s, "<h2>{}</h2>", escape(h));
+                let _ = writeln!(s, "<h2 id=\"{id}\">{}</h2>", escape(h));
             }
             Block::Paragraph(p) => {
                 let _ = writeln!(s, "<p>{}</p>", escape(p));
@@ -111,19 +122,122 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
                 let _ = writeln!(
                     s,
                     "<figure>{}<figcaption>{}</figcaption></figure>",
-                    inline_svg(svg, caption),
+                    inline_svg(svg, caption, id),
                     escape(caption)
                 );
             }
+        }
+        if toc_after == Some(k) {
+            s.push_str(&contents(blocks, &ids));
         }
     }
     s.push_str("</body></html>\n");
     s
 }
 
-/// The SVG document `svg` as an element of the page, labelled with `caption` for screen
-/// readers; the namespace, implied in HTML, dropped with any XML declaration.
-fn inline_svg(svg: &str, caption: &str) -> String {
+/// The id of every heading and figure of `blocks` (`None` for the other blocks): a heading's
+/// text, or a figure's [`figure_label`], as lower-case ASCII words joined by hyphens (at most
+/// eight words), prefixed `sec-` or `fig-`, and suffixed `-2`, `-3`, … where it would repeat
+/// an earlier one. The same blocks give the same ids.
+fn anchors(blocks: &[Block]) -> Vec<Option<String>> {
+    let mut seen: Vec<String> = Vec::new();
+    blocks
+        .iter()
+        .map(|b| {
+            let base = match b {
+                Block::Heading(h) => format!("sec-{}", slug(h)),
+                Block::Figure { caption, .. } => format!("fig-{}", slug(&figure_label(caption))),
+                _ => return None,
+            };
+            let id = (1..)
+                .map(|n| match n {
+                    1 => base.clone(),
+                    n => format!("{base}-{n}"),
+                })
+                .find(|id| !seen.contains(id))
+                .unwrap_or(base);
+            seen.push(id.clone());
+            Some(id)
+        })
+        .collect()
+}
+
+/// `text` as at most eight lower-case ASCII words joined by hyphens ("x" when it has none).
+fn slug(text: &str) -> String {
+    let lower = text.to_ascii_lowercase();
+    let words: Vec<&str> = lower
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .filter(|w| !w.is_empty())
+        .take(8)
+        .collect();
+    if words.is_empty() {
+        "x".to_string()
+    } else {
+        words.join("-")
+    }
+}
+
+/// The table of contents' name for a figure: the first words of its caption (about 110
+/// characters, cut at a word with "…"), without parenthesised remarks.
+fn figure_label(caption: &str) -> String {
+    const CHARS: usize = 110;
+    let mut plain = String::new();
+    let mut depth = 0usize;
+    for c in caption.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth = depth.saturating_sub(1),
+            _ if depth == 0 => plain.push(c),
+            _ => {}
+        }
+    }
+    // punctuation that followed a remark joins the word before it
+    let plain = [".", ",", ":", ";"]
+        .iter()
+        .fold(plain, |t, p| t.replace(&format!(" {p}"), p));
+    let mut label = String::new();
+    for w in plain.split_whitespace() {
+        if !label.is_empty() && label.chars().count() + 1 + w.chars().count() > CHARS {
+            return format!("{label} …");
+        }
+        if !label.is_empty() {
+            label.push(' ');
+        }
+        label.push_str(w);
+    }
+    label
+}
+
+/// The table of contents: every heading of `blocks` linked by its id (`ids`, from
+/// [`anchors`]), with the figures under it; figures before the first heading at the top.
+fn contents(blocks: &[Block], ids: &[Option<String>]) -> String {
+    let mut s =
+        String::from("<nav class=\"toc\" aria-label=\"Contents\"><strong>Contents</strong><ul>");
+    let mut in_section = false;
+    let link = |id: &str, text: &str| format!("<a href=\"#{id}\">{}</a>", escape(text));
+    for (b, id) in blocks.iter().zip(ids) {
+        let id = id.as_deref().unwrap_or("");
+        match b {
+            Block::Heading(h) => {
+                s.push_str(if in_section { "</ul></li>" } else { "" });
+                let _ = write!(s, "<li>{}<ul>", link(id, h));
+                in_section = true;
+            }
+            Block::Figure { caption, .. } => {
+                let _ = write!(s, "<li>{}</li>", link(id, &figure_label(caption)));
+            }
+            _ => {}
+        }
+    }
+    s.push_str(if in_section { "</ul></li>" } else { "" });
+    s.push_str("</ul></nav>\n");
+    s.replace("<ul></ul>", "")
+}
+
+/// The SVG document `svg` as an element of the page with the id `id` (none when empty),
+/// labelled with `caption` for screen readers; the namespace, implied in HTML, dropped with
+/// any XML declaration.
+fn inline_svg(svg: &str, caption: &str, id: &str) -> String {
     let svg = svg.trim_start();
     let svg = match svg.strip_prefix("<?xml") {
         Some(rest) => rest
@@ -132,8 +246,16 @@ fn inline_svg(svg: &str, caption: &str) -> String {
         None => svg,
     };
     let svg = svg.replacen(" xmlns=\"http://www.w3.org/2000/svg\"", "", 1);
+    let id = if id.is_empty() {
+        String::new()
+    } else {
+        format!(" id=\"{id}\"")
+    };
     match svg.strip_prefix("<svg") {
-        Some(rest) => format!("<svg role=\"img\" aria-label=\"{}\"{rest}", escape(caption)),
+        Some(rest) => format!(
+            "<svg{id} role=\"img\" aria-label=\"{}\"{rest}",
+            escape(caption)
+        ),
         None => svg,
     }
 }
@@ -273,10 +395,89 @@ mod tests {
         );
         assert!(page.contains("<h1>a &lt;b&gt; &amp; c</h1>"));
         assert!(page.contains("<p>x &lt; y</p>"));
-        assert!(page.contains("<figure><svg role=\"img\" aria-label=\"&quot;fig&quot;\"/>"));
+        assert!(page
+            .contains("<figure><svg id=\"fig-fig\" role=\"img\" aria-label=\"&quot;fig&quot;\"/>"));
         assert!(page
             .contains("@font-face{font-family:'DejaVu Sans';src:url(data:font/ttf;base64,AAEAA"));
         assert!(page.contains("<figcaption>&quot;fig&quot;</figcaption>"));
         assert!(!page.contains("http://") && !page.contains("https://"));
+    }
+
+    /// The values of attribute `name` in `html`, in order.
+    fn attr_values<'a>(html: &'a str, name: &str) -> Vec<&'a str> {
+        let key = format!(" {name}=\"");
+        html.split(&key)
+            .skip(1)
+            .filter_map(|v| v.split('"').next())
+            .collect()
+    }
+
+    /// A caption of 122 characters, cut within 110.
+    const LONG: &str = "Article Figure 14. Bode diagram: Figure 14, cumulative damping study, \
+                        with a long caption that goes on and on past the cut";
+
+    #[test]
+    fn contents_link_every_heading_and_figure_after_the_notice() {
+        let figure = |caption: &str| Block::Figure {
+            svg: "<svg/>".into(),
+            caption: caption.into(),
+        };
+        let blocks = [
+            Block::Paragraph("before".into()),
+            Block::Notice("EMULATED".into()),
+            Block::Heading("1. Drive gain (the article §2.4.1)".into()),
+            figure("Article Figure 5 (number from the article's order). Drive 1 (Kp = 25): alone"),
+            Block::Heading("β".into()),
+            figure(LONG),
+            figure(LONG),
+            Block::Heading("1. Drive gain (the article §2.4.1)".into()),
+        ];
+        let page = html_page("t", &blocks);
+        let (nav_at, nav_end) = (page.find("<nav").unwrap(), page.find("</nav>").unwrap());
+        assert!(
+            page.find("class=\"notice\"").unwrap() < nav_at,
+            "after the notice"
+        );
+        assert!(
+            nav_at < page.find("<h2").unwrap(),
+            "before the first heading"
+        );
+        let nav = &page[nav_at..nav_end];
+        let links: Vec<&str> = attr_values(nav, "href");
+        let ids = attr_values(&page[nav_end..], "id");
+        assert_eq!(
+            ids,
+            [
+                "sec-1-drive-gain-the-article-2-4-1",
+                "fig-article-figure-5-drive-1-alone",
+                "sec-x",
+                "fig-article-figure-14-bode-diagram-figure-14-cumulative",
+                "fig-article-figure-14-bode-diagram-figure-14-cumulative-2",
+                "sec-1-drive-gain-the-article-2-4-1-2",
+            ]
+        );
+        // every link points at an id of the page, in order, one a heading or a figure
+        let targets: Vec<String> = ids.iter().map(|id| format!("#{id}")).collect();
+        assert_eq!(links, targets);
+        let mut unique = ids.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(unique.len(), ids.len(), "unique ids");
+        // figures named by their caption's first words, remarks in parentheses left out
+        assert!(
+            nav.contains(">Article Figure 5. Drive 1: alone</a>"),
+            "{nav}"
+        );
+        assert!(nav.contains(">Article Figure 14. Bode diagram: Figure 14, cumulative damping study, with a long caption that goes on and on …</a>"), "{nav}");
+        // the figures sit under their heading
+        assert!(
+            nav.contains("§2.4.1)</a><ul><li><a href=\"#fig-article-figure-5"),
+            "{nav}"
+        );
+        // the same blocks give the same page; without a notice the contents come first
+        assert_eq!(html_page("t", &blocks), page);
+        let bare = html_page("t", &blocks[2..]);
+        assert!(bare.find("<nav").unwrap() < bare.find("<h2").unwrap());
+        assert!(html_page("t", &[Block::Paragraph("p".into())]).contains("<nav"));
     }
 }

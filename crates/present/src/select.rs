@@ -120,9 +120,12 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
 /// the reference gas fraction, dotted), each wave's tracking-error band and, when required, the
 /// rise-time band against the mean pressure, one colour a circuit in every panel (solid: the
 /// worst case over the uncertainty, dashed: the best, as a legend note says), the requirement as
-/// a dashed line and the chosen pressure as a dotted vertical.
+/// a dash-dot line and the chosen candidate as a black circle on its solid curve in every panel.
+/// Within the figure each line style has one meaning: dotted only the reference gas fraction,
+/// dashed only the best case, dash-dot only the requirement.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     let chosen = s.min_mean_pressure_bar;
+    let chosen_at = s.chosen.and_then(|k| s.options.get(k));
     let mut kp = Panel {
         y_label: "Largest Kp (1/m)".into(),
         traces: Vec::new(),
@@ -139,12 +142,8 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     kp.traces.push(note(
         "solid: over the gas-fraction range; dotted: at the reference gas fraction",
     ));
-    let top = s
-        .options
-        .iter()
-        .map(|o| o.kp_max.max(o.kp_max_reference))
-        .fold(0.0, f64::max);
-    kp.traces.extend(chosen_line(chosen, top));
+    kp.traces
+        .extend(chosen_at.and_then(|o| chosen_marker(o.mean_pressure_bar, Some(o.kp_max))));
     let mut panels = vec![kp];
     for (w, wave) in app.wave.iter().enumerate() {
         panels.push(band_panel(
@@ -193,13 +192,16 @@ fn note(text: &str) -> crate::plot::Trace {
     trace(text, &[], &[], LineStyle::Solid, None)
 }
 
-/// The chosen pressure as a dotted vertical from 0 to `top`.
-fn chosen_line(chosen: Option<f64>, top: f64) -> Option<crate::plot::Trace> {
-    chosen.map(|p| trace("chosen", &[p, p], &[0.0, top], LineStyle::Dotted, Some(6)))
+/// The chosen candidate, at mean pressure `p` (bar) and the value `y` of a panel, as a black
+/// circle (none where the candidate has no value there).
+fn chosen_marker(p: f64, y: Option<f64>) -> Option<crate::plot::Trace> {
+    let y = y.filter(|y| y.is_finite())?;
+    Some(trace("chosen", &[p], &[y], LineStyle::Markers, Some(6)))
 }
 
 /// A panel of a [least, most] band per candidate (`band`; NaN where absent) against the mean
-/// pressure, one colour a circuit, with the requirement `limit` and the chosen pressure.
+/// pressure, one colour a circuit, with the requirement `limit` and the chosen candidate's
+/// worst case.
 fn band_panel(
     s: &Selection,
     y_label: String,
@@ -243,12 +245,13 @@ fn band_panel(
             "requirement",
             &[lo, hi],
             &[limit; 2],
-            LineStyle::Dashed,
-            Some(6),
+            LineStyle::DashDot,
+            Some(7),
         ));
     }
+    let chosen = s.chosen.and_then(|k| s.options.get(k));
     panel
         .traces
-        .extend(chosen_line(s.min_mean_pressure_bar, 2.0 * limit));
+        .extend(chosen.and_then(|o| chosen_marker(o.mean_pressure_bar, band(o).map(|b| b[1]))));
     panel
 }

@@ -83,7 +83,7 @@ pub struct BodeMarkers {
 ///
 /// `title` is printed at the top. Each series gets its own colour; a legend
 /// with the series labels is drawn when there is more than one series. Series
-/// after the first are drawn dashed or dotted (and so is their legend sample),
+/// after the first are drawn dashed, dotted or dash-dotted (and so is their legend sample),
 /// so overlapping curves stay distinguishable without colour.
 ///
 /// `markers[i]` (stability margins) belongs to `series[i]` and is drawn in that
@@ -556,7 +556,7 @@ impl<'a> Figure<'a> {
 
 /// What differs between the two panels of a Bode diagram.
 struct PanelSpec<'p> {
-    /// Value axis, its description and the dashed reference value on it (0 dB, -180 deg).
+    /// Value axis, its description and the solid grey reference value on it (0 dB, -180 deg).
     y: &'p Axis,
     y_desc: &'static str,
     reference: f64,
@@ -672,7 +672,8 @@ impl render::Draw for Figure<'_> {
     }
 }
 
-/// Dashed horizontal reference line at `y` across `chart` (0 dB, -180 deg), if in range.
+/// Thin solid grey horizontal reference line at `y` across `chart` (0 dB, -180 deg), if in
+/// range. Solid, as the axis it marks is: the dash patterns tell the series apart.
 fn reference_line<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     y: f64,
@@ -682,41 +683,35 @@ fn reference_line<DB: DrawingBackend>(
     if !(y_axis.start..=y_axis.end).contains(&y) {
         return Ok(());
     }
-    let px = render::px(scale);
-    let style = REF_COLOR.stroke_width(render::upx(scale)(1.5));
-    let ends = [(x_axis.start, y), (x_axis.end, y)];
+    let style = REF_COLOR.stroke_width(render::upx(scale)(1.0));
+    let ends = vec![(x_axis.start, y), (x_axis.end, y)];
     chart
-        .draw_series(DashedLineSeries::new(ends, px(8.0), px(5.0), style))
+        .draw_series(std::iter::once(PathElement::new(ends, style)))
         .map_err(plot_err)?;
     Ok(())
 }
 
-/// Thin dashed vertical lines at the crossover frequencies of the marked series, in its
+/// Thin solid vertical lines at the crossover frequencies of the marked series, in its
 /// colour, spanning the panel's value range `(lo, hi)`; none when several series are marked.
+/// Solid, so that no dash pattern means both a series and a crossover.
 fn crossover_lines<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     marks: &[Marks],
     (lo, hi): (f64, f64),
     scale: f64,
 ) -> Result<(), ReportError> {
-    let px = render::px(scale);
     if marks.len() > 1 {
         return Ok(());
     }
     for m in marks {
         let style = series_color(m.series)
             .mix(0.9)
-            .stroke_width(render::upx(scale)(1.2));
-        for &f in &m.crossovers {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    [(f, lo), (f, hi)],
-                    px(2.0),
-                    px(4.0),
-                    style,
-                ))
-                .map_err(plot_err)?;
-        }
+            .stroke_width(render::upx(scale)(1.0));
+        let lines = m
+            .crossovers
+            .iter()
+            .map(|&f| PathElement::new(vec![(f, lo), (f, hi)], style));
+        chart.draw_series(lines).map_err(plot_err)?;
     }
     Ok(())
 }
@@ -765,18 +760,24 @@ fn margin_bar<DB: DrawingBackend>(
 }
 
 /// Stroke of series number `i` at `scale`: its palette colour, 2 px wide, the first series
-/// solid, the others dashed, dotted, long-dashed or short-dashed in turn, so that curves lying
-/// on top of each other stay distinguishable without colour.
+/// solid, the others dashed, dotted, long-dashed, short-dashed and three dash-dot patterns in
+/// turn (one pattern a series, as one colour a series, up to the palette's eight), so that
+/// curves lying on top of each other stay distinguishable without colour.
 fn series_stroke(i: usize, scale: f64) -> Stroke {
-    const PATTERNS: [(f64, f64); 4] = [(12.0, 6.0), (3.0, 4.0), (22.0, 6.0), (7.0, 3.0)];
+    const PATTERNS: [[f64; 4]; 7] = [
+        [12.0, 6.0, 12.0, 6.0],
+        [3.0, 4.0, 3.0, 4.0],
+        [22.0, 6.0, 22.0, 6.0],
+        [7.0, 3.0, 7.0, 3.0],
+        [12.0, 4.0, 2.0, 4.0],
+        [22.0, 4.0, 2.0, 4.0],
+        [7.0, 3.0, 2.0, 3.0],
+    ];
     let (px, upx) = (render::px(scale), render::upx(scale));
     Stroke {
         color: series_color(i),
         width: upx(2.0).max(2),
-        pattern: (i > 0).then(|| {
-            let (d, g) = PATTERNS[(i - 1) % PATTERNS.len()];
-            (px(d).max(1), px(g).max(1))
-        }),
+        pattern: (i > 0).then(|| PATTERNS[(i - 1) % PATTERNS.len()].map(|d| px(d).max(1))),
         dot_r: upx(3.0),
     }
 }
@@ -885,43 +886,37 @@ mod tests {
             };
             assert_eq!((bars("#0072B2"), bars("#D55E00")), (2, 2), "GM and PM bars");
         }
-        // The second series is dashed, the first solid: count the breaks between consecutive
-        // drawn pieces of each colour's curves (2 px wide; the crossover lines are 1 px).
-        let breaks = |colour: &str| {
-            let ends: Vec<(&str, &str)> = svg
+        // The second series is dashed, the first solid: each curve is one path whose dash
+        // pattern the SVG states, and so does its legend sample.
+        let patterns = |colour: &str| {
+            let mut p: Vec<&str> = svg
                 .lines()
                 .filter(|l| l.starts_with("<polyline") && l.contains("stroke-width=\"2\""))
                 .filter(|l| l.contains(&format!("stroke=\"{colour}\"")))
                 .map(|l| {
-                    let pts = l
-                        .split("points=\"")
+                    l.split("stroke-dasharray=\"")
                         .nth(1)
-                        .unwrap()
-                        .split('"')
-                        .next()
-                        .unwrap();
-                    let v: Vec<&str> = pts.split_whitespace().collect();
-                    (v[0], v[v.len() - 1])
+                        .map_or("solid", |d| d.split('"').next().unwrap())
                 })
                 .collect();
-            ends.windows(2).filter(|w| w[0].1 != w[1].0).count()
+            p.sort_unstable();
+            p.dedup();
+            p
         };
-        let (solid, dashed) = (breaks("#0072B2"), breaks("#D55E00"));
-        assert!(
-            solid < 10 && dashed > 60,
-            "breaks: solid {solid}, dashed {dashed}"
-        );
+        assert_eq!(patterns("#0072B2"), ["solid"]);
+        assert_eq!(patterns("#D55E00"), ["12 6"]);
         // Markers for the first series only mark the first series only.
         let old = bode_svg("Compare", &series, &[Some(markers())]).unwrap();
         assert!(old.contains("GM = 12.3 dB @ 5.00 Hz") && !old.contains("3.5 dB"));
-        // Crossover verticals (thin dashed lines in the series' colour) for one marked series,
-        // none when several are marked: they would crowd the crossover region.
+        // Crossover verticals (thin solid lines in the series' colour) for one marked series,
+        // two crossovers on each panel, none when several are marked: they would crowd the
+        // crossover region.
         let verticals = |svg: &str| {
             svg.lines()
                 .filter(|l| l.starts_with("<polyline") && l.contains("opacity=\"0.9\""))
                 .count()
         };
-        assert!(verticals(&old) > 10, "{}", verticals(&old));
+        assert_eq!(verticals(&old), 4);
         assert_eq!(verticals(&svg), 0);
     }
 

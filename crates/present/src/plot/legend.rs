@@ -7,22 +7,33 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::Axis;
 use super::error::{plot_err, ReportError};
-use super::series::{precise_path, Pieces, Stroke};
+use super::series::{precise_path, Dash, Pieces, Stroke};
 use super::{layout, render};
 
 /// Label text size, and line-sample length (px), at scale 1.
 const FONT_SIZE: f64 = 15.0;
 const SAMPLE_LEN: f64 = 28.0;
 
-/// One legend row: a line sample and a label.
+/// What a legend row shows before its label.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Sample {
+    /// A short line in the row's stroke.
+    Line,
+    /// A marker: a filled circle of the given radius (px).
+    Dot(u32),
+    /// Nothing: the row is a note, starting where the samples do.
+    Note,
+}
+
+/// One legend row: a sample and a label.
 pub(super) struct LegendEntry {
     pub(super) label: String,
     /// Colour and width of the sample line.
     pub(super) style: ShapeStyle,
-    /// (dash, gap) in pixels of a dashed sample; `None` for a solid line.
-    pub(super) pattern: Option<(i32, i32)>,
-    /// Whether the row shows a line sample (a note has none).
-    pub(super) sample: bool,
+    /// Dash pattern of a dashed or dotted sample; `None` for a solid line.
+    pub(super) pattern: Option<Dash>,
+    /// What the row shows before its label.
+    pub(super) sample: Sample,
 }
 
 impl LegendEntry {
@@ -32,7 +43,7 @@ impl LegendEntry {
             label: label.to_string(),
             style: stroke.color.stroke_width(stroke.width),
             pattern: stroke.pattern,
-            sample: true,
+            sample: Sample::Line,
         }
     }
 }
@@ -75,7 +86,7 @@ impl LegendMetrics<'static> {
             .map(|e| {
                 let w = layout::text_width(&e.label, size).ceil() as i32;
                 // A note starts where the samples do.
-                if e.sample {
+                if e.sample != Sample::Note {
                     w
                 } else {
                     (w - self.sample_len - self.sample_gap).max(0)
@@ -225,26 +236,27 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                 dot_r: 0,
             };
             let (xf, yf) = (f64::from(x), f64::from(y));
-            if e.sample {
-                precise_path(
+            match e.sample {
+                Sample::Line => precise_path(
                     area,
                     &[(xf, yf), (xf + f64::from(m.sample_len), yf)],
                     &stroke,
-                )?;
+                )?,
+                Sample::Dot(r) => area
+                    .draw(&Circle::new(
+                        (x + m.sample_len / 2, y),
+                        r,
+                        stroke.color.filled(),
+                    ))
+                    .map_err(plot_err)?,
+                Sample::Note => {}
             }
-            area.draw(&Text::new(
-                e.label.clone(),
-                (
-                    if e.sample {
-                        x + m.sample_len + m.sample_gap
-                    } else {
-                        x
-                    },
-                    y,
-                ),
-                text_style.clone(),
-            ))
-            .map_err(plot_err)?;
+            let text_x = match e.sample {
+                Sample::Note => x,
+                _ => x + m.sample_len + m.sample_gap,
+            };
+            area.draw(&Text::new(e.label.clone(), (text_x, y), text_style.clone()))
+                .map_err(plot_err)?;
         }
         x += widths.iter().copied().max().unwrap_or(0) + m.sample_len + m.sample_gap + m.col_gap;
     }
@@ -356,7 +368,7 @@ mod tests {
             label: l.into(),
             style: BLACK.stroke_width(1),
             pattern: None,
-            sample: true,
+            sample: Sample::Line,
         };
         let w = m.label_widths(&[e("a"), e("a longer label")]);
         assert!(w[0] > 0 && w[1] > 5 * w[0], "{w:?}");

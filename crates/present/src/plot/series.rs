@@ -53,18 +53,28 @@ pub(super) struct Pieces {
     pub(super) dots: Vec<(f64, f64)>,
 }
 
-/// How a series is drawn: colour, line width (px), dash pattern (dash, gap in px; `None` for
-/// a solid line) and radius (px) of its isolated points.
+/// A dash pattern in px: dash, gap, dash, gap (a plain dashed or dotted line repeats its first
+/// pair; a dash-dot line does not).
+pub(super) type Dash = [i32; 4];
+
+/// The dash pattern of `on` px dashes and `off` px gaps.
+pub(super) fn even_dash(on: i32, off: i32) -> Dash {
+    [on, off, on, off]
+}
+
+/// How a series is drawn: colour, line width (px), dash pattern (`None` for a solid line) and
+/// radius (px) of its isolated points.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Stroke {
     pub(super) color: RGBColor,
     pub(super) width: u32,
-    pub(super) pattern: Option<(i32, i32)>,
+    pub(super) pattern: Option<Dash>,
     pub(super) dot_r: u32,
 }
 
 /// Draw the polylines `lines` and the points `dots` of one series with `stroke`. The lines
-/// are written with sub-pixel coordinates (see [`precise_path`]).
+/// are written with sub-pixel coordinates, a dashed one as one path with its dash pattern (see
+/// [`precise_path`]), so that the SVG states the style every curve is drawn in.
 pub(super) fn draw_pieces<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     lines: impl IntoIterator<Item = Polyline>,
@@ -91,19 +101,7 @@ pub(super) fn draw_pieces<DB: DrawingBackend>(
                 (x - f64::from(ox), y - f64::from(oy))
             })
             .collect();
-        match stroke.pattern {
-            None => precise_path(&area, &pts, stroke)?,
-            Some((on, off)) => {
-                // Each dash its own path, as plotters writes dashed lines.
-                let solid = Stroke {
-                    pattern: None,
-                    ..*stroke
-                };
-                for dash in dashes(&pts, f64::from(on), f64::from(off)) {
-                    precise_path(&area, &dash, &solid)?;
-                }
-            }
-        }
+        precise_path(&area, &pts, stroke)?;
     }
     chart
         .draw_series(
@@ -112,60 +110,6 @@ pub(super) fn draw_pieces<DB: DrawingBackend>(
         )
         .map_err(plot_err)?;
     Ok(())
-}
-
-/// The dashes of the polyline `pts` (pixels): pieces `on` px long every `on + off` px along
-/// it, the pattern running on across its vertices.
-fn dashes(pts: &[(f64, f64)], on: f64, off: f64) -> Vec<Polyline> {
-    let period = on + off;
-    if on <= 0.0 || off <= 0.0 || !period.is_finite() {
-        return vec![pts.to_vec()];
-    }
-    let mut out = Vec::new();
-    let mut dash: Polyline = Vec::new();
-    // Position within the pattern: 0..on drawn, on..period a gap.
-    let mut pos = 0.0f64;
-    for w in pts.windows(2) {
-        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
-        let len = (x1 - x0).hypot(y1 - y0);
-        if !len.is_finite() {
-            continue;
-        }
-        let at = |d: f64| {
-            let t = if len > 0.0 { d / len } else { 0.0 };
-            (x0 + t * (x1 - x0), y0 + t * (y1 - y0))
-        };
-        let mut d = 0.0;
-        while d < len {
-            if pos < on {
-                if dash.is_empty() {
-                    dash.push(at(d));
-                }
-                if on - pos <= len - d {
-                    d += on - pos;
-                    pos = on;
-                    dash.push(at(d));
-                    out.push(std::mem::take(&mut dash));
-                } else {
-                    pos += len - d;
-                    d = len;
-                }
-            } else if period - pos <= len - d {
-                d += period - pos;
-                pos = 0.0;
-            } else {
-                pos += len - d;
-                d = len;
-            }
-        }
-        if !dash.is_empty() {
-            dash.push((x1, y1));
-        }
-    }
-    if dash.len() > 1 {
-        out.push(dash);
-    }
-    out
 }
 
 /// Draw the polyline `pts` (pixels relative to `area`, sub-pixel) with `stroke`, dashed as
@@ -195,8 +139,8 @@ pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTransla
         .ok();
     }
     let c = stroke.color;
-    let dash = stroke.pattern.map_or(String::new(), |(on, off)| {
-        format!(" stroke-dasharray=\"{on} {off}\"")
+    let dash = stroke.pattern.map_or(String::new(), |d| {
+        format!(" stroke-dasharray=\"{}\"", dash_array(d))
     });
     let element = format!(
         "<polyline fill=\"none\" opacity=\"1\" stroke=\"#{:02X}{:02X}{:02X}\" stroke-width=\"{}\"{dash} points=\"{}\"/>",
@@ -209,6 +153,15 @@ pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTransla
     let style = TextStyle::from((super::font::FAMILY, 1.0).into_font());
     area.draw(&Text::new(precise::hold(element), (0, 0), style))
         .map_err(plot_err)
+}
+
+/// The SVG `stroke-dasharray` of `d`: two numbers when its second pair repeats the first.
+fn dash_array(d: Dash) -> String {
+    if d[..2] == d[2..] {
+        format!("{} {}", d[0], d[1])
+    } else {
+        format!("{} {} {} {}", d[0], d[1], d[2], d[3])
+    }
 }
 
 /// The runs of consecutive `Some` points of `points` (a `None` ends a run), in order.
@@ -293,18 +246,9 @@ mod tests {
     }
 
     #[test]
-    fn dashes_follow_the_pattern_across_vertices() {
-        let d = dashes(&[(0.0, 0.0), (15.0, 0.0), (15.0, 20.0)], 10.0, 6.0);
-        assert_eq!(
-            d,
-            vec![
-                vec![(0.0, 0.0), (10.0, 0.0)],
-                vec![(15.0, 1.0), (15.0, 11.0)],
-                vec![(15.0, 17.0), (15.0, 20.0)],
-            ]
-        );
-        let d = dashes(&[(0.0, 0.0), (5.0, 0.0), (5.0, 5.0)], 10.0, 6.0);
-        assert_eq!(d, vec![vec![(0.0, 0.0), (5.0, 0.0), (5.0, 5.0)]]);
+    fn dash_arrays_repeat_a_pair_once() {
+        assert_eq!(dash_array(even_dash(10, 6)), "10 6");
+        assert_eq!(dash_array([12, 4, 2, 4]), "12 4 2 4");
     }
 
     #[test]

@@ -12,9 +12,11 @@ use plotters::prelude::*;
 use super::axes::{self, linear_axis, nice_axis, Axis};
 use super::bode::DEFAULT_WIDTH_PX;
 use super::error::ReportError;
-use super::legend::{self, LegendEntry, LegendMetrics};
+use super::legend::{self, LegendEntry, LegendMetrics, Sample};
 use super::render::{self, header_height};
-use super::series::{draw_pieces, finite_extent, series_color, Pieces, Polyline, Stroke, PALETTE};
+use super::series::{
+    draw_pieces, even_dash, finite_extent, series_color, Dash, Pieces, Polyline, Stroke, PALETTE,
+};
 use super::stack;
 
 /// Height of the plotting area of one panel in the default (SVG) layout, in
@@ -24,18 +26,23 @@ pub const PANEL_PLOT_HEIGHT_PX: u32 = 200;
 /// Smallest plotting-area height of a panel accepted in a PNG, in pixels.
 const MIN_PLOT_HEIGHT_PX: i32 = 40;
 
-/// Line style of a trace.
+/// Line style of a trace. Within one figure each style other than solid should have one
+/// meaning, which the legend states (a labelled trace in it, or a note such as
+/// "dotted: p2, ω2").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LineStyle {
     /// Continuous line.
     #[default]
     Solid,
-    /// Dashes (10 px dash, 6 px gap at the default size), e.g. for a model
-    /// variant or a reference.
+    /// Dashes (10 px dash, 6 px gap at the default size).
     Dashed,
-    /// Dots (2 px every 6 px at the default size), e.g. for a secondary
-    /// reference.
+    /// Dots (2 px every 5 px at the default size).
     Dotted,
+    /// Dash and dot (12 px dash, 4 px gap, 2 px dot, 4 px gap at the default size).
+    DashDot,
+    /// No line: each point a filled circle (6 px radius at the default size), e.g. to mark a
+    /// chosen value on a curve; the legend shows the circle.
+    Markers,
 }
 
 /// One curve of a panel: time in seconds and values in the panel's unit.
@@ -470,18 +477,25 @@ impl render::Draw for Figure<'_> {
             for ((trace, pieces), &color) in
                 data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
             {
+                let stroke = styles.stroke(color, trace.style);
+                if trace.style == LineStyle::Markers {
+                    let points: Vec<(f64, f64)> = pieces
+                        .lines
+                        .iter()
+                        .flatten()
+                        .chain(&pieces.dots)
+                        .copied()
+                        .collect();
+                    draw_pieces(&mut chart, [], &points, &stroke)?;
+                    continue;
+                }
                 let rule = rule_time(trace).map(|t| vec![(t, yt.lo), (t, yt.hi)]);
                 let lines = pieces
                     .lines
                     .iter()
                     .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count))
                     .chain(rule);
-                draw_pieces(
-                    &mut chart,
-                    lines,
-                    &pieces.dots,
-                    &styles.stroke(color, trace.style),
-                )?;
+                draw_pieces(&mut chart, lines, &pieces.dots, &stroke)?;
             }
             if let Some((entries, label_w, layout)) = legend {
                 legend::draw_legend(
@@ -514,21 +528,26 @@ fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
 struct TraceStyles {
     line_w: u32,
     dot_r: u32,
-    /// (dash, gap) of [`LineStyle::Dashed`].
-    dash: (i32, i32),
-    /// (dot, gap) of [`LineStyle::Dotted`].
-    dot: (i32, i32),
+    /// Radius of the circles of [`LineStyle::Markers`].
+    marker_r: u32,
+    /// The patterns of [`LineStyle::Dashed`], [`LineStyle::Dotted`] and [`LineStyle::DashDot`].
+    dash: Dash,
+    dot: Dash,
+    dash_dot: Dash,
 }
 
 impl TraceStyles {
     /// The sizes at `scale`.
     fn new(scale: f64) -> Self {
         let (px, upx) = (render::px(scale), render::upx(scale));
+        let (long, short, gap) = (px(12.0).max(3), px(2.0).max(1), px(4.0).max(2));
         TraceStyles {
             line_w: upx(2.0),
             dot_r: upx(3.0),
-            dash: (px(10.0).max(2), px(6.0).max(2)),
-            dot: (px(2.0).max(1), px(6.0).max(2)),
+            marker_r: upx(6.0),
+            dash: even_dash(px(10.0).max(2), px(6.0).max(2)),
+            dot: even_dash(short, px(5.0).max(2)),
+            dash_dot: [long, gap, short, gap],
         }
     }
 
@@ -538,11 +557,16 @@ impl TraceStyles {
             color: series_color(color),
             width: self.line_w,
             pattern: match style {
-                LineStyle::Solid => None,
+                LineStyle::Solid | LineStyle::Markers => None,
                 LineStyle::Dashed => Some(self.dash),
                 LineStyle::Dotted => Some(self.dot),
+                LineStyle::DashDot => Some(self.dash_dot),
             },
-            dot_r: self.dot_r,
+            dot_r: if style == LineStyle::Markers {
+                self.marker_r
+            } else {
+                self.dot_r
+            },
         }
     }
 }
@@ -591,8 +615,13 @@ fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry
         .zip(&data.colors)
         .filter(|(t, _)| !t.label.is_empty())
         .map(|(t, &c)| {
-            let mut e = LegendEntry::of(&styles.stroke(c, t.style), &t.label);
-            e.sample = !t.t_s.is_empty();
+            let stroke = styles.stroke(c, t.style);
+            let mut e = LegendEntry::of(&stroke, &t.label);
+            e.sample = match (t.t_s.is_empty(), t.style) {
+                (true, _) => Sample::Note,
+                (false, LineStyle::Markers) => Sample::Dot(stroke.dot_r),
+                (false, _) => Sample::Line,
+            };
             e
         })
         .collect()
