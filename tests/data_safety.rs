@@ -228,13 +228,21 @@ fn special_files_are_written_into_never_replaced() {
     let fifo = d.join("pipe.csv");
     let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
     assert!(made.success());
-    let reader = {
-        let fifo = fifo.clone();
-        std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+    // the reading end is open before pumpcyl starts (a reader thread may not have reached its
+    // open yet, and a FIFO without a reader is refused); the CSV fits the pipe's buffer
+    let mut reader = {
+        use std::os::unix::fs::OpenOptionsExt;
+        std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(&fifo)
+            .unwrap()
     };
     let out = pumpcyl(d, &["bode", "--out", "pipe.csv"]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let text = reader.join().unwrap();
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut reader, &mut text).unwrap();
+    drop(reader);
     assert!(text.starts_with("freq_hz,mag_db,phase_deg\n"), "{text}");
     assert!(std::fs::symlink_metadata(&fifo)
         .unwrap()

@@ -75,15 +75,22 @@ fn summary_carries_the_article_numbers_and_recovers_the_truth() {
         assert!(stable("p10bar"), "{rig}");
     }
     assert!(
-        num(&s, "margins.p10bar.gain_margin_db") > num(&s, "margins.default_rig.gain_margin_db") + 3.0
+        num(&s, "margins.p10bar.gain_margin_db")
+            > num(&s, "margins.default_rig.gain_margin_db") + 3.0
     );
     assert!(
         num(&s, "margins.identified_rig.p10bar.gain_margin_db")
             > num(&s, "margins.identified_rig.nominal.gain_margin_db") + 3.0
     );
     // the Table 1 rig at the pressure of its β (4.4 bar) is the default rig itself
-    assert_eq!(s["margins"]["p_fit"]["gain_margin_db"], s["margins"]["default_rig"]["gain_margin_db"]);
-    assert!(s["margins"]["rig"].as_str().unwrap().starts_with("the article's Table 1 rig"));
+    assert_eq!(
+        s["margins"]["p_fit"]["gain_margin_db"],
+        s["margins"]["default_rig"]["gain_margin_db"]
+    );
+    assert!(s["margins"]["rig"]
+        .as_str()
+        .unwrap()
+        .starts_with("the article's Table 1 rig"));
     // the gas fraction follows from β at the mean pressure: X ≈ p/β
     let x = num(&s, "gas_fraction");
     let p = num(&s, "p_mean_bar");
@@ -636,7 +643,10 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
         let hits: Vec<usize> = (0..rules.len()).filter(|&k| (rules[k].0)(body)).collect();
         assert_eq!(hits.len(), 1, "one rule must decide the figure: {c}");
         let want = &rules[hits[0]].1;
-        assert!(c.starts_with(want.as_str()), "wrong article figure: want `{want}`, got: {c}");
+        assert!(
+            c.starts_with(want.as_str()),
+            "wrong article figure: want `{want}`, got: {c}"
+        );
         used[hits[0]] += 1;
     }
     for (k, n) in used.iter().enumerate() {
@@ -799,7 +809,10 @@ fn nothing_is_credited_to_the_article_that_it_does_not_say() {
         .collect();
     files.extend(["README.md", "python/src/lib.rs", "python/README.md"].map(|f| root.join(f)));
     for f in files {
-        texts.push((f.display().to_string(), std::fs::read_to_string(&f).unwrap()));
+        texts.push((
+            f.display().to_string(),
+            std::fs::read_to_string(&f).unwrap(),
+        ));
     }
     let mut banned = vec![
         "the article's targets".to_string(),
