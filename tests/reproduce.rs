@@ -318,7 +318,7 @@ fn the_report_opens_with_contents_linking_every_heading_and_figure() {
     );
     // figures are named by their caption's first words
     assert!(
-        nav.contains(">Article Figure 14. Bode diagram: Figure 14, cumulative damping study</a>"),
+        nav.contains(">Article Figure 14. Bode diagram: Figure 14, cumulative damping study, on the rig identified from the records</a>"),
         "{nav}"
     );
 }

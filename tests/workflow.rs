@@ -102,7 +102,7 @@ fn the_default_rig_margins_are_those_lti_computes() {
     let row = r
         .comparison
         .iter()
-        .find(|row| row.quantity == "GM, default rig (dB)")
+        .find(|row| row.quantity == "GM, the article's Table 1 rig (dB)")
         .unwrap();
     assert_eq!(row.article, "6.5");
     assert_eq!(row.pumpcyl, format!("{gm:.2}"));
@@ -422,6 +422,6 @@ fn a_variant_whose_step_diverges_is_named_in_the_legend_with_its_pole() {
             assert!(svg.contains(&note), "{stem} lacks the legend entry {note}");
         }
         // the one curve drawn is named by its case, not "x"
-        assert!(svg.contains(">\nidentified rig\n<"), "{stem}");
+        assert!(svg.contains(">\nas identified\n<"), "{stem}");
     }
 }

@@ -32,6 +32,9 @@ pub enum Block {
         svg: String,
         /// Caption below the figure.
         caption: String,
+        /// The figure's file name without extension (`bode_stroke`, `identification/fit-1`):
+        /// its id in the page.
+        name: String,
     },
 }
 
@@ -118,7 +121,7 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
                 header,
                 rows,
             } => table(&mut s, caption, header, rows),
-            Block::Figure { svg, caption } => {
+            Block::Figure { svg, caption, .. } => {
                 let _ = writeln!(
                     s,
                     "<figure>{}<figcaption>{}</figcaption></figure>",
@@ -136,8 +139,8 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
 }
 
 /// The id of every heading and figure of `blocks` (`None` for the other blocks): a heading's
-/// text, or a figure's [`figure_label`], as lower-case ASCII words joined by hyphens (at most
-/// eight words), prefixed `sec-` or `fig-`, and suffixed `-2`, `-3`, … where it would repeat
+/// text, or a figure's file name, as lower-case ASCII words joined by hyphens (at most eight
+/// words), prefixed `sec-` or `fig-`, and suffixed `-2`, `-3`, … where it would repeat
 /// an earlier one. The same blocks give the same ids.
 fn anchors(blocks: &[Block]) -> Vec<Option<String>> {
     let mut seen: Vec<String> = Vec::new();
@@ -146,7 +149,7 @@ fn anchors(blocks: &[Block]) -> Vec<Option<String>> {
         .map(|b| {
             let base = match b {
                 Block::Heading(h) => format!("sec-{}", slug(h)),
-                Block::Figure { caption, .. } => format!("fig-{}", slug(&figure_label(caption))),
+                Block::Figure { name, .. } => format!("fig-{}", slug(name)),
                 _ => return None,
             };
             let id = (1..)
@@ -390,6 +393,7 @@ mod tests {
                 Block::Figure {
                     svg: "<svg/>".into(),
                     caption: "\"fig\"".into(),
+                    name: "fig".into(),
                 },
             ],
         );
@@ -418,18 +422,22 @@ mod tests {
 
     #[test]
     fn contents_link_every_heading_and_figure_after_the_notice() {
-        let figure = |caption: &str| Block::Figure {
+        let figure = |caption: &str, name: &str| Block::Figure {
             svg: "<svg/>".into(),
             caption: caption.into(),
+            name: name.into(),
         };
         let blocks = [
             Block::Paragraph("before".into()),
             Block::Notice("EMULATED".into()),
             Block::Heading("1. Drive gain (the article §2.4.1)".into()),
-            figure("Article Figure 5 (number from the article's order). Drive 1 (Kp = 25): alone"),
+            figure(
+                "Article Figure 5 (with a remark). Drive 1 (Kp = 25): alone",
+                "drive_step",
+            ),
             Block::Heading("β".into()),
-            figure(LONG),
-            figure(LONG),
+            figure(LONG, "identification/fit-1"),
+            figure(LONG, "identification/fit-1"),
             Block::Heading("1. Drive gain (the article §2.4.1)".into()),
         ];
         let page = html_page("t", &blocks);
@@ -449,10 +457,10 @@ mod tests {
             ids,
             [
                 "sec-1-drive-gain-the-article-2-4-1",
-                "fig-article-figure-5-drive-1-alone",
+                "fig-drive-step",
                 "sec-x",
-                "fig-article-figure-14-bode-diagram-figure-14-cumulative",
-                "fig-article-figure-14-bode-diagram-figure-14-cumulative-2",
+                "fig-identification-fit-1",
+                "fig-identification-fit-1-2",
                 "sec-1-drive-gain-the-article-2-4-1-2",
             ]
         );
@@ -471,7 +479,7 @@ mod tests {
         assert!(nav.contains(">Article Figure 14. Bode diagram: Figure 14, cumulative damping study, with a long caption that goes on and on …</a>"), "{nav}");
         // the figures sit under their heading
         assert!(
-            nav.contains("§2.4.1)</a><ul><li><a href=\"#fig-article-figure-5"),
+            nav.contains("§2.4.1)</a><ul><li><a href=\"#fig-drive-step"),
             "{nav}"
         );
         // the same blocks give the same page; without a notice the contents come first

@@ -84,7 +84,8 @@ pub(super) fn identification(
                     ))
                 }
             };
-            run.inline(&svg, source, &caption);
+            let stem = Path::new("identification").join(name.trim_end_matches(".svg"));
+            run.inline(&svg, &stem.to_string_lossy(), source, &caption);
         }
         run.files
             .push((Path::new("identification").join(name), bytes));

@@ -330,7 +330,7 @@ impl Run<'_> {
     fn figure(&mut self, stem: &str, source: Source, caption: &str, chart: &Chart) -> Result<()> {
         let svg = chart.svg()?;
         let png = chart.png()?;
-        let caption = self.inline(&svg, source, caption);
+        let caption = self.inline(&svg, stem, source, caption);
         self.figures.push(Figure {
             stem: stem.to_string(),
             caption,
@@ -340,13 +340,14 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// Inline an SVG document in the report, its caption headed by the article figure it
-    /// answers; returns the caption.
-    fn inline(&mut self, svg: &str, source: Source, caption: &str) -> String {
+    /// Inline the SVG document of the figure file `name` (without extension) in the report,
+    /// its caption headed by the article figure it answers; returns the caption.
+    fn inline(&mut self, svg: &str, name: &str, source: Source, caption: &str) -> String {
         let caption = format!("{}{caption}", source.label());
         self.blocks.push(Block::Figure {
             svg: svg.to_string(),
             caption: caption.clone(),
+            name: name.to_string(),
         });
         caption
     }
