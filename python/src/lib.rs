@@ -1368,9 +1368,11 @@ fn select(
     Ok(out)
 }
 
-/// The design method of the article (Section 8) for `rig` (default: the article's): the
+/// The design method of the article (§2.2) for `rig` (default: the article's): the
 /// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
-/// tracking and a verdict; a dict as `pumpcyl design --json` prints. The defaults are the
+/// tracking (each wave's periodic steady state: its `window.steady_state` is true,
+/// docs/simulation.md#tracking-metrics) and a verdict; a dict as `pumpcyl design --json`
+/// prints. The defaults are the
 /// command line's and the article's: phase margin 34 deg, gain margin 6 dB, x0 ± 50 mm of
 /// stroke, β identified at 4.4 bar; no `p_mean_bar` (bar) or `mass_kg` (kg) checks the rig's
 /// β and mass only; `waves` are (freq_hz, amp_mm) pairs to track.
