@@ -347,8 +347,8 @@ pub fn track(
 /// under x_ref = `base.x_ref_mm` + `amp_mm` sin(2π f (t − `start_s`)), sampled at the uniform
 /// times `time_s` and held between samples (docs/simulation.md#tracking-metrics).
 ///
-/// The sampled loop x[k+1] = Φ x[k] + Γ u[k] under u[k] = Im(U e^{jωkh}) has the periodic
-/// solution x[k] = Im((e^{jωh} I − Φ)⁻¹ Γ U e^{jωkh}), exactly; the simulation starts from it
+/// The sampled loop x_{k+1} = Φ x_k + Γ u_k under u_k = Im(U e^{jωkh}) has the periodic
+/// solution x_k = Im((e^{jωh} I − Φ)⁻¹ Γ U e^{jωkh}), exactly; the simulation starts from it
 /// at `time_s[0]`. An unstable loop is an error, as in [`simulate`]; so are sample times that
 /// are not uniform and a sine at or above their Nyquist frequency.
 pub fn steady_sine(

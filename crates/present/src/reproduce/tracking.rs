@@ -75,7 +75,7 @@ fn measure(
     })
 }
 
-/// Step 8: the three sinusoids of the article (docs/simulation.md#tracking-metrics), emulated
+/// Step 7: the three sinusoids of the article (docs/simulation.md#tracking-metrics), emulated
 /// records against the model.
 pub(super) fn tracking(run: &mut Run, nominal: &Rig) -> Result<Vec<summary::Tracking>> {
     run.step("Sinusoidal tracking (docs/simulation.md#tracking-metrics)");
