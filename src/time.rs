@@ -69,7 +69,9 @@ pub struct TrackArgs {
         allow_negative_numbers = true
     )]
     amp_mm: Option<f64>,
-    /// Number of periods simulated; metrics skip the first.
+    /// Number of whole periods simulated, drawn and written (1 or more). The metrics are the
+    /// periodic steady state: the loop starts from its own periodic solution, so every period
+    /// is alike and no start-up transient enters them.
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     periods: f64,
     /// Sample rate (Hz).
@@ -252,15 +254,17 @@ pub fn track(args: &TrackArgs) -> Result<String> {
             args.amp_mm.unwrap_or_default(),
         )]
     };
+    anyhow::ensure!(
+        (1.0..=f64::from(u32::MAX)).contains(&args.periods) && args.periods.fract() == 0.0,
+        "--periods must be a whole number of periods, 1 or more (got {})",
+        args.periods
+    );
     for &(f, a) in &cases {
         anyhow::ensure!(f > 0.0 && f.is_finite(), "--freq-hz must be > 0 (got {f})");
         anyhow::ensure!(a > 0.0 && a.is_finite(), "--amp-mm must be > 0 (got {a})");
         check_timing(args.periods / f, "--periods / --freq-hz", args.rate_hz)?;
     }
-    anyhow::ensure!(
-        args.periods > 1.0,
-        "--periods must exceed 1 (metrics skip the first period)"
-    );
+    let periods = args.periods as u32; // whole and within u32, checked above
     let rig = args.rig.load()?;
     for &(_, a) in &cases {
         let what = format!("--amp-mm {a}");
@@ -272,9 +276,7 @@ pub fn track(args: &TrackArgs) -> Result<String> {
     };
     for &(f, a) in &cases {
         let case = run_variants(&args.rig, &rig, &args.opts.compare, |r| {
-            let s = response::sine(r, f, a, args.periods, args.rate_hz)?;
-            let m = response::track_metrics(&s.time_s, &s.e_mm, f, a);
-            Ok((s, m))
+            Ok(response::track(r, f, a, periods, args.rate_hz)?)
         })?;
         runs.done.extend(case.done);
         // a variant's closed loop is unstable or not whatever the sine

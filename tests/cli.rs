@@ -349,6 +349,80 @@ fn track_article_cases_give_three_rows() {
 }
 
 #[test]
+fn track_metrics_are_the_periodic_steady_state_whatever_the_periods() {
+    // docs/simulation.md#tracking-metrics: the loop starts from its own periodic solution, so
+    // ten periods and two give the same metrics, and no start-up transient is in them
+    let (f, a) = (0.25, 20.0);
+    let metrics = |periods: &str| {
+        let args = [
+            "track",
+            "--freq-hz",
+            "0.25",
+            "--amp-mm",
+            "20",
+            "--periods",
+            periods,
+        ];
+        json(&[&args[..], &["--json"]].concat())["cases"][0]["metrics"].clone()
+    };
+    let (two, ten) = (metrics("2"), metrics("10"));
+    let num = |m: &serde_json::Value, k: &str| m[k].as_f64().unwrap();
+    for key in ["max_error_mm", "rms_error_mm", "wave_reduction"] {
+        assert!(
+            (num(&two, key) - num(&ten, key)).abs() < 1e-9,
+            "{key}: {two} {ten}"
+        );
+    }
+    assert_eq!(ten["window"]["steady_state"], true);
+    assert_eq!(ten["window"]["periods"], serde_json::json!([1, 10]));
+    assert_eq!(num(&ten["window"], "to_s"), 40.0);
+    // the old measure, from rest and after the first period, is period 2 of the start-up
+    // transient: about 1 mm more on the article's rig at 0.25 Hz
+    use pumpcyl::response::{sample_times, simulate, Baseline};
+    let rig = pumpcyl::rig::Rig::default();
+    let base = Baseline::of_rig(&rig);
+    let t = sample_times(2.0 / f, 100.0).unwrap();
+    let r: Vec<f64> = t
+        .iter()
+        .map(|t| base.x_ref_mm + a * (2.0 * std::f64::consts::PI * f * t).sin())
+        .collect();
+    let rest = simulate(&rig, &t, &r, &base).unwrap();
+    let old = t
+        .iter()
+        .zip(&rest.e_mm)
+        .filter(|(t, _)| **t >= 1.0 / f)
+        .fold(0.0f64, |m, (_, e)| m.max(e.abs()));
+    let steady = num(&two, "max_error_mm");
+    assert!(old - steady > 0.5, "from rest {old} mm, steady {steady} mm");
+    // the text says what the metrics are; a part of a period is refused
+    let text = ok(&[
+        "track",
+        "--freq-hz",
+        "0.25",
+        "--amp-mm",
+        "20",
+        "--periods",
+        "1",
+    ]);
+    assert!(text.contains("periodic steady state"), "{text}");
+    for bad in ["2.5", "0", "-1"] {
+        let err = fails(&[
+            "track",
+            "--freq-hz",
+            "0.25",
+            "--amp-mm",
+            "20",
+            "--periods",
+            bad,
+        ]);
+        assert!(
+            err.contains("--periods must be a whole number of periods, 1 or more"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
 fn simulate_replays_a_record_and_rejects_bad_ones() {
     let dir = tempfile::tempdir().unwrap();
     // a record made by the model itself (Kp = 25 step at 0.5 s): replaying it gives MSE ≈ 0
@@ -858,7 +932,10 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         ),
         (
             vec!["track", "--article-cases"],
-            vec!["sinusoidal tracking (default rig), metrics after the first period".into()],
+            vec![
+                "sinusoidal tracking (default rig), metrics of the periodic steady state (every period alike)"
+                    .into(),
+            ],
         ),
         (
             vec!["simulate", "--data", &validation, "--fit-end-s", "3.7"],

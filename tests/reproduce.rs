@@ -145,6 +145,73 @@ fn summary_carries_the_article_numbers_and_recovers_the_truth() {
 }
 
 #[test]
+fn tracking_measures_the_records_after_the_start_up_transient_and_the_model_in_steady_state() {
+    // docs/simulation.md#tracking-metrics: each record over its whole periods that start once
+    // the identified loop's start-up transient has decayed below 1 %, the model in its
+    // periodic steady state on the same samples, and the caption and figures say which
+    use pumpcyl::response::{track, transient_decay_s};
+    let s = summary();
+    let rig = pumpcyl::rig::Rig {
+        beta_bar: num(&s, "identified.beta_bar"),
+        viscous_friction_ns_per_m: num(&s, "identified.viscous_friction_ns_per_m"),
+        c12_m5_per_ns: num(&s, "identified.c12_m5_per_ns"),
+        c1_m5_per_ns: num(&s, "leakage.c1_m5_per_ns"),
+        c2_m5_per_ns: num(&s, "leakage.c2_m5_per_ns"),
+        ..Default::default()
+    };
+    let decay = transient_decay_s(&rig).unwrap();
+    assert!((10.0..11.0).contains(&decay), "{decay} s");
+    let start = pumpcyl::emulator::article::SINE_START_S;
+    let html = std::fs::read_to_string(reproduced().0.join("report.html")).unwrap();
+    let stems = ["sine_0p10hz", "sine_0p20hz", "sine_0p25hz"];
+    let tracking = s["tracking"].as_array().unwrap();
+    for ((t, stem), periods) in tracking.iter().zip(stems).zip([[3, 4], [4, 6], [4, 7]]) {
+        let (f, a) = (num(t, "freq_hz"), num(t, "amp_mm"));
+        assert!((num(t, "transient_decay_s") - decay).abs() < 1e-9, "{t}");
+        let w = &t["emulated"]["window"];
+        assert_eq!(w["steady_state"], false, "{t}");
+        assert_eq!(w["periods"], serde_json::json!(periods), "{t}");
+        // whole periods, the first of them the first to start after the decay
+        let (from, to) = (num(w, "from_s"), num(w, "to_s"));
+        assert!(
+            (from - (start + f64::from(periods[0] - 1) / f)).abs() < 1e-9,
+            "{t}"
+        );
+        assert!(
+            (to - (start + f64::from(periods[1]) / f)).abs() < 1e-9,
+            "{t}"
+        );
+        assert!(
+            from >= start + decay && from - 1.0 / f < start + decay,
+            "{t}"
+        );
+        // the model: the same periods, steady, and the steady state of the core's `track`
+        assert_eq!(t["model"]["window"]["steady_state"], true, "{t}");
+        assert_eq!(t["model"]["window"]["periods"], w["periods"], "{t}");
+        let (_, steady) = track(&rig, f, a, 1, 100.0).unwrap();
+        let model = num(t, "model.max_error_mm");
+        assert!(
+            (model - steady.max_error_mm).abs() < 1e-9,
+            "{model} vs {}",
+            steady.max_error_mm
+        );
+        // said in summary.json, the table caption and the figure's subtitle
+        let over = t["measured_over"].as_str().unwrap();
+        assert_eq!(
+            over,
+            format!("periods {}–{}, t = {from}–{to} s", periods[0], periods[1])
+        );
+        assert!(html.contains(&format!("{f} Hz {over}")), "caption: {over}");
+        let svg =
+            std::fs::read_to_string(reproduced().0.join(format!("figures/{stem}.svg"))).unwrap();
+        assert!(
+            svg.contains(over) && svg.contains("(steady state)"),
+            "{stem}"
+        );
+    }
+}
+
+#[test]
 fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
     let (dir, stdout) = reproduced();
     // its first lines: where it went, and that the inputs are emulated

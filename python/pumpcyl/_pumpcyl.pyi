@@ -329,8 +329,11 @@ def design(
     confidence: float = 0.95,
 ) -> Dict[str, Any]:
     """The design method (the article §2.2): kp_max, kp_max_worst_case, worst_case,
-    conditions, tracking, verdict, reasons (as ``pumpcyl design --json``, whose defaults these
-    are: PM 34 deg and GM 6 dB as in the article, x0 +/- 50 mm, beta identified at 4.4 bar; no
+    conditions, tracking (each wave's periodic steady state: max_error_mm, rms_error_mm,
+    wave_reduction and ``window``, whose ``steady_state`` is True), verdict, reasons (as
+    ``pumpcyl design --json``, whose defaults these
+    are: PM 34 deg (the phase margin the article reaches at Kp 25, §3.3) and GM 6 dB (pumpcyl's
+    choice; docs/design.md#targets), x0 +/- 50 mm, beta identified at 4.4 bar; no
     ``p_mean_bar`` (bar) or ``mass_kg`` (kg): the rig's beta and mass only; ``waves``:
     (freq_hz, amp_mm) pairs to track). ``robust=True``:
     the robust design over the confidence region of ``experiment``'s records, or the stated

@@ -1370,9 +1370,12 @@ fn select(
 
 /// The design method of the article (§2.2) for `rig` (default: the article's): the
 /// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
-/// tracking and a verdict; a dict as `pumpcyl design --json` prints. The defaults are the
-/// command line's and the article's: phase margin 34 deg, gain margin 6 dB, x0 ± 50 mm of
-/// stroke, β identified at 4.4 bar; no `p_mean_bar` (bar) or `mass_kg` (kg) checks the rig's
+/// tracking (each wave's periodic steady state: its `window.steady_state` is true,
+/// docs/simulation.md#tracking-metrics) and a verdict; a dict as `pumpcyl design --json`
+/// prints. The defaults are the
+/// command line's (docs/design.md#targets): phase margin 34 deg (the article's result at Kp 25,
+/// §3.3), gain margin 6 dB (pumpcyl's choice), x0 ± 50 mm of stroke (the article checks it,
+/// §3.3), β identified at 4.4 bar; no `p_mean_bar` (bar) or `mass_kg` (kg) checks the rig's
 /// β and mass only; `waves` are (freq_hz, amp_mm) pairs to track.
 ///
 /// `robust=True` designs over the parameters' uncertainty (docs/design.md#robust-design), as

@@ -181,3 +181,54 @@ fn the_pumps_leave_the_dead_band_near_the_articles_fit_window_end() {
         "last in the dead band {last} s after the step"
     );
 }
+
+#[test]
+fn the_sine_records_hold_two_whole_periods_after_the_start_up_transient() {
+    // docs/simulation.md#tracking-metrics: a record is measured over its whole periods that
+    // start once the loop's start-up transient has decayed below 1 %; the embedded records are
+    // the emulator's output and long enough for two of them on the truth's loop
+    use pumpcyl::response::{transient_decay_s, TrackWindow};
+    let sines: Vec<_> = article::records()
+        .unwrap()
+        .into_iter()
+        .filter(|r| r.file.starts_with("sine_"))
+        .collect();
+    assert_eq!(sines.len(), 3);
+    for r in sines {
+        let Kind::Loop(Experiment::Sine {
+            freq_hz,
+            start_s,
+            duration_s,
+            ..
+        }) = r.kind
+        else {
+            panic!("{}: a sine", r.file)
+        };
+        assert_eq!(start_s, article::SINE_START_S);
+        let decay = transient_decay_s(&r.truth.rig).unwrap();
+        assert!((10.0..12.0).contains(&decay), "{}: {decay} s", r.file);
+        let w = TrackWindow::after_decay(start_s, freq_hz, decay, duration_s).unwrap();
+        assert!(w.periods[1] - w.periods[0] >= 1, "{}: {w:?}", r.file);
+        assert!(w.from_s >= start_s + decay, "{}: {w:?}", r.file);
+        // the embedded file is what the emulator makes of it, sample for sample (to the
+        // printed 1e-6: builds of other optimisation differ in the last digit)
+        let rec = Record::read(&data(r.file)).unwrap();
+        let article::Emulated::Loop(em) = r.run().unwrap() else {
+            panic!("{}: a loop record", r.file)
+        };
+        let embedded = Signals::of_record(&rec);
+        assert_eq!(
+            embedded.time_s.len(),
+            em.time_s.len(),
+            "{}: regenerate",
+            r.file
+        );
+        for ((name, a), (_, b)) in embedded.named().into_iter().zip(em.named()) {
+            let worst = a
+                .iter()
+                .zip(b)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(worst < 1e-5, "{} {name}: {worst} off; regenerate", r.file);
+        }
+    }
+}

@@ -11,7 +11,7 @@ use crate::format::{fmt_opt, shown_name};
 use crate::matlab::signals_mat;
 use crate::plot::{LineStyle, Panel};
 use pumpcyl::record::Record;
-use pumpcyl::response::{Signals, StepMetrics, TrackMetrics};
+use pumpcyl::response::{Signals, StepMetrics, TrackMetrics, TrackWindow};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -217,15 +217,19 @@ pub fn step_mat(title: &str, runs: &[Run<StepMetrics>]) -> Vec<u8> {
 }
 
 /// The tracking document (`track --json`): `rig`, `cases` (`label` and the core's
-/// [`TrackMetrics`] of every run) and `unstable`.
+/// [`TrackMetrics`] of every run, whose `window.steady_state` says they are the periodic
+/// steady state) and `unstable`.
 pub fn track_json(rig: &str, runs: &Runs<TrackMetrics>) -> Value {
     let v = json!({"rig": rig, "cases": labelled(&runs.done, "metrics")});
     with_unstable(v, &runs.unstable)
 }
 
-/// The tracking metrics as text: one row per run, then the unstable variants.
+/// The tracking metrics as text: one row per run, then the unstable variants. The metrics are
+/// the periodic steady state ([`pumpcyl::response::track`]), as the heading says.
 pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
-    let mut s = format!("sinusoidal tracking ({rig}), metrics after the first period\n");
+    let mut s = format!(
+        "sinusoidal tracking ({rig}), metrics of the periodic steady state (every period alike)\n"
+    );
     let _ = writeln!(
         s,
         "{:<22} {:>8} {:>8} {:>12} {:>12} {:>15}",
@@ -242,6 +246,17 @@ pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
         );
     }
     s + &unstable_lines(&runs.unstable)
+}
+
+/// The periods tracking metrics are measured over, in words: `periods 3–4, t = 21–41 s`
+/// (`period 3, t = 21–31 s` for one).
+pub fn window_text(w: &TrackWindow) -> String {
+    let t = |s: f64| (s * 1e3).round() / 1e3;
+    let periods = match w.periods {
+        [a, b] if a == b => format!("period {a}"),
+        [a, b] => format!("periods {a}–{b}"),
+    };
+    format!("{periods}, t = {}–{} s", t(w.from_s), t(w.to_s))
 }
 
 /// The tracking runs' signals, each labelled with its sine (`0.2 Hz ±35 mm nominal`).
@@ -301,7 +316,7 @@ pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
             .join(" / ")
     };
     let subtitle = format!(
-        "max|e| {} mm; wave reduction {}",
+        "periodic steady state: max|e| {} mm; wave reduction {}",
         list(|m| format!("{:.1}", m.max_error_mm)),
         list(|m| format!("{:.2}", m.wave_reduction))
     );

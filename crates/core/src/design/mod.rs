@@ -5,7 +5,7 @@
 use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
 use crate::lti::{margins, LtiError, Margins};
 use crate::model::Plant;
-use crate::response::{sine, track_metrics, TrackMetrics};
+use crate::response::{track, TrackMetrics};
 use crate::rig::{Rig, RigError};
 use serde::Serialize;
 
@@ -322,7 +322,8 @@ impl Targets {
 }
 
 /// The predicted tracking of each wave (frequency Hz, amplitude mm) by `rig` at its own gain:
-/// three periods at 100 Hz, metrics after the first (docs/simulation.md#tracking-metrics).
+/// one period of the periodic steady state at 100 Hz ([`track`]; every steady period is
+/// alike, docs/simulation.md#tracking-metrics).
 pub fn predicted_tracking(
     rig: &Rig,
     waves: &[(f64, f64)],
@@ -330,8 +331,7 @@ pub fn predicted_tracking(
     waves
         .iter()
         .map(|&(f, a)| -> Result<TrackMetrics, DesignError> {
-            let s = sine(rig, f, a, 3.0, TRACKING_RATE_HZ)?;
-            Ok(track_metrics(&s.time_s, &s.e_mm, f, a))
+            Ok(track(rig, f, a, 1, TRACKING_RATE_HZ)?.1)
         })
         .collect()
 }

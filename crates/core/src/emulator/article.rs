@@ -258,18 +258,32 @@ pub fn records() -> Result<Vec<ArticleRecord>, EmulatorError> {
     for (file, f, a, seed) in sines {
         out.push(ArticleRecord {
             file,
-            what: "sinusoidal tracking about 345 mm, Kp = 25, two periods after 1 s at rest (docs/simulation.md#tracking-metrics)",
+            what: "sinusoidal tracking about 345 mm, Kp = 25, after 1 s at rest: 20 s of wave for the start-up transient (below 1 % after about 11 s), then two more whole periods (docs/simulation.md#tracking-metrics)",
             kind: Kind::Loop(Experiment::Sine {
                 centre_mm: 345.0,
                 amplitude_mm: a,
                 freq_hz: f,
-                start_s: 1.0,
-                duration_s: 1.0 + 2.0 / f,
+                start_s: SINE_START_S,
+                duration_s: SINE_START_S + f64::from(sine_periods(f)) / f,
             }),
             truth: truth(heavy(25.0)?, seed),
         });
     }
     Ok(out)
+}
+
+/// When the wave starts in the sine records (s), after the rig rests at x0.
+pub const SINE_START_S: f64 = 1.0;
+/// How much of each sine record's wave is left to its start-up transient (s): the closed loop
+/// of the truth decays below 1 % in about 11 s (its slowest pair near −0.41 ± 4.0j rad/s), so
+/// an identification that finds a somewhat slower loop still has two whole periods after it.
+pub const SINE_SETTLE_S: f64 = 20.0;
+
+/// The whole periods of a sine record of `freq_hz`: those that fit in [`SINE_SETTLE_S`], at
+/// least, then two more to measure (docs/simulation.md#tracking-metrics).
+pub fn sine_periods(freq_hz: f64) -> u32 {
+    // less a hair, so a product such as 20 × 0.1 that rounds up does not count one more
+    (SINE_SETTLE_S * freq_hz - 1e-9).ceil() as u32 + 2
 }
 
 /// The README of the records folder: what is emulated, with which truth, and how to remake it.

@@ -83,7 +83,8 @@ fn settling_time(t: &[f64], v: &[f64], band: f64) -> Option<f64> {
     }
 }
 
-/// Sinusoidal tracking metrics (docs/simulation.md#tracking-metrics), measured after the first period.
+/// Sinusoidal tracking metrics (docs/simulation.md#tracking-metrics) over the [`TrackWindow`]
+/// they name.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TrackMetrics {
     /// Frequency (Hz).
@@ -96,25 +97,86 @@ pub struct TrackMetrics {
     pub rms_error_mm: f64,
     /// Wave reduction 1 − max|e|/amplitude.
     pub wave_reduction: f64,
+    /// What the metrics are measured over.
+    pub window: TrackWindow,
 }
 
-/// Metrics of the error `e` (mm) for a sine of `freq_hz` and `amp_mm`, skipping the first period.
-pub fn track_metrics(t: &[f64], e: &[f64], freq_hz: f64, amp_mm: f64) -> TrackMetrics {
-    let start = t[0] + 1.0 / freq_hz - 1e-9;
-    let tail: Vec<f64> = t
+/// The whole periods of a sinusoidal response its tracking metrics are measured over
+/// (docs/simulation.md#tracking-metrics).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrackWindow {
+    /// Whether the response is the model's periodic steady state (started from its own
+    /// periodic solution, so every period is alike), not one started from rest or a record.
+    pub steady_state: bool,
+    /// The first and last period measured, counted from 1 at the wave's start.
+    pub periods: [u32; 2],
+    /// Start of the window on the signals' time axis (s): the start of period `periods[0]`.
+    pub from_s: f64,
+    /// End of the window (s), excluded: the end of period `periods[1]`.
+    pub to_s: f64,
+}
+
+/// Slack (s) on a window's ends, for sample times written as decimal text.
+pub(super) const WINDOW_SLACK_S: f64 = 1e-9;
+
+impl TrackWindow {
+    /// Periods `first..=last` (from 1) of a wave of `freq_hz` that starts at `start_s`.
+    pub fn periods(start_s: f64, freq_hz: f64, first: u32, last: u32, steady_state: bool) -> Self {
+        TrackWindow {
+            steady_state,
+            periods: [first, last],
+            from_s: start_s + f64::from(first - 1) / freq_hz,
+            to_s: start_s + f64::from(last) / freq_hz,
+        }
+    }
+
+    /// Every whole period of a wave of `freq_hz` that starts at `start_s` and is recorded up to
+    /// `end_s` which begins once a start-up transient of `decay_s` (s, ≥ 0) has died out;
+    /// `None` when no whole period is left after it. Not the steady state: a record or a
+    /// response started from rest.
+    pub fn after_decay(start_s: f64, freq_hz: f64, decay_s: f64, end_s: f64) -> Option<Self> {
+        if !(decay_s >= 0.0 && freq_hz > 0.0) {
+            return None;
+        }
+        let count = |span_s: f64| span_s * freq_hz;
+        let first = count(decay_s).ceil() + 1.0;
+        let last = (count(end_s - start_s) + WINDOW_SLACK_S * freq_hz).floor();
+        let fits = first.is_finite() && last.is_finite() && last >= first;
+        (fits && last <= f64::from(u32::MAX))
+            .then(|| Self::periods(start_s, freq_hz, first as u32, last as u32, false))
+    }
+
+    /// Whether sample time `t` (s) lies in the window.
+    fn holds(&self, t: f64) -> bool {
+        t >= self.from_s - WINDOW_SLACK_S && t < self.to_s - WINDOW_SLACK_S
+    }
+}
+
+/// Metrics of the error `e` (mm) sampled at `t` (s) for a sine of `freq_hz` and `amp_mm`,
+/// over the samples in `window` (from its start, up to but not including its end, so each
+/// whole period counts its samples once).
+pub fn track_metrics(
+    t: &[f64],
+    e: &[f64],
+    freq_hz: f64,
+    amp_mm: f64,
+    window: TrackWindow,
+) -> TrackMetrics {
+    let inside: Vec<f64> = t
         .iter()
         .zip(e)
-        .filter(|(t, _)| **t >= start)
+        .filter(|(t, _)| window.holds(**t))
         .map(|(_, e)| *e)
         .collect();
-    let max = tail.iter().fold(0.0f64, |m, e| m.max(e.abs()));
-    let rms = (tail.iter().map(|e| e * e).sum::<f64>() / tail.len().max(1) as f64).sqrt();
+    let max = inside.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    let rms = (inside.iter().map(|e| e * e).sum::<f64>() / inside.len().max(1) as f64).sqrt();
     TrackMetrics {
         freq_hz,
         amp_mm,
         max_error_mm: max,
         rms_error_mm: rms,
         wave_reduction: 1.0 - max / amp_mm,
+        window,
     }
 }
 
@@ -189,24 +251,48 @@ mod tests {
     }
 
     #[test]
-    fn tracking_metrics_skip_the_first_period() {
+    fn tracking_metrics_count_only_the_window() {
         let f = 0.5;
         let t: Vec<f64> = (0..=600).map(|k| k as f64 * 0.01).collect();
-        // a large error in the first period only, then a 2 mm sine
+        // a large error in the first period and at the very end, a 2 mm sine between
         let e: Vec<f64> = t
             .iter()
             .map(|&t| {
-                if t < 2.0 {
+                if !(2.0..5.999).contains(&t) {
                     50.0
                 } else {
                     2.0 * (2.0 * PI * f * t).sin()
                 }
             })
             .collect();
-        let m = track_metrics(&t, &e, f, 20.0);
+        let w = TrackWindow::periods(0.0, f, 2, 3, false);
+        assert_eq!((w.from_s, w.to_s), (2.0, 6.0));
+        let m = track_metrics(&t, &e, f, 20.0, w);
         assert!((m.max_error_mm - 2.0).abs() < 1e-3, "{m:?}");
-        assert!((m.rms_error_mm - 2.0 / 2f64.sqrt()).abs() < 0.01);
+        // two whole periods of 200 samples each: the RMS of a sine, exactly
+        assert!((m.rms_error_mm - 2.0 / 2f64.sqrt()).abs() < 1e-12);
         assert!((m.wave_reduction - 0.9).abs() < 1e-4);
+        assert_eq!(m.window, w);
+    }
+
+    #[test]
+    fn the_periods_after_a_decay_are_whole_and_start_after_it() {
+        // the wave starts at 1 s; 0.1 Hz: periods start at 1, 11, 21, 31, 41 s
+        let w = TrackWindow::after_decay(1.0, 0.1, 11.2, 41.0).unwrap();
+        assert_eq!(w.periods, [3, 4]);
+        assert!((w.from_s - 21.0).abs() < 1e-12 && (w.to_s - 41.0).abs() < 1e-12);
+        assert!(!w.steady_state);
+        // a record ending a hair before a period's end (decimal clock) still holds it
+        let w = TrackWindow::after_decay(1.0, 0.1, 11.2, 41.0 - 1e-12).unwrap();
+        assert_eq!(w.periods, [3, 4]);
+        // a decay ending exactly at a period's start: that period is measured
+        let w = TrackWindow::after_decay(0.0, 0.25, 8.0, 17.0).unwrap();
+        assert_eq!(w.periods, [3, 4]);
+        // nothing whole left after the decay
+        assert_eq!(TrackWindow::after_decay(1.0, 0.1, 11.2, 30.0), None);
+        assert_eq!(TrackWindow::after_decay(1.0, 0.1, f64::NAN, 41.0), None);
+        assert_eq!(TrackWindow::after_decay(1.0, 0.1, -1.0, 41.0), None);
+        assert_eq!(TrackWindow::after_decay(1.0, 0.0, 11.2, 41.0), None);
     }
 
     use std::f64::consts::PI;

@@ -4,12 +4,17 @@
 
 mod metrics;
 
-pub use metrics::{position_mse_until, step_metrics, track_metrics, StepMetrics, TrackMetrics};
+pub use metrics::{
+    position_mse_until, step_metrics, track_metrics, StepMetrics, TrackMetrics, TrackWindow,
+};
 
-use crate::lti::{LtiError, Simulator};
+use crate::lti::{LtiError, Simulator, StateSpace, Zoh};
 use crate::model::{Plant, SIM_OUTPUTS};
 use crate::rig::Rig;
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
+use nalgebra::linalg::balancing::balance_parlett_reinsch;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
 use std::f64::consts::PI;
 
 /// Simulated (or measured) signals in user units, one value per sample.
@@ -69,6 +74,33 @@ impl Signals {
             let _ = writeln!(out, "{}", row.join(","));
         }
         out
+    }
+
+    /// The samples of the whole periods of `window`, both its ends included, as a figure
+    /// draws them (every signal that holds one value per sample; absent ones stay empty).
+    pub fn over(&self, window: &TrackWindow) -> Signals {
+        let span = window.from_s - metrics::WINDOW_SLACK_S..=window.to_s + metrics::WINDOW_SLACK_S;
+        let keep: Vec<usize> = (0..self.time_s.len())
+            .filter(|&k| span.contains(&self.time_s[k]))
+            .collect();
+        let n = self.time_s.len();
+        let pick = |v: &Vec<f64>| -> Vec<f64> {
+            if v.len() == n {
+                keep.iter().map(|&k| v[k]).collect()
+            } else {
+                Vec::new()
+            }
+        };
+        Signals {
+            time_s: pick(&self.time_s),
+            x_ref_mm: pick(&self.x_ref_mm),
+            x_mm: pick(&self.x_mm),
+            e_mm: pick(&self.e_mm),
+            p1_bar: pick(&self.p1_bar),
+            p2_bar: pick(&self.p2_bar),
+            w1_rpm: pick(&self.w1_rpm),
+            w2_rpm: pick(&self.w2_rpm),
+        }
     }
 
     /// The measured signals of a record (absent ones empty), with the control error
@@ -150,13 +182,33 @@ pub fn simulate(
     x_ref_mm: &[f64],
     base: &Baseline,
 ) -> Result<Signals, LtiError> {
+    let sys = stable_loop(rig)?;
+    let rest = vec![0.0; sys.order()];
+    run_from(&sys, time_s, x_ref_mm, base, &rest)
+}
+
+/// The closed loop of `rig` as simulated (sum-pressure loop as the rig says, outputs
+/// [`SIM_OUTPUTS`]), refused when unstable: its response would grow without bound.
+fn stable_loop(rig: &Rig) -> Result<StateSpace, LtiError> {
     let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
     crate::lti::require_stable(&sys.a)?;
+    Ok(sys)
+}
+
+/// Run the closed loop `sys` from the deviation state `x0` under the held reference
+/// `x_ref_mm` and report the signals in user units about `base`.
+fn run_from(
+    sys: &StateSpace,
+    time_s: &[f64],
+    x_ref_mm: &[f64],
+    base: &Baseline,
+    x0: &[f64],
+) -> Result<Signals, LtiError> {
     let u: Vec<f64> = x_ref_mm
         .iter()
         .map(|r| (r - base.x_ref_mm) * 1e-3)
         .collect();
-    let r = Simulator::new(&sys).run(time_s, &u, &vec![0.0; sys.order()])?;
+    let r = Simulator::new(sys).run(time_s, &u, x0)?;
     debug_assert_eq!(r.outputs(), SIM_OUTPUTS.len());
     let shifted = |i: usize, scale: f64, offset: f64| -> Vec<f64> {
         r.output(i).iter().map(|v| v * scale + offset).collect()
@@ -171,6 +223,18 @@ pub fn simulate(
         w2_rpm: shifted(4, 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
         e_mm: shifted(5, 1e3, base.x_ref_mm - base.x_mm),
     })
+}
+
+/// How long a start-up transient of the closed loop of `rig` as simulated (sum-pressure loop
+/// as the rig says) takes to decay below 1 % (s): ln(100)/|Re λ| of its slowest pole λ
+/// (docs/simulation.md#tracking-metrics). An unstable loop is an error, as in [`simulate`].
+pub fn transient_decay_s(rig: &Rig) -> Result<f64, LtiError> {
+    let sys = stable_loop(rig)?;
+    let slowest = crate::lti::eigenvalues(&sys.a)?
+        .iter()
+        .map(|p| p.re)
+        .fold(f64::NEG_INFINITY, f64::max);
+    Ok(100f64.ln() / -slowest)
 }
 
 /// Refuse a sinusoid of `freq_hz` sampled at `rate_hz` at or above the Nyquist frequency: the
@@ -235,35 +299,126 @@ pub fn step_metrics_of(rig: &Rig, s: &Signals, step_mm: f64) -> StepMetrics {
     step_metrics(&s.time_s, &y, step_mm, dc_mm)
 }
 
-/// Sinusoidal tracking: x_ref = x0 + A sin(2π f t) over `periods` periods (docs/simulation.md#tracking-metrics).
+/// Sinusoidal tracking in the periodic steady state (docs/simulation.md#tracking-metrics):
+/// x_ref = x0 + A sin(2π f t) over `periods` whole periods sampled at `rate_hz` and held
+/// between samples, the closed loop started from its own periodic solution
+/// ([`steady_sine`]), so every period is the steady one. The metrics are over all the
+/// simulated periods; a response started from rest would carry the start-up transient
+/// ([`transient_decay_s`]) into them.
+///
+/// The article's 0.2 Hz ±35 mm wave: one period or four, the same steady state.
 ///
 /// ```
 /// use pumpcyl::{response, rig::Rig};
 ///
-/// let rig = Rig::default().with_overrides(&["sum_pressure=false".to_string()])?;
-/// let s = response::sine(&rig, 0.2, 35.0, 3.0, 100.0)?;
-/// let m = response::track_metrics(&s.time_s, &s.e_mm, 0.2, 35.0);
-/// // a P position loop lags a 0.2 Hz, ±35 mm wave by millimetres, but reduces it
+/// let rig = Rig::default();
+/// let (s, m) = response::track(&rig, 0.2, 35.0, 1, 100.0)?;
+/// assert_eq!(s.time_s.len(), 501); // 5 s at 100 Hz, both ends
+/// assert!(m.window.steady_state && m.window.periods == [1, 1]);
+/// // a P position loop lags the wave by millimetres, but reduces it
 /// assert!(m.rms_error_mm < m.max_error_mm && m.max_error_mm < 35.0);
 /// assert!((m.wave_reduction - (1.0 - m.max_error_mm / 35.0)).abs() < 1e-12);
-/// assert!((0.55..0.7).contains(&m.wave_reduction), "wave reduction {}", m.wave_reduction);
+/// let (_, four) = response::track(&rig, 0.2, 35.0, 4, 100.0)?;
+/// assert!((four.max_error_mm - m.max_error_mm).abs() < 1e-9);
+/// assert!((four.rms_error_mm - m.rms_error_mm).abs() < 1e-9);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub fn sine(
+pub fn track(
     rig: &Rig,
     freq_hz: f64,
     amp_mm: f64,
-    periods: f64,
+    periods: u32,
     rate_hz: f64,
-) -> Result<Signals, LtiError> {
+) -> Result<(Signals, TrackMetrics), LtiError> {
+    if periods == 0 {
+        return Err(LtiError::Dimension(
+            "tracking needs at least one period".into(),
+        ));
+    }
     check_nyquist(freq_hz, rate_hz)?;
-    let base = Baseline::of_rig(rig);
-    let t = sample_times(periods / freq_hz, rate_hz)?;
-    let r: Vec<f64> = t
+    let t = sample_times(f64::from(periods) / freq_hz, rate_hz)?;
+    let s = steady_sine(rig, freq_hz, amp_mm, 0.0, &t, &Baseline::of_rig(rig))?;
+    let window = TrackWindow::periods(0.0, freq_hz, 1, periods, true);
+    let m = track_metrics(&s.time_s, &s.e_mm, freq_hz, amp_mm, window);
+    Ok((s, m))
+}
+
+/// The periodic steady state of the closed loop of `rig` (sum-pressure loop as the rig says)
+/// under x_ref = `base.x_ref_mm` + `amp_mm` sin(2π f (t − `start_s`)), sampled at the uniform
+/// times `time_s` and held between samples (docs/simulation.md#tracking-metrics).
+///
+/// The sampled loop x_{k+1} = Φ x_k + Γ u_k under u_k = Im(U e^{jωkh}) has the periodic
+/// solution x_k = Im((e^{jωh} I − Φ)⁻¹ Γ U e^{jωkh}), exactly; the simulation starts from it
+/// at `time_s[0]`. An unstable loop is an error, as in [`simulate`]; so are sample times that
+/// are not uniform and a sine at or above their Nyquist frequency.
+pub fn steady_sine(
+    rig: &Rig,
+    freq_hz: f64,
+    amp_mm: f64,
+    start_s: f64,
+    time_s: &[f64],
+    base: &Baseline,
+) -> Result<Signals, LtiError> {
+    let h = uniform_step(time_s)?;
+    check_nyquist(freq_hz, 1.0 / h)?;
+    let sys = stable_loop(rig)?;
+    let omega = 2.0 * PI * freq_hz;
+    let x_ref: Vec<f64> = time_s
         .iter()
-        .map(|t| base.x_ref_mm + amp_mm * (2.0 * PI * freq_hz * t).sin())
+        .map(|t| base.x_ref_mm + amp_mm * (omega * (t - start_s)).sin())
         .collect();
-    simulate(rig, &t, &r, &base)
+    let z = periodic_solution(&sys, omega, h)?;
+    let u = Complex64::from_polar(amp_mm * 1e-3, omega * (time_s[0] - start_s));
+    let x0: Vec<f64> = z.iter().map(|zi| (zi * u).im).collect();
+    run_from(&sys, time_s, &x_ref, base, &x0)
+}
+
+/// The step (s) of uniform sample times: every step within the simulator's 1e-9 relative of
+/// the first (sample clocks written as decimal text differ in their last bits).
+fn uniform_step(time_s: &[f64]) -> Result<f64, LtiError> {
+    let h = match time_s {
+        [a, b, ..] => b - a,
+        _ => {
+            return Err(LtiError::Dimension(
+                "a steady state needs at least two sample times".into(),
+            ))
+        }
+    };
+    let same = |w: &[f64]| ((w[1] - w[0]) - h).abs() <= 1e-9 * h;
+    if h > 0.0 && h.is_finite() && time_s.windows(2).all(same) {
+        return Ok(h);
+    }
+    Err(LtiError::Dimension(
+        "a steady state needs uniform, increasing sample times".into(),
+    ))
+}
+
+/// (e^{jωh} I − Φ)⁻¹ Γ of the loop `sys` sampled with zero-order hold over `h` (s): the state of
+/// the periodic solution, per unit of a complex input amplitude, at a sample where the input's
+/// phase is 0. Solved by a complex LU on Φ balanced (Parlett–Reinsch), as the frequency
+/// response is: (μI − D⁻¹ΦD) D⁻¹z = D⁻¹Γ.
+fn periodic_solution(sys: &StateSpace, omega: f64, h: f64) -> Result<Vec<Complex64>, LtiError> {
+    let zoh = Zoh::new(&sys.a, &sys.b, h)?;
+    let mut phi = zoh.phi;
+    let d = balance_parlett_reinsch(&mut phi);
+    let n = phi.nrows();
+    let mu = Complex64::from_polar(1.0, omega * h);
+    let lhs = DMatrix::from_fn(n, n, |i, j| {
+        let diagonal = if i == j { mu } else { Complex64::new(0.0, 0.0) };
+        diagonal - phi[(i, j)]
+    });
+    let rhs = DVector::from_fn(n, |i, _| Complex64::new(zoh.gamma[(i, 0)] / d[i], 0.0));
+    let z: Option<Vec<Complex64>> = lhs
+        .lu()
+        .solve(&rhs)
+        .map(|w| w.iter().zip(d.iter()).map(|(w, d)| w * d).collect());
+    match z {
+        Some(z) if z.iter().all(|v| v.re.is_finite() && v.im.is_finite()) => Ok(z),
+        _ => Err(LtiError::NonFiniteResult {
+            what: "the periodic steady state",
+            at: format!("{} Hz", omega / (2.0 * PI)),
+        }),
+    }
 }
 
 /// The three sinusoidal tracking cases of the article (docs/simulation.md#tracking-metrics): (frequency Hz, amplitude mm).

@@ -475,10 +475,16 @@ pub struct Tracking {
     pub freq_hz: f64,
     /// Amplitude (mm).
     pub amp_mm: f64,
-    /// On the emulated record.
+    /// On the emulated record, over its whole periods after the start-up transient
+    /// (`emulated.window`).
     pub emulated: TrackMetrics,
-    /// The LTI model.
+    /// The LTI model in its periodic steady state, on the same samples.
     pub model: TrackMetrics,
+    /// How long the identified loop's start-up transient takes to decay below 1 % (s): the
+    /// measured periods start after it.
+    pub transient_decay_s: f64,
+    /// The periods measured, in words (`periods 3–4, t = 21–41 s`).
+    pub measured_over: String,
     /// The article's, measured on the real rig (mm).
     pub article_measured_max_error_mm: f64,
     /// The article's wave reduction, measured on the real rig.
