@@ -420,8 +420,14 @@ fn a_variant_whose_step_diverges_is_named_in_the_legend_with_its_pole() {
         for case in unstable {
             let note = format!("{case}: unstable (pole +");
             assert!(svg.contains(&note), "{stem} lacks the legend entry {note}");
+            // and its curve is drawn, over the short window until it diverges
+            assert!(
+                svg.contains("diverging: drawn until |x − x0| &gt; 15 mm")
+                    || svg.contains("diverging: drawn until |x − x0| > 15 mm"),
+                "{stem}"
+            );
         }
-        // the one curve drawn is named by its case, not "x"
+        // the stable curve is named by its case, not "x"
         assert!(svg.contains(">\nas identified\n<"), "{stem}");
     }
 }

@@ -289,6 +289,41 @@ pub fn step(rig: &Rig, step_mm: f64, duration_s: f64, rate_hz: f64) -> Result<Si
     simulate(rig, &t, &r, &base)
 }
 
+/// The step of an unstable closed loop of `rig` (sum-pressure loop as the rig says), as
+/// [`step`] but without refusing it, cut at the first sample where the position has left its
+/// operating point by more than `bound_mm` (or at `duration_s`): enough to show how it
+/// diverges, never a response growing without bound. For a stable loop it is [`step`] over
+/// that window.
+pub fn diverging_step(
+    rig: &Rig,
+    step_mm: f64,
+    bound_mm: f64,
+    duration_s: f64,
+    rate_hz: f64,
+) -> Result<Signals, LtiError> {
+    let base = Baseline::of_rig(rig);
+    let t = sample_times(duration_s, rate_hz)?;
+    let r = vec![base.x_ref_mm + step_mm; t.len()];
+    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    let s = run_from(&sys, &t, &r, &base, &vec![0.0; sys.order()])?;
+    let end = s
+        .x_mm
+        .iter()
+        .position(|x| !((x - base.x_mm).abs() <= bound_mm))
+        .map_or(t.len(), |k| k + 1);
+    let cut = |v: &Vec<f64>| v[..end].to_vec();
+    Ok(Signals {
+        time_s: cut(&s.time_s),
+        x_ref_mm: cut(&s.x_ref_mm),
+        x_mm: cut(&s.x_mm),
+        p1_bar: cut(&s.p1_bar),
+        p2_bar: cut(&s.p2_bar),
+        w1_rpm: cut(&s.w1_rpm),
+        w2_rpm: cut(&s.w2_rpm),
+        e_mm: cut(&s.e_mm),
+    })
+}
+
 /// Metrics of a step response `s` of `rig` (from [`step`]) to a step of `step_mm`, the
 /// steady-state error taken from the DC solution of the closed loop (NaN when it has none).
 pub fn step_metrics_of(rig: &Rig, s: &Signals, step_mm: f64) -> StepMetrics {
@@ -427,6 +462,32 @@ pub const ARTICLE_SINE_CASES: [(f64, f64); 3] = [(0.1, 50.0), (0.2, 35.0), (0.25
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_diverging_step_stops_at_its_bound_and_a_stable_one_is_the_step() {
+        // the first-order motor loop of the article's rig is unstable as simulated
+        let rig = Rig {
+            motor_model: crate::rig::MotorModel::FirstOrder,
+            ..Rig::default()
+        };
+        assert!(step(&rig, 5.0, 6.0, 100.0).is_err());
+        let x0 = Baseline::of_rig(&rig).x_mm;
+        // it overshoots the 5 mm step past 6 mm within a second: cut there
+        let s = diverging_step(&rig, 5.0, 6.0, 6.0, 100.0).unwrap();
+        let n = s.x_mm.len();
+        assert!(n > 10 && n < 101, "{n} samples");
+        assert!((s.x_mm[n - 1] - x0).abs() > 6.0);
+        assert!(s.x_mm[..n - 1].iter().all(|x| (x - x0).abs() <= 6.0));
+        assert_eq!(s.time_s.len(), n);
+        assert_eq!(s.w2_rpm.len(), n);
+        // it grows slowly (a pole near +0.02 rad/s): over 6 s it stays within 15 mm, all drawn
+        let s = diverging_step(&rig, 5.0, 15.0, 6.0, 100.0).unwrap();
+        assert_eq!(s.x_mm.len(), 601);
+        // a stable loop: the same samples as the step
+        let ok = Rig::default();
+        let d = diverging_step(&ok, 5.0, 15.0, 6.0, 100.0).unwrap();
+        assert_eq!(d, step(&ok, 5.0, 6.0, 100.0).unwrap());
+    }
     use crate::lti::dc_output;
 
     #[test]

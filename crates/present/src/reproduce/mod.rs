@@ -48,7 +48,7 @@ use pumpcyl::emulator::article::{self, EMBEDDED};
 use pumpcyl::ident::Candidate;
 use pumpcyl::lti::{self, Margins};
 use pumpcyl::model::Plant;
-use pumpcyl::response::{self, Signals};
+use pumpcyl::response::{self, Signals, StepMetrics};
 use pumpcyl::rig::Rig;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -621,6 +621,49 @@ struct Study<'a> {
     step: Source,
 }
 
+/// How far a diverging step is drawn (mm from the operating point): far enough to show the
+/// growth, near enough that the stable variants stay readable beside it.
+const DIVERGING_BOUND_MM: f64 = 3.0 * STEP_MM;
+
+/// The 5 mm step of one variant `rig` with the sum-pressure loop closed, which the margins open
+/// (docs/analysis.md#the-loop-that-is-analysed): its legend label, the signals to draw (about
+/// x0 where `position` asks) and its metrics. A step that diverges has no metrics; it is drawn
+/// until it leaves the operating point by [`DIVERGING_BOUND_MM`], its label naming its pole.
+fn variant_step(
+    label: &str,
+    rig: &Rig,
+    position: Position,
+) -> Result<(String, Signals, Option<StepMetrics>)> {
+    let (duration_s, rate_hz) = (6.0, 100.0);
+    let (name, s, metrics) = match response::step(rig, STEP_MM, duration_s, rate_hz) {
+        Ok(s) => {
+            let metrics = response::step_metrics_of(rig, &s, STEP_MM);
+            (label.to_string(), s, Some(metrics))
+        }
+        Err(lti::LtiError::Unstable {
+            real_per_s,
+            imag_rad_per_s,
+            ..
+        }) => {
+            let s =
+                response::diverging_step(rig, STEP_MM, DIVERGING_BOUND_MM, duration_s, rate_hz)?;
+            let name = format!(
+                "{label}: unstable (pole {real_per_s:+.3} ±{imag_rad_per_s:.3}j rad/s), diverging: drawn until |x − x0| > {DIVERGING_BOUND_MM} mm"
+            );
+            (name, s, None)
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let s = match position {
+        Position::AboutX0 => {
+            let x0 = response::Baseline::of_rig(rig).x_ref_mm;
+            crate::figures::about_operating_point(&s, x0)
+        }
+        Position::Absolute => s,
+    };
+    Ok((name, s, metrics))
+}
+
 /// Margins table, Bode overlay and step overlay of rig variants; their margins and steps.
 fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<summary::Case>> {
     let Study {
@@ -635,39 +678,14 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
     let mut markers = Vec::new();
     let mut rows = Vec::new();
     let mut steps = Vec::new();
-    let mut unstable = Vec::new();
     let mut out = Vec::new();
     for (label, rig) in rigs {
         let m = margins_of(rig)?;
         rows.push(margins_row(label, rig, &m));
         series.push(bode_series(rig, label, &freqs)?);
         markers.push(Some(bode_markers(&m)));
-        // the step runs with the sum-pressure loop closed, which the margins open (docs/analysis.md#the-loop-that-is-analysed)
-        let step = match response::step(rig, STEP_MM, 6.0, 100.0) {
-            Ok(s) => {
-                let metrics = response::step_metrics_of(rig, &s, STEP_MM);
-                let s = match position {
-                    Position::AboutX0 => {
-                        let x0 = response::Baseline::of_rig(rig).x_ref_mm;
-                        crate::figures::about_operating_point(&s, x0)
-                    }
-                    Position::Absolute => s,
-                };
-                steps.push((label.clone(), s));
-                Some(metrics)
-            }
-            Err(lti::LtiError::Unstable {
-                real_per_s,
-                imag_rad_per_s,
-                ..
-            }) => {
-                unstable.push(format!(
-                    "{label}: unstable (pole {real_per_s:+.3} ±{imag_rad_per_s:.3}j rad/s), not drawn"
-                ));
-                None
-            }
-            Err(e) => return Err(e.into()),
-        };
+        let (name, signals, step) = variant_step(label, rig, position)?;
+        steps.push((name, signals));
         out.push(summary::Case {
             case: label.clone(),
             step_closed_loop_stable: step.is_some(),
@@ -693,24 +711,8 @@ fn variants(run: &mut Run, study: &Study, rigs: &[(String, Rig)]) -> Result<Vec<
     };
     let title = format!("Model step {steps_from}: {what} (sum-pressure loop closed)");
     let mut chart = Chart::signals(&title, None, &refs, None, None);
-    if let ([(label, _)], false) = (&refs[..], unstable.is_empty()) {
-        // one curve beside variants that are not drawn: it is named as they are
-        chart = chart.relabel("x", label);
-    }
-    if let crate::figures::Plot::Time(panels) = &mut chart.plot {
-        if position == Position::AboutX0 {
-            panels[0].y_label = "Position about x0, x − x0 (mm)".into();
-        }
-        // each variant whose step diverges is named in the legend with its pole
-        for note in &unstable {
-            panels[0].traces.push(crate::figures::trace(
-                note,
-                &[],
-                &[],
-                crate::plot::LineStyle::Solid,
-                None,
-            ));
-        }
+    if let (crate::figures::Plot::Time(panels), Position::AboutX0) = (&mut chart.plot, position) {
+        panels[0].y_label = "Position about x0, x − x0 (mm)".into();
     }
     run.figure(
         &format!("step_{stem}"),
