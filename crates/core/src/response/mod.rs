@@ -309,7 +309,7 @@ pub fn diverging_step(
     let end = s
         .x_mm
         .iter()
-        .position(|x| !((x - base.x_mm).abs() <= bound_mm))
+        .position(|x| (x - base.x_mm).abs() > bound_mm || x.is_nan())
         .map_or(t.len(), |k| k + 1);
     let cut = |v: &Vec<f64>| v[..end].to_vec();
     Ok(Signals {
