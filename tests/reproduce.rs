@@ -668,7 +668,8 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
     const OWN: &str = "pumpcyl's own study, not in the article.";
     let extends = |n: u8| format!("pumpcyl's own, extending Article Figure {n}.");
     let article = |n: u8| format!("Article Figure {n}.");
-    let rules: Vec<(&dyn Fn(&str) -> bool, String)> = vec![
+    type Rule<'a> = (&'a dyn Fn(&str) -> bool, String);
+    let rules: Vec<Rule> = vec![
         // Figure 5: step response of the electrical drive
         (&|c| c.contains("Drive 1 alone"), article(5)),
         // Figures 6, 7, 8: the Kp = 25 step, its pressures and its motor velocities
