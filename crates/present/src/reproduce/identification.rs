@@ -43,7 +43,7 @@ pub(super) fn drive_step(run: &mut Run) -> Result<(summary::Drive, f64)> {
     ))
 }
 
-/// Steps 2 and 3: leakage from standstill, the two-stage grid and Nelder–Mead (the article §2.4; docs/identification.md).
+/// Step 2: leakage from standstill, the two-stage grid and Nelder–Mead (the article §2.4; docs/identification.md).
 pub(super) fn identification(
     run: &mut Run,
     truth: &article::Truth,
@@ -279,7 +279,7 @@ pub(super) fn identification(
     Ok((exp, nominal, identified, best.cost_mm2))
 }
 
-/// Step 4: the robustness record (m = 4898 kg, Kp = 40): a β × c12 grid at the identified b.
+/// Step 3: the robustness record (m = 4898 kg, Kp = 40): a β × c12 grid at the identified b.
 pub(super) fn robustness(
     run: &mut Run,
     exp: &Experiment,

@@ -17,7 +17,7 @@ use pumpcyl::rig::Rig;
 /// Where the Figure 14 resonance is looked for (Hz): the hydraulic–mechanical mode.
 const RESONANCE_BAND_HZ: (f64, f64) = (0.1, 10.0);
 
-/// Step 6: the damping studies. The article's Figure 14 is cumulative: the original; c12, c1
+/// Step 5: the damping studies. The article's Figure 14 is cumulative: the original; c12, c1
 /// and c2 all divided by 10; then also the motor coupling removed. Its Figure 11 removes the
 /// drive velocity feedforward; the first-order motor is pumpcyl's own study.
 pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Damping> {
@@ -178,7 +178,7 @@ fn feedforward_rows(
     })
 }
 
-/// Step 7: margins over the stroke, mass and volumes following it (the article §3.3; docs/model.md#variants).
+/// Step 6: margins over the stroke, mass and volumes following it (the article §3.3; docs/model.md#variants).
 pub(super) fn stroke_study(run: &mut Run, nominal: &Rig) -> Result<summary::Stroke> {
     run.step("Stroke: margins at -50, 0 and +50 mm (the article §3.3)");
     let at = |dx: f64| -> Result<(String, Rig)> {

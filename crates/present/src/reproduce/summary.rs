@@ -21,15 +21,15 @@ pub struct Summary {
     pub drive: Drive,
     /// Step 2: the leakages from the standstill record.
     pub leakage: Leakage,
-    /// Steps 2 and 3: the identification.
+    /// Step 2: the identification.
     pub identified: Identified,
     /// The emulated records' operating conditions beside the article's.
     pub record_conditions: Conditions,
     /// The identification step's rise time (the article's Figure 6).
     pub rise_time: RiseTime,
-    /// Step 4: the robustness record.
+    /// Step 3: the robustness record.
     pub robustness: Robustness,
-    /// Step 5: the margins against the mean chamber pressure.
+    /// Step 4: the margins against the mean chamber pressure.
     pub margins: MarginsStudy,
     /// Gas fraction from the identified β at the records' mean pressure.
     pub gas_fraction: f64,
@@ -41,13 +41,13 @@ pub struct Summary {
     pub intro_example: IntroExample,
     /// The identification records' mean chamber pressure (bar).
     pub p_mean_bar: f64,
-    /// Step 6: the damping studies.
+    /// Step 5: the damping studies.
     pub damping: Damping,
-    /// Step 7: the stroke study.
+    /// Step 6: the stroke study.
     pub stroke: Stroke,
-    /// Step 8: the sinusoidal tracking, one entry a wave.
+    /// Step 7: the sinusoidal tracking, one entry a wave.
     pub tracking: Vec<Tracking>,
-    /// The design check (the article §2.2).
+    /// Step 8: the design check (the article §2.2).
     pub design: DesignCheck,
     /// Step 9: how sure the identification is.
     pub how_sure: HowSure,
