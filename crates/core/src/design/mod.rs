@@ -233,7 +233,7 @@ fn slack(m: &Margins, t: &Targets) -> f64 {
 /// The search keeps a bracket in ln Kp — the lower end meets the targets, the upper end does
 /// not — and closes it with the ITP method (Oliveira & Takahashi, ACM TOMS 47(1), 2020):
 /// a regula-falsi step on the slack of the margins, truncated and projected so that it never
-/// takes more than [`KP_SEARCH_SPARE`] steps beyond bisection's count. The gain margin is
+/// takes more than four steps beyond bisection's count. The gain margin is
 /// linear in ln Kp and the phase margin smooth, so where one of them decides it usually needs
 /// 10 to 15 margin analyses where bisection needs 47; where
 /// the headline margin jumps (a new gain crossing) or stability is lost it bisects. The answer
