@@ -205,15 +205,25 @@ impl Grid {
         );
         seeds.sort_by(f64::total_cmp);
         seeds.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * *b);
+        let seeded = ev.at_many(&seeds).into_iter().zip(&seeds).map(|(g, &w)| {
+            if finite(g) {
+                (w, g)
+            } else {
+                off_pole(ev, w)
+            }
+        });
         let mut omega = Vec::with_capacity(seeds.len() * 2);
         let mut values = Vec::with_capacity(seeds.len() * 2);
-        let mut prev = off_pole(ev, seeds[0]);
-        omega.push(prev.0);
-        values.push(prev.1);
-        for &w in &seeds[1..] {
-            let next = off_pole(ev, w);
-            refine(ev, prev, next, 0, &mut omega, &mut values);
-            prev = next;
+        let mut prev = None;
+        for next in seeded {
+            match prev {
+                None => {
+                    omega.push(next.0);
+                    values.push(next.1);
+                }
+                Some(p) => refine(ev, p, next, 0, &mut omega, &mut values),
+            }
+            prev = Some(next);
         }
         let (omega, values) = with_hidden_extrema(ev, omega, values);
         let phase_deg = unwrap_anchored(ev, &values, omega[0], integrators);
@@ -443,12 +453,16 @@ fn pole_points(poles: &[Complex64]) -> Vec<f64> {
 /// ω itself, or just above it (by 1e-9 relative, a few times at most) where ω falls on an
 /// undamped pole and |L(jω)| is infinite, with L(jω) there (each point evaluated once).
 fn off_pole(ev: &FreqEvaluator, omega: f64) -> (f64, Complex64) {
-    let finite = |g: &Complex64| g.re.is_finite() && g.im.is_finite();
     (0..4)
         .map(|k| omega * (1.0 + 1e-9 * k as f64))
         .map(|w| (w, ev.at(w)))
-        .find(|(_, g)| finite(g))
+        .find(|(_, g)| finite(*g))
         .unwrap_or_else(|| (omega, ev.at(omega)))
+}
+
+/// Whether both parts of a value are finite.
+fn finite(g: Complex64) -> bool {
+    g.re.is_finite() && g.im.is_finite()
 }
 
 /// Root of `f(ln ω)` between ω0 and ω1 (rad/s), returned as ω.
