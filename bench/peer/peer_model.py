@@ -29,7 +29,10 @@ KM = 0.026
 KFF = 0.0016
 TAU_FF = 0.0012
 K_SCALE = 314.1593
-K_PRES = 22.0 / 1e5  # normalised command per Pa (the article's 22, read per bar)
+# normalised command per Pa: pumpcyl's reading of the article's "22" as percent of full command
+# per bar, 0.22 per bar (docs/choices.md, "The sum-pressure gain"), the default rig's
+# k_pres_per_bar, so that both sides of the benchmark simulate the same closed loop
+K_PRES = 0.22 / 1e5
 K_BETA = 1.4
 ALPHA = (DISP1 / DISP2) * (A1 / A2 - 1.0)
 
@@ -52,41 +55,46 @@ def chamber_leakages(c12, w1_rpm=-160.0, w2_rpm=245.0, p1_bar=3.95):
 
 
 def plant(beta_bar, b, c12, mass, c1, c2):
-    """Plant A (10x10) and B (10x2, inputs w_ref1, w_ref2 in rad/s)."""
+    """Plant A (..., 10, 10) and B (..., 10, 2; inputs w_ref1, w_ref2 in rad/s).
+
+    The parameters may be numpy arrays of one shape (a batch of candidates, as peer_numpy.py
+    uses): A and B then carry that shape in front. Scalars give one 10x10 A and 10x2 B.
+    """
+    shape = np.broadcast(beta_bar, b, c12, mass, c1, c2).shape
     beta = beta_bar * PA_PER_BAR
-    a = np.zeros((N, N))
-    bm = np.zeros((N, 2))
+    a = np.zeros(shape + (N, N))
+    bm = np.zeros(shape + (N, 2))
     # Newton
-    a[X, V] = 1.0
-    a[V, P1] = A1 / mass
-    a[V, P2] = -A2 / mass
-    a[V, V] = -b / mass
+    a[..., X, V] = 1.0
+    a[..., V, P1] = A1 / mass
+    a[..., V, P2] = -A2 / mass
+    a[..., V, V] = -b / mass
     # continuity
     k1 = beta / V1
-    a[P1, W1] = k1 * DISP1
-    a[P1, W2] = k1 * DISP2
-    a[P1, V] = -k1 * A1
-    a[P1, P1] = -k1 * (c1 + c12)
-    a[P1, P2] = k1 * c12
+    a[..., P1, W1] = k1 * DISP1
+    a[..., P1, W2] = k1 * DISP2
+    a[..., P1, V] = -k1 * A1
+    a[..., P1, P1] = -k1 * (c1 + c12)
+    a[..., P1, P2] = k1 * c12
     k2 = beta / V2
-    a[P2, W1] = -k2 * DISP1
-    a[P2, V] = k2 * A2
-    a[P2, P2] = -k2 * (c2 + c12)
-    a[P2, P1] = k2 * c12
+    a[..., P2, W1] = -k2 * DISP1
+    a[..., P2, V] = k2 * A2
+    a[..., P2, P2] = -k2 * (c2 + c12)
+    a[..., P2, P1] = k2 * c12
     # motors: J w' = tau - load; current loop; P velocity loop + filtered feedforward torque
     kf = KFF / TAU_FF
     for i, (w, t, z, j) in enumerate(((W1, T1, Z1, J1), (W2, T2, Z2, J2))):
-        a[w, t] = 1.0 / j
-        a[t, t] = -OMEGA_I
-        a[t, w] = -OMEGA_I * KM
-        a[t, z] = -OMEGA_I * kf
-        bm[t, i] = OMEGA_I * KM + OMEGA_I * kf
-        a[z, z] = -1.0 / TAU_FF
-        bm[z, i] = 1.0 / TAU_FF
+        a[..., w, t] = 1.0 / j
+        a[..., t, t] = -OMEGA_I
+        a[..., t, w] = -OMEGA_I * KM
+        a[..., t, z] = -OMEGA_I * kf
+        bm[..., t, i] = OMEGA_I * KM + OMEGA_I * kf
+        a[..., z, z] = -1.0 / TAU_FF
+        bm[..., z, i] = 1.0 / TAU_FF
     # load torques: J1 w1' = tau1 - D1 (p1 - p2), J2 w2' = tau2 - D2 p1
-    a[W1, P1] = -DISP1 / J1
-    a[W1, P2] = DISP1 / J1
-    a[W2, P1] = -DISP2 / J2
+    a[..., W1, P1] = -DISP1 / J1
+    a[..., W1, P2] = DISP1 / J1
+    a[..., W2, P1] = -DISP2 / J2
     return a, bm
 
 

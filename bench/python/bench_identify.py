@@ -2,7 +2,7 @@
 """Benchmark: `pumpcyl.identify` on the article's grids against the same candidates simulated
 with python-control in a Python loop (one run each; not a timed test).
 
-Both sides fit the article's identification (article Section 6.3) on the records in
+Both sides fit the article's identification (the article §2.4.4) on the records in
 data/article/ (identify.toml: identification.csv with Kp = 25, validation.csv with Kp = 20,
 c1 and c2 from standstill.csv, the sum-pressure gain of its [set]): 3264 + 3553 = 6817
 candidates (beta, b, c12), cost = mean over both records of the position MSE (mm^2) over the fit

@@ -1,4 +1,4 @@
-//! Emulating the article's 4 s identification step on the nonlinear rig (issue 5: < 1 s).
+//! Emulating the article's 4 s identification step on the nonlinear rig (target: < 1 s).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use pumpcyl::emulator::article;

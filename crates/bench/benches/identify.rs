@@ -1,4 +1,4 @@
-//! Criterion benchmark of the identification grid search (issue target: the article's two grids,
+//! Criterion benchmark of the identification grid search (target: the article's two grids,
 //! 6817 candidates × 2 records of 3.2 s at 100 Hz, under 0.1 s wall on 2 cores). Uses the
 //! records of bench/peer (model-generated, see bench/peer/README.md).
 

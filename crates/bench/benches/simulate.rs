@@ -1,4 +1,4 @@
-//! Criterion benchmark of the exact ZOH simulation on the default rig (issue targets:
+//! Criterion benchmark of the exact ZOH simulation on the default rig (targets:
 //! discretisation < 20 µs, a 3.2 s / 100 Hz (320-step) simulation < 10 µs).
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -172,8 +172,8 @@ fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
     Ok(margins(&Plant::new(&r).open_loop(false))?)
 }
 
-/// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by bisection on log Kp (the
-/// margins fall as the gain rises); 0 if even a tiny gain fails.
+/// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by a bracketing search on log Kp
+/// (the margins fall as the gain rises); 0 if even a tiny gain fails.
 ///
 /// For the article's rig and pumpcyl's default targets (PM 34°, GM 6 dB; [`Targets::default`]) the
 /// largest gain is the article's
@@ -210,26 +210,109 @@ pub const KP_CEILING: f64 = 1e4;
 /// Smallest Kp searched (1/m): a rig failing the targets here gets Kp max = 0.
 pub const KP_FLOOR: f64 = 1e-3;
 
+/// Half-width (in ln Kp) to which the gain search closes its bracket: Kp max to 2e-13
+/// relative, finer than the margins themselves resolve a change of gain (their crossings are
+/// refined to 1e-12 in ln ω).
+const KP_SEARCH_TOL: f64 = 1e-13;
+/// Steps the interpolation of the gain search may spend beyond bisection's count (ITP's n₀).
+const KP_SEARCH_SPARE: u32 = 4;
+/// Steps of the gain search after its two ends, at most: ⌈log₂(ln(10⁴/10⁻³) / 2·1e-13)⌉ = 47
+/// bisections, plus [`KP_SEARCH_SPARE`].
+const KP_SEARCH_STEPS: u32 = 47 + KP_SEARCH_SPARE;
+
+/// How far margins are above the targets: the least of PM − target (deg) and GM − target (dB),
+/// +∞ for infinite margins, and below 0 when the closed loop is not stable, so that
+/// `slack(m, t) >= 0` exactly when [`meets`]`(m, t)`.
+fn slack(m: &Margins, t: &Targets) -> f64 {
+    let pm = m.phase_margin_deg.map_or(f64::INFINITY, |pm| pm - t.pm_deg);
+    let gm = m.gain_margin_db.map_or(f64::INFINITY, |gm| gm - t.gm_db);
+    let s = pm.min(gm);
+    if m.closed_loop_stable {
+        s
+    } else {
+        s.min(-1.0)
+    }
+}
+
 /// [`kp_max`] with the search capped at `ceiling` (1/m): the largest Kp in (0, `ceiling`]
 /// meeting the targets for `rig`, `ceiling` itself when it meets them.
+///
+/// The search keeps a bracket in ln Kp — the lower end meets the targets, the upper end does
+/// not — and closes it with the ITP method (Oliveira & Takahashi, ACM TOMS 47(1), 2020):
+/// a regula-falsi step on the slack of the margins, truncated and projected so that it never
+/// takes more than four steps beyond bisection's count. The gain margin is
+/// linear in ln Kp and the phase margin smooth, so where one of them decides it usually needs
+/// 10 to 15 margin analyses where bisection needs 47; where
+/// the headline margin jumps (a new gain crossing) or stability is lost it bisects. The answer
+/// is the same gain to 2e-13.
 pub fn kp_max_below(rig: &Rig, t: &Targets, ceiling: f64) -> Result<f64, DesignError> {
-    let ok = |kp: f64| -> Result<bool, DesignError> { Ok(meets(&margins_at(rig, kp)?, t)) };
-    let (mut lo, mut hi) = (KP_FLOOR, ceiling.max(KP_FLOOR));
-    if !ok(lo)? {
+    let slack_at = |kp: f64| -> Result<f64, DesignError> { Ok(slack(&margins_at(rig, kp)?, t)) };
+    let (lo, hi) = (KP_FLOOR, ceiling.max(KP_FLOOR));
+    let s_lo = slack_at(lo)?;
+    if s_lo < 0.0 {
         return Ok(0.0);
     }
-    if ok(hi)? {
+    let s_hi = slack_at(hi)?;
+    if s_hi >= 0.0 {
         return Ok(hi);
     }
-    for _ in 0..60 {
-        let mid = (lo * hi).sqrt();
-        if ok(mid)? {
-            lo = mid;
+    let found = itp_last_meeting((lo.ln(), s_lo), (hi.ln(), s_hi), |u| slack_at(u.exp()))?;
+    Ok(found.map_or(lo, f64::exp))
+}
+
+/// The ITP search between `a` (u, slack ≥ 0) and `b` (u, slack < 0) for the largest u whose
+/// slack is ≥ 0, to [`KP_SEARCH_TOL`]: the last u evaluated that met the targets, `None` when
+/// no evaluated u did (`a` stands).
+fn itp_last_meeting(
+    mut a: (f64, f64),
+    mut b: (f64, f64),
+    mut f: impl FnMut(f64) -> Result<f64, DesignError>,
+) -> Result<Option<f64>, DesignError> {
+    let mut found = None;
+    let eps = KP_SEARCH_TOL;
+    let width = b.0 - a.0;
+    let n_max = ((width / (2.0 * eps)).log2().ceil().max(0.0) as u32 + KP_SEARCH_SPARE)
+        .min(KP_SEARCH_STEPS);
+    let k1 = 0.2 / width;
+    for j in 0..n_max {
+        let w = b.0 - a.0;
+        if w <= 2.0 * eps {
+            break;
+        }
+        let half = a.0 + 0.5 * w;
+        // regula falsi on the slack where both ends have a finite one
+        let falsi = (a.1.is_finite() && b.1.is_finite())
+            .then(|| (a.1 * b.0 - b.1 * a.0) / (a.1 - b.1))
+            .filter(|x| x.is_finite())
+            .unwrap_or(half);
+        let sigma = (half - falsi).signum();
+        let delta = k1 * w * w;
+        let truncated = if delta <= (half - falsi).abs() {
+            falsi + sigma * delta
         } else {
-            hi = mid;
+            half
+        };
+        let r = (eps * 2f64.powi((n_max - j) as i32) - 0.5 * w).max(0.0);
+        let mut x = if (truncated - half).abs() <= r {
+            truncated
+        } else {
+            half - sigma * r
+        };
+        if !(x > a.0 && x < b.0) {
+            x = half;
+        }
+        if !(x > a.0 && x < b.0) {
+            break; // the ends are neighbouring floating-point numbers
+        }
+        let s = f(x)?;
+        if s >= 0.0 {
+            a = (x, s);
+            found = Some(x);
+        } else {
+            b = (x, s);
         }
     }
-    Ok(lo)
+    Ok(found)
 }
 
 /// The checked pressures, masses and waves must be finite and positive.
@@ -296,9 +379,9 @@ pub fn check_wave(rig: &Rig, freq_hz: f64, amp_mm: f64) -> Result<(), String> {
 /// The sample rate (Hz) of the predicted tracking of each wave.
 const TRACKING_RATE_HZ: f64 = 100.0;
 
-/// Margin analyses per operating condition: the Kp search (two ends and up to 60 bisections)
-/// and the margins at the designed gain.
-const ANALYSES_PER_CONDITION: f64 = 63.0;
+/// Margin analyses per operating condition: the Kp search (two ends and up to
+/// [`KP_SEARCH_STEPS`] steps) and the margins at the designed gain.
+const ANALYSES_PER_CONDITION: f64 = 3.0 + KP_SEARCH_STEPS as f64;
 
 impl Targets {
     /// The margin analyses the design of these targets takes at most: three stroke positions ×
@@ -516,6 +599,84 @@ mod tests {
         }
     }
 
+    /// The search on a smooth slack closes on its root in a fraction of the 47 steps bisection
+    /// needs; on a jump it
+    /// bisects, within its step bound; either way the answer meets the targets.
+    #[test]
+    fn itp_search_converges_on_smooth_and_jumping_slack() {
+        let run = |f: fn(f64) -> f64| {
+            let mut n = 0;
+            let (a, b) = (
+                (KP_FLOOR.ln(), f(KP_FLOOR.ln())),
+                (KP_CEILING.ln(), f(KP_CEILING.ln())),
+            );
+            let u = itp_last_meeting(a, b, |u| {
+                n += 1;
+                Ok(f(u))
+            })
+            .unwrap()
+            .unwrap();
+            (u, n)
+        };
+        // a gain margin: linear in ln Kp, root at ln 25
+        let (u, n) = run(|u| 25f64.ln() - u);
+        assert!(
+            u <= 25f64.ln() && 25f64.ln() - u <= 2.0 * KP_SEARCH_TOL,
+            "{u}"
+        );
+        assert!(n <= 12, "{n} steps");
+        // a phase margin: smooth and curved
+        let (u, n) = run(|u| 90.0 * (-(u.exp() / 7.0)).exp() - 30.0);
+        let root = 7.0 * (3.0f64).ln();
+        assert!(
+            (u.exp() / root - 1.0).abs() < 1e-12 && u.exp() <= root,
+            "{}",
+            u.exp()
+        );
+        assert!(n <= 30, "{n} steps");
+        // a jump (a new gain crossing takes the headline): bisection, within the bound
+        let (u, n) = run(|u| if u <= 1.3 { 0.2 } else { -47.0 });
+        assert!(u <= 1.3 && 1.3 - u <= 2.0 * KP_SEARCH_TOL, "{u}");
+        assert!(n <= KP_SEARCH_STEPS as usize, "{n} steps");
+    }
+
+    /// The search finds the gain a plain bisection on log Kp down to neighbouring
+    /// floating-point numbers finds, for deciding phase margins, gain margins and jumps.
+    #[test]
+    fn the_gain_search_agrees_with_bisection() {
+        let bisect = |rig: &Rig, t: &Targets| {
+            let ok = |kp: f64| meets(&margins_at(rig, kp).unwrap(), t);
+            let (mut lo, mut hi) = (KP_FLOOR, KP_CEILING);
+            for _ in 0..60 {
+                let mid = (lo * hi).sqrt();
+                if ok(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
+        };
+        for (beta_bar, c12) in [(165.0, 1.2e-10), (37.8, 1e-12), (1000.0, 1e-9)] {
+            let rig = Rig {
+                beta_bar,
+                c12_m5_per_ns: c12,
+                ..Rig::default()
+            };
+            for (pm, gm) in [(34.0, 6.0), (60.0, 0.0), (0.0, 12.0)] {
+                let t = Targets {
+                    gm_db: gm,
+                    ..targets(pm)
+                };
+                let (kp, reference) = (kp_max(&rig, &t).unwrap(), bisect(&rig, &t));
+                assert!(
+                    (kp / reference - 1.0).abs() < 1e-12,
+                    "β {beta_bar} c12 {c12} PM {pm} GM {gm}: {kp} vs {reference}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn article_gain_from_its_phase_margin() {
         // the article keeps Kp = 25 with PM ≈ 34°: asking for 34° gives Kp within ±1 of 25
@@ -561,7 +722,7 @@ mod tests {
 
     #[test]
     fn a_verdict_never_contradicts_its_own_numbers() {
-        // the design point at the largest Kp has PM equal to the target up to the bisection's
+        // the design point at the largest Kp has PM equal to the target up to the gain search's
         // resolution: it must not be judged below target
         let t = targets(34.0);
         let d = design(&Rig::default(), &t).unwrap();

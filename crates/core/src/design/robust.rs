@@ -574,9 +574,9 @@ pub fn worst_case(
 /// point deciding it (`None` when every point meets them at `ceiling`).
 ///
 /// Equal to the least of the points' own largest gains (the margins fall as the gain rises),
-/// found without bisecting at every point: at the current gain, the failing points furthest
+/// found without searching at every point: at the current gain, the failing points furthest
 /// below the targets (an unstable one, the least phase margin, the least gain margin) are
-/// bisected below it and the gain drops to the least of their answers; repeated until no
+/// searched below it ([`kp_max_below`]) and the gain drops to the least of their answers; repeated until no
 /// point fails (at most one round per point, each dropping the gain).
 pub fn robust_kp(
     rig: &Rig,
@@ -964,7 +964,7 @@ mod tests {
     }
 
     /// A region of one point with one position and the rig's own pressure is the nominal
-    /// design: the same gain as the bisection of `kp_max`, with the phase or gain margin on
+    /// design: the same gain as the search of `kp_max`, with the phase or gain margin on
     /// its target.
     #[test]
     fn zero_width_region_gives_the_nominal_gain() {

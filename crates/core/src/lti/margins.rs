@@ -205,18 +205,25 @@ impl Grid {
         );
         seeds.sort_by(f64::total_cmp);
         seeds.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * *b);
-        for w in &mut seeds {
-            *w = off_pole(ev, *w);
-        }
+        let seeded = ev.at_many(&seeds).into_iter().zip(&seeds).map(|(g, &w)| {
+            if finite(g) {
+                (w, g)
+            } else {
+                off_pole(ev, w)
+            }
+        });
         let mut omega = Vec::with_capacity(seeds.len() * 2);
         let mut values = Vec::with_capacity(seeds.len() * 2);
-        let mut prev = (seeds[0], ev.at(seeds[0]));
-        omega.push(prev.0);
-        values.push(prev.1);
-        for &w in &seeds[1..] {
-            let next = (w, ev.at(w));
-            refine(ev, prev, next, 0, &mut omega, &mut values);
-            prev = next;
+        let mut prev = None;
+        for next in seeded {
+            match prev {
+                None => {
+                    omega.push(next.0);
+                    values.push(next.1);
+                }
+                Some(p) => refine(ev, p, next, 0, &mut omega, &mut values),
+            }
+            prev = Some(next);
         }
         let (omega, values) = with_hidden_extrema(ev, omega, values);
         let phase_deg = unwrap_anchored(ev, &values, omega[0], integrators);
@@ -405,11 +412,17 @@ fn frequency_range(
         (turn.is_nan() || turn > SETTLED_DEG) && g0.norm().max(g1.norm()) > floor
     };
     for _ in 0..12 {
-        if (ev.at(lo).norm() < 1.0) != (dc < 1.0) || unsettled(lo / 10.0, lo) {
+        let extend_lo = (ev.at(lo).norm() < 1.0) != (dc < 1.0) || unsettled(lo / 10.0, lo);
+        if extend_lo {
             lo /= 10.0;
         }
-        if (ev.at(hi).norm() < 1.0) != (d.abs() < 1.0) || unsettled(hi, hi * 10.0) {
+        let extend_hi = (ev.at(hi).norm() < 1.0) != (d.abs() < 1.0) || unsettled(hi, hi * 10.0);
+        if extend_hi {
             hi *= 10.0;
+        }
+        // neither end moved: every further pass would test the same points again
+        if !(extend_lo || extend_hi) {
+            break;
         }
     }
     (lo, hi)
@@ -438,16 +451,18 @@ fn pole_points(poles: &[Complex64]) -> Vec<f64> {
 }
 
 /// ω itself, or just above it (by 1e-9 relative, a few times at most) where ω falls on an
-/// undamped pole and |L(jω)| is infinite.
-fn off_pole(ev: &FreqEvaluator, omega: f64) -> f64 {
-    let finite = |w: f64| {
-        let g = ev.at(w);
-        g.re.is_finite() && g.im.is_finite()
-    };
+/// undamped pole and |L(jω)| is infinite, with L(jω) there (each point evaluated once).
+fn off_pole(ev: &FreqEvaluator, omega: f64) -> (f64, Complex64) {
     (0..4)
         .map(|k| omega * (1.0 + 1e-9 * k as f64))
-        .find(|&w| finite(w))
-        .unwrap_or(omega)
+        .map(|w| (w, ev.at(w)))
+        .find(|(_, g)| finite(*g))
+        .unwrap_or_else(|| (omega, ev.at(omega)))
+}
+
+/// Whether both parts of a value are finite.
+fn finite(g: Complex64) -> bool {
+    g.re.is_finite() && g.im.is_finite()
 }
 
 /// Root of `f(ln ω)` between ω0 and ω1 (rad/s), returned as ω.

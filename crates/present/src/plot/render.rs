@@ -114,9 +114,31 @@ fn rasterise(svg: &str, width: u32, height: u32) -> Result<Vec<u8>, ReportError>
         tiny_skia::Transform::identity(),
         &mut pixmap.as_mut(),
     );
-    pixmap
-        .encode_png()
-        .map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))
+    encode_png(&pixmap).map_err(|e| ReportError::Plot(format!("PNG encoding: {e}")))
+}
+
+/// PNG bytes of an opaque `pixmap` (drawn on white, so every alpha is 255 and the premultiplied
+/// colours are the colours): 8-bit RGB, rows filtered by `Up`, deflated at level 1. The pixels
+/// are those of tiny-skia's own RGBA encoder at the default level, at a sixth of the time
+/// (20 figures of 1500 × 1125 px: 69 ms instead of 441 ms) for files about a third larger. A
+/// pixmap with any transparency keeps tiny-skia's encoder.
+fn encode_png(pixmap: &tiny_skia::Pixmap) -> Result<Vec<u8>, png::EncodingError> {
+    let rgba = pixmap.data();
+    if rgba.chunks_exact(4).any(|p| p[3] != u8::MAX) {
+        return pixmap.encode_png();
+    }
+    let rgb: Vec<u8> = rgba
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    let mut out = Vec::with_capacity(rgb.len() / 8);
+    let mut encoder = png::Encoder::new(&mut out, pixmap.width(), pixmap.height());
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_deflate_compression(png::DeflateCompression::Level(1));
+    encoder.set_filter(png::Filter::Up);
+    encoder.write_header()?.write_image_data(&rgb)?;
+    Ok(out)
 }
 
 /// Subtitle colour shared by the figures.
@@ -240,4 +262,57 @@ pub(super) fn dark_pixels(rgb: &image::RgbImage) -> usize {
     rgb.pixels()
         .filter(|p| p.0.iter().all(|&c| c < 100))
         .count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An anti-aliased drawing on white: curves, a translucent fill and text.
+    fn drawing(width: u32, height: u32, background: bool) -> tiny_skia::Pixmap {
+        let svg = format!(
+            r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}">
+                <path d="M 5 90 C 40 -20 80 140 150 20" stroke="#1f77b4" stroke-width="2.5" fill="none"/>
+                <circle cx="60" cy="50" r="30" fill="#d62728" fill-opacity="0.35"/>
+                <text x="12" y="110" font-size="17" font-family="sans-serif">Bode 6.45 dB</text>
+            </svg>"##
+        );
+        let options = usvg::Options {
+            fontdb: font_db(),
+            ..usvg::Options::default()
+        };
+        let tree = usvg::Tree::from_str(&svg, &options).unwrap();
+        let mut pixmap = tiny_skia::Pixmap::new(width, height).unwrap();
+        if background {
+            pixmap.fill(tiny_skia::Color::WHITE);
+        }
+        resvg::render(
+            &tree,
+            tiny_skia::Transform::identity(),
+            &mut pixmap.as_mut(),
+        );
+        pixmap
+    }
+
+    fn decoded(png: &[u8]) -> image::RgbaImage {
+        image::load_from_memory_with_format(png, image::ImageFormat::Png)
+            .unwrap()
+            .to_rgba8()
+    }
+
+    /// The figures' encoder gives the pixels of tiny-skia's own encoder, in RGB for an opaque
+    /// image and in RGBA (tiny-skia's) for one with transparency.
+    #[test]
+    fn png_pixels_equal_tiny_skias() {
+        for background in [true, false] {
+            let pixmap = drawing(160, 120, background);
+            let ours = encode_png(&pixmap).unwrap();
+            let reference = decoded(&pixmap.encode_png().unwrap());
+            let drawn = reference.pixels().filter(|p| p.0 != [255; 4]).count();
+            assert!(drawn > 1000, "{drawn} pixels drawn");
+            assert_eq!(decoded(&ours), reference);
+            // colour type byte of IHDR: 2 = RGB, 6 = RGBA
+            assert_eq!(ours[25], if background { 2 } else { 6 });
+        }
+    }
 }
