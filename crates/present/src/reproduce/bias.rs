@@ -10,6 +10,7 @@ use pumpcyl::emulator::article::{self, ArticleRecord, Emulated};
 use pumpcyl::emulator::{Effects, Plc};
 use pumpcyl::ident::{Candidate, Grid, Options, Prepared, Problem, Request};
 use pumpcyl::record::Record;
+use pumpcyl::response::Signals;
 use rayon::prelude::*;
 
 /// The records the identification fits (the article §2.4.4): identification and validation.
@@ -27,7 +28,7 @@ struct Variant {
 /// the Coulomb friction. The embedded records (every effect) are the identification's own.
 const VARIANTS: [Variant; 4] = [
     Variant {
-        name: "no effect, ideal sensors, PLC at 1 kHz",
+        name: "no effect, ideal sensors, PLC at 1 kHz (recorded at 100 Hz)",
         set: |_, p, _, _| p.rate_hz = 1000.0,
     },
     Variant {
@@ -67,13 +68,32 @@ fn emulate(records: &[ArticleRecord], variant: &Variant) -> Result<Vec<Record>> 
                 ..Plc::ideal(all_p.rate_hz)
             };
             (variant.set)(&mut truth.effects, &mut truth.plc, &all_e, &all_p);
-            let csv = match r.kind.run(&truth)? {
-                Emulated::Loop(s) => s.record_csv(),
+            let s = match r.kind.run(&truth)? {
+                Emulated::Loop(s) => s,
                 Emulated::Drive(_) => return Err(anyhow!("{file} is not a loop record")),
             };
+            // recorded at the embedded record's rate whatever the PLC's, as a faster PLC's
+            // scope would keep every k-th sample
+            let k = (truth.plc.rate_hz / all_p.rate_hz).round().max(1.0) as usize;
+            let csv = every(&s, k).record_csv();
             Ok(Record::parse(csv.as_bytes(), file)?)
         })
         .collect()
+}
+
+/// Every `k`-th sample of `s`, from the first.
+fn every(s: &Signals, k: usize) -> Signals {
+    let pick = |v: &Vec<f64>| v.iter().step_by(k).copied().collect();
+    Signals {
+        time_s: pick(&s.time_s),
+        x_ref_mm: pick(&s.x_ref_mm),
+        x_mm: pick(&s.x_mm),
+        p1_bar: pick(&s.p1_bar),
+        p2_bar: pick(&s.p2_bar),
+        w1_rpm: pick(&s.w1_rpm),
+        w2_rpm: pick(&s.w2_rpm),
+        e_mm: pick(&s.e_mm),
+    }
 }
 
 /// The refined grid's best point (the article's method, no local refinement) on the records of
