@@ -33,7 +33,7 @@ fn bench(c: &mut Criterion) {
     c.bench_function("freqresp_148_points_four_at_a_time", |b| {
         b.iter(|| ev.at_many(black_box(&omega)))
     });
-    let targets = Targets::article();
+    let targets = Targets::default();
     c.bench_function("kp_max_default_rig_article_targets", |b| {
         b.iter(|| kp_max(black_box(&rig), &targets).unwrap())
     });
