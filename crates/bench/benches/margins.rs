@@ -34,7 +34,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| ev.at_many(black_box(&omega)))
     });
     let targets = Targets::default();
-    c.bench_function("kp_max_default_rig_article_targets", |b| {
+    c.bench_function("kp_max_default_rig_default_targets", |b| {
         b.iter(|| kp_max(black_box(&rig), &targets).unwrap())
     });
 }
