@@ -83,6 +83,12 @@ impl Signals {
         let keep: Vec<usize> = (0..self.time_s.len())
             .filter(|&k| span.contains(&self.time_s[k]))
             .collect();
+        self.samples(&keep)
+    }
+
+    /// The samples `keep` (indices, in order) of every signal that holds one value per
+    /// sample; absent ones stay empty.
+    pub fn samples(&self, keep: &[usize]) -> Signals {
         let n = self.time_s.len();
         let pick = |v: &Vec<f64>| -> Vec<f64> {
             if v.len() == n {
@@ -311,17 +317,7 @@ pub fn diverging_step(
         .iter()
         .position(|x| (x - base.x_mm).abs() > bound_mm || x.is_nan())
         .map_or(t.len(), |k| k + 1);
-    let cut = |v: &Vec<f64>| v[..end].to_vec();
-    Ok(Signals {
-        time_s: cut(&s.time_s),
-        x_ref_mm: cut(&s.x_ref_mm),
-        x_mm: cut(&s.x_mm),
-        p1_bar: cut(&s.p1_bar),
-        p2_bar: cut(&s.p2_bar),
-        w1_rpm: cut(&s.w1_rpm),
-        w2_rpm: cut(&s.w2_rpm),
-        e_mm: cut(&s.e_mm),
-    })
+    Ok(s.samples(&(0..end).collect::<Vec<_>>()))
 }
 
 /// Metrics of a step response `s` of `rig` (from [`step`]) to a step of `step_mm`, the

@@ -10,7 +10,6 @@ use pumpcyl::emulator::article::{self, ArticleRecord, Emulated};
 use pumpcyl::emulator::{Effects, Plc};
 use pumpcyl::ident::{Candidate, Grid, Options, Prepared, Problem, Request};
 use pumpcyl::record::Record;
-use pumpcyl::response::Signals;
 use rayon::prelude::*;
 
 /// The records the identification fits (the article §2.4.4): identification and validation.
@@ -75,25 +74,11 @@ fn emulate(records: &[ArticleRecord], variant: &Variant) -> Result<Vec<Record>> 
             // recorded at the embedded record's rate whatever the PLC's, as a faster PLC's
             // scope would keep every k-th sample
             let k = (truth.plc.rate_hz / all_p.rate_hz).round().max(1.0) as usize;
-            let csv = every(&s, k).record_csv();
+            let every: Vec<usize> = (0..s.time_s.len()).step_by(k).collect();
+            let csv = s.samples(&every).record_csv();
             Ok(Record::parse(csv.as_bytes(), file)?)
         })
         .collect()
-}
-
-/// Every `k`-th sample of `s`, from the first.
-fn every(s: &Signals, k: usize) -> Signals {
-    let pick = |v: &Vec<f64>| v.iter().step_by(k).copied().collect();
-    Signals {
-        time_s: pick(&s.time_s),
-        x_ref_mm: pick(&s.x_ref_mm),
-        x_mm: pick(&s.x_mm),
-        p1_bar: pick(&s.p1_bar),
-        p2_bar: pick(&s.p2_bar),
-        w1_rpm: pick(&s.w1_rpm),
-        w2_rpm: pick(&s.w2_rpm),
-        e_mm: pick(&s.e_mm),
-    }
 }
 
 /// The refined grid's best point (the article's method, no local refinement) on the records of
