@@ -428,6 +428,6 @@ fn a_variant_whose_step_diverges_is_named_in_the_legend_with_its_pole() {
             );
         }
         // the stable curve is named by its case, not "x"
-        assert!(svg.contains(">\nas identified\n<"), "{stem}");
+        assert!(svg.contains(">\nidentified rig\n<"), "{stem}");
     }
 }

@@ -22,7 +22,7 @@ const RESONANCE_BAND_HZ: (f64, f64) = (0.1, 10.0);
 /// drive velocity feedforward; the first-order motor is pumpcyl's own study.
 pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Damping> {
     run.step("Damping studies: leakage and motor coupling (the article §3.2, Figure 14), the drive feedforward (Figure 11), a first-order motor (pumpcyl's own)");
-    let fig14 = figure14_rigs(nominal, "as identified");
+    let fig14 = figure14_rigs(nominal, "identified rig");
     let study = Study {
         stem: "fig14_damping",
         what: "Figure 14, cumulative damping study",
@@ -65,7 +65,7 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Dam
         let mut r = nominal.clone();
         f(&mut r);
         vec![
-            ("as identified".to_string(), nominal.clone()),
+            ("identified rig".to_string(), nominal.clone()),
             (label.to_string(), r),
         ]
     };
