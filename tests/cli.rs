@@ -493,11 +493,11 @@ fn leakage_reproduces_the_article() {
 }
 
 /// An experiment over the committed peer-benchmark records with a small grid (the peer model
-/// made them with the sum-pressure gain read as 22 per bar, so the experiment sets it).
+/// made them with pumpcyl's default sum-pressure gain, 0.22 per bar).
 fn small_experiment(dir: &Path, extra: &str) -> String {
     let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peer");
     let text = format!(
-        "{extra}\n[set]\nk_pres_per_bar = 22.0\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+        "{extra}\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
          [grid]\nbeta_bar = [100.0, 150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0, 300.0]\n\
          c12_m5_per_ns = [1.0e-10, 1.2e-10, 1.4e-10]\n\
          [refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\nviscous_friction_ns_per_m = [100.0]\n\
@@ -1073,7 +1073,7 @@ fn identify_warns_on_a_grid_edge_and_on_a_record_without_excitation() {
     let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peer");
     let grid = |betas: &str| {
         format!(
-            "[set]\nk_pres_per_bar = 22.0\n[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
+            "[standstill]\nw1_rpm = -160.0\nw2_rpm = 245.0\np1_bar = 3.95\n\
              [grid]\nbeta_bar = [{betas}]\nviscous_friction_ns_per_m = [50.0, 100.0, 150.0]\n\
              c12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]\n\
              [refined_grid]\nbeta_bar = [{betas}]\nviscous_friction_ns_per_m = [100.0]\nc12_m5_per_ns = [1.2e-10]\n"
