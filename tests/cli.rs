@@ -353,8 +353,8 @@ fn track_metrics_are_the_periodic_steady_state_whatever_the_periods() {
     // docs/simulation.md#tracking-metrics: the loop starts from its own periodic solution, so
     // ten periods and two give the same metrics, and no start-up transient is in them
     let (f, a) = (0.25, 20.0);
-    let metrics = |periods: &str| {
-        let args = [
+    let track = |periods: &'static str| {
+        [
             "track",
             "--freq-hz",
             "0.25",
@@ -362,8 +362,10 @@ fn track_metrics_are_the_periodic_steady_state_whatever_the_periods() {
             "20",
             "--periods",
             periods,
-        ];
-        json(&[&args[..], &["--json"]].concat())["cases"][0]["metrics"].clone()
+        ]
+    };
+    let metrics = |periods: &'static str| {
+        json(&[&track(periods)[..], &["--json"]].concat())["cases"][0]["metrics"].clone()
     };
     let (two, ten) = (metrics("2"), metrics("10"));
     let num = |m: &serde_json::Value, k: &str| m[k].as_f64().unwrap();
@@ -395,26 +397,10 @@ fn track_metrics_are_the_periodic_steady_state_whatever_the_periods() {
     let steady = num(&two, "max_error_mm");
     assert!(old - steady > 0.5, "from rest {old} mm, steady {steady} mm");
     // the text says what the metrics are; a part of a period is refused
-    let text = ok(&[
-        "track",
-        "--freq-hz",
-        "0.25",
-        "--amp-mm",
-        "20",
-        "--periods",
-        "1",
-    ]);
+    let text = ok(&track("1"));
     assert!(text.contains("periodic steady state"), "{text}");
     for bad in ["2.5", "0", "-1"] {
-        let err = fails(&[
-            "track",
-            "--freq-hz",
-            "0.25",
-            "--amp-mm",
-            "20",
-            "--periods",
-            bad,
-        ]);
+        let err = fails(&track(bad));
         assert!(
             err.contains("--periods must be a whole number of periods, 1 or more"),
             "{err}"
