@@ -7,6 +7,7 @@
 //! the Python package or any Rust program can embed it. Figures, the article workflow and every
 //! writer are in `pumpcyl-present`; the command line is `pumpcyl-cli`. Modules:
 //! - [`bulk`] — effective bulk modulus against pressure: gas fraction, β_e(p), margins there;
+//! - [`cavitation`] — the lowest pressure a chamber can hold, checked in every steady state;
 //! - [`design`] — the design method: the largest position gain meeting margin targets;
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
@@ -40,6 +41,7 @@
 #![warn(missing_docs)]
 
 pub mod bulk;
+pub mod cavitation;
 pub mod design;
 pub mod emulator;
 pub mod fmu;

@@ -1,0 +1,59 @@
+//! The lowest pressure a chamber can hold: one check for every steady state pumpcyl computes
+//! (leakage, design, select, the emulator's initial state; docs/model.md#cavitation).
+//!
+//! Mineral oil's vapour pressure is a few kPa absolute, and the air dissolved in it comes out of
+//! solution well above that, so no chamber holds a steady pressure below 0 bar absolute. With
+//! the atmosphere taken as 1 bar, that is −1 bar gauge: the floor the emulator's cavitation
+//! model also uses (docs/emulator.md). A steady state that needs a chamber below it is not a
+//! state the circuit can reach.
+//!
+//! ```
+//! use pumpcyl::cavitation::{check_chambers, VAPOUR_PRESSURE_BAR_GAUGE};
+//!
+//! assert_eq!(VAPOUR_PRESSURE_BAR_GAUGE, -1.0);
+//! assert!(check_chambers(&[6.72, 1.2]).is_ok());
+//! let err = check_chambers(&[6.72, -4.72]).unwrap_err();
+//! assert_eq!(err.chamber, 2);
+//! assert_eq!(
+//!     err.to_string(),
+//!     "chamber 2 at -4.72 bar gauge, below the oil's vapour pressure (-1 bar gauge): \
+//!      cavitation, a state the circuit cannot hold"
+//! );
+//! ```
+
+use crate::units::readable;
+
+/// The vapour pressure of the oil as pumpcyl takes it (bar gauge): 0 bar absolute with a 1 bar
+/// atmosphere (the oil's own vapour pressure, a few kPa absolute, is below the resolution of
+/// any chamber pressure pumpcyl computes).
+pub const VAPOUR_PRESSURE_BAR_GAUGE: f64 = -1.0;
+
+/// A chamber pressure below [`VAPOUR_PRESSURE_BAR_GAUGE`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "chamber {chamber} at {} bar gauge, below the oil's vapour pressure ({} bar gauge): \
+     cavitation, a state the circuit cannot hold",
+    readable(*p_bar),
+    readable(VAPOUR_PRESSURE_BAR_GAUGE)
+)]
+pub struct Cavitation {
+    /// The chamber (1-based, as the article numbers them).
+    pub chamber: usize,
+    /// Its pressure (bar gauge).
+    pub p_bar: f64,
+}
+
+/// Refuse chamber pressures (bar gauge, chamber 1 first) of which one lies below the vapour
+/// pressure, or is not a number: the first such chamber is named.
+pub fn check_chambers(p_bar: &[f64]) -> Result<(), Cavitation> {
+    match p_bar
+        .iter()
+        .position(|p| !(*p >= VAPOUR_PRESSURE_BAR_GAUGE))
+    {
+        None => Ok(()),
+        Some(i) => Err(Cavitation {
+            chamber: i + 1,
+            p_bar: p_bar[i],
+        }),
+    }
+}
