@@ -120,8 +120,9 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         .out
         .as_ref()
         .ok_or_else(|| anyhow!("--out is needed"))?;
-    let effects = article::effects(!args.no_effects).map_err(|e| anyhow!(e))?;
-    let rig = load_rig(&args.source, effects)?;
+    let rig = load_rig(&args.source, !args.no_effects)?;
+    let effects = Effects::switched(&rig, !args.no_effects)
+        .map_err(|e| anyhow!("{}: {e}", args.source.origin_or("the emulated article rig")))?;
     let plc = plc(args, kind)?;
     let plan = experiment(args, kind, &rig, plc.rate_hz)?;
     check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
@@ -129,23 +130,25 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let data = plan
         .run(&truth)
         .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let basis =
+        pumpcyl_present::emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
     write_atomic(out, data.csv().as_bytes())?;
     let origin = args.source.origin_or("the emulated article rig");
     let kind = kind
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_owned());
     Ok(format!(
-        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n",
+        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n",
         out.display(),
         data.len()
     ))
 }
 
 /// The rig: a file, or the emulated article rig, with --set applied.
-pub(crate) fn load_rig(source: &RigSource, effects: Effects) -> Result<Rig> {
+pub(crate) fn load_rig(source: &RigSource, effects: bool) -> Result<Rig> {
     let base = match &source.rig {
         Some(_) => return source.load(),
-        None => pumpcyl::fmu::default_rig(ModelKind::Emulator, effects.gas_fraction.is_some())?,
+        None => pumpcyl::fmu::default_rig(ModelKind::Emulator, effects)?,
     };
     Ok(base.with_overrides_from("--set", &source.set)?)
 }

@@ -3,9 +3,8 @@
 
 use crate::emit::write_atomic;
 use crate::RigSource;
-use anyhow::{anyhow, bail, Result};
+use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use pumpcyl::emulator::article;
 use pumpcyl::fmu::{Config, Controller, ModelKind};
 use std::path::PathBuf;
 
@@ -75,13 +74,14 @@ pub fn run(args: &FmuArgs) -> Result<String> {
     let count = |c| vars.iter().filter(|v| v.causality == c).count();
     use pumpcyl::fmu::Causality::*;
     Ok(format!(
-        "{}: FMI 2.0 Co-Simulation FMU ({}), {} inputs, {} outputs, {} parameters, {} bytes\n",
+        "{}: FMI 2.0 Co-Simulation FMU ({}), {} inputs, {} outputs, {} parameters, {} bytes\n{}\n",
         args.out.display(),
         pumpcyl_present::fmu::description_of(&config),
         count(Input),
         count(Output),
         count(Parameter),
-        bytes.len()
+        bytes.len(),
+        pumpcyl_present::fmu::emulator_basis(&config)?
     ))
 }
 
@@ -110,10 +110,7 @@ fn config(args: &FmuArgs) -> Result<Config> {
         }
     };
     let rig = match model {
-        ModelKind::Emulator => crate::emulate::load_rig(
-            &args.source,
-            article::effects(effects).map_err(|e| anyhow!(e))?,
-        )?,
+        ModelKind::Emulator => crate::emulate::load_rig(&args.source, effects)?,
         ModelKind::Linear => args.source.load()?,
     };
     let config = pumpcyl::fmu::checked_config(model, controller, effects, rig)?;

@@ -931,7 +931,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         ),
         (
             vec!["leakage", "--record", &standstill, "--c12", "1.2e-10"],
-            vec!["standstill (the article §2.4): w1 -143.3 rpm, w2 219.5 rpm, p1 3.537 bar".into()],
+            vec!["standstill (the article §2.4): w1 -143.5 rpm, w2 219.7 rpm, p1 3.541 bar".into()],
         ),
         (
             vec!["identify-drive", &drive],

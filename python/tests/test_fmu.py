@@ -89,6 +89,47 @@ def test_the_emulator_fmu_gives_the_records_of_emulate(fmus, experiment, args):
     assert np.max(np.abs(r["p2_pa"] - rec["p2_bar"] * 1e5)) < 1.0
 
 
+USER_RIG = """piston_diameter_mm = 80.0
+rod_diameter_mm = 45.0
+stroke_mm = 800.0
+x0_mm = 400.0
+mass_kg = 2500.0
+mass_by_position = []
+displacement_1_cm3_per_rev = 8.0
+displacement_2_cm3_per_rev = 5.0
+beta_bar = 300.0
+kp = 15.0
+viscous_friction_ns_per_m = 250.0
+c12_m5_per_ns = 2.0e-10
+line_volume_1_dm3 = 0.2
+line_volume_2_dm3 = 0.2
+"""
+
+
+def test_the_emulator_fmu_follows_the_beta_bar_a_host_sets_on_a_user_rig(tmp_path):
+    """docs/emulator.md#what-a-user-rig-gets: the FMU's emulator anchors its gas fraction at the
+    beta_bar parameter the host sets, so its step at 100 and 1000 bar differs, and each equals
+    `pumpcyl emulate` on the same rig with that beta_bar."""
+    fmpy = require_fmpy()
+    rig = tmp_path / "my-rig.toml"
+    rig.write_text(USER_RIG)
+    fmu = tmp_path / "my.fmu"
+    cli("fmu", "--model", "emulator", "--rig", str(rig), "--out", str(fmu))
+    peaks = []
+    for beta in (100.0, 1000.0):
+        record = tmp_path / f"step-{beta:g}.csv"
+        cli("emulate", "--rig", str(rig), "--set", f"beta_bar={beta}", "--experiment", "step",
+            "--no-noise", "--out", str(record))
+        rec = read_csv(record)
+        r = run_fmu(fmpy, fmu, rec["time_s"], rec["x_ref_mm"] * 1e-3,
+                    start_values={"beta_bar": beta})
+        assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9, beta
+        assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0, beta
+        peaks.append(np.max(np.abs(np.diff(r["p1_pa"]))))
+    # a ten times stiffer oil: the pressure moves differently during the step
+    assert abs(peaks[0] - peaks[1]) > 0.05 * max(peaks), peaks
+
+
 def test_the_linear_fmu_gives_the_step_response(fmus):
     fmpy = require_fmpy()
     d, _, linear = fmus

@@ -713,8 +713,17 @@ impl Instance {
         Ok(())
     }
 
+    /// The emulator's effects: those of the parameters' rig (its `beta_bar` at its own mean
+    /// pressure at rest, its `mass_by_position`; docs/emulator.md#what-a-user-rig-gets), or none.
+    fn effects(&self) -> Result<crate::emulator::Effects, FmuError> {
+        Ok(crate::emulator::Effects::switched(
+            &self.rig()?,
+            self.config.effects,
+        )?)
+    }
+
     fn emulator(&self, rig: &Rig) -> Result<Sim, FmuError> {
-        let dynamics = Dynamics::new(rig, article::effects(self.config.effects)?)?;
+        let dynamics = Dynamics::new(rig, self.effects()?)?;
         Ok(match self.config.controller {
             Controller::Article => {
                 let plc = Plc::ideal(PLC_RATE_HZ);
@@ -909,8 +918,11 @@ mod tests {
     use crate::emulator::Experiment;
 
     fn emulated_rig() -> (Rig, crate::emulator::Effects) {
-        let effects = article::effects(true).unwrap();
-        (article::default_rig().unwrap(), effects)
+        let rig = article::default_rig().unwrap();
+        (
+            rig.clone(),
+            crate::emulator::Effects::for_rig(&rig).unwrap(),
+        )
     }
 
     /// Run an instance over `n` steps of `h` with the reference `r_mm(t)` set before each, and
@@ -933,6 +945,55 @@ mod tests {
             }
         }
         out
+    }
+
+    /// The emulator FMU follows the `beta_bar` a host sets (docs/emulator.md#what-a-user-rig-gets):
+    /// on a rig that shares no value with the article's, its step at 100 and 1000 bar equals the
+    /// emulator run on the rig with that `beta_bar`, and the two differ.
+    #[test]
+    fn the_emulator_fmu_follows_the_beta_bar_a_host_sets() {
+        let user = Rig::from_toml_str(
+            "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\nx0_mm = 400.0\n\
+             mass_kg = 2500.0\nmass_by_position = []\ndisplacement_1_cm3_per_rev = 8.0\n\
+             displacement_2_cm3_per_rev = 5.0\nbeta_bar = 300.0\nkp = 15.0\n",
+            "user.toml",
+        )
+        .unwrap();
+        let mut p1_peaks = vec![];
+        for beta_bar in [100.0, 1000.0] {
+            let rig = Rig {
+                beta_bar,
+                ..user.clone()
+            };
+            let effects = crate::emulator::Effects::for_rig(&rig).unwrap();
+            let plan = Experiment::step(&rig, None, None, 0.5, Some(1.5));
+            let rec = plan.run(&rig, effects, &Plc::ideal(PLC_RATE_HZ)).unwrap();
+            let mut fmu = Instance::new(Config::new(
+                ModelKind::Emulator,
+                Controller::Article,
+                true,
+                user.clone(),
+            ))
+            .unwrap();
+            let beta = fmu.value_reference("beta_bar").unwrap();
+            fmu.set_real(beta, beta_bar).unwrap();
+            let got = run(&mut fmu, 150, 0.01, |t| plan.reference_mm(t));
+            for (k, (x, p1)) in got.iter().enumerate() {
+                assert!(
+                    (x * 1e3 - rec.x_mm[k]).abs() < 1e-6,
+                    "β {beta_bar}: x at {k}"
+                );
+                assert!(
+                    (p1 - rec.p1_bar[k] * PA_PER_BAR).abs() < 1.0,
+                    "β {beta_bar}: p1 at {k}"
+                );
+            }
+            p1_peaks.push(rec.p1_bar.iter().cloned().fold(f64::MIN, f64::max));
+        }
+        assert!(
+            (p1_peaks[0] - p1_peaks[1]).abs() > 1e-3,
+            "the two bulk moduli give the same step: {p1_peaks:?}"
+        );
     }
 
     #[test]

@@ -147,6 +147,25 @@ pub fn description_of(c: &Config) -> String {
     format!("pumpcyl dual-prime-mover pump-controlled cylinder: {model}, {control} (docs/fmu.md)")
 }
 
+/// What the FMU's emulator uses at the parameters' start values ([`crate::emulated::basis`]);
+/// a host that sets `beta_bar` or the mass moves the emulator with it
+/// (docs/emulator.md#what-a-user-rig-gets). The linear model's β is its `beta_bar`.
+pub fn emulator_basis(c: &Config) -> Result<String> {
+    if c.model == ModelKind::Linear {
+        return Ok(format!(
+            "linear model: beta_bar {} bar, mass {} kg (parameters a host may set)",
+            pumpcyl::units::readable(c.rig.beta_bar),
+            pumpcyl::units::readable(c.rig.mass_kg)
+        ));
+    }
+    let effects =
+        pumpcyl::emulator::Effects::switched(&c.rig, c.effects).map_err(|e| anyhow!(e))?;
+    let basis = crate::emulated::basis(&c.rig, &effects).map_err(|e| anyhow!(e))?;
+    Ok(format!(
+        "{basis}; at the parameters' start values: a host that sets beta_bar or mass_kg moves the emulator with them"
+    ))
+}
+
 /// The type name carrying a unit: one SimpleType per unit, every Real declared with its unit's.
 fn type_name(unit: &str) -> String {
     format!("pumpcyl.{unit}")

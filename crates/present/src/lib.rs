@@ -12,6 +12,7 @@
 //! - [`advise`] — experiment advice as JSON and text;
 //! - [`design`] — the design results in words: verdict, deciding margin, nominal and robust
 //!   design as text and JSON, leakage loop;
+//! - [`emulated`] — what the emulator used on a rig, in words;
 //! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape);
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
 //! - [`matlab`] — MATLAB/Octave files: the model as `ss`, the grey-box function, MAT-files;
@@ -27,6 +28,7 @@ pub mod advise;
 pub mod analysis;
 pub mod bulk;
 pub mod design;
+pub mod emulated;
 pub mod figures;
 pub mod files;
 pub mod fmu;

@@ -57,11 +57,9 @@ pub struct Effects {
     pub slip_m5_per_ns: f64,
     /// Coulomb friction force (N); 0 = none.
     pub coulomb_n: f64,
-    /// Relative change of the effective mass per metre of stroke away from x0 (1/m).
-    pub mass_slope_per_m: f64,
-    /// Relative curvature of the effective mass against stroke (1/m²):
-    /// m(x) = m (1 + slope d + curvature d²), d = x − x0.
-    pub mass_curvature_per_m2: f64,
+    /// The moving mass follows the rig's `mass_by_position` along the stroke ([`MassLaw`]);
+    /// off, or a rig without a table, keeps `mass_kg` everywhere.
+    pub stroke_mass: bool,
 }
 
 impl Effects {
@@ -76,34 +74,103 @@ impl Effects {
             dead_band_rad_s: 0.0,
             slip_m5_per_ns: 0.0,
             coulomb_n: 0.0,
-            mass_slope_per_m: 0.0,
-            mass_curvature_per_m2: 0.0,
+            stroke_mass: false,
         }
     }
 
-    /// Every effect on, as the emulated article rig has them (docs/emulator.md#the-dynamics):
-    /// volumes following the piston, β_e(p) with the gas fraction that gives `beta_bar` at
-    /// `p_mean_bar`, a 3× peak torque, the pump speed limit, a 60 rpm pump dead band with slip
-    /// leakage, 15 N Coulomb friction, and the seesaw's effective mass against stroke
-    /// (9958 kg at −50 mm, 12 373 kg at +50 mm for 10 593 kg at x0: the article §2.1).
-    pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, EmulatorError> {
-        let oil = crate::bulk::BETA_OIL_BAR;
-        let x = crate::bulk::gas_fraction(beta_bar, p_mean_bar, oil)
-            .map_err(|e| EmulatorError(e.to_string()))?;
-        let (m0, m_minus, m_plus, d) = (10_593.0, 9_958.0, 12_373.0, 0.05);
-        Ok(Effects {
+    /// Every effect on with the gas fraction `x` (docs/emulator.md#the-dynamics): volumes
+    /// following the piston, β_e(p) of the constant gas-fraction model, a 3× peak torque, the
+    /// pump speed limit, a 60 rpm pump dead band with slip leakage, 15 N Coulomb friction, and
+    /// the moving mass following the rig's `mass_by_position`. The last four are pumpcyl's
+    /// emulator defaults, not keys of a rig (docs/emulator.md#what-a-user-rig-gets).
+    pub fn all(x: f64) -> Effects {
+        Effects {
             varying_volumes: true,
             gas_fraction: Some(x),
-            beta_oil_bar: oil,
+            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
             peak_torque_factor: Some(3.0),
             pump_speed_limit: true,
             dead_band_rad_s: 60.0 * crate::units::RAD_S_PER_RPM,
             slip_m5_per_ns: 4e-11,
             coulomb_n: 15.0,
-            mass_slope_per_m: (m_plus - m_minus) / (2.0 * d) / m0,
-            mass_curvature_per_m2: ((m_plus + m_minus) / 2.0 - m0) / (d * d) / m0,
-        })
+            stroke_mass: true,
+        }
     }
+
+    /// Every effect on ([`Effects::all`]) with the gas fraction that gives `beta_bar` at
+    /// `p_mean_bar`: the emulated article records' (the article §2.1: 165 bar at 4.4 bar).
+    pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, EmulatorError> {
+        let x = crate::bulk::gas_fraction(beta_bar, p_mean_bar, crate::bulk::BETA_OIL_BAR)
+            .map_err(|e| EmulatorError(e.to_string()))?;
+        Ok(Effects::all(x))
+    }
+
+    /// Every effect on for `rig` ([`Effects::all`]), the bulk modulus anchored at the rig
+    /// itself: the gas fraction that gives the rig's `beta_bar` at its mean chamber pressure at
+    /// rest ([`rest_mean_pressure_bar`]), so the emulated β_e at the operating point *is*
+    /// `beta_bar`; the mass following the rig's own `mass_by_position` (constant without one).
+    /// What `pumpcyl emulate` and the emulator FMU run (docs/emulator.md#what-a-user-rig-gets).
+    ///
+    /// # Errors
+    /// A rig whose loop cannot rest, whose rest needs a chamber below the vapour pressure
+    /// (docs/model.md#cavitation), or whose mean pressure at rest is not above 0 bar gauge (the
+    /// gas-fraction model needs a positive pressure), or a `beta_bar` beyond the oil's own.
+    pub fn for_rig(rig: &Rig) -> Result<Effects, EmulatorError> {
+        let p_mean = rest_mean_pressure_bar(rig)?;
+        if p_mean.is_nan() || p_mean <= 0.0 {
+            return Err(EmulatorError(format!(
+                "the rig's mean chamber pressure at rest is {p_mean:.3} bar gauge: the emulator's \
+                 bulk modulus (the constant gas-fraction model, docs/bulk-modulus.md) needs it above \
+                 0 bar; raise p_sum_ref_bar"
+            )));
+        }
+        let x = crate::bulk::gas_fraction(rig.beta_bar, p_mean, crate::bulk::BETA_OIL_BAR)
+            .map_err(|e| EmulatorError(format!("beta_bar = {}: {e}", rig.beta_bar)))?;
+        Ok(Effects::all(x))
+    }
+
+    /// [`Effects::for_rig`] when `on`, [`Effects::none`] otherwise: the choice of
+    /// `pumpcyl emulate --no-effects` and of the emulator FMU.
+    pub fn switched(rig: &Rig, on: bool) -> Result<Effects, EmulatorError> {
+        if on {
+            Effects::for_rig(rig)
+        } else {
+            Ok(Effects::none())
+        }
+    }
+}
+
+/// The mean chamber pressure (p1 + p2)/2 (bar gauge) of `rig`'s emulated loop at rest at x0,
+/// every effect on: the pressure at which its `beta_bar` holds ([`Effects::for_rig`]). At rest
+/// no oil is compressed, so the bulk modulus does not change this state. Where Newton's method
+/// cannot bring the loop to rest, the LTI model's operating point (the set-point's sum split
+/// by the force balance) stands in.
+///
+/// # Errors
+/// A loop that cannot rest there, or a rest that needs cavitation (docs/model.md#cavitation).
+pub fn rest_mean_pressure_bar(rig: &Rig) -> Result<f64, EmulatorError> {
+    // Newton runs with β_e(p) anchored at the set-point's mean (the rest does not depend on
+    // it, the path to it does: this is the path the emulator's own start takes)
+    let guess = crate::bulk::gas_fraction(
+        rig.beta_bar,
+        0.5 * rig.p_sum_ref_bar,
+        crate::bulk::BETA_OIL_BAR,
+    );
+    let effects = match guess {
+        Ok(x) => Effects::all(x),
+        Err(_) => Effects {
+            gas_fraction: None,
+            ..Effects::all(0.0)
+        },
+    };
+    let d = Dynamics::new(rig, effects)?;
+    // a loop Newton cannot bring to rest (one that rings at its limits, such as a sum-pressure
+    // gain of 22 per bar) rests, if at all, at the LTI model's operating point
+    let x = equilibrium(rig, &d, rig.x0_mm).unwrap_or_else(|_| Plant::new(rig).rest_state(true).0);
+    let p = [x[d.layout.p[0]] / PA_PER_BAR, x[d.layout.p[1]] / PA_PER_BAR];
+    crate::cavitation::check_chambers(&p)
+        .map_err(|e| EmulatorError(format!("the emulated loop at rest at x0: {e}")))?;
+    Ok(0.5 * (p[0] + p[1]))
 }
 
 /// Absolute pressure of a gauge pressure of 0 (Pa): cavitation floor is −1 bar gauge.
@@ -121,6 +188,7 @@ pub struct Dynamics {
     vl: [f64; 2],
     rated_torque: f64,
     max_pump_speed: f64,
+    mass_law: MassLaw,
     effects: Effects,
 }
 
@@ -138,6 +206,11 @@ impl Dynamics {
             vl: [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3],
             rated_torque: rig.motor_rated_torque_nm,
             max_pump_speed: rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM,
+            mass_law: if effects.stroke_mass {
+                MassLaw::of_rig(rig)
+            } else {
+                MassLaw::constant()
+            },
             effects,
         })
     }
@@ -190,8 +263,7 @@ impl Dynamics {
         let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
         let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
         // mechanics
-        let dev = pos - si.x0;
-        let mass = si.mass * (1.0 + e.mass_slope_per_m * dev + e.mass_curvature_per_m2 * dev * dev);
+        let mass = si.mass * self.mass_law.ratio(pos);
         let coulomb = e.coulomb_n * (v / COULOMB_SMOOTHING_M_S).tanh();
         dx[l.x] = v;
         dx[l.v] = (p1 * si.a1 - p2 * si.a2 - si.f_ext - si.b * v - coulomb) / mass;
@@ -244,6 +316,78 @@ impl Dynamics {
     pub fn operating_point(&self, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
         // the emulated motors always carry the pumps' load
         Plant::new(rig).rest_state(true)
+    }
+}
+
+/// The moving mass along the stroke, relative to its value at x0: the rig's
+/// `mass_by_position` table, interpolated by the quadratic through the three neighbouring table
+/// points nearest the position (the line through two for a two-point table), so a three-point table
+/// such as the article's seesaw (§3.3) is followed by one smooth parabola, and a position
+/// beyond the table extrapolates its end's. The ratio never falls below half the table's
+/// smallest mass over its mass at x0, a guard for a wild extrapolation (docs/emulator.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MassLaw {
+    /// Table positions (m).
+    x_m: Vec<f64>,
+    /// Table masses over the table's mass at x0.
+    ratio: Vec<f64>,
+    /// The smallest ratio the law gives.
+    floor: f64,
+}
+
+impl MassLaw {
+    /// The mass is the same everywhere.
+    pub fn constant() -> MassLaw {
+        MassLaw {
+            x_m: vec![],
+            ratio: vec![],
+            floor: 0.0,
+        }
+    }
+
+    /// The law of `rig`'s `mass_by_position` (constant without a table).
+    pub fn of_rig(rig: &Rig) -> MassLaw {
+        let t = &rig.mass_by_position;
+        if t.len() < 2 {
+            return MassLaw::constant();
+        }
+        let mut law = MassLaw {
+            x_m: t.iter().map(|p| p.x_mm * 1e-3).collect(),
+            ratio: t.iter().map(|p| p.mass_kg).collect(),
+            floor: 0.0,
+        };
+        let at_x0 = law.raw(rig.x0_mm * 1e-3);
+        law.ratio.iter_mut().for_each(|r| *r /= at_x0);
+        law.floor = 0.5 * law.ratio.iter().cloned().fold(f64::INFINITY, f64::min);
+        law
+    }
+
+    /// The mass at `x_m` (m) over the mass at x0.
+    pub fn ratio(&self, x_m: f64) -> f64 {
+        if self.x_m.is_empty() {
+            return 1.0;
+        }
+        self.raw(x_m).max(self.floor)
+    }
+
+    /// The interpolating polynomial through the nearest (up to) three points at `x`.
+    fn raw(&self, x: f64) -> f64 {
+        let n = self.x_m.len();
+        let k = self.x_m.partition_point(|p| *p < x);
+        // the window k-2..=k or k-1..=k+1, whichever outer point is nearer x
+        let after_is_nearer = k + 1 < n && (k < 2 || self.x_m[k + 1] - x < x - self.x_m[k - 2]);
+        let lo = (k.saturating_sub(if after_is_nearer { 1 } else { 2 })).min(n.saturating_sub(3));
+        let hi = (lo + 3).min(n);
+        let (xs, ys) = (&self.x_m[lo..hi], &self.ratio[lo..hi]);
+        (0..xs.len())
+            .map(|i| {
+                let w: f64 = (0..xs.len())
+                    .filter(|j| *j != i)
+                    .map(|j| (x - xs[j]) / (xs[i] - xs[j]))
+                    .product();
+                w * ys[i]
+            })
+            .sum()
     }
 }
 
@@ -328,6 +472,81 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A rig that shares no value with the article's, without a mass table.
+    fn user_rig() -> Rig {
+        Rig::from_toml_str(
+            "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\nx0_mm = 400.0\n\
+             mass_kg = 2500.0\nmass_by_position = []\nbeta_bar = 300.0\nkp = 15.0\n",
+            "user.toml",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn the_emulated_bulk_modulus_at_the_rigs_rest_is_its_beta_bar() {
+        for beta_bar in [37.8, 165.0, 300.0, 1000.0] {
+            let rig = Rig {
+                beta_bar,
+                ..user_rig()
+            };
+            let e = Effects::for_rig(&rig).unwrap();
+            let d = Dynamics::new(&rig, e).unwrap();
+            let x = equilibrium(&rig, &d, rig.x0_mm).unwrap();
+            let p_mean = 0.5 * (x[d.layout.p[0]] + x[d.layout.p[1]]);
+            let beta = d.beta(p_mean) / PA_PER_BAR;
+            assert!(
+                (beta - beta_bar).abs() < 1e-9 * beta_bar,
+                "{beta} vs {beta_bar}"
+            );
+        }
+        // a bulk modulus above the oil's own has no gas fraction
+        let stiff = Rig {
+            beta_bar: 2e4,
+            ..user_rig()
+        };
+        assert!(Effects::for_rig(&stiff)
+            .unwrap_err()
+            .0
+            .contains("beta_bar = 20000"));
+    }
+
+    #[test]
+    fn the_mass_law_follows_the_rigs_table_and_is_constant_without_one() {
+        // the article's three points: one parabola through them (§3.3)
+        let article = Rig::default();
+        let law = MassLaw::of_rig(&article);
+        let (m0, mm, mp, d) = (10_593.0, 9_958.0, 12_373.0, 0.05);
+        let (k1, k2) = (
+            (mp - mm) / (2.0 * d) / m0,
+            ((mp + mm) / 2.0 - m0) / (d * d) / m0,
+        );
+        for dev in [-0.1, -0.05, -0.013, 0.0, 0.021, 0.05, 0.08] {
+            let want = 1.0 + k1 * dev + k2 * dev * dev;
+            let got = law.ratio(0.345 + dev);
+            assert!((got - want).abs() < 1e-12, "at {dev}: {got} vs {want}");
+        }
+        // a four-point table is met at every point, scaled to the rig's mass at x0
+        let table = "mass_by_position = [{x_mm = 100.0, mass_kg = 2000.0}, {x_mm = 300.0, mass_kg = 2400.0}, \
+                     {x_mm = 500.0, mass_kg = 2600.0}, {x_mm = 700.0, mass_kg = 3400.0}]\n";
+        let rig = Rig::from_toml_str(
+            &format!("x0_mm = 500.0\nstroke_mm = 800.0\n{table}"),
+            "t.toml",
+        )
+        .unwrap();
+        let law = MassLaw::of_rig(&rig);
+        for (x, m) in [(0.1, 2000.0), (0.3, 2400.0), (0.5, 2600.0), (0.7, 3400.0)] {
+            assert!((law.ratio(x) - m / 2600.0).abs() < 1e-12, "at {x} m");
+        }
+        // between points it stays between its neighbours' masses here (a gentle table)
+        let mid = law.ratio(0.4) * 2600.0;
+        assert!((2400.0..2600.0).contains(&mid), "{mid}");
+        // far beyond the table the guard holds it at half the smallest ratio at least
+        assert!(law.ratio(-50.0) >= 0.5 * 2000.0 / 2600.0 - 1e-15);
+        // no table: constant
+        let flat = MassLaw::of_rig(&user_rig());
+        assert_eq!((flat.ratio(0.0), flat.ratio(0.8)), (1.0, 1.0));
     }
 
     #[test]

@@ -428,6 +428,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     };
     let (drive, km) = identification::drive_step(&mut run)?;
     let records = article::records()?;
+    let emulator = emulator_used(&records)?;
     let truth = records[0].truth.clone();
     let (exp, nominal, identified, cost_mm2) = identification::identification(&mut run, &truth)?;
     let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
@@ -456,6 +457,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     let summary = Summary {
         emulated_inputs: true,
         note: EMULATED.to_string(),
+        emulator,
         drive,
         leakage: identified.leakage.clone(),
         identified,
@@ -495,6 +497,19 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
     })
 }
 
+/// What the emulator used for each embedded record.
+fn emulator_used(records: &[article::ArticleRecord]) -> Result<Vec<summary::EmulatorUsed>> {
+    records
+        .iter()
+        .map(|r| {
+            Ok(summary::EmulatorUsed {
+                record: r.file.to_string(),
+                basis: crate::emulated::basis(&r.truth.rig, &r.truth.effects)?,
+            })
+        })
+        .collect()
+}
+
 impl Reproduction {
     /// The self-contained report.html: the notice that the inputs are emulated, the comparison
     /// with the article, then every step with its tables and inlined figures.
@@ -525,6 +540,17 @@ impl Reproduction {
                             r.why.clone(),
                         ]
                     })
+                    .collect(),
+            },
+            Block::Table {
+                caption: "What the emulator used for each record (docs/emulator.md#what-a-user-rig-gets)"
+                    .into(),
+                header: vec!["record".into(), "emulator".into()],
+                rows: self
+                    .summary
+                    .emulator
+                    .iter()
+                    .map(|e| vec![e.record.clone(), e.basis.clone()])
                     .collect(),
             },
         ];

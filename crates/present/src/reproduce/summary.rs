@@ -17,6 +17,8 @@ pub struct Summary {
     pub emulated_inputs: bool,
     /// The notice that says so.
     pub note: String,
+    /// What the emulator used for each embedded record (docs/emulator.md#what-a-user-rig-gets).
+    pub emulator: Vec<EmulatorUsed>,
     /// Step 1: the drive gain.
     pub drive: Drive,
     /// Step 2: the leakages from the standstill record.
@@ -55,6 +57,15 @@ pub struct Summary {
     pub which_circuit: WhichCircuit,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
+}
+
+/// One embedded record and what the emulator used to make it.
+#[derive(Debug, Clone, Serialize)]
+pub struct EmulatorUsed {
+    /// The record's file name in records/.
+    pub record: String,
+    /// The emulator's bulk modulus, mass law, limits and defaults, in words.
+    pub basis: String,
 }
 
 /// The operating conditions of the emulated records beside the article's.
