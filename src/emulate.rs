@@ -137,8 +137,17 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let kind = kind
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_owned());
+    let warnings = match &data {
+        Emulated::Loop(s) => pumpcyl_present::time::rating_warnings(
+            "emulated",
+            &pumpcyl::response::signals_over_ratings(&truth.rig, s),
+        ),
+        Emulated::Drive(_) => String::new(),
+    };
     Ok(format!(
-        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n",
+        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)
+{basis}
+{warnings}",
         out.display(),
         data.len()
     ))

@@ -124,9 +124,10 @@ fn variants(rig: &Rig, compare: &[String]) -> Result<Vec<(String, Rig)>> {
     Ok(out)
 }
 
-/// Run `f` (signals and metrics) on the nominal rig and on each `--compare` variant. An
-/// unstable nominal rig is an error; an unstable variant is set aside with its reason (its
-/// response would only grow).
+/// Run `f` (signals and metrics) on the nominal rig and on each `--compare` variant, each
+/// run's signals checked against its rig's drive ratings
+/// ([`response::signals_over_ratings`]). An unstable nominal rig is an error; an unstable
+/// variant is set aside with its reason (its response would only grow).
 fn run_variants<M>(
     source: &RigSource,
     rig: &Rig,
@@ -141,6 +142,7 @@ fn run_variants<M>(
         match f(&r) {
             Ok((signals, metrics)) => runs.done.push(Run {
                 label,
+                over_ratings: response::signals_over_ratings(&r, &signals),
                 signals,
                 metrics,
             }),
@@ -217,7 +219,10 @@ pub fn step(args: &StepArgs) -> Result<String> {
     )?;
     let runs = run_variants(&args.rig, &rig, &args.opts.compare, |r| {
         let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
-        let m = response::step_metrics_of(r, &s, args.step_mm);
+        let m = response::StepMetrics {
+            ringing: response::ringing(r)?,
+            ..response::step_metrics_of(r, &s, args.step_mm)
+        };
         Ok((s, m))
     })?;
     let origin = args.rig.origin();

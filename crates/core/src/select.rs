@@ -468,33 +468,17 @@ fn response_band(req: &Requirement, ends: &[&Rig], kp: f64) -> Result<Band, Desi
     Ok(band)
 }
 
-/// Why holding the pressure exceeds a motor's rating, if it does.
+/// Why holding the pressure exceeds a drive's rating, if it does (the one rating check,
+/// [`crate::response::over_ratings`]).
 fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
-    for s in standing {
-        for k in 0..2 {
-            if s.torque_nm[k].abs() > rig.motor_rated_torque_nm {
-                return Some(format!(
-                    "motor {} needs {:.1} N·m to hold p1 {:.1} / p2 {:.1} bar, above its rated {} N·m",
-                    k + 1,
-                    s.torque_nm[k].abs(),
-                    s.p_bar[0],
-                    s.p_bar[1],
-                    rig.motor_rated_torque_nm
-                ));
-            }
-            if s.speed_rpm[k].abs() > rig.motor_rated_speed_rpm {
-                return Some(format!(
-                    "motor {} turns {:.0} rpm to feed the leakage at p1 {:.1} / p2 {:.1} bar, above its rated {} rpm",
-                    k + 1,
-                    s.speed_rpm[k].abs(),
-                    s.p_bar[0],
-                    s.p_bar[1],
-                    rig.motor_rated_speed_rpm
-                ));
-            }
-        }
-    }
-    None
+    standing.iter().find_map(|s| {
+        let o = crate::response::over_ratings(rig, s.speed_rpm, s.torque_nm);
+        let [p1, p2] = s.p_bar;
+        Some(format!(
+            "{}, to hold p1 {p1:.1} / p2 {p2:.1} bar at standstill",
+            o.first()?
+        ))
+    })
 }
 
 /// The lowest pressure that meets `req` over the whole uncertainty, and the verdict.

@@ -65,12 +65,24 @@ pub fn leakage_loop_table(d: &RobustDesign) -> Table {
 }
 
 /// The nominal design (docs/design.md#what-pumpcyl-design-does) for the rig `rig` (in words)
-/// as text: the targets, the largest gains, the margins at every condition, the predicted
-/// tracking, the verdict and its reasons.
+/// as text: the targets, the largest gains and the binding condition, the margins at every
+/// condition, the predicted tracking at the gain it names, the verdict and its reasons.
 pub fn design_text(rig: &str, d: &Design) -> String {
     let mut s = format!(
         "design (the article §2.2) for {rig}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
         d.targets.pm_deg, d.targets.gm_db, d.kp_max, d.kp_max_worst_case
+    );
+    let w = &d.worst_case;
+    let _ = writeln!(
+        s,
+        "  binding condition            x {} mm, m {:.0} kg{}: its Kp max {:.2} sets the gain (GM {} dB, PM {} deg at Kp = {:.2})",
+        w.x_mm,
+        w.mass_kg,
+        w.p_mean_bar.map_or(String::new(), |p| format!(", p {p} bar")),
+        w.kp_max,
+        fmt_opt(w.gain_margin_db, 2),
+        fmt_opt(w.phase_margin_deg, 1),
+        d.kp_max
     );
     let _ = writeln!(s, "conditions at Kp = {:.2}:", d.kp_max);
     let _ = writeln!(
@@ -97,11 +109,15 @@ pub fn design_text(rig: &str, d: &Design) -> String {
             c.kp_max
         );
     }
+    let gain = match d.kp_recommended {
+        Some(_) => "the recommended gain",
+        None => "Kp max at the design point: no gain meets the targets everywhere",
+    };
     for t in &d.tracking {
         let _ = writeln!(
             s,
-            "tracking {} Hz ±{} mm: max error {:.2} mm, RMS {:.2} mm, wave reduction {:.2}",
-            t.freq_hz, t.amp_mm, t.max_error_mm, t.rms_error_mm, t.wave_reduction
+            "tracking {} Hz ±{} mm at Kp = {:.2} ({gain}): max error {:.2} mm, RMS {:.2} mm, wave reduction {:.2}",
+            t.freq_hz, t.amp_mm, d.tracking_kp, t.max_error_mm, t.rms_error_mm, t.wave_reduction
         );
     }
     s + &verdict_lines(d.verdict, &d.reasons)
@@ -213,9 +229,9 @@ mod tests {
     fn the_design_text_has_a_row_per_condition_and_ends_with_the_verdict() {
         let d = design(&Rig::default(), &Targets::default()).unwrap();
         let text = design_text("default rig", &d);
-        // targets and gains (3), conditions heading and columns (2), conditions, tracking,
-        // verdict, reasons
-        let want = 5 + d.conditions.len() + d.tracking.len() + 1 + d.reasons.len();
+        // targets, gains and the binding condition (4), conditions heading and columns (2),
+        // conditions, tracking, verdict, reasons
+        let want = 6 + d.conditions.len() + d.tracking.len() + 1 + d.reasons.len();
         assert_eq!(text.lines().count(), want, "{text}");
         let verdict = format!("verdict: {}", verdict_text(d.verdict));
         assert_eq!(

@@ -11,7 +11,9 @@ use crate::format::{fmt_opt, shown_name};
 use crate::matlab::signals_mat;
 use crate::plot::{LineStyle, Panel};
 use pumpcyl::record::Record;
-use pumpcyl::response::{Signals, StepMetrics, TrackMetrics, TrackWindow};
+use pumpcyl::response::{
+    OverRating, Ringing, Signals, StepMetrics, TrackMetrics, TrackWindow, RINGING_GM_DB,
+};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -26,6 +28,8 @@ pub struct Run<M> {
     pub signals: Signals,
     /// The metrics of the run.
     pub metrics: M,
+    /// The drive ratings its signals exceed ([`pumpcyl::response::signals_over_ratings`]).
+    pub over_ratings: Vec<OverRating>,
 }
 
 /// A variant that was not simulated because its closed loop is unstable (its response would
@@ -82,10 +86,30 @@ impl Replay<'_> {
     }
 }
 
-/// `[{"label": …, key: metrics}, …]` for `runs`.
+/// `[{"label": …, key: metrics, "over_ratings": […]}, …]` for `runs`.
 fn labelled<M: Serialize>(runs: &[Run<M>], key: &str) -> Value {
     runs.iter()
-        .map(|r| json!({"label": r.label, key: r.metrics}))
+        .map(|r| json!({"label": r.label, key: r.metrics, "over_ratings": r.over_ratings}))
+        .collect()
+}
+
+/// A warning line per drive rating a run exceeds, the run named by `label` (empty when every
+/// run stays within the ratings, docs/simulation.md#drive-ratings).
+fn over_rating_lines<M>(runs: &[Run<M>], label: impl Fn(&Run<M>) -> String) -> String {
+    runs.iter()
+        .map(|r| rating_warnings(&label(r), &r.over_ratings))
+        .collect()
+}
+
+/// A `warning:` line per drive rating in `over` that the response named `what` exceeds
+/// ([`pumpcyl::response::signals_over_ratings`]; docs/simulation.md#drive-ratings).
+pub fn rating_warnings(what: &str, over: &[OverRating]) -> String {
+    over.iter()
+        .map(|o| {
+            format!(
+                "warning: {what}: {o}: beyond its rating the drive saturates, and the rig does not follow this response\n"
+            )
+        })
         .collect()
 }
 
@@ -133,14 +157,20 @@ fn column<M>(runs: &[Run<M>], f: impl Fn(&M) -> Option<f64>) -> Vec<Option<f64>>
     runs.iter().map(|r| f(&r.metrics)).collect()
 }
 
-/// The step document (`step --json`): `rig`, `step_mm`, the nominal `metrics`, and `compare`
-/// and `unstable` for the variants; the metrics are the core's [`StepMetrics`].
+/// The step document (`step --json`): `rig`, `step_mm`, the nominal `metrics` (the core's
+/// [`StepMetrics`], with `ringing` when the loop barely damps) and `over_ratings` (the drive
+/// ratings exceeded, [`OverRating`]), and `compare` and `unstable` for the variants.
 pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
-    let v = json!({"rig": setup.rig, "step_mm": setup.step_mm, "metrics": runs.done[0].metrics});
+    let nominal = &runs.done[0];
+    let v = json!({
+        "rig": setup.rig, "step_mm": setup.step_mm, "metrics": nominal.metrics,
+        "over_ratings": nominal.over_ratings,
+    });
     with_unstable(with_compare(v, &runs.done, "metrics"), &runs.unstable)
 }
 
-/// The step metrics as text: a heading, one column per run and one row per metric, then the
+/// The step metrics as text: a heading, one column per run and one row per metric (the
+/// least damping next to the overshoot when some run rings), then the warnings and the
 /// unstable variants.
 pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
     let mut s = format!(
@@ -167,14 +197,53 @@ pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
         }),
         ("error at end (mm)", |m| format!("{:.4}", m.final_error_mm)),
     ];
-    for (name, f) in rows {
+    let rings = runs.done.iter().any(|r| r.metrics.ringing.is_some());
+    for (k, (name, f)) in rows.into_iter().enumerate() {
         let _ = write!(s, "{name:<24}");
         for r in &runs.done {
             let _ = write!(s, " {:>22}", f(&r.metrics));
         }
         s.push('\n');
+        if k == 2 && rings {
+            s += &ringing_row(&runs.done);
+        }
     }
+    s += &ringing_lines(&runs.done);
+    s += &over_rating_lines(&runs.done, |r| r.label.clone());
     s + &unstable_lines(&runs.unstable)
+}
+
+/// The row of the least-damped closed-loop pole, `ζ 0.012 at 2.31 Hz` (`-` for a run that
+/// does not ring).
+fn ringing_row(runs: &[Run<StepMetrics>]) -> String {
+    let mut s = format!("{:<24}", "least damping");
+    for r in runs {
+        let cell = r.metrics.ringing.map_or("-".into(), |g| {
+            format!("ζ {:.3} at {:.2} Hz", g.damping_ratio, g.natural_freq_hz)
+        });
+        let _ = write!(s, " {cell:>22}");
+    }
+    s + "\n"
+}
+
+/// A warning line per run whose loop barely damps its step (docs/simulation.md#ringing).
+fn ringing_lines(runs: &[Run<StepMetrics>]) -> String {
+    let mut s = String::new();
+    for r in runs {
+        if let Some(g) = r.metrics.ringing {
+            let _ = writeln!(s, "warning: {}: {}", r.label, ringing_text(&g));
+        }
+    }
+    s
+}
+
+/// The damping warning in words.
+pub fn ringing_text(g: &Ringing) -> String {
+    format!(
+        "gain margin {:.2} dB, under {RINGING_GM_DB} dB: the step rings on (least-damped \
+         closed-loop pole {:.2} Hz, damping ratio {:.3}), more than its overshoot shows",
+        g.gain_margin_db, g.natural_freq_hz, g.damping_ratio
+    )
 }
 
 /// The title of a step figure or MAT-file, `x0_mm` the operating point (mm).
@@ -187,8 +256,14 @@ pub fn step_title(setup: &StepSetup, x0_mm: f64) -> String {
 
 /// The subtitle of a step figure: rise time, overshoot and settling time of `m`.
 pub fn step_subtitle(m: &StepMetrics) -> String {
+    let ringing = m.ringing.map_or(String::new(), |g| {
+        format!(
+            "; RINGS: GM {:.2} dB, ζ {:.3} at {:.2} Hz",
+            g.gain_margin_db, g.damping_ratio, g.natural_freq_hz
+        )
+    });
     format!(
-        "rise {} s, overshoot {:.2} mm ({:.1} %), settling (2 %) {}",
+        "rise {} s, overshoot {:.2} mm ({:.1} %){ringing}, settling (2 %) {}",
         fmt_opt(m.rise_time_s, 3),
         m.overshoot_mm,
         m.overshoot_pct,
@@ -216,15 +291,15 @@ pub fn step_mat(title: &str, runs: &[Run<StepMetrics>]) -> Vec<u8> {
     signals_mat(title, &series(runs), None, &scalars)
 }
 
-/// The tracking document (`track --json`): `rig`, `cases` (`label` and the core's
+/// The tracking document (`track --json`): `rig`, `cases` (`label`, the core's
 /// [`TrackMetrics`] of every run, whose `window.steady_state` says they are the periodic
-/// steady state) and `unstable`.
+/// steady state, and its `over_ratings`) and `unstable`.
 pub fn track_json(rig: &str, runs: &Runs<TrackMetrics>) -> Value {
     let v = json!({"rig": rig, "cases": labelled(&runs.done, "metrics")});
     with_unstable(v, &runs.unstable)
 }
 
-/// The tracking metrics as text: one row per run, then the unstable variants. The metrics are
+/// The tracking metrics as text: one row per run, then the warnings and the unstable variants. The metrics are
 /// the periodic steady state ([`pumpcyl::response::track`]), as the heading says.
 pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
     let mut s = format!(
@@ -245,6 +320,12 @@ pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
             m.freq_hz, m.amp_mm, m.max_error_mm, m.rms_error_mm, m.wave_reduction
         );
     }
+    s += &over_rating_lines(&runs.done, |r| {
+        format!(
+            "{} Hz ±{} mm {}",
+            r.metrics.freq_hz, r.metrics.amp_mm, r.label
+        )
+    });
     s + &unstable_lines(&runs.unstable)
 }
 
@@ -325,18 +406,21 @@ pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
 }
 
 /// The replay document (`simulate --json`): `file`, `rig`, the nominal run's position MSE
-/// `mse_mm2` (mm²) over the fit window up to `fit_end_s` (s), `samples_in_window`, and
-/// `compare` (`label`, `mse_mm2`) and `unstable` for the variants.
+/// `mse_mm2` (mm²) over the fit window up to `fit_end_s` (s), `samples_in_window`,
+/// `over_ratings` (the drive ratings the simulated response exceeds, [`OverRating`]), and
+/// `compare` (`label`, `mse_mm2`, `over_ratings`) and `unstable` for the variants.
 pub fn simulate_json(replay: &Replay, runs: &Runs<f64>) -> Value {
+    let nominal = &runs.done[0];
     let v = json!({
-        "file": replay.record.file, "rig": replay.rig, "mse_mm2": runs.done[0].metrics,
+        "file": replay.record.file, "rig": replay.rig, "mse_mm2": nominal.metrics,
         "fit_end_s": replay.fit_end_s, "samples_in_window": replay.samples_in_window(),
+        "over_ratings": nominal.over_ratings,
     });
     with_unstable(with_compare(v, &runs.done, "mse_mm2"), &runs.unstable)
 }
 
 /// The replay as text: the record, its samples and fit window, each run's position MSE (mm²),
-/// then the unstable variants.
+/// then the warnings and the unstable variants.
 pub fn simulate_text(replay: &Replay, runs: &Runs<f64>) -> String {
     let conditions = if replay.own_conditions {
         format!(" ({})", replay.rig)
@@ -353,6 +437,7 @@ pub fn simulate_text(replay: &Replay, runs: &Runs<f64>) -> String {
     for r in &runs.done {
         let _ = writeln!(s, "  {:<24} position MSE {:.5} mm²", r.label, r.metrics);
     }
+    s += &over_rating_lines(&runs.done, |r| format!("sim {}", r.label));
     s + &unstable_lines(&runs.unstable)
 }
 
@@ -440,7 +525,7 @@ pub fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pumpcyl::response::{step, step_metrics_of};
+    use pumpcyl::response::{signals_over_ratings, step, step_metrics_of};
     use pumpcyl::rig::Rig;
 
     fn step_runs(rigs: &[(&str, Rig)]) -> Runs<StepMetrics> {
@@ -451,6 +536,7 @@ mod tests {
                 let metrics = step_metrics_of(rig, &signals, 5.0);
                 Run {
                     label: label.to_string(),
+                    over_ratings: signals_over_ratings(rig, &signals),
                     signals,
                     metrics,
                 }
@@ -479,7 +565,18 @@ mod tests {
         let v = step_json(&setup, &runs);
         let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
         keys.sort_unstable();
-        assert_eq!(keys, ["compare", "metrics", "rig", "step_mm", "unstable"]);
+        assert_eq!(
+            keys,
+            [
+                "compare",
+                "metrics",
+                "over_ratings",
+                "rig",
+                "step_mm",
+                "unstable"
+            ]
+        );
+        assert_eq!(v["over_ratings"], json!([]));
         assert_eq!(v["compare"][0]["label"], "kp=10");
         assert_eq!(v["metrics"]["step_mm"], 5.0);
         assert_eq!(v["unstable"][0]["label"], "kp=400");

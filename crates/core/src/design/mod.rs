@@ -132,11 +132,20 @@ pub struct Design {
     pub kp_max: f64,
     /// Largest Kp meeting the targets at every checked condition.
     pub kp_max_worst_case: f64,
-    /// The condition with the smallest phase margin at `kp_max`.
+    /// The binding condition (docs/design.md#the-worst-case): the one that sets
+    /// `kp_max_worst_case`, the smallest Kp max of all; its margins are at `kp_max`. On a rig
+    /// whose gain margin limits the gain it is the condition with the smallest gain margin,
+    /// whose phase limits it the smallest phase margin.
     pub worst_case: Condition,
     /// Every checked condition, at `kp_max`.
     pub conditions: Vec<Condition>,
-    /// Predicted tracking at `kp_max` (design point).
+    /// The gain (1/m) pumpcyl recommends: the smaller of `kp_max` and `kp_max_worst_case`;
+    /// `None` when some condition admits no gain (`kp_max_worst_case` = 0).
+    pub kp_recommended: Option<f64>,
+    /// The gain (1/m) the tracking is predicted at: `kp_recommended`, or `kp_max` when there
+    /// is none.
+    pub tracking_kp: f64,
+    /// Predicted tracking of each wave at `tracking_kp` (the rig's own operating point).
     pub tracking: Vec<TrackMetrics>,
     /// The verdict and the numbers that decided it.
     pub verdict: Verdict,
@@ -431,16 +440,17 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
     }
     let designed = Rig { kp, ..rig.clone() };
     let conditions = conditions(&designed, t)?;
-    let worst = conditions
-        .iter()
-        .min_by(|a, b| pm_key(a).total_cmp(&pm_key(b)))
-        .cloned()
-        .expect("at least the design point");
-    let kp_max_worst_case = conditions
-        .iter()
-        .map(|c| c.kp_max)
-        .fold(f64::INFINITY, f64::min);
-    let tracking = predicted_tracking(&designed, &t.waves)?;
+    let worst = binding(&conditions).expect("at least the design point");
+    let kp_max_worst_case = worst.kp_max;
+    let kp_recommended = (kp_max_worst_case > 0.0).then(|| kp.min(kp_max_worst_case));
+    let tracking_kp = kp_recommended.unwrap_or(kp);
+    let tracking = predicted_tracking(
+        &Rig {
+            kp: tracking_kp,
+            ..designed
+        },
+        &t.waves,
+    )?;
     let (verdict, reasons) = judge(&conditions, t, kp, kp_max_worst_case);
     Ok(Design {
         targets: t.clone(),
@@ -448,12 +458,29 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
         kp_max_worst_case,
         worst_case: worst,
         conditions,
+        kp_recommended,
+        tracking_kp,
         tracking,
         verdict,
         reasons,
     })
 }
 
+/// The binding condition: the smallest Kp max, the gain every condition can bear
+/// (docs/design.md#the-worst-case); among equal ones the least stable, then the smallest phase
+/// margin at the designed gain. `None` for no condition.
+fn binding(conditions: &[Condition]) -> Option<Condition> {
+    conditions
+        .iter()
+        .min_by(|a, b| {
+            a.kp_max
+                .total_cmp(&b.kp_max)
+                .then(pm_key(a).total_cmp(&pm_key(b)))
+        })
+        .cloned()
+}
+
+/// A condition's phase margin for ordering: −∞ when its closed loop is unstable.
 fn pm_key(c: &Condition) -> f64 {
     if !c.closed_loop_stable {
         return f64::NEG_INFINITY;
@@ -560,7 +587,7 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
     )];
     if kp_worst < kp {
         reasons.push(format!(
-            "recommended Kp = {kp_worst:.2}: the worst case sets the gain (the article's Section 2.2, last step of the method)"
+            "recommended Kp = {kp_worst:.2}: the worst case sets the gain (the article §2.2, last step of the method)"
         ));
     }
     if !unstable.is_empty() {

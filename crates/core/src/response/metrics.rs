@@ -22,6 +22,11 @@ pub struct StepMetrics {
     pub steady_state_error_mm: f64,
     /// Error at the end of the simulated record (mm).
     pub final_error_mm: f64,
+    /// The damping warning when the loop's gain margin is under
+    /// [`RINGING_GM_DB`](super::RINGING_GM_DB) ([`ringing`](super::ringing)); absent from
+    /// JSON otherwise. The metrics of sampled data alone ([`step_metrics`]) leave it `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ringing: Option<super::Ringing>,
 }
 
 /// Metrics of the deviation response `y` (mm, starting at 0) to a step `r` (mm) at `t[0]`;
@@ -55,6 +60,7 @@ pub fn step_metrics(t: &[f64], y: &[f64], r: f64, dc_mm: f64) -> StepMetrics {
         settling_time_s: settling_time(t, &norm, 0.02),
         steady_state_error_mm: r - dc_mm,
         final_error_mm: r - y[n - 1],
+        ringing: None,
     }
 }
 

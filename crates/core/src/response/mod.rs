@@ -2,11 +2,15 @@
 //! any recorded reference, simulated exactly by zero-order hold on deviations from the operating
 //! point and reported as absolute values in user units (mm, bar gauge, rpm).
 
+mod damping;
 mod metrics;
+mod ratings;
 
+pub use damping::{ringing, Ringing, RINGING_GM_DB};
 pub use metrics::{
     position_mse_until, step_metrics, track_metrics, StepMetrics, TrackMetrics, TrackWindow,
 };
+pub use ratings::{load_torques_nm, over_ratings, signals_over_ratings, OverRating};
 
 use crate::lti::{LtiError, Simulator, StateSpace, Zoh};
 use crate::model::{Plant, SIM_OUTPUTS};
