@@ -153,8 +153,8 @@ impl Grid {
     /// centre is not a positive number.
     pub fn centred(centre: &Candidate) -> Result<Grid, FieldError> {
         let values = candidate_values(centre);
-        let mut axes = Vec::with_capacity(3);
-        for (k, (count, factor)) in FIRST_AXES.into_iter().enumerate() {
+        let mut ranges = [[0.0; 2]; 3];
+        for (k, (_, factor)) in FIRST_AXES.into_iter().enumerate() {
             let c = values[k];
             if !(c.is_finite() && c > 0.0) {
                 return Err(FieldError::new(
@@ -166,9 +166,9 @@ impl Grid {
                     ),
                 ));
             }
-            axes.push(spaced(c / factor, c * factor, count, true));
+            ranges[k] = [c / factor, c * factor];
         }
-        Ok(Grid::of_axes(axes))
+        Ok(Grid::over(&ranges))
     }
 
     /// The first grid over ranges [lo, hi] per axis (the experiment's `[ranges]`): the counts
@@ -177,7 +177,14 @@ impl Grid {
         let axes = ranges
             .iter()
             .zip(FIRST_AXES)
-            .map(|([lo, hi], (count, _))| spaced(*lo, *hi, count, true))
+            .map(|(&[lo, hi], (count, _))| {
+                // the ends exactly as given (exp(ln x) may differ in the last bit)
+                let mut axis = spaced(lo, hi, count, true);
+                if let [first, .., last] = axis.as_mut_slice() {
+                    (*first, *last) = (lo, hi);
+                }
+                axis
+            })
             .collect();
         Grid::of_axes(axes)
     }
