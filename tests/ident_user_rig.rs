@@ -132,16 +132,15 @@ fn a_best_on_the_edge_of_any_stage_is_a_warning_in_the_text_and_the_json() {
     // stage 1's best, 200 bar, is its top edge; stage 2 (centred there, 150 … 266.7 bar) ends
     // on its own top edge as well
     assert!(
-        warnings.iter().any(
-            |w| w.starts_with("stage 1: its best has beta_bar = 200 on the edge")
-                && w.contains("the grid of stage 2 reaches beyond it")
-        ),
+        warnings.iter().any(|w| w
+            .starts_with("the best grid point has beta_bar = 200 on the edge of the stage 1 grid")
+            && w.contains("the grid of stage 2 reaches beyond it")),
         "{warnings:?}"
     );
     assert!(
-        warnings.iter().any(|w| w
-            .starts_with("stage 2: its best has beta_bar = 266.7 on the edge")
-            && w.contains("the optimum may lie outside it")),
+        warnings.iter().any(|w| w.starts_with(
+            "the best grid point has beta_bar = 266.7 on the edge of the stage 2 grid"
+        ) && w.contains("the optimum may lie outside it")),
         "{warnings:?}"
     );
     let [lo2, hi2] = span(&v, 1, "beta_bar");
@@ -152,7 +151,9 @@ fn a_best_on_the_edge_of_any_stage_is_a_warning_in_the_text_and_the_json() {
     let out = pumpcyl(dir.path(), &["identify", "exp.toml", "--no-refine"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
-        text.contains("  warning: stage 2: its best has beta_bar = 266.7"),
+        text.contains(
+            "  warning: the best grid point has beta_bar = 266.7 on the edge of the stage 2"
+        ),
         "{text}"
     );
 }

@@ -211,10 +211,11 @@ impl Identification {
                         .to_string()
                 };
                 out.push(format!(
-                    "stage {}: its best has {} = {} on the edge of its grid ({} … {}): {what}",
-                    k + 1,
+                    "the best grid point has {} = {} on the edge of the stage {} grid ({} … {}): \
+                     {what}",
                     PARAMETERS[i],
                     grid::short(values[i]),
+                    k + 1,
                     grid::short(lo),
                     grid::short(hi)
                 ));
