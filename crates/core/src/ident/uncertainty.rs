@@ -336,7 +336,7 @@ impl Identifiability {
     }
 }
 
-/// Which of (β, b, c12) the records bound, decided cheaply (docs/identification.md#identifiability):
+/// Which of (β, b, c12) the records bound, decided cheaply (docs/identification.md, "Identifiability"):
 /// at the SSE optimum near `start`, each parameter is fixed a decade ([`FLAT_FACTOR`]) below
 /// and above its estimate (within [`BOUNDS`]) and the SSE minimised over the other two. A
 /// parameter whose profile statistic ΔSSE/σ² stays at or under χ²₁(`confidence`) at either
