@@ -11,8 +11,8 @@ use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::{self, digest, Partial};
 use pumpcyl::ident::{
-    analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request,
-    Standstill, Uncertainty, UncertaintyOptions,
+    analyze, finish, identifiability, identify_drive, DriveRecord, Experiment, Identifiability,
+    Identification, Options, Request, Standstill, Uncertainty, UncertaintyOptions,
 };
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::identification as outputs;
@@ -347,6 +347,22 @@ fn analyze_uncertainty(
     Ok((u, start.elapsed().as_secs_f64()))
 }
 
+/// Which parameters the records bound: from the profiles of the uncertainty analysis when it
+/// ran, else by the quick check of [`identifiability`] at 95 %; `None` when the noise cannot
+/// be estimated (records without noise fitted exactly).
+fn verdicts(
+    exp: &Experiment,
+    id: &Identification,
+    uncertainty: Option<&Uncertainty>,
+) -> Option<[Identifiability; 3]> {
+    match uncertainty {
+        Some(u) if u.profiles.len() == 3 => Some(std::array::from_fn(|i| {
+            Identifiability::of_profile(&u.profiles[i], u.confidence)
+        })),
+        _ => identifiability(&exp.problem, &id.best().candidate, 0.95).ok(),
+    }
+}
+
 /// Report an identification (with its uncertainty when analysed): JSON or text; with `out`,
 /// its result folder (docs/identification.md), built aside and swapped in whole.
 fn report_identification(
@@ -357,7 +373,11 @@ fn report_identification(
     json_out: bool,
     out: Option<&Path>,
 ) -> Result<String> {
+    let verdicts = verdicts(exp, id, uncertainty.map(|(u, _)| u));
     let mut v = outputs::identification_json(exp, id, seconds)?;
+    if let Some(d) = &verdicts {
+        outputs::add_identifiability_json(&mut v, d);
+    }
     if let Some((u, s)) = uncertainty {
         add_uncertainty_json(&mut v, u, *s);
     }
@@ -375,7 +395,7 @@ fn report_identification(
     if json_out {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");
     }
-    let mut text = outputs::identification_text(exp, id, seconds);
+    let mut text = outputs::identification_text(exp, id, seconds, verdicts.as_ref());
     if let Some((u, s)) = uncertainty {
         text += &uncertainty_text(u, *s);
     }

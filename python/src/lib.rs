@@ -927,7 +927,8 @@ fn standstill_of(value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
 /// `datasets=[Dataset(...)]` with `standstill=dict(w1_rpm=..., w2_rpm=..., p1_bar=...)` (rpm,
 /// rpm, bar gauge) and `rig` (default: the article's). `grid` and `refined_grid` are dicts
 /// {beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the file's, else the
-/// article's 3264 + 3553 candidates); `refined_grid=False` skips the second stage.
+/// first centred on the rig's values and the second on the first stage's best;
+/// docs/identification.md#the-two-grids); `refined_grid=False` skips the second stage.
 /// `auto_refine`, `local_refinement` and `threshold_mm2` (mm^2) override the file; `top` is the
 /// length of the top list. Work beyond 10^9 candidate-samples (hours) is refused unless
 /// `allow_long_run=True`. The search runs with the GIL released; Ctrl-C stops it
@@ -986,7 +987,15 @@ fn identify(
                 datasets,
                 standstill,
             };
-            let grids = (Grid::article_first(), Some(Grid::article_refined()));
+            // the first grid centred on the rig's values, the second on the first stage's best
+            // (docs/identification.md#the-two-grids)
+            let centre = ident::Candidate {
+                beta_bar: rig.beta_bar,
+                viscous_friction_ns_per_m: rig.viscous_friction_ns_per_m,
+                c12_m5_per_ns: rig.c12_m5_per_ns,
+            };
+            let first = Grid::centred(&centre).map_err(|e| err(e.message))?;
+            let grids = (first, Some(ident::SecondGrid::Centred));
             (&built, grids, Options::default())
         }
         (Some(_), Some(_)) => {
@@ -1007,7 +1016,7 @@ fn identify(
     };
     let second = match refined_grid {
         Some(g) if g.is_instance_of::<PyBool>() && !g.extract::<bool>()? => None,
-        Some(g) => Some(grid_of("refined_grid", g)?),
+        Some(g) => Some(grid_of("refined_grid", g)?.into()),
         None => file_grids.1,
     };
     let opts = Options {

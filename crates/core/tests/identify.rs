@@ -43,7 +43,8 @@ fn grid_search_recovers_the_truth_within_one_grid_step() {
     };
     write_record(dir.path(), "ident.csv", &truth, 25.0, 0.01, 11);
     write_record(dir.path(), "valid.csv", &truth, 20.0, 0.01, 12);
-    let exp = experiment(dir.path(), "");
+    // the article's grids: their steps (5 bar, 50 N·s/m, 1e-11) hold the truth exactly
+    let exp = experiment(dir.path(), "grids = \"article\"");
     let stages = run_stages(&exp.problem, exp.grids(), &opts(false), None, &|_| {}).unwrap();
     assert_eq!(stages[0].summary.evaluated, 3264);
     assert_eq!(stages[1].summary.evaluated, 3553);

@@ -2,7 +2,7 @@
 //! which further record would narrow the intervals of β (bar), b (N·s/m) and c12 (m⁵/(N·s))
 //! most, as JSON and as text. Widths are relative to the estimate.
 
-use pumpcyl::ident::{Advice, Width};
+use pumpcyl::ident::{Advice, Assessment, Width};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 
@@ -28,17 +28,28 @@ pub fn width_text(w: &Width) -> String {
 pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
     let mut s = String::new();
     let p = &a.point;
+    let i = &a.identified;
     let _ = writeln!(
         s,
-        "experiment advice for {name} (linearised at beta {:.1} bar, b {:.1} N·s/m, c12 {:.4e} \
-         m⁵/(N·s); noise sigma {:.4} mm, variance inflated {:.1}-fold; {:.0} % intervals, \
-         widths relative to the estimate), in {seconds:.1} s",
-        p.beta_bar,
-        p.viscous_friction_ns_per_m,
-        p.c12_m5_per_ns,
+        "experiment advice for {name} (noise sigma {:.4} mm, variance inflated {:.1}-fold; \
+         {:.0} % intervals, widths relative to the estimate), in {seconds:.1} s",
         a.noise_std_mm,
         a.variance_inflation,
         a.confidence * 100.0
+    );
+    let _ = writeln!(
+        s,
+        "linearised at beta {:.1} bar, b {:.1} N·s/m, c12 {:.4e} m⁵/(N·s): the least-SSE point \
+         with each record's initial position fitted (docs/identification.md#uncertainty), \
+         polished from identify's answer beta {:.1} bar, b {:.1} N·s/m, c12 {:.4e} m⁵/(N·s), \
+         whose cost takes the initial position from the samples at rest; where the two differ \
+         most, the records bound that parameter least",
+        p.beta_bar,
+        p.viscous_friction_ns_per_m,
+        p.c12_m5_per_ns,
+        i.beta_bar,
+        i.viscous_friction_ns_per_m,
+        i.c12_m5_per_ns
     );
     let _ = writeln!(
         s,
@@ -57,29 +68,22 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
     for (k, c) in a.candidates.iter().enumerate() {
         let _ = writeln!(
             s,
-            "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7.2} {:>7.2} {:>7.2}",
+            "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
             k + 1,
             c.label,
             width_text(&c.widths[0]),
             width_text(&c.widths[1]),
             width_text(&c.widths[2]),
-            c.improvement[0],
-            c.improvement[1],
-            c.improvement[2]
+            ratio_text(a, c, 0),
+            ratio_text(a, c, 1),
+            ratio_text(a, c, 2)
         );
     }
     for line in &a.skipped {
         let _ = writeln!(s, "skipped: {line}");
     }
     if let Some(b) = a.candidates.iter().find(|c| c.label == a.best_for[1]) {
-        let _ = writeln!(
-            s,
-            "helps b most: {} (b {} -> {}, {:.1} times narrower in log terms)",
-            b.label,
-            width_text(&a.current[1]),
-            width_text(&b.widths[1]),
-            b.improvement[1]
-        );
+        let _ = writeln!(s, "{}", helps_b(a, b));
     }
     let _ = writeln!(
         s,
@@ -89,10 +93,43 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
     s
 }
 
+/// Candidate `c`'s improvement of parameter `i` in the table: `-` when the interval is
+/// unbounded before and after (no width to compare).
+fn ratio_text(a: &Advice, c: &Assessment, i: usize) -> String {
+    if a.current[i].relative_width.is_none() && c.widths[i].relative_width.is_none() {
+        "-".into()
+    } else {
+        format!("{:.2}", c.improvement[i])
+    }
+}
+
+/// The line naming the candidate `b` that narrows b most: its width before and after, and
+/// the ratio only when both are bounded (an unbounded interval has no width to compare).
+fn helps_b(a: &Advice, b: &Assessment) -> String {
+    let (now, then) = (&a.current[1], &b.widths[1]);
+    match (now.relative_width, then.relative_width) {
+        (Some(_), Some(_)) => format!(
+            "helps b most: {} (b {} -> {}, {:.1} times narrower in log terms)",
+            b.label,
+            width_text(now),
+            width_text(then),
+            b.improvement[1]
+        ),
+        (None, Some(_)) => format!(
+            "helps b most: {} (b unbounded with the current records, {} with it)",
+            b.label,
+            width_text(then)
+        ),
+        _ => "helps b most: none; b stays unbounded with the current records and with every \
+              candidate (no candidate bounds it)"
+            .to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pumpcyl::ident::{Assessment, Candidate, Design};
+    use pumpcyl::ident::{Candidate, Design};
 
     fn width(relative_width: Option<f64>) -> Width {
         Width {
@@ -126,6 +163,11 @@ mod tests {
                 viscous_friction_ns_per_m: 2000.0,
                 c12_m5_per_ns: 1e-11,
             },
+            identified: Candidate {
+                beta_bar: 166.0,
+                viscous_friction_ns_per_m: 140.0,
+                c12_m5_per_ns: 1e-11,
+            },
             noise_std_mm: 0.02,
             variance_inflation: 1.5,
             confidence: 0.95,
@@ -139,8 +181,17 @@ mod tests {
             best_for: ["sine".into(), "step 5 mm".into(), "sine".into()],
         };
         let text = advice_text("exp.toml", &a, 1.25);
-        // heading, column names, current, two candidates, skipped, helps b, best for
-        assert_eq!(text.lines().count(), 8, "{text}");
+        // heading, linearisation point, column names, current, two candidates, skipped,
+        // helps b, best for
+        assert_eq!(text.lines().count(), 9, "{text}");
+        assert!(
+            text.contains("linearised at beta 165.0 bar, b 2000.0 N·s/m"),
+            "{text}"
+        );
+        assert!(
+            text.contains("identify's answer beta 166.0 bar, b 140.0 N·s/m"),
+            "{text}"
+        );
         assert!(text.contains("helps b most: step 5 mm (b 80.0 % -> 20.0 %, 4.0 times"));
         assert!(text.contains("unbounded"));
         let v = advice_json(&a, "exp.toml", 1.25);
@@ -148,5 +199,32 @@ mod tests {
         assert_eq!(v["seconds"], 1.25);
         assert_eq!(v["candidates"][1]["label"], "sine");
         assert_eq!(v["current"][2]["relative_width"], Value::Null);
+        assert_eq!(v["identified"]["viscous_friction_ns_per_m"], 140.0);
+        // b unbounded before and after: said plainly, no ratio
+        let mut both = a.clone();
+        both.current[1] = width(None);
+        for c in &mut both.candidates {
+            c.widths[1] = width(None);
+            c.improvement[1] = 7.7;
+        }
+        let text = advice_text("exp.toml", &both, 1.0);
+        assert!(
+            text.contains("b stays unbounded with the current records and with every candidate"),
+            "{text}"
+        );
+        assert!(
+            !text.contains("unbounded -> unbounded") && !text.contains("7.7"),
+            "{text}"
+        );
+        // unbounded before, bounded after: the width after, no ratio
+        let mut after = a.clone();
+        after.current[1] = width(None);
+        let text = advice_text("exp.toml", &after, 1.0);
+        assert!(
+            text.contains(
+                "helps b most: step 5 mm (b unbounded with the current records, 20.0 % with it)"
+            ),
+            "{text}"
+        );
     }
 }

@@ -6,7 +6,8 @@ use crate::figures::{Chart, Plot, PARAMETER_AXES};
 use crate::plot::{HeatMap, Marker};
 use anyhow::Result;
 use pumpcyl::ident::{
-    Candidate, DriveFit, DriveRecord, Experiment, Identification, Leakage, Scored, Standstill,
+    Candidate, DriveFit, DriveRecord, Experiment, Identifiability, Identification, Leakage, Scored,
+    Standstill,
 };
 use pumpcyl::matfile::MatWriter;
 use pumpcyl::response::Signals;
@@ -57,7 +58,55 @@ pub fn identification_json(exp: &Experiment, id: &Identification, seconds: f64) 
         .collect();
     v["top"] = id.top.iter().map(|s| scored_json(s, None)).collect();
     v["experiment"] = json!(exp.path.display().to_string());
+    v["rig"] = json!(rig_origin(exp));
+    v["grids"] = json!(exp.grids_origin);
+    v["stage_grids"] = id
+        .stages
+        .iter()
+        .map(|s| {
+            json!({
+                "beta_bar": axis_span(&s.grid.beta_bar),
+                "viscous_friction_ns_per_m": axis_span(&s.grid.viscous_friction_ns_per_m),
+                "c12_m5_per_ns": axis_span(&s.grid.c12_m5_per_ns),
+            })
+        })
+        .collect();
+    v["warnings"] = json!(id.warnings());
     Ok(v)
+}
+
+/// [lo, hi, count] of a grid axis.
+fn axis_span(axis: &[f64]) -> Value {
+    let (lo, hi) = axis
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+            (l.min(x), h.max(x))
+        });
+    json!([lo, hi, axis.len()])
+}
+
+/// Which rig the experiment uses, in words: its file, or the article's when it names none.
+fn rig_origin(exp: &Experiment) -> String {
+    match &exp.file.rig {
+        Some(r) => r.clone(),
+        None => "the article's rig (the experiment names no `rig`)".into(),
+    }
+}
+
+/// Add the identifiability verdicts (`identifiable`: per parameter true/false;
+/// `not_identifiable`: per parameter the reason, for those the records do not bound) to an
+/// identification's JSON.
+pub fn add_identifiability_json(v: &mut Value, verdicts: &[Identifiability; 3]) {
+    let mut ok = serde_json::Map::new();
+    let mut not = serde_json::Map::new();
+    for d in verdicts {
+        ok.insert(d.parameter.into(), json!(d.identifiable));
+        if let Some(r) = &d.reason {
+            not.insert(d.parameter.into(), json!(r));
+        }
+    }
+    v["identifiable"] = ok.into();
+    v["not_identifiable"] = not.into();
 }
 
 /// The identification cost over β × c12 at one b.
@@ -284,9 +333,16 @@ pub fn files(exp: &Experiment, id: &Identification, v: &Value) -> Result<Vec<(St
     Ok(out)
 }
 
-/// The text of an identification: the run's size and time (`seconds`), the best grid point,
-/// the refined point, the leakages, each stage's threshold set and the top candidates.
-pub fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) -> String {
+/// The text of an identification: the run's size and time (`seconds`), the rig and grids it
+/// used, the best grid point, the refined point, the leakages, each stage's threshold set, the
+/// warnings and the top candidates. A parameter `verdicts` finds not identifiable shows as
+/// such instead of its value in the answer's lines.
+pub fn identification_text(
+    exp: &Experiment,
+    id: &Identification,
+    seconds: f64,
+    verdicts: Option<&[Identifiability; 3]>,
+) -> String {
     let mut s = String::new();
     let sizes: Vec<String> = id
         .stages
@@ -304,10 +360,22 @@ pub fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) 
         id.evaluated(),
         sizes.join(" + ")
     );
-    s.push_str(&scored_line("best grid point", &id.grid_best));
+    let _ = writeln!(s, "  rig              {}", rig_origin(exp));
+    let _ = writeln!(s, "  grids            {}", exp.grids_origin);
+    let hidden: [bool; 3] = std::array::from_fn(|i| verdicts.is_some_and(|v| !v[i].identifiable));
+    s.push_str(&scored_line("best grid point", &id.grid_best, hidden));
     match &id.refined {
-        Some(r) => s.push_str(&scored_line("refined (N-M)", r)),
+        Some(r) => s.push_str(&scored_line("refined (N-M)", r, hidden)),
         None => s.push_str("  refined (N-M)    off, or no improvement on the grid\n"),
+    }
+    for d in verdicts.into_iter().flatten() {
+        if let Some(r) = &d.reason {
+            let _ = writeln!(
+                s,
+                "  {}: not identifiable from these records ({r})",
+                short_name(d.parameter)
+            );
+        }
     }
     let _ = writeln!(
         s,
@@ -329,20 +397,40 @@ pub fn identification_text(exp: &Experiment, id: &Identification, seconds: f64) 
             st.summary.threshold_count
         );
     }
+    for w in id.warnings() {
+        let _ = writeln!(s, "  warning: {w}");
+    }
     let _ = writeln!(s, "top {}:", id.top.len());
     for (k, c) in id.top.iter().enumerate() {
-        s.push_str(&scored_line(&format!("{:>2}", k + 1), c));
+        s.push_str(&scored_line(&format!("{:>2}", k + 1), c, [false; 3]));
     }
     s
 }
 
-/// One candidate and its cost as a text line.
-fn scored_line(label: &str, c: &Scored) -> String {
+/// The short name of a parameter in text: beta, b, c12.
+fn short_name(parameter: &str) -> &'static str {
+    match parameter {
+        "beta_bar" => "beta",
+        "viscous_friction_ns_per_m" => "b",
+        _ => "c12",
+    }
+}
+
+/// One candidate and its cost as a text line; a `hidden` parameter (not identifiable) shows
+/// as `n/a` instead of its value.
+fn scored_line(label: &str, c: &Scored, hidden: [bool; 3]) -> String {
+    let show = |i: usize, text: String| {
+        if hidden[i] {
+            format!("{:>8}", "n/a")
+        } else {
+            text
+        }
+    };
     format!(
-        "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)  cost {:.5} mm²\n",
-        c.candidate.beta_bar,
-        c.candidate.viscous_friction_ns_per_m,
-        c.candidate.c12_m5_per_ns,
+        "  {label:<16} beta {} bar  b {} N·s/m  c12 {} m⁵/(N·s)  cost {:.5} mm²\n",
+        show(0, format!("{:>8.2}", c.candidate.beta_bar)),
+        show(1, format!("{:>8.1}", c.candidate.viscous_friction_ns_per_m)),
+        show(2, format!("{:.4e}", c.candidate.c12_m5_per_ns)),
         c.cost_mm2
     )
 }

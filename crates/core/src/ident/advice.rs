@@ -426,6 +426,9 @@ pub struct Assessment {
 pub struct Advice {
     /// The point the model is linearised at (the identification's answer polished on the SSE).
     pub point: Candidate,
+    /// The identification's answer the point was polished from (`identify`'s refined best,
+    /// which minimises the cost: each record's initial position from its samples at rest).
+    pub identified: Candidate,
     /// Noise level σ (mm) estimated from the residuals there.
     pub noise_std_mm: f64,
     /// Factor on σ² for correlated residuals (the uncertainty analysis's AR(1) inflation),
@@ -670,6 +673,7 @@ pub fn advise(
     });
     Ok(Advice {
         point: u.best,
+        identified: *start,
         noise_std_mm: u.noise_std_mm,
         variance_inflation: u.variance_inflation,
         confidence: opts.confidence,

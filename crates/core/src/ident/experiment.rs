@@ -1,7 +1,7 @@
 //! The experiment file of `pumpcyl identify`: rig, overrides, standstill point, datasets and
 //! optional grids, in TOML. Paths are relative to the experiment file.
 
-use super::grid::Grid;
+use super::grid::{short, Grid, SecondGrid, FIRST_AXES};
 use super::leakage::Standstill;
 use super::problem::{DatasetSpec, Prepared, Problem};
 use super::IdentError;
@@ -32,10 +32,18 @@ pub struct ExperimentFile {
     pub standstill: StandstillSpec,
     /// The records to fit, at least one.
     pub dataset: Vec<DatasetSpec>,
-    /// First grid; absent = the article's (3264 candidates).
+    /// First grid; absent = one over `ranges`, each axis without a range centred on the rig's
+    /// value ([`FIRST_AXES`]), or the article's with `grids = "article"`.
     pub grid: Option<Grid>,
-    /// Second grid; absent = the article's refined grid (3553), unless auto-refined.
+    /// Second grid; absent = one centred on the first stage's best ([`Grid::around`]), or the
+    /// article's refined grid with `grids = "article"`, unless auto-refined.
     pub refined_grid: Option<Grid>,
+    /// `"article"`: the article's two grids (§2.4), for the article's records.
+    #[serde(default)]
+    pub grids: Option<String>,
+    /// Ranges [lo, hi] of the first grid's axes (β bar, b N·s/m, c12 m⁵/(N·s)).
+    #[serde(default)]
+    pub ranges: Ranges,
     /// Threshold of the threshold set (mm²).
     #[serde(default = "default_threshold")]
     pub threshold_mm2: f64,
@@ -45,6 +53,86 @@ pub struct ExperimentFile {
     /// Nelder–Mead refinement from the best grid point.
     #[serde(default = "yes")]
     pub local_refinement: bool,
+}
+
+/// The ranges [lo, hi] of the first grid's axes, each optional.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ranges {
+    /// Bulk modulus (bar).
+    pub beta_bar: Option<[f64; 2]>,
+    /// Viscous friction (N·s/m).
+    pub viscous_friction_ns_per_m: Option<[f64; 2]>,
+    /// Cross-port leakage (m⁵/(N·s)).
+    pub c12_m5_per_ns: Option<[f64; 2]>,
+}
+
+impl Ranges {
+    /// The three ranges in the order (β, b, c12).
+    fn axes(&self) -> [(&'static str, Option<[f64; 2]>); 3] {
+        [
+            ("beta_bar", self.beta_bar),
+            ("viscous_friction_ns_per_m", self.viscous_friction_ns_per_m),
+            ("c12_m5_per_ns", self.c12_m5_per_ns),
+        ]
+    }
+
+    /// Whether no range is given.
+    fn is_empty(&self) -> bool {
+        self.axes().iter().all(|(_, r)| r.is_none())
+    }
+}
+
+/// The first grid of an experiment and where it comes from, in words (printed with the
+/// answer).
+fn first_grid(file: &ExperimentFile, rig: &Rig, at: &Locate) -> Result<(Grid, String), IdentError> {
+    if let Some(g) = &file.grid {
+        return Ok((g.clone(), "the experiment's [grid]".into()));
+    }
+    if file.grids.is_some() {
+        return Ok((
+            Grid::article_first(),
+            "the article's (grids = \"article\")".into(),
+        ));
+    }
+    let centre = [
+        rig.beta_bar,
+        rig.viscous_friction_ns_per_m,
+        rig.c12_m5_per_ns,
+    ];
+    let mut ranges = [[0.0; 2]; 3];
+    let mut said = Vec::new();
+    for (k, (key, given)) in file.ranges.axes().into_iter().enumerate() {
+        let (count, factor) = FIRST_AXES[k];
+        let c = centre[k];
+        ranges[k] = match given {
+            Some([lo, hi]) => {
+                if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi >= lo) {
+                    let m = format!("ranges.{key} = [{lo}, {hi}]: needs 0 < lo <= hi");
+                    return Err(at.error(&[Name("ranges"), Name(key)], m));
+                }
+                said.push(format!("{key} {}…{} ([ranges])", short(lo), short(hi)));
+                [lo, hi]
+            }
+            None if c.is_finite() && c > 0.0 => {
+                said.push(format!("{key} {} ({count} values ÷/× {factor})", short(c)));
+                [c / factor, c * factor]
+            }
+            None => {
+                let m = format!(
+                    "the rig's {key} is {c}: the first grid is centred on the rig's value, \
+                     which must be > 0; give [ranges] {key} = [lo, hi] or a [grid]"
+                );
+                return Err(at.error(&[Name("ranges")], m));
+            }
+        };
+    }
+    let grid = Grid::over(&ranges);
+    if let Err(e) = grid.validate("ranges") {
+        return Err(at.error(&[Name("ranges"), Name(e.field)], e.message));
+    }
+    let text = format!("centred on the rig's values: {}", said.join(", "));
+    Ok((grid, text))
 }
 
 /// The standstill point as written: its three values, or a record to average.
@@ -170,6 +258,12 @@ pub struct Experiment {
     pub rig: Rig,
     /// Datasets ready to fit.
     pub problem: Problem,
+    /// The first grid (the file's, the article's, or over the ranges / the rig's values).
+    pub first_grid: Grid,
+    /// The second stage: given, centred on the first stage's best, or none.
+    pub second_grid: Option<SecondGrid>,
+    /// Where the grids come from, in words.
+    pub grids_origin: String,
 }
 
 impl Experiment {
@@ -251,11 +345,31 @@ impl Experiment {
             let m = format!("threshold_mm2 = {}: must be > 0", file.threshold_mm2);
             return Err(at.error(&[Name("threshold_mm2")], m));
         }
+        match file.grids.as_deref() {
+            None | Some("article") => {}
+            Some(other) => {
+                let m = format!("grids = \"{other}\": the only named grids are \"article\"");
+                return Err(at.error(&[Name("grids")], m));
+            }
+        }
+        if file.grids.is_some() && !file.ranges.is_empty() {
+            let m = "give either grids = \"article\" or [ranges], not both";
+            return Err(at.error(&[Name("ranges")], m));
+        }
+        let (first_grid, first_origin) = first_grid(&file, &rig, &at)?;
+        let (second_grid, second_origin) = match (&file.refined_grid, &file.grids) {
+            (Some(g), _) => (g.clone().into(), "the experiment's [refined_grid]"),
+            (None, Some(_)) => (Grid::article_refined().into(), "the article's refined grid"),
+            (None, None) => (SecondGrid::Centred, "centred on the first stage's best"),
+        };
         let datasets = (0..file.dataset.len())
             .map(|i| file.dataset(files, i, dir, &rig, &at))
             .collect::<Result<_, _>>()?;
         Ok(Experiment {
             path: path.to_path_buf(),
+            grids_origin: format!("first {first_origin}; second {second_origin}"),
+            first_grid,
+            second_grid: Some(second_grid),
             file,
             rig,
             problem: Problem {
@@ -265,17 +379,11 @@ impl Experiment {
         })
     }
 
-    /// The two grids: the file's, else the article's (docs/identification.md#the-two-grids).
-    pub fn grids(&self) -> (Grid, Option<Grid>) {
-        (
-            self.file.grid.clone().unwrap_or_else(Grid::article_first),
-            Some(
-                self.file
-                    .refined_grid
-                    .clone()
-                    .unwrap_or_else(Grid::article_refined),
-            ),
-        )
+    /// The two grids: the file's; else the first over its ranges or centred on the rig's
+    /// values and the second centred on the first stage's best; the article's with
+    /// `grids = "article"` (docs/identification.md#the-two-grids).
+    pub fn grids(&self) -> (Grid, Option<SecondGrid>) {
+        (self.first_grid.clone(), self.second_grid.clone())
     }
 
     /// The identification options the file gives (its `auto_refine`, `local_refinement` and

@@ -14,6 +14,50 @@ pub struct Candidate {
     pub c12_m5_per_ns: f64,
 }
 
+/// The rig keys of the three axes, in the order (β, b, c12).
+const AXES: [&str; 3] = ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"];
+
+/// A first grid's values per axis and how far it reaches each side of its centre (a factor):
+/// β 16 values over ÷8 … ×8, b 12 over ÷8 … ×8, c12 17 over ÷100 … ×100, all log-spaced. The
+/// counts are the article's first grid's (§2.4); the spans cover what a rig file's values
+/// may be off by: an effective β an order of magnitude below the oil's (docs/bulk-modulus.md),
+/// friction and cross-port leakage known to a decade or two.
+pub const FIRST_AXES: [(usize, f64); 3] = [(16, 8.0), (12, 8.0), (17, 100.0)];
+
+/// The values per axis of a stage centred on the previous stage's best: the article's refined
+/// grid's counts (19 β, 11 b, 17 c12; §2.4), odd so the best is the middle value.
+pub const SECOND_COUNTS: [usize; 3] = [19, 11, 17];
+
+/// A grid value in four significant digits, as messages show it: `37.5`, `2400`, `1.2e-10`.
+pub fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    if (1e-3..1e6).contains(&v.abs()) {
+        let digits = (3 - v.abs().log10().floor() as i32).max(0) as usize;
+        let s = format!("{v:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        let s = format!("{v:.3e}");
+        let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = if m.contains('.') {
+            m.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            m
+        };
+        format!("{m}e{e}")
+    }
+}
+
+/// The values of a candidate in the order (β, b, c12).
+pub fn candidate_values(c: &Candidate) -> [f64; 3] {
+    [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns]
+}
+
 /// A full-factorial grid β × b × c12.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -24,6 +68,30 @@ pub struct Grid {
     pub viscous_friction_ns_per_m: Vec<f64>,
     /// Cross-port leakage values (m⁵/(N·s)).
     pub c12_m5_per_ns: Vec<f64>,
+}
+
+/// The grid of the second stage of a search.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SecondGrid {
+    /// A grid given in advance (the experiment's `refined_grid`, or the article's).
+    Given(Grid),
+    /// Centred on the first stage's best ([`Grid::around`]): known only once the first stage
+    /// has run.
+    Centred,
+}
+
+impl SecondGrid {
+    /// The candidates of a grid derived after the first stage ([`Grid::around`],
+    /// [`Grid::refined_from`]).
+    pub fn centred_len() -> usize {
+        SECOND_COUNTS.iter().product()
+    }
+}
+
+impl From<Grid> for SecondGrid {
+    fn from(g: Grid) -> Self {
+        SecondGrid::Given(g)
+    }
 }
 
 /// `count` values from `from` to `to`, evenly spaced (in log space when `log`).
@@ -77,6 +145,119 @@ impl Grid {
             viscous_friction_ns_per_m: stepped(100.0, 600.0, 50.0),
             c12_m5_per_ns: spaced(0.8e-10, 2.4e-10, 17, false),
         }
+    }
+
+    /// The first grid centred on `centre` (a rig's β, b, c12, or the middle of the
+    /// experiment's ranges): per axis [`FIRST_AXES`] log-spaced values from centre/factor to
+    /// centre·factor (docs/identification.md#the-two-grids). The error names the axis whose
+    /// centre is not a positive number.
+    pub fn centred(centre: &Candidate) -> Result<Grid, FieldError> {
+        let values = candidate_values(centre);
+        let mut ranges = [[0.0; 2]; 3];
+        for (k, (_, factor)) in FIRST_AXES.into_iter().enumerate() {
+            let c = values[k];
+            if !(c.is_finite() && c > 0.0) {
+                return Err(FieldError::new(
+                    AXES[k],
+                    format!(
+                        "{} = {c}: a grid is centred on the rig's value, which must be > 0; \
+                         give [ranges] {} = [lo, hi] or a [grid]",
+                        AXES[k], AXES[k]
+                    ),
+                ));
+            }
+            ranges[k] = [c / factor, c * factor];
+        }
+        Ok(Grid::over(&ranges))
+    }
+
+    /// The first grid over ranges [lo, hi] per axis (the experiment's `[ranges]`): the counts
+    /// of [`FIRST_AXES`], log-spaced.
+    pub fn over(ranges: &[[f64; 2]; 3]) -> Grid {
+        let axes = ranges
+            .iter()
+            .zip(FIRST_AXES)
+            .map(|(&[lo, hi], (count, _))| {
+                // the ends exactly as given (exp(ln x) may differ in the last bit)
+                let mut axis = spaced(lo, hi, count, true);
+                if let [first, .., last] = axis.as_mut_slice() {
+                    (*first, *last) = (lo, hi);
+                }
+                axis
+            })
+            .collect();
+        Grid::of_axes(axes)
+    }
+
+    /// The next stage's grid centred on `best`, a point of the stage grid `parent`: per axis
+    /// the counts of [`SECOND_COUNTS`], log-spaced from best/r to best·r so that `best` is its
+    /// middle value, r the larger ratio of `best` to its neighbours on the parent's axis (one
+    /// neighbour when `best` lies on the axis's edge: the grid then reaches beyond the parent
+    /// by that step). An axis of one value stays that value.
+    pub fn around(parent: &Grid, best: &Candidate) -> Grid {
+        let values = candidate_values(best);
+        let axes = parent
+            .axes()
+            .into_iter()
+            .zip(values)
+            .zip(SECOND_COUNTS)
+            .map(|(((_, axis), b), count)| {
+                let below = axis
+                    .iter()
+                    .copied()
+                    .filter(|v| *v < b)
+                    .max_by(f64::total_cmp);
+                let above = axis
+                    .iter()
+                    .copied()
+                    .filter(|v| *v > b)
+                    .min_by(f64::total_cmp);
+                let ratio = [below.map(|v| b / v), above.map(|v| v / b)]
+                    .into_iter()
+                    .flatten()
+                    .filter(|r| r.is_finite())
+                    .fold(1.0, f64::max);
+                if ratio <= 1.0 || b <= 0.0 {
+                    vec![b]
+                } else {
+                    spaced(b / ratio, b * ratio, count, true)
+                }
+            })
+            .collect();
+        Grid::of_axes(axes)
+    }
+
+    /// Whether axis `axis` (0 β, 1 b, 2 c12) has values both below and above `value`.
+    pub fn straddles(&self, axis: usize, value: f64) -> bool {
+        let v = self.axes()[axis].1;
+        v.iter().any(|x| *x < value) && v.iter().any(|x| *x > value)
+    }
+
+    /// A grid of three axes (β, b, c12).
+    fn of_axes(mut axes: Vec<Vec<f64>>) -> Grid {
+        let c12_m5_per_ns = axes.pop().unwrap_or_default();
+        let viscous_friction_ns_per_m = axes.pop().unwrap_or_default();
+        Grid {
+            beta_bar: axes.pop().unwrap_or_default(),
+            viscous_friction_ns_per_m,
+            c12_m5_per_ns,
+        }
+    }
+
+    /// For each axis, its range (lo, hi) when `c` lies on its lowest or highest value and
+    /// the axis has more than one value (the optimum may lie beyond it), else `None`.
+    pub fn edges_at(&self, c: &Candidate) -> [Option<(f64, f64)>; 3] {
+        let values = candidate_values(c);
+        let axes = self.axes();
+        std::array::from_fn(|k| {
+            let axis = axes[k].1;
+            let (lo, hi) = axis
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            (axis.len() > 1 && (values[k] == lo || values[k] == hi)).then_some((lo, hi))
+        })
     }
 
     /// Number of candidates.
@@ -142,9 +323,9 @@ impl Grid {
     /// The three axes with their rig key names.
     fn axes(&self) -> [(&'static str, &Vec<f64>); 3] {
         [
-            ("beta_bar", &self.beta_bar),
-            ("viscous_friction_ns_per_m", &self.viscous_friction_ns_per_m),
-            ("c12_m5_per_ns", &self.c12_m5_per_ns),
+            (AXES[0], &self.beta_bar),
+            (AXES[1], &self.viscous_friction_ns_per_m),
+            (AXES[2], &self.c12_m5_per_ns),
         ]
     }
 
@@ -170,9 +351,13 @@ impl Grid {
             spaced(below, above, count, log)
         };
         Grid {
-            beta_bar: axis(&parent.beta_bar, bounds[0], 19),
-            viscous_friction_ns_per_m: axis(&parent.viscous_friction_ns_per_m, bounds[1], 11),
-            c12_m5_per_ns: axis(&parent.c12_m5_per_ns, bounds[2], 17),
+            beta_bar: axis(&parent.beta_bar, bounds[0], SECOND_COUNTS[0]),
+            viscous_friction_ns_per_m: axis(
+                &parent.viscous_friction_ns_per_m,
+                bounds[1],
+                SECOND_COUNTS[1],
+            ),
+            c12_m5_per_ns: axis(&parent.c12_m5_per_ns, bounds[2], SECOND_COUNTS[2]),
         }
     }
 }

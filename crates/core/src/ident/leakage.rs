@@ -100,6 +100,13 @@ impl Standstill {
         let si = rig.si();
         let p1 = self.p1_bar * PA_PER_BAR;
         let p2 = rig.p2_at_rest_bar(self.p1_bar) * PA_PER_BAR;
+        // the steady state must be one the circuit can hold (docs/model.md#cavitation)
+        crate::cavitation::check_chambers(&[self.p1_bar, p2 / PA_PER_BAR]).map_err(|e| {
+            IdentError::Input(format!(
+                "standstill p1_bar = {} with external force {} N: the force balance puts {e}",
+                self.p1_bar, si.f_ext
+            ))
+        })?;
         if p2 <= 0.0 {
             return Err(IdentError::Input(format!(
                 "standstill p1_bar = {} with external force {} N gives p2 = {:.3} bar <= 0",
@@ -177,6 +184,26 @@ mod tests {
             - 1.2e-10 * (p1 - p2);
         let q2 = -si.d[0] * -160.0 * rpm + 1.2e-10 * (p1 - p2) - l.c2_m5_per_ns * p2;
         assert!(q1.abs() < 1e-18 && q2.abs() < 1e-18);
+    }
+
+    #[test]
+    fn a_standstill_that_cavitates_chamber_2_is_refused() {
+        // an external force pushing the piston in (+x) with chamber 1 at 0.1 bar: the force
+        // balance asks for p2 = (p1 A1 − F)/A2 far below the vapour pressure, a state the
+        // circuit cannot hold
+        let rig = Rig {
+            external_force_n: 20_000.0,
+            ..Rig::default()
+        };
+        let s = Standstill {
+            w1_rpm: -160.0,
+            w2_rpm: 245.0,
+            p1_bar: 0.1,
+        };
+        assert!(rig.p2_at_rest_bar(0.1) < -1.0);
+        let e = s.leakage(&rig, 1e-10).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("chamber 2") && e.contains("cavitation"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
     }
 
     #[test]

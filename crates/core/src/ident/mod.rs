@@ -50,14 +50,16 @@ pub use advice::{
 };
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{Experiment, ExperimentFile};
-pub use grid::{spaced, stepped, Candidate, Grid};
+pub use grid::{
+    candidate_values, spaced, stepped, Candidate, Grid, SecondGrid, FIRST_AXES, SECOND_COUNTS,
+};
 pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
 pub use uncertainty::{
-    analyze, check_confidence, chi2_1_quantile, Profile, ProfilePoint, Uncertainty,
-    UncertaintyOptions, BOUNDS, PARAMETERS,
+    analyze, check_confidence, chi2_1_quantile, identifiability, Identifiability, Profile,
+    ProfilePoint, Uncertainty, UncertaintyOptions, BOUNDS, FLAT_FACTOR, PARAMETERS,
 };
 
 use serde::{Deserialize, Serialize};
@@ -168,32 +170,17 @@ impl Identification {
     /// value (the optimum may lie outside the grid), else `None`.
     pub fn grid_best_edges(&self) -> [Option<(f64, f64)>; 3] {
         let best = &self.grid_best;
-        let Some(stage) = self.stages.get(usize::from(best.stage.max(1)) - 1) else {
-            return [None; 3];
-        };
-        let c = &best.candidate;
-        let axes = [
-            (c.beta_bar, &stage.grid.beta_bar),
-            (
-                c.viscous_friction_ns_per_m,
-                &stage.grid.viscous_friction_ns_per_m,
-            ),
-            (c.c12_m5_per_ns, &stage.grid.c12_m5_per_ns),
-        ];
-        axes.map(|(v, axis)| {
-            let (lo, hi) = axis
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                    (l.min(x), h.max(x))
-                });
-            (axis.len() > 1 && (v == lo || v == hi)).then_some((lo, hi))
-        })
+        match self.stages.get(usize::from(best.stage.max(1)) - 1) {
+            Some(stage) => stage.grid.edges_at(&best.candidate),
+            None => [None; 3],
+        }
     }
 
-    /// What a user should know before trusting the answer: the best grid point on an edge of
-    /// its grid (the optimum may lie outside it), and a search where every candidate of the
-    /// top list costs the same (the records carry no excitation: the reference never moves the
-    /// loop, so the cost cannot tell the parameters apart).
+    /// What a user should know before trusting the answer: each stage's best on an edge of
+    /// that stage's grid (the optimum may lie outside it; a later stage centred on it reaches
+    /// beyond), and a search where every candidate of the top list costs the same (the
+    /// records carry no excitation: the reference never moves the loop, so the cost cannot
+    /// tell the parameters apart).
     pub fn warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
         if let [first, .., last] = self.top.as_slice() {
@@ -207,15 +194,30 @@ impl Identification {
                 return out;
             }
         }
-        let best = &self.grid_best;
-        let c = &best.candidate;
-        let values = [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns];
-        for (k, range) in self.grid_best_edges().into_iter().enumerate() {
-            if let Some((lo, hi)) = range {
+        for (k, stage) in self.stages.iter().enumerate() {
+            let Some(best) = stage.summary.top.first() else {
+                continue;
+            };
+            let values = grid::candidate_values(&best.candidate);
+            let later = self.stages.get(k + 1).map(|s| &s.grid);
+            for (i, range) in stage.grid.edges_at(&best.candidate).into_iter().enumerate() {
+                let Some((lo, hi)) = range else { continue };
+                let beyond = later.is_some_and(|g| g.straddles(i, values[i]));
+                let what = if beyond {
+                    format!("the grid of stage {} reaches beyond it", k + 2)
+                } else {
+                    "the optimum may lie outside it; widen that axis ([ranges] or the grids of \
+                     the experiment)"
+                        .to_string()
+                };
                 out.push(format!(
-                    "the best grid point has {} = {} on the edge of the stage {} grid ({lo} … {hi}): \
-                     the optimum may lie outside it; widen that axis",
-                    PARAMETERS[k], values[k], best.stage
+                    "the best grid point has {} = {} on the edge of the stage {} grid ({} … {}): \
+                     {what}",
+                    PARAMETERS[i],
+                    grid::short(values[i]),
+                    k + 1,
+                    grid::short(lo),
+                    grid::short(hi)
                 ));
             }
         }
@@ -232,7 +234,7 @@ pub struct Request<'a> {
     /// The records and the standstill point.
     pub problem: &'a Problem,
     /// The first grid and the second (derived from the first with `auto_refine`).
-    pub grids: (Grid, Option<Grid>),
+    pub grids: (Grid, Option<SecondGrid>),
     /// The search options.
     pub options: Options,
     /// Evaluate only slice I of N (1-based) of the grids, for a partial result.
@@ -244,7 +246,7 @@ pub struct Request<'a> {
 
 impl<'a> Request<'a> {
     /// The identification of `problem` on `grids` with `options`, whole, within the work limit.
-    pub fn new(problem: &'a Problem, grids: (Grid, Option<Grid>), options: Options) -> Self {
+    pub fn new(problem: &'a Problem, grids: (Grid, Option<SecondGrid>), options: Options) -> Self {
         Request {
             problem,
             grids,
@@ -256,7 +258,12 @@ impl<'a> Request<'a> {
 
     /// The candidates the search evaluates (of this shard): the total for a progress report.
     pub fn candidates(&self) -> u64 {
-        let total = self.grids.0.len() + self.grids.1.as_ref().map_or(0, Grid::len);
+        let second = match &self.grids.1 {
+            Some(SecondGrid::Given(g)) if !self.options.auto_refine => g.len(),
+            Some(_) => SecondGrid::centred_len(),
+            None => 0,
+        };
+        let total = self.grids.0.len() + second;
         shard_len(total, self.shard) as u64
     }
 
@@ -273,6 +280,13 @@ impl<'a> Request<'a> {
             return Err(IdentError::Input(
                 "a shard needs fixed grids: auto-refine derives the second grid from the \
                  first, so run that stage unsharded"
+                    .into(),
+            ));
+        }
+        if self.shard.is_some() && self.grids.1 == Some(SecondGrid::Centred) {
+            return Err(IdentError::Input(
+                "a shard needs fixed grids: the second grid is centred on the first stage's \
+                 best, so give `refined_grid` in the experiment or run unsharded"
                     .into(),
             ));
         }
@@ -315,7 +329,7 @@ impl<'a> Request<'a> {
 /// Run the search stages (both grids; the second derived from the first with `auto_refine`).
 pub fn run_stages(
     problem: &Problem,
-    grids: (Grid, Option<Grid>),
+    grids: (Grid, Option<SecondGrid>),
     opts: &Options,
     shard: Option<(usize, usize)>,
     progress: &(dyn Fn(u64) + Sync),
@@ -331,7 +345,7 @@ pub fn run_stages(
 /// that watch for an interrupt, such as the Python package on Ctrl-C).
 pub fn run_stages_while(
     problem: &Problem,
-    grids: (Grid, Option<Grid>),
+    grids: (Grid, Option<SecondGrid>),
     opts: &Options,
     shard: Option<(usize, usize)>,
     progress: &(dyn Fn(u64) -> bool + Sync),
@@ -360,6 +374,16 @@ pub fn run_stages_while(
     let s1 = search(problem, &first, 1, search_opts, &progress);
     check()?;
     let second = match (opts.auto_refine, second) {
+        (false, Some(SecondGrid::Centred)) => {
+            let best = s1.top.first().ok_or_else(|| {
+                IdentError::Input(
+                    "the first grid has no stable candidate with a finite cost to centre the \
+                     second grid on: check the records, gains and grids"
+                        .into(),
+                )
+            })?;
+            Some(Grid::around(&first, &best.candidate))
+        }
         (true, _) => {
             let bounds = s1.threshold_bounds.ok_or_else(|| {
                 IdentError::Input(format!(
@@ -370,7 +394,8 @@ pub fn run_stages_while(
             })?;
             Some(Grid::refined_from(&first, &bounds))
         }
-        (false, g) => g,
+        (false, Some(SecondGrid::Given(g))) => Some(g),
+        (false, None) => None,
     };
     let mut stages = vec![Stage {
         grid: first,

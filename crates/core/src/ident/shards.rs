@@ -4,6 +4,7 @@
 
 use super::IdentError;
 use super::{finish, Experiment, Identification, Options, Stage};
+use super::{Grid, SecondGrid};
 
 type Result<T> = std::result::Result<T, IdentError>;
 
@@ -77,9 +78,8 @@ fn check_part(exp: &Experiment, p: &Partial, opts: &Options) -> std::result::Res
     if !(p.seconds.is_finite() && p.seconds >= 0.0) {
         return fail(format!("a search time of {} s", p.seconds));
     }
-    let (first, second) = exp.grids();
     let (i, n) = p.shard;
-    for (k, (stage, grid)) in p.stages.iter().zip([Some(first), second]).enumerate() {
+    for (k, (stage, grid)) in p.stages.iter().zip(fixed_grids(exp)?).enumerate() {
         let at = |what: String| format!("stage {}: {what}", k + 1);
         let grid = grid.unwrap_or_else(|| stage.grid.clone());
         if stage.grid != grid {
@@ -148,13 +148,27 @@ fn check_part(exp: &Experiment, p: &Partial, opts: &Options) -> std::result::Res
     Ok(())
 }
 
+/// The experiment's grids as a sharded run evaluates them, both fixed in advance; an error
+/// when the second is centred on the first stage's best (no shard can have run it).
+fn fixed_grids(exp: &Experiment) -> std::result::Result<[Option<Grid>; 2], String> {
+    match exp.grids() {
+        (_, Some(SecondGrid::Centred)) => Err(
+            "the experiment's second grid is centred on the first stage's best, so it cannot \
+             be sharded: give `refined_grid` in the experiment"
+                .into(),
+        ),
+        (first, Some(SecondGrid::Given(g))) => Ok([Some(first), Some(g)]),
+        (first, None) => Ok([Some(first), None]),
+    }
+}
+
 /// Re-simulate the best few candidates of each merged stage and compare with the costs the
 /// shards reported, and check each is the grid point its index names: an edited or foreign
 /// partial result is an error, not the answer.
 fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
     const CHECKED: usize = 3;
-    let (first, second) = exp.grids();
-    for (k, (stage, grid)) in stages.iter().zip([Some(first), second]).enumerate() {
+    let grids = fixed_grids(exp).map_err(IdentError::Input)?;
+    for (k, (stage, grid)) in stages.iter().zip(grids).enumerate() {
         let grid = grid.unwrap_or_else(|| stage.grid.clone());
         for s in stage.summary.top.iter().take(CHECKED) {
             let index = usize::try_from(s.index).unwrap_or(usize::MAX);

@@ -30,6 +30,8 @@ use serde::Serialize;
 
 /// Names of the parameters, in the order (β, b, c12) of the point.
 pub const PARAMETERS: [&str; 3] = ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"];
+/// Units of the parameters, in the order of [`PARAMETERS`].
+pub const UNITS: [&str; 3] = ["bar", "N·s/m", "m⁵/(N·s)"];
 /// Search bounds of β (bar), b (N·s/m) and c12 (m⁵/(N·s)): a profile that reaches one without
 /// crossing the threshold means the data do not bound that side.
 pub const BOUNDS: [[f64; 2]; 3] = [[1.0, 1.0e5], [1.0, 1.0e5], [1.0e-15, 1.0e-8]];
@@ -206,37 +208,66 @@ pub fn check_confidence(confidence: f64) -> Result<f64, IdentError> {
     )))
 }
 
+/// The likelihood at the optimum: the polished point, its SSE, σ², the χ²₁ threshold and the
+/// residuals' lag-1 autocorrelation with its variance inflation.
+struct Optimum {
+    best: Vec<f64>,
+    sse: f64,
+    var: f64,
+    threshold: f64,
+    rho: f64,
+    inflation: f64,
+}
+
+impl Optimum {
+    /// Polish `start` on the SSE and estimate the noise there.
+    fn find(problem: &Problem, start: &Candidate, confidence: f64) -> Result<Optimum, IdentError> {
+        check_confidence(confidence)?;
+        let samples = problem.samples();
+        let fitted = FITTED + problem.datasets.len();
+        if samples <= fitted {
+            return Err(IdentError::Input(format!(
+                "{samples} samples inside the fit windows: too few to estimate the noise"
+            )));
+        }
+        let (best, sse) = polish(problem, start);
+        if !(sse.is_finite() && sse > 0.0) {
+            return Err(IdentError::Input(format!(
+                "the SSE at the optimum is {sse} mm²: no noise level can be estimated"
+            )));
+        }
+        let rho = autocorrelation(problem, &candidate_of(&best));
+        Ok(Optimum {
+            var: sse / (samples - fitted) as f64,
+            threshold: chi2_1_quantile(confidence),
+            inflation: variance_inflation(rho),
+            rho,
+            best,
+            sse,
+        })
+    }
+
+    /// The profile scan at this optimum.
+    fn scan<'a>(&'a self, problem: &'a Problem) -> Scan<'a> {
+        Scan {
+            problem,
+            best: &self.best,
+            sse: self.sse,
+            var: self.var * self.inflation,
+            threshold: self.threshold,
+        }
+    }
+}
+
 /// Analyse the uncertainty of the identification whose answer is `start`.
 pub fn analyze(
     problem: &Problem,
     start: &Candidate,
     opts: &UncertaintyOptions,
 ) -> Result<Uncertainty, IdentError> {
-    check_confidence(opts.confidence)?;
-    let samples = problem.samples();
-    let fitted = FITTED + problem.datasets.len();
-    if samples <= fitted {
-        return Err(IdentError::Input(format!(
-            "{samples} samples inside the fit windows: too few to estimate the noise"
-        )));
-    }
-    let (best, sse) = polish(problem, start);
-    if !(sse.is_finite() && sse > 0.0) {
-        return Err(IdentError::Input(format!(
-            "the SSE at the optimum is {sse} mm²: no noise level can be estimated"
-        )));
-    }
-    let var = sse / (samples - fitted) as f64;
-    let threshold = chi2_1_quantile(opts.confidence);
-    let rho = autocorrelation(problem, &candidate_of(&best));
-    let inflation = variance_inflation(rho);
-    let scan = Scan {
-        problem,
-        best: &best,
-        sse,
-        var: var * inflation,
-        threshold,
-    };
+    let o = Optimum::find(problem, start, opts.confidence)?;
+    let scan = o.scan(problem);
+    let best = &o.best;
     let tasks: Vec<(usize, f64)> = (0..3)
         .filter(|&i| opts.profile[i])
         .flat_map(|i| [(i, -1.0), (i, 1.0)])
@@ -248,19 +279,112 @@ pub fn analyze(
     let profiles = sides
         .chunks(2)
         .zip(tasks.chunks(2))
-        .map(|(s, t)| profile_of(t[0].0, scan.point(t[0].0, &best, sse), &s[0], &s[1]))
+        .map(|(s, t)| profile_of(t[0].0, scan.point(t[0].0, best, o.sse), &s[0], &s[1]))
         .collect();
     Ok(Uncertainty {
-        best: candidate_of(&best),
-        sse_mm2: sse,
-        samples,
-        noise_std_mm: var.sqrt(),
+        best: candidate_of(best),
+        sse_mm2: o.sse,
+        samples: problem.samples(),
+        noise_std_mm: o.var.sqrt(),
         confidence: opts.confidence,
-        threshold,
-        residual_autocorrelation: rho,
-        variance_inflation: inflation,
+        threshold: o.threshold,
+        residual_autocorrelation: o.rho,
+        variance_inflation: o.inflation,
         profiles,
     })
+}
+
+/// How far from the estimate (a factor) the quick identifiability check looks: a decade.
+pub const FLAT_FACTOR: f64 = 10.0;
+
+/// Whether the records bound one parameter, and why not when they do not.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identifiability {
+    /// The parameter (one of [`PARAMETERS`]).
+    pub parameter: &'static str,
+    /// Whether the records bound it.
+    pub identifiable: bool,
+    /// Why not, in words; `None` when identifiable.
+    pub reason: Option<String>,
+}
+
+impl Identifiability {
+    /// The verdict of a full profile ([`analyze`]): identifiable when it crossed the threshold
+    /// on both sides.
+    pub fn of_profile(p: &Profile, confidence: f64) -> Identifiability {
+        let i = PARAMETERS
+            .iter()
+            .position(|n| *n == p.parameter)
+            .unwrap_or(0);
+        let open: Vec<String> = [0, 1]
+            .into_iter()
+            .filter(|&s| !p.crossed[s])
+            .map(|s| super::grid::short(BOUNDS[i][s]))
+            .collect();
+        Identifiability {
+            parameter: p.parameter,
+            identifiable: p.identifiable,
+            reason: (!p.identifiable).then(|| {
+                format!(
+                    "its {:.0} % profile likelihood stays under the threshold out to the search \
+                     bound {}",
+                    confidence * 100.0,
+                    open.join(" and ")
+                )
+            }),
+        }
+    }
+}
+
+/// Which of (β, b, c12) the records bound, decided cheaply (docs/identification.md, "Identifiability"):
+/// at the SSE optimum near `start`, each parameter is fixed a decade ([`FLAT_FACTOR`]) below
+/// and above its estimate (within [`BOUNDS`]) and the SSE minimised over the other two. A
+/// parameter whose profile statistic ΔSSE/σ² stays at or under χ²₁(`confidence`) at either
+/// point is not identifiable: its interval would span more than a decade on that side.
+pub fn identifiability(
+    problem: &Problem,
+    start: &Candidate,
+    confidence: f64,
+) -> Result<[Identifiability; 3], IdentError> {
+    let o = Optimum::find(problem, start, confidence)?;
+    let scan = o.scan(problem);
+    let tasks: Vec<(usize, usize)> = (0..3).flat_map(|i| [(i, 0), (i, 1)]).collect();
+    let points: Vec<ProfilePoint> = tasks
+        .par_iter()
+        .map(|&(i, side)| {
+            let step = FLAT_FACTOR.ln() * if side == 0 { -1.0 } else { 1.0 };
+            let v = (o.best[i] + step).clamp(BOUNDS[i][0].ln(), BOUNDS[i][1].ln());
+            scan.fixed(i, v, &o.best).1
+        })
+        .collect();
+    Ok(std::array::from_fn(|i| {
+        let pair = [&points[2 * i], &points[2 * i + 1]];
+        let flat: Vec<&&ProfilePoint> =
+            pair.iter().filter(|p| p.statistic <= o.threshold).collect();
+        let reason = (!flat.is_empty()).then(|| {
+            let at: Vec<String> = flat
+                .iter()
+                .map(|p| {
+                    let v = super::grid::short(p.value);
+                    format!("{:.2} at {v} {}", p.statistic, UNITS[i])
+                })
+                .collect();
+            format!(
+                "the fit stays within the noise a decade from the estimate {} {}: \
+                 Delta SSE / sigma^2 = {}, under the {:.0} % threshold {:.2}",
+                super::grid::short(o.best[i].exp()),
+                UNITS[i],
+                at.join(" and "),
+                confidence * 100.0,
+                o.threshold
+            )
+        });
+        Identifiability {
+            parameter: PARAMETERS[i],
+            identifiable: reason.is_none(),
+            reason,
+        }
+    }))
 }
 
 /// The AR(1) variance inflation (1 + ρ)/(1 − ρ) for a lag-1 autocorrelation ρ > 0, at most
