@@ -412,6 +412,9 @@ pub fn identify_experiment() -> String {
         "# The article's identification (Section 2.4) on the emulated records of this folder\n\
          # (README.md). Made by `pumpcyl emulate --article-records`. The records were made with\n\
          # the default rig's sum-pressure gain, so no [set] is needed.\n\n\
+         # The article's two grids (3264 + 3553 candidates, the article's §2.4); without this line the first\n\
+         # grid would be centred on the rig's values and the second on the first stage's best.\n\
+         grids = \"article\"\n\n\
          [standstill]\n\
          record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (Section 2.4)\n\n\
          [[dataset]]\n\
