@@ -1323,7 +1323,15 @@ fn select(
         other => err(other),
     })?;
     if let Some(r) = rig {
-        app.rig = r.rig.clone();
+        let replaces = match app.rig_from {
+            pumpcyl::select::RigFrom::Article => None,
+            ref own => Some(own.describe()),
+        };
+        let from = pumpcyl::select::RigFrom::Given {
+            name: "the `rig` argument".to_string(),
+            replaces,
+        };
+        app = app.with_rig(r.rig.clone(), from).map_err(err)?;
     }
     let s = py
         .detach(|| -> Result<_, String> {
@@ -1354,7 +1362,7 @@ fn select(
     table.set_item("kp_max", array1(py, &column(&|c| c.kp_max)))?;
     table.set_item(
         "standing_loss_w",
-        array1(py, &column(&|c| c.standing_loss_w)),
+        array1(py, &column(&|c| c.standing_loss_w.unwrap_or(f64::NAN))),
     )?;
     table.set_item(
         "meets",

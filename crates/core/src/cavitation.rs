@@ -48,7 +48,7 @@ pub struct Cavitation {
 pub fn check_chambers(p_bar: &[f64]) -> Result<(), Cavitation> {
     match p_bar
         .iter()
-        .position(|p| !(*p >= VAPOUR_PRESSURE_BAR_GAUGE))
+        .position(|p| p.is_nan() || *p < VAPOUR_PRESSURE_BAR_GAUGE)
     {
         None => Ok(()),
         Some(i) => Err(Cavitation {
