@@ -44,9 +44,10 @@ pub struct SelectArgs {
     /// the tracking-error band against the pressure level, the requirement, the chosen level).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Print JSON (min_mean_pressure_bar, verdict, reasons, options: circuit,
-    /// mean_pressure_bar, beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets,
-    /// reason).
+    /// Print JSON (min_mean_pressure_bar, bisected between the levels, min_level_bar,
+    /// verdict, reasons, rig, gas_fraction_from, options: circuit, mean_pressure_bar,
+    /// beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets, meets_best_case,
+    /// margins_hold_at_reference_gas_fraction, reason).
     #[arg(long)]
     json: bool,
 }

@@ -1286,7 +1286,8 @@ fn fmu(
 
 /// Which circuit, at which pressure level (docs/select.md): the application of the file
 /// `application` (TOML; None = the article's application), with `overrides` as application
-/// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig;
+/// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig
+/// (as `--rig`: the gas fraction and the loads it leaves out follow the rig);
 /// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
 /// from its records' interval of β at `confidence`. A dict as `pumpcyl select --json` prints,
 /// plus `table`: numpy arrays over the options (`mean_pressure_bar`, `beta_e_lo_bar`,

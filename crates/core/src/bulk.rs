@@ -201,4 +201,22 @@ mod tests {
         assert!(rows[2].gain_margin_db.unwrap() > rows[1].gain_margin_db.unwrap());
         assert!(!rows[0].closed_loop_stable);
     }
+
+    /// The article's rig reads as the article's identification (165 bar at 4.4 bar); a rig from
+    /// a file, or with another β or set-point, reads as its own β at half its set-point.
+    #[test]
+    fn a_rig_reads_its_own_beta_unless_it_is_the_article_s() {
+        let article = Rig::default();
+        assert_eq!(BetaReading::for_rig(&article, true), ARTICLE_READING);
+        let from_file = BetaReading::for_rig(&article, false);
+        assert_eq!((from_file.beta_bar, from_file.p_mean_bar), (165.0, 5.0));
+        let mine = Rig {
+            beta_bar: 300.0,
+            ..Rig::default()
+        };
+        let r = BetaReading::for_rig(&mine, true);
+        assert_eq!((r.beta_bar, r.p_mean_bar), (300.0, 5.0));
+        let x = r.gas_fraction(BETA_OIL_BAR).unwrap();
+        assert!((effective_beta(x, 5.0, BETA_OIL_BAR) - 300.0).abs() < 1e-9);
+    }
 }

@@ -1593,4 +1593,97 @@ mod tests {
         assert_eq!(s.verdict, Verdict::NotAchievable);
         assert!(s.reasons[0].contains("0.2 Hz ±35 mm"), "{:?}", s.reasons);
     }
+
+    /// The bisection's bracket straddles the margins' own threshold: at Kp 25 with the gas
+    /// fraction fixed, the LTI margins at β_e(p) meet GM 6 dB and PM 30° at the bracket's upper
+    /// end and not at its lower end, within 0.01 bar.
+    #[test]
+    fn the_lowest_pressure_is_bisected_to_the_margins_threshold() {
+        let rig = Rig::default();
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let levels = [(Circuit::LowPressure, 3.0), (Circuit::LowPressure, 6.0)];
+        let s = select(&rig, &requirement([x, x, x], vec![]), &levels, Some(25.0)).unwrap();
+        assert_eq!(s.min_level_bar, Some(6.0));
+        let [lo, hi] = s.min_mean_pressure_bracket_bar.unwrap();
+        assert!(hi - lo <= REFINE_TOLERANCE_BAR && lo < hi, "{lo} {hi}");
+        assert_eq!(s.min_mean_pressure_bar, Some(hi));
+        let holds = |p: f64| {
+            let r = Rig {
+                beta_bar: effective_beta(x, p, BETA_OIL_BAR),
+                ..rig.clone()
+            };
+            let m = crate::lti::margins(&crate::model::Plant::new(&r).open_loop(false)).unwrap();
+            m.closed_loop_stable
+                && m.gain_margin_db.is_none_or(|g| g >= 6.0)
+                && m.phase_margin_deg.is_none_or(|p| p >= 30.0)
+        };
+        assert!(holds(hi) && !holds(lo), "{lo} {hi}");
+    }
+
+    /// On a rig given beside the application the gas fraction is the rig's β at half its
+    /// sum-pressure set-point and the loads its mass; a stated gas fraction stays, its range a
+    /// factor 2 either way.
+    #[test]
+    fn the_keys_left_out_follow_the_rig() {
+        let mine = Rig {
+            beta_bar: 300.0,
+            p_sum_ref_bar: 12.0,
+            mass_kg: 2500.0,
+            mass_by_position: Vec::new(),
+            ..Rig::default()
+        };
+        let given = RigFrom::Given {
+            name: "mine".into(),
+            replaces: None,
+        };
+        let app = Application::default()
+            .with_rig(mine.clone(), given.clone())
+            .unwrap();
+        let x = gas_fraction(300.0, 6.0, BETA_OIL_BAR).unwrap();
+        assert_eq!(
+            [app.gas_fraction_min, app.gas_fraction, app.gas_fraction_max],
+            [x / 2.0, x, 2.0 * x]
+        );
+        assert!(app.mass_kg.is_empty());
+        let reading = BetaReading {
+            beta_bar: 300.0,
+            p_mean_bar: 6.0,
+        };
+        assert_eq!(app.gas_fraction_from, GasFractionFrom::Rig(reading));
+        let stated = Application::default()
+            .with_overrides("--set", &["gas_fraction=0.02".to_string()])
+            .unwrap()
+            .with_rig(mine, given)
+            .unwrap();
+        assert_eq!(stated.gas_fraction, 0.02);
+        assert_eq!(stated.gas_fraction_max, 0.04);
+        assert_eq!(stated.gas_fraction_from, GasFractionFrom::Application);
+        // the article's application on the article's rig is unchanged
+        let article = Application::default();
+        assert_eq!(article.mass_kg, ARTICLE_LOADS_KG);
+        assert_eq!(
+            article.gas_fraction,
+            gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap()
+        );
+    }
+
+    /// A standstill that needs a chamber below the vapour pressure fails its candidate with
+    /// the cavitation as the reason and no standing loss; a force range given highest first
+    /// is refused.
+    #[test]
+    fn cavitation_fails_a_candidate_and_a_reversed_range_is_refused() {
+        let rig = Rig::default();
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let mut req = requirement([x, x, x], vec![]);
+        req.external_force_n = [0.0, 5000.0];
+        let s = select(&rig, &req, &[(Circuit::LowPressure, 1.0)], Some(25.0)).unwrap();
+        let c = &s.options[0];
+        let [_, p2] = chamber_pressures(&rig, 1.0, 5000.0);
+        assert!(p2 < crate::cavitation::VAPOUR_PRESSURE_BAR_GAUGE, "{p2}");
+        assert!(!c.meets && !c.meets_best_case && c.standing_loss_w.is_none());
+        assert!(c.reason.contains("cavitation"), "{}", c.reason);
+        req.external_force_n = [3000.0, -1000.0];
+        let err = select(&rig, &req, &[(Circuit::LowPressure, 1.0)], Some(25.0)).unwrap_err();
+        assert!(err.to_string().contains("external_force_n"), "{err}");
+    }
 }
