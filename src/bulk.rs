@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use crate::emit::{format_of, render, write_atomic, Format};
 use crate::RigSource;
-use pumpcyl::bulk::{gas_fraction, table, Row, BETA_OIL_BAR};
+use pumpcyl::bulk::{gas_fraction, table, BetaReading, Row, BETA_OIL_BAR};
 use pumpcyl_present::bulk::{bulk_csv, bulk_json, bulk_text};
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::format::json_document;
@@ -15,12 +15,14 @@ use pumpcyl_present::format::json_document;
 pub struct BulkArgs {
     #[command(flatten)]
     rig: RigSource,
-    /// Identified effective bulk modulus (bar).
-    #[arg(long, default_value_t = 165.0, allow_negative_numbers = true)]
-    beta_bar: f64,
-    /// Mean chamber pressure during the identification (bar).
-    #[arg(long, default_value_t = 4.4, allow_negative_numbers = true)]
-    p_mean_bar: f64,
+    /// Identified effective bulk modulus (bar). Default: the rig's beta_bar (the article's
+    /// 165 bar on its rig).
+    #[arg(long, allow_negative_numbers = true)]
+    beta_bar: Option<f64>,
+    /// Mean chamber pressure during the identification (bar). Default: the rig's mean chamber
+    /// pressure at rest, half its p_sum_ref_bar (the article's records' 4.4 bar on its rig).
+    #[arg(long, allow_negative_numbers = true)]
+    p_mean_bar: Option<f64>,
     /// Pure-oil bulk modulus (bar).
     #[arg(long, default_value_t = BETA_OIL_BAR, allow_negative_numbers = true)]
     beta_oil_bar: f64,
@@ -63,19 +65,60 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
     )
     .map_err(|e| crate::emit::hinted(e.into()))?;
     let rig = args.rig.load()?;
-    let x = gas_fraction(args.beta_bar, args.p_mean_bar, args.beta_oil_bar)?;
+    let (reading, from) = reading(args, &rig);
+    let x = gas_fraction(reading.beta_bar, reading.p_mean_bar, args.beta_oil_bar)?;
     let pressures = pumpcyl::ident::spaced(args.from_bar, args.to_bar, args.points, false);
     let rows = table(&rig, x, args.beta_oil_bar, &pressures)?;
-    let fit = (args.beta_bar, args.p_mean_bar, args.beta_oil_bar);
+    let fit = (reading.beta_bar, reading.p_mean_bar, args.beta_oil_bar);
     if let Some(path) = &args.out {
         let fine = pumpcyl::ident::spaced(args.from_bar, args.to_bar, 91, false);
         let fine_rows = table(&rig, x, args.beta_oil_bar, &fine)?;
         write_output(path, fit, x, &fine_rows)?;
     }
     if args.json {
-        return Ok(json_document(&bulk_json(x, args.beta_oil_bar, &rows))?);
+        return Ok(json_document(&bulk_json(
+            x,
+            args.beta_oil_bar,
+            (reading, &from),
+            &rows,
+        ))?);
     }
-    Ok(bulk_text(fit, x, &rows))
+    Ok(bulk_text(fit, &from, x, &rows))
+}
+
+/// The β and mean pressure the gas fraction is read off, and where they came from in words:
+/// each of --beta-bar and --p-mean-bar as given, else the rig's reading
+/// ([`BetaReading::for_rig`]: the article's identification on the article's rig).
+fn reading(args: &BulkArgs, rig: &pumpcyl::rig::Rig) -> (BetaReading, String) {
+    let own = BetaReading::for_rig(rig, args.rig.rig.is_none());
+    let reading = BetaReading {
+        beta_bar: args.beta_bar.unwrap_or(own.beta_bar),
+        p_mean_bar: args.p_mean_bar.unwrap_or(own.p_mean_bar),
+    };
+    let article = own == pumpcyl::bulk::ARTICLE_READING;
+    let (beta_words, p_words) = if article {
+        (
+            "the article's identification",
+            "its records' mean chamber pressure",
+        )
+    } else {
+        (
+            "the rig's beta_bar",
+            "the rig's mean chamber pressure at rest, half its p_sum_ref_bar",
+        )
+    };
+    let from = match (args.beta_bar, args.p_mean_bar) {
+        (Some(_), Some(_)) => "--beta-bar at --p-mean-bar".to_string(),
+        (Some(_), None) => format!("--beta-bar at {p_words}"),
+        (None, Some(_)) => format!("{beta_words} at --p-mean-bar"),
+        (None, None) => format!("{beta_words} at {p_words}"),
+    };
+    let from = if article {
+        from
+    } else {
+        format!("{from}; rig: {}", args.rig.origin())
+    };
+    (reading, from)
 }
 
 /// The β_e table as CSV or as a figure (β_e, GM, PM against pressure), by extension; `fit` is

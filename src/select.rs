@@ -6,7 +6,8 @@ use std::path::PathBuf;
 
 use crate::emit::{render_both, write_atomic};
 use pumpcyl::ident::Experiment;
-use pumpcyl::select::{Application, BetaEvidence};
+use pumpcyl::rig::Rig;
+use pumpcyl::select::{Application, BetaEvidence, RigFrom};
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::select::{selection_chart, selection_text};
 
@@ -16,6 +17,12 @@ pub struct SelectArgs {
     /// embedded article application.
     #[arg(value_name = "APPLICATION.toml")]
     application: Option<PathBuf>,
+    /// Rig description (TOML): the rig to select for, replacing the application's own (its
+    /// [rig] table or `rig` file, with a note). Absent keys of the application that follow the
+    /// rig (the gas fraction, from its beta at its mean chamber pressure, and the loads) follow
+    /// this one. Default: the application's rig, else the article's.
+    #[arg(long, value_name = "FILE.toml")]
+    rig: Option<PathBuf>,
     /// Override an application key, or a rig key as rig.KEY: --set gas_fraction_max=0.1
     /// --set rig.kp=20 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -37,9 +44,10 @@ pub struct SelectArgs {
     /// the tracking-error band against the pressure level, the requirement, the chosen level).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Print JSON (min_mean_pressure_bar, verdict, reasons, options: circuit,
-    /// mean_pressure_bar, beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets,
-    /// reason).
+    /// Print JSON (min_mean_pressure_bar, bisected between the levels, min_level_bar,
+    /// verdict, reasons, rig, gas_fraction_from, options: circuit, mean_pressure_bar,
+    /// beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets, meets_best_case,
+    /// margins_hold_at_reference_gas_fraction, reason).
     #[arg(long)]
     json: bool,
 }
@@ -48,6 +56,10 @@ pub fn run(args: &SelectArgs) -> Result<String> {
     let base = match &args.application {
         Some(path) => Application::from_file_in(crate::inputs::files(), path)?,
         None => Application::default(),
+    };
+    let base = match &args.rig {
+        Some(path) => with_rig_file(&base, path)?,
+        None => base,
     };
     let mut app = base.with_overrides("--set", &args.set)?;
     if let Some(path) = &args.experiment {
@@ -79,4 +91,20 @@ pub fn run(args: &SelectArgs) -> Result<String> {
             p.display().to_string()
         });
     Ok(selection_text(&origin, &app, &s))
+}
+
+/// `app` on the rig of the file `path` (`--rig`), naming the application's own rig it replaces.
+fn with_rig_file(app: &Application, path: &std::path::Path) -> Result<Application> {
+    let rig = Rig::from_file_in(crate::inputs::files(), path)
+        .map_err(|e| crate::emit::hinted(e.into()))?;
+    let replaces = match app.rig_from {
+        RigFrom::Article => None,
+        ref own => Some(own.describe()),
+    };
+    let from = RigFrom::Given {
+        name: format!("{} (--rig)", path.display()),
+        replaces,
+    };
+    app.with_rig(rig, from)
+        .map_err(|e| anyhow::anyhow!("--rig {}: {e}", path.display()))
 }

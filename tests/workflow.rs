@@ -336,12 +336,8 @@ fn which_circuit_answers_the_articles_advice_before_and_after_the_identification
     }
     // the largest Kp over the range at the lowest level meeting it is the design's own worst
     // case at the softest β_e there
-    let c = w
-        .stated
-        .options
-        .iter()
-        .find(|c| c.mean_pressure_bar == stated && c.meets)
-        .unwrap();
+    let c = w.stated.at_min_mean_pressure.as_ref().unwrap();
+    assert!(c.meets && c.mean_pressure_bar == stated);
     let app = pumpcyl::select::Application::default();
     let soft = pumpcyl::rig::Rig {
         beta_bar: c.beta_e_bar[0],

@@ -292,11 +292,16 @@ def select(
 ) -> Dict[str, Any]:
     """Which circuit, at which pressure level (docs/select.md): the application file (None =
     the article's application) with application keys as keyword overrides and ``rig``
-    replacing its rig; ``kp`` fixes the gain; ``experiment`` (an experiment TOML file) gives
-    the gas-fraction range from its records' interval of beta at ``confidence``. A dict as ``pumpcyl select --json`` prints
-    (``min_mean_pressure_bar``, ``verdict``, ``reasons``, ``options``), plus ``table``: numpy
-    arrays over the options (``mean_pressure_bar``, ``beta_e_lo_bar``, ``beta_e_hi_bar``,
-    ``kp_max``, ``standing_loss_w``, ``meets``)."""
+    replacing its rig (as ``--rig``: the gas fraction and the loads the application leaves out
+    follow it, docs/select.md#the-rig-and-the-gas-fraction); ``kp`` fixes the gain;
+    ``experiment`` (an experiment TOML file) gives the gas-fraction range from its records'
+    interval of beta at ``confidence``. A dict as ``pumpcyl select --json`` prints
+    (``min_mean_pressure_bar``, bisected between the levels, ``min_level_bar``, ``verdict``,
+    ``reasons``, ``rig``, ``gas_fraction_from``, ``options`` each with ``meets``,
+    ``meets_best_case`` and ``margins_hold_at_reference_gas_fraction``), plus ``table``:
+    numpy arrays over the options (``mean_pressure_bar``, ``beta_e_lo_bar``,
+    ``beta_e_hi_bar``, ``kp_max``, ``standing_loss_w`` (NaN where a candidate cavitates),
+    ``meets``)."""
     ...
 
 def fmu(

@@ -1295,7 +1295,8 @@ fn fmu(
 
 /// Which circuit, at which pressure level (docs/select.md): the application of the file
 /// `application` (TOML; None = the article's application), with `overrides` as application
-/// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig;
+/// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig
+/// (as `--rig`: the gas fraction and the loads it leaves out follow the rig);
 /// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
 /// from its records' interval of β at `confidence`. A dict as `pumpcyl select --json` prints,
 /// plus `table`: numpy arrays over the options (`mean_pressure_bar`, `beta_e_lo_bar`,
@@ -1332,7 +1333,15 @@ fn select(
         other => err(other),
     })?;
     if let Some(r) = rig {
-        app.rig = r.rig.clone();
+        let replaces = match app.rig_from {
+            pumpcyl::select::RigFrom::Article => None,
+            ref own => Some(own.describe()),
+        };
+        let from = pumpcyl::select::RigFrom::Given {
+            name: "the `rig` argument".to_string(),
+            replaces,
+        };
+        app = app.with_rig(r.rig.clone(), from).map_err(err)?;
     }
     let s = py
         .detach(|| -> Result<_, String> {
@@ -1363,7 +1372,7 @@ fn select(
     table.set_item("kp_max", array1(py, &column(&|c| c.kp_max)))?;
     table.set_item(
         "standing_loss_w",
-        array1(py, &column(&|c| c.standing_loss_w)),
+        array1(py, &column(&|c| c.standing_loss_w.unwrap_or(f64::NAN))),
     )?;
     table.set_item(
         "meets",

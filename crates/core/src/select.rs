@@ -10,7 +10,8 @@
 //! reference, its tracking is predicted at that gain, and its cost is the standstill leakage
 //! balance at that pressure (the article §2.4; [`standing_loss`]).
 
-use crate::bulk::effective_beta;
+use crate::bulk::{effective_beta, BetaReading, ARTICLE_READING};
+use crate::cavitation::check_chambers;
 use crate::design::{self, DesignError, Targets};
 use crate::rig::{Rig, RigError};
 use rayon::prelude::*;
@@ -27,6 +28,16 @@ pub enum Circuit {
     /// The pressurised dual-prime-mover circuit the article cites (its references 5 and 10):
     /// the sum-pressure set-point raised so both chambers sit at tens of bar.
     Pressurised,
+}
+
+impl Circuit {
+    /// The circuit in words: `low-pressure`, `pressurised`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Circuit::LowPressure => "low-pressure",
+            Circuit::Pressurised => "pressurised",
+        }
+    }
 }
 
 /// A wave to track and the largest control error allowed (the article's §3 waves).
@@ -60,8 +71,70 @@ pub struct Requirement {
     pub max_rise_time_s: Option<f64>,
     /// External force range [lowest, highest] (N): the standstill cost is taken at both.
     pub external_force_n: [f64; 2],
-    /// The identification the gas-fraction range was read from, if any.
-    pub evidence: Option<BetaEvidence>,
+    /// Where the gas-fraction range came from.
+    pub gas_fraction_from: GasFractionFrom,
+    /// Where the rig came from.
+    pub rig_from: RigFrom,
+}
+
+/// Where a selection's gas-fraction range came from (docs/select.md#the-gas-fraction); in JSON
+/// an object whose `source` names the variant, with the reading's fields beside it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "source", rename_all = "snake_case")]
+pub enum GasFractionFrom {
+    /// The application states `gas_fraction`.
+    Application,
+    /// The article's identification (β 165 bar at 4.4 bar), on the article's own rig.
+    Article(BetaReading),
+    /// The rig's β at its mean chamber pressure at rest at x0 ([`BetaReading::of_rig`]).
+    Rig(BetaReading),
+    /// An identification's interval of β (docs/select.md#from-an-identification).
+    Identification(BetaEvidence),
+}
+
+impl Default for GasFractionFrom {
+    fn default() -> Self {
+        GasFractionFrom::Article(ARTICLE_READING)
+    }
+}
+
+/// Where a selection's rig came from; in JSON an object whose `source` names the variant.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[serde(tag = "source", rename_all = "snake_case")]
+pub enum RigFrom {
+    /// The article's rig (the article §2.3.4): the application names none.
+    #[default]
+    Article,
+    /// The application's `[rig]` table.
+    Table,
+    /// The rig file the application's `rig` key names (the path relative to the application
+    /// file resolved).
+    File {
+        /// The rig file.
+        path: String,
+    },
+    /// A rig given beside the application (`pumpcyl select --rig`, Python `rig=`).
+    Given {
+        /// The rig, in the caller's words (a file name).
+        name: String,
+        /// The application's own rig it replaces, in words, if the application had one.
+        replaces: Option<String>,
+    },
+}
+
+impl RigFrom {
+    /// Where the rig came from, in words.
+    pub fn describe(&self) -> String {
+        match self {
+            RigFrom::Article => "the article's rig (its §2.3.4)".to_string(),
+            RigFrom::Table => "the application's [rig] table".to_string(),
+            RigFrom::File { path } => format!("{path} (the application's `rig` key)"),
+            RigFrom::Given { name, replaces } => match replaces {
+                Some(r) => format!("{name}, replacing {r}"),
+                None => name.clone(),
+            },
+        }
+    }
 }
 
 /// The standstill leakage balance at one pressure pair (the article §2.4): the pumps turn to
@@ -138,27 +211,41 @@ pub struct Candidate {
     /// loads, [least, most] (s; `null` in JSON where a step never reaches 90 %); `None` when
     /// `kp_max` is 0.
     pub rise_time_s: Option<[f64; 2]>,
-    /// The standstill cost at the lowest and the highest external force.
-    pub standing: [StandingLoss; 2],
-    /// The larger of the two standing losses (W).
-    pub standing_loss_w: f64,
+    /// The standstill cost at the lowest and the highest external force; `None` (`null` in
+    /// JSON) where a chamber would cavitate there (docs/model.md#cavitation): no state to cost.
+    pub standing: Option<[StandingLoss; 2]>,
+    /// The larger of the two standing losses (W); `None` as `standing`.
+    pub standing_loss_w: Option<f64>,
     /// Whether the requirement holds over the whole uncertainty.
     pub meets: bool,
-    /// Whether the margin targets hold at `kp_max` at the reference gas fraction.
-    pub meets_reference: bool,
+    /// Whether the requirement holds in the best case: at the lowest gas fraction (the stiffest
+    /// oil), at the largest gain meeting the margin targets there (or the fixed gain). A
+    /// candidate that fails even then cannot be made certain by learning more about the air.
+    pub meets_best_case: bool,
+    /// Whether the margin targets (not the tracking) hold at `kp_max` at the reference gas
+    /// fraction alone: `kp_max` is positive and at most `kp_max_reference`.
+    pub margins_hold_at_reference_gas_fraction: bool,
     /// Why it does or does not.
     pub reason: String,
 }
 
-/// The tool's answer in the article's terms (its §4).
+/// The tool's answer in the article's terms (its §4): where the prediction is uncertain,
+/// choose a circuit with a higher effective bulk modulus; where it fails even in the best
+/// case, it is not uncertain.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// The low-pressure circuit meets the requirement over the whole uncertainty.
     LowPressureSuitable,
-    /// Only a pressurised circuit meets it over the whole uncertainty.
+    /// Only a pressurised level meets it over the whole uncertainty; a low-pressure level meets
+    /// it in the best case (the least air): the low-pressure circuit is uncertain.
     UsePressurisedCircuit,
-    /// No candidate meets it.
+    /// Only a pressurised level meets it over the whole uncertainty; no low-pressure level
+    /// meets it even in the best case (or none was tried).
+    LowPressureInsufficient,
+    /// No level meets it over the whole uncertainty, but one does in the best case.
+    Uncertain,
+    /// No level meets it, even in the best case.
     NotAchievable,
 }
 
@@ -168,9 +255,17 @@ pub struct Selection {
     /// Every candidate, circuit by circuit, pressure rising.
     pub options: Vec<Candidate>,
     /// The lowest mean pressure at which the requirement holds over the whole uncertainty
-    /// (bar); `None` if none.
+    /// (bar), found between the levels: bisected to [`REFINE_TOLERANCE_BAR`] between the
+    /// highest level below `min_level_bar` (which fails) and it; `min_level_bar` itself when
+    /// no level lies below it; `None` if no level meets.
     pub min_mean_pressure_bar: Option<f64>,
-    /// The candidate chosen (index into `options`).
+    /// The lowest of the levels evaluated (`options`) that meets the requirement (bar).
+    pub min_level_bar: Option<f64>,
+    /// The bisection's last bracket [fails, meets] (bar); `None` without a bisection.
+    pub min_mean_pressure_bracket_bar: Option<[f64; 2]>,
+    /// The candidate at `min_mean_pressure_bar`, in the circuit of the level `min_level_bar`.
+    pub at_min_mean_pressure: Option<Candidate>,
+    /// The lowest level that meets the requirement (index into `options`).
     pub chosen: Option<usize>,
     /// The verdict.
     pub verdict: Verdict,
@@ -178,9 +273,16 @@ pub struct Selection {
     pub reasons: Vec<String>,
     /// The gas-fraction range evaluated: [lowest, reference, highest].
     pub gas_fraction: [f64; 3],
-    /// The identification the range was read from, if any.
-    pub gas_fraction_from: Option<BetaEvidence>,
+    /// Where the gas-fraction range came from.
+    pub gas_fraction_from: GasFractionFrom,
+    /// Where the rig came from.
+    pub rig: RigFrom,
 }
+
+/// How closely the lowest mean pressure is found between the levels (bar).
+pub const REFINE_TOLERANCE_BAR: f64 = 0.01;
+/// Most bisection steps (a bracket of 1000 bar needs 17).
+const MAX_BISECTIONS: usize = 40;
 
 /// Errors of the selection.
 #[derive(Debug, thiserror::Error)]
@@ -231,7 +333,7 @@ pub fn select(
         .par_iter()
         .map(|&(circuit, p)| candidate(rig, req, circuit, p, kp))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(answer(options, req))
+    answer(rig, req, options, kp)
 }
 
 /// What cannot be used in a selection, as (the key, why): the gas fractions, the waves (each
@@ -245,8 +347,8 @@ fn check(
 ) -> Result<(), (String, String)> {
     let bad = |key: &str, m: String| Err((key.to_string(), m));
     let fractions = [
-        ("gas_fraction_min", req.gas_fraction_min),
         ("gas_fraction", req.gas_fraction),
+        ("gas_fraction_min", req.gas_fraction_min),
         ("gas_fraction_max", req.gas_fraction_max),
     ];
     for (key, x) in fractions {
@@ -254,12 +356,7 @@ fn check(
             return bad(key, format!("{x}: must lie strictly between 0 and 1"));
         }
     }
-    if !(req.beta_oil_bar.is_finite() && req.beta_oil_bar > 0.0 && req.beta_oil_bar <= 1e6) {
-        return bad(
-            "beta_oil_bar",
-            format!("{}: must lie in (0, 1e6] bar", req.beta_oil_bar),
-        );
-    }
+    check_oil(req.beta_oil_bar)?;
     if !(req.gas_fraction_min <= req.gas_fraction && req.gas_fraction <= req.gas_fraction_max) {
         return bad(
             "gas_fraction",
@@ -280,6 +377,13 @@ fn check(
         }
         design::check_wave(rig, w.freq_hz, w.amp_mm)
             .or_else(|e| bad("wave", format!("{what}: {e}")))?;
+    }
+    let [lowest, highest] = req.external_force_n;
+    if lowest > highest {
+        return bad(
+            "external_force_n",
+            format!("[{lowest}, {highest}]: the range is [lowest, highest], the lowest first"),
+        );
     }
     for &(circuit, p) in levels {
         if !(p.is_finite() && p > 0.0 && p <= 1000.0) {
@@ -306,6 +410,16 @@ fn check(
     }
 }
 
+/// The pure-oil bulk modulus checked, as (the key, why).
+fn check_oil(beta_oil_bar: f64) -> Result<(), (String, String)> {
+    if beta_oil_bar.is_finite() && beta_oil_bar > 0.0 && beta_oil_bar <= 1e6 {
+        Ok(())
+    } else {
+        let why = format!("{beta_oil_bar}: must lie in (0, 1e6] bar");
+        Err(("beta_oil_bar".to_string(), why))
+    }
+}
+
 /// One candidate over the gas-fraction range.
 fn candidate(
     rig: &Rig,
@@ -325,24 +439,20 @@ fn candidate(
         at(req.gas_fraction),
     );
     // the margins are monotone in β_e, so the range's ends bound it (docs/select.md)
+    let kp_reference = design::kp_max_worst_case(&reference, &req.targets)?;
     let kp_at = |r: &Rig, x: f64| -> Result<f64, DesignError> {
         // a zero-width range (or an end at the reference) is one design, not three
         if x == req.gas_fraction {
-            Ok(f64::INFINITY)
+            Ok(kp_reference)
         } else {
             design::kp_max_worst_case(r, &req.targets)
         }
     };
-    let kp_reference = design::kp_max_worst_case(&reference, &req.targets)?;
+    let kp_stiff = kp_at(&stiff, req.gas_fraction_min)?;
     let kp_range = kp_at(&soft, req.gas_fraction_max)?
-        .min(kp_at(&stiff, req.gas_fraction_min)?)
+        .min(kp_stiff)
         .min(kp_reference);
     let kp_max = fixed_kp.unwrap_or(kp_range);
-    let standing = req.external_force_n.map(|f| {
-        let [p1, p2] = chamber_pressures(rig, p_bar, f);
-        standing_loss(rig, p1, p2)
-    });
-    let standing_loss_w = standing[0].power_w.max(standing[1].power_w);
     let mut out = Candidate {
         circuit,
         mean_pressure_bar: p_bar,
@@ -352,55 +462,108 @@ fn candidate(
         kp_max_reference: kp_reference,
         tracking_max_error_mm: Vec::new(),
         rise_time_s: None,
-        standing,
-        standing_loss_w,
+        standing: None,
+        standing_loss_w: None,
         meets: false,
-        meets_reference: false,
+        meets_best_case: false,
+        margins_hold_at_reference_gas_fraction: false,
         reason: String::new(),
     };
+    let standing = match standstill(rig, req, p_bar) {
+        Ok(standing) => standing,
+        Err(why) => {
+            out.reason = why;
+            return Ok(out);
+        }
+    };
+    out.standing = Some(standing);
+    out.standing_loss_w = Some(standing[0].power_w.max(standing[1].power_w));
     if let Some(why) = over_rating(rig, &standing) {
         out.reason = why;
         return Ok(out);
     }
-    if kp_max <= 0.0 {
-        out.reason = "no gain meets the margin targets over the gas-fraction range".into();
-        return Ok(out);
+    out.margins_hold_at_reference_gas_fraction = kp_max > 0.0 && kp_max <= kp_reference;
+    let (band, failing) = assess(req, &[&stiff, &soft], kp_max, kp_range)?;
+    if let Some(band) = band {
+        out.tracking_max_error_mm = band.tracking_mm;
+        out.rise_time_s = Some(band.rise_time_s);
     }
-    out.meets_reference = kp_reference > 0.0 && kp_max <= kp_reference;
-    if kp_max > kp_range {
+    if failing.is_empty() {
+        out.meets = true;
+        out.meets_best_case = true;
         out.reason = format!(
-            "Kp = {kp_max} breaks the margin targets in the gas-fraction range (largest that holds: {kp_range:.2})"
+            "meets every requirement at Kp = {kp_max:.2} over the gas-fraction range and the loads"
         );
         return Ok(out);
     }
-    let band = match response_band(req, &[&stiff, &soft], kp_max) {
-        Err(DesignError::Lti(e @ crate::lti::LtiError::Unstable { .. })) => {
-            out.reason = format!("at Kp = {kp_max:.2} with the sum-pressure loop closed: {e}");
-            return Ok(out);
+    out.reason = failing.join("; ");
+    if req.gas_fraction_min < req.gas_fraction_max {
+        let kp_best = fixed_kp.unwrap_or(kp_stiff);
+        out.meets_best_case = assess(req, &[&stiff], kp_best, kp_stiff)?.1.is_empty();
+        if out.meets_best_case {
+            out.reason += &format!(
+                "; met in the best case, the least air (gas fraction {:.4}), at Kp = {kp_best:.2}",
+                req.gas_fraction_min
+            );
         }
-        band => band?,
-    };
-    out.tracking_max_error_mm = band.tracking_mm;
-    out.rise_time_s = Some(band.rise_time_s);
-    let failing = shortfalls(req, &out);
-    out.meets = failing.is_empty();
-    out.reason = if failing.is_empty() {
-        format!(
-            "meets every requirement at Kp = {kp_max:.2} over the gas-fraction range and the loads"
-        )
-    } else {
-        failing.join("; ")
-    };
+    }
     Ok(out)
 }
 
-/// What `c` falls short of in `req`: each wave whose worst error exceeds its bound, and the
+/// The standstill balance at the lowest and the highest external force, or why the circuit
+/// cannot hold it: a chamber below the oil's vapour pressure (docs/model.md#cavitation).
+fn standstill(rig: &Rig, req: &Requirement, p_bar: f64) -> Result<[StandingLoss; 2], String> {
+    let pressures = req
+        .external_force_n
+        .map(|f| chamber_pressures(rig, p_bar, f));
+    for (f, p) in req.external_force_n.iter().zip(&pressures) {
+        check_chambers(p).map_err(|e| format!("at an external force of {f} N: {e}"))?;
+    }
+    Ok(pressures.map(|[p1, p2]| standing_loss(rig, p1, p2)))
+}
+
+/// Whether `req` holds at gain `kp` over the rigs `ends` and the loads, `kp_allowed` being the
+/// largest gain that meets the margin targets over them: the responses (none where the gain
+/// does not hold the targets or the closed loop is unstable) and what falls short (empty when
+/// it holds).
+fn assess(
+    req: &Requirement,
+    ends: &[&Rig],
+    kp: f64,
+    kp_allowed: f64,
+) -> Result<(Option<Band>, Vec<String>), SelectError> {
+    if kp <= 0.0 {
+        let why = "no gain meets the margin targets over the gas-fraction range";
+        return Ok((None, vec![why.into()]));
+    }
+    if kp > kp_allowed {
+        let why = format!(
+            "Kp = {kp} breaks the margin targets in the gas-fraction range (largest that holds: {kp_allowed:.2})"
+        );
+        return Ok((None, vec![why]));
+    }
+    match response_band(req, ends, kp) {
+        Err(DesignError::Lti(e @ crate::lti::LtiError::Unstable { .. })) => Ok((
+            None,
+            vec![format!(
+                "at Kp = {kp:.2} with the sum-pressure loop closed: {e}"
+            )],
+        )),
+        Err(e) => Err(e.into()),
+        Ok(band) => {
+            let failing = shortfalls(req, &band);
+            Ok((Some(band), failing))
+        }
+    }
+}
+
+/// What `band` falls short of in `req`: each wave whose worst error exceeds its bound, and the
 /// rise time; empty when it meets the requirement.
-fn shortfalls(req: &Requirement, c: &Candidate) -> Vec<String> {
+fn shortfalls(req: &Requirement, band: &Band) -> Vec<String> {
     let mut out: Vec<String> = req
         .waves
         .iter()
-        .zip(&c.tracking_max_error_mm)
+        .zip(&band.tracking_mm)
         .filter(|(w, [_, worst])| *worst > w.max_error_mm)
         .map(|(w, [_, worst])| {
             format!(
@@ -409,7 +572,8 @@ fn shortfalls(req: &Requirement, c: &Candidate) -> Vec<String> {
             )
         })
         .collect();
-    if let (Some(max), Some([_, worst])) = (req.max_rise_time_s, c.rise_time_s) {
+    if let Some(max) = req.max_rise_time_s {
+        let worst = band.rise_time_s[1];
         if worst > max {
             let worst = if worst.is_finite() {
                 format!("up to {worst:.3} s")
@@ -481,53 +645,163 @@ fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
     })
 }
 
-/// The lowest pressure that meets `req` over the whole uncertainty, and the verdict.
-fn answer(options: Vec<Candidate>, req: &Requirement) -> Selection {
-    let chosen = options
+/// The lowest level of `options` that meets the requirement (index).
+fn lowest_meeting(options: &[Candidate]) -> Option<usize> {
+    options
         .iter()
         .enumerate()
         .filter(|(_, c)| c.meets)
         .min_by(|a, b| a.1.mean_pressure_bar.total_cmp(&b.1.mean_pressure_bar))
-        .map(|(k, _)| k);
-    let (verdict, reasons) = match chosen.map(|k| &options[k]) {
+        .map(|(k, _)| k)
+}
+
+/// The lowest mean pressure between the levels: the candidate `options[k]` (the lowest level
+/// that meets) bisected, in its circuit, against the highest level below it (which fails, as
+/// every level below the lowest meeting one does) to [`REFINE_TOLERANCE_BAR`], at most
+/// [`MAX_BISECTIONS`] steps. The meeting candidate found and the last bracket [fails, meets]
+/// (none when no level lies below).
+fn refine(
+    rig: &Rig,
+    req: &Requirement,
+    options: &[Candidate],
+    k: usize,
+    kp: Option<f64>,
+) -> Result<(Candidate, Option<[f64; 2]>), SelectError> {
+    let meeting = &options[k];
+    let below = options
+        .iter()
+        .map(|c| c.mean_pressure_bar)
+        .filter(|&p| p < meeting.mean_pressure_bar)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if !below.is_finite() {
+        return Ok((meeting.clone(), None));
+    }
+    let (mut lo, mut hi, mut at) = (below, meeting.mean_pressure_bar, meeting.clone());
+    for _ in 0..MAX_BISECTIONS {
+        if hi - lo <= REFINE_TOLERANCE_BAR {
+            break;
+        }
+        let mid = 0.5 * (lo + hi);
+        let c = candidate(rig, req, meeting.circuit, mid, kp)?;
+        if c.meets {
+            (hi, at) = (mid, c);
+        } else {
+            lo = mid;
+        }
+    }
+    Ok((at, Some([lo, hi])))
+}
+
+/// The verdict and why: the circuit of the lowest meeting candidate `at` (refined), else
+/// whether any level meets in the best case.
+fn verdict(options: &[Candidate], at: Option<&Candidate>) -> (Verdict, Vec<String>) {
+    let low: Vec<&Candidate> = options
+        .iter()
+        .filter(|c| c.circuit == Circuit::LowPressure)
+        .collect();
+    let low_best = low.iter().find(|c| c.meets_best_case);
+    match at {
         Some(c) if c.circuit == Circuit::LowPressure => (
             Verdict::LowPressureSuitable,
             vec![format!(
-                "the low-pressure circuit meets the requirement over the whole gas-fraction range from {} bar: {}",
+                "the low-pressure circuit meets the requirement over the whole gas-fraction range from {:.2} bar: {}",
                 c.mean_pressure_bar, c.reason
             )],
         ),
-        Some(c) => (
-            Verdict::UsePressurisedCircuit,
-            vec![format!(
-                "uncertain with the low-pressure circuit: use the pressurised circuit at ≥ {} bar ({})",
+        Some(c) => {
+            let pressurised = format!(
+                "use the pressurised circuit at ≥ {:.2} bar ({})",
                 c.mean_pressure_bar, c.reason
-            )],
-        ),
-        None => (
-            Verdict::NotAchievable,
-            options
+            );
+            match (low_best, low.is_empty()) {
+                (Some(b), _) => (
+                    Verdict::UsePressurisedCircuit,
+                    vec![format!(
+                        "uncertain with the low-pressure circuit: at {} bar it meets the requirement only in the best case, not over the whole gas-fraction range; {pressurised}",
+                        b.mean_pressure_bar
+                    )],
+                ),
+                (None, true) => (
+                    Verdict::LowPressureInsufficient,
+                    vec![format!("no low-pressure level was tried; {pressurised}")],
+                ),
+                (None, false) => (
+                    Verdict::LowPressureInsufficient,
+                    vec![format!(
+                        "the low-pressure circuit fails at every level even in the best case (the least air); {pressurised}"
+                    )],
+                ),
+            }
+        }
+        None => {
+            let best = options.iter().find(|c| c.meets_best_case);
+            let highest = options
                 .iter()
-                .max_by(|a, b| a.mean_pressure_bar.total_cmp(&b.mean_pressure_bar))
-                .map(|c| {
-                    format!(
-                        "not achievable with these circuits; at the highest level ({:?}, {} bar): {}",
-                        c.circuit, c.mean_pressure_bar, c.reason
-                    )
-                })
-                .into_iter()
-                .collect(),
-        ),
+                .max_by(|a, b| a.mean_pressure_bar.total_cmp(&b.mean_pressure_bar));
+            let why = |c: &Candidate| {
+                format!(
+                    "at the highest level ({}, {} bar): {}",
+                    c.circuit.name(),
+                    c.mean_pressure_bar,
+                    c.reason
+                )
+            };
+            match best {
+                Some(b) => (
+                    Verdict::Uncertain,
+                    vec![format!(
+                        "uncertain: no level meets the requirement over the whole gas-fraction range; from {} bar ({}) it is met in the best case, the least air",
+                        b.mean_pressure_bar,
+                        b.circuit.name()
+                    )],
+                ),
+                None => (
+                    Verdict::NotAchievable,
+                    highest
+                        .map(|c| {
+                            format!(
+                                "not achievable with these circuits, even in the best case (the least air); {}",
+                                why(c)
+                            )
+                        })
+                        .into_iter()
+                        .collect(),
+                ),
+            }
+        }
+    }
+}
+
+/// The selection of `options`: the lowest level that meets `req` over the whole uncertainty,
+/// refined between the levels ([`refine`]), and the verdict.
+fn answer(
+    rig: &Rig,
+    req: &Requirement,
+    options: Vec<Candidate>,
+    kp: Option<f64>,
+) -> Result<Selection, SelectError> {
+    let chosen = lowest_meeting(&options);
+    let (at, bracket) = match chosen {
+        Some(k) => {
+            let (at, bracket) = refine(rig, req, &options, k, kp)?;
+            (Some(at), bracket)
+        }
+        None => (None, None),
     };
-    Selection {
-        min_mean_pressure_bar: chosen.map(|k| options[k].mean_pressure_bar),
+    let (verdict, reasons) = verdict(&options, at.as_ref());
+    Ok(Selection {
+        min_mean_pressure_bar: at.as_ref().map(|c| c.mean_pressure_bar),
+        min_level_bar: chosen.map(|k| options[k].mean_pressure_bar),
+        min_mean_pressure_bracket_bar: bracket,
+        at_min_mean_pressure: at,
         chosen,
         options,
         verdict,
         reasons,
         gas_fraction: [req.gas_fraction_min, req.gas_fraction, req.gas_fraction_max],
-        gas_fraction_from: req.evidence,
-    }
+        gas_fraction_from: req.gas_fraction_from,
+        rig: req.rig_from.clone(),
+    })
 }
 
 /// An application to choose a circuit for (docs/formats.md#application-toml): the rig, the
@@ -563,11 +837,86 @@ pub struct Application {
     /// Largest 10–90 % rise time of a 5 mm step allowed (s); absent: not required.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_rise_time_s: Option<f64>,
-    /// The rig (any rig key; absent keys take the article's rig).
+    /// The rig: a `[rig]` table (any rig key; absent keys take the article's rig) or the name
+    /// of a rig file, relative to the application file (docs/formats.md#application-toml).
+    #[serde(deserialize_with = "rig_table_or_file")]
     pub rig: Rig,
-    /// Where the gas-fraction range came from, when an identification gave it (not a key).
+    /// Where the rig came from (not a key).
     #[serde(skip)]
-    pub evidence: Option<BetaEvidence>,
+    pub rig_from: RigFrom,
+    /// Where the gas-fraction range came from (not a key).
+    #[serde(skip)]
+    pub gas_fraction_from: GasFractionFrom,
+    /// The keys the application leaves to the rig (not a key): each follows it as
+    /// [`Application::with_rig`] says.
+    #[serde(skip)]
+    pub follows_rig: FollowsRig,
+}
+
+/// The application keys that, absent, follow the rig (docs/select.md#the-gas-fraction): the
+/// gas fraction is read off the rig's β at its mean chamber pressure (the article's
+/// identification on the article's rig), its range is a factor 2 either way of it, and the
+/// loads are the rig's `mass_kg` (the article's two loads on the article's rig).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FollowsRig {
+    /// `gas_fraction` follows the rig.
+    pub gas_fraction: bool,
+    /// `gas_fraction_min` is half the reference.
+    pub gas_fraction_min: bool,
+    /// `gas_fraction_max` is twice the reference.
+    pub gas_fraction_max: bool,
+    /// `mass_kg` follows the rig.
+    pub mass_kg: bool,
+}
+
+impl FollowsRig {
+    /// Every such key follows the rig.
+    pub const ALL: FollowsRig = FollowsRig {
+        gas_fraction: true,
+        gas_fraction_min: true,
+        gas_fraction_max: true,
+        mass_kg: true,
+    };
+
+    /// Those of `self` whose key is not `key` (a key stated).
+    fn stated(mut self, key: &str) -> FollowsRig {
+        match key {
+            "gas_fraction" => self.gas_fraction = false,
+            "gas_fraction_min" => self.gas_fraction_min = false,
+            "gas_fraction_max" => self.gas_fraction_max = false,
+            "mass_kg" => self.mass_kg = false,
+            _ => {}
+        }
+        self
+    }
+}
+
+impl Default for FollowsRig {
+    fn default() -> Self {
+        FollowsRig::ALL
+    }
+}
+
+/// The article's two loads (kg at x0), the loads of the article's application on its rig.
+pub const ARTICLE_LOADS_KG: [f64; 2] = [4898.0, 10593.0];
+
+/// The `rig` key: a table of rig keys, or a file name (the placeholder rig it gives here is
+/// replaced by the file's as the application is read: [`Application::from_file_in`]).
+fn rig_table_or_file<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Rig, D::Error> {
+    struct TableOrFile;
+    impl<'de> serde::de::Visitor<'de> for TableOrFile {
+        type Value = Rig;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a [rig] table or the name of a rig file")
+        }
+        fn visit_str<E: serde::de::Error>(self, _: &str) -> Result<Rig, E> {
+            Ok(Rig::default())
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Rig, A::Error> {
+            serde::Deserialize::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+        }
+    }
+    d.deserialize_any(TableOrFile)
 }
 
 /// An identification's word on the gas fraction: the interval of β its records leave, at the
@@ -625,7 +974,9 @@ impl Default for Application {
     ///
     /// [`Targets::default`]: crate::design::Targets
     fn default() -> Self {
-        let x = crate::bulk::gas_fraction(165.0, 4.4, crate::bulk::BETA_OIL_BAR).unwrap_or(0.0264);
+        let x = ARTICLE_READING
+            .gas_fraction(crate::bulk::BETA_OIL_BAR)
+            .unwrap_or(0.0264);
         Application {
             gas_fraction: x,
             gas_fraction_min: x / 2.0,
@@ -634,7 +985,7 @@ impl Default for Application {
             target_pm_deg: 34.0,
             target_gm_db: 6.0,
             stroke_mm: 50.0,
-            mass_kg: vec![4898.0, 10593.0],
+            mass_kg: ARTICLE_LOADS_KG.to_vec(),
             external_force_n: [0.0, 0.0],
             low_pressure_bar: (1..=10).map(f64::from).collect(),
             pressurised_bar: vec![20.0, 30.0, 50.0],
@@ -645,29 +996,60 @@ impl Default for Application {
             }],
             max_rise_time_s: None,
             rig: Rig::default(),
-            evidence: None,
+            rig_from: RigFrom::Article,
+            gas_fraction_from: GasFractionFrom::Article(ARTICLE_READING),
+            follows_rig: FollowsRig::ALL,
         }
     }
 }
 
 impl Application {
     /// Parse an application from TOML text; `name` stands for the file in messages, which name
-    /// the line and the key.
-    pub fn from_toml_str(text: &str, name: &str) -> Result<Application, SelectError> {
-        let app: Application = toml::from_str(text).map_err(|e| {
-            SelectError::Input(format!("{name}: {}", crate::input::toml_error(&e, text)))
-        })?;
-        app.validate().map_err(|(key, message)| {
+    /// the line and the key. A `rig` file name is read from `files`, relative to `dir`.
+    pub fn from_toml_in(
+        files: &dyn crate::input::Files,
+        text: &str,
+        name: &str,
+        dir: &std::path::Path,
+    ) -> Result<Application, SelectError> {
+        let located = |key: &str, message: String| {
             let path: Vec<crate::input::Key> =
                 key.split('.').map(crate::input::Key::Name).collect();
             let line = crate::input::toml_line(text, &path)
                 .map_or(String::new(), |l| format!("line {l}, "));
             SelectError::Input(format!("{name}: {line}key `{key}`: {message}"))
-        })?;
+        };
+        let syntax = |e: toml::de::Error| {
+            SelectError::Input(format!("{name}: {}", crate::input::toml_error(&e, text)))
+        };
+        let mut app: Application = toml::from_str(text).map_err(syntax)?;
+        let raw: toml::Table = toml::from_str(text).map_err(syntax)?;
+        app.rig_from = match raw.get("rig") {
+            Some(toml::Value::String(file)) => {
+                let path = dir.join(file);
+                app.rig =
+                    Rig::from_file_in(files, &path).map_err(|e| located("rig", e.to_string()))?;
+                RigFrom::File {
+                    path: path.display().to_string(),
+                }
+            }
+            Some(_) => RigFrom::Table,
+            None => RigFrom::Article,
+        };
+        app.follows_rig = raw.keys().fold(FollowsRig::ALL, |f, key| f.stated(key));
+        app.resolve()
+            .and_then(|()| app.validate())
+            .map_err(|(key, message)| located(&key, message))?;
         Ok(app)
     }
 
-    /// Read and check an application file.
+    /// [`Application::from_toml_in`] with a `rig` file name read from disk, relative to the
+    /// working directory.
+    pub fn from_toml_str(text: &str, name: &str) -> Result<Application, SelectError> {
+        Self::from_toml_in(&crate::input::Disk, text, name, std::path::Path::new("."))
+    }
+
+    /// Read and check an application file; a `rig` file name is relative to it.
     pub fn from_file_in(
         files: &dyn crate::input::Files,
         path: &std::path::Path,
@@ -675,7 +1057,71 @@ impl Application {
         let name = path.display().to_string();
         let text = crate::input::read_text(files, path)
             .map_err(|e| SelectError::Input(format!("{name}: {e}")))?;
-        Self::from_toml_str(&text, &name)
+        let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        Self::from_toml_in(files, &text, &name, dir)
+    }
+
+    /// The application on `rig` (from `from`): the keys it leaves to the rig follow it
+    /// ([`FollowsRig`]), then every value is checked.
+    ///
+    /// # Errors
+    /// The rig's β at its mean pressure gives no gas fraction, or a value does not fit the
+    /// rig (a wave beyond its stroke, a load out of range), the key named.
+    pub fn with_rig(&self, rig: Rig, from: RigFrom) -> Result<Application, SelectError> {
+        let mut app = Application {
+            rig,
+            rig_from: from,
+            ..self.clone()
+        };
+        app.resolve()
+            .and_then(|()| app.validate())
+            .map_err(|(key, m)| SelectError::Input(format!("key `{key}`: {m}")))?;
+        Ok(app)
+    }
+
+    /// Set the keys that follow the rig ([`FollowsRig`]) from it: the gas fraction from the
+    /// rig's β at its mean chamber pressure ([`BetaReading::for_rig`]), a factor 2 either way,
+    /// and the loads; the error names the key.
+    fn resolve(&mut self) -> Result<(), (String, String)> {
+        // what the keys follow, checked first so that a fault is named where it lies
+        self.check_rig()?;
+        check_oil(self.beta_oil_bar)?;
+        let article_rig = self.rig_from == RigFrom::Article;
+        let follows = self.follows_rig;
+        if follows.mass_kg {
+            self.mass_kg = if article_rig && self.rig.mass_kg == Rig::default().mass_kg {
+                ARTICLE_LOADS_KG.to_vec()
+            } else {
+                Vec::new()
+            };
+        }
+        if follows.gas_fraction {
+            let reading = BetaReading::for_rig(&self.rig, article_rig);
+            self.gas_fraction = reading.gas_fraction(self.beta_oil_bar).map_err(|e| {
+                let m = format!(
+                    "absent, so read off the rig's beta {} bar at its mean chamber pressure {} bar, which gives none: {e}; state gas_fraction",
+                    reading.beta_bar, reading.p_mean_bar
+                );
+                ("gas_fraction".to_string(), m)
+            })?;
+            self.gas_fraction_from = if reading == ARTICLE_READING {
+                GasFractionFrom::Article(reading)
+            } else {
+                GasFractionFrom::Rig(reading)
+            };
+        } else if matches!(
+            self.gas_fraction_from,
+            GasFractionFrom::Article(_) | GasFractionFrom::Rig(_)
+        ) {
+            self.gas_fraction_from = GasFractionFrom::Application;
+        }
+        if follows.gas_fraction_min {
+            self.gas_fraction_min = 0.5 * self.gas_fraction;
+        }
+        if follows.gas_fraction_max {
+            self.gas_fraction_max = 2.0 * self.gas_fraction;
+        }
+        Ok(())
     }
 
     /// Apply `KEY=VALUE` overrides (`rig.KEY=VALUE` for a rig key; values in TOML), then check;
@@ -727,7 +1173,17 @@ impl Application {
                 crate::input::serde_message(e.message()),
             )
         })?;
-        app.validate()
+        let mut app = Application {
+            rig_from: self.rig_from.clone(),
+            gas_fraction_from: self.gas_fraction_from,
+            follows_rig: assignments
+                .iter()
+                .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
+                .fold(self.follows_rig, FollowsRig::stated),
+            ..app
+        };
+        app.resolve()
+            .and_then(|()| app.validate())
             .map_err(|(key, message)| SelectError::Invalid {
                 source_name: source_name.to_string(),
                 key: key.to_string(),
@@ -759,7 +1215,13 @@ impl Application {
             gas_fraction_min: x(hi)?,
             gas_fraction: x(e.beta_nominal_bar)?,
             gas_fraction_max: x(lo)?,
-            evidence: Some(*e),
+            gas_fraction_from: GasFractionFrom::Identification(*e),
+            follows_rig: FollowsRig {
+                gas_fraction: false,
+                gas_fraction_min: false,
+                gas_fraction_max: false,
+                ..self.follows_rig
+            },
             ..self.clone()
         };
         out.validate()
@@ -774,7 +1236,8 @@ impl Application {
         table.remove("rig");
         let mut out = String::from(
             "# pumpcyl application (docs/formats.md#application-toml; docs/select.md). Units are part of every key.\n\
-             # Absent keys take the article's application; [rig] takes any rig key (`pumpcyl rig`).\n",
+             # Absent keys take the article's application; the gas fraction and the loads follow the rig.\n\
+             # [rig] takes any rig key (`pumpcyl rig`); or name a rig file: rig = \"my-rig.toml\" (relative to this file).\n",
         );
         for (key, doc) in APPLICATION_KEY_DOCS.iter().filter(|(k, _)| *k != "wave") {
             match table.get(*key) {
@@ -788,7 +1251,10 @@ impl Application {
                 w.freq_hz, w.amp_mm, w.max_error_mm
             ));
         }
-        out.push_str("\n[rig]  # the article's rig, with the keys that differ from it (`pumpcyl rig` lists them all)\n");
+        out.push_str(&format!(
+            "\n[rig]  # {}: the keys that differ from the article's rig (`pumpcyl rig` lists them all)\n",
+            self.rig_from.describe()
+        ));
         let ours = toml::Table::try_from(&self.rig).expect("a rig always serialises");
         let article = toml::Table::try_from(Rig::default()).expect("a rig always serialises");
         for (key, value) in ours.iter().filter(|(k, v)| article.get(*k) != Some(*v)) {
@@ -801,12 +1267,7 @@ impl Application {
     /// of the rig's `mass_kg`, forces finite, at least one wave and one pressure level, the
     /// targets, and what every selection checks (gas fractions, waves, levels).
     pub fn validate(&self) -> Result<(), (String, String)> {
-        self.rig.validate("rig").map_err(|e| match e {
-            RigError::Invalid {
-                key, value, rule, ..
-            } => (format!("rig.{key}"), format!("{value}: {rule}")),
-            other => ("rig".to_string(), other.to_string()),
-        })?;
+        self.check_rig()?;
         let fail = |key: &str, message: String| Err((key.to_string(), message));
         for &m in &self.mass_kg {
             if let Some(rule) = Rig::check_key("mass_kg", m) {
@@ -849,6 +1310,16 @@ impl Application {
         check(&self.rig, &self.requirement(), &self.levels(), None)
     }
 
+    /// The rig's rules, the error naming its key as `rig.KEY`.
+    fn check_rig(&self) -> Result<(), (String, String)> {
+        self.rig.validate("rig").map_err(|e| match e {
+            RigError::Invalid {
+                key, value, rule, ..
+            } => (format!("rig.{key}"), format!("{value}: {rule}")),
+            other => ("rig".to_string(), other.to_string()),
+        })
+    }
+
     /// The requirement this application states.
     pub fn requirement(&self) -> Requirement {
         Requirement {
@@ -867,7 +1338,8 @@ impl Application {
             waves: self.wave.clone(),
             max_rise_time_s: self.max_rise_time_s,
             external_force_n: self.external_force_n,
-            evidence: self.evidence,
+            gas_fraction_from: self.gas_fraction_from,
+            rig_from: self.rig_from.clone(),
         }
     }
 
@@ -895,15 +1367,15 @@ impl Application {
 pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
     (
         "gas_fraction",
-        "reference undissolved-gas fraction X: the article's, from beta 165 bar at 4.4 bar",
+        "reference undissolved-gas fraction X (absent: the rig's beta at its mean chamber pressure, half p_sum_ref_bar; on the article's rig its 165 bar at 4.4 bar)",
     ),
     (
         "gas_fraction_min",
-        "lowest X considered (a factor 2 below: undissolved air varies between applications)",
+        "lowest X considered (absent: a factor 2 below; undissolved air varies between applications)",
     ),
     (
         "gas_fraction_max",
-        "highest X considered (a factor 2 above; the worst case for beta_e)",
+        "highest X considered (absent: a factor 2 above; the worst case for beta_e)",
     ),
     (
         "beta_oil_bar",
@@ -917,7 +1389,7 @@ pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
     ),
     (
         "mass_kg",
-        "kg, loads (each its mass at x0; along the stroke it follows rig.mass_by_position)",
+        "kg, loads (each its mass at x0; along the stroke it follows rig.mass_by_position; empty: rig.mass_kg; absent: the rig's, the article's two loads on its rig)",
     ),
     (
         "external_force_n",
@@ -967,7 +1439,8 @@ mod tests {
             waves,
             max_rise_time_s: None,
             external_force_n: [0.0, 0.0],
-            evidence: None,
+            gas_fraction_from: GasFractionFrom::Application,
+            rig_from: RigFrom::Article,
         }
     }
 
@@ -1068,7 +1541,10 @@ mod tests {
         assert!((beta(app.gas_fraction_max) - 150.0).abs() < 1e-9);
         assert!((beta(app.gas_fraction_min) - 180.0).abs() < 1e-9);
         assert!((beta(app.gas_fraction) - 165.0).abs() < 1e-9);
-        assert_eq!(app.requirement().evidence, Some(e));
+        assert_eq!(
+            app.requirement().gas_fraction_from,
+            GasFractionFrom::Identification(e)
+        );
         let outside = BetaEvidence {
             beta_nominal_bar: 190.0,
             ..e
@@ -1100,5 +1576,98 @@ mod tests {
         assert_eq!(s.min_mean_pressure_bar, None);
         assert_eq!(s.verdict, Verdict::NotAchievable);
         assert!(s.reasons[0].contains("0.2 Hz ±35 mm"), "{:?}", s.reasons);
+    }
+
+    /// The bisection's bracket straddles the margins' own threshold: at Kp 25 with the gas
+    /// fraction fixed, the LTI margins at β_e(p) meet GM 6 dB and PM 30° at the bracket's upper
+    /// end and not at its lower end, within 0.01 bar.
+    #[test]
+    fn the_lowest_pressure_is_bisected_to_the_margins_threshold() {
+        let rig = Rig::default();
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let levels = [(Circuit::LowPressure, 3.0), (Circuit::LowPressure, 6.0)];
+        let s = select(&rig, &requirement([x, x, x], vec![]), &levels, Some(25.0)).unwrap();
+        assert_eq!(s.min_level_bar, Some(6.0));
+        let [lo, hi] = s.min_mean_pressure_bracket_bar.unwrap();
+        assert!(hi - lo <= REFINE_TOLERANCE_BAR && lo < hi, "{lo} {hi}");
+        assert_eq!(s.min_mean_pressure_bar, Some(hi));
+        let holds = |p: f64| {
+            let r = Rig {
+                beta_bar: effective_beta(x, p, BETA_OIL_BAR),
+                ..rig.clone()
+            };
+            let m = crate::lti::margins(&crate::model::Plant::new(&r).open_loop(false)).unwrap();
+            m.closed_loop_stable
+                && m.gain_margin_db.is_none_or(|g| g >= 6.0)
+                && m.phase_margin_deg.is_none_or(|p| p >= 30.0)
+        };
+        assert!(holds(hi) && !holds(lo), "{lo} {hi}");
+    }
+
+    /// On a rig given beside the application the gas fraction is the rig's β at half its
+    /// sum-pressure set-point and the loads its mass; a stated gas fraction stays, its range a
+    /// factor 2 either way.
+    #[test]
+    fn the_keys_left_out_follow_the_rig() {
+        let mine = Rig {
+            beta_bar: 300.0,
+            p_sum_ref_bar: 12.0,
+            mass_kg: 2500.0,
+            mass_by_position: Vec::new(),
+            ..Rig::default()
+        };
+        let given = RigFrom::Given {
+            name: "mine".into(),
+            replaces: None,
+        };
+        let app = Application::default()
+            .with_rig(mine.clone(), given.clone())
+            .unwrap();
+        let x = gas_fraction(300.0, 6.0, BETA_OIL_BAR).unwrap();
+        assert_eq!(
+            [app.gas_fraction_min, app.gas_fraction, app.gas_fraction_max],
+            [x / 2.0, x, 2.0 * x]
+        );
+        assert!(app.mass_kg.is_empty());
+        let reading = BetaReading {
+            beta_bar: 300.0,
+            p_mean_bar: 6.0,
+        };
+        assert_eq!(app.gas_fraction_from, GasFractionFrom::Rig(reading));
+        let stated = Application::default()
+            .with_overrides("--set", &["gas_fraction=0.02".to_string()])
+            .unwrap()
+            .with_rig(mine, given)
+            .unwrap();
+        assert_eq!(stated.gas_fraction, 0.02);
+        assert_eq!(stated.gas_fraction_max, 0.04);
+        assert_eq!(stated.gas_fraction_from, GasFractionFrom::Application);
+        // the article's application on the article's rig is unchanged
+        let article = Application::default();
+        assert_eq!(article.mass_kg, ARTICLE_LOADS_KG);
+        assert_eq!(
+            article.gas_fraction,
+            gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap()
+        );
+    }
+
+    /// A standstill that needs a chamber below the vapour pressure fails its candidate with
+    /// the cavitation as the reason and no standing loss; a force range given highest first
+    /// is refused.
+    #[test]
+    fn cavitation_fails_a_candidate_and_a_reversed_range_is_refused() {
+        let rig = Rig::default();
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let mut req = requirement([x, x, x], vec![]);
+        req.external_force_n = [0.0, 5000.0];
+        let s = select(&rig, &req, &[(Circuit::LowPressure, 1.0)], Some(25.0)).unwrap();
+        let c = &s.options[0];
+        let [_, p2] = chamber_pressures(&rig, 1.0, 5000.0);
+        assert!(p2 < crate::cavitation::VAPOUR_PRESSURE_BAR_GAUGE, "{p2}");
+        assert!(!c.meets && !c.meets_best_case && c.standing_loss_w.is_none());
+        assert!(c.reason.contains("cavitation"), "{}", c.reason);
+        req.external_force_n = [3000.0, -1000.0];
+        let err = select(&rig, &req, &[(Circuit::LowPressure, 1.0)], Some(25.0)).unwrap_err();
+        assert!(err.to_string().contains("external_force_n"), "{err}");
     }
 }

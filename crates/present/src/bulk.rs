@@ -4,22 +4,38 @@
 //! an infinite margin is `null` in JSON, `inf` in text and an empty cell in CSV.
 
 use crate::format::fmt_opt;
-use pumpcyl::bulk::Row;
+use pumpcyl::bulk::{BetaReading, Row};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 
 /// The bulk-modulus document (`bulk-modulus --json`): `gas_fraction` (the volume fraction of
-/// gas at atmospheric pressure), `beta_oil_bar` and `table`, the core's [`Row`]s.
-pub fn bulk_json(x: f64, beta_oil_bar: f64, rows: &[Row]) -> Value {
-    json!({"gas_fraction": x, "beta_oil_bar": beta_oil_bar, "table": rows})
+/// gas at atmospheric pressure), `beta_oil_bar`, `gas_fraction_from` (the `beta_bar` and
+/// `p_mean_bar` it was read off, and `source`, where they came from in words) and `table`, the
+/// core's [`Row`]s.
+pub fn bulk_json(
+    x: f64,
+    beta_oil_bar: f64,
+    (reading, from): (BetaReading, &str),
+    rows: &[Row],
+) -> Value {
+    json!({
+        "gas_fraction": x,
+        "beta_oil_bar": beta_oil_bar,
+        "gas_fraction_from": {
+            "beta_bar": reading.beta_bar,
+            "p_mean_bar": reading.p_mean_bar,
+            "source": from,
+        },
+        "table": rows,
+    })
 }
 
 /// The gas fraction `x` and the table as text; `fit` is (β bar, at mean pressure bar, β_oil
-/// bar) the gas fraction came from.
-pub fn bulk_text(fit: (f64, f64, f64), x: f64, rows: &[Row]) -> String {
+/// bar) the gas fraction came from, `from` where β and the pressure came from in words.
+pub fn bulk_text(fit: (f64, f64, f64), from: &str, x: f64, rows: &[Row]) -> String {
     let (beta_bar, p_mean_bar, beta_oil_bar) = fit;
     let mut s = format!(
-        "gas fraction X = {x:.5} (beta_e = {beta_bar} bar at {p_mean_bar} bar mean pressure, beta_oil = {beta_oil_bar} bar)\n",
+        "gas fraction X = {x:.5} (beta_e = {beta_bar} bar at {p_mean_bar} bar mean pressure, from {from}; beta_oil = {beta_oil_bar} bar)\n",
     );
     let _ = writeln!(
         s,
@@ -79,12 +95,14 @@ mod tests {
         // β_e grows with pressure
         let beta: Vec<f64> = rows.iter().map(|r| r.beta_bar).collect();
         assert!(beta[0] < beta[1] && beta[1] < beta[2], "{beta:?}");
-        let v = bulk_json(x, BETA_OIL_BAR, &rows);
+        let reading = pumpcyl::bulk::ARTICLE_READING;
+        let v = bulk_json(x, BETA_OIL_BAR, (reading, "the article"), &rows);
+        assert_eq!(v["gas_fraction_from"]["p_mean_bar"], 4.4);
         assert_eq!(v["table"].as_array().unwrap().len(), 3);
         assert!((v["table"][1]["beta_bar"].as_f64().unwrap() - 165.0).abs() < 1e-6);
         // the gas fraction line, the column names, one line per pressure
         assert_eq!(
-            bulk_text((165.0, 4.4, BETA_OIL_BAR), x, &rows)
+            bulk_text((165.0, 4.4, BETA_OIL_BAR), "the article", x, &rows)
                 .lines()
                 .count(),
             5

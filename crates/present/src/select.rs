@@ -2,7 +2,10 @@
 
 use crate::figures::{trace, Chart, Plot};
 use crate::plot::{LineStyle, Panel};
-use pumpcyl::select::{Application, Candidate, Circuit, Selection, Verdict, RISE_STEP_MM};
+use pumpcyl::select::{
+    Application, Candidate, Circuit, GasFractionFrom, Selection, Verdict, REFINE_TOLERANCE_BAR,
+    RISE_STEP_MM,
+};
 use std::fmt::Write;
 
 /// The verdict in the article's words (its §4).
@@ -12,22 +15,25 @@ pub fn verdict_text(v: Verdict) -> &'static str {
         Verdict::UsePressurisedCircuit => {
             "UNCERTAIN WITH THE LOW-PRESSURE CIRCUIT: USE THE PRESSURISED CIRCUIT"
         }
-        Verdict::NotAchievable => "NOT ACHIEVABLE WITH THESE CIRCUITS",
+        Verdict::LowPressureInsufficient => {
+            "THE LOW-PRESSURE CIRCUIT FAILS EVEN IN THE BEST CASE: USE THE PRESSURISED CIRCUIT"
+        }
+        Verdict::Uncertain => {
+            "UNCERTAIN: MET ONLY IN THE BEST CASE, AT NO LEVEL OVER THE WHOLE RANGE"
+        }
+        Verdict::NotAchievable => "NOT ACHIEVABLE WITH THESE CIRCUITS, EVEN IN THE BEST CASE",
     }
 }
 
 fn circuit_text(c: Circuit) -> &'static str {
-    match c {
-        Circuit::LowPressure => "low-pressure",
-        Circuit::Pressurised => "pressurised",
-    }
+    c.name()
 }
 
 /// Where the gas-fraction range came from, in words.
 pub fn gas_fraction_text(s: &Selection) -> String {
     let [lo, x, hi] = s.gas_fraction;
     let from = match &s.gas_fraction_from {
-        Some(e) => format!(
+        GasFractionFrom::Identification(e) => format!(
             "from the identified β {:.1} bar ({:.1} … {:.1} bar, {:.0} % confidence) at the records' mean pressure {:.2} bar",
             e.beta_nominal_bar,
             e.beta_bar[0],
@@ -35,7 +41,15 @@ pub fn gas_fraction_text(s: &Selection) -> String {
             100.0 * e.confidence,
             e.p_mean_bar
         ),
-        None => "as stated in the application".to_string(),
+        GasFractionFrom::Article(r) => format!(
+            "from the article's identification, beta {} bar at its records' mean chamber pressure {} bar (a factor 2 either way unless stated)",
+            r.beta_bar, r.p_mean_bar
+        ),
+        GasFractionFrom::Rig(r) => format!(
+            "from the rig's beta {} bar at its mean chamber pressure {} bar (half its sum-pressure set-point; a factor 2 either way unless stated)",
+            r.beta_bar, r.p_mean_bar
+        ),
+        GasFractionFrom::Application => "as stated in the application".to_string(),
     };
     format!("gas fraction {x:.4} ({lo:.4} … {hi:.4}), {from}")
 }
@@ -47,6 +61,17 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         out,
         "circuit selection (docs/select.md) for {origin}: targets PM >= {} deg, GM >= {} dB over x0 ± {} mm",
         app.target_pm_deg, app.target_gm_db, app.stroke_mm
+    );
+    let _ = writeln!(out, "rig: {}", s.rig.describe());
+    let loads: Vec<String> = app.mass_kg.iter().map(|m| format!("{m} kg")).collect();
+    let _ = writeln!(
+        out,
+        "loads: {}",
+        if loads.is_empty() {
+            format!("the rig's {} kg", app.rig.mass_kg)
+        } else {
+            loads.join(", ")
+        }
     );
     let _ = writeln!(out, "{}", gas_fraction_text(s));
     let mut needs: Vec<String> = app
@@ -66,7 +91,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     let _ = writeln!(out, "requirement: {}", needs.join("; "));
     let _ = writeln!(
         out,
-        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} reason",
+        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} {:<9} reason",
         "circuit",
         "p (bar)",
         "beta_e (bar)",
@@ -74,7 +99,8 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         "max |e| (mm)",
         "rise (s)",
         "loss (W)",
-        "meets"
+        "meets",
+        "best case"
     );
     for c in &s.options {
         let worst: Vec<String> = c
@@ -87,7 +113,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             .map_or("-".to_string(), |[lo, hi]| format!("{lo:.2}…{hi:.2}"));
         let _ = writeln!(
             out,
-            "  {:<13} {:>8.1} {:>17} {:>8.2} {:>22} {:>12} {:>10.1}  {:<5} {}",
+            "  {:<13} {:>8.1} {:>17} {:>8.2} {:>22} {:>12} {:>10}  {:<5} {:<9} {}",
             circuit_text(c.circuit),
             c.mean_pressure_bar,
             format!("{:.0} … {:.0}", c.beta_e_bar[0], c.beta_e_bar[1]),
@@ -98,16 +124,17 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
                 worst.join(", ")
             },
             rise,
-            c.standing_loss_w,
+            c.standing_loss_w
+                .map_or("-".to_string(), |w| format!("{w:.1}")),
             if c.meets { "yes" } else { "no" },
+            if c.meets_best_case { "yes" } else { "no" },
             c.reason
         );
     }
     let _ = writeln!(
         out,
         "lowest mean pressure meeting the requirement over the whole uncertainty: {}",
-        s.min_mean_pressure_bar
-            .map_or("none".to_string(), |p| format!("{p} bar"))
+        lowest_text(s)
     );
     let _ = writeln!(out, "verdict: {}", verdict_text(s.verdict));
     for r in &s.reasons {
@@ -116,16 +143,30 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     out
 }
 
+/// The lowest mean pressure in words: the refined answer, its bracket and the level grid's.
+pub fn lowest_text(s: &Selection) -> String {
+    match (s.min_mean_pressure_bar, s.min_level_bar) {
+        (Some(p), Some(level)) => match s.min_mean_pressure_bracket_bar {
+            Some([lo, hi]) => format!(
+                "{p:.2} bar (bisected between the levels to {REFINE_TOLERANCE_BAR} bar: fails at {lo:.3}, meets at {hi:.3} bar; the lowest level tried that meets: {level} bar)"
+            ),
+            None => format!("{p} bar (the lowest level tried; none below it to refine against)"),
+        },
+        _ => "none".to_string(),
+    }
+}
+
 /// The selection as a figure: the largest Kp (over the whole gas-fraction range, solid, and at
 /// the reference gas fraction, dotted), each wave's tracking-error band and, when required, the
 /// rise-time band against the mean pressure, one colour a circuit in every panel (solid: the
 /// worst case over the uncertainty, dashed: the best, as a legend note says), the requirement as
-/// a dash-dot line and the chosen candidate as a black circle on its solid curve in every panel.
+/// a dash-dot line and the lowest meeting candidate (bisected between the levels) as a black
+/// circle on its solid curve in every panel.
 /// Within the figure each line style has one meaning: dotted only the reference gas fraction,
 /// dashed only the best case, dash-dot only the requirement.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     let chosen = s.min_mean_pressure_bar;
-    let chosen_at = s.chosen.and_then(|k| s.options.get(k));
+    let chosen_at = s.at_min_mean_pressure.as_ref();
     let mut kp = Panel {
         y_label: "Largest Kp (1/m)".into(),
         traces: Vec::new(),
@@ -168,7 +209,7 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
             s.gas_fraction[0],
             s.gas_fraction[2],
             chosen.map_or("no level meets the requirement".to_string(), |p| format!(
-                "chosen: {p} bar ({})",
+                "lowest: {p:.2} bar ({})",
                 verdict_text(s.verdict).to_lowercase()
             ))
         )),
@@ -249,7 +290,7 @@ fn band_panel(
             Some(7),
         ));
     }
-    let chosen = s.chosen.and_then(|k| s.options.get(k));
+    let chosen = s.at_min_mean_pressure.as_ref();
     panel
         .traces
         .extend(chosen.and_then(|o| chosen_marker(o.mean_pressure_bar, band(o).map(|b| b[1]))));

@@ -69,13 +69,11 @@ fn compare(
     identified: &Selection,
 ) {
     let level = |s: &Selection| {
-        let kp = s
-            .options
-            .iter()
-            .find(|c| Some(c.mean_pressure_bar) == s.min_mean_pressure_bar && c.meets)
-            .map_or(String::new(), |c| format!(" (Kp {:.2})", c.kp_max));
-        s.min_mean_pressure_bar
-            .map_or("none".to_string(), |p| format!("{p} bar{kp}"))
+        s.at_min_mean_pressure
+            .as_ref()
+            .map_or("none".to_string(), |c| {
+                format!("{:.2} bar (Kp {:.2})", c.mean_pressure_bar, c.kp_max)
+            })
     };
     run.compare_why(
         "§4 advice: lowest mean pressure where the low-pressure circuit is certain, stated X ×/÷ 2 / identified X",
@@ -104,7 +102,7 @@ fn compare(
 
 /// Whether the article's circuit was a certain choice, and why not.
 fn choice(article: &Candidate) -> &'static str {
-    match (article.meets, article.meets_reference) {
+    match (article.meets, article.margins_hold_at_reference_gas_fraction) {
         (true, _) => "a certain choice",
         (false, true) => {
             "not a certain choice before the rig was built: it holds at the reference gas fraction, not over the stated range"
@@ -156,7 +154,9 @@ fn row(stated: &Candidate, identified: &Candidate) -> Vec<String> {
         beta(identified),
         format!("{:.2}", identified.kp_max),
         error(identified),
-        format!("{:.1}", stated.standing_loss_w),
+        stated
+            .standing_loss_w
+            .map_or("-".to_string(), |w| format!("{w:.1}")),
     ]
 }
 
@@ -170,7 +170,7 @@ fn explanation(
 ) -> String {
     let level = |s: &Selection| {
         s.min_mean_pressure_bar
-            .map_or("no level".to_string(), |p| format!("{p} bar"))
+            .map_or("no level".to_string(), |p| format!("{p:.2} bar"))
     };
     format!(
         "The article ends (its §4) by advising to predict with LTI models, before the system is built, \
@@ -194,7 +194,7 @@ fn explanation(
         printed::KP,
         if article.meets { "meets the requirement " } else { "does not meet the requirement " },
         article.reason,
-        if article.meets_reference { "hold" } else { "do not hold over the stroke and the loads" },
+        if article.margins_hold_at_reference_gas_fraction { "hold" } else { "do not hold over the stroke and the loads" },
         choice(article),
         gas_fraction_text(identified),
         verdict_text(identified.verdict).to_lowercase(),
