@@ -31,9 +31,9 @@ pub const VAPOUR_PRESSURE_BAR_GAUGE: f64 = -1.0;
 /// A chamber pressure below [`VAPOUR_PRESSURE_BAR_GAUGE`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(
-    "chamber {chamber} at {} bar gauge, below the oil's vapour pressure ({} bar gauge): \
+    "chamber {chamber} at {:.2} bar gauge, below the oil's vapour pressure ({} bar gauge): \
      cavitation, a state the circuit cannot hold",
-    readable(*p_bar),
+    p_bar,
     readable(VAPOUR_PRESSURE_BAR_GAUGE)
 )]
 pub struct Cavitation {
