@@ -53,11 +53,22 @@ fn emulate_records(dir: &Path, extra: &[&str]) {
         ("step10.csv", vec!["--experiment", "step", "--set", "kp=10"]),
         ("still.csv", vec!["--experiment", "standstill"]),
     ] {
-        let mut all = vec!["emulate", "--rig", "my-rig.toml", "--no-noise", "--out", out];
+        let mut all = vec![
+            "emulate",
+            "--rig",
+            "my-rig.toml",
+            "--no-noise",
+            "--out",
+            out,
+        ];
         all.extend(args);
         all.extend(extra);
         let o = pumpcyl(dir, &all);
-        assert!(o.status.success(), "{all:?}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{all:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
     }
 }
 
@@ -71,7 +82,10 @@ fn relative(got: f64, want: f64) -> f64 {
 fn identify_recovers_a_user_rig_emulated_without_effects() {
     let dir = tempfile::tempdir().unwrap();
     emulate_records(dir.path(), &["--no-effects"]);
-    let r = json(dir.path(), &["identify", "exp.toml", "--uncertainty", "--json"]);
+    let r = json(
+        dir.path(),
+        &["identify", "exp.toml", "--uncertainty", "--json"],
+    );
     let beta = r["beta_bar"].as_f64().unwrap();
     let c12 = r["c12_m5_per_ns"].as_f64().unwrap();
     assert!(relative(beta, 300.0) < 0.03, "beta {beta} bar");
@@ -105,7 +119,14 @@ fn emulate_follows_beta_bar_and_says_what_it_used() {
     for rig in [None, Some("my-rig.toml")] {
         let mut bodies = vec![];
         for beta in ["beta_bar=37.8", "beta_bar=300"] {
-            let mut args = vec!["emulate", "--experiment", "step", "--no-noise", "--set", beta];
+            let mut args = vec![
+                "emulate",
+                "--experiment",
+                "step",
+                "--no-noise",
+                "--set",
+                beta,
+            ];
             if let Some(r) = rig {
                 args.extend(["--rig", r]);
             }
@@ -113,8 +134,15 @@ fn emulate_follows_beta_bar_and_says_what_it_used() {
             let o = pumpcyl(dir.path(), &args);
             let text = String::from_utf8_lossy(&o.stdout).to_string();
             assert!(o.status.success(), "{args:?}");
-            let want = if beta.ends_with("37.8") { "beta_e 37.8 bar" } else { "beta_e 300.0 bar" };
-            assert!(text.contains(want) && text.contains("gas fraction X"), "{text}");
+            let want = if beta.ends_with("37.8") {
+                "beta_e 37.8 bar"
+            } else {
+                "beta_e 300.0 bar"
+            };
+            assert!(
+                text.contains(want) && text.contains("gas fraction X"),
+                "{text}"
+            );
             let mass = if rig.is_some() {
                 "mass 2500 kg constant over the stroke"
             } else {
@@ -126,4 +154,30 @@ fn emulate_follows_beta_bar_and_says_what_it_used() {
         }
         assert_ne!(bodies[0], bodies[1], "{rig:?}: beta_bar changed nothing");
     }
+}
+
+/// A rig whose rest needs a chamber below the vapour pressure is not emulated: one line naming
+/// the chamber and the cavitation (docs/model.md#cavitation), no file.
+#[test]
+fn emulate_refuses_a_rest_that_cavitates() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("my-rig.toml"), USER_RIG).unwrap();
+    run::refused(
+        dir.path(),
+        &[
+            "emulate",
+            "--rig",
+            "my-rig.toml",
+            "--set",
+            "external_force_n=8000",
+            "--set",
+            "p_sum_ref_bar=2",
+            "--experiment",
+            "step",
+            "--out",
+            "e.csv",
+        ],
+        &["chamber 2", "-8.27 bar gauge", "cavitation"],
+    );
+    assert!(!dir.path().join("e.csv").exists());
 }

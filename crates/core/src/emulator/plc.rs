@@ -276,6 +276,12 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emula
             "the emulated loop cannot rest at x_ref = {r_mm} mm within its torque and speed limits"
         )));
     }
+    let p_bar = [x[d.layout.p[0]] / PA_PER_BAR, x[d.layout.p[1]] / PA_PER_BAR];
+    crate::cavitation::check_chambers(&p_bar).map_err(|e| {
+        EmulatorError(format!(
+            "the emulated loop at rest at x_ref = {r_mm} mm: {e}"
+        ))
+    })?;
     Ok(x)
 }
 
