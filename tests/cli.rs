@@ -880,7 +880,10 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
     // the article's experiment on small grids (the article's 6817 candidates take a minute in
     // the unoptimised test build; tests/identify.rs runs them)
     let article = std::fs::read_to_string(data.join("identify.toml")).unwrap();
-    let small = article.replace("= \"", &format!("= \"{}/", data.display()))
+    let small = article
+        .replace("grids = \"article\"\n", "")
+        .replace("file = \"", &format!("file = \"{}/", data.display()))
+        .replace("record = \"", &format!("record = \"{}/", data.display()))
         + "\n[grid]\nbeta_bar = [150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0, 600.0]\n\
            c12_m5_per_ns = [1.0e-10, 1.2e-10]\n\n[refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\n\
            viscous_friction_ns_per_m = [550.0, 600.0]\nc12_m5_per_ns = [1.1e-10, 1.2e-10]\n";
@@ -944,7 +947,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
             vec!["identify", &experiment, "--no-refine"],
             vec![
                 format!("{experiment}: 2 datasets, 24 candidates (12 + 12)"),
-                "  best grid point  beta ".into(),
+                "  rig              the article's rig".into(),
             ],
         ),
         (
@@ -993,7 +996,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         &["identify-merge", &parts[0], &parts[1]],
         &[
             &format!("{experiment}: 2 datasets, 24 candidates (12 + 12)"),
-            "  best grid point  beta ",
+            "  rig              the article's rig",
         ],
     );
     // reproduce's first lines are checked by tests/reproduce.rs, on its one shared run
