@@ -42,3 +42,38 @@ pub fn protected() -> Protected {
         .unwrap_or_else(|e| e.into_inner())
         .clone()
 }
+
+/// The keys the command's rig file left out (docs/formats.md#rig-toml), once it has read one.
+static RIG_DEFAULTS: Mutex<Option<Vec<&'static str>>> = Mutex::new(None);
+
+/// Note that the rig file `name` left out the keys of `file` (but those in `except`, set by
+/// `--set`): the first time, one line on standard error naming them and the values they take,
+/// and the keys kept for a JSON result ([`with_rig_defaults`]).
+pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&str]) {
+    let mut noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    if noted.is_some() {
+        return;
+    }
+    if let Some(line) = file.note(name, except) {
+        eprintln!("note: {}", crate::escape_controls(&line));
+    }
+    let keys = file.defaulted.iter().copied();
+    *noted = Some(keys.filter(|k| !except.contains(k)).collect());
+}
+
+/// A JSON result with a `rig` block gets `rig_defaulted_keys`: the keys its rig file left out
+/// (none without a rig file, then `text` is returned as it is).
+pub fn with_rig_defaults(text: String) -> String {
+    let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(keys) = noted.as_ref() else {
+        return text;
+    };
+    let Ok(serde_json::Value::Object(mut v)) = serde_json::from_str(&text) else {
+        return text;
+    };
+    if !v.contains_key("rig") {
+        return text;
+    }
+    v.insert("rig_defaulted_keys".into(), serde_json::json!(keys));
+    pumpcyl_present::format::json_document(&v).unwrap_or(text)
+}

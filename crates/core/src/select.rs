@@ -806,7 +806,7 @@ impl Application {
         }
         out.push_str("\n[rig]  # the article's rig, with the keys that differ from it (`pumpcyl rig` lists them all)\n");
         let ours = toml::Table::try_from(&self.rig).expect("a rig always serialises");
-        let article = toml::Table::try_from(Rig::default()).expect("a rig always serialises");
+        let article = toml::Table::try_from(Rig::file_default()).expect("a rig always serialises");
         for (key, value) in ours.iter().filter(|(k, v)| article.get(*k) != Some(*v)) {
             out.push_str(&format!("{key} = {value}\n"));
         }
