@@ -43,37 +43,48 @@ pub fn protected() -> Protected {
         .clone()
 }
 
-/// The keys the command's rig file left out (docs/formats.md#rig-toml), once it has read one.
-static RIG_DEFAULTS: Mutex<Option<Vec<&'static str>>> = Mutex::new(None);
-
-/// Note that the rig file `name` left out the keys of `file` (but those in `except`, set by
-/// `--set`): the first time, one line on standard error naming them and the values they take,
-/// and the keys kept for a JSON result ([`with_rig_defaults`]).
-pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&str]) {
-    let mut noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
-    if noted.is_some() {
-        return;
-    }
-    if let Some(line) = file.note(name, except) {
-        eprintln!("note: {}", crate::escape_controls(&line));
-    }
-    let keys = file.defaulted.iter().copied();
-    *noted = Some(keys.filter(|k| !except.contains(k)).collect());
+/// What the command's rig file left out (docs/formats.md#rig-toml), once it has read one: the
+/// note naming the keys and their values (none when it sets them all), and the keys.
+struct RigDefaults {
+    note: Option<String>,
+    keys: Vec<&'static str>,
 }
 
-/// A JSON result with a `rig` block gets `rig_defaulted_keys`: the keys its rig file left out
-/// (none without a rig file, then `text` is returned as it is).
+static RIG_DEFAULTS: Mutex<Option<RigDefaults>> = Mutex::new(None);
+
+/// Note that the rig file `name` left out the keys of `file` (but those in `except`, set by
+/// `--set`); the first file read is the one [`with_rig_defaults`] reports.
+pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&str]) {
+    let mut noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    if noted.is_none() {
+        let keys = file.defaulted.iter().copied();
+        *noted = Some(RigDefaults {
+            note: file.note(name, except),
+            keys: keys.filter(|k| !except.contains(k)).collect(),
+        });
+    }
+}
+
+/// The result `text` of a command that succeeded, after its rig file's left-out keys are
+/// reported: one `note:` line on standard error, and `rig_defaulted_keys` added to a JSON
+/// result with a `rig` block. A command that fails reports only its error.
 pub fn with_rig_defaults(text: String) -> String {
     let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
-    let Some(keys) = noted.as_ref() else {
+    let Some(defaults) = noted.as_ref() else {
         return text;
     };
+    if let Some(note) = &defaults.note {
+        eprintln!("note: {}", crate::escape_controls(note));
+    }
     let Ok(serde_json::Value::Object(mut v)) = serde_json::from_str(&text) else {
         return text;
     };
     if !v.contains_key("rig") {
         return text;
     }
-    v.insert("rig_defaulted_keys".into(), serde_json::json!(keys));
+    v.insert(
+        "rig_defaulted_keys".into(),
+        serde_json::json!(defaults.keys),
+    );
     pumpcyl_present::format::json_document(&v).unwrap_or(text)
 }
