@@ -65,17 +65,20 @@ pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&st
     }
 }
 
-/// The result `text` of a command that succeeded, after its rig file's left-out keys are
-/// reported: one `note:` line on standard error, and `rig_defaulted_keys` added to a JSON
-/// result with a `rig` block. A command that fails reports only its error.
+/// The line naming the keys the command's rig file left out and their values, if it left out
+/// any; the command line prints it when the command succeeds (a failure reports only its error).
+pub fn rig_defaults_note() -> Option<String> {
+    let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    noted.as_ref().and_then(|d| d.note.clone())
+}
+
+/// The JSON result `text` with `rig_defaulted_keys`, the keys the command's rig file left out,
+/// when it has a `rig` block; any other result as it is.
 pub fn with_rig_defaults(text: String) -> String {
     let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
     let Some(defaults) = noted.as_ref() else {
         return text;
     };
-    if let Some(note) = &defaults.note {
-        eprintln!("note: {}", crate::escape_controls(note));
-    }
     let Ok(serde_json::Value::Object(mut v)) = serde_json::from_str(&text) else {
         return text;
     };

@@ -271,6 +271,9 @@ pub fn run() -> Result<()> {
         "the result holds a value that is not a number (NaN): the inputs take the model beyond \
          what double precision can evaluate"
     );
+    if let Some(note) = inputs::rig_defaults_note() {
+        eprintln!("note: {}", escape_controls(&note));
+    }
     emit::emit(&inputs::with_rig_defaults(text))
 }
 
