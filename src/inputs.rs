@@ -42,3 +42,52 @@ pub fn protected() -> Protected {
         .unwrap_or_else(|e| e.into_inner())
         .clone()
 }
+
+/// What the command's rig file left out (docs/formats.md#rig-toml), once it has read one: the
+/// note naming the keys and their values (none when it sets them all), and the keys.
+struct RigDefaults {
+    note: Option<String>,
+    keys: Vec<&'static str>,
+}
+
+static RIG_DEFAULTS: Mutex<Option<RigDefaults>> = Mutex::new(None);
+
+/// Note that the rig file `name` left out the keys of `file` (but those in `except`, set by
+/// `--set`); the first file read is the one [`with_rig_defaults`] reports.
+pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&str]) {
+    let mut noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    if noted.is_none() {
+        let keys = file.defaulted.iter().copied();
+        *noted = Some(RigDefaults {
+            note: file.note(name, except),
+            keys: keys.filter(|k| !except.contains(k)).collect(),
+        });
+    }
+}
+
+/// The line naming the keys the command's rig file left out and their values, if it left out
+/// any; the command line prints it when the command succeeds (a failure reports only its error).
+pub fn rig_defaults_note() -> Option<String> {
+    let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    noted.as_ref().and_then(|d| d.note.clone())
+}
+
+/// The JSON result `text` with `rig_defaulted_keys`, the keys the command's rig file left out,
+/// when it has a `rig` block; any other result as it is.
+pub fn with_rig_defaults(text: String) -> String {
+    let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(defaults) = noted.as_ref() else {
+        return text;
+    };
+    let Ok(serde_json::Value::Object(mut v)) = serde_json::from_str(&text) else {
+        return text;
+    };
+    if !v.contains_key("rig") {
+        return text;
+    }
+    v.insert(
+        "rig_defaulted_keys".into(),
+        serde_json::json!(defaults.keys),
+    );
+    pumpcyl_present::format::json_document(&v).unwrap_or(text)
+}

@@ -135,11 +135,21 @@ pub struct RigSource {
 }
 
 impl RigSource {
-    /// The rig: file or default, with --set applied.
+    /// The rig: file or default, with --set applied. The keys a file leaves out are noted on
+    /// standard error (docs/formats.md#rig-toml) and in a JSON result's `rig_defaulted_keys`.
     pub fn load(&self) -> Result<Rig> {
         let base = match &self.rig {
-            Some(path) => Rig::from_file_in(crate::inputs::files(), path)
-                .map_err(|e| crate::emit::hinted(e.into()))?,
+            Some(path) => {
+                let file = Rig::from_file_with_defaults_in(crate::inputs::files(), path)
+                    .map_err(|e| crate::emit::hinted(e.into()))?;
+                let set: Vec<&str> = self
+                    .set
+                    .iter()
+                    .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
+                    .collect();
+                crate::inputs::note_rig_defaults(&file, &path.display().to_string(), &set);
+                file.rig
+            }
             None => Rig::default(),
         };
         Ok(base.with_overrides_from("--set", &self.set)?)
@@ -261,7 +271,10 @@ pub fn run() -> Result<()> {
         "the result holds a value that is not a number (NaN): the inputs take the model beyond \
          what double precision can evaluate"
     );
-    emit::emit(&text)
+    if let Some(note) = inputs::rig_defaults_note() {
+        eprintln!("note: {}", escape_controls(&note));
+    }
+    emit::emit(&inputs::with_rig_defaults(text))
 }
 
 fn main() {

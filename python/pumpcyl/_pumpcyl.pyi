@@ -27,10 +27,13 @@ class Rig:
         """The article's rig with keyword overrides, same keys as the TOML."""
     @staticmethod
     def from_toml(path: Union[str, PathLike[str]]) -> Rig:
-        """Read a rig TOML file; absent keys take the article's values."""
+        """Read a rig TOML file. Absent keys take the article's values, except
+        ``mass_by_position``, ``[]`` (one mass over the stroke); a ``UserWarning`` names them
+        and the values they take (docs/formats.md#rig-toml)."""
     @staticmethod
     def from_toml_str(text: str, name: str = "<string>") -> Rig:
-        """Parse rig TOML text; ``name`` stands for the file in messages."""
+        """Parse rig TOML text; ``name`` stands for the file in messages. Absent keys as in
+        :meth:`from_toml`, named in a ``UserWarning``."""
     def replace(self, **overrides: Union[float, bool, str]) -> Rig:
         """A new rig with the overrides applied; this one is unchanged."""
     def to_dict(self) -> Dict[str, Union[float, bool, str]]:

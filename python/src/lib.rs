@@ -290,6 +290,16 @@ impl PyRig {
         })?;
         Ok(PyRig { rig })
     }
+
+    /// The rig of `file` (read from `name`), a `UserWarning` naming the keys it leaves out and
+    /// the values they take.
+    fn noting_defaults(py: Python<'_>, file: pumpcyl::rig::RigFile, name: &str) -> PyResult<Self> {
+        if let Some(note) = file.note(name, &[]) {
+            let category = py.get_type::<PyUserWarning>();
+            PyErr::warn(py, category.as_any(), &CString::new(note)?, 1)?;
+        }
+        Ok(PyRig { rig: file.rig })
+    }
 }
 
 /// The class docstring of `Rig`: its own words, then every key with its unit and meaning.
@@ -315,21 +325,21 @@ impl PyRig {
         .with("Rig", overrides)
     }
 
-    /// Read a rig TOML file (absent keys take the article's values).
+    /// Read a rig TOML file. Absent keys take the article's values, except `mass_by_position`,
+    /// `[]` (one mass over the stroke); a `UserWarning` names them (docs/formats.md#rig-toml).
     #[staticmethod]
-    fn from_toml(path: PathBuf) -> PyResult<Self> {
-        Ok(PyRig {
-            rig: Rig::from_file(&path).map_err(err)?,
-        })
+    fn from_toml(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let file = Rig::from_file_with_defaults_in(&pumpcyl::input::Disk, &path).map_err(err)?;
+        PyRig::noting_defaults(py, file, &path.display().to_string())
     }
 
-    /// Parse rig TOML text; `name` stands for the file in messages.
+    /// Parse rig TOML text; `name` stands for the file in messages. Absent keys as in
+    /// `from_toml`, named in a `UserWarning`.
     #[staticmethod]
     #[pyo3(signature = (text, name = "<string>"))]
-    fn from_toml_str(text: &str, name: &str) -> PyResult<Self> {
-        Ok(PyRig {
-            rig: Rig::from_toml_str(text, name).map_err(err)?,
-        })
+    fn from_toml_str(py: Python<'_>, text: &str, name: &str) -> PyResult<Self> {
+        let file = Rig::from_toml_str_with_defaults(text, name).map_err(err)?;
+        PyRig::noting_defaults(py, file, name)
     }
 
     /// A new rig with keyword overrides applied; this one is unchanged.
@@ -1445,6 +1455,7 @@ fn design(
         ));
     }
     let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
+    check_waves(&rig, &targets.waves, robust)?;
     if !robust {
         let d = py
             .detach(|| pumpcyl::design::design(&rig, &targets))
@@ -1469,6 +1480,30 @@ fn design(
         })
         .map_err(err)?;
     to_py(py, &d)
+}
+
+/// The `waves` of [`design`] checked in Python's words (`waves[1] = (80.0, 5.0): …`, the
+/// keyword argument, not the command line's `--wave FREQ:AMP`): each frequency and amplitude
+/// positive, the wave inside the stroke and below the Nyquist frequency of the predicted
+/// tracking; none with `robust=True`, which predicts no tracking.
+fn check_waves(rig: &Rig, waves: &[(f64, f64)], robust: bool) -> PyResult<()> {
+    if robust && !waves.is_empty() {
+        return Err(err(
+            "waves: tracking is predicted by the nominal design only; leave out waves or robust=True",
+        ));
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    for (i, &(f, a)) in waves.iter().enumerate() {
+        let why = if positive(f) && positive(a) {
+            pumpcyl::design::check_wave(rig, f, a).err()
+        } else {
+            Some("the frequency (Hz) and the amplitude (mm) must be > 0".into())
+        };
+        if let Some(why) = why {
+            return Err(err(format!("waves[{i}] = ({f:?}, {a:?}): {why}")));
+        }
+    }
+    Ok(())
 }
 
 #[pymodule]

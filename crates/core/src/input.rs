@@ -180,7 +180,12 @@ pub fn toml_error(err: &toml::de::Error, text: &str) -> String {
     let at = err.span().map_or(String::new(), |s| {
         let start = s.start.min(text.len());
         let (line, column) = line_col(&text.as_bytes()[..start]);
-        match key_before(text, start) {
+        let key = if err.message().starts_with("duplicate key") {
+            key_at(text, s)
+        } else {
+            key_before(text, start)
+        };
+        match key {
             Some(key) => format!("line {line}, column {column}, key `{key}`: "),
             None => format!("line {line}, column {column}: "),
         }
@@ -206,6 +211,12 @@ fn key_before(text: &str, offset: usize) -> Option<&str> {
     let (key, _) = text[line_start..offset].split_once('=')?;
     let key = key.trim().trim_matches('"');
     (!key.is_empty() && !key.contains(['[', '#'])).then_some(key)
+}
+
+/// The key written at `span` (a duplicate key or table name, quotes dropped).
+fn key_at(text: &str, span: std::ops::Range<usize>) -> Option<&str> {
+    let key = text.get(span)?.trim().trim_matches(['"', '\'']);
+    (!key.is_empty() && !key.contains(['\n', '=', '#'])).then_some(key)
 }
 
 /// `` `beta`, expected one of `a`, `b` `` (serde's words) to a message with a suggestion.
@@ -325,6 +336,26 @@ mod tests {
         let text = "a = 1\nbeta_bar = \"x\"\n";
         assert_eq!(key_before(text, 17), Some("beta_bar"));
         assert_eq!(key_before(text, 6), None);
+    }
+
+    #[test]
+    fn a_duplicate_key_or_table_is_named_with_its_line() {
+        let error = |text: &str| {
+            let e = toml::from_str::<toml::Table>(text).unwrap_err();
+            toml_error(&e, text)
+        };
+        assert_eq!(
+            error("kp = 25.0\nbeta_bar = 100\nkp = 30.0\n"),
+            "line 3, column 1, key `kp`: duplicate key"
+        );
+        assert_eq!(
+            error("a = 1\n\"kp\" = 2\nkp = 3\n"),
+            "line 3, column 1, key `kp`: duplicate key"
+        );
+        assert_eq!(
+            error("[rig]\nkp = 1.0\n\n[rig]\nkp = 2.0\n"),
+            "line 4, column 2, key `rig`: duplicate key"
+        );
     }
 
     #[test]

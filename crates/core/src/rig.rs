@@ -5,16 +5,25 @@
 //! code everything is SI: [`Rig::si`] converts once and the model uses only [`RigSi`].
 //! The embedded default ([`Rig::default`]) is the article's rig.
 //!
-//! Build a rig: the article's, or your own from TOML text (absent keys take the article's value):
+//! Build a rig: the article's, or your own from TOML text. A key the text leaves out takes its
+//! documented default ([`Rig::file_default`]): the article's value, except `mass_by_position`,
+//! which is `[]` (one mass over the stroke), since the article's seesaw table belongs to the
+//! article's rig alone. [`Rig::from_toml_str_with_defaults`] also says which keys were left out,
+//! so a front end can print them where they are used (docs/formats.md#rig-toml):
 //!
 //! ```
 //! use pumpcyl::rig::Rig;
 //!
 //! let article = Rig::default();
 //! assert_eq!((article.beta_bar, article.mass_kg, article.kp), (165.0, 10593.0, 25.0));
+//! assert_eq!(article.mass_by_position.len(), 3);
 //!
 //! let mine = Rig::from_toml_str("mass_kg = 4898.0\nkp = 40.0\n", "my-rig.toml")?;
 //! assert_eq!((mine.mass_kg, mine.kp, mine.beta_bar), (4898.0, 40.0, 165.0));
+//! assert!(mine.mass_by_position.is_empty());
+//!
+//! let file = Rig::from_toml_str_with_defaults("mass_kg = 4898.0\nkp = 40.0\n", "my-rig.toml")?;
+//! assert!(file.defaulted.contains(&"beta_bar") && !file.defaulted.contains(&"kp"));
 //!
 //! // the commented TOML that `pumpcyl rig --print-default` prints reads back to the same rig
 //! assert_eq!(Rig::from_toml_str(&article.to_commented_toml(), "default.toml")?, article);
@@ -166,10 +175,11 @@ pub const ARTICLE_MASS_BY_POSITION: [MassPoint; 3] = [
 /// Most points a `mass_by_position` table may hold.
 pub const MAX_MASS_POINTS: usize = 1000;
 
-/// A DPM rig. Field names are the TOML keys; units are in the names. Absent keys in a file take
-/// the default (the article's rig, the article §2.3.4; docs/formats.md#rig-toml).
+/// A DPM rig. Field names are the TOML keys; units are in the names. Absent keys in a file or a
+/// `[rig]` table take [`Rig::file_default`]: the article's rig (the article §2.3.4) with one mass
+/// over the stroke (docs/formats.md#rig-toml).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default = "Rig::file_default")]
 pub struct Rig {
     /// Piston diameter d1 (mm).
     pub piston_diameter_mm: f64,
@@ -361,9 +371,95 @@ pub struct RigSi {
     pub f_ext: f64,
 }
 
+/// A rig read from TOML text, with the keys the text left out (docs/formats.md#rig-toml).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigFile {
+    /// The rig.
+    pub rig: Rig,
+    /// The keys the text does not set, in the order of the commented TOML; each took its
+    /// value in [`Rig::file_default`]. `motor_time_constant_s` is never listed: absent, it is
+    /// J_i/Km_i of the rig itself, not a value of the article's.
+    pub defaulted: Vec<&'static str>,
+}
+
+impl RigFile {
+    /// One line saying which keys `file` leaves out and the values they take, or `None` when it
+    /// sets them all; keys in `except` (set another way, such as `--set`) are not named.
+    ///
+    /// ```
+    /// use pumpcyl::rig::Rig;
+    ///
+    /// let file = Rig::from_toml_str_with_defaults(&Rig::default().to_commented_toml(), "a.toml")?;
+    /// assert_eq!(file.note("a.toml", &[]), None);
+    /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
+    /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
+    /// assert!(note.starts_with("b.toml does not set 34 keys; they take the article rig's values: "));
+    /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
+    /// assert!(!note.contains("beta_bar"));
+    /// # Ok::<(), pumpcyl::rig::RigError>(())
+    /// ```
+    pub fn note(&self, file: &str, except: &[&str]) -> Option<String> {
+        let keys: Vec<&str> = self
+            .defaulted
+            .iter()
+            .copied()
+            .filter(|k| !except.contains(k))
+            .collect();
+        let table = toml::Table::try_from(&self.rig).expect("a rig always serialises");
+        let value = |k: &str| table.get(k).map_or_else(String::new, toml_text);
+        let article: Vec<String> = keys
+            .iter()
+            .filter(|k| **k != "mass_by_position")
+            .map(|k| format!("{k} = {}", value(k)))
+            .collect();
+        let mut parts = Vec::new();
+        if keys.contains(&"mass_by_position") {
+            parts.push(
+                "mass_by_position = [] (one mass over the stroke, not the article's seesaw table)"
+                    .to_string(),
+            );
+        }
+        if !article.is_empty() {
+            let they = if parts.is_empty() {
+                "they"
+            } else {
+                "the others"
+            };
+            parts.push(format!(
+                "{they} take the article rig's values: {}",
+                article.join(", ")
+            ));
+        }
+        let n = keys.len();
+        let plural = if n == 1 { "" } else { "s" };
+        (n > 0).then(|| {
+            format!(
+                "{file} does not set {n} key{plural}; {} (docs/formats.md#rig-toml)",
+                parts.join("; ")
+            )
+        })
+    }
+}
+
 impl Rig {
-    /// Parse a rig from TOML text; `name` is used in messages (usually the file name).
+    /// What a rig file or `[rig]` table gets for a key it leaves out: the article's value
+    /// ([`Rig::default`]), except `mass_by_position`, which is `[]`: one mass, `mass_kg`, over
+    /// the whole stroke (the article's table is its seesaw's, docs/formats.md#rig-toml).
+    pub fn file_default() -> Rig {
+        Rig {
+            mass_by_position: Vec::new(),
+            ..Rig::default()
+        }
+    }
+
+    /// Parse a rig from TOML text; `name` is used in messages (usually the file name). Absent
+    /// keys take [`Rig::file_default`]; [`Rig::from_toml_str_with_defaults`] also lists them.
     pub fn from_toml_str(text: &str, name: &str) -> Result<Rig, RigError> {
+        Ok(Self::from_toml_str_with_defaults(text, name)?.rig)
+    }
+
+    /// [`Rig::from_toml_str`], with the keys the text leaves out.
+    pub fn from_toml_str_with_defaults(text: &str, name: &str) -> Result<RigFile, RigError> {
         let rig: Rig = toml::from_str(text).map_err(|e| RigError::Parse {
             file: name.to_string(),
             message: input::toml_error(&e, text),
@@ -374,7 +470,12 @@ impl Rig {
             }
             e
         })?;
-        Ok(rig)
+        let written = toml::from_str::<toml::Table>(text).unwrap_or_default();
+        let defaulted = Rig::key_docs()
+            .map(|(key, _)| key)
+            .filter(|key| *key != "motor_time_constant_s" && !written.contains_key(*key))
+            .collect();
+        Ok(RigFile { rig, defaulted })
     }
 
     /// Read and validate a rig file.
@@ -384,6 +485,14 @@ impl Rig {
 
     /// [`Rig::from_file`] from `files`.
     pub fn from_file_in(files: &dyn input::Files, path: &Path) -> Result<Rig, RigError> {
+        Ok(Self::from_file_with_defaults_in(files, path)?.rig)
+    }
+
+    /// [`Rig::from_file_in`], with the keys the file leaves out.
+    pub fn from_file_with_defaults_in(
+        files: &dyn input::Files,
+        path: &Path,
+    ) -> Result<RigFile, RigError> {
         let name = path.display().to_string();
         let parse_err = |message| RigError::Parse {
             file: name.clone(),
@@ -393,7 +502,7 @@ impl Rig {
         if toml::from_str::<toml::Table>(&text).is_ok_and(|t| t.is_empty()) {
             return Err(RigError::Empty { file: name });
         }
-        Self::from_toml_str(&text, &name)
+        Self::from_toml_str_with_defaults(&text, &name)
     }
 
     /// Apply `KEY=VALUE` overrides (same keys and types as the TOML), then validate.
@@ -758,18 +867,41 @@ impl Rig {
         let table = toml::Table::try_from(self).expect("a rig always serialises");
         let mut out = String::from(
             "# pumpcyl rig description (the article §2.3.4; docs/formats.md#rig-toml). Units are part of every key.\n\
-             # Absent keys take the article's default; unknown keys are errors.\n",
+             # Absent keys take the article's value, except mass_by_position: [], one mass over the\n\
+             # stroke; the command names them. Unknown keys are errors.\n",
         );
         for (section, keys) in KEY_DOCS {
             out.push_str(&format!("\n# --- {section} ---\n"));
             for (key, doc) in *keys {
                 match table.get(*key) {
-                    Some(value) => out.push_str(&format!("{key} = {value}  # {doc}\n")),
+                    Some(value) => {
+                        out.push_str(&format!("{key} = {}  # {doc}\n", toml_text(value)))
+                    }
                     None => out.push_str(&format!("# {key} = 0.05  # {doc}\n")),
                 }
             }
         }
         out
+    }
+}
+
+/// A TOML value as a rig file writes it: a float of magnitude below 1e-3 or from 1e7 in
+/// exponent form (`1.2e-10`, not `0.00000000012`), every float shortest so that it reads back
+/// equal; arrays and inline tables element by element.
+fn toml_text(value: &toml::Value) -> String {
+    let join = |items: Vec<String>| items.join(", ");
+    match value {
+        toml::Value::Float(x) if *x != 0.0 && !(1e-3..1e7).contains(&x.abs()) => format!("{x:e}"),
+        toml::Value::Array(a) => format!("[{}]", join(a.iter().map(toml_text).collect())),
+        toml::Value::Table(t) => format!(
+            "{{ {} }}",
+            join(
+                t.iter()
+                    .map(|(k, v)| format!("{k} = {}", toml_text(v)))
+                    .collect()
+            )
+        ),
+        other => other.to_string(),
     }
 }
 

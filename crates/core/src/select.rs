@@ -1256,7 +1256,7 @@ impl Application {
             self.rig_from.describe()
         ));
         let ours = toml::Table::try_from(&self.rig).expect("a rig always serialises");
-        let article = toml::Table::try_from(Rig::default()).expect("a rig always serialises");
+        let article = toml::Table::try_from(Rig::file_default()).expect("a rig always serialises");
         for (key, value) in ours.iter().filter(|(k, v)| article.get(*k) != Some(*v)) {
             out.push_str(&format!("{key} = {value}\n"));
         }

@@ -122,9 +122,13 @@ fn a_very_slow_stable_pole_is_stable() {
 
 #[test]
 fn a_pole_within_rounding_of_the_axis_is_undecided() {
-    // 1e-9 beside 1e10: below the rounding of the fast pole, not provably either side
-    let a = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![-1e-9, -1e10]));
+    // an undamped pair ±j: on the axis within rounding, not provably either side
+    let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -1.0, 0.0]);
     assert_eq!(stability(&a).unwrap(), Stability::Undecided);
+    // 1e-9 beside 1e10: within the integrator tolerance (100 n·ε·‖A‖₁ = 4.4e-4) of the origin,
+    // an integrator (docs/analysis.md#poles-and-damping)
+    let a = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![-1e-9, -1e10]));
+    assert_eq!(stability(&a).unwrap(), Stability::Integrator);
     let a = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![-1e-3, -1e10]));
     assert_eq!(stability(&a).unwrap(), Stability::Stable);
 }

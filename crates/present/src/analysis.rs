@@ -74,6 +74,7 @@ fn simulated_line(sim: &SimulatedLoop) -> String {
     let verdict = match sim.stability {
         Stability::Stable => "stable".to_string(),
         Stability::Unstable => format!("UNSTABLE: {pole}"),
+        Stability::Integrator => "INTEGRATOR: a pole at the origin, the others stable".to_string(),
         Stability::Undecided => format!("UNDECIDED: {pole}, within rounding of the imaginary axis"),
     };
     format!(
@@ -105,6 +106,7 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
     let verdict = match m.closed_loop_stability {
         Stability::Stable => "stable",
         Stability::Unstable => "UNSTABLE",
+        Stability::Integrator => "INTEGRATOR: a pole at the origin, the others stable",
         Stability::Undecided => "UNDECIDED: a pole lies within rounding of the imaginary axis",
     };
     let _ = writeln!(
@@ -176,7 +178,8 @@ pub struct PoleSet {
     pub kind: PoleSetKind,
     /// The poles (real part 1/s, imaginary part rad/s).
     pub poles: Vec<PoleInfo>,
-    /// Stable, unstable, or undecided (a pole within rounding of the imaginary axis).
+    /// Stable, unstable, an integrator (poles at the origin, the others stable), or undecided
+    /// (another pole within rounding of the imaginary axis).
     pub stability: Stability,
 }
 
@@ -194,7 +197,7 @@ impl PoleSet {
 
 /// The poles document (`poles --json`): `loop`, the loop in words, and per set its key (the
 /// core's [`PoleInfo`] of every pole), `<key>_stable` (true only when provably asymptotically
-/// stable) and `<key>_stability` (`stable`, `unstable` or `undecided`).
+/// stable) and `<key>_stability` (`stable`, `unstable`, `integrator` or `undecided`).
 pub fn poles_json(description: &str, sets: &[PoleSet]) -> Value {
     let mut v = json!({"loop": description});
     for set in sets {
@@ -214,9 +217,13 @@ pub fn poles_text(description: &str, sets: &[PoleSet]) -> String {
         let verdict = match set.stability {
             Stability::Stable => "asymptotically stable",
             Stability::Unstable => "not asymptotically stable (a pole right of the imaginary axis)",
+            Stability::Integrator => {
+                "an integrator: a pole at the origin (exactly 0 or within 100 rounding radii of \
+                 it), every other pole asymptotically stable"
+            }
             Stability::Undecided => {
-                "undecided: a pole lies within rounding of the imaginary axis (an integrator or \
-                 an undamped mode; not provably asymptotically stable)"
+                "undecided: a pole lies within rounding of the imaginary axis (an undamped mode; \
+                 not provably asymptotically stable)"
             }
         };
         let _ = writeln!(s, "\n{}: {verdict}", set.kind.description());
@@ -338,13 +345,13 @@ mod tests {
             PoleSet::of(PoleSetKind::OpenLoop, &open.a).unwrap(),
             PoleSet::of(PoleSetKind::ClosedLoop, &open.unity_feedback().unwrap().a).unwrap(),
         ];
-        // the article's loop has an integrator (undecided open: a pole at the origin), a stable
-        // closed loop
-        assert_eq!(sets[0].stability, Stability::Undecided);
+        // the article's loop has an integrator (a pole at the origin, the others stable), a
+        // stable closed loop
+        assert_eq!(sets[0].stability, Stability::Integrator);
         assert_eq!(sets[1].stability, Stability::Stable);
         let v = poles_json("default rig", &sets);
         assert_eq!(v.as_object().unwrap().len(), 7);
-        assert_eq!(v["open_loop_stability"], "undecided");
+        assert_eq!(v["open_loop_stability"], "integrator");
         assert_eq!(v["open_loop"].as_array().unwrap().len(), open.a.nrows());
         assert_eq!(v["closed_loop_stable"], true);
         let text = poles_text("default rig", &sets);

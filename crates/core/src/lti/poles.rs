@@ -293,8 +293,14 @@ pub enum Stability {
     Stable,
     /// An eigenvalue lies right of the imaginary axis by more than its rounding radius.
     Unstable,
-    /// No eigenvalue is clearly unstable, but one lies within rounding of the imaginary axis
-    /// (a pole at the origin or an undamped pair): not provably asymptotically stable.
+    /// Poles at the origin — integrators, each exactly 0 or within 100 rounding radii of it
+    /// (100 n·ε·‖A‖₁, ‖A‖₁ bounding the largest pole) — and every other eigenvalue left of the
+    /// imaginary axis by more than its rounding radius: a plain integrator such as the piston position integrating its
+    /// velocity; not asymptotically stable (docs/analysis.md#poles-and-damping).
+    Integrator,
+    /// No eigenvalue is clearly unstable, but one that is not an integrator lies within
+    /// rounding of the imaginary axis (an undamped pair, or a slow pole beside fast ones): not
+    /// provably asymptotically stable.
     Undecided,
 }
 
@@ -314,8 +320,10 @@ pub fn poles_and_stability(a: &DMatrix<f64>) -> Result<(Vec<Complex64>, Stabilit
     let rest = &s.eigenvalues[at_origin..];
     let stability = if rest.iter().any(|p| p.re > rounding) {
         Stability::Unstable
-    } else if at_origin > 0 || rest.iter().any(|p| p.re >= -rounding) {
+    } else if rest.iter().any(|p| p.re >= -rounding) {
         Stability::Undecided
+    } else if at_origin > 0 {
+        Stability::Integrator
     } else {
         Stability::Stable
     };

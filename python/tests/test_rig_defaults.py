@@ -1,0 +1,81 @@
+"""A rig file describes the whole rig: the keys it leaves out take documented defaults, named in
+a warning (docs/formats.md#rig-toml); the article's seesaw mass table stays with the article's
+rig. ``design``'s wave errors name the keyword argument ``waves``."""
+
+import re
+import warnings
+
+import pytest
+
+import pumpcyl
+
+MY_RIG = """\
+piston_diameter_mm = 80.0
+rod_diameter_mm = 45.0
+stroke_mm = 800.0
+x0_mm = 400.0
+mass_kg = 2500.0
+displacement_1_cm3_per_rev = 8.0
+displacement_2_cm3_per_rev = 5.0
+beta_bar = 300.0
+kp = 15.0
+viscous_friction_ns_per_m = 250.0
+c12_m5_per_ns = 2.0e-10
+line_volume_1_dm3 = 0.2
+line_volume_2_dm3 = 0.2
+"""
+
+
+def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_out(tmp_path):
+    path = tmp_path / "my.toml"
+    path.write_text(MY_RIG)
+    with pytest.warns(UserWarning) as caught:
+        rig = pumpcyl.Rig.from_toml(path)
+    assert len(caught) == 1
+    note = str(caught[0].message)
+    assert note.startswith(f"{path} does not set 24 keys; mass_by_position = [] (one mass over the stroke")
+    # each of the other 23 with the article's value, e.g. the leakages in exponent form
+    named = re.findall(r"(\w+) = ", note.split("the others take the article rig's values: ")[1])
+    article = pumpcyl.Rig()
+    written = [line.split(" = ")[0] for line in MY_RIG.splitlines()]
+    expected = [k for k in article.to_dict() if k not in written and k != "mass_by_position"]
+    assert sorted(named) == sorted(expected) and len(named) == 23
+    assert "c1_m5_per_ns = 5.49e-11" in note and "kff_kg_m2 = 0.0016" in note
+    for key in expected:
+        assert getattr(rig, key) == getattr(article, key), key
+    assert rig.mass_by_position == [] and len(article.mass_by_position) == 3
+    # the design checks x0 ± 50 mm = 350 … 450 mm, all at the rig's one mass
+    d = pumpcyl.design(rig)
+    assert [(c["x_mm"], c["mass_kg"]) for c in d["conditions"]] == [
+        (350.0, 2500.0), (400.0, 2500.0), (450.0, 2500.0)]
+
+
+def test_a_rig_that_sets_every_key_reads_back_without_a_warning():
+    text = pumpcyl.Rig(c12_m5_per_ns=3e-17, external_force_n=-5.5e8).to_toml()
+    assert "c12_m5_per_ns = 3e-17  #" in text and "external_force_n = -5.5e8  #" in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = pumpcyl.Rig.from_toml_str(text)
+    assert back == pumpcyl.Rig(c12_m5_per_ns=3e-17, external_force_n=-5.5e8)
+
+
+@pytest.mark.parametrize(
+    "waves, words",
+    [
+        ([(0.2, 35.0), (80.0, 5.0)], ["waves[1] = (80.0, 5.0)", "Nyquist frequency 50 Hz"]),
+        ([(-1.0, 5.0)], ["waves[0] = (-1.0, 5.0)", "must be > 0"]),
+        ([(1.0, 500.0)], ["waves[0] = (1.0, 500.0)", "outside the stroke"]),
+    ],
+)
+def test_design_wave_errors_name_the_keyword_argument(waves, words):
+    with pytest.raises(pumpcyl.PumpcylError) as e:
+        pumpcyl.design(waves=waves)
+    message = str(e.value)
+    for w in words:
+        assert w in message, message
+    assert "--wave" not in message and not re.search(r"wave \S+:\S+", message), message
+
+
+def test_design_refuses_waves_with_robust():
+    with pytest.raises(pumpcyl.PumpcylError, match=r"^waves: .*leave out waves or robust=True"):
+        pumpcyl.design(waves=[(0.2, 35.0)], robust=True)
