@@ -169,7 +169,7 @@ fn tiny_and_huge_floats_print_in_exponent_form_and_read_back_equal() {
     }
     let dir = tempfile::tempdir().unwrap();
     let sets = [
-        "external_force_n=-5.5e8",
+        "external_force_n=-2.5e-5",
         "motor_inertia_1_kg_mm2=1.25e9",
         "c1_m5_per_ns=3e-17",
         "mass_kg=12345678.9",
@@ -181,7 +181,7 @@ fn tiny_and_huge_floats_print_in_exponent_form_and_read_back_equal() {
     }
     let (text, _) = run(&args);
     for line in [
-        "external_force_n = -5.5e8",
+        "external_force_n = -2.5e-5",
         "motor_inertia_1_kg_mm2 = 1.25e9",
         "c1_m5_per_ns = 3e-17",
         "mass_kg = 1.23456789e7",

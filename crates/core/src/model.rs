@@ -202,8 +202,7 @@ impl Plant {
     /// the pump speeds that feed the leakage at standstill (docs/identification.md#leakage-from-standstill solved for ω).
     pub fn operating_point(&self) -> OperatingPoint {
         let si = &self.si;
-        let p1 = (si.p_sum_ref * si.a2 + si.f_ext) / (si.a1 + si.a2);
-        let p2 = si.p_sum_ref - p1;
+        let [p1, p2] = si.rest_pressures_pa();
         let cross = si.c12 * (p1 - p2);
         let w1 = (cross - si.c2 * p2) / si.d[0];
         let w2 = (si.c1 * p1 + cross - si.d[0] * w1) / si.d[1];

@@ -371,6 +371,15 @@ pub struct RigSi {
     pub f_ext: f64,
 }
 
+impl RigSi {
+    /// The chamber pressures at rest (Pa gauge): the sum-pressure set-point split by the force
+    /// balance p1 A1 − p2 A2 = F_ext (docs/model.md#newton).
+    pub fn rest_pressures_pa(&self) -> [f64; 2] {
+        let p1 = (self.p_sum_ref * self.a2 + self.f_ext) / (self.a1 + self.a2);
+        [p1, self.p_sum_ref - p1]
+    }
+}
+
 /// A rig read from TOML text, with the keys the text left out (docs/formats.md#rig-toml).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigFile {
@@ -570,7 +579,22 @@ impl Rig {
             ));
         }
         self.validate_mass_table()
-            .map_err(|(value, rule)| invalid("mass_by_position", value, rule))
+            .map_err(|(value, rule)| invalid("mass_by_position", value, rule))?;
+        self.validate_rest()
+            .map_err(|rule| invalid("external_force_n", self.external_force_n, rule))
+    }
+
+    /// The operating point at rest must be a state the circuit can hold: the sum-pressure
+    /// set-point split by the force balance (docs/model.md#newton) leaves no chamber below the
+    /// vapour pressure (docs/model.md#cavitation).
+    fn validate_rest(&self) -> Result<(), String> {
+        let [p1, p2] = self.si().rest_pressures_pa();
+        crate::cavitation::check_chambers(&[p1 / PA_PER_BAR, p2 / PA_PER_BAR]).map_err(|e| {
+            format!(
+                "with p_sum_ref_bar = {} the rest needs {e}",
+                readable(self.p_sum_ref_bar)
+            )
+        })
     }
 
     /// The `mass_by_position` rules: at most [`MAX_MASS_POINTS`] points, none or at least two,
