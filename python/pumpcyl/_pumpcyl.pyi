@@ -239,6 +239,7 @@ def identify(
     datasets: Optional[Sequence[Dataset]] = None,
     standstill: Optional[Dict[str, float]] = None,
     rig: Optional[Rig] = None,
+    grids: Optional[Literal["article"]] = None,
     grid: Optional[GridDict] = None,
     refined_grid: Optional[Union[GridDict, Literal[False]]] = None,
     auto_refine: Optional[bool] = None,
@@ -251,7 +252,9 @@ def identify(
     """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (the article §2.4.4)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
     w2_rpm=..., p1_bar=...)`` and ``rig``. Grids are dicts {beta_bar,
-    viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the article's);
+    viscous_friction_ns_per_m, c12_m5_per_ns} of lists (default: the file's; for ``datasets``
+    the first centred on the rig's values, the second on the first stage's best;
+    ``grids="article"`` the article's two, as the file key);
     ``refined_grid=False`` skips the second stage. Releases the GIL; Ctrl-C stops it;
     ``progress=True`` prints progress on stderr, a callable gets (done, total)."""
 

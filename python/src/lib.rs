@@ -946,9 +946,9 @@ fn standstill_of(value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
 /// `(done, total)` candidates.
 #[pyfunction]
 #[pyo3(signature = (
-    experiment = None, *, datasets = None, standstill = None, rig = None, grid = None,
-    refined_grid = None, auto_refine = None, local_refinement = None, threshold_mm2 = None,
-    top = 20, progress = None, allow_long_run = false
+    experiment = None, *, datasets = None, standstill = None, rig = None, grids = None,
+    grid = None, refined_grid = None, auto_refine = None, local_refinement = None,
+    threshold_mm2 = None, top = 20, progress = None, allow_long_run = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
@@ -957,6 +957,7 @@ fn identify(
     datasets: Option<Vec<Bound<'_, PyDataset>>>,
     standstill: Option<&Bound<'_, PyAny>>,
     rig: Option<&PyRig>,
+    grids: Option<&str>,
     grid: Option<&Bound<'_, PyAny>>,
     refined_grid: Option<&Bound<'_, PyAny>>,
     auto_refine: Option<bool>,
@@ -1018,6 +1019,16 @@ fn identify(
                 "give `experiment` (an experiment TOML file) or `datasets=[Dataset(...)]` \
                  with `standstill`; neither was given",
             ))
+        }
+    };
+    // grids="article": the article's two grids (§2.4), as an experiment file's `grids` key
+    let file_grids = match grids {
+        None => file_grids,
+        Some("article") => (Grid::article_first(), Some(Grid::article_refined().into())),
+        Some(other) => {
+            return Err(err(format!(
+                "grids=\"{other}\": the only named grids are \"article\""
+            )))
         }
     };
     let first = match grid {

@@ -106,7 +106,7 @@ def test_design_tracking_is_the_steady_state_python_control_reaches(freq_hz, amp
     d = pumpcyl.design(pumpcyl.Rig(), waves=[(freq_hz, amp_mm)])
     t = d["tracking"][0]
     assert t["window"]["steady_state"] is True
-    rig = pumpcyl.Rig(kp=d["kp_max"])
+    rig = pumpcyl.Rig(kp=d["tracking_kp"])  # the gain the tracking is predicted at
     A, B, C, D = pumpcyl.state_space(rig, "closed")
     h = 0.01  # the design's 100 Hz
     sysd = control.c2d(control.ss(A, B, C, D), h, "zoh")

@@ -65,7 +65,7 @@ def test_arrays_equal_files_on_small_grids():
 
 def test_arrays_equal_files_on_the_article_grids():
     files = pumpcyl.identify(str(ARTICLE / "identify.toml"))
-    arrays = from_arrays()
+    arrays = from_arrays(grids="article")
     assert_same(files, arrays)
     assert files.candidates_evaluated == 3264 + 3553
     assert abs(files.beta_bar - 165.0) < 10.0
