@@ -362,7 +362,9 @@ fn replace_file(path: &Path, bytes: &[u8], mode: Option<u32>) -> Result<()> {
             dir.display()
         )
     })?;
+    // the file's own error (EFBIG past a size limit), without the temporary's name
     let written = tmp
+        .as_file_mut()
         .write_all(bytes)
         .and_then(|_| match mode {
             Some(m) => tmp
