@@ -302,6 +302,32 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_long_unknown_key_is_shown_cut_and_gets_no_suggestion() {
+        let known = ["beta_bar", "mass_kg"];
+        let words = |unknown: &str| {
+            let listed: Vec<String> = known.iter().map(|k| format!("`{k}`")).collect();
+            format!("`{unknown}`, expected one of {}", listed.join(", "))
+        };
+        // 200 000 characters: the message stays short, and names the length
+        let long = format!("beta_bar{}", "x".repeat(199_992));
+        let message = unknown_key(&words(&long));
+        assert!(message.len() < 300, "{} bytes", message.len());
+        assert!(message.contains("… (200000 bytes)"), "{message}");
+        assert!(!message.contains("did you mean"), "{message}");
+        assert_eq!(suggest(&long, &known), None);
+        // a key of exactly the shown length is shown whole, one more character is cut
+        let exact = "k".repeat(MAX_KEY_CHARS);
+        assert_eq!(shown_key(&exact), exact.as_str());
+        let over = "é".repeat(MAX_KEY_CHARS + 1);
+        assert_eq!(
+            shown_key(&over),
+            format!("{}… ({} bytes)", "é".repeat(MAX_KEY_CHARS), over.len())
+        );
+        // an ordinary typo still gets its suggestion
+        assert_eq!(suggest("beta_bra", &known), Some("beta_bar"));
+    }
+
+    #[test]
     fn bom_is_dropped_and_bad_bytes_are_located() {
         assert_eq!(decode(b"\xEF\xBB\xBFa = 1".to_vec()).unwrap(), "a = 1");
         let e = decode(b"a = 1\nb = \"\xE9\"\n".to_vec()).unwrap_err();

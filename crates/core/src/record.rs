@@ -796,6 +796,37 @@ mod tests {
         Record::parse(text.as_bytes(), "r.csv")
     }
 
+    /// A file of endless `byte`s (as `/dev/zero` or `/dev/urandom`), which fails a read past
+    /// its first mebibyte, so a reader that goes on after the header is caught.
+    struct Endless(u8);
+
+    impl Files for Endless {
+        fn open(&self, _: &Path) -> std::io::Result<Box<dyn Read + Send + '_>> {
+            struct Bytes(u8, usize);
+            impl Read for Bytes {
+                fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                    if self.1 >= 1 << 20 {
+                        return Err(std::io::Error::other("read past the first MiB"));
+                    }
+                    buf.fill(self.0);
+                    self.1 += buf.len();
+                    Ok(buf.len())
+                }
+            }
+            Ok(Box::new(Bytes(self.0, 0)))
+        }
+    }
+
+    #[test]
+    fn a_mat_record_is_refused_on_its_header_before_the_rest_is_read() {
+        for byte in [0u8, 0xA5] {
+            let e = Table::read_in(&Endless(byte), Path::new("r.mat"), &["time_s"], &[])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("not a level-5 MAT-file"), "{byte:#x}: {e}");
+        }
+    }
+
     #[test]
     fn reads_required_optional_and_extra_columns_in_any_order() {
         let r = parse("extra,x_mm,time_s,p1_bar,x_ref_mm\n1,340,0,4,340\n2,340.5,0.01,4.1,345\n")
