@@ -9,9 +9,13 @@
 //!   (built as a temporary sibling, then swapped in); temporaries are removed when an error
 //!   abandons them, by a front end's signal handler through [`remove_temporaries`], or by the
 //!   next run after a SIGKILL (their names carry the process id);
+//! - a result folder keeps every file the user put in it: its marker lists the files pumpcyl
+//!   wrote, and a new run replaces only those ([`OutDir`], docs/formats.md#result-folders);
+//! - a read-only output file, a file of the user's at a path of a result folder and a non-empty
+//!   folder that holds no earlier result are refused unless forced ([`Protected::forcing`]);
 //! - files are created with the permissions the user's umask gives any new file (0666 & !umask);
-//!   a file written over keeps its permissions, and a symbolic link to a regular file is
-//!   followed (its target is replaced, the link stays);
+//!   a file written over keeps its permissions, and a symbolic link to a regular file or to a
+//!   folder is followed (its target is replaced, the link stays);
 //! - a FIFO, a character device or a link to one (`/dev/stdout`, `/dev/null`) cannot be replaced
 //!   by a rename and must not be: the bytes are written into it directly; block devices and
 //!   sockets are refused.
