@@ -42,10 +42,14 @@ pub fn commit(folder: OutDir, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Say on standard error what a result folder's commit did with the user's files.
+/// Say on standard error what a result folder's commit did with the user's files (control
+/// characters of their names escaped, so each note stays one line).
 pub fn tell_kept(done: &Committed, dir: &Path) {
     for note in done.notes() {
-        eprintln!("note: {}: {}", dir.display(), crate::escape_controls(&note));
+        eprintln!(
+            "note: {}",
+            format!("{}: {note}", dir.display()).escape_debug()
+        );
     }
 }
 
