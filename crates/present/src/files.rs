@@ -555,9 +555,11 @@ fn marker_text(files: &[PathBuf]) -> String {
 /// The folder a path names: a symbolic link is followed (an output goes into its target and
 /// the link stays).
 fn real_folder(path: &Path) -> Result<PathBuf> {
-    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    // `link/` names the link's target to some calls and the link to others: drop the slash
+    let plain: PathBuf = path.components().collect();
+    let is_link = std::fs::symlink_metadata(&plain).is_ok_and(|m| m.file_type().is_symlink());
     if !is_link {
-        return Ok(path.to_path_buf());
+        return Ok(plain);
     }
     std::fs::canonicalize(path).with_context(|| {
         format!(
