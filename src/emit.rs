@@ -5,19 +5,80 @@
 use anyhow::{Context, Result};
 use pumpcyl_present::figures::Chart;
 pub use pumpcyl_present::files::ensure_folder;
-use pumpcyl_present::files::{self, OutDir};
+use pumpcyl_present::files::{self, Committed, OutDir, Protected};
 use std::io::Write;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// `--force`: write over what pumpcyl otherwise leaves alone ([`Protected::forcing`]).
+static FORCE: AtomicBool = AtomicBool::new(false);
+
+/// Set `--force` for this command, before any output.
+pub fn set_force(force: bool) {
+    FORCE.store(force, Ordering::Relaxed);
+}
+
+/// What no output of this command may destroy: its inputs, and (unless `--force`) read-only
+/// files and files of the user's in a result folder.
+pub fn protected() -> Protected {
+    crate::inputs::protected().forcing(FORCE.load(Ordering::Relaxed))
+}
 
 /// Write `bytes` to `path` whole or not at all, never over an input of this command.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    files::write_atomic(path, bytes, &crate::inputs::protected())
+    files::write_atomic(path, bytes, &protected())
 }
 
 /// Start the result folder `dir`, built aside and swapped in whole, never over (or around) an
 /// input of this command.
 pub fn out_dir(dir: &Path) -> Result<OutDir> {
-    OutDir::begin(dir, &crate::inputs::protected())
+    OutDir::begin(dir, &protected())
+}
+
+/// Put the result folder `dir` in place and say on standard error what happened to the files
+/// in it that pumpcyl did not write.
+pub fn commit(folder: OutDir, dir: &Path) -> Result<()> {
+    tell_kept(&folder.commit()?, dir);
+    Ok(())
+}
+
+/// Say on standard error what a result folder's commit did with the user's files (control
+/// characters of their names escaped, so each note stays one line).
+pub fn tell_kept(done: &Committed, dir: &Path) {
+    for note in done.notes() {
+        eprintln!(
+            "note: {}",
+            format!("{}: {note}", dir.display()).escape_debug()
+        );
+    }
+}
+
+/// The options that name an output (a file or a result folder), in every command.
+const OUTPUT_OPTIONS: [&str; 3] = ["out", "greybox", "article_records"];
+
+/// Refuse two outputs of one command at one path (`model --out x.m --greybox x.m`), before any
+/// work: the second would replace the first.
+pub fn check_distinct_outputs(matches: &clap::ArgMatches) -> Result<()> {
+    let Some((_, sub)) = matches.subcommand() else {
+        return Ok(());
+    };
+    let mut seen: Vec<(std::path::PathBuf, &str)> = Vec::new();
+    for option in OUTPUT_OPTIONS {
+        let Ok(Some(path)) = sub.try_get_one::<std::path::PathBuf>(option) else {
+            continue;
+        };
+        let real = files::resolve(path);
+        if let Some((_, first)) = seen.iter().find(|(p, _)| *p == real) {
+            anyhow::bail!(
+                "{}: named by --{} and --{}; one file cannot hold both outputs, give two paths",
+                path.display(),
+                first.replace('_', "-"),
+                option.replace('_', "-")
+            );
+        }
+        seen.push((real, option));
+    }
+    Ok(())
 }
 
 /// A library error in the command line's words: the commands and options that act on it,

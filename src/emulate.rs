@@ -268,6 +268,6 @@ fn article_records(target: &Path) -> Result<String> {
         "{}: README.md and identify.toml (emulated data, not measurements)",
         target.display()
     );
-    folder.commit()?;
+    crate::emit::commit(folder, target)?;
     Ok(summary)
 }

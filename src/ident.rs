@@ -390,7 +390,7 @@ fn report_identification(
         for (name, bytes) in files {
             write_atomic(&folder.path().join(name), &bytes)?;
         }
-        folder.commit()?;
+        crate::emit::commit(folder, dir)?;
     }
     if json_out {
         return Ok(serde_json::to_string_pretty(&v)? + "\n");

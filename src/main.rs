@@ -38,6 +38,12 @@ use pumpcyl::rig::Rig;
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Write over what pumpcyl otherwise leaves alone: a read-only output file, a file of
+    /// yours at a path of a result folder, a non-empty folder that holds no earlier result
+    /// (its other files are kept either way; docs/formats.md#result-folders). Inputs are never
+    /// written over.
+    #[arg(long, global = true)]
+    force: bool,
 }
 
 #[derive(Debug, Subcommand)]
@@ -230,7 +236,11 @@ pub fn escape_controls(message: &str) -> String {
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
     signals::install();
-    let cli = Cli::parse();
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let cli =
+        <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    emit::set_force(cli.force);
+    emit::check_distinct_outputs(&matches)?;
     let text = match cli.command {
         Command::Rig(args) => {
             let rig = if args.print_default {

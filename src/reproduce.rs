@@ -41,7 +41,8 @@ pub fn run(args: &ReproduceArgs) -> Result<String> {
     });
     bar.finish_and_clear();
     let result = result?;
-    result.write(&args.out)?;
+    let done = result.write_with(&args.out, &crate::emit::protected())?;
+    crate::emit::tell_kept(&done, &args.out);
     Ok(terminal_table(
         &result.comparison,
         &args.out,

@@ -65,7 +65,7 @@ pub(super) fn run(
         // the margins over the stroke at the deciding parameter point
         let chart = Chart::robust_margins(&d);
         render_both(&folder.path().join("robust-margins"), &chart)?;
-        folder.commit()?;
+        crate::emit::commit(folder, dir)?;
     }
     if json_out {
         return Ok(document);

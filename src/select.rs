@@ -79,7 +79,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         let folder = crate::emit::out_dir(dir)?;
         write_atomic(&folder.path().join("result.json"), document.as_bytes())?;
         render_both(&folder.path().join("select"), &selection_chart(&app, &s))?;
-        folder.commit()?;
+        crate::emit::commit(folder, dir)?;
     }
     if args.json {
         return Ok(document);

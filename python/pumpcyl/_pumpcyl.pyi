@@ -272,12 +272,18 @@ def advise(
     [{label, log_std, interval, width, relative_width}, ...], best first}."""
 
 def reproduce(
-    out: Optional[Union[str, PathLike[str]]] = None, *, progress: bool = False
+    out: Optional[Union[str, PathLike[str]]] = None,
+    *,
+    progress: bool = False,
+    force: bool = False,
 ) -> Dict[str, Any]:
     """The article's workflow on the embedded EMULATED records (as ``pumpcyl reproduce``):
     with ``out``, the result folder (report.html, summary.json, figures/, records/,
     identification/) written whole or not at all; returns summary.json as a dict. Ctrl-C
-    raises KeyboardInterrupt; ``progress=True`` prints each step on stderr."""
+    raises KeyboardInterrupt; ``progress=True`` prints each step on stderr. Files of yours in
+    ``out`` are kept (a warning names them); ``force=True`` writes over one at a path of the
+    result, or into a non-empty folder that holds no earlier result
+    (docs/formats.md#result-folders)."""
 
 def gas_fraction(beta_bar: float, p_mean_bar: float, *, beta_oil_bar: float = 17000.0) -> float:
     """Gas fraction X giving ``beta_bar`` (bar) at mean pressure ``p_mean_bar`` (bar)
@@ -317,12 +323,14 @@ def fmu(
     *,
     controller: str = "article",
     effects: bool = True,
+    force: bool = False,
 ) -> PathLike[str]:
     """Write the rig emulator (``model="emulator"``) or the linear model (``"linear"``) as an
     FMU (FMI 2.0 Co-Simulation, Linux x86-64; docs/fmu.md), as ``pumpcyl fmu`` does.
     ``controller="article"``: the input is the position reference ``x_ref_m``;
     ``"external"``: the motor speed commands are the inputs. ``rig=None`` takes the emulator's
-    own rig or the article's (linear). Returns ``path``."""
+    own rig or the article's (linear). A read-only file at ``path`` is refused unless
+    ``force=True``. Returns ``path``."""
     ...
 
 def design(

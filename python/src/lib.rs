@@ -1182,10 +1182,17 @@ fn ranking(advice: &ident::Advice, i: usize) -> Vec<serde_json::Value> {
 /// `pumpcyl_present::reproduce`, as `pumpcyl reproduce` runs it): with `out`, the result folder
 /// (report.html, summary.json, figures/, records/, identification/) written whole or not at
 /// all; returns summary.json as a dict. Runs with the GIL released; Ctrl-C stops it and raises
-/// KeyboardInterrupt; `progress=True` prints each step on `sys.stderr`.
+/// KeyboardInterrupt; `progress=True` prints each step on `sys.stderr`. Files of yours in `out`
+/// are kept (a warning names them); `force=True` writes over one at a path of the result, or
+/// into a non-empty folder that holds no earlier result (docs/formats.md#result-folders).
 #[pyfunction]
-#[pyo3(signature = (out = None, *, progress = false))]
-fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<Py<PyAny>> {
+#[pyo3(signature = (out = None, *, progress = false, force = false))]
+fn reproduce(
+    py: Python<'_>,
+    out: Option<PathBuf>,
+    progress: bool,
+    force: bool,
+) -> PyResult<Py<PyAny>> {
     let step = std::sync::Mutex::new((0usize, String::new()));
     let mut shown = 0usize;
     let mut tick = |py: Python<'_>, _done: u64| -> PyResult<()> {
@@ -1214,15 +1221,25 @@ fn reproduce(py: Python<'_>, out: Option<PathBuf>, progress: bool) -> PyResult<P
                 },
             )
             .map_err(|e| format!("{e:#}"))?;
-            if let Some(dir) = &out {
-                r.write(dir).map_err(|e| format!("{e:#}"))?;
-            }
-            Ok::<_, String>(r.summary)
+            let protected = pumpcyl_present::files::Protected::none().forcing(force);
+            let done = match &out {
+                Some(dir) => r
+                    .write_with(dir, &protected)
+                    .map_err(|e| format!("{e:#}"))?,
+                None => Default::default(),
+            };
+            Ok::<_, String>((r.summary, done))
         },
         &mut tick,
     )?
     .map_err(err)?;
-    to_py(py, &result)
+    let (summary, done) = result;
+    let warnings = py.import("warnings")?;
+    for note in done.notes() {
+        let dir = out.as_deref().unwrap_or(std::path::Path::new("")).display();
+        warnings.call_method1("warn", (format!("{dir}: {note}"),))?;
+    }
+    to_py(py, &summary)
 }
 
 // Bulk modulus and design
@@ -1259,9 +1276,10 @@ fn effective_beta(py: Python<'_>, x: f64, p_bar: f64, beta_oil_bar: f64) -> PyRe
 /// "article" (the input is the position reference) or "external" (the motor speed commands are
 /// the inputs; the linear model's open loop); `effects` the emulator's effects on or off.
 /// `rig` None takes the emulator's own rig (as `pumpcyl emulate`) or the article's (linear).
-/// The file appears whole or not at all. Returns `path`.
+/// The file appears whole or not at all; a read-only file at `path` is refused unless
+/// `force=True`. Returns `path`.
 #[pyfunction]
-#[pyo3(signature = (rig, path, model = "emulator", *, controller = "article", effects = true))]
+#[pyo3(signature = (rig, path, model = "emulator", *, controller = "article", effects = true, force = false))]
 fn fmu(
     py: Python<'_>,
     rig: Option<&PyRig>,
@@ -1269,6 +1287,7 @@ fn fmu(
     model: &str,
     controller: &str,
     effects: bool,
+    force: bool,
 ) -> PyResult<PathBuf> {
     use pumpcyl::fmu::{Controller, ModelKind};
     let model = match model {
@@ -1306,7 +1325,7 @@ fn fmu(
         pumpcyl_present::files::write_atomic(
             &path,
             &bytes,
-            &pumpcyl_present::files::Protected::none(),
+            &pumpcyl_present::files::Protected::none().forcing(force),
         )
         .map_err(|e| format!("{e:#}"))
     })

@@ -186,7 +186,7 @@ pub fn toml_error(err: &toml::de::Error, text: &str) -> String {
             key_before(text, start)
         };
         match key {
-            Some(key) => format!("line {line}, column {column}, key `{key}`: "),
+            Some(key) => format!("line {line}, column {column}, key `{}`: ", shown_key(key)),
             None => format!("line {line}, column {column}: "),
         }
     });
@@ -225,19 +225,37 @@ fn unknown_key(serde_words: &str) -> String {
     let Some((unknown, known)) = names.split_first() else {
         return format!("unknown key {serde_words}");
     };
+    let shown = shown_key(unknown);
     match suggest(unknown, known) {
-        Some(best) => format!("unknown key `{unknown}`; did you mean `{best}`?"),
+        Some(best) => format!("unknown key `{shown}`; did you mean `{best}`?"),
         None => format!(
-            "unknown key `{unknown}`; the known keys are {}",
+            "unknown key `{shown}`; the known keys are {}",
             known.join(", ")
         ),
     }
 }
 
+/// The most characters of a key a message shows, and the longest key a suggestion is sought
+/// for: every known key is far shorter.
+pub const MAX_KEY_CHARS: usize = 64;
+
+/// A key as a message shows it: at most [`MAX_KEY_CHARS`] characters, a longer one cut, with
+/// its length.
+pub fn shown_key(key: &str) -> std::borrow::Cow<'_, str> {
+    match key.char_indices().nth(MAX_KEY_CHARS) {
+        None => key.into(),
+        Some((cut, _)) => format!("{}… ({} bytes)", &key[..cut], key.len()).into(),
+    }
+}
+
 /// The known name closest to `unknown`: one that extends it by a unit suffix (`beta` →
 /// `beta_bar`), shares its stem with another unit (`mass_g` → `mass_kg`), or is at most a
-/// third of its length in edits away.
+/// third of its length in edits away. None for a key longer than 4 × [`MAX_KEY_CHARS`]
+/// bytes, which no edit brings near a known key (the edits cost its length squared).
 pub fn suggest<'a>(unknown: &str, known: &[&'a str]) -> Option<&'a str> {
+    if unknown.len() > 4 * MAX_KEY_CHARS {
+        return None;
+    }
     let lower = unknown.to_ascii_lowercase();
     let stem = |s: &str| s.rsplit_once('_').map_or(s.to_string(), |(a, _)| a.into());
     let score = |k: &str| -> Option<usize> {
@@ -293,6 +311,32 @@ pub fn typed_like(current: &toml::Value, value: toml::Value) -> Result<toml::Val
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_unknown_key_is_shown_cut_and_gets_no_suggestion() {
+        let known = ["beta_bar", "mass_kg"];
+        let words = |unknown: &str| {
+            let listed: Vec<String> = known.iter().map(|k| format!("`{k}`")).collect();
+            format!("`{unknown}`, expected one of {}", listed.join(", "))
+        };
+        // 200 000 characters: the message stays short, and names the length
+        let long = format!("beta_bar{}", "x".repeat(199_992));
+        let message = unknown_key(&words(&long));
+        assert!(message.len() < 300, "{} bytes", message.len());
+        assert!(message.contains("… (200000 bytes)"), "{message}");
+        assert!(!message.contains("did you mean"), "{message}");
+        assert_eq!(suggest(&long, &known), None);
+        // a key of exactly the shown length is shown whole, one more character is cut
+        let exact = "k".repeat(MAX_KEY_CHARS);
+        assert_eq!(shown_key(&exact), exact.as_str());
+        let over = "é".repeat(MAX_KEY_CHARS + 1);
+        assert_eq!(
+            shown_key(&over),
+            format!("{}… ({} bytes)", "é".repeat(MAX_KEY_CHARS), over.len())
+        );
+        // an ordinary typo still gets its suggestion
+        assert_eq!(suggest("beta_bra", &known), Some("beta_bar"));
+    }
 
     #[test]
     fn bom_is_dropped_and_bad_bytes_are_located() {

@@ -98,6 +98,9 @@ pub(crate) fn range(v: &[f64]) -> (f64, f64) {
 /// doubles, the sample limit, fit with room to spare).
 pub const MAX_MAT_BYTES: u64 = 2 << 30;
 
+/// The header of a level-5 MAT-file (text, subsystem offset, version, endian indicator).
+const MAT_HEADER_BYTES: u64 = 128;
+
 const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
@@ -266,7 +269,8 @@ impl Table {
     }
 
     /// [`Table::read`] from `files`; a MAT-file is read whole, at most [`MAX_MAT_BYTES`] (a
-    /// special file such as `/dev/zero` that never ends is stopped there).
+    /// special file such as `/dev/zero` that never ends is stopped there), after its 128-byte
+    /// header has been checked.
     pub fn read_in(
         files: &dyn Files,
         path: &Path,
@@ -278,11 +282,22 @@ impl Table {
             file: file.clone(),
             message: e.to_string(),
         };
-        let stream = files.open(path).map_err(io)?;
+        let mut stream = files.open(path).map_err(io)?;
         if is_mat(path) {
+            // the header first: a file that is no MAT-file (`/dev/urandom` behind a link) is
+            // refused after 128 bytes, not after the whole limit
             let mut bytes = Vec::new();
+            (&mut stream)
+                .take(MAT_HEADER_BYTES)
+                .read_to_end(&mut bytes)
+                .map_err(io)?;
+            // the reader's own checks: a header alone holds no variables
+            crate::matfile::read(&bytes).map_err(|e| RecordError::Mat {
+                file: file.clone(),
+                message: e.0,
+            })?;
             stream
-                .take(MAX_MAT_BYTES + 1)
+                .take(MAX_MAT_BYTES + 1 - MAT_HEADER_BYTES)
                 .read_to_end(&mut bytes)
                 .map_err(io)?;
             if bytes.len() as u64 > MAX_MAT_BYTES {
@@ -779,6 +794,37 @@ mod tests {
 
     fn parse(text: &str) -> Result<Record, RecordError> {
         Record::parse(text.as_bytes(), "r.csv")
+    }
+
+    /// A file of endless `byte`s (as `/dev/zero` or `/dev/urandom`), which fails a read past
+    /// its first mebibyte, so a reader that goes on after the header is caught.
+    struct Endless(u8);
+
+    impl Files for Endless {
+        fn open(&self, _: &Path) -> std::io::Result<Box<dyn Read + Send + '_>> {
+            struct Bytes(u8, usize);
+            impl Read for Bytes {
+                fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                    if self.1 >= 1 << 20 {
+                        return Err(std::io::Error::other("read past the first MiB"));
+                    }
+                    buf.fill(self.0);
+                    self.1 += buf.len();
+                    Ok(buf.len())
+                }
+            }
+            Ok(Box::new(Bytes(self.0, 0)))
+        }
+    }
+
+    #[test]
+    fn a_mat_record_is_refused_on_its_header_before_the_rest_is_read() {
+        for byte in [0u8, 0xA5] {
+            let e = Table::read_in(&Endless(byte), Path::new("r.mat"), &["time_s"], &[])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("not a level-5 MAT-file"), "{byte:#x}: {e}");
+        }
     }
 
     #[test]

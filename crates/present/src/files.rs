@@ -9,9 +9,13 @@
 //!   (built as a temporary sibling, then swapped in); temporaries are removed when an error
 //!   abandons them, by a front end's signal handler through [`remove_temporaries`], or by the
 //!   next run after a SIGKILL (their names carry the process id);
+//! - a result folder keeps every file the user put in it: its marker lists the files pumpcyl
+//!   wrote, and a new run replaces only those ([`OutDir`], docs/formats.md#result-folders);
+//! - a read-only output file, a file of the user's at a path of a result folder and a non-empty
+//!   folder that holds no earlier result are refused unless forced ([`Protected::forcing`]);
 //! - files are created with the permissions the user's umask gives any new file (0666 & !umask);
-//!   a file written over keeps its permissions, and a symbolic link to a regular file is
-//!   followed (its target is replaced, the link stays);
+//!   a file written over keeps its permissions, and a symbolic link to a regular file or to a
+//!   folder is followed (its target is replaced, the link stays);
 //! - a FIFO, a character device or a link to one (`/dev/stdout`, `/dev/null`) cannot be replaced
 //!   by a rename and must not be: the bytes are written into it directly; block devices and
 //!   sockets are refused.
@@ -19,6 +23,7 @@
 //! Nothing here installs a signal handler or ends the process: the command line does that.
 
 use anyhow::{Context, Result};
+use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -104,7 +109,7 @@ fn untrack(p: &Path) {
 
 /// The canonical form of a path that may not exist yet: its deepest existing ancestor
 /// canonicalised (symlinks resolved), the rest appended.
-fn resolve(path: &Path) -> PathBuf {
+pub fn resolve(path: &Path) -> PathBuf {
     let abs = if path.is_absolute() {
         path.to_path_buf()
     } else {
@@ -133,6 +138,8 @@ fn resolve(path: &Path) -> PathBuf {
 pub struct Protected {
     /// Canonical paths (symlinks resolved).
     paths: Vec<PathBuf>,
+    /// Write over what pumpcyl would otherwise leave alone ([`Protected::forcing`]).
+    force: bool,
 }
 
 impl Protected {
@@ -143,7 +150,19 @@ impl Protected {
 
     /// Nothing to protect, in a constant (a front end's registry of the files it reads).
     pub const fn none_const() -> Protected {
-        Protected { paths: Vec::new() }
+        Protected {
+            paths: Vec::new(),
+            force: false,
+        }
+    }
+
+    /// With `force`, write over what pumpcyl otherwise refuses to touch (the command line's
+    /// `--force`, Python's `force=True`): a read-only output file, a file of the user's at a
+    /// path of a result folder, a non-empty folder that holds no earlier result. The inputs
+    /// stay protected, and a result folder keeps every other file of the user's either way.
+    pub fn forcing(mut self, force: bool) -> Protected {
+        self.force = force;
+        self
     }
 
     /// The files `paths`; a path that does not exist (any more) protects nothing.
@@ -238,8 +257,9 @@ fn file_name(path: &Path) -> Result<String> {
 
 /// Write `bytes` to `path` atomically: a temporary file in the same folder, then a rename, so a
 /// failure or an interruption never leaves a half-written output behind. Refuses to write over
-/// a `protected` file. A new file gets the permissions of any new file (0666 & !umask), a file
-/// written over keeps its own; a symbolic link to a regular file is followed. A FIFO or a
+/// a `protected` file, and a read-only one (owner's write bit clear) unless forced
+/// ([`Protected::forcing`]). A new file gets the permissions of any new file (0666 & !umask), a
+/// file written over keeps its own; a symbolic link to a regular file is followed. A FIFO or a
 /// character device (or a link to one) is written into directly, since no rename can replace
 /// it and none should.
 pub fn write_atomic(path: &Path, bytes: &[u8], protected: &Protected) -> Result<()> {
@@ -249,6 +269,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8], protected: &Protected) -> Result<
         Destination::File { path: target, mode } => {
             if target != path {
                 protected.check(&target)?;
+            }
+            if mode.is_some_and(|m| m & 0o200 == 0) && !protected.force {
+                anyhow::bail!(
+                    "{}: is read-only, so pumpcyl leaves it as it is; make it writable, choose \
+                     another output, or force the write (--force; force=True in Python)",
+                    path.display()
+                );
             }
             replace_file(&target, bytes, mode)
         }
@@ -339,7 +366,9 @@ fn replace_file(path: &Path, bytes: &[u8], mode: Option<u32>) -> Result<()> {
             dir.display()
         )
     })?;
+    // the file's own error (EFBIG past a size limit), without the temporary's name
     let written = tmp
+        .as_file_mut()
         .write_all(bytes)
         .and_then(|_| match mode {
             Some(m) => tmp
@@ -374,34 +403,197 @@ pub fn ensure_folder(dir: &Path) -> Result<()> {
 }
 
 /// A result folder built as a temporary sibling and swapped in whole by [`OutDir::commit`]: at
-/// every moment the folder holds the complete previous result or the complete new one.
+/// every moment the folder holds the complete previous result or the complete new one, and
+/// every file of the user's in it (docs/formats.md#result-folders).
+///
+/// The marker `.pumpcyl-output` lists the files pumpcyl wrote. A new run replaces those and
+/// keeps every other file: a file the user put in the folder, or any file a forged or empty
+/// marker does not list. Kept files are hard-linked into the new folder before the swap, so
+/// none is ever absent, and one that appears during the run is moved over after it. A file of
+/// the user's at a path of the new result is refused, naming it, unless forced
+/// ([`Protected::forcing`]). A symbolic link given as the folder is followed: its target is
+/// replaced, the link stays.
 pub struct OutDir {
+    /// The folder as given, for messages.
+    shown: PathBuf,
+    /// The real folder (a link given as the folder resolved).
     target: PathBuf,
     tmp: PathBuf,
+    force: bool,
+}
+
+/// What [`OutDir::commit`] did besides putting the result in place.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Committed {
+    /// Files of the user's kept in the folder (paths inside it).
+    pub kept: Vec<PathBuf>,
+    /// Files of the user's a forced write replaced (paths inside it).
+    pub replaced: Vec<PathBuf>,
+    /// Where the previous folder was left, when a file that appeared in it during the run could
+    /// not be moved over.
+    pub previous: Option<PathBuf>,
+}
+
+impl Committed {
+    /// What happened to files pumpcyl did not write, one line each ("kept notes.txt (not
+    /// written by pumpcyl)"); none when the folder held only pumpcyl's files.
+    pub fn notes(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !self.kept.is_empty() {
+            out.push(format!(
+                "kept {} (not written by pumpcyl)",
+                names(&self.kept)
+            ));
+        }
+        if !self.replaced.is_empty() {
+            out.push(format!(
+                "replaced {} (not written by pumpcyl; the write was forced)",
+                names(&self.replaced)
+            ));
+        }
+        if let Some(p) = &self.previous {
+            out.push(format!(
+                "the previous folder is left at {}: a file added to it during the run could \
+                 not be moved over",
+                p.display()
+            ));
+        }
+        out
+    }
+}
+
+/// The most entries (files and folders) of a result folder examined; a folder with more is
+/// not a result folder.
+const MAX_ENTRIES: usize = 100_000;
+
+/// The most bytes of a marker read.
+const MAX_MARKER_BYTES: u64 = 1 << 20;
+
+/// The most names listed in one message.
+const MAX_NAMES: usize = 10;
+
+/// Paths for a message, at most [`MAX_NAMES`] of them.
+fn names(paths: &[PathBuf]) -> String {
+    let mut out: Vec<String> = paths
+        .iter()
+        .take(MAX_NAMES)
+        .map(|p| p.display().to_string())
+        .collect();
+    if paths.len() > MAX_NAMES {
+        out.push(format!("and {} more", paths.len() - MAX_NAMES));
+    }
+    out.join(", ")
+}
+
+/// The entries of a folder, relative to it, symbolic links not followed; parents come before
+/// their children.
+#[derive(Debug, Default)]
+struct Tree {
+    files: Vec<PathBuf>,
+    dirs: Vec<PathBuf>,
+}
+
+fn tree(root: &Path) -> Result<Tree> {
+    let mut out = Tree::default();
+    let mut pending = vec![PathBuf::new()];
+    let mut count = 0usize;
+    while let Some(rel) = pending.pop() {
+        let here = root.join(&rel);
+        let cannot = || format!("{}: cannot read the folder", here.display());
+        for entry in std::fs::read_dir(&here).with_context(cannot)? {
+            let entry = entry.with_context(cannot)?;
+            count += 1;
+            if count > MAX_ENTRIES {
+                anyhow::bail!(
+                    "{}: holds more than {MAX_ENTRIES} files and folders, too many for a result \
+                     folder; give a new or empty one",
+                    root.display()
+                );
+            }
+            let path = rel.join(entry.file_name());
+            if entry.file_type().with_context(cannot)?.is_dir() {
+                out.dirs.push(path.clone());
+                pending.push(path);
+            } else {
+                out.files.push(path);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The files the marker of `dir` lists as pumpcyl's: none without a marker (or with one that
+/// is not a regular file), read at most [`MAX_MARKER_BYTES`].
+fn listed(dir: &Path) -> HashSet<PathBuf> {
+    use std::io::Read;
+    let marker = dir.join(MARKER);
+    let mut text = Vec::new();
+    if std::fs::symlink_metadata(&marker).is_ok_and(|m| m.is_file()) {
+        if let Ok(f) = std::fs::File::open(&marker) {
+            let _ = f.take(MAX_MARKER_BYTES).read_to_end(&mut text);
+        }
+    }
+    String::from_utf8_lossy(&text)
+        .lines()
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(PathBuf::from)
+        .collect()
+}
+
+/// The marker listing `files`, the files pumpcyl wrote into the folder.
+fn marker_text(files: &[PathBuf]) -> String {
+    let mut text = String::from(
+        "# pumpcyl wrote the files below; a new run replaces them and keeps every other file \
+         (docs/formats.md#result-folders)\n",
+    );
+    for f in files {
+        text.push_str(&format!("{}\n", f.display()));
+    }
+    text
+}
+
+/// The folder a path names: a symbolic link is followed (an output goes into its target and
+/// the link stays).
+fn real_folder(path: &Path) -> Result<PathBuf> {
+    // `link/` names the link's target to some calls and the link to others: drop the slash
+    let plain: PathBuf = path.components().collect();
+    let is_link = std::fs::symlink_metadata(&plain).is_ok_and(|m| m.file_type().is_symlink());
+    if !is_link {
+        return Ok(plain);
+    }
+    std::fs::canonicalize(path).with_context(|| {
+        format!(
+            "{}: is a link to nothing; give a folder or a link to one",
+            path.display()
+        )
+    })
 }
 
 impl OutDir {
-    /// Start building the folder `target`. Refused when `target` is a file, a folder that holds
-    /// a `protected` file, or a non-empty folder that is not an earlier pumpcyl result (a new
-    /// run replaces the whole folder).
+    /// Start building the folder `target`. Refused when `target` is a file or a folder that
+    /// holds a `protected` file, and, unless forced, when it is a non-empty folder that holds no
+    /// earlier pumpcyl result.
     pub fn begin(target: &Path, protected: &Protected) -> Result<OutDir> {
         protected.check(target)?;
         let shown = target.display();
-        if target.exists() && !target.is_dir() {
+        let real = real_folder(target)?;
+        if real.exists() && !real.is_dir() {
             anyhow::bail!("{shown}: exists and is not a folder; give a folder");
         }
-        if target.is_dir() && !target.join(MARKER).exists() {
-            let mut entries = std::fs::read_dir(target)
+        let marked = std::fs::symlink_metadata(real.join(MARKER)).is_ok();
+        if real.is_dir() && !marked && !protected.force {
+            let mut entries = std::fs::read_dir(&real)
                 .with_context(|| format!("{shown}: cannot read the folder"))?;
             if entries.next().is_some() {
                 anyhow::bail!(
-                    "{shown}: folder is not empty and is not an earlier pumpcyl result; a run \
-                     replaces the whole folder, so give a new or empty one"
+                    "{shown}: folder is not empty and holds no earlier pumpcyl result; give a new \
+                     or empty folder, or force the write (--force; force=True in Python) to put \
+                     the result beside its files, which are kept"
                 );
             }
         }
-        let parent = parent_of(target);
-        let name = file_name(target)?;
+        let parent = parent_of(&real);
+        let name = file_name(&real)?;
         std::fs::create_dir_all(parent)
             .with_context(|| format!("{}: cannot create", parent.display()))?;
         remove_stale(parent, &name);
@@ -418,8 +610,10 @@ impl OutDir {
         )
         .with_context(|| format!("{shown}: cannot create a folder in {}", parent.display()))?;
         Ok(OutDir {
-            target: target.to_path_buf(),
+            shown: target.to_path_buf(),
+            target: real,
             tmp,
+            force: protected.force,
         })
     }
 
@@ -448,11 +642,20 @@ impl OutDir {
         write_atomic(&self.tmp.join(rel), bytes, &Protected::none())
     }
 
-    /// Put the finished folder in place, atomically (an exchange with the old folder on Linux).
-    pub fn commit(self) -> Result<()> {
-        std::fs::File::create(self.tmp.join(MARKER))
+    /// Put the finished folder in place, atomically (an exchange with the old folder on Linux),
+    /// with every file of the user's in the old folder kept (see [`OutDir`]).
+    pub fn commit(self) -> Result<Committed> {
+        let mut written = tree(&self.tmp)?.files;
+        written.sort();
+        let old_listed = listed(&self.target);
+        let mut done = if self.target.is_dir() {
+            self.keep_theirs(&old_listed)?
+        } else {
+            Committed::default()
+        };
+        std::fs::write(self.tmp.join(MARKER), marker_text(&written))
             .with_context(|| format!("{}: cannot write", self.tmp.display()))?;
-        let shown = self.target.display();
+        let shown = self.shown.display();
         let guard = temporaries();
         let swapped = if self.target.is_dir() {
             exchange(&self.tmp, &self.target)
@@ -461,13 +664,108 @@ impl OutDir {
         };
         if swapped.is_ok() {
             placed().push(resolve(&self.target));
+            let written: HashSet<PathBuf> = written.into_iter().collect();
+            done.previous = self.move_late_files(&old_listed, &written);
         }
         drop(guard);
         let result = swapped.with_context(|| format!("{shown}: cannot put the result in place"));
         // after an exchange the temporary name holds the previous result
         remove_any(&self.tmp);
         untrack(&self.tmp);
-        result
+        result.map(|_| done)
+    }
+
+    /// Hard-link every file of the user's in the old folder (every file the marker does not
+    /// list) into the new one, with the folders that hold them; refused, naming them, where
+    /// the new result has a file of the same path, unless forced.
+    fn keep_theirs(&self, listed: &HashSet<PathBuf>) -> Result<Committed> {
+        let mut old = tree(&self.target)?;
+        old.files.sort();
+        let theirs = old
+            .files
+            .into_iter()
+            .filter(|f| !listed.contains(f) && f.as_os_str() != MARKER);
+        let (replaced, kept): (Vec<PathBuf>, Vec<PathBuf>) =
+            theirs.partition(|f| std::fs::symlink_metadata(self.tmp.join(f)).is_ok());
+        if !replaced.is_empty() && !self.force {
+            anyhow::bail!(
+                "{}: {} not written by pumpcyl, at a path of the new result; move them away or \
+                 force the write (--force; force=True in Python)",
+                self.shown.display(),
+                names(&replaced)
+            );
+        }
+        // the user's folders: those that hold a kept file or no file of pumpcyl's
+        let dirs: Vec<&PathBuf> = old
+            .dirs
+            .iter()
+            .filter(|d| {
+                kept.iter().any(|f| f.starts_with(d)) || !listed.iter().any(|f| f.starts_with(d))
+            })
+            .collect();
+        let mut created = Vec::new();
+        for d in &dirs {
+            let new = self.tmp.join(d);
+            if !new.is_dir() {
+                std::fs::create_dir(&new)
+                    .with_context(|| format!("{}: cannot create", new.display()))?;
+                created.push(*d);
+            }
+        }
+        for f in &kept {
+            std::fs::hard_link(self.target.join(f), self.tmp.join(f)).with_context(|| {
+                format!(
+                    "{}: cannot keep {} (not written by pumpcyl) in the new result; move it \
+                     away or give another folder",
+                    self.shown.display(),
+                    f.display()
+                )
+            })?;
+        }
+        // the folders' permissions last, so that a read-only one could take its files
+        for d in created.iter().rev() {
+            if let Ok(meta) = std::fs::metadata(self.target.join(d)) {
+                let _ = std::fs::set_permissions(self.tmp.join(d), meta.permissions());
+            }
+        }
+        Ok(Committed {
+            kept,
+            replaced,
+            previous: None,
+        })
+    }
+
+    /// After the swap, move into the new folder every file of the user's that appeared in (or
+    /// was replaced in) the previous one during the run; returns where the previous folder was
+    /// left when one could not be moved.
+    fn move_late_files(
+        &self,
+        old_listed: &HashSet<PathBuf>,
+        written: &HashSet<PathBuf>,
+    ) -> Option<PathBuf> {
+        let previous = tree(&self.tmp).ok()?;
+        let mut stuck = false;
+        for f in previous.files {
+            if f.as_os_str() == MARKER || old_listed.contains(&f) || written.contains(&f) {
+                continue;
+            }
+            let to = self.target.join(&f);
+            let moved = to
+                .parent()
+                .map_or(Ok(()), std::fs::create_dir_all)
+                .and_then(|_| std::fs::rename(self.tmp.join(&f), &to));
+            stuck |= moved.is_err();
+        }
+        if !stuck {
+            return None;
+        }
+        let aside = parent_of(&self.target).join(format!(
+            "{}.pumpcyl-previous-{}",
+            file_name(&self.target).ok()?,
+            std::process::id()
+        ));
+        std::fs::rename(&self.tmp, &aside).ok()?;
+        Some(aside)
     }
 }
 

@@ -39,7 +39,7 @@ pub use certainty::Certainty;
 pub use summary::Summary;
 
 use crate::figures::{bode_markers, Chart};
-use crate::files::{OutDir, Protected};
+use crate::files::{Committed, OutDir, Protected};
 use crate::format::fmt_opt;
 use crate::html::{html_page, Block};
 use crate::plot::BodeSeries;
@@ -579,12 +579,23 @@ impl Reproduction {
     }
 
     /// Write the result folder `dir` whole or not at all ([`OutDir`]): built aside, then swapped
-    /// in; refused over a folder that is not an earlier pumpcyl result or that holds an input.
+    /// in, every file of the user's in it kept; refused over a non-empty folder that holds no
+    /// earlier pumpcyl result. [`Reproduction::write_with`] with nothing forced.
     ///
     /// # Errors
     /// The folder refused, or a write failed (the folder is then left as it was).
-    pub fn write(&self, dir: &Path) -> Result<()> {
-        let out = OutDir::begin(dir, &Protected::none())?;
+    pub fn write(&self, dir: &Path) -> Result<Committed> {
+        self.write_with(dir, &Protected::none())
+    }
+
+    /// [`Reproduction::write`], never over (or around) a `protected` file, and forced as
+    /// `protected` says ([`Protected::forcing`]). Returns what happened to the files of the
+    /// user's in the folder.
+    ///
+    /// # Errors
+    /// The folder refused, or a write failed (the folder is then left as it was).
+    pub fn write_with(&self, dir: &Path, protected: &Protected) -> Result<Committed> {
+        let out = OutDir::begin(dir, protected)?;
         for (path, bytes) in &self.folder()? {
             out.write(path, bytes)?;
         }
