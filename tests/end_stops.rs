@@ -87,3 +87,67 @@ fn a_loop_whose_rest_is_outside_the_stroke_is_refused() {
         assert!(!dir.path().join("e.csv").exists());
     }
 }
+
+/// The warnings of `pumpcyl ARGS`, from its standard error, and of its JSON document.
+fn linear_warnings(args: &[&str]) -> (Vec<String>, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = run::pumpcyl(dir.path(), args);
+    assert!(out.status.success(), "{args:?}");
+    let stderr: Vec<String> = String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .filter_map(|l| l.strip_prefix("warning: ").map(str::to_owned))
+        .collect();
+    let mut json_args = args.to_vec();
+    json_args.push("--json");
+    let doc = run::json(dir.path(), &json_args);
+    let in_json = doc["warnings"].as_array().map_or(vec![], |a| {
+        a.iter().map(|w| w.as_str().unwrap().to_owned()).collect()
+    });
+    (stderr, in_json)
+}
+
+#[test]
+fn a_linear_prediction_beyond_the_stroke_warns_in_text_and_json() {
+    // the article's loop overshoots a step by half: 154 mm from x0 = 345 mm peaks near 577 mm
+    let (text, json) = linear_warnings(&["step", "--step-mm", "154"]);
+    assert_eq!(text.len(), 1, "{text:?}");
+    assert!(
+        text[0].contains("reaches 576.") && text[0].contains("outside the stroke 0…500 mm"),
+        "{text:?}"
+    );
+    assert!(json.iter().any(|w| *w == text[0]), "{json:?}");
+    // a wave whose lag carries the prediction past the end
+    let (text, json) = linear_warnings(&["track", "--freq-hz", "0.2", "--amp-mm", "150"]);
+    assert!(
+        text.len() == 1 && text[0].contains("outside the stroke"),
+        "{text:?}"
+    );
+    assert_eq!(json, text);
+    // inside the stroke: no warning
+    for args in [
+        &["step", "--step-mm", "5"][..],
+        &["track", "--freq-hz", "0.2", "--amp-mm", "35"][..],
+    ] {
+        let (text, json) = linear_warnings(args);
+        assert!(text.is_empty() && json.is_empty(), "{args:?}: {text:?}");
+    }
+}
+
+#[test]
+fn simulate_warns_of_a_prediction_beyond_the_stroke() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("time_s,x_ref_mm,x_mm\n");
+    for k in 0..300 {
+        let t = k as f64 * 0.01;
+        let r = if t < 0.5 { 345.0 } else { 499.0 };
+        csv.push_str(&format!("{t:.2},{r},{r}\n"));
+    }
+    std::fs::write(dir.path().join("big.csv"), csv).unwrap();
+    let out = run::pumpcyl(dir.path(), &["simulate", "--data", "big.csv"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning: the predicted position reaches 5") && err.contains("0…500 mm"),
+        "{err}"
+    );
+}

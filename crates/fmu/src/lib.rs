@@ -734,4 +734,119 @@ mod tests {
         );
         assert!(uri_path("http://example.org/x").is_err());
     }
+
+    use pumpcyl::fmu::{Controller, ModelKind};
+    use pumpcyl::rig::Rig;
+
+    /// An instance of an FMU of `model` and `controller` on the article's rig, its
+    /// configuration written to a folder of its own; null callbacks (no logger).
+    fn instantiate(model: ModelKind, controller: Controller) -> *mut c_void {
+        let config = Config::new(model, controller, false, Rig::default());
+        let dir = std::env::temp_dir().join(format!(
+            "pumpcyl-fmu-test-{}-{model:?}-{controller:?}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(CONFIG_FILE), config.to_toml()).unwrap();
+        let uri = CString::new(format!("file://{}", dir.display())).unwrap();
+        let guid = CString::new(config.guid.clone()).unwrap();
+        // SAFETY: valid C strings; null callbacks are allowed
+        let c = unsafe {
+            fmi2Instantiate(
+                c"test".as_ptr(),
+                1,
+                guid.as_ptr(),
+                uri.as_ptr(),
+                std::ptr::null(),
+                0,
+                0,
+            )
+        };
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(!c.is_null(), "{model:?}/{controller:?} did not instantiate");
+        c
+    }
+
+    fn x(c: *mut c_void) -> (Status, f64) {
+        let mut v = f64::NAN;
+        // SAFETY: one value reference, one value
+        let status = unsafe { fmi2GetReal(c, &100u32, 1, &mut v) };
+        (status, v)
+    }
+
+    const KINDS: [(ModelKind, Controller); 4] = [
+        (ModelKind::Emulator, Controller::Article),
+        (ModelKind::Emulator, Controller::External),
+        (ModelKind::Linear, Controller::Article),
+        (ModelKind::Linear, Controller::External),
+    ];
+
+    #[test]
+    fn freed_unknown_and_wrong_phase_calls_are_errors_not_crashes() {
+        for (model, controller) in KINDS {
+            let c = instantiate(model, controller);
+            // SAFETY: every call gets the handle fmi2Instantiate gave, or one it never gave
+            unsafe {
+                assert_eq!(
+                    fmi2DoStep(c, 0.0, 0.01, 1),
+                    ERROR,
+                    "a step before initialisation"
+                );
+                assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 1e300, 0, 0.0), ERROR);
+                assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), OK);
+                assert_eq!(fmi2EnterInitializationMode(c), OK);
+                assert_eq!(fmi2ExitInitializationMode(c), OK);
+                assert_eq!(fmi2DoStep(c, 0.0, 0.01, 1), OK);
+                for (t, h) in [(0.01, 1e300), (0.01, f64::NAN), (0.01, -0.01), (-1.0, 0.01)] {
+                    assert_eq!(fmi2DoStep(c, t, h, 1), ERROR, "t {t}, h {h}");
+                }
+                assert_eq!(fmi2DoStep(c, 0.01, 0.01, 1), OK);
+                assert_eq!(fmi2Terminate(c), OK);
+                assert_eq!(
+                    fmi2DoStep(c, 0.02, 0.01, 1),
+                    ERROR,
+                    "a step after terminate"
+                );
+                let (status, last) = x(c);
+                assert_eq!(status, OK);
+                assert!((last - 0.345).abs() < 1e-3, "{last}");
+                assert_eq!(fmi2Reset(c), OK);
+                fmi2FreeInstance(c);
+                // freed: every call is an error, freeing again is harmless
+                assert_eq!(fmi2DoStep(c, 0.02, 0.01, 1), ERROR);
+                assert_eq!(x(c).0, ERROR);
+                assert_eq!(fmi2Terminate(c), ERROR);
+                assert_eq!(fmi2Reset(c), ERROR);
+                fmi2FreeInstance(c);
+                fmi2FreeInstance(c);
+            }
+        }
+        // handles never given out, null among them
+        for bogus in [
+            std::ptr::null_mut(),
+            usize::MAX as *mut c_void,
+            0xdead as *mut c_void,
+        ] {
+            // SAFETY: the handle is looked up, never dereferenced
+            unsafe {
+                assert_eq!(fmi2DoStep(bogus, 0.0, 0.01, 1), ERROR);
+                assert_eq!(fmi2ExitInitializationMode(bogus), ERROR);
+                fmi2FreeInstance(bogus);
+            }
+        }
+    }
+
+    #[test]
+    fn handles_are_not_reused() {
+        let a = instantiate(ModelKind::Linear, Controller::Article);
+        fmi2FreeInstance(a);
+        let b = instantiate(ModelKind::Linear, Controller::Article);
+        assert_ne!(a, b);
+        // SAFETY: handles from fmi2Instantiate
+        unsafe {
+            assert_eq!(fmi2SetupExperiment(a, 0, 0.0, 0.0, 0, 0.0), ERROR);
+            assert_eq!(fmi2SetupExperiment(b, 0, 0.0, 0.0, 0, 0.0), OK);
+        }
+        fmi2FreeInstance(b);
+    }
 }

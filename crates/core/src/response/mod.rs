@@ -3,10 +3,12 @@
 //! point and reported as absolute values in user units (mm, bar gauge, rpm).
 
 mod metrics;
+mod stroke;
 
 pub use metrics::{
     position_mse_until, step_metrics, track_metrics, StepMetrics, TrackMetrics, TrackWindow,
 };
+pub use stroke::{stroke_excursion, StrokeExcursion};
 
 use crate::lti::{LtiError, Simulator, StateSpace, Zoh};
 use crate::model::{Plant, SIM_OUTPUTS};
