@@ -647,7 +647,7 @@ impl PySimulation {
 }
 
 /// Warn (UserWarning) when the predicted position of `s` leaves the stroke of `rig`
-/// (docs/simulation.md#the-stroke).
+/// (docs/emulator.md#end-stops).
 fn warn_stroke(py: Python<'_>, rig: &Rig, s: &Signals) -> PyResult<()> {
     if let Some(e) = response::stroke_excursion(rig, s) {
         let category = py.get_type::<PyUserWarning>();
@@ -660,7 +660,7 @@ fn warn_stroke(py: Python<'_>, rig: &Rig, s: &Signals) -> PyResult<()> {
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
 /// operating-point pressures and motor speeds. An unstable closed loop is an error, so is a
 /// reference outside the stroke (as the command line's `simulate`); a predicted position
-/// outside it warns (UserWarning, docs/simulation.md#the-stroke).
+/// outside it warns (UserWarning, docs/emulator.md#end-stops).
 #[pyfunction]
 fn simulate(
     py: Python<'_>,
@@ -734,7 +734,7 @@ const STEP_WARN_BELOW_MM: f64 = 0.05;
 /// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
 /// sampled at `rate_hz` (Hz) for `duration_s` (s): metrics and signals. A step smaller than
 /// 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres; so does a
-/// predicted position outside the stroke (docs/simulation.md#the-stroke).
+/// predicted position outside the stroke (docs/emulator.md#end-stops).
 #[pyfunction]
 #[pyo3(signature = (rig, step_mm = 5.0, *, duration_s = 4.0, rate_hz = 100.0))]
 fn step(

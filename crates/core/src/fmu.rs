@@ -986,22 +986,20 @@ impl Instance {
         Ok(())
     }
 
-    /// Keep a note of the first end stop the emulated piston met.
+    /// Keep a note of the first end stop the emulated piston met (its time the instance's).
     fn note_end_stop(&mut self) {
         if self.end_stop_noted {
             return;
         }
-        let t = self.time_s();
         let hit = match self.sim.as_ref() {
-            Some(Sim::Plc { run, .. }) => run.end_stop().map(|h| EndStopAt(h, self.start_s)),
-            Some(Sim::Plant { dynamics, x }) => dynamics.end_stop(x, t).map(|h| EndStopAt(h, 0.0)),
+            Some(Sim::Plc { run, .. }) => run.end_stop().map(|h| emulator::EndStopHit {
+                at_s: h.at_s + self.start_s,
+                ..h
+            }),
+            Some(Sim::Plant { dynamics, x }) => dynamics.end_stop(x, self.time_s()),
             _ => None,
         };
-        if let Some(EndStopAt(hit, offset)) = hit {
-            let hit = emulator::EndStopHit {
-                at_s: hit.at_s + offset,
-                ..hit
-            };
+        if let Some(hit) = hit {
             self.note = Some(hit.to_string());
             self.end_stop_noted = true;
         }
@@ -1033,9 +1031,6 @@ impl Instance {
         Ok(out)
     }
 }
-
-/// An end stop met, and the offset (s) from its time to the instance's.
-struct EndStopAt(emulator::EndStopHit, f64);
 
 /// The emulator with the PLC advanced by `h` (s) on `clock`: at each PLC sample instant the
 /// PLC reads the reference and sends new commands `u`, held until the next. The integration

@@ -1,4 +1,4 @@
-//! Whether a predicted response stays inside the cylinder (docs/simulation.md#the-stroke): the
+//! Whether a predicted response stays inside the cylinder (docs/emulator.md#end-stops): the
 //! linear model of the article §2.3 has no end stops, so a large step or wave can predict a
 //! piston beyond x = 0 or the stroke, which the real cylinder cannot follow (the emulator's end
 //! stops hold it, docs/emulator.md#end-stops). One check, used by `step`, `track`, `simulate`
@@ -36,7 +36,7 @@ impl fmt::Display for StrokeExcursion {
             f,
             "the predicted position reaches {reach}, outside the stroke 0…{} mm, from t = {:.3} s: \
              the cylinder would hit its end stop there, which the linear model does not \
-             (docs/simulation.md#the-stroke)",
+             (docs/emulator.md#end-stops)",
             self.stroke_mm, self.first_s
         )
     }
