@@ -1,4 +1,4 @@
-"""Python's simulate and step against the stroke (docs/simulation.md#the-stroke): a reference
+"""Python's simulate and step against the stroke (docs/emulator.md#end-stops): a reference
 outside the cylinder is refused, as the command line refuses it, and a linear prediction that
 leaves the cylinder warns, with the core's one stroke check."""
 
