@@ -629,6 +629,8 @@ enum Sim {
     Plant {
         dynamics: Box<Dynamics>,
         x: Vec<f64>,
+        /// The first end stop the piston met, at the end of a PLC period.
+        end_stop: Option<emulator::EndStopHit>,
     },
     /// The linear model.
     Linear(Box<Linear>),
@@ -917,6 +919,7 @@ impl Instance {
                 Sim::Plant {
                     dynamics: Box::new(dynamics),
                     x,
+                    end_stop: None,
                 }
             }
         })
@@ -971,15 +974,20 @@ impl Instance {
         match self.sim.as_mut() {
             None => return Err(FmuError("the FMU is not initialised".into())),
             Some(Sim::Plc { run, u }) => plc_step(run, u, &inputs, clock, h_s)?,
-            Some(Sim::Plant { dynamics, x }) => {
+            Some(Sim::Plant {
+                dynamics,
+                x,
+                end_stop,
+            }) => {
                 // integrated a PLC period at a time, as the PLC loop is: BDF restarts at each
                 // period, so a long step through an end stop or cavitation does not stall it
                 dynamics.set_external_force_n(inputs[2]);
                 let u = [inputs[0], inputs[1]];
                 let ts = clock.period_s;
                 clock.advance(h_s, |k, from, to| {
-                    let base = k as f64 * ts;
-                    *x = emulator::hold_speeds(dynamics, x, u, base + from, base + to)?;
+                    let (t0, t1) = (k as f64 * ts + from, k as f64 * ts + to);
+                    *x = emulator::hold_speeds(dynamics, x, u, t0, t1)?;
+                    *end_stop = end_stop.or_else(|| dynamics.end_stop(x, t1));
                     Ok(())
                 })?;
             }
@@ -998,14 +1006,15 @@ impl Instance {
             return;
         }
         let hit = match self.sim.as_ref() {
-            Some(Sim::Plc { run, .. }) => run.end_stop().map(|h| emulator::EndStopHit {
-                at_s: h.at_s + self.start_s,
-                ..h
-            }),
-            Some(Sim::Plant { dynamics, x }) => dynamics.end_stop(x, self.time_s()),
+            Some(Sim::Plc { run, .. }) => run.end_stop(),
+            Some(Sim::Plant { end_stop, .. }) => *end_stop,
             _ => None,
         };
         if let Some(hit) = hit {
+            let hit = emulator::EndStopHit {
+                at_s: hit.at_s + self.start_s,
+                ..hit
+            };
             self.note = Some(hit.to_string());
             self.end_stop_noted = true;
         }
@@ -1016,7 +1025,7 @@ impl Instance {
         let (layout, x, u): (&Layout, Vec<f64>, Option<[f64; 2]>) = match self.sim.as_ref() {
             None => return Err(FmuError("outputs are known after initialisation".into())),
             Some(Sim::Plc { run, u }) => (run.dynamics().layout(), run.state().to_vec(), Some(*u)),
-            Some(Sim::Plant { dynamics, x }) => (dynamics.layout(), x.clone(), None),
+            Some(Sim::Plant { dynamics, x, .. }) => (dynamics.layout(), x.clone(), None),
             Some(Sim::Linear(lin)) => (&lin.layout, lin.absolute(), lin.commands(&self.inputs)),
         };
         let mut out = vec![
@@ -1617,6 +1626,8 @@ mod tests {
             assert!((x - end_m).abs() < 0.5e-3, "{w} rad/s: x {x} m");
             let note = fmu.take_note().unwrap_or_default();
             assert!(note.contains("end stop"), "{w} rad/s: {note:?}");
+            // met within seconds, not at the end of the step
+            assert!(!note.contains("t = 100.00 s"), "{w} rad/s: {note:?}");
         }
     }
 }
