@@ -68,9 +68,9 @@ struct Component {
     failed: bool,
 }
 
-/// A registry entry: a live instance, or who a freed one reported to.
+/// A registry entry: a live instance and whom it reports to, or whom a freed one reported to.
 enum Entry {
-    Live(Arc<Mutex<Component>>),
+    Live(Arc<Mutex<Component>>, Reporter),
     Freed(Reporter),
 }
 
@@ -102,8 +102,9 @@ fn register(comp: Component) -> *mut c_void {
     registry(|r| {
         let handle = r.next;
         r.next += 1;
+        let reporter = comp.reporter.clone();
         r.entries
-            .insert(handle, Entry::Live(Arc::new(Mutex::new(comp))));
+            .insert(handle, Entry::Live(Arc::new(Mutex::new(comp)), reporter));
         handle as *mut c_void
     })
 }
@@ -111,7 +112,7 @@ fn register(comp: Component) -> *mut c_void {
 /// What a handle names: a live instance, a freed one's reporter, or nothing.
 fn lookup(c: *mut c_void) -> Option<Result<Arc<Mutex<Component>>, Reporter>> {
     registry(|r| match r.entries.get(&(c as usize))? {
-        Entry::Live(comp) => Some(Ok(Arc::clone(comp))),
+        Entry::Live(comp, _) => Some(Ok(Arc::clone(comp))),
         Entry::Freed(rep) => Some(Err(rep.clone())),
     })
 }
@@ -120,11 +121,7 @@ fn lookup(c: *mut c_void) -> Option<Result<Arc<Mutex<Component>>, Reporter>> {
 fn unregister(c: *mut c_void) -> Option<Result<Arc<Mutex<Component>>, Reporter>> {
     let key = c as usize;
     registry(|r| match r.entries.remove(&key)? {
-        Entry::Live(comp) => {
-            let rep = comp
-                .lock()
-                .map(|g| g.reporter.clone())
-                .unwrap_or_else(|p| p.into_inner().reporter.clone());
+        Entry::Live(comp, rep) => {
             r.entries.insert(key, Entry::Freed(rep));
             r.freed.push_back(key);
             if r.freed.len() > FREED_REMEMBERED {
