@@ -1622,8 +1622,21 @@ mod tests {
             }
             fmu.do_step(0.0, MAX_STEP_S)
                 .unwrap_or_else(|e| panic!("{w} rad/s: {e}"));
-            let x = fmu.get_real(fmu.value_reference("x_m").unwrap()).unwrap();
+            let get = |name: &str| fmu.get_real(fmu.value_reference(name).unwrap()).unwrap();
+            let (x, v, p1, p2) = (get("x_m"), get("v_m_per_s"), get("p1_pa"), get("p2_pa"));
             assert!((x - end_m).abs() < 0.5e-3, "{w} rad/s: x {x} m");
+            // at rest on the stop, which carries the hydraulic force: the piston sinks into it
+            // by that force over the stop's stiffness m ω_s² (docs/emulator.md#end-stops)
+            let (rig, _) = emulated_rig();
+            let si = rig.si();
+            let force = p1 * si.a1 - p2 * si.a2 - rig.external_force_n;
+            let k = rig.mass_kg * emulator::CONTACT_RAD_S.powi(2);
+            let (sunk, want) = (x - end_m, force / k);
+            assert!(v.abs() < 1e-6, "{w} rad/s: still moving at {v} m/s");
+            assert!(
+                (sunk - want).abs() < 0.01 * want.abs() + 1e-9,
+                "{w} rad/s: sank {sunk} m, force {force} N over k: {want} m"
+            );
             let note = fmu.take_note().unwrap_or_default();
             assert!(note.contains("end stop"), "{w} rad/s: {note:?}");
             // met within seconds, not at the end of the step
