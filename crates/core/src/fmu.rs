@@ -8,6 +8,10 @@
 //! over it (crates/fmu), and the files of the FMU (modelDescription.xml, the archive) are
 //! written by the presentation layer from the same [`variables`].
 //!
+//! Every call is bounded and checked before it works: a step of at most [`MAX_STEP_S`] from
+//! the instance's own time (whole PLC periods counted from the start), a start time within
+//! ±[`MAX_START_S`], and each call only in the [`Phase`] that allows it (docs/fmu.md#limits).
+//!
 //! ```
 //! use pumpcyl::fmu::{Config, Controller, Instance, ModelKind};
 //! use pumpcyl::rig::Rig;
