@@ -5,6 +5,7 @@ time beyond the limit are each fmi2Error with a reason in the log, for all four 
 a step started at 10^6 s gives what one started at 0 gives."""
 
 import ctypes
+import zipfile
 
 import numpy as np
 import pytest
@@ -19,17 +20,26 @@ OK, ERROR = 0, 3
 
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
+    """Each kind of FMU written once and unpacked once (into pytest's own temporary folder)."""
     d = tmp_path_factory.mktemp("robust")
-    return {k: pumpcyl.fmu(None, d / f"{k[0]}-{k[1]}.fmu", k[0], controller=k[1]) for k in KINDS}
+    out = {}
+    for model, controller in KINDS:
+        path = pumpcyl.fmu(None, d / f"{model}-{controller}.fmu", model, controller=controller)
+        unpacked = d / f"{model}-{controller}"
+        with zipfile.ZipFile(path) as z:
+            z.extractall(unpacked)
+        out[(model, controller)] = (path, unpacked)
+    return out
 
 
 class Slave:
     """One instance through FMPy's low-level calls, its log collected."""
 
-    def __init__(self, fmpy, path):
+    def __init__(self, fmpy, fmu):
         from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
         from fmpy.logging import addLoggerProxy
 
+        path, unpacked = fmu
         md = fmpy.read_model_description(str(path))
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.log = []
@@ -40,7 +50,7 @@ class Slave:
         self.callbacks = fmi2CallbackFunctions()
         self.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
         addLoggerProxy(ctypes.byref(self.callbacks))
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(path)),
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=str(unpacked),
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName="robust")
         self.fmu.instantiate(callbacks=self.callbacks)
         self.handle = self.fmu.component
