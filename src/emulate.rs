@@ -6,7 +6,8 @@ use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use pumpcyl::emulator::article::{self, Emulated, Kind};
 use pumpcyl::emulator::{
-    DriveStep, Effects, Experiment, Plc, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
+    DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc, DRIVE_RATE_HZ, DRIVE_RECORD_S,
+    PLC_RATE_HZ,
 };
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
@@ -127,9 +128,8 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let plan = experiment(args, kind, &rig, plc.rate_hz)?;
     check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
     let truth = article::Truth { rig, effects, plc };
-    let data = plan
-        .run(&truth)
-        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let (data, end_stop) =
+        run_plan(&plan, &truth).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     let basis =
         pumpcyl_present::emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
     write_atomic(out, data.csv().as_bytes())?;
@@ -144,13 +144,26 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         ),
         Emulated::Drive(_) => String::new(),
     };
+    let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
     Ok(format!(
-        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)
-{basis}
-{warnings}",
+        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
         out.display(),
         data.len()
     ))
+}
+
+/// Emulate the plan: its record and, for the closed loop, the end stop its piston met.
+fn run_plan(
+    plan: &Kind,
+    truth: &article::Truth,
+) -> Result<(Emulated, Option<EndStopHit>), EmulatorError> {
+    Ok(match plan {
+        Kind::Loop(e) => {
+            let em = e.run_noted(&truth.rig, truth.effects, &truth.plc)?;
+            (Emulated::Loop(em.signals), em.end_stop)
+        }
+        Kind::Drive(_) => (plan.run(truth)?, None),
+    })
 }
 
 /// The rig: a file, or the emulated article rig, with --set applied.

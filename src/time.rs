@@ -187,6 +187,42 @@ fn check_in_stroke(rig: &Rig, what: &str, lo_mm: f64, hi_mm: f64) -> Result<()> 
         .map_err(|e| anyhow::anyhow!("{what}: {e}"))
 }
 
+/// Warn of every run whose predicted position leaves the stroke of `rig`
+/// ([`response::stroke_excursion`]) on standard error, and return the warnings, each named
+/// by its run when there are several.
+fn stroke_warnings<M>(rig: &Rig, runs: &Runs<M>) -> Vec<String> {
+    let several = runs.done.len() > 1;
+    let warnings: Vec<String> = runs
+        .done
+        .iter()
+        .filter_map(|run| {
+            let e = response::stroke_excursion(rig, &run.signals)?;
+            Some(if several {
+                format!("{}: {e}", run.label)
+            } else {
+                e.to_string()
+            })
+        })
+        .collect();
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    warnings
+}
+
+/// The JSON document `doc` with `warnings` added to its `warnings` list (made if absent).
+fn with_warnings(mut doc: serde_json::Value, warnings: &[String]) -> Result<String> {
+    if let (false, Some(obj)) = (warnings.is_empty(), doc.as_object_mut()) {
+        let list = obj
+            .entry("warnings")
+            .or_insert_with(|| serde_json::Value::Array(Vec::new()));
+        if let Some(list) = list.as_array_mut() {
+            list.extend(warnings.iter().cloned().map(serde_json::Value::String));
+        }
+    }
+    Ok(json_document(&doc)?)
+}
+
 /// Write signals by the extension of `path`: the CSV `csv` makes, the MAT-file `mat` makes or
 /// the figure `chart` makes (SVG or PNG).
 fn write_signals(
@@ -243,8 +279,9 @@ pub fn step(args: &StepArgs) -> Result<String> {
             || Chart::signals(&title, Some(&subtitle), &series, None, None),
         )?;
     }
+    let warnings = stroke_warnings(&rig, &runs);
     if args.opts.json {
-        return Ok(json_document(&step_json(&setup, &runs))?);
+        return with_warnings(step_json(&setup, &runs), &warnings);
     }
     Ok(step_text(&setup, &runs))
 }
@@ -296,8 +333,9 @@ pub fn track(args: &TrackArgs) -> Result<String> {
         )?;
     }
     let origin = args.rig.origin();
+    let warnings = stroke_warnings(&rig, &runs);
     if args.opts.json {
-        return Ok(json_document(&track_json(&origin, &runs))?);
+        return with_warnings(track_json(&origin, &runs), &warnings);
     }
     Ok(track_text(&origin, &runs))
 }
@@ -357,8 +395,9 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
             || Chart::signals(&title, Some(&subtitle), &series, Some(&measured), mark),
         )?;
     }
+    let warnings = stroke_warnings(&rig, &runs);
     if args.opts.json {
-        return Ok(json_document(&simulate_json(&replay, &runs))?);
+        return with_warnings(simulate_json(&replay, &runs), &warnings);
     }
     Ok(simulate_text(&replay, &runs))
 }

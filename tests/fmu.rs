@@ -130,3 +130,18 @@ fn bad_options_and_parameters_write_nothing() {
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn an_emulator_that_would_rest_outside_its_cylinder_is_not_written() {
+    // kp 1e-6 rests 1 373 m below the cylinder, kp 1e-3 about a metre: refused when the file
+    // is written (docs/emulator.md#end-stops), not in the user's simulator
+    let dir = tempfile::tempdir().unwrap();
+    for (kp, rest) in [("kp=1e-6", "x = -1373"), ("kp=1e-3", "x = -10")] {
+        run::refused(
+            dir.path(),
+            &["fmu", "--set", kp, "--out", "weak.fmu"],
+            &["would not start", rest, "outside the stroke 0…500 mm"],
+        );
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

@@ -656,9 +656,21 @@ impl PySimulation {
     }
 }
 
+/// Warn (UserWarning) when the predicted position of `s` leaves the stroke of `rig`
+/// (docs/emulator.md#end-stops).
+fn warn_stroke(py: Python<'_>, rig: &Rig, s: &Signals) -> PyResult<()> {
+    if let Some(e) = response::stroke_excursion(rig, s) {
+        let category = py.get_type::<PyUserWarning>();
+        PyErr::warn(py, category.as_any(), &CString::new(e.to_string())?, 1)?;
+    }
+    Ok(())
+}
+
 /// Simulate the closed loop (exact zero-order hold, docs/simulation.md) driven by `x_ref_mm`
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
-/// operating-point pressures and motor speeds. An unstable closed loop is an error.
+/// operating-point pressures and motor speeds. An unstable closed loop is an error, so is a
+/// reference outside the stroke (as the command line's `simulate`); a predicted position
+/// outside it warns (UserWarning, docs/emulator.md#end-stops).
 #[pyfunction]
 fn simulate(
     py: Python<'_>,
@@ -671,7 +683,11 @@ fn simulate(
         floats(&arg("t_s"), t_s)?,
         floats(&arg("x_ref_mm"), x_ref_mm)?,
     );
-    Record::from_arrays("simulate", &t, &r, &r).map_err(err)?;
+    let rec = Record::from_arrays("simulate", &t, &r, &r).map_err(err)?;
+    let (lo, hi) = rec.reference_range_mm();
+    rig.rig
+        .check_reference(lo, hi)
+        .map_err(|e| err(format!("simulate: x_ref_mm: {e}")))?;
     let mut base = Baseline::of_rig(&rig.rig);
     base.x_ref_mm = r[0];
     base.x_mm = r[0];
@@ -679,6 +695,7 @@ fn simulate(
     let s = py
         .detach(|| response::simulate(&rig, &t, &r, &base))
         .map_err(err)?;
+    warn_stroke(py, &rig, &s)?;
     Ok(PySimulation::of(py, &s))
 }
 
@@ -726,7 +743,8 @@ const STEP_WARN_BELOW_MM: f64 = 0.05;
 
 /// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
 /// sampled at `rate_hz` (Hz) for `duration_s` (s): metrics and signals. A step smaller than
-/// 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres.
+/// 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres; so does a
+/// predicted position outside the stroke (docs/emulator.md#end-stops).
 #[pyfunction]
 #[pyo3(signature = (rig, step_mm = 5.0, *, duration_s = 4.0, rate_hz = 100.0))]
 fn step(
@@ -754,6 +772,7 @@ fn step(
             Ok::<_, lti::LtiError>((s, m))
         })
         .map_err(err)?;
+    warn_stroke(py, &rig, &s)?;
     let init = PyClassInitializer::from(PySimulation::of(py, &s)).add_subclass(PyStep {
         step_mm: m.step_mm,
         rise_time_s: m.rise_time_s,

@@ -8,6 +8,10 @@
 //! over it (crates/fmu), and the files of the FMU (modelDescription.xml, the archive) are
 //! written by the presentation layer from the same [`variables`].
 //!
+//! Every call is bounded and checked before it works: a step of at most [`MAX_STEP_S`] from
+//! the instance's own time (whole PLC periods counted from the start), a start time within
+//! ±[`MAX_START_S`], and each call only in the [`Phase`] that allows it (docs/fmu.md#limits).
+//!
 //! ```
 //! use pumpcyl::fmu::{Config, Controller, Instance, ModelKind};
 //! use pumpcyl::rig::Rig;
@@ -522,6 +526,30 @@ fn rest(model: ModelKind, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
     Plant::new(rig).rest_state(loaded)
 }
 
+/// The longest communication step one `do_step` accepts (s): 100 s, 10⁴ PLC periods of the
+/// emulator, so no call works for more than seconds (docs/fmu.md#limits).
+pub const MAX_STEP_S: f64 = 100.0;
+
+/// The largest start time accepted (s, either sign): 10⁹ s, where a double still resolves
+/// 10⁻⁷ s, a hundred-thousandth of the PLC period (docs/fmu.md#limits).
+pub const MAX_START_S: f64 = 1e9;
+
+/// Where an instance is in the life of an FMI 2.0 Co-Simulation slave (the FMI 2.0.4
+/// standard, section 4.2.4): each call is allowed in some phases only, refused in the others.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Made (or reset): parameters and the start time may be set.
+    Instantiated,
+    /// Between entering and leaving initialisation mode: parameters and inputs may be set.
+    Initialising,
+    /// Initialised: steps may be done, inputs set, outputs read.
+    Stepping,
+    /// Terminated: outputs may be read; only a reset starts it again.
+    Terminated,
+    /// A step failed part-way: outputs may be read; only a reset starts it again.
+    Failed,
+}
+
 /// A running FMU: its configuration, the parameters as set, the inputs, and after
 /// initialisation the simulation.
 pub struct Instance {
@@ -530,7 +558,71 @@ pub struct Instance {
     parameters: toml::Table,
     inputs: Vec<f64>,
     sim: Option<Sim>,
+    phase: Phase,
     start_s: f64,
+    clock: Clock,
+    /// What the run has to report once (an end stop met), until [`Instance::take_note`].
+    note: Option<String>,
+    /// An end stop already reported.
+    end_stop_noted: bool,
+}
+
+/// The instance's own time since the start: whole PLC periods counted as an integer and the
+/// time into the current one, so a run started at 10⁶ s steps exactly as one started at 0
+/// (docs/fmu.md#limits).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Clock {
+    period_s: f64,
+    periods: u64,
+    into_period_s: f64,
+}
+
+impl Clock {
+    fn new() -> Clock {
+        Clock {
+            period_s: 1.0 / PLC_RATE_HZ,
+            periods: 0,
+            into_period_s: 0.0,
+        }
+    }
+
+    /// Time since the start (s).
+    fn elapsed_s(&self) -> f64 {
+        self.periods as f64 * self.period_s + self.into_period_s
+    }
+
+    /// Advance by `h_s`, calling `piece(period, from, to)` for each part within one period
+    /// (`from`, `to` in seconds into that period; `from` = 0 is a PLC sample instant). The end
+    /// is found first, as whole periods and a remainder, so no rounding accumulates over the
+    /// pieces; an end within 10⁻⁹ of a period of a boundary is the boundary.
+    fn advance(
+        &mut self,
+        h_s: f64,
+        mut piece: impl FnMut(u64, f64, f64) -> Result<(), FmuError>,
+    ) -> Result<(), FmuError> {
+        let (ts, tol) = (self.period_s, 1e-9 * self.period_s);
+        let total = self.into_period_s + h_s;
+        let mut whole = (total / ts).floor();
+        let mut rest = total - whole * ts;
+        if rest > ts - tol {
+            whole += 1.0;
+            rest = 0.0;
+        } else if rest < tol {
+            rest = 0.0;
+        }
+        let end = self.periods + whole as u64;
+        while self.periods < end || self.into_period_s < rest {
+            let to = if self.periods < end { ts } else { rest };
+            piece(self.periods, self.into_period_s, to)?;
+            if to == ts {
+                self.periods += 1;
+                self.into_period_s = 0.0;
+            } else {
+                self.into_period_s = to;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The simulation behind an initialised instance.
@@ -541,6 +633,8 @@ enum Sim {
     Plant {
         dynamics: Box<Dynamics>,
         x: Vec<f64>,
+        /// The first end stop the piston met, at the end of a PLC period.
+        end_stop: Option<emulator::EndStopHit>,
     },
     /// The linear model.
     Linear(Box<Linear>),
@@ -579,8 +673,103 @@ impl Instance {
             parameters,
             inputs,
             sim: None,
+            phase: Phase::Instantiated,
             start_s: 0.0,
+            clock: Clock::new(),
+            note: None,
+            end_stop_noted: false,
         })
+    }
+
+    /// Where the instance is in its life.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Refuse `what` unless the instance is in one of `allowed`.
+    fn require(&self, what: &str, allowed: &[Phase]) -> Result<(), FmuError> {
+        if allowed.contains(&self.phase) {
+            return Ok(());
+        }
+        let why = match self.phase {
+            Phase::Instantiated => "the instance is not initialised",
+            Phase::Initialising => "the instance is in initialisation mode",
+            Phase::Stepping => "the instance is already initialised",
+            Phase::Terminated => "the instance is terminated (reset it to run again)",
+            Phase::Failed => "a step failed part-way (reset the instance to run again)",
+        };
+        Err(FmuError(format!("{what}: {why}")))
+    }
+
+    /// Set the start time (s; fmi2SetupExperiment), before initialisation. A start time that
+    /// is not finite or beyond ±[`MAX_START_S`] is refused.
+    pub fn setup_experiment(&mut self, start_s: f64) -> Result<(), FmuError> {
+        self.require("setting up the experiment", &[Phase::Instantiated])?;
+        self.set_start(start_s)
+    }
+
+    /// Take `start_s` as the start time, refused beyond ±[`MAX_START_S`].
+    fn set_start(&mut self, start_s: f64) -> Result<(), FmuError> {
+        if !(start_s.is_finite() && start_s.abs() <= MAX_START_S) {
+            return Err(FmuError(format!(
+                "start time {start_s} s: must be a finite number within ±{MAX_START_S:e} s \
+                 (docs/fmu.md#limits)"
+            )));
+        }
+        self.start_s = start_s;
+        Ok(())
+    }
+
+    /// Enter initialisation mode (fmi2EnterInitializationMode).
+    pub fn enter_initialization(&mut self) -> Result<(), FmuError> {
+        self.require("entering initialisation mode", &[Phase::Instantiated])?;
+        self.phase = Phase::Initialising;
+        Ok(())
+    }
+
+    /// Leave initialisation mode (fmi2ExitInitializationMode): check the parameters and start
+    /// the simulation at the start time, the emulator at rest at the reference's start value
+    /// (then run for the PLC's settling time, as `pumpcyl emulate` does), the linear model at
+    /// its operating point.
+    pub fn exit_initialization(&mut self) -> Result<(), FmuError> {
+        self.require("leaving initialisation mode", &[Phase::Initialising])?;
+        let rig = self.rig()?;
+        let f_ext = *self.inputs.last().expect("f_ext_n is always an input");
+        let rig = Rig {
+            external_force_n: f_ext,
+            ..rig
+        };
+        self.sim = Some(match self.config.model {
+            ModelKind::Emulator => self.emulator(&rig)?,
+            ModelKind::Linear => Sim::Linear(Box::new(Linear::new(&rig, self.config.controller)?)),
+        });
+        self.clock = Clock::new();
+        self.phase = Phase::Stepping;
+        Ok(())
+    }
+
+    /// End the run (fmi2Terminate): outputs stay readable, steps are refused.
+    pub fn terminate(&mut self) -> Result<(), FmuError> {
+        self.require("terminating", &[Phase::Stepping, Phase::Failed])?;
+        self.phase = Phase::Terminated;
+        Ok(())
+    }
+
+    /// Back to the instance as made (fmi2Reset): parameters and inputs at their start values.
+    pub fn reset(&mut self) -> Result<(), FmuError> {
+        *self = Instance::new(self.config.clone())?;
+        Ok(())
+    }
+
+    /// The instance's own time (s): the start time and the steps done since.
+    pub fn time_s(&self) -> f64 {
+        self.start_s + self.clock.elapsed_s()
+    }
+
+    /// A note the run has for the host, once (the first end stop the emulated piston met,
+    /// docs/emulator.md#end-stops).
+    pub fn take_note(&mut self) -> Option<String> {
+        self.note.take()
     }
 
     /// The configuration it was made from.
@@ -614,6 +803,10 @@ impl Instance {
         let v = self.variable(vr)?.clone();
         match (v.causality, v.start) {
             (Causality::Input, _) => {
+                self.require(
+                    &format!("setting input `{}`", v.name),
+                    &[Phase::Instantiated, Phase::Initialising, Phase::Stepping],
+                )?;
                 if !value.is_finite() {
                     return Err(FmuError(format!(
                         "input `{}` = {value}: must be finite",
@@ -642,7 +835,7 @@ impl Instance {
     }
 
     fn set_parameter(&mut self, key: &str, value: toml::Value) -> Result<(), FmuError> {
-        if self.sim.is_some() {
+        if !matches!(self.phase, Phase::Instantiated | Phase::Initialising) {
             return Err(FmuError(format!(
                 "parameter `{key}` is fixed after initialisation"
             )));
@@ -692,25 +885,17 @@ impl Instance {
         Rig::from_toml_str(&text, "the FMU's parameters").map_err(|e| FmuError(e.to_string()))
     }
 
-    /// Check the parameters and start the simulation at `start_s` (s): the emulator at rest at
-    /// the reference's start value (then run for the PLC's settling time, as `pumpcyl emulate`
-    /// does), the linear model at its operating point.
+    /// Set the start time, enter and leave initialisation mode: the whole of an FMI host's
+    /// start ([`Instance::setup_experiment`], [`Instance::exit_initialization`]). After a
+    /// start refused for a bad parameter, a second call (the parameter set right) starts it.
     pub fn initialize(&mut self, start_s: f64) -> Result<(), FmuError> {
-        if !start_s.is_finite() {
-            return Err(FmuError(format!("start time {start_s}: must be finite")));
+        if self.phase == Phase::Initialising {
+            self.set_start(start_s)?;
+        } else {
+            self.setup_experiment(start_s)?;
+            self.enter_initialization()?;
         }
-        let rig = self.rig()?;
-        let f_ext = *self.inputs.last().expect("f_ext_n is always an input");
-        let rig = Rig {
-            external_force_n: f_ext,
-            ..rig
-        };
-        self.sim = Some(match self.config.model {
-            ModelKind::Emulator => self.emulator(&rig)?,
-            ModelKind::Linear => Sim::Linear(Box::new(Linear::new(&rig, self.config.controller)?)),
-        });
-        self.start_s = start_s;
-        Ok(())
+        self.exit_initialization()
     }
 
     /// The emulator's effects: those of the parameters' rig (its `beta_bar` at its own mean
@@ -738,6 +923,7 @@ impl Instance {
                 Sim::Plant {
                     dynamics: Box::new(dynamics),
                     x,
+                    end_stop: None,
                 }
             }
         })
@@ -746,24 +932,95 @@ impl Instance {
     /// Advance from `t_s` by `h_s` (s), the inputs held. With the article's controller the
     /// emulator's PLC samples at its own rate (docs/fmu.md#sample-rate): a step that does not
     /// divide the PLC period is integrated in pieces, the commands changing only at the PLC's
-    /// sample instants.
+    /// sample instants, counted as whole periods from the start time.
+    ///
+    /// # Errors
+    /// A step that is not a number in (0, [`MAX_STEP_S`]], a communication point `t_s` that is
+    /// not the instance's own time ([`Instance::time_s`], within 10⁻⁶ of the step plus 10⁻⁹ of
+    /// the time, at most half the step), a call outside [`Phase::Stepping`], or the simulation failing (the instance
+    /// then goes to [`Phase::Failed`]).
     pub fn do_step(&mut self, t_s: f64, h_s: f64) -> Result<(), FmuError> {
-        if !(h_s.is_finite() && h_s > 0.0 && t_s.is_finite()) {
+        self.require("doing a step", &[Phase::Stepping])?;
+        self.check_step(t_s, h_s)?;
+        let result = self.advance(h_s);
+        if result.is_err() {
+            self.phase = Phase::Failed;
+        }
+        result
+    }
+
+    /// Refuse a step length out of (0, [`MAX_STEP_S`]] or a communication point that is not
+    /// the instance's own time.
+    fn check_step(&self, t_s: f64, h_s: f64) -> Result<(), FmuError> {
+        if !(h_s > 0.0 && h_s <= MAX_STEP_S) {
             return Err(FmuError(format!(
-                "communication step {h_s} s at {t_s} s: must be finite and > 0"
+                "communication step {h_s} s: must be > 0 and at most {MAX_STEP_S} s, the work \
+                 one call may take (docs/fmu.md#limits)"
             )));
         }
+        let own = self.time_s();
+        // a master's rounding, never as much as half a step (a step skipped or repeated)
+        let tol = (1e-6 * h_s + 1e-9 * own.abs().max(1.0)).min(0.5 * h_s);
+        let off = (t_s - own).abs();
+        if off.is_nan() || off > tol {
+            return Err(FmuError(format!(
+                "communication point {t_s} s: the instance is at {own} s; each step starts \
+                 where the last one ended (docs/fmu.md#limits)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The simulation over `h_s` (s) from the instance's own time.
+    fn advance(&mut self, h_s: f64) -> Result<(), FmuError> {
         let inputs = self.inputs.clone();
-        let start = self.start_s;
+        let clock = &mut self.clock;
         match self.sim.as_mut() {
-            None => Err(FmuError("the FMU is not initialised".into())),
-            Some(Sim::Plc { run, u }) => plc_step(run, u, &inputs, t_s - start, h_s),
-            Some(Sim::Plant { dynamics, x }) => {
+            None => return Err(FmuError("the FMU is not initialised".into())),
+            Some(Sim::Plc { run, u }) => plc_step(run, u, &inputs, clock, h_s)?,
+            Some(Sim::Plant {
+                dynamics,
+                x,
+                end_stop,
+            }) => {
+                // integrated a PLC period at a time, as the PLC loop is: BDF restarts at each
+                // period, so a long step through an end stop or cavitation does not stall it
                 dynamics.set_external_force_n(inputs[2]);
-                *x = emulator::hold_speeds(dynamics, x, [inputs[0], inputs[1]], t_s, t_s + h_s)?;
-                Ok(())
+                let u = [inputs[0], inputs[1]];
+                let ts = clock.period_s;
+                clock.advance(h_s, |k, from, to| {
+                    let (t0, t1) = (k as f64 * ts + from, k as f64 * ts + to);
+                    *x = emulator::hold_speeds(dynamics, x, u, t0, t1)?;
+                    *end_stop = end_stop.or_else(|| dynamics.end_stop(x, t1));
+                    Ok(())
+                })?;
             }
-            Some(Sim::Linear(lin)) => lin.step(&inputs, h_s),
+            Some(Sim::Linear(lin)) => {
+                lin.step(&inputs, h_s)?;
+                clock.advance(h_s, |_, _, _| Ok(()))?;
+            }
+        }
+        self.note_end_stop();
+        Ok(())
+    }
+
+    /// Keep a note of the first end stop the emulated piston met (its time the instance's).
+    fn note_end_stop(&mut self) {
+        if self.end_stop_noted {
+            return;
+        }
+        let hit = match self.sim.as_ref() {
+            Some(Sim::Plc { run, .. }) => run.end_stop(),
+            Some(Sim::Plant { end_stop, .. }) => *end_stop,
+            _ => None,
+        };
+        if let Some(hit) = hit {
+            let hit = emulator::EndStopHit {
+                at_s: hit.at_s + self.start_s,
+                ..hit
+            };
+            self.note = Some(hit.to_string());
+            self.end_stop_noted = true;
         }
     }
 
@@ -772,7 +1029,7 @@ impl Instance {
         let (layout, x, u): (&Layout, Vec<f64>, Option<[f64; 2]>) = match self.sim.as_ref() {
             None => return Err(FmuError("outputs are known after initialisation".into())),
             Some(Sim::Plc { run, u }) => (run.dynamics().layout(), run.state().to_vec(), Some(*u)),
-            Some(Sim::Plant { dynamics, x }) => (dynamics.layout(), x.clone(), None),
+            Some(Sim::Plant { dynamics, x, .. }) => (dynamics.layout(), x.clone(), None),
             Some(Sim::Linear(lin)) => (&lin.layout, lin.absolute(), lin.commands(&self.inputs)),
         };
         let mut out = vec![
@@ -794,33 +1051,27 @@ impl Instance {
     }
 }
 
-/// The emulator with the PLC from `t` (relative to the start) by `h` (s): at each PLC sample
-/// instant in [t, t + h) the PLC reads the reference and sends new commands `u`.
+/// The emulator with the PLC advanced by `h` (s) on `clock`: at each PLC sample instant the
+/// PLC reads the reference and sends new commands `u`, held until the next. The integration
+/// runs over the same instants as `pumpcyl emulate` (period k from k·T to k·T + T).
 fn plc_step(
     run: &mut PlcLoop,
     u: &mut [f64; 2],
     inputs: &[f64],
-    t: f64,
+    clock: &mut Clock,
     h: f64,
 ) -> Result<(), FmuError> {
     run.set_external_force_n(inputs[1]);
     let ts = run.period_s();
-    let tol = 1e-9 * ts;
-    let end = t + h;
-    let mut now = t;
-    while now < end - tol {
-        let k = ((now + tol) / ts).floor();
-        let sample_t = k * ts;
-        let at_sample = (now - sample_t).abs() <= tol;
-        if at_sample {
+    clock.advance(h, |k, from, to| {
+        if from == 0.0 {
             *u = run.sample(inputs[0] * 1e3).1;
         }
-        let next = sample_t + ts;
-        let to = if next <= end + tol { next } else { end };
-        run.hold(*u, if at_sample { sample_t } else { now }, to)?;
-        now = to;
-    }
-    Ok(())
+        let base = k as f64 * ts;
+        let end = if to == ts { base + ts } else { base + to };
+        run.hold(*u, base + from, end)?;
+        Ok(())
+    })
 }
 
 impl Linear {
@@ -1156,5 +1407,244 @@ mod tests {
         }
         // the configuration reads back, with its GUID
         assert_eq!(Config::from_toml(&c.to_toml()).unwrap(), c);
+    }
+
+    /// x (m) after each of `n` 10 ms steps of a 5 mm step (at the third step), the instance
+    /// started at `start_s` and the master's communication point `t(k)`.
+    fn step_from(config: &Config, start_s: f64, t: impl Fn(usize, f64) -> f64) -> Vec<f64> {
+        let mut fmu = Instance::new(config.clone()).unwrap();
+        let (xr, x) = (
+            fmu.value_reference("x_ref_m").unwrap(),
+            fmu.value_reference("x_m").unwrap(),
+        );
+        let x0 = config.rig.x0_mm * 1e-3;
+        fmu.initialize(start_s).unwrap();
+        let mut now = start_s;
+        (0..120)
+            .map(|k| {
+                fmu.set_real(xr, if k < 3 { x0 } else { x0 + 5e-3 })
+                    .unwrap();
+                now = t(k, now);
+                fmu.do_step(now, 0.01).unwrap();
+                fmu.get_real(x).unwrap()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_run_started_late_steps_as_one_started_at_zero() {
+        let (rig, _) = emulated_rig();
+        for model in [ModelKind::Emulator, ModelKind::Linear] {
+            let config = Config::new(model, Controller::Article, true, rig.clone());
+            let at_zero = step_from(&config, 0.0, |k, _| k as f64 * 0.01);
+            // a master that adds the step to its time, and one that multiplies it out
+            let adding = step_from(&config, 1e6, |k, t| if k == 0 { t } else { t + 0.01 });
+            let multiplying = step_from(&config, 1e6, |k, _| 1e6 + k as f64 * 0.01);
+            let moved = at_zero
+                .iter()
+                .fold(0.0_f64, |m, x| m.max((x - at_zero[0]).abs()));
+            assert!(moved > 4e-3, "{model:?}: the step moved {moved} m");
+            for (name, late) in [("t += h", adding), ("t0 + k h", multiplying)] {
+                let worst = late
+                    .iter()
+                    .zip(&at_zero)
+                    .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+                assert!(
+                    worst < 1e-9,
+                    "{model:?}, {name}: {worst} m from the run at 0"
+                );
+            }
+        }
+    }
+
+    /// Every kind of FMU: (model, controller).
+    const KINDS: [(ModelKind, Controller); 4] = [
+        (ModelKind::Emulator, Controller::Article),
+        (ModelKind::Emulator, Controller::External),
+        (ModelKind::Linear, Controller::Article),
+        (ModelKind::Linear, Controller::External),
+    ];
+
+    fn started(model: ModelKind, controller: Controller, start_s: f64) -> Instance {
+        let (rig, _) = emulated_rig();
+        let mut fmu = Instance::new(Config::new(model, controller, true, rig)).unwrap();
+        fmu.initialize(start_s).unwrap();
+        fmu
+    }
+
+    #[test]
+    fn steps_beyond_the_limit_or_not_a_number_are_refused_and_change_nothing() {
+        for (model, controller) in KINDS {
+            let mut fmu = started(model, controller, 0.0);
+            let x = fmu.value_reference("x_m").unwrap();
+            fmu.do_step(0.0, 0.01).unwrap();
+            let before = fmu.get_real(x).unwrap();
+            for h in [
+                1e300,
+                1e7,
+                1e5,
+                MAX_STEP_S * 1.001,
+                f64::INFINITY,
+                f64::NAN,
+                -0.01,
+                0.0,
+            ] {
+                let e = fmu.do_step(0.01, h).unwrap_err().to_string();
+                assert!(e.contains("communication step"), "{model:?} h = {h}: {e}");
+                assert_eq!(fmu.phase(), Phase::Stepping);
+                assert_eq!(fmu.get_real(x).unwrap(), before, "h = {h} moved it");
+                assert_eq!(fmu.time_s(), 0.01);
+            }
+            // the refused calls left the instance as it was: the next step goes on
+            fmu.do_step(0.01, 0.01).unwrap();
+            assert!((fmu.time_s() - 0.02).abs() < 1e-15);
+        }
+        // the limit itself is a step (the linear model: one exact zero-order hold)
+        let mut fmu = started(ModelKind::Linear, Controller::Article, 0.0);
+        fmu.do_step(0.0, MAX_STEP_S).unwrap();
+        assert_eq!(fmu.time_s(), MAX_STEP_S);
+    }
+
+    #[test]
+    fn a_communication_point_that_is_not_the_instances_time_is_refused() {
+        for (model, controller) in KINDS {
+            let mut fmu = started(model, controller, 1e6);
+            for t in [-1.0, 0.0, 1e300, f64::NAN, 1e6 + 0.005, 1e6 - 0.01] {
+                let e = fmu.do_step(t, 0.01).unwrap_err().to_string();
+                assert!(
+                    e.contains("the instance is at 1000000 s"),
+                    "{model:?} t = {t}: {e}"
+                );
+            }
+            // within the tolerance: a master's rounding
+            fmu.do_step(1e6 + 1e-9, 0.01).unwrap();
+            fmu.do_step(1e6 + 0.01 - 1e-9, 0.01).unwrap();
+            assert!((fmu.time_s() - (1e6 + 0.02)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_start_time_beyond_the_limit_is_refused() {
+        let (rig, _) = emulated_rig();
+        let config = Config::new(ModelKind::Linear, Controller::Article, false, rig);
+        for start in [1e300, -1e300, MAX_START_S * 1.01, f64::NAN, f64::INFINITY] {
+            let mut fmu = Instance::new(config.clone()).unwrap();
+            let e = fmu.setup_experiment(start).unwrap_err().to_string();
+            assert!(e.contains("start time"), "{start}: {e}");
+            assert_eq!(fmu.phase(), Phase::Instantiated);
+        }
+        let mut fmu = Instance::new(config).unwrap();
+        fmu.initialize(-MAX_START_S).unwrap();
+        fmu.do_step(-MAX_START_S, 0.01).unwrap();
+    }
+
+    #[test]
+    fn each_call_is_refused_outside_its_phase() {
+        for (model, controller) in KINDS {
+            let (rig, _) = emulated_rig();
+            let mut fmu = Instance::new(Config::new(model, controller, true, rig)).unwrap();
+            let x = fmu.value_reference("x_m").unwrap();
+            let kp = fmu.value_reference("kp").unwrap();
+            let force = fmu.value_reference("f_ext_n").unwrap();
+            let refused = |r: Result<(), FmuError>, what: &str| {
+                assert!(r.is_err(), "{model:?}/{controller:?}: {what} was accepted");
+            };
+            refused(fmu.do_step(0.0, 0.01), "a step before initialisation");
+            refused(fmu.exit_initialization(), "leaving a mode not entered");
+            refused(fmu.terminate(), "terminating before initialisation");
+            fmu.setup_experiment(0.0).unwrap();
+            fmu.enter_initialization().unwrap();
+            refused(
+                fmu.setup_experiment(0.0),
+                "a start time in initialisation mode",
+            );
+            refused(fmu.enter_initialization(), "entering twice");
+            refused(fmu.do_step(0.0, 0.01), "a step in initialisation mode");
+            fmu.exit_initialization().unwrap();
+            refused(fmu.set_real(kp, 20.0), "a parameter after initialisation");
+            refused(fmu.enter_initialization(), "entering after initialisation");
+            fmu.do_step(0.0, 0.01).unwrap();
+            fmu.terminate().unwrap();
+            let last = fmu.get_real(x).unwrap();
+            refused(fmu.do_step(0.01, 0.01), "a step after terminate");
+            refused(fmu.set_real(force, 1.0), "an input after terminate");
+            refused(fmu.terminate(), "terminating twice");
+            // the outputs stay readable; a reset starts over
+            assert_eq!(fmu.get_real(x).unwrap(), last);
+            fmu.reset().unwrap();
+            assert_eq!(fmu.phase(), Phase::Instantiated);
+            fmu.initialize(5.0).unwrap();
+            fmu.do_step(5.0, 0.01).unwrap();
+        }
+    }
+
+    #[test]
+    fn the_emulator_fmu_stays_inside_its_cylinder_and_says_so() {
+        let (rig, _) = emulated_rig();
+        // a position gain too small to hold the piston inside the stroke: refused at the start
+        let mut weak = Instance::new(Config::new(
+            ModelKind::Emulator,
+            Controller::Article,
+            true,
+            rig.clone(),
+        ))
+        .unwrap();
+        let kp = weak.value_reference("kp").unwrap();
+        weak.set_real(kp, 1e-6).unwrap();
+        let e = weak.initialize(0.0).unwrap_err().to_string();
+        assert!(e.contains("outside the stroke 0…500 mm"), "{e}");
+        // a step to 1 mm short of the end overshoots into the stop, which holds it
+        let mut fmu = started(ModelKind::Emulator, Controller::Article, 0.0);
+        let (xr, x) = (
+            fmu.value_reference("x_ref_m").unwrap(),
+            fmu.value_reference("x_m").unwrap(),
+        );
+        fmu.set_real(xr, 0.499).unwrap();
+        let (mut peak, mut notes) = (0.0_f64, vec![]);
+        for k in 0..400 {
+            fmu.do_step(k as f64 * 0.01, 0.01).unwrap();
+            peak = peak.max(fmu.get_real(x).unwrap());
+            notes.extend(fmu.take_note());
+        }
+        assert!(peak > 0.4999 && peak < 0.5001, "peak {peak} m");
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("extended end stop (x = 500 mm)"),
+            "{notes:?}"
+        );
+    }
+
+    #[test]
+    fn the_plant_driven_into_an_end_in_one_long_step_rests_on_its_stop() {
+        // speed commands that run the piston into an end and hold it there (or cavitate a
+        // chamber trying), in one step of the longest length
+        for (w, end_m) in [(-300.0, 0.0), (300.0, 0.5), (1e4, 0.5), (-1e4, 0.0)] {
+            let mut fmu = started(ModelKind::Emulator, Controller::External, 0.0);
+            for name in ["omega_ref1_rad_per_s", "omega_ref2_rad_per_s"] {
+                let vr = fmu.value_reference(name).unwrap();
+                fmu.set_real(vr, w).unwrap();
+            }
+            fmu.do_step(0.0, MAX_STEP_S)
+                .unwrap_or_else(|e| panic!("{w} rad/s: {e}"));
+            let get = |name: &str| fmu.get_real(fmu.value_reference(name).unwrap()).unwrap();
+            let (x, v, p1, p2) = (get("x_m"), get("v_m_per_s"), get("p1_pa"), get("p2_pa"));
+            assert!((x - end_m).abs() < 0.5e-3, "{w} rad/s: x {x} m");
+            // at rest on the stop, which carries the hydraulic force: the piston sinks into it
+            // by that force over the stop's stiffness m ω_s² (docs/emulator.md#end-stops)
+            let (rig, _) = emulated_rig();
+            let si = rig.si();
+            let force = p1 * si.a1 - p2 * si.a2 - rig.external_force_n;
+            let k = rig.mass_kg * emulator::CONTACT_RAD_S.powi(2);
+            let (sunk, want) = (x - end_m, force / k);
+            assert!(v.abs() < 1e-6, "{w} rad/s: still moving at {v} m/s");
+            assert!(
+                (sunk - want).abs() < 0.01 * want.abs() + 1e-9,
+                "{w} rad/s: sank {sunk} m, force {force} N over k: {want} m"
+            );
+            let note = fmu.take_note().unwrap_or_default();
+            assert!(note.contains("end stop"), "{w} rad/s: {note:?}");
+            // met within seconds, not at the end of the step
+            assert!(!note.contains("t = 100.00 s"), "{w} rad/s: {note:?}");
+        }
     }
 }

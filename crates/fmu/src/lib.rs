@@ -1,7 +1,14 @@
 //! The FMI 2.0 Co-Simulation functions of pumpcyl's FMUs (docs/fmu.md): a thin C shell over
 //! [`pumpcyl::fmu::Instance`]. Every function catches panics (a panic becomes `fmi2Error` with
-//! a message through the logger, never an unwind across the C boundary), every instance owns
-//! its state (no globals), and `fmi2FreeInstance` releases it.
+//! a message through the logger, never an unwind across the C boundary), and every instance
+//! owns its state, which `fmi2FreeInstance` releases.
+//!
+//! The host gets a handle, not an address: a number looked up in a registry of the live
+//! instances, never reused. A call with a freed handle is `fmi2Error` with a message to the
+//! logger the instance was made with, a call with a handle never given out is `fmi2Error`, and
+//! a call on an instance another thread is using at that moment is `fmi2Error`: never a crash,
+//! never a wait (docs/fmu.md#robustness). Which calls an instance accepts follows its phase
+//! ([`pumpcyl::fmu::Phase`]).
 //!
 //! The functions follow the FMI 2.0.4 standard, section 2.1 (common) and 4.2
 //! (Co-Simulation); functions the FMU does not support (FMU state, directional derivatives,
@@ -11,9 +18,11 @@
 #![allow(clippy::missing_safety_doc)]
 
 use pumpcyl::fmu::{Config, Instance, CONFIG_FILE};
+use std::collections::{HashMap, VecDeque};
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex, PoisonError, TryLockError};
 
 type Status = c_int;
 const OK: Status = 0;
@@ -33,21 +42,100 @@ pub struct Callbacks {
     environment: *mut c_void,
 }
 
-/// One instance: the model and what it needs to report.
-struct Component {
+/// Who an instance reports to: its name and the host's logger.
+#[derive(Clone)]
+struct Reporter {
     name: CString,
     logger: Option<Logger>,
     environment: *mut c_void,
-    fmu: Instance,
-    start_s: f64,
-    /// A previous error left the instance unusable.
-    failed: bool,
 }
 
-impl Component {
+// SAFETY: the environment pointer is the host's, only handed back to the host's logger; FMI
+// 2.0 lets a host call an instance from any thread, one call at a time
+unsafe impl Send for Reporter {}
+
+impl Reporter {
     fn log(&self, status: Status, message: &str) {
         log(self.logger, self.environment, &self.name, status, message);
     }
+}
+
+/// One instance: the model and whom it reports to.
+struct Component {
+    reporter: Reporter,
+    fmu: Instance,
+    /// A panic left the instance unusable.
+    failed: bool,
+}
+
+/// A registry entry: a live instance and whom it reports to, or whom a freed one reported to.
+enum Entry {
+    Live(Arc<Mutex<Component>>, Reporter),
+    Freed(Reporter),
+}
+
+/// The instances by handle, the handles of freed ones (oldest first) and the next handle.
+struct Registry {
+    entries: HashMap<usize, Entry>,
+    freed: VecDeque<usize>,
+    next: usize,
+}
+
+/// Freed handles remembered, to name them in the log; an older one is an unknown handle.
+const FREED_REMEMBERED: usize = 4096;
+
+static REGISTRY: Mutex<Option<Registry>> = Mutex::new(None);
+
+/// Run `f` on the registry (made on first use).
+fn registry<T>(f: impl FnOnce(&mut Registry) -> T) -> T {
+    let mut guard = REGISTRY.lock().unwrap_or_else(PoisonError::into_inner);
+    let reg = guard.get_or_insert_with(|| Registry {
+        entries: HashMap::new(),
+        freed: VecDeque::new(),
+        next: 1,
+    });
+    f(reg)
+}
+
+/// Register a new instance; its handle.
+fn register(comp: Component) -> *mut c_void {
+    registry(|r| {
+        let handle = r.next;
+        r.next += 1;
+        let reporter = comp.reporter.clone();
+        r.entries
+            .insert(handle, Entry::Live(Arc::new(Mutex::new(comp)), reporter));
+        handle as *mut c_void
+    })
+}
+
+/// What a handle names: a live instance, a freed one's reporter, or nothing.
+fn lookup(c: *mut c_void) -> Option<Result<Arc<Mutex<Component>>, Reporter>> {
+    registry(|r| match r.entries.get(&(c as usize))? {
+        Entry::Live(comp, _) => Some(Ok(Arc::clone(comp))),
+        Entry::Freed(rep) => Some(Err(rep.clone())),
+    })
+}
+
+/// Free the instance `c`: its reporter is kept, to name the handle if it comes back.
+fn unregister(c: *mut c_void) -> Option<Result<Arc<Mutex<Component>>, Reporter>> {
+    let key = c as usize;
+    registry(|r| match r.entries.remove(&key)? {
+        Entry::Live(comp, rep) => {
+            r.entries.insert(key, Entry::Freed(rep));
+            r.freed.push_back(key);
+            if r.freed.len() > FREED_REMEMBERED {
+                if let Some(old) = r.freed.pop_front() {
+                    r.entries.remove(&old);
+                }
+            }
+            Some(Ok(comp))
+        }
+        Entry::Freed(rep) => {
+            r.entries.insert(key, Entry::Freed(rep.clone()));
+            Some(Err(rep))
+        }
+    })
 }
 
 /// Send `message` to the host's logger, if it gave one.
@@ -79,25 +167,36 @@ fn log(
     }
 }
 
-/// Run `f` on the component, panics and errors turned into a logged `fmi2Error`.
+/// Run `f` on the instance `c`, panics and errors turned into a logged `fmi2Error`; a freed
+/// or unknown handle, or an instance busy in another call, is `fmi2Error`.
 unsafe fn with(
     c: *mut c_void,
     what: &str,
     f: impl FnOnce(&mut Component) -> Result<Status, String>,
 ) -> Status {
-    if c.is_null() {
-        return ERROR;
-    }
-    // SAFETY: the host passes back the pointer fmi2Instantiate returned
-    let comp = unsafe { &mut *(c as *mut Component) };
+    let comp = match lookup(c) {
+        None => return ERROR,
+        Some(Err(freed)) => {
+            freed.log(ERROR, &format!("{what}: the instance was freed"));
+            return ERROR;
+        }
+        Some(Ok(comp)) => comp,
+    };
+    let mut guard = match comp.try_lock() {
+        Ok(g) => g,
+        Err(TryLockError::Poisoned(p)) => p.into_inner(),
+        Err(TryLockError::WouldBlock) => return ERROR,
+    };
+    let comp = &mut *guard;
     if comp.failed {
-        comp.log(ERROR, &format!("{what}: the instance failed earlier"));
+        comp.reporter
+            .log(ERROR, &format!("{what}: the instance failed earlier"));
         return ERROR;
     }
     match catch_unwind(AssertUnwindSafe(|| f(comp))) {
         Ok(Ok(status)) => status,
         Ok(Err(message)) => {
-            comp.log(ERROR, &format!("{what}: {message}"));
+            comp.reporter.log(ERROR, &format!("{what}: {message}"));
             ERROR
         }
         Err(panic) => {
@@ -108,7 +207,7 @@ unsafe fn with(
                 .unwrap_or("internal error");
             // the instance's state is unknown after a panic: it refuses every later call
             comp.failed = true;
-            comp.log(
+            comp.reporter.log(
                 ERROR,
                 &format!("{what}: internal error ({why}); please report it"),
             );
@@ -243,14 +342,15 @@ pub unsafe extern "C" fn fmi2Instantiate(
             Err("this FMU supports Co-Simulation only".into())
         };
         match loaded {
-            Ok(fmu) => Some(Box::into_raw(Box::new(Component {
-                name,
-                logger,
-                environment,
+            Ok(fmu) => Some(register(Component {
+                reporter: Reporter {
+                    name,
+                    logger,
+                    environment,
+                },
                 fmu,
-                start_s: 0.0,
                 failed: false,
-            })) as *mut c_void),
+            })),
             Err(e) => {
                 log(
                     logger,
@@ -270,11 +370,12 @@ pub unsafe extern "C" fn fmi2Instantiate(
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2FreeInstance(c: *mut c_void) {
-    if !c.is_null() {
-        // SAFETY: the pointer fmi2Instantiate returned, freed once by the host
-        let _ = catch_unwind(|| drop(unsafe { Box::from_raw(c as *mut Component) }));
-    }
+pub extern "C" fn fmi2FreeInstance(c: *mut c_void) {
+    let _ = catch_unwind(|| {
+        if let Some(Err(freed)) = unregister(c) {
+            freed.log(ERROR, "fmi2FreeInstance: the instance was already freed");
+        }
+    });
 }
 
 #[no_mangle]
@@ -298,7 +399,9 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 ) -> Status {
     unsafe {
         with(c, "fmi2SetupExperiment", |comp| {
-            comp.start_s = start_s;
+            comp.fmu
+                .setup_experiment(start_s)
+                .map_err(|e| e.to_string())?;
             Ok(OK)
         })
     }
@@ -306,15 +409,19 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: *mut c_void) -> Status {
-    unsafe { with(c, "fmi2EnterInitializationMode", |_| Ok(OK)) }
+    unsafe {
+        with(c, "fmi2EnterInitializationMode", |comp| {
+            comp.fmu.enter_initialization().map_err(|e| e.to_string())?;
+            Ok(OK)
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: *mut c_void) -> Status {
     unsafe {
         with(c, "fmi2ExitInitializationMode", |comp| {
-            let start = comp.start_s;
-            comp.fmu.initialize(start).map_err(|e| e.to_string())?;
+            comp.fmu.exit_initialization().map_err(|e| e.to_string())?;
             Ok(OK)
         })
     }
@@ -322,14 +429,19 @@ pub unsafe extern "C" fn fmi2ExitInitializationMode(c: *mut c_void) -> Status {
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: *mut c_void) -> Status {
-    unsafe { with(c, "fmi2Terminate", |_| Ok(OK)) }
+    unsafe {
+        with(c, "fmi2Terminate", |comp| {
+            comp.fmu.terminate().map_err(|e| e.to_string())?;
+            Ok(OK)
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Reset(c: *mut c_void) -> Status {
     unsafe {
         with(c, "fmi2Reset", |comp| {
-            comp.fmu = Instance::new(comp.fmu.config().clone()).map_err(|e| e.to_string())?;
+            comp.fmu.reset().map_err(|e| e.to_string())?;
             Ok(OK)
         })
     }
@@ -560,6 +672,9 @@ pub unsafe extern "C" fn fmi2DoStep(
     unsafe {
         with(c, "fmi2DoStep", |comp| {
             comp.fmu.do_step(t, h).map_err(|e| e.to_string())?;
+            if let Some(note) = comp.fmu.take_note() {
+                comp.reporter.log(OK, &format!("fmi2DoStep: {note}"));
+            }
             Ok(OK)
         })
     }
@@ -615,5 +730,120 @@ mod tests {
             PathBuf::from("/tmp/x/")
         );
         assert!(uri_path("http://example.org/x").is_err());
+    }
+
+    use pumpcyl::fmu::{Controller, ModelKind};
+    use pumpcyl::rig::Rig;
+
+    /// An instance of an FMU of `model` and `controller` on the article's rig, its
+    /// configuration written to a folder of its own; null callbacks (no logger).
+    fn instantiate(model: ModelKind, controller: Controller) -> *mut c_void {
+        let config = Config::new(model, controller, false, Rig::default());
+        let dir = std::env::temp_dir().join(format!(
+            "pumpcyl-fmu-test-{}-{model:?}-{controller:?}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(CONFIG_FILE), config.to_toml()).unwrap();
+        let uri = CString::new(format!("file://{}", dir.display())).unwrap();
+        let guid = CString::new(config.guid.clone()).unwrap();
+        // SAFETY: valid C strings; null callbacks are allowed
+        let c = unsafe {
+            fmi2Instantiate(
+                c"test".as_ptr(),
+                1,
+                guid.as_ptr(),
+                uri.as_ptr(),
+                std::ptr::null(),
+                0,
+                0,
+            )
+        };
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(!c.is_null(), "{model:?}/{controller:?} did not instantiate");
+        c
+    }
+
+    fn x(c: *mut c_void) -> (Status, f64) {
+        let mut v = f64::NAN;
+        // SAFETY: one value reference, one value
+        let status = unsafe { fmi2GetReal(c, &100u32, 1, &mut v) };
+        (status, v)
+    }
+
+    const KINDS: [(ModelKind, Controller); 4] = [
+        (ModelKind::Emulator, Controller::Article),
+        (ModelKind::Emulator, Controller::External),
+        (ModelKind::Linear, Controller::Article),
+        (ModelKind::Linear, Controller::External),
+    ];
+
+    #[test]
+    fn freed_unknown_and_wrong_phase_calls_are_errors_not_crashes() {
+        for (model, controller) in KINDS {
+            let c = instantiate(model, controller);
+            // SAFETY: every call gets the handle fmi2Instantiate gave, or one it never gave
+            unsafe {
+                assert_eq!(
+                    fmi2DoStep(c, 0.0, 0.01, 1),
+                    ERROR,
+                    "a step before initialisation"
+                );
+                assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 1e300, 0, 0.0), ERROR);
+                assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), OK);
+                assert_eq!(fmi2EnterInitializationMode(c), OK);
+                assert_eq!(fmi2ExitInitializationMode(c), OK);
+                assert_eq!(fmi2DoStep(c, 0.0, 0.01, 1), OK);
+                for (t, h) in [(0.01, 1e300), (0.01, f64::NAN), (0.01, -0.01), (-1.0, 0.01)] {
+                    assert_eq!(fmi2DoStep(c, t, h, 1), ERROR, "t {t}, h {h}");
+                }
+                assert_eq!(fmi2DoStep(c, 0.01, 0.01, 1), OK);
+                assert_eq!(fmi2Terminate(c), OK);
+                assert_eq!(
+                    fmi2DoStep(c, 0.02, 0.01, 1),
+                    ERROR,
+                    "a step after terminate"
+                );
+                let (status, last) = x(c);
+                assert_eq!(status, OK);
+                assert!((last - 0.345).abs() < 1e-3, "{last}");
+                assert_eq!(fmi2Reset(c), OK);
+                fmi2FreeInstance(c);
+                // freed: every call is an error, freeing again is harmless
+                assert_eq!(fmi2DoStep(c, 0.02, 0.01, 1), ERROR);
+                assert_eq!(x(c).0, ERROR);
+                assert_eq!(fmi2Terminate(c), ERROR);
+                assert_eq!(fmi2Reset(c), ERROR);
+                fmi2FreeInstance(c);
+                fmi2FreeInstance(c);
+            }
+        }
+        // handles never given out, null among them
+        for bogus in [
+            std::ptr::null_mut(),
+            usize::MAX as *mut c_void,
+            0xdead as *mut c_void,
+        ] {
+            // SAFETY: the handle is looked up, never dereferenced
+            unsafe {
+                assert_eq!(fmi2DoStep(bogus, 0.0, 0.01, 1), ERROR);
+                assert_eq!(fmi2ExitInitializationMode(bogus), ERROR);
+                fmi2FreeInstance(bogus);
+            }
+        }
+    }
+
+    #[test]
+    fn handles_are_not_reused() {
+        let a = instantiate(ModelKind::Linear, Controller::Article);
+        fmi2FreeInstance(a);
+        let b = instantiate(ModelKind::Linear, Controller::Article);
+        assert_ne!(a, b);
+        // SAFETY: handles from fmi2Instantiate
+        unsafe {
+            assert_eq!(fmi2SetupExperiment(a, 0, 0.0, 0.0, 0, 0.0), ERROR);
+            assert_eq!(fmi2SetupExperiment(b, 0, 0.0, 0.0, 0, 0.0), OK);
+        }
+        fmi2FreeInstance(b);
     }
 }

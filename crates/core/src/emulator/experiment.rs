@@ -4,7 +4,7 @@
 
 use super::plc::{integrate, Noise};
 use super::EmulatorError;
-use super::{emulate, Dynamics, Effects, Plc};
+use super::{emulate, Dynamics, Effects, Emulation, Plc};
 use crate::input::FieldError;
 use crate::response::Signals;
 use crate::rig::Rig;
@@ -213,6 +213,17 @@ impl Experiment {
 
     /// Run it on the emulated rig: the PLC's record from t = 0.
     pub fn run(&self, rig: &Rig, effects: Effects, plc: &Plc) -> Result<Signals, EmulatorError> {
+        Ok(self.run_noted(rig, effects, plc)?.signals)
+    }
+
+    /// [`Experiment::run`] with the first end stop the piston met, if it did
+    /// (docs/emulator.md#end-stops).
+    pub fn run_noted(
+        &self,
+        rig: &Rig,
+        effects: Effects,
+        plc: &Plc,
+    ) -> Result<Emulation, EmulatorError> {
         let dynamics = Dynamics::new(rig, effects)?;
         emulate(rig, &dynamics, plc, SETTLE_S, self.duration_s(), |t| {
             self.reference_mm(t)

@@ -10,12 +10,14 @@
 pub mod article;
 mod experiment;
 mod plc;
+mod stops;
 
 pub use experiment::{
     DriveSignals, DriveStep, Experiment, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ, RECORD_S,
     SETTLE_S, SINE_PERIODS, STEP_MM,
 };
-pub use plc::{emulate, equilibrium, hold_speeds, Plc, PlcLoop};
+pub use plc::{emulate, equilibrium, hold_speeds, Emulation, Plc, PlcLoop};
+pub use stops::{End, EndStopHit, CONTACT_DAMPING, CONTACT_RAD_S};
 
 use crate::bulk::effective_beta;
 
@@ -190,6 +192,9 @@ pub struct Dynamics {
     max_pump_speed: f64,
     mass_law: MassLaw,
     effects: Effects,
+    /// The ends of the stroke (docs/emulator.md#end-stops); off only while Newton's method
+    /// looks for a rest, which is then refused outside the stroke.
+    stops: Option<stops::Stops>,
 }
 
 impl Dynamics {
@@ -199,6 +204,7 @@ impl Dynamics {
             return Err("the emulator needs motor_model = \"full\"".into());
         }
         let plant = Plant::new(rig);
+        let stops = stops::Stops::new(rig.stroke_mm * 1e-3, plant.si.mass);
         Ok(Dynamics {
             si: plant.si,
             layout: plant.layout,
@@ -212,6 +218,7 @@ impl Dynamics {
                 MassLaw::constant()
             },
             effects,
+            stops: Some(stops),
         })
     }
 
@@ -223,6 +230,16 @@ impl Dynamics {
     /// The state positions.
     pub fn layout(&self) -> &Layout {
         &self.layout
+    }
+
+    /// The end of the stroke the piston of state `x` is at or beyond, if any, met at `t_s`.
+    pub fn end_stop(&self, x: &[f64], t_s: f64) -> Option<EndStopHit> {
+        let (end, end_mm) = self.stops?.end_at(x[self.layout.x])?;
+        Some(EndStopHit {
+            end,
+            end_mm,
+            at_s: t_s,
+        })
     }
 
     /// Number of states.
@@ -265,8 +282,9 @@ impl Dynamics {
         // mechanics
         let mass = si.mass * self.mass_law.ratio(pos);
         let coulomb = e.coulomb_n * (v / COULOMB_SMOOTHING_M_S).tanh();
+        let stop = self.stops.map_or(0.0, |s| s.force_n(pos, v));
         dx[l.x] = v;
-        dx[l.v] = (p1 * si.a1 - p2 * si.a2 - si.f_ext - si.b * v - coulomb) / mass;
+        dx[l.v] = (p1 * si.a1 - p2 * si.a2 - si.f_ext - si.b * v - coulomb + stop) / mass;
         // hydraulics
         let (v1, v2) = if e.varying_volumes {
             (
@@ -589,7 +607,9 @@ mod emulate_tests {
         };
         let d = Dynamics::new(&rig, Effects::none()).unwrap();
         let step = |t: f64| if t < 0.2 { 345.0 } else { 350.0 };
-        let em = emulate(&rig, &d, &Plc::ideal(1000.0), 5.0, 2.0, step).unwrap();
+        let em = emulate(&rig, &d, &Plc::ideal(1000.0), 5.0, 2.0, step)
+            .unwrap()
+            .signals;
         // compare deviations from the settled state, as docs/simulation.md#deviations-and-the-baseline does with records
         let mut base = Baseline::of_rig(&rig);
         base.x_mm = em.x_mm[0];

@@ -3,8 +3,8 @@
 //! commands held between samples, and the plant integrated between samples by diffsol's BDF
 //! (the current loop at 1257 1/s makes the dynamics stiff).
 
-use super::Dynamics;
 use super::EmulatorError;
+use super::{Dynamics, EndStopHit};
 use crate::response::Signals;
 use crate::rig::Rig;
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
@@ -143,10 +143,20 @@ fn jac_vec<F: Fn(&[f64], &mut [f64])>(f: &F, x: &[f64], v: &[f64], scale: &[f64]
     }
 }
 
+/// An emulated record and the first time its piston met an end of the stroke, if it did
+/// (docs/emulator.md#end-stops).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Emulation {
+    /// The PLC's record (measured signals, user units).
+    pub signals: Signals,
+    /// The first end stop the piston met, at a PLC sample.
+    pub end_stop: Option<EndStopHit>,
+}
+
 /// Emulate the closed loop for the reference `x_ref_mm(t)` from `t = 0` to `duration_s`.
 /// The run starts at the steady state of the loop for the reference held at its t = 0 value
 /// (see [`equilibrium`]), then runs `settle_s` more with noise (not recorded) so the record
-/// opens with the PLC's own jitter. Returns the PLC's record (measured signals, user units).
+/// opens with the PLC's own jitter. Returns the PLC's record and whether it met an end stop.
 pub fn emulate(
     rig: &Rig,
     dynamics: &Dynamics,
@@ -154,9 +164,13 @@ pub fn emulate(
     settle_s: f64,
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
-) -> Result<Signals, EmulatorError> {
+) -> Result<Emulation, EmulatorError> {
     let mut run = PlcLoop::settled(rig, dynamics, plc, x_ref_mm(0.0), settle_s)?;
-    record(&mut run, duration_s, x_ref_mm)
+    let signals = record(&mut run, duration_s, x_ref_mm)?;
+    Ok(Emulation {
+        signals,
+        end_stop: run.end_stop,
+    })
 }
 
 /// The PLC around the emulated rig, advanced one sample at a time: at each sample the PLC
@@ -170,6 +184,7 @@ pub struct PlcLoop {
     plc: Plc,
     noise: Noise,
     x: Vec<f64>,
+    end_stop: Option<EndStopHit>,
 }
 
 impl PlcLoop {
@@ -188,6 +203,7 @@ impl PlcLoop {
             plc: *plc,
             noise: Noise::new(plc.seed),
             x: equilibrium(rig, dynamics, r0_mm)?,
+            end_stop: None,
         };
         let ts = 1.0 / plc.rate_hz;
         let settle_steps = (settle_s * plc.rate_hz).round() as usize;
@@ -208,9 +224,19 @@ impl PlcLoop {
     }
 
     /// Integrate the rig from `t0` to `t1` (s) with the speed references `u` (rad/s) held.
+    /// The first end stop met is kept ([`PlcLoop::end_stop`]).
     pub fn hold(&mut self, u: [f64; 2], t0: f64, t1: f64) -> Result<(), EmulatorError> {
         self.x = hold(&self.dynamics, &self.x, u, t0, t1)?;
+        if self.end_stop.is_none() {
+            self.end_stop = self.dynamics.end_stop(&self.x, t1);
+        }
         Ok(())
+    }
+
+    /// The first end of the stroke the piston met at the end of a [`PlcLoop::hold`], if any
+    /// (docs/emulator.md#end-stops).
+    pub fn end_stop(&self) -> Option<EndStopHit> {
+        self.end_stop
     }
 
     /// The rig's state (SI, absolute position, gauge pressures; [`crate::model::Layout`]).
@@ -264,10 +290,15 @@ fn hold(d: &Dynamics, x: &[f64], u: [f64; 2], t0: f64, t1: f64) -> Result<Vec<f6
 pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, EmulatorError> {
     // the torque and speed limits are idle at rest, but a Newton step may cross them and find
     // a flat (singular) Jacobian there: solve without them, then check with them
+    // the end stops likewise: a rest outside the stroke is refused, not searched for in a stop
     let mut free = d.clone();
     free.effects.peak_torque_factor = None;
     free.effects.pump_speed_limit = false;
+    free.stops = None;
     let x = steady_state(rig, &free, r_mm)?;
+    if let Some(stops) = d.stops {
+        stops.check_rest(x[d.layout.x], r_mm)?;
+    }
     let mut f = vec![0.0; x.len()];
     let m = measure(&x, d, &Plc::ideal(1.0), &mut Noise::new(1));
     d.rhs(&x, &control(rig, r_mm, &m), &mut f);

@@ -5,12 +5,14 @@
 mod damping;
 mod metrics;
 mod ratings;
+mod stroke;
 
 pub use damping::{ringing, Ringing, RINGING_GM_DB};
 pub use metrics::{
     position_mse_until, step_metrics, track_metrics, StepMetrics, TrackMetrics, TrackWindow,
 };
 pub use ratings::{load_torques_nm, over_ratings, signals_over_ratings, OverRating};
+pub use stroke::{stroke_excursion, StrokeExcursion};
 
 use crate::lti::{LtiError, Simulator, StateSpace, Zoh};
 use crate::model::{Plant, SIM_OUTPUTS};
