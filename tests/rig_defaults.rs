@@ -11,13 +11,20 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 /// A user rig sharing no value with the article's (80/45 mm, 2500 kg, 800 mm stroke, x0 at
-/// 400 mm, beyond the article's mass table of 295 … 395 mm); 13 keys, `mass_by_position` not
-/// among them.
-const MY_RIG: &str = "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\n\
-    x0_mm = 400.0\nmass_kg = 2500.0\ndisplacement_1_cm3_per_rev = 8.0\n\
-    displacement_2_cm3_per_rev = 5.0\nbeta_bar = 300.0\nkp = 15.0\n\
-    viscous_friction_ns_per_m = 250.0\nc12_m5_per_ns = 2.0e-10\nline_volume_1_dm3 = 0.2\n\
-    line_volume_2_dm3 = 0.2\n";
+/// 400 mm, beyond the article's mass table of 295 … 395 mm): tests/user-rig.toml without its
+/// `mass_by_position` line, 13 keys.
+fn my_rig() -> String {
+    include_str!("user-rig.toml")
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("mass_by_position"))
+        .map(|l| {
+            format!(
+                "{l}
+"
+            )
+        })
+        .collect()
+}
 
 fn pumpcyl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
@@ -59,7 +66,7 @@ fn printed_keys() -> Vec<String> {
 #[test]
 fn a_user_rig_without_a_mass_table_keeps_one_mass_over_its_stroke() {
     let dir = tempfile::tempdir().unwrap();
-    let mine = write(dir.path(), "my.toml", MY_RIG);
+    let mine = write(dir.path(), "my.toml", &my_rig());
     // x0 ± 50 mm = 350 … 450 mm: beyond the article's table, which this rig does not have
     let d = json(&["design", "--rig", &mine, "--json"]);
     let conditions = d["conditions"].as_array().unwrap();
@@ -85,8 +92,9 @@ fn a_user_rig_without_a_mass_table_keeps_one_mass_over_its_stroke() {
 #[test]
 fn the_keys_a_rig_file_leaves_out_are_named_with_the_values_they_take() {
     let dir = tempfile::tempdir().unwrap();
-    let mine = write(dir.path(), "my.toml", MY_RIG);
-    let written: Vec<&str> = MY_RIG
+    let rig_text = my_rig();
+    let mine = write(dir.path(), "my.toml", &rig_text);
+    let written: Vec<&str> = rig_text
         .lines()
         .map(|l| l.split(" = ").next().unwrap())
         .collect();

@@ -13,21 +13,7 @@ use std::path::{Path, PathBuf};
 mod run;
 
 /// A rig that shares no value with the article's: 80/45 mm, 2500 kg, β 300 bar, 800 mm stroke.
-const USER_RIG: &str = "piston_diameter_mm = 80.0
-rod_diameter_mm = 45.0
-stroke_mm = 800.0
-x0_mm = 400.0
-mass_kg = 2500.0
-mass_by_position = []
-displacement_1_cm3_per_rev = 8.0
-displacement_2_cm3_per_rev = 5.0
-beta_bar = 300.0
-kp = 15.0
-viscous_friction_ns_per_m = 250.0
-c12_m5_per_ns = 2.0e-10
-line_volume_1_dm3 = 0.2
-line_volume_2_dm3 = 0.2
-";
+const USER_RIG: &str = include_str!("user-rig.toml");
 
 /// The pure-oil bulk modulus of the gas-fraction model (bar), the default.
 const BETA_OIL_BAR: f64 = 17_000.0;

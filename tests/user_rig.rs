@@ -10,23 +10,12 @@ use std::path::Path;
 
 /// 80/45 mm, 800 mm stroke, 2500 kg without a mass table, 8/5 cm³/rev, β 300 bar, Kp 15, its
 /// own friction, leakage and line volumes.
-const USER_RIG: &str = "piston_diameter_mm = 80.0
-rod_diameter_mm = 45.0
-stroke_mm = 800.0
-x0_mm = 400.0
-mass_kg = 2500.0
-mass_by_position = []
-displacement_1_cm3_per_rev = 8.0
-displacement_2_cm3_per_rev = 5.0
-beta_bar = 300.0
-kp = 15.0
-viscous_friction_ns_per_m = 250.0
-c12_m5_per_ns = 2.0e-10
-c1_m5_per_ns = 4.0e-11
+const USER_RIG: &str = concat!(
+    include_str!("user-rig.toml"),
+    "c1_m5_per_ns = 4.0e-11
 c2_m5_per_ns = -1.0e-11
-line_volume_1_dm3 = 0.2
-line_volume_2_dm3 = 0.2
-";
+"
+);
 
 /// The experiment: two steps (Kp 15 and 10) and a standstill record, each emulated on the rig.
 const EXPERIMENT: &str = "rig = \"my-rig.toml\"

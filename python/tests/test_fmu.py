@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import pumpcyl
-from conftest import pumpcyl_binary
+from conftest import ROOT, pumpcyl_binary
 
 
 def require_fmpy():
@@ -89,21 +89,7 @@ def test_the_emulator_fmu_gives_the_records_of_emulate(fmus, experiment, args):
     assert np.max(np.abs(r["p2_pa"] - rec["p2_bar"] * 1e5)) < 1.0
 
 
-USER_RIG = """piston_diameter_mm = 80.0
-rod_diameter_mm = 45.0
-stroke_mm = 800.0
-x0_mm = 400.0
-mass_kg = 2500.0
-mass_by_position = []
-displacement_1_cm3_per_rev = 8.0
-displacement_2_cm3_per_rev = 5.0
-beta_bar = 300.0
-kp = 15.0
-viscous_friction_ns_per_m = 250.0
-c12_m5_per_ns = 2.0e-10
-line_volume_1_dm3 = 0.2
-line_volume_2_dm3 = 0.2
-"""
+USER_RIG = (ROOT / "tests" / "user-rig.toml").read_text()
 
 
 def test_the_emulator_fmu_follows_the_beta_bar_a_host_sets_on_a_user_rig(tmp_path):

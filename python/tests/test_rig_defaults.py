@@ -8,22 +8,11 @@ import warnings
 import pytest
 
 import pumpcyl
+from conftest import ROOT
 
-MY_RIG = """\
-piston_diameter_mm = 80.0
-rod_diameter_mm = 45.0
-stroke_mm = 800.0
-x0_mm = 400.0
-mass_kg = 2500.0
-displacement_1_cm3_per_rev = 8.0
-displacement_2_cm3_per_rev = 5.0
-beta_bar = 300.0
-kp = 15.0
-viscous_friction_ns_per_m = 250.0
-c12_m5_per_ns = 2.0e-10
-line_volume_1_dm3 = 0.2
-line_volume_2_dm3 = 0.2
-"""
+# the user rig without its mass table line
+MY_RIG = "".join(line for line in (ROOT / "tests" / "user-rig.toml").read_text().splitlines(True)
+                 if not line.startswith(("#", "mass_by_position")))
 
 
 def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_out(tmp_path):
