@@ -7,7 +7,7 @@ use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pumpcyl::ident::{advise_experiment, Experiment};
+use pumpcyl::ident::advise_experiment;
 use pumpcyl_present::advise::{advice_json, advice_text};
 use pumpcyl_present::format::json_document;
 
@@ -32,7 +32,7 @@ pub struct AdviseArgs {
 /// Run the identification of the experiment, then the advice.
 pub fn run(args: &AdviseArgs) -> Result<String> {
     crate::emit::check_confidence(args.confidence)?;
-    let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
+    let exp = crate::inputs::experiment(&args.experiment)?;
     let start = Instant::now();
     let advice = advise_experiment(
         &exp,

@@ -241,7 +241,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     if args.uncertainty {
         crate::emit::check_confidence(args.confidence)?;
     }
-    let exp = Experiment::load_in(crate::inputs::files(), &args.experiment)?;
+    let exp = crate::inputs::experiment(&args.experiment)?;
     for ds in &exp.problem.datasets {
         warn(&ds.record.unit_warnings(ds.rig.stroke_mm));
     }
@@ -268,11 +268,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         // the fingerprint of the experiment as the merge will load it (by its canonical path)
         let canonical = std::fs::canonicalize(&args.experiment)?;
         let part = Partial {
-            digest: digest(
-                &Experiment::load_in(crate::inputs::files(), &canonical)?,
-                &opts,
-                shard,
-            )?,
+            digest: digest(&crate::inputs::experiment(&canonical)?, &opts, shard)?,
             experiment: canonical,
             shard,
             local_refinement: opts.local_refinement,

@@ -3,6 +3,7 @@
 //! notes it, and every output goes through [`protected`], so no output of the command replaces
 //! one of its inputs (`pumpcyl_present::files::Protected`).
 
+use pumpcyl::ident::{Experiment, RigDefaults};
 use pumpcyl::input::{Disk, Files};
 use pumpcyl_present::files::Protected;
 use std::io::Read;
@@ -43,26 +44,32 @@ pub fn protected() -> Protected {
         .clone()
 }
 
-/// What the command's rig file left out (docs/formats.md#rig-toml), once it has read one: the
-/// note naming the keys and their values (none when it sets them all), and the keys.
-struct RigDefaults {
-    note: Option<String>,
-    keys: Vec<&'static str>,
-}
-
 static RIG_DEFAULTS: Mutex<Option<RigDefaults>> = Mutex::new(None);
 
-/// Note that the rig file `name` left out the keys of `file` (but those in `except`, set by
-/// `--set`); the first file read is the one [`with_rig_defaults`] reports.
-pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&str]) {
+/// Note what the command's rig file left out (docs/formats.md#rig-toml): the first file read is
+/// the one [`with_rig_defaults`] and [`rig_defaults_note`] report.
+fn note(defaults: RigDefaults) {
     let mut noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
     if noted.is_none() {
-        let keys = file.defaulted.iter().copied();
-        *noted = Some(RigDefaults {
-            note: file.note(name, except),
-            keys: keys.filter(|k| !except.contains(k)).collect(),
-        });
+        *noted = Some(defaults);
     }
+}
+
+/// Note that the rig file `name` left out the keys of `file` (but those in `except`, set by
+/// `--set`).
+pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&str]) {
+    let keys = file.defaulted.iter().copied();
+    note(RigDefaults {
+        note: file.note(name, except),
+        keys: keys.filter(|k| !except.contains(k)).collect(),
+    });
+}
+
+/// An experiment file read as the command line reads it: its rig file's left-out keys noted.
+pub fn experiment(path: &Path) -> anyhow::Result<Experiment> {
+    let exp = Experiment::load_in(files(), path)?;
+    note(exp.rig_defaults.clone());
+    Ok(exp)
 }
 
 /// The line naming the keys the command's rig file left out and their values, if it left out

@@ -9,7 +9,6 @@ use std::time::Instant;
 use crate::emit::{render_both, write_atomic};
 use pumpcyl::design::robust::{Region, RobustOptions};
 use pumpcyl::design::{robust_design, Targets};
-use pumpcyl::ident::Experiment;
 use pumpcyl::rig::Rig;
 use pumpcyl_present::design::{robust_json, robust_text};
 use pumpcyl_present::figures::Chart;
@@ -40,7 +39,7 @@ pub(super) fn run(
     let start = Instant::now();
     let (rig, region, targets) = match src.experiment {
         Some(path) => {
-            let exp = Experiment::load_in(crate::inputs::files(), path)?;
+            let exp = crate::inputs::experiment(path)?;
             let (rig, region) = Region::of_records(&exp, src.confidence)?;
             (rig, region, targets.clone().over_records(&exp))
         }

@@ -5,7 +5,6 @@ use clap::Args;
 use std::path::PathBuf;
 
 use crate::emit::{render_both, write_atomic};
-use pumpcyl::ident::Experiment;
 use pumpcyl::rig::Rig;
 use pumpcyl::select::{Application, BetaEvidence, RigFrom};
 use pumpcyl_present::format::json_document;
@@ -64,7 +63,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
     let mut app = base.with_overrides("--set", &args.set)?;
     if let Some(path) = &args.experiment {
         crate::emit::check_confidence(args.confidence.confidence)?;
-        let exp = Experiment::load_in(crate::inputs::files(), path)?;
+        let exp = crate::inputs::experiment(path)?;
         let evidence = BetaEvidence::of_records(&exp, args.confidence.confidence)?;
         app = app
             .with_evidence(&evidence)

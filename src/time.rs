@@ -416,7 +416,7 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
             None,
         ));
     };
-    let exp = pumpcyl::ident::Experiment::load_in(crate::inputs::files(), path)?;
+    let exp = crate::inputs::experiment(path)?;
     let count = exp.problem.datasets.len();
     anyhow::ensure!(
         (1..=count).contains(&n),

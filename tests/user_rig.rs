@@ -214,3 +214,42 @@ fn a_rig_that_cannot_rest_without_cavitation_is_refused_by_every_analysis() {
         String::from_utf8_lossy(&ok.stderr)
     );
 }
+
+/// A rig file named by an experiment gets the same note as one given with `--rig`: the keys it
+/// leaves out and the article's values they take (docs/formats.md#rig-toml), but not those the
+/// experiment's `[set]` gives.
+#[test]
+fn an_experiments_rig_file_names_the_keys_it_leaves_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article");
+    std::fs::write(
+        dir.path().join("partial.toml"),
+        "mass_kg = 10593.0\nbeta_bar = 160.0\n",
+    )
+    .unwrap();
+    let exp = format!(
+        "rig = \"partial.toml\"\n[set]\nkp = 25.0\n[standstill]\nrecord = \"{}\"\n[[dataset]]\n\
+         file = \"{}\"\nkp = 25.0\nmass_kg = 10593.0\nfit_end_s = 2.7\n",
+        data.join("standstill.csv").display(),
+        data.join("identification.csv").display()
+    );
+    std::fs::write(dir.path().join("exp.toml"), exp).unwrap();
+    let out = pumpcyl(
+        dir.path(),
+        &["simulate", "--experiment", "exp.toml", "--dataset", "1"],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let note = err
+        .lines()
+        .find(|l| l.starts_with("note: "))
+        .unwrap_or_default();
+    assert!(
+        note.contains("partial.toml does not set")
+            && note.contains("mass_by_position = []")
+            && note.contains("piston_diameter_mm = 63")
+            && !note.contains("kp =")
+            && !note.contains("beta_bar ="),
+        "{err}"
+    );
+}

@@ -169,12 +169,30 @@ impl Locate<'_> {
 
 impl ExperimentFile {
     /// The rig: the named file or the embedded default, with `[set]` applied.
-    fn rig(&self, files: &dyn input::Files, dir: &Path, at: &Locate) -> Result<Rig, IdentError> {
-        let base = match &self.rig {
+    fn rig(
+        &self,
+        files: &dyn input::Files,
+        dir: &Path,
+        at: &Locate,
+    ) -> Result<(Rig, RigDefaults), IdentError> {
+        let (base, defaults) = match &self.rig {
             Some(r) => {
-                Rig::from_file_in(files, &dir.join(r)).map_err(|e| at.error(&[Name("rig")], e))?
+                let path = dir.join(r);
+                let read = Rig::from_file_with_defaults_in(files, &path)
+                    .map_err(|e| at.error(&[Name("rig")], e))?;
+                let set: Vec<&str> = self.set.keys().map(String::as_str).collect();
+                let defaults = RigDefaults {
+                    note: read.note(&path.display().to_string(), &set),
+                    keys: read
+                        .defaulted
+                        .iter()
+                        .copied()
+                        .filter(|k| !set.contains(k))
+                        .collect(),
+                };
+                (read.rig, defaults)
             }
-            None => Rig::default(),
+            None => (Rig::default(), RigDefaults::default()),
         };
         let assignment = |(k, v): (&String, &toml::Value)| format!("{k}={v}");
         // each key alone first, so an unknown key or a wrong type is found on its own line
@@ -186,13 +204,14 @@ impl ExperimentFile {
             }
         }
         let all: Vec<String> = self.set.iter().map(assignment).collect();
-        base.with_overrides_from("[set]", &all).map_err(|e| {
+        let rig = base.with_overrides_from("[set]", &all).map_err(|e| {
             let key = match &e {
                 crate::rig::RigError::Invalid { key, .. } => key,
                 _ => "",
             };
             at.error(&[Name("set"), Name(key)], e)
-        })
+        })?;
+        Ok((rig, defaults))
     }
 
     /// Dataset `i`, its record read and prepared.
@@ -247,6 +266,16 @@ impl StandstillSpec {
     }
 }
 
+/// The keys a rig file leaves out, which take the article rig's values (docs/formats.md#rig-toml),
+/// but those its reader sets another way; none for the embedded rig.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RigDefaults {
+    /// One line naming the keys and their values, when the file leaves any out.
+    pub note: Option<String>,
+    /// The keys.
+    pub keys: Vec<&'static str>,
+}
+
 /// A loaded experiment: the file, where it lives, the rig and the prepared problem.
 #[derive(Debug, Clone)]
 pub struct Experiment {
@@ -256,6 +285,8 @@ pub struct Experiment {
     pub file: ExperimentFile,
     /// The rig with the overrides applied.
     pub rig: Rig,
+    /// What the experiment's rig file leaves out (docs/formats.md#rig-toml).
+    pub rig_defaults: RigDefaults,
     /// Datasets ready to fit.
     pub problem: Problem,
     /// The first grid (the file's, the article's, or over the ranges / the rig's values).
@@ -327,7 +358,7 @@ impl Experiment {
             .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
         let at = Locate { name: &name, text };
         let dir = path.parent().unwrap_or(Path::new("."));
-        let rig = file.rig(files, dir, &at)?;
+        let (rig, rig_defaults) = file.rig(files, dir, &at)?;
         let standstill = file
             .standstill
             .resolve(files, dir)
@@ -372,6 +403,7 @@ impl Experiment {
             second_grid: Some(second_grid),
             file,
             rig,
+            rig_defaults,
             problem: Problem {
                 datasets,
                 standstill,

@@ -49,7 +49,7 @@ pub use advice::{
     MIN_SAMPLES_PER_PERIOD, REST_S,
 };
 pub use drive::{identify_drive, DriveFit, DriveRecord};
-pub use experiment::{Experiment, ExperimentFile};
+pub use experiment::{Experiment, ExperimentFile, RigDefaults};
 pub use grid::{
     candidate_values, spaced, stepped, Candidate, Grid, SecondGrid, FIRST_AXES, SECOND_COUNTS,
 };
