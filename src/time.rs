@@ -255,10 +255,7 @@ pub fn step(args: &StepArgs) -> Result<String> {
     )?;
     let runs = run_variants(&args.rig, &rig, &args.opts.compare, |r| {
         let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
-        let m = response::StepMetrics {
-            ringing: response::ringing(r)?,
-            ..response::step_metrics_of(r, &s, args.step_mm)
-        };
+        let m = response::step_report(r, &s, args.step_mm)?;
         Ok((s, m))
     })?;
     let origin = args.rig.origin();

@@ -158,6 +158,12 @@ class StepResponse(Simulation):
     """2 % settling time (s); None if still outside the band at the end."""
     steady_state_error_mm: float
     final_error_mm: float
+    ringing: Optional[Dict[str, float]]
+    """The least-damped closed-loop pole when the gain margin is under 1 dB
+    (docs/simulation.md#ringing): gain_margin_db, natural_freq_hz, damping_ratio; else None."""
+    over_ratings: List[Dict[str, Any]]
+    """The drive ratings the response exceeds (docs/simulation.md#drive-ratings), as the
+    command line's JSON ``over_ratings``; each also warns (UserWarning)."""
 
 class Dataset:
     """One record to fit: time (s), reference and measured position (mm), the experiment's

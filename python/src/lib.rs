@@ -718,6 +718,12 @@ struct PyStep {
     steady_state_error_mm: f64,
     /// Error at the end of the run (mm).
     final_error_mm: f64,
+    /// The least-damped closed-loop pole when the gain margin is under 1 dB
+    /// (docs/simulation.md#ringing): dict(gain_margin_db, natural_freq_hz, damping_ratio), or None.
+    ringing: Option<Py<PyAny>>,
+    /// The drive ratings the response exceeds (docs/simulation.md#drive-ratings), as the command
+    /// line's JSON `over_ratings`.
+    over_ratings: Py<PyAny>,
 }
 
 #[pymethods]
@@ -732,6 +738,8 @@ impl PyStep {
             "settling_time_s",
             "steady_state_error_mm",
             "final_error_mm",
+            "ringing",
+            "over_ratings",
         ];
         repr_attrs(slf.as_any(), &[&metrics[..], &SIGNALS[..]].concat())
     }
@@ -768,11 +776,17 @@ fn step(
     let (s, m) = py
         .detach(|| {
             let s = response::step(&rig, step_mm, duration_s, rate_hz)?;
-            let m = response::step_metrics_of(&rig, &s, step_mm);
+            let m = response::step_report(&rig, &s, step_mm)?;
             Ok::<_, lti::LtiError>((s, m))
         })
         .map_err(err)?;
     warn_stroke(py, &rig, &s)?;
+    let over = response::signals_over_ratings(&rig, &s);
+    let category = py.get_type::<PyUserWarning>();
+    for line in pumpcyl_present::time::rating_warnings("step", &over).lines() {
+        let line = line.trim_start_matches("warning: ");
+        PyErr::warn(py, category.as_any(), &CString::new(line)?, 1)?;
+    }
     let init = PyClassInitializer::from(PySimulation::of(py, &s)).add_subclass(PyStep {
         step_mm: m.step_mm,
         rise_time_s: m.rise_time_s,
@@ -782,6 +796,8 @@ fn step(
         settling_time_s: m.settling_time_s,
         steady_state_error_mm: m.steady_state_error_mm,
         final_error_mm: m.final_error_mm,
+        ringing: m.ringing.as_ref().map(|r| to_py(py, r)).transpose()?,
+        over_ratings: to_py(py, &over)?,
     });
     Py::new(py, init)
 }

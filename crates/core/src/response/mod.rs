@@ -336,6 +336,18 @@ pub fn step_metrics_of(rig: &Rig, s: &Signals, step_mm: f64) -> StepMetrics {
     step_metrics(&s.time_s, &y, step_mm, dc_mm)
 }
 
+/// [`step_metrics_of`] with the damping warning of the rig's loop ([`ringing`]): the metrics
+/// `step` reports, on the command line and in Python.
+///
+/// # Errors
+/// The loop's margins cannot be computed.
+pub fn step_report(rig: &Rig, s: &Signals, step_mm: f64) -> Result<StepMetrics, LtiError> {
+    Ok(StepMetrics {
+        ringing: ringing(rig)?,
+        ..step_metrics_of(rig, s, step_mm)
+    })
+}
+
 /// Sinusoidal tracking in the periodic steady state (docs/simulation.md#tracking-metrics):
 /// x_ref = x0 + A sin(2π f t) over `periods` whole periods sampled at `rate_hz` and held
 /// between samples, the closed loop started from its own periodic solution
