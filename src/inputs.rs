@@ -65,10 +65,13 @@ pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&st
     });
 }
 
-/// An experiment file read as the command line reads it: its rig file's left-out keys noted.
+/// An experiment file read as the command line reads it: the left-out keys of the rig file it
+/// names, if any, noted.
 pub fn experiment(path: &Path) -> anyhow::Result<Experiment> {
     let exp = Experiment::load_in(files(), path)?;
-    note(exp.rig_defaults.clone());
+    if exp.file.rig.is_some() {
+        note(exp.rig_defaults.clone());
+    }
     Ok(exp)
 }
 

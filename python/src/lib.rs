@@ -738,8 +738,6 @@ impl PyStep {
             "settling_time_s",
             "steady_state_error_mm",
             "final_error_mm",
-            "ringing",
-            "over_ratings",
         ];
         repr_attrs(slf.as_any(), &[&metrics[..], &SIGNALS[..]].concat())
     }
