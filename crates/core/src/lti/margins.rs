@@ -30,6 +30,12 @@ const MAX_MAG_STEP_DB: f64 = 10.0;
 /// change only touches the level through rounding (a double integrator sits on −180°
 /// everywhere): that is not a phase crossing.
 const PHASE_TOUCH_DEG: f64 = 1e-6;
+/// A magnitude that stays within this distance (dB) of 0 dB on both sides of a sign change
+/// only touches it through rounding (|L(0)| = 1 with |L| < 1 above: 1/(s + 1) is −4e−16 dB at
+/// 10⁻⁸ rad/s): that is not a gain crossing, and it has no delay margin.
+const GAIN_TOUCH_DB: f64 = 1e-9;
+/// 20/ln 10: dB per neper (a relative change η of |L| is 20 log10(1 + η) ≈ 8.69 η dB).
+const DB_PER_NEPER: f64 = 8.685_889_638_065_035;
 /// Phase crossings where |L| is below this level (dB) are not reported: there the phase is
 /// rounding noise, and a gain margin above 200 dB says nothing about stability.
 const PHASE_CROSSING_FLOOR_DB: f64 = -200.0;
@@ -63,6 +69,10 @@ pub struct Crossing {
     /// Delay margin (s) at a gain crossing: the smallest pure delay that brings this crossing to
     /// −180°.
     pub delay_margin_s: Option<f64>,
+    /// First-order bound on the error of `margin` (its unit: deg at a gain crossing, dB at a
+    /// phase crossing) that the conditioning of the model allows in double precision
+    /// (docs/analysis.md#conditioning).
+    pub margin_error_bound: f64,
 }
 
 /// Margins of a loop, with every crossing. `None` headline values are infinite margins (no
@@ -90,7 +100,16 @@ pub struct Margins {
     pub crossings: Vec<Crossing>,
     /// Poles at the origin counted for the phase anchor.
     pub integrators: usize,
+    /// The conditioning of the model does not allow the headline gain or phase margin to
+    /// [`RELIABLE_DB`] dB / [`RELIABLE_DEG`]°: its crossing's `margin_error_bound` is larger
+    /// (docs/analysis.md#conditioning).
+    pub ill_conditioned: bool,
 }
+
+/// Largest error bound (dB) of a gain margin stated without an ill-conditioning warning.
+pub const RELIABLE_DB: f64 = 0.01;
+/// Largest error bound (deg) of a phase margin stated without an ill-conditioning warning.
+pub const RELIABLE_DEG: f64 = 0.01;
 
 /// Margins of the SISO loop transfer `sys` (see the module documentation for the method).
 ///
@@ -118,6 +137,7 @@ pub struct Margins {
 /// ```
 pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
+    sys.require_transfer()?;
     let poles = ev.poles();
     let integrators = ev.integrators();
     let stability = sys.closed_loop_stability()?;
@@ -153,6 +173,7 @@ fn dc_phase_crossing(ev: &FreqEvaluator) -> Option<Crossing> {
             phase_deg: -180.0,
             margin: -magnitude_db,
             delay_margin_s: None,
+            margin_error_bound: DB_PER_NEPER * ev.relative_error_bound(0.0),
         }
     })
 }
@@ -173,7 +194,10 @@ fn summarise(crossings: Vec<Crossing>, stability: Stability, integrators: usize)
         .filter_map(|c| c.delay_margin_s)
         .min_by(f64::total_cmp)
         .map(|d| if closed_loop_stable { d } else { 0.0 });
+    let ill_conditioned = gm.is_some_and(|c| c.margin_error_bound > RELIABLE_DB)
+        || pm.is_some_and(|c| c.margin_error_bound > RELIABLE_DEG);
     Margins {
+        ill_conditioned,
         gain_margin_db: gm.map(|c| c.margin),
         phase_margin_deg: pm.map(|c| c.margin),
         phase_crossover_hz: gm.map(|c| c.frequency_hz),
@@ -240,7 +264,8 @@ impl Grid {
         let mut out = Vec::new();
         for i in 1..self.omega.len() {
             let (w0, w1) = (self.omega[i - 1], self.omega[i]);
-            if (self.mag_db[i - 1] >= 0.0) != (self.mag_db[i] >= 0.0) {
+            let touch = self.mag_db[i - 1].abs().max(self.mag_db[i].abs()) <= GAIN_TOUCH_DB;
+            if (self.mag_db[i - 1] >= 0.0) != (self.mag_db[i] >= 0.0) && !touch {
                 let mag = |u: f64| 20.0 * ev.at(u.exp()).norm().log10();
                 let w = brent_log(mag, w0, w1);
                 out.push(self.crossing_at(ev, CrossingKind::Gain, w, i));
@@ -285,7 +310,8 @@ impl Grid {
         let (margin, delay_margin_s) = match kind {
             CrossingKind::Gain => {
                 let pm = wrap_half_open(phase_deg + 180.0);
-                (pm, Some(pm.rem_euclid(360.0).to_radians() / omega))
+                let delay = pm.rem_euclid(360.0).to_radians() / omega;
+                (pm, delay.is_finite().then_some(delay))
             }
             CrossingKind::Phase => (-magnitude_db, None),
         };
@@ -296,7 +322,21 @@ impl Grid {
             phase_deg,
             margin,
             delay_margin_s,
+            margin_error_bound: margin_error_bound(ev, kind, omega),
         }
+    }
+}
+
+/// The error bound of the margin at a crossing at ω (docs/analysis.md#conditioning): the
+/// relative error η of L(jω) moves the quantity read there directly and, through the shift of
+/// the crossing along the other quantity's slope, indirectly. With g = d ln L/dω, a phase
+/// crossing's GM moves by 8.69 η (1 + |Re g / Im g|) dB, a gain crossing's PM by
+/// η (1 + |Im g / Re g|) rad.
+fn margin_error_bound(ev: &FreqEvaluator, kind: CrossingKind, omega: f64) -> f64 {
+    let (eta, g) = ev.relative_error_and_log_slope(omega);
+    match kind {
+        CrossingKind::Phase => DB_PER_NEPER * eta * (1.0 + (g.re / g.im).abs()),
+        CrossingKind::Gain => (eta * (1.0 + (g.im / g.re).abs())).to_degrees(),
     }
 }
 
