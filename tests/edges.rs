@@ -134,13 +134,6 @@ fn replays_outside_the_stroke_or_in_metres_are_refused_or_flagged() {
         &["simulate", "--data", "m.csv"],
         &["m.csv", "column `x_ref_mm`", "metres"],
     );
-    // in micrometres: refused as well
-    std::fs::write(d.join("um.csv"), scaled(1e3)).unwrap();
-    refused(
-        d,
-        &["simulate", "--data", "um.csv"],
-        &["um.csv", "column `x_ref_mm`", "micrometres"],
-    );
 }
 
 #[test]

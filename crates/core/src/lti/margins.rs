@@ -519,3 +519,142 @@ fn wrap_half_open(deg: f64) -> f64 {
         w
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    fn siso(a: &[f64], b: &[f64], c: &[f64], d: f64) -> StateSpace {
+        let n = b.len();
+        StateSpace::new(
+            DMatrix::from_row_slice(n, n, a),
+            DMatrix::from_row_slice(n, 1, b),
+            DMatrix::from_row_slice(1, n, c),
+            DMatrix::from_element(1, 1, d),
+        )
+        .unwrap()
+    }
+
+    /// |L(0)| = 1 and |L| < 1 at every frequency above: 1/(s + 1), 4/(s² + 3s + 4) (|L|² =
+    /// 16/((4 − ω²)² + 9ω²) < 1 for ω > 0) and the same with a gain just below 1. No gain
+    /// crossing, so infinite (None) phase and delay margins, never π/ω at a rounding-noise
+    /// crossing near 0 Hz (3e8 s before).
+    #[test]
+    fn a_magnitude_touching_0_db_at_dc_has_no_delay_margin() {
+        let loops = [
+            siso(&[-1.0], &[1.0], &[1.0], 0.0),
+            siso(&[0.0, 1.0, -4.0, -3.0], &[0.0, 1.0], &[4.0, 0.0], 0.0),
+            siso(
+                &[0.0, 1.0, -4.0, -3.0],
+                &[0.0, 1.0],
+                &[4.0 - 1e-12, 0.0],
+                0.0,
+            ),
+            siso(&[-2.0], &[1.0], &[2.0], 0.0),
+        ];
+        for sys in &loops {
+            let m = margins(sys).unwrap();
+            assert!(m.crossings.is_empty(), "{:?}", m.crossings);
+            assert_eq!(
+                (m.delay_margin_s, m.phase_margin_deg, m.gain_margin_db),
+                (None, None, None)
+            );
+            assert!(!m.ill_conditioned);
+        }
+        // just above 1 at DC: a genuine crossing at ω = √(ε(2 + ε)) for 1/(s + 1)·(1 + ε),
+        // with its delay margin (π − atan ω)/ω
+        let eps = 1e-3;
+        let m = margins(&siso(&[-1.0], &[1.0], &[1.0 + eps], 0.0)).unwrap();
+        let w = (eps * (2.0 + eps)).sqrt();
+        let dm = (PI - w.atan()) / w;
+        let got = m.delay_margin_s.unwrap();
+        assert!((got - dm).abs() < 1e-9 * dm, "{got} vs {dm}");
+    }
+
+    /// A loop whose input reaches no output (B = 0, C = 0, or the input drives a state the
+    /// output does not see) has no margins: refused, as by `bode`; D ≠ 0 alone is a transfer.
+    #[test]
+    fn a_loop_without_transfer_is_refused() {
+        let zero = [
+            siso(&[-1.0], &[0.0], &[1.0], 0.0),
+            siso(&[-1.0], &[1.0], &[0.0], 0.0),
+            siso(&[-1.0, 0.0, 0.0, -2.0], &[1.0, 0.0], &[0.0, 1.0], 0.0),
+            siso(&[0.0; 4], &[0.0, 0.0], &[0.0, 0.0], 0.0),
+        ];
+        for sys in &zero {
+            assert!(matches!(margins(sys), Err(LtiError::NoTransfer)));
+            let freqs = super::super::log_grid(0.01, 100.0, 20);
+            let e = super::super::bode(sys, &freqs).unwrap_err();
+            assert!(matches!(e, LtiError::NoTransfer));
+            assert!(e.to_string().contains("no input reaches the output"), "{e}");
+        }
+        // D alone, and a chain that reaches the output in its second power of A
+        let d_only = siso(&[-1.0], &[0.0], &[1.0], 0.5);
+        assert!(super::super::bode(&d_only, &[1.0]).unwrap().mag_db[0].is_finite());
+        let chain = siso(&[-1.0, 0.0, 1.0, -2.0], &[1.0, 0.0], &[0.0, 1.0], 0.0);
+        assert!(margins(&chain).is_ok());
+    }
+
+    /// The error bound follows the conditioning: a well-scaled loop's margins are resolved far
+    /// below 0.01, while the bound grows with the relative error η of L(jω) that a companion
+    /// form of widely spread poles carries.
+    #[test]
+    fn the_error_bound_grows_with_the_conditioning() {
+        // 2/((s + 1)(s + 2)(s + 3)) ·5: GM 20 log10(60/(2·5)) = 15.56 dB at ω = √11
+        let well = siso(
+            &[0.0, 1.0, 0.0, 0.0, 0.0, 1.0, -6.0, -11.0, -6.0],
+            &[0.0, 0.0, 1.0],
+            &[10.0, 0.0, 0.0],
+            0.0,
+        );
+        let m = margins(&well).unwrap();
+        assert!((m.gain_margin_db.unwrap() - 20.0 * 6f64.log10()).abs() < 1e-9);
+        assert!(!m.ill_conditioned);
+        assert!(m.crossings.iter().all(|c| c.margin_error_bound < 1e-10));
+        let ev = FreqEvaluator::new(&well).unwrap();
+        // the poles at 1e−3 … 1e5 rad/s in companion form: coefficients over 27 decades
+        let poles = [1e-3, 1e-1, 1e1, 1e3, 1e5];
+        let mut den = vec![1.0];
+        for p in poles {
+            den.push(0.0);
+            for k in (1..den.len()).rev() {
+                den[k] += p * den[k - 1];
+            }
+        }
+        // den = s⁵ + a4 s⁴ + … + a0 (highest first): companion row −a0 … −a4
+        let n = poles.len();
+        let mut a = vec![0.0; n * n];
+        for i in 0..n - 1 {
+            a[i * n + i + 1] = 1.0;
+        }
+        for j in 0..n {
+            a[(n - 1) * n + j] = -den[n - j];
+        }
+        let mut b = vec![0.0; n];
+        b[n - 1] = 1.0;
+        let mut c = vec![0.0; n];
+        c[0] = den[n];
+        let spread = FreqEvaluator::new(&siso(&a, &b, &c, 0.0)).unwrap();
+        let (eta_well, eta_spread) = (
+            ev.relative_error_bound(3.0),
+            spread.relative_error_bound(3.0),
+        );
+        assert!(eta_well < 1e-13, "{eta_well}");
+        assert!(eta_spread > 1e3 * eta_well, "{eta_spread} vs {eta_well}");
+        // and it bounds the actual error against the product form Π p / Π (jω + p), or says
+        // that no digit is left (η ≥ 1, where a first-order bound ends)
+        for w in [1e-4, 1e-2, 1.0, 3.0, 1e2, 1e4, 1e6] {
+            let s = Complex64::new(0.0, w);
+            let exact = poles
+                .iter()
+                .fold(Complex64::new(den[n], 0.0), |g, p| g / (s + p));
+            let err = (spread.at(w) - exact).norm() / exact.norm();
+            let (eta, _) = spread.relative_error_and_log_slope(w);
+            assert!(
+                err <= eta || eta >= 1.0,
+                "ω {w}: error {err:e} above the bound {eta:e}"
+            );
+        }
+    }
+}
