@@ -28,6 +28,7 @@ except ImportError:
         raise
     pytest.skip("SKIPPED: mpmath is not installed (pip install mpmath)", allow_module_level=True)
 mp = mpmath.mp
+mp.dps = 60  # the reference's precision, and the generator's (its loops depend on it)
 
 LOOPS = 320
 TOL_DB = 0.05
@@ -233,7 +234,6 @@ def make_loops():
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
 def test_margins_match_60_digit_reference_or_warn(tmp_path):
     exe = pumpcyl_binary()
-    mp.dps = 60
     counts = {"match": 0, "warned": 0, "warned_but_match": 0, "wrong": 0, "refused": 0}
     companions = 0
     wrong = []
