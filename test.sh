@@ -71,10 +71,10 @@ VENV=target/py-venv
 PIP_LOG=target/py-venv-pip.log
 (
     if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
-    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy
+    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy mpmath
 ) > "$PIP_LOG" 2>&1 &
 PIP_PID=$!
-echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy (in the background: $PIP_LOG)"
+echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath (in the background: $PIP_LOG)"
 
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
     echo "== cargo test --locked $*"

@@ -24,8 +24,9 @@ pub struct MarginsArgs {
     #[command(flatten)]
     model: ModelArgs,
     /// Print JSON (keys loop, gain_margin_db, phase_margin_deg, phase_crossover_hz,
-    /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings, integrators; a null
-    /// margin is infinite: no crossing of that kind).
+    /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings, integrators,
+    /// ill_conditioned; a null margin is infinite: no crossing of that kind;
+    /// docs/analysis.md#conditioning for ill_conditioned and each crossing's margin_error_bound).
     #[arg(long)]
     json: bool,
 }

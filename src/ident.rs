@@ -242,9 +242,6 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         crate::emit::check_confidence(args.confidence)?;
     }
     let exp = crate::inputs::experiment(&args.experiment)?;
-    for ds in &exp.problem.datasets {
-        warn(&ds.record.unit_warnings(ds.rig.stroke_mm));
-    }
     let opts = options(args, &exp);
     anyhow::ensure!(
         args.shard.is_none() || args.out.is_some(),

@@ -340,9 +340,7 @@ pub fn track(args: &TrackArgs) -> Result<String> {
 /// `pumpcyl simulate`.
 pub fn simulate(args: &SimulateArgs) -> Result<String> {
     let (rec, rig, dataset_end) = replayed(args)?;
-    for w in rec.unit_warnings(rig.stroke_mm) {
-        eprintln!("warning: {w}");
-    }
+    rec.check_units(rig.stroke_mm)?;
     let (lo, hi) = rec.reference_range_mm();
     check_in_stroke(&rig, &format!("{}: x_ref_mm", rec.file), lo, hi)?;
     let origin = match (&args.experiment, args.dataset) {

@@ -127,13 +127,12 @@ fn replays_outside_the_stroke_or_in_metres_are_refused_or_flagged() {
         &["simulate", "--data", "far.csv"],
         &["far.csv", "x_ref_mm", "stroke"],
     );
-    // the same record in metres under _mm names: replayed, with a warning naming the values
+    // the same record in metres under _mm names: refused, naming the column and the unit
     std::fs::write(d.join("m.csv"), scaled(1e-3)).unwrap();
-    let out = pumpcyl(d, &["simulate", "--data", "m.csv"]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("warning: m.csv: x_ref_mm spans") && err.contains("metres"),
-        "{err}"
+    refused(
+        d,
+        &["simulate", "--data", "m.csv"],
+        &["m.csv", "column `x_ref_mm`", "metres"],
     );
 }
 

@@ -120,9 +120,13 @@ class Margins(Result):
     crossings: List[Dict[str, Any]]
     """Every crossing by increasing frequency: kind ("gain"/"phase"), frequency_hz,
     magnitude_db, phase_deg, margin (deg at a gain crossing, dB at a phase crossing),
-    delay_margin_s."""
+    delay_margin_s, margin_error_bound (the error of margin, in its unit, that the model's
+    conditioning allows in double precision: docs/analysis.md#conditioning)."""
     integrators: int
     """Poles at the origin."""
+    ill_conditioned: bool
+    """The model's conditioning does not resolve a headline margin to 0.01 dB / 0.01 deg
+    (its crossing's margin_error_bound is larger)."""
     simulated_closed_loop: Optional[Dict[str, Any]]
     """Only where it differs from the loop ``closed_loop_stability`` is read on (the rig's
     sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates

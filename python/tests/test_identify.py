@@ -138,6 +138,12 @@ def test_identify_errors_name_what_is_wrong():
         pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=dict(beta_bar=[1.0]))
     with pytest.raises(pumpcyl.PumpcylError, match="x_mm"):
         pumpcyl.Dataset([0.0, 0.1], [1.0, 2.0], [1.0], kp=25, mass_kg=1, fit_end_s=0.1)
+    # the same record in metres under the _mm names: refused as the command line refuses it,
+    # naming the column and the likely unit
+    metres = pumpcyl.Dataset(rec["time_s"], rec["x_ref_mm"] * 1e-3, rec["x_mm"] * 1e-3, kp=25,
+                             mass_kg=10593, fit_end_s=rec["time_s"][-1], name="m")
+    with pytest.raises(pumpcyl.PumpcylError, match=r"column `x_ref_mm`.*metres"):
+        pumpcyl.identify(datasets=[metres], standstill=dict(w1_rpm=-160, w2_rpm=245, p1_bar=3.95))
 
 
 def test_hours_of_work_are_refused_unless_allowed():

@@ -55,6 +55,16 @@ pub enum RecordError {
         /// What is wrong.
         message: String,
     },
+    /// Positions in another unit than the column's mm.
+    #[error("{file}: column `{column}` {message}")]
+    Unit {
+        /// The file.
+        file: String,
+        /// Column name.
+        column: String,
+        /// What is wrong, with the likely unit.
+        message: String,
+    },
     /// Too few samples.
     #[error("{file}: {message}")]
     Empty {
@@ -102,6 +112,11 @@ pub const MAX_MAT_BYTES: u64 = 2 << 30;
 const MAT_HEADER_BYTES: u64 = 128;
 
 const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
+
+/// The finest motion (mm) a cylinder position sensor resolves: 1 µm, the finest step of
+/// magnetostrictive and optical linear encoders. A reference moving less is no experiment
+/// in mm.
+pub const POSITION_RESOLUTION_MM: f64 = 1e-3;
 const OPTIONAL: [&str; 4] = ["p1_bar", "p2_bar", "w1_rpm", "w2_rpm"];
 
 impl Record {
@@ -110,21 +125,68 @@ impl Record {
         range(&self.x_ref_mm)
     }
 
-    /// Warnings that the positions look like another unit than mm: every reference and measured
-    /// position within 1 mm of 0 on a cylinder longer than 10 mm (`stroke_mm`) is a record in
-    /// metres under `_mm` column names, which would fit with an error near zero.
-    pub fn unit_warnings(&self, stroke_mm: f64) -> Vec<String> {
+    /// Refuse positions in another unit than mm, naming the column and the likely unit
+    /// (docs/formats.md#record-csv), so that no command and no Python call fits a record in
+    /// metres or micrometres as if it were millimetres:
+    /// - a column reaching beyond −1 … 2 strokes (`stroke_mm`): 1000 times too large, micrometres;
+    /// - on a cylinder longer than 10 mm, every reference and measured position within 1 mm of 0,
+    ///   or a reference whose whole motion is nonzero but below what a position sensor resolves
+    ///   ([`POSITION_RESOLUTION_MM`]): metres, which would fit with an error near zero.
+    pub fn check_units(&self, stroke_mm: f64) -> Result<(), RecordError> {
+        let refuse = |column: &str, message: String| {
+            Err(RecordError::Unit {
+                file: self.file.clone(),
+                column: column.to_string(),
+                message,
+            })
+        };
+        for (column, values) in [("x_ref_mm", &self.x_ref_mm), ("x_mm", &self.x_mm)] {
+            let (lo, hi) = range(values);
+            if lo < -stroke_mm || hi > 2.0 * stroke_mm {
+                let (lo_mm, hi_mm) = (lo * 1e-3, hi * 1e-3);
+                let unit = if lo_mm >= -stroke_mm && hi_mm <= 2.0 * stroke_mm {
+                    format!("is it in micrometres ({lo_mm} … {hi_mm} mm)?")
+                } else {
+                    "is it in another unit?".to_string()
+                };
+                return refuse(
+                    column,
+                    format!(
+                        "spans {lo} … {hi}, far outside the 0 … {stroke_mm} mm stroke: {unit} \
+                         The column must be in mm"
+                    ),
+                );
+            }
+        }
+        if stroke_mm <= 10.0 {
+            return Ok(());
+        }
         let (lo, hi) = range(&self.x_ref_mm);
         let (xlo, xhi) = range(&self.x_mm);
-        let small = [lo, hi, xlo, xhi].iter().all(|v| v.abs() < 1.0);
-        if small && stroke_mm > 10.0 {
-            return vec![format!(
-                "{}: x_ref_mm spans {lo} … {hi} and x_mm {xlo} … {xhi}, all within 1 mm of 0 on \
-                 a {stroke_mm} mm cylinder: is the record in metres? The columns must be in mm",
-                self.file
-            )];
+        if [lo, hi, xlo, xhi].iter().all(|v| v.abs() < 1.0) {
+            return refuse(
+                "x_ref_mm",
+                format!(
+                    "spans {lo} … {hi} and x_mm {xlo} … {xhi}, all within 1 mm of 0 on a \
+                     {stroke_mm} mm cylinder: is the record in metres ({} … {} mm)? The columns \
+                     must be in mm",
+                    lo * 1e3,
+                    hi * 1e3
+                ),
+            );
         }
-        Vec::new()
+        if hi > lo && hi - lo < POSITION_RESOLUTION_MM {
+            return refuse(
+                "x_ref_mm",
+                format!(
+                    "moves by {} mm in all, below what a position sensor resolves \
+                     ({POSITION_RESOLUTION_MM} mm): is the record in metres? The column must be \
+                     in mm",
+                    hi - lo
+                ),
+            );
+        }
+        Ok(())
     }
 
     /// Read and check a record file, streamed (memory holds the used columns, not the text);
@@ -815,6 +877,40 @@ mod tests {
             }
             Ok(Box::new(Bytes(self.0, 0)))
         }
+    }
+
+    /// A record in metres or micrometres under `_mm` names is refused, naming the column and
+    /// the likely unit; the same record in mm passes, and so does a record about 0 that moves.
+    #[test]
+    fn positions_in_another_unit_are_refused() {
+        let mm = parse("time_s,x_ref_mm,x_mm\n0,340,339.9\n0.01,345,340.2\n").unwrap();
+        mm.check_units(500.0).unwrap();
+        let metres = parse("time_s,x_ref_mm,x_mm\n0,0.34,0.3399\n0.01,0.345,0.3402\n").unwrap();
+        let e = metres.check_units(500.0).unwrap_err().to_string();
+        assert!(
+            e.contains("column `x_ref_mm`") && e.contains("metres"),
+            "{e}"
+        );
+        let um = parse("time_s,x_ref_mm,x_mm\n0,20000,19900\n0.01,25000,20200\n").unwrap();
+        let e = um.check_units(500.0).unwrap_err().to_string();
+        assert!(
+            e.contains("column `x_ref_mm`") && e.contains("micrometres"),
+            "{e}"
+        );
+        // only the measured column in µm
+        let x_um = parse("time_s,x_ref_mm,x_mm\n0,20,19900\n0.01,25,20200\n").unwrap();
+        let e = x_um.check_units(500.0).unwrap_err().to_string();
+        assert!(
+            e.contains("column `x_mm`") && e.contains("micrometres"),
+            "{e}"
+        );
+        // a step of 0.5 µm at 340 mm: below what a sensor resolves
+        let tiny = parse("time_s,x_ref_mm,x_mm\n0,340,340\n0.01,340.0005,340\n").unwrap();
+        let e = tiny.check_units(500.0).unwrap_err().to_string();
+        assert!(e.contains("resolves"), "{e}");
+        // about 0, moving 5 mm: mm
+        let rel = parse("time_s,x_ref_mm,x_mm\n0,0,0.1\n0.01,5,0.4\n").unwrap();
+        rel.check_units(500.0).unwrap();
     }
 
     #[test]

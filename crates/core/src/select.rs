@@ -197,12 +197,16 @@ pub struct Candidate {
     /// β_e there at the highest and the lowest gas fraction (bar).
     pub beta_e_bar: [f64; 2],
     /// The largest Kp meeting the margin targets over the stroke, the loads and the whole
-    /// gas-fraction range (1/m); 0 when none does. With a fixed gain, that gain.
+    /// gas-fraction range (1/m); 0 when none does (`null` in JSON: no gain is not a gain of 0;
+    /// `reason` says why). With a fixed gain, that gain.
+    #[serde(serialize_with = "no_gain_as_null")]
     pub kp_max: f64,
     /// The largest Kp meeting the margin targets over the stroke, the loads and the whole
-    /// gas-fraction range (1/m), also when the gain is fixed; 0 when none does.
+    /// gas-fraction range (1/m), also when the gain is fixed; 0 when none does (`null` in JSON).
+    #[serde(serialize_with = "no_gain_as_null")]
     pub kp_max_range: f64,
-    /// The largest Kp at the reference gas fraction (1/m).
+    /// The largest Kp at the reference gas fraction (1/m); 0 when none does (`null` in JSON).
+    #[serde(serialize_with = "no_gain_as_null")]
     pub kp_max_reference: f64,
     /// Each wave's largest control error at `kp_max` over the gas-fraction range and the
     /// loads, [least, most] (mm); empty when `kp_max` is 0.
@@ -227,6 +231,11 @@ pub struct Candidate {
     pub margins_hold_at_reference_gas_fraction: bool,
     /// Why it does or does not.
     pub reason: String,
+}
+
+/// A largest gain of 0 (no gain meets the margin targets) as `null`, any other as itself.
+fn no_gain_as_null<S: serde::Serializer>(kp: &f64, s: S) -> Result<S::Ok, S::Error> {
+    (*kp > 0.0).then_some(*kp).serialize(s)
 }
 
 /// The tool's answer in the article's terms (its §4): where the prediction is uncertain,
@@ -1576,6 +1585,25 @@ mod tests {
         assert_eq!(s.min_mean_pressure_bar, None);
         assert_eq!(s.verdict, Verdict::NotAchievable);
         assert!(s.reasons[0].contains("0.2 Hz ±35 mm"), "{:?}", s.reasons);
+    }
+
+    /// A gain-margin target of 400 dB is met by no gain: every option's largest gain is `null`
+    /// in JSON with the reason, never a gain of 0.
+    #[test]
+    fn no_gain_meeting_the_targets_is_null_not_zero() {
+        let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
+        let mut req = requirement([x, x, x], Vec::new());
+        req.targets.gm_db = 400.0;
+        let s = select(&Rig::default(), &req, &[(Circuit::LowPressure, 4.4)], None).unwrap();
+        let json = serde_json::to_value(&s).unwrap();
+        let options = json["options"].as_array().unwrap();
+        assert!(!options.is_empty());
+        for o in options {
+            for key in ["kp_max", "kp_max_range", "kp_max_reference"] {
+                assert!(o[key].is_null(), "{key}: {o}");
+            }
+            assert!(o["reason"].as_str().unwrap().contains("no gain"), "{o}");
+        }
     }
 
     /// The bisection's bracket straddles the margins' own threshold: at Kp 25 with the gas

@@ -9,7 +9,10 @@ use crate::format::fmt_opt;
 use crate::plot::BodeSeries;
 use nalgebra::DMatrix;
 use pumpcyl::loops::{Loop, ModelView, Port, SimulatedLoop};
-use pumpcyl::lti::{poles_and_stability, CrossingKind, LtiError, Margins, PoleInfo, Stability};
+use pumpcyl::lti::{
+    poles_and_stability, CrossingKind, LtiError, Margins, PoleInfo, Stability, RELIABLE_DB,
+    RELIABLE_DEG,
+};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -103,6 +106,13 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
         at(m.gain_crossover_hz, "gain crossover")
     );
     let _ = writeln!(s, "  delay margin  {:>9} s", fmt_opt(m.delay_margin_s, 4));
+    if m.ill_conditioned {
+        let _ = writeln!(
+            s,
+            "  WARNING       ill-conditioned model: double precision does not resolve the margins \
+             to 0.01 (error bounds below; docs/analysis.md#conditioning)"
+        );
+    }
     let verdict = match m.closed_loop_stability {
         Stability::Stable => "stable",
         Stability::Unstable => "UNSTABLE",
@@ -126,6 +136,15 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
                 ),
             ),
             CrossingKind::Phase => ("phase", format!("GM {:.2} dB", c.margin)),
+        };
+        let limit = match c.kind {
+            CrossingKind::Gain => RELIABLE_DEG,
+            CrossingKind::Phase => RELIABLE_DB,
+        };
+        let margin = if c.margin_error_bound > limit {
+            format!("{margin} (ill-conditioned: ±{:.3e})", c.margin_error_bound)
+        } else {
+            margin
         };
         let _ = writeln!(
             s,

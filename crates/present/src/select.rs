@@ -113,11 +113,16 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             .map_or("-".to_string(), |[lo, hi]| format!("{lo:.2}…{hi:.2}"));
         let _ = writeln!(
             out,
-            "  {:<13} {:>8.1} {:>17} {:>8.2} {:>22} {:>12} {:>10}  {:<5} {:<9} {}",
+            "  {:<13} {:>8.1} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} {:<9} {}",
             circuit_text(c.circuit),
             c.mean_pressure_bar,
             format!("{:.0} … {:.0}", c.beta_e_bar[0], c.beta_e_bar[1]),
-            c.kp_max,
+            // no gain meets the targets: no number (the reason says so)
+            if c.kp_max > 0.0 {
+                format!("{:.2}", c.kp_max)
+            } else {
+                "-".to_string()
+            },
             if worst.is_empty() {
                 "-".to_string()
             } else {

@@ -63,6 +63,7 @@ impl Prepared {
                 spec.fit_end_s
             )));
         }
+        record.check_units(rig.stroke_mm)?;
         let rig = Rig {
             kp: spec.kp,
             mass_kg: spec.mass_kg,

@@ -30,6 +30,12 @@ const MAX_MAG_STEP_DB: f64 = 10.0;
 /// change only touches the level through rounding (a double integrator sits on −180°
 /// everywhere): that is not a phase crossing.
 const PHASE_TOUCH_DEG: f64 = 1e-6;
+/// A magnitude that stays within this distance (dB) of 0 dB on both sides of a sign change
+/// only touches it through rounding (|L(0)| = 1 with |L| < 1 above: 1/(s + 1) is −4e−16 dB at
+/// 10⁻⁸ rad/s): that is not a gain crossing, and it has no delay margin.
+const GAIN_TOUCH_DB: f64 = 1e-9;
+/// 20/ln 10: dB per neper (a relative change η of |L| is 20 log10(1 + η) ≈ 8.69 η dB).
+const DB_PER_NEPER: f64 = 8.685_889_638_065_035;
 /// Phase crossings where |L| is below this level (dB) are not reported: there the phase is
 /// rounding noise, and a gain margin above 200 dB says nothing about stability.
 const PHASE_CROSSING_FLOOR_DB: f64 = -200.0;
@@ -63,6 +69,10 @@ pub struct Crossing {
     /// Delay margin (s) at a gain crossing: the smallest pure delay that brings this crossing to
     /// −180°.
     pub delay_margin_s: Option<f64>,
+    /// First-order bound on the error of `margin` (its unit: deg at a gain crossing, dB at a
+    /// phase crossing) that the conditioning of the model allows in double precision
+    /// (docs/analysis.md#conditioning).
+    pub margin_error_bound: f64,
 }
 
 /// Margins of a loop, with every crossing. `None` headline values are infinite margins (no
@@ -90,7 +100,16 @@ pub struct Margins {
     pub crossings: Vec<Crossing>,
     /// Poles at the origin counted for the phase anchor.
     pub integrators: usize,
+    /// The conditioning of the model does not allow the headline gain or phase margin to
+    /// [`RELIABLE_DB`] dB / [`RELIABLE_DEG`]°: its crossing's `margin_error_bound` is larger
+    /// (docs/analysis.md#conditioning).
+    pub ill_conditioned: bool,
 }
+
+/// Largest error bound (dB) of a gain margin stated without an ill-conditioning warning.
+pub const RELIABLE_DB: f64 = 0.01;
+/// Largest error bound (deg) of a phase margin stated without an ill-conditioning warning.
+pub const RELIABLE_DEG: f64 = 0.01;
 
 /// Margins of the SISO loop transfer `sys` (see the module documentation for the method).
 ///
@@ -118,6 +137,7 @@ pub struct Margins {
 /// ```
 pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
     let ev = FreqEvaluator::new(sys)?;
+    sys.require_transfer()?;
     let poles = ev.poles();
     let integrators = ev.integrators();
     let stability = sys.closed_loop_stability()?;
@@ -153,6 +173,7 @@ fn dc_phase_crossing(ev: &FreqEvaluator) -> Option<Crossing> {
             phase_deg: -180.0,
             margin: -magnitude_db,
             delay_margin_s: None,
+            margin_error_bound: DB_PER_NEPER * ev.relative_error_bound(0.0),
         }
     })
 }
@@ -173,7 +194,10 @@ fn summarise(crossings: Vec<Crossing>, stability: Stability, integrators: usize)
         .filter_map(|c| c.delay_margin_s)
         .min_by(f64::total_cmp)
         .map(|d| if closed_loop_stable { d } else { 0.0 });
+    let ill_conditioned = gm.is_some_and(|c| c.margin_error_bound > RELIABLE_DB)
+        || pm.is_some_and(|c| c.margin_error_bound > RELIABLE_DEG);
     Margins {
+        ill_conditioned,
         gain_margin_db: gm.map(|c| c.margin),
         phase_margin_deg: pm.map(|c| c.margin),
         phase_crossover_hz: gm.map(|c| c.frequency_hz),
@@ -240,7 +264,8 @@ impl Grid {
         let mut out = Vec::new();
         for i in 1..self.omega.len() {
             let (w0, w1) = (self.omega[i - 1], self.omega[i]);
-            if (self.mag_db[i - 1] >= 0.0) != (self.mag_db[i] >= 0.0) {
+            let touch = self.mag_db[i - 1].abs().max(self.mag_db[i].abs()) <= GAIN_TOUCH_DB;
+            if (self.mag_db[i - 1] >= 0.0) != (self.mag_db[i] >= 0.0) && !touch {
                 let mag = |u: f64| 20.0 * ev.at(u.exp()).norm().log10();
                 let w = brent_log(mag, w0, w1);
                 out.push(self.crossing_at(ev, CrossingKind::Gain, w, i));
@@ -285,7 +310,8 @@ impl Grid {
         let (margin, delay_margin_s) = match kind {
             CrossingKind::Gain => {
                 let pm = wrap_half_open(phase_deg + 180.0);
-                (pm, Some(pm.rem_euclid(360.0).to_radians() / omega))
+                let delay = pm.rem_euclid(360.0).to_radians() / omega;
+                (pm, delay.is_finite().then_some(delay))
             }
             CrossingKind::Phase => (-magnitude_db, None),
         };
@@ -296,7 +322,21 @@ impl Grid {
             phase_deg,
             margin,
             delay_margin_s,
+            margin_error_bound: margin_error_bound(ev, kind, omega),
         }
+    }
+}
+
+/// The error bound of the margin at a crossing at ω (docs/analysis.md#conditioning): the
+/// relative error η of L(jω) moves the quantity read there directly and, through the shift of
+/// the crossing along the other quantity's slope, indirectly. With g = d ln L/dω, a phase
+/// crossing's GM moves by 8.69 η (1 + |Re g / Im g|) dB, a gain crossing's PM by
+/// η (1 + |Im g / Re g|) rad.
+fn margin_error_bound(ev: &FreqEvaluator, kind: CrossingKind, omega: f64) -> f64 {
+    let (eta, g) = ev.relative_error_and_log_slope(omega);
+    match kind {
+        CrossingKind::Phase => DB_PER_NEPER * eta * (1.0 + (g.re / g.im).abs()),
+        CrossingKind::Gain => (eta * (1.0 + (g.im / g.re).abs())).to_degrees(),
     }
 }
 
@@ -477,5 +517,144 @@ fn wrap_half_open(deg: f64) -> f64 {
         w - 360.0
     } else {
         w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    fn siso(a: &[f64], b: &[f64], c: &[f64], d: f64) -> StateSpace {
+        let n = b.len();
+        StateSpace::new(
+            DMatrix::from_row_slice(n, n, a),
+            DMatrix::from_row_slice(n, 1, b),
+            DMatrix::from_row_slice(1, n, c),
+            DMatrix::from_element(1, 1, d),
+        )
+        .unwrap()
+    }
+
+    /// |L(0)| = 1 and |L| < 1 at every frequency above: 1/(s + 1), 4/(s² + 3s + 4) (|L|² =
+    /// 16/((4 − ω²)² + 9ω²) < 1 for ω > 0) and the same with a gain just below 1. No gain
+    /// crossing, so infinite (None) phase and delay margins, never π/ω at a rounding-noise
+    /// crossing near 0 Hz (3e8 s before).
+    #[test]
+    fn a_magnitude_touching_0_db_at_dc_has_no_delay_margin() {
+        let loops = [
+            siso(&[-1.0], &[1.0], &[1.0], 0.0),
+            siso(&[0.0, 1.0, -4.0, -3.0], &[0.0, 1.0], &[4.0, 0.0], 0.0),
+            siso(
+                &[0.0, 1.0, -4.0, -3.0],
+                &[0.0, 1.0],
+                &[4.0 - 1e-12, 0.0],
+                0.0,
+            ),
+            siso(&[-2.0], &[1.0], &[2.0], 0.0),
+        ];
+        for sys in &loops {
+            let m = margins(sys).unwrap();
+            assert!(m.crossings.is_empty(), "{:?}", m.crossings);
+            assert_eq!(
+                (m.delay_margin_s, m.phase_margin_deg, m.gain_margin_db),
+                (None, None, None)
+            );
+            assert!(!m.ill_conditioned);
+        }
+        // just above 1 at DC: a genuine crossing at ω = √(ε(2 + ε)) for 1/(s + 1)·(1 + ε),
+        // with its delay margin (π − atan ω)/ω
+        let eps = 1e-3;
+        let m = margins(&siso(&[-1.0], &[1.0], &[1.0 + eps], 0.0)).unwrap();
+        let w = (eps * (2.0 + eps)).sqrt();
+        let dm = (PI - w.atan()) / w;
+        let got = m.delay_margin_s.unwrap();
+        assert!((got - dm).abs() < 1e-9 * dm, "{got} vs {dm}");
+    }
+
+    /// A loop whose input reaches no output (B = 0, C = 0, or the input drives a state the
+    /// output does not see) has no margins: refused, as by `bode`; D ≠ 0 alone is a transfer.
+    #[test]
+    fn a_loop_without_transfer_is_refused() {
+        let zero = [
+            siso(&[-1.0], &[0.0], &[1.0], 0.0),
+            siso(&[-1.0], &[1.0], &[0.0], 0.0),
+            siso(&[-1.0, 0.0, 0.0, -2.0], &[1.0, 0.0], &[0.0, 1.0], 0.0),
+            siso(&[0.0; 4], &[0.0, 0.0], &[0.0, 0.0], 0.0),
+        ];
+        for sys in &zero {
+            assert!(matches!(margins(sys), Err(LtiError::NoTransfer)));
+            let freqs = super::super::log_grid(0.01, 100.0, 20);
+            let e = super::super::bode(sys, &freqs).unwrap_err();
+            assert!(matches!(e, LtiError::NoTransfer));
+            assert!(e.to_string().contains("no input reaches the output"), "{e}");
+        }
+        // D alone, and a chain that reaches the output in its second power of A
+        let d_only = siso(&[-1.0], &[0.0], &[1.0], 0.5);
+        assert!(super::super::bode(&d_only, &[1.0]).unwrap().mag_db[0].is_finite());
+        let chain = siso(&[-1.0, 0.0, 1.0, -2.0], &[1.0, 0.0], &[0.0, 1.0], 0.0);
+        assert!(margins(&chain).is_ok());
+    }
+
+    /// The error bound follows the conditioning: a well-scaled loop's margins are resolved far
+    /// below 0.01, while the bound grows with the relative error η of L(jω) that a companion
+    /// form of widely spread poles carries.
+    #[test]
+    fn the_error_bound_grows_with_the_conditioning() {
+        // 2/((s + 1)(s + 2)(s + 3)) ·5: GM 20 log10(60/(2·5)) = 15.56 dB at ω = √11
+        let well = siso(
+            &[0.0, 1.0, 0.0, 0.0, 0.0, 1.0, -6.0, -11.0, -6.0],
+            &[0.0, 0.0, 1.0],
+            &[10.0, 0.0, 0.0],
+            0.0,
+        );
+        let m = margins(&well).unwrap();
+        assert!((m.gain_margin_db.unwrap() - 20.0 * 6f64.log10()).abs() < 1e-9);
+        assert!(!m.ill_conditioned);
+        assert!(m.crossings.iter().all(|c| c.margin_error_bound < 1e-10));
+        let ev = FreqEvaluator::new(&well).unwrap();
+        // the poles at 1e−3 … 1e5 rad/s in companion form: coefficients over 27 decades
+        let poles = [1e-3, 1e-1, 1e1, 1e3, 1e5];
+        let mut den = vec![1.0];
+        for p in poles {
+            den.push(0.0);
+            for k in (1..den.len()).rev() {
+                den[k] += p * den[k - 1];
+            }
+        }
+        // den = s⁵ + a4 s⁴ + … + a0 (highest first): companion row −a0 … −a4
+        let n = poles.len();
+        let mut a = vec![0.0; n * n];
+        for i in 0..n - 1 {
+            a[i * n + i + 1] = 1.0;
+        }
+        for j in 0..n {
+            a[(n - 1) * n + j] = -den[n - j];
+        }
+        let mut b = vec![0.0; n];
+        b[n - 1] = 1.0;
+        let mut c = vec![0.0; n];
+        c[0] = den[n];
+        let spread = FreqEvaluator::new(&siso(&a, &b, &c, 0.0)).unwrap();
+        let (eta_well, eta_spread) = (
+            ev.relative_error_bound(3.0),
+            spread.relative_error_bound(3.0),
+        );
+        assert!(eta_well < 1e-13, "{eta_well}");
+        assert!(eta_spread > 1e3 * eta_well, "{eta_spread} vs {eta_well}");
+        // and it bounds the actual error against the product form Π p / Π (jω + p), or says
+        // that no digit is left (η ≥ 1, where a first-order bound ends)
+        for w in [1e-4, 1e-2, 1.0, 3.0, 1e2, 1e4, 1e6] {
+            let s = Complex64::new(0.0, w);
+            let exact = poles
+                .iter()
+                .fold(Complex64::new(den[n], 0.0), |g, p| g / (s + p));
+            let err = (spread.at(w) - exact).norm() / exact.norm();
+            let (eta, _) = spread.relative_error_and_log_slope(w);
+            assert!(
+                err <= eta || eta >= 1.0,
+                "ω {w}: error {err:e} above the bound {eta:e}"
+            );
+        }
     }
 }

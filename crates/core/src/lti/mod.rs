@@ -12,7 +12,7 @@ mod timeresp;
 
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo, MAX_STATES};
-pub use margins::{margins, Crossing, CrossingKind, Margins};
+pub use margins::{margins, Crossing, CrossingKind, Margins, RELIABLE_DB, RELIABLE_DEG};
 pub use poles::{
     check_magnitudes, eigenvalues, poles_and_stability, resonance, stability, PoleInfo, Stability,
 };
@@ -94,6 +94,9 @@ pub enum LtiError {
         /// Half the sampling rate (Hz).
         nyquist_hz: f64,
     },
+    /// The transfer function is identically zero: no input reaches the output.
+    #[error("no input reaches the output: C (sI − A)⁻¹ B + D is identically zero (B, C or D and every C Aᵏ B are zero), so the frequency response is −∞ dB everywhere")]
+    NoTransfer,
     /// Unity feedback with D = −1 has no solution.
     #[error("unity feedback is ill-posed: 1 + D = 0 (algebraic loop)")]
     IllPosedFeedback,
@@ -165,6 +168,29 @@ impl StateSpace {
                 outputs: self.c.nrows(),
             })
         }
+    }
+
+    /// Fail with [`LtiError::NoTransfer`] when the transfer function C (sI − A)⁻¹ B + D is
+    /// identically zero: D and every Markov parameter C Aᵏ B (k < n, Cayley–Hamilton) are
+    /// exactly zero, as with B = 0 or C = 0 or a structurally disconnected input and output.
+    pub fn require_transfer(&self) -> Result<(), LtiError> {
+        let mut v = self.b.clone();
+        for _ in 0..self.order() {
+            if (&self.c * &v).iter().any(|x| *x != 0.0) {
+                return Ok(());
+            }
+            v = &self.a * v;
+            // only exact zeros matter: rescale so that the powers never overflow
+            let top = v.amax();
+            if top == 0.0 {
+                break;
+            }
+            v /= top;
+        }
+        if self.d.iter().any(|x| *x != 0.0) {
+            return Ok(());
+        }
+        Err(LtiError::NoTransfer)
     }
 
     /// The closed loop r → y of a SISO loop transfer L under unity negative feedback,
