@@ -94,8 +94,9 @@ pub struct IdentifyArgs {
     /// Length of the top list.
     #[arg(long, default_value_t = 20)]
     top: usize,
-    /// Evaluate only slice I of N of the grids (1-based) and write a partial result into --out
-    /// for `pumpcyl identify-merge`.
+    /// Evaluate only slice I of N of the grids (1-based; N at most 1000 and at most the
+    /// candidates of the smallest grid) and write a partial result into --out for
+    /// `pumpcyl identify-merge`.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
     /// Run even when the grids times the records would take hours (more than
@@ -250,6 +251,9 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         args.shard.is_none() || args.out.is_some(),
         "--shard writes a partial result: give --out DIR"
     );
+    if let Some(shard) = args.shard {
+        shards::check_label(&exp, shard)?;
+    }
     let request = Request {
         shard: args.shard,
         allow_long_run: args.allow_long_run,

@@ -27,6 +27,11 @@ pub const MAX_CANDIDATE_SAMPLES: f64 = 1e9;
 /// hours.
 pub const MAX_MARGIN_ANALYSES: f64 = 1e5;
 
+/// The most shards one identification is split into (`identify --shard I/N`,
+/// docs/identification.md#sharding): each shard is a process and a partial result the merge
+/// reads and checks; a thousand already leaves each a few candidates of the article's grids.
+pub const MAX_SHARDS: usize = 1000;
+
 /// A size or an amount of work beyond its limit.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LimitError {
