@@ -5,7 +5,8 @@ use clap::Args;
 use std::path::PathBuf;
 
 use crate::RigSource;
-use pumpcyl::design::{design, Targets};
+use pumpcyl::design::{design_with, Targets};
+use pumpcyl::limits::Work;
 use pumpcyl_present::design::design_text;
 use pumpcyl_present::format::json_document;
 
@@ -115,7 +116,14 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
     }
     // a design error may lie in the rig (its mass table): say which rig
-    let d = design(&rig, &targets).map_err(|e| anyhow::anyhow!("{}: {e}", args.rig.origin()))?;
+    let bar = crate::ident::progress_bar_of(targets.conditions() as u64, "conditions");
+    let work = Work {
+        allow_long_run: args.allow_long_run,
+        progress: &|n| bar.inc(n),
+    };
+    let d = design_with(&rig, &targets, &work)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.rig.origin()))?;
+    bar.finish_and_clear();
     if args.json {
         return Ok(json_document(&d)?);
     }

@@ -221,14 +221,20 @@ fn options(args: &IdentifyArgs, exp: &Experiment) -> Options {
     }
 }
 
-/// A progress bar on stderr when it is a terminal; silent otherwise.
+/// A progress bar of candidates on stderr when it is a terminal; silent otherwise.
 pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    progress_bar_of(total, "candidates")
+}
+
+/// A progress bar of `total` `unit` on stderr when it is a terminal (the size shown from the
+/// start); silent otherwise.
+pub(super) fn progress_bar_of(total: u64, unit: &str) -> indicatif::ProgressBar {
     if std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{bar:40} {pos}/{len} candidates {per_sec} eta {eta}",
-            )
+            indicatif::ProgressStyle::with_template(&format!(
+                "{{bar:40}} {{pos}}/{{len}} {unit} {{per_sec}} eta {{eta}}"
+            ))
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         bar
