@@ -99,9 +99,6 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         mass_kg: args.mass_kg.clone(),
         waves: args.wave.clone(),
     };
-    targets
-        .check_work(args.allow_long_run)
-        .map_err(|e| crate::emit::hinted(e.into()))?;
     if args.robust {
         anyhow::ensure!(
             args.wave.is_empty(),
@@ -112,6 +109,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
             origin: args.rig.origin(),
             experiment: args.experiment.as_deref(),
             confidence: args.confidence.confidence,
+            allow_long_run: args.allow_long_run,
         };
         return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
     }
@@ -122,7 +120,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         progress: &|n| bar.inc(n),
     };
     let d = design_with(&rig, &targets, &work)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.rig.origin()))?;
+        .map_err(|e| crate::robust::in_rig(e, &args.rig.origin()))?;
     bar.finish_and_clear();
     if args.json {
         return Ok(json_document(&d)?);

@@ -74,6 +74,9 @@ fn long_runs_and_large_models_are_refused_unless_allowed() {
     }
     let design: Vec<&str> = design.iter().map(String::as_str).collect();
     refused(d, &design, &["mass_kg × p_mean_bar", "--allow-long-run"]);
+    // the robust design counts the same conditions, in the core as the nominal one does
+    let robust = [&design[..], &["--robust"]].concat();
+    refused(d, &robust, &["mass_kg × p_mean_bar", "--allow-long-run"]);
     // a state-space model of 501 states
     let n = 501;
     let row = |k: usize| format!("[{}]", (0..k).map(|_| "0").collect::<Vec<_>>().join(","));

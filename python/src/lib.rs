@@ -1522,8 +1522,6 @@ fn design(
             })?;
         return to_py(py, &d);
     }
-    // the design's limit, as the command line's `design --robust` checks it
-    targets.check_work(allow_long_run).map_err(long_run_err)?;
     ident::check_confidence(confidence).map_err(err)?;
     use pumpcyl::design::robust::{Region, RobustOptions};
     let d = py
@@ -1537,8 +1535,14 @@ fn design(
                 }
                 None => (rig.clone(), Region::stated_default(&rig), targets),
             };
-            pumpcyl::design::robust_design(&rig, &region, &targets, &RobustOptions::default())
-                .map_err(|e| e.to_string())
+            let opts = RobustOptions {
+                allow_long_run,
+                ..RobustOptions::default()
+            };
+            pumpcyl::design::robust_design(&rig, &region, &targets, &opts).map_err(|e| match e {
+                pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
+                e => e.to_string(),
+            })
         })
         .map_err(err)?;
     to_py(py, &d)
