@@ -119,9 +119,9 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         allow_long_run: args.allow_long_run,
         progress: &|n| bar.inc(n),
     };
-    let d = design_with(&rig, &targets, &work)
-        .map_err(|e| crate::robust::in_rig(e, &args.rig.origin()))?;
+    let designed = design_with(&rig, &targets, &work);
     bar.finish_and_clear();
+    let d = designed.map_err(|e| crate::robust::in_rig(e, &args.rig.origin()))?;
     if args.json {
         return Ok(json_document(&d)?);
     }

@@ -82,11 +82,12 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         allow_long_run: args.allow_long_run,
         progress: &|n| bar.inc(n),
     };
-    let s = app.select_with(args.kp, &work).map_err(|e| match e {
+    let selected = app.select_with(args.kp, &work);
+    bar.finish_and_clear();
+    let s = selected.map_err(|e| match e {
         SelectError::Limit(l) => crate::emit::hinted(l.into()),
         e => e.into(),
     })?;
-    bar.finish_and_clear();
     let document = json_document(&s)?;
     if let Some(dir) = &args.out {
         let folder = crate::emit::out_dir(dir)?;
