@@ -5,7 +5,8 @@ use clap::Args;
 use std::path::PathBuf;
 
 use crate::RigSource;
-use pumpcyl::design::{design, Targets};
+use pumpcyl::design::{design_with, Targets};
+use pumpcyl::limits::Work;
 use pumpcyl_present::design::design_text;
 use pumpcyl_present::format::json_document;
 
@@ -98,9 +99,6 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         mass_kg: args.mass_kg.clone(),
         waves: args.wave.clone(),
     };
-    targets
-        .check_work(args.allow_long_run)
-        .map_err(|e| crate::emit::hinted(e.into()))?;
     if args.robust {
         anyhow::ensure!(
             args.wave.is_empty(),
@@ -111,11 +109,19 @@ pub fn run(args: &DesignArgs) -> Result<String> {
             origin: args.rig.origin(),
             experiment: args.experiment.as_deref(),
             confidence: args.confidence.confidence,
+            allow_long_run: args.allow_long_run,
         };
         return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
     }
     // a design error may lie in the rig (its mass table): say which rig
-    let d = design(&rig, &targets).map_err(|e| anyhow::anyhow!("{}: {e}", args.rig.origin()))?;
+    let bar = crate::ident::progress_bar_of(targets.conditions() as u64, "conditions");
+    let work = Work {
+        allow_long_run: args.allow_long_run,
+        progress: &|n| bar.inc(n),
+    };
+    let designed = design_with(&rig, &targets, &work);
+    bar.finish_and_clear();
+    let d = designed.map_err(|e| crate::robust::in_rig(e, &args.rig.origin()))?;
     if args.json {
         return Ok(json_document(&d)?);
     }

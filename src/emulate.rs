@@ -88,7 +88,8 @@ pub struct EmulateArgs {
     /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
     #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     rate_hz: Option<f64>,
-    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work).
+    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work);
+    /// a record is never longer than 5·10^6 samples (its memory).
     #[arg(long)]
     allow_long_run: bool,
     /// Seed of the sensor noise.
@@ -218,19 +219,18 @@ fn option_of(field: &str) -> &str {
     }
 }
 
-/// Refuse a run of hours (controller steps beyond the limit) unless asked for.
+/// Refuse a record beyond the samples memory allows, and a run of hours (controller steps
+/// beyond the limit) unless asked for: [`pumpcyl::limits::check_emulation`].
 fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
     let duration_s = match plan {
         Kind::Loop(e) => e.duration_s(),
         Kind::Drive(d) => d.duration_s,
     };
-    pumpcyl::limits::check_work(
-        "--duration-s and --rate-hz (controller steps)",
-        duration_s * rate_hz,
-        pumpcyl::limits::MAX_EMULATED_STEPS,
-        allow_long_run,
-    )
-    .map_err(|e| crate::emit::hinted(e.into()))?;
+    pumpcyl::limits::check_emulation(duration_s, rate_hz, allow_long_run).map_err(|e| {
+        let long = matches!(e, pumpcyl::limits::LimitError::LongRun { .. });
+        let hint = if long { " (--allow-long-run)" } else { "" };
+        anyhow!("--duration-s and --rate-hz: {e}{hint}")
+    })?;
     Ok(())
 }
 

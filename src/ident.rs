@@ -94,8 +94,9 @@ pub struct IdentifyArgs {
     /// Length of the top list.
     #[arg(long, default_value_t = 20)]
     top: usize,
-    /// Evaluate only slice I of N of the grids (1-based) and write a partial result into --out
-    /// for `pumpcyl identify-merge`.
+    /// Evaluate only slice I of N of the grids (1-based; N at most 1000 and at most the
+    /// candidates of the smallest grid) and write a partial result into --out for
+    /// `pumpcyl identify-merge`.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
     /// Run even when the grids times the records would take hours (more than
@@ -220,14 +221,20 @@ fn options(args: &IdentifyArgs, exp: &Experiment) -> Options {
     }
 }
 
-/// A progress bar on stderr when it is a terminal; silent otherwise.
+/// A progress bar of candidates on stderr when it is a terminal; silent otherwise.
 pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    progress_bar_of(total, "candidates")
+}
+
+/// A progress bar of `total` `unit` on stderr when it is a terminal (the size shown from the
+/// start); silent otherwise.
+pub(super) fn progress_bar_of(total: u64, unit: &str) -> indicatif::ProgressBar {
     if std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{bar:40} {pos}/{len} candidates {per_sec} eta {eta}",
-            )
+            indicatif::ProgressStyle::with_template(&format!(
+                "{{bar:40}} {{pos}}/{{len}} {unit} {{per_sec}} eta {{eta}}"
+            ))
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         bar
@@ -247,6 +254,9 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         args.shard.is_none() || args.out.is_some(),
         "--shard writes a partial result: give --out DIR"
     );
+    if let Some(shard) = args.shard {
+        shards::check_label(&exp, shard)?;
+    }
     let request = Request {
         shard: args.shard,
         allow_long_run: args.allow_long_run,

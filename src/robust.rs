@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use crate::emit::{render_both, write_atomic};
 use pumpcyl::design::robust::{Region, RobustOptions};
-use pumpcyl::design::{robust_design, Targets};
+use pumpcyl::design::{robust_design, DesignError, Targets};
 use pumpcyl::rig::Rig;
 use pumpcyl_present::design::{robust_json, robust_text};
 use pumpcyl_present::figures::Chart;
@@ -24,6 +24,8 @@ pub(super) struct Source<'a> {
     pub experiment: Option<&'a Path>,
     /// Confidence of the region.
     pub confidence: f64,
+    /// Whether masses × pressures beyond the design's limit may run (`--allow-long-run`).
+    pub allow_long_run: bool,
 }
 
 /// Run the robust design and show it: JSON or text; with `out`, a result folder holding
@@ -54,8 +56,11 @@ pub(super) fn run(
     let origin = src
         .experiment
         .map_or(src.origin.clone(), |p| p.display().to_string());
-    let d = robust_design(&rig, &region, &targets, &RobustOptions::default())
-        .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+    let opts = RobustOptions {
+        allow_long_run: src.allow_long_run,
+        ..RobustOptions::default()
+    };
+    let d = robust_design(&rig, &region, &targets, &opts).map_err(|e| in_rig(e, &origin))?;
     let seconds = start.elapsed().as_secs_f64();
     let document = json_document(&robust_json(&d, seconds, identify_seconds))?;
     if let Some(dir) = out {
@@ -70,4 +75,13 @@ pub(super) fn run(
         return Ok(document);
     }
     Ok(robust_text(&d, seconds))
+}
+
+/// A design error in the command line's words: work beyond its limit names
+/// `--allow-long-run`; any other may lie in the rig (its mass table), so it names the rig.
+pub(super) fn in_rig(e: DesignError, origin: &str) -> anyhow::Error {
+    match e {
+        DesignError::Limit(l) => crate::emit::hinted(l.into()),
+        e => anyhow::anyhow!("{origin}: {e}"),
+    }
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use crate::emit::{render_both, write_atomic};
 use pumpcyl::rig::Rig;
-use pumpcyl::select::{Application, BetaEvidence, RigFrom};
+use pumpcyl::select::{Application, BetaEvidence, RigFrom, SelectError};
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::select::{selection_chart, selection_text};
 
@@ -36,6 +36,10 @@ pub struct SelectArgs {
     experiment: Option<PathBuf>,
     #[command(flatten)]
     confidence: crate::ConfidenceArg,
+    /// Run even when the loads × pressure levels exceed 400 cases (minutes to hours of work;
+    /// a progress bar shows them on a terminal).
+    #[arg(long)]
+    allow_long_run: bool,
     /// Print the application as commented TOML (with --set applied) and stop.
     #[arg(long)]
     print_default: bool,
@@ -72,7 +76,17 @@ pub fn run(args: &SelectArgs) -> Result<String> {
     if args.print_default {
         return Ok(app.to_commented_toml());
     }
-    let s = app.select(args.kp)?;
+    let bar = crate::ident::progress_bar_of(app.cases() as u64, "load × level cases");
+    let work = pumpcyl::limits::Work {
+        allow_long_run: args.allow_long_run,
+        progress: &|n| bar.inc(n),
+    };
+    let selected = app.select_with(args.kp, &work);
+    bar.finish_and_clear();
+    let s = selected.map_err(|e| match e {
+        SelectError::Limit(l) => crate::emit::hinted(l.into()),
+        e => e.into(),
+    })?;
     let document = json_document(&s)?;
     if let Some(dir) = &args.out {
         let folder = crate::emit::out_dir(dir)?;

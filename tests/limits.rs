@@ -74,6 +74,9 @@ fn long_runs_and_large_models_are_refused_unless_allowed() {
     }
     let design: Vec<&str> = design.iter().map(String::as_str).collect();
     refused(d, &design, &["mass_kg × p_mean_bar", "--allow-long-run"]);
+    // the robust design counts the same conditions, in the core as the nominal one does
+    let robust = [&design[..], &["--robust"]].concat();
+    refused(d, &robust, &["mass_kg × p_mean_bar", "--allow-long-run"]);
     // a state-space model of 501 states
     let n = 501;
     let row = |k: usize| format!("[{}]", (0..k).map(|_| "0").collect::<Vec<_>>().join(","));
@@ -102,4 +105,83 @@ fn long_runs_and_large_models_are_refused_unless_allowed() {
         "4000000",
     ];
     refused(d, &bode, &["--points-per-decade", "limit of 5e7 values"]);
+}
+
+/// `--set mass_kg=[…]` of `n` loads from 5000 kg in steps of 10 kg.
+fn loads(n: usize) -> String {
+    let m: Vec<String> = (0..n).map(|i| format!("{}", 5000 + 10 * i)).collect();
+    format!("mass_kg=[{}]", m.join(","))
+}
+
+#[test]
+fn select_refuses_hours_of_loads_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // the article's application: its pressure levels, each a case per load
+    let levels = run::json(d, &["select", "--json"])["options"]
+        .as_array()
+        .unwrap()
+        .len();
+    assert!(levels >= 2, "{levels}");
+    // 200 loads ran for a minute without a word, 10^5 (in an application file) would run
+    // for days
+    let words = |n: usize| {
+        [
+            "mass_kg loads × pressure levels".to_string(),
+            format!("about {} units", n * levels),
+            "4e2".into(),
+            "--allow-long-run".into(),
+        ]
+    };
+    let set = loads(200);
+    let w = words(200);
+    refused(
+        d,
+        &["select", "--set", &set],
+        &w.each_ref().map(String::as_str),
+    );
+    std::fs::write(d.join("app.toml"), loads(100_000)).unwrap();
+    let w = words(100_000);
+    refused(
+        d,
+        &["select", "app.toml"],
+        &w.each_ref().map(String::as_str),
+    );
+    // just beyond the limit of 400 cases: refused, and run when allowed
+    let n = 400 / levels + 1;
+    let set = loads(n);
+    refused(d, &["select", "--set", &set], &["--allow-long-run"]);
+    let allowed = run::json(d, &["select", "--set", &set, "--allow-long-run", "--json"]);
+    assert_eq!(allowed["options"].as_array().unwrap().len(), levels);
+}
+
+#[test]
+fn a_long_run_never_lifts_the_memory_limit_of_an_emulated_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for extra in [&[][..], &["--allow-long-run"][..]] {
+        let mut args = vec![
+            "emulate",
+            "--experiment",
+            "step",
+            "--duration-s",
+            "1e9",
+            "--out",
+            "r.csv",
+        ];
+        args.extend(extra);
+        refused(d, &args, &["--duration-s", "--rate-hz", "limit of 5e6"]);
+        assert!(!d.join("r.csv").exists());
+    }
+    // 5·10⁶ samples at the PLC's 100 Hz: 50 000 s; one sample more is refused before any work
+    let args = [
+        "emulate",
+        "--experiment",
+        "standstill",
+        "--duration-s",
+        "50000",
+        "--out",
+        "r.csv",
+    ];
+    refused(d, &args, &["5000001 points", "limit of 5e6"]);
 }

@@ -31,6 +31,21 @@ fn setup(dir: &Path) {
     .unwrap();
 }
 
+/// [`setup`] with a first grid of 36 candidates, so the shards have real top lists and
+/// threshold sets.
+fn setup_36(d: &Path) {
+    setup(d);
+    let exp = std::fs::read_to_string(d.join("exp.toml"))
+        .unwrap()
+        .replace(
+            "[grid]\nbeta_bar = [150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0]\n\
+         c12_m5_per_ns = [1.2e-10]",
+            "[grid]\nbeta_bar = [140.0, 150.0, 160.0, 170.0, 180.0, 190.0]\n\
+         viscous_friction_ns_per_m = [100.0, 150.0]\nc12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]",
+        );
+    std::fs::write(d.join("exp.toml"), exp).unwrap();
+}
+
 fn shard(dir: &Path, i: usize, extra: &[&str]) -> PathBuf {
     let s = format!("{i}/2");
     let mut args = vec![
@@ -101,10 +116,16 @@ fn merge_refuses_what_it_cannot_vouch_for() {
     });
     refused(d, &["edited"]);
     restore();
+    // the same cost in the top list and the threshold set: only a simulation can tell
     edit(&p1, |v| {
-        v["stages"][0]["summary"]["top"][0]["cost_mm2"] = 1e-9.into()
+        let s = summary(v);
+        s["top"][0]["cost_mm2"] = 1e-9.into();
+        s["threshold_members"][0]["cost_mm2"] = 1e-9.into();
     });
-    refused(d, &["simulated again"]);
+    refused(d, &["part-1-of-2.json", "top[0]", "simulated again"]);
+    restore();
+    edit(&p1, |v| summary(v)["top"][0]["cost_mm2"] = 1e-9.into());
+    refused(d, &["part-1-of-2.json", "top[0]", "threshold set's best"]);
     restore();
 
     // a shard missing a stage
@@ -121,7 +142,7 @@ fn merge_refuses_what_it_cannot_vouch_for() {
     edit(&p1, |v| {
         v["shard"] = serde_json::json!([1, 1_000_000_000_000_000u64])
     });
-    refused(d, &["missing shards", "1000000000000000"]);
+    refused(d, &["part-1-of-2.json", "1/1000000000000000", "N <= 1000"]);
     restore();
     assert_eq!(merge(d).0, Some(0));
 
@@ -189,17 +210,7 @@ fn merged(dir: &Path, parts: &[&str]) -> Option<Value> {
 fn every_single_edit_of_a_shard_is_refused_or_changes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    setup(d);
-    // a grid of 36 candidates, so the shards have real top lists and threshold sets
-    let exp = std::fs::read_to_string(d.join("exp.toml"))
-        .unwrap()
-        .replace(
-            "[grid]\nbeta_bar = [150.0, 165.0, 180.0]\nviscous_friction_ns_per_m = [100.0]\n\
-         c12_m5_per_ns = [1.2e-10]",
-            "[grid]\nbeta_bar = [140.0, 150.0, 160.0, 170.0, 180.0, 190.0]\n\
-         viscous_friction_ns_per_m = [100.0, 150.0]\nc12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]",
-        );
-    std::fs::write(d.join("exp.toml"), exp).unwrap();
+    setup_36(d);
     let whole = pumpcyl(
         d,
         &[
@@ -291,4 +302,177 @@ fn every_single_edit_of_a_shard_is_refused_or_changes_nothing() {
         None
     );
     drop(p2);
+}
+
+/// The first stage's summary of a partial result.
+fn summary(v: &mut Value) -> &mut Value {
+    &mut v["stages"][0]["summary"]
+}
+
+#[test]
+fn merge_simulates_again_what_it_reports_and_holds_the_top_list_to_the_members() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup_36(d);
+    // top lists of 10 of the 18 candidates of each slice, 9 of them below the threshold
+    let p1 = shard(d, 1, &["--threshold-mm2", "0.06", "--top", "10"]);
+    shard(d, 2, &["--threshold-mm2", "0.06", "--top", "10"]);
+    // shard 1 once more with one more place in its top list: its real 11th candidate
+    let longer = pumpcyl(
+        d,
+        &[
+            "identify",
+            "exp.toml",
+            "--no-refine",
+            "--shard",
+            "1/2",
+            "--out",
+            "long",
+            "--threshold-mm2",
+            "0.06",
+            "--top",
+            "11",
+        ],
+    );
+    assert!(longer.status.success());
+    let long: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("long/part-1-of-2.json")).unwrap())
+            .unwrap();
+    let parts = ["parts/part-1-of-2.json", "parts/part-2-of-2.json"];
+    let whole = merged(d, &parts).expect("the honest shards merge");
+    let good = std::fs::read_to_string(&p1).unwrap();
+    let first: Value = serde_json::from_str(&good).unwrap();
+    let s = &first["stages"][0]["summary"];
+    assert_eq!(s["top"].as_array().unwrap().len(), 10);
+    assert_eq!(s["threshold_count"].as_u64(), Some(9), "{s}");
+
+    let eleventh = long["stages"][0]["summary"]["top"][10].clone();
+    type Variant<'a> = (&'a str, Box<dyn Fn(&mut Value) + 'a>, &'a [&'a str]);
+    let variants: Vec<Variant> = vec![
+        (
+            "the best removed, the 11th appended",
+            Box::new(|v: &mut Value| {
+                let top = summary(v)["top"].as_array_mut().unwrap();
+                top.remove(0);
+                top.push(eleventh.clone());
+            }),
+            &["top[0]", "threshold set's best"],
+        ),
+        (
+            "the best removed",
+            Box::new(|v: &mut Value| {
+                summary(v)["top"].as_array_mut().unwrap().remove(0);
+            }),
+            &["top list of 9"],
+        ),
+        (
+            "the best's cost raised and moved last",
+            Box::new(|v: &mut Value| {
+                let top = summary(v)["top"].as_array_mut().unwrap();
+                let mut best = top.remove(0);
+                best["cost_mm2"] = (top.last().unwrap()["cost_mm2"].as_f64().unwrap() + 1.0).into();
+                top.push(best);
+            }),
+            &["top[0]", "threshold set's best"],
+        ),
+        (
+            "threshold_count raised by one",
+            Box::new(|v: &mut Value| {
+                let n = summary(v)["threshold_count"].as_u64().unwrap();
+                summary(v)["threshold_count"] = (n + 1).into();
+            }),
+            &["threshold_count", "threshold_members"],
+        ),
+        (
+            "a cost edited at top[3], in order, in the top list and the member list alike",
+            Box::new(|v: &mut Value| {
+                let top = &summary(v)["top"];
+                let mid = (top[2]["cost_mm2"].as_f64().unwrap()
+                    + top[3]["cost_mm2"].as_f64().unwrap())
+                    / 2.0;
+                summary(v)["top"][3]["cost_mm2"] = mid.into();
+                summary(v)["threshold_members"][3]["cost_mm2"] = mid.into();
+            }),
+            &["top[3]", "simulated again"],
+        ),
+        (
+            "a cost edited at top[3] alone",
+            Box::new(|v: &mut Value| {
+                let top = &summary(v)["top"];
+                let mid = (top[2]["cost_mm2"].as_f64().unwrap()
+                    + top[3]["cost_mm2"].as_f64().unwrap())
+                    / 2.0;
+                summary(v)["top"][3]["cost_mm2"] = mid.into();
+            }),
+            &["top[3]"],
+        ),
+        (
+            "the threshold set's bounds widened",
+            Box::new(|v: &mut Value| {
+                let lo = summary(v)["threshold_bounds"][0][0].as_f64().unwrap();
+                summary(v)["threshold_bounds"][0][0] = (lo - 10.0).into();
+            }),
+            &["threshold_bounds"],
+        ),
+    ];
+    for (what, change, words) in variants {
+        edit(&p1, change);
+        let out = pumpcyl(d, &["identify-merge", "--json", parts[0], parts[1]]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "`{what}` was accepted: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        for w in words.iter().chain(&["part-1-of-2.json", "stage 1"]) {
+            assert!(err.contains(w), "`{what}`: the message lacks `{w}`: {err}");
+        }
+        std::fs::write(&p1, &good).unwrap();
+    }
+    assert_eq!(merged(d, &parts).map(|v| answer(&v)), Some(answer(&whole)));
+}
+
+#[test]
+fn shard_labels_are_bounded_by_the_grids_and_a_documented_maximum() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    setup(d);
+    let run = |label: &str| {
+        pumpcyl(
+            d,
+            &[
+                "identify",
+                "exp.toml",
+                "--no-refine",
+                "--shard",
+                label,
+                "--out",
+                "labels",
+            ],
+        )
+    };
+    // three candidates in each grid: a fourth shard would evaluate nothing
+    for (label, words) in [
+        ("1/99999999999", ["1/99999999999", "N <= 1000"]),
+        ("1/1001", ["1/1001", "N <= 1000"]),
+        ("1/4", ["1/4", "3 candidates"]),
+    ] {
+        let out = run(label);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{label}: {err}");
+        for w in words {
+            assert!(err.contains(w), "{label}: the message lacks `{w}`: {err}");
+        }
+    }
+    assert!(!d.join("labels").exists());
+    assert!(run("3/3").status.success());
+    // a label edited after the run: the merge refuses it before it counts the parts
+    let p = d.join("labels/part-3-of-3.json");
+    edit(&p, |v| {
+        v["shard"] = serde_json::json!([1, 99_999_999_999u64])
+    });
+    let out = pumpcyl(d, &["identify-merge", "labels/part-3-of-3.json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("part-3-of-3.json") && err.contains("N <= 1000"),
+        "{err}"
+    );
 }

@@ -126,6 +126,7 @@ fn article_records_robust_design() {
         grid: 2,
         positions: 3,
         loop_steps: 3,
+        ..RobustOptions::default()
     };
     let d = robust_design(&rig, &region, &targets, &opts).unwrap();
     eprintln!(

@@ -310,6 +310,7 @@ def select(
     kp: Optional[float] = None,
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
+    allow_long_run: bool = False,
     **overrides: Any,
 ) -> Dict[str, Any]:
     """Which circuit, at which pressure level (docs/select.md): the application file (None =
@@ -356,6 +357,7 @@ def design(
     robust: bool = False,
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
+    allow_long_run: bool = False,
 ) -> Dict[str, Any]:
     """The design method (the article §2.2): kp_max, kp_max_worst_case, worst_case,
     conditions, tracking (each wave's periodic steady state: max_error_mm, rms_error_mm,

@@ -45,6 +45,14 @@ fn err(e: impl std::fmt::Display) -> PyErr {
     PumpcylError::new_err(lines.join(" "))
 }
 
+/// A limit refusal in Python's words: work beyond its limit names `allow_long_run=True`.
+fn long_run_err(e: pumpcyl::limits::LimitError) -> PyErr {
+    match e {
+        pumpcyl::limits::LimitError::LongRun { .. } => err(format!("{e} (allow_long_run=True)")),
+        e => err(e),
+    }
+}
+
 /// A value serialised by the library, as plain Python data (dicts, lists, floats, None).
 fn to_py(py: Python<'_>, value: &impl serde::Serialize) -> PyResult<Py<PyAny>> {
     let text = serde_json::to_string(value).map_err(err)?;
@@ -1373,9 +1381,12 @@ fn fmu(
 /// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
 /// from its records' interval of β at `confidence`. A dict as `pumpcyl select --json` prints,
 /// plus `table`: numpy arrays over the options (`mean_pressure_bar`, `beta_e_lo_bar`,
-/// `beta_e_hi_bar`, `kp_max`, `standing_loss_w`, `meets`).
+/// `beta_e_hi_bar`, `kp_max`, `standing_loss_w`, `meets`). Loads × pressure levels beyond 400
+/// cases (minutes to hours of work) run only with `allow_long_run=True`, as the command line's
+/// `--allow-long-run`.
 #[pyfunction]
-#[pyo3(signature = (application = None, *, rig = None, kp = None, experiment = None, confidence = 0.95, **overrides))]
+#[pyo3(signature = (application = None, *, rig = None, kp = None, experiment = None, confidence = 0.95, allow_long_run = false, **overrides))]
+#[allow(clippy::too_many_arguments)]
 fn select(
     py: Python<'_>,
     application: Option<PathBuf>,
@@ -1383,6 +1394,7 @@ fn select(
     kp: Option<f64>,
     experiment: Option<PathBuf>,
     confidence: f64,
+    allow_long_run: bool,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
     use pumpcyl::select::Application;
@@ -1427,7 +1439,14 @@ fn select(
                     .with_evidence(&evidence)
                     .map_err(|e| format!("{}: {e}", path.display()))?;
             }
-            app.select(kp).map_err(|e| e.to_string())
+            let work = pumpcyl::limits::Work {
+                allow_long_run,
+                progress: &|_| {},
+            };
+            app.select_with(kp, &work).map_err(|e| match e {
+                SelectError::Limit(l) => long_run_err(l).to_string(),
+                e => e.to_string(),
+            })
         })
         .map_err(err)?;
     let out = to_py(py, &s)?;
@@ -1474,16 +1493,19 @@ fn select(
 /// records of `experiment` (an experiment TOML file; its rig is designed, so `rig` must not be
 /// given; without `p_mean_bar`, over the mean chamber pressures its records span), or without
 /// `experiment` over the stated default uncertainty around `rig`.
+///
+/// Masses × pressures beyond 10^5 margin analyses (hours of work) run only with
+/// `allow_long_run=True`, as the command line's `--allow-long-run`.
 #[pyfunction]
 #[pyo3(
     signature = (
         rig = None, *, target_pm_deg = 34.0, target_gm_db = 6.0, stroke_mm = 50.0,
         p_mean_bar = vec![], p_beta_bar = 4.4, mass_kg = vec![], waves = vec![], robust = false,
-        experiment = None, confidence = 0.95
+        experiment = None, confidence = 0.95, allow_long_run = false
     ),
     text_signature = "(rig=None, *, target_pm_deg=34.0, target_gm_db=6.0, stroke_mm=50.0, \
         p_mean_bar=(), p_beta_bar=4.4, mass_kg=(), waves=(), robust=False, experiment=None, \
-        confidence=0.95)"
+        confidence=0.95, allow_long_run=False)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn design(
@@ -1499,6 +1521,7 @@ fn design(
     robust: bool,
     experiment: Option<PathBuf>,
     confidence: f64,
+    allow_long_run: bool,
 ) -> PyResult<Py<PyAny>> {
     let targets = pumpcyl::design::Targets {
         pm_deg: target_pm_deg,
@@ -1520,9 +1543,16 @@ fn design(
     let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
     check_waves(&rig, &targets.waves, robust)?;
     if !robust {
+        let work = pumpcyl::limits::Work {
+            allow_long_run,
+            progress: &|_| {},
+        };
         let d = py
-            .detach(|| pumpcyl::design::design(&rig, &targets))
-            .map_err(err)?;
+            .detach(|| pumpcyl::design::design_with(&rig, &targets, &work))
+            .map_err(|e| match e {
+                pumpcyl::design::DesignError::Limit(l) => long_run_err(l),
+                e => err(e),
+            })?;
         return to_py(py, &d);
     }
     ident::check_confidence(confidence).map_err(err)?;
@@ -1538,8 +1568,14 @@ fn design(
                 }
                 None => (rig.clone(), Region::stated_default(&rig), targets),
             };
-            pumpcyl::design::robust_design(&rig, &region, &targets, &RobustOptions::default())
-                .map_err(|e| e.to_string())
+            let opts = RobustOptions {
+                allow_long_run,
+                ..RobustOptions::default()
+            };
+            pumpcyl::design::robust_design(&rig, &region, &targets, &opts).map_err(|e| match e {
+                pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
+                e => e.to_string(),
+            })
         })
         .map_err(err)?;
     to_py(py, &d)

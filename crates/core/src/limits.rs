@@ -27,6 +27,17 @@ pub const MAX_CANDIDATE_SAMPLES: f64 = 1e9;
 /// hours.
 pub const MAX_MARGIN_ANALYSES: f64 = 1e5;
 
+/// Load × pressure-level cases a selection evaluates without allowing a long run (each a gain
+/// design over the stroke and tracking and step simulations over the gas-fraction range, tens
+/// of milliseconds): 400 is seconds of work, the article's application a small part of it; 200
+/// loads at its levels ran for a minute, 10⁵ would run for days.
+pub const MAX_SELECT_CASES: f64 = 400.0;
+
+/// The most shards one identification is split into (`identify --shard I/N`,
+/// docs/identification.md#sharding): each shard is a process and a partial result the merge
+/// reads and checks; a thousand already leaves each a few candidates of the article's grids.
+pub const MAX_SHARDS: usize = 1000;
+
 /// A size or an amount of work beyond its limit.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LimitError {
@@ -132,6 +143,55 @@ pub fn check_samples(duration_s: f64, rate_hz: f64) -> Result<usize, LimitError>
     )
 }
 
+/// The samples of an emulated record of `duration_s` at the controller's `rate_hz`: refused
+/// beyond [`MAX_SAMPLES`] always (the record's memory: no flag lifts it), and its controller
+/// steps beyond [`MAX_EMULATED_STEPS`] unless `allow_long_run` (the work).
+pub fn check_emulation(
+    duration_s: f64,
+    rate_hz: f64,
+    allow_long_run: bool,
+) -> Result<usize, LimitError> {
+    let samples = check_samples(duration_s, rate_hz)?;
+    check_work(
+        "duration_s × rate_hz (controller steps)",
+        duration_s * rate_hz,
+        MAX_EMULATED_STEPS,
+        allow_long_run,
+    )?;
+    Ok(samples)
+}
+
+/// How a caller lets work run beyond its limit and follows it: the one switch of every front
+/// end (the command line's `--allow-long-run`, Python's `allow_long_run=True`) and a callback
+/// given the units of work done since its last call (a progress bar; may be called from
+/// several threads).
+#[derive(Clone, Copy)]
+pub struct Work<'a> {
+    /// Whether work beyond its limit may run.
+    pub allow_long_run: bool,
+    /// Called with the units of work just done.
+    pub progress: &'a (dyn Fn(u64) + Sync),
+}
+
+/// A progress callback that shows nothing.
+fn silent(_: u64) {}
+
+impl Work<'_> {
+    /// Work within its limits, followed by nobody.
+    pub const QUIET: Work<'static> = Work {
+        allow_long_run: false,
+        progress: &silent,
+    };
+}
+
+impl std::fmt::Debug for Work<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Work")
+            .field("allow_long_run", &self.allow_long_run)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Refuse `work` units of `what` beyond `limit` unless `allowed` (a long run asked for).
 pub fn check_work(what: &str, work: f64, limit: f64, allowed: bool) -> Result<(), LimitError> {
     if work.is_finite() && (allowed || work <= limit) {
@@ -178,5 +238,15 @@ mod tests {
         let e = check_samples(-1.0, 100.0).unwrap_err().to_string();
         assert_eq!(e, "duration_s = -1: must be > 0");
         assert!(check_samples(1.0, f64::NAN).is_err());
+        // a long run lifts the work limit of an emulation, never its memory limit
+        assert_eq!(check_emulation(6.0, 100.0, false), Ok(601));
+        for allowed in [false, true] {
+            let e = check_emulation(1e9, 100.0, allowed)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("limit of 5e6"), "{e}");
+        }
+        let e = check_emulation(6.0, 1e300, true).unwrap_err().to_string();
+        assert!(e.contains("limit of 5e6"), "{e}");
     }
 }

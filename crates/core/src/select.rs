@@ -326,6 +326,9 @@ pub enum SelectError {
     /// The design at a candidate.
     #[error(transparent)]
     Design(#[from] DesignError),
+    /// Work beyond its limit, not allowed.
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
 }
 
 /// Evaluate `levels` (circuit, mean pressure in bar) for `rig` against `req`; `kp` fixes the
@@ -336,13 +339,42 @@ pub fn select(
     levels: &[(Circuit, f64)],
     kp: Option<f64>,
 ) -> Result<Selection, SelectError> {
+    select_with(rig, req, levels, kp, &crate::limits::Work::QUIET)
+}
+
+/// [`select`], beyond [`MAX_SELECT_CASES`](crate::limits::MAX_SELECT_CASES) load × level cases
+/// ([`cases`]) only when `work` allows a long run, its progress given to `work` in cases.
+pub fn select_with(
+    rig: &Rig,
+    req: &Requirement,
+    levels: &[(Circuit, f64)],
+    kp: Option<f64>,
+    work: &crate::limits::Work,
+) -> Result<Selection, SelectError> {
     check(rig, req, levels, kp).map_err(|(key, m)| SelectError::Input(format!("`{key}` = {m}")))?;
+    crate::limits::check_work(
+        "mass_kg loads × pressure levels (cases)",
+        cases(req, levels),
+        crate::limits::MAX_SELECT_CASES,
+        work.allow_long_run,
+    )?;
+    let loads = req.targets.mass_kg.len().max(1) as u64;
     // the candidates are independent: one per thread
     let options = levels
         .par_iter()
-        .map(|&(circuit, p)| candidate(rig, req, circuit, p, kp))
+        .map(|&(circuit, p)| {
+            let c = candidate(rig, req, circuit, p, kp);
+            (work.progress)(loads);
+            c
+        })
         .collect::<Result<Vec<_>, _>>()?;
     answer(rig, req, options, kp)
+}
+
+/// The cases a selection evaluates: each load (the rig's mass when none is given) at each
+/// pressure level.
+pub fn cases(req: &Requirement, levels: &[(Circuit, f64)]) -> f64 {
+    req.targets.mass_kg.len().max(1) as f64 * levels.len() as f64
 }
 
 /// What cannot be used in a selection, as (the key, why): the gas fractions, the waves (each
@@ -1368,7 +1400,21 @@ impl Application {
 
     /// Run the selection ([`select`]); `kp` fixes the gain.
     pub fn select(&self, kp: Option<f64>) -> Result<Selection, SelectError> {
-        select(&self.rig, &self.requirement(), &self.levels(), kp)
+        self.select_with(kp, &crate::limits::Work::QUIET)
+    }
+
+    /// Run the selection ([`select_with`]) as `work` allows and follows it.
+    pub fn select_with(
+        &self,
+        kp: Option<f64>,
+        work: &crate::limits::Work,
+    ) -> Result<Selection, SelectError> {
+        select_with(&self.rig, &self.requirement(), &self.levels(), kp, work)
+    }
+
+    /// The load × level cases its selection evaluates ([`cases`]).
+    pub fn cases(&self) -> f64 {
+        cases(&self.requirement(), &self.levels())
     }
 }
 

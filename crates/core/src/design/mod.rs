@@ -30,6 +30,9 @@ pub enum DesignError {
     /// The leakages from the standstill point.
     #[error(transparent)]
     Ident(#[from] crate::ident::IdentError),
+    /// Work beyond its limit, not allowed.
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
 }
 
 /// What the design asks for.
@@ -396,9 +399,12 @@ impl Targets {
     /// The margin analyses the design of these targets takes at most: three stroke positions ×
     /// masses × pressures conditions, each a Kp search, plus the design point's.
     pub fn margin_analyses(&self) -> f64 {
-        let conditions =
-            3.0 * self.mass_kg.len().max(1) as f64 * self.p_mean_bar.len().max(1) as f64;
-        (conditions + 1.0) * ANALYSES_PER_CONDITION
+        (self.conditions() + 1.0) * ANALYSES_PER_CONDITION
+    }
+
+    /// The conditions the design checks: three stroke positions × masses × pressures.
+    pub fn conditions(&self) -> f64 {
+        3.0 * self.mass_kg.len().max(1) as f64 * self.p_mean_bar.len().max(1) as f64
     }
 
     /// Refuse targets whose design would run for hours (more than
@@ -430,6 +436,18 @@ pub fn predicted_tracking(
 
 /// Apply the design method (docs/design.md) to `rig`.
 pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
+    design_with(rig, t, &crate::limits::Work::QUIET)
+}
+
+/// [`design`], beyond [`MAX_MARGIN_ANALYSES`](crate::limits::MAX_MARGIN_ANALYSES) only when
+/// `work` allows a long run ([`Targets::check_work`], the one check of every front end), its
+/// progress given to `work` in conditions ([`Targets::conditions`]).
+pub fn design_with(
+    rig: &Rig,
+    t: &Targets,
+    work: &crate::limits::Work,
+) -> Result<Design, DesignError> {
+    t.check_work(work.allow_long_run)?;
     check_inputs(rig, t)?;
     let kp = kp_max(rig, t)?;
     if kp == 0.0 {
@@ -439,7 +457,7 @@ pub fn design(rig: &Rig, t: &Targets) -> Result<Design, DesignError> {
         ));
     }
     let designed = Rig { kp, ..rig.clone() };
-    let conditions = conditions(&designed, t)?;
+    let conditions = conditions(&designed, t, work.progress)?;
     let worst = binding(&conditions).expect("at least the design point");
     let kp_max_worst_case = worst.kp_max;
     let kp_recommended = (kp_max_worst_case > 0.0).then(|| kp.min(kp_max_worst_case));
@@ -489,10 +507,15 @@ fn pm_key(c: &Condition) -> f64 {
 }
 
 /// Every combination of stroke position, mass and pressure, at the designed gain.
-fn conditions(rig: &Rig, t: &Targets) -> Result<Vec<Condition>, DesignError> {
+fn conditions(
+    rig: &Rig,
+    t: &Targets,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Vec<Condition>, DesignError> {
     condition_rigs(rig, t)?
         .into_iter()
         .map(|(p, r)| {
+            progress(1);
             let mm = margins_at(&r, rig.kp)?;
             Ok(Condition {
                 x_mm: r.x0_mm,

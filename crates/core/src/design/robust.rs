@@ -256,6 +256,10 @@ pub struct RobustOptions {
     pub positions: usize,
     /// Steps of the leakage loop, from the estimate down to the region's lowest c12.
     pub loop_steps: usize,
+    /// Whether masses × pressures beyond
+    /// [`MAX_MARGIN_ANALYSES`](crate::limits::MAX_MARGIN_ANALYSES) may run
+    /// ([`Targets::check_work`], as the nominal design checks them).
+    pub allow_long_run: bool,
 }
 
 impl Default for RobustOptions {
@@ -265,6 +269,7 @@ impl Default for RobustOptions {
             grid: 3,
             positions: 5,
             loop_steps: 6,
+            allow_long_run: false,
         }
     }
 }
@@ -648,6 +653,7 @@ fn deciding(rig: &Rig, point: Point, t: &Targets, kp: f64) -> Result<Deciding, D
 
 /// Check the inputs as [`super::design`] does, and the search's sizes.
 fn check(rig: &Rig, t: &Targets, opts: &RobustOptions) -> Result<(), DesignError> {
+    t.check_work(opts.allow_long_run)?;
     super::check_inputs(rig, t)?;
     for (name, v, max) in [
         ("grid", opts.grid, MAX_GRID),
@@ -976,6 +982,7 @@ mod tests {
             grid: 2,
             positions: 1,
             loop_steps: 1,
+            ..RobustOptions::default()
         };
         let d = robust_design(&rig, &region, &t, &opts).unwrap();
         assert_eq!(d.worst_case.points, 2); // the corner and the estimate, the same point
@@ -1057,6 +1064,7 @@ mod tests {
             grid: 2,
             positions: 3,
             loop_steps: 2,
+            ..RobustOptions::default()
         };
         let d = robust_design(&rig, &region, &t, &opts).unwrap();
         assert_eq!(d.deciding.at.p_mean_bar, Some(2.0));

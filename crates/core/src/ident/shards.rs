@@ -4,7 +4,7 @@
 
 use super::IdentError;
 use super::{finish, Experiment, Identification, Options, Stage};
-use super::{Grid, SecondGrid};
+use super::{Grid, SecondGrid, MEMBERS_KEPT};
 
 type Result<T> = std::result::Result<T, IdentError>;
 
@@ -71,8 +71,8 @@ pub fn digest(exp: &Experiment, opts: &Options, shard: (usize, usize)) -> Result
 /// the experiment names, as many candidates evaluated as the slice holds, the outcome counts
 /// adding up, a top list as long as the candidates allow and every listed candidate the grid
 /// point of its index, inside the slice; a time that is a time. Only a re-run could tell an
-/// honest cost from an edited one; the merge re-simulates the winners for that
-/// ([`verify_winners`]).
+/// honest cost from an edited one; the merge simulates again what it reports
+/// ([`verify_costs`]).
 fn check_part(exp: &Experiment, p: &Partial, opts: &Options) -> std::result::Result<(), String> {
     let fail = |what: String| Err(what + "; a partial result was edited or is damaged");
     if !(p.seconds.is_finite() && p.seconds >= 0.0) {
@@ -144,7 +144,89 @@ fn check_part(exp: &Experiment, p: &Partial, opts: &Options) -> std::result::Res
         if !s.top.windows(2).all(|w| w[0].cost_mm2 <= w[1].cost_mm2) {
             return fail(at("the top list is not in order of cost".into()));
         }
+        check_members(s).map_err(|e| at(e) + "; a partial result was edited or is damaged")?;
     }
+    Ok(())
+}
+
+/// Check that a stage's top list and threshold set tell the same story: the set keeps its
+/// best [`MEMBERS_KEPT`] members (all of them when fewer), their bounds are the members' own
+/// when all are kept, and the top list begins with the set's best, the same candidates at the
+/// same costs in the same order (both are the lowest costs of the slice), the rest of it at or
+/// above the threshold. A best candidate dropped from the top list, or a cost raised there, is
+/// still in the member list.
+fn check_members(s: &super::Summary) -> std::result::Result<(), String> {
+    let members = &s.threshold_members;
+    let count = usize::try_from(s.threshold_count).unwrap_or(usize::MAX);
+    if members.len() != count.min(MEMBERS_KEPT) {
+        return Err(format!(
+            "threshold_count {} with {} threshold_members (all are kept up to {MEMBERS_KEPT})",
+            s.threshold_count,
+            members.len()
+        ));
+    }
+    if members.len() == count && s.threshold_bounds != bounds_of(members) {
+        return Err("threshold_bounds are not the bounds of the threshold_members".into());
+    }
+    let below = s.top.len().min(count);
+    let shared = below.min(members.len());
+    if let Some(k) = (0..shared).find(|&k| s.top[k] != members[k]) {
+        return Err(format!(
+            "top[{k}] (candidate {} at {} mm²) is not the threshold set's best at that place \
+             (threshold_members[{k}]: candidate {} at {} mm²)",
+            s.top[k].index, s.top[k].cost_mm2, members[k].index, members[k].cost_mm2
+        ));
+    }
+    if let Some(k) = (below..s.top.len()).find(|&k| s.top[k].cost_mm2 < s.threshold_mm2) {
+        return Err(format!(
+            "top[{k}] costs {} mm², below the threshold, but is not among the threshold_count \
+             {}",
+            s.top[k].cost_mm2, s.threshold_count
+        ));
+    }
+    Ok(())
+}
+
+/// The bounds [lo, hi] of β, b and c12 over `members` (None when empty).
+fn bounds_of(members: &[super::Scored]) -> Option<[[f64; 2]; 3]> {
+    let axes = |e: &super::Scored| {
+        let c = e.candidate;
+        [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns]
+    };
+    let first = axes(members.first()?);
+    Some(std::array::from_fn(|a| {
+        members
+            .iter()
+            .map(|e| axes(e)[a])
+            .fold([first[a]; 2], |b, v| [b[0].min(v), b[1].max(v)])
+    }))
+}
+
+/// Refuse a shard label (I, N) outside 1 ≤ I ≤ N ≤ the fewest candidates of the experiment's
+/// grids (so every shard has a candidate of each stage) and N ≤
+/// [`MAX_SHARDS`](crate::limits::MAX_SHARDS) (docs/identification.md#sharding).
+pub fn check_label(exp: &Experiment, (i, n): (usize, usize)) -> Result<()> {
+    check_count((i, n))?;
+    let (first, second) = exp.grids();
+    let candidates = match second {
+        Some(SecondGrid::Given(g)) => first.len().min(g.len()),
+        _ => first.len(),
+    };
+    ensure!(
+        n <= candidates,
+        "shard {i}/{n}: more shards than the {candidates} candidates of the experiment's \
+         smallest grid; give N <= {candidates}"
+    );
+    Ok(())
+}
+
+/// Refuse a shard label outside 1 ≤ I ≤ N ≤ [`MAX_SHARDS`](crate::limits::MAX_SHARDS).
+fn check_count((i, n): (usize, usize)) -> Result<()> {
+    let max = crate::limits::MAX_SHARDS;
+    ensure!(
+        (1..=n).contains(&i) && n <= max,
+        "shard {i}/{n}: need 1 <= I <= N <= {max} (the most shards a run is split into)"
+    );
     Ok(())
 }
 
@@ -162,33 +244,43 @@ fn fixed_grids(exp: &Experiment) -> std::result::Result<[Option<Grid>; 2], Strin
     }
 }
 
-/// Re-simulate the best few candidates of each merged stage and compare with the costs the
-/// shards reported, and check each is the grid point its index names: an edited or foreign
-/// partial result is an error, not the answer.
-fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
-    const CHECKED: usize = 3;
-    let grids = fixed_grids(exp).map_err(IdentError::Input)?;
-    for (k, (stage, grid)) in stages.iter().zip(grids).enumerate() {
-        let grid = grid.unwrap_or_else(|| stage.grid.clone());
-        for s in stage.summary.top.iter().take(CHECKED) {
-            let index = usize::try_from(s.index).unwrap_or(usize::MAX);
-            ensure!(
-                index < grid.len() && grid.candidate(index) == s.candidate,
-                "stage {}: candidate {} of the partial results is not the grid point its index \
-                 names; a partial result was edited",
-                k + 1,
-                s.index
-            );
-            let cost = exp.problem.cost(&s.candidate);
-            ensure!(
-                (cost - s.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
-                "stage {}: beta_bar {} reported at cost {} mm², but it costs {cost} mm² when \
-                 simulated again; a partial result was edited or made by another pumpcyl",
-                k + 1,
-                s.candidate.beta_bar,
-                s.cost_mm2
-            );
+/// The top lists of each shard's stages, with the file the shard was read from: what
+/// [`verify_costs`] simulates again.
+type Tops = Vec<(PathBuf, Vec<Vec<super::Scored>>)>;
+
+/// Simulate again every candidate the merged result reports (each stage's merged top list)
+/// and each shard's best of each stage, and compare with the costs the shards wrote: a shard
+/// whose costs do not reproduce is refused, naming its file, the stage and the place in its
+/// top list. The grid point of every listed index was checked by [`check_part`].
+fn verify_costs(exp: &Experiment, tops: &Tops, merged: &[Stage]) -> Result<()> {
+    use rayon::prelude::*;
+    let reported =
+        |k: usize, e: &super::Scored| merged[k].summary.top.iter().any(|m| m.index == e.index);
+    let mut jobs = Vec::new();
+    for (file, stages) in tops {
+        for (k, top) in stages.iter().enumerate() {
+            for (j, e) in top.iter().enumerate() {
+                if j == 0 || reported(k, e) {
+                    jobs.push((file, k, j, e));
+                }
+            }
         }
+    }
+    let costs: Vec<f64> = jobs
+        .par_iter()
+        .map(|(_, _, _, e)| exp.problem.cost(&e.candidate))
+        .collect();
+    for ((file, k, j, e), cost) in jobs.iter().zip(costs) {
+        ensure!(
+            (cost - e.cost_mm2).abs() <= 1e-9 * cost.abs().max(1e-12),
+            "{}: stage {}: top[{j}] (beta_bar {}) has cost_mm2 {} in the partial result but \
+             costs {cost} mm² when simulated again; a partial result was edited or made by \
+             another pumpcyl",
+            file.display(),
+            k + 1,
+            e.candidate.beta_bar,
+            e.cost_mm2
+        );
     }
     Ok(())
 }
@@ -197,7 +289,7 @@ fn verify_winners(exp: &Experiment, stages: &[Stage]) -> Result<()> {
 /// the identification of one unsharded run, with the time it took: the shards' search times
 /// added up, plus the merge's own (s). Refused when a shard is missing or given twice, the
 /// shards come from different runs, options or experiment contents, or a partial result was
-/// edited (its best candidates are simulated again).
+/// edited (every candidate it reports and each shard's best are simulated again).
 pub fn merge(
     source: &dyn crate::input::Files,
     parts: Vec<(PathBuf, Partial)>,
@@ -206,6 +298,9 @@ pub fn merge(
     ensure!(!parts.is_empty(), "no partial results given");
     let first = &parts[0];
     let n = first.shard.1;
+    for (p, file) in parts.iter().zip(&files) {
+        check_count(p.shard).map_err(|e| IdentError::Input(format!("{}: {e}", file.display())))?;
+    }
     ensure!(
         n == parts.len(),
         "missing shards: {} claims {n} shards, {} partial results given; give all N",
@@ -244,6 +339,8 @@ pub fn merge(
         missing.join(", ")
     );
     let exp = Experiment::load_in(source, &first.experiment)?;
+    check_label(&exp, first.shard)
+        .map_err(|e| IdentError::Input(format!("{}: {e}", files[0].display())))?;
     let opts = Options {
         auto_refine: false,
         local_refinement: first.local_refinement,
@@ -280,6 +377,16 @@ pub fn merge(
     let start = Instant::now();
     // the time reported is the shards' search time added up, plus the merge's own
     let shard_seconds: f64 = parts.iter().map(|p| p.seconds).sum();
+    let tops: Tops = files
+        .iter()
+        .zip(&parts)
+        .map(|(f, p)| {
+            (
+                f.clone(),
+                p.stages.iter().map(|s| s.summary.top.clone()).collect(),
+            )
+        })
+        .collect();
     let mut stages: Vec<Stage> = Vec::new();
     for part in parts {
         for (i, stage) in part.stages.into_iter().enumerate() {
@@ -289,7 +396,7 @@ pub fn merge(
             }
         }
     }
-    verify_winners(&exp, &stages)?;
+    verify_costs(&exp, &tops, &stages)?;
     let id = finish(&exp.problem, stages, &opts)?;
     Ok((exp, id, shard_seconds + start.elapsed().as_secs_f64()))
 }
