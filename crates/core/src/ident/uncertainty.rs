@@ -16,10 +16,14 @@
 //! reported as not identifiable.
 //!
 //! Residuals that are not white (model error rather than sensor noise, as on records of a
-//! nonlinear rig) carry less information than their number of samples suggests. With a lag-1
-//! autocorrelation ρ > 0 of the residuals, σ² in the statistic is multiplied by the AR(1)
-//! variance inflation (1 + ρ)/(1 − ρ), the ratio of N to the effective number of independent
-//! samples; for white residuals it is 1 within sampling error.
+//! nonlinear rig) carry less information than their number of samples suggests: σ² in the
+//! statistic is multiplied by the integrated autocorrelation time of the residuals, the ratio
+//! of N to the effective number of independent samples (1 within sampling error for white
+//! residuals, (1 + ρ)/(1 − ρ) for AR(1) ones). Model error also biases the estimate, alike on
+//! every record of the rig, by more than that variance allows; the records' disagreement
+//! measures it: each parameter's variance is further inflated by the sample variance over the
+//! datasets of each one's own estimate ([`model_error_inflation`], docs/identification.md,
+//! "Uncertainty").
 
 use super::grid::Candidate;
 use super::problem::Problem;
@@ -409,7 +413,7 @@ pub fn variance_inflation(rho: &[f64]) -> f64 {
     let mut tau = -1.0;
     for pair in rho.chunks(2) {
         let g: f64 = pair.iter().sum();
-        if !(g > 0.0) {
+        if g.is_nan() || g <= 0.0 {
             break;
         }
         tau += 2.0 * g;
@@ -687,6 +691,21 @@ fn profile_of(i: usize, optimum: ProfilePoint, below: &Side, above: &Side) -> Pr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn inflation_is_the_integrated_autocorrelation_time() {
+        // AR(1): 1 + 2 Σ ρ^k = (1 + ρ)/(1 − ρ), the sum cut where the pairs turn negative
+        let rho: Vec<f64> = (0..2000).map(|k| 0.9_f64.powi(k)).collect();
+        assert!((variance_inflation(&rho) - 19.0).abs() < 1e-6);
+        // alternating AR(1) (ρ = −0.5): 1 + 2ρ/(1 − ρ) < 1 → the white-noise 1
+        let alt: Vec<f64> = (0..50).map(|k| (-0.5_f64).powi(k)).collect();
+        assert_eq!(variance_inflation(&alt), 1.0);
+        // a positive bump then negative lags: only the initial positive pairs count
+        let cut = [1.0, 0.5, 0.3, 0.1, -0.2, -0.3, 0.9, 0.9];
+        assert!((variance_inflation(&cut) - (-1.0 + 2.0 * (1.5 + 0.4))).abs() < 1e-12);
+        assert_eq!(variance_inflation(&[]), 1.0);
+        assert_eq!(variance_inflation(&[f64::NAN, 1.0]), 1.0);
+    }
 
     #[test]
     fn chi2_quantiles_match_tables() {
