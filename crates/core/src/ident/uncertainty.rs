@@ -124,9 +124,9 @@ pub struct Uncertainty {
     /// Factor on σ² in the statistic for correlated residuals: (1 + ρ)/(1 − ρ) with ρ the
     /// lag-1 autocorrelation when it is positive, else 1.
     pub variance_inflation: f64,
-    /// Factor on σ² in each profile's statistic, (β, b, c12): the larger of
-    /// `variance_inflation` and the parameter's sandwich (HAC) variance over its plain
-    /// least-squares variance, the model error's share of the parameter's uncertainty.
+    /// Factor on σ² in each profile's statistic, (β, b, c12): `variance_inflation` times one
+    /// plus the model-error variance the datasets' disagreement shows, over the parameter's
+    /// variance from correlated noise alone (docs/identification.md, "Uncertainty").
     pub inflation_by_parameter: [f64; 3],
     /// One profile per profiled parameter, in the order (β, b, c12).
     pub profiles: Vec<Profile>,
@@ -225,7 +225,7 @@ struct Optimum {
     threshold: f64,
     rho: f64,
     inflation: f64,
-    /// Per parameter (β, b, c12): the larger of `inflation` and the sandwich's.
+    /// Per parameter (β, b, c12): `inflation` with the model-error variance added.
     inflations: [f64; 3],
 }
 
@@ -255,7 +255,12 @@ impl Optimum {
             var,
             threshold: chi2_1_quantile(confidence),
             inflation,
-            inflations: model.map(|c| (c * inflation).min(MAX_INFLATION)),
+            inflations: model.map(|c| {
+                // the records' spread holds their noise too, which white residuals (τ = 1)
+                // show is all of it: only the residuals' correlated share 1 − 1/τ counts
+                let share = 1.0 - 1.0 / inflation;
+                ((1.0 + share * (c - 1.0)) * inflation).min(MAX_INFLATION)
+            }),
             rho: rho1,
             best,
             sse,
