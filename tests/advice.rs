@@ -93,7 +93,10 @@ fn fisher_widths_agree_with_the_profile_likelihood_intervals() {
     for (i, name) in [(0, "beta_bar"), (2, "c12_m5_per_ns")] {
         let [lo, hi] = u.profile(name).unwrap().interval;
         let [flo, fhi] = a.current[i].interval.unwrap();
-        let ratio = (fhi / flo).ln() / (hi / lo).ln();
+        // the profile's statistic carries the records' disagreement too (the model-error
+        // variance, docs/identification.md, "Uncertainty"), the Fisher widths the noise alone
+        let model_error = (u.inflation_by_parameter[i] / u.variance_inflation).sqrt();
+        let ratio = model_error * (fhi / flo).ln() / (hi / lo).ln();
         eprintln!("{name}: profile {lo:.4e} .. {hi:.4e}, Fisher {flo:.4e} .. {fhi:.4e}, log-width ratio {ratio:.3}");
         // on LTI records the cost is nearly quadratic in ln θ over a few per cent, so the two
         // agree far better than the factor 2 a nonlinear rig may need

@@ -13,7 +13,7 @@ const CORRELATED: f64 = 0.3;
 
 /// Add the uncertainty's fields to an identification's JSON: `intervals`, `identifiable`,
 /// `confidence`, `noise_std_mm`, `chi2_threshold`, `samples`, `residual_autocorrelation`,
-/// `variance_inflation`, `sse_offset_free_mm2` (mm²), `profiles` and `uncertainty_seconds`
+/// `variance_inflation`, `inflation_by_parameter`, `sse_offset_free_mm2` (mm²), `profiles` and `uncertainty_seconds`
 /// (`seconds`, the time the analysis took).
 pub fn add_uncertainty_json(v: &mut Value, u: &Uncertainty, seconds: f64) {
     let mut intervals = Map::new();
@@ -37,6 +37,11 @@ pub fn add_uncertainty_json(v: &mut Value, u: &Uncertainty, seconds: f64) {
     v["samples"] = json!(u.samples);
     v["residual_autocorrelation"] = json!(u.residual_autocorrelation);
     v["variance_inflation"] = json!(u.variance_inflation);
+    let inflation = u.profiles.iter().map(|p| {
+        let i = index(p.parameter);
+        (p.parameter.to_string(), json!(u.inflation_by_parameter[i]))
+    });
+    v["inflation_by_parameter"] = Value::Object(inflation.collect());
     v["sse_offset_free_mm2"] = json!(u.sse_mm2);
     v["profiles"] = profiles.into();
     v["uncertainty_seconds"] = json!(seconds);
@@ -59,8 +64,9 @@ pub fn uncertainty_text(u: &Uncertainty, seconds: f64) -> String {
         let _ = writeln!(
             s,
             "  note: the residuals are correlated (lag-1 autocorrelation {:.2}): they are \
-             mostly model error, not white noise; sigma^2 is inflated {:.0}-fold for it \
-             (docs/identification.md, \"Uncertainty\")",
+             mostly model error, not white noise; sigma^2 is inflated {:.0}-fold for it, \
+             and per parameter by the records' disagreement (docs/identification.md, \
+             \"Uncertainty\")",
             u.residual_autocorrelation, u.variance_inflation
         );
     }

@@ -108,14 +108,22 @@ impl Region {
         let interval = |name: &str, v: f64| u.profile(name).map_or([v, v], |p| p.interval);
         let identifiable =
             crate::ident::PARAMETERS.map(|name| u.profile(name).is_some_and(|p| p.identifiable));
+        let [beta, b, c12] = crate::ident::PARAMETERS;
+        let boxed = [beta, b, c12].map(|n| u.profile(n).map(|p| p.interval));
+        // each profile has its own variance inflation (docs/identification.md, "Uncertainty"):
+        // a point under one profile's threshold may lie outside another's interval
+        let inside = |c: &Candidate| {
+            let v = [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns];
+            (0..3).all(|i| boxed[i].is_none_or(|[lo, hi]| lo <= v[i] && v[i] <= hi))
+        };
         let ridge: Vec<Candidate> = u
             .profiles
             .iter()
             .flat_map(|p| &p.points)
             .filter(|q| q.statistic <= u.threshold)
             .map(|q| q.candidate)
+            .filter(inside)
             .collect();
-        let [beta, b, c12] = crate::ident::PARAMETERS;
         Region {
             source: RegionSource::Records,
             confidence: Some(u.confidence),

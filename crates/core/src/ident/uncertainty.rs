@@ -16,10 +16,14 @@
 //! reported as not identifiable.
 //!
 //! Residuals that are not white (model error rather than sensor noise, as on records of a
-//! nonlinear rig) carry less information than their number of samples suggests. With a lag-1
-//! autocorrelation ρ > 0 of the residuals, σ² in the statistic is multiplied by the AR(1)
-//! variance inflation (1 + ρ)/(1 − ρ), the ratio of N to the effective number of independent
-//! samples; for white residuals it is 1 within sampling error.
+//! nonlinear rig) carry less information than their number of samples suggests: σ² in the
+//! statistic is multiplied by the integrated autocorrelation time of the residuals, the ratio
+//! of N to the effective number of independent samples (1 within sampling error for white
+//! residuals, (1 + ρ)/(1 − ρ) for AR(1) ones). Model error also biases the estimate, alike on
+//! every record of the rig, by more than that variance allows; the records' disagreement
+//! measures it: each parameter's variance is further inflated by the sample variance over the
+//! datasets of each one's own estimate ([`model_error_inflation`], docs/identification.md,
+//! "Uncertainty").
 
 use super::grid::Candidate;
 use super::problem::Problem;
@@ -120,6 +124,10 @@ pub struct Uncertainty {
     /// Factor on σ² in the statistic for correlated residuals: (1 + ρ)/(1 − ρ) with ρ the
     /// lag-1 autocorrelation when it is positive, else 1.
     pub variance_inflation: f64,
+    /// Factor on σ² in each profile's statistic, (β, b, c12): `variance_inflation` times one
+    /// plus the model-error variance the datasets' disagreement shows, over the parameter's
+    /// variance from correlated noise alone (docs/identification.md, "Uncertainty").
+    pub inflation_by_parameter: [f64; 3],
     /// One profile per profiled parameter, in the order (β, b, c12).
     pub profiles: Vec<Profile>,
 }
@@ -217,6 +225,8 @@ struct Optimum {
     threshold: f64,
     rho: f64,
     inflation: f64,
+    /// Per parameter (β, b, c12): `inflation` with the model-error variance added.
+    inflations: [f64; 3],
 }
 
 impl Optimum {
@@ -236,12 +246,22 @@ impl Optimum {
                 "the SSE at the optimum is {sse} mm²: no noise level can be estimated"
             )));
         }
-        let rho = autocorrelation(problem, &candidate_of(&best));
+        let rho = autocorrelations(problem, &candidate_of(&best));
+        let var = sse / (samples - fitted) as f64;
+        let inflation = variance_inflation(&rho);
+        let rho1 = rho.get(1).copied().unwrap_or(f64::NAN);
+        let model = model_error_inflation(problem, &best, var * inflation).unwrap_or([1.0; 3]);
         Ok(Optimum {
-            var: sse / (samples - fitted) as f64,
+            var,
             threshold: chi2_1_quantile(confidence),
-            inflation: variance_inflation(rho),
-            rho,
+            inflation,
+            inflations: model.map(|c| {
+                // the records' spread holds their noise too, which white residuals (τ = 1)
+                // show is all of it: only the residuals' correlated share 1 − 1/τ counts
+                let share = 1.0 - 1.0 / inflation;
+                ((1.0 + share * (c - 1.0)) * inflation).min(MAX_INFLATION)
+            }),
+            rho: rho1,
             best,
             sse,
         })
@@ -253,7 +273,7 @@ impl Optimum {
             problem,
             best: &self.best,
             sse: self.sse,
-            var: self.var * self.inflation,
+            var: self.inflations.map(|c| self.var * c),
             threshold: self.threshold,
         }
     }
@@ -290,6 +310,7 @@ pub fn analyze(
         threshold: o.threshold,
         residual_autocorrelation: o.rho,
         variance_inflation: o.inflation,
+        inflation_by_parameter: o.inflations,
         profiles,
     })
 }
@@ -387,28 +408,115 @@ pub fn identifiability(
     }))
 }
 
-/// The AR(1) variance inflation (1 + ρ)/(1 − ρ) for a lag-1 autocorrelation ρ > 0, at most
-/// [`MAX_INFLATION`]; 1 for ρ ≤ 0 or not finite.
-pub fn variance_inflation(rho: f64) -> f64 {
-    if rho.is_finite() && rho > 0.0 {
-        ((1.0 + rho) / (1.0 - rho).max(f64::MIN_POSITIVE)).min(MAX_INFLATION)
+/// The variance inflation for residuals with autocorrelations `rho` (`rho[k]` at lag k,
+/// `rho[0]` = 1): the integrated autocorrelation time τ = 1 + 2 Σ ρ_k, the ratio of the
+/// samples to the effective number of independent ones (Bayley & Hammersley 1946), the sum
+/// truncated by Geyer's initial positive sequence (1992): over the pairs ρ_{2m} + ρ_{2m+1}
+/// while they stay positive. For AR(1) residuals it tends to (1 + ρ₁)/(1 − ρ₁). At least 1
+/// (white residuals keep the plain likelihood), at most [`MAX_INFLATION`]; 1 when not finite.
+pub fn variance_inflation(rho: &[f64]) -> f64 {
+    let mut tau = -1.0;
+    for pair in rho.chunks(2) {
+        let g: f64 = pair.iter().sum();
+        if g.is_nan() || g <= 0.0 {
+            break;
+        }
+        tau += 2.0 * g;
+    }
+    if tau.is_finite() {
+        tau.clamp(1.0, MAX_INFLATION)
     } else {
         1.0
     }
 }
 
-/// Lag-1 autocorrelation of the offset-free residuals of a candidate, pooled over the
-/// datasets (NaN when they are not finite).
-fn autocorrelation(problem: &Problem, c: &Candidate) -> f64 {
-    let (mut lagged, mut power) = (0.0, 0.0);
+/// Autocorrelations of the offset-free residuals of a candidate at lags 0, 1, …, pooled over
+/// the datasets (each lag's products summed within each dataset, over the pooled power), up
+/// to the shortest dataset's length less one; empty when the residuals are not finite.
+fn autocorrelations(problem: &Problem, c: &Candidate) -> Vec<f64> {
+    let mut residuals = Vec::new();
     for ds in &problem.datasets {
         let Some(r) = problem.residuals_offset_free(c, ds) else {
-            return f64::NAN;
+            return Vec::new();
         };
-        lagged += r.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
-        power += r.iter().map(|v| v * v).sum::<f64>();
+        residuals.push(r);
     }
-    lagged / power
+    let lags = residuals.iter().map(Vec::len).min().unwrap_or(0);
+    let lagged = |k: usize| -> f64 {
+        residuals
+            .iter()
+            .map(|r| r.iter().zip(&r[k..]).map(|(a, b)| a * b).sum::<f64>())
+            .sum()
+    };
+    let power = lagged(0);
+    (0..lags).map(|k| lagged(k) / power).collect()
+}
+
+/// Relative step (in ln parameter) of the residuals' finite-difference sensitivities.
+const SENSITIVITY_STEP: f64 = 1e-4;
+
+/// The inflation of each parameter's (β, b, c12) variance for the model error the datasets
+/// disagree by: 1 + s²ⱼ / (σ²·τ·[(JᵀJ)⁻¹]ⱼⱼ), where s²ⱼ is the sample variance over the
+/// datasets of each one's own least-SSE estimate (ln parameter), σ²·τ the inflated noise
+/// variance (`var`) and [(JᵀJ)⁻¹]ⱼⱼ the parameter's least-squares variance per unit noise
+/// variance, J the offset-free residuals' sensitivities at `best` (docs/identification.md,
+/// "Uncertainty"). `None` with one dataset, or when J is not finite or JᵀJ singular.
+fn model_error_inflation(problem: &Problem, best: &[f64], var: f64) -> Option<[f64; 3]> {
+    let k = problem.datasets.len();
+    if k < 2 {
+        return None;
+    }
+    let lsq = least_squares_variance(problem, best)?;
+    let own: Vec<Vec<f64>> = (0..k)
+        .into_par_iter()
+        .map(|d| {
+            let one = Problem {
+                datasets: vec![problem.datasets[d].clone()],
+                standstill: problem.standstill,
+            };
+            polish(&one, &candidate_of(best)).0
+        })
+        .collect();
+    Some(std::array::from_fn(|j| {
+        let mean = own.iter().map(|p| p[j]).sum::<f64>() / k as f64;
+        let spread = own.iter().map(|p| (p[j] - mean).powi(2)).sum::<f64>() / (k - 1) as f64;
+        1.0 + spread / (var * lsq[j])
+    }))
+}
+
+/// [(JᵀJ)⁻¹]ⱼⱼ for (ln β, ln b, ln c12), J the sensitivities of the offset-free residuals
+/// (mm) of every dataset at `best` by central differences; `None` when they are not finite
+/// or JᵀJ is singular.
+fn least_squares_variance(problem: &Problem, best: &[f64]) -> Option<[f64; 3]> {
+    use nalgebra::{Matrix3, Vector3};
+    let residuals = |j: usize, h: f64| -> Option<Vec<Vec<f64>>> {
+        let mut p = best.to_vec();
+        p[j] += h;
+        let c = candidate_of(&p);
+        let ds = &problem.datasets;
+        ds.iter()
+            .map(|d| problem.residuals_offset_free(&c, d))
+            .collect()
+    };
+    let mut sens = Vec::new();
+    for j in 0..3 {
+        sens.push((
+            residuals(j, SENSITIVITY_STEP)?,
+            residuals(j, -SENSITIVITY_STEP)?,
+        ));
+    }
+    let mut h = Matrix3::<f64>::zeros();
+    for d in 0..problem.datasets.len() {
+        for i in 0..sens[0].0[d].len() {
+            let v = Vector3::from_fn(|j, _| {
+                (sens[j].0[d][i] - sens[j].1[d][i]) / (2.0 * SENSITIVITY_STEP)
+            });
+            h += v * v.transpose();
+        }
+    }
+    let hi = h.try_inverse()?;
+    let v: [f64; 3] = std::array::from_fn(|j| hi[(j, j)]);
+    v.iter().all(|x| x.is_finite() && *x > 0.0).then_some(v)
 }
 
 /// The least-SSE point near `start` (two simplex searches, the second restarted smaller), in
@@ -447,8 +555,8 @@ struct Scan<'a> {
     best: &'a [f64],
     /// SSE there (mm²).
     sse: f64,
-    /// Noise variance σ² (mm²).
-    var: f64,
+    /// Noise variance σ² (mm²) times each parameter's (β, b, c12) inflation.
+    var: [f64; 3],
     /// χ²₁(confidence).
     threshold: f64,
 }
@@ -460,7 +568,7 @@ impl Scan<'_> {
         ProfilePoint {
             value: candidate_value(&candidate, i),
             sse_mm2: sse,
-            statistic: (sse - self.sse) / self.var,
+            statistic: (sse - self.sse) / self.var[i],
             candidate,
         }
     }
@@ -479,7 +587,7 @@ impl Scan<'_> {
         };
         let f = |q: &[f64]| sse_at(self.problem, &full(q));
         let q0: Vec<f64> = others.iter().map(|&j| warm[j]).collect();
-        let tol = 1e-4 * self.var;
+        let tol = 1e-4 * self.var[i];
         let (q, sse) = minimize(&f, &q0, INNER_STEP, tol, MAX_ITERS)
             .filter(|(_, c)| c.is_finite())
             .unwrap_or_else(|| (q0.clone(), f(&q0)));
@@ -588,6 +696,21 @@ fn profile_of(i: usize, optimum: ProfilePoint, below: &Side, above: &Side) -> Pr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn inflation_is_the_integrated_autocorrelation_time() {
+        // AR(1): 1 + 2 Σ ρ^k = (1 + ρ)/(1 − ρ), the sum cut where the pairs turn negative
+        let rho: Vec<f64> = (0..2000).map(|k| 0.9_f64.powi(k)).collect();
+        assert!((variance_inflation(&rho) - 19.0).abs() < 1e-6);
+        // alternating AR(1) (ρ = −0.5): 1 + 2ρ/(1 − ρ) < 1 → the white-noise 1
+        let alt: Vec<f64> = (0..50).map(|k| (-0.5_f64).powi(k)).collect();
+        assert_eq!(variance_inflation(&alt), 1.0);
+        // a positive bump then negative lags: only the initial positive pairs count
+        let cut = [1.0, 0.5, 0.3, 0.1, -0.2, -0.3, 0.9, 0.9];
+        assert!((variance_inflation(&cut) - (-1.0 + 2.0 * (1.5 + 0.4))).abs() < 1e-12);
+        assert_eq!(variance_inflation(&[]), 1.0);
+        assert_eq!(variance_inflation(&[f64::NAN, 1.0]), 1.0);
+    }
 
     #[test]
     fn chi2_quantiles_match_tables() {
