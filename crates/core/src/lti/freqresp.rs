@@ -268,18 +268,7 @@ pub(crate) fn nearest_branch(raw: f64, reference: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::DMatrix;
-
-    fn siso(a: &[f64], b: &[f64], c: &[f64], d: f64) -> StateSpace {
-        let n = b.len();
-        StateSpace::new(
-            DMatrix::from_row_slice(n, n, a),
-            DMatrix::from_row_slice(n, 1, b),
-            DMatrix::from_row_slice(1, n, c),
-            DMatrix::from_element(1, 1, d),
-        )
-        .unwrap()
-    }
+    use crate::lti::siso;
 
     #[test]
     fn matches_direct_complex_evaluation() {

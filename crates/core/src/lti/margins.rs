@@ -523,18 +523,7 @@ fn wrap_half_open(deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::DMatrix;
-
-    fn siso(a: &[f64], b: &[f64], c: &[f64], d: f64) -> StateSpace {
-        let n = b.len();
-        StateSpace::new(
-            DMatrix::from_row_slice(n, n, a),
-            DMatrix::from_row_slice(n, 1, b),
-            DMatrix::from_row_slice(1, n, c),
-            DMatrix::from_element(1, 1, d),
-        )
-        .unwrap()
-    }
+    use crate::lti::siso;
 
     /// |L(0)| = 1 and |L| < 1 at every frequency above: 1/(s + 1), 4/(s² + 3s + 4) (|L|² =
     /// 16/((4 − ω²)² + 9ω²) < 1 for ω > 0) and the same with a gain just below 1. No gain

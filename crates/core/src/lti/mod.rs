@@ -257,3 +257,18 @@ fn check_finite(matrix: &'static str, m: &DMatrix<f64>) -> Result<(), LtiError> 
 pub fn is_stable(poles: &[num_complex::Complex64]) -> bool {
     poles.iter().all(|p| p.re < -1e-10 * p.norm().max(1.0))
 }
+
+/// A single-input single-output model from row-major slices, for the tests of this module's
+/// analyses.
+#[cfg(test)]
+pub(crate) fn siso(a: &[f64], b: &[f64], c: &[f64], d: f64) -> StateSpace {
+    use nalgebra::DMatrix;
+    let n = b.len();
+    StateSpace::new(
+        DMatrix::from_row_slice(n, n, a),
+        DMatrix::from_row_slice(n, 1, b),
+        DMatrix::from_row_slice(1, n, c),
+        DMatrix::from_element(1, 1, d),
+    )
+    .unwrap()
+}
