@@ -145,58 +145,37 @@ fn emulate_follows_beta_bar_and_says_what_it_used() {
     }
 }
 
-/// A rig whose rest needs a chamber below the vapour pressure is not emulated: one line naming
-/// the chamber and the cavitation (docs/model.md#cavitation), no file.
+/// A rig whose operating point at rest needs cavitation is refused by every analysis and by the
+/// emulator, naming the key and the chamber, before any number is computed and with no file
+/// written (docs/model.md#cavitation).
 #[test]
-fn emulate_refuses_a_rest_that_cavitates() {
+fn a_rig_that_cannot_rest_without_cavitation_is_refused_by_every_analysis() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("my-rig.toml"), USER_RIG).unwrap();
-    run::refused(
-        dir.path(),
-        &[
-            "emulate",
+    let emulate: &[&str] = &["emulate", "--experiment", "step", "--out", "e.csv"];
+    for command in [&["margins"][..], &["poles"], &["step"], &["bode"], emulate] {
+        let mut args = command.to_vec();
+        args.extend([
             "--rig",
             "my-rig.toml",
             "--set",
             "external_force_n=8000",
             "--set",
             "p_sum_ref_bar=2",
-            "--experiment",
-            "step",
-            "--out",
-            "e.csv",
-        ],
-        &["chamber 2", "-8.27 bar gauge", "cavitation"],
-    );
-    assert!(!dir.path().join("e.csv").exists());
-}
-
-/// A rig whose operating point at rest needs cavitation is refused by every analysis, naming the
-/// key, before any number is computed (docs/model.md#cavitation).
-#[test]
-fn a_rig_that_cannot_rest_without_cavitation_is_refused_by_every_analysis() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("my-rig.toml"), USER_RIG).unwrap();
-    for command in ["margins", "poles", "step", "bode"] {
+        ]);
         run::refused(
             dir.path(),
-            &[
-                command,
-                "--rig",
-                "my-rig.toml",
-                "--set",
-                "external_force_n=8000",
-                "--set",
-                "p_sum_ref_bar=2",
-            ],
+            &args,
             &[
                 "external_force_n",
                 "p_sum_ref_bar = 2",
                 "chamber 2",
+                "-8.27 bar gauge",
                 "cavitation",
             ],
         );
     }
+    assert!(!dir.path().join("e.csv").exists());
     // the same rig with a set-point that holds both chambers above the floor is analysed
     let ok = pumpcyl(
         dir.path(),
