@@ -8,6 +8,7 @@
 //! writer are in `pumpcyl-present`; the command line is `pumpcyl-cli`. Modules:
 //! - [`bulk`] — effective bulk modulus against pressure: gas fraction, β_e(p), margins there;
 //! - [`cavitation`] — the lowest pressure a chamber can hold, checked in every steady state;
+//! - [`circuit`] — the hydraulic circuits behind one interface, each linearised from its own equations;
 //! - [`design`] — the design method: the largest position gain meeting margin targets;
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
@@ -42,6 +43,7 @@
 
 pub mod bulk;
 pub mod cavitation;
+pub mod circuit;
 pub mod design;
 pub mod emulator;
 pub mod fmu;

@@ -1,0 +1,236 @@
+//! Hydraulic circuits behind one interface (docs/circuits.md).
+//!
+//! A circuit owns its state vector (names, units, meaning), its nonlinear equations, its
+//! operating point and its control law. Its linear model is the exact Jacobian of those same
+//! equations at the operating point, computed by forward-mode automatic differentiation
+//! ([`linearise`], dual numbers of the `num-dual` crate), never a second hand-written copy of
+//! the equations. Everything outside a circuit module works through the circuit's named
+//! signals ([`Signal`]) and never names a circuit's state by index.
+//!
+//! The circuits are those of the article's Figure 1 and its Figure 3:
+//! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
+//! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
+
+use nalgebra::DMatrix;
+use num_dual::{Dual64, DualNum};
+use serde::{Deserialize, Serialize};
+
+/// The scalar a circuit's equations are written over: `f64` when the emulator integrates
+/// them, a dual number when [`linearise`] differentiates them.
+pub trait Scalar: DualNum<Primitive = f64> + Copy {}
+
+impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
+
+/// Which hydraulic circuit a rig is (the rig key `circuit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CircuitKind {
+    /// The dual-prime-mover circuit of the article (§2.1, Figure 3): two motors, two pumps.
+    #[default]
+    Dpm,
+    /// One motor turning two pumps on one shaft (the article's Figure 1b).
+    DualPump,
+}
+
+impl CircuitKind {
+    /// Every circuit pumpcyl models.
+    pub const ALL: [CircuitKind; 2] = [CircuitKind::Dpm, CircuitKind::DualPump];
+
+    /// The name used in rig files and every output (`circuit = "dpm"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            CircuitKind::Dpm => "dpm",
+            CircuitKind::DualPump => "dual-pump",
+        }
+    }
+
+    /// The circuit of a name used in rig files, if any.
+    pub fn from_name(name: &str) -> Option<CircuitKind> {
+        CircuitKind::ALL.into_iter().find(|k| k.name() == name)
+    }
+}
+
+/// What a signal of a circuit is: the role that code outside the circuit may ask for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    /// The piston position (m), the controlled output.
+    Position,
+    /// The piston velocity (m/s).
+    Velocity,
+    /// A chamber pressure (Pa gauge).
+    Pressure,
+    /// A motor (shaft) speed (rad/s).
+    MotorSpeed,
+    /// A drive's electromagnetic torque (N·m).
+    Torque,
+    /// A drive's feedforward filter state (rad/s).
+    Feedforward,
+    /// A speed command to a drive (rad/s), an input.
+    SpeedCommand,
+}
+
+/// A named signal of a circuit: a state or an input, with its SI unit and its meaning.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Signal {
+    /// Name, e.g. `p1`.
+    pub name: String,
+    /// SI unit, e.g. `Pa`.
+    pub unit: String,
+    /// What it is, e.g. `chamber 1 pressure (gauge)`.
+    pub meaning: String,
+    /// Its role, for code that must find e.g. the position without naming it.
+    pub role: Role,
+}
+
+impl Signal {
+    /// A signal from its parts.
+    pub fn new(name: &str, unit: &str, meaning: &str, role: Role) -> Signal {
+        Signal {
+            name: name.into(),
+            unit: unit.into(),
+            meaning: meaning.into(),
+            role,
+        }
+    }
+}
+
+/// The steady state a circuit is linearised about and the speed commands that hold it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OperatingState {
+    /// The state (absolute position, gauge pressures, SI), in the order of [`Circuit::states`].
+    pub state: Vec<f64>,
+    /// The speed commands (rad/s), in the order of [`Circuit::inputs`].
+    pub inputs: Vec<f64>,
+}
+
+/// A linear control law in deviations from the operating point: u = Kx Δx + Kr Δx_ref, with
+/// u the speed commands (rad/s) and x_ref the position reference (m).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControlLaw {
+    /// Feedback on the state, inputs × states.
+    pub kx: DMatrix<f64>,
+    /// Feedforward of the position reference, inputs × 1.
+    pub kr: DMatrix<f64>,
+}
+
+/// A hydraulic circuit: its signals, its nonlinear equations, its operating point and its
+/// control law. Implemented once per circuit module.
+pub trait Circuit {
+    /// Which circuit this is.
+    fn kind(&self) -> CircuitKind;
+
+    /// The states, in order.
+    fn states(&self) -> Vec<Signal>;
+
+    /// The inputs (speed commands), in order.
+    fn inputs(&self) -> Vec<Signal>;
+
+    /// The nonlinear equations ẋ = f(x, u) into `dx` (SI, absolute position, gauge
+    /// pressures), over `f64` or a dual number.
+    fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]);
+
+    /// The steady state at rest and the commands that hold it.
+    fn operating_point(&self) -> OperatingState;
+
+    /// The control law at the operating point (the article's P law, and what the circuit adds).
+    fn control_law(&self) -> ControlLaw;
+
+    /// The position of the first state with `role`, if any.
+    fn state_of(&self, role: Role) -> Option<usize> {
+        self.states().iter().position(|s| s.role == role)
+    }
+
+    /// The positions of every state with `role`, in order.
+    fn states_of(&self, role: Role) -> Vec<usize> {
+        (self.states().iter().enumerate())
+            .filter(|(_, s)| s.role == role)
+            .map(|(i, _)| i)
+            .collect()
+    }
+}
+
+/// The Jacobians ∂f/∂x (n × n) and ∂f/∂u (n × m) of a circuit's equations at (x0, u0), exact
+/// to rounding: one forward pass with a dual number per column.
+pub fn linearise<C: Circuit>(c: &C, x0: &[f64], u0: &[f64]) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, m) = (x0.len(), u0.len());
+    let column = |j: usize| -> Vec<f64> {
+        let seed = |i: usize, v: f64| Dual64::new(v, if i == j { 1.0 } else { 0.0 });
+        let x: Vec<Dual64> = x0.iter().enumerate().map(|(i, &v)| seed(i, v)).collect();
+        let u: Vec<Dual64> = u0.iter().enumerate().map(|(i, &v)| seed(n + i, v)).collect();
+        let mut dx = vec![Dual64::from(0.0); n];
+        c.rhs(&x, &u, &mut dx);
+        dx.iter().map(|d| d.eps).collect()
+    };
+    let mut a = DMatrix::zeros(n, n);
+    let mut b = DMatrix::zeros(n, m);
+    for j in 0..n + m {
+        let col = column(j);
+        for (i, v) in col.into_iter().enumerate() {
+            if j < n {
+                a[(i, j)] = v;
+            } else {
+                b[(i, j - n)] = v;
+            }
+        }
+    }
+    (a, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A damped oscillator with a nonlinear spring, ẍ = u − x³ − ẋ, to check the dual-number
+    /// Jacobian against its analytic value.
+    struct Toy;
+
+    impl Circuit for Toy {
+        fn kind(&self) -> CircuitKind {
+            CircuitKind::Dpm
+        }
+        fn states(&self) -> Vec<Signal> {
+            vec![
+                Signal::new("x", "m", "position", Role::Position),
+                Signal::new("v", "m/s", "velocity", Role::Velocity),
+            ]
+        }
+        fn inputs(&self) -> Vec<Signal> {
+            vec![Signal::new("u", "rad/s", "command", Role::SpeedCommand)]
+        }
+        fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
+            dx[0] = x[1];
+            dx[1] = u[0] - x[0] * x[0] * x[0] - x[1];
+        }
+        fn operating_point(&self) -> OperatingState {
+            OperatingState {
+                state: vec![2.0, 0.0],
+                inputs: vec![8.0],
+            }
+        }
+        fn control_law(&self) -> ControlLaw {
+            ControlLaw {
+                kx: DMatrix::from_row_slice(1, 2, &[-1.0, 0.0]),
+                kr: DMatrix::from_element(1, 1, 1.0),
+            }
+        }
+    }
+
+    #[test]
+    fn dual_numbers_give_the_analytic_jacobian() {
+        let op = Toy.operating_point();
+        let (a, b) = linearise(&Toy, &op.state, &op.inputs);
+        assert_eq!(a, DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -12.0, -1.0]));
+        assert_eq!(b, DMatrix::from_row_slice(2, 1, &[0.0, 1.0]));
+        assert_eq!(Toy.state_of(Role::Velocity), Some(1));
+        assert_eq!(Toy.states_of(Role::Pressure), Vec::<usize>::new());
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for k in CircuitKind::ALL {
+            assert_eq!(CircuitKind::from_name(k.name()), Some(k));
+        }
+        assert_eq!(CircuitKind::from_name("DPM"), None);
+    }
+}
