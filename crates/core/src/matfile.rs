@@ -462,7 +462,7 @@ fn numbers(data_type: u32, data: &[u8], endian: Endian) -> Option<Vec<f64>> {
         MI_DOUBLE | MI_INT64 | MI_UINT64 => 8,
         _ => return None,
     };
-    if data.len() % width != 0 {
+    if !data.len().is_multiple_of(width) {
         return None;
     }
     Some(match data_type {

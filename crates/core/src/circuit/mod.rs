@@ -157,7 +157,11 @@ pub fn linearise<C: Circuit>(c: &C, x0: &[f64], u0: &[f64]) -> (DMatrix<f64>, DM
     let column = |j: usize| -> Vec<f64> {
         let seed = |i: usize, v: f64| Dual64::new(v, if i == j { 1.0 } else { 0.0 });
         let x: Vec<Dual64> = x0.iter().enumerate().map(|(i, &v)| seed(i, v)).collect();
-        let u: Vec<Dual64> = u0.iter().enumerate().map(|(i, &v)| seed(n + i, v)).collect();
+        let u: Vec<Dual64> = u0
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| seed(n + i, v))
+            .collect();
         let mut dx = vec![Dual64::from(0.0); n];
         c.rhs(&x, &u, &mut dx);
         dx.iter().map(|d| d.eps).collect()
