@@ -23,6 +23,9 @@ pub const MAX_DECOMPRESSED_BYTES: usize = 1 << 30;
 /// Largest number of dimensions of a variable (MATLAB arrays have 2 or more).
 pub const MAX_DIMS: usize = 32;
 
+/// The header's length (text, subsystem offset, version, endian indicator).
+const HEADER_BYTES: usize = 128;
+
 const MI_INT8: u32 = 1;
 const MI_UINT8: u32 = 2;
 const MI_INT16: u32 = 3;
@@ -36,6 +39,8 @@ const MI_UINT64: u32 = 13;
 const MI_MATRIX: u32 = 14;
 const MI_COMPRESSED: u32 = 15;
 const MI_UTF8: u32 = 16;
+/// The last data type of the format (`miUTF32`).
+const MI_UTF32: u32 = 18;
 
 const MX_CHAR: u8 = 4;
 const MX_DOUBLE: u8 = 6;
@@ -231,9 +236,9 @@ impl Endian {
     }
 }
 
-/// Every variable of a level-5 MAT-file, in file order.
-pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, MatError> {
-    if bytes.len() < 128 {
+/// The byte order of a file from its 128-byte header, or why the header is no level-5 header.
+fn header(bytes: &[u8]) -> Result<Endian, MatError> {
+    if bytes.len() < HEADER_BYTES {
         return bad(format!(
             "{} bytes: too short for a MAT-file (a level-5 MAT-file starts with a 128-byte header)",
             bytes.len()
@@ -258,9 +263,15 @@ pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, MatError> {
             "a MAT-file version 7.3 (HDF5), which pumpcyl does not read: save it with `save -v7`",
         );
     }
+    Ok(endian)
+}
+
+/// Every variable of a level-5 MAT-file, in file order.
+pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, MatError> {
+    let endian = header(bytes)?;
     let mut out = Vec::new();
     let mut budget = MAX_DECOMPRESSED_BYTES;
-    let mut pos = 128;
+    let mut pos = HEADER_BYTES;
     while pos < bytes.len() {
         let (el, next) = next_element(bytes, pos, endian)?;
         match el.data_type {
@@ -284,6 +295,69 @@ pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, MatError> {
         pos = next;
     }
     Ok(out)
+}
+
+/// Why a MAT-file could not be read from a stream.
+#[derive(Debug, thiserror::Error)]
+pub enum StreamError {
+    /// The stream failed.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    /// What was read is no MAT-file, or its elements would pass the size limit.
+    #[error("{0}")]
+    Mat(#[from] MatError),
+}
+
+/// The bytes of a MAT-file read from `stream`, element by element: the header is checked
+/// first, then each top-level element's tag (its type must be one of the format's, its size
+/// must fit in `max_bytes` with what came before) before its data is read. A stream that never
+/// ends (a link to `/dev/zero` or `/dev/urandom`, a pipe) is refused at its first element that is
+/// not one, not after `max_bytes` of it. The bytes are then given to [`read`].
+pub fn read_stream(stream: &mut dyn std::io::Read, max_bytes: u64) -> Result<Vec<u8>, StreamError> {
+    let mut bytes = Vec::new();
+    take_into(stream, HEADER_BYTES as u64, &mut bytes)?;
+    let endian = header(&bytes)?;
+    loop {
+        let pos = bytes.len();
+        if take_into(stream, 8, &mut bytes)? == 0 {
+            return Ok(bytes);
+        }
+        if bytes.len() - pos < 8 {
+            let cut = format!("byte {pos}: a data element cut short (an 8-byte tag expected)");
+            return Err(MatError(cut).into());
+        }
+        let first = endian.u32(&bytes[pos..]);
+        if first >> 16 != 0 {
+            continue; // a small element lives in its tag
+        }
+        if !(MI_INT8..=MI_UTF32).contains(&first) {
+            return Err(MatError(format!(
+                "byte {pos}: no MAT-file data element (type {first}; a level-5 element's type is \
+                 1 to 18)"
+            )))?;
+        }
+        let n = u64::from(endian.u32(&bytes[pos + 4..]));
+        let padded = if first == MI_COMPRESSED {
+            n
+        } else {
+            n.div_ceil(8) * 8
+        };
+        if bytes.len() as u64 + padded > max_bytes {
+            return Err(MatError(format!(
+                "byte {pos}: a data element of {n} bytes passes {} MiB, the limit for a MAT-file",
+                max_bytes >> 20
+            )))?;
+        }
+        take_into(stream, padded, &mut bytes)?;
+    }
+}
+
+/// Append up to `n` bytes of `stream` to `bytes`; the number appended.
+fn take_into(stream: &mut dyn std::io::Read, n: u64, bytes: &mut Vec<u8>) -> std::io::Result<u64> {
+    use std::io::Read;
+    let before = bytes.len();
+    stream.take(n).read_to_end(bytes)?;
+    Ok((bytes.len() - before) as u64)
 }
 
 /// A data element: its type, data and where it starts (for messages).
@@ -567,6 +641,85 @@ mod tests {
         let zeros = vec![0u8; 1 << 20];
         let z = miniz_oxide::deflate::compress_to_vec_zlib(&zeros, 9);
         assert!(miniz_oxide::inflate::decompress_to_vec_zlib_with_limit(&z, 1000).is_err());
+    }
+
+    /// A reader that yields `head` and then `tail` forever.
+    struct Endless {
+        head: std::io::Cursor<Vec<u8>>,
+        tail: Box<dyn FnMut() -> u8>,
+        served: u64,
+    }
+
+    impl std::io::Read for Endless {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.head.read(buf)?;
+            if n > 0 {
+                return Ok(n);
+            }
+            buf.iter_mut().for_each(|b| *b = (self.tail)());
+            self.served += buf.len() as u64;
+            Ok(buf.len())
+        }
+    }
+
+    fn endless(head: Vec<u8>, tail: impl FnMut() -> u8 + 'static) -> Endless {
+        Endless {
+            head: std::io::Cursor::new(head),
+            tail: Box::new(tail),
+            served: 0,
+        }
+    }
+
+    #[test]
+    fn a_stream_is_read_whole_and_an_endless_one_refused_at_its_first_wrong_tag() {
+        let mut w = MatWriter::new("t");
+        w.column("time_s", &[0.0, 1.0, 2.0]).text("note", "ab");
+        let good = w.into_bytes();
+        let read_back = read_stream(&mut std::io::Cursor::new(good.clone()), 1 << 20).unwrap();
+        assert_eq!(read_back, good);
+        // a valid header and then zeros for ever (a link to /dev/zero after a header)
+        let header = good[..HEADER_BYTES].to_vec();
+        let mut zeros = endless(header.clone(), || 0);
+        let e = read_stream(&mut zeros, 2 << 30).unwrap_err().to_string();
+        assert!(e.contains("byte 128") && e.contains("type 0"), "{e}");
+        assert!(
+            zeros.served < 1 << 16,
+            "read {} bytes of zeros",
+            zeros.served
+        );
+        // a valid file and then random bytes (an LCG): refused within a few elements
+        let mut state = 12345u64;
+        let mut noise = endless(good.clone(), move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 56) as u8
+        });
+        assert!(read_stream(&mut noise, 2 << 30).is_err());
+        assert!(
+            noise.served < 1 << 20,
+            "read {} bytes of noise",
+            noise.served
+        );
+        // an element whose declared size passes the limit is refused before it is read
+        let mut big = header.clone();
+        big.extend(MI_MATRIX.to_le_bytes());
+        big.extend(u32::MAX.to_le_bytes());
+        let mut stream = endless(big, || 0);
+        let e = read_stream(&mut stream, 1 << 20).unwrap_err().to_string();
+        assert!(e.contains("limit"), "{e}");
+        assert_eq!(stream.served, 0);
+        // a file cut inside a tag, and a header that is not one
+        let cut = read_stream(
+            &mut std::io::Cursor::new(good[..HEADER_BYTES + 4].to_vec()),
+            1 << 20,
+        );
+        assert!(cut.unwrap_err().to_string().contains("cut short"));
+        let spaces = [b' '; 200];
+        assert!(read_stream(&mut spaces.as_slice(), 1 << 20)
+            .unwrap_err()
+            .to_string()
+            .contains("level-5"));
     }
 
     /// A fuzz-like property on the stable toolchain (the coverage-guided search is the

@@ -108,9 +108,6 @@ pub(crate) fn range(v: &[f64]) -> (f64, f64) {
 /// doubles, the sample limit, fit with room to spare).
 pub const MAX_MAT_BYTES: u64 = 2 << 30;
 
-/// The header of a level-5 MAT-file (text, subsystem offset, version, endian indicator).
-const MAT_HEADER_BYTES: u64 = 128;
-
 const REQUIRED: [&str; 3] = ["time_s", "x_ref_mm", "x_mm"];
 
 /// The finest motion (mm) a cylinder position sensor resolves: 1 µm, the finest step of
@@ -330,9 +327,9 @@ impl Table {
         Self::read_in(&Disk, path, required, optional)
     }
 
-    /// [`Table::read`] from `files`; a MAT-file is read whole, at most [`MAX_MAT_BYTES`] (a
-    /// special file such as `/dev/zero` that never ends is stopped there), after its 128-byte
-    /// header has been checked.
+    /// [`Table::read`] from `files`; a MAT-file is read whole, at most [`MAX_MAT_BYTES`], its
+    /// header and then each element's tag checked before the element is read
+    /// ([`crate::matfile::read_stream`]), so a stream that never ends is refused at once.
     pub fn read_in(
         files: &dyn Files,
         path: &Path,
@@ -346,31 +343,16 @@ impl Table {
         };
         let mut stream = files.open(path).map_err(io)?;
         if is_mat(path) {
-            // the header first: a file that is no MAT-file (`/dev/urandom` behind a link) is
-            // refused after 128 bytes, not after the whole limit
-            let mut bytes = Vec::new();
-            (&mut stream)
-                .take(MAT_HEADER_BYTES)
-                .read_to_end(&mut bytes)
-                .map_err(io)?;
-            // the reader's own checks: a header alone holds no variables
-            crate::matfile::read(&bytes).map_err(|e| RecordError::Mat {
-                file: file.clone(),
-                message: e.0,
-            })?;
-            stream
-                .take(MAX_MAT_BYTES + 1 - MAT_HEADER_BYTES)
-                .read_to_end(&mut bytes)
-                .map_err(io)?;
-            if bytes.len() as u64 > MAX_MAT_BYTES {
-                return Err(RecordError::Io {
-                    file,
-                    message: format!(
-                        "larger than {} MiB, the limit for a MAT-file record",
-                        MAX_MAT_BYTES >> 20
-                    ),
-                });
-            }
+            // element by element: a file that is no MAT-file (`/dev/urandom` behind a link), or
+            // a valid header before endless data, is refused at its first wrong tag
+            let bytes =
+                crate::matfile::read_stream(&mut stream, MAX_MAT_BYTES).map_err(|e| match e {
+                    crate::matfile::StreamError::Io(e) => io(e),
+                    crate::matfile::StreamError::Mat(e) => RecordError::Mat {
+                        file: file.clone(),
+                        message: e.0,
+                    },
+                })?;
             return Self::from_mat(&bytes, &file, required, optional);
         }
         let reader = BufReader::with_capacity(1 << 16, stream);
