@@ -225,6 +225,12 @@ fn unknown_key(serde_words: &str) -> String {
     let Some((unknown, known)) = names.split_first() else {
         return format!("unknown key {serde_words}");
     };
+    unknown_key_among(unknown, known)
+}
+
+/// "unknown key `K`" with the closest known key, or the list of the known keys; the unknown
+/// key shown at most [`MAX_KEY_CHARS`] characters long.
+pub fn unknown_key_among(unknown: &str, known: &[&str]) -> String {
     let shown = shown_key(unknown);
     match suggest(unknown, known) {
         Some(best) => format!("unknown key `{shown}`; did you mean `{best}`?"),
@@ -242,11 +248,20 @@ pub const MAX_KEY_CHARS: usize = 64;
 /// A key as a message shows it: at most [`MAX_KEY_CHARS`] characters, a longer one cut, with
 /// its length.
 pub fn shown_key(key: &str) -> std::borrow::Cow<'_, str> {
-    match key.char_indices().nth(MAX_KEY_CHARS) {
-        None => key.into(),
-        Some((cut, _)) => format!("{}… ({} bytes)", &key[..cut], key.len()).into(),
+    shown_text(key, MAX_KEY_CHARS)
+}
+
+/// `text` cut to its first `max_chars` characters, saying how long it was, so a message about
+/// a huge argument stays one readable line.
+pub fn shown_text(text: &str, max_chars: usize) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(max_chars) {
+        None => text.into(),
+        Some((cut, _)) => format!("{}… ({} bytes)", &text[..cut], text.len()).into(),
     }
 }
+
+/// The most characters of a value or an assignment a message shows.
+pub const MAX_VALUE_CHARS: usize = 128;
 
 /// The known name closest to `unknown`: one that extends it by a unit suffix (`beta` →
 /// `beta_bar`), shares its stem with another unit (`mass_g` → `mass_kg`), or is at most a

@@ -540,7 +540,8 @@ impl Rig {
             .try_into()
             .map_err(|e: toml::de::Error| RigError::Set {
                 source_name: source_name.to_string(),
-                assignment: assignments.join(" "),
+                assignment: input::shown_text(&assignments.join(" "), input::MAX_VALUE_CHARS)
+                    .into_owned(),
                 message: e.to_string().trim_end().to_string(),
             })?;
         rig.validate(source_name)?;
@@ -967,7 +968,7 @@ fn parse_assignment(
 ) -> Result<(String, toml::Value), RigError> {
     let err = |message: String| RigError::Set {
         source_name: source_name.to_string(),
-        assignment: assignment.to_string(),
+        assignment: input::shown_text(assignment, input::MAX_VALUE_CHARS).into_owned(),
         message,
     };
     let (key, raw) = assignment
@@ -986,16 +987,14 @@ fn parse_assignment(
                 .iter()
                 .flat_map(|(_, k)| k.iter().map(|(n, _)| *n))
                 .collect();
-            return Err(err(match input::suggest(key, &known) {
-                Some(best) => format!("unknown key `{key}`; did you mean `{best}`?"),
-                None => format!("unknown key `{key}`; known keys: {}", known.join(", ")),
-            }));
+            return Err(err(input::unknown_key_among(key, &known)));
         }
     };
     let value = input::typed_like(current, value).map_err(|got| {
         err(format!(
-            "key `{key}` takes a {}, got {got} `{raw}`",
-            current.type_str()
+            "key `{key}` takes a {}, got {got} `{}`",
+            current.type_str(),
+            input::shown_text(raw, input::MAX_VALUE_CHARS)
         ))
     })?;
     Ok((key.to_string(), value))
@@ -1136,6 +1135,30 @@ mod tests {
 
     /// The article's masses at the stroke points (§3.3), linear between them, the same shape
     /// for any load, refused outside the table, constant without one.
+    #[test]
+    fn a_huge_override_gets_a_short_message() {
+        // a 100 000-character key or value: the message is one readable line that names it
+        for assignment in [
+            format!("{}=1", "k".repeat(100_000)),
+            format!("kp={}", "1".repeat(100_000)),
+            format!("kp=1 {}", "x".repeat(100_000)),
+        ] {
+            let e = Rig::default()
+                .with_overrides(&[assignment])
+                .unwrap_err()
+                .to_string();
+            assert!(e.len() < 2000, "{} bytes: {}", e.len(), &e[..200]);
+            assert!(e.contains(" bytes)"), "{e}");
+        }
+        let e = Rig::default()
+            .with_overrides(&["kpp=3".into()])
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "override kpp=3: unknown key `kpp`; did you mean `kp`?"
+        );
+    }
+
     #[test]
     fn the_mass_follows_the_stroke_where_the_geometry_ties_them() {
         let rig = Rig::default();
