@@ -31,10 +31,14 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
     let i = &a.identified;
     let _ = writeln!(
         s,
-        "experiment advice for {name} (noise sigma {:.4} mm, variance inflated {:.1}-fold; \
-         {:.0} % intervals, widths relative to the estimate), in {seconds:.1} s",
+        "experiment advice for {name} (noise sigma {:.4} mm, variance inflated {:.1}-fold, \
+         model error of the records' disagreement x{:.2} / x{:.2} / x{:.2} on the variances of \
+         beta / b / c12; {:.0} % intervals, widths relative to the estimate), in {seconds:.1} s",
         a.noise_std_mm,
         a.variance_inflation,
+        a.model_error_factor[0],
+        a.model_error_factor[1],
+        a.model_error_factor[2],
         a.confidence * 100.0
     );
     let _ = writeln!(
@@ -170,6 +174,7 @@ mod tests {
             },
             noise_std_mm: 0.02,
             variance_inflation: 1.5,
+            model_error_factor: [1.0, 1.0, 2.0],
             confidence: 0.95,
             z: 1.96,
             current: [width(Some(0.1)), width(Some(0.8)), width(None)],

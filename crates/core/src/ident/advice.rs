@@ -434,6 +434,11 @@ pub struct Advice {
     /// Factor on σ² for correlated residuals (the uncertainty analysis's AR(1) inflation),
     /// applied to the existing records and to every candidate's.
     pub variance_inflation: f64,
+    /// Factor on each parameter's variance, (β, b, c12), for the model error the records'
+    /// disagreement shows (the uncertainty analysis's, docs/identification.md, "Uncertainty"),
+    /// applied to the current widths and to every candidate's: a new record is expected to
+    /// disagree with the model as much as the existing ones do.
+    pub model_error_factor: [f64; 3],
     /// Confidence level.
     pub confidence: f64,
     /// The normal quantile z of the intervals θ̂·exp(±z·sd).
@@ -626,6 +631,9 @@ pub fn advise(
     for ds in &problem.datasets {
         existing += gram(problem, ds, &p, LOG_STEP)? / var;
     }
+    // the model error the records' disagreement shows stays with every candidate
+    let model_error = model_error_factor(&u);
+    let existing = with_model_error(&existing, &model_error);
     let current = widths(&existing, &u.best, z)?;
     let assessed: Vec<Result<Result<Assessment, Skip>, IdentError>> = designs
         .par_iter()
@@ -636,7 +644,8 @@ pub fn advise(
             if let Err(Skip(why)) = runnable(problem, &u.best, &ds) {
                 return Ok(Err(Skip(format!("{}: {why}", d.label()))));
             }
-            let info = existing + gram(problem, &ds, &p, LOG_STEP)? / var;
+            let added = with_model_error(&(gram(problem, &ds, &p, LOG_STEP)? / var), &model_error);
+            let info = existing + added;
             let w = widths(&info, &u.best, z)?;
             let improvement: [f64; 3] =
                 std::array::from_fn(|i| ratio(current[i].log_std, w[i].log_std));
@@ -676,6 +685,7 @@ pub fn advise(
         identified: *start,
         noise_std_mm: u.noise_std_mm,
         variance_inflation: u.variance_inflation,
+        model_error_factor: model_error,
         confidence: opts.confidence,
         z,
         current,
@@ -683,6 +693,21 @@ pub fn advise(
         skipped,
         best_for,
     })
+}
+
+/// Each parameter's factor on its variance from the model error the datasets' disagreement
+/// shows, as the uncertainty analysis finds it (its per-parameter inflation over the noise's
+/// own); 1 where the records agree or there is one record.
+fn model_error_factor(u: &super::uncertainty::Uncertainty) -> [f64; 3] {
+    u.inflation_by_parameter
+        .map(|f| (f / u.variance_inflation).max(1.0))
+}
+
+/// The information with each parameter's variance multiplied by its factor `f`:
+/// I'ᵢⱼ = Iᵢⱼ / √(fᵢ fⱼ), so the covariance's (pseudo-)inverse scales as √(fᵢ fⱼ) and each
+/// width by √fᵢ.
+fn with_model_error(info: &Matrix3<f64>, f: &[f64; 3]) -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| info[(i, j)] / (f[i] * f[j]).sqrt())
 }
 
 /// The whole advice for a loaded experiment: its identification on its own grids and options
@@ -725,6 +750,24 @@ fn ratio(before: f64, after: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_model_error_factor_widens_each_parameter_by_its_root() {
+        // a coupled, well-conditioned information: each log-std grows by exactly √fᵢ
+        let info = Matrix3::new(4e4, 1e3, -2e3, 1e3, 9e2, 3e2, -2e3, 3e2, 2.5e4);
+        let point = Candidate {
+            beta_bar: 165.0,
+            viscous_friction_ns_per_m: 100.0,
+            c12_m5_per_ns: 1.2e-10,
+        };
+        let f = [2.85, 42.4, 4.35];
+        let before = widths(&info, &point, 1.96).unwrap();
+        let after = widths(&with_model_error(&info, &f), &point, 1.96).unwrap();
+        for i in 0..3 {
+            let r = after[i].log_std / before[i].log_std;
+            assert!((r - f[i].sqrt()).abs() < 1e-9 * r, "{i}: {r}");
+        }
+    }
 
     #[test]
     fn a_singular_information_gives_unbounded_not_huge() {
