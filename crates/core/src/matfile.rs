@@ -334,7 +334,8 @@ pub fn read_stream(stream: &mut dyn std::io::Read, max_bytes: u64) -> Result<Vec
             return Err(MatError(format!(
                 "byte {pos}: no MAT-file data element (type {first}; a level-5 element's type is \
                  1 to 18)"
-            )))?;
+            ))
+            .into());
         }
         let n = u64::from(endian.u32(&bytes[pos + 4..]));
         let padded = if first == MI_COMPRESSED {
@@ -346,7 +347,8 @@ pub fn read_stream(stream: &mut dyn std::io::Read, max_bytes: u64) -> Result<Vec
             return Err(MatError(format!(
                 "byte {pos}: a data element of {n} bytes passes {} MiB, the limit for a MAT-file",
                 max_bytes >> 20
-            )))?;
+            ))
+            .into());
         }
         take_into(stream, padded, &mut bytes)?;
     }
