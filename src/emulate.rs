@@ -153,6 +153,10 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     ))
 }
 
+/// Controller steps above which an emulation says how many it will take before it starts (a
+/// few seconds of work; a progress bar follows them on a terminal).
+const ANNOUNCED_STEPS: u64 = 100_000;
+
 /// Emulate the plan: its record and, for the closed loop, the end stop its piston met.
 fn run_plan(
     plan: &Kind,
@@ -160,7 +164,17 @@ fn run_plan(
 ) -> Result<(Emulated, Option<EndStopHit>), EmulatorError> {
     Ok(match plan {
         Kind::Loop(e) => {
-            let em = e.run_noted(&truth.rig, truth.effects, &truth.plc)?;
+            let steps = e.steps(truth.plc.rate_hz);
+            if steps > ANNOUNCED_STEPS {
+                eprintln!(
+                    "emulating {steps} controller steps ({} s at {} Hz) ...",
+                    e.duration_s(),
+                    truth.plc.rate_hz
+                );
+            }
+            let bar = crate::ident::progress_bar_of(steps, "controller steps");
+            let em = e.run_reporting(&truth.rig, truth.effects, &truth.plc, &|n| bar.inc(n))?;
+            bar.finish_and_clear();
             (Emulated::Loop(em.signals), em.end_stop)
         }
         Kind::Drive(_) => (plan.run(truth)?, None),

@@ -232,3 +232,25 @@ fn the_sine_records_hold_two_whole_periods_after_the_start_up_transient() {
         }
     }
 }
+
+#[test]
+fn an_emulation_reports_every_controller_step_once_and_the_same_record() {
+    // 10 001 samples: two full strides of progress and the rest at the end
+    let rig = pumpcyl::rig::Rig::default();
+    let effects = pumpcyl::emulator::Effects::none();
+    let exp = Experiment::step(&rig, None, None, 0.5, Some(10.0));
+    let plc = Plc::ideal(1000.0);
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let calls = std::sync::atomic::AtomicU64::new(0);
+    let em = exp
+        .run_reporting(&rig, effects, &plc, &|n| {
+            done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        })
+        .unwrap();
+    assert_eq!(exp.steps(1000.0), 10_001);
+    assert_eq!(done.into_inner(), 10_001);
+    assert_eq!(calls.into_inner(), 3);
+    assert_eq!(em.signals.time_s.len(), 10_001);
+    assert_eq!(em, exp.run_noted(&rig, effects, &plc).unwrap());
+}

@@ -4,7 +4,7 @@
 
 use super::plc::{integrate, Noise};
 use super::EmulatorError;
-use super::{emulate, Dynamics, Effects, Emulation, Plc};
+use super::{emulate_reporting, Dynamics, Effects, Emulation, Plc};
 use crate::input::FieldError;
 use crate::response::Signals;
 use crate::rig::Rig;
@@ -224,10 +224,33 @@ impl Experiment {
         effects: Effects,
         plc: &Plc,
     ) -> Result<Emulation, EmulatorError> {
+        self.run_reporting(rig, effects, plc, &|_| {})
+    }
+
+    /// [`Experiment::run_noted`], calling `progress(n)` as `n` more controller steps are done
+    /// ([`super::plc::emulate_reporting`]), [`Experiment::steps`] in all.
+    pub fn run_reporting(
+        &self,
+        rig: &Rig,
+        effects: Effects,
+        plc: &Plc,
+        progress: &dyn Fn(u64),
+    ) -> Result<Emulation, EmulatorError> {
         let dynamics = Dynamics::new(rig, effects)?;
-        emulate(rig, &dynamics, plc, SETTLE_S, self.duration_s(), |t| {
-            self.reference_mm(t)
-        })
+        let span = (SETTLE_S, self.duration_s());
+        emulate_reporting(
+            rig,
+            &dynamics,
+            plc,
+            span,
+            |t| self.reference_mm(t),
+            progress,
+        )
+    }
+
+    /// The controller steps of the record at `rate_hz` (its samples).
+    pub fn steps(&self, rate_hz: f64) -> u64 {
+        (self.duration_s() * rate_hz).round() as u64 + 1
     }
 }
 

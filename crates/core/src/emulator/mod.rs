@@ -16,7 +16,9 @@ pub use experiment::{
     DriveSignals, DriveStep, Experiment, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ, RECORD_S,
     SETTLE_S, SINE_PERIODS, STEP_MM,
 };
-pub use plc::{emulate, equilibrium, hold_speeds, Emulation, Plc, PlcLoop};
+pub use plc::{
+    emulate, emulate_reporting, equilibrium, hold_speeds, Emulation, Plc, PlcLoop, PROGRESS_STEPS,
+};
 pub use stops::{End, EndStopHit, CONTACT_DAMPING, CONTACT_RAD_S};
 
 use crate::bulk::effective_beta;

@@ -165,8 +165,32 @@ pub fn emulate(
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
 ) -> Result<Emulation, EmulatorError> {
+    emulate_reporting(
+        rig,
+        dynamics,
+        plc,
+        (settle_s, duration_s),
+        x_ref_mm,
+        &|_| {},
+    )
+}
+
+/// Controller steps between two calls of an emulation's progress callback.
+pub const PROGRESS_STEPS: u64 = 1 << 12;
+
+/// [`emulate`] over `(settle_s, duration_s)`, calling `progress(n)` as each `n` more
+/// controller steps of the record are done ([`PROGRESS_STEPS`] at a time, the rest at the end):
+/// `duration_s × rate_hz` in all.
+pub fn emulate_reporting(
+    rig: &Rig,
+    dynamics: &Dynamics,
+    plc: &Plc,
+    (settle_s, duration_s): (f64, f64),
+    x_ref_mm: impl Fn(f64) -> f64,
+    progress: &dyn Fn(u64),
+) -> Result<Emulation, EmulatorError> {
     let mut run = PlcLoop::settled(rig, dynamics, plc, x_ref_mm(0.0), settle_s)?;
-    let signals = record(&mut run, duration_s, x_ref_mm)?;
+    let signals = record(&mut run, duration_s, x_ref_mm, progress)?;
     Ok(Emulation {
         signals,
         end_stop: run.end_stop,
@@ -426,6 +450,7 @@ fn record(
     run: &mut PlcLoop,
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
+    progress: &dyn Fn(u64),
 ) -> Result<Signals, EmulatorError> {
     let ts = run.period_s();
     let steps = (duration_s * run.plc.rate_hz).round() as usize;
@@ -445,6 +470,10 @@ fn record(
         if k < steps {
             run.hold(u, t, t + ts)?;
         }
+        if (k as u64 + 1).is_multiple_of(PROGRESS_STEPS) {
+            progress(PROGRESS_STEPS);
+        }
     }
+    progress((steps as u64 + 1) % PROGRESS_STEPS);
     Ok(out)
 }
