@@ -638,13 +638,15 @@ fn shown(v: &Bound<'_, PyAny>) -> PyResult<String> {
     }
 }
 
-/// `Kind(name=value, ...)` over a few lines: numbers and flags first, then texts, then lists,
-/// dicts and arrays by their length.
+/// `Kind(name=value, ...)` over at most five lines: numbers and flags first, then lists, dicts
+/// and arrays by their length, then texts; the fields that do not fit are named at the end
+/// (`… also experiment, grids`), each readable as an attribute.
 fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<String> {
     const WIDTH: usize = 96;
+    const LINES: usize = 5;
     let rank = |v: &Bound<'_, PyAny>| match (v.is_instance_of::<PyString>(), v.len().is_ok()) {
-        (true, _) => 1,
-        (false, sized) => 2 * usize::from(sized),
+        (true, _) => 2,
+        (false, sized) => usize::from(sized),
     };
     let mut fields = fields;
     fields.sort_by_key(|(_, v)| rank(v));
@@ -653,6 +655,11 @@ fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<Stri
     for (i, (k, v)) in fields.iter().enumerate() {
         let item = format!("{k}={}", shown(v)?);
         if i > 0 && line.len() + 2 + item.len() > WIDTH {
+            if lines.len() + 1 == LINES {
+                let rest: Vec<&str> = fields[i..].iter().map(|(k, _)| k.as_str()).collect();
+                line.push_str(&format!(", … also {}", rest.join(", ")));
+                break;
+            }
             lines.push(format!("{line},"));
             line = " ".repeat(kind.len() + 1);
         } else if i > 0 {

@@ -185,3 +185,13 @@ def test_a_result_reads_as_a_mapping_and_shows_its_kind():
         m.nothing
     assert repr(m).startswith("Margins(") and "gain_margin_db=" in repr(m)
     assert repr(pumpcyl.step(pumpcyl.Rig())).startswith("Step(")
+
+
+def test_select_and_design_report_progress_as_identify_does():
+    for call in (lambda p: pumpcyl.select(progress=p),
+                 lambda p: pumpcyl.design(mass_kg=[8000.0, 10593.0], progress=p)):
+        seen = []
+        call(lambda done, total: seen.append((done, total)))
+        total = seen[-1][1]
+        assert total > 0 and seen[-1] == (total, total)
+        assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
