@@ -141,28 +141,19 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
     write_atomic(out, data.csv().as_bytes())?;
     let origin = args.source.origin_or("the emulated article rig");
-    let warnings = match &data {
-        Emulated::Loop(s) => pumpcyl_present::time::rating_warnings(
-            "emulated",
-            &pumpcyl::response::signals_over_ratings(&truth.rig, s),
-        ),
-        Emulated::Drive(_) => String::new(),
-    };
+    let warnings = emulated::warnings(&truth.rig, &data);
     if args.json {
-        let lines: Vec<String> = warnings
-            .lines()
-            .map(|l| l.trim_start_matches("warning: ").to_string())
-            .collect();
         let doc = emulated::emulated_json(
             request.experiment,
             &origin,
             &data,
             &basis,
-            &lines,
+            &warnings,
             end_stop.as_ref(),
         );
         return Ok(pumpcyl_present::format::json_document(&doc)?);
     }
+    let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
     let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
     Ok(format!(
         "{}: emulated {} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",

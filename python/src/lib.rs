@@ -776,11 +776,10 @@ fn run_warnings(
         .map(|e| e.to_string())
         .into_iter()
         .collect();
-    let ratings = pumpcyl_present::time::rating_warnings(what, over);
-    let ratings = ratings
-        .lines()
-        .map(|l| l.trim_start_matches("warning: ").to_string());
-    warn_each(py, ratings.collect())?;
+    warn_each(
+        py,
+        pumpcyl_present::documents::rating_warning_lines(what, over),
+    )?;
     warn_each(py, stroke)
 }
 
@@ -1439,17 +1438,7 @@ fn emulate(
     let truth = pumpcyl::emulator::article::Truth { rig, effects, plc };
     let (data, end_stop) = py.detach(|| emulated::run(&plan, &truth)).map_err(err)?;
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(err)?;
-    let ratings = match &data {
-        pumpcyl::emulator::article::Emulated::Loop(s) => pumpcyl_present::time::rating_warnings(
-            "emulated",
-            &response::signals_over_ratings(&truth.rig, s),
-        ),
-        pumpcyl::emulator::article::Emulated::Drive(_) => String::new(),
-    };
-    let lines = ratings
-        .lines()
-        .map(|l| l.trim_start_matches("warning: ").to_string());
-    let warnings = warn_each(py, lines.collect())?;
+    let warnings = warn_each(py, emulated::warnings(&truth.rig, &data))?;
     let doc = emulated::emulated_json(kind, &origin, &data, &basis, &warnings, end_stop.as_ref());
     PyOutcome::of(py, "Emulated", &doc)?.with_arrays(py, "columns", "Columns")
 }

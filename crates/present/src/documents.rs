@@ -3,8 +3,8 @@
 //! so both front ends give the same keys (python/tests/test_documents.py runs the command line
 //! and compares).
 
-use crate::time::{step_json, Runs, StepSetup};
-use pumpcyl::response::{Signals, StepMetrics};
+use crate::time::{rating_warnings, step_json, Runs, StepSetup};
+use pumpcyl::response::{OverRating, Signals, StepMetrics};
 use serde_json::{json, Value};
 
 /// The signals of a run as one JSON object, each column by its name (`time_s`, `x_mm`, ...,
@@ -38,4 +38,13 @@ pub fn with_warnings(mut doc: Value, warnings: &[String]) -> Value {
         }
     }
     doc
+}
+
+/// The drive ratings the run `what` exceeds ([`rating_warnings`]), one line each without the
+/// terminal's `warning: ` prefix, as a document lists its warnings.
+pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
+    rating_warnings(what, over)
+        .lines()
+        .map(|l| l.trim_start_matches("warning: ").to_string())
+        .collect()
 }

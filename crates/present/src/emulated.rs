@@ -155,6 +155,18 @@ pub fn run(plan: &Kind, truth: &Truth) -> Result<(Emulated, Option<EndStopHit>),
     })
 }
 
+/// The warnings of an emulated record on `rig`: the drive ratings a closed-loop record exceeds
+/// (docs/simulation.md#drive-ratings), one line each; none for a drive record.
+pub fn warnings(rig: &Rig, data: &Emulated) -> Vec<String> {
+    match data {
+        Emulated::Loop(s) => crate::documents::rating_warning_lines(
+            "emulated",
+            &pumpcyl::response::signals_over_ratings(rig, s),
+        ),
+        Emulated::Drive(_) => Vec::new(),
+    }
+}
+
 /// An emulated record's columns by name, as its CSV names them (docs/formats.md#record-csv,
 /// #drive-record-csv).
 pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
