@@ -210,7 +210,7 @@ class Identification(Result):
     cost_mm2: float
     """Mean over the datasets of the position MSE (mm^2)."""
     stage: int
-    """The stage the answer comes from (3: the local refinement)."""
+    """The stage the answer comes from (1, 2; 0 for the local refinement)."""
     index: int
     """Its index in that stage's grid."""
     candidates_evaluated: int
