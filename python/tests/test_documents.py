@@ -145,15 +145,16 @@ def test_design_and_robust_design_are_the_documents_of_design_json():
 
 
 def test_emulate_is_the_document_of_emulate_json(tmp_path):
-    for experiment, columns in (("step", stub_fields("Signals")),
-                                ("drive-step", ["time_s", "w_ref_rpm", "w_rpm"])):
+    for experiment in ("step", "drive-step"):
         e = pumpcyl.emulate(experiment)
-        doc = cli("emulate", "--experiment", experiment, "--out", str(tmp_path / "r.csv"),
-                  "--json")
+        out = tmp_path / f"{experiment}.csv"
+        doc = cli("emulate", "--experiment", experiment, "--out", str(out), "--json")
         assert_one_document(e, doc, "Emulated")
-        assert sorted(e.columns) == sorted(doc["columns"]) == sorted(columns)
+        # the record's columns, as the CSV the command line wrote names them, in its order
+        header = out.read_text().splitlines()[0].split(",")
+        assert sorted(e.columns) == sorted(doc["columns"]) == sorted(header)
         # the same seed, the same record, bit for bit
-        for name in columns:
+        for name in header:
             assert isinstance(e.columns[name], np.ndarray)
             np.testing.assert_array_equal(e.columns[name], doc["columns"][name])
         assert e.samples == doc["samples"] == len(e.columns.time_s)

@@ -167,11 +167,16 @@ pub fn warnings(rig: &Rig, data: &Emulated) -> Vec<String> {
     }
 }
 
-/// An emulated record's columns by name, as its CSV names them (docs/formats.md#record-csv,
-/// #drive-record-csv).
+/// An emulated record's columns by name, those its CSV holds, in its order
+/// (docs/formats.md#record-csv, #drive-record-csv).
 pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
     match data {
-        Emulated::Loop(s) => s.named().into_iter().map(|(n, v)| (n, &v[..])).collect(),
+        Emulated::Loop(s) => {
+            let csv = s.record_csv();
+            let header: Vec<&str> = csv.lines().next().unwrap_or("").split(',').collect();
+            let named = s.named().into_iter().filter(|(n, _)| header.contains(n));
+            named.map(|(n, v)| (n, &v[..])).collect()
+        }
         Emulated::Drive(d) => vec![
             ("time_s", &d.time_s[..]),
             ("w_ref_rpm", &d.w_ref_rpm[..]),
@@ -182,7 +187,8 @@ pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
 
 /// The document of an emulated record (`pumpcyl emulate --json`, Python's `emulate`): the
 /// experiment, the rig in words, the number of samples, the emulator's basis in words
-/// ([`basis`]), the drive-rating warnings, the end stop met (or `null`) and the record's columns.
+/// ([`basis`]), the drive-rating warnings, the end stop met (or `null`) and the record's columns
+/// ([`columns`]: those of its CSV).
 pub fn emulated_json(
     experiment: ExperimentKind,
     rig: &str,
