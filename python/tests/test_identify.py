@@ -51,6 +51,9 @@ def assert_same(a, b):
     assert [(t["beta_bar"], t["viscous_friction_ns_per_m"], t["c12_m5_per_ns"]) for t in a.top] \
         == [(t["beta_bar"], t["viscous_friction_ns_per_m"], t["c12_m5_per_ns"]) for t in b.top]
     assert a.candidates_evaluated == b.candidates_evaluated
+    # one document either way: the same keys, the experiment file named only when there is one
+    assert sorted(a) == sorted(b)
+    assert (a.experiment is None) != (b.experiment is None)
 
 
 def test_arrays_equal_files_on_small_grids():
