@@ -11,11 +11,8 @@
 //! - [`circuit`] — the hydraulic circuits behind one interface, each linearised from its own equations;
 //! - [`design`] — the design method: the largest position gain meeting margin targets;
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
-//! - [`fmu`] — the FMU's model (emulator or linear model) and its configuration, behind the C shell;
-//! - `fuzzing` (hidden) — the entry points of the fuzz targets;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
 //! - [`input`] — decoding user files and locating their errors;
-//! - [`limits`] — every size and work limit, and the refusal of work beyond one;
 //! - [`loops`] — the loop a command analyses or exports (a rig's or a JSON model's) and its view;
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins, ZOH responses;
 //! - [`matfile`] — MAT-files (level 5): the reader of records;
@@ -23,7 +20,6 @@
 //! - [`record`] — measured or emulated records (CSV), read by column name;
 //! - [`response`] — step, tracking and recorded-reference responses and their metrics;
 //! - [`rig`] — the rig parameters, their validation and their TOML form;
-//! - [`select`] — which circuit at which pressure level meets an application;
 //! - [`units`] — conversions between the user-facing units and SI, and readable numbers.
 //!
 //! Method manual: docs/README.md. It cites Gøytil, Hansen & Tvilde, *Effective Bulk
