@@ -32,11 +32,11 @@ pub struct AdviseArgs {
 /// Run the identification of the experiment, then the advice.
 pub fn run(args: &AdviseArgs) -> Result<String> {
     crate::emit::check_confidence(args.confidence)?;
-    let exp = crate::inputs::experiment(&args.experiment)?;
+    let exp = crate::read_files::experiment(&args.experiment)?;
     let start = Instant::now();
     let advice = advise_experiment(
         &exp,
-        crate::inputs::files(),
+        crate::read_files::files(),
         args.candidates.as_deref(),
         args.confidence,
     )?;

@@ -21,7 +21,7 @@ pub fn set_force(force: bool) {
 /// What no output of this command may destroy: its inputs, and (unless `--force`) read-only
 /// files and files of the user's in a result folder.
 pub fn protected() -> Protected {
-    crate::inputs::protected().forcing(FORCE.load(Ordering::Relaxed))
+    crate::read_files::protected().forcing(FORCE.load(Ordering::Relaxed))
 }
 
 /// Write `bytes` to `path` whole or not at all, never over an input of this command.

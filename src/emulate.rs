@@ -2,15 +2,13 @@
 
 use crate::emit::write_atomic;
 use crate::RigSource;
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
 use pumpcyl::emulator::article::{self, Emulated, Kind};
-use pumpcyl::emulator::{
-    DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc, DRIVE_RATE_HZ, DRIVE_RECORD_S,
-    PLC_RATE_HZ,
-};
+use pumpcyl::emulator::Effects;
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
+use pumpcyl_present::emulated;
 use rayon::prelude::*;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -101,6 +99,10 @@ pub struct EmulateArgs {
     /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).
     #[arg(long)]
     no_effects: bool,
+    /// Print JSON (experiment, rig, samples, basis, warnings, end_stop and the record's
+    /// columns); the record is written to --out all the same.
+    #[arg(long, conflicts_with = "article_records")]
+    json: bool,
     /// Output record (docs/formats.md#record-csv; a drive step writes time_s, w_ref_rpm, w_rpm).
     #[arg(
         long,
@@ -125,30 +127,48 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let rig = load_rig(&args.source, !args.no_effects)?;
     let effects = Effects::switched(&rig, !args.no_effects)
         .map_err(|e| anyhow!("{}: {e}", args.source.origin_or("the emulated article rig")))?;
-    let plc = plc(args, kind)?;
-    let plan = experiment(args, kind, &rig, plc.rate_hz)?;
+    let request = request(args, kind);
+    let plc = request
+        .plc()
+        .map_err(|e| crate::emit::as_option(e, option_of))?;
+    let plan = request
+        .plan(&rig, plc.rate_hz)
+        .map_err(|e| crate::emit::as_option(e, option_of))?;
     check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
     let truth = article::Truth { rig, effects, plc };
-    let (data, end_stop) =
-        run_plan(&plan, &truth).map_err(|e| anyhow!("{}: {e}", out.display()))?;
-    let basis =
-        pumpcyl_present::emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
+    let steps = emulated::steps(&plan, truth.plc.rate_hz);
+    if steps > ANNOUNCED_STEPS {
+        eprintln!(
+            "emulating {steps} controller steps ({} s at {} Hz) ...",
+            emulated::duration_s(&plan),
+            truth.plc.rate_hz
+        );
+    }
+    let bar = crate::ident::progress_bar_of(steps, "controller steps");
+    let (data, end_stop) = emulated::run(&plan, &truth, &|n| bar.inc(n))
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    bar.finish_and_clear();
+    let basis = emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
     write_atomic(out, data.csv().as_bytes())?;
     let origin = args.source.origin_or("the emulated article rig");
-    let kind = kind
-        .to_possible_value()
-        .map_or(String::new(), |v| v.get_name().to_owned());
-    let warnings = match &data {
-        Emulated::Loop(s) => pumpcyl_present::time::rating_warnings(
-            "emulated",
-            &pumpcyl::response::signals_over_ratings(&truth.rig, s),
-        ),
-        Emulated::Drive(_) => String::new(),
-    };
+    let warnings = emulated::warnings(&truth.rig, &data);
+    if args.json {
+        let doc = emulated::emulated_json(
+            request.experiment,
+            &origin,
+            &data,
+            &basis,
+            &warnings,
+            end_stop.as_ref(),
+        );
+        return Ok(pumpcyl_present::format::json_document(&doc)?);
+    }
+    let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
     let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
     Ok(format!(
-        "{}: emulated {kind} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
+        "{}: emulated {} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
         out.display(),
+        request.experiment.name(),
         data.len()
     ))
 }
@@ -157,28 +177,27 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
 /// few seconds of work; a progress bar follows them on a terminal).
 const ANNOUNCED_STEPS: u64 = 100_000;
 
-/// Emulate the plan: its record and, for the closed loop, the end stop its piston met.
-fn run_plan(
-    plan: &Kind,
-    truth: &article::Truth,
-) -> Result<(Emulated, Option<EndStopHit>), EmulatorError> {
-    Ok(match plan {
-        Kind::Loop(e) => {
-            let steps = e.steps(truth.plc.rate_hz);
-            if steps > ANNOUNCED_STEPS {
-                eprintln!(
-                    "emulating {steps} controller steps ({} s at {} Hz) ...",
-                    e.duration_s(),
-                    truth.plc.rate_hz
-                );
-            }
-            let bar = crate::ident::progress_bar_of(steps, "controller steps");
-            let em = e.run_reporting(&truth.rig, truth.effects, &truth.plc, &|n| bar.inc(n))?;
-            bar.finish_and_clear();
-            (Emulated::Loop(em.signals), em.end_stop)
-        }
-        Kind::Drive(_) => (plan.run(truth)?, None),
-    })
+/// The library's request of the command's options.
+fn request(args: &EmulateArgs, kind: ExperimentKind) -> emulated::Request {
+    emulated::Request {
+        experiment: match kind {
+            ExperimentKind::Step => emulated::ExperimentKind::Step,
+            ExperimentKind::Sine => emulated::ExperimentKind::Sine,
+            ExperimentKind::DriveStep => emulated::ExperimentKind::DriveStep,
+            ExperimentKind::Standstill => emulated::ExperimentKind::Standstill,
+        },
+        from_mm: args.from_mm,
+        to_mm: args.to_mm,
+        at_s: args.at_s,
+        amplitude_mm: args.amplitude_mm,
+        freq_hz: args.freq_hz,
+        motor: args.motor,
+        to_rpm: args.to_rpm,
+        duration_s: args.duration_s,
+        rate_hz: args.rate_hz,
+        seed: args.seed,
+        noise: !args.no_noise,
+    }
 }
 
 /// The rig: a file, or the emulated article rig, with --set applied.
@@ -188,35 +207,6 @@ pub(crate) fn load_rig(source: &RigSource, effects: bool) -> Result<Rig> {
         None => pumpcyl::fmu::default_rig(ModelKind::Emulator, effects)?,
     };
     Ok(base.with_overrides_from("--set", &source.set)?)
-}
-
-/// The experiment asked for, the core's defaults where an option is absent, checked.
-fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64) -> Result<Kind> {
-    let (at, d) = (args.at_s, args.duration_s);
-    let plan = match kind {
-        ExperimentKind::Step => Kind::Loop(Experiment::step(rig, args.from_mm, args.to_mm, at, d)),
-        ExperimentKind::Sine => Kind::Loop(Experiment::sine(
-            rig,
-            args.amplitude_mm,
-            args.freq_hz,
-            at,
-            d,
-        )),
-        ExperimentKind::Standstill => Kind::Loop(Experiment::standstill(rig, d)),
-        ExperimentKind::DriveStep => Kind::Drive(DriveStep {
-            motor: args.motor,
-            from_rpm: 0.0,
-            to_rpm: args.to_rpm,
-            at_s: at,
-            duration_s: d.unwrap_or(DRIVE_RECORD_S),
-        }),
-    };
-    let checked = match &plan {
-        Kind::Loop(e) => e.check(rig, rate_hz),
-        Kind::Drive(d) => d.check(rate_hz),
-    };
-    checked.map_err(|e| crate::emit::as_option(e, option_of))?;
-    Ok(plan)
 }
 
 /// The option that sets an experiment's field.
@@ -236,38 +226,14 @@ fn option_of(field: &str) -> &str {
 /// Refuse a record beyond the samples memory allows, and a run of hours (controller steps
 /// beyond the limit) unless asked for: [`pumpcyl::limits::check_emulation`].
 fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
-    let duration_s = match plan {
-        Kind::Loop(e) => e.duration_s(),
-        Kind::Drive(d) => d.duration_s,
-    };
-    pumpcyl::limits::check_emulation(duration_s, rate_hz, allow_long_run).map_err(|e| {
-        let long = matches!(e, pumpcyl::limits::LimitError::LongRun { .. });
-        let hint = if long { " (--allow-long-run)" } else { "" };
-        anyhow!("--duration-s and --rate-hz: {e}{hint}")
-    })?;
+    pumpcyl::limits::check_emulation(emulated::duration_s(plan), rate_hz, allow_long_run).map_err(
+        |e| {
+            let long = matches!(e, pumpcyl::limits::LimitError::LongRun { .. });
+            let hint = if long { " (--allow-long-run)" } else { "" };
+            anyhow!("--duration-s and --rate-hz: {e}{hint}")
+        },
+    )?;
     Ok(())
-}
-
-fn plc(args: &EmulateArgs, kind: ExperimentKind) -> Result<Plc> {
-    let default_rate = if kind == ExperimentKind::DriveStep {
-        DRIVE_RATE_HZ
-    } else {
-        PLC_RATE_HZ
-    };
-    let rate_hz = args.rate_hz.unwrap_or(default_rate);
-    if !(rate_hz.is_finite() && rate_hz > 0.0) {
-        bail!("--rate-hz {rate_hz}: must be > 0");
-    }
-    let base = if args.no_noise {
-        Plc::ideal(rate_hz)
-    } else {
-        article::plc(args.seed)
-    };
-    Ok(Plc {
-        rate_hz,
-        seed: args.seed,
-        ..base
-    })
 }
 
 /// Emulate every article record into `dir`, with the README and the identify experiment.

@@ -11,8 +11,8 @@ use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::{self, digest, Partial};
 use pumpcyl::ident::{
-    analyze, finish, identifiability, identify_drive, DriveRecord, Experiment, Identifiability,
-    Identification, Options, Request, Standstill, Uncertainty, UncertaintyOptions,
+    analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request,
+    Standstill, Uncertainty, UncertaintyOptions,
 };
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::identification as outputs;
@@ -152,7 +152,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
     let rig = args.rig.load()?;
     let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
         (Some(path), ..) => {
-            let rec = pumpcyl::record::Record::read_in(crate::inputs::files(), path)?;
+            let rec = pumpcyl::record::Record::read_in(crate::read_files::files(), path)?;
             warn(&pumpcyl::ident::standstill_warnings(&rec));
             Standstill::of_record(&rec)?
         }
@@ -174,7 +174,7 @@ pub fn leakage(args: &LeakageArgs) -> Result<String> {
 /// `pumpcyl identify-drive`.
 pub fn drive(args: &DriveArgs) -> Result<String> {
     let rig = args.rig.load()?;
-    let rec = DriveRecord::read_in(crate::inputs::files(), &args.record)?;
+    let rec = DriveRecord::read_in(crate::read_files::files(), &args.record)?;
     let jm = if args.motor == 1 {
         rig.motor_inertia_1_kg_mm2
     } else {
@@ -248,7 +248,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     if args.uncertainty {
         crate::emit::check_confidence(args.confidence)?;
     }
-    let exp = crate::inputs::experiment(&args.experiment)?;
+    let exp = crate::read_files::experiment(&args.experiment)?;
     let opts = options(args, &exp);
     anyhow::ensure!(
         args.shard.is_none() || args.out.is_some(),
@@ -275,7 +275,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         // the fingerprint of the experiment as the merge will load it (by its canonical path)
         let canonical = std::fs::canonicalize(&args.experiment)?;
         let part = Partial {
-            digest: digest(&crate::inputs::experiment(&canonical)?, &opts, shard)?,
+            digest: digest(&crate::read_files::experiment(&canonical)?, &opts, shard)?,
             experiment: canonical,
             shard,
             local_refinement: opts.local_refinement,
@@ -324,13 +324,13 @@ fn warn(lines: &[String]) {
 pub fn merge(args: &MergeArgs) -> Result<String> {
     let mut parts = Vec::new();
     for p in &args.parts {
-        let text = pumpcyl::input::read_text(crate::inputs::files(), p)
+        let text = pumpcyl::input::read_text(crate::read_files::files(), p)
             .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
         let part: Partial = serde_json::from_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
         parts.push((p.clone(), part));
     }
-    let (exp, id, seconds) = shards::merge(crate::inputs::files(), parts)?;
+    let (exp, id, seconds) = shards::merge(crate::read_files::files(), parts)?;
     report_identification(&exp, &id, seconds, None, args.json, args.out.as_deref())
 }
 
@@ -350,22 +350,6 @@ fn analyze_uncertainty(
     Ok((u, start.elapsed().as_secs_f64()))
 }
 
-/// Which parameters the records bound: from the profiles of the uncertainty analysis when it
-/// ran, else by the quick check of [`identifiability`] at 95 %; `None` when the noise cannot
-/// be estimated (records without noise fitted exactly).
-fn verdicts(
-    exp: &Experiment,
-    id: &Identification,
-    uncertainty: Option<&Uncertainty>,
-) -> Option<[Identifiability; 3]> {
-    match uncertainty {
-        Some(u) if u.profiles.len() == 3 => Some(std::array::from_fn(|i| {
-            Identifiability::of_profile(&u.profiles[i], u.confidence)
-        })),
-        _ => identifiability(&exp.problem, &id.best().candidate, 0.95).ok(),
-    }
-}
-
 /// Report an identification (with its uncertainty when analysed): JSON or text; with `out`,
 /// its result folder (docs/identification.md), built aside and swapped in whole.
 fn report_identification(
@@ -376,7 +360,7 @@ fn report_identification(
     json_out: bool,
     out: Option<&Path>,
 ) -> Result<String> {
-    let verdicts = verdicts(exp, id, uncertainty.map(|(u, _)| u));
+    let verdicts = outputs::verdicts(&exp.problem, id, uncertainty.map(|(u, _)| u));
     let mut v = outputs::identification_json(exp, id, seconds)?;
     if let Some(d) = &verdicts {
         outputs::add_identifiability_json(&mut v, d);

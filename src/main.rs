@@ -15,11 +15,11 @@ mod emulate;
 mod export;
 mod fmu;
 mod ident;
-mod inputs;
+mod interrupt;
+mod read_files;
 mod reproduce;
 mod robust;
 mod select;
-mod signals;
 mod time;
 
 use anyhow::Result;
@@ -146,14 +146,14 @@ impl RigSource {
     pub fn load(&self) -> Result<Rig> {
         let base = match &self.rig {
             Some(path) => {
-                let file = Rig::from_file_with_defaults_in(crate::inputs::files(), path)
+                let file = Rig::from_file_with_defaults_in(crate::read_files::files(), path)
                     .map_err(|e| crate::emit::hinted(e.into()))?;
                 let set: Vec<&str> = self
                     .set
                     .iter()
                     .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
                     .collect();
-                crate::inputs::note_rig_defaults(&file, &path.display().to_string(), &set);
+                crate::read_files::note_rig_defaults(&file, &path.display().to_string(), &set);
                 file.rig
             }
             None => Rig::default(),
@@ -212,7 +212,7 @@ impl ModelArgs {
 /// Read a `--ss` JSON model; errors name the file, line and key.
 fn read_ss(path: &std::path::Path) -> Result<Loop> {
     let name = path.display().to_string();
-    pumpcyl::input::read_text(crate::inputs::files(), path)
+    pumpcyl::input::read_text(crate::read_files::files(), path)
         .and_then(|text| Loop::from_json(&text, &name))
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))
 }
@@ -235,7 +235,7 @@ pub fn escape_controls(message: &str) -> String {
 
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
-    signals::install();
+    interrupt::install();
     let matches = <Cli as clap::CommandFactory>::command().get_matches();
     let cli =
         <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
@@ -281,10 +281,10 @@ pub fn run() -> Result<()> {
         "the result holds a value that is not a number (NaN): the inputs take the model beyond \
          what double precision can evaluate"
     );
-    if let Some(note) = inputs::rig_defaults_note() {
+    if let Some(note) = read_files::rig_defaults_note() {
         eprintln!("note: {}", escape_controls(&note));
     }
-    emit::emit(&inputs::with_rig_defaults(text))
+    emit::emit(&read_files::with_rig_defaults(text))
 }
 
 fn main() {

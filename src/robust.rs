@@ -41,7 +41,7 @@ pub(super) fn run(
     let start = Instant::now();
     let (rig, region, targets) = match src.experiment {
         Some(path) => {
-            let exp = crate::inputs::experiment(path)?;
+            let exp = crate::read_files::experiment(path)?;
             let (rig, region) = Region::of_records(&exp, src.confidence)?;
             (rig, region, targets.clone().over_records(&exp))
         }

@@ -57,7 +57,7 @@ pub struct SelectArgs {
 
 pub fn run(args: &SelectArgs) -> Result<String> {
     let base = match &args.application {
-        Some(path) => Application::from_file_in(crate::inputs::files(), path)?,
+        Some(path) => Application::from_file_in(crate::read_files::files(), path)?,
         None => Application::default(),
     };
     let base = match &args.rig {
@@ -67,7 +67,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
     let mut app = base.with_overrides("--set", &args.set)?;
     if let Some(path) = &args.experiment {
         crate::emit::check_confidence(args.confidence.confidence)?;
-        let exp = crate::inputs::experiment(path)?;
+        let exp = crate::read_files::experiment(path)?;
         let evidence = BetaEvidence::of_records(&exp, args.confidence.confidence)?;
         app = app
             .with_evidence(&evidence)
@@ -108,7 +108,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
 
 /// `app` on the rig of the file `path` (`--rig`), naming the application's own rig it replaces.
 fn with_rig_file(app: &Application, path: &std::path::Path) -> Result<Application> {
-    let rig = Rig::from_file_in(crate::inputs::files(), path)
+    let rig = Rig::from_file_in(crate::read_files::files(), path)
         .map_err(|e| crate::emit::hinted(e.into()))?;
     let replaces = match app.rig_from {
         RigFrom::Article => None,

@@ -9,13 +9,13 @@ use crate::RigSource;
 use pumpcyl::record::Record;
 use pumpcyl::response::{self, Baseline, Signals, ARTICLE_SINE_CASES};
 use pumpcyl::rig::Rig;
+use pumpcyl_present::documents;
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::time::{
     series, signals_csv, simulate_json, simulate_mat, simulate_series, simulate_subtitle,
-    simulate_text, simulate_title, step_json, step_mat, step_subtitle, step_text, step_title,
-    track_chart, track_json, track_mat, track_series, track_text, Replay, Run, Runs, StepSetup,
-    Unstable,
+    simulate_text, simulate_title, step_mat, step_subtitle, step_text, step_title, track_chart,
+    track_json, track_mat, track_series, track_text, Replay, Run, Runs, StepSetup, Unstable,
 };
 
 /// Options shared by the time-domain commands.
@@ -210,17 +210,9 @@ fn stroke_warnings<M>(rig: &Rig, runs: &Runs<M>) -> Vec<String> {
     warnings
 }
 
-/// The JSON document `doc` with `warnings` added to its `warnings` list (made if absent).
-fn with_warnings(mut doc: serde_json::Value, warnings: &[String]) -> Result<String> {
-    if let (false, Some(obj)) = (warnings.is_empty(), doc.as_object_mut()) {
-        let list = obj
-            .entry("warnings")
-            .or_insert_with(|| serde_json::Value::Array(Vec::new()));
-        if let Some(list) = list.as_array_mut() {
-            list.extend(warnings.iter().cloned().map(serde_json::Value::String));
-        }
-    }
-    Ok(json_document(&doc)?)
+/// The JSON document `doc` with its `warnings` ([`documents::with_warnings`]).
+fn with_warnings(doc: serde_json::Value, warnings: &[String]) -> Result<String> {
+    Ok(json_document(&documents::with_warnings(doc, warnings))?)
 }
 
 /// Write signals by the extension of `path`: the CSV `csv` makes, the MAT-file `mat` makes or
@@ -278,7 +270,9 @@ pub fn step(args: &StepArgs) -> Result<String> {
     }
     let warnings = stroke_warnings(&rig, &runs);
     if args.opts.json {
-        return with_warnings(step_json(&setup, &runs), &warnings);
+        return Ok(json_document(&documents::step_document(
+            &setup, &runs, &warnings,
+        ))?);
     }
     Ok(step_text(&setup, &runs))
 }
@@ -406,12 +400,12 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
             .as_ref()
             .context("--data or --experiment is needed")?;
         return Ok((
-            Record::read_in(crate::inputs::files(), data)?,
+            Record::read_in(crate::read_files::files(), data)?,
             args.rig.load()?,
             None,
         ));
     };
-    let exp = crate::inputs::experiment(path)?;
+    let exp = crate::read_files::experiment(path)?;
     let count = exp.problem.datasets.len();
     anyhow::ensure!(
         (1..=count).contains(&n),

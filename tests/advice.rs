@@ -279,7 +279,7 @@ fn advise_cli_json_and_one_line_errors() {
     assert!((v["z"].as_f64().unwrap() - 1.959_964).abs() < 1e-5);
     assert!(v["noise_std_mm"].as_f64().unwrap() > 0.0);
     // records of one LTI model with white noise hardly disagree: factors just above 1
-    for f in v["model_error_factor"].as_array().unwrap() {
+    for f in v["model_error_factor"].as_object().unwrap().values() {
         assert!((1.0..1.1).contains(&f.as_f64().unwrap()), "{f}");
     }
     let names = ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"];
@@ -294,7 +294,23 @@ fn advise_cli_json_and_one_line_errors() {
         assert!(["step", "sine"].contains(&c["design"]["kind"].as_str().unwrap()));
         assert_eq!(c["improvement"].as_array().unwrap().len(), 3);
     }
-    assert_eq!(v["best_for"].as_array().unwrap().len(), 3);
+    // the best candidate per parameter is keyed by the parameter's name, never by position,
+    // and is the first of that parameter's ranking
+    let labels: Vec<&str> = cands_json
+        .iter()
+        .map(|c| c["label"].as_str().unwrap())
+        .collect();
+    let best_for = v["best_for"].as_object().unwrap();
+    assert_eq!(best_for.len(), 3);
+    for name in names {
+        let best = best_for[name].as_str().unwrap();
+        assert!(labels.contains(&best), "{best} not among {labels:?}");
+        let ranking = v["ranking_by_parameter"][name].as_array().unwrap();
+        assert_eq!(ranking.len(), 2);
+        assert_eq!(ranking[0]["label"], best);
+        let log_std = |k: usize| ranking[k]["log_std"].as_f64().unwrap();
+        assert!(log_std(0) <= log_std(1));
+    }
 
     let o = pumpcyl(&["advise", &exp, "--candidates", c]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

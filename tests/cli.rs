@@ -769,6 +769,43 @@ fn emulate_writes_records_the_other_commands_read() {
     // the same seed gives the same record
     let (again, _) = step("again.csv");
     assert_eq!(text, std::fs::read_to_string(again).unwrap());
+    // --json prints the record it writes: each CSV column, by its name, to the CSV's digits
+    let path = dir.path().join("json.csv");
+    let path = path.to_str().unwrap();
+    let args = [
+        "emulate",
+        "--experiment",
+        "step",
+        "--duration-s",
+        "3",
+        "--seed",
+        "7",
+    ];
+    let doc = json(&[&args[..], &["--out", path, "--json"]].concat());
+    assert_eq!(text, std::fs::read_to_string(path).unwrap());
+    assert_eq!(doc["samples"], 301);
+    assert_eq!(doc["experiment"], "step");
+    assert!(doc["basis"]
+        .as_str()
+        .unwrap()
+        .starts_with("emulator: beta_e"));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let columns = doc["columns"].as_object().unwrap();
+    assert_eq!(columns.len(), header.len());
+    for (k, row) in lines.enumerate() {
+        for (name, cell) in header.iter().zip(row.split(',')) {
+            let from_csv: f64 = cell.parse().unwrap();
+            let from_json = columns[*name][k].as_f64().unwrap();
+            // the CSV rounds to its last printed decimal: half of it, and a rounding's worth
+            let decimals = cell.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+            let half = 0.5 * 10f64.powi(-decimals) + 1e-12 * from_csv.abs();
+            assert!(
+                (from_json - from_csv).abs() <= half,
+                "{name}[{k}]: {from_json} in the JSON, {from_csv} in the CSV"
+            );
+        }
+    }
 }
 
 #[test]

@@ -6,6 +6,7 @@
 #[path = "common/skip.rs"]
 mod skip;
 
+use pumpcyl_present::reproduce::FIGURES;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -249,29 +250,8 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
     );
     assert!(head[1].starts_with("inputs: EMULATED records"), "{stdout}");
     assert!(stdout.contains("bulk modulus β (bar)"), "{stdout}");
-    let stems = [
-        "drive_step",
-        "robustness",
-        "bulk_modulus",
-        "bode_pressure",
-        "bode_fig14_damping",
-        "step_fig14_damping",
-        "bode_motor_first_order",
-        "step_motor_first_order",
-        "bode_fig11_feedforward",
-        "step_fig11_feedforward",
-        "bode_stroke",
-        "step_stroke",
-        "sine_0p10hz",
-        "sine_0p20hz",
-        "sine_0p25hz",
-        "profile-beta_bar",
-        "profile-viscous_friction_ns_per_m",
-        "profile-c12_m5_per_ns",
-        "robust-margins",
-        "which_circuit",
-    ];
-    for stem in stems {
+    let stems: Vec<&str> = FIGURES.iter().map(|f| f.stem).collect();
+    for &stem in &stems {
         // a figure, not an empty page (a dashed line is one path: a figure of a few curves,
         // the likelihood profiles, is about 7 kB of SVG)
         for (ext, least) in [("svg", 5_000), ("png", 10_000)] {
@@ -297,7 +277,7 @@ fn every_figure_is_written_as_svg_and_png_and_inlined_in_the_report() {
         assert!(dir.join("identification").join(f).exists(), "{f}");
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
-    // 20 figures, the landscape and the two fits
+    // the registered figures, the landscape and the two fits
     assert_eq!(html.matches("<figure>").count(), stems.len() + 3);
     assert!(html.contains("EMULATED"));
     // every number the article prints sits beside pumpcyl's
@@ -490,8 +470,9 @@ fn report_renders_in_headless_chromium_with_every_figure_loaded() {
     };
     let (loaded, total) = (attr("data-figures-loaded"), attr("data-figures-total"));
     assert_eq!(
-        total, 23,
-        "figures in the page: 20 figures, the landscape and the two fits"
+        total,
+        FIGURES.len() + 3,
+        "figures in the page: the registered figures, the landscape and the two fits"
     );
     assert_eq!(loaded, total, "every figure loaded with a non-zero size");
     assert!(!dom.contains("class=\"notice\">This figure did not load"));

@@ -5,23 +5,23 @@ cylinder of Gøytil, Hansen & Tvilde, "Effective Bulk Modulus in Low-Pressure Pu
 Hydraulic Cylinders", Actuators 2025, 14(8), 366, with exact margins, Bode, zero-order-hold
 simulation, grid identification of the bulk modulus, the gas-fraction model and the design
 method. numpy arrays in and out; units are part of every name (``beta_bar``, ``f_hz``,
-``x_mm``). Errors raise :class:`PumpcylError`, a ``ValueError`` carrying the command line's
+``x_mm``). Every result is a :class:`Result`: the document the command line prints with
+``--json``, each key an attribute and an item, signals as numpy arrays, the whole as plain data
+with ``to_dict()``. Errors raise :class:`PumpcylError`, a ``ValueError`` carrying the command line's
 one-line message; a bad argument is named with the value given
 (``Rig(beta_bar=nan): ...``, ``identify(standstill['w1_rpm']='x'): ...``).
 """
 
 from ._pumpcyl import (
     Dataset,
-    Identification,
     PumpcylError,
     Result,
     Rig,
-    Simulation,
-    StepResponse,
     _loop_names,
     advise,
     bode,
     design,
+    emulate,
     fmu,
     select,
     effective_beta,
@@ -38,15 +38,13 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Dataset",
-    "Identification",
     "PumpcylError",
     "Result",
     "Rig",
-    "Simulation",
-    "StepResponse",
     "advise",
     "bode",
     "design",
+    "emulate",
     "fmu",
     "select",
     "effective_beta",

@@ -1,7 +1,7 @@
 """Type stubs of the compiled pumpcyl module. Units are part of every name; SI in matrices."""
 
 from os import PathLike
-from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -88,18 +88,35 @@ class Rig:
     motor_model: Literal["full", "first_order"]
 
 class Result:
-    """A result as the command line's ``--json`` prints it: every field an attribute, the
-    whole a dict with :meth:`to_dict` (pumpcyl-present serialises it once for both)."""
+    """A result: the document the command line prints with ``--json`` (the presentation layer
+    builds it once for both), each key an attribute and an item (``r.beta_bar``,
+    ``r["beta_bar"]``), a run's signals as numpy arrays (a ``Result`` themselves:
+    ``r.signals.x_mm``). ``to_dict()`` is the whole as plain data, equal to ``json.loads`` of
+    the command line's document; a ``Result`` equals such a dict. The classes below name the
+    fields of each kind of result (for type checkers; at run time each is a ``Result``)."""
 
     def __getattr__(self, name: str) -> Any: ...
+    def __getitem__(self, key: str) -> Any: ...
+    def __contains__(self, key: object) -> bool: ...
+    def __iter__(self) -> Iterator[str]: ...
+    def __len__(self) -> int: ...
+    def keys(self) -> List[str]: ...
+    def values(self) -> List[Any]: ...
+    def items(self) -> List[Tuple[str, Any]]: ...
+    def get(self, key: str, default: Any = None) -> Any: ...
     def to_dict(self) -> Dict[str, Any]:
-        """Every field, as a new dict."""
+        """The whole result as plain data (dicts, lists, floats, None), as ``json.loads``
+        reads the command line's ``--json`` document."""
+    def column(self, key: str, field: str) -> FloatArray:
+        """``field`` of every object in the list ``key`` as floats (None as NaN):
+        ``select().column("options", "kp_max")``."""
+    def __eq__(self, other: object) -> bool: ...
     def __repr__(self) -> str:
-        """The class and the scalar fields (units in their names); lists by their length."""
+        """The kind and the fields (units in their names); lists and arrays by their length."""
 
 class Margins(Result):
-    """Margins of the open loop (the article §2.3.3): the fields of ``pumpcyl margins --json``.
-    A ``None`` margin is infinite (no crossing of that kind)."""
+    """Margins of the open loop (the article §2.3.3): ``pumpcyl margins --json``. A ``None``
+    margin is infinite (no crossing of that kind)."""
 
     loop: str
     """The loop analysed, in words."""
@@ -132,8 +149,8 @@ class Margins(Result):
     sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates
     it, with ``stability``, ``rightmost_pole`` ([re 1/s, im rad/s]) and ``rightmost_pole_hz``."""
 
-class Simulation:
-    """Closed-loop signals in user units, one value per sample."""
+class Signals(Result):
+    """Signals in user units, one numpy value per sample."""
 
     time_s: FloatArray
     x_ref_mm: FloatArray
@@ -149,25 +166,191 @@ class Simulation:
     w2_rpm: FloatArray
     """Motor 2 speed (rpm)."""
 
-class StepResponse(Simulation):
-    """A step response with its metrics (docs/simulation.md#step-metrics), as ``pumpcyl step``."""
+class Simulation(Result):
+    """A closed-loop simulation of :func:`simulate` (the command line's ``simulate`` replays a
+    record file instead)."""
 
-    step_mm: float
-    rise_time_s: Optional[float]
-    """10-90 % rise time (s); None if the response never reaches 90 %."""
-    overshoot_mm: float
-    overshoot_pct: float
-    peak_time_s: float
-    settling_time_s: Optional[float]
-    """2 % settling time (s); None if still outside the band at the end."""
-    steady_state_error_mm: float
-    final_error_mm: float
-    ringing: Optional[Dict[str, float]]
-    """The least-damped closed-loop pole when the gain margin is under 1 dB
-    (docs/simulation.md#ringing): gain_margin_db, natural_freq_hz, damping_ratio; else None."""
+    rig: str
+    """The rig simulated (its ``repr``)."""
+    signals: Signals
     over_ratings: List[Dict[str, Any]]
-    """The drive ratings the response exceeds (docs/simulation.md#drive-ratings), as the
-    command line's JSON ``over_ratings``; each also warns (UserWarning)."""
+    """The drive ratings the response exceeds (docs/simulation.md#drive-ratings)."""
+    warnings: List[str]
+    """The predicted position leaving the stroke, if it does (docs/emulator.md#end-stops)."""
+
+class Step(Result):
+    """A step response (docs/simulation.md#step-metrics): ``pumpcyl step --json``."""
+
+    rig: str
+    """The rig simulated, in words (its ``repr`` from Python)."""
+    step_mm: float
+    metrics: Dict[str, Any]
+    """step_mm, rise_time_s (None if it never reaches 90 %), overshoot_mm, overshoot_pct,
+    peak_time_s, settling_time_s (None if still outside the 2 % band at the end),
+    steady_state_error_mm, final_error_mm, and ``ringing`` (gain_margin_db, natural_freq_hz,
+    damping_ratio) only when the gain margin is under 1 dB (docs/simulation.md#ringing)."""
+    over_ratings: List[Dict[str, Any]]
+    """The drive ratings the response exceeds (docs/simulation.md#drive-ratings); each also
+    warns (UserWarning)."""
+    signals: Signals
+    warnings: List[str]
+    """The predicted position leaving the stroke, if it does (docs/emulator.md#end-stops)."""
+
+class Identification(Result):
+    """The answer of :func:`identify`: ``pumpcyl identify --json`` (and result.json)."""
+
+    beta_bar: float
+    """Effective bulk modulus (bar)."""
+    viscous_friction_ns_per_m: float
+    """Viscous friction (N·s/m)."""
+    c12_m5_per_ns: float
+    """Cross-port leakage (m⁵/(N·s))."""
+    c1_m5_per_ns: float
+    c2_m5_per_ns: float
+    cost_mm2: float
+    """Mean over the datasets of the position MSE (mm^2)."""
+    stage: int
+    """The stage the answer comes from (1, 2; 0 for the local refinement)."""
+    index: int
+    """Its index in that stage's grid."""
+    candidates_evaluated: int
+    seconds: float
+    refined: bool
+    """Whether the local refinement improved on the best grid point."""
+    grid_best: Dict[str, Any]
+    """The best grid point: beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns, cost_mm2,
+    stage, index, and the c1_m5_per_ns, c2_m5_per_ns holding the standstill point there."""
+    non_finite: int
+    unstable: int
+    pruned: int
+    stages: List[Dict[str, Any]]
+    """Each stage: candidates, evaluated, threshold_mm2, threshold_count, threshold_bounds."""
+    top: List[Dict[str, Any]]
+    """The best candidates of all stages, best first (as grid_best without the leakages)."""
+    experiment: Optional[str]
+    """The experiment file; None for ``datasets``."""
+    rig: str
+    grids: str
+    """Where the two grids come from, in words."""
+    stage_grids: List[Dict[str, List[float]]]
+    """Each stage's grid: [lo, hi, count] per parameter."""
+    warnings: List[str]
+    identifiable: Dict[str, bool]
+    """Per parameter, whether the records bound it (absent when the noise cannot be estimated)."""
+    not_identifiable: Dict[str, str]
+    """Why, for the parameters the records do not bound."""
+
+class Advice(Result):
+    """Experiment advice: ``pumpcyl advise --json``."""
+
+    point: Dict[str, float]
+    identified: Dict[str, float]
+    noise_std_mm: float
+    variance_inflation: float
+    model_error_factor: Dict[str, float]
+    """Per parameter name, the factor on its variance for the model error the records'
+    disagreement shows (applied to the current widths and every candidate's)."""
+    confidence: float
+    z: float
+    current: List[Dict[str, Any]]
+    candidates: List[Dict[str, Any]]
+    skipped: List[str]
+    best_for: Dict[str, str]
+    """Per parameter name, the label of the candidate that narrows its interval most."""
+    ranking_by_parameter: Dict[str, List[Dict[str, Any]]]
+    """Per parameter name, the candidates best first: label, log_std, interval, width,
+    relative_width."""
+    experiment: str
+    seconds: float
+
+class Selection(Result):
+    """Which circuit at which pressure level: ``pumpcyl select --json``."""
+
+    options: List[Dict[str, Any]]
+    min_mean_pressure_bar: Optional[float]
+    min_level_bar: Optional[float]
+    min_mean_pressure_bracket_bar: Optional[List[float]]
+    at_min_mean_pressure: Optional[Dict[str, Any]]
+    chosen: Optional[Dict[str, Any]]
+    verdict: str
+    reasons: List[str]
+    gas_fraction: Any
+    gas_fraction_from: Dict[str, Any]
+    rig: Dict[str, Any]
+
+class Design(Result):
+    """The design method (the article §2.2): ``pumpcyl design --json``."""
+
+    targets: Dict[str, Any]
+    kp_max: float
+    kp_max_worst_case: float
+    worst_case: Dict[str, Any]
+    conditions: List[Dict[str, Any]]
+    kp_recommended: float
+    tracking_kp: float
+    tracking: List[Dict[str, Any]]
+    verdict: str
+    reasons: List[str]
+
+class RobustDesign(Result):
+    """The robust design (docs/design.md#robust-design): ``pumpcyl design --robust --json``."""
+
+    kp_max: float
+    kp_max_nominal: float
+    deciding: Dict[str, Any]
+    worst_case: Dict[str, Any]
+    worst_case_nominal: Dict[str, Any]
+    loop_answer: Any
+    options: Dict[str, Any]
+    steps: List[Dict[str, Any]]
+    stroke_curves: Any
+    region: Dict[str, Any]
+    targets: Dict[str, Any]
+    verdict: str
+    reasons: List[str]
+    seconds: float
+    identification_seconds: float
+
+class Summary(Result):
+    """The article workflow's summary.json (as ``pumpcyl reproduce`` writes it)."""
+
+    emulated_inputs: bool
+    note: str
+    emulator: Dict[str, Any]
+    drive: Dict[str, Any]
+    leakage: Dict[str, Any]
+    identified: Dict[str, Any]
+    record_conditions: Any
+    rise_time: Dict[str, Any]
+    robustness: Any
+    margins: Dict[str, Any]
+    gas_fraction: Any
+    gas_fraction_article_basis: Any
+    article_gas_fraction: Any
+    intro_example: Dict[str, Any]
+    p_mean_bar: Any
+    damping: Any
+    stroke: Any
+    tracking: Any
+    design: Dict[str, Any]
+    how_sure: Dict[str, Any]
+    which_circuit: Dict[str, Any]
+    seconds: float
+
+class Emulated(Result):
+    """An emulated record: ``pumpcyl emulate --json``."""
+
+    experiment: str
+    rig: str
+    samples: int
+    basis: str
+    """What the emulator used on the rig, in words (docs/emulator.md#what-a-user-rig-gets)."""
+    warnings: List[str]
+    end_stop: Optional[str]
+    """The first end stop the piston met, if any (docs/emulator.md#end-stops)."""
+    columns: Result
+    """The record's columns as numpy arrays, named as its CSV names them
+    (docs/formats.md#record-csv; a drive step: time_s, w_ref_rpm, w_rpm)."""
 
 class Dataset:
     """One record to fit: time (s), reference and measured position (mm), the experiment's
@@ -184,26 +367,6 @@ class Dataset:
         fit_end_s: float,
         name: str = "dataset",
     ) -> None: ...
-
-class Identification:
-    """The answer of :func:`identify`."""
-
-    beta_bar: float
-    """Effective bulk modulus (bar)."""
-    viscous_friction_ns_per_m: float
-    """Viscous friction (N·s/m)."""
-    c12_m5_per_ns: float
-    """Cross-port leakage (m⁵/(N·s))."""
-    c1_m5_per_ns: float
-    c2_m5_per_ns: float
-    cost_mm2: float
-    """Mean over the datasets of the position MSE (mm^2)."""
-    refined: bool
-    grid_best: Dict[str, Any]
-    top: List[Dict[str, Any]]
-    candidates_evaluated: int
-    seconds: float
-    details: Dict[str, Any]
 
 def margins(rig: Rig, *, sum_pressure_closed: bool = False) -> Margins:
     """Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing
@@ -232,13 +395,13 @@ def _loop_names(rig: Rig, loop: Loop = "open") -> Tuple[List[str], List[str], Li
 
 def simulate(rig: Rig, t_s: ArrayLike, x_ref_mm: ArrayLike) -> Simulation:
     """Closed loop driven by ``x_ref_mm`` (mm) sampled at ``t_s`` (s) and held between
-    samples (exact zero-order hold), from rest at x = x_ref_mm[0]."""
+    samples (exact zero-order hold), from rest at x = x_ref_mm[0]; ``.signals`` holds them."""
 
 def step(
     rig: Rig, step_mm: float = 5.0, *, duration_s: float = 4.0, rate_hz: float = 100.0
-) -> StepResponse:
+) -> Step:
     """Response to a position step of ``step_mm`` (mm) from x0, sampled at ``rate_hz`` (Hz)
-    for ``duration_s`` (s). A step smaller than 0.05 mm in size warns (``UserWarning``):
+    for ``duration_s`` (s), as ``pumpcyl step --json``. A step smaller than 0.05 mm in size warns (``UserWarning``):
     ``step_mm`` is in millimetres, not metres."""
 
 GridDict = Dict[str, Sequence[float]]
@@ -266,30 +429,53 @@ def identify(
     the first centred on the rig's values, the second on the first stage's best;
     ``grids="article"`` the article's two, as the file key);
     ``refined_grid=False`` skips the second stage. Releases the GIL; Ctrl-C stops it;
-    ``progress=True`` prints progress on stderr, a callable gets (done, total)."""
+    ``progress=True`` prints progress on stderr (redrawn on a terminal; a line per tenth of
+    the work in a pipe or a notebook), a callable gets (done, total)."""
+
+def emulate(
+    experiment: Literal["step", "sine", "drive-step", "standstill"],
+    rig: Optional[Rig] = None,
+    *,
+    from_mm: Optional[float] = None,
+    to_mm: Optional[float] = None,
+    at_s: float = 0.5,
+    amplitude_mm: float = 20.0,
+    freq_hz: float = 0.25,
+    motor: int = 1,
+    to_rpm: float = 500.0,
+    duration_s: Optional[float] = None,
+    rate_hz: Optional[float] = None,
+    seed: int = 1,
+    noise: bool = True,
+    effects: bool = True,
+    allow_long_run: bool = False,
+    **overrides: Union[float, bool, str],
+) -> Emulated:
+    """A record from the nonlinear rig emulator (docs/emulator.md), as ``pumpcyl emulate
+    --json``: the experiment and its settings as the command line's options, ``rig=None`` the
+    emulator's own rig, keyword ``overrides`` its keys (as ``--set``); the record's columns as
+    numpy arrays in ``.columns`` and what the emulator used in ``.basis``."""
 
 def advise(
     experiment: Union[str, PathLike[str]],
     *,
     confidence: float = 0.95,
     candidates: Optional[Union[str, PathLike[str]]] = None,
-) -> Dict[str, Any]:
+) -> Advice:
     """Experiment advice: identify the experiment's records, then rank candidate further
     records (steps, sinusoids, gains; the TOML file ``candidates`` or the defaults) by the
-    expected interval widths of beta, b and c12 (as ``pumpcyl advise --json``: point,
-    noise_std_mm, current, candidates, best_for, skipped), plus the same keyed by parameter
-    name: ``best_for_parameter`` {parameter: label} and ``ranking_by_parameter`` {parameter:
-    [{label, log_std, interval, width, relative_width}, ...], best first}."""
+    expected interval widths of beta, b and c12, as ``pumpcyl advise --json``: ``best_for``
+    and ``ranking_by_parameter`` are keyed by parameter name."""
 
 def reproduce(
     out: Optional[Union[str, PathLike[str]]] = None,
     *,
     progress: bool = False,
     force: bool = False,
-) -> Dict[str, Any]:
+) -> Summary:
     """The article's workflow on the embedded EMULATED records (as ``pumpcyl reproduce``):
     with ``out``, the result folder (report.html, summary.json, figures/, records/,
-    identification/) written whole or not at all; returns summary.json as a dict. Ctrl-C
+    identification/) written whole or not at all; returns summary.json as a ``Result``. Ctrl-C
     raises KeyboardInterrupt; ``progress=True`` prints each step on stderr. Files of yours in
     ``out`` are kept (a warning names them); ``force=True`` writes over one at a path of the
     result, or into a non-empty folder that holds no earlier result
@@ -311,20 +497,17 @@ def select(
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
     allow_long_run: bool = False,
+    progress: Union[None, bool, Callable[[int, int], None]] = None,
     **overrides: Any,
-) -> Dict[str, Any]:
+) -> Selection:
     """Which circuit, at which pressure level (docs/select.md): the application file (None =
     the article's application) with application keys as keyword overrides and ``rig``
     replacing its rig (as ``--rig``: the gas fraction and the loads the application leaves out
     follow it, docs/select.md#the-rig-and-the-gas-fraction); ``kp`` fixes the gain;
     ``experiment`` (an experiment TOML file) gives the gas-fraction range from its records'
-    interval of beta at ``confidence``. A dict as ``pumpcyl select --json`` prints
-    (``min_mean_pressure_bar``, bisected between the levels, ``min_level_bar``, ``verdict``,
-    ``reasons``, ``rig``, ``gas_fraction_from``, ``options`` each with ``meets``,
-    ``meets_best_case`` and ``margins_hold_at_reference_gas_fraction``), plus ``table``:
-    numpy arrays over the options (``mean_pressure_bar``, ``beta_e_lo_bar``,
-    ``beta_e_hi_bar``, ``kp_max``, ``standing_loss_w`` (NaN where a candidate cavitates),
-    ``meets``)."""
+    interval of beta at ``confidence``. As ``pumpcyl select --json``; a numpy array over the
+    options with ``column("options", "kp_max")`` (``standing_loss_w`` NaN where a candidate
+    cavitates). ``progress`` as for :func:`identify`, over the load × level cases."""
     ...
 
 def fmu(
@@ -358,7 +541,8 @@ def design(
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
     allow_long_run: bool = False,
-) -> Dict[str, Any]:
+    progress: Union[None, bool, Callable[[int, int], None]] = None,
+) -> Union[Design, RobustDesign]:
     """The design method (the article §2.2): kp_max, kp_max_worst_case, worst_case,
     conditions, tracking (each wave's periodic steady state: max_error_mm, rms_error_mm,
     wave_reduction and ``window``, whose ``steady_state`` is True), verdict, reasons (as
@@ -369,4 +553,5 @@ def design(
     (freq_hz, amp_mm) pairs to track). ``robust=True``:
     the robust design over the confidence region of ``experiment``'s records, or the stated
     default uncertainty around ``rig`` (as ``pumpcyl design --robust --json``): kp_max,
-    kp_max_nominal, deciding, worst_case, steps, region, verdict, reasons."""
+    kp_max_nominal, deciding, worst_case, steps, region, verdict, reasons. ``progress`` as for
+    :func:`identify`, over the nominal design's conditions."""

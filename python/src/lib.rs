@@ -423,48 +423,193 @@ fn loop_of(rig: &Rig, which: &str, sum_pressure_closed: Option<bool>) -> PyResul
     }
 }
 
-/// A result of pumpcyl as a Python object: every field of the document the command line prints
-/// with `--json` (pumpcyl-present serialises it once for both) as an attribute, and the whole as
-/// a dict with `to_dict()`.
+/// A result of pumpcyl: the document the command line prints with `--json` (the presentation
+/// layer builds it once for both front ends), every key an attribute and an item
+/// (`r.beta_bar`, `r["beta_bar"]`), a run's signals as numpy arrays (themselves a `Result`:
+/// `r.signals.x_mm`), and the whole as plain data, equal to the command line's JSON, with
+/// `to_dict()`.
 #[pyclass(module = "pumpcyl._pumpcyl", name = "Result", frozen)]
 struct PyOutcome {
-    /// What the result is (`Margins`, ...), for `repr`.
-    kind: &'static str,
+    /// What the result is (`Margins`, `Identification`, ...), for `repr`.
+    kind: String,
     /// The fields.
     fields: Py<PyDict>,
 }
 
 impl PyOutcome {
     /// The result `kind` with the fields of the JSON document `value` (an object).
-    fn of(py: Python<'_>, kind: &'static str, value: &serde_json::Value) -> PyResult<Self> {
+    fn of(py: Python<'_>, kind: &str, value: &serde_json::Value) -> PyResult<Self> {
         let fields = to_py(py, value)?
             .bind(py)
             .cast::<PyDict>()?
             .clone()
             .unbind();
-        Ok(PyOutcome { kind, fields })
+        Ok(PyOutcome {
+            kind: kind.to_string(),
+            fields,
+        })
     }
+
+    /// The result `kind` of a serialisable value.
+    fn of_value(py: Python<'_>, kind: &str, value: &impl serde::Serialize) -> PyResult<Self> {
+        PyOutcome::of(py, kind, &serde_json::to_value(value).map_err(err)?)
+    }
+
+    /// This result with the columns under `key` (an object of number lists, if present) as
+    /// numpy arrays, gathered in a `Result` of kind `kind`. A `null` sample is NaN.
+    fn with_arrays(self, py: Python<'_>, key: &str, kind: &str) -> PyResult<Self> {
+        let fields = self.fields.bind(py);
+        if let Some(columns) = fields.get_item(key)? {
+            let arrays = PyDict::new(py);
+            for (name, values) in columns.cast::<PyDict>()? {
+                let values: Vec<Option<f64>> = values.extract()?;
+                let values: Vec<f64> = values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+                arrays.set_item(name, values.into_pyarray(py))?;
+            }
+            let block = PyOutcome {
+                kind: kind.to_string(),
+                fields: arrays.unbind(),
+            };
+            fields.set_item(key, Py::new(py, block)?)?;
+        }
+        Ok(self)
+    }
+
+    fn field<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.fields.bind(py).get_item(name)
+    }
+}
+
+/// `v` as plain Python data, as `json.loads` of the command line's document gives it: a
+/// `Result` as its dict, numpy arrays as lists, dicts and lists copied.
+fn plain<'py>(v: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let py = v.py();
+    if let Ok(r) = v.cast::<PyOutcome>() {
+        return Ok(r.get().to_dict(py)?.into_any());
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let out = PyDict::new(py);
+        for (k, x) in d {
+            out.set_item(k, plain(&x)?)?;
+        }
+        return Ok(out.into_any());
+    }
+    if let Ok(l) = v.cast::<PyList>() {
+        let items = l.iter().map(|x| plain(&x)).collect::<PyResult<Vec<_>>>()?;
+        return Ok(PyList::new(py, items)?.into_any());
+    }
+    if !v.is_instance_of::<PyString>() && v.hasattr("tolist")? {
+        return v.call_method0("tolist");
+    }
+    Ok(v.clone())
 }
 
 #[pymethods]
 impl PyOutcome {
-    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        match self.fields.bind(py).get_item(name)? {
-            Some(v) => Ok(v.unbind()),
-            None => Err(PyAttributeError::new_err(format!(
-                "{} has no field `{name}`",
-                self.kind
-            ))),
-        }
+    fn __getattr__<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        self.field(py, name)?.ok_or_else(|| {
+            PyAttributeError::new_err(format!("{} has no field `{name}`", self.kind))
+        })
     }
 
-    /// Every field, as a new dict.
+    fn __getitem__<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
+        self.field(py, key)?.ok_or_else(|| {
+            pyo3::exceptions::PyKeyError::new_err(format!("{} has no field `{key}`", self.kind))
+        })
+    }
+
+    fn __contains__(&self, py: Python<'_>, key: &str) -> PyResult<bool> {
+        self.fields.bind(py).contains(key)
+    }
+
+    fn __len__(&self, py: Python<'_>) -> usize {
+        self.fields.bind(py).len()
+    }
+
+    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(self
+            .fields
+            .bind(py)
+            .keys()
+            .into_any()
+            .try_iter()?
+            .into_any())
+    }
+
+    /// The field names, in the document's order.
+    fn keys<'py>(&self, py: Python<'py>) -> Bound<'py, PyList> {
+        self.fields.bind(py).keys()
+    }
+
+    /// The field values, in the document's order.
+    fn values<'py>(&self, py: Python<'py>) -> Bound<'py, PyList> {
+        self.fields.bind(py).values()
+    }
+
+    /// (name, value) pairs, in the document's order.
+    fn items<'py>(&self, py: Python<'py>) -> Bound<'py, PyList> {
+        self.fields.bind(py).items()
+    }
+
+    /// The field `key`, or `default` when the result has none.
+    #[pyo3(signature = (key, default = None))]
+    fn get<'py>(
+        &self,
+        py: Python<'py>,
+        key: &str,
+        default: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        Ok(self
+            .field(py, key)?
+            .or(default)
+            .unwrap_or_else(|| py.None().into_bound(py)))
+    }
+
+    /// The whole result as plain data (dicts, lists, floats, None): what `json.loads` gives
+    /// of the command line's `--json` document.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        self.fields.bind(py).copy()
+        Ok(plain(self.fields.bind(py).as_any())?.cast_into::<PyDict>()?)
+    }
+
+    /// The field `field` of every object in the list `key` as a numpy array of floats (`None`
+    /// as NaN, `True`/`False` as 1/0): `select(...).column("options", "kp_max")`.
+    fn column<'py>(
+        &self,
+        py: Python<'py>,
+        key: &str,
+        field: &str,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let list = self.__getitem__(py, key)?;
+        let values = list
+            .try_iter()?
+            .map(|item| {
+                let v = item?.get_item(field)?;
+                Ok(if v.is_none() {
+                    f64::NAN
+                } else {
+                    v.extract::<f64>()?
+                })
+            })
+            .collect::<PyResult<Vec<f64>>>()?;
+        Ok(values.into_pyarray(py))
+    }
+
+    /// Equal to another `Result` or a dict holding the same plain data.
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let mine = self.to_dict(py)?;
+        if let Ok(r) = other.cast::<PyOutcome>() {
+            return mine.eq(r.get().to_dict(py)?);
+        }
+        if other.is_instance_of::<PyDict>() {
+            return mine.eq(plain(other)?);
+        }
+        Ok(false)
     }
 
     fn __dir__(&self, py: Python<'_>) -> PyResult<Vec<String>> {
-        self.fields.bind(py).keys().extract()
+        let mut names: Vec<String> = self.fields.bind(py).keys().extract()?;
+        names.extend(["keys", "values", "items", "get", "to_dict", "column"].map(String::from));
+        Ok(names)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
@@ -474,7 +619,7 @@ impl PyOutcome {
             .iter()
             .map(|(k, v)| Ok((k.extract()?, v)))
             .collect::<PyResult<_>>()?;
-        repr_of(self.kind, fields)
+        repr_of(&self.kind, fields)
     }
 }
 
@@ -493,13 +638,15 @@ fn shown(v: &Bound<'_, PyAny>) -> PyResult<String> {
     }
 }
 
-/// `Kind(name=value, ...)` over a few lines: numbers and flags first, then texts, then lists,
-/// dicts and arrays by their length.
+/// `Kind(name=value, ...)` over at most five lines: numbers and flags first, then lists, dicts
+/// and arrays by their length, then texts; the fields that do not fit are named at the end
+/// (`… also experiment, grids`), each readable as an attribute.
 fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<String> {
     const WIDTH: usize = 96;
+    const LINES: usize = 5;
     let rank = |v: &Bound<'_, PyAny>| match (v.is_instance_of::<PyString>(), v.len().is_ok()) {
-        (true, _) => 1,
-        (false, sized) => 2 * usize::from(sized),
+        (true, _) => 2,
+        (false, sized) => usize::from(sized),
     };
     let mut fields = fields;
     fields.sort_by_key(|(_, v)| rank(v));
@@ -508,6 +655,11 @@ fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<Stri
     for (i, (k, v)) in fields.iter().enumerate() {
         let item = format!("{k}={}", shown(v)?);
         if i > 0 && line.len() + 2 + item.len() > WIDTH {
+            if lines.len() + 1 == LINES {
+                let rest: Vec<&str> = fields[i..].iter().map(|(k, _)| k.as_str()).collect();
+                line.push_str(&format!(", … also {}", rest.join(", ")));
+                break;
+            }
             lines.push(format!("{line},"));
             line = " ".repeat(kind.len() + 1);
         } else if i > 0 {
@@ -517,15 +669,6 @@ fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<Stri
     }
     lines.push(format!("{line})"));
     Ok(lines.join("\n"))
-}
-
-/// `repr` of a result object from the attributes `names`.
-fn repr_attrs(obj: &Bound<'_, PyAny>, names: &[&str]) -> PyResult<String> {
-    let fields = names
-        .iter()
-        .map(|n| Ok((n.to_string(), obj.getattr(*n)?)))
-        .collect::<PyResult<_>>()?;
-    repr_of(&obj.get_type().name()?.to_string(), fields)
 }
 
 /// Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing and
@@ -609,83 +752,50 @@ fn bode<'py>(
 // ---------------------------------------------------------------------------------------------
 // Time domain
 
-/// Closed-loop signals in user units, one value per sample.
-#[pyclass(
-    module = "pumpcyl._pumpcyl",
-    name = "Simulation",
-    frozen,
-    get_all,
-    subclass
-)]
-struct PySimulation {
-    /// Time (s).
-    time_s: Py<PyArray1<f64>>,
-    /// Position reference (mm).
-    x_ref_mm: Py<PyArray1<f64>>,
-    /// Position (mm).
-    x_mm: Py<PyArray1<f64>>,
-    /// Control error x_ref - x (mm).
-    e_mm: Py<PyArray1<f64>>,
-    /// Chamber 1 pressure (bar gauge).
-    p1_bar: Py<PyArray1<f64>>,
-    /// Chamber 2 pressure (bar gauge).
-    p2_bar: Py<PyArray1<f64>>,
-    /// Motor 1 speed (rpm).
-    w1_rpm: Py<PyArray1<f64>>,
-    /// Motor 2 speed (rpm).
-    w2_rpm: Py<PyArray1<f64>>,
+/// Warn (UserWarning) of each line of `lines`, and return them.
+fn warn_each(py: Python<'_>, lines: Vec<String>) -> PyResult<Vec<String>> {
+    let category = py.get_type::<PyUserWarning>();
+    for line in &lines {
+        PyErr::warn(py, category.as_any(), &CString::new(line.as_str())?, 1)?;
+    }
+    Ok(lines)
 }
 
-impl PySimulation {
-    fn of(py: Python<'_>, s: &Signals) -> PySimulation {
-        let a = |v: &[f64]| array1(py, v).unbind();
-        PySimulation {
-            time_s: a(&s.time_s),
-            x_ref_mm: a(&s.x_ref_mm),
-            x_mm: a(&s.x_mm),
-            e_mm: a(&s.e_mm),
-            p1_bar: a(&s.p1_bar),
-            p2_bar: a(&s.p2_bar),
-            w1_rpm: a(&s.w1_rpm),
-            w2_rpm: a(&s.w2_rpm),
-        }
-    }
-}
-
-/// The signals of a simulation, in order.
-const SIGNALS: [&str; 8] = [
-    "time_s", "x_ref_mm", "x_mm", "e_mm", "p1_bar", "p2_bar", "w1_rpm", "w2_rpm",
-];
-
-#[pymethods]
-impl PySimulation {
-    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
-        repr_attrs(slf.as_any(), &SIGNALS)
-    }
-}
-
-/// Warn (UserWarning) when the predicted position of `s` leaves the stroke of `rig`
-/// (docs/emulator.md#end-stops).
-fn warn_stroke(py: Python<'_>, rig: &Rig, s: &Signals) -> PyResult<()> {
-    if let Some(e) = response::stroke_excursion(rig, s) {
-        let category = py.get_type::<PyUserWarning>();
-        PyErr::warn(py, category.as_any(), &CString::new(e.to_string())?, 1)?;
-    }
-    Ok(())
+/// The warnings of a run of `rig` that `what` produced as signals `s`, each a UserWarning:
+/// its predicted position leaving the stroke (docs/emulator.md#end-stops), returned as the
+/// command line's document lists it, and the drive ratings it exceeds
+/// (docs/simulation.md#drive-ratings), which the document holds as `over_ratings`.
+fn run_warnings(
+    py: Python<'_>,
+    what: &str,
+    rig: &Rig,
+    s: &Signals,
+    over: &[response::OverRating],
+) -> PyResult<Vec<String>> {
+    let stroke: Vec<String> = response::stroke_excursion(rig, s)
+        .map(|e| e.to_string())
+        .into_iter()
+        .collect();
+    warn_each(
+        py,
+        pumpcyl_present::documents::rating_warning_lines(what, over),
+    )?;
+    warn_each(py, stroke)
 }
 
 /// Simulate the closed loop (exact zero-order hold, docs/simulation.md) driven by `x_ref_mm`
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
 /// operating-point pressures and motor speeds. An unstable closed loop is an error, so is a
 /// reference outside the stroke (as the command line's `simulate`); a predicted position
-/// outside it warns (UserWarning, docs/emulator.md#end-stops).
+/// outside it or a drive rating exceeded warns (UserWarning). A `Result` with `rig`,
+/// `signals` (numpy arrays), `over_ratings` and `warnings`.
 #[pyfunction]
 fn simulate(
     py: Python<'_>,
     rig: &PyRig,
     t_s: &Bound<'_, PyAny>,
     x_ref_mm: &Bound<'_, PyAny>,
-) -> PyResult<PySimulation> {
+) -> PyResult<PyOutcome> {
     let arg = |name| Arg::new("simulate", name);
     let (t, r) = (
         floats(&arg("t_s"), t_s)?,
@@ -699,56 +809,19 @@ fn simulate(
     let mut base = Baseline::of_rig(&rig.rig);
     base.x_ref_mm = r[0];
     base.x_mm = r[0];
-    let rig = rig.rig.clone();
+    let (name, rig) = (rig.__repr__(), rig.rig.clone());
     let s = py
         .detach(|| response::simulate(&rig, &t, &r, &base))
         .map_err(err)?;
-    warn_stroke(py, &rig, &s)?;
-    Ok(PySimulation::of(py, &s))
-}
-
-/// A step response with its metrics (docs/simulation.md#step-metrics), as the command line's `step`.
-#[pyclass(module = "pumpcyl._pumpcyl", name = "StepResponse", frozen, get_all, extends = PySimulation)]
-struct PyStep {
-    /// Step size (mm).
-    step_mm: f64,
-    /// 10-90 % rise time (s); None if the response never reaches 90 %.
-    rise_time_s: Option<f64>,
-    /// Overshoot beyond the step (mm, >= 0).
-    overshoot_mm: f64,
-    /// Overshoot (% of the step).
-    overshoot_pct: f64,
-    /// Time of the largest excursion (s).
-    peak_time_s: f64,
-    /// 2 % settling time (s); None if still outside the band at the end.
-    settling_time_s: Option<f64>,
-    /// Steady-state error from the model's DC solution (mm).
-    steady_state_error_mm: f64,
-    /// Error at the end of the run (mm).
-    final_error_mm: f64,
-    /// The least-damped closed-loop pole when the gain margin is under 1 dB
-    /// (docs/simulation.md#ringing): dict(gain_margin_db, natural_freq_hz, damping_ratio), or None.
-    ringing: Option<Py<PyAny>>,
-    /// The drive ratings the response exceeds (docs/simulation.md#drive-ratings), as the command
-    /// line's JSON `over_ratings`.
-    over_ratings: Py<PyAny>,
-}
-
-#[pymethods]
-impl PyStep {
-    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
-        let metrics = [
-            "step_mm",
-            "rise_time_s",
-            "overshoot_mm",
-            "overshoot_pct",
-            "peak_time_s",
-            "settling_time_s",
-            "steady_state_error_mm",
-            "final_error_mm",
-        ];
-        repr_attrs(slf.as_any(), &[&metrics[..], &SIGNALS[..]].concat())
-    }
+    let over = response::signals_over_ratings(&rig, &s);
+    let warnings = run_warnings(py, "simulate", &rig, &s, &over)?;
+    let doc = serde_json::json!({
+        "rig": name,
+        "signals": pumpcyl_present::documents::signals_json(&s),
+        "over_ratings": over,
+        "warnings": warnings,
+    });
+    PyOutcome::of(py, "Simulation", &doc)?.with_arrays(py, "signals", "Signals")
 }
 
 /// Below this step size (mm) `step` warns: a step that small is probably metres given as
@@ -756,9 +829,11 @@ impl PyStep {
 const STEP_WARN_BELOW_MM: f64 = 0.05;
 
 /// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
-/// sampled at `rate_hz` (Hz) for `duration_s` (s): metrics and signals. A step smaller than
-/// 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres; so does a
-/// predicted position outside the stroke (docs/emulator.md#end-stops).
+/// sampled at `rate_hz` (Hz) for `duration_s` (s): the command line's `step --json` (`rig`,
+/// `step_mm`, `metrics`, `over_ratings`, `signals` as numpy arrays, `warnings`). A step
+/// smaller than 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres;
+/// so does a predicted position outside the stroke (docs/emulator.md#end-stops) or a drive
+/// rating exceeded.
 #[pyfunction]
 #[pyo3(signature = (rig, step_mm = 5.0, *, duration_s = 4.0, rate_hz = 100.0))]
 fn step(
@@ -767,7 +842,7 @@ fn step(
     step_mm: f64,
     duration_s: f64,
     rate_hz: f64,
-) -> PyResult<Py<PyStep>> {
+) -> PyResult<PyOutcome> {
     let ok = step_mm.is_finite() && step_mm != 0.0;
     Arg::new("step", "step_mm").check(py, step_mm, ok, "must be finite and non-zero")?;
     if step_mm.abs() < STEP_WARN_BELOW_MM {
@@ -778,7 +853,7 @@ fn step(
         let category = py.get_type::<PyUserWarning>();
         PyErr::warn(py, category.as_any(), &CString::new(message)?, 1)?;
     }
-    let rig = rig.rig.clone();
+    let (name, rig) = (rig.__repr__(), rig.rig.clone());
     let (s, m) = py
         .detach(|| {
             let s = response::step(&rig, step_mm, duration_s, rate_hz)?;
@@ -786,26 +861,26 @@ fn step(
             Ok::<_, lti::LtiError>((s, m))
         })
         .map_err(err)?;
-    warn_stroke(py, &rig, &s)?;
     let over = response::signals_over_ratings(&rig, &s);
-    let category = py.get_type::<PyUserWarning>();
-    for line in pumpcyl_present::time::rating_warnings("step", &over).lines() {
-        let line = line.trim_start_matches("warning: ");
-        PyErr::warn(py, category.as_any(), &CString::new(line)?, 1)?;
-    }
-    let init = PyClassInitializer::from(PySimulation::of(py, &s)).add_subclass(PyStep {
-        step_mm: m.step_mm,
-        rise_time_s: m.rise_time_s,
-        overshoot_mm: m.overshoot_mm,
-        overshoot_pct: m.overshoot_pct,
-        peak_time_s: m.peak_time_s,
-        settling_time_s: m.settling_time_s,
-        steady_state_error_mm: m.steady_state_error_mm,
-        final_error_mm: m.final_error_mm,
-        ringing: m.ringing.as_ref().map(|r| to_py(py, r)).transpose()?,
-        over_ratings: to_py(py, &over)?,
-    });
-    Py::new(py, init)
+    let warnings = run_warnings(py, "step", &rig, &s, &over)?;
+    use pumpcyl_present::time::{Run, Runs, StepSetup};
+    let runs = Runs {
+        done: vec![Run {
+            label: "nominal".into(),
+            signals: s,
+            metrics: m,
+            over_ratings: over,
+        }],
+        unstable: Vec::new(),
+    };
+    let setup = StepSetup {
+        rig: &name,
+        step_mm,
+        duration_s,
+        rate_hz,
+    };
+    let doc = pumpcyl_present::documents::step_document(&setup, &runs, &warnings);
+    PyOutcome::of(py, "Step", &doc)?.with_arrays(py, "signals", "Signals")
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -859,56 +934,6 @@ impl PyDataset {
             self.spec.mass_kg,
             self.spec.fit_end_s
         )
-    }
-}
-
-/// The answer of an identification.
-#[pyclass(module = "pumpcyl._pumpcyl", name = "Identification", frozen, get_all)]
-struct PyIdentification {
-    /// Effective bulk modulus (bar).
-    beta_bar: f64,
-    /// Viscous friction (N·s/m).
-    viscous_friction_ns_per_m: f64,
-    /// Cross-port leakage (m⁵/(N·s)).
-    c12_m5_per_ns: f64,
-    /// Chamber 1 leakage holding the standstill point (m⁵/(N·s)).
-    c1_m5_per_ns: f64,
-    /// Chamber 2 leakage holding the standstill point (m⁵/(N·s)).
-    c2_m5_per_ns: f64,
-    /// Cost: mean over the datasets of the position MSE (mm^2).
-    cost_mm2: f64,
-    /// Whether the local refinement improved on the best grid point.
-    refined: bool,
-    /// Best grid point (dict).
-    grid_best: Py<PyAny>,
-    /// Best candidates of all stages, best first (dicts with beta_bar,
-    /// viscous_friction_ns_per_m, c12_m5_per_ns, cost_mm2, stage, index).
-    top: Py<PyAny>,
-    /// Candidates evaluated over all stages.
-    candidates_evaluated: u64,
-    /// Wall time of the search and refinement (s).
-    seconds: f64,
-    /// The whole result as the library serialises it (dict: stages, grid_best, refined,
-    /// leakage, top).
-    details: Py<PyAny>,
-}
-
-#[pymethods]
-impl PyIdentification {
-    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
-        let fields = [
-            "beta_bar",
-            "viscous_friction_ns_per_m",
-            "c12_m5_per_ns",
-            "c1_m5_per_ns",
-            "c2_m5_per_ns",
-            "cost_mm2",
-            "refined",
-            "candidates_evaluated",
-            "seconds",
-            "top",
-        ];
-        repr_attrs(slf.as_any(), &fields)
     }
 }
 
@@ -1007,10 +1032,10 @@ fn identify(
     top: usize,
     progress: Option<Py<PyAny>>,
     allow_long_run: bool,
-) -> PyResult<PyIdentification> {
+) -> PyResult<PyOutcome> {
     let loaded;
     let built;
-    let (problem, file_grids, file_opts) = match (experiment, datasets) {
+    let (problem, id_rig, origin, file_grids, file_opts) = match (experiment, datasets) {
         (Some(path), None) => {
             if standstill.is_some() || rig.is_some() {
                 return Err(err(
@@ -1018,9 +1043,17 @@ fn identify(
                 ));
             }
             loaded = Experiment::load(&path).map_err(err)?;
-            (&loaded.problem, loaded.grids(), loaded.options())
+            let origin = pumpcyl_present::identification::Origin::of_experiment(&loaded);
+            (
+                &loaded.problem,
+                loaded.rig.clone(),
+                origin,
+                loaded.grids(),
+                loaded.options(),
+            )
         }
         (None, Some(sets)) => {
+            let rig_name = rig.map_or_else(|| "the article's rig".into(), PyRig::__repr__);
             let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
             let standstill = standstill_of(standstill.ok_or_else(|| {
                 err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)")
@@ -1048,7 +1081,14 @@ fn identify(
             };
             let first = Grid::centred(&centre).map_err(|e| err(e.message))?;
             let grids = (first, Some(ident::SecondGrid::Centred));
-            (&built, grids, Options::default())
+            let origin = pumpcyl_present::identification::Origin {
+                experiment: None,
+                rig: rig_name,
+                grids:
+                    "first centred on the rig's values; second centred on the first stage's best"
+                        .into(),
+            };
+            (&built, rig, origin, grids, Options::default())
         }
         (Some(_), Some(_)) => {
             return Err(err(
@@ -1062,7 +1102,17 @@ fn identify(
             ))
         }
     };
+    let mut origin = origin;
     // grids="article": the article's two grids (§2.4), as an experiment file's `grids` key
+    if grids == Some("article") {
+        origin.grids = "first the article's first grid; second the article's refined grid".into();
+    }
+    if grid.is_some() || refined_grid.is_some() {
+        origin.grids = format!(
+            "{}; the `grid` and `refined_grid` arguments over it",
+            origin.grids
+        );
+    }
     let file_grids = match grids {
         None => file_grids,
         Some("article") => (Grid::article_first(), Some(Grid::article_refined().into())),
@@ -1097,33 +1147,46 @@ fn identify(
         }
         e => err(e),
     })?;
-    let mut tick = progress_reporter(py, progress, request.candidates())?;
+    let mut tick = progress_reporter(py, progress, "identify", "candidates", request.candidates())?;
     let start = Instant::now();
     let id = run_interruptible(py, |go_on| request.run(go_on), &mut tick)?.map_err(err)?;
     tick(py, u64::MAX)?;
-    let best = id.best();
-    Ok(PyIdentification {
-        beta_bar: best.candidate.beta_bar,
-        viscous_friction_ns_per_m: best.candidate.viscous_friction_ns_per_m,
-        c12_m5_per_ns: best.candidate.c12_m5_per_ns,
-        c1_m5_per_ns: id.leakage.c1_m5_per_ns,
-        c2_m5_per_ns: id.leakage.c2_m5_per_ns,
-        cost_mm2: best.cost_mm2,
-        refined: id.refined.is_some(),
-        grid_best: to_py(py, &id.grid_best)?,
-        top: to_py(py, &id.top)?,
-        candidates_evaluated: id.evaluated(),
-        seconds: start.elapsed().as_secs_f64(),
-        details: to_py(py, &id)?,
-    })
+    let seconds = start.elapsed().as_secs_f64();
+    use pumpcyl_present::identification as outputs;
+    let mut doc =
+        outputs::identification_document(problem, &id_rig, &origin, &id, seconds).map_err(err)?;
+    if let Some(v) = py.detach(|| outputs::verdicts(problem, &id, None)) {
+        outputs::add_identifiability_json(&mut doc, &v);
+    }
+    PyOutcome::of(py, "Identification", &doc)
 }
 
-/// Progress for `identify`: nothing, a line on `sys.stderr` (`progress=True`), or a callable
-/// `progress(done, total)`. `tick(py, u64::MAX)` marks the end.
+/// Whether Python's `sys.stderr` is a terminal (a notebook's or a pipe's is not).
+fn stderr_is_terminal(py: Python<'_>) -> bool {
+    let isatty = || -> PyResult<bool> {
+        py.import("sys")?
+            .getattr("stderr")?
+            .call_method0("isatty")?
+            .extract()
+    };
+    isatty().unwrap_or(false)
+}
+
+/// The line of `what`'s progress, `identify: 1200/12000 candidates`.
+fn progress_line(what: &str, unit: &str, done: u64, total: u64) -> String {
+    format!("{what}: {done}/{total} {unit}")
+}
+
+/// Progress of `what` over `total` `unit`s (`identify`, `select`, `design`): nothing, lines on
+/// `sys.stderr` (`progress=True`), or a callable `progress(done, total)`. On a terminal the
+/// line is redrawn in place; elsewhere (a pipe, a notebook) a whole line is written at each
+/// tenth of the work, never carriage returns run together. `tick(py, u64::MAX)` marks the end.
 #[allow(clippy::type_complexity)]
 fn progress_reporter(
     py: Python<'_>,
     progress: Option<Py<PyAny>>,
+    what: &'static str,
+    unit: &'static str,
     total: u64,
 ) -> PyResult<Box<dyn FnMut(Python<'_>, u64) -> PyResult<()> + Send>> {
     let Some(p) = progress else {
@@ -1133,7 +1196,10 @@ fn progress_reporter(
     if as_bool && !p.bind(py).extract::<bool>()? {
         return Ok(Box::new(|_, _| Ok(())));
     }
+    let terminal = stderr_is_terminal(py);
+    const PARTS: u64 = 10;
     let mut last = u64::MAX - 1;
+    let mut last_part = u64::MAX;
     Ok(Box::new(move |py, done| {
         let end = done == u64::MAX;
         let done = if end { total } else { done.min(total) };
@@ -1141,17 +1207,26 @@ fn progress_reporter(
             return Ok(());
         }
         last = done;
-        if as_bool {
-            let line = format!(
-                "\ridentify: {done}/{total} candidates{}",
-                if end { "\n" } else { "" }
-            );
-            let stderr = py.import("sys")?.getattr("stderr")?;
-            stderr.call_method1("write", (line,))?;
-            stderr.call_method0("flush")?;
-        } else {
+        if !as_bool {
             p.call1(py, (done, total))?;
+            return Ok(());
         }
+        let line = progress_line(what, unit, done, total);
+        let text = match (terminal, end) {
+            (true, false) => format!("\r{line}"),
+            (true, true) => format!("\r{line}\n"),
+            (false, _) => {
+                let part = (done * PARTS).checked_div(total).unwrap_or(PARTS);
+                if part == last_part || (part == PARTS && !end) {
+                    return Ok(());
+                }
+                last_part = part;
+                format!("{line}\n")
+            }
+        };
+        let stderr = py.import("sys")?.getattr("stderr")?;
+        stderr.call_method1("write", (text,))?;
+        stderr.call_method0("flush")?;
         Ok(())
     }))
 }
@@ -1160,11 +1235,11 @@ fn progress_reporter(
 /// Experiment advice (docs/identification.md, "Experiment advice"): identify the records of
 /// `experiment` (a TOML file as for `pumpcyl identify`), then compare candidate further
 /// records (the TOML file `candidates`, else the default steps, sinusoids and gains) by the
-/// interval widths of beta, b and c12 expected after adding each, at `confidence`; a dict as
-/// `pumpcyl advise --json` prints (point, noise_std_mm, current, candidates ranked best first,
-/// best_for, skipped), plus the same keyed by parameter name: `best_for_parameter`
-/// {parameter: label} and `ranking_by_parameter` {parameter: [{label, log_std, interval, width,
-/// relative_width}, ...] best first}. Runs with the GIL released.
+/// interval widths of beta, b and c12 expected after adding each, at `confidence`: the
+/// command line's `advise --json` (point, noise_std_mm, current, candidates ranked best first,
+/// skipped, and keyed by parameter name: `best_for` {parameter: label} and
+/// `ranking_by_parameter` {parameter: [{label, log_std, interval, width, relative_width}, ...]
+/// best first}). Runs with the GIL released.
 #[pyfunction]
 #[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None))]
 fn advise(
@@ -1172,7 +1247,8 @@ fn advise(
     experiment: PathBuf,
     confidence: f64,
     candidates: Option<PathBuf>,
-) -> PyResult<Py<PyAny>> {
+) -> PyResult<PyOutcome> {
+    let start = Instant::now();
     let advice = py
         .detach(|| {
             let exp = pumpcyl::ident::Experiment::load(&experiment)?;
@@ -1184,37 +1260,10 @@ fn advise(
             )
         })
         .map_err(err)?;
-    let out = to_py(py, &advice)?;
-    let d = out.bind(py).cast::<PyDict>()?;
-    // keyed by parameter name, in the library's order of the parameters
-    let by_parameter = |of: &dyn Fn(usize) -> PyResult<Py<PyAny>>| {
-        let keyed = PyDict::new(py);
-        for (i, w) in advice.current.iter().enumerate() {
-            keyed.set_item(w.parameter, of(i)?)?;
-        }
-        Ok::<_, PyErr>(keyed)
-    };
-    let best = |i: usize| Ok(PyString::new(py, &advice.best_for[i]).into_any().unbind());
-    d.set_item("best_for_parameter", by_parameter(&best)?)?;
-    let ranked = |i: usize| to_py(py, &ranking(&advice, i));
-    d.set_item("ranking_by_parameter", by_parameter(&ranked)?)?;
-    Ok(out)
-}
-
-/// The candidates ranked for the parameter `i` on its own, best (least expected log-std)
-/// first: [{label, log_std, interval, width, relative_width}, ...].
-fn ranking(advice: &ident::Advice, i: usize) -> Vec<serde_json::Value> {
-    let mut ranked: Vec<&ident::Assessment> = advice.candidates.iter().collect();
-    ranked.sort_by(|a, b| a.widths[i].log_std.total_cmp(&b.widths[i].log_std));
-    let entry = |c: &ident::Assessment| {
-        let mut entry = serde_json::to_value(c.widths[i]).unwrap_or_default();
-        if let Some(fields) = entry.as_object_mut() {
-            fields.remove("parameter");
-            fields.insert("label".into(), c.label.clone().into());
-        }
-        entry
-    };
-    ranked.into_iter().map(entry).collect()
+    let seconds = start.elapsed().as_secs_f64();
+    let name = experiment.display().to_string();
+    let doc = pumpcyl_present::advise::advice_json(&advice, &name, seconds);
+    PyOutcome::of(py, "Advice", &doc)
 }
 
 // The article workflow
@@ -1222,7 +1271,7 @@ fn ranking(advice: &ident::Advice, i: usize) -> Vec<serde_json::Value> {
 /// The article's workflow on the embedded emulated records (the library's
 /// `pumpcyl_present::reproduce`, as `pumpcyl reproduce` runs it): with `out`, the result folder
 /// (report.html, summary.json, figures/, records/, identification/) written whole or not at
-/// all; returns summary.json as a dict. Runs with the GIL released; Ctrl-C stops it and raises
+/// all; returns summary.json as a `Result`. Runs with the GIL released; Ctrl-C stops it and raises
 /// KeyboardInterrupt; `progress=True` prints each step on `sys.stderr`. Files of yours in `out`
 /// are kept (a warning names them); `force=True` writes over one at a path of the result, or
 /// into a non-empty folder that holds no earlier result (docs/formats.md#result-folders).
@@ -1233,7 +1282,7 @@ fn reproduce(
     out: Option<PathBuf>,
     progress: bool,
     force: bool,
-) -> PyResult<Py<PyAny>> {
+) -> PyResult<PyOutcome> {
     let step = std::sync::Mutex::new((0usize, String::new()));
     let mut shown = 0usize;
     let mut tick = |py: Python<'_>, _done: u64| -> PyResult<()> {
@@ -1280,7 +1329,7 @@ fn reproduce(
         let dir = out.as_deref().unwrap_or(std::path::Path::new("")).display();
         warnings.call_method1("warn", (format!("{dir}: {note}"),))?;
     }
-    to_py(py, &summary)
+    PyOutcome::of_value(py, "Summary", &summary)
 }
 
 // Bulk modulus and design
@@ -1310,6 +1359,90 @@ fn effective_beta(py: Python<'_>, x: f64, p_bar: f64, beta_oil_bar: f64) -> PyRe
     arg("p_bar").check(py, p_bar, positive(p_bar), rule)?;
     arg("beta_oil_bar").check(py, beta_oil_bar, positive(beta_oil_bar), rule)?;
     Ok(pumpcyl::bulk::effective_beta(x, p_bar, beta_oil_bar))
+}
+
+/// A record from the nonlinear rig emulator (docs/emulator.md), as `pumpcyl emulate --json`:
+/// `experiment` "step" (from `from_mm` to `to_mm`, default x0 to x0 + 10 mm, at `at_s`),
+/// "sine" (`amplitude_mm`, `freq_hz` from `at_s`), "standstill" or "drive-step" (drive
+/// `motor` to `to_rpm`); `duration_s` and `rate_hz` (the PLC's) default to the experiment's.
+/// `rig` None takes the emulator's own rig (the article's rig with the emulator's effects),
+/// keyword `overrides` set its keys as `--set` does; `effects=False` switches every emulator
+/// effect off, `noise=False` the sensor noise (`seed` seeds it). Records beyond the work limit
+/// run only with `allow_long_run=True`. A `Result` with `experiment`, `rig`, `samples`,
+/// `basis` (what the emulator used, in words), `warnings` (each also a UserWarning),
+/// `end_stop` and `columns`, the record's columns as numpy arrays (docs/formats.md#record-csv).
+#[pyfunction]
+#[pyo3(signature = (
+    experiment, rig = None, *, from_mm = None, to_mm = None, at_s = 0.5, amplitude_mm = 20.0,
+    freq_hz = 0.25, motor = 1, to_rpm = 500.0, duration_s = None, rate_hz = None, seed = 1,
+    noise = true, effects = true, allow_long_run = false, **overrides
+))]
+#[allow(clippy::too_many_arguments)]
+fn emulate(
+    py: Python<'_>,
+    experiment: &str,
+    rig: Option<&PyRig>,
+    from_mm: Option<f64>,
+    to_mm: Option<f64>,
+    at_s: f64,
+    amplitude_mm: f64,
+    freq_hz: f64,
+    motor: usize,
+    to_rpm: f64,
+    duration_s: Option<f64>,
+    rate_hz: Option<f64>,
+    seed: u64,
+    noise: bool,
+    effects: bool,
+    allow_long_run: bool,
+    overrides: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyOutcome> {
+    use pumpcyl_present::emulated::{self, ExperimentKind, Request};
+    let kind = ExperimentKind::named(experiment).ok_or_else(|| {
+        err(format!(
+            "emulate(experiment='{experiment}'): \"step\", \"sine\", \"drive-step\" or \"standstill\""
+        ))
+    })?;
+    let (base, origin) = match rig {
+        Some(r) => (r.clone(), r.__repr__()),
+        None => (
+            PyRig {
+                rig: pumpcyl::fmu::default_rig(pumpcyl::fmu::ModelKind::Emulator, effects)
+                    .map_err(err)?,
+            },
+            "the emulated article rig".to_string(),
+        ),
+    };
+    let rig = base.with("emulate", overrides)?.rig;
+    let effects = pumpcyl::emulator::Effects::switched(&rig, effects)
+        .map_err(|e| err(format!("{origin}: {e}")))?;
+    let request = Request {
+        experiment: kind,
+        from_mm,
+        to_mm,
+        at_s,
+        amplitude_mm,
+        freq_hz,
+        motor,
+        to_rpm,
+        duration_s,
+        rate_hz,
+        seed,
+        noise,
+    };
+    let field = |e: pumpcyl::input::FieldError| err(format!("emulate({}): {}", e.field, e.message));
+    let plc = request.plc().map_err(field)?;
+    let plan = request.plan(&rig, plc.rate_hz).map_err(field)?;
+    pumpcyl::limits::check_emulation(emulated::duration_s(&plan), plc.rate_hz, allow_long_run)
+        .map_err(long_run_err)?;
+    let truth = pumpcyl::emulator::article::Truth { rig, effects, plc };
+    let (data, end_stop) = py
+        .detach(|| emulated::run(&plan, &truth, &|_| {}))
+        .map_err(err)?;
+    let basis = emulated::basis(&truth.rig, &truth.effects).map_err(err)?;
+    let warnings = warn_each(py, emulated::warnings(&truth.rig, &data))?;
+    let doc = emulated::emulated_json(kind, &origin, &data, &basis, &warnings, end_stop.as_ref());
+    PyOutcome::of(py, "Emulated", &doc)?.with_arrays(py, "columns", "Columns")
 }
 
 /// Write the rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64;
@@ -1379,13 +1512,13 @@ fn fmu(
 /// keys (`gas_fraction_max=0.1`, `low_pressure_bar=[2.0, 4.0]`) and `rig` replacing its rig
 /// (as `--rig`: the gas fraction and the loads it leaves out follow the rig);
 /// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
-/// from its records' interval of β at `confidence`. A dict as `pumpcyl select --json` prints,
-/// plus `table`: numpy arrays over the options (`mean_pressure_bar`, `beta_e_lo_bar`,
-/// `beta_e_hi_bar`, `kp_max`, `standing_loss_w`, `meets`). Loads × pressure levels beyond 400
-/// cases (minutes to hours of work) run only with `allow_long_run=True`, as the command line's
-/// `--allow-long-run`.
+/// from its records' interval of β at `confidence`. The command line's `select --json`, as a
+/// `Result` (`column("options", "kp_max")`: a numpy array over the options). Loads × pressure
+/// levels beyond 400 cases (minutes to hours of work) run only with `allow_long_run=True`, as
+/// the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
+/// cases.
 #[pyfunction]
-#[pyo3(signature = (application = None, *, rig = None, kp = None, experiment = None, confidence = 0.95, allow_long_run = false, **overrides))]
+#[pyo3(signature = (application = None, *, rig = None, kp = None, experiment = None, confidence = 0.95, allow_long_run = false, progress = None, **overrides))]
 #[allow(clippy::too_many_arguments)]
 fn select(
     py: Python<'_>,
@@ -1395,8 +1528,9 @@ fn select(
     experiment: Option<PathBuf>,
     confidence: f64,
     allow_long_run: bool,
+    progress: Option<Py<PyAny>>,
     overrides: Option<&Bound<'_, PyDict>>,
-) -> PyResult<Py<PyAny>> {
+) -> PyResult<PyOutcome> {
     use pumpcyl::select::Application;
     let base = match &application {
         Some(path) => Application::from_file_in(&pumpcyl::input::Disk, path).map_err(err)?,
@@ -1428,54 +1562,37 @@ fn select(
         };
         app = app.with_rig(r.rig.clone(), from).map_err(err)?;
     }
-    let s = py
-        .detach(|| -> Result<_, String> {
-            if let Some(path) = &experiment {
-                pumpcyl::ident::check_confidence(confidence).map_err(|e| e.to_string())?;
-                let exp = pumpcyl::ident::Experiment::load(path).map_err(|e| e.to_string())?;
-                let evidence = pumpcyl::select::BetaEvidence::of_records(&exp, confidence)
-                    .map_err(|e| e.to_string())?;
-                app = app
-                    .with_evidence(&evidence)
-                    .map_err(|e| format!("{}: {e}", path.display()))?;
-            }
-            let work = pumpcyl::limits::Work {
-                allow_long_run,
-                progress: &|_| {},
-            };
-            app.select_with(kp, &work).map_err(|e| match e {
-                SelectError::Limit(l) => long_run_err(l).to_string(),
-                e => e.to_string(),
-            })
+    let mut tick = progress_reporter(
+        py,
+        progress,
+        "select",
+        "load × level cases",
+        app.cases() as u64,
+    )?;
+    let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| -> Result<_, String> {
+        if let Some(path) = &experiment {
+            pumpcyl::ident::check_confidence(confidence).map_err(|e| e.to_string())?;
+            let exp = pumpcyl::ident::Experiment::load(path).map_err(|e| e.to_string())?;
+            let evidence = pumpcyl::select::BetaEvidence::of_records(&exp, confidence)
+                .map_err(|e| e.to_string())?;
+            app = app
+                .with_evidence(&evidence)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        let work = pumpcyl::limits::Work {
+            allow_long_run,
+            progress: &|n| {
+                go_on(n);
+            },
+        };
+        app.select_with(kp, &work).map_err(|e| match e {
+            SelectError::Limit(l) => long_run_err(l).to_string(),
+            e => e.to_string(),
         })
-        .map_err(err)?;
-    let out = to_py(py, &s)?;
-    let d = out.bind(py).cast::<PyDict>()?;
-    let table = PyDict::new(py);
-    let column = |f: &dyn Fn(&pumpcyl::select::Candidate) -> f64| -> Vec<f64> {
-        s.options.iter().map(f).collect()
     };
-    table.set_item(
-        "mean_pressure_bar",
-        array1(py, &column(&|c| c.mean_pressure_bar)),
-    )?;
-    table.set_item("beta_e_lo_bar", array1(py, &column(&|c| c.beta_e_bar[0])))?;
-    table.set_item("beta_e_hi_bar", array1(py, &column(&|c| c.beta_e_bar[1])))?;
-    table.set_item("kp_max", array1(py, &column(&|c| c.kp_max)))?;
-    table.set_item(
-        "standing_loss_w",
-        array1(py, &column(&|c| c.standing_loss_w.unwrap_or(f64::NAN))),
-    )?;
-    table.set_item(
-        "meets",
-        s.options
-            .iter()
-            .map(|c| c.meets)
-            .collect::<Vec<bool>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item("table", table)?;
-    Ok(out)
+    let s = run_interruptible(py, work, &mut tick)?.map_err(err)?;
+    tick(py, u64::MAX)?;
+    PyOutcome::of_value(py, "Selection", &s)
 }
 
 /// The design method of the article (§2.2) for `rig` (default: the article's): the
@@ -1495,17 +1612,20 @@ fn select(
 /// `experiment` over the stated default uncertainty around `rig`.
 ///
 /// Masses × pressures beyond 10^5 margin analyses (hours of work) run only with
-/// `allow_long_run=True`, as the command line's `--allow-long-run`.
+/// `allow_long_run=True`, as the command line's `--allow-long-run`. `progress` as for
+/// `identify`, over the design's conditions (the nominal design; the robust design reports
+/// its end only). The result is a `Result`, the command line's `design --json` (or
+/// `design --robust --json`).
 #[pyfunction]
 #[pyo3(
     signature = (
         rig = None, *, target_pm_deg = 34.0, target_gm_db = 6.0, stroke_mm = 50.0,
         p_mean_bar = vec![], p_beta_bar = 4.4, mass_kg = vec![], waves = vec![], robust = false,
-        experiment = None, confidence = 0.95, allow_long_run = false
+        experiment = None, confidence = 0.95, allow_long_run = false, progress = None
     ),
     text_signature = "(rig=None, *, target_pm_deg=34.0, target_gm_db=6.0, stroke_mm=50.0, \
         p_mean_bar=(), p_beta_bar=4.4, mass_kg=(), waves=(), robust=False, experiment=None, \
-        confidence=0.95, allow_long_run=False)"
+        confidence=0.95, allow_long_run=False, progress=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn design(
@@ -1522,7 +1642,8 @@ fn design(
     experiment: Option<PathBuf>,
     confidence: f64,
     allow_long_run: bool,
-) -> PyResult<Py<PyAny>> {
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyOutcome> {
     let targets = pumpcyl::design::Targets {
         pm_deg: target_pm_deg,
         gm_db: target_gm_db,
@@ -1543,20 +1664,28 @@ fn design(
     let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
     check_waves(&rig, &targets.waves, robust)?;
     if !robust {
-        let work = pumpcyl::limits::Work {
-            allow_long_run,
-            progress: &|_| {},
+        let total = targets.conditions() as u64;
+        let mut tick = progress_reporter(py, progress, "design", "conditions", total)?;
+        let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| {
+            let work = pumpcyl::limits::Work {
+                allow_long_run,
+                progress: &|n| {
+                    go_on(n);
+                },
+            };
+            pumpcyl::design::design_with(&rig, &targets, &work)
         };
-        let d = py
-            .detach(|| pumpcyl::design::design_with(&rig, &targets, &work))
-            .map_err(|e| match e {
-                pumpcyl::design::DesignError::Limit(l) => long_run_err(l),
-                e => err(e),
-            })?;
-        return to_py(py, &d);
+        let d = run_interruptible(py, work, &mut tick)?.map_err(|e| match e {
+            pumpcyl::design::DesignError::Limit(l) => long_run_err(l),
+            e => err(e),
+        })?;
+        tick(py, u64::MAX)?;
+        return PyOutcome::of_value(py, "Design", &d);
     }
     ident::check_confidence(confidence).map_err(err)?;
+    let mut tick = progress_reporter(py, progress, "design", "robust designs", 1)?;
     use pumpcyl::design::robust::{Region, RobustOptions};
+    let start = Instant::now();
     let d = py
         .detach(|| -> Result<_, String> {
             let (rig, region, targets) = match experiment {
@@ -1568,17 +1697,25 @@ fn design(
                 }
                 None => (rig.clone(), Region::stated_default(&rig), targets),
             };
+            let identify_seconds = start.elapsed().as_secs_f64();
             let opts = RobustOptions {
                 allow_long_run,
                 ..RobustOptions::default()
             };
-            pumpcyl::design::robust_design(&rig, &region, &targets, &opts).map_err(|e| match e {
-                pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
-                e => e.to_string(),
-            })
+            let d = pumpcyl::design::robust_design(&rig, &region, &targets, &opts).map_err(
+                |e| match e {
+                    pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
+                    e => e.to_string(),
+                },
+            )?;
+            Ok((d, identify_seconds))
         })
         .map_err(err)?;
-    to_py(py, &d)
+    tick(py, u64::MAX)?;
+    let (d, identify_seconds) = d;
+    let seconds = start.elapsed().as_secs_f64();
+    let doc = pumpcyl_present::design::robust_json(&d, seconds, identify_seconds);
+    PyOutcome::of(py, "RobustDesign", &doc)
 }
 
 /// The `waves` of [`design`] checked in Python's words (`waves[1] = (80.0, 5.0): …`, the
@@ -1613,10 +1750,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let own: String = rig_type.getattr("__doc__")?.extract()?;
     rig_type.setattr("__doc__", rig_doc(&own))?;
     m.add_class::<PyOutcome>()?;
-    m.add_class::<PySimulation>()?;
-    m.add_class::<PyStep>()?;
     m.add_class::<PyDataset>()?;
-    m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(margins, m)?)?;
     m.add_function(wrap_pyfunction!(state_space, m)?)?;
     m.add_function(wrap_pyfunction!(loop_names, m)?)?;
@@ -1630,6 +1764,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(design, m)?)?;
     m.add_function(wrap_pyfunction!(select, m)?)?;
     m.add_function(wrap_pyfunction!(fmu, m)?)?;
+    m.add_function(wrap_pyfunction!(emulate, m)?)?;
     m.add_function(wrap_pyfunction!(reproduce, m)?)?;
     Ok(())
 }

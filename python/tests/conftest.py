@@ -1,5 +1,6 @@
 """Shared paths and helpers of the pumpcyl Python tests."""
 
+import ast
 import csv
 import os
 import pathlib
@@ -84,3 +85,11 @@ def pumpcyl_binary():
             raise FileNotFoundError(f"{exe} not built (cargo build)")
         pytest.skip(f"SKIPPED: {exe} not built (cargo build)")
     return str(exe)
+
+
+def stub_fields(name):
+    """The annotated fields of the class `name` in the stub python/pumpcyl/_pumpcyl.pyi, in
+    order: the keys a result of that kind holds."""
+    tree = ast.parse((ROOT / "python" / "pumpcyl" / "_pumpcyl.pyi").read_text())
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == name)
+    return [n.target.id for n in cls.body if isinstance(n, ast.AnnAssign)]

@@ -54,11 +54,11 @@ def test_step_matches_python_control_zoh(overrides):
     s = pumpcyl.step(rig, step_mm=5.0, duration_s=4.0, rate_hz=100.0)
     A, B, C, D = pumpcyl.state_space(rig, "closed")
     sysd = control.c2d(control.ss(A, B, C, D), 0.01, "zoh")
-    u = np.full(s.time_s.shape, 5e-3)  # the step in m, from t = 0, held between samples
-    resp = control.forced_response(sysd, s.time_s, u)
+    u = np.full(s.signals.time_s.shape, 5e-3)  # the step in m, from t = 0, held between samples
+    resp = control.forced_response(sysd, s.signals.time_s, u)
     x_mm = rig.x0_mm + 1e3 * np.squeeze(resp.outputs)
-    np.testing.assert_allclose(s.x_mm, x_mm, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(s.e_mm, 5.0 + rig.x0_mm - x_mm, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(s.signals.x_mm, x_mm, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(s.signals.e_mm, 5.0 + rig.x0_mm - x_mm, rtol=0, atol=1e-6)
 
 
 def test_simulate_matches_python_control_zoh_on_a_nonuniform_free_signal():
@@ -70,7 +70,7 @@ def test_simulate_matches_python_control_zoh_on_a_nonuniform_free_signal():
     A, B, C, D = pumpcyl.state_space(rig, "closed")
     sysd = control.c2d(control.ss(A, B, C, D), 0.005, "zoh")
     resp = control.forced_response(sysd, t_s, (x_ref_mm - x_ref_mm[0]) * 1e-3)
-    np.testing.assert_allclose(res.x_mm, x_ref_mm[0] + 1e3 * np.squeeze(resp.outputs),
+    np.testing.assert_allclose(res.signals.x_mm, x_ref_mm[0] + 1e3 * np.squeeze(resp.outputs),
                                rtol=0, atol=1e-6)
 
 

@@ -51,6 +51,9 @@ def assert_same(a, b):
     assert [(t["beta_bar"], t["viscous_friction_ns_per_m"], t["c12_m5_per_ns"]) for t in a.top] \
         == [(t["beta_bar"], t["viscous_friction_ns_per_m"], t["c12_m5_per_ns"]) for t in b.top]
     assert a.candidates_evaluated == b.candidates_evaluated
+    # one document either way: the same keys, the experiment file named only when there is one
+    assert sorted(a) == sorted(b)
+    assert (a.experiment is None) != (b.experiment is None)
 
 
 def test_arrays_equal_files_on_small_grids():
@@ -83,7 +86,13 @@ def test_progress_callable_sees_every_candidate():
 def test_progress_true_prints_to_stderr(capsys):
     pumpcyl.identify(str(ARTICLE / "identify.toml"), grid=SMALL, refined_grid=False,
                      progress=True)
-    assert "identify: 45/45 candidates" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "identify: 45/45 candidates" in err
+    # stderr is captured (not a terminal): whole lines, one per tenth of the work at most
+    # (a search this small may end before the first report), never carriage-return redraws
+    lines = err.splitlines()
+    assert "\r" not in err and 1 <= len(lines) <= 11, lines
+    assert all(line.startswith("identify: ") and line.endswith("/45 candidates") for line in lines)
 
 
 BIG = dict(beta_bar=[float(b) for b in range(50, 1050, 5)],

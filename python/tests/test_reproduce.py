@@ -9,6 +9,7 @@ import time
 import pytest
 
 import pumpcyl
+from conftest import stub_fields
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +43,11 @@ def test_the_default_rig_margins_are_those_of_pumpcyl_margins(run):
 
 def test_the_folder_holds_the_returned_summary_and_the_report(run):
     out, s = run
-    assert json.loads((out / "summary.json").read_text()) == s
+    written = json.loads((out / "summary.json").read_text())
+    assert written == s
+    # one document: the file's keys, the result's and the stub's
+    assert isinstance(s, pumpcyl.Result)
+    assert sorted(s) == sorted(written) == sorted(stub_fields("Summary"))
     assert "How sure are we" in (out / "report.html").read_text()
     assert (out / "figures" / "robust-margins.png").stat().st_size > 10_000
 

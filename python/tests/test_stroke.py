@@ -24,7 +24,7 @@ def test_a_prediction_beyond_the_stroke_warns_and_one_inside_does_not():
     # 345 -> 499 mm: the article's loop overshoots the 154 mm step by half, past 500 mm
     with pytest.warns(UserWarning, match=r"reaches 57\d\.\d mm, outside the stroke 0…500 mm"):
         s = pumpcyl.simulate(rig, t, np.where(t < 0.5, 345.0, 499.0))
-    assert 570.0 < s.x_mm.max() < 585.0
+    assert 570.0 < s.signals.x_mm.max() < 585.0
     with pytest.warns(UserWarning, match=r"reaches -\d+\.\d mm, outside the stroke"):
         pumpcyl.step(rig, step_mm=-340.0)
     with warnings.catch_warnings():

@@ -40,6 +40,8 @@
 //! ```
 
 #![warn(missing_docs)]
+// The core never prints or ends the process (docs/architecture.md): its callers decide.
+#![deny(clippy::print_stdout, clippy::print_stderr, clippy::exit)]
 
 pub mod bulk;
 pub mod cavitation;

@@ -7,12 +7,34 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 
 /// The advice document (`advise --json`): every field of the core's [`Advice`], `experiment`,
-/// the experiment file, and `seconds`, the time the advice took (s).
+/// the experiment file, `seconds`, the time the advice took (s), and `ranking_by_parameter`,
+/// each parameter's ranking of the candidates keyed by its name.
 pub fn advice_json(advice: &Advice, experiment: &str, seconds: f64) -> Value {
     let mut v = serde_json::to_value(advice).expect("advice serialises");
     v["experiment"] = json!(experiment);
     v["seconds"] = json!(seconds);
+    let ranked = advice
+        .current
+        .iter()
+        .enumerate()
+        .map(|(i, w)| (w.parameter.to_string(), ranking(advice, i)));
+    v["ranking_by_parameter"] = Value::Object(ranked.collect());
     v
+}
+
+/// The candidates ranked for the parameter `i` on its own, best (least expected log-std)
+/// first: `[{label, log_std, interval, width, relative_width}, ...]`.
+fn ranking(advice: &Advice, i: usize) -> Value {
+    let mut ranked: Vec<&Assessment> = advice.candidates.iter().collect();
+    ranked.sort_by(|a, b| a.widths[i].log_std.total_cmp(&b.widths[i].log_std));
+    let entry = |c: &Assessment| {
+        let w = &c.widths[i];
+        json!({
+            "label": c.label, "log_std": w.log_std, "interval": w.interval,
+            "width": w.width, "relative_width": w.relative_width,
+        })
+    };
+    ranked.into_iter().map(entry).collect()
 }
 
 /// A relative width as the tables show it: `12.3 %`, or `unbounded` when the interval reaches

@@ -1,10 +1,230 @@
-//! What the emulator used on a rig, in words: `emulate`, the emulator FMU and `reproduce` each
-//! say it where they run the emulator (docs/emulator.md#what-a-user-rig-gets).
+//! An emulated record as every front end asks for it and shows it (`pumpcyl emulate`, Python's
+//! `emulate`; docs/emulator.md): the request, its run and its document; and what the emulator
+//! used on a rig, in words: `emulate`, the emulator FMU and `reproduce` each say it where they
+//! run the emulator (docs/emulator.md#what-a-user-rig-gets).
 
 use pumpcyl::bulk::effective_beta;
-use pumpcyl::emulator::{rest_mean_pressure_bar, Effects, EmulatorError};
+use pumpcyl::emulator::article::{self, Emulated, Kind, Truth};
+use pumpcyl::emulator::{
+    rest_mean_pressure_bar, DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc,
+    DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
+};
+use pumpcyl::input::FieldError;
 use pumpcyl::rig::Rig;
 use pumpcyl::units::{readable, RAD_S_PER_RPM};
+use serde_json::{json, Value};
+
+/// Which experiment to emulate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExperimentKind {
+    /// A position step of the closed loop.
+    Step,
+    /// A sinusoidal reference of the closed loop.
+    Sine,
+    /// A speed step of one drive, decoupled from its pump.
+    DriveStep,
+    /// The closed loop holding still.
+    Standstill,
+}
+
+impl ExperimentKind {
+    /// The experiment's name, as the command line's `--experiment` and Python's `experiment`
+    /// take it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ExperimentKind::Step => "step",
+            ExperimentKind::Sine => "sine",
+            ExperimentKind::DriveStep => "drive-step",
+            ExperimentKind::Standstill => "standstill",
+        }
+    }
+
+    /// The experiment named `name`, if there is one.
+    pub fn named(name: &str) -> Option<ExperimentKind> {
+        [Self::Step, Self::Sine, Self::DriveStep, Self::Standstill]
+            .into_iter()
+            .find(|k| k.name() == name)
+    }
+}
+
+/// An emulated record asked for: the experiment and its settings (mm, s, Hz, rpm), the PLC's
+/// sample rate and noise. `None` takes the experiment's default.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Request {
+    /// The experiment.
+    pub experiment: ExperimentKind,
+    /// Start of a step (mm); default x0.
+    pub from_mm: Option<f64>,
+    /// End of a step (mm); default x0 + 10 mm.
+    pub to_mm: Option<f64>,
+    /// Time of the step or the start of the sine (s).
+    pub at_s: f64,
+    /// Sine amplitude (mm).
+    pub amplitude_mm: f64,
+    /// Sine frequency (Hz).
+    pub freq_hz: f64,
+    /// The drive of a drive step (1 or 2).
+    pub motor: usize,
+    /// Speed a drive step goes to (rpm).
+    pub to_rpm: f64,
+    /// Record length (s).
+    pub duration_s: Option<f64>,
+    /// PLC sample rate (Hz).
+    pub rate_hz: Option<f64>,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Whether the PLC's sensors add the article's noise.
+    pub noise: bool,
+}
+
+impl Request {
+    /// The PLC sampling the record: the drive records' rate for a drive step, the article's
+    /// PLC rate otherwise, unless `rate_hz` is given; the article's noise unless `noise` is off.
+    pub fn plc(&self) -> Result<Plc, FieldError> {
+        let default_rate = match self.experiment {
+            ExperimentKind::DriveStep => DRIVE_RATE_HZ,
+            _ => PLC_RATE_HZ,
+        };
+        let rate_hz = self.rate_hz.unwrap_or(default_rate);
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(FieldError::new(
+                "rate_hz",
+                format!("rate_hz = {rate_hz}: must be > 0"),
+            ));
+        }
+        let base = if self.noise {
+            article::plc(self.seed)
+        } else {
+            Plc::ideal(rate_hz)
+        };
+        Ok(Plc {
+            rate_hz,
+            seed: self.seed,
+            ..base
+        })
+    }
+
+    /// The experiment on `rig` sampled at `rate_hz`, checked; an error names the setting at
+    /// fault.
+    pub fn plan(&self, rig: &Rig, rate_hz: f64) -> Result<Kind, FieldError> {
+        let (at, d) = (self.at_s, self.duration_s);
+        let plan = match self.experiment {
+            ExperimentKind::Step => {
+                Kind::Loop(Experiment::step(rig, self.from_mm, self.to_mm, at, d))
+            }
+            ExperimentKind::Sine => Kind::Loop(Experiment::sine(
+                rig,
+                self.amplitude_mm,
+                self.freq_hz,
+                at,
+                d,
+            )),
+            ExperimentKind::Standstill => Kind::Loop(Experiment::standstill(rig, d)),
+            ExperimentKind::DriveStep => Kind::Drive(DriveStep {
+                motor: self.motor,
+                from_rpm: 0.0,
+                to_rpm: self.to_rpm,
+                at_s: at,
+                duration_s: d.unwrap_or(DRIVE_RECORD_S),
+            }),
+        };
+        match &plan {
+            Kind::Loop(e) => e.check(rig, rate_hz)?,
+            Kind::Drive(d) => d.check(rate_hz)?,
+        }
+        Ok(plan)
+    }
+}
+
+/// The record length (s) of a plan, for the work limit.
+pub fn duration_s(plan: &Kind) -> f64 {
+    match plan {
+        Kind::Loop(e) => e.duration_s(),
+        Kind::Drive(d) => d.duration_s,
+    }
+}
+
+/// The controller steps of a closed-loop plan at `rate_hz` (what [`run`] reports as progress);
+/// 0 for a drive record, which takes no noticeable time.
+pub fn steps(plan: &Kind, rate_hz: f64) -> u64 {
+    match plan {
+        Kind::Loop(e) => e.steps(rate_hz),
+        Kind::Drive(_) => 0,
+    }
+}
+
+/// Run a plan on the truth: the record and, for the closed loop, the first end stop it met;
+/// `progress(n)` as `n` more of its [`steps`] are done.
+pub fn run(
+    plan: &Kind,
+    truth: &Truth,
+    progress: &dyn Fn(u64),
+) -> Result<(Emulated, Option<EndStopHit>), EmulatorError> {
+    Ok(match plan {
+        Kind::Loop(e) => {
+            let em = e.run_reporting(&truth.rig, truth.effects, &truth.plc, progress)?;
+            (Emulated::Loop(em.signals), em.end_stop)
+        }
+        Kind::Drive(_) => (plan.run(truth)?, None),
+    })
+}
+
+/// The warnings of an emulated record on `rig`: the drive ratings a closed-loop record exceeds
+/// (docs/simulation.md#drive-ratings), one line each; none for a drive record.
+pub fn warnings(rig: &Rig, data: &Emulated) -> Vec<String> {
+    match data {
+        Emulated::Loop(s) => crate::documents::rating_warning_lines(
+            "emulated",
+            &pumpcyl::response::signals_over_ratings(rig, s),
+        ),
+        Emulated::Drive(_) => Vec::new(),
+    }
+}
+
+/// An emulated record's columns by name, those its CSV holds, in its order
+/// (docs/formats.md#record-csv, #drive-record-csv).
+pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
+    match data {
+        Emulated::Loop(s) => {
+            let csv = s.record_csv();
+            let header: Vec<&str> = csv.lines().next().unwrap_or("").split(',').collect();
+            let named = s.named().into_iter().filter(|(n, _)| header.contains(n));
+            named.map(|(n, v)| (n, &v[..])).collect()
+        }
+        Emulated::Drive(d) => vec![
+            ("time_s", &d.time_s[..]),
+            ("w_ref_rpm", &d.w_ref_rpm[..]),
+            ("w_rpm", &d.w_rpm[..]),
+        ],
+    }
+}
+
+/// The document of an emulated record (`pumpcyl emulate --json`, Python's `emulate`): the
+/// experiment, the rig in words, the number of samples, the emulator's basis in words
+/// ([`basis`]), the drive-rating warnings, the end stop met (or `null`) and the record's columns
+/// ([`columns`]: those of its CSV).
+pub fn emulated_json(
+    experiment: ExperimentKind,
+    rig: &str,
+    data: &Emulated,
+    basis: &str,
+    warnings: &[String],
+    end_stop: Option<&EndStopHit>,
+) -> Value {
+    let columns: serde_json::Map<String, Value> = columns(data)
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), json!(v)))
+        .collect();
+    json!({
+        "experiment": experiment.name(),
+        "rig": rig,
+        "samples": data.len(),
+        "basis": basis,
+        "warnings": warnings,
+        "end_stop": end_stop.map(|hit| hit.to_string()),
+        "columns": columns,
+    })
+}
 
 /// One sentence naming the emulator's bulk modulus (β_e and the pressure where it holds, the gas
 /// fraction), its mass law and its limits and defaults on `rig` with `effects`.

@@ -6,41 +6,77 @@ use crate::figures::{Chart, Plot, PARAMETER_AXES};
 use crate::plot::{HeatMap, Marker};
 use anyhow::Result;
 use pumpcyl::ident::{
-    Candidate, DriveFit, DriveRecord, Experiment, Identifiability, Identification, Leakage, Scored,
-    Standstill,
+    identifiability, Candidate, DriveFit, DriveRecord, Experiment, Identifiability, Identification,
+    Leakage, Problem, Scored, Standstill, Uncertainty,
 };
 use pumpcyl::matfile::MatWriter;
 use pumpcyl::response::Signals;
+use pumpcyl::rig::Rig;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 
-/// The JSON of one scored candidate, with the leakages when given.
-fn scored_json(s: &Scored, leak: Option<&Leakage>) -> Value {
-    let mut v = json!({
-        "beta_bar": s.candidate.beta_bar,
-        "viscous_friction_ns_per_m": s.candidate.viscous_friction_ns_per_m,
-        "c12_m5_per_ns": s.candidate.c12_m5_per_ns,
-        "cost_mm2": s.cost_mm2,
-    });
+/// The JSON of one scored candidate: the core type's serde form (β, b, c12, cost, and the
+/// `stage` and grid `index` it came from), with the leakages when given.
+fn scored_json(s: &Scored, leak: Option<&Leakage>) -> Result<Value> {
+    let mut v = serde_json::to_value(s)?;
     if let Some(l) = leak {
         v["c1_m5_per_ns"] = json!(l.c1_m5_per_ns);
         v["c2_m5_per_ns"] = json!(l.c2_m5_per_ns);
     }
-    v
+    Ok(v)
 }
 
-/// The JSON of an identification (written as result.json), `seconds` the time it took (s).
+/// Where the problem of an identification came from, as its document names it: the experiment
+/// file (`None` for records given directly, as Python's `datasets`), the rig in words and the
+/// grids in words.
+#[derive(Debug, Clone)]
+pub struct Origin {
+    /// The experiment file, as given.
+    pub experiment: Option<String>,
+    /// Where the rig comes from, in words.
+    pub rig: String,
+    /// Where the two grids come from, in words.
+    pub grids: String,
+}
+
+impl Origin {
+    /// The origin of an experiment file's problem.
+    pub fn of_experiment(exp: &Experiment) -> Origin {
+        Origin {
+            experiment: Some(exp.path.display().to_string()),
+            rig: rig_origin(exp),
+            grids: exp.grids_origin.clone(),
+        }
+    }
+}
+
+/// The JSON of an identification of an experiment file (written as result.json), `seconds`
+/// the time it took (s).
 pub fn identification_json(exp: &Experiment, id: &Identification, seconds: f64) -> Result<Value> {
+    let origin = Origin::of_experiment(exp);
+    identification_document(&exp.problem, &exp.rig, &origin, id, seconds)
+}
+
+/// The one document of an identification, whoever asked for it (`pumpcyl identify --json`,
+/// result.json, Python's `identify`): the answer with its leakages, the counts, the best grid
+/// point with its leakages, each stage, the top list, where the problem came from and the
+/// warnings. `seconds` is the time it took (s).
+pub fn identification_document(
+    problem: &Problem,
+    rig: &Rig,
+    origin: &Origin,
+    id: &Identification,
+    seconds: f64,
+) -> Result<Value> {
     let best = id.best();
-    let grid_leak = exp
-        .problem
+    let grid_leak = problem
         .standstill
-        .leakage(&exp.rig, id.grid_best.candidate.c12_m5_per_ns)?;
-    let mut v = scored_json(best, Some(&id.leakage));
+        .leakage(rig, id.grid_best.candidate.c12_m5_per_ns)?;
+    let mut v = scored_json(best, Some(&id.leakage))?;
     v["candidates_evaluated"] = json!(id.evaluated());
     v["seconds"] = json!(seconds);
     v["refined"] = json!(id.refined.is_some());
-    v["grid_best"] = scored_json(&id.grid_best, Some(&grid_leak));
+    v["grid_best"] = scored_json(&id.grid_best, Some(&grid_leak))?;
     v["non_finite"] = json!(id.stages.iter().map(|s| s.summary.non_finite).sum::<u64>());
     v["unstable"] = json!(id.stages.iter().map(|s| s.summary.unstable).sum::<u64>());
     v["pruned"] = json!(id.stages.iter().map(|s| s.summary.pruned).sum::<u64>());
@@ -56,10 +92,14 @@ pub fn identification_json(exp: &Experiment, id: &Identification, seconds: f64) 
             })
         })
         .collect();
-    v["top"] = id.top.iter().map(|s| scored_json(s, None)).collect();
-    v["experiment"] = json!(exp.path.display().to_string());
-    v["rig"] = json!(rig_origin(exp));
-    v["grids"] = json!(exp.grids_origin);
+    v["top"] = id
+        .top
+        .iter()
+        .map(|s| scored_json(s, None))
+        .collect::<Result<_>>()?;
+    v["experiment"] = json!(origin.experiment);
+    v["rig"] = json!(origin.rig);
+    v["grids"] = json!(origin.grids);
     v["stage_grids"] = id
         .stages
         .iter()
@@ -73,6 +113,22 @@ pub fn identification_json(exp: &Experiment, id: &Identification, seconds: f64) 
         .collect();
     v["warnings"] = json!(id.warnings());
     Ok(v)
+}
+
+/// Which parameters the records bound: from the profiles of an uncertainty analysis when one
+/// ran, else by the quick check of [`identifiability`] at 95 %; `None` when the noise cannot
+/// be estimated (records without noise fitted exactly).
+pub fn verdicts(
+    problem: &Problem,
+    id: &Identification,
+    uncertainty: Option<&Uncertainty>,
+) -> Option<[Identifiability; 3]> {
+    match uncertainty {
+        Some(u) if u.profiles.len() == 3 => Some(std::array::from_fn(|i| {
+            Identifiability::of_profile(&u.profiles[i], u.confidence)
+        })),
+        _ => identifiability(problem, &id.best().candidate, 0.95).ok(),
+    }
 }
 
 /// [lo, hi, count] of a grid axis.

@@ -28,6 +28,7 @@ pub mod advise;
 pub mod analysis;
 pub mod bulk;
 pub mod design;
+pub mod documents;
 pub mod emulated;
 pub mod figures;
 pub mod files;

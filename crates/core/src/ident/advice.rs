@@ -438,6 +438,7 @@ pub struct Advice {
     /// disagreement shows (the uncertainty analysis's, docs/identification.md, "Uncertainty"),
     /// applied to the current widths and to every candidate's: a new record is expected to
     /// disagree with the model as much as the existing ones do.
+    #[serde(serialize_with = "by_parameter")]
     pub model_error_factor: [f64; 3],
     /// Confidence level.
     pub confidence: f64,
@@ -449,8 +450,21 @@ pub struct Advice {
     pub candidates: Vec<Assessment>,
     /// Candidates left out, each with the reason (an unstable closed loop at the point).
     pub skipped: Vec<String>,
-    /// Label of the candidate that narrows each of (β, b, c12) most.
+    /// Label of the candidate that narrows each of (β, b, c12) most; serialised keyed by the
+    /// parameter's name (`best_for.viscous_friction_ns_per_m`), never by position.
+    #[serde(serialize_with = "by_parameter")]
     pub best_for: [String; 3],
+}
+
+/// A value per parameter, in the order of [`PARAMETERS`](super::PARAMETERS), serialised as a map
+/// keyed by the parameter's name.
+fn by_parameter<T: Serialize, S: serde::Serializer>(v: &[T; 3], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut map = s.serialize_map(Some(v.len()))?;
+    for (name, x) in super::PARAMETERS.iter().zip(v) {
+        map.serialize_entry(name, x)?;
+    }
+    map.end()
 }
 
 /// The sensitivities' Gram matrix JᵀJ (mm²) of dataset `ds` at the point `p` in

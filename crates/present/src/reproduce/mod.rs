@@ -20,7 +20,8 @@
 //! assert!((r.identified.beta_bar - 165.0).abs() < 10.0);
 //! // the default rig's gain margin, as the article prints it (6.5 dB, §2.3.3)
 //! assert!((r.default_margins.gain_margin_db.unwrap() - 6.5).abs() < 0.1);
-//! assert_eq!(r.figures.len(), 20);
+//! // every registered figure, in the registry's order
+//! assert_eq!(r.figures.len(), pumpcyl_present::reproduce::FIGURES.len());
 //! // the whole result folder, swapped in at once: figures/, records/, identification/,
 //! // summary.json, report.html
 //! r.write(std::path::Path::new("reproduced"))?;
@@ -32,10 +33,12 @@ mod certainty;
 mod circuit;
 mod identification;
 mod pressure;
+mod registry;
 mod studies;
 pub mod summary;
 mod tracking;
 pub use certainty::Certainty;
+pub use registry::{Registered, FIGURES};
 pub use summary::Summary;
 
 use crate::figures::{bode_markers, Chart};
@@ -330,6 +333,7 @@ impl Run<'_> {
     /// Render `chart` as SVG and PNG under figures/`stem`, and inline the SVG; the caption is
     /// headed by the article figure it answers.
     fn figure(&mut self, stem: &str, source: Source, caption: &str, chart: &Chart) -> Result<()> {
+        registry::check(stem, source)?;
         let svg = chart.svg()?;
         let caption = self.inline(&svg, stem, source, caption);
         self.figures.push(Figure {
@@ -452,6 +456,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         certainty::CONFIDENCE,
         pressure.p_mean_bar,
     )?;
+    registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
     run.render_pngs()?;
     let seconds = start.elapsed().as_secs_f64();
     let summary = Summary {

@@ -1,0 +1,198 @@
+"""Every Python result is the command line's ``--json`` document (python/README.md#results): the
+same keys as the document the binary prints, the same keys as the stub's class of that result,
+``to_dict()`` plain data equal to the binary's where the inputs are the same, and signals as
+numpy arrays. The binary is run from each test (target/debug/pumpcyl)."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import pumpcyl
+from conftest import ARTICLE, pumpcyl_binary, stub_fields
+
+# a small two-stage identification of the article's emulated records (45 + 18 candidates)
+SMALL_GRIDS = """
+[grid]
+beta_bar = [145.0, 155.0, 165.0, 175.0, 185.0]
+viscous_friction_ns_per_m = [100.0, 200.0, 300.0]
+c12_m5_per_ns = [1.0e-10, 1.2e-10, 1.4e-10]
+
+[refined_grid]
+beta_bar = [160.0, 165.0, 170.0]
+viscous_friction_ns_per_m = [250.0, 300.0]
+c12_m5_per_ns = [1.1e-10, 1.2e-10, 1.3e-10]
+"""
+
+
+def cli(*args, cwd=None):
+    out = subprocess.run([pumpcyl_binary(), *args], check=True, capture_output=True, text=True,
+                         cwd=cwd)
+    return json.loads(out.stdout)
+
+
+def assert_one_document(result, document, stub_class):
+    """`result` has the keys of the binary's `document` and of the stub's `stub_class`."""
+    assert isinstance(result, pumpcyl.Result)
+    assert sorted(result) == sorted(document), stub_class
+    assert sorted(stub_fields(stub_class)) == sorted(document), stub_class
+    plain = result.to_dict()
+    assert sorted(plain) == sorted(document)
+    # plain data, as json reads it: it round-trips through JSON unchanged
+    assert json.loads(json.dumps(plain)) == plain
+    for key in document:
+        assert getattr(result, key) is result[key]
+
+
+@pytest.fixture(scope="module")
+def small_experiment(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("small")
+    text = (ARTICLE / "identify.toml").read_text().replace('grids = "article"', "")
+    for record in ("standstill.csv", "identification.csv", "validation.csv"):
+        (folder / record).write_bytes((ARTICLE / record).read_bytes())
+    path = folder / "identify.toml"
+    path.write_text(text + SMALL_GRIDS)
+    return path
+
+
+def test_margins_is_the_document_of_margins_json():
+    m = pumpcyl.margins(pumpcyl.Rig())
+    doc = cli("margins", "--json")
+    assert_one_document(m, doc, "Margins")
+    # the same numbers; the loop's description names the rig as each front end knows it
+    plain = m.to_dict()
+    assert plain.pop("loop").startswith("Rig(): ") and doc.pop("loop").startswith("default rig: ")
+    assert plain == doc
+
+
+def test_step_is_the_document_of_step_json_with_numpy_signals():
+    s = pumpcyl.step(pumpcyl.Rig())
+    doc = cli("step", "--json")
+    assert_one_document(s, doc, "Step")
+    assert sorted(s.signals) == sorted(doc["signals"]) == sorted(stub_fields("Signals"))
+    for name in doc["signals"]:
+        assert isinstance(s.signals[name], np.ndarray)
+        np.testing.assert_allclose(s.signals[name], doc["signals"][name], rtol=1e-12, atol=1e-12)
+    # the same computation on both sides, serialised with round-trip floats: equal to the bit
+    assert s.metrics == doc["metrics"]
+    # the same run, one document: only the rig's description differs (its repr in Python)
+    plain = s.to_dict()
+    plain["rig"] = doc["rig"]
+    assert {k: v for k, v in plain.items() if k not in ("signals", "metrics")} == \
+        {k: v for k, v in doc.items() if k not in ("signals", "metrics")}
+
+
+def test_simulate_names_the_stubs_fields():
+    t_s = np.arange(0.0, 2.0, 0.01)
+    sim = pumpcyl.simulate(pumpcyl.Rig(), t_s, np.full(t_s.shape, 345.0))
+    assert isinstance(sim, pumpcyl.Result)
+    assert sorted(sim) == sorted(stub_fields("Simulation"))
+    assert sorted(sim.signals) == sorted(stub_fields("Signals"))
+    # from rest at a constant reference the loop stays at rest
+    np.testing.assert_allclose(sim.signals.x_mm, 345.0, rtol=0, atol=1e-9)
+    assert sim.warnings == [] and sim.over_ratings == []
+
+
+def test_identify_is_the_document_of_identify_json(small_experiment):
+    r = pumpcyl.identify(small_experiment)
+    doc = cli("identify", str(small_experiment), "--json")
+    assert_one_document(r, doc, "Identification")
+    for key in ("beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns", "c1_m5_per_ns",
+                "c2_m5_per_ns", "cost_mm2"):
+        assert r[key] == pytest.approx(doc[key], rel=1e-12), key
+    # the best grid point and the top list in one shape: the core's (stage, index) and the
+    # grid point's leakages
+    assert r.grid_best == pytest.approx(doc["grid_best"], rel=1e-12)
+    assert set(r.grid_best) >= {"stage", "index", "c1_m5_per_ns", "c2_m5_per_ns"}
+    assert r.top == doc["top"] and {"stage", "index"} <= set(r.top[0])
+    assert r.stages == doc["stages"] and r.candidates_evaluated == 45 + 18
+    assert r.experiment == doc["experiment"] == str(small_experiment)
+
+
+def test_advise_is_the_document_of_advise_json_keyed_by_parameter(small_experiment):
+    a = pumpcyl.advise(small_experiment)
+    doc = cli("advise", str(small_experiment), "--json")
+    assert_one_document(a, doc, "Advice")
+    names = [w["parameter"] for w in doc["current"]]
+    assert sorted(a.best_for) == sorted(names) == sorted(a.ranking_by_parameter)
+    assert a.best_for == doc["best_for"]
+    for p in names:
+        # the best for a parameter heads its ranking, which sorts by its expected log-std
+        ranking = a.ranking_by_parameter[p]
+        assert ranking[0]["label"] == a.best_for[p]
+        assert [c["log_std"] for c in ranking] == sorted(c["log_std"] for c in ranking)
+
+
+def test_select_is_the_document_of_select_json():
+    s = pumpcyl.select()
+    doc = cli("select", "--json")
+    assert_one_document(s, doc, "Selection")
+    kp_max = s.column("options", "kp_max")
+    assert isinstance(kp_max, np.ndarray) and len(kp_max) == len(doc["options"])
+    np.testing.assert_allclose(kp_max, [o["kp_max"] for o in doc["options"]], rtol=1e-12)
+
+
+def test_design_and_robust_design_are_the_documents_of_design_json():
+    d = pumpcyl.design()
+    doc = cli("design", "--json")
+    assert_one_document(d, doc, "Design")
+    assert d == doc
+    r = pumpcyl.design(robust=True)
+    doc = cli("design", "--robust", "--json")
+    assert_one_document(r, doc, "RobustDesign")
+    assert r.kp_max == pytest.approx(doc["kp_max"], rel=1e-12)
+
+
+def test_emulate_is_the_document_of_emulate_json(tmp_path):
+    for experiment in ("step", "drive-step"):
+        e = pumpcyl.emulate(experiment)
+        out = tmp_path / f"{experiment}.csv"
+        doc = cli("emulate", "--experiment", experiment, "--out", str(out), "--json")
+        assert_one_document(e, doc, "Emulated")
+        # the record's columns, as the CSV the command line wrote names them, in its order
+        header = out.read_text().splitlines()[0].split(",")
+        assert sorted(e.columns) == sorted(doc["columns"]) == sorted(header)
+        # the same seed, the same record, bit for bit
+        for name in header:
+            assert isinstance(e.columns[name], np.ndarray)
+            np.testing.assert_array_equal(e.columns[name], doc["columns"][name])
+        assert e.samples == doc["samples"] == len(e.columns.time_s)
+        assert e.basis == doc["basis"] and e.rig == doc["rig"]
+
+
+def test_emulate_takes_rig_keys_and_refuses_an_unknown_experiment():
+    e = pumpcyl.emulate("step", to_mm=355.0, duration_s=6.0, noise=False, mass_kg=8000.0)
+    # the step to 355 mm at 0.5 s, without noise, sampled at the PLC's 100 Hz; the piston
+    # follows to within its ringing (the lighter mass damps less)
+    assert e.samples == 601 and e.columns.x_ref_mm[-1] == 355.0
+    assert abs(np.mean(e.columns.x_mm[-100:]) - 355.0) < 1.0
+    assert "mass 8000 kg" in e.basis, e.basis
+    with pytest.raises(pumpcyl.PumpcylError, match="emulate\\(experiment='ramp'\\)"):
+        pumpcyl.emulate("ramp")
+    with pytest.raises(pumpcyl.PumpcylError, match="unknown key"):
+        pumpcyl.emulate("step", mass=1.0)
+
+
+def test_a_result_reads_as_a_mapping_and_shows_its_kind():
+    m = pumpcyl.margins(pumpcyl.Rig())
+    assert "gain_margin_db" in m and "nothing" not in m
+    assert len(m) == len(m.keys()) == len(list(m))
+    assert dict(m.items()) == {k: m[k] for k in m}
+    assert m.get("nothing", 1.5) == 1.5
+    with pytest.raises(KeyError):
+        m["nothing"]
+    with pytest.raises(AttributeError):
+        m.nothing
+    assert repr(m).startswith("Margins(") and "gain_margin_db=" in repr(m)
+    assert repr(pumpcyl.step(pumpcyl.Rig())).startswith("Step(")
+
+
+def test_select_and_design_report_progress_as_identify_does():
+    for call in (lambda p: pumpcyl.select(progress=p),
+                 lambda p: pumpcyl.design(mass_kg=[8000.0, 10593.0], progress=p)):
+        seen = []
+        call(lambda done, total: seen.append((done, total)))
+        total = seen[-1][1]
+        assert total > 0 and seen[-1] == (total, total)
+        assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
