@@ -11,6 +11,12 @@
 //! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
 //! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
 
+pub mod dpm;
+pub mod parts;
+
+pub use dpm::Dpm;
+pub use parts::Effects;
+
 use nalgebra::DMatrix;
 use num_dual::{Dual64, DualNum};
 use serde::{Deserialize, Serialize};
