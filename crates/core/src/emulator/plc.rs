@@ -208,6 +208,11 @@ impl PlcLoop {
         Ok(run)
     }
 
+    /// The speed commands (rad/s) the PLC sends at a sample with the reference `r_mm`.
+    pub fn commands(&mut self, r_mm: f64) -> [f64; 2] {
+        self.sample(r_mm).1
+    }
+
     /// One PLC sample with the reference `r_mm`: what the PLC measures and the motor speed
     /// references (rad/s) it sends.
     pub(crate) fn sample(&mut self, r_mm: f64) -> (Measured, [f64; 2]) {
@@ -235,7 +240,8 @@ impl PlcLoop {
         self.end_stop
     }
 
-    /// The rig's state (SI, absolute position, gauge pressures; [`crate::model::Layout`]).
+    /// The rig's state (SI, absolute position, gauge pressures; the circuit's states,
+    /// [`crate::circuit::Circuit::states`]).
     pub fn state(&self) -> &[f64] {
         &self.x
     }
