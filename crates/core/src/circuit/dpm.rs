@@ -15,12 +15,12 @@
 use super::parts::{
     Chamber, Drive, Effects, FirstOrderMotor, Fluid, MassLaw, Piston, Pump, Volume,
 };
+use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
-use crate::emulator::Stops;
-use crate::ident::{IdentError, Leakage, Standstill};
 use crate::rig::{MotorModel, Rig, RigSi};
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
 
 /// Positions of the states in the state vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -311,24 +311,24 @@ impl Dpm {
         rig: &Rig,
         s: &Standstill,
         c12: f64,
-    ) -> Result<Leakage, IdentError> {
+    ) -> Result<Leakage, String> {
         let si = &self.si;
         let p1 = s.p1_bar * PA_PER_BAR;
         let p2 = rig.p2_at_rest_bar(s.p1_bar) * PA_PER_BAR;
         // the steady state must be one the circuit can hold (docs/model.md#cavitation)
         crate::cavitation::check_chambers(&[s.p1_bar, p2 / PA_PER_BAR]).map_err(|e| {
-            IdentError::Input(format!(
+            format!(
                 "standstill p1_bar = {} with external force {} N: the force balance puts {e}",
                 s.p1_bar, si.f_ext
-            ))
+            )
         })?;
         if p2 <= 0.0 {
-            return Err(IdentError::Input(format!(
+            return Err(format!(
                 "standstill p1_bar = {} with external force {} N gives p2 = {:.3} bar <= 0",
                 s.p1_bar,
                 si.f_ext,
                 p2 / PA_PER_BAR
-            )));
+            ));
         }
         let (w1, w2) = (s.w1_rpm * RAD_S_PER_RPM, s.w2_rpm * RAD_S_PER_RPM);
         let cross = c12 * (p1 - p2);
@@ -339,6 +339,31 @@ impl Dpm {
             c2_m5_per_ns: (-si.d[0] * w1 + cross) / p2,
         })
     }
+}
+
+/// A standstill operating point held under feedback: pump speeds feeding the leakage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Standstill {
+    /// Motor/pump 1 speed (rpm); negative: turning backwards.
+    pub w1_rpm: f64,
+    /// Motor/pump 2 speed (rpm).
+    pub w2_rpm: f64,
+    /// Chamber 1 pressure (bar gauge).
+    pub p1_bar: f64,
+}
+
+/// The leakages that hold a standstill point for a given cross-port leakage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Leakage {
+    /// Chamber 2 pressure from the force balance p1 A1 − p2 A2 = F_ext (bar gauge).
+    pub p2_bar: f64,
+    /// Cross-port leakage used (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Chamber 1 leakage (m⁵/(N·s)).
+    pub c1_m5_per_ns: f64,
+    /// Chamber 2 leakage (m⁵/(N·s)); negative values absorb a pump null shift.
+    pub c2_m5_per_ns: f64,
 }
 
 /// One entry of A that depends on the grey-box parameters: position (0-based), its value at

@@ -13,6 +13,7 @@
 
 pub mod dpm;
 pub mod parts;
+pub mod stops;
 
 pub use dpm::Dpm;
 pub use parts::Effects;
