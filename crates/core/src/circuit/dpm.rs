@@ -366,6 +366,45 @@ pub struct Leakage {
     pub c2_m5_per_ns: f64,
 }
 
+/// The standstill balance at one pressure pair: the flows the pumps deliver to feed the
+/// leakage, the power that leakage loses and the torques that hold the pressures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Balance {
+    /// Pump flows, pumps 1 and 2 (m³/s).
+    pub flow_m3_s: [f64; 2],
+    /// Hydraulic power lost to leakage, Σ p × Q (W).
+    pub power_w: f64,
+    /// Motor torques that hold the pressures, motors 1 and 2 (N·m).
+    pub torque_nm: [f64; 2],
+}
+
+impl Dpm {
+    /// The load torques of the pumps on motors 1 and 2 (N·m) at the chamber pressures `p_pa`
+    /// (Pa gauge): pump 1 moves oil from chamber 2 to chamber 1, D1 (p1 − p2); pump 2 from the
+    /// reservoir to chamber 1, D2 p1 (docs/model.md).
+    pub fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
+        let (d, [p1, p2]) = (self.si.d, p_pa);
+        [d[0] * (p1 - p2), d[1] * p1]
+    }
+
+    /// The standstill balance at the chamber pressures `p_pa` (Pa gauge; docs/select.md#cost):
+    /// pump 1 moves oil from chamber 2 to chamber 1 against p1 − p2, pump 2 from the reservoir
+    /// to chamber 1 against p1; at rest they deliver exactly the leakage,
+    /// D1 ω1 = c12 (p1 − p2) − c2 p2 and D1 ω1 + D2 ω2 = c1 p1 + c12 (p1 − p2),
+    /// and the power lost is c1 p1² + c2 p2² + c12 (p1 − p2)², which equals the pumps'
+    /// hydraulic power (p1 − p2) D1 ω1 + p1 D2 ω2.
+    pub fn standstill_balance(&self, p_pa: [f64; 2]) -> Balance {
+        let (si, [p1, p2]) = (&self.si, p_pa);
+        let q1 = si.c12 * (p1 - p2) - si.c2 * p2;
+        let q2 = si.c1 * p1 + si.c12 * (p1 - p2) - q1;
+        Balance {
+            flow_m3_s: [q1, q2],
+            power_w: si.c1 * p1 * p1 + si.c2 * p2 * p2 + si.c12 * (p1 - p2) * (p1 - p2),
+            torque_nm: self.load_torques_nm(p_pa),
+        }
+    }
+}
+
 /// One entry of A that depends on the grey-box parameters: position (0-based), its value at
 /// given parameters, and the MATLAB expression that computes it (docs/matlab.md).
 #[derive(Debug, Clone, PartialEq)]
