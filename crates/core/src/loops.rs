@@ -57,7 +57,7 @@ pub fn grey_loop(rig: &Rig, which: GreyLoop) -> StateSpace {
 /// The standstill the grey-box function takes c1 and c2 from: given, or the rig's own operating
 /// point (whose speeds feed exactly the rig's leakages, so the rig's c1 and c2 come back).
 pub fn standstill_of(rig: &Rig, given: Option<Standstill>) -> Standstill {
-    given.unwrap_or_else(|| Plant::new(rig).circuit.standstill())
+    given.unwrap_or_else(|| Plant::new(rig).dpm().standstill())
 }
 
 /// The loop to analyse, with a description for the output.

@@ -5,7 +5,9 @@
 //! states are the circuit's ([`Plant::signals`]), its inputs the drive speed references
 //! (rad/s).
 
-use crate::circuit::{linearise, Circuit, ControlLaw, Dpm, OperatingState, Role, Signal};
+use crate::circuit::{
+    linearise, AnyCircuit, Circuit, ControlLaw, Dpm, OperatingState, Role, Signal,
+};
 use crate::lti::{StateInfo, StateSpace};
 use crate::rig::{Rig, RigSi};
 use nalgebra::DMatrix;
@@ -30,7 +32,7 @@ pub struct Output {
 #[derive(Debug, Clone)]
 pub struct Plant {
     /// The circuit the model is the Jacobian of.
-    pub circuit: Dpm,
+    pub circuit: AnyCircuit,
     /// State matrix (SI).
     pub a: DMatrix<f64>,
     /// Input matrix, states × inputs (speed references in rad/s).
@@ -43,15 +45,20 @@ impl Plant {
     /// The plant of the article §2.3.1, Figure 4; docs/model.md for a rig (its variant switches
     /// included): the exact Jacobian of the circuit's equations at its operating point.
     pub fn new(rig: &Rig) -> Plant {
-        let circuit = Dpm::linear(rig);
+        let circuit = AnyCircuit::linear(rig);
         let op = circuit.operating_point();
         let (a, b) = linearise(&circuit, &op.state, &op.inputs);
         Plant {
-            si: *circuit.si(),
+            si: rig.si(),
             circuit,
             a,
             b,
         }
+    }
+
+    /// The DPM circuit, for what only it has ([`AnyCircuit::dpm`]).
+    pub fn dpm(&self) -> &Dpm {
+        self.circuit.dpm()
     }
 
     /// Number of states.

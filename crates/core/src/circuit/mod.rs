@@ -11,10 +11,12 @@
 //! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
 //! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
 
+mod any;
 pub mod dpm;
 pub mod parts;
 pub mod stops;
 
+pub use any::AnyCircuit;
 pub use dpm::Dpm;
 pub use parts::Effects;
 
