@@ -706,15 +706,7 @@ mod tests {
 
     /// The typical size of each state of `c` (SI), by role.
     fn typical(c: &Dpm) -> Vec<f64> {
-        (c.states().iter())
-            .map(|s| match s.role {
-                Role::Position => 1e-3,
-                Role::Velocity => 1e-2,
-                Role::Pressure => 1e5,
-                Role::Torque => 0.1,
-                _ => 10.0,
-            })
-            .collect()
+        (c.states().iter()).map(|s| s.role.typical_size()).collect()
     }
 
     /// Central-difference Jacobians of `c`'s equations at (x, u), steps 1e-4 of each state's

@@ -79,6 +79,20 @@ pub enum Role {
     SpeedCommand,
 }
 
+impl Role {
+    /// The typical size of a signal of this role (SI): the scale of finite-difference steps
+    /// and of solver tolerances.
+    pub fn typical_size(self) -> f64 {
+        match self {
+            Role::Position => 1e-3,
+            Role::Velocity => 1e-2,
+            Role::Pressure => 1e5,
+            Role::Torque => 0.1,
+            Role::MotorSpeed | Role::Feedforward | Role::SpeedCommand => 10.0,
+        }
+    }
+}
+
 /// A named signal of a circuit: a state or an input, with its SI unit and its meaning.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Signal {

@@ -5,7 +5,7 @@
 
 use super::EmulatorError;
 use super::{Dynamics, EndStopHit};
-use crate::circuit::{Circuit, Role};
+use crate::circuit::Circuit;
 use crate::response::Signals;
 use crate::rig::Rig;
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
@@ -63,16 +63,11 @@ impl Noise {
 }
 
 /// Typical magnitude of each state (SI), for finite-difference steps and tolerances, by its
-/// role.
+/// role ([`crate::circuit::Role::typical_size`]).
 pub(super) fn typical(d: &Dynamics) -> Vec<f64> {
-    let size = |role: Role| match role {
-        Role::Position => 1e-3,
-        Role::Velocity => 1e-2,
-        Role::Pressure => 1e5,
-        Role::MotorSpeed | Role::Feedforward | Role::SpeedCommand => 10.0,
-        Role::Torque => 0.1,
-    };
-    d.circuit().states().iter().map(|s| size(s.role)).collect()
+    (d.circuit().states().iter())
+        .map(|s| s.role.typical_size())
+        .collect()
 }
 
 /// Integrate ẋ = f(x) over [t0, t1] from `x` by BDF; `scale` holds each state's typical size
