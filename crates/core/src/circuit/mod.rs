@@ -11,6 +11,15 @@
 //! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
 //! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
 
+mod any;
+pub mod dpm;
+pub mod parts;
+pub mod stops;
+
+pub use any::AnyCircuit;
+pub use dpm::Dpm;
+pub use parts::Effects;
+
 use nalgebra::DMatrix;
 use num_dual::{Dual64, DualNum};
 use serde::{Deserialize, Serialize};
@@ -68,6 +77,20 @@ pub enum Role {
     Feedforward,
     /// A speed command to a drive (rad/s), an input.
     SpeedCommand,
+}
+
+impl Role {
+    /// The typical size of a signal of this role (SI): the scale of finite-difference steps
+    /// and of solver tolerances.
+    pub fn typical_size(self) -> f64 {
+        match self {
+            Role::Position => 1e-3,
+            Role::Velocity => 1e-2,
+            Role::Pressure => 1e5,
+            Role::Torque => 0.1,
+            Role::MotorSpeed | Role::Feedforward | Role::SpeedCommand => 10.0,
+        }
+    }
 }
 
 /// A named signal of a circuit: a state or an input, with its SI unit and its meaning.
