@@ -11,6 +11,9 @@
 //! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
 //! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
 
+pub mod dual_pump;
+pub mod valves;
+
 use nalgebra::DMatrix;
 use num_dual::{Dual64, DualNum};
 use serde::{Deserialize, Serialize};
