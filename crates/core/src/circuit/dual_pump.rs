@@ -239,14 +239,19 @@ impl DualPump {
     }
 
     /// The net flows into chambers 1 and 2 that compress their oil (m³/s): the pumps, the
-    /// piston and the leakage.
+    /// piston and the leakage, each sum [`net`] of its terms.
     fn chamber_flows<T: Scalar>(&self, s: &[T]) -> [T; 2] {
         let si = &self.si;
         let (v, p1, p2, w) = (s[V], s[P1], s[P2], s[W]);
         let cross = (p1 - p2) * si.c12;
         [
-            w * (si.d[0] + si.d[1]) - v * si.a1 - (p1 - self.p_acc) * si.c1 - cross,
-            -w * si.d[0] + v * si.a2 - (p2 - self.p_acc) * si.c2 + cross,
+            net([
+                w * (si.d[0] + si.d[1]),
+                -v * si.a1,
+                -(p1 - self.p_acc) * si.c1,
+                -cross,
+            ]),
+            net([-w * si.d[0], v * si.a2, -(p2 - self.p_acc) * si.c2, cross]),
         ]
     }
 
@@ -273,6 +278,21 @@ impl DualPump {
             dx[Z] = (w_ref - s[Z]) / si.tau_ff;
         }
         dx[TAU] = (torque_ref - s[TAU]) * si.omega_i;
+    }
+}
+
+/// The sum of a chamber's flow terms, its value zero where it lies within the rounding of the
+/// terms (8 ulp of their magnitudes): at rest the flows cancel exactly, and the rounding left
+/// over would otherwise enter the Jacobian through the volume's dependence on the position
+/// (∂(β q/V)/∂x = −q β V'/V², zero at rest) as a spurious pole near zero in place of the
+/// piston's integrator. The derivatives are kept; the equations' values move by rounding only.
+fn net<T: Scalar>(terms: [T; 4]) -> T {
+    let scale: f64 = terms.iter().map(|t| t.re().abs()).sum();
+    let q = terms.into_iter().fold(T::from(0.0), |a, t| a + t);
+    if q.re().abs() <= 8.0 * f64::EPSILON * scale {
+        q - q.re()
+    } else {
+        q
     }
 }
 
