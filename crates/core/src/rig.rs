@@ -454,7 +454,7 @@ impl RigFile {
     /// assert_eq!(file.note("a.toml", &[]), None);
     /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
     /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
-    /// assert!(note.starts_with("b.toml does not set 34 keys; they take the article rig's values: "));
+    /// assert!(note.starts_with("b.toml does not set 35 keys; they take the article rig's values: "));
     /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
     /// assert!(!note.contains("beta_bar"));
     /// # Ok::<(), pumpcyl::rig::RigError>(())
@@ -537,11 +537,10 @@ impl Rig {
                 }
                 e
             })?;
-        // `circuit` left out is the DPM, the article's circuit; the keys of other circuits
-        // take no part in this one
+        // the keys of another circuit take no part in this one
         let defaulted = Rig::key_docs()
             .map(|(key, _)| key)
-            .filter(|key| !["motor_time_constant_s", "circuit"].contains(key))
+            .filter(|key| *key != "motor_time_constant_s")
             .filter(|key| foreign_key(rig.circuit, key).is_none() && !written.contains_key(*key))
             .collect();
         Ok(RigFile { rig, defaulted })
