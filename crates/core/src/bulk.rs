@@ -122,7 +122,12 @@ impl BetaReading {
 
 /// β_e at pressure `p_bar` for gas fraction `x` (bar).
 pub fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
-    1.0 / (x / p_bar + (1.0 - x) / beta_oil_bar)
+    effective_beta_of(x, p_bar, beta_oil_bar)
+}
+
+/// [`effective_beta`] over `f64` or a dual number (a circuit's equations).
+pub fn effective_beta_of<T: crate::circuit::Scalar>(x: f64, p_bar: T, beta_oil_bar: f64) -> T {
+    T::from(1.0) / (T::from(x) / p_bar + (1.0 - x) / beta_oil_bar)
 }
 
 /// One row of the β_e(p) table with the rig's margins there.

@@ -34,9 +34,10 @@
 //! # Ok::<(), pumpcyl::fmu::FmuError>(())
 //! ```
 
+use crate::circuit::{Circuit, Role, Signal};
 use crate::emulator::{self, article, Dynamics, Plc, PlcLoop, PLC_RATE_HZ, SETTLE_S};
 use crate::lti::Zoh;
-use crate::model::{Layout, Plant};
+use crate::model::Plant;
 use crate::rig::{MotorModel, Rig};
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use nalgebra::{DMatrix, DVector};
@@ -643,7 +644,8 @@ enum Sim {
 /// The linear model in deviations from the operating point, its inputs [x_ref or ω_ref1,
 /// ω_ref2, F_ext] held over each step.
 struct Linear {
-    layout: Layout,
+    /// The circuit's states.
+    signals: Vec<Signal>,
     a: DMatrix<f64>,
     b: DMatrix<f64>,
     /// The state deviation.
@@ -921,7 +923,7 @@ impl Instance {
                 }
             }
             Controller::External => {
-                let (x, _) = dynamics.operating_point(rig);
+                let (x, _) = dynamics.operating_point();
                 Sim::Plant {
                     dynamics: Box::new(dynamics),
                     x,
@@ -1028,24 +1030,33 @@ impl Instance {
 
     /// The outputs, in the order of [`variables`].
     fn outputs(&self) -> Result<Vec<f64>, FmuError> {
-        let (layout, x, u): (&Layout, Vec<f64>, Option<[f64; 2]>) = match self.sim.as_ref() {
+        let (signals, x, u): (Vec<Signal>, Vec<f64>, Option<[f64; 2]>) = match self.sim.as_ref() {
             None => return Err(FmuError("outputs are known after initialisation".into())),
-            Some(Sim::Plc { run, u }) => (run.dynamics().layout(), run.state().to_vec(), Some(*u)),
-            Some(Sim::Plant { dynamics, x, .. }) => (dynamics.layout(), x.clone(), None),
-            Some(Sim::Linear(lin)) => (&lin.layout, lin.absolute(), lin.commands(&self.inputs)),
+            Some(Sim::Plc { run, u }) => (
+                run.dynamics().circuit().states(),
+                run.state().to_vec(),
+                Some(*u),
+            ),
+            Some(Sim::Plant { dynamics, x, .. }) => (dynamics.circuit().states(), x.clone(), None),
+            Some(Sim::Linear(lin)) => (
+                lin.signals.clone(),
+                lin.absolute(),
+                lin.commands(&self.inputs),
+            ),
         };
-        let mut out = vec![
-            x[layout.x],
-            x[layout.v],
-            x[layout.p[0]],
-            x[layout.p[1]],
-            x[layout.p[0]] + x[layout.p[1]],
-            x[layout.w[0]],
-            x[layout.w[1]],
-        ];
-        if let Some(tau) = layout.tau {
-            out.extend([x[tau[0]], x[tau[1]]]);
-        }
+        let of = |role: Role| -> Vec<f64> {
+            (signals.iter().zip(&x))
+                .filter(|(s, _)| s.role == role)
+                .map(|(_, v)| *v)
+                .collect()
+        };
+        let pressures = of(Role::Pressure);
+        let mut out = of(Role::Position);
+        out.extend(of(Role::Velocity));
+        out.extend(&pressures);
+        out.push(pressures.iter().sum());
+        out.extend(of(Role::MotorSpeed));
+        out.extend(of(Role::Torque));
         if self.config.controller == Controller::Article {
             out.extend(u.unwrap_or([f64::NAN; 2]));
         }
@@ -1080,18 +1091,21 @@ impl Linear {
     /// The linear model of `rig` with the article's controller closed around it, or open.
     fn new(rig: &Rig, controller: Controller) -> Result<Linear, FmuError> {
         let plant = Plant::new(rig);
-        let l = plant.layout;
-        let op = plant.operating_point();
+        let n = plant.n();
+        let x_op = plant.operating_point().state[plant.position()];
         let (z_op, u_rest) = rest(ModelKind::Linear, rig);
         // the force enters Newton's law: v̇ = … − F_ext / m
-        let mut force = DMatrix::zeros(l.n, 1);
-        force[(l.v, 0)] = -1.0 / plant.si.mass;
+        let mut force = DMatrix::zeros(n, 1);
+        let velocity = plant
+            .state_of(Role::Velocity)
+            .expect("a piston has a velocity");
+        force[(velocity, 0)] = -1.0 / plant.si.mass;
         let (a, b_drive, control, u_op) = match controller {
             Controller::Article => {
                 let (kx, kr) = plant.controller(rig.sum_pressure);
                 let a = &plant.a + &plant.b * &kx;
                 let b = &plant.b * &kr;
-                (a, b, Some((kx, kr)), vec![op.x, rig.external_force_n])
+                (a, b, Some((kx, kr)), vec![x_op, rig.external_force_n])
             }
             Controller::External => (
                 plant.a.clone(),
@@ -1107,8 +1121,8 @@ impl Linear {
         })?;
         let b = concat_columns(&b_drive, &force);
         Ok(Linear {
-            layout: l,
-            z: DVector::zeros(l.n),
+            signals: plant.signals(),
+            z: DVector::zeros(n),
             a,
             b,
             z_op,

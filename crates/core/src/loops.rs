@@ -2,11 +2,11 @@
 //! it (§2.3.3; docs/analysis.md#the-loop-that-is-analysed), or a loop transfer L(s) read from a
 //! JSON state-space model (docs/formats.md); and its view for display and export.
 
+use crate::circuit::Role;
 use crate::ident::Standstill;
 use crate::lti::{LtiError, ModelJson, StateInfo, StateSpace};
-use crate::model::{Plant, SIM_OUTPUTS};
+use crate::model::Plant;
 use crate::rig::Rig;
-use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 
 /// A named signal (input or output) with its SI unit.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -57,14 +57,7 @@ pub fn grey_loop(rig: &Rig, which: GreyLoop) -> StateSpace {
 /// The standstill the grey-box function takes c1 and c2 from: given, or the rig's own operating
 /// point (whose speeds feed exactly the rig's leakages, so the rig's c1 and c2 come back).
 pub fn standstill_of(rig: &Rig, given: Option<Standstill>) -> Standstill {
-    given.unwrap_or_else(|| {
-        let op = Plant::new(rig).operating_point();
-        Standstill {
-            w1_rpm: op.w1 / RAD_S_PER_RPM,
-            w2_rpm: op.w2 / RAD_S_PER_RPM,
-            p1_bar: op.p1 / PA_PER_BAR,
-        }
-    })
+    given.unwrap_or_else(|| Plant::new(rig).circuit.standstill())
 }
 
 /// The loop to analyse, with a description for the output.
@@ -115,16 +108,6 @@ pub struct ModelView {
     pub rig: Option<(Rig, GreyLoop)>,
 }
 
-/// Meaning of each output of the simulated closed loop, in [`SIM_OUTPUTS`] order.
-const SIM_MEANINGS: [&str; 6] = [
-    "piston position",
-    "chamber 1 pressure",
-    "chamber 2 pressure",
-    "motor/pump 1 speed",
-    "motor/pump 2 speed",
-    "control error x_ref - x",
-];
-
 impl Loop {
     /// The position loop of `rig` (where it came from: `origin`) with the position feedback
     /// removed, the sum-pressure loop closed inside it or not.
@@ -137,7 +120,7 @@ impl Loop {
         };
         Loop {
             open_loop: plant.open_loop(sum_pressure_closed),
-            states: plant.layout.states(),
+            states: plant.states(),
             description: format!(
                 "{origin}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}"
             ),
@@ -217,16 +200,19 @@ impl Loop {
         };
         let plant = Plant::new(rig);
         let op = plant.operating_point();
-        let operating_point = [
-            ("x_m", op.x, "m"),
-            ("p1_Pa", op.p1, "Pa (gauge)"),
-            ("p2_Pa", op.p2, "Pa (gauge)"),
-            ("w1_rad_per_s", op.w1, "rad/s"),
-            ("w2_rad_per_s", op.w2, "rad/s"),
-        ]
-        .iter()
-        .map(|(n, v, u)| (n.to_string(), *v, u.to_string()))
-        .collect();
+        let outputs = plant.outputs();
+        let operating_point = (outputs.iter())
+            .filter_map(|o| {
+                let gauge = if o.role == Some(Role::Pressure) {
+                    " (gauge)"
+                } else {
+                    ""
+                };
+                let name = format!("{}_{}", o.name, o.unit.replace('/', "_per_"));
+                Some((name, op.state[o.state?], format!("{}{gauge}", o.unit)))
+            })
+            .collect();
+        let signal_names: Vec<&str> = outputs.iter().map(|o| o.name.as_str()).collect();
         let (which, inputs, outputs, title) = if closed {
             let sp = if rig.sum_pressure { "closed" } else { "open" };
             (
@@ -234,18 +220,17 @@ impl Loop {
                     sum_pressure: rig.sum_pressure,
                 },
                 vec![Port::new("x_ref", "m", "position reference")],
-                SIM_OUTPUTS
-                    .iter()
-                    .zip(SIM_MEANINGS)
-                    .map(|((n, u), m)| Port::new(n, u, m))
+                (outputs.iter())
+                    .map(|o| Port::new(&o.name, &o.unit, &o.meaning))
                     .collect(),
                 format!(
-                    "{}: closed loop x_ref -> x, p1, p2, w1, w2, e, sum-pressure loop {sp} (as pumpcyl \
+                    "{}: closed loop x_ref -> {}, sum-pressure loop {sp} (as pumpcyl \
                      step simulates it)",
                     lp.description
                         .split(": open loop")
                         .next()
-                        .unwrap_or(&lp.description)
+                        .unwrap_or(&lp.description),
+                    signal_names.join(", ")
                 ),
             )
         } else {
@@ -260,7 +245,7 @@ impl Loop {
         };
         Ok(ModelView {
             sys: grey_loop(rig, which),
-            states: plant.layout.states(),
+            states: plant.states(),
             inputs,
             outputs,
             title,

@@ -10,9 +10,9 @@ use pumpcyl::ident::Standstill;
 use pumpcyl::loops::{grey_loop, GreyLoop, ModelView, Port};
 use pumpcyl::lti::{StateInfo, StateSpace};
 use pumpcyl::matfile::{var_name, MatWriter};
-use pumpcyl::model::{Layout, Plant};
+use pumpcyl::model::Plant;
 use pumpcyl::response::Signals;
-use pumpcyl::rig::{Rig, RigSi};
+use pumpcyl::rig::Rig;
 use pumpcyl::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use std::fmt::Write as _;
 
@@ -127,52 +127,7 @@ pub fn ss_function(name: &str, m: &Described) -> String {
     s
 }
 
-/// One entry of A that depends on the grey-box parameters: position (0-based), its value at
-/// given parameters, and the MATLAB expression that computes it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParamEntry {
-    /// Row (0-based).
-    pub row: usize,
-    /// Column (0-based).
-    pub col: usize,
-    /// Value at the parameters given (SI).
-    pub value: f64,
-    /// The same in MATLAB, from the variables of the grey-box function.
-    pub expr: &'static str,
-}
-
-/// The entries of the plant's A that depend on β, b and the leakages (the piston's viscous
-/// friction and the two continuity equations, the article's model; docs/matlab.md), each with
-/// its value at (`beta` Pa, `b` N·s/m, `c1`, `c2`, `c12` m⁵/(N·s)) and its MATLAB expression.
-/// The controller and the motors add nothing to these rows (their inputs are the motors).
-pub fn param_entries(
-    l: &Layout,
-    si: &RigSi,
-    beta: f64,
-    b: f64,
-    [c1, c2, c12]: [f64; 3],
-) -> Vec<ParamEntry> {
-    let (k1, k2) = (beta / si.v1, beta / si.v2);
-    let e = |row, col, value, expr| ParamEntry {
-        row,
-        col,
-        value,
-        expr,
-    };
-    let (v, [p1, p2], [w1, w2]) = (l.v, l.p, l.w);
-    vec![
-        e(v, v, -b / si.mass, "-b/m"),
-        e(p1, w1, k1 * si.d[0], "k1*D1"),
-        e(p1, w2, k1 * si.d[1], "k1*D2"),
-        e(p1, v, -k1 * si.a1, "-k1*A1"),
-        e(p1, p1, -k1 * (c1 + c12), "-k1*(c1 + c12)"),
-        e(p1, p2, k1 * c12, "k1*c12"),
-        e(p2, w1, -k2 * si.d[0], "-k2*D1"),
-        e(p2, v, k2 * si.a2, "k2*A2"),
-        e(p2, p2, -k2 * (c2 + c12), "-k2*(c2 + c12)"),
-        e(p2, p1, k2 * c12, "k2*c12"),
-    ]
-}
+pub use pumpcyl::circuit::dpm::ParamEntry;
 
 /// `function [A, B, C, D] = NAME(beta_bar, b, c12, Ts, varargin)`: the rig's loop with β, b and
 /// c12 free, c1 and c2 from the standstill continuity equations at each c12 (as
@@ -190,8 +145,8 @@ pub fn greybox_function(
 ) -> String {
     let sys = grey_loop(rig, which);
     let plant = Plant::new(rig);
-    let (l, si) = (plant.layout, plant.si);
-    let states = l.states();
+    let si = plant.si;
+    let states = plant.states();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -271,7 +226,7 @@ pub fn greybox_function(
     }
     s.push_str("% the entries that depend on the parameters\n");
     let fixed = [si.c1, si.c2, si.c12];
-    for e in param_entries(&l, &si, si.beta, si.b, fixed) {
+    for e in plant.circuit.param_entries(si.beta, si.b, fixed) {
         let _ = writeln!(s, "A({}, {}) = {};", e.row + 1, e.col + 1, e.expr);
     }
     s.push_str(
@@ -403,6 +358,7 @@ pub fn described(view: &ModelView) -> Described<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use pumpcyl::circuit::Role;
     use pumpcyl::rig::MotorModel;
 
     /// The parameter entries hold the values the model assembles, for every variant, and the
@@ -425,7 +381,7 @@ mod tests {
         for rig in variants {
             let plant = Plant::new(&rig);
             let si = plant.si;
-            let entries = param_entries(&plant.layout, &si, si.beta, si.b, [si.c1, si.c2, si.c12]);
+            let entries = (plant.circuit).param_entries(si.beta, si.b, [si.c1, si.c2, si.c12]);
             for which in [
                 GreyLoop::Open {
                     sum_pressure: false,
@@ -439,7 +395,7 @@ mod tests {
                     assert_eq!(sys.a[(e.row, e.col)], e.value, "{e:?}");
                     covered[(e.row, e.col)] = e.value;
                 }
-                for row in [plant.layout.p[0], plant.layout.p[1]] {
+                for row in plant.states_of(Role::Pressure) {
                     assert_eq!(sys.a.row(row), covered.row(row));
                 }
             }

@@ -11,8 +11,13 @@
 //! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
 //! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
 
+pub mod dpm;
 pub mod dual_pump;
+pub mod parts;
 pub mod valves;
+
+pub use dpm::Dpm;
+pub use parts::Effects;
 
 use nalgebra::DMatrix;
 use num_dual::{Dual64, DualNum};

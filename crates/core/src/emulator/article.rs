@@ -153,7 +153,8 @@ pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<R
     for _ in 0..SET_POINT_STEPS {
         let d = Dynamics::new(&rig, effects)?;
         let x = equilibrium(&rig, &d, rig.x0_mm)?;
-        let miss = 2.0 * p_mean_bar - (x[d.layout.p[0]] + x[d.layout.p[1]]) / PA_PER_BAR;
+        let sum: f64 = d.at.pressures.iter().map(|&i| x[i]).sum();
+        let miss = 2.0 * p_mean_bar - sum / PA_PER_BAR;
         if miss.abs() < 1e-9 * p_mean_bar {
             return Ok(rig);
         }

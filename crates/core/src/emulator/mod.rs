@@ -17,9 +17,7 @@ pub use experiment::{
     SETTLE_S, SINE_PERIODS, STEP_MM,
 };
 pub use plc::{emulate, equilibrium, hold_speeds, Emulation, Plc, PlcLoop};
-pub use stops::{End, EndStopHit, CONTACT_DAMPING, CONTACT_RAD_S};
-
-use crate::bulk::effective_beta;
+pub use stops::{End, EndStopHit, Stops, CONTACT_DAMPING, CONTACT_RAD_S};
 
 /// Why the emulator cannot run: a rig or experiment it does not model (a first-order motor, a
 /// drive that does not exist, a bulk modulus beyond the oil's own), a loop that cannot rest at
@@ -33,72 +31,13 @@ impl From<&str> for EmulatorError {
         EmulatorError(message.to_string())
     }
 }
-use crate::model::{Layout, Plant};
-use crate::rig::{MotorModel, Rig, RigSi};
+use crate::circuit::{Circuit, Dpm, Role};
+use crate::rig::{MotorModel, Rig};
 use crate::units::PA_PER_BAR;
 
-/// The effects beyond the LTI model, each switchable.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Effects {
-    /// Chamber volumes V1 = VL1 + A1 x, V2 = VL2 + A2 (x_max − x) instead of fixed at x0.
-    pub varying_volumes: bool,
-    /// Gas fraction X of the bulk-modulus model: β_e of both chambers from their mean pressure
-    /// (p1 + p2)/2, as docs/bulk-modulus.md#the-constant-gas-fraction-model defines it; `None` keeps β constant.
-    pub gas_fraction: Option<f64>,
-    /// Pure-oil bulk modulus (bar) for the gas-fraction model.
-    pub beta_oil_bar: f64,
-    /// Motor torque limit as a multiple of the rated torque; `None` = unlimited.
-    pub peak_torque_factor: Option<f64>,
-    /// Pumps cannot be driven beyond their maximum speed (the rig's `pump_max_speed_rpm`).
-    pub pump_speed_limit: bool,
-    /// Pump speed below which the delivered flow fades out and the slip leakage sets in
-    /// (rad/s); 0 = ideal pumps.
-    pub dead_band_rad_s: f64,
-    /// Extra internal leakage of a pump turning slower than the dead band, across its ports
-    /// (m⁵/(N·s)): full at standstill, none at the dead-band speed.
-    pub slip_m5_per_ns: f64,
-    /// Coulomb friction force (N); 0 = none.
-    pub coulomb_n: f64,
-    /// The moving mass follows the rig's `mass_by_position` along the stroke ([`MassLaw`]);
-    /// off, or a rig without a table, keeps `mass_kg` everywhere.
-    pub stroke_mass: bool,
-}
+pub use crate::circuit::parts::{Effects, MassLaw};
 
 impl Effects {
-    /// Everything off: the dynamics linearise to the analytic model.
-    pub fn none() -> Effects {
-        Effects {
-            varying_volumes: false,
-            gas_fraction: None,
-            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
-            peak_torque_factor: None,
-            pump_speed_limit: false,
-            dead_band_rad_s: 0.0,
-            slip_m5_per_ns: 0.0,
-            coulomb_n: 0.0,
-            stroke_mass: false,
-        }
-    }
-
-    /// Every effect on with the gas fraction `x` (docs/emulator.md#the-dynamics): volumes
-    /// following the piston, β_e(p) of the constant gas-fraction model, a 3× peak torque, the
-    /// pump speed limit, a 60 rpm pump dead band with slip leakage, 15 N Coulomb friction, and
-    /// the moving mass following the rig's `mass_by_position`. The last four are pumpcyl's
-    /// emulator defaults, not keys of a rig (docs/emulator.md#what-a-user-rig-gets).
-    pub fn all(x: f64) -> Effects {
-        Effects {
-            varying_volumes: true,
-            gas_fraction: Some(x),
-            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
-            peak_torque_factor: Some(3.0),
-            pump_speed_limit: true,
-            dead_band_rad_s: 60.0 * crate::units::RAD_S_PER_RPM,
-            slip_m5_per_ns: 4e-11,
-            coulomb_n: 15.0,
-            stroke_mass: true,
-        }
-    }
-
     /// Every effect on ([`Effects::all`]) with the gas fraction that gives `beta_bar` at
     /// `p_mean_bar`: the emulated article records' (the article §2.1: 165 bar at 4.4 bar).
     pub fn article(beta_bar: f64, p_mean_bar: f64) -> Result<Effects, EmulatorError> {
@@ -168,33 +107,39 @@ pub fn rest_mean_pressure_bar(rig: &Rig) -> Result<f64, EmulatorError> {
     let d = Dynamics::new(rig, effects)?;
     // a loop Newton cannot bring to rest (one that rings at its limits, such as a sum-pressure
     // gain of 22 per bar) rests, if at all, at the LTI model's operating point
-    let x = equilibrium(rig, &d, rig.x0_mm).unwrap_or_else(|_| Plant::new(rig).rest_state(true).0);
-    let p = [x[d.layout.p[0]] / PA_PER_BAR, x[d.layout.p[1]] / PA_PER_BAR];
+    let x = equilibrium(rig, &d, rig.x0_mm).unwrap_or_else(|_| d.operating_point().0);
+    let p: Vec<f64> = d.at.pressures.iter().map(|&i| x[i] / PA_PER_BAR).collect();
     crate::cavitation::check_chambers(&p)
         .map_err(|e| EmulatorError(format!("the emulated loop at rest at x0: {e}")))?;
     Ok(0.5 * (p[0] + p[1]))
 }
 
-/// Absolute pressure of a gauge pressure of 0 (Pa): cavitation floor is −1 bar gauge.
-const ATMOSPHERE_PA: f64 = 1e5;
-/// Velocity scale of the smooth Coulomb friction sign (m/s).
-const COULOMB_SMOOTHING_M_S: f64 = 1e-3;
-
-/// The continuous dynamics of the rig, states as in [`Layout`] (absolute position, gauge
+/// The continuous dynamics of the rig: the DPM circuit's equations ([`Dpm`]) with the chosen
+/// effects and the end stops, states as in its [`Circuit::states`] (absolute position, gauge
 /// pressures), inputs the drive speed references ω_ref1, ω_ref2 (rad/s).
 #[derive(Debug, Clone)]
 pub struct Dynamics {
-    si: RigSi,
-    pub(crate) layout: Layout,
-    x_max: f64,
-    vl: [f64; 2],
-    rated_torque: f64,
-    max_pump_speed: f64,
-    mass_law: MassLaw,
-    effects: Effects,
-    /// The ends of the stroke (docs/emulator.md#end-stops); off only while Newton's method
-    /// looks for a rest, which is then refused outside the stroke.
-    stops: Option<stops::Stops>,
+    circuit: Dpm,
+    /// Where the position, the pressures and the motor speeds are in the state.
+    pub(crate) at: Places,
+}
+
+/// Where the signals the PLC measures are in a circuit's state.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Places {
+    pub(crate) position: usize,
+    pub(crate) pressures: Vec<usize>,
+    pub(crate) speeds: Vec<usize>,
+}
+
+impl Places {
+    fn of<C: Circuit>(c: &C) -> Places {
+        Places {
+            position: c.state_of(Role::Position).unwrap_or(0),
+            pressures: c.states_of(Role::Pressure),
+            speeds: c.states_of(Role::MotorSpeed),
+        }
+    }
 }
 
 impl Dynamics {
@@ -203,38 +148,33 @@ impl Dynamics {
         if rig.motor_model != MotorModel::Full {
             return Err("the emulator needs motor_model = \"full\"".into());
         }
-        let plant = Plant::new(rig);
-        let stops = stops::Stops::new(rig.stroke_mm * 1e-3, plant.si.mass);
-        Ok(Dynamics {
-            si: plant.si,
-            layout: plant.layout,
-            x_max: rig.stroke_mm * 1e-3,
-            vl: [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3],
-            rated_torque: rig.motor_rated_torque_nm,
-            max_pump_speed: rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM,
-            mass_law: if effects.stroke_mass {
-                MassLaw::of_rig(rig)
-            } else {
-                MassLaw::constant()
-            },
-            effects,
-            stops: Some(stops),
-        })
+        let circuit = Dpm::emulated(rig, effects);
+        let at = Places::of(&circuit);
+        Ok(Dynamics { circuit, at })
+    }
+
+    /// The circuit whose equations these are.
+    pub fn circuit(&self) -> &Dpm {
+        &self.circuit
+    }
+
+    /// The same dynamics without the limits a Newton step may cross at rest (torque and speed
+    /// limits, end stops).
+    pub(crate) fn without_limits(&self) -> Dynamics {
+        Dynamics {
+            circuit: self.circuit.without_limits(),
+            at: self.at.clone(),
+        }
     }
 
     /// Change the external force on the piston (N).
     pub fn set_external_force_n(&mut self, f_n: f64) {
-        self.si.f_ext = f_n;
-    }
-
-    /// The state positions.
-    pub fn layout(&self) -> &Layout {
-        &self.layout
+        self.circuit.set_external_force_n(f_n);
     }
 
     /// The end of the stroke the piston of state `x` is at or beyond, if any, met at `t_s`.
     pub fn end_stop(&self, x: &[f64], t_s: f64) -> Option<EndStopHit> {
-        let (end, end_mm) = self.stops?.end_at(x[self.layout.x])?;
+        let (end, end_mm) = self.circuit.stops()?.end_at(x[self.at.position])?;
         Some(EndStopHit {
             end,
             end_mm,
@@ -244,168 +184,19 @@ impl Dynamics {
 
     /// Number of states.
     pub fn order(&self) -> usize {
-        self.layout.n
-    }
-
-    /// Bulk modulus (Pa) at a mean chamber gauge pressure (Pa).
-    fn beta(&self, p_gauge: f64) -> f64 {
-        match self.effects.gas_fraction {
-            None => self.si.beta,
-            Some(x) => {
-                let p_bar = (p_gauge / PA_PER_BAR).max(1e-3);
-                effective_beta(x, p_bar, self.effects.beta_oil_bar) * PA_PER_BAR
-            }
-        }
-    }
-
-    /// Pump flow factor at speed ω: 1 above the dead band, fading smoothly to 0 at standstill.
-    fn pump_factor(&self, w: f64) -> f64 {
-        let db = self.effects.dead_band_rad_s;
-        if db <= 0.0 {
-            1.0
-        } else {
-            let r = (w / db).abs();
-            if r >= 1.0 {
-                1.0
-            } else {
-                r * r * (3.0 - 2.0 * r)
-            }
-        }
+        self.circuit.order()
     }
 
     /// ẋ = f(x, u) into `dx`.
     pub fn rhs(&self, x: &[f64], u: &[f64; 2], dx: &mut [f64]) {
-        let (si, l, e) = (&self.si, &self.layout, &self.effects);
-        let (pos, v) = (x[l.x], x[l.v]);
-        let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
-        let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
-        // mechanics
-        let mass = si.mass * self.mass_law.ratio(pos);
-        let coulomb = e.coulomb_n * (v / COULOMB_SMOOTHING_M_S).tanh();
-        let stop = self.stops.map_or(0.0, |s| s.force_n(pos, v));
-        dx[l.x] = v;
-        dx[l.v] = (p1 * si.a1 - p2 * si.a2 - si.f_ext - si.b * v - coulomb + stop) / mass;
-        // hydraulics
-        let (v1, v2) = if e.varying_volumes {
-            (
-                self.vl[0] + si.a1 * pos,
-                self.vl[1] + si.a2 * (self.x_max - pos),
-            )
-        } else {
-            (si.v1, si.v2)
-        };
-        let (f1, f2) = (self.pump_factor(w1), self.pump_factor(w2));
-        // pump 1 slips from chamber 1 to 2, pump 2 from chamber 1 to the reservoir
-        let q1 = si.d[0] * w1 * f1 - e.slip_m5_per_ns * (1.0 - f1) * (p1 - p2);
-        let q2 = si.d[1] * w2 * f2 - e.slip_m5_per_ns * (1.0 - f2) * p1;
-        let cross = si.c12 * (p1 - p2);
-        let beta = self.beta(0.5 * (p1 + p2));
-        let dp1 = beta / v1 * (q1 + q2 - si.a1 * v - si.c1 * p1 - cross);
-        let dp2 = beta / v2 * (-q1 + si.a2 * v - si.c2 * p2 + cross);
-        // cavitation: gauge pressure cannot fall below −1 bar
-        let floor = -ATMOSPHERE_PA;
-        dx[l.p[0]] = if p1 <= floor && dp1 < 0.0 { 0.0 } else { dp1 };
-        dx[l.p[1]] = if p2 <= floor && dp2 < 0.0 { 0.0 } else { dp2 };
-        // motors, drives (the full model's layout always has tau)
-        let tau = l.tau.expect("full motor model");
-        let load = [si.d[0] * (p1 - p2), si.d[1] * p1];
-        let limit = e.peak_torque_factor.map(|f| f * self.rated_torque);
-        for i in 0..2 {
-            let w = x[l.w[i]];
-            let mut t_ref = si.km[i] * (u[i] - w);
-            if let Some(ff) = l.ff {
-                t_ref += si.kff / si.tau_ff * (u[i] - x[ff[i]]);
-                dx[ff[i]] = (u[i] - x[ff[i]]) / si.tau_ff;
-            }
-            if let Some(lim) = limit {
-                t_ref = t_ref.clamp(-lim, lim);
-            }
-            dx[tau[i]] = si.omega_i * (t_ref - x[tau[i]]);
-            let mut acc = (x[tau[i]] - load[i]) / si.j[i];
-            if e.pump_speed_limit && w.abs() >= self.max_pump_speed && acc * w > 0.0 {
-                acc = 0.0;
-            }
-            dx[l.w[i]] = acc;
-        }
+        self.circuit.rhs(x, u, dx);
     }
 
     /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage
     /// speeds, drive torques equal to the load) and the speed references that hold it.
-    pub fn operating_point(&self, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
+    pub fn operating_point(&self) -> (Vec<f64>, [f64; 2]) {
         // the emulated motors always carry the pumps' load
-        Plant::new(rig).rest_state(true)
-    }
-}
-
-/// The moving mass along the stroke, relative to its value at x0: the rig's
-/// `mass_by_position` table, interpolated by the quadratic through the three neighbouring table
-/// points nearest the position (the line through two for a two-point table), so a three-point table
-/// such as the article's seesaw (§3.3) is followed by one smooth parabola, and a position
-/// beyond the table extrapolates its end's. The ratio never falls below half the table's
-/// smallest mass over its mass at x0, a guard for a wild extrapolation (docs/emulator.md).
-#[derive(Debug, Clone, PartialEq)]
-pub struct MassLaw {
-    /// Table positions (m).
-    x_m: Vec<f64>,
-    /// Table masses over the table's mass at x0.
-    ratio: Vec<f64>,
-    /// The smallest ratio the law gives.
-    floor: f64,
-}
-
-impl MassLaw {
-    /// The mass is the same everywhere.
-    pub fn constant() -> MassLaw {
-        MassLaw {
-            x_m: vec![],
-            ratio: vec![],
-            floor: 0.0,
-        }
-    }
-
-    /// The law of `rig`'s `mass_by_position` (constant without a table).
-    pub fn of_rig(rig: &Rig) -> MassLaw {
-        let t = &rig.mass_by_position;
-        if t.len() < 2 {
-            return MassLaw::constant();
-        }
-        let mut law = MassLaw {
-            x_m: t.iter().map(|p| p.x_mm * 1e-3).collect(),
-            ratio: t.iter().map(|p| p.mass_kg).collect(),
-            floor: 0.0,
-        };
-        let at_x0 = law.raw(rig.x0_mm * 1e-3);
-        law.ratio.iter_mut().for_each(|r| *r /= at_x0);
-        law.floor = 0.5 * law.ratio.iter().cloned().fold(f64::INFINITY, f64::min);
-        law
-    }
-
-    /// The mass at `x_m` (m) over the mass at x0.
-    pub fn ratio(&self, x_m: f64) -> f64 {
-        if self.x_m.is_empty() {
-            return 1.0;
-        }
-        self.raw(x_m).max(self.floor)
-    }
-
-    /// The interpolating polynomial through the nearest (up to) three points at `x`.
-    fn raw(&self, x: f64) -> f64 {
-        let n = self.x_m.len();
-        let k = self.x_m.partition_point(|p| *p < x);
-        // the window k-2..=k or k-1..=k+1, whichever outer point is nearer x
-        let after_is_nearer = k + 1 < n && (k < 2 || self.x_m[k + 1] - x < x - self.x_m[k - 2]);
-        let lo = (k.saturating_sub(if after_is_nearer { 1 } else { 2 })).min(n.saturating_sub(3));
-        let hi = (lo + 3).min(n);
-        let (xs, ys) = (&self.x_m[lo..hi], &self.ratio[lo..hi]);
-        (0..xs.len())
-            .map(|i| {
-                let w: f64 = (0..xs.len())
-                    .filter(|j| *j != i)
-                    .map(|j| (x - xs[j]) / (xs[i] - xs[j]))
-                    .product();
-                w * ys[i]
-            })
-            .sum()
+        self.circuit.rest_state(true)
     }
 }
 
@@ -448,7 +239,7 @@ mod tests {
     fn operating_point_is_an_equilibrium() {
         let rig = Rig::default();
         let d = Dynamics::new(&rig, Effects::none()).unwrap();
-        let (x, u) = d.operating_point(&rig);
+        let (x, u) = d.operating_point();
         let mut dx = vec![0.0; x.len()];
         d.rhs(&x, &u, &mut dx);
         let typical = [1e-3, 1e-2, 1e5, 1e5, 10.0, 10.0, 0.1, 0.1, 10.0, 10.0];
@@ -466,10 +257,10 @@ mod tests {
             ..Effects::none()
         };
         let d = Dynamics::new(&rig, effects).unwrap();
-        let (x, u) = d.operating_point(&rig);
+        let (x, u) = d.operating_point();
         let typical = [1e-3, 1e-2, 1e5, 1e5, 10.0, 10.0, 0.1, 0.1, 10.0, 10.0];
         let (a, b) = jacobians(&d, &x, &u, &typical);
-        let plant = Plant::new(&rig);
+        let plant = crate::model::Plant::new(&rig);
         let n = d.order();
         for i in 0..n {
             for j in 0..n {
@@ -512,8 +303,8 @@ mod tests {
             let e = Effects::for_rig(&rig).unwrap();
             let d = Dynamics::new(&rig, e).unwrap();
             let x = equilibrium(&rig, &d, rig.x0_mm).unwrap();
-            let p_mean = 0.5 * (x[d.layout.p[0]] + x[d.layout.p[1]]);
-            let beta = d.beta(p_mean) / PA_PER_BAR;
+            let p_mean = 0.5 * (x[d.at.pressures[0]] + x[d.at.pressures[1]]);
+            let beta = d.circuit().beta_pa(p_mean) / PA_PER_BAR;
             assert!(
                 (beta - beta_bar).abs() < 1e-9 * beta_bar,
                 "{beta} vs {beta_bar}"
@@ -575,20 +366,21 @@ mod tests {
             ..Effects::none()
         };
         let d = Dynamics::new(&rig, effects).unwrap();
-        let (mut x, _) = d.operating_point(&rig);
-        let l = Plant::new(&rig).layout;
+        let (mut x, _) = d.operating_point();
+        let c = d.circuit();
         // a huge speed demand: the torque reference saturates at 3 × rated
         let mut dx = vec![0.0; x.len()];
         d.rhs(&x, &[1e4, 1e4], &mut dx);
-        let t = l.tau.unwrap()[0];
+        let t = c.state_of(Role::Torque).unwrap();
         let want = rig.si().omega_i * (3.0 * rig.motor_rated_torque_nm - x[t]);
         assert!((dx[t] - want).abs() < 1e-9 * want.abs());
         // chamber 1 at −1 bar gauge while the piston runs out of it (v > 0 grows V1): the
         // pressure would fall further, cavitation holds it
-        x[l.p[0]] = -1e5;
-        x[l.v] = 1.0;
+        let p_cap = c.state_of(Role::Pressure).unwrap();
+        x[p_cap] = -1e5;
+        x[c.state_of(Role::Velocity).unwrap()] = 1.0;
         d.rhs(&x, &[0.0, 0.0], &mut dx);
-        assert_eq!(dx[l.p[0]], 0.0);
+        assert_eq!(dx[p_cap], 0.0);
     }
 }
 

@@ -5,6 +5,7 @@
 
 use super::EmulatorError;
 use super::{Dynamics, EndStopHit};
+use crate::circuit::{Circuit, Role};
 use crate::response::Signals;
 use crate::rig::Rig;
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
@@ -61,25 +62,17 @@ impl Noise {
     }
 }
 
-/// Typical magnitude of each state (SI), for finite-difference steps and tolerances.
+/// Typical magnitude of each state (SI), for finite-difference steps and tolerances, by its
+/// role.
 pub(super) fn typical(d: &Dynamics) -> Vec<f64> {
-    let l = &d.layout;
-    let mut t = vec![1.0; l.n];
-    t[l.x] = 1e-3;
-    t[l.v] = 1e-2;
-    for i in 0..2 {
-        t[l.p[i]] = 1e5;
-        t[l.w[i]] = 10.0;
-    }
-    if let Some(tau) = l.tau {
-        t[tau[0]] = 0.1;
-        t[tau[1]] = 0.1;
-    }
-    if let Some(ff) = l.ff {
-        t[ff[0]] = 10.0;
-        t[ff[1]] = 10.0;
-    }
-    t
+    let size = |role: Role| match role {
+        Role::Position => 1e-3,
+        Role::Velocity => 1e-2,
+        Role::Pressure => 1e5,
+        Role::MotorSpeed | Role::Feedforward | Role::SpeedCommand => 10.0,
+        Role::Torque => 0.1,
+    };
+    d.circuit().states().iter().map(|s| size(s.role)).collect()
 }
 
 /// Integrate ẋ = f(x) over [t0, t1] from `x` by BDF; `scale` holds each state's typical size
@@ -215,11 +208,19 @@ impl PlcLoop {
         Ok(run)
     }
 
+    /// The speed commands (rad/s) the PLC sends at a sample with the reference `r_mm`.
+    pub fn commands(&mut self, r_mm: f64) -> [f64; 2] {
+        self.sample(r_mm).1
+    }
+
     /// One PLC sample with the reference `r_mm`: what the PLC measures and the motor speed
     /// references (rad/s) it sends.
     pub(crate) fn sample(&mut self, r_mm: f64) -> (Measured, [f64; 2]) {
         let m = measure(&self.x, &self.dynamics, &self.plc, &mut self.noise);
-        let u = control(&self.rig, r_mm, &m);
+        let u = self
+            .dynamics
+            .circuit()
+            .plc_commands(&self.rig, r_mm, m.x_mm, &m.p_bar);
         (m, u)
     }
 
@@ -239,7 +240,8 @@ impl PlcLoop {
         self.end_stop
     }
 
-    /// The rig's state (SI, absolute position, gauge pressures; [`crate::model::Layout`]).
+    /// The rig's state (SI, absolute position, gauge pressures; the circuit's states,
+    /// [`crate::circuit::Circuit::states`]).
     pub fn state(&self) -> &[f64] {
         &self.x
     }
@@ -291,23 +293,24 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emula
     // the torque and speed limits are idle at rest, but a Newton step may cross them and find
     // a flat (singular) Jacobian there: solve without them, then check with them
     // the end stops likewise: a rest outside the stroke is refused, not searched for in a stop
-    let mut free = d.clone();
-    free.effects.peak_torque_factor = None;
-    free.effects.pump_speed_limit = false;
-    free.stops = None;
+    let free = d.without_limits();
     let x = steady_state(rig, &free, r_mm)?;
-    if let Some(stops) = d.stops {
-        stops.check_rest(x[d.layout.x], r_mm)?;
+    if let Some(stops) = d.circuit().stops() {
+        stops.check_rest(x[d.at.position], r_mm)?;
     }
     let mut f = vec![0.0; x.len()];
     let m = measure(&x, d, &Plc::ideal(1.0), &mut Noise::new(1));
-    d.rhs(&x, &control(rig, r_mm, &m), &mut f);
+    d.rhs(
+        &x,
+        &d.circuit().plc_commands(rig, r_mm, m.x_mm, &m.p_bar),
+        &mut f,
+    );
     if f.iter().zip(typical(d)).any(|(v, s)| (v / s).abs() > 1e-6) {
         return Err(EmulatorError(format!(
             "the emulated loop cannot rest at x_ref = {r_mm} mm within its torque and speed limits"
         )));
     }
-    let p_bar = [x[d.layout.p[0]] / PA_PER_BAR, x[d.layout.p[1]] / PA_PER_BAR];
+    let p_bar: Vec<f64> = d.at.pressures.iter().map(|&i| x[i] / PA_PER_BAR).collect();
     crate::cavitation::check_chambers(&p_bar).map_err(|e| {
         EmulatorError(format!(
             "the emulated loop at rest at x_ref = {r_mm} mm: {e}"
@@ -317,17 +320,20 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emula
 }
 
 fn steady_state(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, EmulatorError> {
-    let l = d.layout;
     let exact = Plc::ideal(1.0);
     let quiet = Noise::new(1);
     let scale = typical(d);
-    let n = l.n;
+    let n = d.order();
     let g = |x: &[f64], out: &mut [f64]| {
         let m = measure(x, d, &exact, &mut quiet.clone());
-        d.rhs(x, &control(rig, r_mm, &m), out);
+        d.rhs(
+            x,
+            &d.circuit().plc_commands(rig, r_mm, m.x_mm, &m.p_bar),
+            out,
+        );
     };
-    let (mut x, _) = d.operating_point(rig);
-    x[l.x] = r_mm * 1e-3;
+    let (mut x, _) = d.operating_point();
+    x[d.at.position] = r_mm * 1e-3;
     let mut f = vec![0.0; n];
     let size = |f: &[f64]| {
         f.iter()
@@ -393,32 +399,16 @@ pub(crate) struct Measured {
 }
 
 fn measure(x: &[f64], d: &Dynamics, plc: &Plc, noise: &mut Noise) -> Measured {
-    let l = d.layout;
+    let at = &d.at;
     let quant = |v: f64, q: f64| if q > 0.0 { (v / q).round() * q } else { v };
     Measured {
         x_mm: quant(
-            x[l.x] * 1e3 + plc.noise_x_mm * noise.gauss(),
+            x[at.position] * 1e3 + plc.noise_x_mm * noise.gauss(),
             plc.quant_x_mm,
         ),
-        p_bar: [0, 1].map(|i| x[l.p[i]] / PA_PER_BAR + plc.noise_p_bar * noise.gauss()),
-        w_rpm: [0, 1].map(|i| x[l.w[i]] / RAD_S_PER_RPM + plc.noise_w_rpm * noise.gauss()),
+        p_bar: [0, 1].map(|i| x[at.pressures[i]] / PA_PER_BAR + plc.noise_p_bar * noise.gauss()),
+        w_rpm: [0, 1].map(|i| x[at.speeds[i]] / RAD_S_PER_RPM + plc.noise_w_rpm * noise.gauss()),
     }
-}
-
-/// The DPM control law of docs/model.md#the-dpm-control-law on the measurements (sum pressure in bar): the speed
-/// references (rad/s).
-fn control(rig: &Rig, r_mm: f64, m: &Measured) -> [f64; 2] {
-    let si = rig.si();
-    let e = (r_mm - m.x_mm) * 1e-3;
-    let e_p = rig.p_sum_ref_bar - (m.p_bar[0] + m.p_bar[1]);
-    let k_pres = if rig.sum_pressure {
-        rig.k_pres_per_bar
-    } else {
-        0.0
-    };
-    let u1 = si.kp * e - k_pres * e_p;
-    let u2 = si.kp * si.alpha * e + k_pres * si.k_beta * e_p;
-    [si.k_scale * u1, si.k_scale * u2]
 }
 
 /// The recorded run from t = 0.

@@ -50,7 +50,7 @@ impl fmt::Display for EndStopHit {
 
 /// The stops of a piston of moving mass `mass_kg` on a stroke of `stroke_m`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Stops {
+pub struct Stops {
     stroke_m: f64,
     stiffness_n_per_m: f64,
     damping_ns_per_m: f64,
@@ -67,14 +67,15 @@ impl Stops {
 
     /// The force of the stops on the piston at `x_m`, `v_m_s` (N, positive extending): zero
     /// inside the stroke, a push back into it beyond an end.
-    pub(crate) fn force_n(&self, x_m: f64, v_m_s: f64) -> f64 {
+    pub fn force_n<T: crate::circuit::Scalar>(&self, x_m: T, v_m_s: T) -> T {
         let (k, c) = (self.stiffness_n_per_m, self.damping_ns_per_m);
+        let push = |f: T| if f.re() >= 0.0 { f } else { T::from(0.0) };
         if x_m < 0.0 {
-            (-k * x_m - c * v_m_s).max(0.0)
+            push(-x_m * k - v_m_s * c)
         } else if x_m > self.stroke_m {
-            -(k * (x_m - self.stroke_m) + c * v_m_s).max(0.0)
+            -push((x_m - self.stroke_m) * k + v_m_s * c)
         } else {
-            0.0
+            T::from(0.0)
         }
     }
 

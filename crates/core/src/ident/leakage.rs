@@ -7,7 +7,6 @@ const MAX_SPEED_RPM: f64 = 1e6;
 /// The largest standstill pressure accepted (bar): far above any hydraulic system.
 const MAX_PRESSURE_BAR: f64 = 1e4;
 use crate::rig::Rig;
-use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use serde::{Deserialize, Serialize};
 
 /// A standstill operating point held under feedback: pump speeds feeding the leakage.
@@ -97,32 +96,7 @@ impl Standstill {
     /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
-        let si = rig.si();
-        let p1 = self.p1_bar * PA_PER_BAR;
-        let p2 = rig.p2_at_rest_bar(self.p1_bar) * PA_PER_BAR;
-        // the steady state must be one the circuit can hold (docs/model.md#cavitation)
-        crate::cavitation::check_chambers(&[self.p1_bar, p2 / PA_PER_BAR]).map_err(|e| {
-            IdentError::Input(format!(
-                "standstill p1_bar = {} with external force {} N: the force balance puts {e}",
-                self.p1_bar, si.f_ext
-            ))
-        })?;
-        if p2 <= 0.0 {
-            return Err(IdentError::Input(format!(
-                "standstill p1_bar = {} with external force {} N gives p2 = {:.3} bar <= 0",
-                self.p1_bar,
-                si.f_ext,
-                p2 / PA_PER_BAR
-            )));
-        }
-        let (w1, w2) = (self.w1_rpm * RAD_S_PER_RPM, self.w2_rpm * RAD_S_PER_RPM);
-        let cross = c12 * (p1 - p2);
-        Ok(Leakage {
-            p2_bar: p2 / PA_PER_BAR,
-            c12_m5_per_ns: c12,
-            c1_m5_per_ns: (si.d[0] * w1 + si.d[1] * w2 - cross) / p1,
-            c2_m5_per_ns: (-si.d[0] * w1 + cross) / p2,
-        })
+        crate::circuit::Dpm::linear(rig).standstill_leakage(rig, self, c12)
     }
 }
 

@@ -14,8 +14,9 @@ pub use metrics::{
 pub use ratings::{load_torques_nm, over_ratings, signals_over_ratings, OverRating};
 pub use stroke::{stroke_excursion, StrokeExcursion};
 
+use crate::circuit::Role;
 use crate::lti::{LtiError, Simulator, StateSpace, Zoh};
-use crate::model::{Plant, SIM_OUTPUTS};
+use crate::model::Plant;
 use crate::rig::Rig;
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use nalgebra::linalg::balancing::balance_parlett_reinsch;
@@ -154,12 +155,15 @@ impl Baseline {
     /// The rig's own operating point (x0, pressures from the sum-pressure set-point, leakage
     /// speeds).
     pub fn of_rig(rig: &Rig) -> Baseline {
-        let op = Plant::new(rig).operating_point();
+        let plant = Plant::new(rig);
+        let x = plant.operating_point().state;
+        let at = |role: Role, k: usize| x[plant.states_of(role)[k]];
+        let x_mm = x[plant.position()] * 1e3;
         Baseline {
-            x_ref_mm: op.x * 1e3,
-            x_mm: op.x * 1e3,
-            p_bar: [op.p1 / PA_PER_BAR, op.p2 / PA_PER_BAR],
-            w_rpm: [op.w1 / RAD_S_PER_RPM, op.w2 / RAD_S_PER_RPM],
+            x_ref_mm: x_mm,
+            x_mm,
+            p_bar: [0, 1].map(|k| at(Role::Pressure, k) / PA_PER_BAR),
+            w_rpm: [0, 1].map(|k| at(Role::MotorSpeed, k) / RAD_S_PER_RPM),
         }
     }
 
@@ -194,23 +198,52 @@ pub fn simulate(
     x_ref_mm: &[f64],
     base: &Baseline,
 ) -> Result<Signals, LtiError> {
-    let sys = stable_loop(rig)?;
+    let (sys, rows) = stable_loop(rig)?;
     let rest = vec![0.0; sys.order()];
-    run_from(&sys, time_s, x_ref_mm, base, &rest)
+    run_from(&sys, &rows, time_s, x_ref_mm, base, &rest)
+}
+
+/// Where the recorded signals are among the simulated closed loop's outputs
+/// ([`Plant::outputs`]).
+struct Rows {
+    position: usize,
+    pressures: Vec<usize>,
+    speeds: Vec<usize>,
+    error: usize,
+}
+
+impl Rows {
+    fn of(plant: &Plant) -> Rows {
+        let outputs = plant.outputs();
+        let with = |role: Option<Role>| -> Vec<usize> {
+            (outputs.iter().enumerate())
+                .filter(|(_, o)| o.role == role)
+                .map(|(i, _)| i)
+                .collect()
+        };
+        Rows {
+            position: with(Some(Role::Position))[0],
+            pressures: with(Some(Role::Pressure)),
+            speeds: with(Some(Role::MotorSpeed)),
+            error: with(None)[0],
+        }
+    }
 }
 
 /// The closed loop of `rig` as simulated (sum-pressure loop as the rig says, outputs
-/// [`SIM_OUTPUTS`]), refused when unstable: its response would grow without bound.
-fn stable_loop(rig: &Rig) -> Result<StateSpace, LtiError> {
-    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+/// [`Plant::outputs`]), refused when unstable: its response would grow without bound.
+fn stable_loop(rig: &Rig) -> Result<(StateSpace, Rows), LtiError> {
+    let plant = Plant::new(rig);
+    let sys = plant.closed_loop_outputs(rig.sum_pressure);
     crate::lti::require_stable(&sys.a)?;
-    Ok(sys)
+    Ok((sys, Rows::of(&plant)))
 }
 
 /// Run the closed loop `sys` from the deviation state `x0` under the held reference
 /// `x_ref_mm` and report the signals in user units about `base`.
 fn run_from(
     sys: &StateSpace,
+    rows: &Rows,
     time_s: &[f64],
     x_ref_mm: &[f64],
     base: &Baseline,
@@ -221,19 +254,18 @@ fn run_from(
         .map(|r| (r - base.x_ref_mm) * 1e-3)
         .collect();
     let r = Simulator::new(sys).run(time_s, &u, x0)?;
-    debug_assert_eq!(r.outputs(), SIM_OUTPUTS.len());
     let shifted = |i: usize, scale: f64, offset: f64| -> Vec<f64> {
         r.output(i).iter().map(|v| v * scale + offset).collect()
     };
     Ok(Signals {
         time_s: time_s.to_vec(),
         x_ref_mm: x_ref_mm.to_vec(),
-        x_mm: shifted(0, 1e3, base.x_mm),
-        p1_bar: shifted(1, 1.0 / PA_PER_BAR, base.p_bar[0]),
-        p2_bar: shifted(2, 1.0 / PA_PER_BAR, base.p_bar[1]),
-        w1_rpm: shifted(3, 1.0 / RAD_S_PER_RPM, base.w_rpm[0]),
-        w2_rpm: shifted(4, 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
-        e_mm: shifted(5, 1e3, base.x_ref_mm - base.x_mm),
+        x_mm: shifted(rows.position, 1e3, base.x_mm),
+        p1_bar: shifted(rows.pressures[0], 1.0 / PA_PER_BAR, base.p_bar[0]),
+        p2_bar: shifted(rows.pressures[1], 1.0 / PA_PER_BAR, base.p_bar[1]),
+        w1_rpm: shifted(rows.speeds[0], 1.0 / RAD_S_PER_RPM, base.w_rpm[0]),
+        w2_rpm: shifted(rows.speeds[1], 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
+        e_mm: shifted(rows.error, 1e3, base.x_ref_mm - base.x_mm),
     })
 }
 
@@ -241,7 +273,7 @@ fn run_from(
 /// as the rig says) takes to decay below 1 % (s): ln(100)/|Re λ| of its slowest pole λ
 /// (docs/simulation.md#tracking-metrics). An unstable loop is an error, as in [`simulate`].
 pub fn transient_decay_s(rig: &Rig) -> Result<f64, LtiError> {
-    let sys = stable_loop(rig)?;
+    let (sys, _) = stable_loop(rig)?;
     let slowest = crate::lti::eigenvalues(&sys.a)?
         .iter()
         .map(|p| p.re)
@@ -316,8 +348,16 @@ pub fn diverging_step(
     let base = Baseline::of_rig(rig);
     let t = sample_times(duration_s, rate_hz)?;
     let r = vec![base.x_ref_mm + step_mm; t.len()];
-    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
-    let s = run_from(&sys, &t, &r, &base, &vec![0.0; sys.order()])?;
+    let plant = Plant::new(rig);
+    let sys = plant.closed_loop_outputs(rig.sum_pressure);
+    let s = run_from(
+        &sys,
+        &Rows::of(&plant),
+        &t,
+        &r,
+        &base,
+        &vec![0.0; sys.order()],
+    )?;
     let end = s
         .x_mm
         .iter()
@@ -410,7 +450,7 @@ pub fn steady_sine(
 ) -> Result<Signals, LtiError> {
     let h = uniform_step(time_s)?;
     check_nyquist(freq_hz, 1.0 / h)?;
-    let sys = stable_loop(rig)?;
+    let (sys, rows) = stable_loop(rig)?;
     let omega = 2.0 * PI * freq_hz;
     let x_ref: Vec<f64> = time_s
         .iter()
@@ -419,7 +459,7 @@ pub fn steady_sine(
     let z = periodic_solution(&sys, omega, h)?;
     let u = Complex64::from_polar(amp_mm * 1e-3, omega * (time_s[0] - start_s));
     let x0: Vec<f64> = z.iter().map(|zi| (zi * u).im).collect();
-    run_from(&sys, time_s, &x_ref, base, &x0)
+    run_from(&sys, &rows, time_s, &x_ref, base, &x0)
 }
 
 /// The step (s) of uniform sample times: every step within the simulator's 1e-9 relative of
