@@ -10,7 +10,7 @@ mod skip;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use proptest::prelude::*;
 use pumpcyl::circuit::dual_pump::DualPump;
-use pumpcyl::circuit::{linearise, Circuit, Role};
+use pumpcyl::circuit::{linearise, Circuit, Effects, Role};
 use pumpcyl::lti::{margins, StateSpace};
 use pumpcyl::rig::Rig;
 use std::f64::consts::PI;
@@ -77,8 +77,9 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 64, .. ProptestConfig::default() })]
 
     /// The dual-number linear model equals a central finite-difference Jacobian of the same
-    /// equations to 1e-6 relative, element by element (an element that is zero to rounding is
-    /// compared against its row's largest entry), over random rigs and every model variant.
+    /// equations to 1e-6 relative, element by element (an element below a thousandth of its
+    /// row's largest, e.g. one that is zero, to 1e-9 of that largest), over random rigs and
+    /// every model variant.
     #[test]
     fn the_linear_model_is_the_jacobian_of_the_equations(
         mass in 500.0..20000.0f64,
@@ -222,8 +223,8 @@ fn balance_by_hand(rig: &Rig, v: f64) -> [f64; 3] {
 }
 
 /// RK4 of the circuit's equations under its control law with reference `x_ref(t)`, for
-/// `seconds` in steps of `h`, from its operating point; `valves` adds the emulator's valves.
-fn simulate(c: &DualPump, x_ref: impl Fn(f64) -> f64, seconds: f64, valves: bool) -> Vec<f64> {
+/// `seconds` in steps of 0.1 ms, from its operating point.
+fn simulate(c: &DualPump, x_ref: impl Fn(f64) -> f64, seconds: f64) -> Vec<f64> {
     let op = c.operating_point();
     let law = c.control_law();
     let x0 = op.state.clone();
@@ -235,11 +236,7 @@ fn simulate(c: &DualPump, x_ref: impl Fn(f64) -> f64, seconds: f64, valves: bool
                 .sum::<f64>()
             + law.kr[(0, 0)] * (x_ref(t) - x0[0]);
         let mut dx = vec![0.0; s.len()];
-        if valves {
-            c.rhs_with_valves(s, &[u], &mut dx);
-        } else {
-            c.rhs(s, &[u], &mut dx);
-        }
+        c.rhs(s, &[u], &mut dx);
         dx
     };
     let h = 1e-4;
@@ -274,14 +271,14 @@ fn constant_speed_keeps_matched_pressures_and_shifts_mismatched_ones() {
         "viscous_friction_ns_per_m=0",
     ]);
     assert!(matched.mismatch_m2().abs() < 1e-18);
-    let (rest, moving) = (matched.rest(), matched.steady_motion(v).unwrap());
+    let (rest, moving) = (matched.rest(), matched.steady_motion(v));
     assert!((moving.p1_pa - rest.p1_pa).abs() < 1e-9 * rest.p1_pa);
     assert!((moving.p2_pa - rest.p2_pa).abs() < 1e-9 * rest.p2_pa);
     // mismatched: against the balance by hand, then against a simulated ramp
     let rig = dual_rig(&[]);
     let c = DualPump::new(&rig).unwrap();
     let [p1, p2, w] = balance_by_hand(&rig, v);
-    let s = c.steady_motion(v).unwrap();
+    let s = c.steady_motion(v);
     for (ours, hand) in [(s.p1_pa, p1), (s.p2_pa, p2), (s.omega_rad_per_s, w)] {
         assert!((ours / hand - 1.0).abs() < 1e-9, "{ours} vs {hand}");
     }
@@ -290,7 +287,7 @@ fn constant_speed_keeps_matched_pressures_and_shifts_mismatched_ones() {
     // pump 2 over-supplies chamber 1 as the piston extends: both pressures rise
     assert!(shift[0] > 0.15e5 && shift[1] > 0.25e5, "{shift:?}");
     let x0 = c.operating_point().state[0];
-    let end = simulate(&c, |t| x0 + v * t, 20.0, false);
+    let end = simulate(&c, |t| x0 + v * t, 20.0);
     let got = [end[2] - rest.p1_pa, end[3] - rest.p2_pa];
     for i in 0..2 {
         assert!(
@@ -301,15 +298,16 @@ fn constant_speed_keeps_matched_pressures_and_shifts_mismatched_ones() {
             shift[i]
         );
     }
-    let matched_end = simulate(&matched, |t| x0 + v * t, 20.0, false);
+    let matched_end = simulate(&matched, |t| x0 + v * t, 20.0);
     let rest = matched.rest();
     assert!((matched_end[2] - rest.p1_pa).abs() < 1e-3 * rest.p1_pa);
     assert!((matched_end[3] - rest.p2_pa).abs() < 1e-3 * rest.p2_pa);
 }
 
 /// Integrating the equations from the operating point with no reference change stays there:
-/// drift below 1e-9 m over 10 s, for every motor model; with the emulator's valves too where
-/// the rest keeps them shut (a load that holds both chambers at the accumulator).
+/// drift below 1e-9 m over 10 s, for every motor model; and the emulator's equations (every
+/// effect, the end stops, the valves) where the rest keeps the valves shut (a load that holds
+/// both chambers at the accumulator).
 #[test]
 fn the_operating_point_holds_for_ten_seconds() {
     for sets in [
@@ -319,7 +317,7 @@ fn the_operating_point_holds_for_ten_seconds() {
     ] {
         let c = dual(sets);
         let x0 = c.operating_point().state[0];
-        let end = simulate(&c, |_| x0, 10.0, false);
+        let end = simulate(&c, |_| x0, 10.0);
         assert!(
             (end[0] - x0).abs() < 1e-9,
             "{sets:?}: drift {} m",
@@ -332,11 +330,12 @@ fn the_operating_point_holds_for_ten_seconds() {
         "external_force_n={}",
         rig.accumulator_precharge_bar * 1e5 * (si.a1 - si.a2)
     );
-    let c = dual(&[&balanced]);
+    let rig = dual_rig(&[balanced]);
+    let c = DualPump::emulated(&rig, Effects::all(0.02)).unwrap();
     let bulk = c.steady_bulk(0.0).unwrap();
     assert_eq!(bulk.valve_flow_m3_per_s, [0.0, 0.0]);
     let x0 = c.operating_point().state[0];
-    let end = simulate(&c, |_| x0, 10.0, true);
+    let end = simulate(&c, |_| x0, 10.0);
     assert!(
         (end[0] - x0).abs() < 1e-9,
         "with valves: drift {} m",

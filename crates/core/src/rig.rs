@@ -52,6 +52,7 @@
 //! # Ok::<(), pumpcyl::rig::RigError>(())
 //! ```
 
+use crate::circuit::dual_pump::balance::Balance;
 use crate::circuit::CircuitKind;
 use crate::input;
 use crate::units::{readable, PA_PER_BAR};
@@ -678,9 +679,8 @@ impl Rig {
     /// the chamber pressures, and they must lie above the vapour pressure
     /// (docs/model.md#cavitation).
     fn validate_dual_pump_rest(&self) -> Result<(), (&'static str, f64, String)> {
-        let circuit = crate::circuit::dual_pump::DualPump::new(self)
+        let op = (self.dual_pump_balance().steady(0.0))
             .map_err(|e| ("c12_m5_per_ns", self.c12_m5_per_ns, e.to_string()))?;
-        let op = circuit.rest();
         crate::cavitation::check_chambers(&[op.p1_pa / PA_PER_BAR, op.p2_pa / PA_PER_BAR]).map_err(
             |e| {
                 (
@@ -703,6 +703,20 @@ impl Rig {
                 readable(self.p_sum_ref_bar)
             )
         })
+    }
+
+    /// What the dual-pump circuit's steady flow and force balance depends on
+    /// (docs/circuits.md#operating-point).
+    pub fn dual_pump_balance(&self) -> Balance {
+        let si = self.si();
+        Balance {
+            areas_m2: [si.a1, si.a2],
+            displacements_m3: si.d,
+            leakage_m5_per_ns: [si.c1, si.c2, si.c12],
+            viscous_ns_per_m: si.b,
+            force_ext_n: si.f_ext,
+            p_acc_pa: self.accumulator_precharge_bar * PA_PER_BAR,
+        }
     }
 
     /// The `mass_by_position` rules: at most [`MAX_MASS_POINTS`] points, none or at least two,
