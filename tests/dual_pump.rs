@@ -426,3 +426,27 @@ fn a_dual_pump_rig_round_trips_and_names_only_its_own_defaults() {
         "{e}"
     );
 }
+
+/// Where the no-load rest of the leakage balance opens the check valves, the emulated circuit
+/// (every effect, the valves) started there settles where check valve 1 just feeds chamber 1:
+/// p1 between the accumulator less the valve's cracking pressure and less its full opening,
+/// p2 from the force balance (within the 15 N Coulomb friction), the piston near x0.
+#[test]
+fn the_emulated_unloaded_circuit_settles_on_its_check_valve() {
+    let rig = dual_rig(&[]);
+    let c = DualPump::emulated(&rig, Effects::all(0.02)).unwrap();
+    let x0 = c.operating_point().state[0];
+    let end = simulate(&c, |_| x0, 10.0);
+    let p_acc = rig.accumulator_precharge_bar * 1e5;
+    let valve = pumpcyl::circuit::valves::Valve::ANTI_CAVITATION;
+    let (p1, p2) = (end[2], end[3]);
+    assert!(
+        p1 < p_acc - valve.crack_pa && p1 > p_acc - valve.crack_pa - valve.open_range_pa,
+        "p1 {p1} Pa"
+    );
+    let si = rig.si();
+    assert!((p1 * si.a1 - p2 * si.a2).abs() < 20.0, "{p1} {p2}");
+    assert!((end[0] - x0).abs() < 5e-3, "x {} m off x0", end[0] - x0);
+    // and it is not the linear model's rest: chamber 1 is 2 bar above it
+    assert!(p1 - c.rest().p1_pa > 2e5);
+}
