@@ -26,8 +26,7 @@ use crate::model::Plant;
 use crate::rig::Rig;
 use serde::Serialize;
 
-/// Pure-oil bulk modulus of the article (bar).
-pub const BETA_OIL_BAR: f64 = 17_000.0;
+pub use crate::circuit::parts::BETA_OIL_BAR;
 
 /// Errors of the bulk-modulus model.
 #[derive(Debug, thiserror::Error)]
@@ -122,12 +121,7 @@ impl BetaReading {
 
 /// β_e at pressure `p_bar` for gas fraction `x` (bar).
 pub fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
-    effective_beta_of(x, p_bar, beta_oil_bar)
-}
-
-/// [`effective_beta`] over `f64` or a dual number (a circuit's equations).
-pub fn effective_beta_of<T: crate::circuit::Scalar>(x: f64, p_bar: T, beta_oil_bar: f64) -> T {
-    T::from(1.0) / (T::from(x) / p_bar + (1.0 - x) / beta_oil_bar)
+    crate::circuit::parts::effective_beta_of(x, p_bar, beta_oil_bar)
 }
 
 /// One row of the β_e(p) table with the rig's margins there.

@@ -303,8 +303,8 @@ impl Record {
     /// The mean chamber pressure (p1 + p2)/2 (bar gauge) at each sample, the pressure the
     /// gas-fraction model reads β_e at (docs/bulk-modulus.md); `None` without both pressures.
     pub fn mean_chamber_pressure_bar(&self) -> Option<Vec<f64>> {
-        let (p1, p2) = (self.p1_bar.as_ref()?, self.p2_bar.as_ref()?);
-        Some(p1.iter().zip(p2).map(|(a, b)| 0.5 * (a + b)).collect())
+        let (cap, rod) = (self.p1_bar.as_ref()?, self.p2_bar.as_ref()?);
+        Some(cap.iter().zip(rod).map(|(a, b)| 0.5 * (a + b)).collect())
     }
 
     /// The initial steady state of a signal (docs/simulation.md#deviations-and-the-baseline): the mean of the samples before the

@@ -151,26 +151,18 @@ pub struct StandingLoss {
     pub torque_nm: [f64; 2],
 }
 
-/// The standstill balance of `rig` at chamber pressures `p1_bar`, `p2_bar` (docs/select.md#cost):
-/// pump 1 moves oil from chamber 2 to chamber 1 against p1 − p2, pump 2 from the reservoir to
-/// chamber 1 against p1; at rest they deliver exactly the leakage,
-/// D1 ω1 = c12 (p1 − p2) − c2 p2 and D1 ω1 + D2 ω2 = c1 p1 + c12 (p1 − p2),
-/// and the power lost is c1 p1² + c2 p2² + c12 (p1 − p2)², which equals the pumps' hydraulic
-/// power (p1 − p2) D1 ω1 + p1 D2 ω2.
-pub fn standing_loss(rig: &Rig, p1_bar: f64, p2_bar: f64) -> StandingLoss {
-    let si = rig.si();
-    let (p1, p2) = (p1_bar * 1e5, p2_bar * 1e5);
-    let q1 = rig.c12_m5_per_ns * (p1 - p2) - rig.c2_m5_per_ns * p2;
-    let q2 = rig.c1_m5_per_ns * p1 + rig.c12_m5_per_ns * (p1 - p2) - q1;
-    let power_w = rig.c1_m5_per_ns * p1 * p1
-        + rig.c2_m5_per_ns * p2 * p2
-        + rig.c12_m5_per_ns * (p1 - p2) * (p1 - p2);
+/// The standstill balance of `rig` at the chamber pressures `p_bar` (bar gauge; the circuit's
+/// [`crate::circuit::Dpm::standstill_balance`], docs/select.md#cost).
+pub fn standing_loss(rig: &Rig, p_bar: [f64; 2]) -> StandingLoss {
+    let circuit = crate::circuit::Dpm::linear(rig);
+    let b = circuit.standstill_balance(p_bar.map(|p| p * 1e5));
+    let d = circuit.si().d;
     let rpm = |q: f64, d: f64| q / d * 60.0 / (2.0 * PI);
     StandingLoss {
-        p_bar: [p1_bar, p2_bar],
-        power_w,
-        speed_rpm: [rpm(q1, si.d[0]), rpm(q2, si.d[1])],
-        torque_nm: [si.d[0] * (p1 - p2), si.d[1] * p1],
+        p_bar,
+        power_w: b.power_w,
+        speed_rpm: [0, 1].map(|k| rpm(b.flow_m3_s[k], d[k])),
+        torque_nm: b.torque_nm,
     }
 }
 
@@ -560,7 +552,7 @@ fn standstill(rig: &Rig, req: &Requirement, p_bar: f64) -> Result<[StandingLoss;
     for (f, p) in req.external_force_n.iter().zip(&pressures) {
         check_chambers(p).map_err(|e| format!("at an external force of {f} N: {e}"))?;
     }
-    Ok(pressures.map(|[p1, p2]| standing_loss(rig, p1, p2)))
+    Ok(pressures.map(|p| standing_loss(rig, p)))
 }
 
 /// Whether `req` holds at gain `kp` over the rigs `ends` and the loads, `kp_allowed` being the
@@ -678,10 +670,11 @@ fn response_band(req: &Requirement, ends: &[&Rig], kp: f64) -> Result<Band, Desi
 fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
     standing.iter().find_map(|s| {
         let o = crate::response::over_ratings(rig, s.speed_rpm, s.torque_nm);
-        let [p1, p2] = s.p_bar;
         Some(format!(
-            "{}, to hold p1 {p1:.1} / p2 {p2:.1} bar at standstill",
-            o.first()?
+            "{}, to hold p1 {:.1} / p2 {:.1} bar at standstill",
+            o.first()?,
+            s.p_bar[0],
+            s.p_bar[1]
         ))
     })
 }
@@ -1506,7 +1499,7 @@ mod tests {
         let rig = Rig::default();
         let [p1, p2] = chamber_pressures(&rig, 0.5 * (3.95 + 3.95 * 3117.2453 / 2099.4), 0.0);
         assert!((p1 - 3.95).abs() < 1e-3, "{p1}");
-        let s = standing_loss(&rig, p1, p2);
+        let s = standing_loss(&rig, [p1, p2]);
         let (pa1, pa2) = (p1 * 1e5, p2 * 1e5);
         // by hand: c1 p1² + c2 p2² + c12 (p1 − p2)²
         let by_hand = 5.49e-11 * pa1 * pa1 + -1.19e-11 * pa2 * pa2 + 1.2e-10 * (pa1 - pa2).powi(2);

@@ -15,12 +15,12 @@
 use super::parts::{
     Chamber, Drive, Effects, FirstOrderMotor, Fluid, MassLaw, Piston, Pump, Volume,
 };
+use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
-use crate::emulator::Stops;
-use crate::ident::{IdentError, Leakage, Standstill};
 use crate::rig::{MotorModel, Rig, RigSi};
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
 
 /// Positions of the states in the state vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -311,24 +311,24 @@ impl Dpm {
         rig: &Rig,
         s: &Standstill,
         c12: f64,
-    ) -> Result<Leakage, IdentError> {
+    ) -> Result<Leakage, String> {
         let si = &self.si;
         let p1 = s.p1_bar * PA_PER_BAR;
         let p2 = rig.p2_at_rest_bar(s.p1_bar) * PA_PER_BAR;
         // the steady state must be one the circuit can hold (docs/model.md#cavitation)
         crate::cavitation::check_chambers(&[s.p1_bar, p2 / PA_PER_BAR]).map_err(|e| {
-            IdentError::Input(format!(
+            format!(
                 "standstill p1_bar = {} with external force {} N: the force balance puts {e}",
                 s.p1_bar, si.f_ext
-            ))
+            )
         })?;
         if p2 <= 0.0 {
-            return Err(IdentError::Input(format!(
+            return Err(format!(
                 "standstill p1_bar = {} with external force {} N gives p2 = {:.3} bar <= 0",
                 s.p1_bar,
                 si.f_ext,
                 p2 / PA_PER_BAR
-            )));
+            ));
         }
         let (w1, w2) = (s.w1_rpm * RAD_S_PER_RPM, s.w2_rpm * RAD_S_PER_RPM);
         let cross = c12 * (p1 - p2);
@@ -338,6 +338,70 @@ impl Dpm {
             c1_m5_per_ns: (si.d[0] * w1 + si.d[1] * w2 - cross) / p1,
             c2_m5_per_ns: (-si.d[0] * w1 + cross) / p2,
         })
+    }
+}
+
+/// A standstill operating point held under feedback: pump speeds feeding the leakage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Standstill {
+    /// Motor/pump 1 speed (rpm); negative: turning backwards.
+    pub w1_rpm: f64,
+    /// Motor/pump 2 speed (rpm).
+    pub w2_rpm: f64,
+    /// Chamber 1 pressure (bar gauge).
+    pub p1_bar: f64,
+}
+
+/// The leakages that hold a standstill point for a given cross-port leakage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Leakage {
+    /// Chamber 2 pressure from the force balance p1 A1 − p2 A2 = F_ext (bar gauge).
+    pub p2_bar: f64,
+    /// Cross-port leakage used (m⁵/(N·s)).
+    pub c12_m5_per_ns: f64,
+    /// Chamber 1 leakage (m⁵/(N·s)).
+    pub c1_m5_per_ns: f64,
+    /// Chamber 2 leakage (m⁵/(N·s)); negative values absorb a pump null shift.
+    pub c2_m5_per_ns: f64,
+}
+
+/// The standstill balance at one pressure pair: the flows the pumps deliver to feed the
+/// leakage, the power that leakage loses and the torques that hold the pressures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Balance {
+    /// Pump flows, pumps 1 and 2 (m³/s).
+    pub flow_m3_s: [f64; 2],
+    /// Hydraulic power lost to leakage, Σ p × Q (W).
+    pub power_w: f64,
+    /// Motor torques that hold the pressures, motors 1 and 2 (N·m).
+    pub torque_nm: [f64; 2],
+}
+
+impl Dpm {
+    /// The load torques of the pumps on motors 1 and 2 (N·m) at the chamber pressures `p_pa`
+    /// (Pa gauge): pump 1 moves oil from chamber 2 to chamber 1, D1 (p1 − p2); pump 2 from the
+    /// reservoir to chamber 1, D2 p1 (docs/model.md).
+    pub fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
+        let (d, [p1, p2]) = (self.si.d, p_pa);
+        [d[0] * (p1 - p2), d[1] * p1]
+    }
+
+    /// The standstill balance at the chamber pressures `p_pa` (Pa gauge; docs/select.md#cost):
+    /// pump 1 moves oil from chamber 2 to chamber 1 against p1 − p2, pump 2 from the reservoir
+    /// to chamber 1 against p1; at rest they deliver exactly the leakage,
+    /// D1 ω1 = c12 (p1 − p2) − c2 p2 and D1 ω1 + D2 ω2 = c1 p1 + c12 (p1 − p2),
+    /// and the power lost is c1 p1² + c2 p2² + c12 (p1 − p2)², which equals the pumps'
+    /// hydraulic power (p1 − p2) D1 ω1 + p1 D2 ω2.
+    pub fn standstill_balance(&self, p_pa: [f64; 2]) -> Balance {
+        let (si, [p1, p2]) = (&self.si, p_pa);
+        let q1 = si.c12 * (p1 - p2) - si.c2 * p2;
+        let q2 = si.c1 * p1 + si.c12 * (p1 - p2) - q1;
+        Balance {
+            flow_m3_s: [q1, q2],
+            power_w: si.c1 * p1 * p1 + si.c2 * p2 * p2 + si.c12 * (p1 - p2) * (p1 - p2),
+            torque_nm: self.load_torques_nm(p_pa),
+        }
     }
 }
 

@@ -14,6 +14,7 @@
 pub mod dpm;
 pub mod dual_pump;
 pub mod parts;
+pub mod stops;
 pub mod valves;
 
 pub use dpm::Dpm;

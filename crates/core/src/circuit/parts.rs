@@ -7,13 +7,14 @@
 //! each part is the ideal one the linear model of the article §2.3.1 (Figure 4) is made of, so
 //! the exact Jacobian of a circuit's equations is that model.
 
+use super::stops::Stops;
 use super::Scalar;
-use crate::bulk::effective_beta_of;
-use crate::emulator::Stops;
 use crate::units::PA_PER_BAR;
 
 /// Absolute pressure of a gauge pressure of 0 (Pa): the cavitation floor is −1 bar gauge.
 pub const ATMOSPHERE_PA: f64 = 1e5;
+/// Pure-oil bulk modulus of the article (bar).
+pub const BETA_OIL_BAR: f64 = 17_000.0;
 /// Velocity scale of the smooth Coulomb friction sign (m/s).
 pub const COULOMB_SMOOTHING_M_S: f64 = 1e-3;
 
@@ -50,7 +51,7 @@ impl Effects {
         Effects {
             varying_volumes: false,
             gas_fraction: None,
-            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
+            beta_oil_bar: BETA_OIL_BAR,
             peak_torque_factor: None,
             pump_speed_limit: false,
             dead_band_rad_s: 0.0,
@@ -69,7 +70,7 @@ impl Effects {
         Effects {
             varying_volumes: true,
             gas_fraction: Some(x),
-            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
+            beta_oil_bar: BETA_OIL_BAR,
             peak_torque_factor: Some(3.0),
             pump_speed_limit: true,
             dead_band_rad_s: 60.0 * crate::units::RAD_S_PER_RPM,
@@ -361,6 +362,12 @@ impl FirstOrderMotor {
     pub fn acceleration<T: Scalar>(&self, u: T, w: T) -> T {
         (u - w) / self.tau_s
     }
+}
+
+/// β_e (bar) of the constant gas-fraction law at pressure `p_bar` for gas fraction `x`
+/// (docs/bulk-modulus.md#the-constant-gas-fraction-model), over `f64` or a dual number.
+pub fn effective_beta_of<T: Scalar>(x: f64, p_bar: T, beta_oil_bar: f64) -> T {
+    T::from(1.0) / (T::from(x) / p_bar + (1.0 - x) / beta_oil_bar)
 }
 
 /// The moving mass along the stroke, relative to its value at x0: the rig's

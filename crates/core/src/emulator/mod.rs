@@ -10,14 +10,13 @@
 pub mod article;
 mod experiment;
 mod plc;
-mod stops;
 
+pub use crate::circuit::stops::{End, EndStopHit, Stops, CONTACT_DAMPING, CONTACT_RAD_S};
 pub use experiment::{
     DriveSignals, DriveStep, Experiment, DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ, RECORD_S,
     SETTLE_S, SINE_PERIODS, STEP_MM,
 };
 pub use plc::{emulate, equilibrium, hold_speeds, Emulation, Plc, PlcLoop};
-pub use stops::{End, EndStopHit, Stops, CONTACT_DAMPING, CONTACT_RAD_S};
 
 /// Why the emulator cannot run: a rig or experiment it does not model (a first-order motor, a
 /// drive that does not exist, a bulk modulus beyond the oil's own), a loop that cannot rest at

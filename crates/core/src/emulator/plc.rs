@@ -296,7 +296,9 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emula
     let free = d.without_limits();
     let x = steady_state(rig, &free, r_mm)?;
     if let Some(stops) = d.circuit().stops() {
-        stops.check_rest(x[d.at.position], r_mm)?;
+        stops
+            .check_rest(x[d.at.position], r_mm)
+            .map_err(EmulatorError)?;
     }
     let mut f = vec![0.0; x.len()];
     let m = measure(&x, d, &Plc::ideal(1.0), &mut Noise::new(1));

@@ -7,32 +7,8 @@ const MAX_SPEED_RPM: f64 = 1e6;
 /// The largest standstill pressure accepted (bar): far above any hydraulic system.
 const MAX_PRESSURE_BAR: f64 = 1e4;
 use crate::rig::Rig;
-use serde::{Deserialize, Serialize};
 
-/// A standstill operating point held under feedback: pump speeds feeding the leakage.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Standstill {
-    /// Motor/pump 1 speed (rpm); negative: turning backwards.
-    pub w1_rpm: f64,
-    /// Motor/pump 2 speed (rpm).
-    pub w2_rpm: f64,
-    /// Chamber 1 pressure (bar gauge).
-    pub p1_bar: f64,
-}
-
-/// The leakages that hold a standstill point for a given cross-port leakage.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Leakage {
-    /// Chamber 2 pressure from the force balance p1 A1 − p2 A2 = F_ext (bar gauge).
-    pub p2_bar: f64,
-    /// Cross-port leakage used (m⁵/(N·s)).
-    pub c12_m5_per_ns: f64,
-    /// Chamber 1 leakage (m⁵/(N·s)).
-    pub c1_m5_per_ns: f64,
-    /// Chamber 2 leakage (m⁵/(N·s)); negative values absorb a pump null shift.
-    pub c2_m5_per_ns: f64,
-}
+pub use crate::circuit::dpm::{Leakage, Standstill};
 
 impl Standstill {
     /// The mean speeds and chamber 1 pressure of a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
@@ -96,7 +72,9 @@ impl Standstill {
     /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
-        crate::circuit::Dpm::linear(rig).standstill_leakage(rig, self, c12)
+        crate::circuit::Dpm::linear(rig)
+            .standstill_leakage(rig, self, c12)
+            .map_err(IdentError::Input)
     }
 }
 

@@ -95,13 +95,7 @@ type Peak = (f64, Option<f64>);
 /// from the reservoir to chamber 1, D2 p1 (docs/model.md). The torque that accelerates the
 /// drive's own inertia is not in it.
 pub fn load_torques_nm(rig: &Rig, p1_bar: f64, p2_bar: f64) -> [f64; 2] {
-    torques(rig.si().d, p1_bar, p2_bar)
-}
-
-/// [`load_torques_nm`] for the displacements `d` (m³/rad).
-fn torques(d: [f64; 2], p1_bar: f64, p2_bar: f64) -> [f64; 2] {
-    let (p1, p2) = (p1_bar * PA_PER_BAR, p2_bar * PA_PER_BAR);
-    [d[0] * (p1 - p2), d[1] * p1]
+    crate::circuit::Dpm::linear(rig).load_torques_nm([p1_bar, p2_bar].map(|p| p * PA_PER_BAR))
 }
 
 /// Every rating of `rig` the drive speeds `speed_rpm` and load torques `torque_nm` of motors 1
@@ -116,7 +110,7 @@ pub fn over_ratings(rig: &Rig, speed_rpm: [f64; 2], torque_nm: [f64; 2]) -> Vec<
 /// |w1_rpm|, |w2_rpm| and load torques ([`load_torques_nm`] of p1_bar, p2_bar), each with its
 /// time. Signals a record lacks (empty) are not checked.
 pub fn signals_over_ratings(rig: &Rig, s: &Signals) -> Vec<OverRating> {
-    let (n, d) = (s.time_s.len(), rig.si().d);
+    let (n, circuit) = (s.time_s.len(), crate::circuit::Dpm::linear(rig));
     let speed = [&s.w1_rpm, &s.w2_rpm].map(|w| peak(w.iter().copied(), &s.time_s));
     let pressures = s.p1_bar.len() == n && s.p2_bar.len() == n;
     let torque = [0, 1].map(|k| {
@@ -125,7 +119,7 @@ pub fn signals_over_ratings(rig: &Rig, s: &Signals) -> Vec<OverRating> {
             .iter()
             .zip(&s.p2_bar)
             .filter(|_| pressures)
-            .map(|(p1, p2)| torques(d, *p1, *p2)[k]);
+            .map(|(a, b)| circuit.load_torques_nm([*a, *b].map(|p| p * PA_PER_BAR))[k]);
         peak(t, &s.time_s)
     });
     check(rig, speed, torque)

@@ -67,7 +67,7 @@ impl Stops {
 
     /// The force of the stops on the piston at `x_m`, `v_m_s` (N, positive extending): zero
     /// inside the stroke, a push back into it beyond an end.
-    pub fn force_n<T: crate::circuit::Scalar>(&self, x_m: T, v_m_s: T) -> T {
+    pub fn force_n<T: super::Scalar>(&self, x_m: T, v_m_s: T) -> T {
         let (k, c) = (self.stiffness_n_per_m, self.damping_ns_per_m);
         let push = |f: T| if f.re() >= 0.0 { f } else { T::from(0.0) };
         if x_m < 0.0 {
@@ -91,17 +91,17 @@ impl Stops {
     }
 
     /// Refuse a rest at `x_m` outside the stroke, for the reference `r_mm`.
-    pub(crate) fn check_rest(&self, x_m: f64, r_mm: f64) -> Result<(), super::EmulatorError> {
+    pub(crate) fn check_rest(&self, x_m: f64, r_mm: f64) -> Result<(), String> {
         if x_m > 0.0 && x_m < self.stroke_m {
             return Ok(());
         }
-        Err(super::EmulatorError(format!(
+        Err(format!(
             "the emulated loop cannot rest at x_ref = {r_mm} mm: its rest is at x = {:.0} mm, \
              outside the stroke 0…{} mm (the position gain kp is too small to feed the leakage \
              from a position error inside the stroke)",
             x_m * 1e3,
             self.stroke_m * 1e3
-        )))
+        ))
     }
 }
 
