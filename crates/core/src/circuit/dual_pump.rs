@@ -43,10 +43,10 @@ pub use balance::{SteadyMotion, Undetermined};
 use super::parts::{
     Chamber, Drive, Effects, FirstOrderMotor, Fluid, MassLaw, Piston, Pump, Volume,
 };
+use super::stops::Stops;
 use super::valves::Valves;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
 use crate::bulk;
-use crate::emulator::Stops;
 use crate::rig::{MotorModel, Rig};
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use balance::Balance;
