@@ -42,6 +42,8 @@ class Rig:
         """Commented TOML (what ``pumpcyl rig`` prints), readable by :meth:`from_toml`."""
     def __dir__(self) -> List[str]:
         """The methods and every key."""
+    # circuit (docs/circuits.md): the other circuit's keys may not be set
+    circuit: Literal["dpm", "dual-pump"]
     # geometry
     piston_diameter_mm: float
     rod_diameter_mm: float
@@ -74,6 +76,8 @@ class Rig:
     beta_bar: float
     viscous_friction_ns_per_m: float
     c12_m5_per_ns: float
+    # dual-pump circuit only
+    accumulator_precharge_bar: float
     c1_m5_per_ns: float
     c2_m5_per_ns: float
     # controller

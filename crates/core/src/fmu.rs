@@ -130,8 +130,7 @@ impl Config {
     pub fn from_toml(text: &str) -> Result<Config, FmuError> {
         let c: Config =
             toml::from_str(text).map_err(|e| FmuError(format!("{CONFIG_FILE}: {e}")))?;
-        let rig_text = toml::to_string(&c.rig).map_err(|e| FmuError(e.to_string()))?;
-        Rig::from_toml_str(&rig_text, CONFIG_FILE).map_err(|e| FmuError(e.to_string()))?;
+        Rig::from_toml_str(&c.rig.to_toml(), CONFIG_FILE).map_err(|e| FmuError(e.to_string()))?;
         Ok(c)
     }
 
@@ -328,6 +327,7 @@ pub fn variables(c: &Config) -> Vec<Variable> {
 fn parameters(rig: &Rig) -> Vec<Variable> {
     let table = toml::Table::try_from(rig).expect("a rig always serialises");
     Rig::key_docs()
+        .filter(|(key, _)| rig.has_key(key))
         .filter_map(|(key, doc)| {
             let start = match table.get(key)? {
                 toml::Value::Float(v) => Value::Real(*v),
@@ -667,7 +667,9 @@ impl Instance {
             return Err(FmuError("the emulator needs motor_model = \"full\"".into()));
         }
         let variables = variables(&config);
-        let parameters = toml::Table::try_from(&config.rig).map_err(|e| FmuError(e.to_string()))?;
+        let mut parameters =
+            toml::Table::try_from(&config.rig).map_err(|e| FmuError(e.to_string()))?;
+        parameters.retain(|key, _| config.rig.has_key(key));
         let inputs = input_start(&config);
         Ok(Instance {
             config,

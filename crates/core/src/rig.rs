@@ -52,6 +52,8 @@
 //! # Ok::<(), pumpcyl::rig::RigError>(())
 //! ```
 
+use crate::circuit::dual_pump::balance::Balance;
+use crate::circuit::CircuitKind;
 use crate::input;
 use crate::units::{readable, PA_PER_BAR};
 use serde::{Deserialize, Serialize};
@@ -114,6 +116,20 @@ pub enum RigError {
         /// What is wrong.
         message: String,
     },
+    /// A key the rig's circuit does not have, set explicitly (docs/circuits.md).
+    #[error("{source_name}: {}key `{key}`: the {} circuit has no such key (it belongs to the {} circuit; docs/circuits.md)", line.map_or(String::new(), |l| format!("line {l}, ")), circuit.name(), owner.name())]
+    NotInCircuit {
+        /// Where the rig came from (file name, `--set`).
+        source_name: String,
+        /// The line of the key in the file, when it is written there.
+        line: Option<usize>,
+        /// The key.
+        key: &'static str,
+        /// The rig's circuit.
+        circuit: CircuitKind,
+        /// The circuit the key belongs to.
+        owner: CircuitKind,
+    },
     /// A value outside its physical range.
     #[error("{source_name}: {}key `{key}` = {}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")), readable(*value))]
     Invalid {
@@ -172,6 +188,34 @@ pub const ARTICLE_MASS_BY_POSITION: [MassPoint; 3] = [
     },
 ];
 
+/// The article-valued rig's accumulator pre-charge (bar gauge): with it the dual-pump circuit
+/// on the article's values rests at the DPM's rest pressures, p1 + p2 = 10 bar split by the force
+/// balance (docs/circuits.md#the-default-pre-charge).
+pub const ACCUMULATOR_PRECHARGE_BAR: f64 = 6.91;
+
+/// Keys only the DPM has: its second drive and its sum-pressure loop (docs/circuits.md).
+const DPM_ONLY_KEYS: [&str; 6] = [
+    "motor_inertia_2_kg_mm2",
+    "km2_nms_per_rad",
+    "p_sum_ref_bar",
+    "k_pres_per_bar",
+    "k_beta",
+    "sum_pressure",
+];
+
+/// Keys only the dual-pump circuit has (docs/circuits.md).
+const DUAL_PUMP_ONLY_KEYS: [&str; 1] = ["accumulator_precharge_bar"];
+
+/// `key` and the circuit it belongs to when `circuit` does not have it; `None` for a key of
+/// `circuit` (or of every circuit).
+fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, CircuitKind)> {
+    let (others, owner): (&[&'static str], _) = match circuit {
+        CircuitKind::Dpm => (&DUAL_PUMP_ONLY_KEYS, CircuitKind::DualPump),
+        CircuitKind::DualPump => (&DPM_ONLY_KEYS, CircuitKind::Dpm),
+    };
+    others.iter().find(|k| **k == key).map(|k| (*k, owner))
+}
+
 /// Most points a `mass_by_position` table may hold.
 pub const MAX_MASS_POINTS: usize = 1000;
 
@@ -181,6 +225,9 @@ pub const MAX_MASS_POINTS: usize = 1000;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default = "Rig::file_default")]
 pub struct Rig {
+    /// The hydraulic circuit: the article's dual-prime-mover circuit (`dpm`, the default) or
+    /// one motor turning two pumps (`dual-pump`, the article's Figure 1b; docs/circuits.md).
+    pub circuit: CircuitKind,
     /// Piston diameter d1 (mm).
     pub piston_diameter_mm: f64,
     /// Rod diameter d2 (mm).
@@ -236,6 +283,10 @@ pub struct Rig {
     pub viscous_friction_ns_per_m: f64,
     /// Cross-port leakage c12 (m⁵/(N·s)).
     pub c12_m5_per_ns: f64,
+    /// Accumulator pre-charge p_acc (bar gauge): the pressure of the accumulator line, which sets
+    /// the pressure level of the dual-pump circuit (docs/circuits.md#operating-point). Not a key
+    /// of the DPM, whose sum-pressure loop sets its level.
+    pub accumulator_precharge_bar: f64,
     /// Chamber 1 leakage c1 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
     pub c1_m5_per_ns: f64,
     /// Chamber 2 leakage c2 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
@@ -272,6 +323,7 @@ impl Default for Rig {
     /// The article's rig (the article §2.3.4; docs/formats.md#rig-toml).
     fn default() -> Self {
         Rig {
+            circuit: CircuitKind::Dpm,
             piston_diameter_mm: 63.0,
             rod_diameter_mm: 36.0,
             line_volume_1_dm3: 0.1272,
@@ -297,6 +349,7 @@ impl Default for Rig {
             beta_bar: 165.0,
             viscous_friction_ns_per_m: 100.0,
             c12_m5_per_ns: 1.2e-10,
+            accumulator_precharge_bar: ACCUMULATOR_PRECHARGE_BAR,
             c1_m5_per_ns: 5.49e-11,
             c2_m5_per_ns: -1.19e-11,
             kp: 25.0,
@@ -402,7 +455,7 @@ impl RigFile {
     /// assert_eq!(file.note("a.toml", &[]), None);
     /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
     /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
-    /// assert!(note.starts_with("b.toml does not set 34 keys; they take the article rig's values: "));
+    /// assert!(note.starts_with("b.toml does not set 35 keys; they take the article rig's values: "));
     /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
     /// assert!(!note.contains("beta_bar"));
     /// # Ok::<(), pumpcyl::rig::RigError>(())
@@ -473,16 +526,23 @@ impl Rig {
             file: name.to_string(),
             message: input::toml_error(&e, text),
         })?;
-        rig.validate(name).map_err(|mut e| {
-            if let RigError::Invalid { line, key, .. } = &mut e {
-                *line = input::toml_line(text, &[input::Key::Name(key)]);
-            }
-            e
-        })?;
         let written = toml::from_str::<toml::Table>(text).unwrap_or_default();
+        let set: Vec<&str> = written.keys().map(String::as_str).collect();
+        rig.check_circuit_keys(name, &set)
+            .and_then(|()| rig.validate(name))
+            .map_err(|mut e| {
+                if let RigError::Invalid { line, key, .. }
+                | RigError::NotInCircuit { line, key, .. } = &mut e
+                {
+                    *line = input::toml_line(text, &[input::Key::Name(key)]);
+                }
+                e
+            })?;
+        // the keys of another circuit take no part in this one
         let defaulted = Rig::key_docs()
             .map(|(key, _)| key)
-            .filter(|key| *key != "motor_time_constant_s" && !written.contains_key(*key))
+            .filter(|key| *key != "motor_time_constant_s")
+            .filter(|key| foreign_key(rig.circuit, key).is_none() && !written.contains_key(*key))
             .collect();
         Ok(RigFile { rig, defaulted })
     }
@@ -532,9 +592,11 @@ impl Rig {
             return Ok(self.clone());
         }
         let mut table = toml::Table::try_from(self).expect("a rig always serialises");
+        let mut set = Vec::new();
         for assignment in assignments {
             let (key, value) = parse_assignment(source_name, assignment, &table)?;
-            table.insert(key, value);
+            table.insert(key.clone(), value);
+            set.push(key);
         }
         let rig: Rig = table
             .try_into()
@@ -544,8 +606,31 @@ impl Rig {
                     .into_owned(),
                 message: e.to_string().trim_end().to_string(),
             })?;
+        let set: Vec<&str> = set.iter().map(String::as_str).collect();
+        rig.check_circuit_keys(source_name, &set)?;
         rig.validate(source_name)?;
         Ok(rig)
+    }
+
+    /// Whether the rig's circuit has `key` (every key but those of the other circuits,
+    /// docs/circuits.md).
+    pub fn has_key(&self, key: &str) -> bool {
+        foreign_key(self.circuit, key).is_none()
+    }
+
+    /// Refuse a key of `set` (the keys a file or the overrides write) that the rig's circuit
+    /// does not have: it would be silently ignored otherwise (docs/circuits.md).
+    fn check_circuit_keys(&self, source_name: &str, set: &[&str]) -> Result<(), RigError> {
+        match set.iter().find_map(|k| foreign_key(self.circuit, k)) {
+            None => Ok(()),
+            Some((key, owner)) => Err(RigError::NotInCircuit {
+                source_name: source_name.to_string(),
+                line: None,
+                key,
+                circuit: self.circuit,
+                owner,
+            }),
+        }
     }
 
     /// Check every value against its physical range (the article §2.3.4; docs/formats.md#rig-toml); the error names the key.
@@ -581,8 +666,31 @@ impl Rig {
         }
         self.validate_mass_table()
             .map_err(|(value, rule)| invalid("mass_by_position", value, rule))?;
-        self.validate_rest()
-            .map_err(|rule| invalid("external_force_n", self.external_force_n, rule))
+        match self.circuit {
+            CircuitKind::Dpm => self
+                .validate_rest()
+                .map_err(|rule| invalid("external_force_n", self.external_force_n, rule)),
+            CircuitKind::DualPump => self
+                .validate_dual_pump_rest()
+                .map_err(|(key, value, rule)| invalid(key, value, rule)),
+        }
+    }
+
+    /// The dual-pump circuit's rest (docs/circuits.md#operating-point): its leakage must fix
+    /// the chamber pressures, and they must lie above the vapour pressure
+    /// (docs/model.md#cavitation).
+    fn validate_dual_pump_rest(&self) -> Result<(), (&'static str, f64, String)> {
+        let op = (self.dual_pump_balance().steady(0.0))
+            .map_err(|e| ("c12_m5_per_ns", self.c12_m5_per_ns, e.to_string()))?;
+        crate::cavitation::check_chambers(&[op.p1_pa / PA_PER_BAR, op.p2_pa / PA_PER_BAR]).map_err(
+            |e| {
+                (
+                    "accumulator_precharge_bar",
+                    self.accumulator_precharge_bar,
+                    format!("the dual-pump circuit's rest needs {e}"),
+                )
+            },
+        )
     }
 
     /// The operating point at rest must be a state the circuit can hold: the sum-pressure
@@ -596,6 +704,20 @@ impl Rig {
                 readable(self.p_sum_ref_bar)
             )
         })
+    }
+
+    /// What the dual-pump circuit's steady flow and force balance depends on
+    /// (docs/circuits.md#operating-point).
+    pub fn dual_pump_balance(&self) -> Balance {
+        let si = self.si();
+        Balance {
+            areas_m2: [si.a1, si.a2],
+            displacements_m3: si.d,
+            leakage_m5_per_ns: [si.c1, si.c2, si.c12],
+            viscous_ns_per_m: si.b,
+            force_ext_n: si.f_ext,
+            p_acc_pa: self.accumulator_precharge_bar * PA_PER_BAR,
+        }
     }
 
     /// The `mass_by_position` rules: at most [`MAX_MASS_POINTS`] points, none or at least two,
@@ -795,6 +917,11 @@ impl Rig {
                 NonNegative(1e9),
             ),
             ("c12_m5_per_ns", self.c12_m5_per_ns, NonNegative(1e-6)),
+            (
+                "accumulator_precharge_bar",
+                self.accumulator_precharge_bar,
+                Positive(0.001, 1e4),
+            ),
             ("c1_m5_per_ns", self.c1_m5_per_ns, Any(1e-6)),
             ("c2_m5_per_ns", self.c2_m5_per_ns, Any(1e-6)),
             ("kp", self.kp, Positive(1e-6, 1e6)),
@@ -887,6 +1014,14 @@ impl Rig {
         }
     }
 
+    /// The rig as plain TOML, the keys of its circuit only: what [`Rig::from_toml_str`] reads
+    /// back to the same rig.
+    pub fn to_toml(&self) -> String {
+        let mut table = toml::Table::try_from(self).expect("a rig always serialises");
+        table.retain(|key, _| self.has_key(key));
+        toml::to_string(&table).expect("a table always serialises")
+    }
+
     /// The rig as TOML with a comment per key giving unit and meaning, ready to edit.
     pub fn to_commented_toml(&self) -> String {
         let table = toml::Table::try_from(self).expect("a rig always serialises");
@@ -898,11 +1033,17 @@ impl Rig {
         for (section, keys) in KEY_DOCS {
             out.push_str(&format!("\n# --- {section} ---\n"));
             for (key, doc) in *keys {
-                match table.get(*key) {
-                    Some(value) => {
+                match (table.get(*key), foreign_key(self.circuit, key)) {
+                    (Some(value), None) => {
                         out.push_str(&format!("{key} = {}  # {doc}\n", toml_text(value)))
                     }
-                    None => out.push_str(&format!("# {key} = 0.05  # {doc}\n")),
+                    // a key of another circuit may not be set: shown, commented out
+                    (Some(value), Some((_, owner))) => out.push_str(&format!(
+                        "# {key} = {}  # {doc} ({} circuit only)\n",
+                        toml_text(value),
+                        owner.name()
+                    )),
+                    (None, _) => out.push_str(&format!("# {key} = 0.05  # {doc}\n")),
                 }
             }
         }
@@ -1004,6 +1145,13 @@ fn parse_assignment(
 /// listed (a test checks it).
 const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
     (
+        "circuit",
+        &[(
+            "circuit",
+            "\"dpm\" (the article's dual-prime-mover circuit) or \"dual-pump\" (one motor, two pumps: the article's Figure 1b); docs/circuits.md",
+        )],
+    ),
+    (
         "geometry",
         &[
             ("piston_diameter_mm", "mm, piston diameter d1"),
@@ -1086,6 +1234,10 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("beta_bar", "bar, effective bulk modulus"),
             ("viscous_friction_ns_per_m", "N·s/m, viscous friction"),
             ("c12_m5_per_ns", "m⁵/(N·s), cross-port leakage"),
+            (
+                "accumulator_precharge_bar",
+                "bar, accumulator pre-charge p_acc: the dual-pump circuit's pressure level",
+            ),
             (
                 "c1_m5_per_ns",
                 "m⁵/(N·s), chamber 1 leakage (may be negative: pump null shift)",

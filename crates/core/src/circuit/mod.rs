@@ -13,8 +13,10 @@
 
 mod any;
 pub mod dpm;
+pub mod dual_pump;
 pub mod parts;
 pub mod stops;
+pub mod valves;
 
 pub use any::AnyCircuit;
 pub use dpm::Dpm;

@@ -1,0 +1,514 @@
+//! The single-motor dual-pump circuit of the article's Figure 1b (docs/circuits.md#dual-pump):
+//! one servo motor and its drive turn both pumps on one shaft. Pump 1 (D1) moves oil from
+//! chamber 2 into chamber 1 for positive speed, pump 2 (D2) from the accumulator into chamber 1.
+//! The accumulator's pre-charge p_acc sets the pressure level; no loop controls it (the
+//! article §2.1 names the "unpredictable pressure phenomena" of this circuit as the reason the
+//! DPM was built instead: [`DualPump::steady_motion`] predicts them).
+//!
+//! States (SI): `x` (m), `v` (m/s), `p1`, `p2` (Pa gauge), `w` (rad/s, the shaft), then for the
+//! full motor model `tau` (N·m) and, with feedforward on, `z` (rad/s); the input is the drive's
+//! speed command `w_ref` (rad/s). Equations (docs/circuits.md#equations):
+//!
+//! - m v̇ = p1 A1 − p2 A2 − F_ext − b v
+//! - V1/β ṗ1 = (D1 + D2) ω − A1 v − c1 (p1 − p_acc) − c12 (p1 − p2)
+//! - V2/β ṗ2 = −D1 ω + A2 v − c2 (p2 − p_acc) + c12 (p1 − p2)
+//! - J ω̇ = τ − D1 (p1 − p2) − D2 (p1 − p_acc),  J = Jm1 + Jp1 + Jp2
+//! - τ̇ = ωI (Km1 (ω_ref − ω) + (Kff/τff)(ω_ref − z) − τ),  τff ż = ω_ref − z
+//!
+//! and the control law ω_ref = K_scale Kp (x_ref − x). The equations are built from the parts
+//! every circuit shares ([`super::parts`]): [`DualPump::new`] is the ideal circuit whose
+//! Jacobian is the linear model (volumes at x0, constant β), [`DualPump::emulated`] the one the
+//! emulator integrates (the parts' effects, the end stops, and the check and relief valves of
+//! [`super::valves`]).
+//!
+//! ```
+//! use pumpcyl::circuit::{dual_pump::DualPump, linearise, Circuit};
+//! use pumpcyl::rig::Rig;
+//!
+//! let rig = Rig::default().with_overrides(&["circuit=dual-pump".into()])?;
+//! let c = DualPump::new(&rig)?;
+//! let op = c.operating_point();
+//! let (a, b) = linearise(&c, &op.state, &op.inputs);
+//! assert_eq!((a.nrows(), b.ncols()), (7, 1));
+//! // the article-valued rig rests at the DPM's rest pressures (p1 + p2 = 10 bar)
+//! let rest = c.rest();
+//! assert!(((rest.p1_pa + rest.p2_pa) / 1e6 - 1.0).abs() < 1e-3);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod balance;
+
+pub use balance::{SteadyMotion, Undetermined};
+
+use super::parts::{
+    Chamber, Drive, Effects, FirstOrderMotor, Fluid, MassLaw, Piston, Pump, Volume,
+};
+use super::stops::Stops;
+use super::valves::Valves;
+use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
+use crate::bulk;
+use crate::rig::{MotorModel, Rig};
+use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
+use balance::Balance;
+use nalgebra::DMatrix;
+
+/// State positions: position, velocity, the chamber pressures, the shaft speed, the torque and
+/// the feedforward filter (the last two with the full motor model only).
+const X: usize = 0;
+const V: usize = 1;
+const P1: usize = 2;
+const P2: usize = 3;
+const W: usize = 4;
+const TAU: usize = 5;
+const Z: usize = 6;
+
+/// The motor: the drive with its states, or the first-order approximation.
+#[derive(Debug, Clone, PartialEq)]
+enum Motor {
+    /// Drive 1's loops on the shaft inertia Jm1 + Jp1 + Jp2 (states w, tau and, with the
+    /// feedforward on, z).
+    Full(Drive),
+    /// ω/ω_ref = 1/(τ s + 1) (state w).
+    FirstOrder(FirstOrderMotor),
+}
+
+/// The single-motor dual-pump circuit of a rig (the article's Figure 1b).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DualPump {
+    balance: Balance,
+    piston: Piston,
+    chambers: [Chamber; 2],
+    fluid: Fluid,
+    /// Pump 1 (chamber 2 → chamber 1) and pump 2 (accumulator → chamber 1).
+    pumps: [Pump; 2],
+    motor: Motor,
+    /// Leakages c1, c2, c12 (m⁵/(N·s)).
+    leakage: [f64; 3],
+    /// The pumps' pressure load acts on the shaft.
+    coupling: bool,
+    /// The emulator's valves (docs/circuits.md#valves).
+    valves: Valves,
+    /// The valves are part of the equations (the emulated circuit, not the ideal one).
+    valves_on: bool,
+    /// Position gain times command scale, K_scale Kp (rad/s per m).
+    gain: f64,
+    /// Operating-point position x0 (m).
+    x0: f64,
+    /// The gas fraction's anchor: the rig's β (bar).
+    beta_bar: f64,
+    /// Number of states.
+    n: usize,
+}
+
+/// [`SteadyMotion`] with the effective bulk modulus it gives (docs/circuits.md#steady-motion).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SteadyBulk {
+    /// The steady state.
+    pub state: SteadyMotion,
+    /// Mean chamber pressure (p1 + p2)/2 (bar gauge).
+    pub p_mean_bar: f64,
+    /// Effective bulk modulus there (bar), of the gas fraction that gives the rig's `beta_bar`
+    /// at its mean pressure at rest.
+    pub beta_e_bar: f64,
+    /// Net flow the emulator's valves would pass into chambers 1 and 2 there (m³/s): zero
+    /// while every valve is shut, as the linear model assumes.
+    pub valve_flow_m3_per_s: [f64; 2],
+}
+
+impl DualPump {
+    /// The ideal circuit of `rig`, whose Jacobian at rest is the linear model: no effect, no
+    /// end stops, no valves, the rig's variant switches (motor model, feedforward, motor
+    /// coupling) as set.
+    ///
+    /// # Errors
+    /// [`Undetermined`] when the leakage does not fix the pressures at rest.
+    pub fn new(rig: &Rig) -> Result<DualPump, Undetermined> {
+        DualPump::build(rig, Effects::none(), None, false)
+    }
+
+    /// The circuit the emulator integrates: the chosen effects, the end stops, the check and
+    /// relief valves, the pumps' load always on the shaft (docs/circuits.md#valves).
+    ///
+    /// # Errors
+    /// [`Undetermined`] when the leakage does not fix the pressures at rest.
+    pub fn emulated(rig: &Rig, effects: Effects) -> Result<DualPump, Undetermined> {
+        let stops = Stops::new(rig.stroke_mm * 1e-3, rig.mass_kg);
+        DualPump::build(rig, effects, Some(stops), true)
+    }
+
+    fn build(
+        rig: &Rig,
+        e: Effects,
+        stops: Option<Stops>,
+        emulated: bool,
+    ) -> Result<DualPump, Undetermined> {
+        let si = rig.si();
+        let balance = rig.dual_pump_balance();
+        balance.steady(0.0)?;
+        let vl = [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3];
+        let volumes = if e.varying_volumes {
+            [
+                Volume::Cap {
+                    dead_m3: vl[0],
+                    area_m2: si.a1,
+                },
+                Volume::Rod {
+                    dead_m3: vl[1],
+                    area_m2: si.a2,
+                    stroke_m: rig.stroke_mm * 1e-3,
+                },
+            ]
+        } else {
+            [Volume::Fixed(si.v1), Volume::Fixed(si.v2)]
+        };
+        let j = si.j[0] + rig.pump_inertia_2_kg_mm2 * 1e-6;
+        let full = rig.motor_model == MotorModel::Full;
+        let motor = if full {
+            Motor::Full(Drive {
+                inertia: j,
+                km: si.km[0],
+                omega_i: si.omega_i,
+                feedforward: rig.feedforward.then_some(si.kff / si.tau_ff),
+                tau_ff_s: si.tau_ff,
+                torque_limit: e.peak_torque_factor.map(|f| f * rig.motor_rated_torque_nm),
+                speed_limit: (e.pump_speed_limit).then_some(rig.pump_max_speed_rpm * RAD_S_PER_RPM),
+            })
+        } else {
+            Motor::FirstOrder(FirstOrderMotor {
+                tau_s: rig.motor_time_constant_s.unwrap_or(j / si.km[0]),
+            })
+        };
+        Ok(DualPump {
+            balance,
+            piston: Piston {
+                areas_m2: [si.a1, si.a2],
+                viscous_ns_per_m: si.b,
+                mass_kg: si.mass,
+                force_ext_n: si.f_ext,
+                coulomb_n: e.coulomb_n,
+                mass_law: if e.stroke_mass {
+                    MassLaw::of_rig(rig)
+                } else {
+                    MassLaw::constant()
+                },
+                stops,
+            },
+            chambers: volumes.map(|volume| Chamber { volume }),
+            fluid: Fluid {
+                beta_pa: si.beta,
+                gas_fraction: e.gas_fraction,
+                beta_oil_bar: e.beta_oil_bar,
+            },
+            pumps: si.d.map(|d| Pump {
+                displacement_m3: d,
+                dead_band_rad_s: e.dead_band_rad_s,
+                slip_m5_per_ns: e.slip_m5_per_ns,
+            }),
+            motor,
+            leakage: [si.c1, si.c2, si.c12],
+            coupling: emulated || rig.motor_coupling,
+            valves: Valves::new(relief_setting_pa(rig)),
+            valves_on: emulated,
+            gain: si.k_scale * si.kp,
+            x0: si.x0,
+            beta_bar: rig.beta_bar,
+            n: if !full {
+                5
+            } else if rig.feedforward {
+                7
+            } else {
+                6
+            },
+        })
+    }
+
+    /// Number of states: 7 (full motor model with feedforward), 6 (without), 5 (first order).
+    pub fn n_states(&self) -> usize {
+        self.n
+    }
+
+    /// The flow area (m²) by which pump 2 over-supplies chamber 1 per unit piston speed
+    /// ([`Balance::mismatch_m2`]).
+    pub fn mismatch_m2(&self) -> f64 {
+        self.balance.mismatch_m2()
+    }
+
+    /// The steady state at rest ([`DualPump::steady_motion`] at v = 0).
+    pub fn rest(&self) -> SteadyMotion {
+        (self.balance.steady(0.0)).expect("checked when the circuit was built")
+    }
+
+    /// The steady state at constant piston speed `v` (m/s): the force balance and both
+    /// chambers' flow balances with leakage, solved in closed form ([`Balance::steady`],
+    /// docs/circuits.md#steady-motion).
+    pub fn steady_motion(&self, v: f64) -> SteadyMotion {
+        (self.balance.steady(v)).expect("the balance's matrix does not depend on v")
+    }
+
+    /// [`DualPump::steady_motion`] with its effective bulk modulus: the constant gas-fraction
+    /// model (docs/bulk-modulus.md) anchored at the rig's `beta_bar` at the mean pressure at
+    /// rest, read at the steady mean pressure; and the flow the emulator's valves would pass
+    /// there.
+    ///
+    /// # Errors
+    /// A mean pressure at rest or in motion not above 0 bar gauge, or a `beta_bar` beyond the
+    /// oil's own (the gas-fraction model's range).
+    pub fn steady_bulk(&self, v: f64) -> Result<SteadyBulk, bulk::BulkError> {
+        let mean_bar = |s: &SteadyMotion| 0.5 * (s.p1_pa + s.p2_pa) / PA_PER_BAR;
+        let x = bulk::gas_fraction(self.beta_bar, mean_bar(&self.rest()), bulk::BETA_OIL_BAR)?;
+        let state = self.steady_motion(v);
+        let p_mean_bar = mean_bar(&state);
+        if p_mean_bar.is_nan() || p_mean_bar <= 0.0 {
+            return Err(bulk::BulkError::Input(format!(
+                "the mean chamber pressure at {v} m/s is {p_mean_bar:.3} bar gauge: the gas-fraction \
+                 model needs it above 0 bar"
+            )));
+        }
+        let flow = |i, p| self.valves.into_chamber(i, p, self.balance.p_acc_pa);
+        Ok(SteadyBulk {
+            state,
+            p_mean_bar,
+            beta_e_bar: bulk::effective_beta(x, p_mean_bar, bulk::BETA_OIL_BAR),
+            valve_flow_m3_per_s: [flow(0, state.p1_pa), flow(1, state.p2_pa)],
+        })
+    }
+
+    /// The net flows into chambers 1 and 2 that compress their oil (m³/s): the pumps, the
+    /// piston, the leakage and the valves.
+    fn chamber_flows<T: Scalar>(&self, s: &[T]) -> [T; 2] {
+        let (v, p1, p2, w) = (s[V], s[P1], s[P2], s[W]);
+        let p_acc = self.balance.p_acc_pa;
+        let [a1, a2] = self.piston.areas_m2;
+        let [c1, c2, c12] = self.leakage;
+        // pump 1 from chamber 2 into chamber 1, pump 2 from the accumulator into chamber 1
+        let q1 = self.pumps[0].flow(w, p1 - p2);
+        let q2 = self.pumps[1].flow(w, p1 - p_acc);
+        let cross = (p1 - p2) * c12;
+        let mut flows = [
+            q1 + q2 - v * a1 - (p1 - p_acc) * c1 - cross,
+            -q1 + v * a2 - (p2 - p_acc) * c2 + cross,
+        ];
+        if self.valves_on {
+            flows[0] += self.valves.into_chamber(0, p1, p_acc);
+            flows[1] += self.valves.into_chamber(1, p2, p_acc);
+        }
+        flows
+    }
+
+    /// The load torque of both pumps on the shaft, D1 (p1 − p2) + D2 (p1 − p_acc) (N·m); zero
+    /// without the motor–hydraulics coupling.
+    fn load_torque<T: Scalar>(&self, s: &[T]) -> T {
+        if !self.coupling {
+            return T::from(0.0);
+        }
+        let d = self.balance.displacements_m3;
+        (s[P1] - s[P2]) * d[0] + (s[P1] - self.balance.p_acc_pa) * d[1]
+    }
+}
+
+/// The relief valves' setting (Pa above the accumulator): the pressure at which the pumps'
+/// load torque reaches the motor's rated torque with the other chamber at the accumulator,
+/// τ_rated / (D1 + D2) **\[choice\]**: the valve protects the motor (docs/circuits.md#valves).
+fn relief_setting_pa(rig: &Rig) -> f64 {
+    let d = rig.si().d;
+    rig.motor_rated_torque_nm / (d[0] + d[1])
+}
+
+impl Circuit for DualPump {
+    fn kind(&self) -> CircuitKind {
+        CircuitKind::DualPump
+    }
+
+    fn states(&self) -> Vec<Signal> {
+        let all = [
+            Signal::new("x", "m", "piston position", Role::Position),
+            Signal::new("v", "m/s", "piston velocity", Role::Velocity),
+            Signal::new(
+                "p1",
+                "Pa",
+                "chamber 1 (piston side) pressure, gauge",
+                Role::Pressure,
+            ),
+            Signal::new(
+                "p2",
+                "Pa",
+                "chamber 2 (rod side) pressure, gauge",
+                Role::Pressure,
+            ),
+            Signal::new(
+                "w",
+                "rad/s",
+                "shaft speed (motor and both pumps)",
+                Role::MotorSpeed,
+            ),
+            Signal::new("tau", "N*m", "motor electromagnetic torque", Role::Torque),
+            Signal::new(
+                "z",
+                "rad/s",
+                "drive feedforward filter state",
+                Role::Feedforward,
+            ),
+        ];
+        all.into_iter().take(self.n).collect()
+    }
+
+    fn inputs(&self) -> Vec<Signal> {
+        vec![Signal::new(
+            "w_ref",
+            "rad/s",
+            "drive speed command",
+            Role::SpeedCommand,
+        )]
+    }
+
+    fn rhs<T: Scalar>(&self, s: &[T], u: &[T], dx: &mut [T]) {
+        let (x, v, p1, p2) = (s[X], s[V], s[P1], s[P2]);
+        dx[X] = v;
+        dx[V] = self.piston.acceleration(x, v, [p1, p2]);
+        let q = self.chamber_flows(s);
+        let beta = self.fluid.beta((p1 + p2) * 0.5);
+        dx[P1] = self.chambers[0].pressure_rate(beta, x, p1, q[0]);
+        dx[P2] = self.chambers[1].pressure_rate(beta, x, p2, q[1]);
+        match &self.motor {
+            Motor::FirstOrder(m) => dx[W] = m.acceleration(u[0], s[W]),
+            Motor::Full(drive) => {
+                let z = (self.n > Z).then(|| s[Z]);
+                let rates = drive.rates(u[0], s[W], s[TAU], z, self.load_torque(s));
+                dx[W] = rates.speed;
+                dx[TAU] = rates.torque;
+                if let Some(rate) = rates.feedforward {
+                    dx[Z] = rate;
+                }
+            }
+        }
+    }
+
+    /// At rest at x0: the pressures and shaft speed of [`DualPump::rest`]; with the full motor
+    /// model the torque that carries the pumps' load, the command that holds it through the P
+    /// loop (τ = Km1 (ω_ref − ω)) and the feedforward filter settled (z = ω_ref).
+    fn operating_point(&self) -> OperatingState {
+        let rest = self.rest();
+        let mut state = vec![0.0; self.n];
+        state[X] = self.x0;
+        state[P1] = rest.p1_pa;
+        state[P2] = rest.p2_pa;
+        state[W] = rest.omega_rad_per_s;
+        let mut w_ref = rest.omega_rad_per_s;
+        if let Motor::Full(drive) = &self.motor {
+            state[TAU] = self.load_torque(&state);
+            w_ref += state[TAU] / drive.km;
+            if self.n > Z {
+                state[Z] = w_ref;
+            }
+        }
+        OperatingState {
+            state,
+            inputs: vec![w_ref],
+        }
+    }
+
+    /// ω_ref = K_scale Kp (x_ref − x): the article's P law on one motor, no sum-pressure loop.
+    fn control_law(&self) -> ControlLaw {
+        let mut kx = DMatrix::zeros(1, self.n);
+        kx[(0, X)] = -self.gain;
+        ControlLaw {
+            kx,
+            kr: DMatrix::from_element(1, 1, self.gain),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::circuit::linearise;
+
+    fn dual_rig(sets: &[&str]) -> Rig {
+        let mut all = vec!["circuit=dual-pump".to_string()];
+        all.extend(sets.iter().map(|s| s.to_string()));
+        Rig::default().with_overrides(&all).unwrap()
+    }
+
+    /// The operating point is a steady state of the equations, ideal and emulated with every
+    /// effect on: ẋ = 0 to rounding.
+    #[test]
+    fn the_operating_point_is_at_rest() {
+        for sets in [
+            &[][..],
+            &["feedforward=false"],
+            &["motor_model=first_order"],
+            &["external_force_n=3000", "motor_coupling=false"],
+        ] {
+            let rig = dual_rig(sets);
+            let ideal = DualPump::new(&rig).unwrap();
+            // a load that keeps the valves shut at rest (docs/circuits.md#valves)
+            let si = rig.si();
+            let balanced = Rig {
+                external_force_n: rig.accumulator_precharge_bar * 1e5 * (si.a1 - si.a2),
+                ..rig.clone()
+            };
+            let emulated = DualPump::emulated(&balanced, Effects::all(0.02)).unwrap();
+            for c in [ideal, emulated] {
+                let op = c.operating_point();
+                let mut dx = vec![0.0; c.n_states()];
+                c.rhs(&op.state, &op.inputs, &mut dx);
+                let scale = [1e-3, 1e-3, 1e5, 1e5, 10.0, 1e-2, 10.0];
+                for (i, d) in dx.iter().enumerate() {
+                    assert!(d.abs() < 1e-6 * scale[i], "{sets:?}: state {i} rate {d}");
+                }
+                assert_eq!(c.states().len(), op.state.len());
+            }
+        }
+    }
+
+    /// The closed form solves the 3 × 3 force and flow balance it comes from.
+    #[test]
+    fn steady_motion_solves_the_flow_and_force_balance() {
+        let rig = dual_rig(&["displacement_2_cm3_per_rev=3.2", "external_force_n=-300"]);
+        let (c, si) = (DualPump::new(&rig).unwrap(), rig.si());
+        let p_acc = rig.accumulator_precharge_bar * 1e5;
+        for v in [0.0, 0.02, -0.05] {
+            let s = c.steady_motion(v);
+            let (q1, q2) = (s.p1_pa - p_acc, s.p2_pa - p_acc);
+            let w = s.omega_rad_per_s;
+            let ch1 = (si.d[0] + si.d[1]) * w - si.a1 * v - si.c1 * q1 - si.c12 * (q1 - q2);
+            let ch2 = -si.d[0] * w + si.a2 * v - si.c2 * q2 + si.c12 * (q1 - q2);
+            let force = s.p1_pa * si.a1 - s.p2_pa * si.a2 - si.f_ext - si.b * v;
+            assert!(ch1.abs() < 1e-18 && ch2.abs() < 1e-18, "{ch1} {ch2}");
+            assert!(force.abs() < 1e-9, "{force}");
+        }
+    }
+
+    /// The linear model has the hand-derived entries where the equations are linear.
+    #[test]
+    fn linearisation_has_the_hand_entries() {
+        let rig = dual_rig(&[]);
+        let (c, si) = (DualPump::new(&rig).unwrap(), rig.si());
+        let op = c.operating_point();
+        let (a, b) = linearise(&c, &op.state, &op.inputs);
+        let k1 = si.beta / si.v1;
+        let j = si.j[0] + rig.pump_inertia_2_kg_mm2 * 1e-6;
+        assert!((a[(P1, W)] / (k1 * (si.d[0] + si.d[1])) - 1.0).abs() < 1e-12);
+        assert!((a[(W, P1)] * j / -(si.d[0] + si.d[1]) - 1.0).abs() < 1e-12);
+        // the volumes are those at x0: no position term
+        assert_eq!((a[(P1, X)], a[(P2, X)]), (0.0, 0.0));
+        let kf = si.kff / si.tau_ff;
+        assert!((b[(TAU, 0)] / (si.omega_i * (si.km[0] + kf)) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn no_leakage_leaves_the_rest_undetermined() {
+        let rig = Rig::default()
+            .with_overrides(&[
+                "c1_m5_per_ns=0".into(),
+                "c2_m5_per_ns=0".into(),
+                "c12_m5_per_ns=0".into(),
+            ])
+            .unwrap();
+        let rig = Rig {
+            circuit: CircuitKind::DualPump,
+            ..rig
+        };
+        assert_eq!(DualPump::new(&rig).unwrap_err(), Undetermined);
+    }
+}
