@@ -26,6 +26,12 @@ pub enum ExperimentKind {
     DriveStep,
     /// The reference held: the pumps only feed the leakage.
     Standstill,
+    /// Logarithmic chirp about x0 (docs/identification.md#frequency-response-from-a-sweep).
+    Chirp,
+    /// Periodic multisine about x0, Schroeder phases.
+    Multisine,
+    /// Stepped sine about x0.
+    SteppedSine,
 }
 
 #[derive(Debug, Args)]
@@ -55,14 +61,10 @@ pub struct EmulateArgs {
         allow_negative_numbers = true
     )]
     at_s: f64,
-    /// Sine: amplitude (mm) about x0.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 20.0,
-        allow_negative_numbers = true
-    )]
-    amplitude_mm: f64,
+    /// Sine or sweep: amplitude (mm) about x0. Default: 20 for a sine, the sweep designer's
+    /// for a sweep (`pumpcyl frf --design`).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    amplitude_mm: Option<f64>,
     /// Sine: frequency (Hz).
     #[arg(
         long,
@@ -71,6 +73,9 @@ pub struct EmulateArgs {
         allow_negative_numbers = true
     )]
     freq_hz: f64,
+    /// Sweeps (chirp, multisine, stepped sine): band, lengths and counts.
+    #[command(flatten)]
+    sweep: crate::frf::SweepArgs,
     /// Drive step: which drive (1 or 2).
     #[arg(long, default_value_t = 1)]
     motor: usize,
@@ -197,12 +202,15 @@ fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64)
         ExperimentKind::Step => Kind::Loop(Experiment::step(rig, args.from_mm, args.to_mm, at, d)),
         ExperimentKind::Sine => Kind::Loop(Experiment::sine(
             rig,
-            args.amplitude_mm,
+            args.amplitude_mm.unwrap_or(SINE_AMPLITUDE_MM),
             args.freq_hz,
             at,
             d,
         )),
         ExperimentKind::Standstill => Kind::Loop(Experiment::standstill(rig, d)),
+        ExperimentKind::Chirp | ExperimentKind::Multisine | ExperimentKind::SteppedSine => {
+            return sweep(args, kind, rig, rate_hz);
+        }
         ExperimentKind::DriveStep => Kind::Drive(DriveStep {
             motor: args.motor,
             from_rpm: 0.0,
@@ -217,6 +225,27 @@ fn experiment(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64)
     };
     checked.map_err(|e| crate::emit::as_option(e, option_of))?;
     Ok(plan)
+}
+
+/// A sine's amplitude when none is given (mm).
+const SINE_AMPLITUDE_MM: f64 = 20.0;
+
+/// A sweep experiment: its length follows from its shape, not from --duration-s.
+fn sweep(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64) -> Result<Kind> {
+    use crate::frf::SweepKind;
+    if args.duration_s.is_some() {
+        bail!("--duration-s: a sweep's length follows from --sweep-s, --periods and the band");
+    }
+    let k = match kind {
+        ExperimentKind::Chirp => SweepKind::Chirp,
+        ExperimentKind::Multisine => SweepKind::Multisine,
+        _ => SweepKind::SteppedSine,
+    };
+    let e = crate::frf::excitation(k, args.amplitude_mm, args.at_s, &args.sweep, (rig, rate_hz))?;
+    let plan = Experiment::Sweep(e);
+    plan.check(rig, rate_hz)
+        .map_err(|e| crate::emit::as_option(e, crate::frf::option_of))?;
+    Ok(Kind::Loop(plan))
 }
 
 /// The option that sets an experiment's field.

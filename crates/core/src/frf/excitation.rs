@@ -95,15 +95,17 @@ pub enum Excitation {
 pub const START_S: f64 = 1.0;
 
 impl Excitation {
-    /// `sweeps` chirps about the rig's x0 from [`START_S`], each faded over a tenth of the sweep
-    /// or one period of `from_hz`, whichever is shorter.
+    /// `sweeps` chirps about the rig's x0 from [`START_S`], each `sweep_s` rounded to whole
+    /// samples at `rate_hz` (so repeated sweeps are periodic in the record) and faded over a
+    /// tenth of the sweep or one period of `from_hz`, whichever is shorter.
     pub fn chirp(
         rig: &Rig,
         amplitude_mm: f64,
         (from_hz, to_hz): (f64, f64),
-        sweep_s: f64,
-        sweeps: usize,
+        (sweep_s, sweeps): (f64, usize),
+        rate_hz: f64,
     ) -> Self {
+        let sweep_s = whole_samples(sweep_s, rate_hz);
         let fade_s = (0.1 * sweep_s).min(1.0 / from_hz.max(f64::MIN_POSITIVE));
         Excitation::Chirp {
             centre_mm: rig.x0_mm,
@@ -117,15 +119,15 @@ impl Excitation {
         }
     }
 
-    /// A multisine about the rig's x0 whose period holds whole periods of every line; the period
-    /// is 1/`from_hz` (the lowest line is the first harmonic).
+    /// A multisine about the rig's x0 whose period holds whole periods of every line and whole
+    /// samples at `rate_hz`: the period is 1/`from_hz` rounded to whole samples, so the lowest
+    /// line is the first harmonic and every line lies on the record's frequency grid.
     pub fn multisine(
         rig: &Rig,
         amplitude_mm: f64,
-        from_hz: f64,
-        to_hz: f64,
-        lines: usize,
-        periods: usize,
+        (from_hz, to_hz): (f64, f64),
+        (lines, periods): (usize, usize),
+        rate_hz: f64,
     ) -> Self {
         let mut e = Excitation::Multisine {
             centre_mm: rig.x0_mm,
@@ -133,7 +135,7 @@ impl Excitation {
             from_hz,
             to_hz,
             lines,
-            period_s: 1.0 / from_hz,
+            period_s: whole_samples(1.0 / from_hz, rate_hz),
             periods,
             start_s: START_S,
             line_mm: 0.0,
@@ -165,6 +167,16 @@ impl Excitation {
             settle_s,
             start_s: START_S,
         }
+    }
+
+    /// The same sweep starting at `start_s` (s).
+    pub fn starting_at(mut self, start_s: f64) -> Self {
+        match &mut self {
+            Excitation::Chirp { start_s: s, .. }
+            | Excitation::Multisine { start_s: s, .. }
+            | Excitation::SteppedSine { start_s: s, .. } => *s = start_s,
+        }
+        self
     }
 
     /// The name used on the command line and in files: `chirp`, `multisine`, `stepped-sine`.
@@ -520,6 +532,17 @@ pub struct Level {
     pub settle_s: f64,
     /// Length of the level (s).
     pub end_s: f64,
+}
+
+/// `seconds` rounded to whole samples at `rate_hz` (at least one), unchanged if either is not a
+/// positive number ([`Excitation::check`] refuses those).
+fn whole_samples(seconds: f64, rate_hz: f64) -> f64 {
+    let n = (seconds * rate_hz).round();
+    if n.is_finite() && n >= 1.0 && rate_hz > 0.0 {
+        n / rate_hz
+    } else {
+        seconds
+    }
 }
 
 /// Phase of the logarithmic chirp at `tau` (rad): 2π f0 T/ln(f1/f0)·((f1/f0)^{τ/T} − 1), so

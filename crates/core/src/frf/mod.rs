@@ -26,10 +26,11 @@ pub mod spectra;
 pub use design::{design, Design, DesignGoal};
 pub use excitation::{Excitation, Level};
 pub use model::model_response;
+/// The complex numbers of the estimates (num-complex's).
+pub use num_complex::Complex64;
 
 use crate::record::Record;
 use crate::rig::Rig;
-use num_complex::Complex64;
 use serde::Serialize;
 use spectra::Spectra;
 
@@ -41,8 +42,8 @@ pub const MAX_FREQUENCIES: usize = 400;
 pub const SEGMENTS: usize = 8;
 /// Periods of the lowest frequency a Welch segment must hold.
 pub const PERIODS_PER_SEGMENT: f64 = 4.0;
-/// Coherence below which a frequency is not usable: the noise carries as much power as the
-/// response (ε > 0.5/√n_d).
+/// Coherence below which a frequency is never usable: the noise carries as much power as the
+/// response (ε > 0.5/√n_d). With few averages the bar is higher: [`usable_coherence`].
 pub const USABLE_COHERENCE: f64 = 0.5;
 /// The normal quantile of the 95 % band.
 pub const Z95: f64 = 1.959_963_984_540_054;
@@ -153,11 +154,19 @@ impl Point {
     pub fn h(&self) -> Complex64 {
         Complex64::new(self.re, self.im)
     }
+}
 
-    /// Whether the coherence reaches [`USABLE_COHERENCE`].
-    pub fn usable(&self) -> bool {
-        self.coherence >= USABLE_COHERENCE
+/// The coherence a frequency needs to be usable: [`USABLE_COHERENCE`], and above what
+/// unrelated signals reach by chance at 95 % over `frequencies` frequencies when averaged
+/// `averages` times. Uncorrelated signals give an estimated γ² above c with probability
+/// (1 − c)^(n_d − 1) (Carter, Knapp & Nuttall, IEEE Trans. Audio Electroacoust. 21, 1973,
+/// 388–389), so c = 1 − (0.05/m)^(1/(n_d − 1)) over m frequencies (Bonferroni).
+pub fn usable_coherence(averages: f64, frequencies: usize) -> f64 {
+    if averages <= 1.5 {
+        return USABLE_COHERENCE;
     }
+    let chance = 1.0 - (0.05 / frequencies.max(1) as f64).powf(1.0 / (averages - 1.0));
+    chance.max(USABLE_COHERENCE)
 }
 
 /// One estimated frequency response.
@@ -186,6 +195,8 @@ pub struct Estimate {
     pub segments: usize,
     /// Independent averages n_d in the band's formula.
     pub averages: f64,
+    /// The coherence a frequency needs to be usable ([`usable_coherence`]).
+    pub usable_coherence: f64,
     /// The closed loop x/x_ref.
     pub closed_loop: Response,
     /// The plant x/ω_ref1 (needs the rig's gains), where estimated.
@@ -455,6 +466,7 @@ fn shell(rec: &Record, method: Method, rate_hz: f64, s: &Spectra) -> Estimate {
         segment_samples: s.segment_len,
         segments: s.segments,
         averages: s.averages,
+        usable_coherence: USABLE_COHERENCE,
         closed_loop: Response {
             name: "x/x_ref",
             unit: "mm/mm",
@@ -608,25 +620,25 @@ fn thin(raw: Vec<Raw>) -> Vec<Raw> {
 
 /// The points of both responses, phases unwrapped; refused if no frequency is usable.
 fn finish(est: &mut Estimate, raw: Vec<Raw>, warnings: &mut Vec<String>) -> Result<(), FrfError> {
+    let bar = usable_coherence(est.averages, raw.len());
+    est.usable_coherence = bar;
     let best = raw.iter().map(|r| r.coherence).fold(0.0, f64::max);
-    if best < USABLE_COHERENCE {
+    if best < bar {
         return Err(FrfError::NoCoherence {
             file: est.file.clone(),
             message: format!(
-                "the coherence is below {USABLE_COHERENCE} at every frequency (at most {best:.3}): \
-                 the noise outweighs the response to the sweep; a larger amplitude or a longer \
-                 record is needed"
+                "the coherence is below the usable {bar:.3} at every frequency (at most \
+                 {best:.3}, with {:.1} averages): the noise outweighs the response to the sweep; \
+                 a larger amplitude or a longer record is needed",
+                est.averages
             ),
         });
     }
-    let unusable = raw
-        .iter()
-        .filter(|r| r.coherence < USABLE_COHERENCE)
-        .count();
+    let unusable = raw.iter().filter(|r| r.coherence < bar).count();
     if unusable > 0 {
         warnings.push(format!(
-            "{unusable} of {} frequencies have a coherence below {USABLE_COHERENCE}: their band \
-             is wide, read them with care",
+            "{unusable} of {} frequencies have a coherence below the usable {bar:.3}: their \
+             estimate is unreliable, read them with care",
             raw.len()
         ));
     }
@@ -677,7 +689,7 @@ fn check_crossover(est: &Estimate, rig: &Rig) -> Result<(), FrfError> {
         .closed_loop
         .points
         .iter()
-        .filter(|p| p.usable())
+        .filter(|p| p.coherence >= est.usable_coherence)
         .map(|p| p.freq_hz)
         .fold(0.0, f64::max);
     if top >= fc {
