@@ -75,7 +75,7 @@ pub struct EmulateArgs {
     freq_hz: f64,
     /// Sweeps (chirp, multisine, stepped sine): band, lengths and counts.
     #[command(flatten)]
-    sweep: crate::frf::SweepArgs,
+    sweep: crate::sweep::SweepArgs,
     /// Drive step: which drive (1 or 2).
     #[arg(long, default_value_t = 1)]
     motor: usize,
@@ -232,7 +232,7 @@ const SINE_AMPLITUDE_MM: f64 = 20.0;
 
 /// A sweep experiment: its length follows from its shape, not from --duration-s.
 fn sweep(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64) -> Result<Kind> {
-    use crate::frf::SweepKind;
+    use crate::sweep::SweepKind;
     if args.duration_s.is_some() {
         bail!("--duration-s: a sweep's length follows from --sweep-s, --periods and the band");
     }
@@ -241,10 +241,10 @@ fn sweep(args: &EmulateArgs, kind: ExperimentKind, rig: &Rig, rate_hz: f64) -> R
         ExperimentKind::Multisine => SweepKind::Multisine,
         _ => SweepKind::SteppedSine,
     };
-    let e = crate::frf::excitation(k, args.amplitude_mm, args.at_s, &args.sweep, (rig, rate_hz))?;
+    let e = crate::sweep::excitation(k, args.amplitude_mm, args.at_s, &args.sweep, (rig, rate_hz))?;
     let plan = Experiment::Sweep(e);
     plan.check(rig, rate_hz)
-        .map_err(|e| crate::emit::as_option(e, crate::frf::option_of))?;
+        .map_err(|e| crate::emit::as_option(e, crate::sweep::option_of))?;
     Ok(Kind::Loop(plan))
 }
 

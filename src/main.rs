@@ -21,6 +21,7 @@ mod reproduce;
 mod robust;
 mod select;
 mod signals;
+mod sweep;
 mod time;
 
 use anyhow::Result;

@@ -393,3 +393,93 @@ fn welch_estimate_agrees_with_scipy_csd_and_welch() {
         );
     }
 }
+
+/// Run the `pumpcyl` binary in `dir`: its status and standard output and error.
+fn pumpcyl(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (out.status.success(), text(&out.stdout), text(&out.stderr))
+}
+
+#[test]
+fn emulate_a_multisine_then_read_its_frequency_response_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (ok, _, err) = pumpcyl(
+        d,
+        &[
+            "emulate",
+            "--experiment",
+            "multisine",
+            "--periods",
+            "8",
+            "--out",
+            "ms.csv",
+        ],
+    );
+    assert!(ok, "{err}");
+    let (ok, json, err) = pumpcyl(
+        d,
+        &[
+            "frf",
+            "ms.csv",
+            "--sweep",
+            "multisine",
+            "--periods",
+            "8",
+            "--json",
+            "--out",
+            "frf.csv",
+            "--figure",
+            "frf.svg",
+        ],
+    );
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["method"], "periods");
+    assert_eq!(v["segments"], 7);
+    let points = v["closed_loop"]["points"].as_array().unwrap();
+    let model = v["model"]["magnitude_db"].as_array().unwrap();
+    assert_eq!(points.len(), model.len());
+    // the emulated rig (nonlinear, noisy) against its own linear model near the crossover
+    let near = points
+        .iter()
+        .zip(model)
+        .filter(|(p, _)| p["coherence"].as_f64().unwrap() > 0.99)
+        .map(|(p, m)| (p["magnitude_db"].as_f64().unwrap() - m.as_f64().unwrap()).abs())
+        .fold(0.0f64, f64::max);
+    assert!(near < 3.0, "{near} dB from the model");
+    let csv = std::fs::read_to_string(d.join("frf.csv")).unwrap();
+    assert!(
+        csv.starts_with("freq_hz,magnitude_db,phase_deg,re,im,coherence"),
+        "{csv}"
+    );
+    assert_eq!(csv.lines().count(), points.len() + 1);
+    assert!(std::fs::read_to_string(d.join("frf.svg"))
+        .unwrap()
+        .contains("<svg"));
+    // described as another sweep: one line naming the record
+    let (ok, _, err) = pumpcyl(d, &["frf", "ms.csv", "--sweep", "chirp"]);
+    assert!(
+        !ok && err.lines().count() == 1 && err.contains("ms.csv"),
+        "{err}"
+    );
+    // a sweep's length is not --duration-s
+    let (ok, _, err) = pumpcyl(
+        d,
+        &[
+            "emulate",
+            "--experiment",
+            "chirp",
+            "--duration-s",
+            "9",
+            "--out",
+            "c.csv",
+        ],
+    );
+    assert!(!ok && err.contains("--duration-s"), "{err}");
+}

@@ -22,7 +22,7 @@ pub struct DesignGoal {
     pub dead_band_rpm: f64,
     /// The motor speed amplitude at the lowest frequency, in dead bands.
     pub dead_band_factor: f64,
-    /// The record's sample rate (Hz).
+    /// The record's sample rate (Hz); by default the PLC's 100 Hz (docs/emulator.md).
     pub rate_hz: f64,
 }
 
@@ -33,7 +33,7 @@ impl Default for DesignGoal {
             relative_error: 0.05,
             dead_band_rpm: 60.0,
             dead_band_factor: 5.0,
-            rate_hz: crate::emulator::PLC_RATE_HZ,
+            rate_hz: 100.0,
         }
     }
 }
