@@ -76,7 +76,15 @@ pub fn run(args: &FrfArgs) -> Result<String> {
         .record
         .as_ref()
         .ok_or_else(|| anyhow!("a RECORD.csv is needed"))?;
-    let rec = Record::read(path)?;
+    if let (Some(out), Some(figure)) = (&args.out, &args.figure) {
+        anyhow::ensure!(
+            out != figure,
+            "{}: named by --out and --figure; one file cannot hold both outputs, give two paths",
+            out.display()
+        );
+    }
+    // read through the command's inputs, so no output is written over the record
+    let rec = Record::read_in(crate::inputs::files(), path)?;
     rec.check_units(rig.stroke_mm)?;
     let rate_hz = (rec.len() - 1) as f64 / (rec.time_s[rec.len() - 1] - rec.time_s[0]);
     let excitation = args

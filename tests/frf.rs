@@ -468,6 +468,12 @@ fn emulate_a_multisine_then_read_its_frequency_response_back() {
         !ok && err.lines().count() == 1 && err.contains("ms.csv"),
         "{err}"
     );
+    // the record is an input: never written over
+    let (ok, _, err) = pumpcyl(d, &["frf", "ms.csv", "--out", "ms.csv"]);
+    assert!(!ok && err.contains("ms.csv"), "{err}");
+    assert!(std::fs::read_to_string(d.join("ms.csv"))
+        .unwrap()
+        .starts_with("time_s"));
     // a sweep's length is not --duration-s
     let (ok, _, err) = pumpcyl(
         d,
