@@ -390,9 +390,10 @@ fn welch_estimate(
     let band = opts.excitation.map(|e| e.band_hz());
     if let Some(e @ Excitation::Chirp { .. }) = opts.excitation {
         warnings.push(format!(
-            "a {} played fewer than 3 times is not periodic: each frequency lies in one or two \
-             Welch segments, so the coherence and the band say little and the window biases the \
-             estimate near lightly damped modes; play it 3 times or more (--periods 3)",
+            "a {} not periodic in the record (played fewer than 3 times, or its sweep not whole \
+             samples): each frequency lies in one or two Welch segments, so the coherence and the \
+             band say little and the window biases the estimate near lightly damped modes; play \
+             it 3 times or more (--periods 3)",
             e.name()
         ));
     }

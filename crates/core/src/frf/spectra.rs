@@ -184,3 +184,27 @@ pub fn sine_fit(t: &[f64], y: &[f64], freq_hz: f64) -> Option<(Complex64, f64)> 
     let amplitude = Complex64::new(p[1], -p[2]) * Complex64::from_polar(1.0, -w * t0);
     Some((amplitude, ss / dof))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hann_windows_half_apart_correlate_by_one_sixth() {
+        // Σ sin²(πk/N) cos²(πk/N) over the overlap (N/16) over Σ sin⁴(πk/N) (3N/8)
+        assert!((overlap_correlation(&hann(1024), 512) - 1.0 / 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_sine_fit_recovers_amplitude_phase_and_offset() {
+        let t: Vec<f64> = (0..400).map(|k| 3.0 + k as f64 * 0.01).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|t| 2.0 + 1.5 * (2.0 * PI * 0.5 * t + 0.3).cos())
+            .collect();
+        let (a, var) = sine_fit(&t, &y, 0.5).unwrap();
+        // y = Re(1.5 e^{i 0.3} e^{iωt}): the amplitude referred to t = 0
+        assert!((a - Complex64::from_polar(1.5, 0.3)).norm() < 1e-10, "{a}");
+        assert!(var < 1e-20);
+    }
+}
