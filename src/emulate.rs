@@ -24,6 +24,12 @@ pub enum ExperimentKind {
     DriveStep,
     /// The reference held: the pumps only feed the leakage.
     Standstill,
+    /// Logarithmic chirp about x0 (docs/identification.md#frequency-response-from-a-sweep).
+    Chirp,
+    /// Periodic multisine about x0, Schroeder phases.
+    Multisine,
+    /// Stepped sine about x0.
+    SteppedSine,
 }
 
 #[derive(Debug, Args)]
@@ -53,14 +59,10 @@ pub struct EmulateArgs {
         allow_negative_numbers = true
     )]
     at_s: f64,
-    /// Sine: amplitude (mm) about x0.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 20.0,
-        allow_negative_numbers = true
-    )]
-    amplitude_mm: f64,
+    /// Sine or sweep: amplitude (mm) about x0. Default: 20 for a sine, the sweep designer's
+    /// for a sweep (`pumpcyl frf --design`).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    amplitude_mm: Option<f64>,
     /// Sine: frequency (Hz).
     #[arg(
         long,
@@ -69,6 +71,9 @@ pub struct EmulateArgs {
         allow_negative_numbers = true
     )]
     freq_hz: f64,
+    /// Sweeps (chirp, multisine, stepped sine): band, lengths and counts.
+    #[command(flatten)]
+    sweep: crate::sweep::SweepArgs,
     /// Drive step: which drive (1 or 2).
     #[arg(long, default_value_t = 1)]
     motor: usize,
@@ -127,10 +132,11 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let rig = load_rig(&args.source, !args.no_effects)?;
     let effects = Effects::switched(&rig, !args.no_effects)
         .map_err(|e| anyhow!("{}: {e}", args.source.origin_or("the emulated article rig")))?;
-    let request = request(args, kind);
+    let mut request = request(args, kind);
     let plc = request
         .plc()
         .map_err(|e| crate::emit::as_option(e, option_of))?;
+    request.sweep = sweep(args, kind, &rig, plc.rate_hz)?;
     let plan = request
         .plan(&rig, plc.rate_hz)
         .map_err(|e| crate::emit::as_option(e, option_of))?;
@@ -185,6 +191,9 @@ fn request(args: &EmulateArgs, kind: ExperimentKind) -> emulated::Request {
             ExperimentKind::Sine => emulated::ExperimentKind::Sine,
             ExperimentKind::DriveStep => emulated::ExperimentKind::DriveStep,
             ExperimentKind::Standstill => emulated::ExperimentKind::Standstill,
+            ExperimentKind::Chirp => emulated::ExperimentKind::Chirp,
+            ExperimentKind::Multisine => emulated::ExperimentKind::Multisine,
+            ExperimentKind::SteppedSine => emulated::ExperimentKind::SteppedSine,
         },
         from_mm: args.from_mm,
         to_mm: args.to_mm,
@@ -197,7 +206,35 @@ fn request(args: &EmulateArgs, kind: ExperimentKind) -> emulated::Request {
         rate_hz: args.rate_hz,
         seed: args.seed,
         noise: !args.no_noise,
+        sweep: None,
     }
+}
+
+/// The excitation of a sweep experiment, built from the sweep options on the rig (the sweep
+/// designer's defaults, `pumpcyl frf --design`); none for the other experiments. A sweep's
+/// length follows from its shape, not from --duration-s.
+fn sweep(
+    args: &EmulateArgs,
+    kind: ExperimentKind,
+    rig: &Rig,
+    rate_hz: f64,
+) -> Result<Option<pumpcyl::frf::Excitation>> {
+    use crate::sweep::SweepKind;
+    let k = match kind {
+        ExperimentKind::Chirp => SweepKind::Chirp,
+        ExperimentKind::Multisine => SweepKind::Multisine,
+        ExperimentKind::SteppedSine => SweepKind::SteppedSine,
+        _ => return Ok(None),
+    };
+    if args.duration_s.is_some() {
+        anyhow::bail!(
+            "--duration-s: a sweep's length follows from --sweep-s, --periods and the band"
+        );
+    }
+    let e = crate::sweep::excitation(k, args.amplitude_mm, args.at_s, &args.sweep, (rig, rate_hz))?;
+    e.check(rate_hz, rig)
+        .map_err(|e| crate::emit::as_option(e, crate::sweep::option_of))?;
+    Ok(Some(e))
 }
 
 /// The rig: a file, or the emulated article rig, with --set applied.

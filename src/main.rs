@@ -14,12 +14,14 @@ mod emit;
 mod emulate;
 mod export;
 mod fmu;
+mod frf;
 mod ident;
 mod interrupt;
 mod read_files;
 mod reproduce;
 mod robust;
 mod select;
+mod sweep;
 mod time;
 
 use anyhow::Result;
@@ -94,6 +96,10 @@ enum Command {
     /// Records from the nonlinear rig emulator (docs/formats.md#record-csv): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
+    /// Frequency response of a sweep record (docs/identification.md#frequency-response-from-a-sweep):
+    /// x/x_ref and the plant with coherence and a 95 % band, as a table, JSON, CSV or a Bode
+    /// figure; or the sweep to record on a rig (--design).
+    Frf(frf::FrfArgs),
     /// The rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64)
     /// for Simulink, Dymola, OpenModelica, Hopsan or any FMI tool (docs/fmu.md).
     Fmu(fmu::FmuArgs),
@@ -270,6 +276,7 @@ pub fn run() -> Result<()> {
         Command::Design(args) => design::run(&args)?,
         Command::Select(args) => select::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,
+        Command::Frf(args) => frf::run(&args)?,
         Command::Fmu(args) => fmu::run(&args)?,
         Command::Reproduce(args) => reproduce::run(&args)?,
     };

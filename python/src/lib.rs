@@ -1421,7 +1421,7 @@ fn emulate(
         from_mm,
         to_mm,
         at_s,
-        amplitude_mm,
+        amplitude_mm: Some(amplitude_mm),
         freq_hz,
         motor,
         to_rpm,
@@ -1429,6 +1429,7 @@ fn emulate(
         rate_hz,
         seed,
         noise,
+        sweep: None,
     };
     let field = |e: pumpcyl::input::FieldError| err(format!("emulate({}): {}", e.field, e.message));
     let plc = request.plc().map_err(field)?;

@@ -11,6 +11,7 @@
 //! - [`circuit`] — the hydraulic circuits behind one interface, each linearised from its own equations;
 //! - [`design`] — the design method: the largest position gain meeting margin targets;
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
+//! - [`frf`] — frequency response from sweep records: excitations, estimate, experiment design;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
 //! - [`input`] — decoding user files and locating their errors;
 //! - [`loops`] — the loop a command analyses or exports (a rig's or a JSON model's) and its view;
@@ -49,6 +50,7 @@ pub mod circuit;
 pub mod design;
 pub mod emulator;
 pub mod fmu;
+pub mod frf;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod ident;

@@ -25,6 +25,12 @@ pub enum ExperimentKind {
     DriveStep,
     /// The closed loop holding still.
     Standstill,
+    /// A logarithmic chirp of the closed loop about x0.
+    Chirp,
+    /// A periodic multisine of the closed loop about x0.
+    Multisine,
+    /// A stepped sine of the closed loop about x0.
+    SteppedSine,
 }
 
 impl ExperimentKind {
@@ -36,14 +42,25 @@ impl ExperimentKind {
             ExperimentKind::Sine => "sine",
             ExperimentKind::DriveStep => "drive-step",
             ExperimentKind::Standstill => "standstill",
+            ExperimentKind::Chirp => "chirp",
+            ExperimentKind::Multisine => "multisine",
+            ExperimentKind::SteppedSine => "stepped-sine",
         }
     }
 
     /// The experiment named `name`, if there is one.
     pub fn named(name: &str) -> Option<ExperimentKind> {
-        [Self::Step, Self::Sine, Self::DriveStep, Self::Standstill]
-            .into_iter()
-            .find(|k| k.name() == name)
+        [
+            Self::Step,
+            Self::Sine,
+            Self::DriveStep,
+            Self::Standstill,
+            Self::Chirp,
+            Self::Multisine,
+            Self::SteppedSine,
+        ]
+        .into_iter()
+        .find(|k| k.name() == name)
     }
 }
 
@@ -59,8 +76,8 @@ pub struct Request {
     pub to_mm: Option<f64>,
     /// Time of the step or the start of the sine (s).
     pub at_s: f64,
-    /// Sine amplitude (mm).
-    pub amplitude_mm: f64,
+    /// Sine amplitude (mm); default [`SINE_AMPLITUDE_MM`].
+    pub amplitude_mm: Option<f64>,
     /// Sine frequency (Hz).
     pub freq_hz: f64,
     /// The drive of a drive step (1 or 2).
@@ -75,7 +92,13 @@ pub struct Request {
     pub seed: u64,
     /// Whether the PLC's sensors add the article's noise.
     pub noise: bool,
+    /// The excitation of a sweep experiment (chirp, multisine, stepped sine), built for the
+    /// rig and rate (`pumpcyl frf --design` gives its defaults); `None` for the others.
+    pub sweep: Option<pumpcyl::frf::Excitation>,
 }
+
+/// A sine's amplitude when none is given (mm).
+pub const SINE_AMPLITUDE_MM: f64 = 20.0;
 
 impl Request {
     /// The PLC sampling the record: the drive records' rate for a drive step, the article's
@@ -114,11 +137,17 @@ impl Request {
             }
             ExperimentKind::Sine => Kind::Loop(Experiment::sine(
                 rig,
-                self.amplitude_mm,
+                self.amplitude_mm.unwrap_or(SINE_AMPLITUDE_MM),
                 self.freq_hz,
                 at,
                 d,
             )),
+            ExperimentKind::Chirp | ExperimentKind::Multisine | ExperimentKind::SteppedSine => {
+                let sweep = self.sweep.ok_or_else(|| {
+                    FieldError::new("sweep", "a sweep experiment needs its excitation")
+                })?;
+                Kind::Loop(Experiment::Sweep(sweep))
+            }
             ExperimentKind::Standstill => Kind::Loop(Experiment::standstill(rig, d)),
             ExperimentKind::DriveStep => Kind::Drive(DriveStep {
                 motor: self.motor,

@@ -14,6 +14,7 @@
 //!   design as text and JSON, leakage loop;
 //! - [`emulated`] — what the emulator used on a rig, in words;
 //! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape);
+//! - [`frf`] — a frequency-response estimate as text, JSON, CSV and a Bode figure with its band;
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
 //! - [`matlab`] — MATLAB/Octave files: the model as `ss`, the grey-box function, MAT-files;
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
@@ -34,6 +35,7 @@ pub mod figures;
 pub mod files;
 pub mod fmu;
 pub mod format;
+pub mod frf;
 pub mod html;
 pub mod identification;
 pub mod matlab;

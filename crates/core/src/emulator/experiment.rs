@@ -46,6 +46,9 @@ pub enum Experiment {
         /// Length of the record (s).
         duration_s: f64,
     },
+    /// A sweep about the operating point: chirp, multisine or stepped sine
+    /// (docs/identification.md#frequency-response-from-a-sweep); the record ends with it.
+    Sweep(crate::frf::Excitation),
 }
 
 /// The closed-loop records' sample rate when none is asked for (Hz): the PLC's.
@@ -170,6 +173,7 @@ impl Experiment {
                     .map_err(|e| FieldError::new("freq_hz", format!("freq_hz = {freq_hz}: {e}")))
             }
             Experiment::Standstill { x_mm, .. } => reach("x_mm", x_mm, x_mm, x_mm),
+            Experiment::Sweep(e) => e.check(rate_hz, rig),
         }
     }
 
@@ -179,6 +183,7 @@ impl Experiment {
             Experiment::Step { duration_s, .. }
             | Experiment::Sine { duration_s, .. }
             | Experiment::Standstill { duration_s, .. } => duration_s,
+            Experiment::Sweep(e) => e.duration_s(),
         }
     }
 
@@ -208,6 +213,7 @@ impl Experiment {
                 centre_mm + amplitude_mm * phase.sin()
             }
             Experiment::Standstill { x_mm, .. } => x_mm,
+            Experiment::Sweep(e) => e.reference_mm(t),
         }
     }
 

@@ -1,0 +1,226 @@
+//! A frequency-response estimate (docs/identification.md#frequency-response-from-a-sweep) as
+//! text, JSON, CSV and a Bode figure with its 95 % band and the rig's model for comparison
+//! (docs/formats.md#frf-outputs).
+
+use crate::plot::{bode_svg, BodeSeries, ReportError};
+use crate::table::Table;
+use pumpcyl::frf::{Design, Estimate, Point, Response};
+use serde::Serialize;
+use std::fmt::Write;
+
+/// The model's response beside an estimate: its name and H at the estimate's frequencies.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelCurve {
+    /// What the model is (the rig and the loop).
+    pub label: String,
+    /// |H| (dB) at each estimated frequency.
+    pub magnitude_db: Vec<f64>,
+    /// arg H (deg), unwrapped, at each estimated frequency.
+    pub phase_deg: Vec<f64>,
+}
+
+/// The JSON document of `pumpcyl frf --json`.
+#[derive(Debug, Serialize)]
+struct Document<'a> {
+    #[serde(flatten)]
+    estimate: &'a Estimate,
+    confidence: f64,
+    band_reference: &'static str,
+    model: Option<&'a ModelCurve>,
+}
+
+/// Where the band's formula comes from, as the outputs cite it.
+pub const BAND_REFERENCE: &str = "Bendat & Piersol, Random Data, 4th ed., Wiley 2010, Table 9.6: \
+     eps = sqrt(1 - coherence)/(sqrt(coherence) sqrt(2 n_d)); 95 %: |H|(1 +/- 1.96 eps), phase \
+     +/- asin(1.96 eps)";
+
+/// The estimate (and the model beside the closed loop) as a JSON value.
+pub fn frf_json(est: &Estimate, model: Option<&ModelCurve>) -> serde_json::Value {
+    serde_json::to_value(Document {
+        estimate: est,
+        confidence: 0.95,
+        band_reference: BAND_REFERENCE,
+        model,
+    })
+    .unwrap_or(serde_json::Value::Null)
+}
+
+/// The estimate as text: what was estimated and how, one table per response, the warnings.
+pub fn frf_text(est: &Estimate) -> String {
+    let mut out = format!(
+        "{}: {} at {} Hz, {} segments of {} samples ({:.1} independent averages)\n",
+        est.file,
+        method_name(est),
+        crate::plot::sig(est.rate_hz, 6),
+        est.segments,
+        est.segment_samples,
+        est.averages
+    );
+    for r in std::iter::once(&est.closed_loop).chain(&est.plant) {
+        out.push_str(&response_table(r).text());
+    }
+    for w in &est.warnings {
+        let _ = writeln!(out, "warning: {w}");
+    }
+    out
+}
+
+fn method_name(est: &Estimate) -> &'static str {
+    match est.method {
+        pumpcyl::frf::Method::WelchHann => "Welch H1, Hann window, half overlap",
+        pumpcyl::frf::Method::Periods => "H1 over whole periods, no window",
+        pumpcyl::frf::Method::SineFit => "least-squares sine fit per level",
+    }
+}
+
+/// One response as a table: frequency, |H|, phase, coherence, the band.
+fn response_table(r: &Response) -> Table {
+    let mut t = Table::new(
+        &format!("{} ({}), 95 % band", r.name, r.unit),
+        &[
+            "freq_hz",
+            "magnitude_db",
+            "phase_deg",
+            "coherence",
+            "band_db",
+            "band_deg",
+        ],
+    );
+    for p in &r.points {
+        t.push(vec![
+            format!("{:.4}", p.freq_hz),
+            format!("{:.3}", p.magnitude_db),
+            format!("{:.2}", p.phase_deg),
+            format!("{:.4}", p.coherence),
+            format!("±{:.3}", p.band_db),
+            format!("±{:.2}", p.band_deg),
+        ]);
+    }
+    t
+}
+
+/// The estimate as CSV: one row per frequency, the closed loop's columns and, where estimated,
+/// the plant's (`plant_` prefix), then the model's closed loop where given.
+pub fn frf_csv(est: &Estimate, model: Option<&ModelCurve>) -> String {
+    const COLUMNS: [&str; 8] = [
+        "magnitude_db",
+        "phase_deg",
+        "re",
+        "im",
+        "coherence",
+        "relative_error",
+        "band_db",
+        "band_deg",
+    ];
+    let mut header = vec!["freq_hz".to_string()];
+    header.extend(COLUMNS.iter().map(|c| c.to_string()));
+    if est.plant.is_some() {
+        header.extend(COLUMNS.iter().map(|c| format!("plant_{c}")));
+    }
+    if model.is_some() {
+        header.extend(["model_magnitude_db".into(), "model_phase_deg".into()]);
+    }
+    let mut out = header.join(",");
+    out.push('\n');
+    let cells = |p: &Point| {
+        [
+            p.magnitude_db,
+            p.phase_deg,
+            p.re,
+            p.im,
+            p.coherence,
+            p.relative_error,
+            p.band_db,
+            p.band_deg,
+        ]
+        .map(|v| format!("{v:.9e}"))
+        .join(",")
+    };
+    for (k, p) in est.closed_loop.points.iter().enumerate() {
+        let mut row = format!("{:.9e},{}", p.freq_hz, cells(p));
+        if let Some(plant) = &est.plant {
+            let _ = write!(row, ",{}", cells(&plant.points[k]));
+        }
+        if let Some(m) = model {
+            let _ = write!(row, ",{:.9e},{:.9e}", m.magnitude_db[k], m.phase_deg[k]);
+        }
+        let _ = writeln!(out, "{row}");
+    }
+    out
+}
+
+/// The Bode figure of the closed-loop estimate with its 95 % band (dashed above and below)
+/// and the model's response.
+pub fn frf_svg(est: &Estimate, model: Option<&ModelCurve>) -> Result<String, ReportError> {
+    let points = &est.closed_loop.points;
+    let freq_hz: Vec<f64> = points.iter().map(|p| p.freq_hz).collect();
+    let curve = |label: &str, sign: f64| BodeSeries {
+        label: label.to_string(),
+        freq_hz: freq_hz.clone(),
+        mag_db: points
+            .iter()
+            .map(|p| p.magnitude_db + band_db(p, sign))
+            .collect(),
+        phase_deg: points
+            .iter()
+            .map(|p| p.phase_deg + sign * p.band_deg)
+            .collect(),
+    };
+    let mut series = vec![curve("estimate x/x_ref", 0.0)];
+    if let Some(m) = model {
+        series.push(BodeSeries {
+            label: m.label.clone(),
+            freq_hz: freq_hz.clone(),
+            mag_db: m.magnitude_db.clone(),
+            phase_deg: m.phase_deg.clone(),
+        });
+    }
+    series.push(curve("95 % band, upper", 1.0));
+    series.push(curve("95 % band, lower", -1.0));
+    let title = format!(
+        "Closed-loop frequency response of {} ({})",
+        crate::format::shown_name(&est.file),
+        method_name(est)
+    );
+    bode_svg(&title, &series, &[])
+}
+
+/// The magnitude band's edge (dB) on the `sign` side: 20 log10(1 ± 1.96 ε), the lower edge
+/// open (−∞ shown as a gap) where 1.96 ε ≥ 1.
+fn band_db(p: &Point, sign: f64) -> f64 {
+    if sign == 0.0 {
+        return 0.0;
+    }
+    let z = pumpcyl::frf::Z95 * p.relative_error;
+    let edge = 1.0 + sign * z;
+    if edge > 0.0 {
+        20.0 * edge.log10()
+    } else {
+        f64::NAN
+    }
+}
+
+/// A designed sweep in words.
+pub fn design_text(d: &Design) -> String {
+    let mut out = format!(
+        "sweep design: crossover {:.3} Hz, resonance {}; band {:.3} … {:.3} Hz; amplitude \
+         {:.2} mm (dead band needs ≥ {:.2}, ratings and stroke allow ≤ {:.2}); {} averages: \
+         {} periods of 1/{:.3} Hz, {:.1} s\n",
+        d.crossover_hz,
+        d.resonance_hz
+            .map_or("none found".to_string(), |f| format!("{f:.3} Hz")),
+        d.from_hz,
+        d.to_hz,
+        d.amplitude_mm,
+        d.min_amplitude_mm,
+        d.max_amplitude_mm,
+        d.averages,
+        d.periods,
+        d.from_hz,
+        d.duration_s
+    );
+    for n in &d.notes {
+        let _ = writeln!(out, "note: {n}");
+    }
+    out
+}
