@@ -59,7 +59,8 @@ pub fn write_greybox(
     let Some((rig, which)) = &view.rig else {
         anyhow::bail!("--greybox needs a rig (its parameters are the rig's), not --ss");
     };
-    let standstill = pumpcyl::loops::standstill_of(rig, standstill);
+    let standstill =
+        pumpcyl::loops::standstill_of(rig, standstill).map_err(|e| anyhow::anyhow!(e))?;
     // the standstill must give usable leakages (positive pressures) for the rig
     standstill.leakage(rig, rig.c12_m5_per_ns)?;
     let text = matlab::greybox_function(

@@ -218,6 +218,7 @@ fn leakages_at(c12: f64, given: Option<pumpcyl::ident::Standstill>) -> [String; 
     use pumpcyl::{loops, rig::Rig};
     let rig = Rig::default();
     let l = loops::standstill_of(&rig, given)
+        .unwrap()
         .leakage(&rig, c12)
         .unwrap();
     [

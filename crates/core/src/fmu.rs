@@ -524,7 +524,8 @@ fn input_start(c: &Config) -> Vec<f64> {
 /// `motor_coupling` says.
 fn rest(model: ModelKind, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
     let loaded = model == ModelKind::Emulator || rig.motor_coupling;
-    Plant::new(rig).rest_state(loaded)
+    (Plant::new(rig).rest_state(loaded))
+        .expect("Instance::rig refuses a circuit other than the dpm")
 }
 
 /// The longest communication step one `do_step` accepts (s): 100 s, 10⁴ PLC periods of the
@@ -886,7 +887,10 @@ impl Instance {
             }
         }
         let text = toml::to_string(&self.parameters).map_err(|e| FmuError(e.to_string()))?;
-        Rig::from_toml_str(&text, "the FMU's parameters").map_err(|e| FmuError(e.to_string()))
+        let rig = Rig::from_toml_str(&text, "the FMU's parameters")
+            .map_err(|e| FmuError(e.to_string()))?;
+        crate::circuit::require_dpm(&rig, "the FMU").map_err(FmuError)?;
+        Ok(rig)
     }
 
     /// Set the start time, enter and leave initialisation mode: the whole of an FMI host's

@@ -56,8 +56,11 @@ pub fn grey_loop(rig: &Rig, which: GreyLoop) -> StateSpace {
 
 /// The standstill the grey-box function takes c1 and c2 from: given, or the rig's own operating
 /// point (whose speeds feed exactly the rig's leakages, so the rig's c1 and c2 come back).
-pub fn standstill_of(rig: &Rig, given: Option<Standstill>) -> Standstill {
-    given.unwrap_or_else(|| Plant::new(rig).dpm().standstill())
+/// Refused for a circuit other than the DPM: the grey-box model is of the DPM's equations.
+pub fn standstill_of(rig: &Rig, given: Option<Standstill>) -> Result<Standstill, String> {
+    crate::circuit::require_dpm(rig, "the grey-box model")?;
+    let own = || Plant::new(rig).dpm().map(|d| d.standstill());
+    Ok(given.or_else(own).expect("required above"))
 }
 
 /// The loop to analyse, with a description for the output.

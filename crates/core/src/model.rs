@@ -56,8 +56,8 @@ impl Plant {
         }
     }
 
-    /// The DPM circuit, for what only it has ([`AnyCircuit::dpm`]).
-    pub fn dpm(&self) -> &Dpm {
+    /// The DPM circuit, for what only it has ([`AnyCircuit::dpm`]); `None` for another circuit.
+    pub fn dpm(&self) -> Option<&Dpm> {
         self.circuit.dpm()
     }
 
@@ -182,8 +182,9 @@ impl Plant {
 
     /// The operating point as a state with the drives carrying the pumps' load where `loaded`
     /// (none otherwise), and the speed commands (rad/s) that hold it.
-    pub fn rest_state(&self, loaded: bool) -> (Vec<f64>, [f64; 2]) {
-        self.circuit.rest_state(loaded)
+    /// `None` for a circuit other than the DPM.
+    pub fn rest_state(&self, loaded: bool) -> Option<(Vec<f64>, [f64; 2])> {
+        self.dpm().map(|d| d.rest_state(loaded))
     }
 
     /// Wrap A, B with output x and no feedthrough.

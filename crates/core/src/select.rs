@@ -344,6 +344,7 @@ pub fn select_with(
     work: &crate::limits::Work,
 ) -> Result<Selection, SelectError> {
     check(rig, req, levels, kp).map_err(|(key, m)| SelectError::Input(format!("`{key}` = {m}")))?;
+    crate::circuit::require_dpm(rig, "select").map_err(SelectError::Input)?;
     crate::limits::check_work(
         "mass_kg loads × pressure levels (cases)",
         cases(req, levels),

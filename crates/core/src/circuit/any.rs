@@ -1,82 +1,97 @@
 //! The circuit a rig is, whichever its kind: what the linear model holds.
 
 use super::dpm::Dpm;
+use super::dual_pump::DualPump;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
 use crate::rig::Rig;
 
-/// A circuit of any kind, the one a rig is: what the linear model holds. Only the DPM is wired
-/// so far; a new kind is a new arm, and the compiler then names every place that asks a
-/// circuit for what only the DPM has ([`AnyCircuit::dpm`]).
-#[derive(Debug, Clone, PartialEq)]
+/// A circuit of any kind, the one a rig is: what the linear model holds. A new kind is a new
+/// arm; what only the DPM has is asked for through [`AnyCircuit::dpm`].
+#[derive(Debug, Clone)]
 pub enum AnyCircuit {
     /// The dual-prime-mover circuit (§2.1, Figure 3).
     Dpm(Dpm),
+    /// The single-motor dual-pump circuit (Figure 1b).
+    DualPump(DualPump),
+}
+
+/// Refuse, in one line, a rig of another circuit than the DPM for `what`, a part of pumpcyl
+/// that models the DPM only so far (docs/circuits.md#what-works-on-which-circuit).
+pub fn require_dpm(rig: &Rig, what: &str) -> Result<(), String> {
+    match rig.circuit {
+        CircuitKind::Dpm => Ok(()),
+        other => Err(format!(
+            "circuit = \"{}\": {what} models the dpm circuit only so far; margins, poles, bode \
+             and model analyse every circuit (docs/circuits.md#what-works-on-which-circuit)",
+            other.name()
+        )),
+    }
+}
+
+/// Dispatch a call to the circuit inside, whichever its kind.
+macro_rules! each {
+    ($self:expr, $c:ident => $e:expr) => {
+        match $self {
+            AnyCircuit::Dpm($c) => $e,
+            AnyCircuit::DualPump($c) => $e,
+        }
+    };
 }
 
 impl AnyCircuit {
     /// The circuit of `rig` its linear model is the Jacobian of: every effect off, no end
     /// stops, the rig's variant switches as set.
     pub fn linear(rig: &Rig) -> AnyCircuit {
-        AnyCircuit::Dpm(Dpm::linear(rig))
-    }
-
-    /// The DPM circuit, for what only it has (its grey-box entries, its standstill).
-    pub fn dpm(&self) -> &Dpm {
-        let AnyCircuit::Dpm(d) = self;
-        d
-    }
-
-    /// The control law at the operating point with the sum-pressure loop where
-    /// `sum_pressure` (the article's P law alone otherwise).
-    pub fn law(&self, sum_pressure: bool) -> ControlLaw {
-        match self {
-            AnyCircuit::Dpm(d) => d.law(sum_pressure),
+        match rig.circuit {
+            CircuitKind::Dpm => AnyCircuit::Dpm(Dpm::linear(rig)),
+            CircuitKind::DualPump => AnyCircuit::DualPump(
+                DualPump::new(rig).expect("Rig::validate refuses a dual-pump rig with no rest"),
+            ),
         }
     }
 
-    /// The operating point as a state with the drives carrying the pumps' load where `loaded`,
-    /// and the speed commands (rad/s) that hold it.
-    pub fn rest_state(&self, loaded: bool) -> (Vec<f64>, [f64; 2]) {
+    /// The DPM circuit, for what only it has (its grey-box entries, its standstill, its two
+    /// drives); `None` for another circuit.
+    pub fn dpm(&self) -> Option<&Dpm> {
         match self {
-            AnyCircuit::Dpm(d) => d.rest_state(loaded),
+            AnyCircuit::Dpm(d) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// The control law at the operating point with the sum-pressure loop where
+    /// `sum_pressure` (the article's P law alone otherwise; a circuit without that loop
+    /// ignores it).
+    pub fn law(&self, sum_pressure: bool) -> ControlLaw {
+        match self {
+            AnyCircuit::Dpm(d) => d.law(sum_pressure),
+            AnyCircuit::DualPump(d) => d.control_law(),
         }
     }
 }
 
 impl Circuit for AnyCircuit {
     fn kind(&self) -> CircuitKind {
-        match self {
-            AnyCircuit::Dpm(d) => d.kind(),
-        }
+        each!(self, c => c.kind())
     }
 
     fn states(&self) -> Vec<Signal> {
-        match self {
-            AnyCircuit::Dpm(d) => d.states(),
-        }
+        each!(self, c => c.states())
     }
 
     fn inputs(&self) -> Vec<Signal> {
-        match self {
-            AnyCircuit::Dpm(d) => d.inputs(),
-        }
+        each!(self, c => c.inputs())
     }
 
     fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
-        match self {
-            AnyCircuit::Dpm(d) => d.rhs(x, u, dx),
-        }
+        each!(self, c => c.rhs(x, u, dx))
     }
 
     fn operating_point(&self) -> OperatingState {
-        match self {
-            AnyCircuit::Dpm(d) => d.operating_point(),
-        }
+        each!(self, c => c.operating_point())
     }
 
     fn control_law(&self) -> ControlLaw {
-        match self {
-            AnyCircuit::Dpm(d) => d.control_law(),
-        }
+        each!(self, c => c.control_law())
     }
 }

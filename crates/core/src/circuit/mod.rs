@@ -18,7 +18,7 @@ pub mod parts;
 pub mod stops;
 pub mod valves;
 
-pub use any::AnyCircuit;
+pub use any::{require_dpm, AnyCircuit};
 pub use dpm::Dpm;
 pub use parts::Effects;
 

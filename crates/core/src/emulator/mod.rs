@@ -149,6 +149,7 @@ impl Dynamics {
         if rig.motor_model != MotorModel::Full {
             return Err("the emulator needs motor_model = \"full\"".into());
         }
+        crate::circuit::require_dpm(rig, "the emulator").map_err(EmulatorError)?;
         let circuit = Dpm::emulated(rig, effects);
         let at = Places::of(&circuit);
         Ok(Dynamics { circuit, at })

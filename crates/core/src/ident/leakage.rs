@@ -72,6 +72,7 @@ impl Standstill {
     /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
+        crate::circuit::require_dpm(rig, "leakage from standstill").map_err(IdentError::Input)?;
         crate::circuit::Dpm::linear(rig)
             .standstill_leakage(rig, self, c12)
             .map_err(IdentError::Input)

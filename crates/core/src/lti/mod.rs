@@ -26,6 +26,9 @@ pub enum LtiError {
     /// Matrix sizes that do not fit together.
     #[error("model dimensions: {0}")]
     Dimension(String),
+    /// A rig of a circuit this analysis does not model yet.
+    #[error("{0}")]
+    Circuit(String),
     /// NaN or infinity in a matrix.
     #[error("model matrix {matrix} has a non-finite entry at row {row}, column {col}")]
     NonFinite {

@@ -157,7 +157,9 @@ impl Baseline {
     pub fn of_rig(rig: &Rig) -> Baseline {
         let plant = Plant::new(rig);
         let x = plant.operating_point().state;
-        let at = |role: Role, k: usize| x[plant.states_of(role)[k]];
+        // a circuit with fewer than two pressures or speeds reads 0 for the missing ones (its
+        // responses are refused before they use them: `stable_loop`)
+        let at = |role: Role, k: usize| plant.states_of(role).get(k).map_or(0.0, |&i| x[i]);
         let x_mm = x[plant.position()] * 1e3;
         Baseline {
             x_ref_mm: x_mm,
@@ -233,6 +235,7 @@ impl Rows {
 /// The closed loop of `rig` as simulated (sum-pressure loop as the rig says, outputs
 /// [`Plant::outputs`]), refused when unstable: its response would grow without bound.
 fn stable_loop(rig: &Rig) -> Result<(StateSpace, Rows), LtiError> {
+    crate::circuit::require_dpm(rig, "a simulated response").map_err(LtiError::Circuit)?;
     let plant = Plant::new(rig);
     let sys = plant.closed_loop_outputs(rig.sum_pressure);
     crate::lti::require_stable(&sys.a)?;
