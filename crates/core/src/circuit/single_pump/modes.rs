@@ -231,24 +231,31 @@ impl SwitchCounter {
     }
 }
 
-/// Integrates the full equations of `c` in closed loop under the article's P law as a
-/// continuous controller about the rest, ω_ref = ω_ref,0 + K_scale Kp (x_ref(t) − x) (no PLC
-/// sampling; ω_ref,0 = `u0` the command that holds the rest, as in the linear model), from
+/// Integrates the equations of `c` (the full circuit or a mode) in closed loop under its
+/// control law about the operating point `op`, u = u0 + Kx (x − x_op) + Kr (x_ref(t) − x_op):
+/// the article's P law as a continuous controller, ω_ref = ω_ref,0 + K_scale Kp (x_ref − x) (no
+/// PLC sampling; ω_ref,0 the command that holds the rest, as in the linear model). From
 /// `start` for `seconds`, by classical RK4 in steps of `step_s`, calling `observe(t, state)`
 /// after every step; returns the end state.
-pub fn closed_loop(
-    c: &SinglePump,
+pub fn closed_loop<C: Circuit>(
+    c: &C,
+    op: &OperatingState,
     start: &[f64],
-    u0: f64,
     x_ref: impl Fn(f64) -> f64,
     seconds: f64,
     step_s: f64,
     mut observe: impl FnMut(f64, &[f64]),
 ) -> Vec<f64> {
     let n = start.len();
+    let law = c.control_law();
     let f = |t: f64, s: &[f64], out: &mut [f64]| {
-        let u = u0 + c.gain * (x_ref(t) - s[X]);
-        c.rhs(s, &[u], out);
+        let u: Vec<f64> = (0..op.inputs.len())
+            .map(|i| {
+                let fb: f64 = (0..n).map(|j| law.kx[(i, j)] * (s[j] - op.state[j])).sum();
+                op.inputs[i] + fb + law.kr[(i, 0)] * (x_ref(t) - op.state[X])
+            })
+            .collect();
+        c.rhs(s, &u, out);
     };
     let steps = (seconds / step_s).round().max(0.0) as usize;
     let h = step_s;
@@ -319,11 +326,10 @@ impl StepCheck {
         };
         let settle_s = mode.settling_time_s()?.min(MAX_SETTLING_S);
         let x0 = op.state[X];
-        let u0 = op.inputs[0];
         let rest = closed_loop(
             c,
+            &op,
             &op.state,
-            u0,
             |_| x0,
             self.hold_s,
             self.step_s,
@@ -336,8 +342,8 @@ impl StepCheck {
         let seconds = settle_s + self.tail_s;
         let end = closed_loop(
             c,
+            &op,
             &rest,
-            u0,
             |_| target,
             seconds,
             self.step_s,
