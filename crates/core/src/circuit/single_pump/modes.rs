@@ -401,22 +401,116 @@ pub struct StepVerdict {
     pub settles_without_switching: bool,
 }
 
-/// [`StepCheck::run`] on `rig`'s circuit (`emulated` with the parts' effects `effects`, or its
-/// own equations with `None`) at each external force of `forces_n` (N).
+/// [`StepCheck::run`] on the circuit `c` (its own equations, [`SinglePump::new`], or the
+/// emulator's) at each external force of `forces_n` (N): the scan that gives the range of
+/// loads over which the step settles without switching.
+///
+/// # Errors
+/// A mode's linear model cannot be analysed ([`LtiError`]).
 pub fn scan_forces(
-    rig: &Rig,
-    effects: Option<crate::circuit::Effects>,
+    c: &SinglePump,
     check: &StepCheck,
     forces_n: &[f64],
 ) -> Result<Vec<StepVerdict>, LtiError> {
-    let mut c = match effects {
-        Some(e) => SinglePump::emulated(rig, e),
-        None => SinglePump::new(rig),
-    };
+    let mut c = c.clone();
     (forces_n.iter())
         .map(|f| {
             c.set_external_force_n(*f);
             check.run(&c)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rig() -> Rig {
+        Rig::default()
+            .with_overrides(&["circuit=single-pump".into()])
+            .unwrap()
+    }
+
+    #[test]
+    fn a_switch_is_the_accumulator_moving_to_the_other_chamber() {
+        let mut c = SwitchCounter::starting_in(Some(2));
+        let seen = [
+            Some(2),
+            None,
+            Some(2),
+            Some(1),
+            None,
+            None,
+            Some(2),
+            Some(2),
+        ];
+        let switched: Vec<bool> = seen.iter().map(|m| c.observe(*m)).collect();
+        assert_eq!(c.switches, 2);
+        assert_eq!(switched.iter().filter(|s| **s).count(), 2);
+        assert!(switched[3] && switched[6]);
+        // an undetermined start counts nothing until the second mode
+        let mut c = SwitchCounter::starting_in(None);
+        c.observe(Some(1));
+        assert_eq!(c.switches, 0);
+    }
+
+    #[test]
+    fn the_pilot_decides_the_mode_of_a_state() {
+        let rig = rig();
+        let c = SinglePump::new(&rig);
+        let p_acc = c.accumulator_pa();
+        let mut s = c.operating_point().state;
+        (s[2], s[3]) = (p_acc, p_acc);
+        assert_eq!(mode_of(&c, &s), None);
+        // chamber 2 two bar up pilots valve 1 open: chamber 1 on the accumulator, mode 2
+        s[3] = p_acc + 2e5;
+        assert_eq!(mode_of(&c, &s), Some(2));
+        (s[2], s[3]) = (p_acc + 2e5, p_acc);
+        assert_eq!(mode_of(&c, &s), Some(1));
+        // chamber 2 a cracking pressure below the accumulator, unpiloted: its check opens
+        (s[2], s[3]) = (p_acc, p_acc - 0.6e5);
+        assert_eq!(mode_of(&c, &s), Some(1));
+    }
+
+    /// At no load the full equations rest at mode 2's operating point but for the open valve's
+    /// drop: the leakage surplus of chamber 1, −c2 (p2 − p_acc), goes back to the accumulator
+    /// through the piloted valve, which needs chamber 1 123 Pa above p_acc
+    /// (docs/circuits.md#its-two-modes).
+    #[test]
+    fn the_full_rest_is_the_modes_to_the_open_valves_drop() {
+        let rig = rig();
+        let c = SinglePump::new(&rig);
+        let op = c.operating_point();
+        let mut dx = vec![0.0; op.state.len()];
+        c.rhs(&op.state, &op.inputs, &mut dx);
+        // every rate zero but chamber 1's, which the valve's missing flow leaves
+        for (i, d) in dx.iter().enumerate().filter(|(i, _)| *i != P1) {
+            assert!(d.abs() < 1e-9, "state {i}: {d}");
+        }
+        let si = rig.si();
+        let p_acc = c.accumulator_pa();
+        let surplus = dx[P1] * si.v1 / si.beta;
+        let want = -si.c2 * (op.state[P1 + 1] - p_acc);
+        assert!((surplus / want - 1.0).abs() < 1e-9, "{surplus} vs {want}");
+        let out = |rise: f64| -c.checks()[0].into_chamber(p_acc + rise, op.state[P1 + 1], p_acc);
+        assert!(out(122.0) < surplus && out(124.0) > surplus);
+    }
+
+    #[test]
+    fn the_switching_force_and_its_band() {
+        let rig = rig();
+        let si = rig.si();
+        let s = switching(&rig);
+        let f_s = 6.91e5 * (si.a1 - si.a2);
+        assert!((s.switching_force_n / f_s - 1.0).abs() < 1e-12);
+        assert_eq!((s.mode_at_rest, s.within_valve_band), (2, false));
+        assert!((s.acceleration_to_switch_m_per_s2 - f_s / 10593.0).abs() < 1e-12);
+        let loaded = Rig {
+            external_force_n: 700.0,
+            ..rig
+        };
+        let s = switching(&loaded);
+        assert_eq!((s.mode_at_rest, s.within_valve_band), (2, true));
+        assert!(s.force_from_switching_n < 0.0 && s.force_from_switching_n > -4.0);
+    }
 }
