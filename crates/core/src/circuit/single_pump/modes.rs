@@ -187,6 +187,52 @@ pub fn switching(rig: &Rig) -> Switching {
     }
 }
 
+/// One mode's linear model at its operating point (docs/circuits.md#its-two-modes): what
+/// `margins`, `poles`, `bode` and `step` report per mode.
+#[derive(Debug, Clone)]
+pub struct ModeModel {
+    /// The chamber held at the accumulator pressure (1 or 2).
+    pub accumulator_chamber: usize,
+    /// The mode's number (1: chamber 2 on the accumulator, 2: chamber 1).
+    pub mode: usize,
+    /// The mode of the rig's operating point at rest ([`Switching::mode_at_rest`]).
+    pub at_rest: bool,
+    /// The mode's states.
+    pub states: Vec<Signal>,
+    /// Its operating point.
+    pub operating_point: OperatingState,
+    /// ∂f/∂x there.
+    pub a: DMatrix<f64>,
+    /// ∂f/∂u there.
+    pub b: DMatrix<f64>,
+    /// The open loop e → x ([`Mode::open_loop`]).
+    pub open_loop: StateSpace,
+}
+
+/// Both modes' linear models of `rig` as a single-pump circuit, mode 1 first.
+///
+/// # Errors
+/// A model [`StateSpace::new`] refuses (a non-finite entry).
+pub fn linear_models(rig: &Rig) -> Result<[ModeModel; 2], LtiError> {
+    let at_rest = switching(rig).mode_at_rest;
+    let model = |chamber: usize| -> Result<ModeModel, LtiError> {
+        let m = Mode::new(rig, chamber);
+        let op = m.operating_point();
+        let (a, b) = crate::circuit::linearise(&m, &op.state, &op.inputs);
+        Ok(ModeModel {
+            accumulator_chamber: chamber,
+            mode: m.number(),
+            at_rest: m.number() == at_rest,
+            states: m.states(),
+            open_loop: m.open_loop()?,
+            operating_point: op,
+            a,
+            b,
+        })
+    };
+    Ok([model(2)?, model(1)?])
+}
+
 /// The mode at state `s` of the full equations: 1 when the check valve into chamber 2 is the
 /// open one (chamber 2 on the accumulator), 2 when chamber 1's is; when both are open the one
 /// opened further; `None` while both are shut (the cylinder locked between the two).
@@ -494,6 +540,23 @@ mod tests {
         assert!((surplus / want - 1.0).abs() < 1e-9, "{surplus} vs {want}");
         let out = |rise: f64| -c.checks()[0].into_chamber(p_acc + rise, op.state[P1 + 1], p_acc);
         assert!(out(122.0) < surplus && out(124.0) > surplus);
+    }
+
+    #[test]
+    fn both_modes_come_with_their_models_and_the_one_at_rest_is_marked() {
+        let models = linear_models(&rig()).unwrap();
+        let got: Vec<(usize, usize, bool)> = (models.iter())
+            .map(|m| (m.mode, m.accumulator_chamber, m.at_rest))
+            .collect();
+        assert_eq!(got, [(1, 2, false), (2, 1, true)]);
+        for m in &models {
+            let names: Vec<&str> = m.states.iter().map(|s| s.name.as_str()).collect();
+            let p = if m.mode == 1 { "p1" } else { "p2" };
+            assert_eq!(names, ["x", "v", p, "w", "tau", "z"]);
+            assert_eq!((m.a.nrows(), m.b.ncols()), (6, 1));
+            // the open loop's A is A less the position feedback, which is absent from A
+            assert_eq!(m.open_loop.a, m.a);
+        }
     }
 
     #[test]
