@@ -88,13 +88,11 @@ pub struct SinglePump {
     n: usize,
 }
 
-/// How the circuit is assembled: with or without the parts' effects, stops and relief valves,
-/// and with the check valves or with a chamber pinned by a mode.
+/// How the circuit is assembled: with or without the parts' effects, stops and relief valves.
 struct Build {
     effects: Effects,
     stops: Option<Stops>,
     emulated: bool,
-    valves_on: bool,
 }
 
 impl SinglePump {
@@ -108,7 +106,6 @@ impl SinglePump {
                 effects: Effects::none(),
                 stops: None,
                 emulated: false,
-                valves_on: true,
             },
         )
     }
@@ -122,21 +119,6 @@ impl SinglePump {
                 effects,
                 stops: Some(Stops::new(rig.stroke_mm * 1e-3, rig.mass_kg)),
                 emulated: true,
-                valves_on: true,
-            },
-        )
-    }
-
-    /// The ideal equations without the check valves, which a mode completes by holding one
-    /// chamber at the accumulator pressure ([`modes::Mode`]).
-    fn without_valves(rig: &Rig) -> SinglePump {
-        SinglePump::build(
-            rig,
-            Build {
-                effects: Effects::none(),
-                stops: None,
-                emulated: false,
-                valves_on: false,
             },
         )
     }
@@ -169,7 +151,7 @@ impl SinglePump {
             coupling: b.emulated || rig.motor_coupling,
             checks: [check; 2],
             relief: b.emulated.then(|| Valve::relief(relief_setting_pa(rig))),
-            valves_on: b.valves_on,
+            valves_on: true,
             p_acc: rig.accumulator_precharge_bar * PA_PER_BAR,
             gain: si.k_scale * si.kp,
             x0: si.x0,
@@ -293,7 +275,8 @@ impl SinglePump {
         }
     }
 
-    /// This circuit with the check valves out of its equations.
+    /// This circuit with the check valves out of its equations, which a mode completes by
+    /// holding one chamber at the accumulator pressure ([`modes::Mode`]).
     fn without_check_valves(&self) -> SinglePump {
         SinglePump {
             valves_on: false,

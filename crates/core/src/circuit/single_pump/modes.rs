@@ -38,7 +38,7 @@ impl Mode {
             "chamber {accumulator_chamber}: the circuit has chambers 1 and 2"
         );
         Mode {
-            full: SinglePump::without_valves(rig),
+            full: SinglePump::new(rig).without_check_valves(),
             acc: accumulator_chamber - 1,
         }
     }
