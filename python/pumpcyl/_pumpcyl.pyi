@@ -43,7 +43,7 @@ class Rig:
     def __dir__(self) -> List[str]:
         """The methods and every key."""
     # circuit (docs/circuits.md): the other circuit's keys may not be set
-    circuit: Literal["dpm", "dual-pump"]
+    circuit: Literal["dpm", "dual-pump", "single-pump"]
     # geometry
     piston_diameter_mm: float
     rod_diameter_mm: float
@@ -76,8 +76,11 @@ class Rig:
     beta_bar: float
     viscous_friction_ns_per_m: float
     c12_m5_per_ns: float
-    # dual-pump circuit only
+    # dual- and single-pump circuits only (accumulator_pressure_bar in a file is the same key)
     accumulator_precharge_bar: float
+    # single-pump circuit only: its pilot-operated check valves
+    pilot_ratio: float
+    check_valve_crack_bar: float
     c1_m5_per_ns: float
     c2_m5_per_ns: float
     # controller

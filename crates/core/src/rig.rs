@@ -117,7 +117,7 @@ pub enum RigError {
         message: String,
     },
     /// A key the rig's circuit does not have, set explicitly (docs/circuits.md).
-    #[error("{source_name}: {}key `{key}`: the {} circuit has no such key (it belongs to the {} circuit; docs/circuits.md)", line.map_or(String::new(), |l| format!("line {l}, ")), circuit.name(), owner.name())]
+    #[error("{source_name}: {}key `{key}`: the {} circuit has no such key (it belongs to the {}; docs/circuits.md)", line.map_or(String::new(), |l| format!("line {l}, ")), circuit.name(), circuits_text(owners))]
     NotInCircuit {
         /// Where the rig came from (file name, `--set`).
         source_name: String,
@@ -127,8 +127,8 @@ pub enum RigError {
         key: &'static str,
         /// The rig's circuit.
         circuit: CircuitKind,
-        /// The circuit the key belongs to.
-        owner: CircuitKind,
+        /// The circuits the key belongs to.
+        owners: &'static [CircuitKind],
     },
     /// A value outside its physical range.
     #[error("{source_name}: {}key `{key}` = {}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")), readable(*value))]
@@ -193,27 +193,66 @@ pub const ARTICLE_MASS_BY_POSITION: [MassPoint; 3] = [
 /// balance (docs/circuits.md#the-default-pre-charge).
 pub const ACCUMULATOR_PRECHARGE_BAR: f64 = 6.91;
 
-/// Keys only the DPM has: its second drive and its sum-pressure loop (docs/circuits.md).
-const DPM_ONLY_KEYS: [&str; 6] = [
-    "motor_inertia_2_kg_mm2",
-    "km2_nms_per_rad",
-    "p_sum_ref_bar",
-    "k_pres_per_bar",
-    "k_beta",
-    "sum_pressure",
-];
+/// The single-pump circuit's pilot ratio: 3:1, the smallest of Sun Hydraulics' pilot-to-open
+/// check cartridges (its series 0; series 1, 3 and 4 are 4:1), as Sun's "Pilot-to-open check
+/// valves: frequently asked questions" (2001) gives them (docs/circuits.md#the-pilot-operated-check-valves).
+pub const PILOT_RATIO: f64 = 3.0;
 
-/// Keys only the dual-pump circuit has (docs/circuits.md).
-const DUAL_PUMP_ONLY_KEYS: [&str; 1] = ["accumulator_precharge_bar"];
+/// The single-pump circuit's check-valve cracking pressure (bar): the anti-cavitation check
+/// valve's 0.5 bar, the lightest spring of a size-10 check valve (Bosch Rexroth type S, data
+/// sheet RE 20375) **\[choice\]**: the same poppet and spring, piloted.
+pub const CHECK_VALVE_CRACK_BAR: f64 = 0.5;
 
-/// `key` and the circuit it belongs to when `circuit` does not have it; `None` for a key of
-/// `circuit` (or of every circuit).
-fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, CircuitKind)> {
-    let (others, owner): (&[&'static str], _) = match circuit {
-        CircuitKind::Dpm => (&DUAL_PUMP_ONLY_KEYS, CircuitKind::DualPump),
-        CircuitKind::DualPump => (&DPM_ONLY_KEYS, CircuitKind::Dpm),
-    };
-    others.iter().find(|k| **k == key).map(|k| (*k, owner))
+/// The keys not every circuit has, each with the circuits that have it (docs/circuits.md): the
+/// DPM's second drive and sum-pressure loop, the second pump of the DPM and the dual-pump
+/// circuit, the accumulator of the dual- and single-pump circuits, and the single-pump
+/// circuit's pilot-operated check valves.
+const CIRCUIT_KEYS: [(&str, &[CircuitKind]); 11] = {
+    use CircuitKind::*;
+    [
+        ("motor_inertia_2_kg_mm2", &[Dpm]),
+        ("km2_nms_per_rad", &[Dpm]),
+        ("p_sum_ref_bar", &[Dpm]),
+        ("k_pres_per_bar", &[Dpm]),
+        ("k_beta", &[Dpm]),
+        ("sum_pressure", &[Dpm]),
+        ("pump_inertia_2_kg_mm2", &[Dpm, DualPump]),
+        ("displacement_2_cm3_per_rev", &[Dpm, DualPump]),
+        ("accumulator_precharge_bar", &[DualPump, SinglePump]),
+        ("pilot_ratio", &[SinglePump]),
+        ("check_valve_crack_bar", &[SinglePump]),
+    ]
+};
+
+/// Another name a rig file or `--set` may give a key, and the key's own name: the article
+/// speaks of the accumulator's pressure, which for a gas accumulator at rest is its pre-charge
+/// (docs/circuits.md#single-pump).
+const KEY_ALIASES: [(&str, &str); 1] = [("accumulator_pressure_bar", "accumulator_precharge_bar")];
+
+/// The key's own name for `key`, which may be an alias ([`KEY_ALIASES`]).
+fn canonical_key(key: &str) -> &str {
+    KEY_ALIASES
+        .iter()
+        .find(|(alias, _)| *alias == key)
+        .map_or(key, |(_, own)| own)
+}
+
+/// `key` (by its own name) and the circuits it belongs to when `circuit` does not have it;
+/// `None` for a key of `circuit` (or of every circuit).
+fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, &'static [CircuitKind])> {
+    let key = canonical_key(key);
+    (CIRCUIT_KEYS.iter())
+        .find(|(k, owners)| *k == key && !owners.contains(&circuit))
+        .map(|(k, owners)| (*k, *owners))
+}
+
+/// "dpm circuit", "dpm and dual-pump circuits".
+fn circuits_text(circuits: &[CircuitKind]) -> String {
+    let names: Vec<&str> = circuits.iter().map(|c| c.name()).collect();
+    match names.len() {
+        1 => format!("{} circuit", names[0]),
+        _ => format!("{} circuits", names.join(" and ")),
+    }
 }
 
 /// Most points a `mass_by_position` table may hold.
@@ -225,8 +264,9 @@ pub const MAX_MASS_POINTS: usize = 1000;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default = "Rig::file_default")]
 pub struct Rig {
-    /// The hydraulic circuit: the article's dual-prime-mover circuit (`dpm`, the default) or
-    /// one motor turning two pumps (`dual-pump`, the article's Figure 1b; docs/circuits.md).
+    /// The hydraulic circuit: the article's dual-prime-mover circuit (`dpm`, the default), one
+    /// motor turning two pumps (`dual-pump`, the article's Figure 1b) or one pump with
+    /// pilot-operated check valves (`single-pump`, Figure 1a; docs/circuits.md).
     pub circuit: CircuitKind,
     /// Piston diameter d1 (mm).
     pub piston_diameter_mm: f64,
@@ -284,9 +324,16 @@ pub struct Rig {
     /// Cross-port leakage c12 (m⁵/(N·s)).
     pub c12_m5_per_ns: f64,
     /// Accumulator pre-charge p_acc (bar gauge): the pressure of the accumulator line, which sets
-    /// the pressure level of the dual-pump circuit (docs/circuits.md#operating-point). Not a key
-    /// of the DPM, whose sum-pressure loop sets its level.
+    /// the pressure level of the dual- and single-pump circuits (docs/circuits.md#operating-point);
+    /// `accumulator_pressure_bar` is another name for it. Not a key of the DPM, whose
+    /// sum-pressure loop sets its level.
+    #[serde(alias = "accumulator_pressure_bar")]
     pub accumulator_precharge_bar: f64,
+    /// Pilot ratio k of the single-pump circuit's pilot-operated check valves: pilot piston area
+    /// over seat area (docs/circuits.md#the-pilot-operated-check-valves).
+    pub pilot_ratio: f64,
+    /// Cracking pressure of the single-pump circuit's pilot-operated check valves (bar).
+    pub check_valve_crack_bar: f64,
     /// Chamber 1 leakage c1 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
     pub c1_m5_per_ns: f64,
     /// Chamber 2 leakage c2 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
@@ -350,6 +397,8 @@ impl Default for Rig {
             viscous_friction_ns_per_m: 100.0,
             c12_m5_per_ns: 1.2e-10,
             accumulator_precharge_bar: ACCUMULATOR_PRECHARGE_BAR,
+            pilot_ratio: PILOT_RATIO,
+            check_valve_crack_bar: CHECK_VALVE_CRACK_BAR,
             c1_m5_per_ns: 5.49e-11,
             c2_m5_per_ns: -1.19e-11,
             kp: 25.0,
@@ -534,7 +583,9 @@ impl Rig {
                 if let RigError::Invalid { line, key, .. }
                 | RigError::NotInCircuit { line, key, .. } = &mut e
                 {
-                    *line = input::toml_line(text, &[input::Key::Name(key)]);
+                    let alias = KEY_ALIASES.iter().find(|(_, own)| own == key);
+                    *line = input::toml_line(text, &[input::Key::Name(key)])
+                        .or_else(|| input::toml_line(text, &[input::Key::Name(alias?.0)]));
                 }
                 e
             })?;
@@ -542,7 +593,10 @@ impl Rig {
         let defaulted = Rig::key_docs()
             .map(|(key, _)| key)
             .filter(|key| *key != "motor_time_constant_s")
-            .filter(|key| foreign_key(rig.circuit, key).is_none() && !written.contains_key(*key))
+            .filter(|key| {
+                let written_as = |k: &String| canonical_key(k) == *key;
+                foreign_key(rig.circuit, key).is_none() && !written.keys().any(written_as)
+            })
             .collect();
         Ok(RigFile { rig, defaulted })
     }
@@ -623,12 +677,12 @@ impl Rig {
     fn check_circuit_keys(&self, source_name: &str, set: &[&str]) -> Result<(), RigError> {
         match set.iter().find_map(|k| foreign_key(self.circuit, k)) {
             None => Ok(()),
-            Some((key, owner)) => Err(RigError::NotInCircuit {
+            Some((key, owners)) => Err(RigError::NotInCircuit {
                 source_name: source_name.to_string(),
                 line: None,
                 key,
                 circuit: self.circuit,
-                owner,
+                owners,
             }),
         }
     }
@@ -673,6 +727,8 @@ impl Rig {
             CircuitKind::DualPump => self
                 .validate_dual_pump_rest()
                 .map_err(|(key, value, rule)| invalid(key, value, rule)),
+            // both modes rest with one chamber at p_acc > 0 and the other above it
+            CircuitKind::SinglePump => Ok(()),
         }
     }
 
@@ -922,6 +978,12 @@ impl Rig {
                 self.accumulator_precharge_bar,
                 Positive(0.001, 1e4),
             ),
+            ("pilot_ratio", self.pilot_ratio, Positive(0.01, 1000.0)),
+            (
+                "check_valve_crack_bar",
+                self.check_valve_crack_bar,
+                Positive(0.001, 1000.0),
+            ),
             ("c1_m5_per_ns", self.c1_m5_per_ns, Any(1e-6)),
             ("c2_m5_per_ns", self.c2_m5_per_ns, Any(1e-6)),
             ("kp", self.kp, Positive(1e-6, 1e6)),
@@ -1038,10 +1100,10 @@ impl Rig {
                         out.push_str(&format!("{key} = {}  # {doc}\n", toml_text(value)))
                     }
                     // a key of another circuit may not be set: shown, commented out
-                    (Some(value), Some((_, owner))) => out.push_str(&format!(
-                        "# {key} = {}  # {doc} ({} circuit only)\n",
+                    (Some(value), Some((_, owners))) => out.push_str(&format!(
+                        "# {key} = {}  # {doc} ({} only)\n",
                         toml_text(value),
-                        owner.name()
+                        circuits_text(owners)
                     )),
                     (None, _) => out.push_str(&format!("# {key} = 0.05  # {doc}\n")),
                 }
@@ -1115,7 +1177,7 @@ fn parse_assignment(
     let (key, raw) = assignment
         .split_once('=')
         .ok_or_else(|| err("expected KEY=VALUE".into()))?;
-    let key = key.trim();
+    let key = canonical_key(key.trim());
     let raw = raw.trim();
     let value = input::parse_value(raw);
     // the one optional key is absent from the table when unset: its type is float
@@ -1148,7 +1210,7 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
         "circuit",
         &[(
             "circuit",
-            "\"dpm\" (the article's dual-prime-mover circuit) or \"dual-pump\" (one motor, two pumps: the article's Figure 1b); docs/circuits.md",
+            "\"dpm\" (the article's dual-prime-mover circuit), \"dual-pump\" (one motor, two pumps: the article's Figure 1b) or \"single-pump\" (one motor, one pump, pilot-operated check valves: Figure 1a); docs/circuits.md",
         )],
     ),
     (
@@ -1236,7 +1298,15 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             ("c12_m5_per_ns", "m⁵/(N·s), cross-port leakage"),
             (
                 "accumulator_precharge_bar",
-                "bar, accumulator pre-charge p_acc: the dual-pump circuit's pressure level",
+                "bar, accumulator pre-charge p_acc (also accumulator_pressure_bar): the dual- and single-pump circuits' pressure level",
+            ),
+            (
+                "pilot_ratio",
+                "pilot ratio k of the single-pump circuit's pilot-operated check valves (pilot over seat area)",
+            ),
+            (
+                "check_valve_crack_bar",
+                "bar, cracking pressure of the single-pump circuit's pilot-operated check valves",
             ),
             (
                 "c1_m5_per_ns",

@@ -40,37 +40,25 @@ pub mod balance;
 
 pub use balance::{SteadyMotion, Undetermined};
 
-use super::parts::{
-    Chamber, Drive, Effects, FirstOrderMotor, Fluid, MassLaw, Piston, Pump, Volume,
-};
+use super::parts::{cylinder_of_rig, Chamber, Effects, Fluid, Motor, Piston, Pump};
 use super::stops::Stops;
 use super::valves::Valves;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
 use crate::bulk;
-use crate::rig::{MotorModel, Rig};
-use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
+use crate::rig::Rig;
+use crate::units::PA_PER_BAR;
 use balance::Balance;
 use nalgebra::DMatrix;
 
-/// State positions: position, velocity, the chamber pressures, the shaft speed, the torque and
-/// the feedforward filter (the last two with the full motor model only).
+/// State positions: position, velocity, the chamber pressures, the shaft speed, then the
+/// motor's torque and feedforward filter (with the full motor model only; tests name them).
 const X: usize = 0;
 const V: usize = 1;
 const P1: usize = 2;
 const P2: usize = 3;
 const W: usize = 4;
+#[cfg(test)]
 const TAU: usize = 5;
-const Z: usize = 6;
-
-/// The motor: the drive with its states, or the first-order approximation.
-#[derive(Debug, Clone, PartialEq)]
-enum Motor {
-    /// Drive 1's loops on the shaft inertia Jm1 + Jp1 + Jp2 (states w, tau and, with the
-    /// feedforward on, z).
-    Full(Drive),
-    /// ω/ω_ref = 1/(τ s + 1) (state w).
-    FirstOrder(FirstOrderMotor),
-}
 
 /// The single-motor dual-pump circuit of a rig (the article's Figure 1b).
 #[derive(Debug, Clone, PartialEq)]
@@ -145,55 +133,12 @@ impl DualPump {
         let si = rig.si();
         let balance = rig.dual_pump_balance();
         balance.steady(0.0)?;
-        let vl = [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3];
-        let volumes = if e.varying_volumes {
-            [
-                Volume::Cap {
-                    dead_m3: vl[0],
-                    area_m2: si.a1,
-                },
-                Volume::Rod {
-                    dead_m3: vl[1],
-                    area_m2: si.a2,
-                    stroke_m: rig.stroke_mm * 1e-3,
-                },
-            ]
-        } else {
-            [Volume::Fixed(si.v1), Volume::Fixed(si.v2)]
-        };
-        let j = si.j[0] + rig.pump_inertia_2_kg_mm2 * 1e-6;
-        let full = rig.motor_model == MotorModel::Full;
-        let motor = if full {
-            Motor::Full(Drive {
-                inertia: j,
-                km: si.km[0],
-                omega_i: si.omega_i,
-                feedforward: rig.feedforward.then_some(si.kff / si.tau_ff),
-                tau_ff_s: si.tau_ff,
-                torque_limit: e.peak_torque_factor.map(|f| f * rig.motor_rated_torque_nm),
-                speed_limit: (e.pump_speed_limit).then_some(rig.pump_max_speed_rpm * RAD_S_PER_RPM),
-            })
-        } else {
-            Motor::FirstOrder(FirstOrderMotor {
-                tau_s: rig.motor_time_constant_s.unwrap_or(j / si.km[0]),
-            })
-        };
+        let (piston, chambers) = cylinder_of_rig(rig, &e, stops);
+        let motor = Motor::of_rig(rig, si.j[0] + rig.pump_inertia_2_kg_mm2 * 1e-6, &e);
         Ok(DualPump {
             balance,
-            piston: Piston {
-                areas_m2: [si.a1, si.a2],
-                viscous_ns_per_m: si.b,
-                mass_kg: si.mass,
-                force_ext_n: si.f_ext,
-                coulomb_n: e.coulomb_n,
-                mass_law: if e.stroke_mass {
-                    MassLaw::of_rig(rig)
-                } else {
-                    MassLaw::constant()
-                },
-                stops,
-            },
-            chambers: volumes.map(|volume| Chamber { volume }),
+            piston,
+            chambers,
             fluid: Fluid {
                 beta_pa: si.beta,
                 gas_fraction: e.gas_fraction,
@@ -204,7 +149,6 @@ impl DualPump {
                 dead_band_rad_s: e.dead_band_rad_s,
                 slip_m5_per_ns: e.slip_m5_per_ns,
             }),
-            motor,
             leakage: [si.c1, si.c2, si.c12],
             coupling: emulated || rig.motor_coupling,
             valves: Valves::new(relief_setting_pa(rig)),
@@ -212,13 +156,8 @@ impl DualPump {
             gain: si.k_scale * si.kp,
             x0: si.x0,
             beta_bar: rig.beta_bar,
-            n: if !full {
-                5
-            } else if rig.feedforward {
-                7
-            } else {
-                6
-            },
+            n: 4 + motor.n_states(),
+            motor,
         })
     }
 
@@ -369,18 +308,7 @@ impl Circuit for DualPump {
         let beta = self.fluid.beta((p1 + p2) * 0.5);
         dx[P1] = self.chambers[0].pressure_rate(beta, x, p1, q[0]);
         dx[P2] = self.chambers[1].pressure_rate(beta, x, p2, q[1]);
-        match &self.motor {
-            Motor::FirstOrder(m) => dx[W] = m.acceleration(u[0], s[W]),
-            Motor::Full(drive) => {
-                let z = (self.n > Z).then(|| s[Z]);
-                let rates = drive.rates(u[0], s[W], s[TAU], z, self.load_torque(s));
-                dx[W] = rates.speed;
-                dx[TAU] = rates.torque;
-                if let Some(rate) = rates.feedforward {
-                    dx[Z] = rate;
-                }
-            }
-        }
+        (self.motor).write_rates(u[0], s, self.load_torque(s), dx, W);
     }
 
     /// At rest at x0: the pressures and shaft speed of [`DualPump::rest`]; with the full motor
@@ -393,14 +321,8 @@ impl Circuit for DualPump {
         state[P1] = rest.p1_pa;
         state[P2] = rest.p2_pa;
         state[W] = rest.omega_rad_per_s;
-        let mut w_ref = rest.omega_rad_per_s;
-        if let Motor::Full(drive) = &self.motor {
-            state[TAU] = self.load_torque(&state);
-            w_ref += state[TAU] / drive.km;
-            if self.n > Z {
-                state[Z] = w_ref;
-            }
-        }
+        let load = self.load_torque(&state);
+        let w_ref = self.motor.hold(&mut state, W, load);
         OperatingState {
             state,
             inputs: vec![w_ref],

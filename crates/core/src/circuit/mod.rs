@@ -9,12 +9,14 @@
 //!
 //! The circuits are those of the article's Figure 1 and its Figure 3:
 //! - [`CircuitKind::Dpm`] — the dual-prime-mover circuit the article builds (§2.1, Figure 3);
-//! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b).
+//! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b);
+//! - [`CircuitKind::SinglePump`] — one pump, pilot-operated check valves (Figure 1a).
 
 mod any;
 pub mod dpm;
 pub mod dual_pump;
 pub mod parts;
+pub mod single_pump;
 pub mod stops;
 pub mod valves;
 
@@ -41,17 +43,25 @@ pub enum CircuitKind {
     Dpm,
     /// One motor turning two pumps on one shaft (the article's Figure 1b).
     DualPump,
+    /// One motor, one pump between the chambers, pilot-operated check valves to the
+    /// accumulator (the article's Figure 1a).
+    SinglePump,
 }
 
 impl CircuitKind {
     /// Every circuit pumpcyl models.
-    pub const ALL: [CircuitKind; 2] = [CircuitKind::Dpm, CircuitKind::DualPump];
+    pub const ALL: [CircuitKind; 3] = [
+        CircuitKind::Dpm,
+        CircuitKind::DualPump,
+        CircuitKind::SinglePump,
+    ];
 
     /// The name used in rig files and every output (`circuit = "dpm"`).
     pub fn name(self) -> &'static str {
         match self {
             CircuitKind::Dpm => "dpm",
             CircuitKind::DualPump => "dual-pump",
+            CircuitKind::SinglePump => "single-pump",
         }
     }
 

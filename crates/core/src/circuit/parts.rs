@@ -364,6 +364,119 @@ impl FirstOrderMotor {
     }
 }
 
+/// The one motor of a single-motor circuit (the article's Figure 1a and 1b): drive 1's loops
+/// on the shaft's inertia, or the first-order approximation (docs/model.md#variants).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Motor {
+    /// Drive 1's loops (states w, tau and, with the feedforward on, z).
+    Full(Drive),
+    /// ω/ω_ref = 1/(τ s + 1) (state w).
+    FirstOrder(FirstOrderMotor),
+}
+
+impl Motor {
+    /// The motor of `rig` turning a shaft of inertia `inertia` (kg·m²), with the torque and
+    /// speed limits of `e`.
+    pub fn of_rig(rig: &crate::rig::Rig, inertia: f64, e: &Effects) -> Motor {
+        let si = rig.si();
+        if rig.motor_model != crate::rig::MotorModel::Full {
+            return Motor::FirstOrder(FirstOrderMotor {
+                tau_s: rig.motor_time_constant_s.unwrap_or(inertia / si.km[0]),
+            });
+        }
+        Motor::Full(Drive {
+            inertia,
+            km: si.km[0],
+            omega_i: si.omega_i,
+            feedforward: rig.feedforward.then_some(si.kff / si.tau_ff),
+            tau_ff_s: si.tau_ff,
+            torque_limit: e.peak_torque_factor.map(|f| f * rig.motor_rated_torque_nm),
+            speed_limit: (e.pump_speed_limit)
+                .then_some(rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM),
+        })
+    }
+
+    /// How many states it has: 1 (first order), 2 (full), 3 (full with feedforward).
+    pub fn n_states(&self) -> usize {
+        match self {
+            Motor::FirstOrder(_) => 1,
+            Motor::Full(d) => 2 + usize::from(d.feedforward.is_some()),
+        }
+    }
+
+    /// Writes the rates of its states, which start at `at` in `s` (speed, torque, feedforward),
+    /// into `dx`, at speed command `u` and load torque `load` (N·m).
+    pub fn write_rates<T: Scalar>(&self, u: T, s: &[T], load: T, dx: &mut [T], at: usize) {
+        match self {
+            Motor::FirstOrder(m) => dx[at] = m.acceleration(u, s[at]),
+            Motor::Full(drive) => {
+                let z = drive.feedforward.map(|_| s[at + 2]);
+                let rates = drive.rates(u, s[at], s[at + 1], z, load);
+                dx[at] = rates.speed;
+                dx[at + 1] = rates.torque;
+                if let Some(rate) = rates.feedforward {
+                    dx[at + 2] = rate;
+                }
+            }
+        }
+    }
+
+    /// At steady speed (already in `state[at]`) against the load torque `load` (N·m): the
+    /// torque that carries it, the feedforward filter settled, and the speed command that holds
+    /// it through the P loop (τ = Km (ω_ref − ω)), which it returns.
+    pub fn hold(&self, state: &mut [f64], at: usize, load: f64) -> f64 {
+        let mut w_ref = state[at];
+        if let Motor::Full(drive) = self {
+            state[at + 1] = load;
+            w_ref += load / drive.km;
+            if drive.feedforward.is_some() {
+                state[at + 2] = w_ref;
+            }
+        }
+        w_ref
+    }
+}
+
+/// The piston and the two chambers of `rig`'s cylinder with the effects `e` and the end
+/// stops `stops`: volumes fixed at x0, or following the piston.
+pub fn cylinder_of_rig(
+    rig: &crate::rig::Rig,
+    e: &Effects,
+    stops: Option<Stops>,
+) -> (Piston, [Chamber; 2]) {
+    let si = rig.si();
+    let vl = [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3];
+    let volumes = if e.varying_volumes {
+        [
+            Volume::Cap {
+                dead_m3: vl[0],
+                area_m2: si.a1,
+            },
+            Volume::Rod {
+                dead_m3: vl[1],
+                area_m2: si.a2,
+                stroke_m: rig.stroke_mm * 1e-3,
+            },
+        ]
+    } else {
+        [Volume::Fixed(si.v1), Volume::Fixed(si.v2)]
+    };
+    let piston = Piston {
+        areas_m2: [si.a1, si.a2],
+        viscous_ns_per_m: si.b,
+        mass_kg: si.mass,
+        force_ext_n: si.f_ext,
+        coulomb_n: e.coulomb_n,
+        mass_law: if e.stroke_mass {
+            MassLaw::of_rig(rig)
+        } else {
+            MassLaw::constant()
+        },
+        stops,
+    };
+    (piston, volumes.map(|volume| Chamber { volume }))
+}
+
 /// β_e (bar) of the constant gas-fraction law at pressure `p_bar` for gas fraction `x`
 /// (docs/bulk-modulus.md#the-constant-gas-fraction-model), over `f64` or a dual number.
 pub fn effective_beta_of<T: Scalar>(x: f64, p_bar: T, beta_oil_bar: f64) -> T {

@@ -1,6 +1,7 @@
 //! The valves a single-motor circuit adds to its emulated equations (docs/circuits.md#valves):
 //! anti-cavitation check valves from the accumulator into each chamber and a pressure-relief
-//! valve from a chamber to the accumulator, as the circuits of the article's Figure 1 carry them.
+//! valve from a chamber to the accumulator, as the circuits of the article's Figure 1 carry them;
+//! the single-pump circuit's check valves are pilot-operated ([`PilotCheck`]).
 //!
 //! Every valve is one sharp-edged orifice whose opening follows its pressure drop:
 //!
@@ -76,7 +77,15 @@ impl Valve {
     /// The flow (m³/s) through the valve at pressure drop `dp` (Pa) across it, inlet minus
     /// outlet; zero below the cracking pressure.
     pub fn flow<T: Scalar>(&self, dp: T) -> T {
-        let t = (dp - self.crack_pa) / self.open_range_pa;
+        self.flow_opened_by(dp, dp)
+    }
+
+    /// The flow (m³/s) at pressure drop `dp` (Pa, inlet minus outlet) through the valve opened
+    /// by the signal `signal` (Pa): shut while the signal is below the cracking pressure, fully
+    /// open from the cracking pressure plus the opening range. A plain valve's signal is its
+    /// pressure drop ([`Valve::flow`]); a pilot-operated one adds its pilot ([`PilotCheck`]).
+    pub fn flow_opened_by<T: Scalar>(&self, signal: T, dp: T) -> T {
+        let t = (signal - self.crack_pa) / self.open_range_pa;
         if t <= 0.0 {
             return T::from(0.0);
         }
@@ -89,6 +98,54 @@ impl Valve {
         let root = (dp * dp + lam2).sqrt().sqrt();
         s * (DISCHARGE_COEFFICIENT * self.area_m2 * (2.0 / OIL_DENSITY_KG_PER_M3).sqrt()) * dp
             / root
+    }
+}
+
+/// A pilot-operated check valve from the accumulator into a chamber (the single-pump circuit of
+/// the article's Figure 1a, docs/circuits.md#the-pilot-operated-check-valves): a check valve
+/// whose poppet the other chamber's pressure, on a pilot piston `pilot_ratio` times the seat's
+/// area, pushes open. Its opening signal is
+///
+/// s = (p_acc − p) + k (p_pilot − p_acc),
+///
+/// the seat's pressure drop plus the pilot's push, both measured from the accumulator line (the
+/// pilot piston's spring side drains there **\[choice\]**); the valve follows [`Valve`]'s law on
+/// this signal: shut below the cracking pressure, fully open from the cracking pressure plus
+/// the opening range, and the orifice flow in either direction by the seat's pressure drop
+/// p_acc − p once open (the form of Simscape's and Hopsan's pilot-operated check valves).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PilotCheck {
+    /// The check valve: cracking pressure, opening range, area, laminar range.
+    pub valve: Valve,
+    /// Pilot piston area over the seat's area, k.
+    pub pilot_ratio: f64,
+}
+
+impl PilotCheck {
+    /// The opening signal (Pa) at chamber pressure `p`, pilot pressure `p_pilot` and
+    /// accumulator pressure `p_acc` (Pa).
+    pub fn signal<T: Scalar>(&self, p: T, p_pilot: T, p_acc: f64) -> T {
+        (T::from(p_acc) - p) + (p_pilot - p_acc) * self.pilot_ratio
+    }
+
+    /// The flow (m³/s) into the chamber at pressure `p` with pilot pressure `p_pilot` and
+    /// accumulator pressure `p_acc` (Pa); negative when the pilot holds the valve open and the
+    /// chamber is above the accumulator.
+    pub fn into_chamber<T: Scalar>(&self, p: T, p_pilot: T, p_acc: f64) -> T {
+        let dp = T::from(p_acc) - p;
+        (self.valve).flow_opened_by(self.signal(p, p_pilot, p_acc), dp)
+    }
+
+    /// The pilot pressure above the accumulator (Pa) that holds the valve fully open with its
+    /// chamber at the accumulator pressure: (Δp_crack + Δp_open)/k.
+    pub fn held_open_above_pa(&self) -> f64 {
+        (self.valve.crack_pa + self.valve.open_range_pa) / self.pilot_ratio
+    }
+
+    /// The pilot pressure above the accumulator (Pa) below which the valve shuts with its
+    /// chamber at the accumulator pressure: Δp_crack/k.
+    pub fn shut_below_pa(&self) -> f64 {
+        self.valve.crack_pa / self.pilot_ratio
     }
 }
 
@@ -141,6 +198,33 @@ mod tests {
         assert!(slope(v.crack_pa + 1.0).abs() < 1e-12);
         let end = v.crack_pa + v.open_range_pa;
         assert!((slope(end - 1e-3) / slope(end + 1e-3) - 1.0).abs() < 1e-6);
+    }
+
+    /// The pilot holds the valve open against a chamber above the accumulator, and the flow
+    /// then runs back to the accumulator; without pilot it is the plain check valve.
+    #[test]
+    fn a_pilot_holds_the_check_valve_open_in_both_directions() {
+        let pc = PilotCheck {
+            valve: Valve::ANTI_CAVITATION,
+            pilot_ratio: 3.0,
+        };
+        let p_acc = 5e5;
+        // no pilot (pilot at the accumulator): the check valve alone
+        for p in [3e5, 4.6e5, 6e5] {
+            assert_eq!(
+                pc.into_chamber(p, p_acc, p_acc),
+                Valve::ANTI_CAVITATION.flow(p_acc - p)
+            );
+        }
+        // chamber 0.2 bar above the accumulator: shut until the pilot overcomes the seat's
+        // 0.2 bar and the 0.5 bar spring, (0.2 + 0.5)/3 bar above the accumulator
+        let p = 5.2e5;
+        assert_eq!(pc.into_chamber(p, p_acc + 0.23e5, p_acc), 0.0);
+        assert!(pc.into_chamber(p, p_acc + 0.24e5, p_acc) < 0.0);
+        let full = pc.into_chamber(p, p_acc + 10e5, p_acc);
+        assert_eq!(full, -Valve::ANTI_CAVITATION.flow_opened_by(10.0e5, 0.2e5));
+        assert!((pc.held_open_above_pa() - 0.5e5).abs() < 1e-9);
+        assert!((pc.shut_below_pa() - 0.5e5 / 3.0).abs() < 1e-9);
     }
 
     #[test]

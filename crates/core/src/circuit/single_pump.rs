@@ -1,0 +1,368 @@
+//! The single-pump circuit of the article's Figure 1a (docs/circuits.md#single-pump): one servo
+//! motor and its drive turn one pump D1 between the chambers (positive speed moves oil from
+//! chamber 2 into chamber 1), and two pilot-operated check valves connect the chambers to the
+//! low-pressure accumulator at p_acc: the valve on chamber i feeds it when it falls below the
+//! accumulator, and the other chamber's pressure holds it open in both directions
+//! ([`PilotCheck`]). The piston's area difference goes to or comes from the accumulator through
+//! the open valve. The article (§2.1) names this circuit's "non-linear switching dynamics under
+//! low-force conditions" as the reason its rig was not built so: [`modes`] gives the two modes
+//! the valves switch between, the force at which they switch, and the closed-loop check whether
+//! a step makes them switch.
+//!
+//! States (SI): `x` (m), `v` (m/s), `p1`, `p2` (Pa gauge), `w` (rad/s), then with the full motor
+//! model `tau` (N·m) and, with feedforward on, `z` (rad/s); the input is the drive's speed
+//! command `w_ref` (rad/s). Equations (docs/circuits.md#single-pump-equations):
+//!
+//! - m v̇ = p1 A1 − p2 A2 − F_ext − b v
+//! - V1/β ṗ1 = D1 ω − A1 v − c1 (p1 − p_acc) − c12 (p1 − p2) + Q_v1(p1, p2)
+//! - V2/β ṗ2 = −D1 ω + A2 v − c2 (p2 − p_acc) + c12 (p1 − p2) + Q_v2(p2, p1)
+//! - J ω̇ = τ − D1 (p1 − p2),  J = Jm1 + Jp1
+//! - τ̇ = ωI (Km1 (ω_ref − ω) + (Kff/τff)(ω_ref − z) − τ),  τff ż = ω_ref − z
+//!
+//! with Q_vi the pilot-operated check valve's flow into chamber i, piloted by the other chamber,
+//! and the control law ω_ref = K_scale Kp (x_ref − x). [`SinglePump::new`] is these equations
+//! over the circuit's parts with every effect off; [`SinglePump::emulated`] adds the parts'
+//! effects, the end stops and the relief valves. Its linear models are those of its two modes
+//! ([`modes::Mode`]), not of these equations: at rest one valve is open, where its flow law is
+//! steep and one-sided.
+//!
+//! ```
+//! use pumpcyl::circuit::single_pump::{modes::{switching, Mode}, SinglePump};
+//! use pumpcyl::circuit::{linearise, Circuit};
+//! use pumpcyl::rig::Rig;
+//!
+//! let rig = Rig::default().with_overrides(&["circuit=single-pump".into()])?;
+//! // no load: below the switching force p_acc (A1 − A2), chamber 1 sits at the accumulator
+//! let s = switching(&rig);
+//! assert_eq!(s.mode_at_rest, 2);
+//! assert!((s.switching_force_n - 6.91e5 * std::f64::consts::PI / 4.0 * 0.036f64.powi(2)).abs() < 1e-9);
+//! let mode = Mode::new(&rig, 2);
+//! let op = mode.operating_point();
+//! let (a, b) = linearise(&mode, &op.state, &op.inputs);
+//! assert_eq!((a.nrows(), b.ncols()), (6, 1)); // x, v, p2, w, tau, z
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod modes;
+
+use super::parts::{cylinder_of_rig, Chamber, Effects, Fluid, Motor, Piston, Pump};
+use super::stops::Stops;
+use super::valves::{PilotCheck, Valve};
+use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
+use crate::rig::Rig;
+use crate::units::PA_PER_BAR;
+use nalgebra::DMatrix;
+
+/// State positions: position, velocity, the chamber pressures, the shaft speed, then the
+/// motor's torque and feedforward filter (full motor model only).
+const X: usize = 0;
+const V: usize = 1;
+const P1: usize = 2;
+const W: usize = 4;
+
+/// The single-pump circuit of a rig (the article's Figure 1a).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SinglePump {
+    piston: Piston,
+    chambers: [Chamber; 2],
+    fluid: Fluid,
+    pump: Pump,
+    motor: Motor,
+    /// Leakages c1, c2 (to the accumulator line) and c12 (across) (m⁵/(N·s)).
+    leakage: [f64; 3],
+    /// The pump's pressure load acts on the shaft.
+    coupling: bool,
+    /// The pilot-operated check valves into chamber 1 (piloted by p2) and chamber 2 (by p1).
+    checks: [PilotCheck; 2],
+    /// The relief valves chamber → accumulator (the emulated circuit only).
+    relief: Option<Valve>,
+    /// The check valves are part of the equations; off, a mode pins a chamber at p_acc instead.
+    valves_on: bool,
+    /// Accumulator pressure p_acc (Pa gauge).
+    p_acc: f64,
+    /// Position gain times command scale, K_scale Kp (rad/s per m).
+    gain: f64,
+    /// Operating-point position x0 (m).
+    x0: f64,
+    /// Number of states.
+    n: usize,
+}
+
+/// How the circuit is assembled: with or without the parts' effects, stops and relief valves.
+struct Build {
+    effects: Effects,
+    stops: Option<Stops>,
+    emulated: bool,
+}
+
+impl SinglePump {
+    /// The circuit's own equations: both chambers compressible, the pilot-operated check valves
+    /// in, every effect off, no end stops and no relief valves; the rig's variant switches
+    /// (motor model, feedforward, motor coupling) as set.
+    pub fn new(rig: &Rig) -> SinglePump {
+        SinglePump::build(
+            rig,
+            Build {
+                effects: Effects::none(),
+                stops: None,
+                emulated: false,
+            },
+        )
+    }
+
+    /// The circuit the emulator integrates: the chosen effects, the end stops, the
+    /// pilot-operated check valves and the relief valves, the pump's load always on the shaft.
+    pub fn emulated(rig: &Rig, effects: Effects) -> SinglePump {
+        SinglePump::build(
+            rig,
+            Build {
+                effects,
+                stops: Some(Stops::new(rig.stroke_mm * 1e-3, rig.mass_kg)),
+                emulated: true,
+            },
+        )
+    }
+
+    fn build(rig: &Rig, b: Build) -> SinglePump {
+        let si = rig.si();
+        let (piston, chambers) = cylinder_of_rig(rig, &b.effects, b.stops);
+        let motor = Motor::of_rig(rig, si.j[0], &b.effects);
+        let check = PilotCheck {
+            valve: Valve {
+                crack_pa: rig.check_valve_crack_bar * PA_PER_BAR,
+                ..Valve::ANTI_CAVITATION
+            },
+            pilot_ratio: rig.pilot_ratio,
+        };
+        SinglePump {
+            piston,
+            chambers,
+            fluid: Fluid {
+                beta_pa: si.beta,
+                gas_fraction: b.effects.gas_fraction,
+                beta_oil_bar: b.effects.beta_oil_bar,
+            },
+            pump: Pump {
+                displacement_m3: si.d[0],
+                dead_band_rad_s: b.effects.dead_band_rad_s,
+                slip_m5_per_ns: b.effects.slip_m5_per_ns,
+            },
+            leakage: [si.c1, si.c2, si.c12],
+            coupling: b.emulated || rig.motor_coupling,
+            checks: [check; 2],
+            relief: b.emulated.then(|| Valve::relief(relief_setting_pa(rig))),
+            valves_on: true,
+            p_acc: rig.accumulator_precharge_bar * PA_PER_BAR,
+            gain: si.k_scale * si.kp,
+            x0: si.x0,
+            n: 4 + motor.n_states(),
+            motor,
+        }
+    }
+
+    /// Number of states: 7 (full motor model with feedforward), 6 (without), 5 (first order).
+    pub fn n_states(&self) -> usize {
+        self.n
+    }
+
+    /// The accumulator pressure p_acc (Pa gauge).
+    pub fn accumulator_pa(&self) -> f64 {
+        self.p_acc
+    }
+
+    /// The pilot-operated check valves into chamber 1 and chamber 2.
+    pub fn checks(&self) -> [PilotCheck; 2] {
+        self.checks
+    }
+
+    /// The piston and annulus areas A1, A2 (m²).
+    pub fn areas_m2(&self) -> [f64; 2] {
+        self.piston.areas_m2
+    }
+
+    /// The external force against extension (N).
+    pub fn external_force_n(&self) -> f64 {
+        self.piston.force_ext_n
+    }
+
+    /// Set the external force against extension (N): a scan over loads.
+    pub fn set_external_force_n(&mut self, f_n: f64) {
+        self.piston.force_ext_n = f_n;
+    }
+
+    /// The chamber (1 or 2) at the accumulator at rest under the external force: 2 (mode 1)
+    /// from the switching force p_acc (A1 − A2) up, 1 (mode 2) below it.
+    pub fn accumulator_chamber_at_rest(&self) -> usize {
+        let [a1, a2] = self.piston.areas_m2;
+        if self.piston.force_ext_n >= self.p_acc * (a1 - a2) {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// The opening signals (Pa) of the check valves into chamber 1 and chamber 2 at the state
+    /// `s` ([`PilotCheck::signal`]): a valve passes flow while its signal is above its cracking
+    /// pressure.
+    pub fn valve_signals_pa(&self, s: &[f64]) -> [f64; 2] {
+        let (p1, p2) = (s[P1], s[P1 + 1]);
+        [
+            self.checks[0].signal(p1, p2, self.p_acc),
+            self.checks[1].signal(p2, p1, self.p_acc),
+        ]
+    }
+
+    /// The net flows into chambers 1 and 2 that compress their oil (m³/s): the pump, the
+    /// piston, the leakage and the valves.
+    fn chamber_flows<T: Scalar>(&self, s: &[T]) -> [T; 2] {
+        let (v, p1, p2, w) = (s[V], s[P1], s[P1 + 1], s[W]);
+        let p_acc = self.p_acc;
+        let [a1, a2] = self.piston.areas_m2;
+        let [c1, c2, c12] = self.leakage;
+        // the pump from chamber 2 into chamber 1
+        let q = self.pump.flow(w, p1 - p2);
+        let cross = (p1 - p2) * c12;
+        let mut flows = [
+            q - v * a1 - (p1 - p_acc) * c1 - cross,
+            -q + v * a2 - (p2 - p_acc) * c2 + cross,
+        ];
+        if self.valves_on {
+            flows[0] += self.checks[0].into_chamber(p1, p2, p_acc);
+            flows[1] += self.checks[1].into_chamber(p2, p1, p_acc);
+        }
+        if let Some(relief) = self.relief {
+            flows[0] -= relief.flow(p1 - p_acc);
+            flows[1] -= relief.flow(p2 - p_acc);
+        }
+        flows
+    }
+
+    /// The pump's load torque D1 (p1 − p2) (N·m); zero without the motor–hydraulics coupling.
+    fn load_torque<T: Scalar>(&self, s: &[T]) -> T {
+        if !self.coupling {
+            return T::from(0.0);
+        }
+        (s[P1] - s[P1 + 1]) * self.pump.displacement_m3
+    }
+
+    /// The rest at x0 with chamber `acc` (0 or 1) at the accumulator pressure: the other
+    /// chamber's pressure from the force balance, the shaft speed that feeds its leakage, and
+    /// the motor holding the pump's load ([`Motor::hold`]). It is a steady state of the mode that
+    /// pins chamber `acc` ([`modes::Mode`]); of the full equations to the open valve's pressure
+    /// drop under the leakage it passes.
+    fn rest_in(&self, acc: usize) -> OperatingState {
+        let [a1, a2] = self.piston.areas_m2;
+        let f = self.piston.force_ext_n;
+        let mut state = vec![0.0; self.n];
+        state[X] = self.x0;
+        state[P1 + acc] = self.p_acc;
+        state[P1 + 1 - acc] = match acc {
+            // p1 A1 − p_acc A2 = F_ext
+            1 => (f + self.p_acc * a2) / a1,
+            // p_acc A1 − p2 A2 = F_ext
+            _ => (self.p_acc * a1 - f) / a2,
+        };
+        // the other chamber's balance: its flow at standstill, less the pump's ±D1 ω
+        let other = 1 - acc;
+        let still = self.without_check_valves().chamber_flows(&state)[other];
+        let pump_sign = if other == 0 { 1.0 } else { -1.0 };
+        state[W] = -still / (pump_sign * self.pump.displacement_m3);
+        let load = self.load_torque(&state);
+        let w_ref = self.motor.hold(&mut state, W, load);
+        OperatingState {
+            state,
+            inputs: vec![w_ref],
+        }
+    }
+
+    /// This circuit with the check valves out of its equations, which a mode completes by
+    /// holding one chamber at the accumulator pressure ([`modes::Mode`]).
+    fn without_check_valves(&self) -> SinglePump {
+        SinglePump {
+            valves_on: false,
+            ..self.clone()
+        }
+    }
+}
+
+/// The relief valves' setting (Pa above the accumulator): the pressure at which the pump's
+/// load torque reaches the motor's rated torque with the other chamber at the accumulator,
+/// τ_rated / D1 **\[choice\]**, as for the dual-pump circuit (docs/circuits.md#valves).
+fn relief_setting_pa(rig: &Rig) -> f64 {
+    rig.motor_rated_torque_nm / rig.si().d[0]
+}
+
+impl Circuit for SinglePump {
+    fn kind(&self) -> CircuitKind {
+        CircuitKind::SinglePump
+    }
+
+    fn states(&self) -> Vec<Signal> {
+        let all = [
+            Signal::new("x", "m", "piston position", Role::Position),
+            Signal::new("v", "m/s", "piston velocity", Role::Velocity),
+            Signal::new(
+                "p1",
+                "Pa",
+                "chamber 1 (piston side) pressure, gauge",
+                Role::Pressure,
+            ),
+            Signal::new(
+                "p2",
+                "Pa",
+                "chamber 2 (rod side) pressure, gauge",
+                Role::Pressure,
+            ),
+            Signal::new(
+                "w",
+                "rad/s",
+                "shaft speed (motor and pump)",
+                Role::MotorSpeed,
+            ),
+            Signal::new("tau", "N*m", "motor electromagnetic torque", Role::Torque),
+            Signal::new(
+                "z",
+                "rad/s",
+                "drive feedforward filter state",
+                Role::Feedforward,
+            ),
+        ];
+        all.into_iter().take(self.n).collect()
+    }
+
+    fn inputs(&self) -> Vec<Signal> {
+        vec![Signal::new(
+            "w_ref",
+            "rad/s",
+            "drive speed command",
+            Role::SpeedCommand,
+        )]
+    }
+
+    fn rhs<T: Scalar>(&self, s: &[T], u: &[T], dx: &mut [T]) {
+        let (x, v, p1, p2) = (s[X], s[V], s[P1], s[P1 + 1]);
+        dx[X] = v;
+        dx[V] = self.piston.acceleration(x, v, [p1, p2]);
+        let q = self.chamber_flows(s);
+        let beta = self.fluid.beta((p1 + p2) * 0.5);
+        dx[P1] = self.chambers[0].pressure_rate(beta, x, p1, q[0]);
+        dx[P1 + 1] = self.chambers[1].pressure_rate(beta, x, p2, q[1]);
+        (self.motor).write_rates(u[0], s, self.load_torque(s), dx, W);
+    }
+
+    /// At rest at x0 in the mode of the external force ([`modes::switching`]): the open
+    /// chamber at p_acc, the other from the force balance (docs/circuits.md#its-two-modes).
+    fn operating_point(&self) -> OperatingState {
+        self.rest_in(self.accumulator_chamber_at_rest() - 1)
+    }
+
+    /// ω_ref = K_scale Kp (x_ref − x): the article's P law on the one motor.
+    fn control_law(&self) -> ControlLaw {
+        let mut kx = DMatrix::zeros(1, self.n);
+        kx[(0, X)] = -self.gain;
+        ControlLaw {
+            kx,
+            kr: DMatrix::from_element(1, 1, self.gain),
+        }
+    }
+}
