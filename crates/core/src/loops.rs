@@ -2,7 +2,7 @@
 //! it (§2.3.3; docs/analysis.md#the-loop-that-is-analysed), or a loop transfer L(s) read from a
 //! JSON state-space model (docs/formats.md); and its view for display and export.
 
-use crate::circuit::Role;
+use crate::circuit::{CircuitKind, Role};
 use crate::ident::Standstill;
 use crate::lti::{LtiError, ModelJson, StateInfo, StateSpace};
 use crate::model::Plant;
@@ -116,16 +116,17 @@ impl Loop {
     /// removed, the sum-pressure loop closed inside it or not.
     pub fn of_rig(rig: Rig, origin: &str, sum_pressure_closed: bool) -> Loop {
         let plant = Plant::new(&rig);
-        let sp = if sum_pressure_closed {
-            "closed"
-        } else {
-            "open"
+        let sp = match (rig.circuit, sum_pressure_closed) {
+            (CircuitKind::Dpm, true) => ", sum-pressure loop closed",
+            (CircuitKind::Dpm, false) => ", sum-pressure loop open",
+            _ => "",
         };
         Loop {
             open_loop: plant.open_loop(sum_pressure_closed),
             states: plant.states(),
             description: format!(
-                "{origin}: open loop x_ref -> x, position feedback removed, sum-pressure loop {sp}"
+                "{origin} (circuit {}): open loop x_ref -> x, position feedback removed{sp}",
+                plant.circuit().describe()
             ),
             rig: Some(rig),
             sum_pressure_closed,

@@ -56,6 +56,11 @@ impl Plant {
         }
     }
 
+    /// The circuit this is the linear model of.
+    pub fn circuit(&self) -> &AnyCircuit {
+        &self.circuit
+    }
+
     /// The DPM circuit, for what only it has ([`AnyCircuit::dpm`]); `None` for another circuit.
     pub fn dpm(&self) -> Option<&Dpm> {
         self.circuit.dpm()

@@ -2,6 +2,7 @@
 
 use super::dpm::Dpm;
 use super::dual_pump::DualPump;
+use super::single_pump::modes::{switching, Mode};
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
 use crate::rig::Rig;
 
@@ -13,6 +14,9 @@ pub enum AnyCircuit {
     Dpm(Dpm),
     /// The single-motor dual-pump circuit (Figure 1b).
     DualPump(DualPump),
+    /// The single-pump circuit (Figure 1a) in the mode of its operating point at rest
+    /// (docs/circuits.md#its-two-modes).
+    SinglePumpMode(Mode),
 }
 
 /// Refuse, in one line, a rig of another circuit than the DPM for `what`, a part of pumpcyl
@@ -34,6 +38,7 @@ macro_rules! each {
         match $self {
             AnyCircuit::Dpm($c) => $e,
             AnyCircuit::DualPump($c) => $e,
+            AnyCircuit::SinglePumpMode($c) => $e,
         }
     };
 }
@@ -47,6 +52,22 @@ impl AnyCircuit {
             CircuitKind::DualPump => AnyCircuit::DualPump(
                 DualPump::new(rig).expect("Rig::validate refuses a dual-pump rig with no rest"),
             ),
+            CircuitKind::SinglePump => {
+                AnyCircuit::SinglePumpMode(Mode::new(rig, 3 - switching(rig).mode_at_rest))
+            }
+        }
+    }
+
+    /// The circuit in words, as every analysis names it: `dpm`, `dual-pump`, or
+    /// `single-pump, mode M (chamber K at the accumulator pressure), the mode at rest`.
+    pub fn describe(&self) -> String {
+        match self {
+            AnyCircuit::SinglePumpMode(m) => format!(
+                "single-pump, mode {} (chamber {} at the accumulator pressure), the mode at rest",
+                m.number(),
+                m.accumulator_chamber()
+            ),
+            c => c.kind().name().to_string(),
         }
     }
 
@@ -66,6 +87,7 @@ impl AnyCircuit {
         match self {
             AnyCircuit::Dpm(d) => d.law(sum_pressure),
             AnyCircuit::DualPump(d) => d.control_law(),
+            AnyCircuit::SinglePumpMode(m) => m.control_law(),
         }
     }
 }
