@@ -925,7 +925,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
            c12_m5_per_ns = [1.0e-10, 1.2e-10]\n\n[refined_grid]\nbeta_bar = [160.0, 165.0, 170.0]\n\
            viscous_friction_ns_per_m = [550.0, 600.0]\nc12_m5_per_ns = [1.1e-10, 1.2e-10]\n";
     let experiment = write(dir.path(), "small.toml", &small);
-    let open_loop = "default rig: open loop x_ref -> x, position feedback removed";
+    let open_loop = "default rig (circuit dpm): open loop x_ref -> x, position feedback removed";
     let cases: Vec<(Vec<&str>, Vec<String>)> = vec![
         (
             vec!["rig", "--print-default"],

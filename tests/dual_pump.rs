@@ -450,3 +450,47 @@ fn the_emulated_unloaded_circuit_settles_on_its_check_valve() {
     // and it is not the linear model's rest: chamber 1 is 2 bar above it
     assert!(p1 - c.rest().p1_pa > 2e5);
 }
+
+/// The step response pumpcyl simulates for a dual-pump rig (its exact ZOH of the linear model)
+/// follows the circuit's own equations integrated by RK4 from the operating point: a 0.1 mm
+/// step, compared at 0.5 s and 3 s; one motor, so the record has w1 and no w2.
+#[test]
+fn the_simulated_step_of_a_dual_pump_rig_follows_its_equations() {
+    let rig = dual_rig(&[format!("displacement_2_cm3_per_rev={}", matched_d2())]);
+    let c = DualPump::new(&rig).unwrap();
+    let x0 = c.operating_point().state[0];
+    let s = pumpcyl::response::step(&rig, 0.1, 3.0, 1000.0).unwrap();
+    assert!(s.w2_rpm.is_empty() && s.w1_rpm.len() == s.time_s.len());
+    assert!(s.p1_bar.len() == s.time_s.len() && s.p2_bar.len() == s.time_s.len());
+    for t in [0.5, 3.0] {
+        let k = (t * 1000.0) as usize;
+        let linear_mm = s.x_mm[k] - s.x_mm[0];
+        let rk4_mm = (simulate(&c, |_| x0 + 1e-4, t)[0] - x0) * 1e3;
+        assert!(
+            (linear_mm - rk4_mm).abs() < 1e-6 * 0.1 + 1e-9,
+            "t {t}: linear {linear_mm} mm, equations {rk4_mm} mm"
+        );
+    }
+    // the rest of a step and the drive's torque rating checked on the one motor
+    assert!((s.x_mm.last().unwrap() - s.x_mm[0] - 0.1).abs() < 5e-3);
+    let over = pumpcyl::response::signals_over_ratings(&rig, &s);
+    assert!(over.is_empty(), "{over:?}");
+}
+
+#[test]
+fn responses_of_a_single_pump_rig_are_refused_not_answered_with_another_circuit() {
+    let rig = Rig::default()
+        .with_overrides(&["circuit=single-pump".into()])
+        .unwrap();
+    let e = pumpcyl::response::step(&rig, 5.0, 3.0, 100.0)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("circuit = \"single-pump\"") && e.contains("only so far"),
+        "{e}"
+    );
+    let e = pumpcyl::emulator::Dynamics::new(&rig, Effects::none())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("circuit = \"single-pump\""), "{e}");
+}

@@ -45,30 +45,7 @@ pub enum BulkError {
 /// The gas fraction X that gives `beta_bar` at mean pressure `p_bar` (docs/bulk-modulus.md#fitting-the-gas-fraction):
 /// X = (1/β − 1/β_oil) / (1/p − 1/β_oil). Needs 0 < β < β_oil and 0 < p < β_oil.
 pub fn gas_fraction(beta_bar: f64, p_bar: f64, beta_oil_bar: f64) -> Result<f64, BulkError> {
-    let positive = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(BulkError::Input(format!(
-                "{name} = {v}: must be a finite value > 0"
-            )))
-        }
-    };
-    positive("beta_bar", beta_bar)?;
-    positive("p_mean_bar", p_bar)?;
-    positive("beta_oil_bar", beta_oil_bar)?;
-    if beta_bar >= beta_oil_bar || p_bar >= beta_oil_bar {
-        return Err(BulkError::Input(format!(
-            "beta_bar ({beta_bar}) and p_mean_bar ({p_bar}) must both be below beta_oil_bar ({beta_oil_bar})"
-        )));
-    }
-    let x = (1.0 / beta_bar - 1.0 / beta_oil_bar) / (1.0 / p_bar - 1.0 / beta_oil_bar);
-    if x > 1.0 {
-        return Err(BulkError::Input(format!(
-            "beta_bar = {beta_bar} is below p_mean_bar = {p_bar}: no gas fraction <= 1 gives it"
-        )));
-    }
-    Ok(x)
+    crate::circuit::parts::gas_fraction_of(beta_bar, p_bar, beta_oil_bar).map_err(BulkError::Input)
 }
 
 /// A bulk modulus and the mean chamber pressure it holds at: what a gas fraction is read off

@@ -22,14 +22,21 @@ pub enum AnyCircuit {
 /// Refuse, in one line, a rig of another circuit than the DPM for `what`, a part of pumpcyl
 /// that models the DPM only so far (docs/circuits.md#what-works-on-which-circuit).
 pub fn require_dpm(rig: &Rig, what: &str) -> Result<(), String> {
-    match rig.circuit {
-        CircuitKind::Dpm => Ok(()),
-        other => Err(format!(
-            "circuit = \"{}\": {what} models the dpm circuit only so far; margins, poles, bode \
-             and model analyse every circuit (docs/circuits.md#what-works-on-which-circuit)",
-            other.name()
-        )),
+    require(rig, what, &[CircuitKind::Dpm])
+}
+
+/// Refuse, in one line, a rig of a circuit not in `modelled` for `what`.
+pub fn require(rig: &Rig, what: &str, modelled: &[CircuitKind]) -> Result<(), String> {
+    if modelled.contains(&rig.circuit) {
+        return Ok(());
     }
+    let names: Vec<&str> = modelled.iter().map(|k| k.name()).collect();
+    Err(format!(
+        "circuit = \"{}\": {what} models the {} circuit only so far; margins, poles, bode and \
+         model analyse every circuit (docs/circuits.md#what-works-on-which-circuit)",
+        rig.circuit.name(),
+        names.join(" and ")
+    ))
 }
 
 /// Dispatch a call to the circuit inside, whichever its kind.
@@ -55,6 +62,18 @@ impl AnyCircuit {
             CircuitKind::SinglePump => {
                 AnyCircuit::SinglePumpMode(Mode::new(rig, 3 - switching(rig).mode_at_rest))
             }
+        }
+    }
+
+    /// The load torques of the pumps on motors 1 and 2 (N·m) at the chamber pressures `p_pa`
+    /// (Pa gauge), what the drives' ratings are checked against; the single motor of a
+    /// single-motor circuit is motor 1. The single-pump circuit's responses are refused before
+    /// they are rated: NaN, which no rating holds.
+    pub fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
+        match self {
+            AnyCircuit::Dpm(d) => d.load_torques_nm(p_pa),
+            AnyCircuit::DualPump(d) => [d.load_torque_nm(p_pa), 0.0],
+            AnyCircuit::SinglePumpMode(_) => [f64::NAN; 2],
         }
     }
 

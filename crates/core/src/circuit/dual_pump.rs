@@ -40,11 +40,13 @@ pub mod balance;
 
 pub use balance::{SteadyMotion, Undetermined};
 
-use super::parts::{cylinder_of_rig, Chamber, Effects, Fluid, Motor, Piston, Pump};
+use super::parts::{
+    cylinder_of_rig, effective_beta_of, gas_fraction_of, Chamber, Effects, Fluid, Motor, Piston,
+    Pump, BETA_OIL_BAR,
+};
 use super::stops::Stops;
 use super::valves::Valves;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
-use crate::bulk;
 use crate::rig::Rig;
 use crate::units::PA_PER_BAR;
 use balance::Balance;
@@ -192,22 +194,22 @@ impl DualPump {
     /// # Errors
     /// A mean pressure at rest or in motion not above 0 bar gauge, or a `beta_bar` beyond the
     /// oil's own (the gas-fraction model's range).
-    pub fn steady_bulk(&self, v: f64) -> Result<SteadyBulk, bulk::BulkError> {
+    pub fn steady_bulk(&self, v: f64) -> Result<SteadyBulk, String> {
         let mean_bar = |s: &SteadyMotion| 0.5 * (s.p1_pa + s.p2_pa) / PA_PER_BAR;
-        let x = bulk::gas_fraction(self.beta_bar, mean_bar(&self.rest()), bulk::BETA_OIL_BAR)?;
+        let x = gas_fraction_of(self.beta_bar, mean_bar(&self.rest()), BETA_OIL_BAR)?;
         let state = self.steady_motion(v);
         let p_mean_bar = mean_bar(&state);
         if p_mean_bar.is_nan() || p_mean_bar <= 0.0 {
-            return Err(bulk::BulkError::Input(format!(
+            return Err(format!(
                 "the mean chamber pressure at {v} m/s is {p_mean_bar:.3} bar gauge: the gas-fraction \
                  model needs it above 0 bar"
-            )));
+            ));
         }
         let flow = |i, p| self.valves.into_chamber(i, p, self.balance.p_acc_pa);
         Ok(SteadyBulk {
             state,
             p_mean_bar,
-            beta_e_bar: bulk::effective_beta(x, p_mean_bar, bulk::BETA_OIL_BAR),
+            beta_e_bar: effective_beta_of(x, p_mean_bar, BETA_OIL_BAR),
             valve_flow_m3_per_s: [flow(0, state.p1_pa), flow(1, state.p2_pa)],
         })
     }
@@ -232,6 +234,13 @@ impl DualPump {
             flows[1] += self.valves.into_chamber(1, p2, p_acc);
         }
         flows
+    }
+
+    /// The load torque of both pumps on the motor (N·m) at chamber pressures `p_pa` (Pa gauge),
+    /// D1 (p1 − p2) + D2 (p1 − p_acc): what the drive's rating is checked against.
+    pub fn load_torque_nm(&self, [p1, p2]: [f64; 2]) -> f64 {
+        let d = self.balance.displacements_m3;
+        (p1 - p2) * d[0] + (p1 - self.balance.p_acc_pa) * d[1]
     }
 
     /// The load torque of both pumps on the shaft, D1 (p1 − p2) + D2 (p1 − p_acc) (N·m); zero

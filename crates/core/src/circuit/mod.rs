@@ -20,7 +20,7 @@ pub mod single_pump;
 pub mod stops;
 pub mod valves;
 
-pub use any::{require_dpm, AnyCircuit};
+pub use any::{require, require_dpm, AnyCircuit};
 pub use dpm::Dpm;
 pub use parts::Effects;
 

@@ -235,7 +235,9 @@ impl Rows {
 /// The closed loop of `rig` as simulated (sum-pressure loop as the rig says, outputs
 /// [`Plant::outputs`]), refused when unstable: its response would grow without bound.
 fn stable_loop(rig: &Rig) -> Result<(StateSpace, Rows), LtiError> {
-    crate::circuit::require_dpm(rig, "a simulated response").map_err(LtiError::Circuit)?;
+    use crate::circuit::CircuitKind::{Dpm, DualPump};
+    crate::circuit::require(rig, "a simulated response", &[Dpm, DualPump])
+        .map_err(LtiError::Circuit)?;
     let plant = Plant::new(rig);
     let sys = plant.closed_loop_outputs(rig.sum_pressure);
     crate::lti::require_stable(&sys.a)?;
@@ -260,14 +262,19 @@ fn run_from(
     let shifted = |i: usize, scale: f64, offset: f64| -> Vec<f64> {
         r.output(i).iter().map(|v| v * scale + offset).collect()
     };
+    // a signal the circuit does not have (a second motor) stays empty, as a record's absent one
+    let maybe = |rows: &[usize], k: usize, scale: f64, offset: f64| -> Vec<f64> {
+        rows.get(k)
+            .map_or_else(Vec::new, |&i| shifted(i, scale, offset))
+    };
     Ok(Signals {
         time_s: time_s.to_vec(),
         x_ref_mm: x_ref_mm.to_vec(),
         x_mm: shifted(rows.position, 1e3, base.x_mm),
-        p1_bar: shifted(rows.pressures[0], 1.0 / PA_PER_BAR, base.p_bar[0]),
-        p2_bar: shifted(rows.pressures[1], 1.0 / PA_PER_BAR, base.p_bar[1]),
-        w1_rpm: shifted(rows.speeds[0], 1.0 / RAD_S_PER_RPM, base.w_rpm[0]),
-        w2_rpm: shifted(rows.speeds[1], 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
+        p1_bar: maybe(&rows.pressures, 0, 1.0 / PA_PER_BAR, base.p_bar[0]),
+        p2_bar: maybe(&rows.pressures, 1, 1.0 / PA_PER_BAR, base.p_bar[1]),
+        w1_rpm: maybe(&rows.speeds, 0, 1.0 / RAD_S_PER_RPM, base.w_rpm[0]),
+        w2_rpm: maybe(&rows.speeds, 1, 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
         e_mm: shifted(rows.error, 1e3, base.x_ref_mm - base.x_mm),
     })
 }

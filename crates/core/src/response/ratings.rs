@@ -95,7 +95,8 @@ type Peak = (f64, Option<f64>);
 /// from the reservoir to chamber 1, D2 p1 (docs/model.md). The torque that accelerates the
 /// drive's own inertia is not in it.
 pub fn load_torques_nm(rig: &Rig, p1_bar: f64, p2_bar: f64) -> [f64; 2] {
-    crate::circuit::Dpm::linear(rig).load_torques_nm([p1_bar, p2_bar].map(|p| p * PA_PER_BAR))
+    crate::circuit::AnyCircuit::linear(rig)
+        .load_torques_nm([p1_bar, p2_bar].map(|p| p * PA_PER_BAR))
 }
 
 /// Every rating of `rig` the drive speeds `speed_rpm` and load torques `torque_nm` of motors 1
@@ -110,7 +111,7 @@ pub fn over_ratings(rig: &Rig, speed_rpm: [f64; 2], torque_nm: [f64; 2]) -> Vec<
 /// |w1_rpm|, |w2_rpm| and load torques ([`load_torques_nm`] of p1_bar, p2_bar), each with its
 /// time. Signals a record lacks (empty) are not checked.
 pub fn signals_over_ratings(rig: &Rig, s: &Signals) -> Vec<OverRating> {
-    let (n, circuit) = (s.time_s.len(), crate::circuit::Dpm::linear(rig));
+    let (n, circuit) = (s.time_s.len(), crate::circuit::AnyCircuit::linear(rig));
     let speed = [&s.w1_rpm, &s.w2_rpm].map(|w| peak(w.iter().copied(), &s.time_s));
     let pressures = s.p1_bar.len() == n && s.p2_bar.len() == n;
     let torque = [0, 1].map(|k| {
