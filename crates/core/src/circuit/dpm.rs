@@ -13,7 +13,7 @@
 //! torque reference is `τ_ref = Km (ω_ref − ω) + (Kff/τff)(ω_ref − z)`.
 
 use super::parts::{
-    Chamber, Drive, Effects, FirstOrderMotor, Fluid, MassLaw, Piston, Pump, Volume,
+    cylinder_of_rig, Chamber, Drive, Effects, FirstOrderMotor, Fluid, Piston, Pump,
 };
 use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
@@ -94,24 +94,7 @@ impl Dpm {
     fn build(rig: &Rig, e: Effects, stops: Option<Stops>, coupling: bool) -> Dpm {
         let si = rig.si();
         let layout = Layout::for_rig(rig);
-        let x_max = rig.stroke_mm * 1e-3;
-        let vl = [rig.line_volume_1_dm3 * 1e-3, rig.line_volume_2_dm3 * 1e-3];
-        let chambers = if e.varying_volumes {
-            [
-                Volume::Cap {
-                    dead_m3: vl[0],
-                    area_m2: si.a1,
-                },
-                Volume::Rod {
-                    dead_m3: vl[1],
-                    area_m2: si.a2,
-                    stroke_m: x_max,
-                },
-            ]
-        } else {
-            [Volume::Fixed(si.v1), Volume::Fixed(si.v2)]
-        }
-        .map(|volume| Chamber { volume });
+        let (piston, chambers) = cylinder_of_rig(rig, &e, stops);
         let pumps = si.d.map(|d| Pump {
             displacement_m3: d,
             dead_band_rad_s: e.dead_band_rad_s,
@@ -135,19 +118,7 @@ impl Dpm {
             None => Motors::FirstOrder(si.tau_motor.map(|tau_s| FirstOrderMotor { tau_s })),
         };
         Dpm {
-            piston: Piston {
-                areas_m2: [si.a1, si.a2],
-                viscous_ns_per_m: si.b,
-                mass_kg: si.mass,
-                force_ext_n: si.f_ext,
-                coulomb_n: e.coulomb_n,
-                mass_law: if e.stroke_mass {
-                    MassLaw::of_rig(rig)
-                } else {
-                    MassLaw::constant()
-                },
-                stops,
-            },
+            piston,
             chambers,
             fluid: Fluid {
                 beta_pa: si.beta,

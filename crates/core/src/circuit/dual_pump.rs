@@ -41,12 +41,12 @@ pub mod balance;
 pub use balance::{SteadyMotion, Undetermined};
 
 use super::parts::{
-    cylinder_of_rig, effective_beta_of, gas_fraction_of, Chamber, Effects, Fluid, Motor, Piston,
-    Pump, BETA_OIL_BAR,
+    cylinder_of_rig, effective_beta_of, gas_fraction_of, one_motor_inputs, one_motor_states,
+    Chamber, Effects, Fluid, Motor, Piston, Pump, BETA_OIL_BAR,
 };
 use super::stops::Stops;
 use super::valves::Valves;
-use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
+use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
 use crate::rig::Rig;
 use crate::units::PA_PER_BAR;
 use balance::Balance;
@@ -268,45 +268,11 @@ impl Circuit for DualPump {
     }
 
     fn states(&self) -> Vec<Signal> {
-        let all = [
-            Signal::new("x", "m", "piston position", Role::Position),
-            Signal::new("v", "m/s", "piston velocity", Role::Velocity),
-            Signal::new(
-                "p1",
-                "Pa",
-                "chamber 1 (piston side) pressure, gauge",
-                Role::Pressure,
-            ),
-            Signal::new(
-                "p2",
-                "Pa",
-                "chamber 2 (rod side) pressure, gauge",
-                Role::Pressure,
-            ),
-            Signal::new(
-                "w",
-                "rad/s",
-                "shaft speed (motor and both pumps)",
-                Role::MotorSpeed,
-            ),
-            Signal::new("tau", "N*m", "motor electromagnetic torque", Role::Torque),
-            Signal::new(
-                "z",
-                "rad/s",
-                "drive feedforward filter state",
-                Role::Feedforward,
-            ),
-        ];
-        all.into_iter().take(self.n).collect()
+        one_motor_states("shaft speed (motor and both pumps)", self.n)
     }
 
     fn inputs(&self) -> Vec<Signal> {
-        vec![Signal::new(
-            "w_ref",
-            "rad/s",
-            "drive speed command",
-            Role::SpeedCommand,
-        )]
+        one_motor_inputs()
     }
 
     fn rhs<T: Scalar>(&self, s: &[T], u: &[T], dx: &mut [T]) {

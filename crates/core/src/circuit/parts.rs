@@ -8,7 +8,7 @@
 //! the exact Jacobian of a circuit's equations is that model.
 
 use super::stops::Stops;
-use super::Scalar;
+use super::{Role, Scalar, Signal};
 use crate::units::PA_PER_BAR;
 
 /// Absolute pressure of a gauge pressure of 0 (Pa): the cavitation floor is −1 bar gauge.
@@ -435,6 +435,47 @@ impl Motor {
         }
         w_ref
     }
+}
+
+/// The first `n` states of a one-motor circuit (the article's Figure 1 circuits): x, v, p1, p2,
+/// the shaft speed (`shaft` says what turns), then the full drive's torque and feedforward
+/// filter state.
+pub fn one_motor_states(shaft: &str, n: usize) -> Vec<Signal> {
+    let all = [
+        Signal::new("x", "m", "piston position", Role::Position),
+        Signal::new("v", "m/s", "piston velocity", Role::Velocity),
+        Signal::new(
+            "p1",
+            "Pa",
+            "chamber 1 (piston side) pressure, gauge",
+            Role::Pressure,
+        ),
+        Signal::new(
+            "p2",
+            "Pa",
+            "chamber 2 (rod side) pressure, gauge",
+            Role::Pressure,
+        ),
+        Signal::new("w", "rad/s", shaft, Role::MotorSpeed),
+        Signal::new("tau", "N*m", "motor electromagnetic torque", Role::Torque),
+        Signal::new(
+            "z",
+            "rad/s",
+            "drive feedforward filter state",
+            Role::Feedforward,
+        ),
+    ];
+    all.into_iter().take(n).collect()
+}
+
+/// The input of a one-motor circuit: its drive's speed command.
+pub fn one_motor_inputs() -> Vec<Signal> {
+    vec![Signal::new(
+        "w_ref",
+        "rad/s",
+        "drive speed command",
+        Role::SpeedCommand,
+    )]
 }
 
 /// The piston and the two chambers of `rig`'s cylinder with the effects `e` and the end
