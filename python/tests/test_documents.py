@@ -62,7 +62,8 @@ def test_margins_is_the_document_of_margins_json():
     assert_one_document(m, doc, "Margins")
     # the same numbers; the loop's description names the rig as each front end knows it
     plain = m.to_dict()
-    assert plain.pop("loop").startswith("Rig(): ") and doc.pop("loop").startswith("default rig: ")
+    assert plain.pop("loop").startswith("Rig() (circuit dpm): ")
+    assert doc.pop("loop").startswith("default rig (circuit dpm): ")
     assert plain == doc
 
 
