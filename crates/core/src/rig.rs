@@ -658,7 +658,11 @@ impl Rig {
                 source_name: source_name.to_string(),
                 assignment: input::shown_text(&assignments.join(" "), input::MAX_VALUE_CHARS)
                     .into_owned(),
-                message: e.to_string().trim_end().to_string(),
+                // serde's "…\nin `key`" kept on one line
+                message: (e.to_string().lines().map(str::trim))
+                    .filter(|l| !l.is_empty())
+                    .collect::<Vec<_>>()
+                    .join("; "),
             })?;
         let set: Vec<&str> = set.iter().map(String::as_str).collect();
         rig.check_circuit_keys(source_name, &set)?;
@@ -1372,6 +1376,14 @@ mod tests {
             assert!(e.len() < 2000, "{} bytes: {}", e.len(), &e[..200]);
             assert!(e.contains(" bytes)"), "{e}");
         }
+        let e = Rig::default()
+            .with_overrides(&["motor_model=foo".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            !e.contains('\n') && e.ends_with("; in `motor_model`"),
+            "{e}"
+        );
         let e = Rig::default()
             .with_overrides(&["kpp=3".into()])
             .unwrap_err();
