@@ -154,13 +154,16 @@ impl RigSource {
             Some(path) => {
                 let file = Rig::from_file_with_defaults_in(crate::read_files::files(), path)
                     .map_err(|e| crate::emit::hinted(e.into()))?;
+                let rig = file.rig.with_overrides_from("--set", &self.set)?;
                 let set: Vec<&str> = self
                     .set
                     .iter()
                     .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
                     .collect();
-                crate::read_files::note_rig_defaults(&file, &path.display().to_string(), &set);
-                file.rig
+                let name = path.display().to_string();
+                let file = file.with_rig(rig.clone(), &name)?;
+                crate::read_files::note_rig_defaults(&file, &name, &set);
+                return Ok(rig);
             }
             None => Rig::default(),
         };

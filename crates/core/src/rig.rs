@@ -493,7 +493,36 @@ pub struct RigFile {
     pub defaulted: Vec<&'static str>,
 }
 
+/// The keys of `rig`'s circuit a file did not write (`written` says which it did), in the order
+/// of the commented TOML; the keys of another circuit take no part in this one.
+fn defaulted_keys(rig: &Rig, written: impl Fn(&str) -> bool) -> Vec<&'static str> {
+    Rig::key_docs()
+        .map(|(key, _)| key)
+        .filter(|key| *key != "motor_time_constant_s")
+        .filter(|key| foreign_key(rig.circuit, key).is_none() && !written(key))
+        .collect()
+}
+
 impl RigFile {
+    /// The same file's record for `rig`, the rig after overrides that may switch its circuit
+    /// (`--set circuit=dual-pump`): the keys of that circuit the file left out, so a key of the
+    /// new circuit the file could not write (the accumulator's pre-charge of a DPM file) is
+    /// named with the value it takes, and the old circuit's own keys are not. A key the file
+    /// wrote that the new circuit does not have is refused, naming the file (`file`): it would
+    /// be silently ignored.
+    pub fn with_rig(&self, rig: Rig, file: &str) -> Result<RigFile, RigError> {
+        let old = self.rig.circuit;
+        let written = |key: &str| foreign_key(old, key).is_none() && !self.defaulted.contains(&key);
+        let wrote: Vec<&str> = (Rig::key_docs().map(|(key, _)| key))
+            .filter(|key| written(key))
+            .collect();
+        rig.check_circuit_keys(file, &wrote)?;
+        Ok(RigFile {
+            defaulted: defaulted_keys(&rig, written),
+            rig,
+        })
+    }
+
     /// One line saying which keys `file` leaves out and the values they take, or `None` when it
     /// sets them all; keys in `except` (set another way, such as `--set`) are not named.
     ///
@@ -589,15 +618,7 @@ impl Rig {
                 }
                 e
             })?;
-        // the keys of another circuit take no part in this one
-        let defaulted = Rig::key_docs()
-            .map(|(key, _)| key)
-            .filter(|key| *key != "motor_time_constant_s")
-            .filter(|key| {
-                let written_as = |k: &String| canonical_key(k) == *key;
-                foreign_key(rig.circuit, key).is_none() && !written.keys().any(written_as)
-            })
-            .collect();
+        let defaulted = defaulted_keys(&rig, |key| written.keys().any(|k| canonical_key(k) == key));
         Ok(RigFile { rig, defaulted })
     }
 
