@@ -280,10 +280,16 @@ fn a_circuit_switched_by_set_is_noted_for_that_circuit() {
     let rig = write(dir.path(), "r.toml", "kp = 20.0\nmass_kg = 3000.0\n");
     let (_, err) = run(&["margins", "--rig", &rig, "--set", "circuit=dual-pump"]);
     assert!(err.contains("accumulator_precharge_bar = 6.91"), "{err}");
-    assert!(!err.contains("km2_nms_per_rad") && !err.contains("p_sum_ref_bar"), "{err}");
+    assert!(
+        !err.contains("km2_nms_per_rad") && !err.contains("p_sum_ref_bar"),
+        "{err}"
+    );
     let two = write(dir.path(), "two.toml", "km2_nms_per_rad = 0.03\n");
     let out = pumpcyl(&["margins", "--rig", &two, "--set", "circuit=dual-pump"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
-    assert!(err.contains("key `km2_nms_per_rad`: the dual-pump circuit has no such key"), "{err}");
+    assert!(
+        err.contains("key `km2_nms_per_rad`: the dual-pump circuit has no such key"),
+        "{err}"
+    );
 }
