@@ -13,7 +13,7 @@
 //! torque reference is `τ_ref = Km (ω_ref − ω) + (Kff/τff)(ω_ref − z)`.
 
 use super::parts::{
-    cylinder_of_rig, Chamber, Drive, Effects, FirstOrderMotor, Fluid, Piston, Pump,
+    cylinder_of_rig, cylinder_rates, Chamber, Drive, Effects, FirstOrderMotor, Fluid, Piston, Pump,
 };
 use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
@@ -491,20 +491,18 @@ impl Circuit for Dpm {
     fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
         let l = &self.layout;
         let si = &self.si;
-        let (pos, v) = (x[l.x], x[l.v]);
+        let v = x[l.v];
         let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
         let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
-        dx[l.x] = v;
-        dx[l.v] = self.piston.acceleration(pos, v, [p1, p2]);
         // pump 1 slips from chamber 1 to 2, pump 2 from chamber 1 to the reservoir
         let q1 = self.pumps[0].flow(w1, p1 - p2);
         let q2 = self.pumps[1].flow(w2, p1);
         let cross = (p1 - p2) * si.c12;
-        let beta = self.fluid.beta((p1 + p2) * 0.5);
         let in1 = q1 + q2 - v * si.a1 - p1 * si.c1 - cross;
         let in2 = -q1 + v * si.a2 - p2 * si.c2 + cross;
-        dx[l.p[0]] = self.chambers[0].pressure_rate(beta, pos, p1, in1);
-        dx[l.p[1]] = self.chambers[1].pressure_rate(beta, pos, p2, in2);
+        let cylinder = (&self.piston, &self.chambers, &self.fluid);
+        let at = [l.x, l.v, l.p[0], l.p[1]];
+        cylinder_rates(cylinder, at, x, [in1, in2], dx);
         match &self.motors {
             Motors::Full(drives, tau) => {
                 let load = if self.coupling {

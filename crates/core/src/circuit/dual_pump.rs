@@ -41,8 +41,8 @@ pub mod balance;
 pub use balance::{SteadyMotion, Undetermined};
 
 use super::parts::{
-    cylinder_of_rig, effective_beta_of, gas_fraction_of, one_motor_inputs, one_motor_states,
-    Chamber, Effects, Fluid, Motor, Piston, Pump, BETA_OIL_BAR,
+    cylinder_of_rig, cylinder_rates, effective_beta_of, gas_fraction_of, one_motor_inputs,
+    one_motor_states, Chamber, Effects, Fluid, Motor, Piston, Pump, BETA_OIL_BAR,
 };
 use super::stops::Stops;
 use super::valves::Valves;
@@ -276,13 +276,8 @@ impl Circuit for DualPump {
     }
 
     fn rhs<T: Scalar>(&self, s: &[T], u: &[T], dx: &mut [T]) {
-        let (x, v, p1, p2) = (s[X], s[V], s[P1], s[P2]);
-        dx[X] = v;
-        dx[V] = self.piston.acceleration(x, v, [p1, p2]);
-        let q = self.chamber_flows(s);
-        let beta = self.fluid.beta((p1 + p2) * 0.5);
-        dx[P1] = self.chambers[0].pressure_rate(beta, x, p1, q[0]);
-        dx[P2] = self.chambers[1].pressure_rate(beta, x, p2, q[1]);
+        let cylinder = (&self.piston, &self.chambers, &self.fluid);
+        cylinder_rates(cylinder, [X, V, P1, P2], s, self.chamber_flows(s), dx);
         (self.motor).write_rates(u[0], s, self.load_torque(s), dx, W);
     }
 

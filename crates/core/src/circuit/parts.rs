@@ -437,6 +437,26 @@ impl Motor {
     }
 }
 
+/// The rates of a cylinder's states into `dx`, at the state positions `[x, v, p1, p2]` of `s`:
+/// Newton on the piston, and continuity in each chamber with the net flows `flows` into it
+/// (pumps, piston displacement, leakage, valves) and the bulk modulus of the chambers' mean
+/// pressure (docs/model.md#newton, docs/model.md#continuity). Every circuit's equations start
+/// with it.
+pub fn cylinder_rates<T: Scalar>(
+    (piston, chambers, fluid): (&Piston, &[Chamber; 2], &Fluid),
+    [x, v, p1, p2]: [usize; 4],
+    s: &[T],
+    flows: [T; 2],
+    dx: &mut [T],
+) {
+    let (pos, p) = (s[x], [s[p1], s[p2]]);
+    dx[x] = s[v];
+    dx[v] = piston.acceleration(pos, s[v], p);
+    let beta = fluid.beta((p[0] + p[1]) * 0.5);
+    dx[p1] = chambers[0].pressure_rate(beta, pos, p[0], flows[0]);
+    dx[p2] = chambers[1].pressure_rate(beta, pos, p[1], flows[1]);
+}
+
 /// The first `n` states of a one-motor circuit (the article's Figure 1 circuits): x, v, p1, p2,
 /// the shaft speed (`shaft` says what turns), then the full drive's torque and feedforward
 /// filter state.

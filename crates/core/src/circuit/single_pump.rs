@@ -46,8 +46,8 @@
 pub mod modes;
 
 use super::parts::{
-    cylinder_of_rig, one_motor_inputs, one_motor_states, Chamber, Effects, Fluid, Motor, Piston,
-    Pump,
+    cylinder_of_rig, cylinder_rates, one_motor_inputs, one_motor_states, Chamber, Effects, Fluid,
+    Motor, Piston, Pump,
 };
 use super::stops::Stops;
 use super::valves::{PilotCheck, Valve};
@@ -309,13 +309,8 @@ impl Circuit for SinglePump {
     }
 
     fn rhs<T: Scalar>(&self, s: &[T], u: &[T], dx: &mut [T]) {
-        let (x, v, p1, p2) = (s[X], s[V], s[P1], s[P1 + 1]);
-        dx[X] = v;
-        dx[V] = self.piston.acceleration(x, v, [p1, p2]);
-        let q = self.chamber_flows(s);
-        let beta = self.fluid.beta((p1 + p2) * 0.5);
-        dx[P1] = self.chambers[0].pressure_rate(beta, x, p1, q[0]);
-        dx[P1 + 1] = self.chambers[1].pressure_rate(beta, x, p2, q[1]);
+        let cylinder = (&self.piston, &self.chambers, &self.fluid);
+        cylinder_rates(cylinder, [X, V, P1, P1 + 1], s, self.chamber_flows(s), dx);
         (self.motor).write_rates(u[0], s, self.load_torque(s), dx, W);
     }
 
