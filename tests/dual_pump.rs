@@ -4,6 +4,8 @@
 //! flow balance by hand and against a simulation, its rest held by the equations, and the rig
 //! keys a dual-pump rig refuses.
 
+#[path = "common/jacobian.rs"]
+mod jacobian;
 #[path = "common/skip.rs"]
 mod skip;
 
@@ -33,44 +35,6 @@ fn dual(sets: &[&str]) -> DualPump {
 fn matched_d2() -> f64 {
     let (d1, d2) = (63.0f64, 36.0f64);
     6.0 * (d1 * d1 / (d1 * d1 - d2 * d2) - 1.0)
-}
-
-/// Central finite-difference Jacobians of the circuit's equations at (x0, u0).
-fn fd_jacobian(c: &DualPump, x0: &[f64], u0: &[f64]) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (n, m) = (x0.len(), u0.len());
-    let scale = [0.1, 0.01, 1e5, 1e5, 10.0, 1.0, 10.0];
-    let f = |x: &[f64], u: &[f64]| {
-        let mut dx = vec![0.0; n];
-        c.rhs(x, u, &mut dx);
-        dx
-    };
-    let mut a = DMatrix::zeros(n, n);
-    let mut b = DMatrix::zeros(n, m);
-    for j in 0..n + m {
-        let (mut xp, mut up) = (x0.to_vec(), u0.to_vec());
-        let (mut xm, mut um) = (x0.to_vec(), u0.to_vec());
-        let h = if j < n {
-            let h = 1e-6 * x0[j].abs().max(scale[j]);
-            xp[j] += h;
-            xm[j] -= h;
-            h
-        } else {
-            let h = 1e-6 * u0[j - n].abs().max(10.0);
-            up[j - n] += h;
-            um[j - n] -= h;
-            h
-        };
-        let (fp, fm) = (f(&xp, &up), f(&xm, &um));
-        for i in 0..n {
-            let d = (fp[i] - fm[i]) / (2.0 * h);
-            if j < n {
-                a[(i, j)] = d;
-            } else {
-                b[(i, j - n)] = d;
-            }
-        }
-    }
-    (a, b)
 }
 
 proptest! {
@@ -112,7 +76,7 @@ proptest! {
         let c = DualPump::new(&rig.unwrap()).unwrap();
         let op = c.operating_point();
         let (a, b) = linearise(&c, &op.state, &op.inputs);
-        let (fa, fb) = fd_jacobian(&c, &op.state, &op.inputs);
+        let (fa, fb) = jacobian::fd_jacobian(&c, &op.state, &op.inputs);
         for i in 0..a.nrows() {
             let row = a.row(i).amax().max(b.row(i).amax());
             for (ad, fd) in a.row(i).iter().chain(b.row(i).iter()).zip(fa.row(i).iter().chain(fb.row(i).iter())) {
