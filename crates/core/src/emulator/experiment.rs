@@ -2,7 +2,8 @@
 //! of the closed loop, or a velocity step of one drive with its motor decoupled from the pump
 //! (the article §2.4.1; docs/identification.md#drive-gain).
 
-use super::plc::{integrate, Noise};
+use super::integrate::integrate;
+use super::plc::Noise;
 use super::EmulatorError;
 use super::{emulate_reporting, Dynamics, Effects, Emulation, Plc};
 use crate::input::FieldError;

@@ -9,6 +9,7 @@
 
 pub mod article;
 mod experiment;
+mod integrate;
 mod plc;
 
 pub use crate::circuit::stops::{End, EndStopHit, Stops, CONTACT_DAMPING, CONTACT_RAD_S};
@@ -192,6 +193,13 @@ impl Dynamics {
     /// ẋ = f(x, u) into `dx`.
     pub fn rhs(&self, x: &[f64], u: &[f64; 2], dx: &mut [f64]) {
         self.circuit.rhs(x, u, dx);
+    }
+
+    /// The exact Jacobian ∂f/∂x at (x, u), row-major n × n, from the circuit's own equations
+    /// by dual numbers ([`crate::circuit::linearise`]): what an implicit integrator needs.
+    pub fn jacobian(&self, x: &[f64], u: &[f64; 2]) -> Vec<f64> {
+        let (a, _) = crate::circuit::linearise(&self.circuit, x, u);
+        a.transpose().as_slice().to_vec()
     }
 
     /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage
