@@ -6,7 +6,7 @@
 #   ./test.sh --test cli      # extra arguments go to `cargo test`
 #   PUMPCYL_SKIP_RUST=1 ./test.sh   # the Python part only
 #
-# A test whose tool is missing here (GNU Octave, Chromium, python-control, FMPy) skips, and the
+# A test whose tool is missing here (GNU Octave, Chromium, python-control, FMPy, Dask) skips, and the
 # last line says which and what installs them, or `skipped: none`. Under CI (`CI` set) nothing
 # skips: a missing tool is a failure.
 set -euo pipefail
@@ -71,10 +71,10 @@ VENV=target/py-venv
 PIP_LOG=target/py-venv-pip.log
 (
     if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
-    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy mpmath
+    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy mpmath dask distributed pandas
 ) > "$PIP_LOG" 2>&1 &
 PIP_PID=$!
-echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath (in the background: $PIP_LOG)"
+echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath dask distributed pandas (in the background: $PIP_LOG)"
 
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
     echo "== cargo test --locked $*"

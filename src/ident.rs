@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
-use pumpcyl::ident::shards::{self, digest, Partial};
+use pumpcyl::ident::shards::{self, Partial};
 use pumpcyl::ident::{
     analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request,
     Standstill, Uncertainty, UncertaintyOptions,
@@ -272,18 +272,14 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     let search_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if let (Some(shard), Some(dir)) = (args.shard, &args.out) {
-        // the fingerprint of the experiment as the merge will load it (by its canonical path)
-        let canonical = std::fs::canonicalize(&args.experiment)?;
-        let part = Partial {
-            digest: digest(&crate::read_files::experiment(&canonical)?, &opts, shard)?,
-            experiment: canonical,
+        let part = Partial::of_search(
+            crate::read_files::files(),
+            &args.experiment,
+            &opts,
             shard,
-            local_refinement: opts.local_refinement,
-            threshold_mm2: opts.threshold_mm2,
-            top: opts.top_n,
-            seconds: search_seconds,
+            search_seconds,
             stages,
-        };
+        )?;
         ensure_folder(dir)?;
         let path = dir.join(format!("part-{}-of-{}.json", shard.0, shard.1));
         write_atomic(&path, serde_json::to_string(&part)?.as_bytes())?;

@@ -247,6 +247,23 @@ class Identification(Result):
     not_identifiable: Dict[str, str]
     """Why, for the parameters the records do not bound."""
 
+class IdentificationUncertainty(Identification):
+    """The fields ``identify(..., uncertainty=True)`` adds (docs/identification.md,
+    "Uncertainty")."""
+
+    intervals: Dict[str, List[float]]
+    """Per parameter, its profile-likelihood interval [low, high] at ``confidence``."""
+    confidence: float
+    noise_std_mm: float
+    chi2_threshold: float
+    samples: int
+    residual_autocorrelation: float
+    variance_inflation: float
+    inflation_by_parameter: Dict[str, float]
+    sse_offset_free_mm2: float
+    profiles: Dict[str, List[Dict[str, float]]]
+    uncertainty_seconds: float
+
 class Advice(Result):
     """Experiment advice: ``pumpcyl advise --json``."""
 
@@ -428,7 +445,10 @@ def identify(
     top: int = 20,
     progress: Union[None, bool, Callable[[int, int], None]] = None,
     allow_long_run: bool = False,
-) -> Identification:
+    shard: Optional[Tuple[int, int]] = None,
+    uncertainty: bool = False,
+    confidence: float = 0.95,
+) -> Union[Identification, str]:
     """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (the article §2.4.4)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
     w2_rpm=..., p1_bar=...)`` and ``rig``. Grids are dicts {beta_bar,
@@ -437,7 +457,21 @@ def identify(
     ``grids="article"`` the article's two, as the file key);
     ``refined_grid=False`` skips the second stage. Releases the GIL; Ctrl-C stops it;
     ``progress=True`` prints progress on stderr (redrawn on a terminal; a line per tenth of
-    the work in a pipe or a notebook), a callable gets (done, total)."""
+    the work in a pipe or a notebook), a callable gets (done, total).
+
+    ``shard=(i, n)`` evaluates only slice i of n of the experiment file's grids and returns
+    the partial result as JSON text, what ``pumpcyl identify --shard i/n`` writes
+    (docs/identification.md#sharding), for :func:`identify_merge`; it needs an experiment file
+    with fixed grids and no grid arguments. ``uncertainty=True`` adds the profile-likelihood
+    intervals at ``confidence`` as ``pumpcyl identify --uncertainty --json`` does:
+    the fields of :class:`IdentificationUncertainty`."""
+
+def identify_merge(shards: Sequence[str]) -> Identification:
+    """Merge the partial results of ``identify(experiment, shard=(i, n))``, i = 1..n, in any
+    order, into the identification of one unsharded run, as ``pumpcyl identify-merge --json``
+    with its checks: refused when a shard is missing or twice, from another run or options, or
+    edited. The experiment file is read again from the path the shards name. Releases the
+    GIL."""
 
 def emulate(
     experiment: Literal["step", "sine", "drive-step", "standstill"],

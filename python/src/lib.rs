@@ -677,9 +677,14 @@ fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<Stri
 #[pyfunction]
 #[pyo3(signature = (rig, *, sum_pressure_closed = false))]
 fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
-    let lp = Loop::of_rig(rig.rig.clone(), &rig.__repr__(), sum_pressure_closed);
-    let m = lti::margins(&lp.open_loop).map_err(err)?;
-    let json = pumpcyl_present::analysis::loop_margins_json(&m, &lp).map_err(err)?;
+    let (name, rig) = (rig.__repr__(), rig.rig.clone());
+    let json = py
+        .detach(|| {
+            let lp = Loop::of_rig(rig, &name, sum_pressure_closed);
+            let m = lti::margins(&lp.open_loop).map_err(|e| e.to_string())?;
+            pumpcyl_present::analysis::loop_margins_json(&m, &lp).map_err(|e| e.to_string())
+        })
+        .map_err(err)?;
     PyOutcome::of(py, "Margins", &json)
 }
 
@@ -745,7 +750,7 @@ fn bode<'py>(
         return Err(arg.error(f_hz, "frequencies must strictly increase"));
     }
     let sys = loop_of(&rig.rig, r#loop, sum_pressure_closed)?;
-    let b = lti::bode(&sys, &f).map_err(err)?;
+    let b = py.detach(|| lti::bode(&sys, &f)).map_err(err)?;
     PyTuple::new(py, [array1(py, &b.mag_db), array1(py, &b.phase_deg)])
 }
 
@@ -1014,7 +1019,8 @@ fn standstill_of(value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
 #[pyo3(signature = (
     experiment = None, *, datasets = None, standstill = None, rig = None, grids = None,
     grid = None, refined_grid = None, auto_refine = None, local_refinement = None,
-    threshold_mm2 = None, top = 20, progress = None, allow_long_run = false
+    threshold_mm2 = None, top = 20, progress = None, allow_long_run = false, shard = None,
+    uncertainty = false, confidence = 0.95
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
@@ -1032,7 +1038,25 @@ fn identify(
     top: usize,
     progress: Option<Py<PyAny>>,
     allow_long_run: bool,
-) -> PyResult<PyOutcome> {
+    shard: Option<(usize, usize)>,
+    uncertainty: bool,
+    confidence: f64,
+) -> PyResult<Py<PyAny>> {
+    if let Some(label) = shard {
+        check_shard_request(
+            &experiment,
+            grids,
+            grid,
+            refined_grid,
+            auto_refine,
+            uncertainty,
+        )
+        .map_err(|problem| err(format!("identify(shard={label:?}): {problem}")))?;
+    }
+    if uncertainty {
+        ident::check_confidence(confidence).map_err(err)?;
+    }
+    let path = experiment.clone();
     let loaded;
     let built;
     let (problem, id_rig, origin, file_grids, file_opts) = match (experiment, datasets) {
@@ -1043,6 +1067,9 @@ fn identify(
                 ));
             }
             loaded = Experiment::load(&path).map_err(err)?;
+            if let Some(label) = shard {
+                ident::shards::check_label(&loaded, label).map_err(err)?;
+            }
             let origin = pumpcyl_present::identification::Origin::of_experiment(&loaded);
             (
                 &loaded.problem,
@@ -1139,6 +1166,7 @@ fn identify(
     };
     let request = ident::Request {
         allow_long_run,
+        shard,
         ..ident::Request::new(problem, (first, second), opts)
     };
     request.check().map_err(|e| match e {
@@ -1149,16 +1177,170 @@ fn identify(
     })?;
     let mut tick = progress_reporter(py, progress, "identify", "candidates", request.candidates())?;
     let start = Instant::now();
+    if let (Some(label), Some(path)) = (shard, &path) {
+        let part = shard_of(py, &request, path, label, &mut tick)?;
+        return Ok(PyString::new(py, &part).into_any().unbind());
+    }
     let id = run_interruptible(py, |go_on| request.run(go_on), &mut tick)?.map_err(err)?;
     tick(py, u64::MAX)?;
     let seconds = start.elapsed().as_secs_f64();
+    let analysed = if uncertainty {
+        Some(
+            py.detach(|| uncertainty_of(problem, &id, confidence))
+                .map_err(err)?,
+        )
+    } else {
+        None
+    };
+    let found = Found {
+        problem,
+        rig: &id_rig,
+        origin: &origin,
+        id: &id,
+        seconds,
+    };
+    Ok(Py::new(py, identification_outcome(py, &found, analysed.as_ref())?)?.into_any())
+}
+
+/// Shard `label` of the `request` on the grids of the experiment file at `path`: the partial
+/// result's JSON text, as `pumpcyl identify --shard` writes it (docs/identification.md#sharding).
+fn shard_of(
+    py: Python<'_>,
+    request: &ident::Request<'_>,
+    path: &std::path::Path,
+    label: (usize, usize),
+    tick: &mut (dyn FnMut(Python<'_>, u64) -> PyResult<()> + Send),
+) -> PyResult<String> {
+    let start = Instant::now();
+    let stages = run_interruptible(py, |go_on| request.search(go_on), tick)?.map_err(err)?;
+    tick(py, u64::MAX)?;
+    let seconds = start.elapsed().as_secs_f64();
+    py.detach(|| {
+        let (files, opts) = (&pumpcyl::input::Disk, &request.options);
+        let part = ident::shards::Partial::of_search(files, path, opts, label, seconds, stages)?;
+        serde_json::to_string(&part).map_err(|e| ident::IdentError::Input(e.to_string()))
+    })
+    .map_err(err)
+}
+
+/// An identification and where it came from, for [`identification_outcome`].
+struct Found<'a> {
+    problem: &'a Problem,
+    rig: &'a Rig,
+    origin: &'a pumpcyl_present::identification::Origin,
+    id: &'a ident::Identification,
+    /// The time it took (s).
+    seconds: f64,
+}
+
+/// The profile-likelihood uncertainty of the best candidate of `id` at `confidence`
+/// (docs/identification.md, "Uncertainty"), with the seconds it took, as `identify
+/// --uncertainty` analyses it.
+fn uncertainty_of(
+    problem: &Problem,
+    id: &ident::Identification,
+    confidence: f64,
+) -> Result<(ident::Uncertainty, f64), ident::IdentError> {
+    let start = Instant::now();
+    let opts = ident::UncertaintyOptions {
+        confidence,
+        ..ident::UncertaintyOptions::default()
+    };
+    let u = ident::analyze(problem, &id.best().candidate, &opts)?;
+    Ok((u, start.elapsed().as_secs_f64()))
+}
+
+/// The document of an identification as a `Result`, as `pumpcyl identify --json` (and
+/// `identify-merge --json`) print it: the answer, the identifiability verdicts and, when
+/// analysed, the `uncertainty` with the seconds it took.
+fn identification_outcome(
+    py: Python<'_>,
+    f: &Found<'_>,
+    uncertainty: Option<&(ident::Uncertainty, f64)>,
+) -> PyResult<PyOutcome> {
     use pumpcyl_present::identification as outputs;
-    let mut doc =
-        outputs::identification_document(problem, &id_rig, &origin, &id, seconds).map_err(err)?;
-    if let Some(v) = py.detach(|| outputs::verdicts(problem, &id, None)) {
+    let mut doc = outputs::identification_document(f.problem, f.rig, f.origin, f.id, f.seconds)
+        .map_err(err)?;
+    let verdicts = py.detach(|| outputs::verdicts(f.problem, f.id, uncertainty.map(|(u, _)| u)));
+    if let Some(v) = verdicts {
         outputs::add_identifiability_json(&mut doc, &v);
     }
+    if let Some((u, seconds)) = uncertainty {
+        pumpcyl_present::uncertainty::add_uncertainty_json(&mut doc, u, *seconds);
+    }
     PyOutcome::of(py, "Identification", &doc)
+}
+
+/// Why `identify(shard=...)` cannot run with these arguments, if it cannot: a shard is a slice
+/// of the grids an experiment file names, which the merge loads again
+/// (docs/identification.md#sharding).
+fn check_shard_request(
+    experiment: &Option<PathBuf>,
+    grids: Option<&str>,
+    grid: Option<&Bound<'_, PyAny>>,
+    refined_grid: Option<&Bound<'_, PyAny>>,
+    auto_refine: Option<bool>,
+    uncertainty: bool,
+) -> Result<(), &'static str> {
+    if experiment.is_none() {
+        return Err("a shard needs an experiment file (the merge loads it again), not datasets");
+    }
+    if grids.is_some() || grid.is_some() || refined_grid.is_some() {
+        return Err(
+            "a shard runs the experiment file's own grids: give them in the file, \
+                    not as grids, grid or refined_grid",
+        );
+    }
+    if auto_refine == Some(true) {
+        return Err(
+            "a shard needs fixed grids: auto-refine derives the second grid from the \
+                    first, so run that stage unsharded",
+        );
+    }
+    if uncertainty {
+        return Err("the uncertainty is analysed on the merged answer, not on a shard");
+    }
+    Ok(())
+}
+
+/// Merge the partial results of `identify(experiment, shard=(i, n))` for i = 1..n (each the
+/// JSON text it returned, in any order) into the identification of one unsharded run, as
+/// `pumpcyl identify-merge --json` does, with the same checks (docs/identification.md#sharding):
+/// refused when a shard is missing or given twice, the shards come from different runs,
+/// options or experiment contents, or a partial result was edited. The experiment file is read
+/// again from the path the shards name. `seconds` is the shards' search time added up, plus
+/// the merge's own. Runs with the GIL released.
+#[pyfunction]
+fn identify_merge(py: Python<'_>, shards: Vec<Bound<'_, PyAny>>) -> PyResult<PyOutcome> {
+    let mut parts = Vec::with_capacity(shards.len());
+    for (k, text) in shards.iter().enumerate() {
+        let arg = Arg::new("identify_merge", &format!("shards[{k}]"));
+        let text: String = text.extract().map_err(|_| {
+            arg.error(
+                text,
+                "a shard's JSON text, as identify(shard=...) returns it",
+            )
+        })?;
+        let part: ident::shards::Partial = serde_json::from_str(&text).map_err(|e| {
+            err(format!(
+                "identify_merge({}): not a partial result: {e}",
+                arg.name
+            ))
+        })?;
+        parts.push((PathBuf::from(&arg.name), part));
+    }
+    let (exp, id, seconds) = py
+        .detach(|| ident::shards::merge(&pumpcyl::input::Disk, parts))
+        .map_err(err)?;
+    let origin = pumpcyl_present::identification::Origin::of_experiment(&exp);
+    let found = Found {
+        problem: &exp.problem,
+        rig: &exp.rig,
+        origin: &origin,
+        id: &id,
+        seconds,
+    };
+    identification_outcome(py, &found, None)
 }
 
 /// Whether Python's `sys.stderr` is a terminal (a notebook's or a pipe's is not).
@@ -1759,6 +1941,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(step, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(identify_merge, m)?)?;
     m.add_function(wrap_pyfunction!(advise, m)?)?;
     m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;

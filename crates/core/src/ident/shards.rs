@@ -42,6 +42,35 @@ pub struct Partial {
     pub stages: Vec<Stage>,
 }
 
+impl Partial {
+    /// The partial result of shard `shard` of the experiment file at `path` (read from
+    /// `source`), searched with `opts`: its `stages`, found in `seconds`. The file is named by
+    /// its canonical path and fingerprinted as the merge will load it ([`digest`]); what
+    /// `pumpcyl identify --shard` writes and Python's `identify(shard=...)` returns.
+    pub fn of_search(
+        source: &dyn crate::input::Files,
+        path: &std::path::Path,
+        opts: &Options,
+        shard: (usize, usize),
+        seconds: f64,
+        stages: Vec<Stage>,
+    ) -> Result<Partial> {
+        let canonical = std::fs::canonicalize(path)
+            .map_err(|e| IdentError::Input(format!("{}: {e}", path.display())))?;
+        let exp = Experiment::load_in(source, &canonical)?;
+        Ok(Partial {
+            digest: digest(&exp, opts, shard)?,
+            experiment: canonical,
+            shard,
+            local_refinement: opts.local_refinement,
+            threshold_mm2: opts.threshold_mm2,
+            top: opts.top_n,
+            seconds,
+            stages,
+        })
+    }
+}
+
 /// A fingerprint of everything a shard's result depends on: the experiment file, the rig it
 /// names with its overrides, the standstill point, every dataset's record and settings, the
 /// grids (so the number of stages), the options (threshold, top length, refinement) and which
