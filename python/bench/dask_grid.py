@@ -7,7 +7,8 @@ Dask LocalCluster (docs/beyond-one-machine.md). Not a test: it prints the figure
 by 100: about 680,000 candidates. The one-process run uses the core's own thread pool (all the
 cores); each Dask worker runs with ``RAYON_NUM_THREADS=1`` so that the workers, not the pool,
 share the cores. The overhead per shard is the cluster's time over the ideal one (the
-one-process time shared among the workers' threads), per shard.
+one-process time shared among the workers' threads), per shard; the fixed cost of a shard is
+measured apart, on the article's own grids split into many small shards.
 """
 
 import argparse
@@ -107,6 +108,7 @@ def main():
                 experiment, client=client, shards=args.shards, allow_long_run=True
             )
             dask_s = time.perf_counter() - start
+            fixed_s = _fixed_cost_per_shard(client, folder)
         same = merged.beta_bar == one.beta_bar and merged.top == one.top
         ideal_s = one_s * os.cpu_count() / min(args.workers, os.cpu_count())
         overhead = (dask_s - ideal_s) / args.shards
@@ -117,6 +119,33 @@ def main():
         )
         print(f"overhead per shard: {overhead * 1000:.0f} ms (against {ideal_s:.2f} s ideal)")
         print(f"same answer as one process: {same} (beta_bar {merged.beta_bar:.4f} bar)")
+        print(
+            f"fixed cost of a shard (the article's grids in 2 and in {FEW_CANDIDATES_SHARDS} "
+            f"shards): {fixed_s * 1000:.0f} ms"
+        )
+
+
+# Shards of the article's own grids for the fixed cost of a shard: each holds about 100
+# candidates, so its time is mostly what every shard costs whatever its size.
+FEW_CANDIDATES_SHARDS = 64
+
+
+def _fixed_cost_per_shard(client, folder):
+    """The time a shard costs beyond its candidates (s): the article's grids identified in
+    2 and in FEW_CANDIDATES_SHARDS shards, the difference per added shard (best of 3)."""
+    import pumpcyl.distributed
+
+    experiment = scaled_article_experiment(folder, 1)
+
+    def seconds(shards):
+        def once():
+            start = time.perf_counter()
+            pumpcyl.distributed.identify(experiment, client=client, shards=shards)
+            return time.perf_counter() - start
+
+        return min(once() for _ in range(3))
+
+    return (seconds(FEW_CANDIDATES_SHARDS) - seconds(2)) / (FEW_CANDIDATES_SHARDS - 2)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import math
 import os
 
 import pumpcyl
+from pumpcyl._pumpcyl import _check_shards
 
 __all__ = ["identify", "sweep", "identify_many"]
 
@@ -71,6 +72,7 @@ def identify(experiment, *, client=None, shards=None, **options):
     n = shards if shards is not None else 2 * _threads(client)
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise pumpcyl.PumpcylError(f"identify(shards={n!r}): a whole number >= 1")
+    _check_shards(path, n)  # once here, rather than every shard refusing on its worker
     futures = client.map(
         _identify_shard,
         [path] * n,

@@ -53,9 +53,10 @@ fn long_run_err(e: pumpcyl::limits::LimitError) -> PyErr {
     }
 }
 
-/// A value serialised by the library, as plain Python data (dicts, lists, floats, None).
-fn to_py(py: Python<'_>, value: &impl serde::Serialize) -> PyResult<Py<PyAny>> {
-    let text = serde_json::to_string(value).map_err(err)?;
+/// A value serialised by the library, as plain Python data (dicts, lists, floats, None); the
+/// JSON text is written with the GIL released (a run's signals make it long).
+fn to_py(py: Python<'_>, value: &(impl serde::Serialize + Sync)) -> PyResult<Py<PyAny>> {
+    let text = py.detach(|| serde_json::to_string(value)).map_err(err)?;
     Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
 }
 
@@ -815,14 +816,18 @@ fn simulate(
     base.x_ref_mm = r[0];
     base.x_mm = r[0];
     let (name, rig) = (rig.__repr__(), rig.rig.clone());
-    let s = py
-        .detach(|| response::simulate(&rig, &t, &r, &base))
+    let (s, over, signals) = py
+        .detach(|| {
+            let s = response::simulate(&rig, &t, &r, &base)?;
+            let over = response::signals_over_ratings(&rig, &s);
+            let signals = pumpcyl_present::documents::signals_json(&s);
+            Ok::<_, lti::LtiError>((s, over, signals))
+        })
         .map_err(err)?;
-    let over = response::signals_over_ratings(&rig, &s);
     let warnings = run_warnings(py, "simulate", &rig, &s, &over)?;
     let doc = serde_json::json!({
         "rig": name,
-        "signals": pumpcyl_present::documents::signals_json(&s),
+        "signals": signals,
         "over_ratings": over,
         "warnings": warnings,
     });
@@ -1301,6 +1306,27 @@ fn check_shard_request(
         return Err("the uncertainty is analysed on the merged answer, not on a shard");
     }
     Ok(())
+}
+
+/// Refuse, before any shard runs, a split of the grids of the experiment file `experiment`
+/// into `shards` that no shard could run (docs/identification.md#sharding): more shards than
+/// the limit or than the smaller grid's candidates, or a second grid not fixed in advance.
+/// `pumpcyl.distributed.identify` asks it once rather than have every shard refuse.
+#[pyfunction]
+#[pyo3(name = "_check_shards")]
+fn check_shards(py: Python<'_>, experiment: PathBuf, shards: usize) -> PyResult<()> {
+    py.detach(|| {
+        let exp = Experiment::load(&experiment)?;
+        ident::shards::check_label(&exp, (1, shards))?;
+        let request = ident::Request {
+            shard: Some((1, shards)),
+            // each shard checks its own work against the limit
+            allow_long_run: true,
+            ..exp.request(exp.options())
+        };
+        request.check()
+    })
+    .map_err(err)
 }
 
 /// Merge the partial results of `identify(experiment, shard=(i, n))` for i = 1..n (each the
@@ -1942,6 +1968,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(step, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(check_shards, m)?)?;
     m.add_function(wrap_pyfunction!(advise, m)?)?;
     m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;

@@ -66,9 +66,20 @@ def test_a_relative_path_and_the_default_shards_give_the_same_answer(client, mon
     assert comparable(merged) == comparable(whole)
 
 
-def test_a_shard_label_out_of_range_is_refused_by_the_core(client):
-    with pytest.raises(pumpcyl.PumpcylError, match=r"shard \d+/2000: need 1 <= I <= N <= 1000"):
+def test_shards_no_shard_could_run_are_refused_before_any_runs(client, tmp_path):
+    with pytest.raises(pumpcyl.PumpcylError, match=r"shard 1/2000: need 1 <= I <= N <= 1000"):
         pd_.identify(ARTICLE / "identify.toml", client=client, shards=2000)
+    # a second grid centred on the first stage's best is not fixed in advance
+    centred = tmp_path / "identify.toml"
+    centred.write_text((ARTICLE / "identify.toml").read_text().replace('grids = "article"', ""))
+    for name in ("standstill.csv", "identification.csv", "validation.csv"):
+        shutil.copy(ARTICLE / name, tmp_path / name)
+    with pytest.raises(pumpcyl.PumpcylError, match="centred on the first stage's best"):
+        pd_.identify(centred, client=client, shards=2)
+    # nothing reached the workers
+    assert client.run(lambda dask_worker: len(dask_worker.state.tasks)) == {
+        addr: 0 for addr in client.nthreads()
+    }
 
 
 def test_a_worker_killed_mid_identification_is_retried_and_the_answer_is_unchanged(

@@ -6,7 +6,8 @@ Each call is measured in a fresh Python process with the core's own thread pool 
 (``RAYON_NUM_THREADS=1``), so a second core can only be used by a second Python thread, and
 only if the first does not hold the GIL. The ratio (twice the time of one call over the time of
 two calls in two threads; 2 is perfect, 1 is a held GIL) is printed, and asserted only above
-1.3, on a machine not busy with other work (its load below its cores). What is asserted
+1.3, on a machine not busy with other work (three quarters of its CPU time idle just
+before). What is asserted
 whatever the load: the CPU time a pure-Python thread gets while the call runs, against the
 call's own, is not near 0 (a call holding the GIL through the core's work leaves it nothing).
 `step` is left out: its time is mostly making its signals' Python objects, under the GIL.
@@ -16,6 +17,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -79,11 +81,29 @@ print(json.dumps({"one_s": one, "two_s": two, "ratio": 2 * one / two, "share": s
 """
 
 
+def idle_share(seconds=0.5):
+    """The share of the machine's CPU time left idle over `seconds` (Linux's /proc/stat; 0
+    where it cannot be read: the machine then counts as busy)."""
+
+    def times():
+        with open("/proc/stat") as f:
+            fields = [int(v) for v in f.readline().split()[1:]]
+        return fields[3] + fields[4], sum(fields)  # idle + iowait, all
+
+    try:
+        idle0, total0 = times()
+        time.sleep(seconds)
+        idle1, total1 = times()
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    return (idle1 - idle0) / max(total1 - total0, 1)
+
+
 @pytest.mark.parametrize("name", sorted(CALLS))
 def test_two_threads_take_about_the_time_of_one(name):
     if (os.cpu_count() or 1) < 2:
         pytest.skip("SKIPPED: one core: two threads cannot run in parallel here")
-    busy = os.getloadavg()[0] > os.cpu_count() - 0.5
+    busy = idle_share() < 0.75
     env = dict(os.environ, RAYON_NUM_THREADS="1")
     experiment = str(ARTICLE / "identify.toml")
     out = subprocess.run(
@@ -100,8 +120,10 @@ def test_two_threads_take_about_the_time_of_one(name):
         f"ratio {m['ratio']:.2f}; a Python thread's CPU share during the call {m['share']:.2f}"
         + (" (the machine is busy: ratio not asserted)" if busy else "")
     )
-    # a call holding the GIL through its core work leaves the other thread almost nothing
-    assert m["share"] >= 0.4, m
+    # a call holding the GIL through its core work leaves the other thread almost nothing (a
+    # C loop holding it, `sum(range(3 * 10**7))`, measured 0.08); `simulate` spends about half
+    # its time making its signals' Python objects (measured 0.34 to 0.52)
+    assert m["share"] >= 0.3, m
     # the ratio is bounded by the part of the call that needs the GIL (making its result's
     # Python objects): asserted where the core's work is most of it
     if not busy and m["share"] >= 0.8:
