@@ -86,7 +86,7 @@ def test_a_worker_killed_mid_identification_is_retried_and_the_answer_is_unchang
     client, tmp_path
 ):
     # each of the two shards takes seconds, so the kill lands while one runs
-    experiment = scaled_article_experiment(tmp_path, 4)
+    experiment = scaled_article_experiment(tmp_path, 6)
     whole = pumpcyl.identify(experiment)
     pids = client.run(os.getpid)
     out = {}
@@ -104,13 +104,25 @@ def test_a_worker_killed_mid_identification_is_retried_and_the_answer_is_unchang
         else:
             time.sleep(0.05)
     assert victim is not None, "no shard ever ran"
-    time.sleep(0.3)  # into the shard's search
+    time.sleep(0.2)  # into the shard's search
     os.kill(pids[victim], signal.SIGKILL)
     runner.join(timeout=300.0)
     assert not runner.is_alive()
     assert comparable(out["r"]) == comparable(whole)
     client.wait_for_workers(2, timeout=60.0)
     assert pids[victim] not in client.run(os.getpid).values(), "the worker was not replaced"
+    retried = [k for k, n in client.run_on_scheduler(_runs_of_shards).items() if n >= 2]
+    assert retried, "no shard was run again: the kill came after the shards"
+
+
+def _runs_of_shards(dask_scheduler):
+    """How often the scheduler gave each shard of a 2-shard run to a worker."""
+    runs = {}
+    for t in dask_scheduler.transition_log:
+        key = str(t.key)
+        if key.startswith("pumpcyl-shard-") and "-of-2-" in key and t.finish == "processing":
+            runs[key] = runs.get(key, 0) + 1
+    return runs
 
 
 def test_a_sweep_of_200_rigs_equals_a_loop_over_them(client):

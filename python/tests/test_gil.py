@@ -37,6 +37,11 @@ CALLS = {
     "margins": "[pumpcyl.margins(RIG.replace(beta_bar=b)) for b in np.linspace(60.0, 300.0, 200)]",
 }
 
+# The least CPU share a Python thread must get during each call (0.5 unless named): the calls
+# measured 0.78 to 1.4 on a busy machine, but `simulate` spends half its time or more making
+# its signals' Python objects, under the GIL (measured 0.30 to 0.52).
+MIN_SHARE = {"simulate": 0.2}
+
 MEASURE = r"""
 import json, sys, threading, time, warnings
 import numpy as np
@@ -121,9 +126,8 @@ def test_two_threads_take_about_the_time_of_one(name):
         + (" (the machine is busy: ratio not asserted)" if busy else "")
     )
     # a call holding the GIL through its core work leaves the other thread almost nothing (a
-    # C loop holding it, `sum(range(3 * 10**7))`, measured 0.08); `simulate` spends about half
-    # its time making its signals' Python objects (measured 0.34 to 0.52)
-    assert m["share"] >= 0.3, m
+    # C loop holding it, `sum(range(3 * 10**7))`, measured 0.08)
+    assert m["share"] >= MIN_SHARE.get(name, 0.5), m
     # the ratio is bounded by the part of the call that needs the GIL (making its result's
     # Python objects): asserted where the core's work is most of it
     if not busy and m["share"] >= 0.8:
