@@ -14,7 +14,10 @@ import time
 import pytest
 
 import pumpcyl
-from conftest import ARTICLE, ROOT, skip_missing
+import json
+import subprocess
+
+from conftest import ARTICLE, ROOT, pumpcyl_binary, skip_missing
 
 sys.path.insert(0, str(ROOT / "python" / "bench"))
 from dask_grid import scaled_article_experiment  # noqa: E402
@@ -208,3 +211,66 @@ def test_a_fleet_with_a_corrupt_record_gives_its_error_row_and_every_other_row(
         assert {k: v for k, v in row["result"].items() if k not in VARYING | {"uncertainty_seconds"}} == {
             k: v for k, v in expected.to_dict().items() if k not in VARYING | {"uncertainty_seconds"}
         }
+
+
+# ---------------------------------------------------------------------------------------------
+# The shards from Python are the command line's (no cluster needed)
+
+
+def _stage_tops(part):
+    """What a partial result says about the grids, without the counts that depend on the
+    order the threads meet the candidates (pruned, unstable) and the time."""
+    d = json.loads(part)
+    assert d.pop("seconds") >= 0.0
+    for stage in d["stages"]:
+        for k in ("pruned", "unstable", "non_finite"):
+            stage["summary"].pop(k)
+    return d
+
+
+def test_a_python_shard_is_the_partial_result_the_command_line_writes(tmp_path):
+    experiment = os.path.realpath(ARTICLE / "identify.toml")
+    ours = [pumpcyl.identify(experiment, shard=(i, 3)) for i in (1, 2, 3)]
+    theirs = []
+    for i in (1, 2, 3):
+        subprocess.run(
+            [pumpcyl_binary(), "identify", experiment, "--shard", f"{i}/3", "--out", str(tmp_path)],
+            check=True,
+            capture_output=True,
+        )
+        theirs.append((tmp_path / f"part-{i}-of-3.json").read_text())
+    for mine, cli in zip(ours, theirs):
+        assert _stage_tops(mine) == _stage_tops(cli)
+    # parts from both mixed merge to the one-process answer
+    merged = pumpcyl.identify_merge([theirs[1], ours[0], ours[2]])
+    assert comparable(merged) == comparable(pumpcyl.identify(experiment))
+
+
+def test_the_merge_from_python_keeps_the_command_lines_checks():
+    experiment = os.path.realpath(ARTICLE / "identify.toml")
+    parts = [pumpcyl.identify(experiment, shard=(i, 2)) for i in (1, 2)]
+    with pytest.raises(pumpcyl.PumpcylError, match="missing shards"):
+        pumpcyl.identify_merge(parts[:1])
+    with pytest.raises(pumpcyl.PumpcylError, match="given twice"):
+        pumpcyl.identify_merge([parts[0], parts[0]])
+    edited = json.loads(parts[1])
+    edited["stages"][0]["summary"]["top"][0]["cost_mm2"] *= 0.5
+    with pytest.raises(pumpcyl.PumpcylError, match="edited"):
+        pumpcyl.identify_merge([parts[0], json.dumps(edited)])
+    with pytest.raises(pumpcyl.PumpcylError, match=r"identify_merge\(shards\[1\]\): not a partial"):
+        pumpcyl.identify_merge([parts[0], "{}"])
+
+
+def test_a_shard_needs_the_experiment_files_fixed_grids():
+    experiment = ARTICLE / "identify.toml"
+    refusals = {
+        "grids": dict(grid={"beta_bar": [100.0], "viscous_friction_ns_per_m": [100.0],
+                            "c12_m5_per_ns": [1e-10]}),
+        "auto-refine": dict(auto_refine=True),
+        "merged answer": dict(uncertainty=True),
+    }
+    for words, kwargs in refusals.items():
+        with pytest.raises(pumpcyl.PumpcylError, match=rf"identify\(shard=\(1, 2\)\): .*{words}"):
+            pumpcyl.identify(experiment, shard=(1, 2), **kwargs)
+    with pytest.raises(pumpcyl.PumpcylError, match="shard 3/2"):
+        pumpcyl.identify(experiment, shard=(3, 2))
