@@ -123,7 +123,12 @@ class Result:
 
 class Margins(Result):
     """Margins of the open loop (the article §2.3.3): ``pumpcyl margins --json``. A ``None``
-    margin is infinite (no crossing of that kind)."""
+    margin is infinite (no crossing of that kind). On a single-pump rig it also holds
+    ``modes`` (one dict per mode: ``mode``, ``accumulator_chamber`` (1 or 2, the chamber held at
+    the accumulator pressure), ``at_rest``, ``loop`` and every margin field below) beside
+    ``switching_force_n``, ``valve_band_n``, ``external_force_n``, ``mode_at_rest``,
+    ``force_from_switching_n``, ``acceleration_to_switch_m_per_s2`` and ``within_valve_band``
+    (docs/circuits.md#modes-in-margins-and-poles)."""
 
     loop: str
     """The loop analysed, in words."""
@@ -155,6 +160,34 @@ class Margins(Result):
     """Only where it differs from the loop ``closed_loop_stability`` is read on (the rig's
     sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates
     it, with ``stability``, ``rightmost_pole`` ([re 1/s, im rad/s]) and ``rightmost_pole_hz``."""
+
+class Poles(Result):
+    """Poles of the position loop: ``pumpcyl poles --json``. Each pole a dict ``re``
+    (1/s), ``im`` (rad/s), ``natural_freq_hz``, ``damping`` (``None`` at the origin). On a
+    single-pump rig also ``modes`` (one dict per mode: ``mode``, ``accumulator_chamber``,
+    ``at_rest``, ``loop`` and the pole fields below) beside the switching fields of
+    :class:`Margins` (docs/circuits.md#modes-in-margins-and-poles)."""
+
+    loop: str
+    """The loop analysed, in words."""
+    open_loop: List[Dict[str, Any]]
+    """The eigenvalues of the analysed loop transfer L(s)."""
+    open_loop_stable: bool
+    """The open loop is provably asymptotically stable."""
+    open_loop_stability: str
+    """"stable", "unstable", "integrator" or "undecided"."""
+    closed_loop: List[Dict[str, Any]]
+    """The poles of unity position feedback around L(s)."""
+    closed_loop_stable: bool
+    """The closed loop is provably asymptotically stable."""
+    closed_loop_stability: str
+    """"stable", "unstable", "integrator" or "undecided"."""
+    closed_loop_with_sum_pressure: Optional[List[Dict[str, Any]]]
+    """Only where the rig's sum-pressure loop is on but open in the analysed loop: the closed
+    loop as ``step`` simulates it (with ``closed_loop_with_sum_pressure_stable`` and
+    ``closed_loop_with_sum_pressure_stability``)."""
+    closed_loop_with_sum_pressure_stable: Optional[bool]
+    closed_loop_with_sum_pressure_stability: Optional[str]
 
 class Signals(Result):
     """Signals in user units, one numpy value per sample."""
@@ -378,6 +411,10 @@ class Dataset:
 def margins(rig: Rig, *, sum_pressure_closed: bool = False) -> Margins:
     """Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing
     and closed-loop stability."""
+
+def poles(rig: Rig, *, sum_pressure_closed: bool = False) -> Poles:
+    """The poles of the position loop, open and closed (and as simulated where the
+    sum-pressure loop is on), with natural frequency and damping: ``pumpcyl poles --json``."""
 
 def state_space(
     rig: Rig, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None
