@@ -141,6 +141,15 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         "lowest mean pressure meeting the requirement over the whole uncertainty: {}",
         lowest_text(s)
     );
+    if let Some(c) = &s.at_min_mean_pressure {
+        let _ = writeln!(
+            out,
+            "answer: the {} circuit ({}) at {:.2} bar",
+            c.circuit.name(),
+            c.circuit.kind.name(),
+            c.mean_pressure_bar
+        );
+    }
     let _ = writeln!(out, "verdict: {}", verdict_text(s.verdict));
     for r in &s.reasons {
         let _ = writeln!(out, "  - {r}");
@@ -176,7 +185,7 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
         y_label: "Largest Kp (1/m)".into(),
         traces: Vec::new(),
     };
-    for (k, c) in CIRCUITS.into_iter().enumerate() {
+    for (k, c) in present(s) {
         let (p, o) = of_circuit(s, c);
         let y: Vec<f64> = o.iter().map(|o| o.kp_max).collect();
         kp.traces
@@ -219,13 +228,20 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
             ))
         )),
         plot: Plot::Xy {
-            x_label: "Mean chamber pressure (bar)".into(),
+            x_label: "Pressure level (bar): the DPM's mean chamber pressure, a one-motor circuit's pre-charge".into(),
             panels,
         },
     }
 }
 
-const CIRCUITS: [Circuit; 2] = [Circuit::LowPressure, Circuit::Pressurised];
+/// The circuits of the figure, each its colour (docs/select.md#circuits).
+const CIRCUITS: [Circuit; 4] = Circuit::ALL;
+
+/// The circuits with a candidate in `s`, each with its colour (its place in [`CIRCUITS`], so a
+/// circuit keeps its colour whichever others are tried).
+fn present(s: &Selection) -> impl Iterator<Item = (usize, Circuit)> + '_ {
+    (CIRCUITS.into_iter().enumerate()).filter(|(_, c)| s.options.iter().any(|o| o.circuit == *c))
+}
 
 /// The candidates of circuit `c` and their mean pressures (bar).
 fn of_circuit(s: &Selection, c: Circuit) -> (Vec<f64>, Vec<&Candidate>) {
@@ -258,7 +274,7 @@ fn band_panel(
         y_label,
         traces: Vec::new(),
     };
-    for (k, c) in CIRCUITS.into_iter().enumerate() {
+    for (k, c) in present(s) {
         let (p, o) = of_circuit(s, c);
         let end = |i: usize| -> Vec<f64> {
             o.iter()
