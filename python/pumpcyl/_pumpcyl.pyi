@@ -304,7 +304,10 @@ class Advice(Result):
     seconds: float
 
 class Selection(Result):
-    """Which circuit at which pressure level: ``pumpcyl select --json``."""
+    """Which circuit at which pressure level: ``pumpcyl select --json``. Each option names its
+    circuit as ``circuit`` (``low_pressure``, ``pressurised``, ``dual_pump``, ``single_pump``),
+    ``circuit_kind`` (``dpm``, ``dual-pump``, ``single-pump``) and ``pressure_level``
+    (docs/select.md#circuits)."""
 
     options: List[Dict[str, Any]]
     min_mean_pressure_bar: Optional[float]
@@ -312,6 +315,9 @@ class Selection(Result):
     min_mean_pressure_bracket_bar: Optional[List[float]]
     at_min_mean_pressure: Optional[Dict[str, Any]]
     chosen: Optional[Dict[str, Any]]
+    chosen_circuit: Optional[str]
+    """The circuit of the answer (``dpm``, ``dual-pump``, ``single-pump``); ``None`` when no
+    level meets the requirement."""
     verdict: str
     reasons: List[str]
     gas_fraction: Any
@@ -551,7 +557,10 @@ def select(
     ``experiment`` (an experiment TOML file) gives the gas-fraction range from its records'
     interval of beta at ``confidence``. As ``pumpcyl select --json``; a numpy array over the
     options with ``column("options", "kp_max")`` (``standing_loss_w`` NaN where a candidate
-    cavitates). ``progress`` as for :func:`identify`, over the load × level cases."""
+    cavitates). ``progress`` as for :func:`identify`, over the load × level cases. The
+    circuits tried are the keyword ``circuits`` (e.g. ``circuits=["dpm", "single-pump"]``, as
+    ``--circuits``; absent: every circuit the rig's components allow), the one-motor circuits at
+    each pre-charge of ``precharge_bar`` (docs/select.md#circuits)."""
     ...
 
 def fmu(
