@@ -179,7 +179,6 @@ pub fn lowest_text(s: &Selection) -> String {
 /// Within the figure each line style has one meaning: dotted only the reference gas fraction,
 /// dashed only the best case, dash-dot only the requirement.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
-    let chosen = s.min_mean_pressure_bar;
     let chosen_at = s.at_min_mean_pressure.as_ref();
     let mut kp = Panel {
         y_label: "Largest Kp (1/m)".into(),
@@ -222,8 +221,10 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
             "gas fraction {:.4} … {:.4}; {}",
             s.gas_fraction[0],
             s.gas_fraction[2],
-            chosen.map_or("no level meets the requirement".to_string(), |p| format!(
-                "lowest: {p:.2} bar ({})",
+            chosen_at.map_or("no level meets the requirement".to_string(), |c| format!(
+                "lowest: the {} circuit at {:.2} bar ({})",
+                c.circuit.name(),
+                c.mean_pressure_bar,
                 verdict_text(s.verdict).to_lowercase()
             ))
         )),
