@@ -142,11 +142,15 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         lowest_text(s)
     );
     if let Some(c) = &s.at_min_mean_pressure {
+        let (name, kind) = (c.circuit.name(), c.circuit.kind.name());
+        let kind = if name == kind {
+            String::new()
+        } else {
+            format!(" ({kind})")
+        };
         let _ = writeln!(
             out,
-            "answer: the {} circuit ({}) at {:.2} bar",
-            c.circuit.name(),
-            c.circuit.kind.name(),
+            "answer: the {name} circuit{kind} at {:.2} bar",
             c.mean_pressure_bar
         );
     }
