@@ -9,11 +9,10 @@ use crate::emit::{format_of, render, write_atomic, Format};
 use crate::export;
 use crate::{Loop, ModelArgs};
 use pumpcyl::lti;
-use pumpcyl::model::Plant;
 use pumpcyl_present::analysis::{
-    bode_csv, loop_margins_json, loop_margins_text, model_text, poles_json, poles_text, PoleSet,
-    PoleSetKind,
+    bode_csv, loop_margins_text, loop_pole_sets, model_text, poles_text, ModesReport,
 };
+use pumpcyl_present::documents::{margins_document, poles_document};
 use pumpcyl_present::figures::{bode_markers, Chart};
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::matlab::bode_mat;
@@ -26,7 +25,10 @@ pub struct MarginsArgs {
     /// Print JSON (keys loop, gain_margin_db, phase_margin_deg, phase_crossover_hz,
     /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings, integrators,
     /// ill_conditioned; a null margin is infinite: no crossing of that kind;
-    /// docs/analysis.md#conditioning for ill_conditioned and each crossing's margin_error_bound).
+    /// docs/analysis.md#conditioning for ill_conditioned and each crossing's margin_error_bound;
+    /// on a single-pump rig also modes, one object per mode with accumulator_chamber, at_rest
+    /// and the margin fields, beside switching_force_n, force_from_switching_n and
+    /// acceleration_to_switch_m_per_s2: docs/circuits.md#modes-in-margins-and-poles).
     #[arg(long)]
     json: bool,
 }
@@ -58,7 +60,8 @@ pub struct BodeArgs {
 pub struct PolesArgs {
     #[command(flatten)]
     model: ModelArgs,
-    /// Print JSON.
+    /// Print JSON (on a single-pump rig with modes, each mode's poles, beside
+    /// switching_force_n: docs/circuits.md#modes-in-margins-and-poles).
     #[arg(long)]
     json: bool,
 }
@@ -99,10 +102,13 @@ pub fn margins(args: &MarginsArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
     let m = lti::margins(&lp.open_loop)?;
     if args.json {
-        Ok(json_document(&loop_margins_json(&m, &lp)?)?)
-    } else {
-        Ok(loop_margins_text(&m, &lp)?)
+        return Ok(json_document(&margins_document(&m, &lp)?)?);
     }
+    let mut text = loop_margins_text(&m, &lp)?;
+    if let Some(modes) = ModesReport::of_loop(&lp)? {
+        text += &modes.margins_text()?;
+    }
+    Ok(text)
 }
 
 /// `pumpcyl bode`.
@@ -174,25 +180,14 @@ fn series_of(lp: &Loop, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
 /// `pumpcyl poles`.
 pub fn poles(args: &PolesArgs) -> Result<String> {
     let lp = args.model.build(&[])?;
-    let mut sets = vec![
-        PoleSet::of(PoleSetKind::OpenLoop, &lp.open_loop.a)?,
-        PoleSet::of(PoleSetKind::ClosedLoop, &lp.open_loop.unity_feedback()?.a)?,
-    ];
-    if let Some(rig) = lp
-        .rig
-        .as_ref()
-        .filter(|r| r.sum_pressure && !args.model.sum_pressure_closed)
-    {
-        let full = Plant::new(rig).closed_loop(true);
-        sets.push(PoleSet::of(
-            PoleSetKind::ClosedLoopWithSumPressure,
-            &full.a,
-        )?);
-    }
     if args.json {
-        return Ok(json_document(&poles_json(&lp.description, &sets))?);
+        return Ok(json_document(&poles_document(&lp)?)?);
     }
-    Ok(poles_text(&lp.description, &sets))
+    let mut text = poles_text(&lp.description, &loop_pole_sets(&lp)?);
+    if let Some(modes) = ModesReport::of_loop(&lp)? {
+        text += &modes.poles_text()?;
+    }
+    Ok(text)
 }
 
 /// `pumpcyl model`.

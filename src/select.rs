@@ -5,6 +5,7 @@ use clap::Args;
 use std::path::PathBuf;
 
 use crate::emit::{render_both, write_atomic};
+use pumpcyl::circuit::CircuitKind;
 use pumpcyl::rig::Rig;
 use pumpcyl::select::{Application, BetaEvidence, RigFrom, SelectError};
 use pumpcyl_present::format::json_document;
@@ -26,6 +27,12 @@ pub struct SelectArgs {
     /// --set rig.kp=20 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// The circuits to try, comma-separated: dpm (at the low and the pressurised levels),
+    /// dual-pump and single-pump (at each accumulator pre-charge, precharge_bar). Default: the
+    /// application's `circuits`, else every circuit the rig's components allow
+    /// (docs/select.md#circuits).
+    #[arg(long, value_delimiter = ',', value_name = "CIRCUIT,...")]
+    circuits: Vec<String>,
     /// Fix the position gain (1/m) instead of designing the largest one at each candidate.
     #[arg(long, value_name = "KP")]
     kp: Option<f64>,
@@ -48,7 +55,8 @@ pub struct SelectArgs {
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Print JSON (min_mean_pressure_bar, bisected between the levels, min_level_bar,
-    /// verdict, reasons, rig, gas_fraction_from, options: circuit, mean_pressure_bar,
+    /// chosen_circuit, verdict, reasons, rig, gas_fraction_from, options: circuit,
+    /// circuit_kind, pressure_level, mean_pressure_bar,
     /// beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets, meets_best_case,
     /// margins_hold_at_reference_gas_fraction, reason).
     #[arg(long)]
@@ -65,6 +73,20 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         None => base,
     };
     let mut app = base.with_overrides("--set", &args.set)?;
+    if !args.circuits.is_empty() {
+        let kinds = (args.circuits.iter())
+            .map(|name| {
+                CircuitKind::from_name(name.trim()).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--circuits {name}: no such circuit (dpm, dual-pump, single-pump)"
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        app = app
+            .with_circuits(&kinds)
+            .map_err(|e| anyhow::anyhow!("--circuits: {e}"))?;
+    }
     if let Some(path) = &args.experiment {
         crate::emit::check_confidence(args.confidence.confidence)?;
         let exp = crate::read_files::experiment(path)?;

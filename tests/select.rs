@@ -40,6 +40,8 @@ fn a_fixed_gain_answers_as_the_margins_do_and_uncertainty_never_lowers_it() {
     let x = "0.026414679877929";
     let fixed = |range: [&str; 2]| {
         select(&[
+            "--circuits",
+            "dpm",
             "--kp",
             "25",
             "--set",
@@ -92,7 +94,7 @@ fn a_fixed_gain_answers_as_the_margins_do_and_uncertainty_never_lowers_it() {
 /// The interface's names, and the answer's consistency with the options.
 #[test]
 fn the_json_names_every_option_and_the_lowest_one_that_meets() {
-    let s = select(&[]);
+    let s = select(&["--circuits", "dpm"]);
     let options = s["options"].as_array().unwrap();
     assert_eq!(options.len(), 13);
     for o in options {
@@ -208,7 +210,9 @@ fn the_result_folder_holds_the_json_and_the_figure() {
         "chosen",
         "low-pressure",
         "solid: worst case over the gas fraction and loads; dashed: best case",
-        "Mean chamber pressure (bar)",
+        "Pressure level (bar)",
+        "dual-pump",
+        "single-pump",
     ] {
         assert!(svg.contains(label), "select.svg lacks {label}");
     }
@@ -222,6 +226,8 @@ fn the_result_folder_holds_the_json_and_the_figure() {
 fn a_rise_time_requirement_answers_as_the_step_command_does() {
     let x = "0.026414679877929";
     let s = select(&[
+        "--circuits",
+        "dpm",
         "--set",
         &format!("gas_fraction={x}"),
         "--set",

@@ -273,6 +273,8 @@ fn the_lowest_pressure_is_found_between_the_levels() {
     let x = 0.026414679877929;
     let fixed = format!("{x}");
     let args = [
+        "--circuits",
+        "dpm",
         "--kp",
         "25",
         "--set",
@@ -329,6 +331,8 @@ fn the_verdict_tells_failing_in_the_best_case_from_uncertain() {
         let s = json(&[
             "select",
             "--json",
+            "--circuits",
+            "dpm",
             "--set",
             &format!("low_pressure_bar={low}"),
             "--set",

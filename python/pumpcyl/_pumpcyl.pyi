@@ -123,7 +123,12 @@ class Result:
 
 class Margins(Result):
     """Margins of the open loop (the article §2.3.3): ``pumpcyl margins --json``. A ``None``
-    margin is infinite (no crossing of that kind)."""
+    margin is infinite (no crossing of that kind). On a single-pump rig it also holds
+    ``modes`` (one dict per mode: ``mode``, ``accumulator_chamber`` (1 or 2, the chamber held at
+    the accumulator pressure), ``at_rest``, ``loop`` and every margin field below) beside
+    ``switching_force_n``, ``valve_band_n``, ``external_force_n``, ``mode_at_rest``,
+    ``force_from_switching_n``, ``acceleration_to_switch_m_per_s2`` and ``within_valve_band``
+    (docs/circuits.md#modes-in-margins-and-poles)."""
 
     loop: str
     """The loop analysed, in words."""
@@ -155,6 +160,34 @@ class Margins(Result):
     """Only where it differs from the loop ``closed_loop_stability`` is read on (the rig's
     sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates
     it, with ``stability``, ``rightmost_pole`` ([re 1/s, im rad/s]) and ``rightmost_pole_hz``."""
+
+class Poles(Result):
+    """Poles of the position loop: ``pumpcyl poles --json``. Each pole a dict ``re``
+    (1/s), ``im`` (rad/s), ``natural_freq_hz``, ``damping`` (``None`` at the origin). On a
+    single-pump rig also ``modes`` (one dict per mode: ``mode``, ``accumulator_chamber``,
+    ``at_rest``, ``loop`` and the pole fields below) beside the switching fields of
+    :class:`Margins` (docs/circuits.md#modes-in-margins-and-poles)."""
+
+    loop: str
+    """The loop analysed, in words."""
+    open_loop: List[Dict[str, Any]]
+    """The eigenvalues of the analysed loop transfer L(s)."""
+    open_loop_stable: bool
+    """The open loop is provably asymptotically stable."""
+    open_loop_stability: str
+    """"stable", "unstable", "integrator" or "undecided"."""
+    closed_loop: List[Dict[str, Any]]
+    """The poles of unity position feedback around L(s)."""
+    closed_loop_stable: bool
+    """The closed loop is provably asymptotically stable."""
+    closed_loop_stability: str
+    """"stable", "unstable", "integrator" or "undecided"."""
+    closed_loop_with_sum_pressure: Optional[List[Dict[str, Any]]]
+    """Only where the rig's sum-pressure loop is on but open in the analysed loop: the closed
+    loop as ``step`` simulates it (with ``closed_loop_with_sum_pressure_stable`` and
+    ``closed_loop_with_sum_pressure_stability``)."""
+    closed_loop_with_sum_pressure_stable: Optional[bool]
+    closed_loop_with_sum_pressure_stability: Optional[str]
 
 class Signals(Result):
     """Signals in user units, one numpy value per sample."""
@@ -288,7 +321,10 @@ class Advice(Result):
     seconds: float
 
 class Selection(Result):
-    """Which circuit at which pressure level: ``pumpcyl select --json``."""
+    """Which circuit at which pressure level: ``pumpcyl select --json``. Each option names its
+    circuit as ``circuit`` (``low_pressure``, ``pressurised``, ``dual_pump``, ``single_pump``),
+    ``circuit_kind`` (``dpm``, ``dual-pump``, ``single-pump``) and ``pressure_level``
+    (docs/select.md#circuits)."""
 
     options: List[Dict[str, Any]]
     min_mean_pressure_bar: Optional[float]
@@ -296,6 +332,9 @@ class Selection(Result):
     min_mean_pressure_bracket_bar: Optional[List[float]]
     at_min_mean_pressure: Optional[Dict[str, Any]]
     chosen: Optional[Dict[str, Any]]
+    chosen_circuit: Optional[str]
+    """The circuit of the answer (``dpm``, ``dual-pump``, ``single-pump``); ``None`` when no
+    level meets the requirement."""
     verdict: str
     reasons: List[str]
     gas_fraction: Any
@@ -395,6 +434,10 @@ class Dataset:
 def margins(rig: Rig, *, sum_pressure_closed: bool = False) -> Margins:
     """Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing
     and closed-loop stability."""
+
+def poles(rig: Rig, *, sum_pressure_closed: bool = False) -> Poles:
+    """The poles of the position loop, open and closed (and as simulated where the
+    sum-pressure loop is on), with natural frequency and damping: ``pumpcyl poles --json``."""
 
 def state_space(
     rig: Rig, loop: Loop = "open", *, sum_pressure_closed: Optional[bool] = None
@@ -548,7 +591,10 @@ def select(
     ``experiment`` (an experiment TOML file) gives the gas-fraction range from its records'
     interval of beta at ``confidence``. As ``pumpcyl select --json``; a numpy array over the
     options with ``column("options", "kp_max")`` (``standing_loss_w`` NaN where a candidate
-    cavitates). ``progress`` as for :func:`identify`, over the load × level cases."""
+    cavitates). ``progress`` as for :func:`identify`, over the load × level cases. The
+    circuits tried are the keyword ``circuits`` (e.g. ``circuits=["dpm", "single-pump"]``, as
+    ``--circuits``; absent: every circuit the rig's components allow), the one-motor circuits at
+    each pre-charge of ``precharge_bar`` (docs/select.md#circuits)."""
     ...
 
 def fmu(

@@ -683,10 +683,27 @@ fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<P
         .detach(|| {
             let lp = Loop::of_rig(rig, &name, sum_pressure_closed);
             let m = lti::margins(&lp.open_loop).map_err(|e| e.to_string())?;
-            pumpcyl_present::analysis::loop_margins_json(&m, &lp).map_err(|e| e.to_string())
+            pumpcyl_present::documents::margins_document(&m, &lp).map_err(|e| e.to_string())
         })
         .map_err(err)?;
     PyOutcome::of(py, "Margins", &json)
+}
+
+/// The poles of the position loop (open loop, unity position feedback, and the closed loop as
+/// simulated where the sum-pressure loop is on), each pole's natural frequency and damping, as
+/// `pumpcyl poles --json` prints them; on a single-pump rig also each mode's poles (`modes`)
+/// beside the switching force (docs/circuits.md#modes-in-margins-and-poles).
+#[pyfunction]
+#[pyo3(signature = (rig, *, sum_pressure_closed = false))]
+fn poles(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
+    let (name, rig) = (rig.__repr__(), rig.rig.clone());
+    let json = py
+        .detach(|| {
+            let lp = Loop::of_rig(rig, &name, sum_pressure_closed);
+            pumpcyl_present::documents::poles_document(&lp).map_err(|e| e.to_string())
+        })
+        .map_err(err)?;
+    PyOutcome::of(py, "Poles", &json)
 }
 
 /// (A, B, C, D) of the open or closed loop (SI units; states as `pumpcyl model` lists them).
@@ -1961,6 +1978,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyOutcome>()?;
     m.add_class::<PyDataset>()?;
     m.add_function(wrap_pyfunction!(margins, m)?)?;
+    m.add_function(wrap_pyfunction!(poles, m)?)?;
     m.add_function(wrap_pyfunction!(state_space, m)?)?;
     m.add_function(wrap_pyfunction!(loop_names, m)?)?;
     m.add_function(wrap_pyfunction!(bode, m)?)?;

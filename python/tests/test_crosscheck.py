@@ -83,6 +83,7 @@ def test_select_lowest_pressure_agrees_with_python_control_margins():
     levels = [round(3.0 + 0.1 * k, 1) for k in range(51)]
     s = pumpcyl.select(kp=25.0, gas_fraction=x, gas_fraction_min=x, gas_fraction_max=x,
                        target_pm_deg=30.0, stroke_mm=0.0, mass_kg=[], pressurised_bar=[],
+                       circuits=["dpm"],
                        low_pressure_bar=levels,
                        wave=[{"freq_hz": 0.2, "amp_mm": 35.0, "max_error_mm": 100.0}])
     first = None

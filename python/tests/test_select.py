@@ -11,10 +11,12 @@ from conftest import ROOT, pumpcyl_binary
 
 
 def test_select_matches_the_command_line():
-    args = ["--set", "low_pressure_bar=[4.0, 8.0, 10.0]", "--set", "pressurised_bar=[20.0]"]
+    args = ["--set", "low_pressure_bar=[4.0, 8.0, 10.0]", "--set", "pressurised_bar=[20.0]",
+            "--circuits", "dpm"]
     cli = json.loads(subprocess.run([pumpcyl_binary(), "select", *args, "--json"],
                                     check=True, capture_output=True, text=True).stdout)
-    py = pumpcyl.select(low_pressure_bar=[4.0, 8.0, 10.0], pressurised_bar=[20.0])
+    py = pumpcyl.select(low_pressure_bar=[4.0, 8.0, 10.0], pressurised_bar=[20.0],
+                        circuits=["dpm"])
     assert py == cli
     assert np.array_equal(py.column("options", "mean_pressure_bar"), [4.0, 8.0, 10.0, 20.0])
     assert list(py.column("options", "meets")) == [o["meets"] for o in cli["options"]]
@@ -39,3 +41,23 @@ def test_an_experiment_gives_the_gas_fraction_range_as_on_the_command_line():
     assert py == cli
     lo, hi = py["gas_fraction_from"]["beta_bar"]
     assert lo < 165.0 < hi
+
+
+def test_select_across_circuits_matches_the_command_line():
+    """The one-motor circuits at each pre-charge: the same document from both front ends,
+    every circuit named (docs/select.md#circuits)."""
+    args = ["--circuits", "dual-pump,single-pump", "--set", "precharge_bar=[3.0, 8.0]"]
+    cli = json.loads(subprocess.run([pumpcyl_binary(), "select", *args, "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    py = pumpcyl.select(circuits=["dual-pump", "single-pump"], precharge_bar=[3.0, 8.0])
+    assert py == cli
+    assert sorted(py) == sorted(cli)
+    assert [(o["circuit"], o["circuit_kind"], o["pressure_level"], o["mean_pressure_bar"])
+            for o in py["options"]] == [
+        ("dual_pump", "dual-pump", "precharge", 3.0),
+        ("dual_pump", "dual-pump", "precharge", 8.0),
+        ("single_pump", "single-pump", "precharge", 3.0),
+        ("single_pump", "single-pump", "precharge", 8.0),
+    ]
+    with pytest.raises(ValueError, match="circuits"):
+        pumpcyl.select(rig=pumpcyl.Rig(circuit="single-pump"), circuits=["dpm"])

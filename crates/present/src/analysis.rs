@@ -8,6 +8,8 @@
 use crate::format::fmt_opt;
 use crate::plot::BodeSeries;
 use nalgebra::DMatrix;
+use pumpcyl::circuit::single_pump::modes::{linear_models, switching, ModeModel, Switching};
+use pumpcyl::circuit::CircuitKind;
 use pumpcyl::loops::{Loop, ModelView, Port, SimulatedLoop};
 use pumpcyl::lti::{
     poles_and_stability, CrossingKind, LtiError, Margins, PoleInfo, Stability, RELIABLE_DB,
@@ -214,6 +216,27 @@ impl PoleSet {
     }
 }
 
+/// The pole sets of the analysed loop `lp`: its open loop, unity position feedback around it,
+/// and, where the rig's controller closes the sum-pressure loop that `lp` leaves open, the
+/// closed loop as simulated.
+///
+/// # Errors
+/// The eigenvalues cannot be computed.
+pub fn loop_pole_sets(lp: &Loop) -> Result<Vec<PoleSet>, LtiError> {
+    let mut sets = vec![
+        PoleSet::of(PoleSetKind::OpenLoop, &lp.open_loop.a)?,
+        PoleSet::of(PoleSetKind::ClosedLoop, &lp.open_loop.unity_feedback()?.a)?,
+    ];
+    if let Some(rig) = (lp.rig.as_ref()).filter(|r| r.sum_pressure && !lp.sum_pressure_closed) {
+        let full = pumpcyl::model::Plant::new(rig).closed_loop(true);
+        sets.push(PoleSet::of(
+            PoleSetKind::ClosedLoopWithSumPressure,
+            &full.a,
+        )?);
+    }
+    Ok(sets)
+}
+
 /// The poles document (`poles --json`): `loop`, the loop in words, and per set its key (the
 /// core's [`PoleInfo`] of every pole), `<key>_stable` (true only when provably asymptotically
 /// stable) and `<key>_stability` (`stable`, `unstable`, `integrator` or `undecided`).
@@ -261,6 +284,157 @@ pub fn poles_text(description: &str, sets: &[PoleSet]) -> String {
         }
     }
     s
+}
+
+/// The single-pump circuit's two modes as `margins` and `poles` report them
+/// (docs/circuits.md#modes-in-margins-and-poles): where the circuit switches, where the rig's
+/// load puts it, and each mode's own loop e → x at its operating point.
+#[derive(Debug, Clone)]
+pub struct ModesReport {
+    /// The switching force, the mode at rest and how far the load's force is from switching.
+    pub switching: Switching,
+    /// Both modes, mode 1 first.
+    pub modes: Vec<ModeModel>,
+}
+
+impl ModesReport {
+    /// The modes of the loop `lp` when it is a single-pump rig's; `None` for another circuit or
+    /// a model read from JSON.
+    ///
+    /// # Errors
+    /// A mode's model [`pumpcyl::lti::StateSpace::new`] refuses.
+    pub fn of_loop(lp: &Loop) -> Result<Option<ModesReport>, LtiError> {
+        let Some(rig) = (lp.rig.as_ref()).filter(|r| r.circuit == CircuitKind::SinglePump) else {
+            return Ok(None);
+        };
+        Ok(Some(ModesReport {
+            switching: switching(rig),
+            modes: linear_models(rig)?.to_vec(),
+        }))
+    }
+
+    /// A mode in words: `mode 2 (chamber 1 at the accumulator pressure), the mode at rest`.
+    fn describe(m: &ModeModel) -> String {
+        format!(
+            "mode {} (chamber {} at the accumulator pressure){}",
+            m.mode,
+            m.accumulator_chamber,
+            if m.at_rest { ", the mode at rest" } else { "" }
+        )
+    }
+
+    /// The keys a mode's object starts with: `mode`, `accumulator_chamber`, `at_rest`, `loop`.
+    fn head(m: &ModeModel) -> Value {
+        json!({
+            "mode": m.mode,
+            "accumulator_chamber": m.accumulator_chamber,
+            "at_rest": m.at_rest,
+            "loop": Self::describe(m),
+        })
+    }
+
+    /// The switching fields ([`Switching`], `switching_force_n` and the distance of the load's
+    /// force from it) and `modes`, one object per mode made by `fields` from its loop.
+    fn document(
+        &self,
+        fields: impl Fn(&ModeModel) -> Result<Value, LtiError>,
+    ) -> Result<Value, LtiError> {
+        let mut doc = serde_json::to_value(self.switching).expect("the switching serialises");
+        let modes = (self.modes.iter())
+            .map(|m| Ok(merged(Self::head(m), fields(m)?)))
+            .collect::<Result<Vec<Value>, LtiError>>()?;
+        doc["modes"] = Value::Array(modes);
+        Ok(doc)
+    }
+
+    /// The margins document's modes part: per mode `accumulator_chamber`, `at_rest` and every
+    /// margin field of `margins --json` ([`Margins`]) of its own loop.
+    ///
+    /// # Errors
+    /// A mode's margins cannot be computed.
+    pub fn margins_json(&self) -> Result<Value, LtiError> {
+        self.document(|m| {
+            Ok(serde_json::to_value(pumpcyl::lti::margins(&m.open_loop)?)
+                .expect("margins serialise"))
+        })
+    }
+
+    /// The poles document's modes part: per mode its open-loop and closed-loop poles as
+    /// [`poles_json`] gives them.
+    ///
+    /// # Errors
+    /// A mode's poles cannot be computed.
+    pub fn poles_json(&self) -> Result<Value, LtiError> {
+        self.document(|m| Ok(poles_json(&Self::describe(m), &mode_pole_sets(m)?)))
+    }
+
+    /// The switching force and where the load is, in words (the text outputs' header of the
+    /// modes).
+    fn switching_text(&self) -> String {
+        let s = &self.switching;
+        let side = if s.force_from_switching_n >= 0.0 {
+            "above"
+        } else {
+            "below"
+        };
+        format!(
+            "\nsingle-pump modes (docs/circuits.md#modes-in-margins-and-poles): switching force \
+             p_acc (A1 - A2) = {:.2} N; the external force {:.2} N lies {:.2} N {side} it \
+             (mode {} at rest); a load acceleration of {:+.4} m/s^2 brings the pressures' force \
+             to it{}\n",
+            s.switching_force_n,
+            s.external_force_n,
+            s.force_from_switching_n.abs(),
+            s.mode_at_rest,
+            s.acceleration_to_switch_m_per_s2,
+            if s.within_valve_band {
+                "; inside the check valves' band, the mode at rest depends on the way there"
+            } else {
+                ""
+            }
+        )
+    }
+
+    /// Both modes' margins as text ([`margins_text`] of each mode's loop).
+    ///
+    /// # Errors
+    /// A mode's margins cannot be computed.
+    pub fn margins_text(&self) -> Result<String, LtiError> {
+        let mut s = self.switching_text();
+        for m in &self.modes {
+            let margins = pumpcyl::lti::margins(&m.open_loop)?;
+            s += &margins_text(&margins, &Self::describe(m));
+        }
+        Ok(s)
+    }
+
+    /// Both modes' poles as text ([`poles_text`] of each mode's sets).
+    ///
+    /// # Errors
+    /// A mode's poles cannot be computed.
+    pub fn poles_text(&self) -> Result<String, LtiError> {
+        let mut s = self.switching_text();
+        for m in &self.modes {
+            s += &poles_text(&Self::describe(m), &mode_pole_sets(m)?);
+        }
+        Ok(s)
+    }
+}
+
+/// A mode's open-loop poles and the poles of unity position feedback around its loop.
+fn mode_pole_sets(m: &ModeModel) -> Result<[PoleSet; 2], LtiError> {
+    Ok([
+        PoleSet::of(PoleSetKind::OpenLoop, &m.open_loop.a)?,
+        PoleSet::of(PoleSetKind::ClosedLoop, &m.open_loop.unity_feedback()?.a)?,
+    ])
+}
+
+/// The object `a` with the keys of the object `b` added (b's win).
+pub fn merged(mut a: Value, b: Value) -> Value {
+    if let (Some(a), Value::Object(b)) = (a.as_object_mut(), b) {
+        a.extend(b);
+    }
+    a
 }
 
 /// Bode data as CSV (docs/analysis.md#bode-diagrams): `freq_hz` (Hz), then `mag_db` (dB) and

@@ -3,7 +3,10 @@
 //! so both front ends give the same keys (python/tests/test_documents.py runs the command line
 //! and compares).
 
+use crate::analysis::{loop_margins_json, loop_pole_sets, merged, poles_json, ModesReport};
 use crate::time::{rating_warnings, step_json, Runs, StepSetup};
+use pumpcyl::loops::Loop;
+use pumpcyl::lti::{LtiError, Margins};
 use pumpcyl::response::{OverRating, Signals, StepMetrics};
 use serde_json::{json, Value};
 
@@ -47,4 +50,32 @@ pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
         .lines()
         .map(|l| l.trim_start_matches("warning: ").to_string())
         .collect()
+}
+
+/// The margins document (`pumpcyl margins --json`, Python's `margins`): the analysed loop's
+/// margins ([`loop_margins_json`]) and, on a single-pump rig, its two modes beside the
+/// switching force ([`ModesReport::margins_json`]: `modes`, `switching_force_n`, ...).
+///
+/// # Errors
+/// The margins cannot be computed.
+pub fn margins_document(m: &Margins, lp: &Loop) -> Result<Value, LtiError> {
+    let doc = loop_margins_json(m, lp)?;
+    Ok(match ModesReport::of_loop(lp)? {
+        Some(modes) => merged(doc, modes.margins_json()?),
+        None => doc,
+    })
+}
+
+/// The poles document (`pumpcyl poles --json`, Python's `poles`): the pole sets of the
+/// analysed loop ([`loop_pole_sets`], [`poles_json`]) and, on a single-pump rig, its two modes
+/// beside the switching force ([`ModesReport::poles_json`]).
+///
+/// # Errors
+/// The poles cannot be computed.
+pub fn poles_document(lp: &Loop) -> Result<Value, LtiError> {
+    let doc = poles_json(&lp.description, &loop_pole_sets(lp)?);
+    Ok(match ModesReport::of_loop(lp)? {
+        Some(modes) => merged(doc, modes.poles_json()?),
+        None => doc,
+    })
 }

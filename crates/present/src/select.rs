@@ -141,6 +141,19 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         "lowest mean pressure meeting the requirement over the whole uncertainty: {}",
         lowest_text(s)
     );
+    if let Some(c) = &s.at_min_mean_pressure {
+        let (name, kind) = (c.circuit.name(), c.circuit.kind.name());
+        let kind = if name == kind {
+            String::new()
+        } else {
+            format!(" ({kind})")
+        };
+        let _ = writeln!(
+            out,
+            "answer: the {name} circuit{kind} at {:.2} bar",
+            c.mean_pressure_bar
+        );
+    }
     let _ = writeln!(out, "verdict: {}", verdict_text(s.verdict));
     for r in &s.reasons {
         let _ = writeln!(out, "  - {r}");
@@ -170,13 +183,12 @@ pub fn lowest_text(s: &Selection) -> String {
 /// Within the figure each line style has one meaning: dotted only the reference gas fraction,
 /// dashed only the best case, dash-dot only the requirement.
 pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
-    let chosen = s.min_mean_pressure_bar;
     let chosen_at = s.at_min_mean_pressure.as_ref();
     let mut kp = Panel {
         y_label: "Largest Kp (1/m)".into(),
         traces: Vec::new(),
     };
-    for (k, c) in CIRCUITS.into_iter().enumerate() {
+    for (k, c) in present(s) {
         let (p, o) = of_circuit(s, c);
         let y: Vec<f64> = o.iter().map(|o| o.kp_max).collect();
         kp.traces
@@ -213,19 +225,28 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
             "gas fraction {:.4} … {:.4}; {}",
             s.gas_fraction[0],
             s.gas_fraction[2],
-            chosen.map_or("no level meets the requirement".to_string(), |p| format!(
-                "lowest: {p:.2} bar ({})",
+            chosen_at.map_or("no level meets the requirement".to_string(), |c| format!(
+                "lowest: the {} circuit at {:.2} bar ({})",
+                c.circuit.name(),
+                c.mean_pressure_bar,
                 verdict_text(s.verdict).to_lowercase()
             ))
         )),
         plot: Plot::Xy {
-            x_label: "Mean chamber pressure (bar)".into(),
+            x_label: "Pressure level (bar): the DPM's mean chamber pressure, a one-motor circuit's pre-charge".into(),
             panels,
         },
     }
 }
 
-const CIRCUITS: [Circuit; 2] = [Circuit::LowPressure, Circuit::Pressurised];
+/// The circuits of the figure, each its colour (docs/select.md#circuits).
+const CIRCUITS: [Circuit; 4] = Circuit::ALL;
+
+/// The circuits with a candidate in `s`, each with its colour (its place in [`CIRCUITS`], so a
+/// circuit keeps its colour whichever others are tried).
+fn present(s: &Selection) -> impl Iterator<Item = (usize, Circuit)> + '_ {
+    (CIRCUITS.into_iter().enumerate()).filter(|(_, c)| s.options.iter().any(|o| o.circuit == *c))
+}
 
 /// The candidates of circuit `c` and their mean pressures (bar).
 fn of_circuit(s: &Selection, c: Circuit) -> (Vec<f64>, Vec<&Candidate>) {
@@ -258,7 +279,7 @@ fn band_panel(
         y_label,
         traces: Vec::new(),
     };
-    for (k, c) in CIRCUITS.into_iter().enumerate() {
+    for (k, c) in present(s) {
         let (p, o) = of_circuit(s, c);
         let end = |i: usize| -> Vec<f64> {
             o.iter()

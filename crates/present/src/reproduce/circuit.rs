@@ -21,12 +21,13 @@ pub(super) fn which_circuit(
     p_mean_bar: f64,
 ) -> Result<WhichCircuit> {
     run.step("Which circuit (the article §4): was the article's low-pressure circuit a certain choice? (docs/select.md)");
-    let app = Application::default();
+    // the article's question is the DPM's: low-pressure or pressurised (docs/select.md)
+    let app = Application::default().with_circuits(&[pumpcyl::circuit::CircuitKind::Dpm])?;
     let stated = app.select(None)?;
     let article = select(
         &app.rig,
         &app.requirement(),
-        &[(Circuit::LowPressure, p_mean_bar)],
+        &[(Circuit::LOW_PRESSURE, p_mean_bar)],
         Some(printed::KP),
     )?
     .options
@@ -142,11 +143,7 @@ fn row(stated: &Candidate, identified: &Candidate) -> Vec<String> {
         format!("{e} {}", if c.meets { "✓" } else { "✗" })
     };
     vec![
-        match stated.circuit {
-            Circuit::LowPressure => "low-pressure",
-            Circuit::Pressurised => "pressurised",
-        }
-        .into(),
+        stated.circuit.name().into(),
         format!("{}", stated.mean_pressure_bar),
         beta(stated),
         format!("{:.2}", stated.kp_max),

@@ -3,42 +3,30 @@
 //! the system is built whether a pump-controlled cylinder meets an application's requirement
 //! at each candidate circuit and pressure level, and what holding that pressure costs.
 //!
-//! Each candidate is the same 10-state LTI model (docs/model.md) at the candidate's mean
-//! chamber pressure p: β_e follows the gas-fraction model at p (docs/bulk-modulus.md) over the
-//! gas-fraction range, the sum-pressure set-point is 2p. Its largest gain is the design
-//! method's worst case over the stroke and the loads (docs/design.md) at the range's ends and
+//! A candidate is a circuit at a pressure level ([`Circuit`]): the DPM at a mean chamber
+//! pressure p (low or pressurised; its sum-pressure set-point 2p), or a one-motor circuit of
+//! the article's Figure 1 (dual pump, single pump) at an accumulator pre-charge p. Each is its
+//! circuit's own linear model (docs/circuits.md) with β_e from the gas-fraction model at p
+//! (docs/bulk-modulus.md) over the gas-fraction range. Its largest gain is the design method's
+//! worst case over the stroke and the loads (docs/design.md) at the range's ends and
 //! reference, its tracking is predicted at that gain, and its cost is the standstill leakage
-//! balance at that pressure (the article §2.4; [`standing_loss`]).
+//! balance at that pressure (the article §2.4; [`standing_loss`]). The single-pump candidate
+//! fails where it switches modes under its load ([`circuits::switches`]).
+
+mod application;
+pub mod circuits;
+
+pub use application::*;
+pub use circuits::{Circuit, EquationsCheck, ModeCheck, PressureLevel};
 
 use crate::bulk::{effective_beta, BetaReading, ARTICLE_READING};
 use crate::cavitation::check_chambers;
+use crate::circuit::CircuitKind;
 use crate::design::{self, DesignError, Targets};
 use crate::rig::{Rig, RigError};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
-
-/// The two circuits pumpcyl models (docs/select.md#circuits).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Circuit {
-    /// The article's low-pressure circuit: an accumulator's pre-charge sets the pressure level
-    /// (the article's 1 to 10 bar).
-    LowPressure,
-    /// The pressurised dual-prime-mover circuit the article cites (its references 5 and 10):
-    /// the sum-pressure set-point raised so both chambers sit at tens of bar.
-    Pressurised,
-}
-
-impl Circuit {
-    /// The circuit in words: `low-pressure`, `pressurised`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Circuit::LowPressure => "low-pressure",
-            Circuit::Pressurised => "pressurised",
-        }
-    }
-}
 
 /// A wave to track and the largest control error allowed (the article's §3 waves).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
@@ -182,9 +170,12 @@ pub fn chamber_pressures(rig: &Rig, p_mean_bar: f64, force_n: f64) -> [f64; 2] {
 /// One circuit at one pressure level, over the gas-fraction range.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Candidate {
-    /// The circuit.
+    /// The circuit and how its pressure level is set (in JSON the keys `circuit`,
+    /// `circuit_kind`, `pressure_level`).
+    #[serde(flatten)]
     pub circuit: Circuit,
-    /// Mean chamber pressure (bar gauge).
+    /// The pressure level (bar gauge): the DPM's mean chamber pressure, a one-motor circuit's
+    /// accumulator pre-charge (`pressure_level` says which).
     pub mean_pressure_bar: f64,
     /// β_e there at the highest and the lowest gas fraction (bar).
     pub beta_e_bar: [f64; 2],
@@ -260,14 +251,18 @@ pub struct Selection {
     /// highest level below `min_level_bar` (which fails) and it; `min_level_bar` itself when
     /// no level lies below it; `None` if no level meets.
     pub min_mean_pressure_bar: Option<f64>,
-    /// The lowest of the levels evaluated (`options`) that meets the requirement (bar).
+    /// The lowest of the levels evaluated (`options`) that meets the requirement, in the circuit
+    /// of the answer (bar).
     pub min_level_bar: Option<f64>,
     /// The bisection's last bracket [fails, meets] (bar); `None` without a bisection.
     pub min_mean_pressure_bracket_bar: Option<[f64; 2]>,
     /// The candidate at `min_mean_pressure_bar`, in the circuit of the level `min_level_bar`.
     pub at_min_mean_pressure: Option<Candidate>,
-    /// The lowest level that meets the requirement (index into `options`).
+    /// The lowest level that meets the requirement in the circuit of the answer (index into
+    /// `options`): each circuit's lowest meeting level is bisected, the lowest result answers.
     pub chosen: Option<usize>,
+    /// The circuit of the answer: that of the lowest level meeting the requirement.
+    pub chosen_circuit: Option<CircuitKind>,
     /// The verdict.
     pub verdict: Verdict,
     /// Why, in words.
@@ -343,8 +338,20 @@ pub fn select_with(
     kp: Option<f64>,
     work: &crate::limits::Work,
 ) -> Result<Selection, SelectError> {
+    select_checked(rig, req, levels, kp, work, &EquationsCheck::ARTICLE)
+}
+
+/// [`select_with`] with the single-pump candidates' mode check `mode_check`
+/// ([`ModeCheck`]: the circuit's equations, or the emulator).
+pub fn select_checked(
+    rig: &Rig,
+    req: &Requirement,
+    levels: &[(Circuit, f64)],
+    kp: Option<f64>,
+    work: &crate::limits::Work,
+    mode_check: &dyn ModeCheck,
+) -> Result<Selection, SelectError> {
     check(rig, req, levels, kp).map_err(|(key, m)| SelectError::Input(format!("`{key}` = {m}")))?;
-    crate::circuit::require_dpm(rig, "select").map_err(SelectError::Input)?;
     crate::limits::check_work(
         "mass_kg loads × pressure levels (cases)",
         cases(req, levels),
@@ -356,12 +363,12 @@ pub fn select_with(
     let options = levels
         .par_iter()
         .map(|&(circuit, p)| {
-            let c = candidate(rig, req, circuit, p, kp);
+            let c = candidate(rig, req, circuit, p, kp, mode_check);
             (work.progress)(loads);
             c
         })
         .collect::<Result<Vec<_>, _>>()?;
-    answer(rig, req, options, kp)
+    answer(rig, req, options, kp, mode_check)
 }
 
 /// The cases a selection evaluates: each load (the rig's mass when none is given) at each
@@ -421,11 +428,11 @@ fn check(
     }
     for &(circuit, p) in levels {
         if !(p.is_finite() && p > 0.0 && p <= 1000.0) {
-            let key = match circuit {
-                Circuit::LowPressure => "low_pressure_bar",
-                Circuit::Pressurised => "pressurised_bar",
-            };
+            let key = circuit.levels_key();
             return bad(key, format!("{p}: every level must lie in (0, 1000] bar"));
+        }
+        if let Some(why) = circuits::not_allowed(rig, circuit.kind) {
+            return bad("circuits", why);
         }
     }
     if let Some(t) = req.max_rise_time_s {
@@ -461,39 +468,21 @@ fn candidate(
     circuit: Circuit,
     p_bar: f64,
     fixed_kp: Option<f64>,
+    mode_check: &dyn ModeCheck,
 ) -> Result<Candidate, SelectError> {
-    let at = |x: f64| Rig {
-        beta_bar: effective_beta(x, p_bar, req.beta_oil_bar),
-        p_sum_ref_bar: 2.0 * p_bar,
-        ..rig.clone()
-    };
+    let at = |x: f64| circuit.rig_at(rig, p_bar, effective_beta(x, p_bar, req.beta_oil_bar));
     let (soft, stiff, reference) = (
         at(req.gas_fraction_max),
         at(req.gas_fraction_min),
         at(req.gas_fraction),
     );
-    // the margins are monotone in β_e, so the range's ends bound it (docs/select.md)
-    let kp_reference = design::kp_max_worst_case(&reference, &req.targets)?;
-    let kp_at = |r: &Rig, x: f64| -> Result<f64, DesignError> {
-        // a zero-width range (or an end at the reference) is one design, not three
-        if x == req.gas_fraction {
-            Ok(kp_reference)
-        } else {
-            design::kp_max_worst_case(r, &req.targets)
-        }
-    };
-    let kp_stiff = kp_at(&stiff, req.gas_fraction_min)?;
-    let kp_range = kp_at(&soft, req.gas_fraction_max)?
-        .min(kp_stiff)
-        .min(kp_reference);
-    let kp_max = fixed_kp.unwrap_or(kp_range);
     let mut out = Candidate {
         circuit,
         mean_pressure_bar: p_bar,
         beta_e_bar: [soft.beta_bar, stiff.beta_bar],
-        kp_max,
-        kp_max_range: kp_range,
-        kp_max_reference: kp_reference,
+        kp_max: 0.0,
+        kp_max_range: 0.0,
+        kp_max_reference: 0.0,
         tracking_max_error_mm: Vec::new(),
         rise_time_s: None,
         standing: None,
@@ -503,24 +492,62 @@ fn candidate(
         margins_hold_at_reference_gas_fraction: false,
         reason: String::new(),
     };
-    let standing = match standstill(rig, req, p_bar) {
-        Ok(standing) => standing,
-        Err(why) => {
-            out.reason = why;
-            return Ok(out);
+    let one_motor = circuit.level == PressureLevel::Precharge;
+    // a one-motor circuit at a level it cannot rest at fails there, not the whole selection
+    let gains = (!one_motor || reference.validate("candidate").is_ok())
+        .then(|| gains(req, [&soft, &stiff, &reference]))
+        .transpose();
+    let [kp_range, kp_stiff, kp_reference] = match gains {
+        Ok(Some(kp)) => kp,
+        Err(e) if !one_motor => return Err(e.into()),
+        Err(e) => return Ok(failed(out, e.to_string())),
+        Ok(None) => {
+            let e = reference.validate("candidate").err().map(|e| e.to_string());
+            return Ok(failed(out, e.unwrap_or_default()));
         }
+    };
+    let kp_max = fixed_kp.unwrap_or(kp_range);
+    (out.kp_max, out.kp_max_range, out.kp_max_reference) = (kp_max, kp_range, kp_reference);
+    let standing = if one_motor {
+        one_motor_standstill(&reference, req)
+    } else {
+        standstill(rig, req, p_bar)
+    };
+    let standing = match standing {
+        Ok(standing) => standing,
+        Err(why) => return Ok(failed(out, why)),
     };
     out.standing = Some(standing);
     out.standing_loss_w = Some(standing[0].power_w.max(standing[1].power_w));
     if let Some(why) = over_rating(rig, &standing) {
-        out.reason = why;
-        return Ok(out);
+        return Ok(failed(out, why));
     }
     out.margins_hold_at_reference_gas_fraction = kp_max > 0.0 && kp_max <= kp_reference;
     let (band, failing) = assess(req, &[&stiff, &soft], kp_max, kp_range)?;
     if let Some(band) = band {
         out.tracking_max_error_mm = band.tracking_mm;
         out.rise_time_s = Some(band.rise_time_s);
+    }
+    if circuit.kind == CircuitKind::SinglePump && kp_max > 0.0 {
+        let with_kp = [&reference, &stiff, &soft].map(|r| Rig {
+            kp: kp_max,
+            ..r.clone()
+        });
+        let ends: Vec<&Rig> = with_kp.iter().collect();
+        let loads = loads_of(req, &reference);
+        match circuits::switches(&ends, req, &loads, mode_check) {
+            Ok(Some(why)) => {
+                let rest = failing.join("; ");
+                let why = if rest.is_empty() {
+                    why
+                } else {
+                    format!("{why}; {rest}")
+                };
+                return Ok(failed(out, why));
+            }
+            Ok(None) => {}
+            Err(why) => return Ok(failed(out, why)),
+        }
     }
     if failing.is_empty() {
         out.meets = true;
@@ -542,6 +569,61 @@ fn candidate(
         }
     }
     Ok(out)
+}
+
+/// `c` failing for `why`: it meets nothing.
+fn failed(mut c: Candidate, why: String) -> Candidate {
+    c.reason = why;
+    c
+}
+
+/// The largest gains meeting the margin targets over the stroke and the loads
+/// ([`design::kp_max_worst_case`]) of the rigs at the gas-fraction range's ends and its
+/// reference `[soft, stiff, reference]`: [over the range, at the stiff end, at the reference].
+/// The margins are monotone in β_e, so the range's ends bound it (docs/select.md).
+fn gains(req: &Requirement, [soft, stiff, reference]: [&Rig; 3]) -> Result<[f64; 3], DesignError> {
+    let kp_reference = design::kp_max_worst_case(reference, &req.targets)?;
+    let kp_at = |r: &Rig, x: f64| -> Result<f64, DesignError> {
+        // a zero-width range (or an end at the reference) is one design, not three
+        if x == req.gas_fraction {
+            Ok(kp_reference)
+        } else {
+            design::kp_max_worst_case(r, &req.targets)
+        }
+    };
+    let kp_stiff = kp_at(stiff, req.gas_fraction_min)?;
+    let kp_range = kp_at(soft, req.gas_fraction_max)?
+        .min(kp_stiff)
+        .min(kp_reference);
+    Ok([kp_range, kp_stiff, kp_reference])
+}
+
+/// The loads of `req` (each its mass at x0), the rig's mass when none is given.
+fn loads_of(req: &Requirement, rig: &Rig) -> Vec<f64> {
+    match req.targets.mass_kg.as_slice() {
+        [] => vec![rig.mass_kg],
+        loads => loads.to_vec(),
+    }
+}
+
+/// The standstill cost of the one-motor rig `r` at the lowest and the highest external force,
+/// or why it cannot rest there (an undetermined rest, a chamber below the vapour pressure).
+fn one_motor_standstill(r: &Rig, req: &Requirement) -> Result<[StandingLoss; 2], String> {
+    let at = |f: f64| -> Result<StandingLoss, String> {
+        let loaded = Rig {
+            external_force_n: f,
+            ..r.clone()
+        };
+        let why = |e: String| format!("at an external force of {f} N: {e}");
+        loaded
+            .validate("candidate")
+            .map_err(|e| why(e.to_string()))?;
+        let s = circuits::one_motor_standing(&loaded).map_err(why)?;
+        check_chambers(&s.p_bar).map_err(|e| why(e.to_string()))?;
+        Ok(s)
+    };
+    let [lo, hi] = req.external_force_n;
+    Ok([at(lo)?, at(hi)?])
 }
 
 /// The standstill balance at the lowest and the highest external force, or why the circuit
@@ -644,26 +726,36 @@ fn response_band(req: &Requirement, ends: &[&Rig], kp: f64) -> Result<Band, Desi
         rise_time_s: [f64::INFINITY, f64::NEG_INFINITY],
     };
     for end in ends {
-        let loads = match req.targets.mass_kg.as_slice() {
-            [] => vec![end.mass_kg],
-            loads => loads.to_vec(),
-        };
-        for mass_kg in loads {
+        for mass_kg in loads_of(req, end) {
             let r = Rig {
                 kp,
                 mass_kg,
                 ..(*end).clone()
             };
-            let at = design::predicted_tracking(&r, &waves)?;
-            for (b, m) in band.tracking_mm.iter_mut().zip(&at) {
-                widen(b, m.max_error_mm);
+            let (errors, rise) = responses(&r, &waves)?;
+            for (b, e) in band.tracking_mm.iter_mut().zip(errors) {
+                widen(b, e);
             }
-            let s = crate::response::step(&r, RISE_STEP_MM, RISE_WINDOW_S, RISE_RATE_HZ)?;
-            let rise = crate::response::step_metrics_of(&r, &s, RISE_STEP_MM).rise_time_s;
-            widen(&mut band.rise_time_s, rise.unwrap_or(f64::INFINITY));
+            widen(&mut band.rise_time_s, rise);
         }
     }
     Ok(band)
+}
+
+/// Each wave's largest control error (mm) and the rise time (s; infinite where the step never
+/// reaches 90 %) of `r`: simulated (docs/simulation.md), or for the single-pump circuit from
+/// its mode at rest's linear model ([`circuits::mode_at_rest_responses`]).
+fn responses(r: &Rig, waves: &[(f64, f64)]) -> Result<(Vec<f64>, f64), DesignError> {
+    if r.circuit == CircuitKind::SinglePump {
+        return Ok(circuits::mode_at_rest_responses(r, waves)?);
+    }
+    let at = design::predicted_tracking(r, waves)?;
+    let s = crate::response::step(r, RISE_STEP_MM, RISE_WINDOW_S, RISE_RATE_HZ)?;
+    let rise = crate::response::step_metrics_of(r, &s, RISE_STEP_MM).rise_time_s;
+    Ok((
+        at.iter().map(|m| m.max_error_mm).collect(),
+        rise.unwrap_or(f64::INFINITY),
+    ))
 }
 
 /// Why holding the pressure exceeds a drive's rating, if it does (the one rating check,
@@ -680,19 +772,20 @@ fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
     })
 }
 
-/// The lowest level of `options` that meets the requirement (index).
-fn lowest_meeting(options: &[Candidate]) -> Option<usize> {
+/// The lowest level of `options` of the circuit `kind` that meets the requirement (index).
+fn lowest_meeting(options: &[Candidate], kind: CircuitKind) -> Option<usize> {
     options
         .iter()
         .enumerate()
-        .filter(|(_, c)| c.meets)
+        .filter(|(_, c)| c.meets && c.circuit.kind == kind)
         .min_by(|a, b| a.1.mean_pressure_bar.total_cmp(&b.1.mean_pressure_bar))
         .map(|(k, _)| k)
 }
 
 /// The lowest mean pressure between the levels: the candidate `options[k]` (the lowest level
-/// that meets) bisected, in its circuit, against the highest level below it (which fails, as
-/// every level below the lowest meeting one does) to [`REFINE_TOLERANCE_BAR`], at most
+/// that meets) bisected, in its circuit, against the highest level of the same circuit below
+/// it (which fails, as every level below the lowest meeting one does; the DPM's low and
+/// pressurised levels are one circuit) to [`REFINE_TOLERANCE_BAR`], at most
 /// [`MAX_BISECTIONS`] steps. The meeting candidate found and the last bracket [fails, meets]
 /// (none when no level lies below).
 fn refine(
@@ -701,10 +794,12 @@ fn refine(
     options: &[Candidate],
     k: usize,
     kp: Option<f64>,
+    mode_check: &dyn ModeCheck,
 ) -> Result<(Candidate, Option<[f64; 2]>), SelectError> {
     let meeting = &options[k];
     let below = options
         .iter()
+        .filter(|c| c.circuit.kind == meeting.circuit.kind)
         .map(|c| c.mean_pressure_bar)
         .filter(|&p| p < meeting.mean_pressure_bar)
         .fold(f64::NEG_INFINITY, f64::max);
@@ -717,7 +812,7 @@ fn refine(
             break;
         }
         let mid = 0.5 * (lo + hi);
-        let c = candidate(rig, req, meeting.circuit, mid, kp)?;
+        let c = candidate(rig, req, meeting.circuit, mid, kp, mode_check)?;
         if c.meets {
             (hi, at) = (mid, c);
         } else {
@@ -728,15 +823,23 @@ fn refine(
 }
 
 /// The verdict and why: the circuit of the lowest meeting candidate `at` (refined), else
-/// whether any level meets in the best case.
+/// whether any level meets in the best case. The low-pressure circuits are the DPM at its low
+/// levels and the one-motor circuits at their accumulator pre-charge.
 fn verdict(options: &[Candidate], at: Option<&Candidate>) -> (Verdict, Vec<String>) {
-    let low: Vec<&Candidate> = options
-        .iter()
-        .filter(|c| c.circuit == Circuit::LowPressure)
-        .collect();
+    let is_low = |c: &Candidate| c.circuit.level != PressureLevel::Pressurised;
+    let low: Vec<&Candidate> = options.iter().filter(|c| is_low(c)).collect();
     let low_best = low.iter().find(|c| c.meets_best_case);
     match at {
-        Some(c) if c.circuit == Circuit::LowPressure => (
+        Some(c) if c.circuit.level == PressureLevel::Precharge => (
+            Verdict::LowPressureSuitable,
+            vec![format!(
+                "the {} circuit meets the requirement over the whole gas-fraction range from an accumulator pre-charge of {:.2} bar: {}",
+                c.circuit.name(),
+                c.mean_pressure_bar,
+                c.reason
+            )],
+        ),
+        Some(c) if is_low(c) => (
             Verdict::LowPressureSuitable,
             vec![format!(
                 "the low-pressure circuit meets the requirement over the whole gas-fraction range from {:.2} bar: {}",
@@ -752,8 +855,12 @@ fn verdict(options: &[Candidate], at: Option<&Candidate>) -> (Verdict, Vec<Strin
                 (Some(b), _) => (
                     Verdict::UsePressurisedCircuit,
                     vec![format!(
-                        "uncertain with the low-pressure circuit: at {} bar it meets the requirement only in the best case, not over the whole gas-fraction range; {pressurised}",
-                        b.mean_pressure_bar
+                        "uncertain with the low-pressure circuit: at {} bar{} it meets the requirement only in the best case, not over the whole gas-fraction range; {pressurised}",
+                        b.mean_pressure_bar,
+                        match b.circuit.level {
+                            PressureLevel::Precharge => format!(" ({})", b.circuit.name()),
+                            _ => String::new(),
+                        }
                     )],
                 ),
                 (None, true) => (
@@ -814,20 +921,28 @@ fn answer(
     req: &Requirement,
     options: Vec<Candidate>,
     kp: Option<f64>,
+    mode_check: &dyn ModeCheck,
 ) -> Result<Selection, SelectError> {
-    let chosen = lowest_meeting(&options);
-    let (at, bracket) = match chosen {
-        Some(k) => {
-            let (at, bracket) = refine(rig, req, &options, k, kp)?;
-            (Some(at), bracket)
+    // each circuit's lowest meeting level refined, the lowest of them the answer (the first
+    // circuit listed on a tie)
+    let mut chosen: Option<usize> = None;
+    let (mut at, mut bracket) = (None, None);
+    for kind in CircuitKind::ALL {
+        let Some(k) = lowest_meeting(&options, kind) else {
+            continue;
+        };
+        let (found, b) = refine(rig, req, &options, k, kp, mode_check)?;
+        let lower = |c: &Candidate| found.mean_pressure_bar < c.mean_pressure_bar;
+        if at.as_ref().is_none_or(lower) {
+            (chosen, at, bracket) = (Some(k), Some(found), b);
         }
-        None => (None, None),
-    };
+    }
     let (verdict, reasons) = verdict(&options, at.as_ref());
     Ok(Selection {
         min_mean_pressure_bar: at.as_ref().map(|c| c.mean_pressure_bar),
         min_level_bar: chosen.map(|k| options[k].mean_pressure_bar),
         min_mean_pressure_bracket_bar: bracket,
+        chosen_circuit: at.as_ref().map(|c| c.circuit.kind),
         at_min_mean_pressure: at,
         chosen,
         options,
@@ -838,635 +953,6 @@ fn answer(
         rig: req.rig_from.clone(),
     })
 }
-
-/// An application to choose a circuit for (docs/formats.md#application-toml): the rig, the
-/// uncertainty of the undissolved air, the targets, the loads, the waves and the pressure
-/// levels to try. Field names are the TOML keys; units are in the names.
-#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Application {
-    /// The reference gas fraction X (dimensionless).
-    pub gas_fraction: f64,
-    /// The lowest gas fraction considered.
-    pub gas_fraction_min: f64,
-    /// The highest gas fraction considered.
-    pub gas_fraction_max: f64,
-    /// Pure-oil bulk modulus of the gas-fraction model (bar).
-    pub beta_oil_bar: f64,
-    /// Phase margin target (deg).
-    pub target_pm_deg: f64,
-    /// Gain margin target (dB).
-    pub target_gm_db: f64,
-    /// Stroke excursion on each side of x0 (mm).
-    pub stroke_mm: f64,
-    /// Loads, each its mass at x0 (kg); empty = the rig's `mass_kg`.
-    pub mass_kg: Vec<f64>,
-    /// External force range [lowest, highest] (N).
-    pub external_force_n: [f64; 2],
-    /// Mean chamber pressures of the low-pressure circuit to try (bar).
-    pub low_pressure_bar: Vec<f64>,
-    /// Mean chamber pressures of the pressurised circuit to try (bar).
-    pub pressurised_bar: Vec<f64>,
-    /// The waves to track within an error.
-    pub wave: Vec<WaveRequirement>,
-    /// Largest 10–90 % rise time of a 5 mm step allowed (s); absent: not required.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_rise_time_s: Option<f64>,
-    /// The rig: a `[rig]` table (any rig key; absent keys take the article's rig) or the name
-    /// of a rig file, relative to the application file (docs/formats.md#application-toml).
-    #[serde(deserialize_with = "rig_table_or_file")]
-    pub rig: Rig,
-    /// Where the rig came from (not a key).
-    #[serde(skip)]
-    pub rig_from: RigFrom,
-    /// Where the gas-fraction range came from (not a key).
-    #[serde(skip)]
-    pub gas_fraction_from: GasFractionFrom,
-    /// The keys the application leaves to the rig (not a key): each follows it as
-    /// [`Application::with_rig`] says.
-    #[serde(skip)]
-    pub follows_rig: FollowsRig,
-}
-
-/// The application keys that, absent, follow the rig (docs/select.md#the-gas-fraction): the
-/// gas fraction is read off the rig's β at its mean chamber pressure (the article's
-/// identification on the article's rig), its range is a factor 2 either way of it, and the
-/// loads are the rig's `mass_kg` (the article's two loads on the article's rig).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FollowsRig {
-    /// `gas_fraction` follows the rig.
-    pub gas_fraction: bool,
-    /// `gas_fraction_min` is half the reference.
-    pub gas_fraction_min: bool,
-    /// `gas_fraction_max` is twice the reference.
-    pub gas_fraction_max: bool,
-    /// `mass_kg` follows the rig.
-    pub mass_kg: bool,
-}
-
-impl FollowsRig {
-    /// Every such key follows the rig.
-    pub const ALL: FollowsRig = FollowsRig {
-        gas_fraction: true,
-        gas_fraction_min: true,
-        gas_fraction_max: true,
-        mass_kg: true,
-    };
-
-    /// Those of `self` whose key is not `key` (a key stated).
-    fn stated(mut self, key: &str) -> FollowsRig {
-        match key {
-            "gas_fraction" => self.gas_fraction = false,
-            "gas_fraction_min" => self.gas_fraction_min = false,
-            "gas_fraction_max" => self.gas_fraction_max = false,
-            "mass_kg" => self.mass_kg = false,
-            _ => {}
-        }
-        self
-    }
-}
-
-impl Default for FollowsRig {
-    fn default() -> Self {
-        FollowsRig::ALL
-    }
-}
-
-/// The article's two loads (kg at x0), the loads of the article's application on its rig.
-pub const ARTICLE_LOADS_KG: [f64; 2] = [4898.0, 10593.0];
-
-/// The `rig` key: a table of rig keys, or a file name (the placeholder rig it gives here is
-/// replaced by the file's as the application is read: [`Application::from_file_in`]).
-fn rig_table_or_file<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Rig, D::Error> {
-    struct TableOrFile;
-    impl<'de> serde::de::Visitor<'de> for TableOrFile {
-        type Value = Rig;
-        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-            f.write_str("a [rig] table or the name of a rig file")
-        }
-        fn visit_str<E: serde::de::Error>(self, _: &str) -> Result<Rig, E> {
-            Ok(Rig::default())
-        }
-        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Rig, A::Error> {
-            serde::Deserialize::deserialize(serde::de::value::MapAccessDeserializer::new(map))
-        }
-    }
-    d.deserialize_any(TableOrFile)
-}
-
-/// An identification's word on the gas fraction: the interval of β its records leave, at the
-/// pressure they were taken (docs/select.md#from-an-identification).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct BetaEvidence {
-    /// The β interval (bar).
-    pub beta_bar: [f64; 2],
-    /// The point estimate (bar).
-    pub beta_nominal_bar: f64,
-    /// The records' mean chamber pressure (bar gauge).
-    pub p_mean_bar: f64,
-    /// The interval's confidence level.
-    pub confidence: f64,
-}
-
-impl BetaEvidence {
-    /// Identify `exp`'s records and read the β interval at `confidence` off the profiles
-    /// (docs/identification.md, "Uncertainty"), at the first record's mean chamber pressure.
-    ///
-    /// # Errors
-    /// The identification or the profiles fail, or the first record has no chamber pressures.
-    pub fn of_records(
-        exp: &crate::ident::Experiment,
-        confidence: f64,
-    ) -> Result<BetaEvidence, SelectError> {
-        let p_mean_bar = exp.mean_chamber_pressure_bar().ok_or_else(|| {
-            SelectError::Input(format!(
-                "{}: the first dataset's record has no chamber pressures (p1_bar, p2_bar) to read the gas fraction at",
-                exp.path.display()
-            ))
-        })?;
-        let (_, region) = crate::design::Region::of_records(exp, confidence)?;
-        Ok(BetaEvidence::of_region(&region, confidence, p_mean_bar))
-    }
-
-    /// The β interval of a confidence `region` already computed (at `confidence`), read at the
-    /// records' mean chamber pressure `p_mean_bar` (bar).
-    pub fn of_region(region: &crate::design::Region, confidence: f64, p_mean_bar: f64) -> Self {
-        BetaEvidence {
-            beta_bar: region.beta_bar,
-            beta_nominal_bar: region.nominal.beta_bar,
-            p_mean_bar,
-            confidence,
-        }
-    }
-}
-
-impl Default for Application {
-    /// The article's application with pumpcyl's requirement (docs/select.md#the-article-s-application):
-    /// the article's rig, its gas fraction 2.64 % (β 165 bar at 4.4 bar) and its two loads; a
-    /// factor 2 either way on the gas fraction, the default targets ([`Targets::default`]: PM 34°,
-    /// GM 6 dB over x0 ± 50 mm) and the 0.2 Hz ±35 mm wave within 14 mm are pumpcyl's choices,
-    /// since the article sets no range, no gain-margin target and no tracking requirement.
-    ///
-    /// [`Targets::default`]: crate::design::Targets
-    fn default() -> Self {
-        let x = ARTICLE_READING
-            .gas_fraction(crate::bulk::BETA_OIL_BAR)
-            .unwrap_or(0.0264);
-        Application {
-            gas_fraction: x,
-            gas_fraction_min: x / 2.0,
-            gas_fraction_max: 2.0 * x,
-            beta_oil_bar: crate::bulk::BETA_OIL_BAR,
-            target_pm_deg: 34.0,
-            target_gm_db: 6.0,
-            stroke_mm: 50.0,
-            mass_kg: ARTICLE_LOADS_KG.to_vec(),
-            external_force_n: [0.0, 0.0],
-            low_pressure_bar: (1..=10).map(f64::from).collect(),
-            pressurised_bar: vec![20.0, 30.0, 50.0],
-            wave: vec![WaveRequirement {
-                freq_hz: 0.2,
-                amp_mm: 35.0,
-                max_error_mm: 14.0,
-            }],
-            max_rise_time_s: None,
-            rig: Rig::default(),
-            rig_from: RigFrom::Article,
-            gas_fraction_from: GasFractionFrom::Article(ARTICLE_READING),
-            follows_rig: FollowsRig::ALL,
-        }
-    }
-}
-
-impl Application {
-    /// Parse an application from TOML text; `name` stands for the file in messages, which name
-    /// the line and the key. A `rig` file name is read from `files`, relative to `dir`.
-    pub fn from_toml_in(
-        files: &dyn crate::input::Files,
-        text: &str,
-        name: &str,
-        dir: &std::path::Path,
-    ) -> Result<Application, SelectError> {
-        let located = |key: &str, message: String| {
-            let path: Vec<crate::input::Key> =
-                key.split('.').map(crate::input::Key::Name).collect();
-            let line = crate::input::toml_line(text, &path)
-                .map_or(String::new(), |l| format!("line {l}, "));
-            SelectError::Input(format!("{name}: {line}key `{key}`: {message}"))
-        };
-        let syntax = |e: toml::de::Error| {
-            SelectError::Input(format!("{name}: {}", crate::input::toml_error(&e, text)))
-        };
-        let mut app: Application = toml::from_str(text).map_err(syntax)?;
-        let raw: toml::Table = toml::from_str(text).map_err(syntax)?;
-        app.rig_from = match raw.get("rig") {
-            Some(toml::Value::String(file)) => {
-                let path = dir.join(file);
-                app.rig =
-                    Rig::from_file_in(files, &path).map_err(|e| located("rig", e.to_string()))?;
-                RigFrom::File {
-                    path: path.display().to_string(),
-                }
-            }
-            Some(_) => RigFrom::Table,
-            None => RigFrom::Article,
-        };
-        app.follows_rig = raw.keys().fold(FollowsRig::ALL, |f, key| f.stated(key));
-        app.resolve()
-            .and_then(|()| app.validate())
-            .map_err(|(key, message)| located(&key, message))?;
-        Ok(app)
-    }
-
-    /// [`Application::from_toml_in`] with a `rig` file name read from disk, relative to the
-    /// working directory.
-    pub fn from_toml_str(text: &str, name: &str) -> Result<Application, SelectError> {
-        Self::from_toml_in(&crate::input::Disk, text, name, std::path::Path::new("."))
-    }
-
-    /// Read and check an application file; a `rig` file name is relative to it.
-    pub fn from_file_in(
-        files: &dyn crate::input::Files,
-        path: &std::path::Path,
-    ) -> Result<Application, SelectError> {
-        let name = path.display().to_string();
-        let text = crate::input::read_text(files, path)
-            .map_err(|e| SelectError::Input(format!("{name}: {e}")))?;
-        let dir = path.parent().unwrap_or(std::path::Path::new("."));
-        Self::from_toml_in(files, &text, &name, dir)
-    }
-
-    /// The application on `rig` (from `from`): the keys it leaves to the rig follow it
-    /// ([`FollowsRig`]), then every value is checked.
-    ///
-    /// # Errors
-    /// The rig's β at its mean pressure gives no gas fraction, or a value does not fit the
-    /// rig (a wave beyond its stroke, a load out of range), the key named.
-    pub fn with_rig(&self, rig: Rig, from: RigFrom) -> Result<Application, SelectError> {
-        let mut app = Application {
-            rig,
-            rig_from: from,
-            ..self.clone()
-        };
-        app.resolve()
-            .and_then(|()| app.validate())
-            .map_err(|(key, m)| SelectError::Input(format!("key `{key}`: {m}")))?;
-        Ok(app)
-    }
-
-    /// Set the keys that follow the rig ([`FollowsRig`]) from it: the gas fraction from the
-    /// rig's β at its mean chamber pressure ([`BetaReading::for_rig`]), a factor 2 either way,
-    /// and the loads; the error names the key.
-    fn resolve(&mut self) -> Result<(), (String, String)> {
-        // what the keys follow, checked first so that a fault is named where it lies
-        self.check_rig()?;
-        check_oil(self.beta_oil_bar)?;
-        let article_rig = self.rig_from == RigFrom::Article;
-        let follows = self.follows_rig;
-        if follows.mass_kg {
-            self.mass_kg = if article_rig && self.rig.mass_kg == Rig::default().mass_kg {
-                ARTICLE_LOADS_KG.to_vec()
-            } else {
-                Vec::new()
-            };
-        }
-        if follows.gas_fraction {
-            let reading = BetaReading::for_rig(&self.rig, article_rig);
-            self.gas_fraction = reading.gas_fraction(self.beta_oil_bar).map_err(|e| {
-                let m = format!(
-                    "absent, so read off the rig's beta {} bar at its mean chamber pressure {} bar, which gives none: {e}; state gas_fraction",
-                    reading.beta_bar, reading.p_mean_bar
-                );
-                ("gas_fraction".to_string(), m)
-            })?;
-            self.gas_fraction_from = if reading == ARTICLE_READING {
-                GasFractionFrom::Article(reading)
-            } else {
-                GasFractionFrom::Rig(reading)
-            };
-        } else if matches!(
-            self.gas_fraction_from,
-            GasFractionFrom::Article(_) | GasFractionFrom::Rig(_)
-        ) {
-            self.gas_fraction_from = GasFractionFrom::Application;
-        }
-        if follows.gas_fraction_min {
-            self.gas_fraction_min = 0.5 * self.gas_fraction;
-        }
-        if follows.gas_fraction_max {
-            self.gas_fraction_max = 2.0 * self.gas_fraction;
-        }
-        Ok(())
-    }
-
-    /// Apply `KEY=VALUE` overrides (`rig.KEY=VALUE` for a rig key; values in TOML), then check;
-    /// errors name `source_name` and the key.
-    pub fn with_overrides(
-        &self,
-        source_name: &str,
-        assignments: &[String],
-    ) -> Result<Application, SelectError> {
-        if assignments.is_empty() {
-            return Ok(self.clone());
-        }
-        let err = |a: &str, message: String| SelectError::Set {
-            source_name: source_name.to_string(),
-            assignment: a.to_string(),
-            message,
-        };
-        let mut table = toml::Table::try_from(self).map_err(|e| err("", e.to_string()))?;
-        for a in assignments {
-            let (key, raw) = a
-                .split_once('=')
-                .ok_or_else(|| err(a, "expected KEY=VALUE".into()))?;
-            let (key, raw) = (key.trim(), raw.trim());
-            let value = crate::input::parse_value(raw);
-            let (place, leaf) = match key.strip_prefix("rig.") {
-                Some(rig_key) => (
-                    table.get_mut("rig").and_then(toml::Value::as_table_mut),
-                    rig_key,
-                ),
-                None => (Some(&mut table), key),
-            };
-            let place = place.ok_or_else(|| err(a, "no rig table".into()))?;
-            let value = match place.get(leaf) {
-                Some(current) => crate::input::typed_like(current, value).map_err(|got| {
-                    err(
-                        a,
-                        format!("key `{key}` takes a {}, got {got}", current.type_str()),
-                    )
-                })?,
-                // an optional key left out: its type is checked as the application is read
-                None if OPTIONAL_KEYS.contains(&key) => value,
-                None => return Err(err(a, format!("unknown key `{key}`"))),
-            };
-            place.insert(leaf.to_string(), value);
-        }
-        let app: Application = table.try_into().map_err(|e: toml::de::Error| {
-            err(
-                &assignments.join(" "),
-                crate::input::serde_message(e.message()),
-            )
-        })?;
-        let mut app = Application {
-            rig_from: self.rig_from.clone(),
-            gas_fraction_from: self.gas_fraction_from,
-            follows_rig: assignments
-                .iter()
-                .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
-                .fold(self.follows_rig, FollowsRig::stated),
-            ..app
-        };
-        app.resolve()
-            .and_then(|()| app.validate())
-            .map_err(|(key, message)| SelectError::Invalid {
-                source_name: source_name.to_string(),
-                key: key.to_string(),
-                message,
-            })?;
-        Ok(app)
-    }
-
-    /// The application with its gas-fraction range read off an identified interval of β
-    /// (docs/select.md#from-an-identification): the soft end of β gives the highest X, the
-    /// stiff end the lowest, the estimate the reference.
-    ///
-    /// # Errors
-    /// An interval that is not ordered around the estimate, or a β the gas-fraction model
-    /// cannot reach (at or above the oil's modulus).
-    pub fn with_evidence(&self, e: &BetaEvidence) -> Result<Application, SelectError> {
-        let [lo, hi] = e.beta_bar;
-        if !(lo <= e.beta_nominal_bar && e.beta_nominal_bar <= hi) {
-            return Err(SelectError::Input(format!(
-                "the beta interval [{lo}, {hi}] bar does not hold its estimate {} bar",
-                e.beta_nominal_bar
-            )));
-        }
-        let x = |b: f64| {
-            crate::bulk::gas_fraction(b, e.p_mean_bar, self.beta_oil_bar)
-                .map_err(|err| SelectError::Input(format!("gas fraction from beta {b} bar: {err}")))
-        };
-        let out = Application {
-            gas_fraction_min: x(hi)?,
-            gas_fraction: x(e.beta_nominal_bar)?,
-            gas_fraction_max: x(lo)?,
-            gas_fraction_from: GasFractionFrom::Identification(*e),
-            follows_rig: FollowsRig {
-                gas_fraction: false,
-                gas_fraction_min: false,
-                gas_fraction_max: false,
-                ..self.follows_rig
-            },
-            ..self.clone()
-        };
-        out.validate()
-            .map_err(|(key, m)| SelectError::Input(format!("key `{key}`: {m}")))?;
-        Ok(out)
-    }
-
-    /// The application as TOML with a comment per key, ready to edit (what `pumpcyl select
-    /// --print-default` prints).
-    pub fn to_commented_toml(&self) -> String {
-        let mut table = toml::Table::try_from(self).expect("an application always serialises");
-        table.remove("rig");
-        let mut out = String::from(
-            "# pumpcyl application (docs/formats.md#application-toml; docs/select.md). Units are part of every key.\n\
-             # Absent keys take the article's application; the gas fraction and the loads follow the rig.\n\
-             # [rig] takes any rig key (`pumpcyl rig`); or name a rig file: rig = \"my-rig.toml\" (relative to this file).\n",
-        );
-        for (key, doc) in APPLICATION_KEY_DOCS.iter().filter(|(k, _)| *k != "wave") {
-            match table.get(*key) {
-                Some(value) => out.push_str(&format!("{key} = {value}  # {doc}\n")),
-                None => out.push_str(&format!("# {key} = 0.5  # {doc}\n")),
-            }
-        }
-        for w in &self.wave {
-            out.push_str(&format!(
-                "\n[[wave]]  # a wave to track and the largest control error allowed\nfreq_hz = {:?}\namp_mm = {:?}\nmax_error_mm = {:?}\n",
-                w.freq_hz, w.amp_mm, w.max_error_mm
-            ));
-        }
-        out.push_str(&format!(
-            "\n[rig]  # {}: the keys that differ from the article's rig (`pumpcyl rig` lists them all)\n",
-            self.rig_from.describe()
-        ));
-        let ours = toml::Table::try_from(&self.rig).expect("a rig always serialises");
-        let article = toml::Table::try_from(Rig::file_default()).expect("a rig always serialises");
-        for (key, value) in ours.iter().filter(|(k, v)| article.get(*k) != Some(*v)) {
-            out.push_str(&format!("{key} = {value}\n"));
-        }
-        out
-    }
-
-    /// Every value checked, the error naming its key: the rig's rules, the loads in the range
-    /// of the rig's `mass_kg`, forces finite, at least one wave and one pressure level, the
-    /// targets, and what every selection checks (gas fractions, waves, levels).
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        self.check_rig()?;
-        let fail = |key: &str, message: String| Err((key.to_string(), message));
-        for &m in &self.mass_kg {
-            if let Some(rule) = Rig::check_key("mass_kg", m) {
-                return fail("mass_kg", format!("{m}: every load {rule}"));
-            }
-        }
-        for f in self.external_force_n {
-            if !(f.is_finite() && f.abs() <= 1e8) {
-                return fail(
-                    "external_force_n",
-                    format!("{f}: must be finite, at most 1e8 N"),
-                );
-            }
-        }
-        if self.wave.is_empty() && self.max_rise_time_s.is_none() {
-            return fail(
-                "wave",
-                "no requirement: give at least one [[wave]] or max_rise_time_s".into(),
-            );
-        }
-        if self.low_pressure_bar.len() + self.pressurised_bar.len() == 0 {
-            return fail("low_pressure_bar", "no pressure level to try".into());
-        }
-        if self.low_pressure_bar.len() + self.pressurised_bar.len() > MAX_LEVELS {
-            return fail(
-                "low_pressure_bar",
-                format!("more than {MAX_LEVELS} pressure levels"),
-            );
-        }
-        let targets = [
-            ("target_pm_deg", self.target_pm_deg),
-            ("target_gm_db", self.target_gm_db),
-            ("stroke_mm", self.stroke_mm),
-        ];
-        for (key, v) in targets {
-            if !(v.is_finite() && v >= 0.0) {
-                return fail(key, format!("{v}: must be a finite number >= 0"));
-            }
-        }
-        check(&self.rig, &self.requirement(), &self.levels(), None)
-    }
-
-    /// The rig's rules, the error naming its key as `rig.KEY`.
-    fn check_rig(&self) -> Result<(), (String, String)> {
-        self.rig.validate("rig").map_err(|e| match e {
-            RigError::Invalid {
-                key, value, rule, ..
-            } => (format!("rig.{key}"), format!("{value}: {rule}")),
-            other => ("rig".to_string(), other.to_string()),
-        })
-    }
-
-    /// The requirement this application states.
-    pub fn requirement(&self) -> Requirement {
-        Requirement {
-            gas_fraction: self.gas_fraction,
-            gas_fraction_min: self.gas_fraction_min,
-            gas_fraction_max: self.gas_fraction_max,
-            beta_oil_bar: self.beta_oil_bar,
-            targets: Targets {
-                pm_deg: self.target_pm_deg,
-                gm_db: self.target_gm_db,
-                stroke_mm: self.stroke_mm,
-                mass_kg: self.mass_kg.clone(),
-                // no pressure list or waves: each candidate sets β_e and tracks itself
-                ..Targets::default()
-            },
-            waves: self.wave.clone(),
-            max_rise_time_s: self.max_rise_time_s,
-            external_force_n: self.external_force_n,
-            gas_fraction_from: self.gas_fraction_from,
-            rig_from: self.rig_from.clone(),
-        }
-    }
-
-    /// The circuits and pressure levels to try, low-pressure first, pressure rising.
-    pub fn levels(&self) -> Vec<(Circuit, f64)> {
-        let mut out: Vec<(Circuit, f64)> = Vec::new();
-        for (circuit, ps) in [
-            (Circuit::LowPressure, &self.low_pressure_bar),
-            (Circuit::Pressurised, &self.pressurised_bar),
-        ] {
-            let mut ps = ps.clone();
-            ps.sort_by(f64::total_cmp);
-            out.extend(ps.into_iter().map(|p| (circuit, p)));
-        }
-        out
-    }
-
-    /// Run the selection ([`select`]); `kp` fixes the gain.
-    pub fn select(&self, kp: Option<f64>) -> Result<Selection, SelectError> {
-        self.select_with(kp, &crate::limits::Work::QUIET)
-    }
-
-    /// Run the selection ([`select_with`]) as `work` allows and follows it.
-    pub fn select_with(
-        &self,
-        kp: Option<f64>,
-        work: &crate::limits::Work,
-    ) -> Result<Selection, SelectError> {
-        select_with(&self.rig, &self.requirement(), &self.levels(), kp, work)
-    }
-
-    /// The load × level cases its selection evaluates ([`cases`]).
-    pub fn cases(&self) -> f64 {
-        cases(&self.requirement(), &self.levels())
-    }
-}
-
-/// Each application key with its unit and meaning, in the order `to_commented_toml` writes them.
-pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
-    (
-        "gas_fraction",
-        "reference undissolved-gas fraction X (absent: the rig's beta at its mean chamber pressure, half p_sum_ref_bar; on the article's rig its 165 bar at 4.4 bar)",
-    ),
-    (
-        "gas_fraction_min",
-        "lowest X considered (absent: a factor 2 below; undissolved air varies between applications)",
-    ),
-    (
-        "gas_fraction_max",
-        "highest X considered (absent: a factor 2 above; the worst case for beta_e)",
-    ),
-    (
-        "beta_oil_bar",
-        "bar, pure-oil bulk modulus of the gas-fraction model",
-    ),
-    ("target_pm_deg", "deg, phase margin target"),
-    ("target_gm_db", "dB, gain margin target"),
-    (
-        "stroke_mm",
-        "mm, stroke excursion checked on each side of x0",
-    ),
-    (
-        "mass_kg",
-        "kg, loads (each its mass at x0; along the stroke it follows rig.mass_by_position; empty: rig.mass_kg; absent: the rig's, the article's two loads on its rig)",
-    ),
-    (
-        "external_force_n",
-        "N, external force range [lowest, highest] (the standing cost is taken at both)",
-    ),
-    (
-        "low_pressure_bar",
-        "bar, mean chamber pressures of the low-pressure circuit (accumulator pre-charge)",
-    ),
-    (
-        "pressurised_bar",
-        "bar, mean chamber pressures of the pressurised dual-prime-mover circuit",
-    ),
-    (
-        "max_rise_time_s",
-        "s, largest 10-90 % rise time of a 5 mm step (absent: not required)",
-    ),
-    (
-        "wave",
-        "waves to track: [[wave]] freq_hz, amp_mm, max_error_mm",
-    ),
-];
-
-/// The application keys that may be absent (no value to take a type from).
-const OPTIONAL_KEYS: &[&str] = &["max_rise_time_s"];
-
-/// Most pressure levels an application may list.
-pub const MAX_LEVELS: usize = 200;
 
 #[cfg(test)]
 mod tests {
@@ -1544,8 +1030,9 @@ mod tests {
     fn the_lowest_pressure_follows_the_margins_and_widening_the_range_never_lowers_it() {
         let rig = Rig::default();
         let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
-        let levels: Vec<(Circuit, f64)> =
-            (1..=10).map(|p| (Circuit::LowPressure, p as f64)).collect();
+        let levels: Vec<(Circuit, f64)> = (1..=10)
+            .map(|p| (Circuit::LOW_PRESSURE, p as f64))
+            .collect();
         let fixed = select(&rig, &requirement([x, x, x], vec![]), &levels, Some(25.0)).unwrap();
         for c in &fixed.options {
             let r = Rig {
@@ -1618,7 +1105,7 @@ mod tests {
         let s = select(
             &rig,
             &requirement([x, x, x], vec![wave]),
-            &[(Circuit::LowPressure, 4.4)],
+            &[(Circuit::LOW_PRESSURE, 4.4)],
             None,
         )
         .unwrap();
@@ -1634,7 +1121,7 @@ mod tests {
         let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
         let mut req = requirement([x, x, x], Vec::new());
         req.targets.gm_db = 400.0;
-        let s = select(&Rig::default(), &req, &[(Circuit::LowPressure, 4.4)], None).unwrap();
+        let s = select(&Rig::default(), &req, &[(Circuit::LOW_PRESSURE, 4.4)], None).unwrap();
         let json = serde_json::to_value(&s).unwrap();
         let options = json["options"].as_array().unwrap();
         assert!(!options.is_empty());
@@ -1653,7 +1140,7 @@ mod tests {
     fn the_lowest_pressure_is_bisected_to_the_margins_threshold() {
         let rig = Rig::default();
         let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
-        let levels = [(Circuit::LowPressure, 3.0), (Circuit::LowPressure, 6.0)];
+        let levels = [(Circuit::LOW_PRESSURE, 3.0), (Circuit::LOW_PRESSURE, 6.0)];
         let s = select(&rig, &requirement([x, x, x], vec![]), &levels, Some(25.0)).unwrap();
         assert_eq!(s.min_level_bar, Some(6.0));
         let [lo, hi] = s.min_mean_pressure_bracket_bar.unwrap();
@@ -1728,14 +1215,14 @@ mod tests {
         let x = gas_fraction(165.0, 4.4, BETA_OIL_BAR).unwrap();
         let mut req = requirement([x, x, x], vec![]);
         req.external_force_n = [0.0, 5000.0];
-        let s = select(&rig, &req, &[(Circuit::LowPressure, 1.0)], Some(25.0)).unwrap();
+        let s = select(&rig, &req, &[(Circuit::LOW_PRESSURE, 1.0)], Some(25.0)).unwrap();
         let c = &s.options[0];
         let [_, p2] = chamber_pressures(&rig, 1.0, 5000.0);
         assert!(p2 < crate::cavitation::VAPOUR_PRESSURE_BAR_GAUGE, "{p2}");
         assert!(!c.meets && !c.meets_best_case && c.standing_loss_w.is_none());
         assert!(c.reason.contains("cavitation"), "{}", c.reason);
         req.external_force_n = [3000.0, -1000.0];
-        let err = select(&rig, &req, &[(Circuit::LowPressure, 1.0)], Some(25.0)).unwrap_err();
+        let err = select(&rig, &req, &[(Circuit::LOW_PRESSURE, 1.0)], Some(25.0)).unwrap_err();
         assert!(err.to_string().contains("external_force_n"), "{err}");
     }
 }

@@ -1,0 +1,405 @@
+//! The candidates' circuits (docs/select.md#circuits): the DPM at a low or a pressurised mean
+//! chamber pressure, and the one-motor circuits of the article's Figure 1 (dual pump, single
+//! pump) at an accumulator pre-charge; which of them a rig's components allow; and what only
+//! the one-motor circuits need: their standstill cost and, for the single-pump circuit, its
+//! modes (docs/circuits.md#its-two-modes) and the check whether it keeps switching between them.
+
+use super::{Requirement, StandingLoss, RISE_STEP_MM, RISE_WINDOW_S};
+use crate::circuit::single_pump::modes::{switching, Mode, StepCheck, StepVerdict};
+use crate::circuit::single_pump::SinglePump;
+use crate::circuit::{CircuitKind, Role};
+use crate::design::{Targets, GM_TOLERANCE_DB, PM_TOLERANCE_DEG};
+use crate::lti::{FreqEvaluator, LtiError, Simulator};
+use crate::rig::Rig;
+use crate::units::PA_PER_BAR;
+use serde::ser::SerializeMap;
+use serde::{Serialize, Serializer};
+use std::f64::consts::PI;
+
+/// How a candidate's pressure level is set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureLevel {
+    /// The DPM's mean chamber pressure at the article's low levels (its 1 to 10 bar), half the
+    /// sum-pressure set-point.
+    LowPressure,
+    /// The DPM's mean chamber pressure raised to tens of bar (the pressurised dual-prime-mover
+    /// circuit of the article's references 5 and 10).
+    Pressurised,
+    /// The accumulator's pre-charge `accumulator_precharge_bar` of a one-motor circuit.
+    Precharge,
+}
+
+/// A candidate's circuit: which circuit and how its pressure level is set. In JSON its keys
+/// `circuit` (`low_pressure`, `pressurised`, `dual_pump`, `single_pump`), `circuit_kind` (the
+/// rig key's name: `dpm`, `dual-pump`, `single-pump`) and `pressure_level`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Circuit {
+    /// The circuit.
+    pub kind: CircuitKind,
+    /// How its pressure level is set.
+    pub level: PressureLevel,
+}
+
+impl Circuit {
+    /// The article's low-pressure DPM: an accumulator's pre-charge sets the mean pressure.
+    pub const LOW_PRESSURE: Circuit = Circuit {
+        kind: CircuitKind::Dpm,
+        level: PressureLevel::LowPressure,
+    };
+    /// The pressurised DPM: the sum-pressure set-point raised to tens of bar.
+    pub const PRESSURISED: Circuit = Circuit {
+        kind: CircuitKind::Dpm,
+        level: PressureLevel::Pressurised,
+    };
+    /// The dual-pump circuit (Figure 1b) at a pre-charge.
+    pub const DUAL_PUMP: Circuit = Circuit {
+        kind: CircuitKind::DualPump,
+        level: PressureLevel::Precharge,
+    };
+    /// The single-pump circuit (Figure 1a) at a pre-charge.
+    pub const SINGLE_PUMP: Circuit = Circuit {
+        kind: CircuitKind::SinglePump,
+        level: PressureLevel::Precharge,
+    };
+    /// Every candidate circuit, in the order a selection lists them.
+    pub const ALL: [Circuit; 4] = [
+        Circuit::LOW_PRESSURE,
+        Circuit::PRESSURISED,
+        Circuit::DUAL_PUMP,
+        Circuit::SINGLE_PUMP,
+    ];
+
+    /// The circuit in words: `low-pressure`, `pressurised`, `dual-pump`, `single-pump`.
+    pub fn name(self) -> &'static str {
+        match self.level {
+            PressureLevel::LowPressure => "low-pressure",
+            PressureLevel::Pressurised => "pressurised",
+            PressureLevel::Precharge => self.kind.name(),
+        }
+    }
+
+    /// The JSON `circuit`: `low_pressure`, `pressurised`, `dual_pump`, `single_pump`.
+    pub fn key(self) -> &'static str {
+        match (self.level, self.kind) {
+            (PressureLevel::LowPressure, _) => "low_pressure",
+            (PressureLevel::Pressurised, _) => "pressurised",
+            (_, CircuitKind::SinglePump) => "single_pump",
+            _ => "dual_pump",
+        }
+    }
+
+    /// The application key that lists its levels.
+    pub fn levels_key(self) -> &'static str {
+        match self.level {
+            PressureLevel::LowPressure => "low_pressure_bar",
+            PressureLevel::Pressurised => "pressurised_bar",
+            PressureLevel::Precharge => "precharge_bar",
+        }
+    }
+
+    /// The rig of this circuit at the pressure level `p_bar` with the bulk modulus `beta_bar`:
+    /// the DPM's sum-pressure set-point 2p, or a one-motor circuit's pre-charge p.
+    pub fn rig_at(self, rig: &Rig, p_bar: f64, beta_bar: f64) -> Rig {
+        match self.level {
+            PressureLevel::Precharge => Rig {
+                circuit: self.kind,
+                beta_bar,
+                accumulator_precharge_bar: p_bar,
+                ..rig.clone()
+            },
+            _ => Rig {
+                beta_bar,
+                p_sum_ref_bar: 2.0 * p_bar,
+                ..rig.clone()
+            },
+        }
+    }
+}
+
+impl Serialize for Circuit {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(3))?;
+        m.serialize_entry("circuit", self.key())?;
+        m.serialize_entry("circuit_kind", &self.kind)?;
+        m.serialize_entry("pressure_level", &self.level)?;
+        m.end()
+    }
+}
+
+/// The circuits a rig's components allow (docs/select.md#circuits): a DPM rig has two drives
+/// and two pumps, so it can be built as any of the three (the one-motor circuits use drive 1
+/// and pump 1, the dual-pump circuit pump 2 as well); a dual-pump rig has one drive (its file
+/// may not name a second), so the dual- and single-pump circuits; a single-pump rig has one
+/// pump, so only itself.
+pub fn allowed_circuits(rig: &Rig) -> &'static [CircuitKind] {
+    match rig.circuit {
+        CircuitKind::Dpm => &CircuitKind::ALL,
+        CircuitKind::DualPump => &[CircuitKind::DualPump, CircuitKind::SinglePump],
+        CircuitKind::SinglePump => &[CircuitKind::SinglePump],
+    }
+}
+
+/// Why `kind` cannot be built from the components of `rig`, if it cannot.
+pub fn not_allowed(rig: &Rig, kind: CircuitKind) -> Option<String> {
+    if allowed_circuits(rig).contains(&kind) {
+        return None;
+    }
+    let missing = match rig.circuit {
+        CircuitKind::SinglePump => "one drive and one pump",
+        _ => "one drive",
+    };
+    Some(format!(
+        "\"{}\": the rig is a {} circuit, with {missing}: it allows {} (docs/select.md#circuits)",
+        kind.name(),
+        rig.circuit.name(),
+        (allowed_circuits(rig).iter())
+            .map(|k| format!("\"{}\"", k.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ))
+}
+
+/// The check whether a single-pump candidate keeps switching modes under its load
+/// (docs/select.md#the-single-pump-circuit): a step from rest on a single-pump rig and the
+/// switches it makes. A trait so that another integration of the circuit (the emulator's)
+/// can stand in for the circuit's own equations.
+pub trait ModeCheck: Sync {
+    /// The step's verdict on the single-pump rig `rig` (at the candidate's gain, pressure,
+    /// bulk modulus, load and external force).
+    ///
+    /// # Errors
+    /// The check cannot be run, in one line.
+    fn run(&self, rig: &Rig) -> Result<StepVerdict, String>;
+
+    /// What the check integrates, in words (the reasons name it).
+    fn describe(&self) -> String;
+}
+
+/// The check on the circuit's own nonlinear equations under the continuous P law
+/// ([`StepCheck::run`] on [`SinglePump::new`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EquationsCheck(pub StepCheck);
+
+impl EquationsCheck {
+    /// The article's 5 mm step ([`StepCheck::ARTICLE`]).
+    pub const ARTICLE: EquationsCheck = EquationsCheck(StepCheck::ARTICLE);
+}
+
+impl ModeCheck for EquationsCheck {
+    fn run(&self, rig: &Rig) -> Result<StepVerdict, String> {
+        self.0.run(&SinglePump::new(rig)).map_err(|e| e.to_string())
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "the circuit's equations under the continuous P law, a {} mm step",
+            self.0.step_m * 1e3
+        )
+    }
+}
+
+/// The reason every failing single-pump candidate starts with.
+pub const SWITCHES: &str = "switches modes under this load";
+
+/// Why the single-pump candidate (the rigs `ends` at its gain: the reference gas fraction
+/// first, then the range's ends) switches modes under its load, if it does: a mode whose
+/// margins break the targets at the candidate's gain at an end and a load (either mode: a load
+/// that accelerates crosses the switching force), or the check `check` on the reference at
+/// each external force of `req` and each load finding that the step switches modes
+/// ([`StepVerdict::switches`]; the switches after the linear settling time are reported too).
+///
+/// # Errors
+/// A mode's model cannot be analysed, or the check cannot be run.
+pub fn switches(
+    ends: &[&Rig],
+    req: &Requirement,
+    loads: &[f64],
+    check: &dyn ModeCheck,
+) -> Result<Option<String>, String> {
+    for end in ends {
+        for &mass_kg in loads {
+            let r = Rig {
+                mass_kg,
+                ..(*end).clone()
+            };
+            if let Some(why) = mode_margins_break(&r, &req.targets).map_err(|e| e.to_string())? {
+                return Ok(Some(format!("{SWITCHES}: {why}")));
+            }
+        }
+    }
+    let reference = ends[0];
+    let mut forces = req.external_force_n.to_vec();
+    forces.dedup();
+    for f in forces {
+        for &mass_kg in loads {
+            let r = Rig {
+                mass_kg,
+                external_force_n: f,
+                ..reference.clone()
+            };
+            let v = check.run(&r)?;
+            if v.switches > 0 {
+                return Ok(Some(format!(
+                    "{SWITCHES}: {} switches during the step, {} after it settled (±{:.3} mm) at {f} N, {mass_kg} kg, Kp {:.2} ({})",
+                    v.switches,
+                    v.switches_after_settling,
+                    v.amplitude_after_settling_m * 1e3,
+                    reference.kp,
+                    check.describe()
+                )));
+            }
+        }
+    }
+    Ok(None)
+}
+
+/// Which mode of the single-pump rig `r` breaks the margin targets at its gain, if one does
+/// (the tolerances of the design's verdict: [`PM_TOLERANCE_DEG`], [`GM_TOLERANCE_DB`]).
+fn mode_margins_break(r: &Rig, t: &Targets) -> Result<Option<String>, LtiError> {
+    for chamber in [2, 1] {
+        let mode = Mode::new(r, chamber);
+        let m = crate::lti::margins(&mode.open_loop()?)?;
+        let pm_low = m
+            .phase_margin_deg
+            .is_some_and(|pm| pm < t.pm_deg - PM_TOLERANCE_DEG);
+        let gm_low = m
+            .gain_margin_db
+            .is_some_and(|gm| gm < t.gm_db - GM_TOLERANCE_DB);
+        if !m.closed_loop_stable || pm_low || gm_low {
+            let show = |v: Option<f64>| v.map_or("inf".to_string(), |v| format!("{v:.1}"));
+            return Ok(Some(format!(
+                "mode {} (chamber {chamber} at the accumulator) at Kp {:.2}, {} kg: PM {} deg, GM {} dB{}",
+                mode.number(),
+                r.kp,
+                r.mass_kg,
+                show(m.phase_margin_deg),
+                show(m.gain_margin_db),
+                if m.closed_loop_stable { "" } else { ", unstable" }
+            )));
+        }
+    }
+    Ok(None)
+}
+
+/// The standstill cost of the one-motor rig `r` at its external force (docs/select.md#cost):
+/// the drive turns to feed the leakage, the shaft power τ ω at rest lost as heat, with τ the
+/// pumps' load torque at the rest's chamber pressures.
+///
+/// # Errors
+/// The dual-pump circuit's rest is undetermined.
+pub fn one_motor_standing(r: &Rig) -> Result<StandingLoss, String> {
+    let (p_pa, w, torque) = match r.circuit {
+        CircuitKind::DualPump => {
+            let c = crate::circuit::dual_pump::DualPump::new(r).map_err(|e| e.to_string())?;
+            let (p, w) = rest(&c);
+            (p, w, c.load_torque_nm(p))
+        }
+        _ => {
+            let (p, w) = rest(&SinglePump::new(r));
+            (p, w, r.si().d[0] * (p[0] - p[1]))
+        }
+    };
+    Ok(StandingLoss {
+        p_bar: p_pa.map(|p| p / PA_PER_BAR),
+        power_w: torque * w,
+        speed_rpm: [w * 60.0 / (2.0 * PI), 0.0],
+        torque_nm: [torque, 0.0],
+    })
+}
+
+/// The chamber pressures (Pa) and the shaft speed (rad/s) of a one-motor circuit at rest.
+fn rest<C: crate::circuit::Circuit>(c: &C) -> ([f64; 2], f64) {
+    let op = c.operating_point();
+    let p = c.states_of(Role::Pressure);
+    let w = c.state_of(Role::MotorSpeed).expect("a circuit has a shaft");
+    ([op.state[p[0]], op.state[p[1]]], op.state[w])
+}
+
+/// The single-pump rig's responses in the mode at rest, which its linear model is
+/// (docs/circuits.md#its-two-modes): each wave's largest control error, the amplitude
+/// |1/(1 + L(j2πf))| A of the periodic steady state under the P law, and the rise time of a
+/// [`RISE_STEP_MM`] step of the closed loop (infinite where it never reaches 90 %).
+///
+/// # Errors
+/// The mode's model cannot be analysed.
+pub fn mode_at_rest_responses(r: &Rig, waves: &[(f64, f64)]) -> Result<(Vec<f64>, f64), LtiError> {
+    let mode = Mode::new(r, 3 - switching(r).mode_at_rest);
+    let open = mode.open_loop()?;
+    let l = FreqEvaluator::new(&open)?;
+    let errors = (waves.iter())
+        .map(|&(f, a)| a / (1.0 + l.at(2.0 * PI * f)).norm())
+        .collect();
+    let closed = open.unity_feedback()?;
+    crate::lti::require_stable(&closed.a)?;
+    let rate_hz = 200.0;
+    let n = (RISE_WINDOW_S * rate_hz).round() as usize + 1;
+    let t: Vec<f64> = (0..n).map(|k| k as f64 / rate_hz).collect();
+    let step_m = RISE_STEP_MM * 1e-3;
+    let y = Simulator::new(&closed).run(&t, &vec![step_m; n], &vec![0.0; closed.order()])?;
+    let y_mm: Vec<f64> = y.output(0).iter().map(|v| v * 1e3).collect();
+    let metrics = crate::response::step_metrics(&t, &y_mm, RISE_STEP_MM, RISE_STEP_MM);
+    Ok((errors, metrics.rise_time_s.unwrap_or(f64::INFINITY)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_circuit_names_itself_three_ways_in_json() {
+        let v = serde_json::to_value(Circuit::SINGLE_PUMP).unwrap();
+        let want = serde_json::json!({
+            "circuit": "single_pump",
+            "circuit_kind": "single-pump",
+            "pressure_level": "precharge",
+        });
+        assert_eq!(v, want);
+        let v = serde_json::to_value(Circuit::LOW_PRESSURE).unwrap();
+        assert_eq!(v["circuit"], "low_pressure");
+        assert_eq!(v["circuit_kind"], "dpm");
+        let names: Vec<&str> = Circuit::ALL.iter().map(|c| c.name()).collect();
+        assert_eq!(
+            names,
+            ["low-pressure", "pressurised", "dual-pump", "single-pump"]
+        );
+    }
+
+    #[test]
+    fn a_rig_allows_the_circuits_its_components_make() {
+        let rig = |k: CircuitKind| Rig {
+            circuit: k,
+            ..Rig::default()
+        };
+        assert_eq!(allowed_circuits(&rig(CircuitKind::Dpm)).len(), 3);
+        assert!(not_allowed(&rig(CircuitKind::Dpm), CircuitKind::SinglePump).is_none());
+        let why = not_allowed(&rig(CircuitKind::DualPump), CircuitKind::Dpm).unwrap();
+        assert!(why.contains("one drive"), "{why}");
+        let why = not_allowed(&rig(CircuitKind::SinglePump), CircuitKind::DualPump).unwrap();
+        assert!(why.contains("one drive and one pump"), "{why}");
+    }
+
+    /// At no load the single-pump circuit rests in mode 2, chamber 1 at p_acc and
+    /// p2 = p_acc A1/A2: the pump feeds chamber 2's leakage to the accumulator line and across,
+    /// so the drive's power τ ω is (c2 + c12)(p2 − p_acc)², by hand.
+    #[test]
+    fn the_single_pump_standing_power_is_its_leakage_power() {
+        let rig = Rig {
+            circuit: CircuitKind::SinglePump,
+            ..Rig::default()
+        };
+        let s = one_motor_standing(&rig).unwrap();
+        let si = rig.si();
+        let p_acc = rig.accumulator_precharge_bar * PA_PER_BAR;
+        let p2 = p_acc * si.a1 / si.a2;
+        assert!((s.p_bar[0] - rig.accumulator_precharge_bar).abs() < 1e-12);
+        assert!((s.p_bar[1] * PA_PER_BAR / p2 - 1.0).abs() < 1e-12);
+        let by_hand = (si.c2 + si.c12) * (p2 - p_acc).powi(2);
+        assert!(
+            (s.power_w / by_hand - 1.0).abs() < 1e-9,
+            "{} vs {by_hand}",
+            s.power_w
+        );
+        assert_eq!((s.speed_rpm[1], s.torque_nm[1]), (0.0, 0.0));
+    }
+}
