@@ -126,16 +126,11 @@ pub fn run(args: &FrfArgs) -> Result<String> {
 /// the record's is, its phase unwrapped beside the estimate's.
 fn model_curve(rig: &Rig, est: &Estimate, origin: &str) -> Result<ModelCurve> {
     let sys = Plant::new(rig).closed_loop(rig.sum_pressure);
-    let points = &est.closed_loop.points;
-    let freqs: Vec<f64> = points.iter().map(|p| p.freq_hz).collect();
+    let freqs: Vec<f64> = est.closed_loop.points.iter().map(|p| p.freq_hz).collect();
     let h = frf::model_response(&sys, &freqs, Some(est.rate_hz))?;
-    Ok(ModelCurve {
-        label: format!("model x/x_ref ({origin})"),
-        magnitude_db: h.iter().map(|h| 20.0 * h.norm().log10()).collect(),
-        phase_deg: points
-            .iter()
-            .zip(&h)
-            .map(|(p, h)| p.phase_deg + (h / p.h()).arg().to_degrees())
-            .collect(),
-    })
+    Ok(pumpcyl_present::frf::model_curve(
+        format!("model x/x_ref ({origin})"),
+        est,
+        &h,
+    ))
 }
