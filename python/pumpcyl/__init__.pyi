@@ -25,6 +25,7 @@ from ._pumpcyl import (
     select as select,
     effective_beta as effective_beta,
     gas_fraction as gas_fraction,
+    frf as frf,
     identify as identify,
     margins as margins,
     reproduce as reproduce,

@@ -428,6 +428,7 @@ def identify(
     top: int = 20,
     progress: Union[None, bool, Callable[[int, int], None]] = None,
     allow_long_run: bool = False,
+    method: Optional[Literal["time", "frequency"]] = None,
 ) -> Identification:
     """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (the article §2.4.4)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
@@ -437,7 +438,23 @@ def identify(
     ``grids="article"`` the article's two, as the file key);
     ``refined_grid=False`` skips the second stage. Releases the GIL; Ctrl-C stops it;
     ``progress=True`` prints progress on stderr (redrawn on a terminal; a line per tenth of
-    the work in a pipe or a notebook), a callable gets (done, total)."""
+    the work in a pipe or a notebook), a callable gets (done, total). ``method="frequency"``
+    (or the file's ``method = "frequency"``) fits the file's sweep records by their frequency
+    response, with any step records beside them, and adds the 95 % ``intervals``: the keys of
+    ``pumpcyl identify --frequency --uncertainty --json``."""
+
+def frf(
+    record: Union[str, PathLike[str]],
+    *,
+    rig: Optional[Rig] = None,
+    segment_s: Optional[float] = None,
+) -> Result:
+    """Closed-loop frequency response x/x_ref of a sweep record with its coherence and 95 %
+    band at each frequency (``closed_loop.points``: ``freq_hz``, ``re``, ``im``,
+    ``magnitude_db``, ``phase_deg``, ``coherence``, ``relative_error``, ``band_db``,
+    ``band_deg``) and ``rig``'s model beside it (default: the article's rig), as
+    ``pumpcyl frf RECORD.csv --json``. A periodic sweep found in the record is averaged over
+    its periods; anything else by Welch's method (``segment_s``: its segment length, s)."""
 
 def emulate(
     experiment: Literal["step", "sine", "drive-step", "standstill"],

@@ -242,6 +242,19 @@ pub fn model_curve(label: String, est: &Estimate, h: &[Complex64]) -> ModelCurve
     }
 }
 
+/// The rig's closed loop beside `est` (labelled with the rig's `origin`), its reference held
+/// between samples as the record's is ([`pumpcyl::frf::model_response`]).
+pub fn rig_model_curve(
+    rig: &pumpcyl::rig::Rig,
+    est: &Estimate,
+    origin: &str,
+) -> Result<ModelCurve, pumpcyl::lti::LtiError> {
+    let sys = pumpcyl::model::Plant::new(rig).closed_loop(rig.sum_pressure);
+    let freqs: Vec<f64> = est.closed_loop.points.iter().map(|p| p.freq_hz).collect();
+    let h = pumpcyl::frf::model_response(&sys, &freqs, Some(est.rate_hz))?;
+    Ok(model_curve(format!("model x/x_ref ({origin})"), est, &h))
+}
+
 /// The fitted model of each sweep of a frequency-domain fit, at the sweep's frequencies; a
 /// sweep whose fitted loop cannot be evaluated gets none.
 pub fn fitted_curves(problem: &FrequencyProblem, fit: &FrequencyFit) -> Vec<Option<ModelCurve>> {
