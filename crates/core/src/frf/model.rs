@@ -40,7 +40,7 @@ pub fn model_response(
 /// where `sum_pressure`) sampled at `rate_hz`: the position and pressures read at each sample,
 /// the speed commands held until the next, as a PLC runs it. With Φ, Γ the zero-order-hold
 /// discretisation of the plant over h = 1/`rate_hz` and u = Kx·x + Kr·x_ref the control law,
-/// x[k+1] = (Φ + Γ Kx) x[k] + Γ Kr x_ref[k], so T(z) = e_xᵀ (zI − Φ − Γ Kx)⁻¹ Γ Kr at
+/// x_{k+1} = (Φ + Γ Kx) x_k + Γ Kr x_ref,k, so T(z) = e_xᵀ (zI − Φ − Γ Kx)⁻¹ Γ Kr at
 /// z = e^{jωh} (docs/identification.md#grey-box-fit-to-a-frequency-response).
 pub fn sampled_loop_response(
     plant: &Plant,
