@@ -6,11 +6,9 @@ use crate::sweep::{design_for, excitation, SweepArgs, SweepKind};
 use crate::RigSource;
 use anyhow::{anyhow, Result};
 use clap::Args;
-use pumpcyl::frf::{self, Estimate, Options};
-use pumpcyl::model::Plant;
+use pumpcyl::frf::{self, Options};
 use pumpcyl::record::Record;
-use pumpcyl::rig::Rig;
-use pumpcyl_present::frf::{design_text, frf_csv, frf_json, frf_svg, frf_text, ModelCurve};
+use pumpcyl_present::frf::{design_text, frf_csv, frf_json, frf_svg, frf_text};
 use std::path::PathBuf;
 
 #[derive(Debug, Args)]
@@ -105,7 +103,7 @@ pub fn run(args: &FrfArgs) -> Result<String> {
         segment_s: args.segment_s,
     };
     let est = frf::estimate(&rec, &opts)?;
-    let model = model_curve(&rig, &est, &args.source.origin())?;
+    let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, &args.source.origin())?;
     if let Some(out) = &args.out {
         write_atomic(out, frf_csv(&est, Some(&model)).as_bytes())?;
     }
@@ -120,22 +118,4 @@ pub fn run(args: &FrfArgs) -> Result<String> {
         ))?);
     }
     Ok(frf_text(&est))
-}
-
-/// The rig's closed loop at the estimate's frequencies, its reference held between samples as
-/// the record's is, its phase unwrapped beside the estimate's.
-fn model_curve(rig: &Rig, est: &Estimate, origin: &str) -> Result<ModelCurve> {
-    let sys = Plant::new(rig).closed_loop(rig.sum_pressure);
-    let points = &est.closed_loop.points;
-    let freqs: Vec<f64> = points.iter().map(|p| p.freq_hz).collect();
-    let h = frf::model_response(&sys, &freqs, Some(est.rate_hz))?;
-    Ok(ModelCurve {
-        label: format!("model x/x_ref ({origin})"),
-        magnitude_db: h.iter().map(|h| 20.0 * h.norm().log10()).collect(),
-        phase_deg: points
-            .iter()
-            .zip(&h)
-            .map(|(p, h)| p.phase_deg + (h / p.h()).arg().to_degrees())
-            .collect(),
-    })
 }

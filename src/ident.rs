@@ -11,10 +11,11 @@ use crate::emit::{ensure_folder, format_of, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::{self, Partial};
 use pumpcyl::ident::{
-    analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Options, Request,
-    Standstill, Uncertainty, UncertaintyOptions,
+    analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Method, Options,
+    Request, Standstill, Uncertainty, UncertaintyOptions,
 };
 use pumpcyl_present::figures::Chart;
+use pumpcyl_present::frf as frf_outputs;
 use pumpcyl_present::identification as outputs;
 use pumpcyl_present::uncertainty::{add_uncertainty_json, profile_files, uncertainty_text};
 
@@ -111,6 +112,11 @@ pub struct IdentifyArgs {
     /// Confidence level of the --uncertainty intervals, in (0, 1).
     #[arg(long, default_value_t = 0.95, requires = "uncertainty")]
     confidence: f64,
+    /// Fit the sweep records by their frequency response (with any step records beside them),
+    /// as the experiment's `method = "frequency"` does
+    /// (docs/identification.md#grey-box-fit-to-a-frequency-response).
+    #[arg(long, conflicts_with = "shard")]
+    frequency: bool,
 }
 
 #[derive(Debug, Args)]
@@ -248,7 +254,11 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     if args.uncertainty {
         crate::emit::check_confidence(args.confidence)?;
     }
-    let exp = crate::read_files::experiment(&args.experiment)?;
+    let method = args.frequency.then_some(Method::Frequency);
+    let exp = crate::read_files::experiment_as(&args.experiment, method)?;
+    if exp.method == Method::Frequency {
+        return identify_frequency(args, &exp);
+    }
     let opts = options(args, &exp);
     anyhow::ensure!(
         args.shard.is_none() || args.out.is_some(),
@@ -307,6 +317,53 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
         args.json,
         args.out.as_deref(),
     )
+}
+
+/// `pumpcyl identify` of an experiment fitted in the frequency domain: the grid and the
+/// polished answer, the intervals with --uncertainty, with --out the folder of result.json and
+/// one fit figure per sweep (`fit-K.svg`: the estimate with its band and the fitted model).
+fn identify_frequency(args: &IdentifyArgs, exp: &Experiment) -> Result<String> {
+    anyhow::ensure!(
+        args.shard.is_none(),
+        "--shard: the frequency-domain fit is not sharded (it takes seconds)"
+    );
+    let problem = exp
+        .frequency_problem()
+        .ok_or_else(|| anyhow::anyhow!("the experiment is not fitted in the frequency domain"))?;
+    let start = Instant::now();
+    let fit = problem.fit(&exp.first_grid)?;
+    let seconds = start.elapsed().as_secs_f64();
+    warn(&fit.warnings);
+    let uncertainty = if args.uncertainty {
+        let start = Instant::now();
+        let u = problem.uncertainty(&fit, args.confidence)?;
+        Some((u, start.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
+    let u = uncertainty.as_ref().map(|(u, s)| (u, *s));
+    let doc = frf_outputs::frequency_document(exp, &fit, seconds, u);
+    if let Some(dir) = &args.out {
+        let folder = crate::emit::out_dir(dir)?;
+        write_atomic(
+            &folder.path().join("result.json"),
+            (serde_json::to_string_pretty(&doc)? + "\n").as_bytes(),
+        )?;
+        let curves = frf_outputs::fitted_curves(&problem, &fit);
+        for (k, (s, curve)) in problem.sweeps.iter().zip(&curves).enumerate() {
+            let svg = frf_outputs::frf_svg(&s.estimate, curve.as_ref())
+                .map_err(|e| anyhow::anyhow!(e))?;
+            write_atomic(
+                &folder.path().join(format!("fit-{}.svg", k + 1)),
+                svg.as_bytes(),
+            )?;
+        }
+        crate::emit::commit(folder, dir)?;
+    }
+    if args.json {
+        return Ok(serde_json::to_string_pretty(&doc)? + "\n");
+    }
+    Ok(frf_outputs::frequency_text(exp, &fit, seconds, u))
 }
 
 /// Warnings go to standard error, one line each, so `--json` output stays clean.

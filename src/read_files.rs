@@ -68,7 +68,15 @@ pub fn note_rig_defaults(file: &pumpcyl::rig::RigFile, name: &str, except: &[&st
 /// An experiment file read as the command line reads it: the left-out keys of the rig file it
 /// names, if any, noted.
 pub fn experiment(path: &Path) -> anyhow::Result<Experiment> {
-    let exp = Experiment::load_in(files(), path)?;
+    experiment_as(path, None)
+}
+
+/// [`experiment`] fitted by `method` instead of the file's `method` when given.
+pub fn experiment_as(
+    path: &Path,
+    method: Option<pumpcyl::ident::Method>,
+) -> anyhow::Result<Experiment> {
+    let exp = Experiment::load_as(files(), path, method)?;
     if exp.file.rig.is_some() {
         note(exp.rig_defaults.clone());
     }

@@ -489,3 +489,34 @@ fn emulate_a_multisine_then_read_its_frequency_response_back() {
     );
     assert!(!ok && err.contains("--duration-s"), "{err}");
 }
+
+#[test]
+fn the_sampled_loop_tends_to_the_continuous_loop_and_keeps_its_static_gain() {
+    // the PLC's loop (controller sampled, speed commands held) has the continuous loop's
+    // equilibrium exactly, and its response tends to the continuous one as the rate grows,
+    // the gap at a frequency f about the hold's half-sample delay, 360·f·h/2 degrees
+    let rig = Rig::default();
+    let plant = Plant::new(&rig);
+    let sys = plant.closed_loop(rig.sum_pressure);
+    let f = [1e-6, 0.5, 1.0];
+    let continuous = frf::model_response(&sys, &f, None).unwrap();
+    for rate_hz in [100.0, 1000.0, 10000.0] {
+        let sampled = frf::sampled_loop_response(&plant, rig.sum_pressure, &f, rate_hz).unwrap();
+        assert!(
+            (sampled[0] - continuous[0]).norm() < 1e-6,
+            "{rate_hz} Hz: static gain"
+        );
+        for k in 1..f.len() {
+            let ratio = sampled[k] / continuous[k];
+            let deg = ratio.arg().to_degrees().abs();
+            let db = 20.0 * ratio.norm().log10();
+            let delay_deg = 180.0 * f[k] / rate_hz;
+            eprintln!("{rate_hz} Hz, {} Hz: {db:.4} dB, {deg:.4} deg", f[k]);
+            // first order in h: a tenth of the gap per decade of rate
+            assert!(
+                deg < 4.0 * delay_deg && db.abs() < 25.0 / rate_hz,
+                "{db} {deg}"
+            );
+        }
+    }
+}

@@ -27,6 +27,7 @@ from ._pumpcyl import (
     select as select,
     effective_beta as effective_beta,
     gas_fraction as gas_fraction,
+    frf as frf,
     identify as identify,
     identify_merge as identify_merge,
     margins as margins,

@@ -491,6 +491,7 @@ def identify(
     shard: Optional[Tuple[int, int]] = None,
     uncertainty: bool = False,
     confidence: float = 0.95,
+    method: Optional[Literal["time", "frequency"]] = None,
 ) -> Union[Identification, str]:
     """Grid identification of beta (bar), b (N·s/m) and c12 (m⁵/(N·s)) (the article §2.4.4)
     from an experiment TOML file, or from ``datasets`` with ``standstill=dict(w1_rpm=...,
@@ -507,7 +508,10 @@ def identify(
     (docs/identification.md#sharding), for :func:`identify_merge`; it needs an experiment file
     with fixed grids and no grid arguments. ``uncertainty=True`` adds the profile-likelihood
     intervals at ``confidence`` as ``pumpcyl identify --uncertainty --json`` does:
-    the fields of :class:`IdentificationUncertainty`."""
+    the fields of :class:`IdentificationUncertainty`. ``method="frequency"`` (or the file's
+    ``method = "frequency"``) fits the file's sweep records by their frequency response, with
+    any step records beside them, and adds the ``intervals`` at ``confidence``: the keys of
+    ``pumpcyl identify --frequency --uncertainty --json``."""
 
 def identify_merge(shards: Sequence[str]) -> Identification:
     """Merge the partial results of ``identify(experiment, shard=(i, n))``, i = 1..n, in any
@@ -515,6 +519,19 @@ def identify_merge(shards: Sequence[str]) -> Identification:
     with its checks: refused when a shard is missing or twice, from another run or options, or
     edited. The experiment file is read again from the path the shards name. Releases the
     GIL."""
+
+def frf(
+    record: Union[str, PathLike[str]],
+    *,
+    rig: Optional[Rig] = None,
+    segment_s: Optional[float] = None,
+) -> Result:
+    """Closed-loop frequency response x/x_ref of a sweep record with its coherence and 95 %
+    band at each frequency (``closed_loop.points``: ``freq_hz``, ``re``, ``im``,
+    ``magnitude_db``, ``phase_deg``, ``coherence``, ``relative_error``, ``band_db``,
+    ``band_deg``) and ``rig``'s model beside it (default: the article's rig), as
+    ``pumpcyl frf RECORD.csv --json``. A periodic sweep found in the record is averaged over
+    its periods; anything else by Welch's method (``segment_s``: its segment length, s)."""
 
 def emulate(
     experiment: Literal["step", "sine", "drive-step", "standstill"],

@@ -1036,13 +1036,16 @@ fn standstill_of(value: &Bound<'_, PyAny>) -> PyResult<Standstill> {
 /// length of the top list. Work beyond 10^9 candidate-samples (hours) is refused unless
 /// `allow_long_run=True`. The search runs with the GIL released; Ctrl-C stops it
 /// (KeyboardInterrupt). `progress=True` prints progress on stderr; a callable gets
-/// `(done, total)` candidates.
+/// `(done, total)` candidates. `method="frequency"` (or the file's `method = "frequency"`)
+/// fits the experiment's sweep records by their frequency response, with any step records
+/// beside them (docs/identification.md#grey-box-fit-to-a-frequency-response), `grid` its grid;
+/// the document holds the 95 % profile-likelihood `intervals` too.
 #[pyfunction]
 #[pyo3(signature = (
     experiment = None, *, datasets = None, standstill = None, rig = None, grids = None,
     grid = None, refined_grid = None, auto_refine = None, local_refinement = None,
     threshold_mm2 = None, top = 20, progress = None, allow_long_run = false, shard = None,
-    uncertainty = false, confidence = 0.95
+    uncertainty = false, confidence = 0.95, method = None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
@@ -1063,6 +1066,7 @@ fn identify(
     shard: Option<(usize, usize)>,
     uncertainty: bool,
     confidence: f64,
+    method: Option<&str>,
 ) -> PyResult<Py<PyAny>> {
     if let Some(label) = shard {
         check_shard_request(
@@ -1075,10 +1079,19 @@ fn identify(
         )
         .map_err(|problem| err(format!("identify(shard={label:?}): {problem}")))?;
     }
-    if uncertainty {
-        ident::check_confidence(confidence).map_err(err)?;
-    }
+    ident::check_confidence(confidence).map_err(err)?;
     let path = experiment.clone();
+    let method = method
+        .map(|m| {
+            ident::Method::named(m)
+                .ok_or_else(|| err(format!("method=\"{m}\": give \"time\" or \"frequency\"")))
+        })
+        .transpose()?;
+    if method == Some(ident::Method::Frequency) && (experiment.is_none() || shard.is_some()) {
+        return Err(err(
+            "method=\"frequency\" fits the records of an experiment file, unsharded: give `experiment` and no `shard`",
+        ));
+    }
     let loaded;
     let built;
     let (problem, id_rig, origin, file_grids, file_opts) = match (experiment, datasets) {
@@ -1088,7 +1101,15 @@ fn identify(
                     "standstill and rig come from the experiment file: give either the file or datasets",
                 ));
             }
-            loaded = Experiment::load(&path).map_err(err)?;
+            loaded = Experiment::load_as(&pumpcyl::input::Disk, &path, method).map_err(err)?;
+            if loaded.method == ident::Method::Frequency {
+                if shard.is_some() {
+                    return Err(err("identify(shard=...): a shard is a slice of the time-domain grid search; the experiment's method is \"frequency\""));
+                }
+                let first = grid.map(|g| grid_of("grid", g)).transpose()?;
+                let outcome = identify_frequency(py, &loaded, first, confidence)?;
+                return Ok(Py::new(py, outcome)?.into_any());
+            }
             if let Some(label) = shard {
                 ident::shards::check_label(&loaded, label).map_err(err)?;
             }
@@ -1384,6 +1405,62 @@ fn identify_merge(py: Python<'_>, shards: Vec<Bound<'_, PyAny>>) -> PyResult<PyO
         seconds,
     };
     identification_outcome(py, &found, None)
+}
+
+/// The frequency-domain fit of an experiment (on `first`, else its first grid) with its
+/// intervals at `confidence`, as `pumpcyl identify --frequency --uncertainty --json` gives it.
+fn identify_frequency(
+    py: Python<'_>,
+    exp: &Experiment,
+    first: Option<Grid>,
+    confidence: f64,
+) -> PyResult<PyOutcome> {
+    let problem = exp
+        .frequency_problem()
+        .ok_or_else(|| err("the experiment is not fitted in the frequency domain"))?;
+    let grid = first.unwrap_or_else(|| exp.first_grid.clone());
+    let start = Instant::now();
+    let fit = py.detach(|| problem.fit(&grid)).map_err(err)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let u = py
+        .detach(|| problem.uncertainty(&fit, confidence))
+        .map_err(err)?;
+    let u_seconds = start.elapsed().as_secs_f64();
+    warn_each(py, fit.warnings.clone())?;
+    let doc = pumpcyl_present::frf::frequency_document(exp, &fit, seconds, Some((&u, u_seconds)));
+    PyOutcome::of(py, "Identification", &doc)
+}
+
+/// The closed-loop frequency response of a sweep record (docs/identification.md#frequency-response-from-a-sweep)
+/// with its coherence and 95 % band at each frequency, and `rig`'s model beside it (default:
+/// the article's rig), as `pumpcyl frf RECORD.csv --json` gives it: periodic sweeps found in
+/// the record are averaged over their periods, anything else by Welch's method (`segment_s`,
+/// s, its segment length).
+#[pyfunction]
+#[pyo3(signature = (record, *, rig = None, segment_s = None))]
+fn frf(
+    py: Python<'_>,
+    record: PathBuf,
+    rig: Option<&PyRig>,
+    segment_s: Option<f64>,
+) -> PyResult<PyOutcome> {
+    let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
+    let rec = Record::read(&record).map_err(err)?;
+    rec.check_units(rig.stroke_mm).map_err(err)?;
+    let opts = pumpcyl::frf::Options {
+        excitation: None,
+        rig: Some(&rig),
+        segment_s,
+    };
+    let est = pumpcyl::frf::estimate(&rec, &opts).map_err(err)?;
+    let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, "the rig given").map_err(err)?;
+    warn_each(py, est.warnings.clone())?;
+    PyOutcome::of(
+        py,
+        "FrequencyResponse",
+        &pumpcyl_present::frf::frf_json(&est, Some(&model)),
+    )
 }
 
 /// Whether Python's `sys.stderr` is a terminal (a notebook's or a pipe's is not).
@@ -1987,6 +2064,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify_merge, m)?)?;
     m.add_function(wrap_pyfunction!(check_shards, m)?)?;
+    m.add_function(wrap_pyfunction!(frf, m)?)?;
     m.add_function(wrap_pyfunction!(advise, m)?)?;
     m.add_function(wrap_pyfunction!(gas_fraction, m)?)?;
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;

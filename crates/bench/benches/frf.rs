@@ -1,10 +1,13 @@
 //! Criterion benchmark of the frequency-response estimate (docs/identification.md#frequency-response-from-a-sweep)
 //! of a 600 s record at 100 Hz (target: under 1 s): Welch's estimate of a chirp described by
 //! nothing but its record, and the periodic estimate of a multisine checked against its
-//! description, both with the rig's crossover check and the plant's response.
+//! description, both with the rig's crossover check and the plant's response; and the
+//! frequency-domain grid fit of β, b and c12 (docs/identification.md#grey-box-fit-to-a-frequency-response)
+//! to that multisine on a grid of the article's size (3264 candidates) with its polish.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use pumpcyl::frf::{estimate, Excitation, Options};
+use pumpcyl::ident::{Experiment, FrequencyProblem, Grid, SweepSet};
 use pumpcyl::record::Record;
 use pumpcyl::response::{sample_times, simulate, Baseline};
 use pumpcyl::rig::Rig;
@@ -43,6 +46,24 @@ fn bench(c: &mut Criterion) {
     c.bench_function("frf_multisine_600s_100hz", |b| {
         b.iter(|| estimate(black_box(&rec), &periodic).unwrap())
     });
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/article/identify.toml"
+    );
+    let exp = Experiment::load(std::path::Path::new(file)).unwrap();
+    let problem = FrequencyProblem {
+        sweeps: vec![SweepSet::new("bench.csv", &rec, rig.clone()).unwrap()],
+        steps: None,
+        standstill: exp.problem.standstill,
+    };
+    let grid = Grid::article_first();
+    assert_eq!(grid.len(), 3264);
+    let mut group = c.benchmark_group("frf_fit");
+    group.sample_size(10);
+    group.bench_function("grid_fit_article_grid", |b| {
+        b.iter(|| problem.fit(black_box(&grid)).unwrap())
+    });
+    group.finish();
 }
 
 criterion_group!(benches, bench);

@@ -4,8 +4,10 @@
 
 use crate::plot::{bode_svg, BodeSeries, ReportError};
 use crate::table::Table;
-use pumpcyl::frf::{Design, Estimate, Point, Response};
+use pumpcyl::frf::{Complex64, Design, Estimate, Point, Response};
+use pumpcyl::ident::{Candidate, Experiment, FrequencyFit, FrequencyProblem, FrequencyUncertainty};
 use serde::Serialize;
+use serde_json::json;
 use std::fmt::Write;
 
 /// The model's response beside an estimate: its name and H at the estimate's frequencies.
@@ -223,4 +225,194 @@ pub fn design_text(d: &Design) -> String {
         let _ = writeln!(out, "note: {n}");
     }
     out
+}
+
+/// The model's curve beside `est`: `label`, |H| (dB) and arg H (deg), the phase unwrapped
+/// beside the estimate's, from the model's H at each of the estimate's frequencies.
+pub fn model_curve(label: String, est: &Estimate, h: &[Complex64]) -> ModelCurve {
+    let points = &est.closed_loop.points;
+    ModelCurve {
+        label,
+        magnitude_db: h.iter().map(|h| 20.0 * h.norm().log10()).collect(),
+        phase_deg: points
+            .iter()
+            .zip(h)
+            .map(|(p, h)| p.phase_deg + (h / p.h()).arg().to_degrees())
+            .collect(),
+    }
+}
+
+/// The rig's closed loop beside `est` (labelled with the rig's `origin`), its reference held
+/// between samples as the record's is ([`pumpcyl::frf::model_response`]).
+pub fn rig_model_curve(
+    rig: &pumpcyl::rig::Rig,
+    est: &Estimate,
+    origin: &str,
+) -> Result<ModelCurve, pumpcyl::lti::LtiError> {
+    let sys = pumpcyl::model::Plant::new(rig).closed_loop(rig.sum_pressure);
+    let freqs: Vec<f64> = est.closed_loop.points.iter().map(|p| p.freq_hz).collect();
+    let h = pumpcyl::frf::model_response(&sys, &freqs, Some(est.rate_hz))?;
+    Ok(model_curve(format!("model x/x_ref ({origin})"), est, &h))
+}
+
+/// The fitted model of each sweep of a frequency-domain fit, at the sweep's frequencies; a
+/// sweep whose fitted loop cannot be evaluated gets none.
+pub fn fitted_curves(problem: &FrequencyProblem, fit: &FrequencyFit) -> Vec<Option<ModelCurve>> {
+    problem
+        .sweeps
+        .iter()
+        .map(|s| {
+            let freqs: Vec<f64> = s
+                .estimate
+                .closed_loop
+                .points
+                .iter()
+                .map(|p| p.freq_hz)
+                .collect();
+            let rig = problem.rig_for(&fit.best, s).ok()?;
+            let h = s.model_at(&rig, &freqs)?;
+            Some(model_curve(
+                format!(
+                    "fitted model (beta {:.1} bar, b {:.0} N·s/m, c12 {:.3e} m⁵/(N·s))",
+                    fit.best.beta_bar, fit.best.viscous_friction_ns_per_m, fit.best.c12_m5_per_ns
+                ),
+                &s.estimate,
+                &h,
+            ))
+        })
+        .collect()
+}
+
+/// The one document of a frequency-domain (or combined) fit, whoever asked for it (`pumpcyl
+/// identify --frequency --json`, result.json, Python's `identify(..., method="frequency")`):
+/// the answer with its leakages as the step identification's (`beta_bar`,
+/// `viscous_friction_ns_per_m`, `c12_m5_per_ns`, `c1_m5_per_ns`, `c2_m5_per_ns`), the best
+/// grid point, the costs and their weights, each sweep's part, the warnings, and with the
+/// intervals `intervals`, `identifiable`, `profiles`, `confidence`, `chi2_threshold`.
+pub fn frequency_document(
+    exp: &Experiment,
+    fit: &FrequencyFit,
+    seconds: f64,
+    uncertainty: Option<(&FrequencyUncertainty, f64)>,
+) -> serde_json::Value {
+    let c = &fit.best;
+    let mut v = json!({
+        "method": "frequency",
+        "beta_bar": c.beta_bar,
+        "viscous_friction_ns_per_m": c.viscous_friction_ns_per_m,
+        "c12_m5_per_ns": c.c12_m5_per_ns,
+        "c1_m5_per_ns": fit.leakage.c1_m5_per_ns,
+        "c2_m5_per_ns": fit.leakage.c2_m5_per_ns,
+        "cost": fit.cost,
+        "sweep_weighted_cost": fit.sweep_cost,
+        "step_sse_mm2": fit.step_sse_mm2,
+        "sweep_cost_scale": fit.scales.sweep_scale,
+        "step_noise_var_mm2": fit.scales.step_noise_var_mm2,
+        "frequencies": fit.frequencies,
+        "candidates_evaluated": fit.evaluated,
+        "seconds": seconds,
+        "grid_best": fit.grid_best,
+        "sweeps": fit.sweeps,
+        "step_datasets": exp.problem.datasets.iter().map(|d| d.name.clone()).collect::<Vec<_>>(),
+        "experiment": exp.path.display().to_string(),
+        "grids": exp.grids_origin,
+        "warnings": fit.warnings,
+    });
+    if let Some((u, s)) = uncertainty {
+        let mut intervals = serde_json::Map::new();
+        let mut identifiable = serde_json::Map::new();
+        let mut profiles = serde_json::Map::new();
+        for p in &u.profiles {
+            intervals.insert(p.parameter.into(), json!(p.interval));
+            identifiable.insert(p.parameter.into(), json!(p.identifiable));
+            let points: Vec<_> = p
+                .points
+                .iter()
+                .map(|q| json!({"value": q.value, "statistic": q.statistic, "cost": q.sse_mm2}))
+                .collect();
+            profiles.insert(p.parameter.into(), json!(points));
+        }
+        v["intervals"] = intervals.into();
+        v["identifiable"] = identifiable.into();
+        v["profiles"] = profiles.into();
+        v["confidence"] = json!(u.confidence);
+        v["chi2_threshold"] = json!(u.threshold);
+        v["uncertainty_seconds"] = json!(s);
+    }
+    v
+}
+
+/// A frequency-domain fit as text: the records, the answer, the intervals, the warnings.
+pub fn frequency_text(
+    exp: &Experiment,
+    fit: &FrequencyFit,
+    seconds: f64,
+    uncertainty: Option<(&FrequencyUncertainty, f64)>,
+) -> String {
+    let mut s = format!(
+        "{}: frequency-domain fit of {} sweep{} ({} usable frequencies){}, {} grid candidates \
+         in {seconds:.3} s\n",
+        exp.path.display(),
+        fit.sweeps.len(),
+        if fit.sweeps.len() == 1 { "" } else { "s" },
+        fit.frequencies,
+        match exp.problem.datasets.len() {
+            0 => String::new(),
+            n => format!(" with {n} step record{}", if n == 1 { "" } else { "s" }),
+        },
+        fit.evaluated
+    );
+    let line = |label: &str, c: &Candidate| {
+        format!(
+            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)\n",
+            c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns
+        )
+    };
+    s += &line("best grid point", &fit.grid_best);
+    s += &line("fitted", &fit.best);
+    let _ = writeln!(
+        s,
+        "  leakages         c1 {:.4e}, c2 {:.4e} m⁵/(N·s)",
+        fit.leakage.c1_m5_per_ns, fit.leakage.c2_m5_per_ns
+    );
+    for w in &fit.sweeps {
+        let _ = writeln!(
+            s,
+            "  sweep {}: {} of {} frequencies usable (coherence >= {:.3}), weighted cost {:.4}",
+            w.file, w.fitted_frequencies, w.frequencies, w.usable_coherence, w.weighted_cost
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  weights          sweeps' cost / {:.4e}{}",
+        fit.scales.sweep_scale,
+        fit.scales
+            .step_noise_var_mm2
+            .map_or(String::new(), |v| format!(", steps' SSE / {v:.4e} mm²"))
+    );
+    if let Some((u, secs)) = uncertainty {
+        let _ = writeln!(
+            s,
+            "{:.0} % profile-likelihood intervals (cost rise <= {:.3}, {secs:.2} s):",
+            u.confidence * 100.0,
+            u.threshold
+        );
+        for p in &u.profiles {
+            let open = if p.identifiable {
+                String::new()
+            } else {
+                "  (unbounded: the records do not bound it on the side(s) at the search bound)"
+                    .to_string()
+            };
+            let _ = writeln!(
+                s,
+                "  {:<26} {:.4e} … {:.4e}{open}",
+                p.parameter, p.interval[0], p.interval[1]
+            );
+        }
+    }
+    for w in &fit.warnings {
+        let _ = writeln!(s, "  warning: {w}");
+    }
+    s
 }

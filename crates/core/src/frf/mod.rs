@@ -25,7 +25,7 @@ pub mod spectra;
 
 pub use design::{design, Design, DesignGoal};
 pub use excitation::{Excitation, Level};
-pub use model::model_response;
+pub use model::{model_response, sampled_loop_response};
 /// The complex numbers of the estimates (num-complex's).
 pub use num_complex::Complex64;
 
@@ -228,7 +228,7 @@ struct Raw {
 /// The frequency response of `rec` (see the module's description).
 pub fn estimate(rec: &Record, opts: &Options) -> Result<Estimate, FrfError> {
     let rate_hz = uniform_rate(rec)?;
-    check_crossings(rec)?;
+    check_sweep(rec)?;
     if let Some(e) = &opts.excitation {
         check_matches(rec, e)?;
     }
@@ -243,6 +243,10 @@ pub fn estimate(rec: &Record, opts: &Options) -> Result<Estimate, FrfError> {
         Some(e) if e.period_s().is_some_and(|p| whole(p * rate_hz)) => {
             periodic(rec, &e, rate_hz, command.as_deref())?
         }
+        None if opts.segment_s.is_none() => match find_period(rec) {
+            Some((first, len)) => found_periodic(rec, (first, len), rate_hz, command.as_deref()),
+            None => welch_estimate(rec, opts, rate_hz, command.as_deref(), &mut warnings)?,
+        },
         _ => welch_estimate(rec, opts, rate_hz, command.as_deref(), &mut warnings)?,
     };
     let raw = thin(raw);
@@ -285,8 +289,9 @@ fn uniform_rate(rec: &Record) -> Result<f64, FrfError> {
     Ok(1.0 / step)
 }
 
-/// Refuse a reference that crosses its mean fewer than [`MIN_CROSSINGS`] times.
-fn check_crossings(rec: &Record) -> Result<(), FrfError> {
+/// Refuse a reference that crosses its mean fewer than [`MIN_CROSSINGS`] times: a step or a
+/// hold, not a sweep.
+pub fn check_sweep(rec: &Record) -> Result<(), FrfError> {
     let mean = rec.x_ref_mm.iter().sum::<f64>() / rec.len() as f64;
     let mut last = 0.0;
     let mut crossings = 0;
@@ -509,6 +514,45 @@ fn periodic(
         .map(|k| ratio_at(k as f64 / period_s, k, &sx, su.as_ref()))
         .collect();
     Ok((raw, shell(rec, Method::Periods, rate_hz, &sx)))
+}
+
+/// Samples compared before a lag is checked over the whole record.
+const PROBE: usize = 64;
+
+/// A reference that repeats, found without its description: (the first sample of its second
+/// period, the period in samples) when, from where it first leaves its initial value, it
+/// repeats within [`crate::record::POSITION_RESOLUTION_MM`] for at least three whole periods
+/// (a multisine, a chirp played three times or more).
+pub fn find_period(rec: &Record) -> Option<(usize, usize)> {
+    let r = &rec.x_ref_mm;
+    let n = r.len();
+    let tol = crate::record::POSITION_RESOLUTION_MM;
+    let s = r.iter().position(|&v| (v - r[0]).abs() > tol)?;
+    let same = |l: usize, m: usize| (s..s + m).all(|k| (r[k + l] - r[k]).abs() <= tol);
+    let len = (PROBE..=(n - s) / 3)
+        .filter(|&l| l <= MAX_SEGMENT)
+        .find(|&l| same(l, PROBE) && same(l, ((n - s) / l - 1) * l))?;
+    Some((s + len, len))
+}
+
+/// A periodic sweep found by [`find_period`]: its periods after the first, at the harmonics
+/// its reference excites (power above [`EXCITED`] of the strongest).
+fn found_periodic(
+    rec: &Record,
+    (first, len): (usize, usize),
+    rate_hz: f64,
+    command: Option<&[f64]>,
+) -> (Vec<Raw>, Estimate) {
+    let (r, x) = (&rec.x_ref_mm, &rec.x_mm);
+    let sx = spectra::periods(r, x, first, len);
+    let su = command.map(|u| spectra::periods(r, u, first, len));
+    let peak = sx.rr.iter().skip(1).cloned().fold(0.0, f64::max);
+    let period_s = len as f64 / rate_hz;
+    let raw = (1..len.div_ceil(2))
+        .filter(|&k| sx.rr[k] > 0.0 && sx.rr[k] >= EXCITED * peak)
+        .map(|k| ratio_at(k as f64 / period_s, k, &sx, su.as_ref()))
+        .collect();
+    (raw, shell(rec, Method::Periods, rate_hz, &sx))
 }
 
 /// A stepped sine: the sine fit of r, x (and u) over each level's whole periods after settling.

@@ -1,6 +1,7 @@
 //! The experiment file of `pumpcyl identify`: rig, overrides, standstill point, datasets and
 //! optional grids, in TOML. Paths are relative to the experiment file.
 
+use super::frequency::{FrequencyProblem, SweepSet};
 use super::grid::{short, Grid, SecondGrid, FIRST_AXES};
 use super::leakage::Standstill;
 use super::problem::{DatasetSpec, Prepared, Problem};
@@ -30,8 +31,13 @@ pub struct ExperimentFile {
     pub set: toml::Table,
     /// Standstill point for c1, c2 (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
     pub standstill: StandstillSpec,
+    /// `"time"` (the article's fit of step records, the default) or `"frequency"` (sweep
+    /// records fitted by their frequency response, with any step records beside them;
+    /// docs/identification.md#grey-box-fit-to-a-frequency-response).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
     /// The records to fit, at least one.
-    pub dataset: Vec<DatasetSpec>,
+    pub dataset: Vec<DatasetEntry>,
     /// First grid; absent = one over `ranges`, each axis without a range centred on the rig's
     /// value ([`FIRST_AXES`]), or the article's with `grids = "article"`.
     pub grid: Option<Grid>,
@@ -53,6 +59,53 @@ pub struct ExperimentFile {
     /// Nelder–Mead refinement from the best grid point.
     #[serde(default = "yes")]
     pub local_refinement: bool,
+}
+
+/// One `[[dataset]]` as written: a [`DatasetSpec`] whose `fit_end_s` only a step record needs,
+/// and what kind of record it is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetEntry {
+    /// Record file (docs/formats.md#record-csv), relative to the experiment file.
+    pub file: String,
+    /// Position gain used in the experiment (normalised command per metre).
+    pub kp: f64,
+    /// Effective mass during the experiment (kg).
+    pub mass_kg: f64,
+    /// End of the fit window of a step record (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_end_s: Option<f64>,
+    /// `"step"` or `"sweep"`; absent, the frequency method tells them by the reference (a
+    /// sweep crosses its mean many times), the time method fits every record as a step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kind: Option<String>,
+}
+
+/// How an experiment's records are fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The step records' position errors over time (the article §2.4).
+    Time,
+    /// The sweep records' frequency responses, with any step records' position errors.
+    Frequency,
+}
+
+impl Method {
+    /// The method named `name` in an experiment file.
+    pub fn named(name: &str) -> Option<Method> {
+        match name {
+            "time" => Some(Method::Time),
+            "frequency" => Some(Method::Frequency),
+            _ => None,
+        }
+    }
+}
+
+/// A dataset read: a step record ready for the time-domain fit or a sweep's estimate.
+enum Loaded {
+    Step(Box<Prepared>),
+    Sweep(Box<SweepSet>),
 }
 
 /// The ranges [lo, hi] of the first grid's axes, each optional.
@@ -214,15 +267,15 @@ impl ExperimentFile {
         Ok((rig, defaults))
     }
 
-    /// Dataset `i`, its record read and prepared.
+    /// Dataset `i`, its record read and prepared for `method`.
     fn dataset(
         &self,
         files: &dyn input::Files,
-        i: usize,
+        (i, method): (usize, Method),
         dir: &Path,
         rig: &Rig,
         at: &Locate,
-    ) -> Result<Prepared, IdentError> {
+    ) -> Result<Loaded, IdentError> {
         let spec = &self.dataset[i];
         let key = |k| [Name("dataset"), Index(i), Name(k)];
         let what = format!("dataset {} (`{}`)", i + 1, spec.file);
@@ -237,7 +290,46 @@ impl ExperimentFile {
                 return Err(at.error(&key(k), format!("{what}: {k} = {v}: {rule}")));
             }
         }
-        Prepared::new(spec, record, rig).map_err(|e| at.error(&key("fit_end_s"), e))
+        let sweep = match (method, spec.kind.as_deref()) {
+            (_, Some("step")) | (Method::Time, None) => false,
+            (_, Some("sweep")) => true,
+            (Method::Frequency, None) => crate::frf::check_sweep(&record).is_ok(),
+            (_, Some(other)) => {
+                let m = format!("{what}: kind = \"{other}\": give \"step\" or \"sweep\"");
+                return Err(at.error(&key("kind"), m));
+            }
+        };
+        if sweep && method == Method::Frequency {
+            let rig = Rig {
+                kp: spec.kp,
+                mass_kg: spec.mass_kg,
+                ..rig.clone()
+            };
+            return SweepSet::new(&spec.file, &record, rig)
+                .map(|s| Loaded::Sweep(Box::new(s)))
+                .map_err(|e| at.error(&key("file"), format!("{what}: {e}")));
+        }
+        let Some(fit_end_s) = spec.fit_end_s else {
+            let why = match crate::frf::check_sweep(&record) {
+                Err(e) if method == Method::Frequency => format!(
+                    "{}; as a step record it needs fit_end_s",
+                    e.to_string().replace(&format!("{}: ", record.file), "")
+                ),
+                _ => "a step record needs fit_end_s, the end of its fit window (s); a sweep \
+                      record is fitted with method = \"frequency\""
+                    .to_string(),
+            };
+            return Err(at.error(&[Name("dataset"), Index(i)], format!("{what}: {why}")));
+        };
+        let spec = DatasetSpec {
+            file: spec.file.clone(),
+            kp: spec.kp,
+            mass_kg: spec.mass_kg,
+            fit_end_s,
+        };
+        Prepared::new(&spec, record, rig)
+            .map(|p| Loaded::Step(Box::new(p)))
+            .map_err(|e| at.error(&key("fit_end_s"), e))
     }
 }
 
@@ -287,8 +379,12 @@ pub struct Experiment {
     pub rig: Rig,
     /// What the experiment's rig file leaves out (docs/formats.md#rig-toml).
     pub rig_defaults: RigDefaults,
-    /// Datasets ready to fit.
+    /// How the records are fitted: the file's `method`, or the caller's.
+    pub method: Method,
+    /// The step records ready to fit (every record with the time method).
     pub problem: Problem,
+    /// The sweep records' estimates (the frequency method only).
+    pub sweeps: Vec<SweepSet>,
     /// The first grid (the file's, the article's, or over the ranges / the rig's values).
     pub first_grid: Grid,
     /// The second stage: given, centred on the first stage's best, or none.
@@ -335,10 +431,19 @@ impl Experiment {
 
     /// [`Experiment::load`], the experiment and every file it names read from `files`.
     pub fn load_in(files: &dyn input::Files, path: &Path) -> Result<Experiment, IdentError> {
+        Self::load_as(files, path, None)
+    }
+
+    /// [`Experiment::load_in`] with `method` instead of the file's (`identify --frequency`).
+    pub fn load_as(
+        files: &dyn input::Files,
+        path: &Path,
+        method: Option<Method>,
+    ) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
         let text =
             input::read_text(files, path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
-        Self::from_text_in(files, &text, path)
+        Self::parse(files, &text, path, method)
     }
 
     /// Check and prepare the experiment `text` of the file at `path` (which names it in
@@ -352,6 +457,16 @@ impl Experiment {
         files: &dyn input::Files,
         text: &str,
         path: &Path,
+    ) -> Result<Experiment, IdentError> {
+        Self::parse(files, text, path, None)
+    }
+
+    /// [`Experiment::from_text_in`], `method` (when given) instead of the file's.
+    fn parse(
+        files: &dyn input::Files,
+        text: &str,
+        path: &Path,
+        method: Option<Method>,
     ) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
         let file: ExperimentFile = toml::from_str(text)
@@ -393,9 +508,27 @@ impl Experiment {
             (None, Some(_)) => (Grid::article_refined().into(), "the article's refined grid"),
             (None, None) => (SecondGrid::Centred, "centred on the first stage's best"),
         };
-        let datasets = (0..file.dataset.len())
-            .map(|i| file.dataset(files, i, dir, &rig, &at))
-            .collect::<Result<_, _>>()?;
+        let method = match (method, file.method.as_deref()) {
+            (Some(m), _) => m,
+            (None, None) => Method::Time,
+            (None, Some(m)) => Method::named(m).ok_or_else(|| {
+                let m = format!("method = \"{m}\": give \"time\" or \"frequency\"");
+                at.error(&[Name("method")], m)
+            })?,
+        };
+        let (mut datasets, mut sweeps) = (Vec::new(), Vec::new());
+        for i in 0..file.dataset.len() {
+            match file.dataset(files, (i, method), dir, &rig, &at)? {
+                Loaded::Step(p) => datasets.push(*p),
+                Loaded::Sweep(s) => sweeps.push(*s),
+            }
+        }
+        if method == Method::Frequency && sweeps.is_empty() {
+            let m = "the frequency method needs at least one sweep record (a chirp, multisine \
+                     or stepped sine: pumpcyl emulate --experiment multisine); every dataset's \
+                     reference is a step or a hold";
+            return Err(at.error(&[Name("dataset")], m));
+        }
         Ok(Experiment {
             path: path.to_path_buf(),
             grids_origin: format!("first {first_origin}; second {second_origin}"),
@@ -404,10 +537,22 @@ impl Experiment {
             file,
             rig,
             rig_defaults,
+            method,
             problem: Problem {
                 datasets,
                 standstill,
             },
+            sweeps,
+        })
+    }
+
+    /// The records of a frequency-domain fit: the sweeps, with the step records beside them
+    /// when there are any; `None` with the time method.
+    pub fn frequency_problem(&self) -> Option<FrequencyProblem> {
+        (self.method == Method::Frequency).then(|| FrequencyProblem {
+            sweeps: self.sweeps.clone(),
+            steps: (!self.problem.datasets.is_empty()).then(|| self.problem.clone()),
+            standstill: self.problem.standstill,
         })
     }
 

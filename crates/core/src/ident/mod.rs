@@ -34,6 +34,7 @@
 mod advice;
 mod drive;
 mod experiment;
+mod frequency;
 mod grid;
 mod leakage;
 mod problem;
@@ -49,7 +50,10 @@ pub use advice::{
     MIN_SAMPLES_PER_PERIOD, REST_S,
 };
 pub use drive::{identify_drive, DriveFit, DriveRecord};
-pub use experiment::{Experiment, ExperimentFile, RigDefaults};
+pub use experiment::{DatasetEntry, Experiment, ExperimentFile, Method, RigDefaults};
+pub use frequency::{
+    FrequencyFit, FrequencyProblem, FrequencyUncertainty, Scales, SweepSet, SweepSummary,
+};
 pub use grid::{
     candidate_values, spaced, stepped, Candidate, Grid, SecondGrid, FIRST_AXES, SECOND_COUNTS,
 };
@@ -276,6 +280,13 @@ impl<'a> Request<'a> {
     /// limit unless a long run is allowed.
     pub fn check(&self) -> Result<(), IdentError> {
         self.options.validate()?;
+        if self.problem.datasets.is_empty() {
+            return Err(IdentError::Input(
+                "no step record to fit in the time domain: the records are sweeps, fitted \
+                 with the frequency method (identify --frequency)"
+                    .into(),
+            ));
+        }
         if self.shard.is_some() && self.options.auto_refine {
             return Err(IdentError::Input(
                 "a shard needs fixed grids: auto-refine derives the second grid from the \

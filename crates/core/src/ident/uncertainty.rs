@@ -79,7 +79,8 @@ impl Default for UncertaintyOptions {
 pub struct ProfilePoint {
     /// The profiled parameter's value (its unit: bar, N·s/m or m⁵/(N·s)).
     pub value: f64,
-    /// Least SSE (mm²) over the other two parameters.
+    /// Least SSE (mm²) over the other two parameters; for a frequency-domain fit its least
+    /// weighted cost (no unit, docs/identification.md#grey-box-fit-to-a-frequency-response).
     pub sse_mm2: f64,
     /// ΔSSE/σ², to compare with χ²₁(confidence).
     pub statistic: f64,
@@ -193,18 +194,27 @@ fn normal_quantile(p: f64) -> f64 {
     }
 }
 
-/// The SSE of a point in (ln β, ln b, ln c12); +∞ outside [`BOUNDS`].
-fn sse_at(problem: &Problem, p: &[f64]) -> f64 {
+/// `f` at a point in (ln β, ln b, ln c12); +∞ outside [`BOUNDS`].
+pub(super) fn bounded(p: &[f64], f: impl Fn(&Candidate) -> f64) -> f64 {
     let inside = p
         .iter()
         .zip(BOUNDS)
         .all(|(v, [lo, hi])| (lo.ln()..=hi.ln()).contains(v));
     if inside {
-        problem.sse_offset_free(&candidate_of(p))
+        f(&candidate_of(p))
     } else {
         f64::INFINITY
     }
 }
+
+/// The SSE of a point in (ln β, ln b, ln c12); +∞ outside [`BOUNDS`].
+fn sse_at(problem: &Problem, p: &[f64]) -> f64 {
+    bounded(p, |c| problem.sse_offset_free(c))
+}
+
+/// A cost over (ln β, ln b, ln c12) whose profiles are read: the step records' SSE here, the
+/// frequency-domain fit's weighted cost in [`super::frequency`].
+pub(super) type Objective<'a> = &'a (dyn Fn(&[f64]) -> f64 + Sync);
 
 /// Refuse a confidence level outside (0, 1); the message names the parameter `confidence`.
 pub fn check_confidence(confidence: f64) -> Result<f64, IdentError> {
@@ -267,16 +277,24 @@ impl Optimum {
         })
     }
 
-    /// The profile scan at this optimum.
-    fn scan<'a>(&'a self, problem: &'a Problem) -> Scan<'a> {
+    /// The profile scan of `f` (the SSE) at this optimum.
+    fn scan<'a>(&'a self, f: Objective<'a>) -> Scan<'a> {
         Scan {
-            problem,
+            f,
             best: &self.best,
             sse: self.sse,
             var: self.inflations.map(|c| self.var * c),
             threshold: self.threshold,
         }
     }
+}
+
+/// The step records' least SSE near `start` (mm²) and the noise variance (mm²) a combined
+/// fit divides it by: σ² = SSE/(N − p) times the residuals' integrated autocorrelation time
+/// (docs/identification.md, "Sweeps and steps together").
+pub(super) fn step_noise(problem: &Problem, start: &Candidate) -> Result<(f64, f64), IdentError> {
+    let o = Optimum::find(problem, start, 0.95)?;
+    Ok((o.sse, o.var * o.inflation))
 }
 
 /// Analyse the uncertainty of the identification whose answer is `start`.
@@ -286,23 +304,10 @@ pub fn analyze(
     opts: &UncertaintyOptions,
 ) -> Result<Uncertainty, IdentError> {
     let o = Optimum::find(problem, start, opts.confidence)?;
-    let scan = o.scan(problem);
-    let best = &o.best;
-    let tasks: Vec<(usize, f64)> = (0..3)
-        .filter(|&i| opts.profile[i])
-        .flat_map(|i| [(i, -1.0), (i, 1.0)])
-        .collect();
-    let sides: Vec<Side> = tasks
-        .par_iter()
-        .map(|&(i, dir)| scan.side(i, dir))
-        .collect();
-    let profiles = sides
-        .chunks(2)
-        .zip(tasks.chunks(2))
-        .map(|(s, t)| profile_of(t[0].0, scan.point(t[0].0, best, o.sse), &s[0], &s[1]))
-        .collect();
+    let f = |p: &[f64]| sse_at(problem, p);
+    let profiles = o.scan(&f).profiles(opts.profile);
     Ok(Uncertainty {
-        best: candidate_of(best),
+        best: candidate_of(&o.best),
         sse_mm2: o.sse,
         samples: problem.samples(),
         noise_std_mm: o.var.sqrt(),
@@ -368,7 +373,8 @@ pub fn identifiability(
     confidence: f64,
 ) -> Result<[Identifiability; 3], IdentError> {
     let o = Optimum::find(problem, start, confidence)?;
-    let scan = o.scan(problem);
+    let f = |p: &[f64]| sse_at(problem, p);
+    let scan = o.scan(&f);
     let tasks: Vec<(usize, usize)> = (0..3).flat_map(|i| [(i, 0), (i, 1)]).collect();
     let points: Vec<ProfilePoint> = tasks
         .par_iter()
@@ -523,7 +529,11 @@ fn least_squares_variance(problem: &Problem, best: &[f64]) -> Option<[f64; 3]> {
 /// (ln β, ln b, ln c12), and its SSE; `start` (moved into [`BOUNDS`]) when the search finds
 /// nothing better.
 fn polish(problem: &Problem, start: &Candidate) -> (Vec<f64>, f64) {
-    let f = |p: &[f64]| sse_at(problem, p);
+    polish_with(&|p: &[f64]| sse_at(problem, p), start)
+}
+
+/// The least-`f` point near `start`, as [`polish`] finds the least SSE.
+pub(super) fn polish_with(f: Objective, start: &Candidate) -> (Vec<f64>, f64) {
     let mut best: Vec<f64> = log_point(start)
         .iter()
         .zip(BOUNDS)
@@ -532,7 +542,7 @@ fn polish(problem: &Problem, start: &Candidate) -> (Vec<f64>, f64) {
     let mut cost = f(&best);
     for step in [0.1, 0.02] {
         let tol = 1e-9 * cost.max(1e-300);
-        if let Some((p, c)) = minimize(&f, &best, step, tol, MAX_ITERS) {
+        if let Some((p, c)) = minimize(f, &best, step, tol, MAX_ITERS) {
             if c < cost {
                 (best, cost) = (p, c);
             }
@@ -549,19 +559,41 @@ struct Side {
 }
 
 /// What every profile point needs.
-struct Scan<'a> {
-    problem: &'a Problem,
+pub(super) struct Scan<'a> {
+    /// The cost profiled (+∞ outside [`BOUNDS`]).
+    pub f: Objective<'a>,
     /// Optimum in (ln β, ln b, ln c12).
-    best: &'a [f64],
-    /// SSE there (mm²).
-    sse: f64,
-    /// Noise variance σ² (mm²) times each parameter's (β, b, c12) inflation.
-    var: [f64; 3],
+    pub best: &'a [f64],
+    /// Cost there (the SSE, mm², of the step records).
+    pub sse: f64,
+    /// What each parameter's (β, b, c12) cost difference is divided by: the noise variance σ²
+    /// (mm²) times the parameter's inflation for the step records.
+    pub var: [f64; 3],
     /// χ²₁(confidence).
-    threshold: f64,
+    pub threshold: f64,
 }
 
 impl Scan<'_> {
+    /// The profiles of the parameters `profile` marks, both sides of each walked in parallel.
+    pub fn profiles(&self, profile: [bool; 3]) -> Vec<Profile> {
+        let tasks: Vec<(usize, f64)> = (0..3)
+            .filter(|&i| profile[i])
+            .flat_map(|i| [(i, -1.0), (i, 1.0)])
+            .collect();
+        let sides: Vec<Side> = tasks
+            .par_iter()
+            .map(|&(i, dir)| self.side(i, dir))
+            .collect();
+        sides
+            .chunks(2)
+            .zip(tasks.chunks(2))
+            .map(|(s, t)| {
+                let i = t[0].0;
+                profile_of(i, self.point(i, self.best, self.sse), &s[0], &s[1])
+            })
+            .collect()
+    }
+
     /// The profile point of parameter `i` at a full point `p` in log space with SSE `sse`.
     fn point(&self, i: usize, p: &[f64], sse: f64) -> ProfilePoint {
         let candidate = candidate_of(p);
@@ -585,7 +617,7 @@ impl Scan<'_> {
             }
             p
         };
-        let f = |q: &[f64]| sse_at(self.problem, &full(q));
+        let f = |q: &[f64]| (self.f)(&full(q));
         let q0: Vec<f64> = others.iter().map(|&j| warm[j]).collect();
         let tol = 1e-4 * self.var[i];
         let (q, sse) = minimize(&f, &q0, INNER_STEP, tol, MAX_ITERS)
