@@ -8,6 +8,7 @@
 //! `plc` closes the loop at the PLC's rate and integrates these dynamics between samples.
 
 pub mod article;
+pub mod chatter;
 mod experiment;
 mod integrate;
 mod plc;
