@@ -161,7 +161,7 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     if args.json {
         let doc = emulated::emulated_json(
             request.experiment,
-            &origin,
+            (&origin, truth.rig.circuit),
             &data,
             &basis,
             &warnings,
@@ -172,9 +172,10 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
     let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
     Ok(format!(
-        "{}: emulated {} on {origin}, {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
+        "{}: emulated {} on {origin} (circuit {}), {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
         out.display(),
         request.experiment.name(),
+        truth.rig.circuit.name(),
         data.len()
     ))
 }

@@ -405,6 +405,8 @@ class Emulated(Result):
 
     experiment: str
     rig: str
+    circuit: str
+    """The rig's circuit: "dpm", "dual-pump" or "single-pump" (docs/circuits.md)."""
     samples: int
     basis: str
     """What the emulator used on the rig, in words (docs/emulator.md#what-a-user-rig-gets)."""

@@ -1744,7 +1744,14 @@ fn emulate(
         .map_err(err)?;
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(err)?;
     let warnings = warn_each(py, emulated::warnings(&truth.rig, &data))?;
-    let doc = emulated::emulated_json(kind, &origin, &data, &basis, &warnings, end_stop.as_ref());
+    let doc = emulated::emulated_json(
+        kind,
+        (&origin, truth.rig.circuit),
+        &data,
+        &basis,
+        &warnings,
+        end_stop.as_ref(),
+    );
     PyOutcome::of(py, "Emulated", &doc)?.with_arrays(py, "columns", "Columns")
 }
 

@@ -89,6 +89,31 @@ def test_the_emulator_fmu_gives_the_records_of_emulate(fmus, experiment, args):
     assert np.max(np.abs(r["p2_pa"] - rec["p2_bar"] * 1e5)) < 1.0
 
 
+@pytest.mark.parametrize("circuit", ["dual-pump", "single-pump"])
+def test_the_single_motor_emulator_fmu_gives_the_records_of_emulate(tmp_path, circuit):
+    """One motor's variables (no omega2, tau2), the single-pump circuit's mode as an output
+    (docs/emulator.md#the-mode-signal), and `pumpcyl emulate`'s record through FMPy."""
+    fmpy = require_fmpy()
+    from fmpy.validation import validate_fmu
+
+    fmu, record = tmp_path / f"{circuit}.fmu", tmp_path / f"{circuit}.csv"
+    cli("fmu", "--set", f"circuit={circuit}", "--out", str(fmu))
+    assert validate_fmu(str(fmu)) == []
+    names = {v.name: v for v in fmpy.read_model_description(str(fmu)).modelVariables}
+    assert "omega2_rad_per_s" not in names and "tau2_nm" not in names
+    assert ("mode" in names) == (circuit == "single-pump")
+    cli("emulate", "--experiment", "step", "--set", f"circuit={circuit}", "--no-noise",
+        "--out", str(record))
+    rec = read_csv(record)
+    assert "w2_rpm" not in rec
+    r = run_fmu(fmpy, fmu, rec["time_s"], rec["x_ref_mm"] * 1e-3)
+    assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9
+    assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0
+    assert np.max(np.abs(r["omega1_rad_per_s"] * 60 / (2 * np.pi) - rec["w1_rpm"])) < 1e-5
+    if circuit == "single-pump":
+        assert np.array_equal(r["mode"], rec["mode"])
+
+
 USER_RIG = (ROOT / "tests" / "user-rig.toml").read_text()
 
 

@@ -34,7 +34,7 @@
 //! # Ok::<(), pumpcyl::fmu::FmuError>(())
 //! ```
 
-use crate::circuit::{Circuit, Role, Signal};
+use crate::circuit::{Circuit, CircuitKind, Effects, Role, Signal};
 use crate::emulator::{self, article, Dynamics, Plc, PlcLoop, PLC_RATE_HZ, SETTLE_S};
 use crate::lti::Zoh;
 use crate::model::Plant;
@@ -225,7 +225,17 @@ pub struct Variable {
     pub start: Option<Value>,
 }
 
-/// The inputs: the position reference or the two speed commands, then the external force.
+/// How many drives the rig's circuit has: the DPM's two, the single-motor circuits' one
+/// (docs/fmu.md#every-circuit).
+fn drives(rig: &Rig) -> usize {
+    match rig.circuit {
+        CircuitKind::Dpm => 2,
+        CircuitKind::DualPump | CircuitKind::SinglePump => 1,
+    }
+}
+
+/// The inputs: the position reference or the speed commands (one per drive), then the
+/// external force.
 fn input_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
     let mut out = match c.controller {
         Controller::Article => vec![(
@@ -233,10 +243,11 @@ fn input_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
             "m",
             "position reference (absolute, as the rig's x0)",
         )],
-        Controller::External => vec![
+        Controller::External => [
             ("omega_ref1_rad_per_s", "rad/s", "speed command of motor 1"),
             ("omega_ref2_rad_per_s", "rad/s", "speed command of motor 2"),
-        ],
+        ][..drives(&c.rig)]
+            .to_vec(),
     };
     out.push((
         "f_ext_n",
@@ -246,34 +257,63 @@ fn input_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
     out
 }
 
-/// The outputs.
+/// The outputs: one speed, torque and command per drive; the single-pump emulator's mode.
 fn output_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
+    let n = drives(&c.rig);
     let mut out = vec![
         ("x_m", "m", "piston position (absolute)"),
         ("v_m_per_s", "m/s", "piston velocity"),
         ("p1_pa", "Pa", "chamber 1 (piston side) pressure, gauge"),
         ("p2_pa", "Pa", "chamber 2 (rod side) pressure, gauge"),
         ("p_sum_pa", "Pa", "sum pressure p1 + p2"),
-        ("omega1_rad_per_s", "rad/s", "speed of motor 1"),
-        ("omega2_rad_per_s", "rad/s", "speed of motor 2"),
     ];
+    out.extend(
+        [
+            ("omega1_rad_per_s", "rad/s", "speed of motor 1"),
+            ("omega2_rad_per_s", "rad/s", "speed of motor 2"),
+        ][..n]
+            .iter(),
+    );
     if c.rig.motor_model == MotorModel::Full {
-        out.push(("tau1_nm", "N.m", "electromagnetic torque of motor 1"));
-        out.push(("tau2_nm", "N.m", "electromagnetic torque of motor 2"));
+        out.extend(
+            [
+                ("tau1_nm", "N.m", "electromagnetic torque of motor 1"),
+                ("tau2_nm", "N.m", "electromagnetic torque of motor 2"),
+            ][..n]
+                .iter(),
+        );
     }
     if c.controller == Controller::Article {
+        out.extend(
+            [
+                (
+                    "omega_ref1_rad_per_s",
+                    "rad/s",
+                    "the controller's speed command to motor 1",
+                ),
+                (
+                    "omega_ref2_rad_per_s",
+                    "rad/s",
+                    "the controller's speed command to motor 2",
+                ),
+            ][..n]
+                .iter(),
+        );
+    }
+    if has_mode(c) {
         out.push((
-            "omega_ref1_rad_per_s",
-            "rad/s",
-            "the controller's speed command to motor 1",
-        ));
-        out.push((
-            "omega_ref2_rad_per_s",
-            "rad/s",
-            "the controller's speed command to motor 2",
+            "mode",
+            "",
+            "the single-pump circuit's mode: 1 with chamber 2 on the accumulator, 2 with \
+             chamber 1 (docs/emulator.md#the-mode-signal)",
         ));
     }
     out
+}
+
+/// The FMU has the mode output: the emulator of a single-pump rig.
+fn has_mode(c: &Config) -> bool {
+    c.model == ModelKind::Emulator && c.rig.circuit == CircuitKind::SinglePump
 }
 
 /// Value references start here for the outputs and the parameters.
@@ -305,7 +345,8 @@ pub fn variables(c: &Config) -> Vec<Variable> {
                 name: name.into(),
                 value_reference: OUTPUT_VR + k as u32,
                 causality: Causality::Output,
-                unit: Some(unit),
+                // the mode is a number without a unit
+                unit: (!unit.is_empty()).then_some(unit),
                 description: doc.into(),
                 start: None,
             }),
@@ -514,18 +555,30 @@ fn input_start(c: &Config) -> Vec<f64> {
         Controller::Article => vec![c.rig.x0_mm * 1e-3, f],
         Controller::External => {
             let (_, u) = rest(c.model, &c.rig);
-            vec![u[0], u[1], f]
+            let mut start = u[..drives(&c.rig)].to_vec();
+            start.push(f);
+            start
         }
     }
 }
 
-/// The state at rest and the speed commands (rad/s) that hold it (docs/model.md): the
-/// emulated motors always carry the pumps' load, the linear ones as the rig's
-/// `motor_coupling` says.
+/// The state at rest and the speed commands (rad/s) that hold it (docs/model.md), 0 for a
+/// drive the circuit does not have: the emulated motors always carry the pumps' load, the
+/// linear ones as the rig's `motor_coupling` says. A single-motor circuit's linear state is
+/// that of its linear model (for the single-pump circuit, the mode at rest's).
 fn rest(model: ModelKind, rig: &Rig) -> (Vec<f64>, [f64; 2]) {
     let loaded = model == ModelKind::Emulator || rig.motor_coupling;
-    (Plant::new(rig).rest_state(loaded))
-        .expect("Instance::rig refuses a circuit other than the dpm")
+    let plant = Plant::new(rig);
+    if let Some(dpm) = plant.rest_state(loaded) {
+        return dpm;
+    }
+    let op = match model {
+        ModelKind::Emulator => crate::circuit::Emulated::of_rig(rig, Effects::none())
+            .map(|c| c.operating_point())
+            .unwrap_or_else(|_| plant.operating_point()),
+        ModelKind::Linear => plant.operating_point(),
+    };
+    (op.state, [op.inputs[0], 0.0])
 }
 
 /// The longest communication step one `do_step` accepts (s): 100 s, 10⁴ PLC periods of the
@@ -645,8 +698,10 @@ enum Sim {
 /// The linear model in deviations from the operating point, its inputs [x_ref or ω_ref1,
 /// ω_ref2, F_ext] held over each step.
 struct Linear {
-    /// The circuit's states.
+    /// The circuit's states (for a single-pump mode, the full circuit's).
     signals: Vec<Signal>,
+    /// The single-pump circuit's mode at rest, whose model this is.
+    mode: Option<crate::circuit::single_pump::modes::Mode>,
     a: DMatrix<f64>,
     b: DMatrix<f64>,
     /// The state deviation.
@@ -889,7 +944,6 @@ impl Instance {
         let text = toml::to_string(&self.parameters).map_err(|e| FmuError(e.to_string()))?;
         let rig = Rig::from_toml_str(&text, "the FMU's parameters")
             .map_err(|e| FmuError(e.to_string()))?;
-        crate::circuit::require_dpm(&rig, "the FMU").map_err(FmuError)?;
         Ok(rig)
     }
 
@@ -993,8 +1047,10 @@ impl Instance {
             }) => {
                 // integrated a PLC period at a time, as the PLC loop is: BDF restarts at each
                 // period, so a long step through an end stop or cavitation does not stall it
-                dynamics.set_external_force_n(inputs[2]);
-                let u = [inputs[0], inputs[1]];
+                let n = dynamics.circuit().drives();
+                dynamics.set_external_force_n(inputs[n]);
+                let mut u = [0.0; 2];
+                u[..n].copy_from_slice(&inputs[..n]);
                 let ts = clock.period_s;
                 clock.advance(h_s, |k, from, to| {
                     let (t0, t1) = (k as f64 * ts + from, k as f64 * ts + to);
@@ -1062,7 +1118,15 @@ impl Instance {
         out.extend(of(Role::MotorSpeed));
         out.extend(of(Role::Torque));
         if self.config.controller == Controller::Article {
-            out.extend(u.unwrap_or([f64::NAN; 2]));
+            out.extend(&u.unwrap_or([f64::NAN; 2])[..drives(&self.config.rig)]);
+        }
+        if has_mode(&self.config) {
+            let mode = match self.sim.as_ref() {
+                Some(Sim::Plc { run, .. }) => run.dynamics().mode(run.state()),
+                Some(Sim::Plant { dynamics, x, .. }) => dynamics.mode(x),
+                _ => None,
+            };
+            out.push(mode.map_or(f64::NAN, |m| m as f64));
         }
         Ok(out)
     }
@@ -1111,12 +1175,20 @@ impl Linear {
                 let b = &plant.b * &kr;
                 (a, b, Some((kx, kr)), vec![x_op, rig.external_force_n])
             }
-            Controller::External => (
-                plant.a.clone(),
-                plant.b.clone(),
-                None,
-                vec![u_rest[0], u_rest[1], rig.external_force_n],
-            ),
+            Controller::External => {
+                let mut u_op = u_rest[..drives(rig)].to_vec();
+                u_op.push(rig.external_force_n);
+                (plant.a.clone(), plant.b.clone(), None, u_op)
+            }
+        };
+        // a single-pump mode pins its accumulator chamber: the outputs show both chambers
+        let mode = match plant.circuit() {
+            crate::circuit::AnyCircuit::SinglePumpMode(m) => Some(m.clone()),
+            _ => None,
+        };
+        let signals = match &mode {
+            Some(_) => crate::circuit::single_pump::SinglePump::new(rig).states(),
+            None => plant.signals(),
         };
         crate::lti::require_stable(&a).or_else(|e| match controller {
             // the open plant has the position integrator; only the closed loop must be stable
@@ -1125,7 +1197,8 @@ impl Linear {
         })?;
         let b = concat_columns(&b_drive, &force);
         Ok(Linear {
-            signals: plant.signals(),
+            signals,
+            mode,
             z: DVector::zeros(n),
             a,
             b,
@@ -1155,13 +1228,16 @@ impl Linear {
         Ok(())
     }
 
-    /// The state, absolute.
+    /// The state, absolute (for a single-pump mode, the full circuit's: the accumulator
+    /// chamber at p_acc).
     fn absolute(&self) -> Vec<f64> {
-        self.z
-            .iter()
-            .zip(&self.z_op)
+        let s: Vec<f64> = (self.z.iter().zip(&self.z_op))
             .map(|(d, op)| d + op)
-            .collect()
+            .collect();
+        match &self.mode {
+            Some(m) => m.full_state(&s),
+            None => s,
+        }
     }
 
     /// The controller's speed commands (rad/s, absolute) for the reference in `inputs`.
@@ -1170,7 +1246,11 @@ impl Linear {
         let r = inputs[0] - self.u_op[0];
         let u = kx * &self.z + kr * r;
         // at rest the commands are those that hold the operating point
-        Some([u[0] + self.rest_commands[0], u[1] + self.rest_commands[1]])
+        let mut out = self.rest_commands;
+        for (o, du) in out.iter_mut().zip(u.iter()) {
+            *o += du;
+        }
+        Some(out)
     }
 }
 
@@ -1291,6 +1371,57 @@ mod tests {
                 (p1 - rec.p1_bar[k] * PA_PER_BAR).abs() < 1.0,
                 "p1 at sample {k}"
             );
+        }
+    }
+
+    /// The single-motor circuits' emulator FMU gives `emulate`'s records too, with one motor's
+    /// variables and, for the single-pump circuit, its mode; their linear FMU steps to the
+    /// reference (the deviation model has no standing error).
+    #[test]
+    fn the_single_motor_fmus_give_their_records_and_steps() {
+        for kind in [CircuitKind::DualPump, CircuitKind::SinglePump] {
+            let rig = article::default_rig()
+                .unwrap()
+                .with_overrides(&[format!("circuit={}", kind.name())])
+                .unwrap();
+            let effects = crate::emulator::Effects::for_rig(&rig).unwrap();
+            let plan = Experiment::step(&rig, None, None, 0.5, Some(2.0));
+            let rec = plan.run(&rig, effects, &Plc::ideal(PLC_RATE_HZ)).unwrap();
+            let config = Config::new(ModelKind::Emulator, Controller::Article, true, rig.clone());
+            let names: Vec<String> = (variables(&config).into_iter())
+                .filter(|v| v.value_reference < PARAMETER_VR)
+                .map(|v| v.name)
+                .collect();
+            assert!(!names
+                .iter()
+                .any(|n| n.contains('2') && !n.starts_with("p2")));
+            assert_eq!(
+                names.iter().any(|n| n == "mode"),
+                kind == CircuitKind::SinglePump
+            );
+            let mut fmu = Instance::new(config).unwrap();
+            let got = run(&mut fmu, 200, 0.01, |t| plan.reference_mm(t));
+            for (k, (x, p1)) in got.iter().enumerate() {
+                assert!((x * 1e3 - rec.x_mm[k]).abs() < 1e-6, "{kind:?}: x at {k}");
+                assert!(
+                    (p1 - rec.p1_bar[k] * PA_PER_BAR).abs() < 1.0,
+                    "{kind:?}: p1 at {k}"
+                );
+            }
+            if let Some(vr) = fmu.value_reference("mode") {
+                assert_eq!(fmu.get_real(vr).unwrap(), *rec.mode.last().unwrap());
+            }
+            let linear = Config::new(ModelKind::Linear, Controller::Article, true, rig.clone());
+            let x0 = rig.x0_mm;
+            let got = run(&mut Instance::new(linear).unwrap(), 3000, 0.01, |t| {
+                if t < 0.5 {
+                    x0
+                } else {
+                    x0 + 5.0
+                }
+            });
+            let (x_end, _) = got[got.len() - 1];
+            assert!((x_end * 1e3 - x0 - 5.0).abs() < 0.01, "{kind:?}: {x_end}");
         }
     }
 

@@ -4,10 +4,11 @@
 //! run the emulator (docs/emulator.md#what-a-user-rig-gets).
 
 use pumpcyl::bulk::effective_beta;
+use pumpcyl::circuit::CircuitKind;
 use pumpcyl::emulator::article::{self, Emulated, Kind, Truth};
 use pumpcyl::emulator::{
-    rest_mean_pressure_bar, DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc,
-    DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
+    beta_anchor_bar, DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc, DRIVE_RATE_HZ,
+    DRIVE_RECORD_S, PLC_RATE_HZ,
 };
 use pumpcyl::input::FieldError;
 use pumpcyl::rig::Rig;
@@ -214,12 +215,9 @@ pub fn warnings(rig: &Rig, data: &Emulated) -> Vec<String> {
 /// (docs/formats.md#record-csv, #drive-record-csv).
 pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
     match data {
-        Emulated::Loop(s) => {
-            let csv = s.record_csv();
-            let header: Vec<&str> = csv.lines().next().unwrap_or("").split(',').collect();
-            let named = s.named().into_iter().filter(|(n, _)| header.contains(n));
-            named.map(|(n, v)| (n, &v[..])).collect()
-        }
+        Emulated::Loop(s) => (s.record_columns().into_iter())
+            .map(|(n, v)| (n, &v[..]))
+            .collect(),
         Emulated::Drive(d) => vec![
             ("time_s", &d.time_s[..]),
             ("w_ref_rpm", &d.w_ref_rpm[..]),
@@ -229,12 +227,13 @@ pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
 }
 
 /// The document of an emulated record (`pumpcyl emulate --json`, Python's `emulate`): the
-/// experiment, the rig in words, the number of samples, the emulator's basis in words
+/// experiment, the rig in words, its circuit (`dpm`, `dual-pump`, `single-pump`), the number
+/// of samples, the emulator's basis in words
 /// ([`basis`]), the drive-rating warnings, the end stop met (or `null`) and the record's columns
 /// ([`columns`]: those of its CSV).
 pub fn emulated_json(
     experiment: ExperimentKind,
-    rig: &str,
+    (rig, circuit): (&str, CircuitKind),
     data: &Emulated,
     basis: &str,
     warnings: &[String],
@@ -247,6 +246,7 @@ pub fn emulated_json(
     json!({
         "experiment": experiment.name(),
         "rig": rig,
+        "circuit": circuit.name(),
         "samples": data.len(),
         "basis": basis,
         "warnings": warnings,
@@ -269,14 +269,31 @@ pub fn basis(rig: &Rig, effects: &Effects) -> Result<String, EmulatorError> {
             readable(rig.mass_kg)
         ));
     };
-    let p_mean = rest_mean_pressure_bar(rig)?;
+    let p_mean = beta_anchor_bar(rig)?;
+    // the DPM's sentence as it always was; a single-motor circuit's names its own level and
+    // valves (docs/emulator.md#every-circuit)
+    let (anchor, valves) = match rig.circuit {
+        CircuitKind::Dpm => ("the rig's mean chamber pressure at rest", String::new()),
+        kind => (
+            "the accumulator pre-charge",
+            format!(
+                "; circuit {}: {} (docs/circuits.md#valves)",
+                kind.name(),
+                match kind {
+                    CircuitKind::SinglePump => "pilot-operated check valves and relief valves",
+                    _ => "anti-cavitation check valves and relief valves",
+                }
+            ),
+        ),
+    };
     Ok(format!(
-        "emulator: beta_e {:.1} bar at the rig's mean chamber pressure at rest, {:.2} bar \
+        "emulator: beta_e {:.1} bar at {}, {:.2} bar \
          (gas fraction X = {:.5}, beta_oil {} bar), beta_e(p) of both chambers' mean pressure; \
          {}; chamber volumes following the piston; torque limited to {} x the rated {} N m, \
          pump speed to {} rpm; pumpcyl's defaults {:.0} rpm pump dead band with slip \
-         {:e} m^5/(N s) and {} N Coulomb friction (docs/emulator.md#what-a-user-rig-gets)",
+         {:e} m^5/(N s) and {} N Coulomb friction{valves} (docs/emulator.md#what-a-user-rig-gets)",
         effective_beta(x, p_mean, effects.beta_oil_bar),
+        anchor,
         p_mean,
         x,
         readable(effects.beta_oil_bar),

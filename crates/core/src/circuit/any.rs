@@ -67,13 +67,13 @@ impl AnyCircuit {
 
     /// The load torques of the pumps on motors 1 and 2 (N·m) at the chamber pressures `p_pa`
     /// (Pa gauge), what the drives' ratings are checked against; the single motor of a
-    /// single-motor circuit is motor 1. The single-pump circuit's responses are refused before
-    /// they are rated: NaN, which no rating holds.
+    /// single-motor circuit is motor 1 (the single-pump circuit's D1 (p1 − p2) in either
+    /// mode, what its emulated records are rated by).
     pub fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
         match self {
             AnyCircuit::Dpm(d) => d.load_torques_nm(p_pa),
             AnyCircuit::DualPump(d) => [d.load_torque_nm(p_pa), 0.0],
-            AnyCircuit::SinglePumpMode(_) => [f64::NAN; 2],
+            AnyCircuit::SinglePumpMode(m) => [m.load_torque_nm(p_pa), 0.0],
         }
     }
 

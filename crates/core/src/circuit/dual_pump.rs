@@ -168,6 +168,41 @@ impl DualPump {
         self.n
     }
 
+    /// Change the external force on the piston (N) in the equations; the operating point
+    /// stays the rig's.
+    pub fn set_external_force_n(&mut self, f_n: f64) {
+        self.piston.force_ext_n = f_n;
+    }
+
+    /// The end stops, if they act.
+    pub fn stops(&self) -> Option<Stops> {
+        self.piston.stops
+    }
+
+    /// The same circuit without the limits a Newton step at rest may cross: no torque or
+    /// speed limit on the drive, no end stops.
+    pub fn without_limits(&self) -> DualPump {
+        let mut free = self.clone();
+        free.piston.stops = None;
+        free.motor = self.motor.without_limits();
+        free
+    }
+
+    /// Bulk modulus (Pa) of the chambers at a mean gauge pressure (Pa).
+    pub fn beta_pa(&self, p_gauge: f64) -> f64 {
+        self.fluid.beta(p_gauge).value()
+    }
+
+    /// The accumulator pressure p_acc (Pa gauge).
+    pub fn accumulator_pa(&self) -> f64 {
+        self.balance.p_acc_pa
+    }
+
+    /// The position loop's gain K_scale Kp (rad/s per m): ω_ref = K_scale Kp (x_ref − x).
+    pub fn position_gain(&self) -> f64 {
+        self.gain
+    }
+
     /// The flow area (m²) by which pump 2 over-supplies chamber 1 per unit piston speed
     /// ([`Balance::mismatch_m2`]).
     pub fn mismatch_m2(&self) -> f64 {

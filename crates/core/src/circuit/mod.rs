@@ -15,6 +15,7 @@
 mod any;
 pub mod dpm;
 pub mod dual_pump;
+pub mod emulated;
 pub mod parts;
 pub mod single_pump;
 pub mod stops;
@@ -22,6 +23,7 @@ pub mod valves;
 
 pub use any::{require, require_dpm, AnyCircuit};
 pub use dpm::Dpm;
+pub use emulated::Emulated;
 pub use parts::Effects;
 
 use nalgebra::DMatrix;

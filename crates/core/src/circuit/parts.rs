@@ -396,6 +396,19 @@ impl Motor {
         })
     }
 
+    /// The same motor without its torque and speed limits (what a Newton step at rest may
+    /// cross).
+    pub fn without_limits(&self) -> Motor {
+        match self {
+            Motor::Full(d) => Motor::Full(Drive {
+                torque_limit: None,
+                speed_limit: None,
+                ..*d
+            }),
+            m => m.clone(),
+        }
+    }
+
     /// How many states it has: 1 (first order), 2 (full), 3 (full with feedforward).
     pub fn n_states(&self) -> usize {
         match self {

@@ -193,6 +193,30 @@ impl SinglePump {
         self.piston.force_ext_n = f_n;
     }
 
+    /// The end stops, if they act.
+    pub fn stops(&self) -> Option<Stops> {
+        self.piston.stops
+    }
+
+    /// The same circuit without the limits a Newton step at rest may cross: no torque or
+    /// speed limit on the drive, no end stops.
+    pub fn without_limits(&self) -> SinglePump {
+        let mut free = self.clone();
+        free.piston.stops = None;
+        free.motor = self.motor.without_limits();
+        free
+    }
+
+    /// Bulk modulus (Pa) of the chambers at a mean gauge pressure (Pa).
+    pub fn beta_pa(&self, p_gauge: f64) -> f64 {
+        self.fluid.beta(p_gauge).value()
+    }
+
+    /// The position loop's gain K_scale Kp (rad/s per m): ω_ref = K_scale Kp (x_ref − x).
+    pub fn position_gain(&self) -> f64 {
+        self.gain
+    }
+
     /// The chamber (1 or 2) at the accumulator at rest under the external force: 2 (mode 1)
     /// from the switching force p_acc (A1 − A2) up, 1 (mode 2) below it.
     pub fn accumulator_chamber_at_rest(&self) -> usize {
@@ -238,6 +262,12 @@ impl SinglePump {
             flows[1] -= relief.flow(p2 - p_acc);
         }
         flows
+    }
+
+    /// The pump's load torque on the motor (N·m) at chamber pressures `p_pa` (Pa gauge),
+    /// D1 (p1 − p2): what the drive's rating is checked against.
+    pub fn load_torque_nm(&self, [p1, p2]: [f64; 2]) -> f64 {
+        (p1 - p2) * self.pump.displacement_m3
     }
 
     /// The pump's load torque D1 (p1 − p2) (N·m); zero without the motor–hydraulics coupling.

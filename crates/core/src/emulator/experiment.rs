@@ -345,10 +345,20 @@ impl DriveStep {
         effects: Effects,
         plc: &Plc,
     ) -> Result<DriveSignals, EmulatorError> {
-        if self.motor != 1 && self.motor != 2 {
+        let drives = match rig.circuit {
+            crate::circuit::CircuitKind::Dpm => 2,
+            _ => 1,
+        };
+        if !(1..=drives).contains(&self.motor) {
             return Err(EmulatorError(format!(
-                "drive {} does not exist: 1 or 2",
-                self.motor
+                "drive {} does not exist on the {} circuit: {}",
+                self.motor,
+                rig.circuit.name(),
+                if drives == 2 {
+                    "1 or 2"
+                } else {
+                    "1, its one motor"
+                }
             )));
         }
         let si = rig.si();

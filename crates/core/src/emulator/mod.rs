@@ -8,6 +8,7 @@
 //! `plc` closes the loop at the PLC's rate and integrates these dynamics between samples.
 
 pub mod article;
+pub mod chatter;
 mod experiment;
 mod integrate;
 mod plc;
@@ -33,7 +34,7 @@ impl From<&str> for EmulatorError {
         EmulatorError(message.to_string())
     }
 }
-use crate::circuit::{Circuit, Dpm, Role};
+use crate::circuit::{Circuit, CircuitKind, Emulated, Role};
 use crate::rig::{MotorModel, Rig};
 use crate::units::PA_PER_BAR;
 
@@ -49,9 +50,11 @@ impl Effects {
     }
 
     /// Every effect on for `rig` ([`Effects::all`]), the bulk modulus anchored at the rig
-    /// itself: the gas fraction that gives the rig's `beta_bar` at its mean chamber pressure at
-    /// rest ([`rest_mean_pressure_bar`]), so the emulated β_e at the operating point *is*
-    /// `beta_bar`; the mass following the rig's own `mass_by_position` (constant without one).
+    /// itself: the gas fraction that gives the rig's `beta_bar` at the pressure
+    /// [`beta_anchor_bar`] names — the DPM's mean chamber pressure at rest
+    /// ([`rest_mean_pressure_bar`]), so the emulated β_e at its operating point *is*
+    /// `beta_bar`; a single-motor circuit's accumulator pre-charge, the level its chambers
+    /// rest near (docs/emulator.md#every-circuit); the mass following the rig's own `mass_by_position` (constant without one).
     /// What `pumpcyl emulate` and the emulator FMU run (docs/emulator.md#what-a-user-rig-gets).
     ///
     /// # Errors
@@ -59,12 +62,16 @@ impl Effects {
     /// (docs/model.md#cavitation), or whose mean pressure at rest is not above 0 bar gauge (the
     /// gas-fraction model needs a positive pressure), or a `beta_bar` beyond the oil's own.
     pub fn for_rig(rig: &Rig) -> Result<Effects, EmulatorError> {
-        let p_mean = rest_mean_pressure_bar(rig)?;
+        let p_mean = beta_anchor_bar(rig)?;
         if p_mean.is_nan() || p_mean <= 0.0 {
+            let raise = match rig.circuit {
+                CircuitKind::Dpm => "raise p_sum_ref_bar",
+                _ => "raise accumulator_precharge_bar",
+            };
             return Err(EmulatorError(format!(
-                "the rig's mean chamber pressure at rest is {p_mean:.3} bar gauge: the emulator's \
-                 bulk modulus (the constant gas-fraction model, docs/bulk-modulus.md) needs it above \
-                 0 bar; raise p_sum_ref_bar"
+                "the pressure at which the rig's beta_bar holds is {p_mean:.3} bar gauge: the \
+                 emulator's bulk modulus (the constant gas-fraction model, docs/bulk-modulus.md) \
+                 needs it above 0 bar; {raise}"
             )));
         }
         let x = crate::bulk::gas_fraction(rig.beta_bar, p_mean, crate::bulk::BETA_OIL_BAR)
@@ -80,6 +87,20 @@ impl Effects {
         } else {
             Ok(Effects::none())
         }
+    }
+}
+
+/// The pressure (bar gauge) at which the emulator's bulk modulus is the rig's `beta_bar`
+/// ([`Effects::for_rig`]): the DPM's mean chamber pressure at rest
+/// ([`rest_mean_pressure_bar`]); the accumulator's pre-charge for the single-motor circuits,
+/// whose pressure level it sets (docs/emulator.md#every-circuit).
+///
+/// # Errors
+/// A DPM loop that cannot rest at x0, or whose rest needs cavitation.
+pub fn beta_anchor_bar(rig: &Rig) -> Result<f64, EmulatorError> {
+    match rig.circuit {
+        CircuitKind::Dpm => rest_mean_pressure_bar(rig),
+        CircuitKind::DualPump | CircuitKind::SinglePump => Ok(rig.accumulator_precharge_bar),
     }
 }
 
@@ -116,12 +137,14 @@ pub fn rest_mean_pressure_bar(rig: &Rig) -> Result<f64, EmulatorError> {
     Ok(0.5 * (p[0] + p[1]))
 }
 
-/// The continuous dynamics of the rig: the DPM circuit's equations ([`Dpm`]) with the chosen
-/// effects and the end stops, states as in its [`Circuit::states`] (absolute position, gauge
-/// pressures), inputs the drive speed references ω_ref1, ω_ref2 (rad/s).
+/// The continuous dynamics of the rig: its circuit's emulated equations ([`Emulated`]: the
+/// DPM, the dual-pump or the single-pump circuit) with the chosen effects and the end stops,
+/// states as in its [`Circuit::states`] (absolute position, gauge pressures), inputs the drive
+/// speed references (rad/s): ω_ref1, ω_ref2 for the DPM, the one motor's ω_ref for the
+/// single-motor circuits (a second command, where given, is not read).
 #[derive(Debug, Clone)]
 pub struct Dynamics {
-    circuit: Dpm,
+    circuit: Emulated,
     /// Where the position, the pressures and the motor speeds are in the state.
     pub(crate) at: Places,
 }
@@ -145,19 +168,19 @@ impl Places {
 }
 
 impl Dynamics {
-    /// The dynamics of a rig (full motor model only) with the chosen effects.
+    /// The dynamics of a rig (full motor model only) with the chosen effects, whichever its
+    /// circuit.
     pub fn new(rig: &Rig, effects: Effects) -> Result<Dynamics, EmulatorError> {
         if rig.motor_model != MotorModel::Full {
             return Err("the emulator needs motor_model = \"full\"".into());
         }
-        crate::circuit::require_dpm(rig, "the emulator").map_err(EmulatorError)?;
-        let circuit = Dpm::emulated(rig, effects);
+        let circuit = Emulated::of_rig(rig, effects).map_err(EmulatorError)?;
         let at = Places::of(&circuit);
         Ok(Dynamics { circuit, at })
     }
 
     /// The circuit whose equations these are.
-    pub fn circuit(&self) -> &Dpm {
+    pub fn circuit(&self) -> &Emulated {
         &self.circuit
     }
 
@@ -190,23 +213,30 @@ impl Dynamics {
         self.circuit.order()
     }
 
-    /// ẋ = f(x, u) into `dx`.
-    pub fn rhs(&self, x: &[f64], u: &[f64; 2], dx: &mut [f64]) {
+    /// ẋ = f(x, u) into `dx`, `u` the speed references (at least one per drive).
+    pub fn rhs(&self, x: &[f64], u: &[f64], dx: &mut [f64]) {
         self.circuit.rhs(x, u, dx);
     }
 
     /// The exact Jacobian ∂f/∂x at (x, u), row-major n × n, from the circuit's own equations
     /// by dual numbers ([`crate::circuit::linearise`]): what an implicit integrator needs.
-    pub fn jacobian(&self, x: &[f64], u: &[f64; 2]) -> Vec<f64> {
-        let (a, _) = crate::circuit::linearise(&self.circuit, x, u);
+    pub fn jacobian(&self, x: &[f64], u: &[f64]) -> Vec<f64> {
+        let (a, _) = crate::circuit::linearise(&self.circuit, x, &u[..self.circuit.drives()]);
         a.transpose().as_slice().to_vec()
     }
 
     /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage
-    /// speeds, drive torques equal to the load) and the speed references that hold it.
+    /// speeds, drive torques equal to the load) and the speed references that hold it (0 for a
+    /// drive the circuit does not have).
     pub fn operating_point(&self) -> (Vec<f64>, [f64; 2]) {
         // the emulated motors always carry the pumps' load
-        self.circuit.rest_state(true)
+        self.circuit.rest_state()
+    }
+
+    /// The single-pump circuit's mode at state `x` (1 or 2, docs/emulator.md#the-mode-signal);
+    /// `None` for a circuit without modes.
+    pub fn mode(&self, x: &[f64]) -> Option<usize> {
+        self.circuit.mode(x)
     }
 }
 

@@ -41,8 +41,11 @@ pub struct Signals {
     pub p2_bar: Vec<f64>,
     /// Motor 1 speed (rpm).
     pub w1_rpm: Vec<f64>,
-    /// Motor 2 speed (rpm).
+    /// Motor 2 speed (rpm); empty for a circuit with one motor.
     pub w2_rpm: Vec<f64>,
+    /// The single-pump circuit's mode (1: chamber 2 on the accumulator, 2: chamber 1;
+    /// docs/emulator.md#the-mode-signal), in its emulated records only; empty otherwise.
+    pub mode: Vec<f64>,
 }
 
 impl Signals {
@@ -60,16 +63,23 @@ impl Signals {
         ]
     }
 
-    /// The signals as a record (docs/formats.md#record-csv): CSV with a header row, `time_s, x_ref_mm, x_mm` and
-    /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm` that hold one value per sample.
+    /// The columns of the signals as a record, in its order: `time_s, x_ref_mm, x_mm` and
+    /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm, mode` that hold one value per sample (a
+    /// one-motor circuit's record has no `w2_rpm`, only the single-pump circuit's a `mode`).
+    pub fn record_columns(&self) -> Vec<(&'static str, &Vec<f64>)> {
+        let n = self.time_s.len();
+        (self.named().into_iter())
+            .chain([("mode", &self.mode)])
+            .filter(|(name, v)| *name != "e_mm" && v.len() == n)
+            .collect()
+    }
+
+    /// The signals as a record (docs/formats.md#record-csv): CSV with a header row and the
+    /// columns of [`Signals::record_columns`].
     pub fn record_csv(&self) -> String {
         use std::fmt::Write;
         let n = self.time_s.len();
-        let columns: Vec<(&str, &Vec<f64>)> = self
-            .named()
-            .into_iter()
-            .filter(|(name, v)| *name != "e_mm" && v.len() == n)
-            .collect();
+        let columns = self.record_columns();
         let names: Vec<&str> = columns.iter().map(|(c, _)| *c).collect();
         let mut out = names.join(",");
         out.push('\n');
@@ -113,6 +123,7 @@ impl Signals {
             p2_bar: pick(&self.p2_bar),
             w1_rpm: pick(&self.w1_rpm),
             w2_rpm: pick(&self.w2_rpm),
+            mode: pick(&self.mode),
         }
     }
 
@@ -134,6 +145,7 @@ impl Signals {
             p2_bar: opt(&rec.p2_bar),
             w1_rpm: opt(&rec.w1_rpm),
             w2_rpm: opt(&rec.w2_rpm),
+            mode: Vec::new(),
         }
     }
 }
@@ -276,6 +288,7 @@ fn run_from(
         w1_rpm: maybe(&rows.speeds, 0, 1.0 / RAD_S_PER_RPM, base.w_rpm[0]),
         w2_rpm: maybe(&rows.speeds, 1, 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
         e_mm: shifted(rows.error, 1e3, base.x_ref_mm - base.x_mm),
+        mode: Vec::new(),
     })
 }
 

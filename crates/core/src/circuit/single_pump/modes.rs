@@ -43,6 +43,12 @@ impl Mode {
         }
     }
 
+    /// The pump's load torque on the motor (N·m) at chamber pressures `p_pa` (Pa gauge),
+    /// D1 (p1 − p2) ([`SinglePump::load_torque_nm`]).
+    pub fn load_torque_nm(&self, p_pa: [f64; 2]) -> f64 {
+        self.full.load_torque_nm(p_pa)
+    }
+
     /// The chamber held at the accumulator pressure (1 or 2).
     pub fn accumulator_chamber(&self) -> usize {
         self.acc + 1
@@ -245,6 +251,19 @@ pub fn mode_of(c: &SinglePump, s: &[f64]) -> Option<usize> {
         Some(1)
     } else {
         Some(2)
+    }
+}
+
+/// The mode a record shows at state `s` of the full equations (docs/emulator.md#the-mode-signal):
+/// 1 when the check valve into chamber 2 has at least the opening signal of the valve into
+/// chamber 1, 2 otherwise — the valve opened further, or, while both are shut, the one nearer
+/// to opening. It is [`mode_of`] wherever a valve is open.
+pub fn recorded_mode(c: &SinglePump, s: &[f64]) -> usize {
+    let [s1, s2] = c.valve_signals_pa(s);
+    if s2 >= s1 {
+        1
+    } else {
+        2
     }
 }
 
