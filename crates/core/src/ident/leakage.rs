@@ -45,10 +45,10 @@ impl Standstill {
         };
         // w2_rpm NaN: no second motor (a one-motor circuit's record), checked by the DPM's
         // leakage
-        let w2 = (!self.w2_rpm.is_nan()).then_some(("w2_rpm", self.w2_rpm));
+        let second = (!self.w2_rpm.is_nan()).then_some(("w2_rpm", self.w2_rpm));
         for (key, v) in [("w1_rpm", self.w1_rpm), ("p1_bar", self.p1_bar)]
             .into_iter()
-            .chain(w2)
+            .chain(second)
         {
             if !v.is_finite() {
                 return bad(key, v, "must be a finite number");
