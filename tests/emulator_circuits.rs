@@ -50,6 +50,12 @@ fn every_circuit_at_rest_stays_there() {
                 assert_eq!((s.w2_rpm.is_empty(), s.w1_rpm.len()), (one, s.time_s.len()));
                 let modes = kind == CircuitKind::SinglePump;
                 assert_eq!(s.mode.len(), if modes { s.time_s.len() } else { 0 });
+                // the record reads back: no w2_rpm column for one motor, the mode column
+                // passed over as a record's extra columns are (docs/formats.md#record-csv)
+                let csv = s.record_csv();
+                assert_eq!(csv.lines().next().unwrap().ends_with(",mode"), modes);
+                let rec = pumpcyl::record::Record::parse(csv.as_bytes(), "r.csv").unwrap();
+                assert_eq!((rec.w2_rpm.is_none(), rec.len()), (one, s.time_s.len()));
             }
         }
     }
