@@ -162,6 +162,23 @@ def test_emulate_is_the_document_of_emulate_json(tmp_path):
         assert e.basis == doc["basis"] and e.rig == doc["rig"]
 
 
+@pytest.mark.parametrize("circuit", ["dual-pump", "single-pump"])
+def test_emulate_runs_the_single_motor_circuits_and_names_them(tmp_path, circuit):
+    """docs/emulator.md#every-circuit: one motor's column, the single-pump circuit's mode, the
+    circuit named, and the same record as `pumpcyl emulate --set circuit=...`."""
+    e = pumpcyl.emulate("step", circuit=circuit)
+    out = tmp_path / f"{circuit}.csv"
+    doc = cli("emulate", "--experiment", "step", "--set", f"circuit={circuit}", "--out",
+              str(out), "--json")
+    assert_one_document(e, doc, "Emulated")
+    assert e.circuit == doc["circuit"] == circuit
+    assert "w2_rpm" not in e.columns and "w1_rpm" in e.columns
+    assert ("mode" in e.columns) == (circuit == "single-pump")
+    for name in out.read_text().splitlines()[0].split(","):
+        np.testing.assert_array_equal(e.columns[name], doc["columns"][name])
+    assert "accumulator pre-charge" in e.basis
+
+
 def test_emulate_takes_rig_keys_and_refuses_an_unknown_experiment():
     e = pumpcyl.emulate("step", to_mm=355.0, duration_s=6.0, noise=False, mass_kg=8000.0)
     # the step to 355 mm at 0.5 s, without noise, sampled at the PLC's 100 Hz; the piston

@@ -249,6 +249,48 @@ impl DualPump {
         })
     }
 
+    /// c1 and c2 from a standstill held under feedback (docs/identification.md#leakage-from-standstill)
+    /// for a given c12: the shaft speed ω feeding both chambers' leakage at rest,
+    /// c1 = ((D1 + D2) ω − c12 (p1 − p2))/(p1 − p_acc), c2 = (−D1 ω + c12 (p1 − p2))/(p2 − p_acc),
+    /// with p2 from the force balance at rest. The circuit's leakages run to the accumulator
+    /// line, so a chamber at the accumulator pressure leaves its own undetermined.
+    ///
+    /// # Errors
+    /// A standstill whose chamber pressure is within 1 Pa of the accumulator's, or that puts a
+    /// chamber below the vapour pressure (docs/model.md#cavitation).
+    pub fn standstill_leakage(
+        &self,
+        rig: &Rig,
+        s: &crate::circuit::dpm::Standstill,
+        c12: f64,
+    ) -> Result<crate::circuit::dpm::Leakage, String> {
+        let p2_bar = rig.p2_at_rest_bar(s.p1_bar);
+        crate::cavitation::check_chambers(&[s.p1_bar, p2_bar]).map_err(|e| {
+            format!(
+                "standstill p1_bar = {}: the force balance puts {e}",
+                s.p1_bar
+            )
+        })?;
+        let (p1, p2) = (s.p1_bar * PA_PER_BAR, p2_bar * PA_PER_BAR);
+        let p_acc = self.balance.p_acc_pa;
+        if (p1 - p_acc).abs() < 1.0 || (p2 - p_acc).abs() < 1.0 {
+            return Err(format!(
+                "standstill p1_bar = {}: a chamber at the accumulator pressure leaves its leakage \
+                 c1 or c2 undetermined (docs/identification.md#leakage-from-standstill)",
+                s.p1_bar
+            ));
+        }
+        let [d1, d2] = self.balance.displacements_m3;
+        let w = s.w1_rpm * crate::units::RAD_S_PER_RPM;
+        let cross = c12 * (p1 - p2);
+        Ok(crate::circuit::dpm::Leakage {
+            p2_bar,
+            c12_m5_per_ns: c12,
+            c1_m5_per_ns: ((d1 + d2) * w - cross) / (p1 - p_acc),
+            c2_m5_per_ns: (-d1 * w + cross) / (p2 - p_acc),
+        })
+    }
+
     /// The net flows into chambers 1 and 2 that compress their oil (m³/s): the pumps, the
     /// piston, the leakage and the valves.
     fn chamber_flows<T: Scalar>(&self, s: &[T]) -> [T; 2] {

@@ -64,14 +64,14 @@ impl Effects {
     pub fn for_rig(rig: &Rig) -> Result<Effects, EmulatorError> {
         let p_mean = beta_anchor_bar(rig)?;
         if p_mean.is_nan() || p_mean <= 0.0 {
-            let raise = match rig.circuit {
-                CircuitKind::Dpm => "raise p_sum_ref_bar",
-                _ => "raise accumulator_precharge_bar",
+            // the DPM's message as it always was; a single-motor circuit's names its pre-charge
+            let (what, raise) = match rig.circuit {
+                CircuitKind::Dpm => ("the rig's mean chamber pressure at rest", "p_sum_ref_bar"),
+                _ => ("the accumulator pre-charge", "accumulator_precharge_bar"),
             };
             return Err(EmulatorError(format!(
-                "the pressure at which the rig's beta_bar holds is {p_mean:.3} bar gauge: the \
-                 emulator's bulk modulus (the constant gas-fraction model, docs/bulk-modulus.md) \
-                 needs it above 0 bar; {raise}"
+                "{what} is {p_mean:.3} bar gauge: the emulator's bulk modulus (the constant \
+                 gas-fraction model, docs/bulk-modulus.md) needs it above 0 bar; raise {raise}"
             )));
         }
         let x = crate::bulk::gas_fraction(rig.beta_bar, p_mean, crate::bulk::BETA_OIL_BAR)

@@ -12,6 +12,8 @@ pub use crate::circuit::dpm::{Leakage, Standstill};
 
 impl Standstill {
     /// The mean speeds and chamber 1 pressure of a standstill record (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill).
+    /// A record without `w2_rpm` (a one-motor circuit's) gives `w2_rpm` NaN, which the DPM's
+    /// [`Standstill::leakage`] refuses.
     pub fn of_record(rec: &crate::record::Record) -> Result<Standstill, IdentError> {
         let mean = |v: &Option<Vec<f64>>, col: &str| {
             v.as_ref()
@@ -25,7 +27,10 @@ impl Standstill {
         };
         Ok(Standstill {
             w1_rpm: mean(&rec.w1_rpm, "w1_rpm")?,
-            w2_rpm: mean(&rec.w2_rpm, "w2_rpm")?,
+            w2_rpm: match rec.w2_rpm {
+                Some(_) => mean(&rec.w2_rpm, "w2_rpm")?,
+                None => f64::NAN,
+            },
             p1_bar: mean(&rec.p1_bar, "p1_bar")?,
         })
     }
@@ -38,11 +43,13 @@ impl Standstill {
                 "standstill `{key}` = {v}: {rule}"
             )))
         };
-        for (key, v) in [
-            ("w1_rpm", self.w1_rpm),
-            ("w2_rpm", self.w2_rpm),
-            ("p1_bar", self.p1_bar),
-        ] {
+        // w2_rpm NaN: no second motor (a one-motor circuit's record), checked by the DPM's
+        // leakage
+        let second = (!self.w2_rpm.is_nan()).then_some(("w2_rpm", self.w2_rpm));
+        for (key, v) in [("w1_rpm", self.w1_rpm), ("p1_bar", self.p1_bar)]
+            .into_iter()
+            .chain(second)
+        {
             if !v.is_finite() {
                 return bad(key, v, "must be a finite number");
             }
@@ -72,10 +79,23 @@ impl Standstill {
     /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
-        crate::circuit::require_dpm(rig, "leakage from standstill").map_err(IdentError::Input)?;
-        crate::circuit::Dpm::linear(rig)
-            .standstill_leakage(rig, self, c12)
-            .map_err(IdentError::Input)
+        use crate::circuit::{dual_pump::DualPump, CircuitKind};
+        crate::circuit::require(
+            rig,
+            "leakage from standstill",
+            &[CircuitKind::Dpm, CircuitKind::DualPump],
+        )
+        .map_err(IdentError::Input)?;
+        match rig.circuit {
+            CircuitKind::DualPump => DualPump::new(rig)
+                .map_err(|e| e.to_string())
+                .and_then(|c| c.standstill_leakage(rig, self, c12)),
+            _ if self.w2_rpm.is_nan() => Err("standstill `w2_rpm` = NaN: the dpm circuit's \
+                 standstill needs motor 2's mean speed (a record's column `w2_rpm`)"
+                .to_string()),
+            _ => crate::circuit::Dpm::linear(rig).standstill_leakage(rig, self, c12),
+        }
+        .map_err(IdentError::Input)
     }
 }
 
