@@ -11,6 +11,7 @@ pub mod article;
 pub mod chatter;
 mod experiment;
 mod integrate;
+pub use integrate::with_bdf_integrator;
 mod plc;
 
 pub use crate::circuit::stops::{End, EndStopHit, Stops, CONTACT_DAMPING, CONTACT_RAD_S};
