@@ -1,8 +1,9 @@
 //! The PLC around the emulated rig: 100 Hz sampling, sensor noise and quantisation, the
 //! circuit's control law in absolute terms (the DPM's of docs/model.md#the-dpm-control-law, where
 //! the 10 bar sum-pressure set-point matters; the single-motor circuits' P law on one motor),
-//! commands held between samples, and the plant integrated between samples by diffsol's BDF
-//! (the current loop at 1257 1/s makes the dynamics stiff).
+//! commands held between samples, and the plant integrated between samples by the exponential
+//! integrator of `integrate` (the current loop at 1257 1/s makes the dynamics stiff;
+//! docs/emulator.md#the-integration).
 
 use super::integrate::{hold, typical};
 use super::EmulatorError;
