@@ -10,6 +10,7 @@ use crate::figures::{trace, Chart};
 use crate::format::{fmt_opt, shown_name};
 use crate::matlab::signals_mat;
 use crate::plot::{LineStyle, Panel};
+use crate::records::{csv_number, csv_text};
 use pumpcyl::record::Record;
 use pumpcyl::response::{
     OverRating, Ringing, Signals, StepMetrics, TrackMetrics, TrackWindow, RINGING_GM_DB,
@@ -476,50 +477,47 @@ pub fn simulate_mat(replay: &Replay, runs: &[Run<f64>], measured: &Signals) -> V
 
 /// CSV of signals: `time_s`, then a block of columns `x_ref_mm, x_mm, e_mm, p1_bar, p2_bar,
 /// w1_rpm, w2_rpm` per series, the `measured` record first when given; blocks after the first
-/// carry their label as a suffix (`x_mm[label]`, commas in a label written as `;`). Values with
-/// six decimals; a series shorter than the longest leaves its cells empty.
+/// carry their label as a suffix (`x_mm[label]`; a label with a comma is quoted, as any CSV
+/// cell). Values in the records' number format ([`csv_number`]); a series shorter than the
+/// longest leaves its cells empty.
 pub fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> String {
     let mut blocks: Vec<(&str, &Signals)> = Vec::new();
     if let Some(m) = measured {
         blocks.push(("measured", m));
     }
     blocks.extend(series.iter().map(|(l, s)| (l.as_str(), *s)));
-    let mut out = String::from("time_s");
+    let mut header = vec!["time_s".to_string()];
     for (i, (label, s)) in blocks.iter().enumerate() {
         for (n, _) in &s.named()[1..] {
-            if i == 0 {
-                let _ = write!(out, ",{n}");
+            header.push(if i == 0 {
+                n.to_string()
             } else {
-                let _ = write!(out, ",{n}[{}]", label.replace(',', ";"));
-            }
+                format!("{n}[{label}]")
+            });
         }
     }
-    out.push('\n');
     let len = blocks
         .iter()
         .map(|(_, s)| s.time_s.len())
         .max()
         .unwrap_or(0);
-    for k in 0..len {
+    let row = |k: usize| {
         let t = blocks
             .iter()
             .find_map(|(_, s)| s.time_s.get(k))
             .copied()
             .unwrap_or(f64::NAN);
-        let _ = write!(out, "{t:.6}");
-        for (_, s) in &blocks {
-            for (_, v) in &s.named()[1..] {
-                match v.get(k) {
-                    Some(x) => {
-                        let _ = write!(out, ",{x:.6}");
-                    }
-                    None => out.push(','),
-                }
-            }
-        }
-        out.push('\n');
-    }
-    out
+        let cells = blocks.iter().flat_map(move |(_, s)| {
+            s.named()[1..]
+                .iter()
+                .map(move |(_, v)| v.get(k).map_or(String::new(), |x| csv_number(*x)))
+                .collect::<Vec<_>>()
+        });
+        std::iter::once(csv_number(t))
+            .chain(cells)
+            .collect::<Vec<_>>()
+    };
+    csv_text(&header, (0..len).map(row))
 }
 
 #[cfg(test)]
@@ -592,10 +590,19 @@ mod tests {
         let s = &runs.done[0].signals;
         let csv = signals_csv(&[("a,b".to_string(), s)], Some(s));
         let mut lines = csv.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert!(lines
+            .next()
+            .unwrap()
+            .ends_with(",\"w1_rpm[a,b]\",\"w2_rpm[a,b]\""));
+        assert_eq!(lines.count(), s.time_s.len());
+        // read back as any CSV reader reads it: the label whole, a value per cell
+        let mut reader = csv::Reader::from_reader(csv.as_bytes());
+        let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
         assert_eq!(header.len(), 1 + 2 * 7);
         assert_eq!(header[..3], ["time_s", "x_ref_mm", "x_mm"]);
-        assert_eq!(header[8], "x_ref_mm[a;b]");
-        assert_eq!(lines.count(), s.time_s.len());
+        assert_eq!(header[8], "x_ref_mm[a,b]");
+        let last = reader.records().last().unwrap().unwrap();
+        let x: f64 = last[9].parse().unwrap();
+        assert!((x - s.x_mm.last().unwrap()).abs() <= 5e-7, "{x}");
     }
 }
