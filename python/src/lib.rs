@@ -810,7 +810,7 @@ fn run_warnings(
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
 /// operating-point pressures and motor speeds. An unstable closed loop is an error, so is a
 /// reference outside the stroke (as the command line's `simulate`); a predicted position
-/// outside it or a drive rating exceeded warns (UserWarning). A `Result` with `rig`,
+/// outside it or a drive rating exceeded warns (UserWarning). A `Result` with `rig`, `circuit`,
 /// `signals` (numpy arrays), `over_ratings` and `warnings`.
 #[pyfunction]
 fn simulate(
@@ -844,6 +844,7 @@ fn simulate(
     let warnings = run_warnings(py, "simulate", &rig, &s, &over)?;
     let doc = serde_json::json!({
         "rig": name,
+        "circuit": rig.circuit.name(),
         "signals": signals,
         "over_ratings": over,
         "warnings": warnings,
@@ -857,7 +858,7 @@ const STEP_WARN_BELOW_MM: f64 = 0.05;
 
 /// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
 /// sampled at `rate_hz` (Hz) for `duration_s` (s): the command line's `step --json` (`rig`,
-/// `step_mm`, `metrics`, `over_ratings`, `signals` as numpy arrays, `warnings`). A step
+/// `circuit`, `step_mm`, `metrics`, `over_ratings`, `signals` as numpy arrays, `warnings`). A step
 /// smaller than 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres;
 /// so does a predicted position outside the stroke (docs/emulator.md#end-stops) or a drive
 /// rating exceeded.
@@ -902,6 +903,7 @@ fn step(
     };
     let setup = StepSetup {
         rig: &name,
+        circuit: rig.circuit,
         step_mm,
         duration_s,
         rate_hz,

@@ -11,6 +11,7 @@ use crate::format::{fmt_opt, shown_name};
 use crate::matlab::signals_mat;
 use crate::plot::{LineStyle, Panel};
 use crate::records::{csv_number, csv_text};
+use pumpcyl::circuit::CircuitKind;
 use pumpcyl::record::Record;
 use pumpcyl::response::{
     OverRating, Ringing, Signals, StepMetrics, TrackMetrics, TrackWindow, RINGING_GM_DB,
@@ -58,6 +59,8 @@ pub struct Runs<M> {
 pub struct StepSetup<'a> {
     /// Where the rig comes from, in words.
     pub rig: &'a str,
+    /// The rig's circuit, which every output names.
+    pub circuit: CircuitKind,
     /// The step (mm) from the operating point x0.
     pub step_mm: f64,
     /// The simulated duration (s).
@@ -73,6 +76,8 @@ pub struct Replay<'a> {
     pub record: &'a Record,
     /// The rig it was replayed on, in words.
     pub rig: &'a str,
+    /// The rig's circuit, which every output names.
+    pub circuit: CircuitKind,
     /// Whether the rig is a dataset's own conditions, which the text then names.
     pub own_conditions: bool,
     /// The end of the fit window (s) on the record's time axis.
@@ -158,13 +163,14 @@ fn column<M>(runs: &[Run<M>], f: impl Fn(&M) -> Option<f64>) -> Vec<Option<f64>>
     runs.iter().map(|r| f(&r.metrics)).collect()
 }
 
-/// The step document (`step --json`): `rig`, `step_mm`, the nominal `metrics` (the core's
+/// The step document (`step --json`): `rig`, its `circuit` ([`CircuitKind::name`]), `step_mm`, the nominal `metrics` (the core's
 /// [`StepMetrics`], with `ringing` when the loop barely damps) and `over_ratings` (the drive
 /// ratings exceeded, [`OverRating`]), and `compare` and `unstable` for the variants.
 pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
     let nominal = &runs.done[0];
     let v = json!({
-        "rig": setup.rig, "step_mm": setup.step_mm, "metrics": nominal.metrics,
+        "rig": setup.rig, "circuit": setup.circuit.name(), "step_mm": setup.step_mm,
+        "metrics": nominal.metrics,
         "over_ratings": nominal.over_ratings,
     });
     with_unstable(with_compare(v, &runs.done, "metrics"), &runs.unstable)
@@ -175,8 +181,12 @@ pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
 /// unstable variants.
 pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
     let mut s = format!(
-        "step {:+} mm, {} Hz, {} s ({}; sum-pressure loop as the rig says)\n",
-        setup.step_mm, setup.rate_hz, setup.duration_s, setup.rig
+        "step {:+} mm, {} Hz, {} s ({}, circuit {}; sum-pressure loop as the rig says)\n",
+        setup.step_mm,
+        setup.rate_hz,
+        setup.duration_s,
+        setup.rig,
+        setup.circuit.name()
     );
     let _ = write!(s, "{:<24}", "");
     for r in &runs.done {
@@ -292,19 +302,22 @@ pub fn step_mat(title: &str, runs: &[Run<StepMetrics>]) -> Vec<u8> {
     signals_mat(title, &series(runs), None, &scalars)
 }
 
-/// The tracking document (`track --json`): `rig`, `cases` (`label`, the core's
+/// The tracking document (`track --json`): `rig`, its `circuit` ([`CircuitKind::name`]), `cases` (`label`, the core's
 /// [`TrackMetrics`] of every run, whose `window.steady_state` says they are the periodic
 /// steady state, and its `over_ratings`) and `unstable`.
-pub fn track_json(rig: &str, runs: &Runs<TrackMetrics>) -> Value {
-    let v = json!({"rig": rig, "cases": labelled(&runs.done, "metrics")});
+pub fn track_json(rig: &str, circuit: CircuitKind, runs: &Runs<TrackMetrics>) -> Value {
+    let v = json!({
+        "rig": rig, "circuit": circuit.name(), "cases": labelled(&runs.done, "metrics"),
+    });
     with_unstable(v, &runs.unstable)
 }
 
-/// The tracking metrics as text: one row per run, then the warnings and the unstable variants. The metrics are
+/// The tracking metrics as text: a heading naming the rig and its circuit, one row per run, then the warnings and the unstable variants. The metrics are
 /// the periodic steady state ([`pumpcyl::response::track`]), as the heading says.
-pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
+pub fn track_text(rig: &str, circuit: CircuitKind, runs: &Runs<TrackMetrics>) -> String {
     let mut s = format!(
-        "sinusoidal tracking ({rig}), metrics of the periodic steady state (every period alike)\n"
+        "sinusoidal tracking ({rig}, circuit {}), metrics of the periodic steady state (every period alike)\n",
+        circuit.name()
     );
     let _ = writeln!(
         s,
@@ -406,27 +419,29 @@ pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
     Chart::time(title, Some(&subtitle), panels)
 }
 
-/// The replay document (`simulate --json`): `file`, `rig`, the nominal run's position MSE
+/// The replay document (`simulate --json`): `file`, `rig`, its `circuit`
+/// ([`CircuitKind::name`]), the nominal run's position MSE
 /// `mse_mm2` (mm²) over the fit window up to `fit_end_s` (s), `samples_in_window`,
 /// `over_ratings` (the drive ratings the simulated response exceeds, [`OverRating`]), and
 /// `compare` (`label`, `mse_mm2`, `over_ratings`) and `unstable` for the variants.
 pub fn simulate_json(replay: &Replay, runs: &Runs<f64>) -> Value {
     let nominal = &runs.done[0];
     let v = json!({
-        "file": replay.record.file, "rig": replay.rig, "mse_mm2": nominal.metrics,
+        "file": replay.record.file, "rig": replay.rig, "circuit": replay.circuit.name(),
+        "mse_mm2": nominal.metrics,
         "fit_end_s": replay.fit_end_s, "samples_in_window": replay.samples_in_window(),
         "over_ratings": nominal.over_ratings,
     });
     with_unstable(with_compare(v, &runs.done, "mse_mm2"), &runs.unstable)
 }
 
-/// The replay as text: the record, its samples and fit window, each run's position MSE (mm²),
+/// The replay as text: the record, the circuit, its samples and fit window, each run's position MSE (mm²),
 /// then the warnings and the unstable variants.
 pub fn simulate_text(replay: &Replay, runs: &Runs<f64>) -> String {
     let conditions = if replay.own_conditions {
-        format!(" ({})", replay.rig)
+        format!(" ({}, circuit {})", replay.rig, replay.circuit.name())
     } else {
-        String::new()
+        format!(" (circuit {})", replay.circuit.name())
     };
     let mut s = format!(
         "{}{conditions}: {} samples, fit window up to {} s ({} samples)\n",
@@ -556,6 +571,7 @@ mod tests {
         let runs = step_runs(&[("nominal", rig), ("kp=10", slow)]);
         let setup = StepSetup {
             rig: "default rig",
+            circuit: pumpcyl::circuit::CircuitKind::Dpm,
             step_mm: 5.0,
             duration_s: 1.0,
             rate_hz: 100.0,
@@ -566,6 +582,7 @@ mod tests {
         assert_eq!(
             keys,
             [
+                "circuit",
                 "compare",
                 "metrics",
                 "over_ratings",
