@@ -355,12 +355,12 @@ pub const EMBEDDED: [(&str, &str); 10] = [
 pub const FOLDER: &str = "records";
 
 /// The embedded records ([`EMBEDDED`]) as files under [`FOLDER`], for the readers that take
-/// [`Files`](crate::input::Files): `Experiment::load_in(&Embedded, "records/identify.toml")`
+/// [`Files`](crate::source_files::Files): `Experiment::load_in(&Embedded, "records/identify.toml")`
 /// reads the identification experiment and its records from memory.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Embedded;
 
-impl crate::input::Files for Embedded {
+impl crate::source_files::Files for Embedded {
     fn open(&self, path: &std::path::Path) -> std::io::Result<Box<dyn std::io::Read + Send + '_>> {
         EMBEDDED
             .iter()

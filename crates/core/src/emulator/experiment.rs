@@ -6,9 +6,9 @@ use super::integrate::integrate;
 use super::plc::Noise;
 use super::EmulatorError;
 use super::{emulate_reporting, Dynamics, Effects, Emulation, Plc};
-use crate::input::FieldError;
 use crate::response::Signals;
 use crate::rig::Rig;
+use crate::source_files::FieldError;
 use crate::units::RAD_S_PER_RPM;
 use std::f64::consts::PI;
 
