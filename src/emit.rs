@@ -113,7 +113,10 @@ pub fn check_confidence(confidence: f64) -> Result<()> {
 
 /// A core complaint about a named field (`freq_hz = 50: …`), the field shown as the option that
 /// sets it (`--freq-hz 50: …`); `option_of` maps a field to its option name.
-pub fn as_option(e: pumpcyl::input::FieldError, option_of: fn(&str) -> &str) -> anyhow::Error {
+pub fn as_option(
+    e: pumpcyl::source_files::FieldError,
+    option_of: fn(&str) -> &str,
+) -> anyhow::Error {
     let rest = e.message.strip_prefix(e.field).unwrap_or(&e.message);
     let rest = rest.strip_prefix(" =").unwrap_or(rest);
     anyhow::anyhow!("--{}{rest}", option_of(e.field))

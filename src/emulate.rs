@@ -8,7 +8,7 @@ use pumpcyl::emulator::article::{self, Emulated, Kind};
 use pumpcyl::emulator::Effects;
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
-use pumpcyl_present::emulated;
+use pumpcyl_present::{emulated, records};
 use rayon::prelude::*;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -155,7 +155,7 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         .map_err(|e| anyhow!("{}: {e}", out.display()))?;
     bar.finish_and_clear();
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
-    write_atomic(out, data.csv().as_bytes())?;
+    write_atomic(out, records::emulated_csv(&data).as_bytes())?;
     let origin = args.source.origin_or("the emulated article rig");
     let warnings = emulated::warnings(&truth.rig, &data);
     if args.json {
@@ -286,13 +286,16 @@ fn article_records(target: &Path) -> Result<String> {
     let mut summary = String::new();
     for (rec, data) in records.iter().zip(results) {
         let data = data?;
-        write_atomic(&dir.join(rec.file), data.csv().as_bytes())?;
+        write_atomic(&dir.join(rec.file), records::emulated_csv(&data).as_bytes())?;
         let _ = writeln!(summary, "{}: {}", target.join(rec.file).display(), rec.what);
     }
-    write_atomic(&dir.join("README.md"), article::readme(&records).as_bytes())?;
+    write_atomic(
+        &dir.join("README.md"),
+        records::article_readme(&records).as_bytes(),
+    )?;
     write_atomic(
         &dir.join("identify.toml"),
-        article::identify_experiment().as_bytes(),
+        records::article_identify_experiment().as_bytes(),
     )?;
     let _ = writeln!(
         summary,

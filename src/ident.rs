@@ -377,7 +377,7 @@ fn warn(lines: &[String]) {
 pub fn merge(args: &MergeArgs) -> Result<String> {
     let mut parts = Vec::new();
     for p in &args.parts {
-        let text = pumpcyl::input::read_text(crate::read_files::files(), p)
+        let text = pumpcyl::source_files::read_text(crate::read_files::files(), p)
             .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
         let part: Partial = serde_json::from_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;

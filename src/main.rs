@@ -221,7 +221,7 @@ impl ModelArgs {
 /// Read a `--ss` JSON model; errors name the file, line and key.
 fn read_ss(path: &std::path::Path) -> Result<Loop> {
     let name = path.display().to_string();
-    pumpcyl::input::read_text(crate::read_files::files(), path)
+    pumpcyl::source_files::read_text(crate::read_files::files(), path)
         .and_then(|text| Loop::from_json(&text, &name))
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))
 }

@@ -4,7 +4,7 @@
 //! one of its inputs (`pumpcyl_present::files::Protected`).
 
 use pumpcyl::ident::{Experiment, RigDefaults};
-use pumpcyl::input::{Disk, Files};
+use pumpcyl::source_files::{Disk, Files};
 use pumpcyl_present::files::Protected;
 use std::io::Read;
 use std::path::Path;

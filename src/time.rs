@@ -253,6 +253,7 @@ pub fn step(args: &StepArgs) -> Result<String> {
     let origin = args.rig.origin();
     let setup = StepSetup {
         rig: &origin,
+        circuit: rig.circuit,
         step_mm: args.step_mm,
         duration_s: args.duration_s,
         rate_hz: args.rate_hz,
@@ -326,9 +327,9 @@ pub fn track(args: &TrackArgs) -> Result<String> {
     let origin = args.rig.origin();
     let warnings = stroke_warnings(&rig, &runs);
     if args.opts.json {
-        return with_warnings(track_json(&origin, &runs), &warnings);
+        return with_warnings(track_json(&origin, rig.circuit, &runs), &warnings);
     }
-    Ok(track_text(&origin, &runs))
+    Ok(track_text(&origin, rig.circuit, &runs))
 }
 
 /// `pumpcyl simulate`.
@@ -369,6 +370,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<String> {
     let replay = Replay {
         record: &rec,
         rig: &origin,
+        circuit: rig.circuit,
         own_conditions: args.experiment.is_some(),
         fit_end_s: window_end,
     };

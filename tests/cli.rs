@@ -941,7 +941,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
             vec!["bode"],
             vec![
                 "freq_hz,mag_db,phase_deg".into(),
-                "1.000000e-2,35.07".into(),
+                "0.010000,35.07".into(),
             ],
         ),
         (vec!["poles"], vec![open_loop.into()]),
@@ -954,19 +954,19 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         ),
         (
             vec!["step"],
-            vec!["step +5 mm, 100 Hz, 4 s (default rig; sum-pressure loop as the rig says)".into()],
+            vec!["step +5 mm, 100 Hz, 4 s (default rig, circuit dpm; sum-pressure loop as the rig says)".into()],
         ),
         (
             vec!["track", "--article-cases"],
             vec![
-                "sinusoidal tracking (default rig), metrics of the periodic steady state (every period alike)"
+                "sinusoidal tracking (default rig, circuit dpm), metrics of the periodic steady state (every period alike)"
                     .into(),
             ],
         ),
         (
             vec!["simulate", "--data", &validation, "--fit-end-s", "3.7"],
             vec![format!(
-                "{validation}: 651 samples, fit window up to 3.7 s (371 samples)"
+                "{validation} (circuit dpm): 651 samples, fit window up to 3.7 s (371 samples)"
             )],
         ),
         (
@@ -1008,7 +1008,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
     assert_first_lines(
         &["emulate", "--experiment", "step", "--out", &record],
         &[&format!(
-            "{record}: emulated step on the emulated article rig, 601 samples (emulated data"
+            "{record}: emulated step on the emulated article rig (circuit dpm), 601 samples (emulated data"
         )],
     );
     let parts: Vec<String> = (1..=2)

@@ -55,7 +55,8 @@ fn record(name: &str, run: &Emulation, rig: &Rig, effects: Effects, seed: u64) -
     let s = run
         .run(rig, effects, &article::plc(seed))
         .expect("the emulator runs the rig");
-    Record::parse(s.record_csv().as_bytes(), name).expect("the emulator's record reads")
+    Record::parse(pumpcyl_present::records::record_csv(&s).as_bytes(), name)
+        .expect("the emulator's record reads")
 }
 
 /// The identification problem of record set `k` with truth `t`.

@@ -585,7 +585,7 @@ fn mat_records_replay_like_the_csv() {
         .output()
         .unwrap();
     assert!(!out.status.success());
-    let mut w = pumpcyl::matfile::MatWriter::new("test");
+    let mut w = pumpcyl_present::matfile::MatWriter::new("test");
     w.column("time_s", &[0.0, 1.0])
         .column("x_ref_mm", &[1.0, 2.0])
         .column("x_m", &[1.0, 2.0]);

@@ -212,6 +212,8 @@ class Simulation(Result):
 
     rig: str
     """The rig simulated (its ``repr``)."""
+    circuit: Literal["dpm", "dual-pump", "single-pump"]
+    """The rig's circuit (docs/circuits.md)."""
     signals: Signals
     over_ratings: List[Dict[str, Any]]
     """The drive ratings the response exceeds (docs/simulation.md#drive-ratings)."""
@@ -223,6 +225,8 @@ class Step(Result):
 
     rig: str
     """The rig simulated, in words (its ``repr`` from Python)."""
+    circuit: Literal["dpm", "dual-pump", "single-pump"]
+    """The rig's circuit (docs/circuits.md)."""
     step_mm: float
     metrics: Dict[str, Any]
     """step_mm, rise_time_s (None if it never reaches 90 %), overshoot_mm, overshoot_pct,

@@ -162,7 +162,7 @@ fn from_py<T: serde::de::DeserializeOwned>(arg: &Arg<'_>, value: &Bound<'_, PyAn
     toml_of(arg, value)?
         .try_into()
         .map_err(|e: toml::de::Error| {
-            let problem = pumpcyl::input::serde_message(e.message());
+            let problem = pumpcyl::source_files::serde_message(e.message());
             // the message ends with the key path, "in `key.sub`", when it concerns a key
             let shown = e.to_string();
             let key = shown
@@ -338,7 +338,8 @@ impl PyRig {
     /// `[]` (one mass over the stroke); a `UserWarning` names them (docs/formats.md#rig-toml).
     #[staticmethod]
     fn from_toml(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let file = Rig::from_file_with_defaults_in(&pumpcyl::input::Disk, &path).map_err(err)?;
+        let file =
+            Rig::from_file_with_defaults_in(&pumpcyl::source_files::Disk, &path).map_err(err)?;
         PyRig::noting_defaults(py, file, &path.display().to_string())
     }
 
@@ -810,7 +811,7 @@ fn run_warnings(
 /// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
 /// operating-point pressures and motor speeds. An unstable closed loop is an error, so is a
 /// reference outside the stroke (as the command line's `simulate`); a predicted position
-/// outside it or a drive rating exceeded warns (UserWarning). A `Result` with `rig`,
+/// outside it or a drive rating exceeded warns (UserWarning). A `Result` with `rig`, `circuit`,
 /// `signals` (numpy arrays), `over_ratings` and `warnings`.
 #[pyfunction]
 fn simulate(
@@ -844,6 +845,7 @@ fn simulate(
     let warnings = run_warnings(py, "simulate", &rig, &s, &over)?;
     let doc = serde_json::json!({
         "rig": name,
+        "circuit": rig.circuit.name(),
         "signals": signals,
         "over_ratings": over,
         "warnings": warnings,
@@ -857,7 +859,7 @@ const STEP_WARN_BELOW_MM: f64 = 0.05;
 
 /// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
 /// sampled at `rate_hz` (Hz) for `duration_s` (s): the command line's `step --json` (`rig`,
-/// `step_mm`, `metrics`, `over_ratings`, `signals` as numpy arrays, `warnings`). A step
+/// `circuit`, `step_mm`, `metrics`, `over_ratings`, `signals` as numpy arrays, `warnings`). A step
 /// smaller than 0.05 mm in size warns (UserWarning): `step_mm` is in millimetres, not metres;
 /// so does a predicted position outside the stroke (docs/emulator.md#end-stops) or a drive
 /// rating exceeded.
@@ -902,6 +904,7 @@ fn step(
     };
     let setup = StepSetup {
         rig: &name,
+        circuit: rig.circuit,
         step_mm,
         duration_s,
         rate_hz,
@@ -1101,7 +1104,8 @@ fn identify(
                     "standstill and rig come from the experiment file: give either the file or datasets",
                 ));
             }
-            loaded = Experiment::load_as(&pumpcyl::input::Disk, &path, method).map_err(err)?;
+            loaded =
+                Experiment::load_as(&pumpcyl::source_files::Disk, &path, method).map_err(err)?;
             if loaded.method == ident::Method::Frequency {
                 if shard.is_some() {
                     return Err(err("identify(shard=...): a shard is a slice of the time-domain grid search; the experiment's method is \"frequency\""));
@@ -1259,7 +1263,7 @@ fn shard_of(
     tick(py, u64::MAX)?;
     let seconds = start.elapsed().as_secs_f64();
     py.detach(|| {
-        let (files, opts) = (&pumpcyl::input::Disk, &request.options);
+        let (files, opts) = (&pumpcyl::source_files::Disk, &request.options);
         let part = ident::shards::Partial::of_search(files, path, opts, label, seconds, stages)?;
         serde_json::to_string(&part).map_err(|e| ident::IdentError::Input(e.to_string()))
     })
@@ -1394,7 +1398,7 @@ fn identify_merge(py: Python<'_>, shards: Vec<Bound<'_, PyAny>>) -> PyResult<PyO
         parts.push((PathBuf::from(&arg.name), part));
     }
     let (exp, id, seconds) = py
-        .detach(|| ident::shards::merge(&pumpcyl::input::Disk, parts))
+        .detach(|| ident::shards::merge(&pumpcyl::source_files::Disk, parts))
         .map_err(err)?;
     let origin = pumpcyl_present::identification::Origin::of_experiment(&exp);
     let found = Found {
@@ -1556,7 +1560,7 @@ fn advise(
             let exp = pumpcyl::ident::Experiment::load(&experiment)?;
             pumpcyl::ident::advise_experiment(
                 &exp,
-                &pumpcyl::input::Disk,
+                &pumpcyl::source_files::Disk,
                 candidates.as_deref(),
                 confidence,
             )
@@ -1733,7 +1737,8 @@ fn emulate(
         noise,
         sweep: None,
     };
-    let field = |e: pumpcyl::input::FieldError| err(format!("emulate({}): {}", e.field, e.message));
+    let field =
+        |e: pumpcyl::source_files::FieldError| err(format!("emulate({}): {}", e.field, e.message));
     let plc = request.plc().map_err(field)?;
     let plan = request.plan(&rig, plc.rate_hz).map_err(field)?;
     pumpcyl::limits::check_emulation(emulated::duration_s(&plan), plc.rate_hz, allow_long_run)
@@ -1843,7 +1848,7 @@ fn select(
 ) -> PyResult<PyOutcome> {
     use pumpcyl::select::Application;
     let base = match &application {
-        Some(path) => Application::from_file_in(&pumpcyl::input::Disk, path).map_err(err)?,
+        Some(path) => Application::from_file_in(&pumpcyl::source_files::Disk, path).map_err(err)?,
         None => Application::default(),
     };
     let given = assignments("select", overrides)?;

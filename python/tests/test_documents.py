@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import pumpcyl
-from conftest import ARTICLE, pumpcyl_binary, stub_fields
+from conftest import ARTICLE, ROOT, pumpcyl_binary, stub_fields
 
 # a small two-stage identification of the article's emulated records (45 + 18 candidates)
 SMALL_GRIDS = """
@@ -82,6 +82,20 @@ def test_step_is_the_document_of_step_json_with_numpy_signals():
     plain["rig"] = doc["rig"]
     assert {k: v for k, v in plain.items() if k not in ("signals", "metrics")} == \
         {k: v for k, v in doc.items() if k not in ("signals", "metrics")}
+
+
+def test_step_and_simulate_name_the_circuit_as_the_command_line():
+    """Every output names the circuit it used: the user rig switched to the dual-pump circuit
+    (the article's Figure 1b) gives `circuit` as `step --json` does."""
+    user = ROOT / "tests" / "user-rig.toml"
+    with pytest.warns(UserWarning, match="does not set"):
+        rig = pumpcyl.Rig.from_toml(user).replace(circuit="dual-pump")
+    doc = cli("step", "--rig", str(user), "--set", "circuit=dual-pump", "--json")
+    assert pumpcyl.step(rig).circuit == doc["circuit"] == "dual-pump"
+    t_s = np.arange(0.0, 1.0, 0.01)
+    sim = pumpcyl.simulate(rig, t_s, np.full(t_s.shape, 400.0))
+    assert sim.circuit == "dual-pump"
+    assert pumpcyl.step(pumpcyl.Rig()).circuit == "dpm"
 
 
 def test_simulate_names_the_stubs_fields():

@@ -114,7 +114,7 @@ fn bench(c: &mut Criterion) {
     });
     group.bench_function(
         "article_records_experiment_advice_with_identification",
-        |b| b.iter(|| advise_experiment(&exp, &pumpcyl::input::Disk, None, 0.95).unwrap()),
+        |b| b.iter(|| advise_experiment(&exp, &pumpcyl::source_files::Disk, None, 0.95).unwrap()),
     );
     group.finish();
 }

@@ -4,11 +4,11 @@
 //! on the stable toolchain.
 
 use crate::ident::Experiment;
-use crate::input;
 use crate::lti::{eigenvalues, margins, ModelJson};
 use crate::model::Plant;
 use crate::record::{Record, Table};
 use crate::rig::Rig;
+use crate::source_files;
 use std::path::Path;
 
 /// A record and a drive-step table from CSV bytes (any dialect).
@@ -25,10 +25,10 @@ pub fn record_mat(data: &[u8]) {
 /// A rig from TOML bytes; a rig that validates is modelled and its margins computed, so odd but
 /// valid values (1e300 kg) reach the numerics too.
 pub fn rig_toml(data: &[u8]) {
-    let Ok(text) = input::decode(data.to_vec()) else {
+    let Ok(text) = source_files::decode(data.to_vec()) else {
         return;
     };
-    let _ = input::toml_line(&text, &[input::Key::Name("mass_kg")]);
+    let _ = source_files::toml_line(&text, &[source_files::Key::Name("mass_kg")]);
     if let Ok(rig) = Rig::from_toml_str(&text, "fuzz.toml") {
         let _ = margins(&Plant::new(&rig).open_loop(false));
     }
@@ -36,14 +36,14 @@ pub fn rig_toml(data: &[u8]) {
 
 /// An identification experiment from TOML bytes, in a folder without records.
 pub fn experiment_toml(data: &[u8]) {
-    if let Ok(text) = input::decode(data.to_vec()) {
+    if let Ok(text) = source_files::decode(data.to_vec()) {
         let _ = Experiment::from_text(&text, Path::new("/nonexistent/fuzz.toml"));
     }
 }
 
 /// A `--ss` model from JSON bytes; a model that parses gets its poles and margins computed.
 pub fn ss_json(data: &[u8]) {
-    let Ok(text) = input::decode(data.to_vec()) else {
+    let Ok(text) = source_files::decode(data.to_vec()) else {
         return;
     };
     if let Ok((sys, _)) = ModelJson::parse(&text) {

@@ -13,7 +13,7 @@
 //! - [`emulator`] — the nonlinear rig emulator and the emulated article records;
 //! - [`frf`] — frequency response from sweep records: excitations, estimate, experiment design;
 //! - [`ident`] — identification from records: drive gain, leakage, grid search, refinement;
-//! - [`input`] — decoding user files and locating their errors;
+//! - [`source_files`] — reading the files a user writes and locating their errors;
 //! - [`loops`] — the loop a command analyses or exports (a rig's or a JSON model's) and its view;
 //! - [`lti`] — generic state-space analysis: poles, frequency response, margins, ZOH responses;
 //! - [`matfile`] — MAT-files (level 5): the reader of records;
@@ -54,7 +54,6 @@ pub mod frf;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod ident;
-pub mod input;
 pub mod limits;
 pub mod loops;
 pub mod lti;
@@ -64,4 +63,5 @@ pub mod record;
 pub mod response;
 pub mod rig;
 pub mod select;
+pub mod source_files;
 pub mod units;

@@ -160,7 +160,7 @@ impl Loop {
 
     /// A loop transfer L(s) from the JSON model `text` of the file `name`; the error (without
     /// the name) locates the line and key.
-    pub fn from_json(text: &str, name: &str) -> Result<Loop, crate::input::InputError> {
+    pub fn from_json(text: &str, name: &str) -> Result<Loop, crate::source_files::InputError> {
         let (open_loop, states) = ModelJson::parse(text)?;
         Ok(Loop {
             open_loop,

@@ -2,7 +2,7 @@
 //! columns ignored. `time_s`, `x_ref_mm`, `x_mm` are required; `p1_bar`, `p2_bar` (gauge),
 //! `w1_rpm`, `w2_rpm` are optional. Time is strictly increasing, uniform or not.
 
-use crate::input::{Disk, Files};
+use crate::source_files::{Disk, Files};
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
@@ -515,8 +515,8 @@ impl Dialect {
                 file: file.to_string(),
                 message: e.to_string(),
             })?;
-        if line.starts_with(crate::input::BOM) {
-            line.drain(..crate::input::BOM.len());
+        if line.starts_with(crate::source_files::BOM) {
+            line.drain(..crate::source_files::BOM.len());
         }
         if line.iter().all(u8::is_ascii_whitespace) {
             return Err(RecordError::Csv {

@@ -54,7 +54,7 @@
 
 use crate::circuit::dual_pump::balance::Balance;
 use crate::circuit::CircuitKind;
-use crate::input;
+use crate::source_files;
 use crate::units::{readable, PA_PER_BAR};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -602,7 +602,7 @@ impl Rig {
     pub fn from_toml_str_with_defaults(text: &str, name: &str) -> Result<RigFile, RigError> {
         let rig: Rig = toml::from_str(text).map_err(|e| RigError::Parse {
             file: name.to_string(),
-            message: input::toml_error(&e, text),
+            message: source_files::toml_error(&e, text),
         })?;
         let written = toml::from_str::<toml::Table>(text).unwrap_or_default();
         let set: Vec<&str> = written.keys().map(String::as_str).collect();
@@ -613,8 +613,9 @@ impl Rig {
                 | RigError::NotInCircuit { line, key, .. } = &mut e
                 {
                     let alias = KEY_ALIASES.iter().find(|(_, own)| own == key);
-                    *line = input::toml_line(text, &[input::Key::Name(key)])
-                        .or_else(|| input::toml_line(text, &[input::Key::Name(alias?.0)]));
+                    *line = source_files::toml_line(text, &[source_files::Key::Name(key)]).or_else(
+                        || source_files::toml_line(text, &[source_files::Key::Name(alias?.0)]),
+                    );
                 }
                 e
             })?;
@@ -624,17 +625,17 @@ impl Rig {
 
     /// Read and validate a rig file.
     pub fn from_file(path: &Path) -> Result<Rig, RigError> {
-        Self::from_file_in(&input::Disk, path)
+        Self::from_file_in(&source_files::Disk, path)
     }
 
     /// [`Rig::from_file`] from `files`.
-    pub fn from_file_in(files: &dyn input::Files, path: &Path) -> Result<Rig, RigError> {
+    pub fn from_file_in(files: &dyn source_files::Files, path: &Path) -> Result<Rig, RigError> {
         Ok(Self::from_file_with_defaults_in(files, path)?.rig)
     }
 
     /// [`Rig::from_file_in`], with the keys the file leaves out.
     pub fn from_file_with_defaults_in(
-        files: &dyn input::Files,
+        files: &dyn source_files::Files,
         path: &Path,
     ) -> Result<RigFile, RigError> {
         let name = path.display().to_string();
@@ -642,7 +643,7 @@ impl Rig {
             file: name.clone(),
             message,
         };
-        let text = input::read_text(files, path).map_err(|e| parse_err(e.to_string()))?;
+        let text = source_files::read_text(files, path).map_err(|e| parse_err(e.to_string()))?;
         if toml::from_str::<toml::Table>(&text).is_ok_and(|t| t.is_empty()) {
             return Err(RigError::Empty { file: name });
         }
@@ -677,8 +678,11 @@ impl Rig {
             .try_into()
             .map_err(|e: toml::de::Error| RigError::Set {
                 source_name: source_name.to_string(),
-                assignment: input::shown_text(&assignments.join(" "), input::MAX_VALUE_CHARS)
-                    .into_owned(),
+                assignment: source_files::shown_text(
+                    &assignments.join(" "),
+                    source_files::MAX_VALUE_CHARS,
+                )
+                .into_owned(),
                 // serde's "…\nin `key`" kept on one line
                 message: (e.to_string().lines().map(str::trim))
                     .filter(|l| !l.is_empty())
@@ -1196,7 +1200,8 @@ fn parse_assignment(
 ) -> Result<(String, toml::Value), RigError> {
     let err = |message: String| RigError::Set {
         source_name: source_name.to_string(),
-        assignment: input::shown_text(assignment, input::MAX_VALUE_CHARS).into_owned(),
+        assignment: source_files::shown_text(assignment, source_files::MAX_VALUE_CHARS)
+            .into_owned(),
         message,
     };
     let (key, raw) = assignment
@@ -1204,7 +1209,7 @@ fn parse_assignment(
         .ok_or_else(|| err("expected KEY=VALUE".into()))?;
     let key = canonical_key(key.trim());
     let raw = raw.trim();
-    let value = input::parse_value(raw);
+    let value = source_files::parse_value(raw);
     // the one optional key is absent from the table when unset: its type is float
     let float = toml::Value::Float(0.0);
     let current = match table.get(key) {
@@ -1215,14 +1220,14 @@ fn parse_assignment(
                 .iter()
                 .flat_map(|(_, k)| k.iter().map(|(n, _)| *n))
                 .collect();
-            return Err(err(input::unknown_key_among(key, &known)));
+            return Err(err(source_files::unknown_key_among(key, &known)));
         }
     };
-    let value = input::typed_like(current, value).map_err(|got| {
+    let value = source_files::typed_like(current, value).map_err(|got| {
         err(format!(
             "key `{key}` takes a {}, got {got} `{}`",
             current.type_str(),
-            input::shown_text(raw, input::MAX_VALUE_CHARS)
+            source_files::shown_text(raw, source_files::MAX_VALUE_CHARS)
         ))
     })?;
     Ok((key.to_string(), value))

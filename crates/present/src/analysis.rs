@@ -7,6 +7,7 @@
 
 use crate::format::fmt_opt;
 use crate::plot::BodeSeries;
+use crate::records::{csv_number, csv_text};
 use nalgebra::DMatrix;
 use pumpcyl::circuit::single_pump::modes::{linear_models, switching, ModeModel, Switching};
 use pumpcyl::circuit::CircuitKind;
@@ -439,26 +440,28 @@ pub fn merged(mut a: Value, b: Value) -> Value {
 
 /// Bode data as CSV (docs/analysis.md#bode-diagrams): `freq_hz` (Hz), then `mag_db` (dB) and
 /// `phase_deg` (deg) of the first series and `mag_db[label],phase_deg[label]` of each further
-/// one (commas in a label written as `;`); every series on the first one's frequencies.
+/// one (a label with a comma quoted, as any CSV cell); every series on the first one's
+/// frequencies, values in the records' number format ([`csv_number`]).
 pub fn bode_csv(series: &[BodeSeries]) -> String {
-    let mut s = String::from("freq_hz");
+    let mut header = vec!["freq_hz".to_string()];
     for (i, ser) in series.iter().enumerate() {
         if i == 0 {
-            s.push_str(",mag_db,phase_deg");
+            header.extend(["mag_db".into(), "phase_deg".into()]);
         } else {
-            let label = ser.label.replace(',', ";");
-            let _ = write!(s, ",mag_db[{label}],phase_deg[{label}]");
+            let label = &ser.label;
+            header.extend([format!("mag_db[{label}]"), format!("phase_deg[{label}]")]);
         }
     }
-    s.push('\n');
-    for (k, f) in series[0].freq_hz.iter().enumerate() {
-        let _ = write!(s, "{f:.6e}");
-        for ser in series {
-            let _ = write!(s, ",{:.6},{:.6}", ser.mag_db[k], ser.phase_deg[k]);
-        }
-        s.push('\n');
-    }
-    s
+    let rows = series[0].freq_hz.iter().enumerate().map(|(k, f)| {
+        let values = series
+            .iter()
+            .flat_map(|ser| [ser.mag_db[k], ser.phase_deg[k]]);
+        std::iter::once(*f)
+            .chain(values)
+            .map(csv_number)
+            .collect::<Vec<_>>()
+    });
+    csv_text(&header, rows)
 }
 
 /// The model as text: what it is, its inputs and outputs with their units, the states, and the
@@ -564,11 +567,11 @@ mod tests {
         let mut lines = csv.lines();
         assert_eq!(
             lines.next(),
-            Some("freq_hz,mag_db,phase_deg,mag_db[kp=30;beta_bar=50],phase_deg[kp=30;beta_bar=50]")
+            Some("freq_hz,mag_db,phase_deg,\"mag_db[kp=30,beta_bar=50]\",\"phase_deg[kp=30,beta_bar=50]\"")
         );
         assert_eq!(
             lines.next(),
-            Some("1.000000e-1,20.000000,-90.000000,20.000000,-90.000000")
+            Some("0.100000,20.000000,-90.000000,20.000000,-90.000000")
         );
         assert_eq!(lines.count(), 2);
     }

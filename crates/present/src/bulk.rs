@@ -4,6 +4,7 @@
 //! an infinite margin is `null` in JSON, `inf` in text and an empty cell in CSV.
 
 use crate::format::fmt_opt;
+use crate::records::{csv_number, csv_text};
 use pumpcyl::bulk::{BetaReading, Row};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -61,22 +62,28 @@ pub fn bulk_text(fit: (f64, f64, f64), from: &str, x: f64, rows: &[Row]) -> Stri
 }
 
 /// The table as CSV: `p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable`, one
-/// row per pressure, values with six decimals (the pressure as given).
+/// row per pressure, values in the records' number format ([`csv_number`]; a margin that does
+/// not exist is an empty cell).
 pub fn bulk_csv(rows: &[Row]) -> String {
-    let mut s = String::from("p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable\n");
-    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{:.6},{},{},{}",
-            r.p_bar,
-            r.beta_bar,
+    let header = [
+        "p_bar",
+        "beta_bar",
+        "gain_margin_db",
+        "phase_margin_deg",
+        "closed_loop_stable",
+    ]
+    .map(String::from);
+    let opt = |v: Option<f64>| v.map_or(String::new(), csv_number);
+    let cells = |r: &Row| {
+        [
+            csv_number(r.p_bar),
+            csv_number(r.beta_bar),
             opt(r.gain_margin_db),
             opt(r.phase_margin_deg),
-            r.closed_loop_stable
-        );
-    }
-    s
+            r.closed_loop_stable.to_string(),
+        ]
+    };
+    csv_text(&header, rows.iter().map(cells))
 }
 
 #[cfg(test)]

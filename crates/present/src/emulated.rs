@@ -10,8 +10,8 @@ use pumpcyl::emulator::{
     beta_anchor_bar, DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc, DRIVE_RATE_HZ,
     DRIVE_RECORD_S, PLC_RATE_HZ,
 };
-use pumpcyl::input::FieldError;
 use pumpcyl::rig::Rig;
+use pumpcyl::source_files::FieldError;
 use pumpcyl::units::{readable, RAD_S_PER_RPM};
 use serde_json::{json, Value};
 

@@ -3,13 +3,14 @@
 //! (`fit-K.svg`, `.png`, the article's Figure 6 layout) and `result.mat`, built in memory.
 
 use crate::figures::{Chart, Plot, PARAMETER_AXES};
+use crate::matfile::MatWriter;
 use crate::plot::{HeatMap, Marker};
+use crate::records::{csv_number, csv_text};
 use anyhow::Result;
 use pumpcyl::ident::{
     identifiability, Candidate, DriveFit, DriveRecord, Experiment, Identifiability, Identification,
     Leakage, Problem, Scored, Standstill, Uncertainty,
 };
-use pumpcyl::matfile::MatWriter;
 use pumpcyl::response::Signals;
 use pumpcyl::rig::Rig;
 use serde_json::{json, Value};
@@ -531,15 +532,17 @@ pub fn drive_text(
 }
 
 /// The drive step record beside the fitted model as CSV: time (s), speed reference, measured
-/// and simulated speed (rpm).
+/// and simulated speed (rpm), in the records' number format ([`csv_number`]).
 pub fn drive_csv(rec: &DriveRecord, fit: &DriveFit) -> String {
-    let mut s = String::from("time_s,w_ref_rpm,w_rpm,w_sim_rpm\n");
-    for k in 0..rec.time_s.len() {
-        let _ = writeln!(
-            s,
-            "{},{},{},{:.6}",
-            rec.time_s[k], rec.w_ref_rpm[k], rec.w_rpm[k], fit.w_sim_rpm[k]
-        );
-    }
-    s
+    let header = ["time_s", "w_ref_rpm", "w_rpm", "w_sim_rpm"].map(String::from);
+    let rows = (0..rec.time_s.len()).map(|k| {
+        [
+            rec.time_s[k],
+            rec.w_ref_rpm[k],
+            rec.w_rpm[k],
+            fit.w_sim_rpm[k],
+        ]
+        .map(csv_number)
+    });
+    csv_text(&header, rows)
 }

@@ -16,9 +16,12 @@
 //! - [`figures`] — the figures of results (signals, drive step, β_e(p), Bode, landscape);
 //! - [`frf`] — a frequency-response estimate as text, JSON, CSV and a Bode figure with its band;
 //! - [`identification`] — the files of an identification (result.json, landscape, fits, MAT);
+//! - [`matfile`] — the MAT-file writer (the reader is the core's);
 //! - [`matlab`] — MATLAB/Octave files: the model as `ss`, the grey-box function, MAT-files;
 //! - [`files`] — safe result files and folders: whole or not at all, never over an input;
 //! - [`mod@format`] — numbers, names and JSON documents as the outputs show them;
+//! - [`records`] — the one CSV writer; records, drive records and the emulated article records'
+//!   folder (CSV, README, identify experiment);
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
 //! - [`table`] — tables of text cells, for terminals and reports;
 //! - [`uncertainty`] — the uncertainty of an identification: JSON fields, text, profile figures.
@@ -38,9 +41,11 @@ pub mod format;
 pub mod frf;
 pub mod html;
 pub mod identification;
+pub mod matfile;
 pub mod matlab;
 pub mod origin;
 pub mod plot;
+pub mod records;
 pub mod reproduce;
 pub mod select;
 pub mod table;

@@ -4,12 +4,12 @@
 //! in Rust's shortest round-trip form, so MATLAB and Octave read back exactly the f64 values
 //! pumpcyl computed with.
 
+use crate::matfile::{var_name, MatWriter};
 use crate::plot::BodeSeries;
 use nalgebra::DMatrix;
 use pumpcyl::ident::Standstill;
 use pumpcyl::loops::{grey_loop, GreyLoop, ModelView, Port};
 use pumpcyl::lti::{StateInfo, StateSpace};
-use pumpcyl::matfile::{var_name, MatWriter};
 use pumpcyl::model::Plant;
 use pumpcyl::response::Signals;
 use pumpcyl::rig::Rig;
@@ -33,9 +33,9 @@ pub struct Described<'a> {
     pub operating_point: Vec<(String, f64, String)>,
 }
 
-/// Whether `name` can name a MATLAB function (and so its file): see [`pumpcyl::matfile::is_var_name`].
+/// Whether `name` can name a MATLAB function (and so its file): see [`crate::matfile::is_var_name`].
 pub fn is_function_name(name: &str) -> bool {
-    pumpcyl::matfile::is_var_name(name)
+    crate::matfile::is_var_name(name)
 }
 
 /// A number MATLAB reads back as exactly this f64.

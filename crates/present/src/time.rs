@@ -10,6 +10,8 @@ use crate::figures::{trace, Chart};
 use crate::format::{fmt_opt, shown_name};
 use crate::matlab::signals_mat;
 use crate::plot::{LineStyle, Panel};
+use crate::records::{csv_number, csv_text};
+use pumpcyl::circuit::CircuitKind;
 use pumpcyl::record::Record;
 use pumpcyl::response::{
     OverRating, Ringing, Signals, StepMetrics, TrackMetrics, TrackWindow, RINGING_GM_DB,
@@ -57,6 +59,8 @@ pub struct Runs<M> {
 pub struct StepSetup<'a> {
     /// Where the rig comes from, in words.
     pub rig: &'a str,
+    /// The rig's circuit, which every output names.
+    pub circuit: CircuitKind,
     /// The step (mm) from the operating point x0.
     pub step_mm: f64,
     /// The simulated duration (s).
@@ -72,6 +76,8 @@ pub struct Replay<'a> {
     pub record: &'a Record,
     /// The rig it was replayed on, in words.
     pub rig: &'a str,
+    /// The rig's circuit, which every output names.
+    pub circuit: CircuitKind,
     /// Whether the rig is a dataset's own conditions, which the text then names.
     pub own_conditions: bool,
     /// The end of the fit window (s) on the record's time axis.
@@ -157,13 +163,14 @@ fn column<M>(runs: &[Run<M>], f: impl Fn(&M) -> Option<f64>) -> Vec<Option<f64>>
     runs.iter().map(|r| f(&r.metrics)).collect()
 }
 
-/// The step document (`step --json`): `rig`, `step_mm`, the nominal `metrics` (the core's
+/// The step document (`step --json`): `rig`, its `circuit` ([`CircuitKind::name`]), `step_mm`, the nominal `metrics` (the core's
 /// [`StepMetrics`], with `ringing` when the loop barely damps) and `over_ratings` (the drive
 /// ratings exceeded, [`OverRating`]), and `compare` and `unstable` for the variants.
 pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
     let nominal = &runs.done[0];
     let v = json!({
-        "rig": setup.rig, "step_mm": setup.step_mm, "metrics": nominal.metrics,
+        "rig": setup.rig, "circuit": setup.circuit.name(), "step_mm": setup.step_mm,
+        "metrics": nominal.metrics,
         "over_ratings": nominal.over_ratings,
     });
     with_unstable(with_compare(v, &runs.done, "metrics"), &runs.unstable)
@@ -174,8 +181,12 @@ pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
 /// unstable variants.
 pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
     let mut s = format!(
-        "step {:+} mm, {} Hz, {} s ({}; sum-pressure loop as the rig says)\n",
-        setup.step_mm, setup.rate_hz, setup.duration_s, setup.rig
+        "step {:+} mm, {} Hz, {} s ({}, circuit {}; sum-pressure loop as the rig says)\n",
+        setup.step_mm,
+        setup.rate_hz,
+        setup.duration_s,
+        setup.rig,
+        setup.circuit.name()
     );
     let _ = write!(s, "{:<24}", "");
     for r in &runs.done {
@@ -291,19 +302,22 @@ pub fn step_mat(title: &str, runs: &[Run<StepMetrics>]) -> Vec<u8> {
     signals_mat(title, &series(runs), None, &scalars)
 }
 
-/// The tracking document (`track --json`): `rig`, `cases` (`label`, the core's
+/// The tracking document (`track --json`): `rig`, its `circuit` ([`CircuitKind::name`]), `cases` (`label`, the core's
 /// [`TrackMetrics`] of every run, whose `window.steady_state` says they are the periodic
 /// steady state, and its `over_ratings`) and `unstable`.
-pub fn track_json(rig: &str, runs: &Runs<TrackMetrics>) -> Value {
-    let v = json!({"rig": rig, "cases": labelled(&runs.done, "metrics")});
+pub fn track_json(rig: &str, circuit: CircuitKind, runs: &Runs<TrackMetrics>) -> Value {
+    let v = json!({
+        "rig": rig, "circuit": circuit.name(), "cases": labelled(&runs.done, "metrics"),
+    });
     with_unstable(v, &runs.unstable)
 }
 
-/// The tracking metrics as text: one row per run, then the warnings and the unstable variants. The metrics are
+/// The tracking metrics as text: a heading naming the rig and its circuit, one row per run, then the warnings and the unstable variants. The metrics are
 /// the periodic steady state ([`pumpcyl::response::track`]), as the heading says.
-pub fn track_text(rig: &str, runs: &Runs<TrackMetrics>) -> String {
+pub fn track_text(rig: &str, circuit: CircuitKind, runs: &Runs<TrackMetrics>) -> String {
     let mut s = format!(
-        "sinusoidal tracking ({rig}), metrics of the periodic steady state (every period alike)\n"
+        "sinusoidal tracking ({rig}, circuit {}), metrics of the periodic steady state (every period alike)\n",
+        circuit.name()
     );
     let _ = writeln!(
         s,
@@ -405,27 +419,29 @@ pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
     Chart::time(title, Some(&subtitle), panels)
 }
 
-/// The replay document (`simulate --json`): `file`, `rig`, the nominal run's position MSE
+/// The replay document (`simulate --json`): `file`, `rig`, its `circuit`
+/// ([`CircuitKind::name`]), the nominal run's position MSE
 /// `mse_mm2` (mm²) over the fit window up to `fit_end_s` (s), `samples_in_window`,
 /// `over_ratings` (the drive ratings the simulated response exceeds, [`OverRating`]), and
 /// `compare` (`label`, `mse_mm2`, `over_ratings`) and `unstable` for the variants.
 pub fn simulate_json(replay: &Replay, runs: &Runs<f64>) -> Value {
     let nominal = &runs.done[0];
     let v = json!({
-        "file": replay.record.file, "rig": replay.rig, "mse_mm2": nominal.metrics,
+        "file": replay.record.file, "rig": replay.rig, "circuit": replay.circuit.name(),
+        "mse_mm2": nominal.metrics,
         "fit_end_s": replay.fit_end_s, "samples_in_window": replay.samples_in_window(),
         "over_ratings": nominal.over_ratings,
     });
     with_unstable(with_compare(v, &runs.done, "mse_mm2"), &runs.unstable)
 }
 
-/// The replay as text: the record, its samples and fit window, each run's position MSE (mm²),
+/// The replay as text: the record, the circuit, its samples and fit window, each run's position MSE (mm²),
 /// then the warnings and the unstable variants.
 pub fn simulate_text(replay: &Replay, runs: &Runs<f64>) -> String {
     let conditions = if replay.own_conditions {
-        format!(" ({})", replay.rig)
+        format!(" ({}, circuit {})", replay.rig, replay.circuit.name())
     } else {
-        String::new()
+        format!(" (circuit {})", replay.circuit.name())
     };
     let mut s = format!(
         "{}{conditions}: {} samples, fit window up to {} s ({} samples)\n",
@@ -476,50 +492,47 @@ pub fn simulate_mat(replay: &Replay, runs: &[Run<f64>], measured: &Signals) -> V
 
 /// CSV of signals: `time_s`, then a block of columns `x_ref_mm, x_mm, e_mm, p1_bar, p2_bar,
 /// w1_rpm, w2_rpm` per series, the `measured` record first when given; blocks after the first
-/// carry their label as a suffix (`x_mm[label]`, commas in a label written as `;`). Values with
-/// six decimals; a series shorter than the longest leaves its cells empty.
+/// carry their label as a suffix (`x_mm[label]`; a label with a comma is quoted, as any CSV
+/// cell). Values in the records' number format ([`csv_number`]); a series shorter than the
+/// longest leaves its cells empty.
 pub fn signals_csv(series: &[(String, &Signals)], measured: Option<&Signals>) -> String {
     let mut blocks: Vec<(&str, &Signals)> = Vec::new();
     if let Some(m) = measured {
         blocks.push(("measured", m));
     }
     blocks.extend(series.iter().map(|(l, s)| (l.as_str(), *s)));
-    let mut out = String::from("time_s");
+    let mut header = vec!["time_s".to_string()];
     for (i, (label, s)) in blocks.iter().enumerate() {
         for (n, _) in &s.named()[1..] {
-            if i == 0 {
-                let _ = write!(out, ",{n}");
+            header.push(if i == 0 {
+                n.to_string()
             } else {
-                let _ = write!(out, ",{n}[{}]", label.replace(',', ";"));
-            }
+                format!("{n}[{label}]")
+            });
         }
     }
-    out.push('\n');
     let len = blocks
         .iter()
         .map(|(_, s)| s.time_s.len())
         .max()
         .unwrap_or(0);
-    for k in 0..len {
+    let row = |k: usize| {
         let t = blocks
             .iter()
             .find_map(|(_, s)| s.time_s.get(k))
             .copied()
             .unwrap_or(f64::NAN);
-        let _ = write!(out, "{t:.6}");
-        for (_, s) in &blocks {
-            for (_, v) in &s.named()[1..] {
-                match v.get(k) {
-                    Some(x) => {
-                        let _ = write!(out, ",{x:.6}");
-                    }
-                    None => out.push(','),
-                }
-            }
-        }
-        out.push('\n');
-    }
-    out
+        let cells = blocks.iter().flat_map(move |(_, s)| {
+            s.named()[1..]
+                .iter()
+                .map(move |(_, v)| v.get(k).map_or(String::new(), |x| csv_number(*x)))
+                .collect::<Vec<_>>()
+        });
+        std::iter::once(csv_number(t))
+            .chain(cells)
+            .collect::<Vec<_>>()
+    };
+    csv_text(&header, (0..len).map(row))
 }
 
 #[cfg(test)]
@@ -558,6 +571,7 @@ mod tests {
         let runs = step_runs(&[("nominal", rig), ("kp=10", slow)]);
         let setup = StepSetup {
             rig: "default rig",
+            circuit: pumpcyl::circuit::CircuitKind::Dpm,
             step_mm: 5.0,
             duration_s: 1.0,
             rate_hz: 100.0,
@@ -568,6 +582,7 @@ mod tests {
         assert_eq!(
             keys,
             [
+                "circuit",
                 "compare",
                 "metrics",
                 "over_ratings",
@@ -592,10 +607,19 @@ mod tests {
         let s = &runs.done[0].signals;
         let csv = signals_csv(&[("a,b".to_string(), s)], Some(s));
         let mut lines = csv.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert!(lines
+            .next()
+            .unwrap()
+            .ends_with(",\"w1_rpm[a,b]\",\"w2_rpm[a,b]\""));
+        assert_eq!(lines.count(), s.time_s.len());
+        // read back as any CSV reader reads it: the label whole, a value per cell
+        let mut reader = csv::Reader::from_reader(csv.as_bytes());
+        let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
         assert_eq!(header.len(), 1 + 2 * 7);
         assert_eq!(header[..3], ["time_s", "x_ref_mm", "x_mm"]);
-        assert_eq!(header[8], "x_ref_mm[a;b]");
-        assert_eq!(lines.count(), s.time_s.len());
+        assert_eq!(header[8], "x_ref_mm[a,b]");
+        let last = reader.records().last().unwrap().unwrap();
+        let x: f64 = last[9].parse().unwrap();
+        assert!((x - s.x_mm.last().unwrap()).abs() <= 5e-7, "{x}");
     }
 }

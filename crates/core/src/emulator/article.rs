@@ -90,14 +90,6 @@ impl Emulated {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
-
-    /// The record as CSV.
-    pub fn csv(&self) -> String {
-        match self {
-            Emulated::Loop(s) => s.record_csv(),
-            Emulated::Drive(d) => d.csv(),
-        }
-    }
 }
 
 impl Kind {
@@ -294,99 +286,6 @@ pub fn sine_periods(freq_hz: f64) -> u32 {
     (SINE_SETTLE_S * freq_hz - 1e-9).ceil() as u32 + 2
 }
 
-/// The README of the records folder: what is emulated, with which truth, and how to remake it.
-pub fn readme(records: &[ArticleRecord]) -> String {
-    use std::fmt::Write;
-    let mut s = String::from(
-        "# Emulated stand-ins for the article's records\n\n\
-         **These records are emulated, not measured.** The measurements of Gøytil, Hansen & \
-         Tvilde (Actuators 2025, 14(8), 366) are not public. pumpcyl's nonlinear rig emulator \
-         (`src/emulator`) made these files from the known truth below, so that `pumpcyl \
-         reproduce` has realistic data to run the article's method on, and the tests can check \
-         that the identification recovers that truth.\n\n\
-         Regenerate them (deterministic: the noise is seeded):\n\n    \
-         cargo run --release -- emulate --article-records data/article\n\n\
-         ## Records\n\n\
-         | file | what | Kp (1/m) | m (kg) | K_pres (1/bar) | p_sum_ref (bar) | beta_e at the mean pressure (bar) | seed |\n\
-         |---|---|---|---|---|---|---|---|\n",
-    );
-    for r in records {
-        let rig = &r.truth.rig;
-        let _ = writeln!(
-            s,
-            "| `{}` | {} | {} | {} | {} | {:.3} | {:.1} | {} |",
-            r.file,
-            r.what,
-            rig.kp,
-            rig.mass_kg,
-            rig.k_pres_per_bar,
-            rig.p_sum_ref_bar,
-            rig.beta_bar,
-            r.truth.plc.seed
-        );
-    }
-    let e = records
-        .first()
-        .map(|r| r.truth.effects)
-        .unwrap_or_else(Effects::none);
-    let rig = Rig::default();
-    let _ = write!(
-        s,
-        "\n## The truth\n\n\
-         The default rig (the article's Section 2.3.4; `pumpcyl rig --print-default`): c12 = {c12:.2e}, c1 = {c1:.3e}, \
-         c2 = {c2:.3e} m⁵/(N·s), b = {b} N·s/m, Km = {km} N·m·s/rad, with these emulator effects:\n\n\
-         - chamber volumes following the piston; the effective mass against stroke \
-         (9958 kg at -50 mm, 12 373 kg at +50 mm, scaled to the record's mass: the article §2.1);\n\
-         - the bulk modulus of both chambers from their mean pressure (p1 + p2)/2 by the constant gas-fraction model \
-         of the article, X = {x:.5} (beta_e = {bf} bar at {pf} bar, beta_oil = {oil} bar); \
-         the robustness record has more undissolved air, X = {xr:.5} (beta_e = {br} bar at {pf} bar, \
-         as after a long shutdown); the table above gives beta_e at each record's mean chamber \
-         pressure, the value identification should find;\n\
-         - cavitation at -1 bar gauge; motor torque limited to {tq}x the rated {rated} N m; pump speed \
-         limit {pmax} rpm;\n\
-         - pump low-speed behaviour: below {db:.0} rpm a pump's flow fades out and a slip leakage of \
-         up to {slip:.1e} m⁵/(N·s) across its ports sets in;\n\
-         - Coulomb friction {fc} N on the piston;\n\
-         - the PLC at 100 Hz (the drive step: the drive's own scope at 1 kHz), commands held between \
-         samples, position noise 5 um (1 um resolution), pressure noise 0.01 bar, speed noise 1 rpm.\n\n\
-         The PLC's sum-pressure gain is the default rig's {kh} per bar ({kl} below 10 t), the \
-         article's 22 (15) read as percent of full command per bar, so every record replays on the \
-         default rig with its own Kp and mass:\n\n    \
-         cargo run --release -- simulate --experiment data/article/identify.toml --dataset 1\n\n\
-         `identify.toml` runs the article's identification (Section 2.4) on `identification.csv` \
-         and `validation.csv`, with c1 and c2 from `standstill.csv`, fitting up to {w25} s after the \
-         step for Kp = 25 and {w20} s for Kp = 20 (the article's Section 2.4 and Figure 6; the pumps' \
-         low-speed dead band takes over after that):\n\n    \
-         cargo run --release -- identify data/article/identify.toml\n",
-        c12 = rig.c12_m5_per_ns,
-        c1 = rig.c1_m5_per_ns,
-        c2 = rig.c2_m5_per_ns,
-        b = rig.viscous_friction_ns_per_m,
-        km = rig.km1_nms_per_rad,
-        x = e.gas_fraction.unwrap_or(0.0),
-        xr = records
-            .iter()
-            .find(|r| r.file == "robustness.csv")
-            .and_then(|r| r.truth.effects.gas_fraction)
-            .unwrap_or(f64::NAN),
-        br = BETA_ROBUSTNESS_BAR,
-        w25 = FIT_WINDOW_KP25_S,
-        w20 = FIT_WINDOW_KP20_S,
-        bf = BETA_FIT_BAR,
-        pf = P_FIT_BAR,
-        oil = e.beta_oil_bar,
-        tq = e.peak_torque_factor.unwrap_or(f64::INFINITY),
-        rated = rig.motor_rated_torque_nm,
-        pmax = rig.pump_max_speed_rpm,
-        db = e.dead_band_rad_s / crate::units::RAD_S_PER_RPM,
-        slip = e.slip_m5_per_ns,
-        fc = e.coulomb_n,
-        kh = K_PRES_HEAVY_PER_BAR,
-        kl = K_PRES_LIGHT_PER_BAR,
-    );
-    s
-}
-
 /// Time of the step in the step records (s).
 pub const STEP_AT_S: f64 = 0.5;
 /// Fit window after the step for Kp = 25 (s): the article's non-LTI region starts 2.2 s after
@@ -404,36 +303,6 @@ pub fn fit_window_s(kp: f64) -> f64 {
     } else {
         FIT_WINDOW_KP25_S
     }
-}
-
-/// The `identify` experiment for the emulated identification and validation records.
-pub fn identify_experiment() -> String {
-    let end = |kp: f64| STEP_AT_S + fit_window_s(kp);
-    format!(
-        "# The article's identification (Section 2.4) on the emulated records of this folder\n\
-         # (README.md). Made by `pumpcyl emulate --article-records`. The records were made with\n\
-         # the default rig's sum-pressure gain, so no [set] is needed.\n\n\
-         # The article's two grids (3264 + 3553 candidates, the article's §2.4); without this line the first\n\
-         # grid would be centred on the rig's values and the second on the first stage's best.\n\
-         grids = \"article\"\n\n\
-         [standstill]\n\
-         record = \"standstill.csv\"   # c1, c2 from its mean speeds and pressure (Section 2.4)\n\n\
-         [[dataset]]\n\
-         file = \"identification.csv\"\n\
-         kp = 25.0\n\
-         mass_kg = 10593.0\n\
-         fit_end_s = {e25}   # {at} s at rest + {w25} s after the step (the article's Figure 6)\n\n\
-         [[dataset]]\n\
-         file = \"validation.csv\"\n\
-         kp = 20.0\n\
-         mass_kg = 10593.0\n\
-         fit_end_s = {e20}   # {at} s at rest + {w20} s after the step (the article's Section 2.4)\n",
-        at = STEP_AT_S,
-        w25 = FIT_WINDOW_KP25_S,
-        w20 = FIT_WINDOW_KP20_S,
-        e25 = end(25.0),
-        e20 = end(20.0),
-    )
 }
 
 /// The records folder as shipped (`data/article/`), compiled into the binary so `reproduce`
@@ -486,12 +355,12 @@ pub const EMBEDDED: [(&str, &str); 10] = [
 pub const FOLDER: &str = "records";
 
 /// The embedded records ([`EMBEDDED`]) as files under [`FOLDER`], for the readers that take
-/// [`Files`](crate::input::Files): `Experiment::load_in(&Embedded, "records/identify.toml")`
+/// [`Files`](crate::source_files::Files): `Experiment::load_in(&Embedded, "records/identify.toml")`
 /// reads the identification experiment and its records from memory.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Embedded;
 
-impl crate::input::Files for Embedded {
+impl crate::source_files::Files for Embedded {
     fn open(&self, path: &std::path::Path) -> std::io::Result<Box<dyn std::io::Read + Send + '_>> {
         EMBEDDED
             .iter()

@@ -6,12 +6,11 @@ use super::integrate::integrate;
 use super::plc::Noise;
 use super::EmulatorError;
 use super::{emulate_reporting, Dynamics, Effects, Emulation, Plc};
-use crate::input::FieldError;
 use crate::response::Signals;
 use crate::rig::Rig;
+use crate::source_files::FieldError;
 use crate::units::RAD_S_PER_RPM;
 use std::f64::consts::PI;
-use std::fmt::Write;
 
 /// A closed-loop experiment: the position reference against time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -320,21 +319,6 @@ pub struct DriveSignals {
     pub w_ref_rpm: Vec<f64>,
     /// Measured speed (rpm).
     pub w_rpm: Vec<f64>,
-}
-
-impl DriveSignals {
-    /// The record as CSV with a header row.
-    pub fn csv(&self) -> String {
-        let mut out = String::from("time_s,w_ref_rpm,w_rpm\n");
-        for k in 0..self.time_s.len() {
-            let _ = writeln!(
-                out,
-                "{:.6},{:.6},{:.6}",
-                self.time_s[k], self.w_ref_rpm[k], self.w_rpm[k]
-            );
-        }
-        out
-    }
 }
 
 impl DriveStep {

@@ -3,8 +3,8 @@
 //! multisine with Schroeder phases, and a stepped sine. Each is a small `Copy` value: its
 //! frequencies are computed from its parameters, so an emulated experiment can hold it.
 
-use crate::input::FieldError;
 use crate::rig::Rig;
+use crate::source_files::FieldError;
 use std::f64::consts::PI;
 
 /// The most lines of a multisine or levels of a stepped sine (every loop over them is bounded).

@@ -26,11 +26,11 @@ use super::uncertainty::{
     analyze, check_confidence, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS,
 };
 use super::{Experiment, IdentError};
-use crate::input::{self, FieldError, Key::Index, Key::Name};
 use crate::lti::{eigenvalues, is_stable, PoleInfo};
 use crate::model::Plant;
 use crate::record::Record;
 use crate::rig::Rig;
+use crate::source_files::{self, FieldError, Key::Index, Key::Name};
 use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -310,8 +310,9 @@ pub fn designs_from_toml(
     rate_hz: f64,
     rig: &Rig,
 ) -> Result<Vec<Design>, IdentError> {
-    let file: CandidateFile = toml::from_str(text)
-        .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
+    let file: CandidateFile = toml::from_str(text).map_err(|e| {
+        IdentError::Input(format!("{name}: {}", source_files::toml_error(&e, text)))
+    })?;
     let duration = |d: Option<f64>| d.unwrap_or(DEFAULT_DURATION_S);
     let steps = file.step.iter().map(|s| {
         (
@@ -351,8 +352,8 @@ pub fn designs_from_toml(
         let k = usize::from(*table == "sine");
         if let Err(m) = d.check(rate_hz, rig) {
             let path = [Name(table), Index(index[k]), Name(m.field)];
-            let line =
-                input::toml_line(text, &path).map_or(String::new(), |l| format!("line {l}, "));
+            let line = source_files::toml_line(text, &path)
+                .map_or(String::new(), |l| format!("line {l}, "));
             return Err(IdentError::Input(format!(
                 "{name}: {line}[[{table}]] {}: {m}",
                 index[k] + 1
@@ -730,7 +731,7 @@ fn with_model_error(info: &Matrix3<f64>, f: &[f64; 3]) -> Matrix3<f64> {
 /// defaults.
 pub fn advise_experiment(
     exp: &Experiment,
-    files: &dyn input::Files,
+    files: &dyn source_files::Files,
     candidates: Option<&Path>,
     confidence: f64,
 ) -> Result<Advice, IdentError> {
@@ -738,7 +739,7 @@ pub fn advise_experiment(
     let designs = match candidates {
         Some(path) => {
             let name = path.display().to_string();
-            let text = input::read_text(files, path)
+            let text = source_files::read_text(files, path)
                 .map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
             Some(designs_for(&exp.problem, &text, &name)?)
         }

@@ -23,12 +23,12 @@ pub struct DriveRecord {
 impl DriveRecord {
     /// Read a drive record (CSV with a header; extra columns ignored).
     pub fn read(path: &Path) -> Result<DriveRecord, IdentError> {
-        Self::read_in(&crate::input::Disk, path)
+        Self::read_in(&crate::source_files::Disk, path)
     }
 
     /// [`DriveRecord::read`] from `files`.
     pub fn read_in(
-        files: &dyn crate::input::Files,
+        files: &dyn crate::source_files::Files,
         path: &Path,
     ) -> Result<DriveRecord, IdentError> {
         let mut t = Table::read_in(files, path, &["time_s", "w_ref_rpm", "w_rpm"], &[])?;

@@ -6,9 +6,9 @@ use super::grid::{short, Grid, SecondGrid, FIRST_AXES};
 use super::leakage::Standstill;
 use super::problem::{DatasetSpec, Prepared, Problem};
 use super::IdentError;
-use crate::input::{self, Key, Key::Index, Key::Name};
 use crate::record::Record;
 use crate::rig::Rig;
+use crate::source_files::{self, Key, Key::Index, Key::Name};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -214,8 +214,8 @@ impl Locate<'_> {
     /// `FILE: line L, message`, the line being that of the key at `path` (or of the deepest
     /// table on it that is written).
     fn error(&self, path: &[Key], message: impl std::fmt::Display) -> IdentError {
-        let line =
-            input::toml_line(self.text, path).map_or(String::new(), |l| format!("line {l}, "));
+        let line = source_files::toml_line(self.text, path)
+            .map_or(String::new(), |l| format!("line {l}, "));
         IdentError::Input(format!("{}: {line}{message}", self.name))
     }
 }
@@ -224,7 +224,7 @@ impl ExperimentFile {
     /// The rig: the named file or the embedded default, with `[set]` applied.
     fn rig(
         &self,
-        files: &dyn input::Files,
+        files: &dyn source_files::Files,
         dir: &Path,
         at: &Locate,
     ) -> Result<(Rig, RigDefaults), IdentError> {
@@ -270,7 +270,7 @@ impl ExperimentFile {
     /// Dataset `i`, its record read and prepared for `method`.
     fn dataset(
         &self,
-        files: &dyn input::Files,
+        files: &dyn source_files::Files,
         (i, method): (usize, Method),
         dir: &Path,
         rig: &Rig,
@@ -335,7 +335,11 @@ impl ExperimentFile {
 
 impl StandstillSpec {
     /// The standstill point: the record's means, or the three values.
-    fn resolve(&self, files: &dyn input::Files, dir: &Path) -> Result<Standstill, IdentError> {
+    fn resolve(
+        &self,
+        files: &dyn source_files::Files,
+        dir: &Path,
+    ) -> Result<Standstill, IdentError> {
         let values = [self.w1_rpm, self.w2_rpm, self.p1_bar];
         match (&self.record, values) {
             (Some(file), [None, None, None]) => {
@@ -426,35 +430,35 @@ impl Experiment {
     /// Read, check and prepare an experiment; every error names the file, and the line and key
     /// it concerns (a record's own errors name the record's line and column as well).
     pub fn load(path: &Path) -> Result<Experiment, IdentError> {
-        Self::load_in(&input::Disk, path)
+        Self::load_in(&source_files::Disk, path)
     }
 
     /// [`Experiment::load`], the experiment and every file it names read from `files`.
-    pub fn load_in(files: &dyn input::Files, path: &Path) -> Result<Experiment, IdentError> {
+    pub fn load_in(files: &dyn source_files::Files, path: &Path) -> Result<Experiment, IdentError> {
         Self::load_as(files, path, None)
     }
 
     /// [`Experiment::load_in`] with `method` instead of the file's (`identify --frequency`).
     pub fn load_as(
-        files: &dyn input::Files,
+        files: &dyn source_files::Files,
         path: &Path,
         method: Option<Method>,
     ) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
-        let text =
-            input::read_text(files, path).map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
+        let text = source_files::read_text(files, path)
+            .map_err(|m| IdentError::Input(format!("{name}: {m}")))?;
         Self::parse(files, &text, path, method)
     }
 
     /// Check and prepare the experiment `text` of the file at `path` (which names it in
     /// messages; the files it lists are relative to its folder).
     pub fn from_text(text: &str, path: &Path) -> Result<Experiment, IdentError> {
-        Self::from_text_in(&input::Disk, text, path)
+        Self::from_text_in(&source_files::Disk, text, path)
     }
 
     /// [`Experiment::from_text`], the files it names read from `files`.
     pub fn from_text_in(
-        files: &dyn input::Files,
+        files: &dyn source_files::Files,
         text: &str,
         path: &Path,
     ) -> Result<Experiment, IdentError> {
@@ -463,14 +467,15 @@ impl Experiment {
 
     /// [`Experiment::from_text_in`], `method` (when given) instead of the file's.
     fn parse(
-        files: &dyn input::Files,
+        files: &dyn source_files::Files,
         text: &str,
         path: &Path,
         method: Option<Method>,
     ) -> Result<Experiment, IdentError> {
         let name = path.display().to_string();
-        let file: ExperimentFile = toml::from_str(text)
-            .map_err(|e| IdentError::Input(format!("{name}: {}", input::toml_error(&e, text))))?;
+        let file: ExperimentFile = toml::from_str(text).map_err(|e| {
+            IdentError::Input(format!("{name}: {}", source_files::toml_error(&e, text)))
+        })?;
         let at = Locate { name: &name, text };
         let dir = path.parent().unwrap_or(Path::new("."));
         let (rig, rig_defaults) = file.rig(files, dir, &at)?;

@@ -1,6 +1,6 @@
 //! Candidate grids of the two-stage search (docs/identification.md#the-two-grids).
 
-use crate::input::FieldError;
+use crate::source_files::FieldError;
 use serde::{Deserialize, Serialize};
 
 /// A candidate parameter set of the grid search.

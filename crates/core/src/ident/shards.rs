@@ -48,7 +48,7 @@ impl Partial {
     /// its canonical path and fingerprinted as the merge will load it ([`digest`]); what
     /// `pumpcyl identify --shard` writes and Python's `identify(shard=...)` returns.
     pub fn of_search(
-        source: &dyn crate::input::Files,
+        source: &dyn crate::source_files::Files,
         path: &std::path::Path,
         opts: &Options,
         shard: (usize, usize),
@@ -78,7 +78,7 @@ impl Partial {
 pub fn digest(exp: &Experiment, opts: &Options, shard: (usize, usize)) -> Result<String> {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
-    crate::input::read_bounded(&crate::input::Disk, &exp.path)
+    crate::source_files::read_bounded(&crate::source_files::Disk, &exp.path)
         .map_err(|e| IdentError::Input(format!("{}: {e}", exp.path.display())))?
         .hash(&mut h);
     // Debug prints every f64 exactly (shortest round-trip form)
@@ -320,7 +320,7 @@ fn verify_costs(exp: &Experiment, tops: &Tops, merged: &[Stage]) -> Result<()> {
 /// shards come from different runs, options or experiment contents, or a partial result was
 /// edited (every candidate it reports and each shard's best are simulated again).
 pub fn merge(
-    source: &dyn crate::input::Files,
+    source: &dyn crate::source_files::Files,
     parts: Vec<(PathBuf, Partial)>,
 ) -> Result<(Experiment, Identification, f64)> {
     let (files, parts): (Vec<PathBuf>, Vec<Partial>) = parts.into_iter().unzip();

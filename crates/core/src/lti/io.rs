@@ -39,8 +39,10 @@ pub struct ModelJson {
 impl ModelJson {
     /// Parse and check JSON text: the model and its state names, or one line naming the line,
     /// column and key of the problem (a leading byte-order mark is allowed).
-    pub fn parse(text: &str) -> Result<(StateSpace, Vec<StateInfo>), crate::input::InputError> {
-        use crate::input::InputError::Invalid;
+    pub fn parse(
+        text: &str,
+    ) -> Result<(StateSpace, Vec<StateInfo>), crate::source_files::InputError> {
+        use crate::source_files::InputError::Invalid;
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         if text.trim().is_empty() {
             return Err(Invalid(
@@ -50,8 +52,9 @@ impl ModelJson {
         let json: ModelJson = serde_json::from_str(text).map_err(|e| {
             let message = e.to_string();
             let suffix = format!(" at line {} column {}", e.line(), e.column());
-            let mut message =
-                crate::input::serde_message(message.strip_suffix(&suffix).unwrap_or(&message));
+            let mut message = crate::source_files::serde_message(
+                message.strip_suffix(&suffix).unwrap_or(&message),
+            );
             let rest = text.lines().nth(e.line().max(1) - 1).unwrap_or("");
             let rest = rest.get(e.column().max(1) - 1..).unwrap_or("");
             if ["NaN", "Infinity", "-Infinity", "inf", "-inf"]
@@ -156,7 +159,9 @@ fn json_key_line(text: &str, key: &str) -> usize {
     let quoted = format!("\"{key}\"");
     text.match_indices(&quoted)
         .find(|(i, _)| text[i + quoted.len()..].trim_start().starts_with(':'))
-        .map_or(1, |(i, _)| crate::input::line_col(&text.as_bytes()[..i]).0)
+        .map_or(1, |(i, _)| {
+            crate::source_files::line_col(&text.as_bytes()[..i]).0
+        })
 }
 
 /// A matrix from rows that must all have `cols` entries.

@@ -74,25 +74,6 @@ impl Signals {
             .collect()
     }
 
-    /// The signals as a record (docs/formats.md#record-csv): CSV with a header row and the
-    /// columns of [`Signals::record_columns`].
-    pub fn record_csv(&self) -> String {
-        use std::fmt::Write;
-        let n = self.time_s.len();
-        let columns = self.record_columns();
-        let names: Vec<&str> = columns.iter().map(|(c, _)| *c).collect();
-        let mut out = names.join(",");
-        out.push('\n');
-        for k in 0..n {
-            let row: Vec<String> = columns
-                .iter()
-                .map(|(_, v)| format!("{:.6}", v[k]))
-                .collect();
-            let _ = writeln!(out, "{}", row.join(","));
-        }
-        out
-    }
-
     /// The samples of the whole periods of `window`, both its ends included, as a figure
     /// draws them (every signal that holds one value per sample; absent ones stay empty).
     pub fn over(&self, window: &TrackWindow) -> Signals {

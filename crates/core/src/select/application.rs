@@ -218,20 +218,23 @@ impl Application {
     /// Parse an application from TOML text; `name` stands for the file in messages, which name
     /// the line and the key. A `rig` file name is read from `files`, relative to `dir`.
     pub fn from_toml_in(
-        files: &dyn crate::input::Files,
+        files: &dyn crate::source_files::Files,
         text: &str,
         name: &str,
         dir: &std::path::Path,
     ) -> Result<Application, SelectError> {
         let located = |key: &str, message: String| {
-            let path: Vec<crate::input::Key> =
-                key.split('.').map(crate::input::Key::Name).collect();
-            let line = crate::input::toml_line(text, &path)
+            let path: Vec<crate::source_files::Key> =
+                key.split('.').map(crate::source_files::Key::Name).collect();
+            let line = crate::source_files::toml_line(text, &path)
                 .map_or(String::new(), |l| format!("line {l}, "));
             SelectError::Input(format!("{name}: {line}key `{key}`: {message}"))
         };
         let syntax = |e: toml::de::Error| {
-            SelectError::Input(format!("{name}: {}", crate::input::toml_error(&e, text)))
+            SelectError::Input(format!(
+                "{name}: {}",
+                crate::source_files::toml_error(&e, text)
+            ))
         };
         let mut app: Application = toml::from_str(text).map_err(syntax)?;
         let raw: toml::Table = toml::from_str(text).map_err(syntax)?;
@@ -257,16 +260,21 @@ impl Application {
     /// [`Application::from_toml_in`] with a `rig` file name read from disk, relative to the
     /// working directory.
     pub fn from_toml_str(text: &str, name: &str) -> Result<Application, SelectError> {
-        Self::from_toml_in(&crate::input::Disk, text, name, std::path::Path::new("."))
+        Self::from_toml_in(
+            &crate::source_files::Disk,
+            text,
+            name,
+            std::path::Path::new("."),
+        )
     }
 
     /// Read and check an application file; a `rig` file name is relative to it.
     pub fn from_file_in(
-        files: &dyn crate::input::Files,
+        files: &dyn crate::source_files::Files,
         path: &std::path::Path,
     ) -> Result<Application, SelectError> {
         let name = path.display().to_string();
-        let text = crate::input::read_text(files, path)
+        let text = crate::source_files::read_text(files, path)
             .map_err(|e| SelectError::Input(format!("{name}: {e}")))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
         Self::from_toml_in(files, &text, &name, dir)
@@ -359,7 +367,7 @@ impl Application {
                 .split_once('=')
                 .ok_or_else(|| err(a, "expected KEY=VALUE".into()))?;
             let (key, raw) = (key.trim(), raw.trim());
-            let value = crate::input::parse_value(raw);
+            let value = crate::source_files::parse_value(raw);
             let (place, leaf) = match key.strip_prefix("rig.") {
                 Some(rig_key) => (
                     table.get_mut("rig").and_then(toml::Value::as_table_mut),
@@ -369,12 +377,14 @@ impl Application {
             };
             let place = place.ok_or_else(|| err(a, "no rig table".into()))?;
             let value = match place.get(leaf) {
-                Some(current) => crate::input::typed_like(current, value).map_err(|got| {
-                    err(
-                        a,
-                        format!("key `{key}` takes a {}, got {got}", current.type_str()),
-                    )
-                })?,
+                Some(current) => {
+                    crate::source_files::typed_like(current, value).map_err(|got| {
+                        err(
+                            a,
+                            format!("key `{key}` takes a {}, got {got}", current.type_str()),
+                        )
+                    })?
+                }
                 // an optional key left out: its type is checked as the application is read
                 None if OPTIONAL_KEYS.contains(&key) => value,
                 None => return Err(err(a, format!("unknown key `{key}`"))),
@@ -384,7 +394,7 @@ impl Application {
         let app: Application = table.try_into().map_err(|e: toml::de::Error| {
             err(
                 &assignments.join(" "),
-                crate::input::serde_message(e.message()),
+                crate::source_files::serde_message(e.message()),
             )
         })?;
         let mut app = Application {

@@ -75,7 +75,7 @@ fn emulate(records: &[ArticleRecord], variant: &Variant) -> Result<Vec<Record>> 
             // scope would keep every k-th sample
             let k = (truth.plc.rate_hz / all_p.rate_hz).round().max(1.0) as usize;
             let every: Vec<usize> = (0..s.time_s.len()).step_by(k).collect();
-            let csv = s.samples(&every).record_csv();
+            let csv = crate::records::record_csv(&s.samples(&every));
             Ok(Record::parse(csv.as_bytes(), file)?)
         })
         .collect()
