@@ -52,7 +52,7 @@ fn every_circuit_at_rest_stays_there() {
                 assert_eq!(s.mode.len(), if modes { s.time_s.len() } else { 0 });
                 // the record reads back: no w2_rpm column for one motor, the mode column
                 // passed over as a record's extra columns are (docs/formats.md#record-csv)
-                let csv = s.record_csv();
+                let csv = pumpcyl_present::records::record_csv(&s);
                 assert_eq!(csv.lines().next().unwrap().ends_with(",mode"), modes);
                 let rec = pumpcyl::record::Record::parse(csv.as_bytes(), "r.csv").unwrap();
                 assert_eq!((rec.w2_rpm.is_none(), rec.len()), (one, s.time_s.len()));
@@ -301,7 +301,7 @@ fn dual_pump_step_records_identify_beta_b_and_c12() {
     let record = |name: &str, e: Experiment, rig: &Rig| {
         let s = e.run(rig, Effects::none(), &plc).unwrap();
         assert!(s.w2_rpm.is_empty());
-        Record::parse(s.record_csv().as_bytes(), name).unwrap()
+        Record::parse(pumpcyl_present::records::record_csv(&s).as_bytes(), name).unwrap()
     };
     let datasets = [(25.0, 2.7), (20.0, 2.4)]
         .into_iter()
