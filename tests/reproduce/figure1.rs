@@ -151,6 +151,9 @@ fn check_records(dir: &Path, k: usize, c: &Value) {
         let want = c["rest_pressures_bar"][i].as_f64().unwrap();
         close(&format!("{label} rest pressure {}", i + 1), *p, want, 1e-5);
     }
+    let rest_error = step["x_ref_mm"][0] - step["x_mm"][0];
+    let want = c["rest_error_mm"].as_f64().unwrap();
+    close(&format!("{label} rest error"), rest_error, want, 2e-6);
     let (rise, overshoot) = rise_and_overshoot(&step["time_s"], &step["x_mm"], 0.5, 5.0);
     close(
         &format!("{label} rise"),

@@ -52,6 +52,9 @@ pub struct CircuitRun {
     pub accumulator_precharge_bar: Option<f64>,
     /// The chamber pressures p1, p2 at rest before the emulated step (bar).
     pub rest_pressures_bar: [f64; 2],
+    /// The control error x_ref − x at rest before the emulated step (mm): a one-motor circuit's
+    /// P law commands the shaft speed that feeds the leakage through a standing error.
+    pub rest_error_mm: f64,
     /// The margins of the analysed loop (`pumpcyl margins`): the mode at rest for the single
     /// pump, the sum-pressure loop open for the DPM (the article §2.3.3).
     pub margins: Margins,
@@ -180,13 +183,17 @@ fn emulate(rig: &Rig, experiment: &Experiment) -> Result<Signals> {
         .map_err(|e| anyhow!("{e}"))
 }
 
-/// The step's metrics from the rest before it: the position about its value at the step.
-fn step_of(s: &Signals) -> StepMetrics {
+/// The step's metrics from the rest before it: the position about its value at the step; the
+/// steady-state error from the DC solution of `rig`'s linear closed loop (the mode at rest for
+/// the single pump), as `pumpcyl step` gives it.
+fn step_of(rig: &Rig, s: &Signals) -> StepMetrics {
+    let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
+    let dc_mm = lti::dc_output(&sys, &[STEP_MM * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
     let k0 = s.time_s.iter().position(|&t| t >= STEP_AT_S).unwrap_or(0);
     let x0 = s.x_mm[k0.saturating_sub(1)];
     let t = &s.time_s[k0..];
     let y: Vec<f64> = s.x_mm[k0..].iter().map(|x| x - x0).collect();
-    step_metrics(t, &y, STEP_MM, STEP_MM)
+    step_metrics(t, &y, STEP_MM, dc_mm)
 }
 
 /// Changes of a record's `mode` column from sample `from` on; `None` without the column.
@@ -253,9 +260,10 @@ fn run_circuit(base: &Rig, label: &str, set: &[String]) -> Result<(CircuitRun, S
         accumulator_precharge_bar: (rig.circuit != CircuitKind::Dpm)
             .then_some(rig.accumulator_precharge_bar),
         rest_pressures_bar: [s.p1_bar[0], s.p2_bar[0]],
+        rest_error_mm: s.e_mm[0],
         margins: m,
         modes,
-        step: step_of(&s),
+        step: step_of(&rig, &s),
         step_mode_changes: mode_changes(&s, 0),
         tracking,
     };
@@ -513,15 +521,18 @@ fn explanation(level: &str, runs: &[(CircuitRun, Signals)], c: &Chatter) -> Stri
          three circuits run the article's application, its rig and seesaw at zero external force, \
          Kp 25 (docs/circuits.md). {level} The single pump's modes: {modes}. Its chatter prediction \
          (docs/circuits.md#will-it-chatter): the emulated 5 mm step switches {} times, {} after it has \
-         settled (at {:.1} s), and its error swings by ±{:.4} mm after settling; the article's three \
-         sinusoids switch {} times in their two watched periods. Verdict: {}. Scanning the external \
+         settled (at {:.1} s), and its error swings by ±{:.3} µm after settling; the article's three \
+         sinusoids switch {} times in their two watched periods (twice a period is the wave's own \
+         reversal of the force the load needs). Verdict: {}. Scanning the external \
          force from {:.0} to {:.0} N, the step settles without switching for {} (switching force \
-         {:.0} N). The records are `pumpcyl emulate --no-noise` on each circuit's rig, the margins \
+         {:.0} N). The one-motor circuits' tracking errors include their standing error at rest \
+         (x_ref − x in the order of the table: {} mm): the P law commands the shaft speed that feeds the leakage only through an error. \
+         The records are `pumpcyl emulate --no-noise` on each circuit's rig, the margins \
          `pumpcyl margins`'s.",
         c.step.switches,
         c.step.switches_after_settling,
         c.step.settled_at_s,
-        c.step.error_amplitude_m * 1e3,
+        c.step.error_amplitude_m * 1e6,
         (c.sines.iter())
             .map(|w| w.switches_after_settling.to_string())
             .collect::<Vec<_>>()
@@ -539,5 +550,9 @@ fn explanation(level: &str, runs: &[(CircuitRun, Signals)], c: &Chatter) -> Stri
             quiet.join(" and ")
         },
         c.switching_force_n,
+        (runs.iter())
+            .map(|(r, _)| format!("{:.2}", r.rest_error_mm))
+            .collect::<Vec<_>>()
+            .join(" / "),
     )
 }
