@@ -6,7 +6,10 @@
 #[path = "common/skip.rs"]
 mod skip;
 
-use pumpcyl_present::reproduce::FIGURES;
+#[path = "reproduce/figure1.rs"]
+mod figure1;
+
+use pumpcyl_present::reproduce::{FIGURES, STEPS};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -28,7 +31,8 @@ fn reproduced() -> &'static (PathBuf, String) {
             String::from_utf8_lossy(&out.stderr)
         );
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(stderr.contains("[10/10"), "progress shown: {stderr}");
+        let last = format!("[{STEPS}/{STEPS}");
+        assert!(stderr.contains(&last), "progress shown: {stderr}");
         (dir, String::from_utf8(out.stdout).unwrap())
     })
 }
@@ -367,7 +371,8 @@ fn the_report_opens_with_contents_linking_every_heading_and_figure() {
     // every heading and every figure is listed, in the page's order
     let headings = body.matches("<h2").count();
     let figures = body.matches("<figure>").count();
-    assert_eq!((headings, figures), (10, 23));
+    // a heading per step; a figure per registered figure, the landscape and the two fits
+    assert_eq!((headings, figures), (STEPS, FIGURES.len() + 3));
     let listed: Vec<&str> = body
         .split("<h2 id=\"")
         .skip(1)
@@ -710,6 +715,7 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
         (&|c| c.contains("Identification cost over β and c12"), OWN.into()),
         (&|c| c.contains("at the robust Kp"), OWN.into()),
         (&|c| c.contains("Which circuit"), OWN.into()),
+        (&|c| c.contains("Figure 1 circuits"), OWN.into()),
     ];
     let mut used = vec![0; rules.len()];
     for c in &captions {

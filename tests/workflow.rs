@@ -162,7 +162,7 @@ fn every_figure_is_rendered_in_memory() {
     let html = r.report_html();
     assert_eq!(
         html.matches("<figure>").count(),
-        20 + 3,
+        FIGURES.len() + 3,
         "and the landscape and two fits"
     );
 }

@@ -402,6 +402,7 @@ class Summary(Result):
     design: Dict[str, Any]
     how_sure: Dict[str, Any]
     which_circuit: Dict[str, Any]
+    figure1_circuits: Dict[str, Any]
     seconds: float
 
 class Emulated(Result):

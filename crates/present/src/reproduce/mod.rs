@@ -2,7 +2,8 @@
 //! records, as one library call: the drive gain (the article §2.4.1), the leakages and the
 //! two-stage identification (§2.4), the robustness record, the bulk modulus against pressure,
 //! the damping studies (Figures 11 and 14), the stroke (§3.3, Figure 15), the sinusoidal tracking and the
-//! design check (§2.2).
+//! design check (§2.2), and pumpcyl's own studies: how sure the identification is, which
+//! circuit (§4), and the article's Figure 1 circuits on its own application (§2.1, §4).
 //!
 //! [`reproduce`] returns a [`Reproduction`]: the numbers (typed, and as the `summary.json`
 //! document), the comparison with the article's printed values, the figures (SVG and PNG in
@@ -31,6 +32,7 @@
 mod bias;
 mod certainty;
 mod circuit;
+mod figure1_circuits;
 mod identification;
 mod pressure;
 mod registry;
@@ -57,7 +59,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 10;
+pub const STEPS: usize = 11;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -456,6 +458,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         certainty::CONFIDENCE,
         pressure.p_mean_bar,
     )?;
+    let figure1_circuits = figure1_circuits::figure1_circuits(&mut run)?;
     registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
     run.render_pngs()?;
     let seconds = start.elapsed().as_secs_f64();
@@ -481,6 +484,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         design,
         how_sure,
         which_circuit,
+        figure1_circuits,
         seconds,
     };
     Ok(Reproduction {

@@ -10,6 +10,8 @@ use pumpcyl::lti::Margins;
 use pumpcyl::response::{StepMetrics, TrackMetrics};
 use serde::Serialize;
 
+pub use super::figure1_circuits::{Chatter, CircuitRun, Figure1Circuits, ModeMargins, Wave};
+
 /// Every number of the workflow.
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
@@ -55,6 +57,8 @@ pub struct Summary {
     pub how_sure: HowSure,
     /// Step 10: which circuit, before the rig was built and after the identification.
     pub which_circuit: WhichCircuit,
+    /// Step 11: the article's Figure 1 circuits on its own application.
+    pub figure1_circuits: Figure1Circuits,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
 }
