@@ -172,11 +172,11 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
     let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
     let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
     Ok(format!(
-        "{}: emulated {} on {origin}, {} samples (emulated data, not a measurement), circuit {}\n{basis}\n{warnings}{note}",
+        "{}: emulated {} on {origin} (circuit {}), {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
         out.display(),
         request.experiment.name(),
-        data.len(),
-        truth.rig.circuit.name()
+        truth.rig.circuit.name(),
+        data.len()
     ))
 }
 

@@ -257,9 +257,9 @@ struct Propagator {
     e_half: Vec<f64>,
     p_half: Vec<f64>,
     e: Vec<f64>,
-    w1: Vec<f64>,
-    w2: Vec<f64>,
-    w3: Vec<f64>,
+    weight1: Vec<f64>,
+    weight2: Vec<f64>,
+    weight3: Vec<f64>,
 }
 
 /// Integrate the rig over [t0, t1] with the commands `u` held by ETDRK4 steps of the whole
@@ -379,9 +379,9 @@ fn etdrk4(p: &Problem, q: &Propagator, y: &Vector, n0: &Vector) -> Vector {
     p.nonlinear(&c, &mut nc);
     let mut out = [0.0; N_MAX];
     mat_vec_add(&q.e, y, &mut out, n);
-    mat_vec_add(&q.w1, n0, &mut out, n);
-    mat_vec_add(&q.w2, &sum, &mut out, n);
-    mat_vec_add(&q.w3, &nc, &mut out, n);
+    mat_vec_add(&q.weight1, n0, &mut out, n);
+    mat_vec_add(&q.weight2, &sum, &mut out, n);
+    mat_vec_add(&q.weight3, &nc, &mut out, n);
     out
 }
 
@@ -495,9 +495,9 @@ fn propagator(n: usize, j: &[f64], h: f64) -> Result<Propagator, EmulatorError> 
         e_half: half[0].clone(),
         p_half: half[1].iter().map(|v| v * 0.5 * h).collect(),
         e: full[0].clone(),
-        w1: combine([1.0, -3.0, 4.0]),
-        w2: combine([0.0, 2.0, -4.0]),
-        w3: combine([0.0, -1.0, 4.0]),
+        weight1: combine([1.0, -3.0, 4.0]),
+        weight2: combine([0.0, 2.0, -4.0]),
+        weight3: combine([0.0, -1.0, 4.0]),
     })
 }
 
@@ -568,7 +568,7 @@ mod tests {
         // add up to h φ₁
         let mut via = [0.0; N_MAX];
         mat_vec_add(&q.e, &y, &mut via, n);
-        for w in [&q.w1, &q.w2, &q.w2, &q.w3] {
+        for w in [&q.weight1, &q.weight2, &q.weight2, &q.weight3] {
             mat_vec_add(w, &c, &mut via, n);
         }
         let mut want = [0.0; N_MAX];
