@@ -36,6 +36,7 @@ mod pressure;
 mod registry;
 mod studies;
 pub mod summary;
+mod sweep;
 mod tracking;
 pub use certainty::Certainty;
 pub use registry::{Registered, FIGURES};
@@ -57,7 +58,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 10;
+pub const STEPS: usize = 11;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -456,6 +457,13 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         certainty::CONFIDENCE,
         pressure.p_mean_bar,
     )?;
+    let sweep_beside_steps = sweep::sweep_beside_steps(
+        &mut run,
+        &exp,
+        &certainty.uncertainty,
+        (&truth, &truth_point),
+        certainty::CONFIDENCE,
+    )?;
     registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
     run.render_pngs()?;
     let seconds = start.elapsed().as_secs_f64();
@@ -481,6 +489,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         design,
         how_sure,
         which_circuit,
+        sweep_beside_steps,
         seconds,
     };
     Ok(Reproduction {

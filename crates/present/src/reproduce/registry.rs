@@ -42,6 +42,7 @@ pub const FIGURES: &[Registered] = &[
     fig("profile-c12_m5_per_ns", Source::Own),
     fig("robust-margins", Source::Own),
     fig("which_circuit", Source::Own),
+    fig("sweep_beside_steps", Source::Own),
 ];
 
 /// The registered figure `stem` drawn as the article figure `source`: an error names a
