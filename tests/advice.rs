@@ -45,6 +45,7 @@ fn advice(p: &Problem, designs: Vec<Design>) -> Advice {
     let opts = AdviceOptions {
         confidence: 0.95,
         designs: Some(designs),
+        ..AdviceOptions::default()
     };
     advise(p, &START, &opts).unwrap()
 }

@@ -209,12 +209,12 @@ fn a_sweep_and_a_step_fitted_together_weigh_each_by_its_own_noise() {
     let v = identify(dir.path(), &[]);
     assert_eq!(v["step_datasets"][0], "step.csv");
     // the step records' SSE is divided by their noise variance: the emulator's sensor noise
-    // (a few µm) and the continuous step model's error, so σ² lies between 1e-6 and 1e-3 mm²
+    // (a few µm), so σ² lies between 1e-6 and 1e-3 mm²
     let var = v["step_noise_var_mm2"].as_f64().unwrap();
     assert!((1e-6..1e-3).contains(&var), "{var}");
-    // the step model leaves out the PLC's hold, which biases its b: the answer stays within
-    // the tolerance, but the intervals are not asked to hold the truth
-    assert_recovers(&v, &truth, TOLERANCE, false);
+    // the step records are simulated with the PLC's sampled loop, as the sweeps are: every
+    // interval holds the truth
+    assert_recovers(&v, &truth, TOLERANCE, true);
 }
 
 /// The first line of a failed `identify exp.toml --frequency`'s standard error, checked to be

@@ -430,3 +430,46 @@ fn a_variant_whose_step_diverges_is_named_in_the_legend_with_its_pole() {
         assert!(svg.contains(">\nidentified rig\n<"), "{stem}");
     }
 }
+
+#[test]
+fn a_sweep_bounds_b_where_the_steps_cannot_and_both_together_narrow_every_interval() {
+    let v = serde_json::to_value(&run().result.summary.sweep_beside_steps).unwrap();
+    let truth = [165.0, 100.0, 1.2e-10];
+    let keys = ["beta_bar", "viscous_friction_ns_per_m", "c12_m5_per_ns"];
+    let width = |set: &str, k: &str| {
+        let i = &v[set]["intervals"][k];
+        i[1].as_f64().unwrap() - i[0].as_f64().unwrap()
+    };
+    // the steps cannot bound b (step 9); the sweep, alone or with them, bounds all three
+    assert_eq!(
+        v["steps"]["identifiable"]["viscous_friction_ns_per_m"],
+        false
+    );
+    for (k, t) in keys.iter().zip(truth) {
+        for set in ["sweep_alone", "both"] {
+            assert_eq!(v[set]["identifiable"][k], true, "{set} {k}");
+        }
+        // information adds: the two kinds of record together are narrower than either
+        let both = width("both", k);
+        assert!(
+            both <= width("sweep_alone", k) && both <= width("steps", k),
+            "{k}"
+        );
+        if *k != "viscous_friction_ns_per_m" {
+            for set in ["steps", "sweep_alone", "both"] {
+                assert_eq!(v[set]["truth_inside"][k], true, "{set} {k} ({t})");
+            }
+        }
+    }
+    // the sweep's b is the resonance's effective damping: the emulator's Coulomb friction and
+    // dead band damp it beyond the 100 N·s/m of viscous friction, never below it
+    let lo = v["sweep_alone"]["intervals"]["viscous_friction_ns_per_m"][0]
+        .as_f64()
+        .unwrap();
+    assert!(lo > truth[1], "{lo}");
+    assert!(run()
+        .result
+        .figures
+        .iter()
+        .any(|f| f.stem == "sweep_beside_steps"));
+}

@@ -77,14 +77,20 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
         i.viscous_friction_ns_per_m,
         i.c12_m5_per_ns
     );
+    // the label column as wide as the longest label (a sweep's is longer than a step's)
+    let w = a
+        .candidates
+        .iter()
+        .map(|c| c.label.chars().count())
+        .fold(36, usize::max);
     let _ = writeln!(
         s,
-        "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
+        "{:>4}  {:<w$} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
         "rank", "record added", "beta", "b", "c12", "x beta", "x b", "x c12"
     );
     let _ = writeln!(
         s,
-        "{:>4}  {:<36} {:>10} {:>10} {:>10}",
+        "{:>4}  {:<w$} {:>10} {:>10} {:>10}",
         "-",
         "none (the current records)",
         width_text(&a.current[0]),
@@ -94,7 +100,7 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
     for (k, c) in a.candidates.iter().enumerate() {
         let _ = writeln!(
             s,
-            "{:>4}  {:<36} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
+            "{:>4}  {:<w$} {:>10} {:>10} {:>10}   {:>7} {:>7} {:>7}",
             k + 1,
             c.label,
             width_text(&c.widths[0]),

@@ -242,16 +242,17 @@ pub fn model_curve(label: String, est: &Estimate, h: &[Complex64]) -> ModelCurve
     }
 }
 
-/// The rig's closed loop beside `est` (labelled with the rig's `origin`), its reference held
-/// between samples as the record's is ([`pumpcyl::frf::model_response`]).
+/// The rig's closed loop beside `est` (labelled with the rig's `origin`), its controller
+/// sampled at the record's rate as a PLC runs it ([`pumpcyl::frf::sampled_loop_response`],
+/// docs/identification.md#grey-box-fit-to-a-frequency-response).
 pub fn rig_model_curve(
     rig: &pumpcyl::rig::Rig,
     est: &Estimate,
     origin: &str,
 ) -> Result<ModelCurve, pumpcyl::lti::LtiError> {
-    let sys = pumpcyl::model::Plant::new(rig).closed_loop(rig.sum_pressure);
+    let plant = pumpcyl::model::Plant::new(rig);
     let freqs: Vec<f64> = est.closed_loop.points.iter().map(|p| p.freq_hz).collect();
-    let h = pumpcyl::frf::model_response(&sys, &freqs, Some(est.rate_hz))?;
+    let h = pumpcyl::frf::sampled_loop_response(&plant, rig.sum_pressure, &freqs, est.rate_hz)?;
     Ok(model_curve(format!("model x/x_ref ({origin})"), est, &h))
 }
 

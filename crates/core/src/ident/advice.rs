@@ -26,6 +26,7 @@ use super::uncertainty::{
     analyze, check_confidence, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS,
 };
 use super::{Experiment, IdentError};
+use crate::frf::Excitation;
 use crate::lti::{eigenvalues, is_stable, PoleInfo};
 use crate::model::Plant;
 use crate::record::Record;
@@ -72,6 +73,8 @@ pub const MIN_SAMPLES_PER_PERIOD: f64 = 10.0;
 /// the loop rings for dozens of periods, too close to instability to run on a rig whose
 /// parameters are uncertain (the article's design targets of §2.2 keep it far higher).
 pub const MIN_DAMPING: f64 = 0.05;
+/// Lines of a default sweep (`pumpcyl emulate --experiment multisine`'s default).
+pub const SWEEP_LINES: usize = 30;
 /// Iteration limit of the 3×3 symmetric eigen-decomposition.
 const EIGEN_ITERS: usize = 1000;
 
@@ -100,13 +103,30 @@ pub enum Design {
         /// Record length after the rest (s).
         duration_s: f64,
     },
+    /// A multisine about x0 of `lines` lines from `from_hz` to `to_hz`, peak `amp_mm`,
+    /// played `periods` times (the first settles), fitted in the frequency domain
+    /// (docs/identification.md#grey-box-fit-to-a-frequency-response).
+    Sweep {
+        /// Lowest line (Hz): the period is its inverse.
+        from_hz: f64,
+        /// Highest line (Hz).
+        to_hz: f64,
+        /// Lines.
+        lines: usize,
+        /// Peak of the reference about x0 (mm).
+        amp_mm: f64,
+        /// Periods played.
+        periods: usize,
+        /// Position gain (normalised command per metre).
+        kp: f64,
+    },
 }
 
 impl Design {
     /// The position gain.
     pub fn kp(&self) -> f64 {
         match *self {
-            Design::Step { kp, .. } | Design::Sine { kp, .. } => kp,
+            Design::Step { kp, .. } | Design::Sine { kp, .. } | Design::Sweep { kp, .. } => kp,
         }
     }
 
@@ -114,7 +134,32 @@ impl Design {
     pub fn duration_s(&self) -> f64 {
         match *self {
             Design::Step { duration_s, .. } | Design::Sine { duration_s, .. } => duration_s,
+            Design::Sweep {
+                from_hz, periods, ..
+            } => periods as f64 / from_hz,
         }
+    }
+
+    /// The multisine of a sweep about `x0_mm` at `rate_hz`, starting after the rest; `None`
+    /// for the other designs.
+    pub fn excitation(&self, x0_mm: f64, rate_hz: f64) -> Option<Excitation> {
+        let Design::Sweep {
+            from_hz,
+            to_hz,
+            lines,
+            amp_mm,
+            periods,
+            ..
+        } = *self
+        else {
+            return None;
+        };
+        let at = Rig {
+            x0_mm,
+            ..Rig::default()
+        };
+        let e = Excitation::multisine(&at, amp_mm, (from_hz, to_hz), (lines, periods), rate_hz);
+        Some(e.starting_at(REST_S))
     }
 
     /// A short label: `step 5 mm, Kp 25, 10 s` or `sine 0.5 Hz 18.4 mm, Kp 25, 10 s`.
@@ -125,6 +170,17 @@ impl Design {
             Design::Sine {
                 freq_hz, amp_mm, ..
             } => format!("sine {freq_hz} Hz {amp_mm:.1} mm, {tail}"),
+            Design::Sweep {
+                from_hz,
+                to_hz,
+                lines,
+                amp_mm,
+                kp,
+                ..
+            } => format!(
+                "multisine {from_hz:.3}-{to_hz:.2} Hz {lines} lines {amp_mm:.1} mm, Kp {kp}, {:.0} s",
+                self.duration_s()
+            ),
         }
     }
 
@@ -139,6 +195,7 @@ impl Design {
             Design::Sine {
                 freq_hz, amp_mm, ..
             } => amp_mm * (2.0 * PI * freq_hz * s).sin(),
+            Design::Sweep { .. } => 0.0,
         }
     }
 
@@ -202,6 +259,11 @@ impl Design {
                 }
                 ("amp_mm", -amp_mm, amp_mm)
             }
+            Design::Sweep { .. } => {
+                let e = self.excitation(rig.x0_mm, rate_hz).expect("a sweep");
+                e.check(rate_hz, rig)?;
+                ("amp_mm", -e.amplitude_mm(), e.amplitude_mm())
+            }
         };
         let (field, lo, hi) = reach;
         rig.check_reference(rig.x0_mm + lo, rig.x0_mm + hi)
@@ -213,7 +275,10 @@ impl Design {
     /// sensitivities; the measured position cancels in them).
     pub fn record(&self, rate_hz: f64, x0_mm: f64) -> Result<Record, IdentError> {
         let t = crate::response::sample_times(REST_S + self.duration_s(), rate_hz)?;
-        let r: Vec<f64> = t.iter().map(|&t| x0_mm + self.deviation_mm(t)).collect();
+        let r: Vec<f64> = match self.excitation(x0_mm, rate_hz) {
+            Some(e) => t.iter().map(|&t| e.reference_mm(t)).collect(),
+            None => t.iter().map(|&t| x0_mm + self.deviation_mm(t)).collect(),
+        };
         Ok(Record::from_arrays(&self.label(), &t, &r, &r)?)
     }
 
@@ -378,6 +443,9 @@ pub struct AdviceOptions {
     pub confidence: f64,
     /// The candidates; `None` = [`default_designs`] for the experiment.
     pub designs: Option<Vec<Design>>,
+    /// With the default candidates, add the multisine `pumpcyl frf --design` designs at each
+    /// of the records' gains (fitted in the frequency domain).
+    pub sweeps: bool,
 }
 
 impl Default for AdviceOptions {
@@ -385,6 +453,7 @@ impl Default for AdviceOptions {
         AdviceOptions {
             confidence: 0.95,
             designs: None,
+            sweeps: true,
         }
     }
 }
@@ -553,6 +622,93 @@ pub fn widths(info: &Matrix3<f64>, point: &Candidate, z: f64) -> Result<[Width; 
     }))
 }
 
+/// The Fisher information (in ln θ) of the sweep `d` recorded as the dataset `ds` at `rate_hz`,
+/// at the point `p`, position noise of variance `var` (mm²): the frequency-domain cost's
+/// Iᵢⱼ = Σ_k Re(∂T_k/∂θᵢ · conj ∂T_k/∂θⱼ)/σ_k², T the loop sampled at `rate_hz`
+/// ([`crate::frf::sampled_loop_response`]) and σ_k² = 2·var/(P·N·r_k²) the variance of each
+/// component of T̂ at line k averaged over P periods of N samples, r_k the line's amplitude
+/// (mm): the first period settles and is not averaged. Derivatives by central differences
+/// with step `h` in ln θ, as [`gram`]'s.
+pub fn sweep_information(
+    problem: &Problem,
+    ds: &Prepared,
+    d: &Design,
+    (p, h): (&[f64; 3], f64),
+    var: f64,
+    rate_hz: f64,
+) -> Result<Matrix3<f64>, IdentError> {
+    let e = d.excitation(ds.rig.x0_mm, rate_hz);
+    let Some(
+        e @ Excitation::Multisine {
+            period_s,
+            periods,
+            line_mm,
+            ..
+        },
+    ) = e
+    else {
+        return gram(problem, ds, p, h).map(|g| g / var);
+    };
+    let freqs = e.frequencies_hz();
+    let response = |q: &[f64]| {
+        let rig = problem.rig_for(&candidate_of(q), ds)?;
+        crate::frf::sampled_loop_response(&Plant::new(&rig), rig.sum_pressure, &freqs, rate_hz)
+            .map_err(|e| IdentError::Input(format!("{}: {e}", d.label())))
+    };
+    let columns = (0..3)
+        .map(|i| {
+            let at = |sign: f64| {
+                let mut q = p.to_vec();
+                q[i] += sign * h;
+                response(&q)
+            };
+            let (plus, minus) = (at(1.0)?, at(-1.0)?);
+            Ok(plus
+                .iter()
+                .zip(&minus)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<_>>())
+        })
+        .collect::<Result<Vec<_>, IdentError>>()?;
+    let averaged = periods.saturating_sub(1).max(1) as f64 * period_s * rate_hz;
+    let weight = averaged * line_mm * line_mm / (2.0 * var);
+    Ok(Matrix3::from_fn(|i, j| {
+        weight
+            * columns[i]
+                .iter()
+                .zip(&columns[j])
+                .map(|(a, b)| (a * b.conj()).re)
+                .sum::<f64>()
+    }))
+}
+
+/// The default sweeps at each gain of `kps`: the multisine `pumpcyl frf --design` designs for
+/// the rig of `like` at that gain ([`crate::frf::design`]), [`SWEEP_LINES`] lines, its periods
+/// cut to [`MAX_DURATION_S`]; none at a gain where fewer than 3 periods fit or the design
+/// fails [`Design::check`].
+fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
+    let goal = crate::frf::DesignGoal {
+        rate_hz,
+        ..crate::frf::DesignGoal::default()
+    };
+    kps.iter()
+        .filter_map(|&kp| {
+            let rig = Rig { kp, ..like.clone() };
+            let d = crate::frf::design(&rig, &goal).ok()?;
+            let fit = (MAX_DURATION_S * d.from_hz).floor() as usize;
+            let sweep = Design::Sweep {
+                from_hz: d.from_hz,
+                to_hz: d.to_hz,
+                lines: SWEEP_LINES,
+                amp_mm: (d.amplitude_mm * 10.0).floor() / 10.0,
+                periods: d.periods.min(fit),
+                kp,
+            };
+            (d.periods.min(fit) >= 3 && sweep.check(rate_hz, &rig).is_ok()).then_some(sweep)
+        })
+        .collect()
+}
+
 /// The sample rate (Hz) of a dataset's record: samples per second over its length.
 fn rate_hz(ds: &Prepared) -> f64 {
     let t = &ds.record.time_s;
@@ -627,10 +783,17 @@ pub fn advise(
     let designs = match &opts.designs {
         Some(d) => d.clone(),
         None => {
-            let kps: Vec<f64> = problem.datasets.iter().map(|d| d.rig.kp).collect();
+            let mut kps: Vec<f64> = problem.datasets.iter().map(|d| d.rig.kp).collect();
             let rig = &first.rig;
             let room = rig.x0_mm.min(rig.stroke_mm - rig.x0_mm);
-            default_designs(&kps, velocity_limit(rig), room, rate)
+            let mut d = default_designs(&kps, velocity_limit(rig), room, rate);
+            kps.sort_by(f64::total_cmp);
+            kps.dedup();
+            if opts.sweeps {
+                let at_point = problem.rig_for(&u.best, first)?;
+                d.extend(default_sweeps(&at_point, &kps, rate));
+            }
+            d
         }
     };
     if designs.is_empty() || designs.len() > MAX_CANDIDATES {
@@ -659,7 +822,8 @@ pub fn advise(
             if let Err(Skip(why)) = runnable(problem, &u.best, &ds) {
                 return Ok(Err(Skip(format!("{}: {why}", d.label()))));
             }
-            let added = with_model_error(&(gram(problem, &ds, &p, LOG_STEP)? / var), &model_error);
+            let info = sweep_information(problem, &ds, d, (&p, LOG_STEP), var, rate)?;
+            let added = with_model_error(&info, &model_error);
             let info = existing + added;
             let w = widths(&info, &u.best, z)?;
             let improvement: [f64; 3] =
@@ -749,6 +913,7 @@ pub fn advise_experiment(
     let opts = AdviceOptions {
         confidence,
         designs,
+        sweeps: true,
     };
     advise(&exp.problem, &id.best().candidate, &opts)
 }

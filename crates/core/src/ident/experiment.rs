@@ -552,11 +552,13 @@ impl Experiment {
     }
 
     /// The records of a frequency-domain fit: the sweeps, with the step records beside them
-    /// when there are any; `None` with the time method.
+    /// when there are any, their controller sampled as the sweeps'; `None` with the time
+    /// method.
     pub fn frequency_problem(&self) -> Option<FrequencyProblem> {
         (self.method == Method::Frequency).then(|| FrequencyProblem {
             sweeps: self.sweeps.clone(),
-            steps: (!self.problem.datasets.is_empty()).then(|| self.problem.clone()),
+            steps: (!self.problem.datasets.is_empty())
+                .then(|| self.problem.clone().with_sampled_controller()),
             standstill: self.problem.standstill,
         })
     }

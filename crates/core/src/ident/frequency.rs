@@ -19,7 +19,8 @@
 //! J is scaled by s² = J_min/(2K − 3) so that model error widens the intervals as the step
 //! identification's σ² does. With step records too, their SSE is divided by their own noise
 //! variance σ² (at their own optimum, inflated for correlated residuals) and added: each kind
-//! of record counts as the information it carries, not as its number of samples.
+//! of record counts as the information it carries, not as its number of samples. The step
+//! records are simulated with the controller sampled too ([`Problem::with_sampled_controller`]).
 //!
 //! The search: the experiment's first grid on the sweeps' cost, then Nelder–Mead on
 //! (ln β, ln b, ln c12) from its best point (on the sum, with step records), then profile

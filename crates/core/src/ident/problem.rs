@@ -9,6 +9,7 @@ use crate::lti::{eigenvalues, is_stable, Simulator, StateSpace, Zoh};
 use crate::model::Plant;
 use crate::record::Record;
 use crate::rig::Rig;
+use nalgebra::DVector;
 
 /// One dataset of an experiment, as the user describes it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -50,6 +51,9 @@ pub struct Prepared {
     rest_sse: f64,
     /// Sum of the measured deviations (mm) of the samples at rest (the model's are 0).
     rest_sum: f64,
+    /// The controller's period (s) when the model samples it as a PLC does
+    /// ([`Problem::with_sampled_controller`]); `None`: the continuous loop.
+    sampled_h: Option<f64>,
 }
 
 impl Prepared {
@@ -98,6 +102,7 @@ impl Prepared {
             start,
             rest_sse,
             rest_sum,
+            sampled_h: None,
             record,
             rig,
             fit_end_s: spec.fit_end_s,
@@ -141,10 +146,25 @@ impl Problem {
         Ok(Plant::new(&rig).closed_loop(rig.sum_pressure))
     }
 
+    /// The same records with the model's controller sampled as a PLC runs it: the position
+    /// and pressures read at each sample, the speed commands held until the next, at the
+    /// window's mean sample period (docs/identification.md#sweeps-and-steps-together). The
+    /// article's step identification (§2.4.4) keeps the continuous loop.
+    pub fn with_sampled_controller(mut self) -> Problem {
+        for ds in &mut self.datasets {
+            let n = ds.t.len();
+            ds.sampled_h = (n > 1).then(|| (ds.t[n - 1] - ds.t[0]) / (n - 1) as f64);
+        }
+        self
+    }
+
     /// Feed the position errors (mm, model − measured) after the samples at rest of dataset
     /// `ds` to `each`, in order, until it returns false; false when the model cannot be built
     /// or simulated.
     fn errors(&self, c: &Candidate, ds: &Prepared, mut each: impl FnMut(f64) -> bool) -> bool {
+        if let Some(h) = ds.sampled_h {
+            return self.sampled_errors(c, ds, h, each);
+        }
         let Ok(sys) = self.model(c, ds) else {
             return false;
         };
@@ -157,6 +177,39 @@ impl Problem {
         Simulator::with_scale(&sys, &ds.scale)
             .run_with(t, u, &x0, |k, x| k == 0 || each(x[0] * 1e3 - meas[k]))
             .is_ok()
+    }
+
+    /// [`Problem::errors`] of the loop sampled every `h`: x_{k+1} = (Φ + Γ Kx) x_k + Γ Kr r_k,
+    /// Φ, Γ the plant's zero-order hold over `h`, u = Kx·x + Kr·r the control law.
+    fn sampled_errors(
+        &self,
+        c: &Candidate,
+        ds: &Prepared,
+        h: f64,
+        mut each: impl FnMut(f64) -> bool,
+    ) -> bool {
+        let Ok(rig) = self.rig_for(c, ds) else {
+            return false;
+        };
+        let plant = Plant::new(&rig);
+        let Ok(zoh) = Zoh::new(&plant.a, &plant.b, h) else {
+            return false;
+        };
+        let (kx, kr) = plant.controller(rig.sum_pressure);
+        let phi = &zoh.phi + &zoh.gamma * kx;
+        let gamma = (&zoh.gamma * kr).column(0).into_owned();
+        let (pos, n) = (plant.position(), plant.n());
+        let (mut x, mut next) = (DVector::zeros(n), DVector::zeros(n));
+        let (u, meas) = (&ds.u[ds.start..], &ds.meas_mm[ds.start..]);
+        for k in 1..u.len() {
+            phi.mul_to(&x, &mut next);
+            next.axpy(u[k - 1], &gamma, 1.0);
+            std::mem::swap(&mut x, &mut next);
+            if !each(x[pos] * 1e3 - meas[k]) {
+                break;
+            }
+        }
+        true
     }
 
     /// Mean squared position error (mm²) of dataset `ds`; +∞ when not finite. The simulation

@@ -59,7 +59,12 @@ pub(super) fn how_sure(
     debug_assert_eq!(Some(targets.p_beta_bar), Some(p_mean_bar));
     let d = robust_design(nominal, &region, &targets, &RobustOptions::default())?;
     robust(run, &d)?;
-    let advice = advise(&exp.problem, &best, &AdviceOptions::default())?;
+    // the article's kinds of record (steps, sines); step 11 sets a sweep beside them
+    let steps_and_sines = AdviceOptions {
+        sweeps: false,
+        ..AdviceOptions::default()
+    };
+    let advice = advise(&exp.problem, &best, &steps_and_sines)?;
     next_experiment(run, &advice);
     let v = HowSure {
         confidence: CONFIDENCE,

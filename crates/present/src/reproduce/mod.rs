@@ -38,6 +38,7 @@ mod pressure;
 mod registry;
 mod studies;
 pub mod summary;
+mod sweep;
 mod tracking;
 pub use certainty::Certainty;
 pub use registry::{Registered, FIGURES};
@@ -59,7 +60,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 11;
+pub const STEPS: usize = 12;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -459,6 +460,13 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         pressure.p_mean_bar,
     )?;
     let figure1_circuits = figure1_circuits::figure1_circuits(&mut run)?;
+    let sweep_beside_steps = sweep::sweep_beside_steps(
+        &mut run,
+        &exp,
+        &certainty.uncertainty,
+        (&truth, &truth_point),
+        certainty::CONFIDENCE,
+    )?;
     registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
     run.render_pngs()?;
     let seconds = start.elapsed().as_secs_f64();
@@ -485,6 +493,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         how_sure,
         which_circuit,
         figure1_circuits,
+        sweep_beside_steps,
         seconds,
     };
     Ok(Reproduction {

@@ -43,6 +43,7 @@ pub const FIGURES: &[Registered] = &[
     fig("robust-margins", Source::Own),
     fig("which_circuit", Source::Own),
     fig("figure1_circuits_step", Source::Own),
+    fig("sweep_beside_steps", Source::Own),
 ];
 
 /// The registered figure `stem` drawn as the article figure `source`: an error names a

@@ -59,6 +59,8 @@ pub struct Summary {
     pub which_circuit: WhichCircuit,
     /// Step 11: the article's Figure 1 circuits on its own application.
     pub figure1_circuits: Figure1Circuits,
+    /// Step 12: a sweep beside the steps (pumpcyl's own study, on emulated records).
+    pub sweep_beside_steps: SweepBeside,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
 }
@@ -539,6 +541,15 @@ pub struct PerParameter<T> {
 }
 
 impl<T> PerParameter<T> {
+    /// The value of parameter `i`, in the order of `pumpcyl::ident::PARAMETERS`.
+    pub fn get(&self, i: usize) -> &T {
+        [
+            &self.beta_bar,
+            &self.viscous_friction_ns_per_m,
+            &self.c12_m5_per_ns,
+        ][i]
+    }
+
     /// `f(index, name)` for each parameter, in the order of `pumpcyl::ident::PARAMETERS`.
     pub fn from_fn(f: impl Fn(usize, &str) -> T) -> Self {
         let [a, b, c] = pumpcyl::ident::PARAMETERS;
@@ -613,4 +624,34 @@ pub struct WhichCircuit {
     pub article_choice: pumpcyl::select::Candidate,
     /// Over the gas-fraction range read off the identification's interval of β.
     pub identified: pumpcyl::select::Selection,
+}
+
+/// A sweep beside the steps: the intervals of β, b and c12 from each kind of record and both.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepBeside {
+    /// That the sweep is emulated, as the steps are.
+    pub note: String,
+    /// The sweep, in words.
+    pub sweep: String,
+    /// Confidence level of the intervals.
+    pub confidence: f64,
+    /// From the step records (step 9).
+    pub steps: IntervalSet,
+    /// From the sweep alone, in the frequency domain.
+    pub sweep_alone: IntervalSet,
+    /// From the sweep and the steps together.
+    pub both: IntervalSet,
+}
+
+/// One set of records' answer and intervals.
+#[derive(Debug, Clone, Serialize)]
+pub struct IntervalSet {
+    /// The least-cost point (β bar, b N·s/m, c12 m⁵/(N·s)).
+    pub best: PerParameter<f64>,
+    /// The intervals, `null` for a parameter not profiled.
+    pub intervals: PerParameter<Option<[f64; 2]>>,
+    /// Whether the records bound each parameter.
+    pub identifiable: PerParameter<bool>,
+    /// Whether each interval holds the emulator's truth.
+    pub truth_inside: PerParameter<bool>,
 }
