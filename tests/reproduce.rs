@@ -588,6 +588,7 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
             || name.starts_with("profile-")
             || name == "robust-margins.png"
             || name == "which_circuit.png"
+            || name == "sweep_beside_steps.png"
         {
             1200
         } else {
@@ -716,6 +717,7 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
         (&|c| c.contains("at the robust Kp"), OWN.into()),
         (&|c| c.contains("Which circuit"), OWN.into()),
         (&|c| c.contains("Figure 1 circuits"), OWN.into()),
+        (&|c| c.contains("from the steps, the sweep and both"), OWN.into()),
     ];
     let mut used = vec![0; rules.len()];
     for c in &captions {
