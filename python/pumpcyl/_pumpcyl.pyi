@@ -403,6 +403,7 @@ class Summary(Result):
     how_sure: Dict[str, Any]
     which_circuit: Dict[str, Any]
     figure1_circuits: Dict[str, Any]
+    sweep_beside_steps: Dict[str, Any]
     seconds: float
 
 class Emulated(Result):
