@@ -3,7 +3,7 @@
 use super::dpm::Dpm;
 use super::dual_pump::DualPump;
 use super::single_pump::modes::{switching, Mode};
-use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
+use super::{Circuit, CircuitKind, ControlLaw};
 use crate::rig::Rig;
 
 /// A circuit of any kind, the one a rig is: what the linear model holds. A new kind is a new
@@ -37,17 +37,6 @@ pub fn require(rig: &Rig, what: &str, modelled: &[CircuitKind]) -> Result<(), St
         rig.circuit.name(),
         names.join(" and ")
     ))
-}
-
-/// Dispatch a call to the circuit inside, whichever its kind.
-macro_rules! each {
-    ($self:expr, $c:ident => $e:expr) => {
-        match $self {
-            AnyCircuit::Dpm($c) => $e,
-            AnyCircuit::DualPump($c) => $e,
-            AnyCircuit::SinglePumpMode($c) => $e,
-        }
-    };
 }
 
 impl AnyCircuit {
@@ -111,28 +100,8 @@ impl AnyCircuit {
     }
 }
 
-impl Circuit for AnyCircuit {
-    fn kind(&self) -> CircuitKind {
-        each!(self, c => c.kind())
-    }
-
-    fn states(&self) -> Vec<Signal> {
-        each!(self, c => c.states())
-    }
-
-    fn inputs(&self) -> Vec<Signal> {
-        each!(self, c => c.inputs())
-    }
-
-    fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
-        each!(self, c => c.rhs(x, u, dx))
-    }
-
-    fn operating_point(&self) -> OperatingState {
-        each!(self, c => c.operating_point())
-    }
-
-    fn control_law(&self) -> ControlLaw {
-        each!(self, c => c.control_law())
-    }
-}
+delegate_circuit!(AnyCircuit {
+    Dpm,
+    DualPump,
+    SinglePumpMode
+});

@@ -8,7 +8,7 @@ use super::dpm::Dpm;
 use super::dual_pump::DualPump;
 use super::single_pump::{modes, SinglePump};
 use super::stops::Stops;
-use super::{Circuit, CircuitKind, ControlLaw, Effects, OperatingState, Scalar, Signal};
+use super::{Circuit, CircuitKind, Effects};
 use crate::rig::Rig;
 
 /// The emulated form of a rig's circuit.
@@ -136,28 +136,8 @@ impl Emulated {
     }
 }
 
-impl Circuit for Emulated {
-    fn kind(&self) -> CircuitKind {
-        each!(self, c => c.kind())
-    }
-
-    fn states(&self) -> Vec<Signal> {
-        each!(self, c => c.states())
-    }
-
-    fn inputs(&self) -> Vec<Signal> {
-        each!(self, c => c.inputs())
-    }
-
-    fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
-        each!(self, c => c.rhs(x, u, dx))
-    }
-
-    fn operating_point(&self) -> OperatingState {
-        each!(self, c => c.operating_point())
-    }
-
-    fn control_law(&self) -> ControlLaw {
-        each!(self, c => c.control_law())
-    }
-}
+delegate_circuit!(Emulated {
+    Dpm,
+    DualPump,
+    SinglePump
+});

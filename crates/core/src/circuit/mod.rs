@@ -12,6 +12,34 @@
 //! - [`CircuitKind::DualPump`] — two pumps on one motor (Figure 1b);
 //! - [`CircuitKind::SinglePump`] — one pump, pilot-operated check valves (Figure 1a).
 
+/// `impl Circuit` for an enum whose every variant holds one circuit ([`AnyCircuit`],
+/// [`Emulated`]): each method is the variant's own. One list of the trait's methods serves
+/// every such enum.
+macro_rules! delegate_circuit {
+    ($ty:ident { $($variant:ident),+ $(,)? }) => {
+        impl $crate::circuit::Circuit for $ty {
+            fn kind(&self) -> $crate::circuit::CircuitKind {
+                match self { $($ty::$variant(c) => c.kind()),+ }
+            }
+            fn states(&self) -> Vec<$crate::circuit::Signal> {
+                match self { $($ty::$variant(c) => c.states()),+ }
+            }
+            fn inputs(&self) -> Vec<$crate::circuit::Signal> {
+                match self { $($ty::$variant(c) => c.inputs()),+ }
+            }
+            fn rhs<T: $crate::circuit::Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
+                match self { $($ty::$variant(c) => c.rhs(x, u, dx)),+ }
+            }
+            fn operating_point(&self) -> $crate::circuit::OperatingState {
+                match self { $($ty::$variant(c) => c.operating_point()),+ }
+            }
+            fn control_law(&self) -> $crate::circuit::ControlLaw {
+                match self { $($ty::$variant(c) => c.control_law()),+ }
+            }
+        }
+    };
+}
+
 mod any;
 pub mod dpm;
 pub mod dual_pump;
