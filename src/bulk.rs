@@ -20,7 +20,8 @@ pub struct BulkArgs {
     #[arg(long, allow_negative_numbers = true)]
     beta_bar: Option<f64>,
     /// Mean chamber pressure during the identification (bar). Default: the rig's mean chamber
-    /// pressure at rest, half its p_sum_ref_bar (the article's records' 4.4 bar on its rig).
+    /// pressure at rest: half its p_sum_ref_bar (the article's records' 4.4 bar on its rig), or
+    /// its accumulator_precharge_bar on a one-motor circuit.
     #[arg(long, allow_negative_numbers = true)]
     p_mean_bar: Option<f64>,
     /// Pure-oil bulk modulus (bar).
@@ -104,7 +105,11 @@ fn reading(args: &BulkArgs, rig: &pumpcyl::rig::Rig) -> (BetaReading, String) {
     } else {
         (
             "the rig's beta_bar",
-            "the rig's mean chamber pressure at rest, half its p_sum_ref_bar",
+            if rig.circuit == pumpcyl::circuit::CircuitKind::Dpm {
+                "the rig's mean chamber pressure at rest, half its p_sum_ref_bar"
+            } else {
+                "the rig's mean chamber pressure at rest, its accumulator_precharge_bar"
+            },
         )
     };
     let from = match (args.beta_bar, args.p_mean_bar) {

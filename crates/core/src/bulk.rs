@@ -66,21 +66,23 @@ pub const ARTICLE_READING: BetaReading = BetaReading {
 };
 
 impl BetaReading {
-    /// A rig's own reading: its `beta_bar` at its mean chamber pressure at rest at x0, half its
-    /// sum-pressure set-point (the sum-pressure loop holds p1 + p2 there; docs/select.md#cost).
+    /// A rig's own reading: its `beta_bar` at the mean chamber pressure its circuit holds at
+    /// rest ([`crate::circuit::pressure_level_bar`]: half the DPM's sum-pressure set-point, the
+    /// one-motor circuits' accumulator pre-charge; docs/select.md#cost).
     pub fn of_rig(rig: &Rig) -> BetaReading {
         BetaReading {
             beta_bar: rig.beta_bar,
-            p_mean_bar: 0.5 * rig.p_sum_ref_bar,
+            p_mean_bar: crate::circuit::pressure_level_bar(rig),
         }
     }
 
     /// The reading a rig's gas fraction comes from: the article's identification on the
-    /// article's own rig (`article_rig`, the rig no file gave, with the article's β and
-    /// sum-pressure set-point), the rig's own reading ([`BetaReading::of_rig`]) otherwise.
+    /// article's own rig (`article_rig`, the rig no file gave, with the article's circuit, β
+    /// and sum-pressure set-point), the rig's own reading ([`BetaReading::of_rig`]) otherwise.
     pub fn for_rig(rig: &Rig, article_rig: bool) -> BetaReading {
         let article = Rig::default();
         if article_rig
+            && rig.circuit == article.circuit
             && rig.beta_bar == article.beta_bar
             && rig.p_sum_ref_bar == article.p_sum_ref_bar
         {
@@ -194,5 +196,14 @@ mod tests {
         assert_eq!((r.beta_bar, r.p_mean_bar), (300.0, 5.0));
         let x = r.gas_fraction(BETA_OIL_BAR).unwrap();
         assert!((effective_beta(x, 5.0, BETA_OIL_BAR) - 300.0).abs() < 1e-9);
+        // a one-motor circuit's pressure is its accumulator pre-charge, not the DPM's
+        // set-point, and the article's reading (the DPM's records) is not its own
+        let dual = Rig {
+            circuit: crate::circuit::CircuitKind::DualPump,
+            accumulator_precharge_bar: 3.5,
+            ..Rig::default()
+        };
+        let r = BetaReading::for_rig(&dual, true);
+        assert_eq!((r.beta_bar, r.p_mean_bar), (165.0, 3.5));
     }
 }

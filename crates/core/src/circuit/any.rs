@@ -105,3 +105,14 @@ delegate_circuit!(AnyCircuit {
     DualPump,
     SinglePumpMode
 });
+
+/// The mean chamber pressure (bar gauge) a rig's circuit holds at rest, the level its
+/// `beta_bar` is read at: the DPM's sum-pressure set-point split evenly (its loop holds
+/// p1 + p2 there; docs/model.md#the-dpm-control-law), the one-motor circuits' accumulator
+/// pre-charge (docs/circuits.md).
+pub fn pressure_level_bar(rig: &Rig) -> f64 {
+    match rig.circuit {
+        CircuitKind::Dpm => 0.5 * rig.p_sum_ref_bar,
+        CircuitKind::DualPump | CircuitKind::SinglePump => rig.accumulator_precharge_bar,
+    }
+}

@@ -49,7 +49,7 @@ pub mod single_pump;
 pub mod stops;
 pub mod valves;
 
-pub use any::{require, require_dpm, AnyCircuit};
+pub use any::{pressure_level_bar, require, require_dpm, AnyCircuit};
 pub use dpm::Dpm;
 pub use emulated::Emulated;
 pub use parts::Effects;

@@ -101,7 +101,9 @@ impl Effects {
 pub fn beta_anchor_bar(rig: &Rig) -> Result<f64, EmulatorError> {
     match rig.circuit {
         CircuitKind::Dpm => rest_mean_pressure_bar(rig),
-        CircuitKind::DualPump | CircuitKind::SinglePump => Ok(rig.accumulator_precharge_bar),
+        CircuitKind::DualPump | CircuitKind::SinglePump => {
+            Ok(crate::circuit::pressure_level_bar(rig))
+        }
     }
 }
 
