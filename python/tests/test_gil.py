@@ -6,8 +6,8 @@ Each call is measured in a fresh Python process with the core's own thread pool 
 (``RAYON_NUM_THREADS=1``), so a second core can only be used by a second Python thread, and
 only if the first does not hold the GIL. The ratio (twice the time of one call over the time of
 two calls in two threads; 2 is perfect, 1 is a held GIL) is printed, and asserted only above
-1.3, on a machine not busy with other work (three quarters of its CPU time idle just
-before). What is asserted
+1.3, on a machine not busy with other work while it is measured (other processes took at
+most a quarter of its CPU time). What is asserted
 whatever the load: the CPU time a pure-Python thread gets while the call runs, against the
 call's own, is not near 0 (a call holding the GIL through the core's work leaves it nothing).
 `step` is left out: its time is mostly making its signals' Python objects, under the GIL.
@@ -15,6 +15,7 @@ call's own, is not near 0 (a call holding the GIL through the core's work leaves
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -41,6 +42,11 @@ CALLS = {
 # measured 0.78 to 1.4 on a busy machine, but `simulate` spends half its time or more making
 # its signals' Python objects, under the GIL (measured 0.30 to 0.52).
 MIN_SHARE = {"simulate": 0.2}
+
+# Calls whose core work runs on the core's thread pool (rayon): with the pool at one thread
+# two such calls queue on its one worker, whatever the GIL, so their ratio stays near 1; their
+# release of the GIL is shown by the share alone.
+POOLED = {"identify", "identify_shard", "identify_merge", "design_robust", "select"}
 
 MEASURE = r"""
 import json, sys, threading, time, warnings
@@ -86,31 +92,41 @@ print(json.dumps({"one_s": one, "two_s": two, "ratio": 2 * one / two, "share": s
 """
 
 
-def idle_share(seconds=0.5):
-    """The share of the machine's CPU time left idle over `seconds` (Linux's /proc/stat; 0
-    where it cannot be read: the machine then counts as busy)."""
-
-    def times():
+def cpu_times():
+    """(idle, all) CPU time of the machine in clock ticks (Linux's /proc/stat), or None where
+    it cannot be read."""
+    try:
         with open("/proc/stat") as f:
             fields = [int(v) for v in f.readline().split()[1:]]
         return fields[3] + fields[4], sum(fields)  # idle + iowait, all
-
-    try:
-        idle0, total0 = times()
-        time.sleep(seconds)
-        idle1, total1 = times()
     except (OSError, ValueError, IndexError):
-        return 0.0
-    return (idle1 - idle0) / max(total1 - total0, 1)
+        return None
+
+
+def others_share(before, after, own_s):
+    """The share of the machine's CPU time that work other than this measurement took between
+    two `cpu_times()` readings, `own_s` the measurement's own CPU seconds (1 where the times
+    cannot be read: the machine then counts as busy)."""
+    if before is None or after is None:
+        return 1.0
+    ticks = os.sysconf("SC_CLK_TCK")
+    busy = (after[1] - after[0]) - (before[1] - before[0])
+    total = max(after[1] - before[1], 1)
+    return max(busy - own_s * ticks, 0) / total
+
+
+def children_cpu_s():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 @pytest.mark.parametrize("name", sorted(CALLS))
 def test_two_threads_take_about_the_time_of_one(name):
     if (os.cpu_count() or 1) < 2:
         pytest.skip("SKIPPED: one core: two threads cannot run in parallel here")
-    busy = idle_share() < 0.75
     env = dict(os.environ, RAYON_NUM_THREADS="1")
     experiment = str(ARTICLE / "identify.toml")
+    before, own0 = cpu_times(), children_cpu_s()
     out = subprocess.run(
         [sys.executable, "-c", MEASURE, CALLS[name], experiment],
         env=env,
@@ -118,17 +134,21 @@ def test_two_threads_take_about_the_time_of_one(name):
         text=True,
         check=False,
     )
+    # other work on the machine during the measurement (not only before it) takes cores the
+    # two threads need: the ratio is then not asserted
+    busy = others_share(before, cpu_times(), children_cpu_s() - own0) > 0.25
     assert out.returncode == 0, out.stderr
     m = json.loads(out.stdout.strip().splitlines()[-1])
     print(
         f"{name}: one call {m['one_s']:.3f} s, two threads {m['two_s']:.3f} s, "
         f"ratio {m['ratio']:.2f}; a Python thread's CPU share during the call {m['share']:.2f}"
         + (" (the machine is busy: ratio not asserted)" if busy else "")
+        + (" (the core's one-thread pool queues two calls: ratio not asserted)" if name in POOLED else "")
     )
     # a call holding the GIL through its core work leaves the other thread almost nothing (a
     # C loop holding it, `sum(range(3 * 10**7))`, measured 0.08)
     assert m["share"] >= MIN_SHARE.get(name, 0.5), m
     # the ratio is bounded by the part of the call that needs the GIL (making its result's
     # Python objects): asserted where the core's work is most of it
-    if not busy and m["share"] >= 0.8:
+    if not busy and m["share"] >= 0.8 and name not in POOLED:
         assert m["ratio"] >= 1.3, m
