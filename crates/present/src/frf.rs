@@ -320,22 +320,7 @@ pub fn frequency_document(
         "warnings": fit.warnings,
     });
     if let Some((u, s)) = uncertainty {
-        let mut intervals = serde_json::Map::new();
-        let mut identifiable = serde_json::Map::new();
-        let mut profiles = serde_json::Map::new();
-        for p in &u.profiles {
-            intervals.insert(p.parameter.into(), json!(p.interval));
-            identifiable.insert(p.parameter.into(), json!(p.identifiable));
-            let points: Vec<_> = p
-                .points
-                .iter()
-                .map(|q| json!({"value": q.value, "statistic": q.statistic, "cost": q.sse_mm2}))
-                .collect();
-            profiles.insert(p.parameter.into(), json!(points));
-        }
-        v["intervals"] = intervals.into();
-        v["identifiable"] = identifiable.into();
-        v["profiles"] = profiles.into();
+        crate::uncertainty::add_profiles_json(&mut v, &u.profiles, "cost");
         v["confidence"] = json!(u.confidence);
         v["chi2_threshold"] = json!(u.threshold);
         v["uncertainty_seconds"] = json!(s);

@@ -11,26 +11,34 @@ use std::fmt::Write as _;
 /// (white noise stays within about 2/√N of 0, below 0.1 for a few hundred samples).
 const CORRELATED: f64 = 0.3;
 
-/// Add the uncertainty's fields to an identification's JSON: `intervals`, `identifiable`,
-/// `confidence`, `noise_std_mm`, `chi2_threshold`, `samples`, `residual_autocorrelation`,
-/// `variance_inflation`, `inflation_by_parameter`, `sse_offset_free_mm2` (mm²), `profiles` and `uncertainty_seconds`
-/// (`seconds`, the time the analysis took).
-pub fn add_uncertainty_json(v: &mut Value, u: &Uncertainty, seconds: f64) {
+/// Add a profile-likelihood analysis's `intervals`, `identifiable` and `profiles` (each point's
+/// `value`, `statistic` and its cost under `cost_key`) to a result's JSON, keyed by parameter:
+/// one layout for the step and the frequency-domain identification.
+pub fn add_profiles_json(v: &mut Value, profiles: &[Profile], cost_key: &str) {
     let mut intervals = Map::new();
     let mut identifiable = Map::new();
-    let mut profiles = Map::new();
-    for p in &u.profiles {
+    let mut curves = Map::new();
+    for p in profiles {
         intervals.insert(p.parameter.into(), json!(p.interval));
         identifiable.insert(p.parameter.into(), json!(p.identifiable));
         let points: Vec<_> = p
             .points
             .iter()
-            .map(|q| json!({"value": q.value, "statistic": q.statistic, "sse_mm2": q.sse_mm2}))
+            .map(|q| json!({"value": q.value, "statistic": q.statistic, cost_key: q.sse_mm2}))
             .collect();
-        profiles.insert(p.parameter.into(), json!(points));
+        curves.insert(p.parameter.into(), json!(points));
     }
     v["intervals"] = intervals.into();
     v["identifiable"] = identifiable.into();
+    v["profiles"] = curves.into();
+}
+
+/// Add the uncertainty's fields to an identification's JSON: `intervals`, `identifiable`,
+/// `confidence`, `noise_std_mm`, `chi2_threshold`, `samples`, `residual_autocorrelation`,
+/// `variance_inflation`, `inflation_by_parameter`, `sse_offset_free_mm2` (mm²), `profiles` and `uncertainty_seconds`
+/// (`seconds`, the time the analysis took).
+pub fn add_uncertainty_json(v: &mut Value, u: &Uncertainty, seconds: f64) {
+    add_profiles_json(v, &u.profiles, "sse_mm2");
     v["confidence"] = json!(u.confidence);
     v["noise_std_mm"] = json!(u.noise_std_mm);
     v["chi2_threshold"] = json!(u.threshold);
@@ -43,7 +51,6 @@ pub fn add_uncertainty_json(v: &mut Value, u: &Uncertainty, seconds: f64) {
     });
     v["inflation_by_parameter"] = Value::Object(inflation.collect());
     v["sse_offset_free_mm2"] = json!(u.sse_mm2);
-    v["profiles"] = profiles.into();
     v["uncertainty_seconds"] = json!(seconds);
 }
 
