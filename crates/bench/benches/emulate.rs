@@ -1,9 +1,11 @@
 //! Emulating the article's rig on the nonlinear emulator (docs/emulator.md): the article's 4 s
 //! identification step (target: < 1 s), and 600 s of the emulated article rig with every effect
 //! and the PLC's noise, as `pumpcyl emulate --experiment step --duration-s 600` runs it
-//! (target: ≤ 0.3 s, 2000× real time, so a chatter check fits inside a selection).
+//! (target: ≤ 0.3 s, 2000× real time, so a chatter check fits inside a selection), and the
+//! same on the article's rig as each of the other circuits of its Figure 1.
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use pumpcyl::circuit::CircuitKind;
 use pumpcyl::emulator::{article, Effects, Experiment};
 use std::time::Duration;
 
@@ -31,6 +33,14 @@ fn bench(c: &mut Criterion) {
     group.bench_function("emulator_600s", |b| {
         b.iter(|| long.run(&rig, effects, &plc).unwrap())
     });
+    for kind in [CircuitKind::DualPump, CircuitKind::SinglePump] {
+        let rig = rig
+            .with_overrides(&[format!("circuit={}", kind.name())])
+            .unwrap();
+        let effects = Effects::for_rig(&rig).unwrap();
+        let name = format!("emulator_600s_{}", kind.name().replace('-', "_"));
+        group.bench_function(name, |b| b.iter(|| long.run(&rig, effects, &plc).unwrap()));
+    }
     group.finish();
 }
 

@@ -15,9 +15,10 @@
 //! before on the thread.
 
 use super::{Dynamics, EmulatorError};
-use crate::circuit::Circuit;
+use crate::circuit::{Circuit, Role};
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, VectorCommon};
 use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
 use std::rc::Rc;
 
 /// Typical magnitude of each state (SI), for finite-difference steps and tolerances, by its
@@ -166,28 +167,90 @@ const BLOW_UP: f64 = 1e-3;
 const MAX_HALVINGS: u32 = 30;
 /// Steps (each checked by doubling) allowed per PLC interval before the BDF takes over.
 const MAX_STEPS: usize = 5_000;
-/// Propagators kept per thread (most recently used first).
-const CACHE: usize = 48;
 
 /// A state in typical sizes: y = x / s.
 type Vector = [f64; N_MAX];
 
-/// What the integrator knows of one dynamics: its typical sizes and its linear part, the
-/// scaled Jacobian at its operating point.
+/// The cell of the lattice the linear part is taken on, in typical sizes, by a state's role:
+/// fine where the Jacobian follows the state (the pressures through β(p), the position through
+/// the volumes and the mass along the stroke), about a quarter of the smoothing width where a
+/// smoothed nonlinearity sits (the Coulomb friction's 1 mm/s, the pumps' dead band), coarser
+/// where the equations are linear in it (torques, feedforward states, commands). Finer cells
+/// cost more Jacobians, coarser ones more and shorter steps: these were measured best on the
+/// article's noisy records (docs/emulator.md#the-integration).
+fn cell(role: Role) -> f64 {
+    match role {
+        Role::Position | Role::Pressure => 1.0 / 64.0,
+        Role::Velocity => 1.0 / 16.0,
+        Role::MotorSpeed | Role::Torque | Role::Feedforward | Role::SpeedCommand => 1.0 / 4.0,
+    }
+}
+
+/// The cell of the speed commands, in typical sizes: the Jacobian follows them only where a
+/// drive's torque or a pump's speed limit is reached.
+const COMMAND_CELL: f64 = 0.25;
+
+/// What the integrator knows of one dynamics: its identity, the typical sizes of its states
+/// and the lattice cells (SI) its linear parts are taken on.
 struct Known {
     /// The dynamics' rates at two points, bit for bit: its identity.
     probe: Vec<u64>,
+    /// A number no other `Known` of the thread has: the key of its linear parts.
+    serial: u64,
     scale: Vec<f64>,
-    /// The scaled Jacobian J₀ at the operating point (row-major).
-    j: Vec<f64>,
+    cells: Vec<f64>,
+    /// The cell of the speed commands (rad/s).
+    command_cell: f64,
 }
 
-/// A propagator's dynamics (its probe) and step length (bits).
-type PropagatorKey = (Vec<u64>, u64);
+/// A linear part: the scaled Jacobian J₀ at a lattice point (row-major, and column-major for
+/// products), and the ETDRK4 propagators of the step lengths used with it (by the bits of h).
+struct Linear {
+    j: Vec<f64>,
+    j_columns: Vec<f64>,
+    propagators: RefCell<Vec<(u64, Rc<Propagator>)>>,
+}
+
+/// A linear part's key: the serial of what is known of the dynamics, the lattice cell of the
+/// state and of the commands.
+type LinearKey = (u64, Vec<i64>);
+
+/// Linear parts kept per thread in each of two generations (each with its propagators, about
+/// 15 kB): a noisy record at rest visits a few thousand cells over ten minutes, most of them
+/// again and again. The results do not depend on what the cache holds.
+const CACHE: usize = 1024;
+
+/// The linear parts of the thread: those used since the current generation began, and those of
+/// the one before, moved back into the current one when used again. When the current one is
+/// full it becomes the old one and the old one is dropped: what is still in use survives.
+#[derive(Default)]
+struct Generations {
+    current: HashMap<LinearKey, Rc<Linear>>,
+    old: HashMap<LinearKey, Rc<Linear>>,
+}
+
+impl Generations {
+    fn get(&mut self, key: &LinearKey) -> Option<Rc<Linear>> {
+        if let Some(l) = self.current.get(key) {
+            return Some(l.clone());
+        }
+        let (key, l) = self.old.remove_entry(key)?;
+        self.insert(key, l.clone());
+        Some(l)
+    }
+
+    fn insert(&mut self, key: LinearKey, l: Rc<Linear>) {
+        if self.current.len() >= CACHE {
+            self.old = std::mem::take(&mut self.current);
+        }
+        self.current.insert(key, l);
+    }
+}
 
 thread_local! {
     static KNOWN: RefCell<Vec<Rc<Known>>> = const { RefCell::new(Vec::new()) };
-    static PROPAGATORS: RefCell<Vec<(PropagatorKey, Rc<Propagator>)>> = const { RefCell::new(Vec::new()) };
+    static SERIAL: Cell<u64> = const { Cell::new(0) };
+    static LINEAR: RefCell<Generations> = RefCell::new(Generations::default());
 }
 
 /// The rates of `d` at its operating point and far from it (every state moved, the commands
@@ -208,16 +271,18 @@ fn known(d: &Dynamics) -> Rc<Known> {
     if let Some(k) = KNOWN.with(|k| k.borrow().iter().find(|k| k.probe == probe).cloned()) {
         return k;
     }
-    let scale = typical(d);
-    let (x, u) = d.operating_point();
-    let n = x.len();
-    let mut j = d.jacobian(&x, &u);
-    for r in 0..n {
-        for c in 0..n {
-            j[r * n + c] *= scale[c] / scale[r];
-        }
-    }
-    let k = Rc::new(Known { probe, scale, j });
+    let roles: Vec<Role> = d.circuit().states().iter().map(|s| s.role).collect();
+    let serial = SERIAL.with(|s| {
+        s.set(s.get() + 1);
+        s.get()
+    });
+    let k = Rc::new(Known {
+        probe,
+        serial,
+        scale: roles.iter().map(|r| r.typical_size()).collect(),
+        cells: roles.iter().map(|&r| r.typical_size() * cell(r)).collect(),
+        command_cell: Role::SpeedCommand.typical_size() * COMMAND_CELL,
+    });
     KNOWN.with(|all| {
         let mut all = all.borrow_mut();
         all.insert(0, k.clone());
@@ -226,11 +291,46 @@ fn known(d: &Dynamics) -> Rc<Known> {
     k
 }
 
-/// One integration: the dynamics, the commands held, and what is known of them.
+/// The linear part of `d` for the state `x` and commands `u`: the exact Jacobian at the centre
+/// of the lattice cell that holds them (docs/emulator.md#the-integration; the cells' edges
+/// include 0, so a cell never straddles the retracted end stop), from the cache or computed.
+/// A function of its arguments alone: whether it was cached changes nothing.
+fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
+    let n = x.len();
+    let mut point: Vec<i64> = (x.iter().zip(&k.cells))
+        .map(|(v, c)| (v / c).floor() as i64)
+        .collect();
+    point.extend(u.map(|v| (v / k.command_cell).floor() as i64));
+    let key = (k.serial, point);
+    if let Some(l) = LINEAR.with(|c| c.borrow_mut().get(&key)) {
+        return l;
+    }
+    let at: Vec<f64> = (key.1[..n].iter().zip(&k.cells))
+        .map(|(&i, c)| (i as f64 + 0.5) * c)
+        .collect();
+    let uq = [0, 1].map(|i| (key.1[n + i] as f64 + 0.5) * k.command_cell);
+    let mut j = d.jacobian(&at, &uq);
+    for r in 0..n {
+        for c in 0..n {
+            j[r * n + c] *= k.scale[c] / k.scale[r];
+        }
+    }
+    let l = Rc::new(Linear {
+        j_columns: columns(&j, n),
+        j,
+        propagators: RefCell::new(Vec::new()),
+    });
+    LINEAR.with(|c| c.borrow_mut().insert(key, l.clone()));
+    l
+}
+
+/// One integration: the dynamics, the commands held, what is known of them and the linear
+/// part the steps take exactly.
 struct Problem<'a> {
     d: &'a Dynamics,
     u: [f64; 2],
     known: &'a Known,
+    linear: &'a Linear,
     n: usize,
 }
 
@@ -244,13 +344,17 @@ impl Problem<'_> {
         }
         self.d.rhs(&x[..n], &self.u, &mut out[..n]);
         for i in 0..n {
-            let row = &self.known.j[i * n..(i + 1) * n];
-            out[i] = out[i] / s[i] - row.iter().zip(&y[..n]).map(|(a, b)| a * b).sum::<f64>();
+            out[i] /= s[i];
+        }
+        let mut jy = [0.0; N_MAX];
+        mat_vec_add(&self.linear.j_columns, y, &mut jy, n);
+        for i in 0..n {
+            out[i] -= jy[i];
         }
     }
 }
 
-/// The matrices of one ETDRK4 step of length h with the linear part J₀ (scaled, row-major):
+/// The matrices of one ETDRK4 step of length h with the linear part J₀ (scaled, column-major):
 /// e^{hJ₀/2}, (h/2) φ₁(hJ₀/2), e^{hJ₀}, and the weights h(φ₁ − 3φ₂ + 4φ₃), 2h(φ₂ − 2φ₃),
 /// h(4φ₃ − φ₂) of hJ₀.
 struct Propagator {
@@ -288,10 +392,12 @@ fn exponential(
         return Ok(x.to_vec());
     }
     let known = known(d);
+    let linear = linear_at(d, &known, x, u);
     let p = Problem {
         d,
         u,
         known: &known,
+        linear: &linear,
         n,
     };
     let mut y = [0.0; N_MAX];
@@ -385,35 +491,44 @@ fn etdrk4(p: &Problem, q: &Propagator, y: &Vector, n0: &Vector) -> Vector {
     out
 }
 
-/// out += m · v (m row-major n × n).
+/// out += m · v (m column-major n × n): a sum of columns, which vectorises where a sum of
+/// row products would not.
 fn mat_vec_add(m: &[f64], v: &Vector, out: &mut Vector, n: usize) {
-    for i in 0..n {
-        let row = &m[i * n..(i + 1) * n];
-        out[i] += row.iter().zip(&v[..n]).map(|(a, b)| a * b).sum::<f64>();
+    for (column, &vk) in m.chunks_exact(n).zip(&v[..n]) {
+        for (o, c) in out[..n].iter_mut().zip(column) {
+            *o += c * vk;
+        }
     }
 }
 
-/// The propagator of the dynamics for steps of `h`, from the cache or computed.
+/// The column-major copy of a row-major n × n matrix.
+fn columns(m: &[f64], n: usize) -> Vec<f64> {
+    (0..n * n).map(|i| m[(i % n) * n + i / n]).collect()
+}
+
+/// Halvings of a step computed at once with its propagator (one pass of the scaling and
+/// squaring gives them all).
+const CHAIN: usize = 2;
+
+/// The propagator of the problem's linear part for steps of `h`, kept with it or computed with
+/// those of the next [`CHAIN`] halvings.
 fn propagator_for(p: &Problem, h: f64) -> Result<Rc<Propagator>, EmulatorError> {
-    let key = (p.known.probe.clone(), h.to_bits());
-    let cached = PROPAGATORS.with(|c| {
-        let mut c = c.borrow_mut();
-        let i = c.iter().position(|(k, _)| *k == key)?;
-        let hit = c.remove(i);
-        let q = hit.1.clone();
-        c.insert(0, hit);
-        Some(q)
-    });
-    if let Some(q) = cached {
-        return Ok(q);
+    let bits = h.to_bits();
+    let kept = p.linear.propagators.borrow();
+    if let Some((_, q)) = kept.iter().find(|(b, _)| *b == bits) {
+        return Ok(q.clone());
     }
-    let q = Rc::new(propagator(p.n, &p.known.j, h)?);
-    PROPAGATORS.with(|c| {
-        let mut c = c.borrow_mut();
-        c.insert(0, (key, q.clone()));
-        c.truncate(CACHE);
-    });
-    Ok(q)
+    drop(kept);
+    let chain = propagators(p.n, &p.linear.j, h, CHAIN)?;
+    let mut kept = p.linear.propagators.borrow_mut();
+    for (l, q) in chain.into_iter().enumerate() {
+        let hl = h * 0.5f64.powi(l as i32);
+        if !kept.iter().any(|(b, _)| *b == hl.to_bits()) {
+            kept.push((hl.to_bits(), Rc::new(q)));
+        }
+    }
+    let found = kept.iter().find(|(b, _)| *b == bits);
+    Ok(found.expect("the chain starts at h").1.clone())
 }
 
 /// `value` times the n × n identity.
@@ -425,11 +540,19 @@ fn identity(n: usize, value: f64) -> Vec<f64> {
     m
 }
 
-/// e^z, φ₁(z), φ₂(z), φ₃(z) of the matrix z = hJ (φ₀ = e^z, φ_{k+1}(z) = (φ_k(z) − 1/k!)/z),
-/// and the same of z/2: Taylor series of z/2ˢ, then s doublings
+/// Taylor terms of the φ functions at ‖z‖₁ ≤ 1/2: the first left out is below 10⁻¹⁵ of them.
+const TAYLOR_TERMS: usize = 14;
+
+/// e^z, φ₁(z), φ₂(z), φ₃(z) of z = hJ/2ˡ for ℓ = 0 ..= `levels` + 1 (φ₀ = e^z,
+/// φ_{k+1}(z) = (φ_k(z) − 1/k!)/z), coarsest first: Taylor series of z/2ˢ, then s doublings
 /// φ_k(2z) = 2⁻ᵏ (e^z φ_k(z) + Σ_{j=1..k} φ_j(z)/(k−j)!) (Skaflestad and Wright, Applied
-/// Numerical Mathematics 59, 2009).
-fn phis(n: usize, j: &[f64], h: f64) -> Result<[[Vec<f64>; 4]; 2], EmulatorError> {
+/// Numerical Mathematics 59, 2009), each doubling one level of step length.
+fn phi_levels(
+    n: usize,
+    j: &[f64],
+    h: f64,
+    levels: usize,
+) -> Result<Vec<[Vec<f64>; 4]>, EmulatorError> {
     let norm = (0..n)
         .map(|c| (0..n).map(|r| (h * j[r * n + c]).abs()).sum::<f64>())
         .fold(0.0, f64::max);
@@ -438,9 +561,9 @@ fn phis(n: usize, j: &[f64], h: f64) -> Result<[[Vec<f64>; 4]; 2], EmulatorError
             "ODE solver: the Jacobian is not finite".to_string(),
         ));
     }
-    // ‖hJ/2ˢ‖ ≤ 1/2, s ≥ 1 so z/2 is passed on the way: Taylor to degree 18 reaches rounding
-    let s = ((norm / 0.5).log2().ceil() as i32).max(1);
-    let a: Vec<f64> = j.iter().map(|v| v * h / 2f64.powi(s)).collect();
+    // ‖hJ/2ˢ‖ ≤ 1/2, and s > `levels` so every level asked for is passed on the way
+    let s = ((norm / 0.5).log2().ceil().max(0.0) as usize).max(levels + 1);
+    let a: Vec<f64> = j.iter().map(|v| v * h / 2f64.powi(s as i32)).collect();
     let mut phi = [
         identity(n, 1.0),
         identity(n, 1.0),
@@ -448,71 +571,87 @@ fn phis(n: usize, j: &[f64], h: f64) -> Result<[[Vec<f64>; 4]; 2], EmulatorError
         identity(n, 1.0 / 6.0),
     ];
     let mut term = identity(n, 1.0);
-    for k in 1..=18 {
-        term = mat_mul(&term, &a, n);
+    let mut next_term = vec![0.0; n * n];
+    for k in 1..=TAYLOR_TERMS {
+        mat_mul_into(&term, &a, &mut next_term, n);
+        std::mem::swap(&mut term, &mut next_term);
         let kf = k as f64;
         term.iter_mut().for_each(|v| *v /= kf);
         // a^k/(k + m)! = term · k!/(k + m)!
         let mut ratio = 1.0;
         for (m, f) in phi.iter_mut().enumerate() {
-            for i in 0..n * n {
-                f[i] += term[i] * ratio;
+            for (fi, ti) in f.iter_mut().zip(&term) {
+                *fi += ti * ratio;
             }
             ratio /= kf + m as f64 + 1.0;
         }
     }
-    let mut half = phi.clone();
-    for step in 0..s {
-        if step == s - 1 {
-            half = phi.clone();
+    let mut out = Vec::with_capacity(levels + 2);
+    let mut products: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; n * n]);
+    for step in 0..=s {
+        if step + levels + 1 >= s {
+            out.push(phi.clone());
         }
-        let e = &phi[0];
-        let e1 = mat_mul(e, &phi[1], n);
-        let e2 = mat_mul(e, &phi[2], n);
-        let e3 = mat_mul(e, &phi[3], n);
-        let ee = mat_mul(e, e, n);
-        let mut next = phi.clone();
+        if step == s {
+            break;
+        }
+        for (k, prod) in products.iter_mut().enumerate() {
+            // e·e, e·φ₁, e·φ₂, e·φ₃
+            mat_mul_into(&phi[0], &phi[k], prod, n);
+        }
         for i in 0..n * n {
-            next[1][i] = 0.5 * (e1[i] + phi[1][i]);
-            next[2][i] = 0.25 * (e2[i] + phi[1][i] + phi[2][i]);
-            next[3][i] = 0.125 * (e3[i] + 0.5 * phi[1][i] + phi[2][i] + phi[3][i]);
+            let (p1, p2, p3) = (phi[1][i], phi[2][i], phi[3][i]);
+            phi[1][i] = 0.5 * (products[1][i] + p1);
+            phi[2][i] = 0.25 * (products[2][i] + p1 + p2);
+            phi[3][i] = 0.125 * (products[3][i] + 0.5 * p1 + p2 + p3);
         }
-        next[0] = ee;
-        phi = next;
+        phi[0].copy_from_slice(&products[0]);
     }
-    Ok([phi, half])
+    out.reverse();
+    Ok(out)
 }
 
-/// The ETDRK4 propagator of steps of `h` with the scaled linear part `j`.
-fn propagator(n: usize, j: &[f64], h: f64) -> Result<Propagator, EmulatorError> {
-    let [full, half] = phis(n, j, h)?;
-    let combine = |c: [f64; 3]| {
-        (0..n * n)
-            .map(|i| h * (c[0] * full[1][i] + c[1] * full[2][i] + c[2] * full[3][i]))
-            .collect::<Vec<f64>>()
-    };
-    Ok(Propagator {
-        e_half: half[0].clone(),
-        p_half: half[1].iter().map(|v| v * 0.5 * h).collect(),
-        e: full[0].clone(),
-        weight1: combine([1.0, -3.0, 4.0]),
-        weight2: combine([0.0, 2.0, -4.0]),
-        weight3: combine([0.0, -1.0, 4.0]),
-    })
+/// The ETDRK4 propagators of steps of h/2ˡ, ℓ = 0 ..= `levels`, with the scaled linear part `j`.
+fn propagators(
+    n: usize,
+    j: &[f64],
+    h: f64,
+    levels: usize,
+) -> Result<Vec<Propagator>, EmulatorError> {
+    let phi = phi_levels(n, j, h, levels)?;
+    Ok((0..=levels)
+        .map(|l| {
+            let (full, half) = (&phi[l], &phi[l + 1]);
+            let hl = h * 0.5f64.powi(l as i32);
+            let combine = |c: [f64; 3]| {
+                let m: Vec<f64> = (0..n * n)
+                    .map(|i| hl * (c[0] * full[1][i] + c[1] * full[2][i] + c[2] * full[3][i]))
+                    .collect();
+                columns(&m, n)
+            };
+            let p_half: Vec<f64> = half[1].iter().map(|v| v * 0.5 * hl).collect();
+            Propagator {
+                e_half: columns(&half[0], n),
+                p_half: columns(&p_half, n),
+                e: columns(&full[0], n),
+                weight1: combine([1.0, -3.0, 4.0]),
+                weight2: combine([0.0, 2.0, -4.0]),
+                weight3: combine([0.0, -1.0, 4.0]),
+            }
+        })
+        .collect())
 }
 
-/// a · b (row-major n × n).
-fn mat_mul(a: &[f64], b: &[f64], n: usize) -> Vec<f64> {
-    let mut c = vec![0.0; n * n];
-    for i in 0..n {
-        for k in 0..n {
-            let aik = a[i * n + k];
-            for jj in 0..n {
-                c[i * n + jj] += aik * b[k * n + jj];
+/// out = a · b (row-major n × n).
+fn mat_mul_into(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
+    out.fill(0.0);
+    for (a_row, out_row) in a.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
+        for (&aik, b_row) in a_row.iter().zip(b.chunks_exact(n)) {
+            for (o, &b) in out_row.iter_mut().zip(b_row) {
+                *o += aik * b;
             }
         }
     }
-    c
 }
 
 #[cfg(test)]
@@ -528,16 +667,31 @@ mod tests {
         for i in 0..n {
             j[i * n + i] = z[i];
         }
-        let [full, half] = phis(n, &j, 1.0).unwrap();
-        for (m, zs) in [(full, z), (half, z.map(|v| v / 2.0))] {
+        let levels = phi_levels(n, &j, 1.0, 2).unwrap();
+        assert_eq!(levels.len(), 4);
+        for (l, m) in levels.iter().enumerate() {
+            let zs = z.map(|v| v * 0.5f64.powi(l as i32));
             for (i, &z) in zs.iter().enumerate() {
                 let e = z.exp();
-                let want = [
-                    e,
-                    (e - 1.0) / z,
-                    (e - 1.0 - z) / (z * z),
-                    (e - 1.0 - z - z * z / 2.0) / (z * z * z),
-                ];
+                // the closed forms cancel for small z: there the series Σ zᵐ/(m + k)!
+                let series = |k: i32| {
+                    let (mut sum, mut term) = (0.0, 1.0 / (1..=k).map(f64::from).product::<f64>());
+                    for m in 0..40 {
+                        sum += term;
+                        term *= z / f64::from(m + k + 1);
+                    }
+                    sum
+                };
+                let want = if z.abs() < 1.0 {
+                    [0, 1, 2, 3].map(series)
+                } else {
+                    [
+                        e,
+                        (e - 1.0) / z,
+                        (e - 1.0 - z) / (z * z),
+                        (e - 1.0 - z - z * z / 2.0) / (z * z * z),
+                    ]
+                };
                 for k in 0..4 {
                     let got = m[k][i * n + i];
                     assert!(
@@ -556,8 +710,8 @@ mod tests {
         let n = 2;
         let j = [-1257.0, 0.0, 5.0, -2.0];
         let h = 0.01;
-        let q = propagator(n, &j, h).unwrap();
-        let [full, _] = phis(n, &j, h).unwrap();
+        let q = &propagators(n, &j, h, 0).unwrap()[0];
+        let full = &phi_levels(n, &j, h, 0).unwrap()[0];
         let mut y = [0.0; N_MAX];
         y[0] = 1.0;
         y[1] = -2.0;
@@ -572,9 +726,9 @@ mod tests {
             mat_vec_add(w, &c, &mut via, n);
         }
         let mut want = [0.0; N_MAX];
-        mat_vec_add(&full[0], &y, &mut want, n);
+        mat_vec_add(&columns(&full[0], n), &y, &mut want, n);
         let p1: Vec<f64> = full[1].iter().map(|v| v * h).collect();
-        mat_vec_add(&p1, &c, &mut want, n);
+        mat_vec_add(&columns(&p1, n), &c, &mut want, n);
         for i in 0..n {
             assert!(
                 (via[i] - want[i]).abs() < 1e-14,
