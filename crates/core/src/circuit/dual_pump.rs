@@ -168,30 +168,7 @@ impl DualPump {
         self.n
     }
 
-    /// Change the external force on the piston (N) in the equations; the operating point
-    /// stays the rig's.
-    pub fn set_external_force_n(&mut self, f_n: f64) {
-        self.piston.force_ext_n = f_n;
-    }
-
-    /// The end stops, if they act.
-    pub fn stops(&self) -> Option<Stops> {
-        self.piston.stops
-    }
-
-    /// The same circuit without the limits a Newton step at rest may cross: no torque or
-    /// speed limit on the drive, no end stops.
-    pub fn without_limits(&self) -> DualPump {
-        let mut free = self.clone();
-        free.piston.stops = None;
-        free.motor = self.motor.without_limits();
-        free
-    }
-
-    /// Bulk modulus (Pa) of the chambers at a mean gauge pressure (Pa).
-    pub fn beta_pa(&self, p_gauge: f64) -> f64 {
-        self.fluid.beta(p_gauge).value()
-    }
+    cylinder_calls!(DualPump, motor);
 
     /// The accumulator pressure p_acc (Pa gauge).
     pub fn accumulator_pa(&self) -> f64 {
