@@ -3,39 +3,21 @@
 use crate::emit::write_atomic;
 use crate::RigSource;
 use anyhow::{anyhow, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use pumpcyl::emulator::article::{self, Emulated, Kind};
 use pumpcyl::emulator::Effects;
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
-use pumpcyl_present::{emulated, records};
+use pumpcyl_present::emulated::{self, ExperimentKind};
+use pumpcyl_present::records;
 use rayon::prelude::*;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// The experiments the emulator can run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ExperimentKind {
-    /// Position step of the closed loop.
-    Step,
-    /// Sinusoidal position reference.
-    Sine,
-    /// One drive alone, decoupled from its pump, feedforward off: a speed step.
-    DriveStep,
-    /// The reference held: the pumps only feed the leakage.
-    Standstill,
-    /// Logarithmic chirp about x0 (docs/identification.md#frequency-response-from-a-sweep).
-    Chirp,
-    /// Periodic multisine about x0, Schroeder phases.
-    Multisine,
-    /// Stepped sine about x0.
-    SteppedSine,
-}
-
 #[derive(Debug, Args)]
 pub struct EmulateArgs {
     /// What the emulated rig does.
-    #[arg(long, value_enum, required_unless_present = "article_records")]
+    #[arg(long, value_parser = experiment_parser(), required_unless_present = "article_records")]
     experiment: Option<ExperimentKind>,
     /// Write every embedded article record, its README and an identify experiment into DIR
     /// (how data/article/ is made).
@@ -117,6 +99,15 @@ pub struct EmulateArgs {
     out: Option<PathBuf>,
 }
 
+/// `--experiment`: the names and help of pumpcyl-present's [`ExperimentKind`], defined there
+/// once for the command line and Python.
+fn experiment_parser() -> impl clap::builder::TypedValueParser<Value = ExperimentKind> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let values = ExperimentKind::ALL.map(|k| PossibleValue::new(k.name()).help(k.help()));
+    PossibleValuesParser::new(values)
+        .map(|name| ExperimentKind::named(&name).expect("a name of ExperimentKind::ALL"))
+}
+
 /// `pumpcyl emulate`.
 pub fn run(args: &EmulateArgs) -> Result<String> {
     if let Some(dir) = &args.article_records {
@@ -187,15 +178,7 @@ const ANNOUNCED_STEPS: u64 = 100_000;
 /// The library's request of the command's options.
 fn request(args: &EmulateArgs, kind: ExperimentKind) -> emulated::Request {
     emulated::Request {
-        experiment: match kind {
-            ExperimentKind::Step => emulated::ExperimentKind::Step,
-            ExperimentKind::Sine => emulated::ExperimentKind::Sine,
-            ExperimentKind::DriveStep => emulated::ExperimentKind::DriveStep,
-            ExperimentKind::Standstill => emulated::ExperimentKind::Standstill,
-            ExperimentKind::Chirp => emulated::ExperimentKind::Chirp,
-            ExperimentKind::Multisine => emulated::ExperimentKind::Multisine,
-            ExperimentKind::SteppedSine => emulated::ExperimentKind::SteppedSine,
-        },
+        experiment: kind,
         from_mm: args.from_mm,
         to_mm: args.to_mm,
         at_s: args.at_s,

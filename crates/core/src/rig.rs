@@ -194,13 +194,13 @@ pub const ARTICLE_MASS_BY_POSITION: [MassPoint; 3] = [
 pub const ACCUMULATOR_PRECHARGE_BAR: f64 = 6.91;
 
 /// The single-pump circuit's pilot ratio: 3:1, the smallest of Sun Hydraulics' pilot-to-open
-/// check cartridges (its series 0; series 1, 3 and 4 are 4:1), as Sun's "Pilot-to-open check
-/// valves: frequently asked questions" (2001) gives them (docs/circuits.md#the-pilot-operated-check-valves).
+/// check cartridges (its series 0; series 1, 3 and 4 are 4:1), as Sun's "Frequently asked
+/// questions: pilot-to-open check cartridge valves" (2001) gives them (docs/circuits.md#the-pilot-operated-check-valves).
 pub const PILOT_RATIO: f64 = 3.0;
 
 /// The single-pump circuit's check-valve cracking pressure (bar): the anti-cavitation check
-/// valve's 0.5 bar, the lightest spring of a size-10 check valve (Bosch Rexroth type S, data
-/// sheet RE 20375) **\[choice\]**: the same poppet and spring, piloted.
+/// valve's 0.5 bar, a light spring of a size-10 check valve **\[choice\]**: the same poppet and
+/// spring, piloted (docs/circuits.md#valves).
 pub const CHECK_VALVE_CRACK_BAR: f64 = 0.5;
 
 /// The keys not every circuit has, each with the circuits that have it (docs/circuits.md): the

@@ -35,6 +35,17 @@ pub enum ExperimentKind {
 }
 
 impl ExperimentKind {
+    /// Every experiment, in the order the command line lists them.
+    pub const ALL: [ExperimentKind; 7] = [
+        Self::Step,
+        Self::Sine,
+        Self::DriveStep,
+        Self::Standstill,
+        Self::Chirp,
+        Self::Multisine,
+        Self::SteppedSine,
+    ];
+
     /// The experiment's name, as the command line's `--experiment` and Python's `experiment`
     /// take it.
     pub fn name(self) -> &'static str {
@@ -49,19 +60,27 @@ impl ExperimentKind {
         }
     }
 
+    /// What the experiment does, in one line: the command line's help of its `--experiment`
+    /// value.
+    pub fn help(self) -> &'static str {
+        match self {
+            ExperimentKind::Step => "Position step of the closed loop",
+            ExperimentKind::Sine => "Sinusoidal position reference",
+            ExperimentKind::DriveStep => {
+                "One drive alone, decoupled from its pump, feedforward off: a speed step"
+            }
+            ExperimentKind::Standstill => "The reference held: the pumps only feed the leakage",
+            ExperimentKind::Chirp => {
+                "Logarithmic chirp about x0 (docs/identification.md#frequency-response-from-a-sweep)"
+            }
+            ExperimentKind::Multisine => "Periodic multisine about x0, Schroeder phases",
+            ExperimentKind::SteppedSine => "Stepped sine about x0",
+        }
+    }
+
     /// The experiment named `name`, if there is one.
     pub fn named(name: &str) -> Option<ExperimentKind> {
-        [
-            Self::Step,
-            Self::Sine,
-            Self::DriveStep,
-            Self::Standstill,
-            Self::Chirp,
-            Self::Multisine,
-            Self::SteppedSine,
-        ]
-        .into_iter()
-        .find(|k| k.name() == name)
+        Self::ALL.into_iter().find(|k| k.name() == name)
     }
 }
 

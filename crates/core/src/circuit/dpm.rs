@@ -60,6 +60,24 @@ enum Motors {
     FirstOrder([FirstOrderMotor; 2]),
 }
 
+impl Motors {
+    /// The same motors without their torque and speed limits (what a Newton step at rest may
+    /// cross).
+    fn without_limits(&self) -> Motors {
+        match self {
+            Motors::Full(drives, at) => Motors::Full(
+                drives.map(|d| Drive {
+                    torque_limit: None,
+                    speed_limit: None,
+                    ..d
+                }),
+                *at,
+            ),
+            m => *m,
+        }
+    }
+}
+
 /// The DPM circuit of a rig: its parts with their effects switched as asked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dpm {
@@ -144,35 +162,7 @@ impl Dpm {
         self.layout.n
     }
 
-    /// Change the external force on the piston (N) in the equations; the operating point
-    /// stays the rig's.
-    pub fn set_external_force_n(&mut self, f_n: f64) {
-        self.piston.force_ext_n = f_n;
-    }
-
-    /// The end stops, if they act.
-    pub fn stops(&self) -> Option<Stops> {
-        self.piston.stops
-    }
-
-    /// The same circuit without the limits a Newton step may cross at rest: no torque or speed
-    /// limit on the drives, no end stops.
-    pub fn without_limits(&self) -> Dpm {
-        let mut free = self.clone();
-        free.piston.stops = None;
-        if let Motors::Full(drives, _) = &mut free.motors {
-            for d in drives {
-                d.torque_limit = None;
-                d.speed_limit = None;
-            }
-        }
-        free
-    }
-
-    /// Bulk modulus (Pa) of the chambers at a mean gauge pressure (Pa).
-    pub fn beta_pa(&self, p_gauge: f64) -> f64 {
-        self.fluid.beta(p_gauge).value()
-    }
+    cylinder_calls!(Dpm, motors);
 
     /// The pressures at rest (Pa gauge) and the pump speeds (rad/s) that feed the leakage at
     /// standstill: the sum-pressure set-point split by the force balance p1 A1 − p2 A2 = F_ext,

@@ -40,6 +40,39 @@ macro_rules! delegate_circuit {
     };
 }
 
+/// The calls every circuit answers from the parts it holds — its `piston` (load, end stops),
+/// its `fluid` and its drives (the field named, whose type has `without_limits`) — written once
+/// as inherent methods of each circuit, so that callers need no trait in scope. The circuit's
+/// module has `Stops` in scope.
+macro_rules! cylinder_calls {
+    ($circuit:ty, $drives:ident) => {
+        /// Change the external force on the piston (N) in the equations; the operating point
+        /// stays the rig's.
+        pub fn set_external_force_n(&mut self, f_n: f64) {
+            self.piston.force_ext_n = f_n;
+        }
+
+        /// The end stops, if they act.
+        pub fn stops(&self) -> Option<Stops> {
+            self.piston.stops
+        }
+
+        /// The same circuit without the limits a Newton step at rest may cross: no torque or
+        /// speed limit on the drives, no end stops.
+        pub fn without_limits(&self) -> $circuit {
+            let mut free = self.clone();
+            free.piston.stops = None;
+            free.$drives = self.$drives.without_limits();
+            free
+        }
+
+        /// Bulk modulus (Pa) of the chambers at a mean gauge pressure (Pa).
+        pub fn beta_pa(&self, p_gauge: f64) -> f64 {
+            self.fluid.beta(p_gauge).value()
+        }
+    };
+}
+
 mod any;
 pub mod dpm;
 pub mod dual_pump;

@@ -188,29 +188,7 @@ impl SinglePump {
         self.piston.force_ext_n
     }
 
-    /// Set the external force against extension (N): a scan over loads.
-    pub fn set_external_force_n(&mut self, f_n: f64) {
-        self.piston.force_ext_n = f_n;
-    }
-
-    /// The end stops, if they act.
-    pub fn stops(&self) -> Option<Stops> {
-        self.piston.stops
-    }
-
-    /// The same circuit without the limits a Newton step at rest may cross: no torque or
-    /// speed limit on the drive, no end stops.
-    pub fn without_limits(&self) -> SinglePump {
-        let mut free = self.clone();
-        free.piston.stops = None;
-        free.motor = self.motor.without_limits();
-        free
-    }
-
-    /// Bulk modulus (Pa) of the chambers at a mean gauge pressure (Pa).
-    pub fn beta_pa(&self, p_gauge: f64) -> f64 {
-        self.fluid.beta(p_gauge).value()
-    }
+    cylinder_calls!(SinglePump, motor);
 
     /// The position loop's gain K_scale Kp (rad/s per m): ω_ref = K_scale Kp (x_ref − x).
     pub fn position_gain(&self) -> f64 {

@@ -9,7 +9,8 @@
 //! A(Δp) = A_max · s((Δp − Δp_crack) / Δp_open), s(t) = 3t² − 2t³ on [0, 1],
 //!
 //! which is the turbulent orifice law Cd A √(2|Δp|/ρ) sign(Δp) for |Δp| ≫ Δp_lam, linear
-//! (laminar) near Δp = 0 so that it is differentiable there, and an opening that rises
+//! (laminar) near Δp = 0 so that it is differentiable there (the smoothing of Simscape Fluids'
+//! Check Valve (IL) block), and an opening that rises
 //! smoothly (C¹) from zero at the cracking pressure to full over the opening range. A valve
 //! below its cracking pressure passes no flow and has zero derivative: at an operating point
 //! where every valve is shut the valves do not enter the linear model.
@@ -31,9 +32,9 @@ use super::Scalar;
 /// **\[choice\]**: the orifice flow goes with 1/√ρ, so the spread moves it by ±1 %.
 pub const OIL_DENSITY_KG_PER_M3: f64 = 870.0;
 
-/// Discharge coefficient of a sharp-edged orifice in turbulent flow, 0.61 (Merritt,
-/// *Hydraulic Control Systems*, 1967: von Mises' π/(π + 2) = 0.611, the value he recommends for
-/// sharp-edged orifices).
+/// Discharge coefficient of a sharp-edged orifice in turbulent flow, 0.61: the contraction
+/// coefficient π/(π + 2) = 0.611 of a sharp-edged orifice small against its bore (Merritt,
+/// *Hydraulic Control Systems*, Wiley 1967).
 pub const DISCHARGE_COEFFICIENT: f64 = 0.61;
 
 /// One valve: a sharp-edged orifice that opens with its pressure drop.
@@ -50,12 +51,12 @@ pub struct Valve {
 }
 
 impl Valve {
-    /// The anti-cavitation check valve: a size-10 screw-in check valve with the lightest
-    /// spring, 0.5 bar cracking pressure (Bosch Rexroth type S, data sheet RE 20375, which
-    /// offers 0.5 to 5 bar); its 10 mm bore fully open, π (10 mm)²/4 = 78.5 mm², 1 bar above
-    /// cracking **\[choice\]**, read off the data sheet's Δp–Q curves as the rise from cracking
-    /// to the curve's straight (turbulent) part; laminar below 0.05 bar **\[choice\]**, a tenth
-    /// of the cracking pressure.
+    /// The anti-cavitation check valve: a size-10 screw-in check valve with a light spring,
+    /// 0.5 bar cracking pressure **\[choice\]** (the kind makers sell with a choice of springs:
+    /// Bosch Rexroth's check valve type S, sizes 6 to 30, data sheet RE 20375); its 10 mm bore
+    /// fully open, π (10 mm)²/4 = 78.5 mm², 1 bar above cracking **\[choice\]**, the order of
+    /// the rise from cracking to the straight (turbulent) part of makers' Δp–Q curves; laminar
+    /// below 0.05 bar **\[choice\]**, a tenth of the cracking pressure.
     pub const ANTI_CAVITATION: Valve = Valve {
         crack_pa: 0.5e5,
         open_range_pa: 1.0e5,
@@ -112,7 +113,8 @@ impl Valve {
 /// pilot piston's spring side drains there **\[choice\]**); the valve follows [`Valve`]'s law on
 /// this signal: shut below the cracking pressure, fully open from the cracking pressure plus
 /// the opening range, and the orifice flow in either direction by the seat's pressure drop
-/// p_acc − p once open (the form of Simscape's and Hopsan's pilot-operated check valves).
+/// p_acc − p once open (the control pressure of Simscape Fluids' Pilot-Operated Check Valve (IL)
+/// and of Hopsan's `HydraulicPilotControlledCheckValve`: seat drop plus pilot ratio times pilot).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PilotCheck {
     /// The check valve: cracking pressure, opening range, area, laminar range.

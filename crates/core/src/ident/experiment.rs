@@ -482,7 +482,7 @@ impl Experiment {
         let standstill = file
             .standstill
             .resolve(files, dir)
-            .and_then(|s| s.validate().map(|_| s))
+            .and_then(|s| s.validate_for(&rig).map(|_| s))
             .map_err(|e| at.error(&[Name("standstill")], e))?;
         if file.dataset.is_empty() {
             return Err(at.error(&[Name("dataset")], "needs at least one [[dataset]]"));

@@ -74,6 +74,23 @@ impl Standstill {
         Ok(())
     }
 
+    /// [`Standstill::validate`], and on a dual-pump rig that the standstill has every valve
+    /// shut: with a check valve open the pump speed feeds the valve and c1, c2 would be its
+    /// flow, not leakage (docs/circuits.md#identification-where-a-valve-is-open). Checked once,
+    /// before any fit, so that the reason is said rather than every candidate failing.
+    pub fn validate_for(&self, rig: &Rig) -> Result<(), IdentError> {
+        self.validate()?;
+        if rig.circuit != crate::circuit::CircuitKind::DualPump {
+            return Ok(());
+        }
+        let Ok(c) = crate::circuit::dual_pump::DualPump::new(rig) else {
+            return Ok(()); // the rig's own checks name an undetermined rest
+        };
+        let p_bar = [self.p1_bar, rig.p2_at_rest_bar(self.p1_bar)];
+        (c.valves_shut_at(p_bar.map(|p| p * crate::units::PA_PER_BAR)))
+            .map_err(|e| IdentError::Input(format!("standstill p1_bar = {}: {e}", self.p1_bar)))
+    }
+
     /// c1 and c2 from the standstill continuity equations (the article §2.3.2, §2.4; docs/identification.md#leakage-from-standstill) for a given c12:
     /// c1 = (D1 ω1 + D2 ω2 − c12 (p1 − p2))/p1, c2 = (−D1 ω1 + c12 (p1 − p2))/p2, with p2 from
     /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
