@@ -318,14 +318,14 @@ impl FrequencyProblem {
         best: Candidate,
         scales: Scales,
     ) -> Result<FrequencyFit, IdentError> {
-        // the estimate's note that it has no plant response concerns `pumpcyl frf`, not the fit
         let mut warnings: Vec<String> = self
             .sweeps
             .iter()
             .flat_map(|s| {
-                let fit_relevant = |w: &&String| !w.contains("x/w_ref1");
-                let own = s.estimate.warnings.iter().filter(fit_relevant);
-                own.map(|w| format!("{}: {w}", s.name))
+                s.estimate
+                    .warnings
+                    .iter()
+                    .map(|w| format!("{}: {w}", s.name))
             })
             .collect();
         let values = super::grid::candidate_values(&grid_best);
