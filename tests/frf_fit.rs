@@ -302,3 +302,54 @@ fn records_that_cannot_be_fitted_in_the_frequency_domain_are_refused_in_one_line
         "{err}"
     );
 }
+
+#[test]
+fn a_sweep_described_in_the_experiment_file_is_checked_and_estimated_as_described() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let truth = Truth {
+        rig: None,
+        beta_bar: 180.0,
+        b_ns_per_m: 2500.0,
+        c12: 1.5e-10,
+    };
+    // a stepped sine settles at each level for the loop's transient decay or settle_periods,
+    // whichever is longer: enough periods make its description independent of the rig's
+    // parameters, which the experiment's rig (the article's) does not know
+    let keys = [
+        ("amplitude-mm", "5.0"),
+        ("from-hz", "0.4"),
+        ("to-hz", "1.5"),
+        ("levels", "6"),
+        ("settle-periods", "20"),
+    ];
+    let options: Vec<String> = (keys.iter())
+        .flat_map(|(k, v)| [format!("--{k}"), v.to_string()])
+        .collect();
+    let options: Vec<&str> = options.iter().map(String::as_str).collect();
+    truth.emulate(d, "stepped-sine", &options, "stepped.csv");
+    exact_standstill(&truth, d);
+    // the [dataset.sweep] table takes emulate's option names
+    let table: String = (keys.iter())
+        .map(|(k, v)| format!("{} = {v}\n", k.replace('-', "_")))
+        .collect();
+    let described = |extra: &str| {
+        let extra = format!("[dataset.sweep]\n{table}{extra}");
+        experiment(d, None, "", &dataset("stepped.csv", 25.0, 10593.0, &extra));
+    };
+    described("kind = \"stepped-sine\"\n");
+    let v = identify(d, &["--frequency"]);
+    // estimated level by level, as the stepped sine it is (undescribed it would be Welch's)
+    assert_eq!(v["sweeps"][0]["method"], "sine-fit");
+    assert_recovers(&v, &truth, TOLERANCE, true);
+    // a description the reference does not follow, a key no sweep has, a kind no sweep is
+    described("kind = \"stepped-sine\"\nat_s = 1.5\n");
+    let e = refused(d);
+    assert!(e.contains("is not the stepped-sine described"), "{e}");
+    described("kind = \"stepped-sine\"\nduration_s = 3.0\n");
+    let e = refused(d);
+    assert!(e.contains("duration_s"), "{e}");
+    described("kind = \"square\"\n");
+    let e = refused(d);
+    assert!(e.contains("square"), "{e}");
+}

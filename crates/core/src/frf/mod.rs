@@ -25,6 +25,7 @@
 pub mod design;
 pub mod excitation;
 mod model;
+pub mod spec;
 pub mod spectra;
 
 pub use design::{design, Design, DesignGoal};
@@ -32,6 +33,7 @@ pub use excitation::{Excitation, Level};
 pub use model::{model_response, sampled_loop_response};
 /// The complex numbers of the estimates (num-complex's).
 pub use num_complex::Complex64;
+pub use spec::{SweepKind, SweepSpec};
 
 use crate::record::Record;
 use crate::rig::Rig;
