@@ -113,6 +113,14 @@ fn assert_recovers(v: &serde_json::Value, truth: &Truth, tolerance: [f64; 3], co
 
 const TOLERANCE: [f64; 3] = [0.03, 0.2, 0.03];
 
+/// The article's rig with a truth off every grid.
+const ARTICLE_TRUTH: Truth = Truth {
+    rig: None,
+    beta_bar: 180.0,
+    b_ns_per_m: 2500.0,
+    c12: 1.5e-10,
+};
+
 /// Emulate the standstill record the fit reads c1, c2 from, noise-free: the intervals hold the
 /// standstill point fixed (docs/identification.md#the-intervals), so a test of their coverage
 /// gives them the exact one. A 2 s record with the sensors' noise moves the user rig's c12 by
@@ -125,12 +133,7 @@ fn exact_standstill(truth: &Truth, dir: &Path) {
 #[test]
 fn a_multisine_of_the_article_rig_gives_beta_b_and_c12_with_intervals_that_hold_them() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = Truth {
-        rig: None,
-        beta_bar: 180.0,
-        b_ns_per_m: 2500.0,
-        c12: 1.5e-10,
-    };
+    let truth = ARTICLE_TRUTH;
     truth.emulate(dir.path(), "multisine", &[], "sweep.csv");
     exact_standstill(&truth, dir.path());
     let sweep = dataset("sweep.csv", 25.0, 10593.0, "");
@@ -185,12 +188,7 @@ fn a_multisine_of_the_user_rig_gives_beta_b_and_c12_with_intervals_that_hold_the
 #[test]
 fn a_sweep_and_a_step_fitted_together_weigh_each_by_its_own_noise() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = Truth {
-        rig: None,
-        beta_bar: 180.0,
-        b_ns_per_m: 2500.0,
-        c12: 1.5e-10,
-    };
+    let truth = ARTICLE_TRUTH;
     truth.emulate(dir.path(), "multisine", &[], "sweep.csv");
     truth.emulate(dir.path(), "step", &[], "step.csv");
     exact_standstill(&truth, dir.path());
@@ -223,12 +221,7 @@ fn refused(dir: &Path) -> String {
 fn records_that_cannot_be_fitted_in_the_frequency_domain_are_refused_in_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let truth = Truth {
-        rig: None,
-        beta_bar: 180.0,
-        b_ns_per_m: 2500.0,
-        c12: 1.5e-10,
-    };
+    let truth = ARTICLE_TRUTH;
     truth.emulate(d, "standstill", &["--duration-s", "2"], "standstill.csv");
     truth.emulate(d, "step", &[], "step.csv");
     let one = |file: &str, extra: &str| {
@@ -307,12 +300,7 @@ fn records_that_cannot_be_fitted_in_the_frequency_domain_are_refused_in_one_line
 fn a_sweep_described_in_the_experiment_file_is_checked_and_estimated_as_described() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let truth = Truth {
-        rig: None,
-        beta_bar: 180.0,
-        b_ns_per_m: 2500.0,
-        c12: 1.5e-10,
-    };
+    let truth = ARTICLE_TRUTH;
     // a stepped sine settles at each level for the loop's transient decay or settle_periods,
     // whichever is longer: enough periods make its description independent of the rig's
     // parameters, which the experiment's rig (the article's) does not know

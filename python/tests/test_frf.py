@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import pumpcyl
-from conftest import pumpcyl_binary
+from conftest import ARTICLE, pumpcyl_binary
 
 signal = pytest.importorskip("scipy.signal")
 
@@ -157,3 +157,27 @@ def test_a_method_not_named_and_a_frequency_fit_without_records_are_refused(
     with pytest.raises(pumpcyl.PumpcylError, match="at least one Dataset"):
         pumpcyl.identify(datasets=[], standstill=dict(w1_rpm=0, w2_rpm=0, p1_bar=4),
                          method="frequency")
+
+
+def test_advise_weighs_sweep_candidates_at_a_budget_as_the_command_line(tmp_path):
+    # a [[sweep]] candidate beside a step, each counted as often as it fits in 120 s
+    cands = tmp_path / "c.toml"
+    cands.write_text('[[sweep]]\nkind = "multisine"\nkp = 25.0\namplitude_mm = 8.0\n'
+                     'from_hz = 0.4\nto_hz = 1.5\nperiods = 6\n\n'
+                     '[[step]]\nstep_mm = 5.0\nkp = 25.0\n')
+    exp = ARTICLE / "identify.toml"
+    res = pumpcyl.advise(exp, candidates=cands, budget_s=120.0).to_dict()
+    out = subprocess.run([pumpcyl_binary(), "advise", str(exp), "--candidates", str(cands),
+                          "--budget-s", "120", "--json"], check=True, capture_output=True,
+                         text=True).stdout
+    cli = json.loads(out)
+    assert res["budget_s"] == cli["budget_s"] == 120.0
+    assert [c["label"] for c in res["candidates"]] == [c["label"] for c in cli["candidates"]]
+    by_label = {c["label"]: c for c in res["candidates"]}
+    assert by_label.keys() == {c["label"] for c in cli["candidates"]}
+    for c in cli["candidates"]:
+        mine = by_label[c["label"]]
+        assert mine["repeats"] == pytest.approx(120.0 / c["duration_s"], rel=1e-12)
+        assert mine["score"] == pytest.approx(c["score"], rel=1e-9)
+    with pytest.raises(pumpcyl.PumpcylError, match="budget_s = 0"):
+        pumpcyl.advise(exp, candidates=cands, budget_s=0.0)
