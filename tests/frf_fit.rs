@@ -341,3 +341,54 @@ fn a_sweep_described_in_the_experiment_file_is_checked_and_estimated_as_describe
     let e = refused(d);
     assert!(e.contains("square"), "{e}");
 }
+
+#[test]
+fn the_plant_estimate_of_an_emulated_sweep_with_the_sum_pressure_loop_closed_is_the_models() {
+    // the emulated article rig (its sum-pressure loop closed, every effect off, noise-free),
+    // its 100 Hz PLC sampled: x/w_e = T/(K_scale Kp (1 − T)) with T the model's sampled loop
+    // (docs/identification.md#what-is-estimated)
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a 20 s period: the loop settles within the first (its transient decays by 100 in 7.9 s)
+    let args = [
+        "emulate",
+        "--experiment",
+        "multisine",
+        "--no-effects",
+        "--no-noise",
+    ];
+    let shape = ["--from-hz", "0.05", "--to-hz", "1.5", "--periods", "4"];
+    let more = ["--amplitude-mm", "5", "--out", "sweep.csv"];
+    let (ok, _, err) = pumpcyl(d, &[&args[..], &shape, &more].concat());
+    assert!(ok, "{err}");
+    let (ok, out, err) = pumpcyl(d, &["frf", "sweep.csv", "--json"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let plant = &v["plant"];
+    assert_eq!(plant["name"], "x/w_e");
+    let points = plant["points"].as_array().unwrap();
+    let f: Vec<f64> = points
+        .iter()
+        .map(|p| p["freq_hz"].as_f64().unwrap())
+        .collect();
+    let rig = pumpcyl::rig::Rig::default();
+    let t = pumpcyl::frf::sampled_loop_response(&pumpcyl::model::Plant::new(&rig), true, &f, 100.0)
+        .unwrap();
+    let si = rig.si();
+    let k_mm = si.k_scale * si.kp * 1e-3 / pumpcyl::units::RAD_S_PER_RPM;
+    let one = pumpcyl::frf::Complex64::new(1.0, 0.0);
+    let mut worst = (0.0f64, 0.0f64);
+    for (p, t) in points.iter().zip(&t) {
+        let h = pumpcyl::frf::Complex64::new(p["re"].as_f64().unwrap(), p["im"].as_f64().unwrap());
+        let ratio = h / (t / ((one - t) * k_mm));
+        worst.0 = worst.0.max((20.0 * ratio.norm().log10()).abs());
+        worst.1 = worst.1.max(ratio.arg().to_degrees().abs());
+    }
+    eprintln!(
+        "emulated plant: {} points, worst {:.4} dB {:.4} deg",
+        f.len(),
+        worst.0,
+        worst.1
+    );
+    assert!(f.len() >= 15 && worst.0 < 0.01 && worst.1 < 0.1, "{worst:?}");
+}
