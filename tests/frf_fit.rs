@@ -390,5 +390,8 @@ fn the_plant_estimate_of_an_emulated_sweep_with_the_sum_pressure_loop_closed_is_
         worst.0,
         worst.1
     );
-    assert!(f.len() >= 15 && worst.0 < 0.01 && worst.1 < 0.1, "{worst:?}");
+    assert!(
+        f.len() >= 15 && worst.0 < 0.01 && worst.1 < 0.1,
+        "{worst:?}"
+    );
 }

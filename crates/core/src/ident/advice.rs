@@ -18,6 +18,11 @@
 //! diagonal (eigenvalues below [`RCOND`] times the largest are dropped), and a parameter whose
 //! linearised interval reaches a search bound ([`BOUNDS`]) or that lies in the dropped
 //! directions is reported as unbounded, not as a meaningless huge number.
+//!
+//! A sweep candidate (a multisine, a stepped sine) is fitted in the frequency domain, so its
+//! information is that cost's, over its lines ([`sweep_information`]). A candidate costs its
+//! length: with a budget ([`AdviceOptions::budget_s`]) each is counted as often as it fits in
+//! that recording time, otherwise once.
 
 use super::grid::Candidate;
 use super::problem::{DatasetSpec, Prepared, Problem};
