@@ -23,10 +23,16 @@ pub struct AdviseArgs {
     #[arg(long)]
     json: bool,
     /// Candidate experiments (TOML: [[step]] step_mm, kp, duration_s; [[sine]] freq_hz,
-    /// amp_mm, kp, duration_s). Default: steps of 2, 5, 10, 20 mm and sinusoids of 0.1 to
-    /// 1.5 Hz at the experiment's gains and at Kp 15, 25, 35.
+    /// amp_mm, kp, duration_s; [[sweep]] kp and a sweep's keys: kind, amplitude_mm, from_hz,
+    /// to_hz, periods, lines, levels, sweep_s, settle_periods). Default: steps of 2, 5, 10,
+    /// 20 mm and sinusoids of 0.1 to 1.5 Hz at the experiment's gains and at Kp 15, 25, 35,
+    /// and the designer's multisine at the experiment's gains.
     #[arg(long, value_name = "FILE.toml")]
     candidates: Option<PathBuf>,
+    /// Weigh every candidate at this recording time (s): its record counted budget/length
+    /// times, candidates longer than it skipped. Default: each candidate is one record.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    budget_s: Option<f64>,
 }
 
 /// Run the identification of the experiment, then the advice.
@@ -38,7 +44,7 @@ pub fn run(args: &AdviseArgs) -> Result<String> {
         &exp,
         crate::read_files::files(),
         args.candidates.as_deref(),
-        args.confidence,
+        (args.confidence, args.budget_s),
     )?;
     let seconds = start.elapsed().as_secs_f64();
     let name = args.experiment.display().to_string();

@@ -47,7 +47,18 @@ pub struct SweepArgs {
     settle_periods: usize,
 }
 
-/// The sweep asked for on `rig`, starting at `at_s`, for a record at `rate_hz`, checked.
+impl From<SweepKind> for frf::SweepKind {
+    fn from(k: SweepKind) -> frf::SweepKind {
+        match k {
+            SweepKind::Chirp => frf::SweepKind::Chirp,
+            SweepKind::Multisine => frf::SweepKind::Multisine,
+            SweepKind::SteppedSine => frf::SweepKind::SteppedSine,
+        }
+    }
+}
+
+/// The sweep asked for on `rig`, starting at `at_s`, for a record at `rate_hz`, checked: the
+/// options as the keys of a sweep in a file ([`frf::SweepSpec`]), so both read the same.
 pub(crate) fn excitation(
     kind: SweepKind,
     amplitude_mm: Option<f64>,
@@ -55,56 +66,23 @@ pub(crate) fn excitation(
     args: &SweepArgs,
     (rig, rate_hz): (&Rig, f64),
 ) -> Result<Excitation> {
-    let (band, amplitude_mm) = match (args.from_hz, args.to_hz, amplitude_mm) {
-        (Some(lo), Some(hi), Some(a)) => ((lo, hi), a),
-        _ => {
-            let d = design_for(rig, rate_hz)?;
-            (
-                (
-                    args.from_hz.unwrap_or(d.from_hz),
-                    args.to_hz.unwrap_or(d.to_hz),
-                ),
-                amplitude_mm.unwrap_or(d.amplitude_mm),
-            )
-        }
+    let spec = frf::SweepSpec {
+        amplitude_mm,
+        from_hz: args.from_hz,
+        to_hz: args.to_hz,
+        at_s: Some(at_s),
+        sweep_s: args.sweep_s,
+        periods: args.periods,
+        lines: Some(args.lines),
+        levels: Some(args.levels),
+        settle_periods: Some(args.settle_periods),
+        ..frf::SweepSpec::of_kind(kind.into())
     };
-    let e = match kind {
-        SweepKind::Chirp => Excitation::chirp(
-            rig,
-            amplitude_mm,
-            band,
-            (
-                args.sweep_s.unwrap_or(10.0 / band.0),
-                args.periods.unwrap_or(3),
-            ),
-            rate_hz,
-        ),
-        SweepKind::Multisine => Excitation::multisine(
-            rig,
-            amplitude_mm,
-            band,
-            (
-                args.lines,
-                args.periods
-                    .unwrap_or(frf::design::averages_for(0.9, 0.05) + 1),
-            ),
-            rate_hz,
-        ),
-        SweepKind::SteppedSine => {
-            let decay_s = pumpcyl::response::transient_decay_s(rig).unwrap_or(0.0);
-            Excitation::stepped_sine(
-                rig,
-                amplitude_mm,
-                band,
-                (args.levels, args.periods.unwrap_or(4)),
-                (args.settle_periods, decay_s),
-            )
-        }
-    }
-    .starting_at(at_s);
-    e.check(rate_hz, rig)
-        .map_err(|err| crate::emit::as_option(err, option_of))?;
-    Ok(e)
+    let spec = spec
+        .resolved(rig, rate_hz)
+        .map_err(|e| anyhow!("{}", e.message))?;
+    spec.excitation(rig, rate_hz)
+        .map_err(|err| crate::emit::as_option(err, option_of))
 }
 
 /// The option that sets a sweep's field.

@@ -54,7 +54,7 @@ fn advice(p: &Problem, designs: Vec<Design>) -> Advice {
 /// as a dataset fitted over the whole record.
 fn noisy_dataset(design: &Design, noise_mm: f64, noise: &mut Noise) -> Prepared {
     let rig = truth_rig(&TRUTH, design.kp());
-    let clean = design.record(100.0, rig.x0_mm).unwrap();
+    let clean = design.record(100.0, &rig).unwrap();
     let s = simulate(
         &rig,
         &clean.time_s,

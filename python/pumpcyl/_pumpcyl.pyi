@@ -312,6 +312,9 @@ class Advice(Result):
     """Per parameter name, the factor on its variance for the model error the records'
     disagreement shows (applied to the current widths and every candidate's)."""
     confidence: float
+    budget_s: Optional[float]
+    """The recording time every candidate is weighed at (s), or None: each candidate one
+    record (each candidate's ``duration_s`` and ``repeats`` say what it cost)."""
     z: float
     current: List[Dict[str, Any]]
     candidates: List[Dict[str, Any]]
@@ -424,8 +427,13 @@ class Emulated(Result):
     (docs/formats.md#record-csv; a drive step: time_s, w_ref_rpm, w_rpm)."""
 
 class Dataset:
-    """One record to fit: time (s), reference and measured position (mm), the experiment's
-    position gain Kp (normalised command per metre), mass (kg) and fit-window end (s)."""
+    """One record to fit: time (s), reference and measured position (mm), with the keys of an
+    experiment file's ``[[dataset]]``: the experiment's position gain Kp (normalised command
+    per metre), mass (kg), the fit-window end (s) a step record needs, and ``kind``
+    (``"step"`` or ``"sweep"``; absent, ``method="frequency"`` tells them by the reference);
+    ``sweep``: the sweep that made the record, a dict of the ``[dataset.sweep]`` keys
+    (``kind``, ``amplitude_mm``, ``from_hz``, ``to_hz``, ``at_s``, ``periods``, ``lines``,
+    ``levels``, ``sweep_s``, ``settle_periods``), checked against the reference."""
 
     def __init__(
         self,
@@ -435,7 +443,9 @@ class Dataset:
         *,
         kp: float,
         mass_kg: float,
-        fit_end_s: float,
+        fit_end_s: Optional[float] = None,
+        kind: Optional[Literal["step", "sweep"]] = None,
+        sweep: Optional[Dict[str, Any]] = None,
         name: str = "dataset",
     ) -> None: ...
 
@@ -517,8 +527,9 @@ def identify(
     with fixed grids and no grid arguments. ``uncertainty=True`` adds the profile-likelihood
     intervals at ``confidence`` as ``pumpcyl identify --uncertainty --json`` does:
     the fields of :class:`IdentificationUncertainty`. ``method="frequency"`` (or the file's
-    ``method = "frequency"``) fits the file's sweep records by their frequency response, with
-    any step records beside them, and adds the ``intervals`` at ``confidence``: the keys of
+    ``method = "frequency"``) fits the sweep records (the file's, or ``datasets``, as its
+    ``[[dataset]]`` entries) by their frequency response, with any step records beside them,
+    and adds the ``intervals`` at ``confidence``: the keys of
     ``pumpcyl identify --frequency --uncertainty --json``."""
 
 def identify_merge(shards: Sequence[str]) -> Identification:
@@ -570,6 +581,7 @@ def advise(
     *,
     confidence: float = 0.95,
     candidates: Optional[Union[str, PathLike[str]]] = None,
+    budget_s: Optional[float] = None,
 ) -> Advice:
     """Experiment advice: identify the experiment's records, then rank candidate further
     records (steps, sinusoids, gains; the TOML file ``candidates`` or the defaults) by the

@@ -18,7 +18,7 @@ use std::sync::mpsc::RecvTimeoutError;
 use std::time::{Duration, Instant};
 
 use nalgebra::DMatrix;
-use pumpcyl::ident::{self, DatasetSpec, Experiment, Grid, Options, Prepared, Problem, Standstill};
+use pumpcyl::ident::{self, Experiment, Grid, Options, Problem, Standstill};
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{self, StateSpace};
 use pumpcyl::model::Plant;
@@ -916,25 +916,33 @@ fn step(
 // ---------------------------------------------------------------------------------------------
 // Identification
 
-/// One record to fit, from arrays: time (s), reference and measured position (mm), the
-/// experiment's position gain and mass, and the end of the fit window (s).
+/// One record to fit, from arrays: time (s), reference and measured position (mm), with the
+/// keys of an experiment file's `[[dataset]]`: the experiment's position gain and mass, the end
+/// of the fit window (s) a step record needs, and `kind` (`"step"` or `"sweep"`; absent, the
+/// frequency method tells them by the reference).
 #[pyclass(module = "pumpcyl._pumpcyl", name = "Dataset", frozen)]
 struct PyDataset {
     record: Record,
-    spec: DatasetSpec,
+    entry: ident::DatasetEntry,
 }
 
 #[pymethods]
 impl PyDataset {
     #[new]
-    #[pyo3(signature = (t_s, x_ref_mm, x_mm, *, kp, mass_kg, fit_end_s, name = "dataset"))]
+    #[pyo3(signature = (
+        t_s, x_ref_mm, x_mm, *, kp, mass_kg, fit_end_s = None, kind = None, sweep = None,
+        name = "dataset"
+    ))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         t_s: &Bound<'_, PyAny>,
         x_ref_mm: &Bound<'_, PyAny>,
         x_mm: &Bound<'_, PyAny>,
         kp: f64,
         mass_kg: f64,
-        fit_end_s: f64,
+        fit_end_s: Option<f64>,
+        kind: Option<String>,
+        sweep: Option<&Bound<'_, PyAny>>,
         name: &str,
     ) -> PyResult<Self> {
         let arg = |name| Arg::new("Dataset", name);
@@ -946,24 +954,53 @@ impl PyDataset {
         let record = Record::from_arrays(name, &t, &r, &x).map_err(err)?;
         Ok(PyDataset {
             record,
-            spec: DatasetSpec {
+            entry: ident::DatasetEntry {
                 file: name.to_string(),
                 kp,
                 mass_kg,
                 fit_end_s,
+                kind,
+                sweep: sweep.map(sweep_of).transpose()?,
             },
         })
     }
 
     fn __repr__(&self) -> String {
+        let e = &self.entry;
+        let optional =
+            |k: &str, v: Option<String>| v.map_or(String::new(), |v| format!(", {k}={v}"));
         format!(
-            "Dataset(name={:?}, samples={}, kp={}, mass_kg={}, fit_end_s={})",
-            self.spec.file,
+            "Dataset(name={:?}, samples={}, kp={}, mass_kg={}{}{})",
+            e.file,
             self.record.len(),
-            self.spec.kp,
-            self.spec.mass_kg,
-            self.spec.fit_end_s
+            e.kp,
+            e.mass_kg,
+            optional("fit_end_s", e.fit_end_s.map(|v| v.to_string())),
+            optional("kind", e.kind.as_ref().map(|k| format!("{k:?}")))
         )
+    }
+}
+
+/// A sweep's keys from a dict (those of an experiment file's `[dataset.sweep]`), read through
+/// JSON so that the same serde definition refuses an unknown key.
+fn sweep_of(v: &Bound<'_, PyAny>) -> PyResult<pumpcyl::frf::SweepSpec> {
+    let text: String = v
+        .py()
+        .import("json")?
+        .call_method1("dumps", (v,))?
+        .extract()?;
+    serde_json::from_str(&text).map_err(|e| err(format!("Dataset(sweep=...): {e}")))
+}
+
+impl PyDataset {
+    /// This dataset on `rig`, prepared for `method` ([`ident::DatasetEntry::load`]); the error
+    /// names the dataset and the key.
+    fn load(&self, method: ident::Method, rig: &Rig) -> PyResult<ident::Loaded> {
+        let e = &self.entry;
+        e.load(self.record.clone(), method, rig).map_err(|(k, m)| {
+            let key = k.map_or(String::new(), |k| format!(", {k}"));
+            err(format!("Dataset {:?}{key}: {m}", e.file))
+        })
     }
 }
 
@@ -1090,9 +1127,9 @@ fn identify(
                 .ok_or_else(|| err(format!("method=\"{m}\": give \"time\" or \"frequency\"")))
         })
         .transpose()?;
-    if method == Some(ident::Method::Frequency) && (experiment.is_none() || shard.is_some()) {
+    if method == Some(ident::Method::Frequency) && shard.is_some() {
         return Err(err(
-            "method=\"frequency\" fits the records of an experiment file, unsharded: give `experiment` and no `shard`",
+            "method=\"frequency\" fits its records unsharded: give no `shard`",
         ));
     }
     let loaded;
@@ -1135,17 +1172,10 @@ fn identify(
             if sets.is_empty() {
                 return Err(err("datasets: needs at least one Dataset"));
             }
-            let datasets = sets
-                .iter()
-                .map(|d| {
-                    let d = d.get();
-                    Prepared::new(&d.spec, d.record.clone(), &rig).map_err(err)
-                })
-                .collect::<PyResult<_>>()?;
-            built = Problem {
-                datasets,
-                standstill,
-            };
+            let method = method.unwrap_or(ident::Method::Time);
+            let loaded = (sets.iter())
+                .map(|d| d.get().load(method, &rig))
+                .collect::<PyResult<Vec<_>>>()?;
             // the first grid centred on the rig's values, the second on the first stage's best
             // (docs/identification.md#the-two-grids)
             let centre = ident::Candidate {
@@ -1154,6 +1184,33 @@ fn identify(
                 c12_m5_per_ns: rig.c12_m5_per_ns,
             };
             let first = Grid::centred(&centre).map_err(|e| err(e.message))?;
+            if method == ident::Method::Frequency {
+                let problem =
+                    ident::FrequencyProblem::of_loaded(loaded, standstill).map_err(err)?;
+                let first = grid
+                    .map(|g| grid_of("grid", g))
+                    .transpose()?
+                    .unwrap_or(first);
+                let origin = pumpcyl_present::frf::FitOrigin {
+                    experiment: format!("datasets on {rig_name}"),
+                    grids: "first centred on the rig's values".into(),
+                    step_datasets: problem.step_names(),
+                };
+                let outcome = fit_frequency(py, &problem, &first, &origin, confidence)?;
+                return Ok(Py::new(py, outcome)?.into_any());
+            }
+            let datasets = (loaded.into_iter())
+                .map(|l| match l {
+                    ident::Loaded::Step(p) => Ok(*p),
+                    ident::Loaded::Sweep(_) => {
+                        Err(err("a sweep is fitted with method=\"frequency\""))
+                    }
+                })
+                .collect::<PyResult<_>>()?;
+            built = Problem {
+                datasets,
+                standstill,
+            };
             let grids = (first, Some(ident::SecondGrid::Centred));
             let origin = pumpcyl_present::identification::Origin {
                 experiment: None,
@@ -1423,8 +1480,25 @@ fn identify_frequency(
         .frequency_problem()
         .ok_or_else(|| err("the experiment is not fitted in the frequency domain"))?;
     let grid = first.unwrap_or_else(|| exp.first_grid.clone());
+    let origin = pumpcyl_present::frf::FitOrigin {
+        experiment: exp.path.display().to_string(),
+        grids: exp.grids_origin.clone(),
+        step_datasets: problem.step_names(),
+    };
+    fit_frequency(py, &problem, &grid, &origin, confidence)
+}
+
+/// The frequency-domain fit of `problem` on `grid` with its intervals at `confidence`, the
+/// document of `pumpcyl identify --frequency --uncertainty --json` for records from `origin`.
+fn fit_frequency(
+    py: Python<'_>,
+    problem: &ident::FrequencyProblem,
+    grid: &Grid,
+    origin: &pumpcyl_present::frf::FitOrigin,
+    confidence: f64,
+) -> PyResult<PyOutcome> {
     let start = Instant::now();
-    let fit = py.detach(|| problem.fit(&grid)).map_err(err)?;
+    let fit = py.detach(|| problem.fit(grid)).map_err(err)?;
     let seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let u = py
@@ -1432,7 +1506,7 @@ fn identify_frequency(
         .map_err(err)?;
     let u_seconds = start.elapsed().as_secs_f64();
     warn_each(py, fit.warnings.clone())?;
-    let doc = pumpcyl_present::frf::frequency_document(exp, &fit, seconds, Some((&u, u_seconds)));
+    let doc = pumpcyl_present::frf::frequency_json(origin, &fit, seconds, Some((&u, u_seconds)));
     PyOutcome::of(py, "Identification", &doc)
 }
 
@@ -1545,14 +1619,17 @@ fn progress_reporter(
 /// command line's `advise --json` (point, noise_std_mm, current, candidates ranked best first,
 /// skipped, and keyed by parameter name: `best_for` {parameter: label} and
 /// `ranking_by_parameter` {parameter: [{label, log_std, interval, width, relative_width}, ...]
-/// best first}). Runs with the GIL released.
+/// best first}). `budget_s` weighs every candidate at that recording time (its record counted
+/// budget/length times, longer ones skipped), as `advise --budget-s`. Runs with the GIL
+/// released.
 #[pyfunction]
-#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None))]
+#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None, budget_s = None))]
 fn advise(
     py: Python<'_>,
     experiment: PathBuf,
     confidence: f64,
     candidates: Option<PathBuf>,
+    budget_s: Option<f64>,
 ) -> PyResult<PyOutcome> {
     let start = Instant::now();
     let advice = py
@@ -1562,7 +1639,7 @@ fn advise(
                 &exp,
                 &pumpcyl::source_files::Disk,
                 candidates.as_deref(),
-                confidence,
+                (confidence, budget_s),
             )
         })
         .map_err(err)?;

@@ -114,7 +114,11 @@ fn bench(c: &mut Criterion) {
     });
     group.bench_function(
         "article_records_experiment_advice_with_identification",
-        |b| b.iter(|| advise_experiment(&exp, &pumpcyl::source_files::Disk, None, 0.95).unwrap()),
+        |b| {
+            b.iter(|| {
+                advise_experiment(&exp, &pumpcyl::source_files::Disk, None, (0.95, None)).unwrap()
+            })
+        },
     );
     group.finish();
 }

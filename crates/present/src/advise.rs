@@ -77,6 +77,18 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
         i.viscous_friction_ns_per_m,
         i.c12_m5_per_ns
     );
+    let _ = match a.budget_s {
+        Some(b) => writeln!(
+            s,
+            "each candidate weighed at {b} s of recording: its record counted {b} s over its \
+             length times (docs/identification.md#experiment-advice)"
+        ),
+        None => writeln!(
+            s,
+            "each candidate is one record, whatever its length (the last figure of its label; \
+             --budget-s weighs them at the same recording time)"
+        ),
+    };
     // the label column as wide as the longest label (a sweep's is longer than a step's)
     let w = a
         .candidates
@@ -181,6 +193,8 @@ mod tests {
                 duration_s: 4.0,
             },
             label: label.into(),
+            duration_s: 4.0,
+            repeats: 1.0,
             widths: [width(Some(0.1)), width(Some(b_width)), width(None)],
             improvement: [1.0, b_improvement, 1.0],
             score: -b_improvement.ln(),
@@ -204,6 +218,7 @@ mod tests {
             variance_inflation: 1.5,
             model_error_factor: [1.0, 1.0, 2.0],
             confidence: 0.95,
+            budget_s: None,
             z: 1.96,
             current: [width(Some(0.1)), width(Some(0.8)), width(None)],
             candidates: vec![
@@ -214,9 +229,10 @@ mod tests {
             best_for: ["sine".into(), "step 5 mm".into(), "sine".into()],
         };
         let text = advice_text("exp.toml", &a, 1.25);
-        // heading, linearisation point, column names, current, two candidates, skipped,
-        // helps b, best for
-        assert_eq!(text.lines().count(), 9, "{text}");
+        // heading, linearisation point, how record length is weighed, column names, current,
+        // two candidates, skipped, helps b, best for
+        assert_eq!(text.lines().count(), 10, "{text}");
+        assert!(text.contains("each candidate is one record"), "{text}");
         assert!(
             text.contains("linearised at beta 165.0 bar, b 2000.0 N·s/m"),
             "{text}"

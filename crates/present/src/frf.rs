@@ -296,6 +296,38 @@ pub fn frequency_document(
     seconds: f64,
     uncertainty: Option<(&FrequencyUncertainty, f64)>,
 ) -> serde_json::Value {
+    let origin = FitOrigin {
+        experiment: exp.path.display().to_string(),
+        grids: exp.grids_origin.clone(),
+        step_datasets: exp
+            .problem
+            .datasets
+            .iter()
+            .map(|d| d.name.clone())
+            .collect(),
+    };
+    frequency_json(&origin, fit, seconds, uncertainty)
+}
+
+/// Where a frequency-domain fit's records and grid came from: the experiment file (or what
+/// stands for it, e.g. Python's datasets), the grids' description, the step records' names.
+#[derive(Debug, Clone)]
+pub struct FitOrigin {
+    /// The experiment file, or a description of the records given instead.
+    pub experiment: String,
+    /// How the grids were chosen.
+    pub grids: String,
+    /// The step records fitted beside the sweeps.
+    pub step_datasets: Vec<String>,
+}
+
+/// [`frequency_document`] for records from `origin`.
+pub fn frequency_json(
+    origin: &FitOrigin,
+    fit: &FrequencyFit,
+    seconds: f64,
+    uncertainty: Option<(&FrequencyUncertainty, f64)>,
+) -> serde_json::Value {
     let c = &fit.best;
     let mut v = json!({
         "method": "frequency",
@@ -314,9 +346,9 @@ pub fn frequency_document(
         "seconds": seconds,
         "grid_best": fit.grid_best,
         "sweeps": fit.sweeps,
-        "step_datasets": exp.problem.datasets.iter().map(|d| d.name.clone()).collect::<Vec<_>>(),
-        "experiment": exp.path.display().to_string(),
-        "grids": exp.grids_origin,
+        "step_datasets": origin.step_datasets,
+        "experiment": origin.experiment,
+        "grids": origin.grids,
         "warnings": fit.warnings,
     });
     if let Some((u, s)) = uncertainty {

@@ -2,11 +2,15 @@
 //!
 //! From a record's reference r = x_ref and position x this estimates the closed-loop response
 //! T = x/x_ref with its coherence γ² and a 95 % band at each frequency, and, given the rig, the
-//! plant's response P = x/ω_ref1 from the speed command ω_ref1 = K_scale·Kp·e of the P law
-//! (docs/model.md#the-dpm-control-law; drive 2 gets α times it). The speed command is not in a
-//! record: it is rebuilt from the error e = x_ref − x, and P is read as the ratio of the two
-//! cross-spectra with the reference, S_rx/S_ru (the indirect closed-loop method), which noise on
-//! x does not bias as it would bias S_ux/S_uu, since u carries that noise back through the loop.
+//! plant's response P = x/ω_e from the position law's speed command ω_e = K_scale·Kp·e
+//! (docs/model.md#the-dpm-control-law; drive 2 gets α times it). Where the law has no other
+//! term (the sum-pressure loop open, or a one-motor circuit) ω_e is drive 1's whole command and
+//! P = x/ω_ref1; with the sum-pressure loop closed P is the plant with that loop closed inside
+//! it, L/(K_scale·Kp) with L the open loop x/e that `margins --sum-pressure-closed` analyses
+//! (docs/identification.md#what-is-estimated). The command is not in a record: it is rebuilt
+//! from the error e = x_ref − x, and P is read as the ratio of the two cross-spectra with the
+//! reference, S_rx/S_ru (the indirect closed-loop method), which noise on x does not bias as it
+//! would bias S_ux/S_uu, since u carries that noise back through the loop.
 //!
 //! - broadband records (a single chirp, or any sweep not described): Welch's averaged spectra,
 //!   Hann window, half-overlapping segments, H1 = S_rx/S_rr, γ² = |S_rx|²/(S_rr S_xx);
@@ -21,6 +25,7 @@
 pub mod design;
 pub mod excitation;
 mod model;
+pub mod spec;
 pub mod spectra;
 
 pub use design::{design, Design, DesignGoal};
@@ -28,6 +33,7 @@ pub use excitation::{Excitation, Level};
 pub use model::{model_response, sampled_loop_response};
 /// The complex numbers of the estimates (num-complex's).
 pub use num_complex::Complex64;
+pub use spec::{SweepKind, SweepSpec};
 
 use crate::record::Record;
 use crate::rig::Rig;
@@ -172,7 +178,8 @@ pub fn usable_coherence(averages: f64, frequencies: usize) -> f64 {
 /// One estimated frequency response.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Response {
-    /// What it is, in symbols: `x/x_ref` or `x/w_ref1`.
+    /// What it is, in symbols: `x/x_ref`, `x/w_ref1` (the position law is drive 1's whole
+    /// command) or `x/w_e` (the position law's part of it, the sum-pressure loop closed).
     pub name: &'static str,
     /// Its unit: `mm/mm` or `mm/rpm`.
     pub unit: &'static str,
@@ -199,9 +206,9 @@ pub struct Estimate {
     pub usable_coherence: f64,
     /// The closed loop x/x_ref.
     pub closed_loop: Response,
-    /// The plant x/ω_ref1 (needs the rig's gains), where estimated.
+    /// The plant x/ω_e (needs the rig's gains), where estimated.
     pub plant: Option<Response>,
-    /// What the reader should know: unusable frequencies, missing levels, the plant skipped.
+    /// What the reader should know: unusable frequencies, missing levels.
     pub warnings: Vec<String>,
 }
 
@@ -233,9 +240,8 @@ pub fn estimate(rec: &Record, opts: &Options) -> Result<Estimate, FrfError> {
         check_matches(rec, e)?;
     }
     let mut warnings = Vec::new();
-    let command = opts
-        .rig
-        .and_then(|rig| speed_command(rec, rig, &mut warnings));
+    let command = opts.rig.map(|rig| speed_command(rec, rig));
+    let (command, plant_name) = command.unzip();
     let (raw, mut est) = match opts.excitation {
         Some(e @ Excitation::SteppedSine { .. }) => {
             sine_fits(rec, &e, command.as_deref(), &mut warnings)?
@@ -250,7 +256,7 @@ pub fn estimate(rec: &Record, opts: &Options) -> Result<Estimate, FrfError> {
         _ => welch_estimate(rec, opts, rate_hz, command.as_deref(), &mut warnings)?,
     };
     let raw = thin(raw);
-    finish(&mut est, raw, &mut warnings)?;
+    finish(&mut est, raw, plant_name, &mut warnings)?;
     if let Some(rig) = opts.rig {
         check_crossover(&est, rig)?;
     }
@@ -339,26 +345,23 @@ fn check_matches(rec: &Record, e: &Excitation) -> Result<(), FrfError> {
     })
 }
 
-/// The speed command ω_ref1 = K_scale·Kp·e of the P law (rpm), or why it cannot be rebuilt.
-fn speed_command(rec: &Record, rig: &Rig, warnings: &mut Vec<String>) -> Option<Vec<f64>> {
-    if rig.sum_pressure {
-        warnings.push(
-            "the plant's response x/w_ref1 needs the speed command, which the sum-pressure \
-             loop (rig key sum_pressure = true) makes depend on the pressures: only x/x_ref is \
-             estimated"
-                .to_string(),
-        );
-        return None;
-    }
-    let si = rig.si();
-    let gain_rpm_per_mm = si.k_scale * si.kp * 1e-3 / crate::units::RAD_S_PER_RPM;
-    Some(
-        rec.x_ref_mm
-            .iter()
-            .zip(&rec.x_mm)
-            .map(|(r, x)| gain_rpm_per_mm * (r - x))
-            .collect(),
-    )
+/// The position law's speed command ω_e = K_scale·Kp·e of drive 1 (rpm) and the name of the
+/// plant's response x/ω_e: `x/w_ref1` where the law has no other term, so that ω_e is the
+/// whole command; `x/w_e` where the sum-pressure loop adds its pressure term (closed inside
+/// the plant, docs/identification.md#what-is-estimated).
+fn speed_command(rec: &Record, rig: &Rig) -> (Vec<f64>, &'static str) {
+    let plant = crate::model::Plant::new(rig);
+    let (kx, kr) = plant.controller(rig.sum_pressure);
+    let x = plant.position();
+    let whole = (0..kx.ncols()).all(|j| j == x || kx[(0, j)] == 0.0);
+    let gain_rpm_per_mm = kr[(0, 0)] * 1e-3 / crate::units::RAD_S_PER_RPM;
+    let command = rec
+        .x_ref_mm
+        .iter()
+        .zip(&rec.x_mm)
+        .map(|(r, x)| gain_rpm_per_mm * (r - x))
+        .collect();
+    (command, if whole { "x/w_ref1" } else { "x/w_e" })
 }
 
 /// ε of an H1 estimate from γ² and n_d averages (Bendat & Piersol 2010, Table 9.6).
@@ -664,7 +667,12 @@ fn thin(raw: Vec<Raw>) -> Vec<Raw> {
 }
 
 /// The points of both responses, phases unwrapped; refused if no frequency is usable.
-fn finish(est: &mut Estimate, raw: Vec<Raw>, warnings: &mut Vec<String>) -> Result<(), FrfError> {
+fn finish(
+    est: &mut Estimate,
+    raw: Vec<Raw>,
+    plant_name: Option<&'static str>,
+    warnings: &mut Vec<String>,
+) -> Result<(), FrfError> {
     let bar = usable_coherence(est.averages, raw.len());
     est.usable_coherence = bar;
     let best = raw.iter().map(|r| r.coherence).fold(0.0, f64::max);
@@ -692,7 +700,7 @@ fn finish(est: &mut Estimate, raw: Vec<Raw>, warnings: &mut Vec<String>) -> Resu
             .map(|r| Point::new(r.freq_hz, r.t, r.coherence, r.error))
             .collect(),
     );
-    if raw.iter().all(|r| r.plant.is_some()) {
+    if let Some(name) = plant_name.filter(|_| raw.iter().all(|r| r.plant.is_some())) {
         let points = raw
             .iter()
             .map(|r| {
@@ -702,7 +710,7 @@ fn finish(est: &mut Estimate, raw: Vec<Raw>, warnings: &mut Vec<String>) -> Resu
             })
             .collect();
         est.plant = Some(Response {
-            name: "x/w_ref1",
+            name,
             unit: "mm/rpm",
             points: unwrap(points),
         });

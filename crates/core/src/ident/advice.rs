@@ -18,6 +18,11 @@
 //! diagonal (eigenvalues below [`RCOND`] times the largest are dropped), and a parameter whose
 //! linearised interval reaches a search bound ([`BOUNDS`]) or that lies in the dropped
 //! directions is reported as unbounded, not as a meaningless huge number.
+//!
+//! A sweep candidate (a multisine, a stepped sine) is fitted in the frequency domain, so its
+//! information is that cost's, over its lines ([`sweep_information`]). A candidate costs its
+//! length: with a budget ([`AdviceOptions::budget_s`]) each is counted as often as it fits in
+//! that recording time, otherwise once.
 
 use super::grid::Candidate;
 use super::problem::{DatasetSpec, Prepared, Problem};
@@ -26,7 +31,8 @@ use super::uncertainty::{
     analyze, check_confidence, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS,
 };
 use super::{Experiment, IdentError};
-use crate::frf::Excitation;
+use crate::frf::spec::{DEFAULT_LEVELS, DEFAULT_LINES};
+use crate::frf::{Excitation, SweepKind, SweepSpec};
 use crate::lti::{eigenvalues, is_stable, PoleInfo};
 use crate::model::Plant;
 use crate::record::Record;
@@ -103,22 +109,17 @@ pub enum Design {
         /// Record length after the rest (s).
         duration_s: f64,
     },
-    /// A multisine about x0 of `lines` lines from `from_hz` to `to_hz`, peak `amp_mm`,
-    /// played `periods` times (the first settles), fitted in the frequency domain
-    /// (docs/identification.md#grey-box-fit-to-a-frequency-response).
+    /// A sweep about x0 (a multisine, a chirp or a stepped sine, the keys of
+    /// docs/formats.md#sweep-records-and-their-description) starting after the rest, fitted in the frequency
+    /// domain (docs/identification.md#grey-box-fit-to-a-frequency-response). Built by
+    /// [`Design::sweep`], which fills in its band and amplitude.
     Sweep {
-        /// Lowest line (Hz): the period is its inverse.
-        from_hz: f64,
-        /// Highest line (Hz).
-        to_hz: f64,
-        /// Lines.
-        lines: usize,
-        /// Peak of the reference about x0 (mm).
-        amp_mm: f64,
-        /// Periods played.
-        periods: usize,
+        /// The sweep, its band and amplitude resolved.
+        sweep: SweepSpec,
         /// Position gain (normalised command per metre).
         kp: f64,
+        /// Record length after the rest (s), from the sweep's keys.
+        duration_s: f64,
     },
 }
 
@@ -133,33 +134,41 @@ impl Design {
     /// Record length after the rest (s).
     pub fn duration_s(&self) -> f64 {
         match *self {
-            Design::Step { duration_s, .. } | Design::Sine { duration_s, .. } => duration_s,
-            Design::Sweep {
-                from_hz, periods, ..
-            } => periods as f64 / from_hz,
+            Design::Step { duration_s, .. }
+            | Design::Sine { duration_s, .. }
+            | Design::Sweep { duration_s, .. } => duration_s,
         }
     }
 
-    /// The multisine of a sweep about `x0_mm` at `rate_hz`, starting after the rest; `None`
-    /// for the other designs.
-    pub fn excitation(&self, x0_mm: f64, rate_hz: f64) -> Option<Excitation> {
-        let Design::Sweep {
-            from_hz,
-            to_hz,
-            lines,
-            amp_mm,
-            periods,
-            ..
-        } = *self
-        else {
+    /// The sweep `spec` at gain `kp` on `rig` (the experiment's, its gain set to `kp`) for
+    /// records at `rate_hz`: its absent band and amplitude from the designer, its start after
+    /// the rest, checked ([`SweepSpec::excitation`]).
+    pub fn sweep(spec: &SweepSpec, kp: f64, rig: &Rig, rate_hz: f64) -> Result<Design, FieldError> {
+        let at = Rig { kp, ..rig.clone() };
+        let sweep = SweepSpec {
+            at_s: Some(REST_S),
+            ..spec.resolved(&at, rate_hz)?
+        };
+        let e = sweep.excitation(&at, rate_hz)?;
+        Ok(Design::Sweep {
+            sweep,
+            kp,
+            duration_s: e.duration_s() - REST_S,
+        })
+    }
+
+    /// The excitation of a sweep on `rig` (its x0; a stepped sine's settling from its loop)
+    /// at `rate_hz`, starting after the rest; `None` for the other designs or a sweep `rig`
+    /// cannot run.
+    pub fn excitation(&self, rig: &Rig, rate_hz: f64) -> Option<Excitation> {
+        let Design::Sweep { sweep, kp, .. } = self else {
             return None;
         };
         let at = Rig {
-            x0_mm,
-            ..Rig::default()
+            kp: *kp,
+            ..rig.clone()
         };
-        let e = Excitation::multisine(&at, amp_mm, (from_hz, to_hz), (lines, periods), rate_hz);
-        Some(e.starting_at(REST_S))
+        sweep.excitation(&at, rate_hz).ok()
     }
 
     /// A short label: `step 5 mm, Kp 25, 10 s` or `sine 0.5 Hz 18.4 mm, Kp 25, 10 s`.
@@ -170,17 +179,27 @@ impl Design {
             Design::Sine {
                 freq_hz, amp_mm, ..
             } => format!("sine {freq_hz} Hz {amp_mm:.1} mm, {tail}"),
-            Design::Sweep {
-                from_hz,
-                to_hz,
-                lines,
-                amp_mm,
-                kp,
-                ..
-            } => format!(
-                "multisine {from_hz:.3}-{to_hz:.2} Hz {lines} lines {amp_mm:.1} mm, Kp {kp}, {:.0} s",
-                self.duration_s()
-            ),
+            Design::Sweep { sweep, kp, .. } => {
+                let (lo, hi, a) = (
+                    sweep.from_hz.unwrap_or_default(),
+                    sweep.to_hz.unwrap_or_default(),
+                    sweep.amplitude_mm.unwrap_or_default(),
+                );
+                let count = match sweep.kind {
+                    SweepKind::Multisine => {
+                        format!(" {} lines", sweep.lines.unwrap_or(DEFAULT_LINES))
+                    }
+                    SweepKind::SteppedSine => {
+                        format!(" {} levels", sweep.levels.unwrap_or(DEFAULT_LEVELS))
+                    }
+                    SweepKind::Chirp => String::new(),
+                };
+                format!(
+                    "{} {lo:.3}-{hi:.2} Hz{count} {a:.1} mm, Kp {kp}, {:.0} s",
+                    sweep.kind.name(),
+                    self.duration_s()
+                )
+            }
         }
     }
 
@@ -259,10 +278,10 @@ impl Design {
                 }
                 ("amp_mm", -amp_mm, amp_mm)
             }
-            Design::Sweep { .. } => {
-                let e = self.excitation(rig.x0_mm, rate_hz).expect("a sweep");
-                e.check(rate_hz, rig)?;
-                ("amp_mm", -e.amplitude_mm(), e.amplitude_mm())
+            Design::Sweep { sweep, kp, .. } => {
+                let at = Rig { kp, ..rig.clone() };
+                let e = sweep.excitation(&at, rate_hz)?;
+                ("amplitude_mm", -e.amplitude_mm(), e.amplitude_mm())
             }
         };
         let (field, lo, hi) = reach;
@@ -270,12 +289,13 @@ impl Design {
             .map_err(|e| FieldError::new(field, format!("{field}: {e}")))
     }
 
-    /// The design's record at `rate_hz` from the rig position `x0_mm`: time, and the reference
-    /// as both reference and position columns (only the reference matters to the
+    /// The design's record at `rate_hz` on `rig` (from its position x0): time, and the
+    /// reference as both reference and position columns (only the reference matters to the
     /// sensitivities; the measured position cancels in them).
-    pub fn record(&self, rate_hz: f64, x0_mm: f64) -> Result<Record, IdentError> {
+    pub fn record(&self, rate_hz: f64, rig: &Rig) -> Result<Record, IdentError> {
         let t = crate::response::sample_times(REST_S + self.duration_s(), rate_hz)?;
-        let r: Vec<f64> = match self.excitation(x0_mm, rate_hz) {
+        let x0_mm = rig.x0_mm;
+        let r: Vec<f64> = match self.excitation(rig, rate_hz) {
             Some(e) => t.iter().map(|&t| e.reference_mm(t)).collect(),
             None => t.iter().map(|&t| x0_mm + self.deviation_mm(t)).collect(),
         };
@@ -285,7 +305,7 @@ impl Design {
     /// The design as a dataset of the identification problem, on the rig and mass of
     /// `like` (an existing dataset) at this design's gain, its fit window the whole record.
     pub fn prepared(&self, like: &Prepared, rate_hz: f64) -> Result<Prepared, IdentError> {
-        let record = self.record(rate_hz, like.rig.x0_mm)?;
+        let record = self.record(rate_hz, &like.rig)?;
         let spec = DatasetSpec {
             file: self.label(),
             kp: self.kp(),
@@ -344,6 +364,36 @@ struct CandidateFile {
     step: Vec<StepSpec>,
     #[serde(default)]
     sine: Vec<SineSpec>,
+    #[serde(default)]
+    sweep: Vec<toml::Table>,
+}
+
+/// The `i`-th `[[sweep]]` entry of `text`, `table`: `kp` beside a sweep's keys, those of an
+/// experiment file's `[dataset.sweep]` ([`SweepSpec`], docs/formats.md#sweep-records-and-their-description),
+/// read apart so that a key neither knows is refused. The error names the key's line.
+fn sweep_entry(
+    text: &str,
+    i: usize,
+    mut table: toml::Table,
+) -> Result<(f64, SweepSpec), (String, String)> {
+    let line = |key: Option<&'static str>| {
+        let mut path = vec![Name("sweep"), Index(i)];
+        path.extend(key.map(Name));
+        source_files::toml_line(text, &path).map_or(String::new(), |l| format!("line {l}, "))
+    };
+    let kp = match table.remove("kp") {
+        Some(v) => v.as_float().or(v.as_integer().map(|k| k as f64)),
+        None => None,
+    };
+    let kp = kp.ok_or_else(|| {
+        (
+            line(Some("kp")),
+            "kp: needs the position gain, a number".into(),
+        )
+    })?;
+    let spec = SweepSpec::deserialize(toml::Value::Table(table))
+        .map_err(|e| (line(None), e.message().to_string()))?;
+    Ok((kp, spec))
 }
 
 /// A `[[step]]` entry.
@@ -366,7 +416,9 @@ struct SineSpec {
 }
 
 /// Read candidate designs from TOML text (`[[step]]` with `step_mm`, `kp`, optional
-/// `duration_s`; `[[sine]]` with `freq_hz`, `amp_mm`, `kp`, optional `duration_s`), checked
+/// `duration_s`; `[[sine]]` with `freq_hz`, `amp_mm`, `kp`, optional `duration_s`; `[[sweep]]`
+/// with `kp` and a sweep's keys, [`SweepSpec`], its absent band and amplitude from the
+/// designer for `rig` at that `kp`), checked
 /// against `rate_hz` and the stroke of `rig` as [`Design::check`] does. Errors are one line
 /// naming `name`, the line and the key.
 pub fn designs_from_toml(
@@ -400,10 +452,20 @@ pub fn designs_from_toml(
             },
         )
     });
-    let all: Vec<(&str, Design)> = steps.chain(sines).collect();
+    let mut sweeps = Vec::with_capacity(file.sweep.len());
+    for (i, table) in file.sweep.into_iter().enumerate() {
+        let (kp, spec) = sweep_entry(text, i, table).map_err(|(line, m)| {
+            IdentError::Input(format!("{name}: {line}[[sweep]] {}: {m}", i + 1))
+        })?;
+        sweeps.push(("sweep", Design::sweep(&spec, kp, rig, rate_hz)));
+    }
+    let all: Vec<(&str, Result<Design, FieldError>)> = (steps.map(|(t, d)| (t, Ok(d))))
+        .chain(sines.map(|(t, d)| (t, Ok(d))))
+        .chain(sweeps)
+        .collect();
     if all.is_empty() {
         return Err(IdentError::Input(format!(
-            "{name}: no candidate: give at least one [[step]] or [[sine]]"
+            "{name}: no candidate: give at least one [[step]], [[sine]] or [[sweep]]"
         )));
     }
     if all.len() > MAX_CANDIDATES {
@@ -412,21 +474,29 @@ pub fn designs_from_toml(
             all.len()
         )));
     }
-    let mut index = [0usize; 2];
-    for (table, d) in &all {
-        let k = usize::from(*table == "sine");
-        if let Err(m) = d.check(rate_hz, rig) {
-            let path = [Name(table), Index(index[k]), Name(m.field)];
-            let line = source_files::toml_line(text, &path)
-                .map_or(String::new(), |l| format!("line {l}, "));
-            return Err(IdentError::Input(format!(
-                "{name}: {line}[[{table}]] {}: {m}",
-                index[k] + 1
-            )));
+    let mut out = Vec::with_capacity(all.len());
+    let mut index = [0usize; 3];
+    for (table, d) in all {
+        let k = ["step", "sine", "sweep"]
+            .iter()
+            .position(|t| *t == table)
+            .unwrap_or(0);
+        let checked = d.and_then(|d| d.check(rate_hz, rig).map(|()| d));
+        match checked {
+            Ok(d) => out.push(d),
+            Err(m) => {
+                let path = [Name(table), Index(index[k]), Name(m.field)];
+                let line = source_files::toml_line(text, &path)
+                    .map_or(String::new(), |l| format!("line {l}, "));
+                return Err(IdentError::Input(format!(
+                    "{name}: {line}[[{table}]] {}: {m}",
+                    index[k] + 1
+                )));
+            }
         }
         index[k] += 1;
     }
-    Ok(all.into_iter().map(|(_, d)| d).collect())
+    Ok(out)
 }
 
 /// [`designs_from_toml`] for the records of `problem`: its first dataset's sample rate,
@@ -446,6 +516,11 @@ pub struct AdviceOptions {
     /// With the default candidates, add the multisine `pumpcyl frf --design` designs at each
     /// of the records' gains (fitted in the frequency domain).
     pub sweeps: bool,
+    /// Recording time (s) every candidate is weighed at: its information times
+    /// `budget_s`/its duration (the record played that many times, each an independent
+    /// record), candidates longer than it skipped. `None`: each candidate is one record,
+    /// whatever its length.
+    pub budget_s: Option<f64>,
 }
 
 impl Default for AdviceOptions {
@@ -454,6 +529,7 @@ impl Default for AdviceOptions {
             confidence: 0.95,
             designs: None,
             sweeps: true,
+            budget_s: None,
         }
     }
 }
@@ -482,6 +558,10 @@ pub struct Assessment {
     pub design: Design,
     /// A short label of it.
     pub label: String,
+    /// Its record length after the rest (s): what it costs.
+    pub duration_s: f64,
+    /// Times its record is counted: the budget over its length, 1 without a budget.
+    pub repeats: f64,
     /// Expected intervals of (β, b, c12) after adding its record to the existing ones.
     pub widths: [Width; 3],
     /// Improvement factor per parameter: current log-std over the expected one (≥ 1).
@@ -512,6 +592,8 @@ pub struct Advice {
     pub model_error_factor: [f64; 3],
     /// Confidence level.
     pub confidence: f64,
+    /// The recording time every candidate is weighed at (s), if one was given.
+    pub budget_s: Option<f64>,
     /// The normal quantile z of the intervals θ̂·exp(±z·sd).
     pub z: f64,
     /// The current widths (the existing records only), by the same formula.
@@ -625,10 +707,11 @@ pub fn widths(info: &Matrix3<f64>, point: &Candidate, z: f64) -> Result<[Width; 
 /// The Fisher information (in ln θ) of the sweep `d` recorded as the dataset `ds` at `rate_hz`,
 /// at the point `p`, position noise of variance `var` (mm²): the frequency-domain cost's
 /// Iᵢⱼ = Σ_k Re(∂T_k/∂θᵢ · conj ∂T_k/∂θⱼ)/σ_k², T the loop sampled at `rate_hz`
-/// ([`crate::frf::sampled_loop_response`]) and σ_k² = 2·var/(P·N·r_k²) the variance of each
-/// component of T̂ at line k averaged over P periods of N samples, r_k the line's amplitude
-/// (mm): the first period settles and is not averaged. Derivatives by central differences
-/// with step `h` in ln θ, as [`gram`]'s.
+/// ([`crate::frf::sampled_loop_response`]) and σ_k² = 2·var/(M_k·r_k²) the variance of each
+/// component of T̂ at line k from M_k samples of a sine of amplitude r_k (mm)
+/// (`sweep_lines`). Derivatives by central differences with step `h` in ln θ, as
+/// [`gram`]'s. A chirp, and any design not a sweep, gets the time-domain information of its
+/// record, [`gram`]/`var`, which equals it by Parseval in the steady state.
 pub fn sweep_information(
     problem: &Problem,
     ds: &Prepared,
@@ -637,19 +720,14 @@ pub fn sweep_information(
     var: f64,
     rate_hz: f64,
 ) -> Result<Matrix3<f64>, IdentError> {
-    let e = d.excitation(ds.rig.x0_mm, rate_hz);
-    let Some(
-        e @ Excitation::Multisine {
-            period_s,
-            periods,
-            line_mm,
-            ..
-        },
-    ) = e
-    else {
+    let lines = d
+        .excitation(&ds.rig, rate_hz)
+        .map(|e| sweep_lines(&e, rate_hz))
+        .unwrap_or_default();
+    if lines.is_empty() {
         return gram(problem, ds, p, h).map(|g| g / var);
-    };
-    let freqs = e.frequencies_hz();
+    }
+    let freqs: Vec<f64> = lines.iter().map(|l| l.0).collect();
     let response = |q: &[f64]| {
         let rig = problem.rig_for(&candidate_of(q), ds)?;
         crate::frf::sampled_loop_response(&Plant::new(&rig), rig.sum_pressure, &freqs, rate_hz)
@@ -670,16 +748,38 @@ pub fn sweep_information(
                 .collect::<Vec<_>>())
         })
         .collect::<Result<Vec<_>, IdentError>>()?;
-    let averaged = periods.saturating_sub(1).max(1) as f64 * period_s * rate_hz;
-    let weight = averaged * line_mm * line_mm / (2.0 * var);
+    let weight: Vec<f64> = lines
+        .iter()
+        .map(|&(_, amp_mm, samples)| samples * amp_mm * amp_mm / (2.0 * var))
+        .collect();
     Ok(Matrix3::from_fn(|i, j| {
-        weight
-            * columns[i]
-                .iter()
-                .zip(&columns[j])
-                .map(|(a, b)| (a * b.conj()).re)
-                .sum::<f64>()
+        (columns[i].iter().zip(&columns[j]).zip(&weight))
+            .map(|((a, b), w)| w * (a * b.conj()).re)
+            .sum::<f64>()
     }))
+}
+
+/// The lines a sweep's estimate averages: (frequency (Hz), amplitude (mm), samples averaged).
+/// A multisine's lines over its periods after the first, which settles; a stepped sine's
+/// levels over their fitted periods after settling; none for a chirp.
+fn sweep_lines(e: &Excitation, rate_hz: f64) -> Vec<(f64, f64, f64)> {
+    match *e {
+        Excitation::Multisine {
+            period_s,
+            periods,
+            line_mm,
+            ..
+        } => {
+            let averaged = periods.saturating_sub(1).max(1) as f64 * period_s * rate_hz;
+            (e.frequencies_hz().into_iter())
+                .map(|f| (f, line_mm, averaged))
+                .collect()
+        }
+        Excitation::SteppedSine { amplitude_mm, .. } => (e.levels().into_iter())
+            .map(|l| (l.freq_hz, amplitude_mm, (l.end_s - l.settle_s) * rate_hz))
+            .collect(),
+        Excitation::Chirp { .. } => Vec::new(),
+    }
 }
 
 /// The default sweeps at each gain of `kps`: the multisine `pumpcyl frf --design` designs for
@@ -696,14 +796,15 @@ fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
             let rig = Rig { kp, ..like.clone() };
             let d = crate::frf::design(&rig, &goal).ok()?;
             let fit = (MAX_DURATION_S * d.from_hz).floor() as usize;
-            let sweep = Design::Sweep {
-                from_hz: d.from_hz,
-                to_hz: d.to_hz,
-                lines: SWEEP_LINES,
-                amp_mm: (d.amplitude_mm * 10.0).floor() / 10.0,
-                periods: d.periods.min(fit),
-                kp,
+            let spec = SweepSpec {
+                from_hz: Some(d.from_hz),
+                to_hz: Some(d.to_hz),
+                lines: Some(SWEEP_LINES),
+                amplitude_mm: Some((d.amplitude_mm * 10.0).floor() / 10.0),
+                periods: Some(d.periods.min(fit)),
+                ..SweepSpec::of_kind(SweepKind::Multisine)
             };
+            let sweep = Design::sweep(&spec, kp, &rig, rate_hz).ok()?;
             (d.periods.min(fit) >= 3 && sweep.check(rate_hz, &rig).is_ok()).then_some(sweep)
         })
         .collect()
@@ -778,6 +879,7 @@ pub fn advise(
             profile: [false; 3],
         },
     )?;
+    check_budget(opts.budget_s)?;
     let first = &problem.datasets[0];
     let rate = rate_hz(first);
     let designs = match &opts.designs {
@@ -819,10 +921,18 @@ pub fn advise(
             d.check(rate, &first.rig)
                 .map_err(|m| IdentError::Input(format!("candidate `{}`: {m}", d.label())))?;
             let ds = d.prepared(first, rate)?;
+            let repeats = match opts.budget_s {
+                Some(b) if d.duration_s() > b => {
+                    let why = format!("{} s, longer than the budget of {b} s", d.duration_s());
+                    return Ok(Err(Skip(format!("{}: {why}", d.label()))));
+                }
+                Some(b) => b / d.duration_s(),
+                None => 1.0,
+            };
             if let Err(Skip(why)) = runnable(problem, &u.best, &ds) {
                 return Ok(Err(Skip(format!("{}: {why}", d.label()))));
             }
-            let info = sweep_information(problem, &ds, d, (&p, LOG_STEP), var, rate)?;
+            let info = sweep_information(problem, &ds, d, (&p, LOG_STEP), var, rate)? * repeats;
             let added = with_model_error(&info, &model_error);
             let info = existing + added;
             let w = widths(&info, &u.best, z)?;
@@ -831,6 +941,8 @@ pub fn advise(
             Ok(Ok(Assessment {
                 design: *d,
                 label: d.label(),
+                duration_s: d.duration_s(),
+                repeats,
                 widths: w,
                 improvement,
                 score: -improvement.iter().map(|r| r.ln()).sum::<f64>(),
@@ -866,6 +978,7 @@ pub fn advise(
         variance_inflation: u.variance_inflation,
         model_error_factor: model_error,
         confidence: opts.confidence,
+        budget_s: opts.budget_s,
         z,
         current,
         candidates,
@@ -892,14 +1005,16 @@ fn with_model_error(info: &Matrix3<f64>, f: &[f64; 3]) -> Matrix3<f64> {
 /// The whole advice for a loaded experiment: its identification on its own grids and options
 /// (refused when it would take hours, as `identify` does without `--allow-long-run`), then
 /// [`advise`] on the candidates of the TOML file `candidates` (read from `files`) or on the
-/// defaults.
+/// defaults, each weighed at the recording time `budget_s` where given
+/// ([`AdviceOptions::budget_s`]).
 pub fn advise_experiment(
     exp: &Experiment,
     files: &dyn source_files::Files,
     candidates: Option<&Path>,
-    confidence: f64,
+    (confidence, budget_s): (f64, Option<f64>),
 ) -> Result<Advice, IdentError> {
     let confidence = check_confidence(confidence)?;
+    check_budget(budget_s)?;
     let designs = match candidates {
         Some(path) => {
             let name = path.display().to_string();
@@ -914,8 +1029,19 @@ pub fn advise_experiment(
         confidence,
         designs,
         sweeps: true,
+        budget_s,
     };
     advise(&exp.problem, &id.best().candidate, &opts)
+}
+
+/// Refuse a budget that is not a positive number of seconds.
+fn check_budget(budget_s: Option<f64>) -> Result<(), IdentError> {
+    match budget_s {
+        Some(b) if !(b.is_finite() && b > 0.0) => Err(IdentError::Input(format!(
+            "budget_s = {b}: the recording time must be a positive number of seconds"
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// `before / after` for log-stds, 1 when both are infinite (no information either way).

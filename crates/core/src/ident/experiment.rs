@@ -79,6 +79,11 @@ pub struct DatasetEntry {
     /// sweep crosses its mean many times), the time method fits every record as a step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kind: Option<String>,
+    /// The sweep that made a sweep record (`[dataset.sweep]`, the keys of
+    /// docs/formats.md#sweep-records-and-their-description): its reference is checked against
+    /// it and the record estimated as that sweep. Implies `kind = "sweep"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<crate::frf::SweepSpec>,
 }
 
 /// How an experiment's records are fitted.
@@ -103,9 +108,89 @@ impl Method {
 }
 
 /// A dataset read: a step record ready for the time-domain fit or a sweep's estimate.
-enum Loaded {
+#[derive(Debug, Clone)]
+pub enum Loaded {
+    /// A step record.
     Step(Box<Prepared>),
+    /// A sweep record's frequency response.
     Sweep(Box<SweepSet>),
+}
+
+impl DatasetEntry {
+    /// This dataset's `record`, taken on `rig`, prepared for `method`: a sweep (by `kind`, or
+    /// with the frequency method by its reference) as its frequency response, anything else as
+    /// a step record, which needs `fit_end_s`. The error names the key at fault (`None`: the
+    /// dataset as a whole) and says why, without the dataset's name.
+    pub fn load(
+        &self,
+        record: Record,
+        method: Method,
+        rig: &Rig,
+    ) -> Result<Loaded, (Option<&'static str>, String)> {
+        for (k, v) in [("kp", self.kp), ("mass_kg", self.mass_kg)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err((Some(k), format!("{k} = {v}: must be > 0")));
+            }
+            if let Some(rule) = Rig::check_key(k, v) {
+                let v = crate::units::readable(v);
+                return Err((Some(k), format!("{k} = {v}: {rule}")));
+            }
+        }
+        let sweep = match (method, self.kind.as_deref()) {
+            (_, Some("step")) if self.sweep.is_some() => {
+                let m = "kind = \"step\" with a [dataset.sweep] table: a step record has no sweep";
+                return Err((Some("kind"), m.to_string()));
+            }
+            (_, None) if self.sweep.is_some() => true,
+            (_, Some("step")) | (Method::Time, None) => false,
+            (_, Some("sweep")) => true,
+            (Method::Frequency, None) => crate::frf::check_sweep(&record).is_ok(),
+            (_, Some(other)) => {
+                let m = format!("kind = \"{other}\": give \"step\" or \"sweep\"");
+                return Err((Some("kind"), m));
+            }
+        };
+        if sweep && method == Method::Frequency {
+            let rig = Rig {
+                kp: self.kp,
+                mass_kg: self.mass_kg,
+                ..rig.clone()
+            };
+            let excitation = match &self.sweep {
+                Some(spec) => {
+                    let t = &record.time_s;
+                    let rate_hz = (t.len() - 1) as f64 / (t[t.len() - 1] - t[0]);
+                    let e = spec.excitation(&rig, rate_hz);
+                    Some(e.map_err(|e| (Some("sweep"), format!("[dataset.sweep] {e}")))?)
+                }
+                None => None,
+            };
+            return SweepSet::described(&self.file, &record, rig, excitation)
+                .map(|s| Loaded::Sweep(Box::new(s)))
+                .map_err(|e| (Some("file"), e.to_string()));
+        }
+        let Some(fit_end_s) = self.fit_end_s else {
+            let why = match crate::frf::check_sweep(&record) {
+                Err(e) if method == Method::Frequency => format!(
+                    "{}; as a step record it needs fit_end_s",
+                    e.to_string().replace(&format!("{}: ", record.file), "")
+                ),
+                _ => "a step record needs fit_end_s, the end of its fit window (s); a sweep \
+                      record is fitted with method = \"frequency\""
+                    .to_string(),
+            };
+            return Err((None, why));
+        };
+        let spec = DatasetSpec {
+            file: self.file.clone(),
+            kp: self.kp,
+            mass_kg: self.mass_kg,
+            fit_end_s,
+        };
+        Prepared::new(&spec, record, rig)
+            .map(|p| Loaded::Step(Box::new(p)))
+            .map_err(|e| (Some("fit_end_s"), e.to_string()))
+    }
 }
 
 /// The ranges [lo, hi] of the first grid's axes, each optional.
@@ -281,55 +366,12 @@ impl ExperimentFile {
         let what = format!("dataset {} (`{}`)", i + 1, spec.file);
         let record = Record::read_in(files, &dir.join(&spec.file))
             .map_err(|e| at.error(&key("file"), format!("{what}: {e}")))?;
-        for (k, v) in [("kp", spec.kp), ("mass_kg", spec.mass_kg)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(at.error(&key(k), format!("{what}: {k} = {v}: must be > 0")));
-            }
-            if let Some(rule) = Rig::check_key(k, v) {
-                let v = crate::units::readable(v);
-                return Err(at.error(&key(k), format!("{what}: {k} = {v}: {rule}")));
-            }
-        }
-        let sweep = match (method, spec.kind.as_deref()) {
-            (_, Some("step")) | (Method::Time, None) => false,
-            (_, Some("sweep")) => true,
-            (Method::Frequency, None) => crate::frf::check_sweep(&record).is_ok(),
-            (_, Some(other)) => {
-                let m = format!("{what}: kind = \"{other}\": give \"step\" or \"sweep\"");
-                return Err(at.error(&key("kind"), m));
-            }
-        };
-        if sweep && method == Method::Frequency {
-            let rig = Rig {
-                kp: spec.kp,
-                mass_kg: spec.mass_kg,
-                ..rig.clone()
-            };
-            return SweepSet::new(&spec.file, &record, rig)
-                .map(|s| Loaded::Sweep(Box::new(s)))
-                .map_err(|e| at.error(&key("file"), format!("{what}: {e}")));
-        }
-        let Some(fit_end_s) = spec.fit_end_s else {
-            let why = match crate::frf::check_sweep(&record) {
-                Err(e) if method == Method::Frequency => format!(
-                    "{}; as a step record it needs fit_end_s",
-                    e.to_string().replace(&format!("{}: ", record.file), "")
-                ),
-                _ => "a step record needs fit_end_s, the end of its fit window (s); a sweep \
-                      record is fitted with method = \"frequency\""
-                    .to_string(),
-            };
-            return Err(at.error(&[Name("dataset"), Index(i)], format!("{what}: {why}")));
-        };
-        let spec = DatasetSpec {
-            file: spec.file.clone(),
-            kp: spec.kp,
-            mass_kg: spec.mass_kg,
-            fit_end_s,
-        };
-        Prepared::new(&spec, record, rig)
-            .map(|p| Loaded::Step(Box::new(p)))
-            .map_err(|e| at.error(&key("fit_end_s"), e))
+        spec.load(record, method, rig).map_err(|(k, m)| match k {
+            // the step record's own check names its dataset
+            Some("fit_end_s") => at.error(&key("fit_end_s"), m),
+            Some(k) => at.error(&key(k), format!("{what}: {m}")),
+            None => at.error(&[Name("dataset"), Index(i)], format!("{what}: {m}")),
+        })
     }
 }
 

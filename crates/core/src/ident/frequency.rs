@@ -33,7 +33,7 @@ use super::refine::candidate_of;
 use super::uncertainty::{
     bounded, check_confidence, chi2_1_quantile, polish_with, step_noise, Profile, Scan,
 };
-use super::IdentError;
+use super::{IdentError, Loaded};
 use crate::frf::{self, Complex64, Estimate, FrfError};
 use crate::lti::{eigenvalues, is_stable};
 use crate::model::Plant;
@@ -67,8 +67,20 @@ impl SweepSet {
     /// keep the frequencies whose coherence is usable. Refused as [`frf::estimate`] refuses a
     /// record (not a sweep, too short, no usable coherence, ending below the crossover).
     pub fn new(name: &str, record: &Record, rig: Rig) -> Result<SweepSet, FrfError> {
+        SweepSet::described(name, record, rig, None)
+    }
+
+    /// [`SweepSet::new`] for a record of the sweep `excitation` where it is described (an
+    /// experiment file's `[dataset.sweep]`): its reference is checked against the description
+    /// and estimated as that sweep (a stepped sine level by level).
+    pub fn described(
+        name: &str,
+        record: &Record,
+        rig: Rig,
+        excitation: Option<frf::Excitation>,
+    ) -> Result<SweepSet, FrfError> {
         let opts = frf::Options {
-            excitation: None,
+            excitation,
             rig: Some(&rig),
             segment_s: None,
         };
@@ -229,6 +241,49 @@ pub struct FrequencyUncertainty {
 }
 
 impl FrequencyProblem {
+    /// The records of a frequency-domain fit from datasets loaded for it
+    /// ([`super::DatasetEntry::load`] with the frequency method): the sweeps, with the step
+    /// records beside them, their controller sampled as the sweeps'
+    /// ([`Problem::with_sampled_controller`]). Refused without a sweep.
+    pub fn of_loaded(
+        loaded: Vec<Loaded>,
+        standstill: Standstill,
+    ) -> Result<FrequencyProblem, IdentError> {
+        let (mut steps, mut sweeps) = (Vec::new(), Vec::new());
+        for l in loaded {
+            match l {
+                Loaded::Step(p) => steps.push(*p),
+                Loaded::Sweep(s) => sweeps.push(*s),
+            }
+        }
+        if sweeps.is_empty() {
+            return Err(IdentError::Input(
+                "the frequency method needs at least one sweep record (a chirp, multisine or \
+                 stepped sine); every dataset's reference is a step or a hold"
+                    .into(),
+            ));
+        }
+        let steps = (!steps.is_empty()).then(|| {
+            let p = Problem {
+                datasets: steps,
+                standstill,
+            };
+            p.with_sampled_controller()
+        });
+        Ok(FrequencyProblem {
+            sweeps,
+            steps,
+            standstill,
+        })
+    }
+
+    /// The names of the step records fitted beside the sweeps.
+    pub fn step_names(&self) -> Vec<String> {
+        (self.steps.iter())
+            .flat_map(|p| p.datasets.iter().map(|d| d.name.clone()))
+            .collect()
+    }
+
     /// The rig of sweep `set` with a candidate's β, b, c12 and the c1, c2 that hold the
     /// standstill point with that c12.
     pub fn rig_for(&self, c: &Candidate, set: &SweepSet) -> Result<Rig, IdentError> {
@@ -318,14 +373,14 @@ impl FrequencyProblem {
         best: Candidate,
         scales: Scales,
     ) -> Result<FrequencyFit, IdentError> {
-        // the estimate's note that it has no plant response concerns `pumpcyl frf`, not the fit
         let mut warnings: Vec<String> = self
             .sweeps
             .iter()
             .flat_map(|s| {
-                let fit_relevant = |w: &&String| !w.contains("x/w_ref1");
-                let own = s.estimate.warnings.iter().filter(fit_relevant);
-                own.map(|w| format!("{}: {w}", s.name))
+                s.estimate
+                    .warnings
+                    .iter()
+                    .map(|w| format!("{}: {w}", s.name))
             })
             .collect();
         let values = super::grid::candidate_values(&grid_best);
