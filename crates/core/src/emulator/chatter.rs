@@ -280,3 +280,36 @@ pub fn quiet_ranges_n(runs: &[ModeRun]) -> Vec<(f64, f64)> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The needed force F_ext + m ẍ + b ẋ of a sine of amplitude A is a sinusoid about F_ext
+    /// of amplitude A ω √(m² ω² + b²), by hand: over two whole periods it crosses the
+    /// switching force four times when F_ext lies closer to it than that, and never otherwise.
+    #[test]
+    fn the_reference_crosses_the_switching_force_twice_a_period_when_it_reaches_it() {
+        let rig = Rig {
+            circuit: CircuitKind::SinglePump,
+            ..Rig::default()
+        };
+        let f_s = crate::circuit::single_pump::modes::switching(&rig).switching_force_n;
+        let (freq_hz, a) = (0.2, 0.035);
+        let w = 2.0 * std::f64::consts::PI * freq_hz;
+        let m2w2 = (rig.mass_kg * w).powi(2);
+        let swing = a * w * (m2w2 + rig.viscous_friction_ns_per_m.powi(2)).sqrt();
+        let window = (20.0, 30.0);
+        for (offset, want) in [(0.0, 4), (0.9, 4), (-0.9, 4), (1.1, 0), (-1.1, 0)] {
+            let loaded = Rig {
+                external_force_n: f_s + offset * swing,
+                ..rig.clone()
+            };
+            assert_eq!(
+                reference_crossings(&loaded, freq_hz, a, window),
+                want,
+                "F_ext − F_s = {offset} × {swing} N"
+            );
+        }
+    }
+}
