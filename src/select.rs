@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use crate::emit::{render_both, write_atomic};
 use pumpcyl::circuit::CircuitKind;
 use pumpcyl::rig::Rig;
-use pumpcyl::select::{Application, BetaEvidence, RigFrom, SelectError};
+use pumpcyl::select::{Application, BetaEvidence, ModeCheckKind, RigFrom, SelectError};
 use pumpcyl_present::format::json_document;
-use pumpcyl_present::select::{selection_chart, selection_text};
+use pumpcyl_present::select::{selection_chart, selection_csv, selection_text};
 
 #[derive(Debug, Args)]
 pub struct SelectArgs {
@@ -33,6 +33,13 @@ pub struct SelectArgs {
     /// (docs/select.md#circuits).
     #[arg(long, value_delimiter = ',', value_name = "CIRCUIT,...")]
     circuits: Vec<String>,
+    /// The single-pump candidates' mode check (docs/select.md#the-single-pump-circuit):
+    /// emulator (the emulated 5 mm step and the application's waves, a noise-free PLC at
+    /// 100 Hz; fails where the step switches after it settled or a wave switches more often
+    /// than its reference's needed force explains) or equations (the circuit's equations under
+    /// the continuous P law, a 5 mm step; fails on any switch).
+    #[arg(long, value_name = "CHECK", default_value = "emulator")]
+    mode_check: String,
     /// Fix the position gain (1/m) instead of designing the largest one at each candidate.
     #[arg(long, value_name = "KP")]
     kp: Option<f64>,
@@ -50,15 +57,18 @@ pub struct SelectArgs {
     /// Print the application as commented TOML (with --set applied) and stop.
     #[arg(long)]
     print_default: bool,
-    /// Result folder: result.json (as --json prints) and select.svg/.png (the largest Kp and
-    /// the tracking-error band against the pressure level, the requirement, the chosen level).
+    /// Result folder: result.json (as --json prints), options.csv (one row a candidate: its
+    /// circuit, level, gain, loss, mode-check numbers, verdict and reason) and select.svg/.png
+    /// (the largest Kp and the tracking-error band against the pressure level, the
+    /// requirement, the chosen level).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Print JSON (min_mean_pressure_bar, bisected between the levels, min_level_bar,
     /// chosen_circuit, verdict, reasons, rig, gas_fraction_from, options: circuit,
     /// circuit_kind, pressure_level, mean_pressure_bar,
     /// beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets, meets_best_case,
-    /// margins_hold_at_reference_gas_fraction, reason).
+    /// margins_hold_at_reference_gas_fraction, mode_switches, switches_after_settling,
+    /// oscillation_amplitude_mm, reason; mode_check).
     #[arg(long)]
     json: bool,
 }
@@ -103,7 +113,9 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         allow_long_run: args.allow_long_run,
         progress: &|n| bar.inc(n),
     };
-    let selected = app.select_with(args.kp, &work);
+    let check = ModeCheckKind::from_name(args.mode_check.trim())
+        .map_err(|e| anyhow::anyhow!("--mode-check: {e}"))?;
+    let selected = app.select_checked(args.kp, &work, check.check());
     bar.finish_and_clear();
     let s = selected.map_err(|e| match e {
         SelectError::Limit(l) => crate::emit::hinted(l.into()),
@@ -114,6 +126,10 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         let folder = crate::emit::out_dir(dir)?;
         write_atomic(&folder.path().join("result.json"), document.as_bytes())?;
         render_both(&folder.path().join("select"), &selection_chart(&app, &s))?;
+        write_atomic(
+            &folder.path().join("options.csv"),
+            selection_csv(&s).as_bytes(),
+        )?;
         crate::emit::commit(folder, dir)?;
     }
     if args.json {

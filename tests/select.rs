@@ -189,7 +189,8 @@ fn an_impossible_requirement_is_an_answer_not_an_error() {
     );
 }
 
-/// `--out` writes result.json (what --json prints) and the figure, whole.
+/// `--out` writes result.json (what --json prints), options.csv (one row an option, its
+/// numbers those of the JSON) and the figure, whole.
 #[test]
 fn the_result_folder_holds_the_json_and_the_figure() {
     let dir = tempfile::tempdir().unwrap();
@@ -218,6 +219,36 @@ fn the_result_folder_holds_the_json_and_the_figure() {
     }
     let png = std::fs::read(out.join("select.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000);
+    let csv = std::fs::read_to_string(out.join("options.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert!(
+        lines[0].starts_with("circuit,mean_pressure_bar,kp_max,standing_loss_w,mode_switches,switches_after_settling,oscillation_amplitude_mm,"),
+        "{}",
+        lines[0]
+    );
+    let options = printed["options"].as_array().unwrap();
+    assert_eq!(lines.len(), options.len() + 1);
+    for (line, o) in lines[1..].iter().zip(options) {
+        // the reason, the last cell, may hold commas: the first seven cells are numbers
+        let cells: Vec<&str> = line.splitn(8, ',').collect();
+        assert_eq!(cells[0], o["circuit"].as_str().unwrap());
+        let p = o["mean_pressure_bar"].as_f64().unwrap();
+        assert_eq!(cells[1].parse::<f64>().unwrap(), p);
+        let switches = o["mode_switches"].as_u64().map(|n| n.to_string());
+        assert_eq!(cells[4], switches.unwrap_or_default(), "{line}");
+        let amplitude = o["oscillation_amplitude_mm"].as_f64();
+        let cell = cells[6].parse::<f64>().ok();
+        assert_eq!(cell.is_some(), amplitude.is_some(), "{line}");
+        assert!(
+            cell.zip(amplitude)
+                .is_none_or(|(c, a)| (c - a).abs() < 1e-6),
+            "{line}"
+        );
+        // the mode check runs on single-pump rows alone
+        if o["circuit"] != "single_pump" {
+            assert_eq!(cells[4], "", "{line}");
+        }
+    }
 }
 
 /// A rise-time requirement alone (no wave): each candidate's rise time is what `pumpcyl step`

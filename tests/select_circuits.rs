@@ -7,7 +7,9 @@ use pumpcyl::bulk::effective_beta;
 use pumpcyl::circuit::single_pump::modes::{switching, StepCheck};
 use pumpcyl::circuit::single_pump::SinglePump;
 use pumpcyl::rig::Rig;
-use pumpcyl::select::{Application, Circuit, EquationsCheck, ModeCheck};
+use pumpcyl::select::{
+    Application, Circuit, EquationsCheck, ModeCheck, ModeVerdict, WaveRequirement,
+};
 use serde_json::Value;
 use std::path::Path;
 
@@ -174,7 +176,8 @@ fn check_of(app: &Application, kp: f64) -> pumpcyl::circuit::single_pump::modes:
 
 /// At zero external force and a 0.5 bar pre-charge (switching force ≈ 51 N) the article's step
 /// at Kp 25 on 4898 kg needs more force than that to accelerate the load: the circuit's
-/// equations switch modes, and the candidate fails with the reason. At ten times the switching
+/// equations switch modes, and the candidate fails with the reason under the equations' check
+/// (which fails any switch). At ten times the switching
 /// force the step stays in mode 1, and the candidate does not fail for switching.
 #[test]
 fn the_single_pump_candidate_fails_where_its_step_switches_modes() {
@@ -182,7 +185,13 @@ fn the_single_pump_candidate_fails_where_its_step_switches_modes() {
     let calm = single_pump_app(0.5, 4898.0, x, 0.0);
     let verdict = check_of(&calm, 25.0);
     assert!(verdict.switches > 0, "{verdict:?}");
-    let s = calm.select(Some(25.0)).unwrap();
+    let equations = |app: &Application| {
+        let work = pumpcyl::limits::Work::QUIET;
+        app.select_checked(Some(25.0), &work, &EquationsCheck::ARTICLE)
+            .unwrap()
+    };
+    let s = equations(&calm);
+    assert_eq!(s.mode_check, "equations");
     let c = &s.options[0];
     assert_eq!(c.circuit, Circuit::SINGLE_PUMP);
     assert!(!c.meets && !c.meets_best_case, "{c:?}");
@@ -207,7 +216,7 @@ fn the_single_pump_candidate_fails_where_its_step_switches_modes() {
     let loaded = single_pump_app(0.5, 4898.0, x, 10.0 * f_s);
     let verdict = check_of(&loaded, 25.0);
     assert_eq!(verdict.switches, 0, "{verdict:?}");
-    let c = &loaded.select(Some(25.0)).unwrap().options[0];
+    let c = &equations(&loaded).options[0];
     assert!(!c.reason.contains("switches"), "{}", c.reason);
     assert!(c.meets, "{}", c.reason);
 }
@@ -218,18 +227,17 @@ fn the_single_pump_candidate_fails_where_its_step_switches_modes() {
 fn another_mode_check_can_stand_in() {
     struct Always;
     impl ModeCheck for Always {
-        fn run(
-            &self,
-            rig: &Rig,
-        ) -> Result<pumpcyl::circuit::single_pump::modes::StepVerdict, String> {
-            let mut v = StepCheck::ARTICLE
-                .run(&SinglePump::new(rig))
-                .map_err(|e| e.to_string())?;
+        fn run(&self, rig: &Rig, waves: &[WaveRequirement]) -> Result<ModeVerdict, String> {
+            let mut v = EquationsCheck::ARTICLE.run(rig, waves)?;
             v.switches = 7;
+            v.keeps_switching = Some("7 switches during the step".into());
             Ok(v)
         }
         fn describe(&self) -> String {
             "a stand-in".into()
+        }
+        fn name(&self) -> &'static str {
+            "stand-in"
         }
     }
     let app = Application::default()
@@ -253,5 +261,6 @@ fn another_mode_check_can_stand_in() {
             reason.contains("7 switches during the step") && reason.contains("a stand-in");
         assert_eq!(stood_in, circuit == "single-pump", "{circuit}: {reason}");
     }
+    assert_eq!(s.mode_check, "stand-in");
     let _ = EquationsCheck::ARTICLE.describe();
 }

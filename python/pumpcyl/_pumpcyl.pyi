@@ -347,6 +347,9 @@ class Selection(Result):
     gas_fraction: Any
     gas_fraction_from: Dict[str, Any]
     rig: Dict[str, Any]
+    mode_check: str
+    """The single-pump candidates' mode check: ``emulator`` or ``equations``
+    (docs/select.md#the-single-pump-circuit)."""
 
 class Design(Result):
     """The design method (the article §2.2): ``pumpcyl design --json``."""
@@ -615,6 +618,7 @@ def select(
     *,
     rig: Optional[Rig] = None,
     kp: Optional[float] = None,
+    mode_check: str = "emulator",
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
     allow_long_run: bool = False,
@@ -631,7 +635,11 @@ def select(
     cavitates). ``progress`` as for :func:`identify`, over the load × level cases. The
     circuits tried are the keyword ``circuits`` (e.g. ``circuits=["dpm", "single-pump"]``, as
     ``--circuits``; absent: every circuit the rig's components allow), the one-motor circuits at
-    each pre-charge of ``precharge_bar`` (docs/select.md#circuits)."""
+    each pre-charge of ``precharge_bar`` (docs/select.md#circuits). ``mode_check`` names the
+    single-pump candidates' mode check, as ``--mode-check``: ``"emulator"`` (the emulated step
+    and waves, the default) or ``"equations"`` (docs/select.md#the-single-pump-circuit); each
+    option's ``mode_switches``, ``switches_after_settling`` and ``oscillation_amplitude_mm``
+    are its numbers (``None`` where it did not run)."""
     ...
 
 def fmu(

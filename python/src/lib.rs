@@ -1908,22 +1908,27 @@ fn fmu(
 /// `Result` (`column("options", "kp_max")`: a numpy array over the options). Loads × pressure
 /// levels beyond 400 cases (minutes to hours of work) run only with `allow_long_run=True`, as
 /// the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
-/// cases.
+/// cases. `mode_check` names the single-pump candidates' mode check, as the command line's
+/// `--mode-check`: "emulator" (the default) or "equations".
 #[pyfunction]
-#[pyo3(signature = (application = None, *, rig = None, kp = None, experiment = None, confidence = 0.95, allow_long_run = false, progress = None, **overrides))]
+#[pyo3(signature = (application = None, *, rig = None, kp = None, mode_check = "emulator", experiment = None, confidence = 0.95, allow_long_run = false, progress = None, **overrides))]
 #[allow(clippy::too_many_arguments)]
 fn select(
     py: Python<'_>,
     application: Option<PathBuf>,
     rig: Option<&PyRig>,
     kp: Option<f64>,
+    mode_check: &str,
     experiment: Option<PathBuf>,
     confidence: f64,
     allow_long_run: bool,
     progress: Option<Py<PyAny>>,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyOutcome> {
-    use pumpcyl::select::Application;
+    use pumpcyl::select::{Application, ModeCheckKind};
+    let check = ModeCheckKind::from_name(mode_check)
+        .map_err(|e| err(format!("select(mode_check=…): {e}")))?
+        .check();
     let base = match &application {
         Some(path) => Application::from_file_in(&pumpcyl::source_files::Disk, path).map_err(err)?,
         None => Application::default(),
@@ -1977,7 +1982,7 @@ fn select(
                 go_on(n);
             },
         };
-        app.select_with(kp, &work).map_err(|e| match e {
+        app.select_checked(kp, &work, check).map_err(|e| match e {
             SelectError::Limit(l) => long_run_err(l).to_string(),
             e => e.to_string(),
         })

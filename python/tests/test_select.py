@@ -61,3 +61,30 @@ def test_select_across_circuits_matches_the_command_line():
     ]
     with pytest.raises(ValueError, match="circuits"):
         pumpcyl.select(rig=pumpcyl.Rig(circuit="single-pump"), circuits=["dpm"])
+
+
+def test_the_mode_check_keyword_matches_the_command_line():
+    """The single-pump candidates' mode check by name, as ``--mode-check``: the same document
+    from both front ends, the emulator's by default, each option's mode-check numbers where it
+    ran and None elsewhere (docs/select.md#the-single-pump-circuit)."""
+    args = ["--circuits", "dpm,single-pump", "--set", "precharge_bar=[4.0, 8.0]",
+            "--set", "low_pressure_bar=[4.0]", "--set", "pressurised_bar=[]"]
+    keys = ["mode_switches", "switches_after_settling", "oscillation_amplitude_mm"]
+    for check in ["emulator", "equations"]:
+        cli = json.loads(subprocess.run(
+            [pumpcyl_binary(), "select", *args, "--mode-check", check, "--json"],
+            check=True, capture_output=True, text=True).stdout)
+        py = pumpcyl.select(circuits=["dpm", "single-pump"], precharge_bar=[4.0, 8.0],
+                            low_pressure_bar=[4.0], pressurised_bar=[], mode_check=check)
+        assert py == cli
+        assert py["mode_check"] == check
+        dpm, *single = py["options"]
+        assert all(dpm[k] is None for k in keys)
+        assert all(o[k] is not None for o in single for k in keys)
+        switches = py.column("options", "mode_switches")
+        assert np.isnan(switches[0])
+        assert list(switches[1:]) == [o["mode_switches"] for o in cli["options"][1:]]
+    default = pumpcyl.select(circuits=["single-pump"], precharge_bar=[4.0])
+    assert default["mode_check"] == "emulator"
+    with pytest.raises(ValueError, match="mode_check.*emulator, equations"):
+        pumpcyl.select(mode_check="emulated")

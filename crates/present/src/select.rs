@@ -2,6 +2,7 @@
 
 use crate::figures::{trace, Chart, Plot};
 use crate::plot::{LineStyle, Panel};
+use crate::records::{csv_number, csv_text};
 use pumpcyl::select::{
     Application, Candidate, Circuit, GasFractionFrom, Selection, Verdict, REFINE_TOLERANCE_BAR,
     RISE_STEP_MM,
@@ -91,7 +92,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     let _ = writeln!(out, "requirement: {}", needs.join("; "));
     let _ = writeln!(
         out,
-        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} {:<9} reason",
+        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10} {:>22}  {:<5} {:<9} reason",
         "circuit",
         "p (bar)",
         "beta_e (bar)",
@@ -99,6 +100,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         "max |e| (mm)",
         "rise (s)",
         "loss (W)",
+        "switches (settled, mm)",
         "meets",
         "best case"
     );
@@ -113,7 +115,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             .map_or("-".to_string(), |[lo, hi]| format!("{lo:.2}…{hi:.2}"));
         let _ = writeln!(
             out,
-            "  {:<13} {:>8.1} {:>17} {:>8} {:>22} {:>12} {:>10}  {:<5} {:<9} {}",
+            "  {:<13} {:>8.1} {:>17} {:>8} {:>22} {:>12} {:>10} {:>22}  {:<5} {:<9} {}",
             circuit_text(c.circuit),
             c.mean_pressure_bar,
             format!("{:.0} … {:.0}", c.beta_e_bar[0], c.beta_e_bar[1]),
@@ -131,6 +133,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             rise,
             c.standing_loss_w
                 .map_or("-".to_string(), |w| format!("{w:.1}")),
+            mode_check_text(c),
             if c.meets { "yes" } else { "no" },
             if c.meets_best_case { "yes" } else { "no" },
             c.reason
@@ -154,11 +157,66 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             c.mean_pressure_bar
         );
     }
+    let _ = writeln!(
+        out,
+        "single-pump mode check: {} (switches over its runs; after the step settled and beyond a wave's reference; the step's oscillation amplitude; docs/select.md#the-single-pump-circuit)",
+        s.mode_check
+    );
     let _ = writeln!(out, "verdict: {}", verdict_text(s.verdict));
     for r in &s.reasons {
         let _ = writeln!(out, "  - {r}");
     }
     out
+}
+
+/// A candidate's mode check in a cell: its switches, those after settling and the step's
+/// oscillation amplitude (mm), `12 (0, ±0.243)`; `-` where the check did not run.
+fn mode_check_text(c: &Candidate) -> String {
+    match (
+        c.mode_switches,
+        c.switches_after_settling,
+        c.oscillation_amplitude_mm,
+    ) {
+        (Some(n), Some(after), Some(mm)) => format!("{n} ({after}, ±{mm:.3})"),
+        _ => "-".to_string(),
+    }
+}
+
+/// The selection's options as CSV (`options.csv` of `select --out`): one row a candidate,
+/// `circuit,mean_pressure_bar,kp_max,standing_loss_w,mode_switches,switches_after_settling,
+/// oscillation_amplitude_mm,meets,meets_best_case,reason`, numbers in the records' format
+/// ([`csv_number`]); an empty cell where there is no number (no gain, no check).
+pub fn selection_csv(s: &Selection) -> String {
+    let header = [
+        "circuit",
+        "mean_pressure_bar",
+        "kp_max",
+        "standing_loss_w",
+        "mode_switches",
+        "switches_after_settling",
+        "oscillation_amplitude_mm",
+        "meets",
+        "meets_best_case",
+        "reason",
+    ]
+    .map(String::from);
+    let opt = |v: Option<f64>| v.map_or(String::new(), csv_number);
+    let count = |v: Option<usize>| v.map_or(String::new(), |n| n.to_string());
+    let cells = |c: &Candidate| {
+        [
+            c.circuit.key().to_string(),
+            csv_number(c.mean_pressure_bar),
+            opt((c.kp_max > 0.0).then_some(c.kp_max)),
+            opt(c.standing_loss_w),
+            count(c.mode_switches),
+            count(c.switches_after_settling),
+            opt(c.oscillation_amplitude_mm),
+            c.meets.to_string(),
+            c.meets_best_case.to_string(),
+            c.reason.clone(),
+        ]
+    };
+    csv_text(&header, s.options.iter().map(cells))
 }
 
 /// The lowest mean pressure in words: the refined answer, its bracket and the level grid's.

@@ -38,14 +38,18 @@ pub struct ModeRun {
     pub settled_at_s: f64,
     /// Mode switches after `settled_at_s`.
     pub switches_after_settling: usize,
+    /// Of those, the switches the reference itself explains (a sine: the times the force its
+    /// motion needs crosses the switching force in the watched periods, [`reference_crossings`];
+    /// a step: none).
+    pub switches_explained: usize,
     /// Length of the watched window after `settled_at_s` (s).
     pub watched_s: f64,
     /// Half the peak-to-peak control error x_ref − x after `settled_at_s` (m): for the step
     /// the amplitude of any sustained oscillation; for a sine the tracking error.
     pub error_amplitude_m: f64,
     /// The run chatters: after settling, the step switches at all or keeps oscillating by more
-    /// than [`SETTLED_FRACTION`] of the step; a sine switches more than twice a period (twice
-    /// is the wave's own reversal of the force the load needs).
+    /// than [`SETTLED_FRACTION`] of the step; a sine switches in its watched periods more often
+    /// than the reference explains (`switches_explained`).
     pub chatters: bool,
 }
 
@@ -134,6 +138,7 @@ pub fn step(rig: &Rig, effects: Effects) -> Result<ModeRun, EmulatorError> {
         switches,
         settled_at_s,
         switches_after_settling: after,
+        switches_explained: 0,
         watched_s: TAIL_S,
         error_amplitude_m: amplitude,
         chatters: after > 0 || amplitude > SETTLED_FRACTION * STEP_MM * 1e-3,
@@ -142,7 +147,12 @@ pub fn step(rig: &Rig, effects: Effects) -> Result<ModeRun, EmulatorError> {
 
 /// The emulated sinusoid of `amplitude_mm` at `freq_hz` about x0 of `rig`, as the article's
 /// sine records run it ([`super::article::records`]): at rest for [`SINE_START_S`], then
-/// [`super::article::SINE_SETTLE_S`] of wave for the start-up transient, then two whole periods watched.
+/// [`super::article::SINE_SETTLE_S`] of wave for the start-up transient, then
+/// [`WATCHED_PERIODS`] whole periods watched. It chatters when it switches in them more often
+/// than the force the reference's own motion needs crosses the switching force there
+/// ([`reference_crossings`]): those are the normal mode changes of a load whose needed force
+/// changes side each half period, at most two a period; any beyond them is the loop switching
+/// on its own (docs/circuits.md#will-it-chatter).
 ///
 /// # Errors
 /// A rig that is not a single-pump circuit, or an emulator error.
@@ -160,9 +170,16 @@ pub fn sine(
     };
     let periods = f64::from(sine_periods(freq_hz));
     let seconds = SINE_START_S + periods / freq_hz;
-    let settled_at_s = seconds - 2.0 / freq_hz;
+    let watched_s = f64::from(WATCHED_PERIODS) / freq_hz;
+    let settled_at_s = seconds - watched_s;
     let (start, switches, after, amplitude) =
         watch(rig, effects, &reference, (seconds, settled_at_s))?;
+    let explained = reference_crossings(
+        rig,
+        freq_hz,
+        a,
+        (settled_at_s - SINE_START_S, seconds - SINE_START_S),
+    );
     Ok(ModeRun {
         experiment: format!("sine {freq_hz:.2} Hz, {amplitude_mm} mm"),
         external_force_n: rig.external_force_n,
@@ -170,10 +187,45 @@ pub fn sine(
         switches,
         settled_at_s,
         switches_after_settling: after,
-        watched_s: 2.0 / freq_hz,
+        switches_explained: explained,
+        watched_s,
         error_amplitude_m: amplitude,
-        chatters: after > 2 * 2,
+        chatters: after > explained,
     })
+}
+
+/// The whole periods of a sine watched after its start-up transient.
+pub const WATCHED_PERIODS: u32 = 2;
+
+/// The times the force the reference's own motion needs from the chamber pressures,
+/// F(t) = F_ext + m ẍ_ref + b ẋ_ref (Newton, docs/model.md#newton; the rig's mass at x0 and
+/// viscous friction, Coulomb friction left out), crosses the switching force p_acc (A1 − A2)
+/// (docs/circuits.md#the-switching-force) over the wave's time `(from, to)` (s from its start),
+/// counted at the PLC's samples: the mode changes the wave of `amplitude_m` at `freq_hz`
+/// explains — none while the needed force stays on one side, two a period once it crosses.
+pub fn reference_crossings(
+    rig: &Rig,
+    freq_hz: f64,
+    amplitude_m: f64,
+    (from, to): (f64, f64),
+) -> usize {
+    let f_s = crate::circuit::single_pump::modes::switching(rig).switching_force_n;
+    let w = 2.0 * std::f64::consts::PI * freq_hz;
+    let force = |t: f64| {
+        let (v, a) = (
+            amplitude_m * w * (w * t).cos(),
+            -amplitude_m * w * w * (w * t).sin(),
+        );
+        rig.external_force_n + rig.mass_kg * a + rig.viscous_friction_ns_per_m * v - f_s
+    };
+    let ts = 1.0 / PLC_RATE_HZ;
+    let n = ((to - from) / ts).round() as usize;
+    (1..=n)
+        .filter(|&k| {
+            let (t0, t1) = (from + (k - 1) as f64 * ts, from + k as f64 * ts);
+            (force(t0) > 0.0) != (force(t1) > 0.0)
+        })
+        .count()
 }
 
 /// The article's three sinusoids (Hz, mm): 0.10 Hz at 50 mm, 0.20 Hz at 35 mm, 0.25 Hz at
@@ -227,4 +279,37 @@ pub fn quiet_ranges_n(runs: &[ModeRun]) -> Vec<(f64, f64)> {
         open = quiet;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The needed force F_ext + m ẍ + b ẋ of a sine of amplitude A is a sinusoid about F_ext
+    /// of amplitude A ω √(m² ω² + b²), by hand: over two whole periods it crosses the
+    /// switching force four times when F_ext lies closer to it than that, and never otherwise.
+    #[test]
+    fn the_reference_crosses_the_switching_force_twice_a_period_when_it_reaches_it() {
+        let rig = Rig {
+            circuit: CircuitKind::SinglePump,
+            ..Rig::default()
+        };
+        let f_s = crate::circuit::single_pump::modes::switching(&rig).switching_force_n;
+        let (freq_hz, a) = (0.2, 0.035);
+        let w = 2.0 * std::f64::consts::PI * freq_hz;
+        let m2w2 = (rig.mass_kg * w).powi(2);
+        let swing = a * w * (m2w2 + rig.viscous_friction_ns_per_m.powi(2)).sqrt();
+        let window = (20.0, 30.0);
+        for (offset, want) in [(0.0, 4), (0.9, 4), (-0.9, 4), (1.1, 0), (-1.1, 0)] {
+            let loaded = Rig {
+                external_force_n: f_s + offset * swing,
+                ..rig.clone()
+            };
+            assert_eq!(
+                reference_crossings(&loaded, freq_hz, a, window),
+                want,
+                "F_ext − F_s = {offset} × {swing} N"
+            );
+        }
+    }
 }

@@ -4,11 +4,13 @@
 //! the one-motor circuits need: their standstill cost and, for the single-pump circuit, its
 //! modes (docs/circuits.md#its-two-modes) and the check whether it keeps switching between them.
 
-use super::{Requirement, StandingLoss, RISE_STEP_MM, RISE_WINDOW_S};
-use crate::circuit::single_pump::modes::{switching, Mode, StepCheck, StepVerdict};
+use super::{Requirement, StandingLoss, WaveRequirement, RISE_STEP_MM, RISE_WINDOW_S};
+use crate::circuit::single_pump::modes::{switching, Mode, StepCheck};
 use crate::circuit::single_pump::SinglePump;
 use crate::circuit::{CircuitKind, Role};
 use crate::design::{Targets, GM_TOLERANCE_DB, PM_TOLERANCE_DEG};
+use crate::emulator::chatter::{self, ModeRun};
+use crate::emulator::Effects;
 use crate::lti::{FreqEvaluator, LtiError, Simulator};
 use crate::rig::Rig;
 use crate::units::PA_PER_BAR;
@@ -160,24 +162,45 @@ pub fn not_allowed(rig: &Rig, kind: CircuitKind) -> Option<String> {
     ))
 }
 
+/// What a single-pump candidate's mode check found (docs/select.md#the-single-pump-circuit).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModeVerdict {
+    /// Mode switches over every run of the check.
+    pub switches: usize,
+    /// Mode switches after the step settled, and a wave's in its watched periods beyond those
+    /// its reference explains.
+    pub switches_after_settling: usize,
+    /// Half the peak-to-peak control error after the step settled (m): the amplitude of any
+    /// sustained oscillation.
+    pub oscillation_amplitude_m: f64,
+    /// Why the candidate keeps switching modes under its load, in words; `None` when it does
+    /// not.
+    pub keeps_switching: Option<String>,
+}
+
 /// The check whether a single-pump candidate keeps switching modes under its load
-/// (docs/select.md#the-single-pump-circuit): a step from rest on a single-pump rig and the
-/// switches it makes. A trait so that another integration of the circuit (the emulator's)
-/// can stand in for the circuit's own equations.
+/// (docs/select.md#the-single-pump-circuit): the application's step (and its waves) from rest
+/// on a single-pump rig and the switches it makes. A trait so that either integration of the
+/// circuit (the emulator's, the circuit's own equations) can answer.
 pub trait ModeCheck: Sync {
-    /// The step's verdict on the single-pump rig `rig` (at the candidate's gain, pressure,
-    /// bulk modulus, load and external force).
+    /// The verdict on the single-pump rig `rig` (at the candidate's gain, pressure, bulk
+    /// modulus, load and external force) under the application's waves `waves`.
     ///
     /// # Errors
     /// The check cannot be run, in one line.
-    fn run(&self, rig: &Rig) -> Result<StepVerdict, String>;
+    fn run(&self, rig: &Rig, waves: &[WaveRequirement]) -> Result<ModeVerdict, String>;
 
     /// What the check integrates, in words (the reasons name it).
     fn describe(&self) -> String;
+
+    /// The check's name in a selection's result (`emulator`, `equations`).
+    fn name(&self) -> &'static str;
 }
 
 /// The check on the circuit's own nonlinear equations under the continuous P law
-/// ([`StepCheck::run`] on [`SinglePump::new`]).
+/// ([`StepCheck::run`] on [`SinglePump::new`]): the step alone, and any switch during it keeps
+/// the candidate switching — the stricter verdict, as on these equations every switching step
+/// tried settled.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EquationsCheck(pub StepCheck);
 
@@ -187,8 +210,24 @@ impl EquationsCheck {
 }
 
 impl ModeCheck for EquationsCheck {
-    fn run(&self, rig: &Rig) -> Result<StepVerdict, String> {
-        self.0.run(&SinglePump::new(rig)).map_err(|e| e.to_string())
+    fn run(&self, rig: &Rig, _: &[WaveRequirement]) -> Result<ModeVerdict, String> {
+        let v = self
+            .0
+            .run(&SinglePump::new(rig))
+            .map_err(|e| e.to_string())?;
+        Ok(ModeVerdict {
+            switches: v.switches,
+            switches_after_settling: v.switches_after_settling,
+            oscillation_amplitude_m: v.amplitude_after_settling_m,
+            keeps_switching: (v.switches > 0).then(|| {
+                format!(
+                    "{} switches during the step, {} after it settled (±{:.3} mm)",
+                    v.switches,
+                    v.switches_after_settling,
+                    v.amplitude_after_settling_m * 1e3
+                )
+            }),
+        })
     }
 
     fn describe(&self) -> String {
@@ -197,17 +236,133 @@ impl ModeCheck for EquationsCheck {
             self.0.step_m * 1e3
         )
     }
+
+    fn name(&self) -> &'static str {
+        "equations"
+    }
+}
+
+/// The check on the emulator (docs/circuits.md#will-it-chatter): the 5 mm step
+/// ([`chatter::step`]) and each of the application's waves ([`chatter::sine`]) emulated with
+/// every effect on for the rig ([`Effects::for_rig`]) and a noise-free PLC at its 100 Hz, so
+/// the verdict is deterministic and a switch is the circuit's, not the sensors'. It keeps
+/// switching when the step switches after it has settled, or a wave switches in its watched
+/// periods more often than its reference's own needed force crosses the switching force;
+/// switches during the step's transient that die out do not count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EmulatedCheck;
+
+impl ModeCheck for EmulatedCheck {
+    fn run(&self, rig: &Rig, waves: &[WaveRequirement]) -> Result<ModeVerdict, String> {
+        let text = |e: crate::emulator::EmulatorError| e.to_string();
+        let effects = Effects::for_rig(rig).map_err(text)?;
+        let step = chatter::step(rig, effects).map_err(text)?;
+        let sines = (waves.iter())
+            .map(|w| chatter::sine(rig, effects, w.freq_hz, w.amp_mm))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(text)?;
+        let beyond = |r: &ModeRun| {
+            r.switches_after_settling
+                .saturating_sub(r.switches_explained)
+        };
+        let step_keeps = step.switches_after_settling > 0;
+        let keeps_switching = if step_keeps {
+            Some(format!(
+                "the {} switches {} times after it settled at {:.1} s (±{:.3} mm)",
+                step.experiment,
+                step.switches_after_settling,
+                step.settled_at_s,
+                step.error_amplitude_m * 1e3
+            ))
+        } else {
+            sines.iter().find(|r| beyond(r) > 0).map(|r| {
+                format!(
+                    "the {} switches {} times in its last {} periods, {} of them explained by the reference's own force crossing the switching force",
+                    r.experiment,
+                    r.switches_after_settling,
+                    chatter::WATCHED_PERIODS,
+                    r.switches_explained
+                )
+            })
+        };
+        Ok(ModeVerdict {
+            switches: step.switches + sines.iter().map(|r| r.switches).sum::<usize>(),
+            switches_after_settling: step.switches_after_settling
+                + sines.iter().map(beyond).sum::<usize>(),
+            oscillation_amplitude_m: step.error_amplitude_m,
+            keeps_switching,
+        })
+    }
+
+    fn describe(&self) -> String {
+        "the emulator, a noise-free PLC at 100 Hz: the 5 mm step and the application's waves"
+            .to_string()
+    }
+
+    fn name(&self) -> &'static str {
+        "emulator"
+    }
+}
+
+/// The mode checks a selection offers, by name (docs/select.md#the-single-pump-circuit):
+/// `emulator` (the default) and `equations`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModeCheckKind {
+    /// [`EmulatedCheck`].
+    #[default]
+    Emulator,
+    /// [`EquationsCheck::ARTICLE`].
+    Equations,
+}
+
+impl ModeCheckKind {
+    /// Every mode check's name, the default first.
+    pub const NAMES: [&'static str; 2] = ["emulator", "equations"];
+
+    /// The mode check called `name`.
+    ///
+    /// # Errors
+    /// No such check, in one line naming the ones there are.
+    pub fn from_name(name: &str) -> Result<ModeCheckKind, String> {
+        match name {
+            "emulator" => Ok(ModeCheckKind::Emulator),
+            "equations" => Ok(ModeCheckKind::Equations),
+            other => Err(format!(
+                "mode check \"{other}\": no such check ({})",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+
+    /// The check itself.
+    pub fn check(self) -> &'static dyn ModeCheck {
+        match self {
+            ModeCheckKind::Emulator => &EmulatedCheck,
+            ModeCheckKind::Equations => &EquationsCheck::ARTICLE,
+        }
+    }
 }
 
 /// The reason every failing single-pump candidate starts with.
 pub const SWITCHES: &str = "switches modes under this load";
 
+/// What the single-pump candidate's mode checks found: why it switches modes, if it does, and
+/// the check's worst numbers over the runs made (`None` where no check ran).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Switches {
+    /// Why it switches modes under its load, starting with [`SWITCHES`].
+    pub why: Option<String>,
+    /// The checks' verdicts, worst of each number (most switches, largest amplitude).
+    pub worst: Option<ModeVerdict>,
+}
+
 /// Why the single-pump candidate (the rigs `ends` at its gain: the reference gas fraction
 /// first, then the range's ends) switches modes under its load, if it does: a mode whose
 /// margins break the targets at the candidate's gain at an end and a load (either mode: a load
-/// that accelerates crosses the switching force), or the check `check` on the reference at
-/// each external force of `req` and each load finding that the step switches modes
-/// ([`StepVerdict::switches`]; the switches after the linear settling time are reported too).
+/// that accelerates crosses the switching force; the check does not run then), or the check
+/// `check` on the reference at each external force of `req` and each load finding that it
+/// keeps switching ([`ModeVerdict::keeps_switching`]).
 ///
 /// # Errors
 /// A mode's model cannot be analysed, or the check cannot be run.
@@ -216,7 +371,7 @@ pub fn switches(
     req: &Requirement,
     loads: &[f64],
     check: &dyn ModeCheck,
-) -> Result<Option<String>, String> {
+) -> Result<Switches, String> {
     for end in ends {
         for &mass_kg in loads {
             let r = Rig {
@@ -224,13 +379,17 @@ pub fn switches(
                 ..(*end).clone()
             };
             if let Some(why) = mode_margins_break(&r, &req.targets).map_err(|e| e.to_string())? {
-                return Ok(Some(format!("{SWITCHES}: {why}")));
+                return Ok(Switches {
+                    why: Some(format!("{SWITCHES}: {why}")),
+                    worst: None,
+                });
             }
         }
     }
     let reference = ends[0];
     let mut forces = req.external_force_n.to_vec();
     forces.dedup();
+    let mut out = Switches::default();
     for f in forces {
         for &mass_kg in loads {
             let r = Rig {
@@ -238,20 +397,32 @@ pub fn switches(
                 external_force_n: f,
                 ..reference.clone()
             };
-            let v = check.run(&r)?;
-            if v.switches > 0 {
-                return Ok(Some(format!(
-                    "{SWITCHES}: {} switches during the step, {} after it settled (±{:.3} mm) at {f} N, {mass_kg} kg, Kp {:.2} ({})",
-                    v.switches,
-                    v.switches_after_settling,
-                    v.amplitude_after_settling_m * 1e3,
+            let v = check.run(&r, &req.waves)?;
+            let why = v.keeps_switching.clone();
+            out.worst = Some(match out.worst.take() {
+                None => v,
+                Some(w) => ModeVerdict {
+                    switches: w.switches.max(v.switches),
+                    switches_after_settling: w
+                        .switches_after_settling
+                        .max(v.switches_after_settling),
+                    oscillation_amplitude_m: w
+                        .oscillation_amplitude_m
+                        .max(v.oscillation_amplitude_m),
+                    keeps_switching: w.keeps_switching.or(v.keeps_switching),
+                },
+            });
+            if let Some(why) = why {
+                out.why = Some(format!(
+                    "{SWITCHES}: {why} at {f} N, {mass_kg} kg, Kp {:.2} ({})",
                     reference.kp,
                     check.describe()
-                )));
+                ));
+                return Ok(out);
             }
         }
     }
-    Ok(None)
+    Ok(out)
 }
 
 /// Which mode of the single-pump rig `r` breaks the margin targets at its gain, if one does

@@ -17,7 +17,9 @@ mod application;
 pub mod circuits;
 
 pub use application::*;
-pub use circuits::{Circuit, EquationsCheck, ModeCheck, PressureLevel};
+pub use circuits::{
+    Circuit, EmulatedCheck, EquationsCheck, ModeCheck, ModeCheckKind, ModeVerdict, PressureLevel,
+};
 
 use crate::bulk::{effective_beta, BetaReading, ARTICLE_READING};
 use crate::cavitation::check_chambers;
@@ -203,6 +205,17 @@ pub struct Candidate {
     pub standing: Option<[StandingLoss; 2]>,
     /// The larger of the two standing losses (W); `None` as `standing`.
     pub standing_loss_w: Option<f64>,
+    /// A single-pump candidate's mode switches over its mode check's runs (the worst load and
+    /// external force; docs/select.md#the-single-pump-circuit); `None` (`null` in JSON) where
+    /// the check did not run: another circuit, no gain, or a mode's margins breaking the
+    /// targets.
+    pub mode_switches: Option<usize>,
+    /// Its mode switches after the step settled, and a wave's in its watched periods beyond
+    /// those its reference explains (the worst load and force); `None` as `mode_switches`.
+    pub switches_after_settling: Option<usize>,
+    /// Half the peak-to-peak control error after the step settled (mm), the amplitude of any
+    /// sustained oscillation (the worst load and force); `None` as `mode_switches`.
+    pub oscillation_amplitude_mm: Option<f64>,
     /// Whether the requirement holds over the whole uncertainty.
     pub meets: bool,
     /// Whether the requirement holds in the best case: at the lowest gas fraction (the stiffest
@@ -273,6 +286,9 @@ pub struct Selection {
     pub gas_fraction_from: GasFractionFrom,
     /// Where the rig came from.
     pub rig: RigFrom,
+    /// The single-pump candidates' mode check (`emulator`, `equations`;
+    /// docs/select.md#the-single-pump-circuit).
+    pub mode_check: &'static str,
 }
 
 /// How closely the lowest mean pressure is found between the levels (bar).
@@ -338,7 +354,7 @@ pub fn select_with(
     kp: Option<f64>,
     work: &crate::limits::Work,
 ) -> Result<Selection, SelectError> {
-    select_checked(rig, req, levels, kp, work, &EquationsCheck::ARTICLE)
+    select_checked(rig, req, levels, kp, work, ModeCheckKind::default().check())
 }
 
 /// [`select_with`] with the single-pump candidates' mode check `mode_check`
@@ -487,6 +503,9 @@ fn candidate(
         rise_time_s: None,
         standing: None,
         standing_loss_w: None,
+        mode_switches: None,
+        switches_after_settling: None,
+        oscillation_amplitude_mm: None,
         meets: false,
         meets_best_case: false,
         margins_hold_at_reference_gas_fraction: false,
@@ -536,16 +555,22 @@ fn candidate(
         let ends: Vec<&Rig> = with_kp.iter().collect();
         let loads = loads_of(req, &reference);
         match circuits::switches(&ends, req, &loads, mode_check) {
-            Ok(Some(why)) => {
-                let rest = failing.join("; ");
-                let why = if rest.is_empty() {
-                    why
-                } else {
-                    format!("{why}; {rest}")
-                };
-                return Ok(failed(out, why));
+            Ok(found) => {
+                if let Some(v) = found.worst {
+                    out.mode_switches = Some(v.switches);
+                    out.switches_after_settling = Some(v.switches_after_settling);
+                    out.oscillation_amplitude_mm = Some(v.oscillation_amplitude_m * 1e3);
+                }
+                if let Some(why) = found.why {
+                    let rest = failing.join("; ");
+                    let why = if rest.is_empty() {
+                        why
+                    } else {
+                        format!("{why}; {rest}")
+                    };
+                    return Ok(failed(out, why));
+                }
             }
-            Ok(None) => {}
             Err(why) => return Ok(failed(out, why)),
         }
     }
@@ -951,6 +976,7 @@ fn answer(
         gas_fraction: [req.gas_fraction_min, req.gas_fraction, req.gas_fraction_max],
         gas_fraction_from: req.gas_fraction_from,
         rig: req.rig_from.clone(),
+        mode_check: mode_check.name(),
     })
 }
 
