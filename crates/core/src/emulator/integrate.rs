@@ -600,10 +600,10 @@ fn phi_levels(
             mat_mul_into(&phi[0], &phi[k], prod, n);
         }
         for i in 0..n * n {
-            let (p1, p2, p3) = (phi[1][i], phi[2][i], phi[3][i]);
-            phi[1][i] = 0.5 * (products[1][i] + p1);
-            phi[2][i] = 0.25 * (products[2][i] + p1 + p2);
-            phi[3][i] = 0.125 * (products[3][i] + 0.5 * p1 + p2 + p3);
+            let (f1, f2, f3) = (phi[1][i], phi[2][i], phi[3][i]);
+            phi[1][i] = 0.5 * (products[1][i] + f1);
+            phi[2][i] = 0.25 * (products[2][i] + f1 + f2);
+            phi[3][i] = 0.125 * (products[3][i] + 0.5 * f1 + f2 + f3);
         }
         phi[0].copy_from_slice(&products[0]);
     }

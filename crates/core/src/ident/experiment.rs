@@ -1,7 +1,7 @@
 //! The experiment file of `pumpcyl identify`: rig, overrides, standstill point, datasets and
 //! optional grids, in TOML. Paths are relative to the experiment file.
 
-use super::frequency::{FrequencyProblem, SweepSet};
+use super::frequency::{FrequencyProblem, Loaded, SweepSet};
 use super::grid::{short, Grid, SecondGrid, FIRST_AXES};
 use super::leakage::Standstill;
 use super::problem::{DatasetSpec, Prepared, Problem};
@@ -105,15 +105,6 @@ impl Method {
             _ => None,
         }
     }
-}
-
-/// A dataset read: a step record ready for the time-domain fit or a sweep's estimate.
-#[derive(Debug, Clone)]
-pub enum Loaded {
-    /// A step record.
-    Step(Box<Prepared>),
-    /// A sweep record's frequency response.
-    Sweep(Box<SweepSet>),
 }
 
 impl DatasetEntry {

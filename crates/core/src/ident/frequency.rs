@@ -28,12 +28,12 @@
 
 use super::grid::{Candidate, Grid};
 use super::leakage::{Leakage, Standstill};
-use super::problem::Problem;
+use super::problem::{Prepared, Problem};
 use super::refine::candidate_of;
 use super::uncertainty::{
     bounded, check_confidence, chi2_1_quantile, polish_with, step_noise, Profile, Scan,
 };
-use super::{IdentError, Loaded};
+use super::IdentError;
 use crate::frf::{self, Complex64, Estimate, FrfError};
 use crate::lti::{eigenvalues, is_stable};
 use crate::model::Plant;
@@ -44,6 +44,15 @@ use serde::Serialize;
 
 /// Unknowns fitted (β, b, c12).
 const FITTED: usize = 3;
+
+/// A dataset read: a step record ready for the time-domain fit or a sweep's estimate.
+#[derive(Debug, Clone)]
+pub enum Loaded {
+    /// A step record.
+    Step(Box<Prepared>),
+    /// A sweep record's frequency response.
+    Sweep(Box<SweepSet>),
+}
 
 /// One sweep record ready to fit: its estimate and the usable frequencies with their weights.
 #[derive(Debug, Clone)]

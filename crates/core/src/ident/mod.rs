@@ -50,7 +50,8 @@ pub use advice::{
     LOG_STEP, MAX_CANDIDATES, MIN_DAMPING, MIN_SAMPLES_PER_PERIOD, REST_S, SWEEP_LINES,
 };
 pub use drive::{identify_drive, DriveFit, DriveRecord};
-pub use experiment::{DatasetEntry, Experiment, ExperimentFile, Loaded, Method, RigDefaults};
+pub use experiment::{DatasetEntry, Experiment, ExperimentFile, Method, RigDefaults};
+pub use frequency::Loaded;
 pub use frequency::{
     FrequencyFit, FrequencyProblem, FrequencyUncertainty, Scales, SweepSet, SweepSummary,
 };
