@@ -80,7 +80,8 @@ pub const TRANSIENT_RATIO: f64 = 2.0;
 /// Frequency Domain Approach*, 2nd ed., Wiley 2012, §2.6): the noise is the mean-square
 /// difference of the last two periods (2σ², at least that of a `resolution` quantization,
 /// 2·resolution²/12), and a period whose mean-square difference from the last one exceeds
-/// [`TRANSIENT_RATIO`] times it is transient, with every period before it. With 3 periods
+/// [`TRANSIENT_RATIO`] times it is transient: the leading periods up to the first that is not
+/// are left out (the first always). With 3 periods
 /// only the first is left out (none can be checked). `Err` holds the periods a record needs
 /// when every period checked is transient (the last two may then be too): the periods the
 /// last difference takes to decay to the noise floor at the rate of the last two, plus 3.
@@ -101,12 +102,10 @@ pub fn transient_periods(
     };
     let floor = resolution * resolution / 6.0;
     let noise = msd(whole - 1, whole - 2).max(floor);
-    let discarded = (1..whole - 2)
-        .rev()
-        .find(|&j| msd(j, whole - 1) > TRANSIENT_RATIO * noise)
-        .map_or(1, |j| j + 1);
-    if discarded < whole - 2 {
-        return Ok(discarded);
+    // a decaying transient's difference from the last period shrinks period by period: the
+    // first period within the noise ends it (a later outlier of a noisy record does not count)
+    if let Some(settled) = (1..whole - 2).find(|&j| msd(j, whole - 1) <= TRANSIENT_RATIO * noise) {
+        return Ok(settled);
     }
     // the decay per period of the mean-square difference, from the last three periods
     let decay = noise / msd(whole - 2, whole - 3).max(floor);
