@@ -475,7 +475,23 @@ fn emulate_a_multisine_then_read_its_frequency_response_back() {
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["method"], "periods");
-    assert_eq!(v["segments"], 7);
+    // the loop settles in 7.9 s, 3 periods of 2.46 s: those and the first are left out
+    let discarded = v["periods_discarded"].as_u64().unwrap();
+    assert!((2..=6).contains(&discarded), "{discarded} periods left out");
+    assert_eq!(v["segments"].as_u64().unwrap() + discarded, 8);
+    // 60 periods of the same: the friction and dead band make later periods differ from one
+    // another by more than the noise, yet no more leading periods are left out
+    let args = ["emulate", "--experiment", "multisine", "--periods", "60"];
+    let (ok, _, err) = pumpcyl(d, &[&args[..], &["--out", "long.csv"]].concat());
+    assert!(ok, "{err}");
+    let (ok, long, err) = pumpcyl(d, &["frf", "long.csv", "--json"]);
+    assert!(ok, "{err}");
+    let long: serde_json::Value = serde_json::from_str(&long).unwrap();
+    let long = long["periods_discarded"].as_u64().unwrap();
+    assert!(
+        long.abs_diff(discarded) <= 1,
+        "{long} of 60, {discarded} of 8"
+    );
     let points = v["closed_loop"]["points"].as_array().unwrap();
     let model = v["model"]["magnitude_db"].as_array().unwrap();
     assert_eq!(points.len(), model.len());
@@ -493,6 +509,12 @@ fn emulate_a_multisine_then_read_its_frequency_response_back() {
         "{csv}"
     );
     assert_eq!(csv.lines().count(), points.len() + 1);
+    let last = |l: &str| l.rsplit(',').next().unwrap().to_string();
+    assert_eq!(last(csv.lines().next().unwrap()), "periods_discarded");
+    assert!(csv
+        .lines()
+        .skip(1)
+        .all(|l| last(l) == discarded.to_string()));
     assert!(std::fs::read_to_string(d.join("frf.svg"))
         .unwrap()
         .contains("<svg"));

@@ -342,56 +342,113 @@ fn a_sweep_described_in_the_experiment_file_is_checked_and_estimated_as_describe
     assert!(e.contains("square"), "{e}");
 }
 
-#[test]
-fn the_plant_estimate_of_an_emulated_sweep_with_the_sum_pressure_loop_closed_is_the_models() {
-    // the emulated article rig (its sum-pressure loop closed, every effect off, noise-free),
-    // its 100 Hz PLC sampled: x/w_e = T/(K_scale Kp (1 − T)) with T the model's sampled loop
-    // (docs/identification.md#what-is-estimated)
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    // a 20 s period: the loop settles within the first (its transient decays by 100 in 7.9 s)
-    let args = [
-        "emulate",
-        "--experiment",
-        "multisine",
-        "--no-effects",
-        "--no-noise",
-    ];
-    let shape = ["--from-hz", "0.05", "--to-hz", "1.5", "--periods", "4"];
-    let more = ["--amplitude-mm", "5", "--out", "sweep.csv"];
-    let (ok, _, err) = pumpcyl(d, &[&args[..], &shape, &more].concat());
+/// Emulate the article rig (its sum-pressure loop closed, every effect off) with `extra`
+/// options into `out` and estimate its frequency response.
+fn emulated_frf(d: &Path, extra: &[&str], out: &str) -> Result<serde_json::Value, String> {
+    let args = ["emulate", "--experiment", "multisine", "--no-effects"];
+    let (ok, _, err) = pumpcyl(d, &[&args[..], extra, &["--out", out]].concat());
     assert!(ok, "{err}");
-    let (ok, out, err) = pumpcyl(d, &["frf", "sweep.csv", "--json"]);
-    assert!(ok, "{err}");
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let plant = &v["plant"];
-    assert_eq!(plant["name"], "x/w_e");
-    let points = plant["points"].as_array().unwrap();
-    let f: Vec<f64> = points
-        .iter()
-        .map(|p| p["freq_hz"].as_f64().unwrap())
-        .collect();
+    let (ok, json, err) = pumpcyl(d, &["frf", out, "--json"]);
+    match ok {
+        true => Ok(serde_json::from_str(&json).unwrap()),
+        false => Err(err),
+    }
+}
+
+/// The worst |dB| and |deg| of the estimated closed loop and plant against the model's
+/// sampled loop at 100 Hz: T, and x/w_e = T/(K_scale Kp (1 − T))
+/// (docs/identification.md#what-is-estimated).
+fn worst_against_model(v: &serde_json::Value) -> [(f64, f64); 2] {
+    let parse = |r: &serde_json::Value| -> Vec<(f64, pumpcyl::frf::Complex64)> {
+        let num = |p: &serde_json::Value, k: &str| p[k].as_f64().unwrap();
+        (r["points"].as_array().unwrap().iter())
+            .map(|p| {
+                let h = pumpcyl::frf::Complex64::new(num(p, "re"), num(p, "im"));
+                (num(p, "freq_hz"), h)
+            })
+            .collect()
+    };
     let rig = pumpcyl::rig::Rig::default();
-    let t = pumpcyl::frf::sampled_loop_response(&pumpcyl::model::Plant::new(&rig), true, &f, 100.0)
-        .unwrap();
     let si = rig.si();
     let k_mm = si.k_scale * si.kp * 1e-3 / pumpcyl::units::RAD_S_PER_RPM;
     let one = pumpcyl::frf::Complex64::new(1.0, 0.0);
-    let mut worst = (0.0f64, 0.0f64);
-    for (p, t) in points.iter().zip(&t) {
-        let h = pumpcyl::frf::Complex64::new(p["re"].as_f64().unwrap(), p["im"].as_f64().unwrap());
-        let ratio = h / (t / ((one - t) * k_mm));
-        worst.0 = worst.0.max((20.0 * ratio.norm().log10()).abs());
-        worst.1 = worst.1.max(ratio.arg().to_degrees().abs());
-    }
+    let worst = |points: Vec<(f64, pumpcyl::frf::Complex64)>, plant: bool| {
+        let f: Vec<f64> = points.iter().map(|p| p.0).collect();
+        let plant_model = pumpcyl::model::Plant::new(&rig);
+        let t = pumpcyl::frf::sampled_loop_response(&plant_model, true, &f, 100.0).unwrap();
+        let mut w = (0.0f64, 0.0f64);
+        for ((_, h), t) in points.iter().zip(&t) {
+            let model = if plant { t / ((one - t) * k_mm) } else { *t };
+            let ratio = h / model;
+            w.0 = w.0.max((20.0 * ratio.norm().log10()).abs());
+            w.1 = w.1.max(ratio.arg().to_degrees().abs());
+        }
+        w
+    };
+    [
+        worst(parse(&v["closed_loop"]), false),
+        worst(parse(&v["plant"]), true),
+    ]
+}
+
+#[test]
+fn the_plant_estimate_of_an_emulated_sweep_with_the_sum_pressure_loop_closed_is_the_models() {
+    // the emulated article rig (its sum-pressure loop closed, every effect off, noise-free),
+    // its 100 Hz PLC sampled, against the model's sampled loop
+    let dir = tempfile::tempdir().unwrap();
+    // a 20 s period: the loop settles within the first (its transient decays by 100 in 7.9 s)
+    let shape = ["--from-hz", "0.05", "--to-hz", "1.5", "--periods", "4"];
+    let more = ["--amplitude-mm", "5", "--no-noise"];
+    let v = emulated_frf(dir.path(), &[&shape[..], &more].concat(), "sweep.csv").unwrap();
+    assert_eq!(v["plant"]["name"], "x/w_e");
+    let points = v["plant"]["points"].as_array().unwrap().len();
+    let [_, worst] = worst_against_model(&v);
     eprintln!(
-        "emulated plant: {} points, worst {:.4} dB {:.4} deg",
-        f.len(),
-        worst.0,
-        worst.1
+        "emulated plant: {points} points, worst {:.4} dB {:.4} deg",
+        worst.0, worst.1
     );
+    assert!(points >= 15 && worst.0 < 0.01 && worst.1 < 0.1, "{worst:?}");
+}
+
+#[test]
+fn the_default_multisine_is_estimated_from_its_settled_periods_only() {
+    // the designed multisine of the article rig: periods of 2.46 s, shorter than the loop's
+    // 7.9 s settling, so its leading periods are transient (docs/identification.md)
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let v = emulated_frf(d, &["--no-noise"], "quiet.csv").unwrap();
+    let min_coherence = |r: &serde_json::Value| {
+        (r["points"].as_array().unwrap().iter())
+            .map(|p| p["coherence"].as_f64().unwrap())
+            .fold(1.0f64, f64::min)
+    };
+    let quiet = v["periods_discarded"].as_u64().unwrap();
+    let [closed, plant] = worst_against_model(&v);
+    eprintln!(
+        "default multisine: {quiet} of {} periods left out, coherence >= {:.6}, closed loop \
+         {closed:?}, plant {plant:?} (dB, deg)",
+        quiet + v["segments"].as_u64().unwrap(),
+        min_coherence(&v["closed_loop"]).min(min_coherence(&v["plant"]))
+    );
+    // the transient lasts 7.9 s to 1 %: more than 3 periods, and far from all of them
+    assert!((4..=12).contains(&quiet), "{quiet}");
+    assert!(min_coherence(&v["closed_loop"]) >= 0.999);
+    assert!(min_coherence(&v["plant"]) >= 0.999);
+    for worst in [closed, plant] {
+        assert!(worst.0 < 0.01 && worst.1 < 0.1, "{worst:?}");
+    }
+    // with the sensor's noise a long record leaves out no more than the noise-free one
+    let v = emulated_frf(d, &["--periods", "60"], "noisy.csv").unwrap();
+    let noisy = v["periods_discarded"].as_u64().unwrap();
     assert!(
-        f.len() >= 15 && worst.0 < 0.01 && worst.1 < 0.1,
-        "{worst:?}"
+        (3..=quiet).contains(&noisy),
+        "{noisy} noisy, {quiet} noise-free"
+    );
+    // too short to show a settled period: one line saying how many it needs
+    let e = emulated_frf(d, &["--no-noise", "--periods", "6"], "short.csv").unwrap_err();
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+    assert!(
+        e.contains("6 whole periods") && e.contains("needs about"),
+        "{e}"
     );
 }

@@ -38,6 +38,8 @@ def test_frf_of_a_chirp_equals_scipy_csd_and_welch(tmp_path):
     with pytest.warns(UserWarning, match="coherence below the usable"):
         res = pumpcyl.frf(path, rig=rig).to_dict()
     assert res["method"] == "welch-hann"
+    # no periods to leave out of a broadband record (docs/identification.md, transient periods)
+    assert res["periods_discarded"] == 0
     n = res["segment_samples"]
     kw = dict(fs=rate_hz, window="hann", nperseg=n, noverlap=n // 2, detrend="constant")
     f, prx = signal.csd(r, x, **kw)

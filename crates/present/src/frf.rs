@@ -50,13 +50,14 @@ pub fn frf_json(est: &Estimate, model: Option<&ModelCurve>) -> serde_json::Value
 /// The estimate as text: what was estimated and how, one table per response, the warnings.
 pub fn frf_text(est: &Estimate) -> String {
     let mut out = format!(
-        "{}: {} at {} Hz, {} segments of {} samples ({:.1} independent averages)\n",
+        "{}: {} at {} Hz, {} segments of {} samples ({:.1} independent averages){}\n",
         est.file,
         method_name(est),
         crate::plot::sig(est.rate_hz, 6),
         est.segments,
         est.segment_samples,
-        est.averages
+        est.averages,
+        discarded_text(est)
     );
     for r in std::iter::once(&est.closed_loop).chain(&est.plant) {
         out.push_str(&response_table(r).text());
@@ -65,6 +66,17 @@ pub fn frf_text(est: &Estimate) -> String {
         let _ = writeln!(out, "warning: {w}");
     }
     out
+}
+
+/// The leading periods left out of a periodic sweep, as the text's first line ends.
+fn discarded_text(est: &Estimate) -> String {
+    match est.method {
+        pumpcyl::frf::Method::Periods => format!(
+            ", {} leading periods left out as not in periodic steady state",
+            est.periods_discarded
+        ),
+        _ => String::new(),
+    }
 }
 
 fn method_name(est: &Estimate) -> &'static str {
@@ -102,7 +114,8 @@ fn response_table(r: &Response) -> Table {
 }
 
 /// The estimate as CSV: one row per frequency, the closed loop's columns and, where estimated,
-/// the plant's (`plant_` prefix), then the model's closed loop where given.
+/// the plant's (`plant_` prefix), then the model's closed loop where given, then the leading
+/// periods left out of a periodic sweep (the same on every row).
 pub fn frf_csv(est: &Estimate, model: Option<&ModelCurve>) -> String {
     const COLUMNS: [&str; 8] = [
         "magnitude_db",
@@ -122,6 +135,7 @@ pub fn frf_csv(est: &Estimate, model: Option<&ModelCurve>) -> String {
     if model.is_some() {
         header.extend(["model_magnitude_db".into(), "model_phase_deg".into()]);
     }
+    header.push("periods_discarded".into());
     let mut out = header.join(",");
     out.push('\n');
     let cells = |p: &Point| {
@@ -146,6 +160,7 @@ pub fn frf_csv(est: &Estimate, model: Option<&ModelCurve>) -> String {
         if let Some(m) = model {
             let _ = write!(row, ",{:.9e},{:.9e}", m.magnitude_db[k], m.phase_deg[k]);
         }
+        let _ = write!(row, ",{}", est.periods_discarded);
         let _ = writeln!(out, "{row}");
     }
     out

@@ -14,8 +14,9 @@
 //!
 //! - broadband records (a single chirp, or any sweep not described): Welch's averaged spectra,
 //!   Hann window, half-overlapping segments, H1 = S_rx/S_rr, γ² = |S_rx|²/(S_rr S_xx);
-//! - a periodic sweep (a multisine, a chirp played three times or more): its periods after the
-//!   first as segments, no window, at its harmonics, the same H1 and γ²;
+//! - a periodic sweep (a multisine, a chirp played three times or more): its periods in
+//!   periodic steady state as segments (the leading ones whose response still differs from the
+//!   last period's by more than its noise left out, at least the first), no window, at its harmonics, the same H1 and γ²;
 //! - a stepped sine: a least-squares sine fit of r and x over the whole periods after settling.
 //!
 //! The band is the random error of an H1 estimate (Bendat & Piersol, *Random Data*, 4th ed.,
@@ -200,6 +201,9 @@ pub struct Estimate {
     pub segment_samples: usize,
     /// Segments (periods, levels) averaged.
     pub segments: usize,
+    /// Leading periods of a periodic sweep left out as not yet in periodic steady state
+    /// (docs/identification.md#frequency-response-from-a-sweep); 0 for the other methods.
+    pub periods_discarded: usize,
     /// Independent averages n_d in the band's formula.
     pub averages: f64,
     /// The coherence a frequency needs to be usable ([`usable_coherence`]).
@@ -250,7 +254,7 @@ pub fn estimate(rec: &Record, opts: &Options) -> Result<Estimate, FrfError> {
             periodic(rec, &e, rate_hz, command.as_deref())?
         }
         None if opts.segment_s.is_none() => match find_period(rec) {
-            Some((first, len)) => found_periodic(rec, (first, len), rate_hz, command.as_deref()),
+            Some((first, len)) => found_periodic(rec, (first, len), rate_hz, command.as_deref())?,
             None => welch_estimate(rec, opts, rate_hz, command.as_deref(), &mut warnings)?,
         },
         _ => welch_estimate(rec, opts, rate_hz, command.as_deref(), &mut warnings)?,
@@ -474,6 +478,7 @@ fn shell(rec: &Record, method: Method, rate_hz: f64, s: &Spectra) -> Estimate {
         rate_hz,
         segment_samples: s.segment_len,
         segments: s.segments,
+        periods_discarded: 0,
         averages: s.averages,
         usable_coherence: USABLE_COHERENCE,
         closed_loop: Response {
@@ -486,7 +491,7 @@ fn shell(rec: &Record, method: Method, rate_hz: f64, s: &Spectra) -> Estimate {
     }
 }
 
-/// A periodic sweep: the periods after the first, at the harmonics it excites.
+/// A periodic sweep: its periods in periodic steady state, at the harmonics it excites.
 fn periodic(
     rec: &Record,
     e: &Excitation,
@@ -495,20 +500,8 @@ fn periodic(
 ) -> Result<(Vec<Raw>, Estimate), FrfError> {
     let period_s = e.period_s().unwrap_or(f64::NAN);
     let len = (period_s * rate_hz).round() as usize;
-    let first = ((e.start_s() - rec.time_s[0]) * rate_hz).round().max(0.0) as usize + len;
-    let (r, x) = (&rec.x_ref_mm, &rec.x_mm);
-    let whole_periods = rec.len().saturating_sub(first) / len;
-    if whole_periods < 2 || len > MAX_SEGMENT {
-        return Err(FrfError::TooShort {
-            file: rec.file.clone(),
-            message: format!(
-                "{whole_periods} whole periods of {period_s} s after the settling period: the \
-                 band needs at least 2 (and periods up to {MAX_SEGMENT} samples)"
-            ),
-        });
-    }
-    let sx = spectra::periods(r, x, first, len);
-    let su = command.map(|u| spectra::periods(r, u, first, len));
+    let start = ((e.start_s() - rec.time_s[0]) * rate_hz).round().max(0.0) as usize;
+    let (sx, su, est) = settled_spectra(rec, (start, len), rate_hz, command)?;
     let raw = e
         .excited_harmonics()
         .iter()
@@ -516,7 +509,45 @@ fn periodic(
         .filter(|&k| k < len / 2)
         .map(|k| ratio_at(k as f64 / period_s, k, &sx, su.as_ref()))
         .collect();
-    Ok((raw, shell(rec, Method::Periods, rate_hz, &sx)))
+    Ok((raw, est))
+}
+
+/// The spectra of the whole periods of `len` samples from `start` on that are in periodic
+/// steady state ([`spectra::transient_periods`]: at least 2 remain), and the estimate's
+/// shell; refused when the record has fewer than 3 periods or none shown settled.
+fn settled_spectra(
+    rec: &Record,
+    (start, len): (usize, usize),
+    rate_hz: f64,
+    command: Option<&[f64]>,
+) -> Result<(Spectra, Option<Spectra>, Estimate), FrfError> {
+    let (r, x) = (&rec.x_ref_mm, &rec.x_mm);
+    let whole = rec.len().saturating_sub(start) / len.max(1);
+    let resolution = crate::record::POSITION_RESOLUTION_MM;
+    let refuse = |message: String| FrfError::TooShort {
+        file: rec.file.clone(),
+        message,
+    };
+    let period_s = len as f64 / rate_hz;
+    if whole < 3 || len > MAX_SEGMENT {
+        return Err(refuse(format!(
+            "{whole} whole periods of {period_s} s: the estimate needs at least 3 (the first \
+             to settle) and periods up to {MAX_SEGMENT} samples"
+        )));
+    }
+    let discarded = spectra::transient_periods(x, start, len, resolution).map_err(|needed| {
+        refuse(format!(
+            "{whole} whole periods of {period_s} s, none shown in periodic steady state (each \
+             differs from the last by more than the last two differ): the record needs about \
+             {needed} periods"
+        ))
+    })?;
+    let first = start + discarded * len;
+    let sx = spectra::periods(r, x, first, len);
+    let su = command.map(|u| spectra::periods(r, u, first, len));
+    let mut est = shell(rec, Method::Periods, rate_hz, &sx);
+    est.periods_discarded = discarded;
+    Ok((sx, su, est))
 }
 
 /// Samples compared before a lag is checked over the whole record.
@@ -538,24 +569,22 @@ pub fn find_period(rec: &Record) -> Option<(usize, usize)> {
     Some((s + len, len))
 }
 
-/// A periodic sweep found by [`find_period`]: its periods after the first, at the harmonics
-/// its reference excites (power above [`EXCITED`] of the strongest).
+/// A periodic sweep found by [`find_period`]: its periods in periodic steady state, at the
+/// harmonics its reference excites (power above [`EXCITED`] of the strongest).
 fn found_periodic(
     rec: &Record,
     (first, len): (usize, usize),
     rate_hz: f64,
     command: Option<&[f64]>,
-) -> (Vec<Raw>, Estimate) {
-    let (r, x) = (&rec.x_ref_mm, &rec.x_mm);
-    let sx = spectra::periods(r, x, first, len);
-    let su = command.map(|u| spectra::periods(r, u, first, len));
+) -> Result<(Vec<Raw>, Estimate), FrfError> {
+    let (sx, su, est) = settled_spectra(rec, (first - len, len), rate_hz, command)?;
     let peak = sx.rr.iter().skip(1).cloned().fold(0.0, f64::max);
     let period_s = len as f64 / rate_hz;
     let raw = (1..len.div_ceil(2))
         .filter(|&k| sx.rr[k] > 0.0 && sx.rr[k] >= EXCITED * peak)
         .map(|k| ratio_at(k as f64 / period_s, k, &sx, su.as_ref()))
         .collect();
-    (raw, shell(rec, Method::Periods, rate_hz, &sx))
+    Ok((raw, est))
 }
 
 /// A stepped sine: the sine fit of r, x (and u) over each level's whole periods after settling.

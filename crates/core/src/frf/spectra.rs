@@ -71,6 +71,56 @@ pub fn periods(r: &[f64], y: &[f64], first: usize, len: usize) -> Spectra {
     sum.finish(n)
 }
 
+/// The ratio of a period's mean-square difference from the last period to the last two
+/// periods' own one above which the period is not yet in periodic steady state.
+pub const TRANSIENT_RATIO: f64 = 2.0;
+
+/// The leading periods of `y` (whole periods of `len` samples from `start`) not yet in
+/// periodic steady state, at least 1 (Pintelon & Schoukens, *System Identification: A
+/// Frequency Domain Approach*, 2nd ed., Wiley 2012, §2.6): the noise is the mean-square
+/// difference of the last two periods (2σ², at least that of a `resolution` quantization,
+/// 2·resolution²/12), and a period whose mean-square difference from the last one exceeds
+/// [`TRANSIENT_RATIO`] times it is transient: the leading periods up to the first that is not
+/// are left out (the first always). With 3 periods
+/// only the first is left out (none can be checked). `Err` holds the periods a record needs
+/// when every period checked is transient (the last two may then be too): the periods the
+/// last difference takes to decay to the noise floor at the rate of the last two, plus 3.
+pub fn transient_periods(
+    y: &[f64],
+    start: usize,
+    len: usize,
+    resolution: f64,
+) -> Result<usize, usize> {
+    let whole = y.len().saturating_sub(start) / len.max(1);
+    if whole < 4 {
+        return Ok(1);
+    }
+    let period = |j: usize| &y[start + j * len..start + (j + 1) * len];
+    let msd = |j: usize, k: usize| {
+        let (a, b) = (period(j), period(k));
+        a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum::<f64>() / len as f64
+    };
+    let floor = resolution * resolution / 6.0;
+    let noise = msd(whole - 1, whole - 2).max(floor);
+    // a decaying transient's difference from the last period shrinks period by period: the
+    // first period within the noise ends it (a later outlier of a noisy record does not count)
+    if let Some(settled) = (1..whole - 2).find(|&j| msd(j, whole - 1) <= TRANSIENT_RATIO * noise) {
+        return Ok(settled);
+    }
+    // the decay per period of the mean-square difference, from the last three periods
+    let decay = noise / msd(whole - 2, whole - 3).max(floor);
+    let more = (noise / floor).ln() / (1.0 / decay).ln();
+    let more = if more.is_finite() && more > 0.0 {
+        more.ceil()
+    } else {
+        whole as f64
+    };
+    Err(whole + (more as usize).min(MAX_MORE_PERIODS) + 1)
+}
+
+/// The most periods [`transient_periods`] asks a record to add.
+const MAX_MORE_PERIODS: usize = 1000;
+
 /// The correlation of two windows `step` samples apart: Σ w[k] w[k+step] / Σ w².
 fn overlap_correlation(window: &[f64], step: usize) -> f64 {
     let energy: f64 = window.iter().map(|w| w * w).sum();
@@ -193,6 +243,29 @@ mod tests {
     fn hann_windows_half_apart_correlate_by_one_sixth() {
         // Σ sin²(πk/N) cos²(πk/N) over the overlap (N/16) over Σ sin⁴(πk/N) (3N/8)
         assert!((overlap_correlation(&hann(1024), 512) - 1.0 / 6.0).abs() < 1e-12);
+    }
+
+    /// A sine of 50-sample periods plus a transient 10^(-t/period) of amplitude 1, sampled
+    /// at `periods` periods.
+    fn decaying(periods: usize) -> Vec<f64> {
+        (0..periods * 50)
+            .map(|k| (2.0 * PI * k as f64 / 50.0).sin() + 10f64.powf(-(k as f64) / 50.0))
+            .collect()
+    }
+
+    #[test]
+    fn periods_whose_transient_exceeds_the_resolution_are_left_out() {
+        // the transient's mean square over period j: 10^(-2j) Σ 10^(-i/25)/50 = 0.227·10^(-2j),
+        // against twice the floor 2·(1e-3)²/6 = 3.3e-7: above at j = 2, below at j = 3
+        assert_eq!(transient_periods(&decaying(20), 0, 50, 1e-3), Ok(3));
+        // a resolution 10 times coarser: 3.3e-5, above at j = 1, below at j = 2
+        assert_eq!(transient_periods(&decaying(20), 0, 50, 1e-2), Ok(2));
+        // no transient: only the first period goes; with 3 periods none can be checked
+        let steady: Vec<f64> = (0..1000).map(|k| (k as f64 * 0.3).sin()).collect();
+        assert_eq!(transient_periods(&steady[..500], 0, 50, 1e-3), Ok(1));
+        assert_eq!(transient_periods(&decaying(3), 0, 50, 1e-3), Ok(1));
+        // 4 periods still decaying: refused, with more periods asked for
+        assert!(transient_periods(&decaying(4), 0, 50, 1e-3).is_err_and(|n| n > 4));
     }
 
     #[test]
