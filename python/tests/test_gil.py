@@ -29,7 +29,7 @@ from conftest import ARTICLE
 CALLS = {
     "identify": "pumpcyl.identify(EXPERIMENT, refined_grid=False)",
     "identify_shard": "pumpcyl.identify(EXPERIMENT, shard=(1, 1))",
-    "identify_merge": "pumpcyl.identify_merge([SHARD])",
+    "identify_merge": "[pumpcyl.identify_merge([SHARD]) for _ in range(8)]",
     "design": "pumpcyl.design(p_mean_bar=list(np.linspace(2.0, 8.0, 20)), mass_kg=[4898.0, 10593.0])",
     "design_robust": "pumpcyl.design(robust=True)",
     "select": "pumpcyl.select(low_pressure_bar=[2.0, 4.0])",
