@@ -271,7 +271,10 @@ fn known(d: &Dynamics) -> Rc<Known> {
     if let Some(k) = KNOWN.with(|k| k.borrow().iter().find(|k| k.probe == probe).cloned()) {
         return k;
     }
-    let roles: Vec<Role> = d.circuit().states().iter().map(|s| s.role).collect();
+    let scale = typical(d);
+    let cells = (d.circuit().states().iter().zip(&scale))
+        .map(|(s, size)| size * cell(s.role))
+        .collect();
     let serial = SERIAL.with(|s| {
         s.set(s.get() + 1);
         s.get()
@@ -279,8 +282,8 @@ fn known(d: &Dynamics) -> Rc<Known> {
     let k = Rc::new(Known {
         probe,
         serial,
-        scale: roles.iter().map(|r| r.typical_size()).collect(),
-        cells: roles.iter().map(|&r| r.typical_size() * cell(r)).collect(),
+        scale,
+        cells,
         command_cell: Role::SpeedCommand.typical_size() * COMMAND_CELL,
     });
     KNOWN.with(|all| {
