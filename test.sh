@@ -77,6 +77,10 @@ PIP_PID=$!
 echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath dask distributed pandas (in the background: $PIP_LOG)"
 
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
+    # every crate of the workspace, the Python extension's too, from the registry where this
+    # machine has not downloaded them yet (a few seconds)
+    echo "== cargo fetch --locked"
+    cargo fetch --locked
     echo "== cargo test --locked $*"
     if ! cargo test --locked "$@"; then
         wait "$PIP_PID" || true

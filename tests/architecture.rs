@@ -9,12 +9,14 @@ use std::process::Command;
 #[path = "common/tree.rs"]
 mod tree;
 
-/// The output of `cargo tree ARGS --prefix none` on this workspace, offline.
+/// The output of `cargo tree ARGS --prefix none` on this workspace. Not `--offline`: on a new
+/// machine the Python extension's crates (PyO3, numpy) are not downloaded before its build,
+/// and cargo fetches what the tree needs from the registry as any build would.
 fn cargo_tree(args: &[&str]) -> String {
     let out = Command::new(env!("CARGO"))
         .arg("tree")
         .args(args)
-        .args(["--prefix", "none", "--offline", "--locked"])
+        .args(["--prefix", "none", "--locked"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("cargo runs");
