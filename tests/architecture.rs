@@ -89,6 +89,31 @@ fn the_python_build_reuses_the_test_builds_dependencies() {
     assert!(python.contains_key("nalgebra v0.35.0") && tests.contains_key("nalgebra v0.35.0"));
 }
 
+/// The binary's build and the Python extension's each ask for every dependency with one
+/// feature set, whether it is built for a build script (the host side) or for the program:
+/// the core that crates/fmu-binary's build script links the FMU's library against is then the
+/// very unit the binary links, compiled once (crates/unify; docs/architecture.md#build-times).
+#[test]
+fn build_scripts_and_programs_share_one_feature_set_of_each_dependency() {
+    for args in [
+        &["-e", "normal,build"][..],
+        &["-p", "pumpcyl-python", "-e", "normal,build"][..],
+    ] {
+        let split: Vec<String> = feature_sets(&tree_lines(args))
+            .into_iter()
+            .filter(|(_, features)| features.len() > 1)
+            .map(|(package, features)| format!("{package}: {features:?}"))
+            .collect();
+        assert!(
+            split.is_empty(),
+            "cargo tree {args:?}: add the larger feature set to crates/unify/Cargo.toml: {split:#?}"
+        );
+    }
+    // the core is a build dependency at all, so the check is about something
+    let fmu = cargo_tree(&["-p", "pumpcyl-fmu-binary", "-e", "build", "--depth", "1"]);
+    assert!(fmu.lines().any(|l| l.starts_with("pumpcyl v")), "{fmu}");
+}
+
 #[test]
 fn the_core_needs_no_front_end_crate_and_present_no_command_line_crate() {
     let core = runtime_dependencies("pumpcyl");
