@@ -176,7 +176,7 @@ Numbers identified from them show that the method recovers that truth; they are 
 measurements.";
 
 /// A step callback: (step from 1, [`STEPS`], what the step does).
-pub type OnStep<'a> = &'a dyn Fn(usize, usize, &str);
+pub type OnStep<'a> = &'a (dyn Fn(usize, usize, &str) + Sync);
 
 /// A search callback: (candidates just evaluated, all candidates); `false` stops the search.
 pub type OnCandidates<'a> = &'a (dyn Fn(u64, u64) -> bool + Sync);
@@ -315,17 +315,64 @@ struct Run<'a> {
     charts: Vec<Chart>,
     files: Vec<(PathBuf, Vec<u8>)>,
     step: usize,
+    /// The steps a run computed [`Run::apart`] has headed, announced when it is merged.
+    unannounced: Vec<(usize, String)>,
 }
 
-impl Run<'_> {
+impl<'a> Run<'a> {
+    /// A run for `opts` from its first step.
+    fn new(opts: &'a ReproduceOptions<'a>, files: Vec<(PathBuf, Vec<u8>)>) -> Self {
+        Run {
+            opts,
+            blocks: Vec::new(),
+            table: Vec::new(),
+            figures: Vec::new(),
+            charts: Vec::new(),
+            files,
+            step: 0,
+            unannounced: Vec::new(),
+        }
+    }
+
+    /// A run whose steps follow step `after` and are computed beside the run that reaches it
+    /// (on another thread: `opts` without the step callback, which need not be thread-safe);
+    /// [`Run::merge`] appends it, announcing its steps then.
+    fn apart(opts: &'a ReproduceOptions<'a>, after: usize) -> Self {
+        Run {
+            step: after,
+            ..Run::new(opts, Vec::new())
+        }
+    }
+
+    /// Append `part`, computed [`Run::apart`] from this run's current step, announcing its
+    /// steps as if they had run here.
+    fn merge(&mut self, part: Run) {
+        debug_assert_eq!(part.unannounced.first().map(|s| s.0), Some(self.step + 1));
+        for (k, what) in &part.unannounced {
+            self.announce(*k, what);
+        }
+        self.step = part.step;
+        self.blocks.extend(part.blocks);
+        self.table.extend(part.table);
+        self.figures.extend(part.figures);
+        self.charts.extend(part.charts);
+        self.files.extend(part.files);
+    }
+
     /// Announce a step (progress) and head its section of the report.
     fn step(&mut self, what: &str) {
         self.step += 1;
-        if let Some(f) = self.opts.on_step {
-            f(self.step, STEPS, what);
-        }
+        self.announce(self.step, what);
         self.blocks
             .push(Block::Heading(format!("{}. {what}", self.step)));
+    }
+
+    /// Step `k` starts: the progress callback, or a note for [`Run::merge`] where there is none.
+    fn announce(&mut self, k: usize, what: &str) {
+        match self.opts.on_step {
+            Some(f) => f(k, STEPS, what),
+            None => self.unannounced.push((k, what.to_string())),
+        }
     }
 
     /// A record of the embedded folder (read through [`article::Embedded`]).
@@ -424,49 +471,86 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
             )
         })
         .collect();
-    let mut run = Run {
-        opts,
-        blocks: Vec::new(),
-        table: Vec::new(),
-        figures: Vec::new(),
-        charts: Vec::new(),
-        files,
-        step: 0,
+    let mut run = Run::new(opts, files);
+    // the Figure 1 circuits (step 11) need nothing of the steps before them, and the sweep (step
+    // 12) only the step intervals of step 9: each is computed beside the steps it follows and
+    // merged in order (the same numbers as one after the other)
+    let quiet = ReproduceOptions {
+        on_step: None,
+        ..*opts
     };
-    let (drive, km) = identification::drive_step(&mut run)?;
-    let records = article::records()?;
-    let emulator = emulator_used(&records)?;
-    let truth = records[0].truth.clone();
-    let (exp, nominal, identified, cost_mm2) = identification::identification(&mut run, &truth)?;
-    let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
-    let rise_time = identification::rise_time(&mut run, &exp, &nominal)?;
-    let robustness = identification::robustness(&mut run, &exp, &nominal)?;
-    let pressure = pressure::pressure_study(&mut run, &nominal, &exp, &truth)?;
-    let damping = studies::damping_study(&mut run, &nominal)?;
-    let stroke = studies::stroke_study(&mut run, &nominal)?;
-    let tracking = tracking::tracking(&mut run, &nominal)?;
-    let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
-    let truth_point = Candidate {
-        beta_bar: truth.rig.beta_bar,
-        viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
-        c12_m5_per_ns: truth.rig.c12_m5_per_ns,
-    };
-    let (certainty, how_sure) =
-        certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
-    let which_circuit = circuit::which_circuit(
-        &mut run,
-        &certainty.robust.region,
-        certainty::CONFIDENCE,
-        pressure.p_mean_bar,
-    )?;
-    let figure1_circuits = figure1_circuits::figure1_circuits(&mut run)?;
-    let sweep_beside_steps = sweep::sweep_beside_steps(
-        &mut run,
-        &exp,
-        &certainty.uncertainty,
-        (&truth, &truth_point),
-        certainty::CONFIDENCE,
-    )?;
+    let (steps, figure1) = rayon::join(
+        || -> Result<_> {
+            let (drive, km) = identification::drive_step(&mut run)?;
+            let records = article::records()?;
+            let emulator = emulator_used(&records)?;
+            let truth = records[0].truth.clone();
+            let (exp, nominal, identified, cost_mm2) =
+                identification::identification(&mut run, &truth)?;
+            let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
+            let rise_time = identification::rise_time(&mut run, &exp, &nominal)?;
+            let robustness = identification::robustness(&mut run, &exp, &nominal)?;
+            let pressure = pressure::pressure_study(&mut run, &nominal, &exp, &truth)?;
+            let damping = studies::damping_study(&mut run, &nominal)?;
+            let stroke = studies::stroke_study(&mut run, &nominal)?;
+            let tracking = tracking::tracking(&mut run, &nominal)?;
+            let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
+            let truth_point = Candidate {
+                beta_bar: truth.rig.beta_bar,
+                viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
+                c12_m5_per_ns: truth.rig.c12_m5_per_ns,
+            };
+            let (certainty, how_sure) =
+                certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
+            let mut sweep_run = Run::apart(&quiet, STEPS - 1);
+            let (which_circuit, sweep_beside_steps) = rayon::join(
+                || {
+                    circuit::which_circuit(
+                        &mut run,
+                        &certainty.robust.region,
+                        certainty::CONFIDENCE,
+                        pressure.p_mean_bar,
+                    )
+                },
+                || {
+                    sweep::sweep_beside_steps(
+                        &mut sweep_run,
+                        &exp,
+                        &certainty.uncertainty,
+                        (&truth, &truth_point),
+                        certainty::CONFIDENCE,
+                    )
+                },
+            );
+            Ok((
+                (drive, km, emulator, nominal, identified, cost_mm2),
+                (
+                    record_conditions,
+                    rise_time,
+                    robustness,
+                    pressure,
+                    damping,
+                    stroke,
+                ),
+                (tracking, design, design_kp, certainty, how_sure),
+                (which_circuit?, sweep_beside_steps?, sweep_run),
+            ))
+        },
+        || -> Result<_> {
+            let mut part = Run::apart(&quiet, STEPS - 2);
+            let found = figure1_circuits::figure1_circuits(&mut part)?;
+            Ok((found, part))
+        },
+    );
+    let (
+        (drive, km, emulator, nominal, identified, cost_mm2),
+        (record_conditions, rise_time, robustness, pressure, damping, stroke),
+        (tracking, design, design_kp, certainty, how_sure),
+        (which_circuit, sweep_beside_steps, sweep_run),
+    ) = steps?;
+    let (figure1_circuits, figure1_run) = figure1?;
+    run.merge(figure1_run);
+    run.merge(sweep_run);
     registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
     run.render_pngs()?;
     let seconds = start.elapsed().as_secs_f64();
