@@ -204,12 +204,18 @@ struct Known {
 }
 
 /// A linear part: the scaled Jacobian J₀ at a lattice point (row-major, and column-major for
-/// products), and the ETDRK4 propagators of the step lengths used with it (by the bits of h).
+/// products), the φ functions of the halvings of the intervals it was used over (by the bits of
+/// the interval and the first halving of the block) and the ETDRK4 propagators built from them
+/// (by the bits of the interval and the halving).
 struct Linear {
     j: Vec<f64>,
     j_columns: Vec<f64>,
-    propagators: RefCell<Vec<(u64, Rc<Propagator>)>>,
+    phis: RefCell<Vec<(Halving, Rc<Phis>)>>,
+    propagators: RefCell<Vec<(Halving, Rc<Propagator>)>>,
 }
+
+/// A halving of an interval: the bits of the interval (s) and the number of halvings.
+type Halving = (u64, u32);
 
 /// A linear part's key: the serial of what is known of the dynamics, the lattice cell of the
 /// state and of the commands.
@@ -321,6 +327,7 @@ fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
     let l = Rc::new(Linear {
         j_columns: columns(&j, n),
         j,
+        phis: RefCell::new(Vec::new()),
         propagators: RefCell::new(Vec::new()),
     });
     LINEAR.with(|c| c.borrow_mut().insert(key, l.clone()));
@@ -335,6 +342,8 @@ struct Problem<'a> {
     known: &'a Known,
     linear: &'a Linear,
     n: usize,
+    /// The PLC interval (s): the steps are its halvings.
+    span: f64,
 }
 
 impl Problem<'_> {
@@ -361,12 +370,34 @@ impl Problem<'_> {
 /// e^{hJ₀/2}, (h/2) φ₁(hJ₀/2), e^{hJ₀}, and the weights h(φ₁ − 3φ₂ + 4φ₃), 2h(φ₂ − 2φ₃),
 /// h(4φ₃ − φ₂) of hJ₀.
 struct Propagator {
-    e_half: Vec<f64>,
-    p_half: Vec<f64>,
-    e: Vec<f64>,
-    weight1: Vec<f64>,
-    weight2: Vec<f64>,
-    weight3: Vec<f64>,
+    /// The six matrices one after the other, each column-major n × n.
+    m: Vec<f64>,
+    n: usize,
+}
+
+impl Propagator {
+    fn matrix(&self, k: usize) -> &[f64] {
+        let nn = self.n * self.n;
+        &self.m[k * nn..(k + 1) * nn]
+    }
+    fn e_half(&self) -> &[f64] {
+        self.matrix(0)
+    }
+    fn p_half(&self) -> &[f64] {
+        self.matrix(1)
+    }
+    fn e(&self) -> &[f64] {
+        self.matrix(2)
+    }
+    fn weight1(&self) -> &[f64] {
+        self.matrix(3)
+    }
+    fn weight2(&self) -> &[f64] {
+        self.matrix(4)
+    }
+    fn weight3(&self) -> &[f64] {
+        self.matrix(5)
+    }
 }
 
 /// Integrate the rig over [t0, t1] with the commands `u` held by ETDRK4 steps of the whole
@@ -402,6 +433,7 @@ fn exponential(
         known: &known,
         linear: &linear,
         n,
+        span,
     };
     let mut y = [0.0; N_MAX];
     for i in 0..n {
@@ -409,6 +441,7 @@ fn exponential(
     }
     // the interval in 2^level steps, `at` of them done
     let (mut level, mut at) = (0u32, 0u64);
+    let mut reuse: Option<Vector> = None;
     for _ in 0..MAX_STEPS {
         if at == 1u64 << level {
             let out: Vec<f64> = (0..n).map(|i| y[i] * known.scale[i]).collect();
@@ -416,7 +449,7 @@ fn exponential(
             return Ok(out);
         }
         let h = span / (1u64 << level) as f64;
-        let (next, error) = doubled(&p, &y, h)?;
+        let (next, error, mid) = doubled(&p, &y, level, reuse.take())?;
         let last = level == MAX_HALVINGS;
         if error <= TOLERANCE || (last && error <= BLOW_UP) {
             y = next;
@@ -433,6 +466,8 @@ fn exponential(
         } else {
             level += 1;
             at *= 2;
+            // the first half of the step just refused is the next try's whole step
+            reuse = Some(mid);
         }
     }
     Err(EmulatorError(format!(
@@ -440,14 +475,22 @@ fn exponential(
     )))
 }
 
-/// Two ETDRK4 steps of h/2 from `y`, and their error: their difference from one step of h
-/// over 15 (Richardson, the method being of order 4), the largest in typical sizes.
-fn doubled(p: &Problem, y: &Vector, h: f64) -> Result<(Vector, f64), EmulatorError> {
+/// Two ETDRK4 steps of h/2 from `y`, h the interval's `level`-th halving, and their error:
+/// their difference from one step of h over 15 (Richardson, the method being of order 4), the
+/// largest in typical sizes.
+fn doubled(
+    p: &Problem,
+    y: &Vector,
+    level: u32,
+    whole: Option<Vector>,
+) -> Result<(Vector, f64, Vector), EmulatorError> {
     let mut n0 = [0.0; N_MAX];
     p.nonlinear(y, &mut n0);
-    let full = propagator_for(p, h)?;
-    let whole = etdrk4(p, &full, y, &n0);
-    let half = propagator_for(p, 0.5 * h)?;
+    let whole = match whole {
+        Some(w) => w,
+        None => etdrk4(p, &*propagator_for(p, level)?, y, &n0),
+    };
+    let half = propagator_for(p, level + 1)?;
     let mid = etdrk4(p, &half, y, &n0);
     let mut n_mid = [0.0; N_MAX];
     p.nonlinear(&mid, &mut n_mid);
@@ -456,9 +499,9 @@ fn doubled(p: &Problem, y: &Vector, h: f64) -> Result<(Vector, f64), EmulatorErr
         .map(|i| (end[i] - whole[i]).abs() / 15.0)
         .fold(0.0, f64::max);
     if !error.is_finite() {
-        return Ok((end, f64::INFINITY));
+        return Ok((end, f64::INFINITY, mid));
     }
-    Ok((end, error))
+    Ok((end, error, mid))
 }
 
 /// One step of Cox and Matthews' ETDRK4 from `y` (nonlinear part `n0` there) with the
@@ -466,42 +509,62 @@ fn doubled(p: &Problem, y: &Vector, h: f64) -> Result<(Vector, f64), EmulatorErr
 fn etdrk4(p: &Problem, q: &Propagator, y: &Vector, n0: &Vector) -> Vector {
     let n = p.n;
     let mut ey = [0.0; N_MAX];
-    mat_vec_add(&q.e_half, y, &mut ey, n);
+    mat_vec_add(q.e_half(), y, &mut ey, n);
     let mut a = ey;
-    mat_vec_add(&q.p_half, n0, &mut a, n);
+    mat_vec_add(q.p_half(), n0, &mut a, n);
     let mut na = [0.0; N_MAX];
     p.nonlinear(&a, &mut na);
     let mut b = ey;
-    mat_vec_add(&q.p_half, &na, &mut b, n);
+    mat_vec_add(q.p_half(), &na, &mut b, n);
     let mut nb = [0.0; N_MAX];
     p.nonlinear(&b, &mut nb);
     let mut c = [0.0; N_MAX];
-    mat_vec_add(&q.e_half, &a, &mut c, n);
+    mat_vec_add(q.e_half(), &a, &mut c, n);
     let mut twice = [0.0; N_MAX];
     let mut sum = [0.0; N_MAX];
     for i in 0..n {
         twice[i] = 2.0 * nb[i] - n0[i];
         sum[i] = na[i] + nb[i];
     }
-    mat_vec_add(&q.p_half, &twice, &mut c, n);
+    mat_vec_add(q.p_half(), &twice, &mut c, n);
     let mut nc = [0.0; N_MAX];
     p.nonlinear(&c, &mut nc);
     let mut out = [0.0; N_MAX];
-    mat_vec_add(&q.e, y, &mut out, n);
-    mat_vec_add(&q.weight1, n0, &mut out, n);
-    mat_vec_add(&q.weight2, &sum, &mut out, n);
-    mat_vec_add(&q.weight3, &nc, &mut out, n);
+    mat_vec_add(q.e(), y, &mut out, n);
+    mat_vec_add(q.weight1(), n0, &mut out, n);
+    mat_vec_add(q.weight2(), &sum, &mut out, n);
+    mat_vec_add(q.weight3(), &nc, &mut out, n);
     out
 }
 
 /// out += m · v (m column-major n × n): a sum of columns, which vectorises where a sum of
-/// row products would not.
+/// row products would not; unrolled for the circuits' orders.
 fn mat_vec_add(m: &[f64], v: &Vector, out: &mut Vector, n: usize) {
-    for (column, &vk) in m.chunks_exact(n).zip(&v[..n]) {
-        for (o, c) in out[..n].iter_mut().zip(column) {
-            *o += c * vk;
+    match n {
+        7 => mat_vec_add_n::<7>(m, v, out),
+        8 => mat_vec_add_n::<8>(m, v, out),
+        9 => mat_vec_add_n::<9>(m, v, out),
+        10 => mat_vec_add_n::<10>(m, v, out),
+        _ => {
+            for (column, &vk) in m.chunks_exact(n).zip(&v[..n]) {
+                for (o, c) in out[..n].iter_mut().zip(column) {
+                    *o += c * vk;
+                }
+            }
         }
     }
+}
+
+fn mat_vec_add_n<const N: usize>(m: &[f64], v: &Vector, out: &mut Vector) {
+    let (m, _) = m.as_chunks::<N>();
+    let mut acc = [0.0; N];
+    acc.copy_from_slice(&out[..N]);
+    for (column, &vk) in m[..N].iter().zip(&v[..N]) {
+        for r in 0..N {
+            acc[r] += column[r] * vk;
+        }
+    }
+    out[..N].copy_from_slice(&acc);
 }
 
 /// The column-major copy of a row-major n × n matrix.
@@ -509,144 +572,273 @@ fn columns(m: &[f64], n: usize) -> Vec<f64> {
     (0..n * n).map(|i| m[(i % n) * n + i / n]).collect()
 }
 
-/// Halvings of a step computed at once with its propagator (one pass of the scaling and
-/// squaring gives them all).
-const CHAIN: usize = 2;
+/// Halvings of the interval whose φ functions one pass of the scaling and squaring gives (the
+/// doublings pass them all on the way): a block of halvings 0 ..= CHAIN, then CHAIN + 1 ..= 2 CHAIN + 1,
+/// and so on. Most intervals take steps of the first few halvings, so a linear part needs
+/// one pass.
+const CHAIN: u32 = 6;
 
-/// The propagator of the problem's linear part for steps of `h`, kept with it or computed with
-/// those of the next [`CHAIN`] halvings.
-fn propagator_for(p: &Problem, h: f64) -> Result<Rc<Propagator>, EmulatorError> {
-    let bits = h.to_bits();
+/// The propagator of the problem's linear part for steps of the interval's `level`-th halving,
+/// kept with it or built from the φ functions of its block of halvings (computed once per
+/// linear part and interval). Which block a halving belongs to is fixed, so the propagator is
+/// a function of the linear part, the interval and the level alone.
+fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorError> {
+    let key = (p.span.to_bits(), level);
     let kept = p.linear.propagators.borrow();
-    if let Some((_, q)) = kept.iter().find(|(b, _)| *b == bits) {
+    if let Some((_, q)) = kept.iter().find(|(k, _)| *k == key) {
         return Ok(q.clone());
     }
     drop(kept);
-    let chain = propagators(p.n, &p.linear.j, h, CHAIN)?;
-    let mut kept = p.linear.propagators.borrow_mut();
-    for (l, q) in chain.into_iter().enumerate() {
-        let hl = h * 0.5f64.powi(l as i32);
-        if !kept.iter().any(|(b, _)| *b == hl.to_bits()) {
-            kept.push((hl.to_bits(), Rc::new(q)));
+    let first = level / (CHAIN + 1) * (CHAIN + 1);
+    let block = (p.span.to_bits(), first);
+    let found = (p.linear.phis.borrow().iter())
+        .find(|(k, _)| *k == block)
+        .map(|(_, phi)| phi.clone());
+    let phi = match found {
+        Some(phi) => phi,
+        None => {
+            let h = p.span * 0.5f64.powi(first as i32);
+            let phi = Rc::new(phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?);
+            p.linear.phis.borrow_mut().push((block, phi.clone()));
+            phi
         }
-    }
-    let found = kept.iter().find(|(b, _)| *b == bits);
-    Ok(found.expect("the chain starts at h").1.clone())
+    };
+    let l = (level - first) as usize;
+    let hl = p.span * 0.5f64.powi(level as i32);
+    let q = Rc::new(propagator(&phi, l, hl));
+    p.linear.propagators.borrow_mut().push((key, q.clone()));
+    Ok(q)
 }
 
-/// `value` times the n × n identity.
-fn identity(n: usize, value: f64) -> Vec<f64> {
-    let mut m = vec![0.0; n * n];
-    for i in 0..n {
-        m[i * n + i] = value;
-    }
-    m
-}
-
-/// Taylor terms of the φ functions at ‖z‖₁ ≤ 1/2: the first left out is below 10⁻¹⁵ of them.
+/// Taylor terms of φ₃ at ‖z‖₁ ≤ 1/2 (φ₂, φ₁, e^z then have one, two, three more): the first
+/// left out is below 10⁻¹⁶ of them.
 const TAYLOR_TERMS: usize = 14;
 
 /// e^z, φ₁(z), φ₂(z), φ₃(z) of z = hJ/2ˡ for ℓ = 0 ..= `levels` + 1 (φ₀ = e^z,
-/// φ_{k+1}(z) = (φ_k(z) − 1/k!)/z), coarsest first: Taylor series of z/2ˢ, then s doublings
-/// φ_k(2z) = 2⁻ᵏ (e^z φ_k(z) + Σ_{j=1..k} φ_j(z)/(k−j)!) (Skaflestad and Wright, Applied
-/// Numerical Mathematics 59, 2009), each doubling one level of step length.
-fn phi_levels(
-    n: usize,
-    j: &[f64],
-    h: f64,
-    levels: usize,
-) -> Result<Vec<[Vec<f64>; 4]>, EmulatorError> {
-    let norm = (0..n)
-        .map(|c| (0..n).map(|r| (h * j[r * n + c]).abs()).sum::<f64>())
-        .fold(0.0, f64::max);
-    if !norm.is_finite() {
+/// φ_{k+1}(z) = (φ_k(z) − 1/k!)/z): J balanced by a diagonal similarity of powers of two
+/// ([`balance`]), the Taylor series of φ₃(z/2ˢ) by Horner's rule and φ_k = z φ_{k+1} + 1/k!,
+/// then s doublings φ_k(2z) = 2⁻ᵏ (e^z φ_k(z) + Σ_{j=1..k} φ_j(z)/(k−j)!) (Skaflestad and
+/// Wright, Applied Numerical Mathematics 59, 2009), each doubling one level of step length.
+fn phi_levels(n: usize, j: &[f64], h: f64, levels: usize) -> Result<Phis, EmulatorError> {
+    if !j.iter().all(|v| v.is_finite()) {
         return Err(EmulatorError(
             "ODE solver: the Jacobian is not finite".to_string(),
         ));
     }
+    // φ_k(D⁻¹ZD) = D⁻¹ φ_k(Z) D: balanced by powers of two, exactly, the norm that sets the
+    // doublings drops from the typical sizes' scaling to near the spectral radius
+    let nn = n * n;
+    // one allocation: a, two Taylor terms, four products, φ₀..φ₃
+    let mut work = vec![0.0; 11 * nn];
+    let (a, rest) = work.split_at_mut(nn);
+    let (mut t0, rest) = rest.split_at_mut(nn);
+    let (mut t1, rest) = rest.split_at_mut(nn);
+    let (products, phi) = rest.split_at_mut(4 * nn);
+    a.copy_from_slice(j);
+    let d = balance(a, n);
+    let norm = (0..n)
+        .map(|c| (0..n).map(|r| (h * a[r * n + c]).abs()).sum::<f64>())
+        .fold(0.0, f64::max);
     // ‖hJ/2ˢ‖ ≤ 1/2, and s > `levels` so every level asked for is passed on the way
     let s = ((norm / 0.5).log2().ceil().max(0.0) as usize).max(levels + 1);
-    let a: Vec<f64> = j.iter().map(|v| v * h / 2f64.powi(s as i32)).collect();
-    let mut phi = [
-        identity(n, 1.0),
-        identity(n, 1.0),
-        identity(n, 0.5),
-        identity(n, 1.0 / 6.0),
-    ];
-    let mut term = identity(n, 1.0);
-    let mut next_term = vec![0.0; n * n];
-    for k in 1..=TAYLOR_TERMS {
-        mat_mul_into(&term, &a, &mut next_term, n);
-        std::mem::swap(&mut term, &mut next_term);
-        let kf = k as f64;
-        term.iter_mut().for_each(|v| *v /= kf);
-        // a^k/(k + m)! = term · k!/(k + m)!
-        let mut ratio = 1.0;
-        for (m, f) in phi.iter_mut().enumerate() {
-            for (fi, ti) in f.iter_mut().zip(&term) {
-                *fi += ti * ratio;
-            }
-            ratio /= kf + m as f64 + 1.0;
-        }
+    let scale = h / 2f64.powi(s as i32);
+    a.iter_mut().for_each(|v| *v *= scale);
+    // φ₃(a) = Σ aᵐ/(m + 3)! by Horner, then φ_k = a φ_{k+1} + I/k!
+    let add_diagonal = |m: &mut [f64], v: f64| (0..n).for_each(|i| m[i * n + i] += v);
+    let factorial = |k: usize| (1..=k).map(|i| i as f64).product::<f64>();
+    add_diagonal(t0, 1.0 / factorial(TAYLOR_TERMS + 3));
+    for m in (0..TAYLOR_TERMS).rev() {
+        mat_mul_into(a, t0, t1, n);
+        add_diagonal(t1, 1.0 / factorial(m + 3));
+        std::mem::swap(&mut t0, &mut t1);
     }
-    let mut out = Vec::with_capacity(levels + 2);
-    let mut products: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; n * n]);
+    phi[3 * nn..].copy_from_slice(t0);
+    for k in (0..3).rev() {
+        let (low, high) = phi.split_at_mut((k + 1) * nn);
+        mat_mul_into(a, &high[..nn], &mut low[k * nn..], n);
+        add_diagonal(&mut low[k * nn..], 1.0 / factorial(k));
+    }
+    let mut out = Vec::with_capacity((levels + 2) * 4 * nn);
     for step in 0..=s {
         if step + levels + 1 >= s {
-            out.push(phi.clone());
+            out.extend_from_slice(phi);
         }
         if step == s {
             break;
         }
-        for (k, prod) in products.iter_mut().enumerate() {
+        for k in 0..4 {
             // e·e, e·φ₁, e·φ₂, e·φ₃
-            mat_mul_into(&phi[0], &phi[k], prod, n);
+            let (e, f) = (&phi[..nn], &phi[k * nn..(k + 1) * nn]);
+            mat_mul_into(e, f, &mut products[k * nn..(k + 1) * nn], n);
         }
-        for i in 0..n * n {
-            let (f1, f2, f3) = (phi[1][i], phi[2][i], phi[3][i]);
-            phi[1][i] = 0.5 * (products[1][i] + f1);
-            phi[2][i] = 0.25 * (products[2][i] + f1 + f2);
-            phi[3][i] = 0.125 * (products[3][i] + 0.5 * f1 + f2 + f3);
+        let (e, f) = phi.split_at_mut(nn);
+        let (f1, f) = f.split_at_mut(nn);
+        let (f2, f3) = f.split_at_mut(nn);
+        for i in 0..nn {
+            let (g1, g2, g3) = (f1[i], f2[i], f3[i]);
+            f1[i] = 0.5 * (products[nn + i] + g1);
+            f2[i] = 0.25 * (products[2 * nn + i] + g1 + g2);
+            f3[i] = 0.125 * (products[3 * nn + i] + 0.5 * g1 + g2 + g3);
         }
-        phi[0].copy_from_slice(&products[0]);
+        e.copy_from_slice(&products[..nn]);
     }
-    out.reverse();
-    Ok(out)
+    Ok(Phis { n, d, m: out })
+}
+
+/// e^z, φ₁(z), φ₂(z), φ₃(z) of z = hJ₀/2ˡ for the levels ℓ of a block, finest first, each
+/// row-major n × n, of the balanced D⁻¹J₀D: entry (r, c) of J₀'s is d_r/d_c times it.
+struct Phis {
+    n: usize,
+    d: Vec<f64>,
+    m: Vec<f64>,
+}
+
+impl Phis {
+    /// φ_k of level `l`, balanced.
+    fn balanced(&self, l: usize, k: usize) -> &[f64] {
+        let nn = self.n * self.n;
+        let at = (4 * (self.m.len() / (4 * nn) - 1 - l) + k) * nn;
+        &self.m[at..at + nn]
+    }
+
+    /// φ_k of level `l`, row-major: of J₀ itself.
+    #[cfg(test)]
+    fn of_j(&self, l: usize, k: usize) -> Vec<f64> {
+        let n = self.n;
+        let b = self.balanced(l, k);
+        (0..n * n)
+            .map(|i| b[i] * self.d[i / n] / self.d[i % n])
+            .collect()
+    }
+}
+
+/// Sweeps of [`balance`] at most.
+const BALANCE_SWEEPS: usize = 16;
+
+/// Balance the row-major n × n matrix `a` in place by a diagonal similarity of powers of two,
+/// a ← D⁻¹ a D, so that each state's row and column have about the same norm (Parlett and
+/// Reinsch, Numerische Mathematik 13, 1969, as LAPACK's gebal does it); returns D. Exact in
+/// floating point: only exponents change.
+fn balance(a: &mut [f64], n: usize) -> Vec<f64> {
+    let mut d = vec![1.0; n];
+    for _ in 0..BALANCE_SWEEPS {
+        let mut changed = false;
+        for i in 0..n {
+            let (mut c, mut r) = (0.0, 0.0);
+            for k in (0..n).filter(|&k| k != i) {
+                c += a[k * n + i].abs();
+                r += a[i * n + k].abs();
+            }
+            if c == 0.0 || r == 0.0 {
+                continue;
+            }
+            let (total, mut f) = (c + r, 1.0);
+            // at most 64 factors of two each way: beyond, the scaling would not help
+            for _ in 0..64 {
+                if c >= r / 2.0 {
+                    break;
+                }
+                c *= 2.0;
+                r /= 2.0;
+                f *= 2.0;
+            }
+            for _ in 0..64 {
+                if c < r * 2.0 {
+                    break;
+                }
+                c /= 2.0;
+                r *= 2.0;
+                f /= 2.0;
+            }
+            if c + r < 0.95 * total {
+                changed = true;
+                d[i] *= f;
+                for k in 0..n {
+                    a[i * n + k] /= f;
+                    a[k * n + i] *= f;
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    d
+}
+
+/// The ETDRK4 propagator of a step of `h` from the φ functions of hJ₀ (level `l` of `phis`) and
+/// of hJ₀/2 (level `l + 1`), back from the balanced basis.
+fn propagator(phis: &Phis, l: usize, h: f64) -> Propagator {
+    let n = phis.n;
+    let nn = n * n;
+    let (f1, f2, f3) = (
+        phis.balanced(l, 1),
+        phis.balanced(l, 2),
+        phis.balanced(l, 3),
+    );
+    let (e, e_half, p_half) = (
+        phis.balanced(l, 0),
+        phis.balanced(l + 1, 0),
+        phis.balanced(l + 1, 1),
+    );
+    let mut m = vec![0.0; 6 * nn];
+    for r in 0..n {
+        for c in 0..n {
+            // exact: a ratio of powers of two
+            let back = phis.d[r] / phis.d[c];
+            let (i, o) = (r * n + c, c * n + r);
+            m[o] = e_half[i] * back;
+            m[nn + o] = p_half[i] * (0.5 * h) * back;
+            m[2 * nn + o] = e[i] * back;
+            m[3 * nn + o] = h * (f1[i] - 3.0 * f2[i] + 4.0 * f3[i]) * back;
+            m[4 * nn + o] = h * (2.0 * f2[i] - 4.0 * f3[i]) * back;
+            m[5 * nn + o] = h * (-f2[i] + 4.0 * f3[i]) * back;
+        }
+    }
+    Propagator { m, n }
 }
 
 /// The ETDRK4 propagators of steps of h/2ˡ, ℓ = 0 ..= `levels`, with the scaled linear part `j`.
+#[cfg(test)]
 fn propagators(
     n: usize,
     j: &[f64],
     h: f64,
     levels: usize,
 ) -> Result<Vec<Propagator>, EmulatorError> {
-    let phi = phi_levels(n, j, h, levels)?;
+    let phis = phi_levels(n, j, h, levels)?;
     Ok((0..=levels)
-        .map(|l| {
-            let (full, half) = (&phi[l], &phi[l + 1]);
-            let hl = h * 0.5f64.powi(l as i32);
-            let combine = |c: [f64; 3]| {
-                let m: Vec<f64> = (0..n * n)
-                    .map(|i| hl * (c[0] * full[1][i] + c[1] * full[2][i] + c[2] * full[3][i]))
-                    .collect();
-                columns(&m, n)
-            };
-            let p_half: Vec<f64> = half[1].iter().map(|v| v * 0.5 * hl).collect();
-            Propagator {
-                e_half: columns(&half[0], n),
-                p_half: columns(&p_half, n),
-                e: columns(&full[0], n),
-                weight1: combine([1.0, -3.0, 4.0]),
-                weight2: combine([0.0, 2.0, -4.0]),
-                weight3: combine([0.0, -1.0, 4.0]),
-            }
-        })
+        .map(|l| propagator(&phis, l, h * 0.5f64.powi(l as i32)))
         .collect())
 }
 
-/// out = a · b (row-major n × n).
+/// out = a · b (row-major n × n), unrolled for the circuits' orders.
 fn mat_mul_into(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
+    match n {
+        7 => mat_mul_n::<7>(a, b, out),
+        8 => mat_mul_n::<8>(a, b, out),
+        9 => mat_mul_n::<9>(a, b, out),
+        10 => mat_mul_n::<10>(a, b, out),
+        _ => mat_mul_any(a, b, out, n),
+    }
+}
+
+fn mat_mul_n<const N: usize>(a: &[f64], b: &[f64], out: &mut [f64]) {
+    let (a, _) = a.as_chunks::<N>();
+    let (b, _) = b.as_chunks::<N>();
+    let (out, _) = out.as_chunks_mut::<N>();
+    for (a_row, out_row) in a[..N].iter().zip(&mut out[..N]) {
+        let mut acc = [0.0; N];
+        for (&aik, b_row) in a_row.iter().zip(&b[..N]) {
+            for c in 0..N {
+                acc[c] += aik * b_row[c];
+            }
+        }
+        *out_row = acc;
+    }
+}
+
+fn mat_mul_any(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
     out.fill(0.0);
     for (a_row, out_row) in a.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
         for (&aik, b_row) in a_row.iter().zip(b.chunks_exact(n)) {
@@ -670,9 +862,9 @@ mod tests {
         for i in 0..n {
             j[i * n + i] = z[i];
         }
-        let levels = phi_levels(n, &j, 1.0, 2).unwrap();
-        assert_eq!(levels.len(), 4);
-        for (l, m) in levels.iter().enumerate() {
+        let phis = phi_levels(n, &j, 1.0, 2).unwrap();
+        assert_eq!(phis.m.len(), 4 * 4 * n * n);
+        for l in 0..4 {
             let zs = z.map(|v| v * 0.5f64.powi(l as i32));
             for (i, &z) in zs.iter().enumerate() {
                 let e = z.exp();
@@ -695,12 +887,11 @@ mod tests {
                         (e - 1.0 - z - z * z / 2.0) / (z * z * z),
                     ]
                 };
-                for k in 0..4 {
-                    let got = m[k][i * n + i];
+                for (k, want) in want.iter().enumerate() {
+                    let got = phis.of_j(l, k)[i * n + i];
                     assert!(
-                        (got - want[k]).abs() < 1e-12 * want[k].abs().max(1e-3),
-                        "phi{k}({z}) = {got}, want {}",
-                        want[k]
+                        (got - want).abs() < 1e-12 * want.abs().max(1e-3),
+                        "phi{k}({z}) = {got}, want {want}"
                     );
                 }
             }
@@ -714,7 +905,8 @@ mod tests {
         let j = [-1257.0, 0.0, 5.0, -2.0];
         let h = 0.01;
         let q = &propagators(n, &j, h, 0).unwrap()[0];
-        let full = &phi_levels(n, &j, h, 0).unwrap()[0];
+        let full = phi_levels(n, &j, h, 0).unwrap();
+        let (e, phi1) = (full.of_j(0, 0), full.of_j(0, 1));
         let mut y = [0.0; N_MAX];
         y[0] = 1.0;
         y[1] = -2.0;
@@ -724,13 +916,13 @@ mod tests {
         // four stages of a constant N (the second weight takes two of them): the weights must
         // add up to h φ₁
         let mut via = [0.0; N_MAX];
-        mat_vec_add(&q.e, &y, &mut via, n);
-        for w in [&q.weight1, &q.weight2, &q.weight2, &q.weight3] {
+        mat_vec_add(q.e(), &y, &mut via, n);
+        for w in [q.weight1(), q.weight2(), q.weight2(), q.weight3()] {
             mat_vec_add(w, &c, &mut via, n);
         }
         let mut want = [0.0; N_MAX];
-        mat_vec_add(&columns(&full[0], n), &y, &mut want, n);
-        let p1: Vec<f64> = full[1].iter().map(|v| v * h).collect();
+        mat_vec_add(&columns(&e, n), &y, &mut want, n);
+        let p1: Vec<f64> = phi1.iter().map(|v| v * h).collect();
         mat_vec_add(&columns(&p1, n), &c, &mut want, n);
         for i in 0..n {
             assert!(
