@@ -65,16 +65,23 @@ rm -f "$PUMPCYL_SKIP_LOG"
 # the summary is the last line, whether the tests passed or not
 trap 'status=$?; skip_summary "$PUMPCYL_SKIP_LOG"; exit "$status"' EXIT
 
-# The Python test dependencies come from the package registry: fetched in the background while
-# the Rust tests build and run (downloading and unpacking, little CPU; about 25 s of a fresh run).
+# The Python side in the background while the Rust tests build and run: the test dependencies
+# from the package registry (downloading and unpacking, little CPU), then the extension. Its
+# build (maturin, dev profile) reuses the compiled dependencies of `cargo test` (they are
+# optimised, see Cargo.toml): it waits for the build folder while `cargo test` compiles, then
+# compiles PyO3, numpy and the bindings while the Rust tests run. A release wheel is
+# `pip install ./python` without MATURIN_PEP517_ARGS.
 VENV=target/py-venv
 PIP_LOG=target/py-venv-pip.log
 (
     if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
     "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy mpmath dask distributed pandas
+    echo "== pip install ./python (maturin, dev profile)"
+    PATH="$PWD/$VENV/bin:$PATH" MATURIN_PEP517_ARGS="--profile dev" "$VENV/bin/python" -m pip install -q \
+        --disable-pip-version-check --no-build-isolation --force-reinstall --no-deps ./python
 ) > "$PIP_LOG" 2>&1 &
 PIP_PID=$!
-echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath dask distributed pandas (in the background: $PIP_LOG)"
+echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath dask distributed pandas, then pip install ./python (in the background: $PIP_LOG)"
 
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
     # every crate of the workspace, the Python extension's too, from the registry where this
@@ -90,15 +97,9 @@ fi
 
 if ! wait "$PIP_PID"; then
     cat "$PIP_LOG" >&2
-    echo "error: pip install of the Python test dependencies failed (the package registry)" >&2
+    echo "error: the Python test dependencies (the package registry) or the extension's build failed" >&2
     exit 1
 fi
-
-# The dev profile reuses the compiled dependencies of `cargo test` (they are optimised, see
-# Cargo.toml); a release wheel is `pip install ./python` without MATURIN_PEP517_ARGS.
-echo "== pip install ./python (maturin, dev profile)"
-PATH="$PWD/$VENV/bin:$PATH" MATURIN_PEP517_ARGS="--profile dev" "$VENV/bin/python" -m pip install -q \
-    --disable-pip-version-check --no-build-isolation --force-reinstall --no-deps ./python
 
 echo "== pytest -rs python/tests"
 "$VENV/bin/python" -m pytest python/tests -q -rs
