@@ -334,9 +334,9 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// A run whose steps follow step `after` and are computed beside the run that reaches it
-    /// (on another thread: `opts` without the step callback, which need not be thread-safe);
-    /// [`Run::merge`] appends it, announcing its steps then.
+    /// A run whose steps follow step `after` and are computed beside the run that reaches it,
+    /// on another thread; `opts` without the step callback, so its steps are announced in
+    /// order when [`Run::merge`] appends it, not as they start.
     fn apart(opts: &'a ReproduceOptions<'a>, after: usize) -> Self {
         Run {
             step: after,
