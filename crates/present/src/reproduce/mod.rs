@@ -473,129 +473,112 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         .collect();
     let mut run = Run::new(opts, files);
     // the Figure 1 circuits (step 11) need nothing of the steps before them, and the sweep (step
-    // 12) only the step intervals of step 9: each is computed beside the steps it follows and
-    // merged in order (the same numbers as one after the other)
+    // 12) only the step intervals of step 9: each is computed beside the steps it follows, in a
+    // run of its own merged in order (the same numbers as one after the other)
     let quiet = ReproduceOptions {
         on_step: None,
         ..*opts
     };
-    let (steps, figure1) = rayon::join(
-        || -> Result<_> {
-            let (drive, km) = identification::drive_step(&mut run)?;
-            let records = article::records()?;
-            let emulator = emulator_used(&records)?;
-            let truth = records[0].truth.clone();
-            let (exp, nominal, identified, cost_mm2) =
-                identification::identification(&mut run, &truth)?;
-            let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
-            let rise_time = identification::rise_time(&mut run, &exp, &nominal)?;
-            let robustness = identification::robustness(&mut run, &exp, &nominal)?;
-            let pressure = pressure::pressure_study(&mut run, &nominal, &exp, &truth)?;
-            let damping = studies::damping_study(&mut run, &nominal)?;
-            let stroke = studies::stroke_study(&mut run, &nominal)?;
-            let tracking = tracking::tracking(&mut run, &nominal)?;
-            let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
-            let truth_point = Candidate {
-                beta_bar: truth.rig.beta_bar,
-                viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
-                c12_m5_per_ns: truth.rig.c12_m5_per_ns,
-            };
-            let (certainty, how_sure) =
-                certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
-            let mut sweep_run = Run::apart(&quiet, STEPS - 1);
-            let (which_circuit, sweep_beside_steps) = rayon::join(
-                || {
-                    circuit::which_circuit(
-                        &mut run,
-                        &certainty.robust.region,
-                        certainty::CONFIDENCE,
-                        pressure.p_mean_bar,
-                    )
-                },
-                || {
-                    sweep::sweep_beside_steps(
-                        &mut sweep_run,
-                        &exp,
-                        &certainty.uncertainty,
-                        (&truth, &truth_point),
-                        certainty::CONFIDENCE,
-                    )
-                },
-            );
-            Ok((
-                (drive, km, emulator, nominal, identified, cost_mm2),
-                (
-                    record_conditions,
-                    rise_time,
-                    robustness,
-                    pressure,
-                    damping,
-                    stroke,
-                ),
-                (tracking, design, design_kp, certainty, how_sure),
-                (which_circuit?, sweep_beside_steps?, sweep_run),
-            ))
-        },
-        || -> Result<_> {
-            let mut part = Run::apart(&quiet, STEPS - 2);
-            let found = figure1_circuits::figure1_circuits(&mut part)?;
-            Ok((found, part))
-        },
-    );
-    let (
-        (drive, km, emulator, nominal, identified, cost_mm2),
-        (record_conditions, rise_time, robustness, pressure, damping, stroke),
-        (tracking, design, design_kp, certainty, how_sure),
-        (which_circuit, sweep_beside_steps, sweep_run),
-    ) = steps?;
-    let (figure1_circuits, figure1_run) = figure1?;
-    run.merge(figure1_run);
-    run.merge(sweep_run);
-    registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
-    run.render_pngs()?;
-    let seconds = start.elapsed().as_secs_f64();
-    let summary = Summary {
-        emulated_inputs: true,
-        note: EMULATED.to_string(),
-        emulator,
-        drive,
-        leakage: identified.leakage.clone(),
-        identified,
-        record_conditions,
-        rise_time,
-        robustness,
-        margins: pressure.study.clone(),
-        gas_fraction: pressure.gas_fraction,
-        gas_fraction_article_basis: pressure.gas_fraction_article_basis,
-        article_gas_fraction: printed::GAS_FRACTION,
-        intro_example: pressure.intro.clone(),
-        p_mean_bar: pressure.p_mean_bar,
-        damping,
-        stroke,
-        tracking,
-        design,
-        how_sure,
-        which_circuit,
-        figure1_circuits,
-        sweep_beside_steps,
-        seconds,
+    let figure1 = || -> Result<_> {
+        let mut part = Run::apart(&quiet, STEPS - 2);
+        let found = figure1_circuits::figure1_circuits(&mut part)?;
+        Ok((found, part))
     };
-    Ok(Reproduction {
-        km_nms_per_rad: km,
-        identified: nominal,
-        cost_mm2,
-        identified_margins: pressure.study.identified_rig.nominal,
-        default_margins: pressure.study.default_rig,
-        gas_fraction: pressure.gas_fraction,
-        p_mean_bar: pressure.p_mean_bar,
-        design_kp,
-        certainty,
-        comparison: run.table,
-        summary,
-        blocks: run.blocks,
-        figures: run.figures,
-        files: run.files,
-        seconds,
+    std::thread::scope(|scope| {
+        let figure1 = scope.spawn(figure1);
+        let (drive, km) = identification::drive_step(&mut run)?;
+        let records = article::records()?;
+        let emulator = emulator_used(&records)?;
+        let truth = records[0].truth.clone();
+        let (exp, nominal, identified, cost_mm2) =
+            identification::identification(&mut run, &truth)?;
+        let record_conditions = identification::conditions(&mut run, &exp, &records[0].truth)?;
+        let rise_time = identification::rise_time(&mut run, &exp, &nominal)?;
+        let robustness = identification::robustness(&mut run, &exp, &nominal)?;
+        let pressure = pressure::pressure_study(&mut run, &nominal, &exp, &truth)?;
+        let damping = studies::damping_study(&mut run, &nominal)?;
+        let stroke = studies::stroke_study(&mut run, &nominal)?;
+        let tracking = tracking::tracking(&mut run, &nominal)?;
+        let (design, design_kp) = studies::design_check(&mut run, &nominal)?;
+        let truth_point = Candidate {
+            beta_bar: truth.rig.beta_bar,
+            viscous_friction_ns_per_m: truth.rig.viscous_friction_ns_per_m,
+            c12_m5_per_ns: truth.rig.c12_m5_per_ns,
+        };
+        let (certainty, how_sure) =
+            certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
+        let mut sweep_run = Run::apart(&quiet, STEPS - 1);
+        let (which_circuit, sweep_beside_steps) = rayon::join(
+            || {
+                circuit::which_circuit(
+                    &mut run,
+                    &certainty.robust.region,
+                    certainty::CONFIDENCE,
+                    pressure.p_mean_bar,
+                )
+            },
+            || {
+                sweep::sweep_beside_steps(
+                    &mut sweep_run,
+                    &exp,
+                    &certainty.uncertainty,
+                    (&truth, &truth_point),
+                    certainty::CONFIDENCE,
+                )
+            },
+        );
+        let (which_circuit, sweep_beside_steps) = (which_circuit?, sweep_beside_steps?);
+        let (figure1_circuits, figure1_run) = figure1
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+        run.merge(figure1_run);
+        run.merge(sweep_run);
+        registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
+        run.render_pngs()?;
+        let seconds = start.elapsed().as_secs_f64();
+        let summary = Summary {
+            emulated_inputs: true,
+            note: EMULATED.to_string(),
+            emulator,
+            drive,
+            leakage: identified.leakage.clone(),
+            identified,
+            record_conditions,
+            rise_time,
+            robustness,
+            margins: pressure.study.clone(),
+            gas_fraction: pressure.gas_fraction,
+            gas_fraction_article_basis: pressure.gas_fraction_article_basis,
+            article_gas_fraction: printed::GAS_FRACTION,
+            intro_example: pressure.intro.clone(),
+            p_mean_bar: pressure.p_mean_bar,
+            damping,
+            stroke,
+            tracking,
+            design,
+            how_sure,
+            which_circuit,
+            figure1_circuits,
+            sweep_beside_steps,
+            seconds,
+        };
+        Ok(Reproduction {
+            km_nms_per_rad: km,
+            identified: nominal,
+            cost_mm2,
+            identified_margins: pressure.study.identified_rig.nominal,
+            default_margins: pressure.study.default_rig,
+            gas_fraction: pressure.gas_fraction,
+            p_mean_bar: pressure.p_mean_bar,
+            design_kp,
+            certainty,
+            comparison: run.table,
+            summary,
+            blocks: run.blocks,
+            figures: run.figures,
+            files: run.files,
+            seconds,
+        })
     })
 }
 
