@@ -718,7 +718,10 @@ const BALANCE_SWEEPS: usize = 16;
 /// Balance the row-major n × n matrix `a` in place by a diagonal similarity of powers of two,
 /// a ← D⁻¹ a D, so that each state's row and column have about the same norm (Parlett and
 /// Reinsch, Numerische Mathematik 13, 1969, as LAPACK's gebal does it); returns D. Exact in
-/// floating point: only exponents change.
+/// floating point: only exponents change. Not nalgebra's `balance_parlett_reinsch` (which
+/// `lti::poles` uses on its analyses' matrices): that one iterates until converged with no
+/// bound, and wants a `DMatrix` where this runs on the integrator's row-major slice once per
+/// new linear part.
 fn balance(a: &mut [f64], n: usize) -> Vec<f64> {
     let mut d = vec![1.0; n];
     for _ in 0..BALANCE_SWEEPS {
