@@ -19,9 +19,9 @@ pub struct BulkArgs {
     /// 165 bar on its rig).
     #[arg(long, allow_negative_numbers = true)]
     beta_bar: Option<f64>,
-    /// Mean chamber pressure during the identification (bar). Default: the rig's mean chamber
-    /// pressure at rest: half its p_sum_ref_bar (the article's records' 4.4 bar on its rig), or
-    /// its accumulator_precharge_bar on a one-motor circuit.
+    /// Mean chamber pressure during the identification (bar). Default: the rig's anchor, where
+    /// its loop rests (docs/bulk-modulus.md#the-anchor: the article's records' 4.4 bar on its
+    /// rig, its accumulator_precharge_bar on a one-motor circuit).
     #[arg(long, allow_negative_numbers = true)]
     p_mean_bar: Option<f64>,
     /// Pure-oil bulk modulus (bar).
@@ -106,7 +106,7 @@ fn reading(args: &BulkArgs, rig: &pumpcyl::rig::Rig) -> (BetaReading, String) {
         (
             "the rig's beta_bar",
             if rig.circuit == pumpcyl::circuit::CircuitKind::Dpm {
-                "the rig's mean chamber pressure at rest, half its p_sum_ref_bar"
+                "the rig's anchor, the mean chamber pressure of its loop at rest (docs/bulk-modulus.md#the-anchor)"
             } else {
                 "the rig's mean chamber pressure at rest, its accumulator_precharge_bar"
             },

@@ -32,16 +32,18 @@ pub struct DesignArgs {
     /// first record's mean.
     #[arg(long)]
     p_mean_bar: Vec<f64>,
-    /// Mean pressure at which the rig's beta_bar was identified (bar).
-    #[arg(long, default_value_t = 4.4, allow_negative_numbers = true)]
-    p_beta_bar: f64,
+    /// Mean pressure at which the rig's beta_bar was identified (bar). Default: the rig's own
+    /// anchor, where its loop rests (docs/bulk-modulus.md#the-anchor; the article's 4.4 bar on
+    /// its rig).
+    #[arg(long, allow_negative_numbers = true)]
+    p_beta_bar: Option<f64>,
     /// Masses to check (kg), e.g. the lightest and heaviest load.
     #[arg(long)]
     mass_kg: Vec<f64>,
     /// Wave to track, FREQ_HZ:AMP_MM (repeatable), e.g. --wave 0.2:35.
     #[arg(long, value_parser = parse_wave)]
     wave: Vec<(f64, f64)>,
-    /// Print JSON (kp_max, kp_max_worst_case, worst_case, conditions, tracking, verdict,
+    /// Print JSON (kp_max, kp_max_worst_case, worst_case, conditions, tracking, rest_offset_mm, verdict,
     /// reasons; with --robust: kp_max, kp_max_nominal, worst_case, deciding, steps, region).
     #[arg(long)]
     json: bool,

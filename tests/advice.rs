@@ -59,7 +59,13 @@ fn noisy_dataset(design: &Design, noise_mm: f64, noise: &mut Noise) -> Prepared 
         &rig,
         &clean.time_s,
         &clean.x_ref_mm,
-        &Baseline::of_rig(&rig),
+        // at rest on the record's first reference, as identification takes its baseline
+        // (docs/simulation.md#deviations-and-the-baseline)
+        &Baseline {
+            x_ref_mm: clean.x_ref_mm[0],
+            x_mm: clean.x_ref_mm[0],
+            ..Baseline::of_rig(&rig)
+        },
     )
     .unwrap();
     let x_mm: Vec<f64> = s

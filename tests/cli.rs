@@ -286,7 +286,13 @@ fn step_reports_metrics_and_writes_figures() {
     assert_eq!(metrics["step_mm"], 5.0);
     let rise = metrics["rise_time_s"].as_f64().unwrap();
     assert!(rise > 0.05 && rise < 2.0, "{rise}");
-    assert!(metrics["steady_state_error_mm"].as_f64().unwrap().abs() < 1e-9);
+    // the loop rests off its reference by the error the P law needs to hold the load and feed
+    // the leakage (docs/simulation.md#the-rest-under-load): on the article's rig a few
+    // hundredths of a millimetre, the steady-state error exactly
+    let offset = metrics["rest_offset_mm"].as_f64().unwrap();
+    let sse = metrics["steady_state_error_mm"].as_f64().unwrap();
+    assert!(offset > 0.0 && offset < 0.1, "{offset}");
+    assert!((sse - offset).abs() < 1e-6, "{sse} {offset}");
     // with the sum-pressure gain read as 22 per bar and β = 200 bar the closed loop is
     // unstable (its sum-pressure mode near 169 Hz): the variant is reported as such, never as
     // a response that grows without bound
@@ -416,13 +422,26 @@ fn simulate_replays_a_record_and_rejects_bad_ones() {
     ok(&["step", "--duration-s", "3", "--out", csv.to_str().unwrap()]);
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut rec = String::from("time_s,x_ref_mm,x_mm,p1_bar\n");
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // the rest the step starts from: the reference stands off the position by the loop's
+    // rest offset (docs/simulation.md#the-rest-under-load)
+    let (rest_ref, rest) = (rows[0][1] - 5.0, &rows[0]);
+    assert!(rest_ref > rest[2] && rest_ref - rest[2] < 0.1, "{rest:?}");
     for k in 0..50 {
         // 0.5 s at rest before the step, with non-uniform pre-step sampling
         let t = k as f64 * 0.01;
-        rec.push_str(&format!("{:.3},345,345,4.0\n", t - 0.5));
+        rec.push_str(&format!(
+            "{:.3},{rest_ref},{},{}\n",
+            t - 0.5,
+            rest[2],
+            rest[4]
+        ));
     }
-    for line in text.lines().skip(1) {
-        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+    for f in &rows {
         rec.push_str(&format!("{},{},{},{}\n", f[0], f[1], f[2], f[4]));
     }
     let path = write(dir.path(), "rec.csv", &rec);
@@ -719,8 +738,16 @@ fn design_keeps_the_article_gain_and_flags_low_pressure() {
     ]);
     assert_eq!(d["verdict"], "use_higher_pressure");
     assert_eq!(d["worst_case"]["p_mean_bar"], 1.0);
-    let wr = d["tracking"][0]["wave_reduction"].as_f64().unwrap();
-    assert!(wr > 0.0 && wr < 1.0);
+    // the gain the 1 bar condition allows barely follows a 0.2 Hz wave: the error is about the
+    // wave itself plus the loop's rest offset (docs/simulation.md#the-rest-under-load)
+    let t = &d["tracking"][0];
+    let (wr, e) = (
+        t["wave_reduction"].as_f64().unwrap(),
+        t["max_error_mm"].as_f64().unwrap(),
+    );
+    let offset = t["rest_offset_mm"].as_f64().unwrap();
+    assert!((wr - (1.0 - e / 35.0)).abs() < 1e-12, "{t}");
+    assert!(wr.abs() < 0.1 && offset > 0.0 && e > offset, "{t}");
     let text = ok(&["design", "--target-pm-deg", "30"]);
     assert!(text.contains("verdict:"), "{text}");
     let err = fails(&["design", "--wave", "0.2"]);

@@ -2,7 +2,11 @@
 //! (docs/architecture.md): `pumpcyl reproduce`'s summary.json holds every number of
 //! `tests/data/dpm-summary-before-circuits.json` (written before the move, its run time left
 //! out) at the same JSON path, to 1e-12 of its size. New keys are allowed; a missing one is a
-//! failure.
+//! failure. Its numbers were moved on purpose once since: when the loop's rest offset
+//! (docs/simulation.md#the-rest-under-load) entered the step and tracking errors and the rig's
+//! one bulk-modulus anchor (docs/bulk-modulus.md#the-anchor) the gas fractions: the steps'
+//! steady-state and final errors, the design's reasons and the circuit study's errors and
+//! lowest pressures, nothing else.
 
 use serde_json::Value;
 use std::path::Path;

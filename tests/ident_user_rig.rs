@@ -229,3 +229,31 @@ fn advise_on_a_user_rig_says_where_it_linearised_and_gives_no_ratio_of_unbounded
     let identified = v["identified"]["beta_bar"].as_f64().unwrap();
     assert!((point / 300.0 - 1.0).abs() < 0.03 && (identified / 300.0 - 1.0).abs() < 0.03);
 }
+
+/// `design --robust --experiment` on steps that cannot bound b (the usual case): the polished
+/// answer wanders along the flat b below the profile's search range, and the region is widened
+/// to hold it (docs/design.md#robust-design) instead of stopping on the region's invariant; β's
+/// interval holds the records' 300 bar.
+#[test]
+fn a_robust_design_on_steps_that_cannot_bound_b_answers() {
+    let dir = tempfile::tempdir().unwrap();
+    user_rig(dir.path(), "");
+    let v = json(
+        dir.path(),
+        &["design", "--robust", "--experiment", "exp.toml", "--json"],
+    );
+    let r = &v["region"];
+    assert_eq!(
+        r["identifiable"],
+        serde_json::json!([true, false, true]),
+        "{r}"
+    );
+    let within = |key: &str, x: f64| {
+        let [lo, hi] = [0, 1].map(|k| r[key][k].as_f64().unwrap());
+        lo <= x && x <= hi
+    };
+    let b = r["nominal"]["viscous_friction_ns_per_m"].as_f64().unwrap();
+    assert!(within("viscous_friction_ns_per_m", b), "{r}");
+    assert!(within("beta_bar", 300.0), "{r}");
+    assert!(v["kp_max"].as_f64().unwrap() > 0.0, "{v}");
+}

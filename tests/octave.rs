@@ -188,7 +188,7 @@ fn octave_lsim_on_the_exported_closed_loop_matches_pumpcyl_step() {
             dir.path(),
             &format!(
                 "[sys, op] = {name}();\ns = load('{step}');\n\
-                 u = (s.x_ref_mm - op.x_m*1e3)*1e-3;\n\
+                 u = (s.x_ref_mm - op.x_ref_m*1e3)*1e-3;\n\
                  y = lsim(sys, u, s.time_s);\n\
                  x = op.x_m*1e3 + 1e3*y(:, 1);\n\
                  p1 = op.p1_Pa/1e5 + y(:, 2)/1e5;\n\

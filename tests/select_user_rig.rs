@@ -63,19 +63,31 @@ const ONE_LEVEL: [&str; 4] = [
     "pressurised_bar=[]",
 ];
 
-/// `select --rig FILE`: the gas fraction is the rig's β 300 bar at its mean chamber pressure,
-/// half its 10 bar sum-pressure set-point, a factor 2 either way; at 5 bar the reference is
-/// the rig itself, so the largest Kp at the reference gas fraction is what `pumpcyl design`
-/// gives for the rig with its own mass (2500 kg), not the article's loads.
+/// The rig's anchor: the mean chamber pressure of its emulated loop at rest
+/// (docs/bulk-modulus.md#the-anchor), by the emulator's Newton rest.
+fn anchor_bar(rig: &Path) -> f64 {
+    let text = std::fs::read_to_string(rig).unwrap();
+    let rig = pumpcyl::rig::Rig::from_toml_str(&text, "myrig.toml").unwrap();
+    pumpcyl::emulator::rest_mean_pressure_bar(&rig).unwrap()
+}
+
+/// `select --rig FILE`: the gas fraction is the rig's β 300 bar at its anchor, the mean chamber
+/// pressure where its loop rests (below half its 10 bar sum-pressure set-point: the P laws'
+/// standing errors), a factor 2 either way; at 5 bar the largest Kp at the reference gas
+/// fraction is what `pumpcyl design --p-mean-bar 5` gives for the rig with its own mass
+/// (2500 kg), not the article's loads.
 #[test]
 fn select_reads_the_gas_fraction_and_the_load_off_the_rig() {
-    let (_dir, rig) = user_rig();
-    let rig = rig.to_str().unwrap();
+    let (_dir, rig_path) = user_rig();
+    let anchor = anchor_bar(&rig_path);
+    assert!((4.0..5.0).contains(&anchor), "{anchor}");
+    let rig = rig_path.to_str().unwrap();
     let s = json(&[&["select", "--json", "--rig", rig], &ONE_LEVEL[..]].concat());
-    let x = gas_fraction(300.0, 5.0);
+    let x = gas_fraction(300.0, anchor);
     let from = &s["gas_fraction_from"];
     assert_eq!(from["source"], "rig", "{from}");
-    assert_eq!((f(&from["beta_bar"]), f(&from["p_mean_bar"])), (300.0, 5.0));
+    assert_eq!(f(&from["beta_bar"]), 300.0);
+    assert!(close(f(&from["p_mean_bar"]), anchor, 1e-12), "{from}");
     let range = [x / 2.0, x, 2.0 * x];
     for (k, want) in range.iter().enumerate() {
         assert!(close(f(&s["gas_fraction"][k]), *want, 1e-12), "{s}");
@@ -95,18 +107,19 @@ fn select_reads_the_gas_fraction_and_the_load_off_the_rig() {
         close(f(&o["beta_e_bar"][1]), beta_e(x / 2.0, 5.0), 1e-9),
         "{o}"
     );
-    let design = json(&["design", "--json", "--rig", rig]);
+    let design = json(&["design", "--json", "--rig", rig, "--p-mean-bar", "5"]);
     let kp = f(&design["kp_max_worst_case"]);
     assert!(
         close(f(&o["kp_max_reference"]), kp, 1e-6),
         "{o} vs design {kp}"
     );
     let out = text(&[&["select", "--rig", rig], &ONE_LEVEL[..]].concat());
+    let from_words = format!("from the rig's beta 300 bar at its anchor {anchor:.2} bar");
     for words in [
         "rig: ",
         "(--rig)",
         "loads: the rig's 2500 kg",
-        "from the rig's beta 300 bar at its mean chamber pressure 5 bar",
+        from_words.as_str(),
     ] {
         assert!(out.contains(words), "lacks `{words}`:\n{out}");
     }
@@ -175,25 +188,48 @@ fn a_stated_gas_fraction_is_kept() {
     assert_eq!(got, [0.01, 0.02, 0.04]);
 }
 
-/// `bulk-modulus --rig FILE`: the gas fraction from the rig's β at its mean pressure, so the
-/// table gives the rig's own β back at 5 bar; the text says where it came from. Without a rig,
-/// the article's 165 bar at 4.4 bar as before.
+/// `bulk-modulus --rig FILE`: the gas fraction from the rig's β at its anchor, so the table
+/// gives the rig's own β back there and β_e(X, 5 bar) at 5 bar; the text says where it came
+/// from. Without a rig, the article's 165 bar at 4.4 bar as before.
 #[test]
 fn bulk_modulus_reads_the_rig_s_beta() {
-    let (_dir, rig) = user_rig();
-    let rig = rig.to_str().unwrap();
+    let (_dir, rig_path) = user_rig();
+    let anchor = anchor_bar(&rig_path);
+    let rig = rig_path.to_str().unwrap();
     let range = ["--from-bar", "1", "--to-bar", "9", "--points", "3"];
     let v = json(&[&["bulk-modulus", "--json", "--rig", rig], &range[..]].concat());
+    let x = gas_fraction(300.0, anchor);
+    assert!(close(f(&v["gas_fraction"]), x, 1e-12), "{v}");
+    assert_eq!(f(&v["table"][1]["p_bar"]), 5.0);
     assert!(
-        close(f(&v["gas_fraction"]), gas_fraction(300.0, 5.0), 1e-12),
+        close(f(&v["table"][1]["beta_bar"]), beta_e(x, 5.0), 1e-12),
         "{v}"
     );
-    assert_eq!(f(&v["table"][1]["p_bar"]), 5.0);
-    assert!(close(f(&v["table"][1]["beta_bar"]), 300.0, 1e-12), "{v}");
-    assert_eq!(f(&v["gas_fraction_from"]["p_mean_bar"]), 5.0);
+    assert!(
+        close(f(&v["gas_fraction_from"]["p_mean_bar"]), anchor, 1e-12),
+        "{v}"
+    );
+    let at_anchor = json(&[
+        "bulk-modulus",
+        "--json",
+        "--rig",
+        rig,
+        "--from-bar",
+        &anchor.to_string(),
+        "--to-bar",
+        "9",
+        "--points",
+        "2",
+    ]);
+    assert!(
+        close(f(&at_anchor["table"][0]["beta_bar"]), 300.0, 1e-12),
+        "{at_anchor}"
+    );
     let out = text(&[&["bulk-modulus", "--rig", rig], &range[..]].concat());
     assert!(
-        out.contains("beta_e = 300 bar at 5 bar mean pressure, from the rig's beta_bar"),
+        out.contains(&format!(
+            "beta_e = 300 bar at {anchor:.2} bar mean pressure, from the rig's beta_bar"
+        )),
         "{out}"
     );
     let article = json(&[&["bulk-modulus", "--json"], &range[..]].concat());

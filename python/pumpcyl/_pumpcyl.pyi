@@ -215,6 +215,9 @@ class Simulation(Result):
     circuit: Literal["dpm", "dual-pump", "single-pump"]
     """The rig's circuit (docs/circuits.md)."""
     signals: Signals
+    rest_offset_mm: float
+    """The loop's standing error x_ref - x at rest (mm; docs/simulation.md#the-rest-under-load):
+    the run starts at rest under ``x_ref_mm[0]``, the piston this far off it."""
     over_ratings: List[Dict[str, Any]]
     """The drive ratings the response exceeds (docs/simulation.md#drive-ratings)."""
     warnings: List[str]
@@ -362,6 +365,9 @@ class Design(Result):
     kp_recommended: float
     tracking_kp: float
     tracking: List[Dict[str, Any]]
+    rest_offset_mm: Optional[float]
+    """The loop's standing error x_ref - x at rest at ``tracking_kp`` (mm;
+    docs/simulation.md#the-rest-under-load); ``None`` where the loop has no rest."""
     verdict: str
     reasons: List[str]
 
@@ -666,7 +672,7 @@ def design(
     target_gm_db: float = 6.0,
     stroke_mm: float = 50.0,
     p_mean_bar: Sequence[float] = (),
-    p_beta_bar: float = 4.4,
+    p_beta_bar: Optional[float] = None,
     mass_kg: Sequence[float] = (),
     waves: Sequence[Tuple[float, float]] = (),
     robust: bool = False,
@@ -680,7 +686,9 @@ def design(
     wave_reduction and ``window``, whose ``steady_state`` is True), verdict, reasons (as
     ``pumpcyl design --json``, whose defaults these
     are: PM 34 deg (the phase margin the article reaches at Kp 25, §3.3) and GM 6 dB (pumpcyl's
-    choice; docs/design.md#targets), x0 +/- 50 mm, beta identified at 4.4 bar; no
+    choice; docs/design.md#targets), x0 +/- 50 mm, beta holding at ``p_beta_bar`` (None: the
+    rig's own anchor, where its loop rests, docs/bulk-modulus.md#the-anchor; the article's
+    4.4 bar on its rig); no
     ``p_mean_bar`` (bar) or ``mass_kg`` (kg): the rig's beta and mass only; ``waves``:
     (freq_hz, amp_mm) pairs to track). ``robust=True``:
     the robust design over the confidence region of ``experiment``'s records, or the stated

@@ -808,11 +808,12 @@ fn run_warnings(
 }
 
 /// Simulate the closed loop (exact zero-order hold, docs/simulation.md) driven by `x_ref_mm`
-/// sampled at `t_s` and held between samples, from rest at x = x_ref_mm[0] with the rig's
-/// operating-point pressures and motor speeds. An unstable closed loop is an error, so is a
+/// sampled at `t_s` and held between samples, from the loop's rest under x_ref_mm[0]: the
+/// piston off it by the rest offset, the pressures and motor speeds of that rest
+/// (docs/simulation.md#the-rest-under-load). An unstable closed loop is an error, so is a
 /// reference outside the stroke (as the command line's `simulate`); a predicted position
 /// outside it or a drive rating exceeded warns (UserWarning). A `Result` with `rig`, `circuit`,
-/// `signals` (numpy arrays), `over_ratings` and `warnings`.
+/// `signals` (numpy arrays), `rest_offset_mm`, `over_ratings` and `warnings`.
 #[pyfunction]
 fn simulate(
     py: Python<'_>,
@@ -830,9 +831,12 @@ fn simulate(
     rig.rig
         .check_reference(lo, hi)
         .map_err(|e| err(format!("simulate: x_ref_mm: {e}")))?;
+    // the loop at rest under its first reference: the piston stands off it by the rest offset
+    // (docs/simulation.md#the-rest-under-load)
     let mut base = Baseline::of_rig(&rig.rig);
+    let offset_mm = base.x_ref_mm - base.x_mm;
     base.x_ref_mm = r[0];
-    base.x_mm = r[0];
+    base.x_mm = r[0] - offset_mm;
     let (name, rig) = (rig.__repr__(), rig.rig.clone());
     let (s, over, signals) = py
         .detach(|| {
@@ -847,6 +851,7 @@ fn simulate(
         "rig": name,
         "circuit": rig.circuit.name(),
         "signals": signals,
+        "rest_offset_mm": offset_mm,
         "over_ratings": over,
         "warnings": warnings,
     });
@@ -2017,11 +2022,11 @@ fn select(
 #[pyo3(
     signature = (
         rig = None, *, target_pm_deg = 34.0, target_gm_db = 6.0, stroke_mm = 50.0,
-        p_mean_bar = vec![], p_beta_bar = 4.4, mass_kg = vec![], waves = vec![], robust = false,
+        p_mean_bar = vec![], p_beta_bar = None, mass_kg = vec![], waves = vec![], robust = false,
         experiment = None, confidence = 0.95, allow_long_run = false, progress = None
     ),
     text_signature = "(rig=None, *, target_pm_deg=34.0, target_gm_db=6.0, stroke_mm=50.0, \
-        p_mean_bar=(), p_beta_bar=4.4, mass_kg=(), waves=(), robust=False, experiment=None, \
+        p_mean_bar=(), p_beta_bar=None, mass_kg=(), waves=(), robust=False, experiment=None, \
         confidence=0.95, allow_long_run=False, progress=None)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -2032,7 +2037,7 @@ fn design(
     target_gm_db: f64,
     stroke_mm: f64,
     p_mean_bar: Vec<f64>,
-    p_beta_bar: f64,
+    p_beta_bar: Option<f64>,
     mass_kg: Vec<f64>,
     waves: Vec<(f64, f64)>,
     robust: bool,

@@ -148,7 +148,9 @@ def test_the_linear_fmu_gives_the_step_response(fmus):
     cli("step", "--out", str(record))
     rec = read_csv(record)
     r = run_fmu(fmpy, linear, rec["time_s"], rec["x_ref_mm"] * 1e-3)
-    assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9
+    # the record's reference, x0 plus the rest offset and the step, is written to 1e-6 mm:
+    # the FMU follows the rounded reference (docs/simulation.md#the-rest-under-load)
+    assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 2e-9
     assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0
     assert np.max(np.abs(r["omega1_rad_per_s"] - rec["w1_rpm"] * np.pi / 30)) < 1e-4
 

@@ -66,32 +66,6 @@ pub const ARTICLE_READING: BetaReading = BetaReading {
 };
 
 impl BetaReading {
-    /// A rig's own reading: its `beta_bar` at the mean chamber pressure its circuit holds at
-    /// rest ([`crate::circuit::pressure_level_bar`]: half the DPM's sum-pressure set-point, the
-    /// one-motor circuits' accumulator pre-charge; docs/select.md#cost).
-    pub fn of_rig(rig: &Rig) -> BetaReading {
-        BetaReading {
-            beta_bar: rig.beta_bar,
-            p_mean_bar: crate::circuit::pressure_level_bar(rig),
-        }
-    }
-
-    /// The reading a rig's gas fraction comes from: the article's identification on the
-    /// article's own rig (`article_rig`, the rig no file gave, with the article's circuit, β
-    /// and sum-pressure set-point), the rig's own reading ([`BetaReading::of_rig`]) otherwise.
-    pub fn for_rig(rig: &Rig, article_rig: bool) -> BetaReading {
-        let article = Rig::default();
-        if article_rig
-            && rig.circuit == article.circuit
-            && rig.beta_bar == article.beta_bar
-            && rig.p_sum_ref_bar == article.p_sum_ref_bar
-        {
-            ARTICLE_READING
-        } else {
-            BetaReading::of_rig(rig)
-        }
-    }
-
     /// The gas fraction this reading gives ([`gas_fraction`]).
     pub fn gas_fraction(&self, beta_oil_bar: f64) -> Result<f64, BulkError> {
         gas_fraction(self.beta_bar, self.p_mean_bar, beta_oil_bar)
@@ -178,32 +152,5 @@ mod tests {
         assert!((rows[1].gain_margin_db.unwrap() - 6.45).abs() < 0.05);
         assert!(rows[2].gain_margin_db.unwrap() > rows[1].gain_margin_db.unwrap());
         assert!(!rows[0].closed_loop_stable);
-    }
-
-    /// The article's rig reads as the article's identification (165 bar at 4.4 bar); a rig from
-    /// a file, or with another β or set-point, reads as its own β at half its set-point.
-    #[test]
-    fn a_rig_reads_its_own_beta_unless_it_is_the_article_s() {
-        let article = Rig::default();
-        assert_eq!(BetaReading::for_rig(&article, true), ARTICLE_READING);
-        let from_file = BetaReading::for_rig(&article, false);
-        assert_eq!((from_file.beta_bar, from_file.p_mean_bar), (165.0, 5.0));
-        let mine = Rig {
-            beta_bar: 300.0,
-            ..Rig::default()
-        };
-        let r = BetaReading::for_rig(&mine, true);
-        assert_eq!((r.beta_bar, r.p_mean_bar), (300.0, 5.0));
-        let x = r.gas_fraction(BETA_OIL_BAR).unwrap();
-        assert!((effective_beta(x, 5.0, BETA_OIL_BAR) - 300.0).abs() < 1e-9);
-        // a one-motor circuit's pressure is its accumulator pre-charge, not the DPM's
-        // set-point, and the article's reading (the DPM's records) is not its own
-        let dual = Rig {
-            circuit: crate::circuit::CircuitKind::DualPump,
-            accumulator_precharge_bar: 3.5,
-            ..Rig::default()
-        };
-        let r = BetaReading::for_rig(&dual, true);
-        assert_eq!((r.beta_bar, r.p_mean_bar), (165.0, 3.5));
     }
 }

@@ -552,6 +552,11 @@ pub const UNITS: &[Unit] = &[
 fn input_start(c: &Config) -> Vec<f64> {
     let f = c.rig.external_force_n;
     match c.controller {
+        // the linear loop rests at x0 under the reference that holds it there
+        // (docs/simulation.md#the-rest-under-load)
+        Controller::Article if c.model == ModelKind::Linear => {
+            vec![c.rig.x0_mm * 1e-3 + linear_rest_offset_m(&c.rig), f]
+        }
         Controller::Article => vec![c.rig.x0_mm * 1e-3, f],
         Controller::External => {
             let (_, u) = rest(c.model, &c.rig);
@@ -560,6 +565,14 @@ fn input_start(c: &Config) -> Vec<f64> {
             start
         }
     }
+}
+
+/// The rest offset of the rig's linear loop under the article's controller (m; 0 where the
+/// loop has no rest, which [`Linear::new`] refuses as unstable).
+fn linear_rest_offset_m(rig: &Rig) -> f64 {
+    Plant::new(rig)
+        .rest(rig.sum_pressure)
+        .map_or(0.0, |r| r.offset_m)
 }
 
 /// The state at rest and the speed commands (rad/s) that hold it (docs/model.md), 0 for a
@@ -706,12 +719,13 @@ struct Linear {
     b: DMatrix<f64>,
     /// The state deviation.
     z: DVector<f64>,
-    /// The operating point's state (absolute), and its inputs.
+    /// The state (absolute) the deviations are taken from, and its inputs: the operating
+    /// point under outside commands, the loop's rest under the article's controller.
     z_op: Vec<f64>,
     u_op: Vec<f64>,
     /// The controller ω_ref = Kx z + Kr r (deviations), article controller only.
     control: Option<(DMatrix<f64>, DMatrix<f64>)>,
-    /// The speed commands (rad/s) that hold the operating point.
+    /// The speed commands (rad/s) at `z_op`.
     rest_commands: [f64; 2],
     zoh: Option<Zoh>,
 }
@@ -1168,17 +1182,30 @@ impl Linear {
             .state_of(Role::Velocity)
             .expect("a piston has a velocity");
         force[(velocity, 0)] = -1.0 / plant.si.mass;
-        let (a, b_drive, control, u_op) = match controller {
+        let (a, b_drive, control, u_op, z_op, rest_commands) = match controller {
+            // the P law alone holds the load and feeds the leakage: the loop rests with the
+            // reference off the piston (docs/simulation.md#the-rest-under-load), its commands
+            // there the law's own
             Controller::Article => {
                 let (kx, kr) = plant.controller(rig.sum_pressure);
                 let a = &plant.a + &plant.b * &kx;
                 let b = &plant.b * &kr;
-                (a, b, Some((kx, kr)), vec![x_op, rig.external_force_n])
+                let (z_rest, offset_m) = plant
+                    .rest(rig.sum_pressure)
+                    .map_or((z_op.clone(), 0.0), |r| (r.state, r.offset_m));
+                let dz = DVector::from_iterator(n, z_rest.iter().zip(&z_op).map(|(r, o)| r - o));
+                let at_rest = &kx * dz + &kr * offset_m;
+                let mut commands = [0.0; 2];
+                for (c, u) in commands.iter_mut().zip(at_rest.iter()) {
+                    *c = *u;
+                }
+                let u_op = vec![x_op + offset_m, rig.external_force_n];
+                (a, b, Some((kx, kr)), u_op, z_rest, commands)
             }
             Controller::External => {
                 let mut u_op = u_rest[..drives(rig)].to_vec();
                 u_op.push(rig.external_force_n);
-                (plant.a.clone(), plant.b.clone(), None, u_op)
+                (plant.a.clone(), plant.b.clone(), None, u_op, z_op, u_rest)
             }
         };
         // a single-pump mode pins its accumulator chamber: the outputs show both chambers
@@ -1205,7 +1232,7 @@ impl Linear {
             z_op,
             u_op,
             control,
-            rest_commands: u_rest,
+            rest_commands,
             zoh: None,
         })
     }
@@ -1245,7 +1272,7 @@ impl Linear {
         let (kx, kr) = self.control.as_ref()?;
         let r = inputs[0] - self.u_op[0];
         let u = kx * &self.z + kr * r;
-        // at rest the commands are those that hold the operating point
+        // about the commands at the state the deviations are taken from
         let mut out = self.rest_commands;
         for (o, du) in out.iter_mut().zip(u.iter()) {
             *o += du;
@@ -1376,7 +1403,7 @@ mod tests {
 
     /// The single-motor circuits' emulator FMU gives `emulate`'s records too, with one motor's
     /// variables and, for the single-pump circuit, its mode; their linear FMU steps to the
-    /// reference (the deviation model has no standing error).
+    /// reference about their rest.
     #[test]
     fn the_single_motor_fmus_give_their_records_and_steps() {
         for kind in [CircuitKind::DualPump, CircuitKind::SinglePump] {
@@ -1412,14 +1439,21 @@ mod tests {
                 assert_eq!(fmu.get_real(vr).unwrap(), *rec.mode.last().unwrap());
             }
             let linear = Config::new(ModelKind::Linear, Controller::Article, true, rig.clone());
-            let x0 = rig.x0_mm;
+            // the loop rests at x0 under its reference's start value, x0 plus the rest
+            // offset (docs/simulation.md#the-rest-under-load), and follows a step on it
+            let (x0, x_ref) = (rig.x0_mm, crate::response::Baseline::of_rig(&rig).x_ref_mm);
             let got = run(&mut Instance::new(linear).unwrap(), 3000, 0.01, |t| {
                 if t < 0.5 {
-                    x0
+                    x_ref
                 } else {
-                    x0 + 5.0
+                    x_ref + 5.0
                 }
             });
+            assert!(
+                (got[49].0 * 1e3 - x0).abs() < 1e-9,
+                "{kind:?}: {:?}",
+                got[49]
+            );
             let (x_end, _) = got[got.len() - 1];
             assert!((x_end * 1e3 - x0 - 5.0).abs() < 0.01, "{kind:?}: {x_end}");
         }
@@ -1463,7 +1497,12 @@ mod tests {
             rig.clone(),
         ))
         .unwrap();
-        let got = run(&mut fmu, 300, 0.01, |_| rig.x0_mm + 5.0);
+        // both rest with the reference off the piston by the loop's rest offset
+        // (docs/simulation.md#the-rest-under-load), which the FMU's start value holds
+        let base = crate::response::Baseline::of_rig(&rig);
+        let x_ref = fmu.value_reference("x_ref_m").unwrap();
+        assert!((fmu.get_real(x_ref).unwrap() * 1e3 - base.x_ref_mm).abs() < 1e-12);
+        let got = run(&mut fmu, 300, 0.01, |_| base.x_ref_mm + 5.0);
         for (k, (x, p1)) in got.iter().enumerate().skip(1) {
             assert!((x * 1e3 - s.x_mm[k]).abs() < 1e-9 * 1e3, "x at sample {k}");
             assert!(

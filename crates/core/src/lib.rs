@@ -44,6 +44,7 @@
 // The core never prints or ends the process (docs/architecture.md): its callers decide.
 #![deny(clippy::print_stdout, clippy::print_stderr, clippy::exit)]
 
+pub mod anchor;
 pub mod bulk;
 pub mod cavitation;
 pub mod circuit;

@@ -203,8 +203,18 @@ impl Loop {
             });
         };
         let plant = Plant::new(rig);
-        let op = plant.operating_point();
+        // the closed loop as `step` runs it rests with the reference off the piston by the
+        // rest offset (docs/simulation.md#the-rest-under-load): its deviations are about that
+        // rest, the open loop's about the operating point
+        let rest = plant.rest(rig.sum_pressure).filter(|_| closed);
+        let state = rest
+            .as_ref()
+            .map_or_else(|| plant.operating_point().state, |r| r.state.clone());
         let outputs = plant.outputs();
+        let reference = rest.as_ref().map(|r| {
+            let x_ref_m = state[plant.position()] + r.offset_m;
+            ("x_ref_m".to_string(), x_ref_m, "m".to_string())
+        });
         let operating_point = (outputs.iter())
             .filter_map(|o| {
                 let gauge = if o.role == Some(Role::Pressure) {
@@ -213,8 +223,9 @@ impl Loop {
                     ""
                 };
                 let name = format!("{}_{}", o.name, o.unit.replace('/', "_per_"));
-                Some((name, op.state[o.state?], format!("{}{gauge}", o.unit)))
+                Some((name, state[o.state?], format!("{}{gauge}", o.unit)))
             })
+            .chain(reference)
             .collect();
         let signal_names: Vec<&str> = outputs.iter().map(|o| o.name.as_str()).collect();
         let (which, inputs, outputs, title) = if closed {

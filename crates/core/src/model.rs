@@ -28,6 +28,16 @@ pub struct Output {
     pub role: Option<Role>,
 }
 
+/// The closed loop at rest with the piston at x0 ([`Plant::rest`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rest {
+    /// The standing control error x_ref − x (m): the reference that holds the piston at x0 is
+    /// x0 plus this, and every reference rests this far from the position it reaches.
+    pub offset_m: f64,
+    /// The state there (absolute position x0, gauge pressures, SI), in the circuit's order.
+    pub state: Vec<f64>,
+}
+
 /// The plant: ẋ = A x + B u, u the drive speed references (rad/s), of a rig's circuit.
 #[derive(Debug, Clone)]
 pub struct Plant {
@@ -190,6 +200,37 @@ impl Plant {
     /// `None` for a circuit other than the DPM.
     pub fn rest_state(&self, loaded: bool) -> Option<(Vec<f64>, [f64; 2])> {
         self.dpm().map(|d| d.rest_state(loaded))
+    }
+
+    /// The loop at rest with the piston at x0 (docs/simulation.md#the-rest-under-load): the
+    /// commands that hold the operating point (the drives' speed error that carries the pumps'
+    /// load torque, the speeds that feed the leakage) come from the P law alone, so the
+    /// reference that holds the piston at x0 stands off it by [`Rest::offset_m`]. Solved on
+    /// this linear model: with A_cl = A + B Kx, the rest deviation under a reference deviation
+    /// δr is A_cl⁻¹ B (u₀ − Kr δr), and δr is chosen to bring the position's deviation to 0.
+    /// The circuits' rest equations are linear in one valve mode with every emulator effect
+    /// off, so this is their exact rest there (tests/rest_offset.rs checks it against the
+    /// emulator's Newton rest). `None` where A_cl is singular or the position does not follow
+    /// the reference at DC (no rest to hold).
+    pub fn rest(&self, sum_pressure: bool) -> Option<Rest> {
+        let (kx, kr) = self.controller(sum_pressure);
+        let op = self.operating_point();
+        let lu = (&self.a + &self.b * kx).lu();
+        let u0 = nalgebra::DVector::from_column_slice(&op.inputs);
+        let unheld = lu.solve(&(&self.b * u0))?;
+        let per_reference = -lu.solve(&(&self.b * kr))?.column(0).into_owned();
+        let pos = self.position();
+        let gain = per_reference[pos];
+        if gain.is_nan() || gain.abs() <= 1e-9 {
+            return None;
+        }
+        let offset_m = -unheld[pos] / gain;
+        let deviation = unheld + per_reference * offset_m;
+        let state: Vec<f64> = (op.state.iter().zip(deviation.iter()))
+            .map(|(x, d)| x + d)
+            .collect();
+        (offset_m.is_finite() && state.iter().all(|v| v.is_finite()))
+            .then_some(Rest { offset_m, state })
     }
 
     /// Wrap A, B with output x and no feedthrough.

@@ -3,7 +3,7 @@
 //! text and CSV. Pressures and bulk moduli are in bar, gain margins in dB, phase margins in deg;
 //! an infinite margin is `null` in JSON, `inf` in text and an empty cell in CSV.
 
-use crate::format::fmt_opt;
+use crate::format::{fmt_opt, fmt_short};
 use crate::records::{csv_number, csv_text};
 use pumpcyl::bulk::{BetaReading, Row};
 use serde_json::{json, Value};
@@ -36,7 +36,9 @@ pub fn bulk_json(
 pub fn bulk_text(fit: (f64, f64, f64), from: &str, x: f64, rows: &[Row]) -> String {
     let (beta_bar, p_mean_bar, beta_oil_bar) = fit;
     let mut s = format!(
-        "gas fraction X = {x:.5} (beta_e = {beta_bar} bar at {p_mean_bar} bar mean pressure, from {from}; beta_oil = {beta_oil_bar} bar)\n",
+        "gas fraction X = {x:.5} (beta_e = {} bar at {} bar mean pressure, from {from}; beta_oil = {beta_oil_bar} bar)\n",
+        fmt_short(beta_bar, 1),
+        fmt_short(p_mean_bar, 2),
     );
     let _ = writeln!(
         s,

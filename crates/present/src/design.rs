@@ -6,7 +6,7 @@
 use crate::format::fmt_opt;
 use crate::table::Table;
 use pumpcyl::design::robust::{Binding, RegionSource, Worst};
-use pumpcyl::design::{Design, RobustDesign, Verdict};
+use pumpcyl::design::{Design, RobustDesign, Targets, Verdict};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 
@@ -64,6 +64,15 @@ pub fn leakage_loop_table(d: &RobustDesign) -> Table {
     t
 }
 
+/// Where the rig's β holds for a design over pressures, in words: `beta_bar holds at 5.81 bar
+/// (docs/bulk-modulus.md#the-anchor)`.
+fn anchor_text(t: &Targets) -> String {
+    t.p_beta_bar.map_or_else(
+        || "beta_bar at the rig's anchor".to_string(),
+        |p| format!("beta_bar holds at {p:.2} bar mean pressure, the gas-fraction model's anchor (docs/bulk-modulus.md#the-anchor)"),
+    )
+}
+
 /// The nominal design (docs/design.md#what-pumpcyl-design-does) for the rig `rig` (in words)
 /// as text: the targets, the largest gains and the binding condition, the margins at every
 /// condition, the predicted tracking at the gain it names, the verdict and its reasons.
@@ -72,6 +81,9 @@ pub fn design_text(rig: &str, d: &Design) -> String {
         "design (the article §2.2) for {rig}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
         d.targets.pm_deg, d.targets.gm_db, d.kp_max, d.kp_max_worst_case
     );
+    if !d.targets.p_mean_bar.is_empty() {
+        let _ = writeln!(s, "  {}", anchor_text(&d.targets));
+    }
     let w = &d.worst_case;
     let _ = writeln!(
         s,
@@ -198,7 +210,7 @@ pub fn robust_text(d: &RobustDesign, seconds: f64) -> String {
             String::new()
         } else {
             let p: Vec<String> = t.p_mean_bar.iter().map(|p| format!("{p:.2}")).collect();
-            format!(", p {} bar (beta at {:.2} bar)", p.join(", "), t.p_beta_bar)
+            format!(", p {} bar ({})", p.join(", "), anchor_text(t))
         }
     );
     let _ = writeln!(s, "  Kp max, robust     {:.2} (1/m)", d.kp_max);

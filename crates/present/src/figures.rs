@@ -537,8 +537,14 @@ mod tests {
                     ..Rig::default()
                 };
                 let s = step(&rig, 5.0, 0.5, 100.0).unwrap();
-                let about = about_operating_point(&s, Baseline::of_rig(&rig).x_ref_mm);
-                assert!(about.x_ref_mm.iter().all(|r| (r - 5.0).abs() < 1e-9));
+                let base = Baseline::of_rig(&rig);
+                let about = about_operating_point(&s, base.x_mm);
+                // the reference stands off the position by the loop's rest offset
+                let offset = base.x_ref_mm - base.x_mm;
+                assert!(about
+                    .x_ref_mm
+                    .iter()
+                    .all(|r| (r - 5.0 - offset).abs() < 1e-9));
                 assert_eq!(about.p1_bar, s.p1_bar, "only the position moves");
                 (s.x_mm[0], about.x_mm[0])
             })

@@ -24,3 +24,14 @@ pub fn shown_name(path: &str) -> String {
         .file_name()
         .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
 }
+
+/// `v` with at most `digits` decimals, trailing zeros dropped (4.4 → "4.4", 4.8173 → "4.82" at
+/// two): a value read off a rig or a model, shown as a reader quotes it.
+pub fn fmt_short(v: f64, digits: usize) -> String {
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}

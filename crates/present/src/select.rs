@@ -1,6 +1,7 @@
 //! The circuit selection (docs/select.md) as text: one line a candidate, then the answer.
 
 use crate::figures::{trace, Chart, Plot};
+use crate::format::fmt_short;
 use crate::plot::{LineStyle, Panel};
 use crate::records::{csv_number, csv_text};
 use pumpcyl::select::{
@@ -44,11 +45,13 @@ pub fn gas_fraction_text(s: &Selection) -> String {
         ),
         GasFractionFrom::Article(r) => format!(
             "from the article's identification, beta {} bar at its records' mean chamber pressure {} bar (a factor 2 either way unless stated)",
-            r.beta_bar, r.p_mean_bar
+            fmt_short(r.beta_bar, 1),
+            fmt_short(r.p_mean_bar, 2)
         ),
         GasFractionFrom::Rig(r) => format!(
-            "from the rig's beta {} bar at its mean chamber pressure {} bar (half its sum-pressure set-point; a factor 2 either way unless stated)",
-            r.beta_bar, r.p_mean_bar
+            "from the rig's beta {} bar at its anchor {} bar, where its loop rests (docs/bulk-modulus.md#the-anchor; a factor 2 either way unless stated)",
+            fmt_short(r.beta_bar, 1),
+            fmt_short(r.p_mean_bar, 2)
         ),
         GasFractionFrom::Application => "as stated in the application".to_string(),
     };
@@ -139,6 +142,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             c.reason
         );
     }
+    out += &rest_offset_text(s);
     let _ = writeln!(
         out,
         "lowest mean pressure meeting the requirement over the whole uncertainty: {}",
@@ -167,6 +171,22 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
         let _ = writeln!(out, "  - {r}");
     }
     out
+}
+
+/// The largest rest offset in the candidates' errors, in a line (empty when none has one):
+/// the standing error the P law needs at rest (docs/simulation.md#the-rest-under-load).
+fn rest_offset_text(s: &Selection) -> String {
+    let largest = (s.options.iter())
+        .filter_map(|c| c.rest_offset_mm.map(|[lo, hi]| (lo.abs().max(hi.abs()), c)))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    largest.map_or(String::new(), |(mm, c)| {
+        format!(
+            "max |e| holds the loop's rest offset, the standing error with which the P law holds the load \
+             and feeds the leakage: up to {mm:.2} mm (the {} circuit at {:.2} bar; docs/simulation.md#the-rest-under-load)\n",
+            c.circuit.name(),
+            c.mean_pressure_bar
+        )
+    })
 }
 
 /// A candidate's mode check in a cell: its switches, those after settling and the step's

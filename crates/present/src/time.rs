@@ -194,7 +194,7 @@ pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
     }
     s.push('\n');
     type Row = (&'static str, fn(&StepMetrics) -> String);
-    let rows: [Row; 7] = [
+    let rows: [Row; 8] = [
         ("rise time 10-90 % (s)", |m| fmt_opt(m.rise_time_s, 3)),
         ("overshoot (mm)", |m| format!("{:.3}", m.overshoot_mm)),
         ("overshoot (%)", |m| format!("{:.2}", m.overshoot_pct)),
@@ -207,6 +207,9 @@ pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
             format!("{:.4}", m.steady_state_error_mm)
         }),
         ("error at end (mm)", |m| format!("{:.4}", m.final_error_mm)),
+        ("rest offset (mm)", |m| {
+            m.rest_offset_mm.map_or("-".into(), |v| format!("{v:.4}"))
+        }),
     ];
     let rings = runs.done.iter().any(|r| r.metrics.ringing.is_some());
     for (k, (name, f)) in rows.into_iter().enumerate() {
@@ -220,9 +223,14 @@ pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
         }
     }
     s += &ringing_lines(&runs.done);
+    s += REST_OFFSET_NOTE;
     s += &over_rating_lines(&runs.done, |r| r.label.clone());
     s + &unstable_lines(&runs.unstable)
 }
+
+/// What the rest offset in the errors of `step` and `track` is, in one line.
+pub const REST_OFFSET_NOTE: &str = "the errors hold the rest offset: the standing error x_ref - x \
+     with which the P law holds the load and feeds the leakage at rest (docs/simulation.md#the-rest-under-load)\n";
 
 /// The row of the least-damped closed-loop pole, `ζ 0.012 at 2.31 Hz` (`-` for a run that
 /// does not ring).
@@ -298,6 +306,7 @@ pub fn step_mat(title: &str, runs: &[Run<StepMetrics>]) -> Vec<u8> {
             column(runs, |m| Some(m.steady_state_error_mm)),
         ),
         ("final_error_mm", column(runs, |m| Some(m.final_error_mm))),
+        ("rest_offset_mm", column(runs, |m| m.rest_offset_mm)),
     ];
     signals_mat(title, &series(runs), None, &scalars)
 }
@@ -321,8 +330,14 @@ pub fn track_text(rig: &str, circuit: CircuitKind, runs: &Runs<TrackMetrics>) ->
     );
     let _ = writeln!(
         s,
-        "{:<22} {:>8} {:>8} {:>12} {:>12} {:>15}",
-        "variant", "freq_hz", "amp_mm", "max_err_mm", "rms_err_mm", "wave_reduction"
+        "{:<22} {:>8} {:>8} {:>12} {:>12} {:>15} {:>15}",
+        "variant",
+        "freq_hz",
+        "amp_mm",
+        "max_err_mm",
+        "rms_err_mm",
+        "wave_reduction",
+        "rest_offset_mm"
     );
     for Run {
         label, metrics: m, ..
@@ -330,10 +345,16 @@ pub fn track_text(rig: &str, circuit: CircuitKind, runs: &Runs<TrackMetrics>) ->
     {
         let _ = writeln!(
             s,
-            "{label:<22} {:>8.3} {:>8.1} {:>12.3} {:>12.3} {:>15.3}",
-            m.freq_hz, m.amp_mm, m.max_error_mm, m.rms_error_mm, m.wave_reduction
+            "{label:<22} {:>8.3} {:>8.1} {:>12.3} {:>12.3} {:>15.3} {:>15}",
+            m.freq_hz,
+            m.amp_mm,
+            m.max_error_mm,
+            m.rms_error_mm,
+            m.wave_reduction,
+            m.rest_offset_mm.map_or("-".into(), |v| format!("{v:.3}"))
         );
     }
+    s += REST_OFFSET_NOTE;
     s += &over_rating_lines(&runs.done, |r| {
         format!(
             "{} Hz ±{} mm {}",
@@ -373,6 +394,7 @@ pub fn track_mat(runs: &[Run<TrackMetrics>]) -> Vec<u8> {
         ("max_error_mm", column(runs, |m| Some(m.max_error_mm))),
         ("rms_error_mm", column(runs, |m| Some(m.rms_error_mm))),
         ("wave_reduction", column(runs, |m| Some(m.wave_reduction))),
+        ("rest_offset_mm", column(runs, |m| m.rest_offset_mm)),
     ];
     signals_mat("Sinusoidal tracking", &track_series(runs), None, &scalars)
 }
@@ -596,8 +618,8 @@ mod tests {
         assert_eq!(v["metrics"]["step_mm"], 5.0);
         assert_eq!(v["unstable"][0]["label"], "kp=400");
         let text = step_text(&setup, &runs);
-        // heading, column labels, seven metrics, one unstable variant
-        assert_eq!(text.lines().count(), 10, "{text}");
+        // heading, column labels, eight metrics, the rest offset's note, one unstable variant
+        assert_eq!(text.lines().count(), 12, "{text}");
         assert!(text.ends_with("--compare kp=400: not simulated: the closed loop is unstable\n"));
     }
 

@@ -46,8 +46,9 @@ pub struct Targets {
     pub stroke_mm: f64,
     /// Mean chamber pressures checked (bar); empty = the rig's β only.
     pub p_mean_bar: Vec<f64>,
-    /// Mean pressure at which the rig's β holds (bar), for the gas-fraction model.
-    pub p_beta_bar: f64,
+    /// Mean pressure at which the rig's β holds (bar), for the gas-fraction model; `None`: the
+    /// rig's own anchor ([`crate::bulk::BetaReading::of_rig`], [`Targets::beta_anchor_bar`]).
+    pub p_beta_bar: Option<f64>,
     /// Masses checked (kg); empty = the rig's mass only.
     pub mass_kg: Vec<f64>,
     /// Sinusoidal waves to track: (frequency Hz, amplitude mm).
@@ -64,7 +65,7 @@ impl Targets {
         match exp.chamber_pressure_span_bar() {
             Some(span) if self.p_mean_bar.is_empty() => Targets {
                 p_mean_bar: span.to_vec(),
-                p_beta_bar: span[1],
+                p_beta_bar: Some(span[1]),
                 ..self
             },
             _ => self,
@@ -73,8 +74,8 @@ impl Targets {
 }
 
 impl Default for Targets {
-    /// pumpcyl's default targets (docs/design.md#targets), over x0 ± 50 mm with β identified at
-    /// 4.4 bar and no pressure, mass or wave list. PM ≥ 34° keeps the phase margin the article's
+    /// pumpcyl's default targets (docs/design.md#targets), over x0 ± 50 mm with β holding at
+    /// the rig's own anchor and no pressure, mass or wave list. PM ≥ 34° keeps the phase margin the article's
     /// design reaches at Kp 25 (§3.3; its design guide, §2.2, asks only for low margins, PM <
     /// 40°, at the worst-case point). GM ≥ 6 dB is pumpcyl's choice, the loop gain may double
     /// before instability (the article sets no gain-margin target; it reaches 6.5 dB). ±50 mm
@@ -85,9 +86,32 @@ impl Default for Targets {
             gm_db: 6.0,
             stroke_mm: 50.0,
             p_mean_bar: vec![],
-            p_beta_bar: 4.4,
+            p_beta_bar: None,
             mass_kg: vec![],
             waves: vec![],
+        }
+    }
+}
+
+impl Targets {
+    /// The mean pressure (bar) at which `rig`'s β holds for these targets: `p_beta_bar` where
+    /// given, the rig's own anchor otherwise ([`crate::bulk::BetaReading::of_rig`], the
+    /// article's 4.4 bar on its own rig).
+    pub fn beta_anchor_bar(&self, rig: &Rig) -> f64 {
+        self.p_beta_bar
+            .unwrap_or_else(|| crate::bulk::BetaReading::of_rig(rig).p_mean_bar)
+    }
+
+    /// These targets with `p_beta_bar` set to [`Targets::beta_anchor_bar`] where a pressure list
+    /// uses it, so that a design states the anchor it used (and finds it once).
+    pub fn anchored(&self, rig: &Rig) -> Targets {
+        let p_beta_bar = match self.p_mean_bar.is_empty() {
+            true => self.p_beta_bar,
+            false => Some(self.beta_anchor_bar(rig)),
+        };
+        Targets {
+            p_beta_bar,
+            ..self.clone()
         }
     }
 }
@@ -148,8 +172,13 @@ pub struct Design {
     /// The gain (1/m) the tracking is predicted at: `kp_recommended`, or `kp_max` when there
     /// is none.
     pub tracking_kp: f64,
-    /// Predicted tracking of each wave at `tracking_kp` (the rig's own operating point).
+    /// Predicted tracking of each wave at `tracking_kp` (the rig's own operating point), the
+    /// rest offset included.
     pub tracking: Vec<TrackMetrics>,
+    /// The loop's standing error at rest at `tracking_kp` (mm;
+    /// docs/simulation.md#the-rest-under-load): the error with which the P law holds the load
+    /// and feeds the leakage, part of every tracking error. `None` where the loop has no rest.
+    pub rest_offset_mm: Option<f64>,
     /// The verdict and the numbers that decided it.
     pub verdict: Verdict,
     /// Why, in words.
@@ -199,7 +228,7 @@ fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
 ///     gm_db: 6.0,
 ///     stroke_mm: 50.0,
 ///     p_mean_bar: vec![],
-///     p_beta_bar: 4.4,
+///     p_beta_bar: Some(4.4),
 ///     mass_kg: vec![],
 ///     waves: vec![],
 /// };
@@ -333,7 +362,7 @@ fn check_lists(t: &Targets) -> Result<(), DesignError> {
     let lists = [
         ("p_mean_bar", &t.p_mean_bar),
         ("mass_kg", &t.mass_kg),
-        ("p_beta_bar", &vec![t.p_beta_bar]),
+        ("p_beta_bar", &t.p_beta_bar.into_iter().collect()),
     ];
     for (name, values) in lists {
         if let Some(v) = values.iter().find(|v| !positive(**v)) {
@@ -449,6 +478,7 @@ pub fn design_with(
 ) -> Result<Design, DesignError> {
     t.check_work(work.allow_long_run)?;
     check_inputs(rig, t)?;
+    let t = &t.anchored(rig);
     let kp = kp_max(rig, t)?;
     if kp == 0.0 {
         return Err(DesignError::Input(
@@ -462,14 +492,20 @@ pub fn design_with(
     let kp_max_worst_case = worst.kp_max;
     let kp_recommended = (kp_max_worst_case > 0.0).then(|| kp.min(kp_max_worst_case));
     let tracking_kp = kp_recommended.unwrap_or(kp);
-    let tracking = predicted_tracking(
-        &Rig {
-            kp: tracking_kp,
-            ..designed
-        },
-        &t.waves,
-    )?;
-    let (verdict, reasons) = judge(&conditions, t, kp, kp_max_worst_case);
+    let tracked = Rig {
+        kp: tracking_kp,
+        ..designed
+    };
+    let tracking = predicted_tracking(&tracked, &t.waves)?;
+    let rest_offset_mm =
+        (Plant::new(&tracked).rest(tracked.sum_pressure)).map(|r| r.offset_m * 1e3);
+    let (verdict, mut reasons) = judge(&conditions, t, kp, kp_max_worst_case);
+    if let Some(mm) = rest_offset_mm {
+        reasons.push(format!(
+            "at Kp = {tracking_kp:.2} the loop rests with x_ref - x = {mm:.3} mm: the standing error with which \
+             the P law holds the load and feeds the leakage (docs/simulation.md#the-rest-under-load)"
+        ));
+    }
     Ok(Design {
         targets: t.clone(),
         kp_max: kp,
@@ -479,6 +515,7 @@ pub fn design_with(
         kp_recommended,
         tracking_kp,
         tracking,
+        rest_offset_mm,
         verdict,
         reasons,
     })
@@ -549,7 +586,7 @@ fn condition_rigs(rig: &Rig, t: &Targets) -> Result<Vec<(Option<f64>, Rig)>, Des
     let x = if t.p_mean_bar.is_empty() {
         0.0
     } else {
-        gas_fraction(rig.beta_bar, t.p_beta_bar, BETA_OIL_BAR)?
+        gas_fraction(rig.beta_bar, t.beta_anchor_bar(rig), BETA_OIL_BAR)?
     };
     let mut out = Vec::new();
     for &x_mm in positions.iter().filter(|&&x| x > 0.0 && x < rig.stroke_mm) {
@@ -643,7 +680,7 @@ mod tests {
             gm_db: 0.0,
             stroke_mm: 50.0,
             p_mean_bar: vec![],
-            p_beta_bar: 4.4,
+            p_beta_bar: Some(4.4),
             mass_kg: vec![],
             waves: vec![],
         }
@@ -819,7 +856,10 @@ mod tests {
             bad(|t| t.mass_kg = vec![f64::NAN]),
             "mass_kg NaN: must be > 0"
         );
-        assert_eq!(bad(|t| t.p_beta_bar = 0.0), "p_beta_bar 0: must be > 0");
+        assert_eq!(
+            bad(|t| t.p_beta_bar = Some(0.0)),
+            "p_beta_bar 0: must be > 0"
+        );
         assert_eq!(
             bad(|t| t.waves = vec![(-1.0, 3.0)]),
             "wave -1:3: frequency and amplitude must be > 0"

@@ -140,10 +140,23 @@ impl Region {
     /// The confidence region of `u` with the identification's answer `best` as its point
     /// estimate, the one `identify` reports and every other step uses (the profiles' polished
     /// optimum lies in the same region, but wanders along a flat b).
+    ///
+    /// A parameter the records cannot bound (b from steps) has a profile that ends at its
+    /// search range while the polished answer wanders on along the flat direction, below the
+    /// range's lowest value: its interval is widened to hold the answer, so that the region is
+    /// still the whole range the records allow.
     pub fn around(best: Candidate, u: &Uncertainty, standstill: Standstill) -> Region {
+        let r = Region::from_uncertainty(u, standstill);
+        let hold = |[lo, hi]: [f64; 2], v: f64| [lo.min(v), hi.max(v)];
         Region {
             nominal: best,
-            ..Region::from_uncertainty(u, standstill)
+            beta_bar: hold(r.beta_bar, best.beta_bar),
+            viscous_friction_ns_per_m: hold(
+                r.viscous_friction_ns_per_m,
+                best.viscous_friction_ns_per_m,
+            ),
+            c12_m5_per_ns: hold(r.c12_m5_per_ns, best.c12_m5_per_ns),
+            ..r
         }
     }
 
@@ -490,7 +503,7 @@ fn points(
     for c in params {
         let (c1, c2) = region.leakages(rig, c.c12_m5_per_ns)?;
         let gas = if pressures[0].is_some() {
-            gas_fraction(c.beta_bar, t.p_beta_bar, BETA_OIL_BAR)?
+            gas_fraction(c.beta_bar, t.beta_anchor_bar(rig), BETA_OIL_BAR)?
         } else {
             0.0
         };
@@ -689,6 +702,7 @@ pub fn robust_design(
 ) -> Result<RobustDesign, DesignError> {
     check(rig, t, opts)?;
     region.validate()?;
+    let t = &t.anchored(rig);
     let (c1, c2) = region.leakages(rig, region.nominal.c12_m5_per_ns)?;
     let nominal_point = Point {
         beta_bar: region.nominal.beta_bar,

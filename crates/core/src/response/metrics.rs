@@ -18,10 +18,16 @@ pub struct StepMetrics {
     pub peak_time_s: f64,
     /// 2 % settling time (s); `None` if still outside the band at the end.
     pub settling_time_s: Option<f64>,
-    /// Steady-state error from the DC solution of the model (mm).
+    /// Steady-state error x_ref − x from the DC solution of the model (mm), the rest offset
+    /// included.
     pub steady_state_error_mm: f64,
-    /// Error at the end of the simulated record (mm).
+    /// Error x_ref − x at the end of the simulated record (mm), the rest offset included.
     pub final_error_mm: f64,
+    /// The standing error of the loop at rest (mm; docs/simulation.md#the-rest-under-load):
+    /// the part of the errors above that the P law needs to hold the load and feed the
+    /// leakage. Absent from JSON for metrics of sampled data alone ([`step_metrics`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rest_offset_mm: Option<f64>,
     /// The damping warning when the loop's gain margin is under
     /// [`RINGING_GM_DB`](super::RINGING_GM_DB) ([`ringing`](super::ringing)); absent from
     /// JSON otherwise. The metrics of sampled data alone ([`step_metrics`]) leave it `None`.
@@ -60,6 +66,7 @@ pub fn step_metrics(t: &[f64], y: &[f64], r: f64, dc_mm: f64) -> StepMetrics {
         settling_time_s: settling_time(t, &norm, 0.02),
         steady_state_error_mm: r - dc_mm,
         final_error_mm: r - y[n - 1],
+        rest_offset_mm: None,
         ringing: None,
     }
 }
@@ -105,6 +112,11 @@ pub struct TrackMetrics {
     pub wave_reduction: f64,
     /// What the metrics are measured over.
     pub window: TrackWindow,
+    /// The loop's standing error at rest (mm; docs/simulation.md#the-rest-under-load), part of
+    /// every error above: set for the model's responses ([`track`](super::track)), absent from
+    /// JSON for the metrics of sampled data alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rest_offset_mm: Option<f64>,
 }
 
 /// The whole periods of a sinusoidal response its tracking metrics are measured over
@@ -183,6 +195,7 @@ pub fn track_metrics(
         rms_error_mm: rms,
         wave_reduction: 1.0 - max / amp_mm,
         window,
+        rest_offset_mm: None,
     }
 }
 

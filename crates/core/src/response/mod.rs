@@ -145,17 +145,22 @@ pub struct Baseline {
 }
 
 impl Baseline {
-    /// The rig's own operating point (x0, pressures from the sum-pressure set-point, leakage
-    /// speeds).
+    /// The rig's loop at rest with the piston at x0 ([`Plant::rest`], sum-pressure loop as the
+    /// rig says): the reference stands off x0 by the rest offset, the pressures and speeds are
+    /// those of that rest. Where the loop has no rest (a singular closed loop, whose responses
+    /// are refused) the operating point itself, without an offset.
     pub fn of_rig(rig: &Rig) -> Baseline {
         let plant = Plant::new(rig);
-        let x = plant.operating_point().state;
+        let (x, offset_m) = match plant.rest(rig.sum_pressure) {
+            Some(rest) => (rest.state, rest.offset_m),
+            None => (plant.operating_point().state, 0.0),
+        };
         // a circuit with fewer than two pressures or speeds reads 0 for the missing ones (its
         // responses are refused before they use them: `stable_loop`)
         let at = |role: Role, k: usize| plant.states_of(role).get(k).map_or(0.0, |&i| x[i]);
         let x_mm = x[plant.position()] * 1e3;
         Baseline {
-            x_ref_mm: x_mm,
+            x_ref_mm: x_mm + offset_m * 1e3,
             x_mm,
             p_bar: [0, 1].map(|k| at(Role::Pressure, k) / PA_PER_BAR),
             w_rpm: [0, 1].map(|k| at(Role::MotorSpeed, k) / RAD_S_PER_RPM),
@@ -371,13 +376,22 @@ pub fn diverging_step(
 }
 
 /// Metrics of a step response `s` of `rig` (from [`step`]) to a step of `step_mm`, the
-/// steady-state error taken from the DC solution of the closed loop (NaN when it has none).
+/// steady-state error taken from the DC solution of the closed loop (NaN when it has none),
+/// the errors with the loop's rest offset ([`Baseline::of_rig`]) in them.
 pub fn step_metrics_of(rig: &Rig, s: &Signals, step_mm: f64) -> StepMetrics {
     let sys = Plant::new(rig).closed_loop_outputs(rig.sum_pressure);
     let dc_mm = crate::lti::dc_output(&sys, &[step_mm * 1e-3]).map_or(f64::NAN, |y| y[0] * 1e3);
     let x0 = s.x_mm[0];
     let y: Vec<f64> = s.x_mm.iter().map(|x| x - x0).collect();
-    step_metrics(&s.time_s, &y, step_mm, dc_mm)
+    let m = step_metrics(&s.time_s, &y, step_mm, dc_mm);
+    let base = Baseline::of_rig(rig);
+    let offset_mm = base.x_ref_mm - base.x_mm;
+    StepMetrics {
+        steady_state_error_mm: m.steady_state_error_mm + offset_mm,
+        final_error_mm: m.final_error_mm + offset_mm,
+        rest_offset_mm: Some(offset_mm),
+        ..m
+    }
 }
 
 /// [`step_metrics_of`] with the damping warning of the rig's loop ([`ringing`]): the metrics
@@ -430,9 +444,13 @@ pub fn track(
     }
     check_nyquist(freq_hz, rate_hz)?;
     let t = sample_times(f64::from(periods) / freq_hz, rate_hz)?;
-    let s = steady_sine(rig, freq_hz, amp_mm, 0.0, &t, &Baseline::of_rig(rig))?;
+    let base = Baseline::of_rig(rig);
+    let s = steady_sine(rig, freq_hz, amp_mm, 0.0, &t, &base)?;
     let window = TrackWindow::periods(0.0, freq_hz, 1, periods, true);
-    let m = track_metrics(&s.time_s, &s.e_mm, freq_hz, amp_mm, window);
+    let m = TrackMetrics {
+        rest_offset_mm: Some(base.x_ref_mm - base.x_mm),
+        ..track_metrics(&s.time_s, &s.e_mm, freq_hz, amp_mm, window)
+    };
     Ok((s, m))
 }
 
@@ -563,6 +581,7 @@ mod tests {
             (dc[0] - 5e-3).abs() < 1e-12,
             "type-1 loop: no steady-state error"
         );
-        assert!(s.e_mm[last].abs() < 1e-6);
+        // the error settles at the loop's rest offset (docs/simulation.md#the-rest-under-load)
+        assert!((s.e_mm[last] - (base.x_ref_mm - base.x_mm)).abs() < 1e-6);
     }
 }

@@ -644,7 +644,7 @@ impl Application {
 pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
     (
         "gas_fraction",
-        "reference undissolved-gas fraction X (absent: the rig's beta at its mean chamber pressure, half p_sum_ref_bar; on the article's rig its 165 bar at 4.4 bar)",
+        "reference undissolved-gas fraction X (absent: the rig's beta at its anchor, the mean chamber pressure of its loop at rest, docs/bulk-modulus.md#the-anchor; on the article's rig its 165 bar at 4.4 bar)",
     ),
     (
         "gas_fraction_min",

@@ -361,7 +361,7 @@ pub struct Switches {
 /// first, then the range's ends) switches modes under its load, if it does: a mode whose
 /// margins break the targets at the candidate's gain at an end and a load (either mode: a load
 /// that accelerates crosses the switching force; the check does not run then), or the check
-/// `check` on the reference at each external force of `req` and each load finding that it
+/// `check` on the reference at each force of [`mode_check_forces`] and each load finding that it
 /// keeps switching ([`ModeVerdict::keeps_switching`]).
 ///
 /// # Errors
@@ -372,25 +372,31 @@ pub fn switches(
     loads: &[f64],
     check: &dyn ModeCheck,
 ) -> Result<Switches, String> {
+    let reference = ends[0];
+    let reached = modes_reached(reference, req, loads);
     for end in ends {
         for &mass_kg in loads {
             let r = Rig {
                 mass_kg,
                 ..(*end).clone()
             };
-            if let Some(why) = mode_margins_break(&r, &req.targets).map_err(|e| e.to_string())? {
+            let broken = mode_margins_break(&r, &req.targets, &reached.chambers)
+                .map_err(|e| e.to_string())?;
+            if let Some(why) = broken {
+                let why = if reached.switching {
+                    format!("{SWITCHES}: {why}")
+                } else {
+                    format!("the mode it rests in over the whole force range breaks the margin targets: {why}")
+                };
                 return Ok(Switches {
-                    why: Some(format!("{SWITCHES}: {why}")),
+                    why: Some(why),
                     worst: None,
                 });
             }
         }
     }
-    let reference = ends[0];
-    let mut forces = req.external_force_n.to_vec();
-    forces.dedup();
     let mut out = Switches::default();
-    for f in forces {
+    for f in mode_check_forces(reference, req, loads) {
         for &mass_kg in loads {
             let r = Rig {
                 mass_kg,
@@ -425,10 +431,95 @@ pub fn switches(
     Ok(out)
 }
 
-/// Which mode of the single-pump rig `r` breaks the margin targets at its gain, if one does
-/// (the tolerances of the design's verdict: [`PM_TOLERANCE_DEG`], [`GM_TOLERANCE_DB`]).
-fn mode_margins_break(r: &Rig, t: &Targets) -> Result<Option<String>, LtiError> {
-    for chamber in [2, 1] {
+/// How many forces inside the requirement's range the mode check adds where the loads' forces
+/// can reach the switching force (docs/select.md#the-single-pump-circuit).
+pub const MODE_CHECK_INNER_FORCES: usize = 5;
+
+/// The external forces (N) the single-pump mode check runs at, the most telling first: the
+/// switching force and forces about it where the requirement's range reaches it, then the
+/// range's ends. The circuit switches where the force its piston must give — the external
+/// force plus m ẍ + b ẋ of a wave, amplitude A ω √(m² ω² + b²) — crosses the switching force
+/// p_acc (A1 − A2) beyond its check valves' band, so a range whose ends both lie clear of it
+/// can hold forces in between where every wave switches
+/// (docs/circuits.md#the-switching-force). The window about the switching force is the band
+/// widened by the largest wave force of the loads; [`MODE_CHECK_INNER_FORCES`] evenly spaced
+/// forces of the range inside it (the switching force among them where it lies inside) are
+/// checked.
+pub fn mode_check_forces(reference: &Rig, req: &Requirement, loads: &[f64]) -> Vec<f64> {
+    let [lo, hi] = req.external_force_n;
+    let mut forces = Vec::new();
+    if let Some([from, to]) = switching_window(reference, req, loads) {
+        let f_s = switching(reference).switching_force_n;
+        if (lo..=hi).contains(&f_s) {
+            forces.push(f_s);
+        }
+        let n = MODE_CHECK_INNER_FORCES;
+        forces.extend((0..n).map(|k| from + (to - from) * k as f64 / (n - 1) as f64));
+    }
+    forces.extend([lo, hi]);
+    let mut seen: Vec<f64> = Vec::new();
+    forces.retain(|f| {
+        let new = !seen.contains(f);
+        seen.push(*f);
+        new
+    });
+    forces
+}
+
+/// The external forces of `req`'s range (N, [from, to]) at which the force the piston must
+/// give can reach the switching force's valve band: the band widened by the largest wave force
+/// A ω √(m² ω² + b²) of the loads, within the range; `None` where the range lies clear of it
+/// (docs/circuits.md#the-switching-force).
+fn switching_window(reference: &Rig, req: &Requirement, loads: &[f64]) -> Option<[f64; 2]> {
+    let [lo, hi] = req.external_force_n;
+    let band = switching(reference).valve_band_n;
+    let b = reference.viscous_friction_ns_per_m;
+    let wave_n = (req.waves.iter())
+        .flat_map(|w| loads.iter().map(move |&m| (w, m)))
+        .map(|(w, m)| {
+            let omega = 2.0 * PI * w.freq_hz;
+            w.amp_mm * 1e-3 * omega * (m * m * omega * omega + b * b).sqrt()
+        })
+        .fold(0.0, f64::max);
+    let (from, to) = ((band[0] - wave_n).max(lo), (band[1] + wave_n).min(hi));
+    (from <= to).then_some([from, to])
+}
+
+/// The modes the single-pump rig `reference` works in over `req`: both where its force range
+/// reaches the switching force ([`switching_window`]), the one at rest otherwise (the same at
+/// both ends of a range that does not reach it), as the chambers at the accumulator.
+struct Reached {
+    chambers: Vec<usize>,
+    switching: bool,
+}
+
+fn modes_reached(reference: &Rig, req: &Requirement, loads: &[f64]) -> Reached {
+    if switching_window(reference, req, loads).is_some() {
+        return Reached {
+            chambers: vec![2, 1],
+            switching: true,
+        };
+    }
+    let at_rest = switching(&Rig {
+        external_force_n: req.external_force_n[0],
+        ..reference.clone()
+    })
+    .mode_at_rest;
+    Reached {
+        chambers: vec![3 - at_rest],
+        switching: false,
+    }
+}
+
+/// Which of the modes `chambers` (the chamber at the accumulator) of the single-pump rig `r`
+/// breaks the margin targets at its gain, if one does (the tolerances of the design's
+/// verdict: [`PM_TOLERANCE_DEG`], [`GM_TOLERANCE_DB`]).
+fn mode_margins_break(
+    r: &Rig,
+    t: &Targets,
+    chambers: &[usize],
+) -> Result<Option<String>, LtiError> {
+    for &chamber in chambers {
         let mode = Mode::new(r, chamber);
         let m = crate::lti::margins(&mode.open_loop()?)?;
         let pm_low = m
@@ -489,7 +580,8 @@ fn rest<C: crate::circuit::Circuit>(c: &C) -> ([f64; 2], f64) {
 
 /// The single-pump rig's responses in the mode at rest, which its linear model is
 /// (docs/circuits.md#its-two-modes): each wave's largest control error, the amplitude
-/// |1/(1 + L(j2πf))| A of the periodic steady state under the P law, and the rise time of a
+/// |1/(1 + L(j2πf))| A of the periodic steady state under the P law on top of the loop's rest
+/// offset (docs/simulation.md#the-rest-under-load), and the rise time of a
 /// [`RISE_STEP_MM`] step of the closed loop (infinite where it never reaches 90 %).
 ///
 /// # Errors
@@ -498,8 +590,10 @@ pub fn mode_at_rest_responses(r: &Rig, waves: &[(f64, f64)]) -> Result<(Vec<f64>
     let mode = Mode::new(r, 3 - switching(r).mode_at_rest);
     let open = mode.open_loop()?;
     let l = FreqEvaluator::new(&open)?;
+    let base = crate::response::Baseline::of_rig(r);
+    let offset_mm = (base.x_ref_mm - base.x_mm).abs();
     let errors = (waves.iter())
-        .map(|&(f, a)| a / (1.0 + l.at(2.0 * PI * f)).norm())
+        .map(|&(f, a)| offset_mm + a / (1.0 + l.at(2.0 * PI * f)).norm())
         .collect();
     let closed = open.unity_feedback()?;
     crate::lti::require_stable(&closed.a)?;

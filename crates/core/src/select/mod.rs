@@ -200,6 +200,11 @@ pub struct Candidate {
     /// loads, [least, most] (s; `null` in JSON where a step never reaches 90 %); `None` when
     /// `kp_max` is 0.
     pub rise_time_s: Option<[f64; 2]>,
+    /// The loop's standing error at rest at `kp_max` over the gas-fraction range, the loads
+    /// and the force range, [least, most] (mm; docs/simulation.md#the-rest-under-load): the
+    /// part of `tracking_max_error_mm` the P law needs to hold the load and feed the leakage.
+    /// `None` when `kp_max` is 0.
+    pub rest_offset_mm: Option<[f64; 2]>,
     /// The standstill cost at the lowest and the highest external force; `None` (`null` in
     /// JSON) where a chamber would cavitate there (docs/model.md#cavitation): no state to cost.
     pub standing: Option<[StandingLoss; 2]>,
@@ -500,6 +505,7 @@ fn candidate(
         kp_max_range: 0.0,
         kp_max_reference: 0.0,
         tracking_max_error_mm: Vec::new(),
+        rest_offset_mm: None,
         rise_time_s: None,
         standing: None,
         standing_loss_w: None,
@@ -546,6 +552,7 @@ fn candidate(
     if let Some(band) = band {
         out.tracking_max_error_mm = band.tracking_mm;
         out.rise_time_s = Some(band.rise_time_s);
+        out.rest_offset_mm = Some(band.rest_offset_mm);
     }
     if circuit.kind == CircuitKind::SinglePump && kp_max > 0.0 {
         let with_kp = [&reference, &stiff, &soft].map(|r| Rig {
@@ -733,35 +740,55 @@ pub const RISE_STEP_MM: f64 = 5.0;
 const RISE_WINDOW_S: f64 = 10.0;
 const RISE_RATE_HZ: f64 = 200.0;
 
-/// The responses at one gain over the uncertainty: each wave's largest control error and the
-/// rise time, as [least, most].
+/// The responses at one gain over the uncertainty: each wave's largest control error, the
+/// rise time and the rest offset, as [least, most].
 struct Band {
     tracking_mm: Vec<[f64; 2]>,
     rise_time_s: [f64; 2],
+    rest_offset_mm: [f64; 2],
 }
 
-/// Each wave's largest control error and the step's rise time at gain `kp` over `ends` (the
-/// rigs at the ends of the gas-fraction range) and the loads of `req` (each its mass at x0),
-/// as [least, most]; a step that never reaches 90 % counts as an infinite rise time.
+/// The external forces of `req` the responses are taken at: the range's two ends, one where
+/// they are equal. The rest offset that holds the load grows with it
+/// (docs/simulation.md#the-rest-under-load), so the ends bound the errors.
+fn forces_of(req: &Requirement) -> Vec<f64> {
+    let [lo, hi] = req.external_force_n;
+    if lo == hi {
+        vec![lo]
+    } else {
+        vec![lo, hi]
+    }
+}
+
+/// Each wave's largest control error, the step's rise time and the rest offset at gain `kp`
+/// over `ends` (the rigs at the ends of the gas-fraction range), the loads of `req` (each its
+/// mass at x0) and the ends of its force range, as [least, most]; a step that never reaches
+/// 90 % counts as an infinite rise time.
 fn response_band(req: &Requirement, ends: &[&Rig], kp: f64) -> Result<Band, DesignError> {
     let waves: Vec<(f64, f64)> = req.waves.iter().map(|w| (w.freq_hz, w.amp_mm)).collect();
     let widen = |b: &mut [f64; 2], v: f64| *b = [b[0].min(v), b[1].max(v)];
     let mut band = Band {
         tracking_mm: vec![[f64::INFINITY, f64::NEG_INFINITY]; waves.len()],
         rise_time_s: [f64::INFINITY, f64::NEG_INFINITY],
+        rest_offset_mm: [f64::INFINITY, f64::NEG_INFINITY],
     };
     for end in ends {
         for mass_kg in loads_of(req, end) {
-            let r = Rig {
-                kp,
-                mass_kg,
-                ..(*end).clone()
-            };
-            let (errors, rise) = responses(&r, &waves)?;
-            for (b, e) in band.tracking_mm.iter_mut().zip(errors) {
-                widen(b, e);
+            for external_force_n in forces_of(req) {
+                let r = Rig {
+                    kp,
+                    mass_kg,
+                    external_force_n,
+                    ..(*end).clone()
+                };
+                let (errors, rise) = responses(&r, &waves)?;
+                for (b, e) in band.tracking_mm.iter_mut().zip(errors) {
+                    widen(b, e);
+                }
+                widen(&mut band.rise_time_s, rise);
+                let base = crate::response::Baseline::of_rig(&r);
+                widen(&mut band.rest_offset_mm, base.x_ref_mm - base.x_mm);
             }
-            widen(&mut band.rise_time_s, rise);
         }
     }
     Ok(band)
@@ -1204,7 +1231,10 @@ mod tests {
         let app = Application::default()
             .with_rig(mine.clone(), given.clone())
             .unwrap();
-        let x = gas_fraction(300.0, 6.0, BETA_OIL_BAR).unwrap();
+        // β read at the rig's anchor, where its loop rests, below half its 12 bar set-point
+        let anchor = crate::anchor::anchor_bar(&mine);
+        assert!(anchor > 4.0 && anchor < 6.0, "{anchor}");
+        let x = gas_fraction(300.0, anchor, BETA_OIL_BAR).unwrap();
         assert_eq!(
             [app.gas_fraction_min, app.gas_fraction, app.gas_fraction_max],
             [x / 2.0, x, 2.0 * x]
@@ -1212,7 +1242,7 @@ mod tests {
         assert!(app.mass_kg.is_empty());
         let reading = BetaReading {
             beta_bar: 300.0,
-            p_mean_bar: 6.0,
+            p_mean_bar: anchor,
         };
         assert_eq!(app.gas_fraction_from, GasFractionFrom::Rig(reading));
         let stated = Application::default()

@@ -56,7 +56,7 @@ pub(super) fn how_sure(
     intervals(run, &u, &best, truth)?;
     let region = Region::around(best, &u, exp.problem.standstill);
     let targets = Targets::default().over_records(exp);
-    debug_assert_eq!(Some(targets.p_beta_bar), Some(p_mean_bar));
+    debug_assert_eq!(targets.p_beta_bar, Some(p_mean_bar));
     let d = robust_design(nominal, &region, &targets, &RobustOptions::default())?;
     robust(run, &d)?;
     // the article's kinds of record (steps, sines); step 11 sets a sweep beside them

@@ -796,7 +796,7 @@ fn variant_step(
     };
     let s = match position {
         Position::AboutX0 => {
-            let x0 = response::Baseline::of_rig(rig).x_ref_mm;
+            let x0 = response::Baseline::of_rig(rig).x_mm;
             crate::figures::about_operating_point(&s, x0)
         }
         Position::Absolute => s,

@@ -47,11 +47,13 @@ fn measure(
             )
         })?;
     let record = Signals::of_record(rec).over(&window);
-    // the record's pressures and speeds at rest, the position on the reference: the model's
-    // error is its own, without the standing error the record shows at rest
+    // the record's pressures and speeds at rest, the position off the reference by the
+    // model's own rest offset (docs/simulation.md#the-rest-under-load): the model's error is
+    // its own, the standing error it predicts included, as `track` gives it
     let rest = Baseline::of_record(rec, nominal);
+    let own = Baseline::of_rig(nominal);
     let base = Baseline {
-        x_mm: rest.x_ref_mm,
+        x_mm: rest.x_ref_mm - (own.x_ref_mm - own.x_mm),
         ..rest
     };
     let model = steady_sine(
