@@ -65,7 +65,8 @@ pub struct DesignArgs {
     out: Option<PathBuf>,
 }
 
-fn parse_wave(s: &str) -> Result<(f64, f64), String> {
+/// A wave option, FREQ_HZ:AMP_MM, each part a positive number.
+pub(crate) fn parse_wave(s: &str) -> Result<(f64, f64), String> {
     let (f, a) = s
         .split_once(':')
         .ok_or("expected FREQ_HZ:AMP_MM, e.g. 0.2:35")?;

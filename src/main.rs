@@ -9,6 +9,7 @@
 mod advise;
 mod analysis;
 mod bulk;
+mod chatter;
 mod design;
 mod emit;
 mod emulate;
@@ -93,6 +94,11 @@ enum Command {
     /// candidate circuit and pressure level over the undissolved air's range — largest Kp,
     /// tracking error, standing cost — and the lowest pressure that meets the requirement.
     Select(select::SelectArgs),
+    /// Will it chatter (docs/circuits.md#a-scan-of-the-load): a single-pump rig's emulated 5 mm
+    /// step, and any --wave, at each of a range of external forces; the mode switches at each,
+    /// those its step's transient and its waves' references explain, the quiet force ranges,
+    /// the switching force and its valve band, and a verdict. Other circuits have no modes.
+    Chatter(chatter::ChatterArgs),
     /// Records from the nonlinear rig emulator (docs/formats.md#record-csv): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
@@ -278,6 +284,7 @@ pub fn run() -> Result<()> {
         Command::BulkModulus(args) => bulk::bulk(&args)?,
         Command::Design(args) => design::run(&args)?,
         Command::Select(args) => select::run(&args)?,
+        Command::Chatter(args) => chatter::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,
         Command::Frf(args) => frf::run(&args)?,
         Command::Fmu(args) => fmu::run(&args)?,

@@ -125,7 +125,7 @@ fn a_bad_rig_stops_every_command_that_reads_one() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/article");
     let record = data.join("identification.csv").display().to_string();
     let drive = data.join("drive_step.csv").display().to_string();
-    let commands: [&[&str]; 13] = [
+    let commands: [&[&str]; 14] = [
         &["rig"],
         &["margins"],
         &["bode", "--out", "{out}/bode.svg"],
@@ -144,6 +144,7 @@ fn a_bad_rig_stops_every_command_that_reads_one() {
         &["identify-drive", &drive, "--out", "{out}/drive.csv"],
         &["bulk-modulus", "--out", "{out}/bulk.csv"],
         &["design"],
+        &["chatter", "--out", "{out}/chatter.csv"],
         &["emulate", "--experiment", "step", "--out", "{out}/step.csv"],
     ];
     let expect = ["rig/negative_mass.toml", "line 2", "key `mass_kg` = -10593"].map(String::from);

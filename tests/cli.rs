@@ -267,6 +267,7 @@ fn every_command_has_help() {
         "identify-merge",
         "bulk-modulus",
         "design",
+        "chatter",
         "emulate",
         "reproduce",
     ] {

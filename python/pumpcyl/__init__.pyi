@@ -3,6 +3,7 @@ from typing import Any, Optional
 from ._pumpcyl import (
     Loop,
     Advice as Advice,
+    Chatter as Chatter,
     Dataset as Dataset,
     Design as Design,
     Emulated as Emulated,
@@ -21,6 +22,7 @@ from ._pumpcyl import (
     Summary as Summary,
     advise as advise,
     bode as bode,
+    chatter as chatter,
     design as design,
     emulate as emulate,
     fmu as fmu,

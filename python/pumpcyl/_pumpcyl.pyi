@@ -354,6 +354,32 @@ class Selection(Result):
     """The single-pump candidates' mode check: ``emulator`` or ``equations``
     (docs/select.md#the-single-pump-circuit)."""
 
+class Chatter(Result):
+    """Will it chatter: ``pumpcyl chatter --json`` (docs/circuits.md#a-scan-of-the-load)."""
+
+    rig: str
+    circuit: str
+    """The rig's circuit: "dpm", "dual-pump" or "single-pump" (docs/circuits.md)."""
+    verdict: str
+    """``chatters``, ``quiet``, or ``no_modes`` for a circuit without modes."""
+    answer: str
+    """The answer in one line: where it chatters and why, where it is quiet; or why the
+    circuit has no modes."""
+    switching_force_n: Optional[float]
+    valve_band_n: Optional[List[float]]
+    external_force_n: float
+    mode_at_rest: Optional[int]
+    step_mm: float
+    waves: List[Dict[str, Any]]
+    forces: List[Dict[str, Any]]
+    """Each scanned force, increasing: external_force_n, mode_at_start, verdict (``quiet``,
+    ``switches``, ``chatters``), switches, switches_after_settling, switches_explained,
+    extra_switches, step and waves (each run's numbers)."""
+    quiet_ranges_n: List[List[float]]
+    chattering_ranges_n: List[List[float]]
+    basis: Optional[str]
+    """What the emulator used, in words (docs/emulator.md#what-a-user-rig-gets)."""
+
 class Design(Result):
     """The design method (the article §2.2): ``pumpcyl design --json``."""
 
@@ -646,6 +672,27 @@ def select(
     and waves, the default) or ``"equations"`` (docs/select.md#the-single-pump-circuit); each
     option's ``mode_switches``, ``switches_after_settling`` and ``oscillation_amplitude_mm``
     are its numbers (``None`` where it did not run)."""
+    ...
+
+def chatter(
+    rig: Rig,
+    *,
+    forces_n: Optional[Sequence[float]] = None,
+    from_n: Optional[float] = None,
+    to_n: Optional[float] = None,
+    points: Optional[int] = None,
+    waves: Sequence[Tuple[float, float]] = (),
+    allow_long_run: bool = False,
+    progress: Union[None, bool, Callable[[int, int], None]] = None,
+) -> Chatter:
+    """Will it chatter (docs/circuits.md#a-scan-of-the-load): the single-pump rig's emulated
+    5 mm step and each of ``waves`` ((freq_hz, amp_mm) about x0) at each external force, as
+    ``pumpcyl chatter --json``: ``verdict``, ``answer``, ``switching_force_n``,
+    ``valve_band_n``, ``forces`` (switches, those after settling, those the references explain,
+    the extra ones), ``quiet_ranges_n``, ``chattering_ranges_n``. The forces: ``forces_n``, or
+    ``points`` evenly from ``from_n`` to ``to_n``, or by default 13 about the switching force.
+    A circuit without modes answers ``no_modes`` and runs nothing. Beyond 10^7 emulated
+    controller steps only with ``allow_long_run=True``; ``progress`` as for :func:`identify`."""
     ...
 
 def fmu(

@@ -1997,6 +1997,91 @@ fn select(
     PyOutcome::of_value(py, "Selection", &s)
 }
 
+/// Will it chatter (docs/circuits.md#a-scan-of-the-load; the article §2.1): the single-pump
+/// rig's emulated 5 mm step, and each of `waves` ((freq_hz, amp_mm) pairs about x0), at each
+/// external force, as `pumpcyl chatter --json`: `verdict` (`chatters`, `quiet`, or `no_modes`
+/// for a circuit without modes, whose `answer` says why), `answer`, `switching_force_n`,
+/// `valve_band_n`, `forces` (each force's switches, those after settling, those its waves'
+/// references explain and the extra ones, its step and waves), `quiet_ranges_n`,
+/// `chattering_ranges_n`. The forces: `forces_n` (a sequence, N), or `points` evenly from
+/// `from_n` to `to_n`, or by default 13 over the valve band widened threefold about the
+/// switching force (`points` alone changes their number). A scan beyond 10^7 emulated
+/// controller steps runs only with `allow_long_run=True`, as `--allow-long-run`. `progress` as
+/// for `identify`, over the emulated runs.
+#[pyfunction]
+#[pyo3(
+    signature = (
+        rig, *, forces_n = None, from_n = None, to_n = None, points = None, waves = vec![],
+        allow_long_run = false, progress = None
+    ),
+    text_signature = "(rig, *, forces_n=None, from_n=None, to_n=None, points=None, waves=(), \
+        allow_long_run=False, progress=None)"
+)]
+#[allow(clippy::too_many_arguments)]
+fn chatter(
+    py: Python<'_>,
+    rig: &PyRig,
+    forces_n: Option<Bound<'_, PyAny>>,
+    from_n: Option<f64>,
+    to_n: Option<f64>,
+    points: Option<usize>,
+    waves: Vec<(f64, f64)>,
+    allow_long_run: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyOutcome> {
+    use pumpcyl::emulator::chatter::{Forces, ScanError, Wave, DEFAULT_POINTS};
+    let forces = match (forces_n, from_n, to_n, points) {
+        (Some(f), None, None, None) => {
+            Some(Forces::Given(floats(&Arg::new("chatter", "forces_n"), &f)?))
+        }
+        (Some(_), ..) => {
+            return Err(err(
+                "chatter(forces_n=…): give the forces, or from_n, to_n and points, not both",
+            ))
+        }
+        (None, Some(from_n), Some(to_n), points) => Some(Forces::Range {
+            from_n,
+            to_n,
+            points: points.unwrap_or(DEFAULT_POINTS),
+        }),
+        (None, Some(_), None, _) | (None, None, Some(_), _) => {
+            return Err(err(
+                "chatter(from_n=…, to_n=…): give both ends of the range",
+            ))
+        }
+        (None, None, None, Some(points)) => Some(Forces::AboutSwitching { points }),
+        (None, None, None, None) => None,
+    };
+    let request = pumpcyl_present::chatter::Request {
+        forces,
+        waves: (waves.iter())
+            .map(|&(freq_hz, amplitude_mm)| Wave {
+                freq_hz,
+                amplitude_mm,
+            })
+            .collect(),
+    };
+    let total = pumpcyl_present::chatter::runs(&request);
+    let mut tick = progress_reporter(py, progress, "chatter", "emulated runs", total)?;
+    let (origin, rig) = (rig.__repr__(), rig.rig.clone());
+    let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| {
+        let work = pumpcyl::limits::Work {
+            allow_long_run,
+            progress: &|n| {
+                go_on(n);
+            },
+        };
+        pumpcyl_present::chatter::run(&rig, &origin, &request, &work)
+    };
+    let doc = run_interruptible(py, work, &mut tick)?.map_err(|e| match e {
+        ScanError::Request(f) => err(format!("chatter({}): {}", f.field, f.message)),
+        ScanError::Limit(l) => long_run_err(l),
+        e => err(format!("{origin}: {e}")),
+    })?;
+    tick(py, u64::MAX)?;
+    PyOutcome::of_value(py, "Chatter", &doc)
+}
+
 /// The design method of the article (§2.2) for `rig` (default: the article's): the
 /// largest Kp meeting the margin targets, margins across stroke, mass and pressure, predicted
 /// tracking (each wave's periodic steady state: its `window.steady_state` is true,
@@ -2169,6 +2254,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(effective_beta, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;
     m.add_function(wrap_pyfunction!(select, m)?)?;
+    m.add_function(wrap_pyfunction!(chatter, m)?)?;
     m.add_function(wrap_pyfunction!(fmu, m)?)?;
     m.add_function(wrap_pyfunction!(emulate, m)?)?;
     m.add_function(wrap_pyfunction!(reproduce, m)?)?;

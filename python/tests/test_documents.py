@@ -231,3 +231,75 @@ def test_select_and_design_report_progress_as_identify_does():
         total = seen[-1][1]
         assert total > 0 and seen[-1] == (total, total)
         assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
+
+
+# the small single-pump rig of tests/chatter.rs (50/28 mm, 600 kg, 2 bar pre-charge), as rig
+# keys: Python's Rig(**keys) and the command line's --set on the same default rig
+SMALL_SINGLE_PUMP = {
+    "circuit": "single-pump",
+    "piston_diameter_mm": 50.0,
+    "rod_diameter_mm": 28.0,
+    "stroke_mm": 300.0,
+    "x0_mm": 150.0,
+    "mass_kg": 600.0,
+    "mass_by_position": [],
+    "displacement_1_cm3_per_rev": 2.5,
+    "accumulator_precharge_bar": 2.0,
+    "beta_bar": 120.0,
+    "viscous_friction_ns_per_m": 300.0,
+    "c12_m5_per_ns": 5.0e-11,
+    "c1_m5_per_ns": 2.0e-11,
+    "c2_m5_per_ns": 2.0e-11,
+    "line_volume_1_dm3": 0.05,
+    "line_volume_2_dm3": 0.05,
+}
+
+
+def small_single_pump_sets():
+    def toml(v):
+        return f'"{v}"' if isinstance(v, str) else json.dumps(v)
+    return [f"--set={k}={toml(v)}" for k, v in SMALL_SINGLE_PUMP.items()]
+
+
+def test_chatter_is_the_document_of_chatter_json():
+    """The scan at two forces, below the switching force and at it, with a 0.2 Hz ±35 mm wave:
+    the command line's document, number for number; the wave chatters at the switching force
+    (more switches in its watched periods than the 4 its reference explains)."""
+    rig = pumpcyl.Rig(**SMALL_SINGLE_PUMP)
+    f_s = 2.0e5 * np.pi / 4 * 0.028**2
+    forces = [-200.0, f_s]
+    c = pumpcyl.chatter(rig, forces_n=np.array(forces), waves=[(0.2, 35.0)])
+    args = [a for f in forces for a in ("--force-n", repr(f))]
+    doc = cli("chatter", *small_single_pump_sets(), *args, "--wave", "0.2:35", "--json")
+    assert_one_document(c, doc, "Chatter")
+    plain = c.to_dict()
+    # the rig as each front end names it: its repr in Python, its options on the command line
+    assert plain.pop("rig").startswith("Rig(") and doc.pop("rig").startswith("default rig, ")
+    assert plain == doc
+    assert c.switching_force_n == pytest.approx(f_s, rel=1e-12)
+    assert c.verdict == "chatters" and c.chattering_ranges_n == [[f_s, f_s]]
+    below, at = c.forces
+    assert below["verdict"] == "quiet" and below["switches"] == 0
+    assert at["waves"][0]["switches_explained"] == 4
+    assert at["extra_switches"] == at["waves"][0]["switches_after_settling"] - 4 > 0
+    # a range, as --from-n --to-n --points
+    r = pumpcyl.chatter(rig, from_n=-200.0, to_n=-100.0, points=2)
+    assert [f["external_force_n"] for f in r.forces] == [-200.0, -100.0]
+    assert r.verdict == "quiet" and r.quiet_ranges_n == [[-200.0, -100.0]]
+
+
+def test_chatter_answers_a_circuit_without_modes_and_refuses_bad_arguments():
+    c = pumpcyl.chatter(pumpcyl.Rig())
+    doc = cli("chatter", "--json")
+    assert_one_document(c, doc, "Chatter")
+    assert c.verdict == doc["verdict"] == "no_modes" and c.forces == []
+    assert c.answer == doc["answer"] and "no modes to switch between" in c.answer
+    rig = pumpcyl.Rig(**SMALL_SINGLE_PUMP)
+    with pytest.raises(pumpcyl.PumpcylError, match=r"^chatter\(forces_n\): forces_n = 2000000000: "):
+        pumpcyl.chatter(rig, forces_n=[2e9])
+    with pytest.raises(pumpcyl.PumpcylError, match=r"^chatter\(waves\): .*outside the stroke"):
+        pumpcyl.chatter(rig, forces_n=[0.0], waves=[(0.2, 200.0)])
+    with pytest.raises(pumpcyl.PumpcylError, match="give both ends of the range"):
+        pumpcyl.chatter(rig, from_n=0.0)
+    with pytest.raises(pumpcyl.PumpcylError, match=r"allow_long_run=True"):
+        pumpcyl.chatter(rig, from_n=0.0, to_n=200.0, points=20000)

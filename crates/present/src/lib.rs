@@ -10,6 +10,8 @@
 //! - [`time`] — step, tracking and replay documents: JSON, text, signal CSV, MAT-files;
 //! - [`bulk`] — the gas fraction and β_e against pressure: JSON, text, CSV;
 //! - [`advise`] — experiment advice as JSON and text;
+//! - [`chatter`] — will a single-pump rig chatter: the scan over loads as JSON, text, CSV and a
+//!   figure;
 //! - [`design`] — the design results in words: verdict, deciding margin, nominal and robust
 //!   design as text and JSON, leakage loop;
 //! - [`emulated`] — what the emulator used on a rig, in words;
@@ -31,6 +33,7 @@
 pub mod advise;
 pub mod analysis;
 pub mod bulk;
+pub mod chatter;
 pub mod design;
 pub mod documents;
 pub mod emulated;

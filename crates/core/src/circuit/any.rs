@@ -2,7 +2,7 @@
 
 use super::dpm::Dpm;
 use super::dual_pump::DualPump;
-use super::single_pump::modes::{switching, Mode};
+use super::single_pump::modes::{switching, Mode, Switching};
 use super::{Circuit, CircuitKind, ControlLaw};
 use crate::rig::Rig;
 
@@ -37,6 +37,18 @@ pub fn require(rig: &Rig, what: &str, modelled: &[CircuitKind]) -> Result<(), St
         rig.circuit.name(),
         names.join(" and ")
     ))
+}
+
+/// Where the circuit of `rig` switches between modes, the single-pump circuit's
+/// [`Switching`] (docs/circuits.md#the-switching-force); for a circuit without modes, why it
+/// has none, in the circuit's own one line (its `NO_MODES`): what "will it chatter?" answers
+/// for it (docs/circuits.md#will-it-chatter).
+pub fn mode_switching(rig: &Rig) -> Result<Switching, &'static str> {
+    match rig.circuit {
+        CircuitKind::SinglePump => Ok(switching(rig)),
+        CircuitKind::Dpm => Err(super::dpm::NO_MODES),
+        CircuitKind::DualPump => Err(super::dual_pump::NO_MODES),
+    }
 }
 
 impl AnyCircuit {

@@ -22,6 +22,12 @@ use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
+/// Why the DPM circuit has no modes to switch between, in one line
+/// (docs/circuits.md#will-it-chatter): its pumps hold both chambers, none a valve.
+pub const NO_MODES: &str = "pump 1 runs between the chambers and pump 2, on a motor of its own, \
+     between chamber 1 and the accumulator (the article §2.1, Figure 3): no valve moves a \
+     chamber onto the accumulator";
+
 /// Positions of the states in the state vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Layout {

@@ -38,6 +38,13 @@
 
 pub mod balance;
 
+/// Why the dual-pump circuit has no modes to switch between, in one line
+/// (docs/circuits.md#will-it-chatter): pump 2 feeds the area difference, its valves only
+/// protect the chambers (docs/circuits.md#valves).
+pub const NO_MODES: &str = "pump 2, on the shaft of pump 1, feeds chamber 1 from the \
+     accumulator (the article's Figure 1b): no valve moves a chamber onto the accumulator; its \
+     check valves only refill a chamber that falls below it";
+
 pub use balance::{SteadyMotion, Undetermined};
 
 use super::parts::{

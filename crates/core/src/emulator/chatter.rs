@@ -9,10 +9,11 @@
 use super::article::{sine_periods, SINE_START_S};
 use super::{Dynamics, Effects, EmulatorError, Plc, PlcLoop, PLC_RATE_HZ, STEP_MM};
 use crate::circuit::single_pump::modes::{
-    mode_of, Mode, SwitchCounter, MAX_SETTLING_S, SETTLED_FRACTION,
+    mode_of, Mode, SwitchCounter, Switching, MAX_SETTLING_S, SETTLED_FRACTION,
 };
 use crate::circuit::CircuitKind;
 use crate::rig::Rig;
+use crate::source_files::FieldError;
 
 /// Time the step check watches after the step has settled (s), as the continuous-law check
 /// ([`crate::circuit::single_pump::modes::StepCheck::ARTICLE`]) **\[choice\]**.
@@ -120,15 +121,9 @@ fn watch(
 /// emulator error.
 pub fn step(rig: &Rig, effects: Effects) -> Result<ModeRun, EmulatorError> {
     require_single_pump(rig)?;
-    let at_rest = crate::circuit::single_pump::modes::switching(rig).mode_at_rest;
-    let settle = Mode::new(rig, 3 - at_rest)
-        .settling_time_s()
-        .map_err(|e| EmulatorError(e.to_string()))?
-        .min(MAX_SETTLING_S);
+    let (settled_at_s, seconds) = step_times_s(rig)?;
     let (x0, to) = (rig.x0_mm * 1e-3, (rig.x0_mm + STEP_MM) * 1e-3);
     let reference = move |t: f64| if t < HOLD_S { x0 } else { to };
-    let settled_at_s = HOLD_S + settle;
-    let seconds = settled_at_s + TAIL_S;
     let (start, switches, after, amplitude) =
         watch(rig, effects, &reference, (seconds, settled_at_s))?;
     Ok(ModeRun {
@@ -143,6 +138,28 @@ pub fn step(rig: &Rig, effects: Effects) -> Result<ModeRun, EmulatorError> {
         error_amplitude_m: amplitude,
         chatters: after > 0 || amplitude > SETTLED_FRACTION * STEP_MM * 1e-3,
     })
+}
+
+/// When [`step`] on `rig` counts as settled and how long it runs (s from the run's start):
+/// [`HOLD_S`] plus the 2 % settling time of the mode at rest's slowest closed-loop pole (at most
+/// [`MAX_SETTLING_S`]), then [`TAIL_S`] more.
+///
+/// # Errors
+/// A mode whose model cannot be analysed.
+fn step_times_s(rig: &Rig) -> Result<(f64, f64), EmulatorError> {
+    let at_rest = crate::circuit::single_pump::modes::switching(rig).mode_at_rest;
+    let settle = Mode::new(rig, 3 - at_rest)
+        .settling_time_s()
+        .map_err(|e| EmulatorError(e.to_string()))?
+        .min(MAX_SETTLING_S);
+    let settled_at_s = HOLD_S + settle;
+    Ok((settled_at_s, settled_at_s + TAIL_S))
+}
+
+/// How long [`sine`] at `freq_hz` runs (s): at rest for [`SINE_START_S`], then the whole
+/// periods of the article's sine records ([`sine_periods`]).
+fn sine_seconds(freq_hz: f64) -> f64 {
+    SINE_START_S + f64::from(sine_periods(freq_hz)) / freq_hz
 }
 
 /// The emulated sinusoid of `amplitude_mm` at `freq_hz` about x0 of `rig`, as the article's
@@ -168,8 +185,7 @@ pub fn sine(
         let phase = 2.0 * std::f64::consts::PI * freq_hz * (t - SINE_START_S).max(0.0);
         x0 + a * phase.sin()
     };
-    let periods = f64::from(sine_periods(freq_hz));
-    let seconds = SINE_START_S + periods / freq_hz;
+    let seconds = sine_seconds(freq_hz);
     let watched_s = f64::from(WATCHED_PERIODS) / freq_hz;
     let settled_at_s = seconds - watched_s;
     let (start, switches, after, amplitude) =
@@ -281,9 +297,410 @@ pub fn quiet_ranges_n(runs: &[ModeRun]) -> Vec<(f64, f64)> {
     out
 }
 
+/// A wave a chatter scan runs at each force ([`sine`]): the article's sine records' timing
+/// (1 s at rest, the start-up transient, [`WATCHED_PERIODS`] whole periods watched) at
+/// `freq_hz` and `amplitude_mm` about x0.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Wave {
+    /// Frequency (Hz).
+    pub freq_hz: f64,
+    /// Amplitude about x0 (mm).
+    pub amplitude_mm: f64,
+}
+
+/// The external forces a chatter scan runs (N).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Forces {
+    /// `points` forces about the switching force: the switching force itself, then half the
+    /// rest evenly below it down to [`DEFAULT_SPAN`] times the valve band's reach below it, the
+    /// other half evenly above it up to as many times its reach above
+    /// (docs/circuits.md#a-scan-of-the-load).
+    AboutSwitching {
+        /// How many forces.
+        points: usize,
+    },
+    /// `points` forces evenly from `from_n` to `to_n`, both included.
+    Range {
+        /// The lowest force (N).
+        from_n: f64,
+        /// The highest force (N).
+        to_n: f64,
+        /// How many forces.
+        points: usize,
+    },
+    /// These forces (N).
+    Given(Vec<f64>),
+}
+
+/// The forces a scan runs when none are asked for ([`Forces::AboutSwitching`]): 13, the
+/// switching force and six each side of it, so that the valve band's edges are two of them
+/// **\[choice\]**.
+pub const DEFAULT_POINTS: usize = 13;
+
+/// How far the default scan reaches either side of the switching force, in the valve band's
+/// own reach on that side (A1 Δp_crack below, A2 Δp_crack above): three times, so that the
+/// forces a step's transient acceleration carries across the band are in it too
+/// (docs/circuits.md#a-scan-of-the-load) **\[choice\]**.
+pub const DEFAULT_SPAN: f64 = 3.0;
+
+impl Forces {
+    /// The forces (N) for a circuit switching as `s` says: increasing, each once.
+    ///
+    /// # Errors
+    /// A range of fewer than two points or whose ends do not increase; a force that is not a
+    /// rig's `external_force_n` (finite, within its range); no force given; more forces than
+    /// one array holds ([`crate::limits::MAX_POINTS`]).
+    pub fn values(&self, s: &Switching) -> Result<Vec<f64>, FieldError> {
+        let force = |field: &'static str, f: f64| match Rig::check_key("external_force_n", f) {
+            Some(why) => Err(FieldError::new(
+                field,
+                format!("{field} = {f}: as an external_force_n, {why}"),
+            )),
+            None => Ok(f),
+        };
+        let check_points = |points: usize| -> Result<(), FieldError> {
+            if points < 2 {
+                return Err(FieldError::new(
+                    "points",
+                    format!("points = {points}: a range needs at least 2"),
+                ));
+            }
+            crate::limits::check_size("points", points as f64)
+                .map_err(|e| FieldError::new("points", e.to_string()))?;
+            Ok(())
+        };
+        let even = |from: f64, to: f64, points: usize| -> Result<Vec<f64>, FieldError> {
+            check_points(points)?;
+            let step = (to - from) / (points - 1) as f64;
+            Ok((0..points).map(|k| from + step * k as f64).collect())
+        };
+        let mut forces = match self {
+            Forces::AboutSwitching { points } => {
+                check_points(*points)?;
+                let f_s = s.switching_force_n;
+                let floor = f64::EPSILON * f_s.abs().max(1.0);
+                let below = DEFAULT_SPAN * (f_s - s.valve_band_n[0]).max(floor);
+                let above = DEFAULT_SPAN * (s.valve_band_n[1] - f_s).max(floor);
+                let (n_below, n_above) = ((points - 1) / 2, points - 1 - (points - 1) / 2);
+                let lower = (0..n_below).map(|k| f_s - below * (1.0 - k as f64 / n_below as f64));
+                let upper = (1..=n_above).map(|k| f_s + above * k as f64 / n_above as f64);
+                lower.chain([f_s]).chain(upper).collect()
+            }
+            Forces::Range {
+                from_n,
+                to_n,
+                points,
+            } => {
+                let (from, to) = (force("from_n", *from_n)?, force("to_n", *to_n)?);
+                if from >= to {
+                    return Err(FieldError::new(
+                        "to_n",
+                        format!("to_n = {to}: must be above from_n = {from}"),
+                    ));
+                }
+                even(from, to, *points)?
+            }
+            Forces::Given(given) => {
+                crate::limits::check_size("forces_n", given.len() as f64)
+                    .map_err(|e| FieldError::new("forces_n", e.to_string()))?;
+                if given.is_empty() {
+                    return Err(FieldError::new(
+                        "forces_n",
+                        "forces_n: give at least one force",
+                    ));
+                }
+                (given.iter())
+                    .map(|&f| force("forces_n", f))
+                    .collect::<Result<Vec<_>, _>>()?
+            }
+        };
+        forces.sort_by(f64::total_cmp);
+        forces.dedup();
+        Ok(forces)
+    }
+}
+
+/// What a chatter scan runs: the 5 mm step (always) and `waves` at each of `forces`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanRequest {
+    /// The external forces.
+    pub forces: Forces,
+    /// The waves run at each force beside the step.
+    pub waves: Vec<Wave>,
+}
+
+impl Default for ScanRequest {
+    /// The step alone at the default forces about the switching force.
+    fn default() -> Self {
+        ScanRequest {
+            forces: Forces::AboutSwitching {
+                points: DEFAULT_POINTS,
+            },
+            waves: Vec::new(),
+        }
+    }
+}
+
+/// How one force of a scan came out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ForceVerdict {
+    /// No run switched modes, and the step settled.
+    Quiet,
+    /// Some run switched, but only as a step's transient or a wave's reference explains: the
+    /// normal mode changes of a load whose needed force crosses the switching force.
+    Switches,
+    /// A run chatters ([`ModeRun::chatters`]): the step switches (or swings) after it has
+    /// settled, or a wave switches in its watched periods more often than its reference
+    /// explains.
+    Chatters,
+}
+
+/// One force of a chatter scan: its step, its waves and what they add up to.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ForceScan {
+    /// The external force (N).
+    pub external_force_n: f64,
+    /// The mode at rest before the step (1: chamber 2 on the accumulator, 2: chamber 1;
+    /// `None`: both valves shut, the cylinder locked between the two).
+    pub mode_at_start: Option<usize>,
+    /// The verdict at this force.
+    pub verdict: ForceVerdict,
+    /// Mode switches over every run (the step's and the waves').
+    pub switches: usize,
+    /// Of those, the switches after the step settled and in the waves' watched periods.
+    pub switches_after_settling: usize,
+    /// Of those, the ones the waves' references explain ([`reference_crossings`]).
+    pub switches_explained: usize,
+    /// The switches after settling beyond those explained, summed over the runs (a wave that
+    /// switches less often than its reference explains adds none): the loop switching on its own.
+    pub extra_switches: usize,
+    /// The 5 mm step ([`step`]).
+    pub step: ModeRun,
+    /// Each wave of the request ([`sine`]), in order.
+    pub waves: Vec<ModeRun>,
+}
+
+impl ForceScan {
+    /// The runs at `force_n` summed up.
+    fn of(force_n: f64, step: ModeRun, waves: Vec<ModeRun>) -> ForceScan {
+        let runs = || std::iter::once(&step).chain(&waves);
+        let sum = |f: &dyn Fn(&ModeRun) -> usize| runs().map(f).sum::<usize>();
+        let switches = sum(&|r| r.switches);
+        let chatters = runs().any(|r| r.chatters);
+        ForceScan {
+            external_force_n: force_n,
+            mode_at_start: step.mode_at_start,
+            verdict: match (chatters, switches) {
+                (true, _) => ForceVerdict::Chatters,
+                (false, 0) => ForceVerdict::Quiet,
+                _ => ForceVerdict::Switches,
+            },
+            switches,
+            switches_after_settling: sum(&|r| r.switches_after_settling),
+            switches_explained: sum(&|r| r.switches_explained),
+            extra_switches: sum(&|r| {
+                (r.switches_after_settling).saturating_sub(r.switches_explained)
+            }),
+            step,
+            waves,
+        }
+    }
+}
+
+/// A chatter scan of a single-pump rig (docs/circuits.md#a-scan-of-the-load): where it
+/// switches, what happened at each force, and the verdict.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Scan {
+    /// The switching force, its valve band and where the rig's own load rests.
+    #[serde(flatten)]
+    pub switching: Switching,
+    /// The waves run at each force beside the step.
+    pub waves: Vec<Wave>,
+    /// Each force, increasing.
+    pub forces: Vec<ForceScan>,
+    /// The runs of consecutive scanned forces where nothing switched (N, lowest and highest).
+    pub quiet_ranges_n: Vec<(f64, f64)>,
+    /// The runs of consecutive scanned forces that chatter (N, lowest and highest).
+    pub chattering_ranges_n: Vec<(f64, f64)>,
+    /// Some force chatters.
+    pub chatters: bool,
+}
+
+/// Why a chatter scan cannot run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScanError {
+    /// A field of the request is wrong.
+    #[error("{0}")]
+    Request(FieldError),
+    /// The scan is beyond its work limit.
+    #[error("{0}")]
+    Limit(#[from] crate::limits::LimitError),
+    /// A run cannot be emulated (the rig or the force named).
+    #[error("{0}")]
+    Run(String),
+}
+
+/// The runs of consecutive `forces` whose verdict `keep` holds, as (lowest, highest) force (N).
+fn ranges_n(forces: &[ForceScan], keep: impl Fn(&ForceScan) -> bool) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    let mut open = false;
+    for f in forces {
+        let kept = keep(f);
+        match (kept, open, out.last_mut()) {
+            (true, true, Some(last)) => last.1 = f.external_force_n,
+            (true, _, _) => out.push((f.external_force_n, f.external_force_n)),
+            _ => {}
+        }
+        open = kept;
+    }
+    out
+}
+
+/// Check the waves of a request on `rig`: each frequency and amplitude finite and positive,
+/// below the PLC's Nyquist frequency, and the wave inside the stroke.
+fn check_waves(rig: &Rig, waves: &[Wave]) -> Result<(), FieldError> {
+    for w in waves {
+        let named = |why: String| {
+            FieldError::new(
+                "waves",
+                format!("waves = {}:{}: {why}", w.freq_hz, w.amplitude_mm),
+            )
+        };
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !(positive(w.freq_hz) && positive(w.amplitude_mm)) {
+            return Err(named("the frequency and the amplitude must be > 0".into()));
+        }
+        if w.freq_hz >= 0.5 * PLC_RATE_HZ {
+            return Err(named(format!(
+                "at or above the PLC's Nyquist frequency, {} Hz",
+                0.5 * PLC_RATE_HZ
+            )));
+        }
+        rig.check_reference(rig.x0_mm - w.amplitude_mm, rig.x0_mm + w.amplitude_mm)
+            .map_err(|e| named(e.to_string()))?;
+    }
+    Ok(())
+}
+
+/// The chatter scan of `rig` (a single-pump circuit, [`crate::circuit::mode_switching`]):
+/// at each force of `request` the emulated 5 mm step ([`step`]) and each wave ([`sine`]) on the
+/// rig loaded with it, the emulator's effects for that rig ([`Effects::for_rig`], as
+/// [`scan_forces`]), the forces in parallel. `work` follows the runs (one unit each); the
+/// controller steps of the whole scan are held to [`crate::limits::MAX_EMULATED_STEPS`]
+/// unless it allows a long run.
+///
+/// # Errors
+/// A circuit without modes (its reason in one line), a request field that is wrong, a scan
+/// beyond its work limit, or a run the emulator cannot do (the force named).
+pub fn scan(
+    rig: &Rig,
+    request: &ScanRequest,
+    work: &crate::limits::Work,
+) -> Result<Scan, ScanError> {
+    use rayon::prelude::*;
+    let switching = crate::circuit::mode_switching(rig).map_err(|why| {
+        ScanError::Run(format!(
+            "circuit = \"{}\": no modes to switch between: {why}",
+            rig.circuit.name()
+        ))
+    })?;
+    let forces = request
+        .forces
+        .values(&switching)
+        .map_err(ScanError::Request)?;
+    check_waves(rig, &request.waves).map_err(ScanError::Request)?;
+    rig.check_reference(rig.x0_mm, rig.x0_mm + STEP_MM)
+        .map_err(|e| ScanError::Run(format!("the {STEP_MM} mm step: {e}")))?;
+    let loaded = |f: f64| Rig {
+        external_force_n: f,
+        ..rig.clone()
+    };
+    let at = |f: f64, e: EmulatorError| ScanError::Run(format!("external force {f} N: {e}"));
+    if !work.allow_long_run {
+        let waves_s: f64 = request.waves.iter().map(|w| sine_seconds(w.freq_hz)).sum();
+        let mut seconds = 0.0;
+        for &f in &forces {
+            seconds += step_times_s(&loaded(f)).map_err(|e| at(f, e))?.1 + waves_s;
+        }
+        crate::limits::check_work(
+            "forces × runs (emulated controller steps)",
+            seconds * PLC_RATE_HZ,
+            crate::limits::MAX_EMULATED_STEPS,
+            false,
+        )?;
+    }
+    let scanned = (forces.par_iter())
+        .map(|&f| {
+            let r = loaded(f);
+            let effects = Effects::for_rig(&r).map_err(|e| at(f, e))?;
+            let step = step(&r, effects).map_err(|e| at(f, e))?;
+            (work.progress)(1);
+            let waves = (request.waves.iter())
+                .map(|w| {
+                    let run = sine(&r, effects, w.freq_hz, w.amplitude_mm).map_err(|e| at(f, e));
+                    (work.progress)(1);
+                    run
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok(ForceScan::of(f, step, waves))
+        })
+        .collect::<Result<Vec<_>, ScanError>>()?;
+    Ok(Scan {
+        switching,
+        waves: request.waves.clone(),
+        quiet_ranges_n: ranges_n(&scanned, |f| f.verdict == ForceVerdict::Quiet),
+        chattering_ranges_n: ranges_n(&scanned, |f| f.verdict == ForceVerdict::Chatters),
+        chatters: scanned.iter().any(|f| f.verdict == ForceVerdict::Chatters),
+        forces: scanned,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A scan's forces: by default the switching force and as many each side, out to three
+    /// times the valve band's reach on that side; given forces sorted, each once; a range of
+    /// one point, a range that does not increase and a force no rig takes are refused, each
+    /// naming its field.
+    #[test]
+    fn a_scans_forces_lie_about_the_switching_force_and_are_checked() {
+        let rig = Rig {
+            circuit: CircuitKind::SinglePump,
+            ..Rig::default()
+        };
+        let s = crate::circuit::single_pump::modes::switching(&rig);
+        let f_s = s.switching_force_n;
+        let (below, above) = (f_s - s.valve_band_n[0], s.valve_band_n[1] - f_s);
+        let got = Forces::AboutSwitching { points: 5 }.values(&s).unwrap();
+        let want = [
+            f_s - 3.0 * below,
+            f_s - 1.5 * below,
+            f_s,
+            f_s + 1.5 * above,
+            f_s + 3.0 * above,
+        ];
+        assert_eq!(got.len(), 5);
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-9 * f_s, "{got:?} vs {want:?}");
+        }
+        assert_eq!(got[2], f_s);
+        let given = Forces::Given(vec![300.0, -20.0, 300.0]).values(&s).unwrap();
+        assert_eq!(given, [-20.0, 300.0]);
+        let refused = |f: Forces| f.values(&s).unwrap_err().field;
+        let range = |from_n, to_n, points| Forces::Range {
+            from_n,
+            to_n,
+            points,
+        };
+        assert_eq!(refused(range(0.0, 10.0, 1)), "points");
+        assert_eq!(refused(range(10.0, 0.0, 3)), "to_n");
+        assert_eq!(refused(range(-2e9, 0.0, 3)), "from_n");
+        assert_eq!(refused(Forces::Given(Vec::new())), "forces_n");
+        assert_eq!(refused(Forces::Given(vec![f64::NAN])), "forces_n");
+        assert_eq!(refused(Forces::AboutSwitching { points: 1 }), "points");
+    }
 
     /// The needed force F_ext + m ẍ + b ẋ of a sine of amplitude A is a sinusoid about F_ext
     /// of amplitude A ω √(m² ω² + b²), by hand: over two whole periods it crosses the
