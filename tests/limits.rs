@@ -185,3 +185,80 @@ fn a_long_run_never_lifts_the_memory_limit_of_an_emulated_record() {
     ];
     refused(d, &args, &["5000001 points", "limit of 5e6"]);
 }
+
+/// `pumpcyl ARGS` in `dir` under a CPU-time limit of `seconds` (`ulimit -t`): a guard, so a run
+/// the work limit fails to stop ends the test instead of running for hours; the test asserts
+/// on the run's own refusal, never on a time.
+fn pumpcyl_guarded(dir: &std::path::Path, seconds: u32, args: &[&str]) -> std::process::Output {
+    std::process::Command::new("sh")
+        .current_dir(dir)
+        .arg("-c")
+        .arg(format!("ulimit -t {seconds}; exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_pumpcyl"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The emulator's work limit counts its integrator's work (docs/emulator.md#the-work-limit): on
+/// the tests' user rig (80/45 mm, 2500 kg, β 300 bar; none of the article's values) at
+/// Kp 1000 the drives saturate and a controller step costs the integrator tens of thousands of
+/// evaluations; 20 000 s of it (2·10⁶ controller steps, within the steps' own limit, hours of
+/// computing) is stopped with the --allow-long-run message after 256 steps, writing nothing,
+/// while 2 s of it and 600 s of the calm rig run.
+#[test]
+fn an_emulation_whose_steps_cost_thousands_of_calm_ones_is_stopped_by_its_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rig = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/user-rig.toml");
+    let emulate = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "emulate",
+            "--rig",
+            rig,
+            "--experiment",
+            "step",
+            "--out",
+            out,
+        ];
+        args.extend(extra);
+        pumpcyl_guarded(d, 120, &args)
+    };
+    let long = emulate(&["--set", "kp=1000", "--duration-s", "20000"], "long.csv");
+    let err = String::from_utf8_lossy(&long.stderr);
+    assert_eq!(long.status.code(), Some(1), "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    let e = lines[0];
+    for word in [
+        "long.csv: the emulator's integrator over 20000.00 s",
+        "projected from its rate over t = 1.28-2.56 s",
+        "a calm loop's at most 500",
+        "more than the 5e9",
+        "(--allow-long-run)",
+    ] {
+        assert!(e.contains(word), "lacks `{word}`: {e}");
+    }
+    // the rate it names: tens of thousands of evaluations a controller step
+    let rate: f64 = e
+        .split("right-hand-side evaluations; ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("no rate in {e}"));
+    assert!(rate > 10_000.0, "{rate}: {e}");
+    assert!(!d.join("long.csv").exists());
+    // the same rig for 2 s, and the calm rig for 600 s, run
+    for (extra, out) in [
+        (&["--set", "kp=1000", "--duration-s", "2"][..], "short.csv"),
+        (&["--duration-s", "600"], "calm.csv"),
+    ] {
+        let o = emulate(extra, out);
+        assert!(
+            o.status.success(),
+            "{out}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(d.join(out).exists(), "{out}");
+    }
+}

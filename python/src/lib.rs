@@ -1751,7 +1751,8 @@ fn effective_beta(py: Python<'_>, x: f64, p_bar: f64, beta_oil_bar: f64) -> PyRe
 /// `rig` None takes the emulator's own rig (the article's rig with the emulator's effects),
 /// keyword `overrides` set its keys as `--set` does; `effects=False` switches every emulator
 /// effect off, `noise=False` the sensor noise (`seed` seeds it). Records beyond the work limit
-/// run only with `allow_long_run=True`. A `Result` with `experiment`, `rig`, `samples`,
+/// (their controller steps, or their integrator's work counted as they run:
+/// docs/emulator.md#the-work-limit) run only with `allow_long_run=True`. A `Result` with `experiment`, `rig`, `samples`,
 /// `basis` (what the emulator used, in words), `warnings` (each also a UserWarning),
 /// `end_stop` and `columns`, the record's columns as numpy arrays (docs/formats.md#record-csv).
 #[pyfunction]
@@ -1821,9 +1822,17 @@ fn emulate(
     pumpcyl::limits::check_emulation(emulated::duration_s(&plan), plc.rate_hz, allow_long_run)
         .map_err(long_run_err)?;
     let truth = pumpcyl::emulator::article::Truth { rig, effects, plc };
-    let (data, end_stop) = py
-        .detach(|| emulated::run(&plan, &truth, &|_| {}))
-        .map_err(err)?;
+    let work = pumpcyl::limits::Work {
+        allow_long_run,
+        ..pumpcyl::limits::Work::QUIET
+    };
+    let (data, end_stop) =
+        py.detach(|| emulated::run(&plan, &truth, &work))
+            .map_err(|e| match e {
+                // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
+                pumpcyl::emulator::RunError::Limit(e) => long_run_err(e),
+                pumpcyl::emulator::RunError::Emulator(e) => err(e),
+            })?;
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(err)?;
     let warnings = warn_each(py, emulated::warnings(&truth.rig, &data))?;
     let doc = emulated::emulated_json(
