@@ -1915,8 +1915,9 @@ fn fmu(
 /// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
 /// from its records' interval of β at `confidence`. The command line's `select --json`, as a
 /// `Result` (`column("options", "kp_max")`: a numpy array over the options). Loads × pressure
-/// levels beyond 400 cases (minutes to hours of work) run only with `allow_long_run=True`, as
-/// the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
+/// levels beyond 400 cases (each wave beyond the first adding 1/30 of a case), or single-pump
+/// mode checks beyond 5e9 evaluations (docs/select.md#work), run only with
+/// `allow_long_run=True`, as the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
 /// cases. `mode_check` names the single-pump candidates' mode check, as the command line's
 /// `--mode-check`: "emulator" (the default) or "equations".
 #[pyfunction]

@@ -98,3 +98,21 @@ def test_emulate_is_stopped_by_its_integrators_work_as_the_command_line_is(tmp_p
     assert "projected from its rate over t = 1.28-2.56 s" in message, message
     assert "more than the 5e9" in message and message.endswith("(allow_long_run=True)"), message
     assert "\n" not in message
+
+
+def test_select_counts_its_waves_as_the_command_line_does(tmp_path):
+    """docs/select.md#work: 1000 waves on the user rig's 13 DPM levels are 446 cases (each wave
+    beyond the first 1/30 of a case), refused naming allow_long_run=True; three run."""
+    def app(waves):
+        text = f'rig = "{ROOT / "tests" / "user-rig.toml"}"\ncircuits = ["dpm"]\n'
+        for k in range(waves):
+            text += f"\n[[wave]]\nfreq_hz = 0.2\namp_mm = {10.0 + 0.001 * k}\nmax_error_mm = 30.0\n"
+        path = tmp_path / f"app-{waves}.toml"
+        path.write_text(text)
+        return path
+
+    with pytest.raises(pumpcyl.PumpcylError, match=r"allow_long_run=True") as e:
+        pumpcyl.select(app(1000))
+    assert "each [[wave]] beyond the first adds 1/30 of a case, 1000 waves" in str(e.value)
+    assert work_of(e.value) == 446
+    assert len(pumpcyl.select(app(3))["options"]) == 13
