@@ -5,7 +5,7 @@ use crate::RigSource;
 use anyhow::{anyhow, Result};
 use clap::Args;
 use pumpcyl::emulator::article::{self, Emulated, Kind};
-use pumpcyl::emulator::Effects;
+use pumpcyl::emulator::{Effects, RunError};
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
 use pumpcyl_present::emulated::{self, ExperimentKind};
@@ -73,8 +73,10 @@ pub struct EmulateArgs {
     /// Sample rate (Hz). Default: 100 (the PLC), 1000 for a drive step (the drive's scope).
     #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     rate_hz: Option<f64>,
-    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work);
-    /// a record is never longer than 5·10^6 samples (its memory).
+    /// Run even when --duration-s times --rate-hz exceeds 10^7 controller steps (hours of work),
+    /// or when the integrator's work, counted as the run goes, exceeds that of 10^7 calm steps
+    /// (drives that saturate or an unstable loop cost thousands of times more a step); a record
+    /// is never longer than 5·10^6 samples (its memory).
     #[arg(long)]
     allow_long_run: bool,
     /// Seed of the sensor noise.
@@ -142,8 +144,15 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         );
     }
     let bar = crate::ident::progress_bar_of(steps, "controller steps");
-    let (data, end_stop) = emulated::run(&plan, &truth, &|n| bar.inc(n))
-        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let work = pumpcyl::limits::Work {
+        allow_long_run: args.allow_long_run,
+        progress: &|n| bar.inc(n),
+    };
+    let (data, end_stop) = emulated::run(&plan, &truth, &work).map_err(|e| match e {
+        // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
+        RunError::Limit(e) => anyhow!("{}: {e} (--allow-long-run)", out.display()),
+        RunError::Emulator(e) => anyhow!("{}: {e}", out.display()),
+    })?;
     bar.finish_and_clear();
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
     write_atomic(out, records::emulated_csv(&data).as_bytes())?;

@@ -50,8 +50,10 @@ pub struct SelectArgs {
     experiment: Option<PathBuf>,
     #[command(flatten)]
     confidence: crate::ConfidenceArg,
-    /// Run even when the loads × pressure levels exceed 400 cases (minutes to hours of work;
-    /// a progress bar shows them on a terminal).
+    /// Run even when the loads × pressure levels exceed 400 cases (each [[wave]] beyond the
+    /// first adding 1/30 of a case), or the single-pump mode checks' emulated runs exceed the
+    /// work of 10^7 calm controller steps (docs/select.md#work; a progress bar shows the cases
+    /// on a terminal).
     #[arg(long)]
     allow_long_run: bool,
     /// Print the application as commented TOML (with --set applied) and stop.

@@ -289,3 +289,76 @@ fn a_budget_counts_each_candidate_as_often_as_it_fits() {
     let e = advise(&exp.problem, &TRUTH, &opts).unwrap_err().to_string();
     assert!(e.contains("budget_s = -1"), "{e}");
 }
+
+#[path = "common/run.rs"]
+#[allow(dead_code)]
+mod run;
+
+/// A sweep-only experiment on the tests' user rig (80/45 mm, 2500 kg, β 300 bar, Kp 15; no
+/// value of the article's): an emulated multisine and standstill, fitted in the frequency
+/// domain. The advice weighs candidates against step records, so it is refused in one line,
+/// with or without a candidates file (an empty one, one with a step), never a panic.
+#[test]
+fn a_sweep_only_experiment_is_refused_in_one_line_with_or_without_candidates() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
+    let rig = rig.to_str().unwrap();
+    for args in [
+        &["--experiment", "multisine", "--out", "sweep.csv"][..],
+        &[
+            "--experiment",
+            "standstill",
+            "--duration-s",
+            "2",
+            "--out",
+            "standstill.csv",
+        ],
+    ] {
+        let mut all = vec!["emulate", "--rig", rig, "--no-effects"];
+        all.extend(args);
+        let out = run::pumpcyl(d, &all);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    std::fs::write(
+        d.join("exp.toml"),
+        format!(
+            "rig = \"{rig}\"\nmethod = \"frequency\"\n[standstill]\nrecord = \"standstill.csv\"\n\n\
+             [[dataset]]\nfile = \"sweep.csv\"\nkp = 15.0\nmass_kg = 2500.0\n"
+        ),
+    )
+    .unwrap();
+    std::fs::write(d.join("empty.toml"), "").unwrap();
+    std::fs::write(d.join("step.toml"), "[[step]]\nstep_mm = 5.0\nkp = 15.0\n").unwrap();
+    let words = ["no step record", "all sweeps"];
+    run::refused(
+        d,
+        &["advise", "exp.toml", "--candidates", "empty.toml"],
+        &words,
+    );
+    run::refused(
+        d,
+        &["advise", "exp.toml", "--candidates", "step.toml", "--json"],
+        &words,
+    );
+    run::refused(d, &["advise", "exp.toml"], &words);
+    // the library's entry points refuse it too, in the same words
+    let exp = Experiment::load(&d.join("exp.toml")).unwrap();
+    assert!(exp.problem.datasets.is_empty() && !exp.sweeps.is_empty());
+    let e = designs_for(
+        &exp.problem,
+        "[[step]]\nstep_mm = 5.0\nkp = 15.0\n",
+        "c.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.starts_with("no step record"), "{e}");
+    let e = advise(&exp.problem, &TRUTH, &AdviceOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("no step record"), "{e}");
+}

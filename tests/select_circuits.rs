@@ -239,6 +239,9 @@ fn another_mode_check_can_stand_in() {
         fn name(&self) -> &'static str {
             "stand-in"
         }
+        fn work(&self, waves: &[WaveRequirement]) -> f64 {
+            EquationsCheck::ARTICLE.work(waves)
+        }
     }
     let app = Application::default()
         .with_overrides(

@@ -108,9 +108,12 @@ def _message(e):
 
 
 def _rig_of(item):
-    """The rig of a sweep item: rig TOML text or keyword overrides of the article's rig."""
+    """The rig of a sweep item: rig TOML text (a Rig of the list, or the sweep's base rig),
+    with keyword overrides where it has them, or overrides of the article's rig."""
     if "toml" in item:
-        return pumpcyl.Rig.from_toml_str(item["toml"], item["name"])
+        rig = pumpcyl.Rig.from_toml_str(item["toml"], item["name"])
+        overrides = item.get("overrides")
+        return rig.replace(**overrides) if overrides else rig
     return pumpcyl.Rig(**item["overrides"])
 
 
@@ -182,23 +185,58 @@ def _is_scalar(v):
 # Sweeps over rigs
 
 
-def _sweep_items(rigs_or_overrides):
+def _base_rig(rig):
+    """The sweep's base rig as (TOML text, name for messages): None for the article's rig, a
+    :class:`pumpcyl.Rig`, or the path of a rig TOML file, read here (the workers get its text,
+    so they need not see the file)."""
+    if rig is None:
+        return None
+    if isinstance(rig, pumpcyl.Rig):
+        return rig.to_toml(), "rig"
+    if isinstance(rig, (str, os.PathLike)):
+        return pumpcyl.Rig.from_toml(rig).to_toml(), os.fspath(rig)
+    raise pumpcyl.PumpcylError(
+        f"sweep(rig={rig!r:.60}): a Rig, the path of a rig TOML file, or None (the article's rig)"
+    )
+
+
+def _differing_keys(rigs):
+    """The keys whose values (numbers, flags, texts) differ between the Rigs ``rigs``, in the
+    rigs' key order."""
+    tables = [r.to_dict() for r in rigs]
+    if len(tables) < 2:
+        return []
+    return [
+        key for key, value in tables[0].items()
+        if _is_scalar(value) and any(t.get(key) != value for t in tables[1:])
+    ]
+
+
+def _sweep_items(rigs_or_overrides, base=None):
     """The sweep's items and each one's label columns: a dict of lists is the product of its
-    values (one rig each combination), a list holds Rigs or dicts of overrides."""
+    values (one rig each combination), a list holds Rigs or dicts of overrides. Overrides apply
+    to ``base`` (TOML text and name, :func:`_base_rig`), the article's rig when None; a dict's
+    label is its overrides, a Rig's its place in the list (``rig``: ``rigs[k]``) and the keys in
+    which the list's Rigs differ from each other."""
     if isinstance(rigs_or_overrides, dict):
         keys = list(rigs_or_overrides)
         axes = [list(rigs_or_overrides[k]) for k in keys]
         given = [dict(zip(keys, values)) for values in itertools.product(*axes)]
     else:
         given = list(rigs_or_overrides)
+    differing = _differing_keys([g for g in given if isinstance(g, pumpcyl.Rig)])
     items, labels = [], []
     for k, g in enumerate(given):
         if isinstance(g, pumpcyl.Rig):
             items.append({"toml": g.to_toml(), "name": f"rigs[{k}]"})
-            labels.append({"rig": repr(g)})
+            values = g.to_dict()
+            labels.append({"rig": f"rigs[{k}]", **{key: values[key] for key in differing}})
         elif isinstance(g, dict):
             plain = json.loads(json.dumps(g, default=_plain))
-            items.append({"overrides": plain})
+            if base is None:
+                items.append({"overrides": plain})
+            else:
+                items.append({"toml": base[0], "name": base[1], "overrides": plain})
             labels.append(plain)
         else:
             raise pumpcyl.PumpcylError(
@@ -214,16 +252,21 @@ def _plain(v):
     raise TypeError(f"{v!r:.60} is not a number, text, list or dict")
 
 
-def sweep(rigs_or_overrides, analysis="margins", *, client=None, batch_size=None, **options):
+def sweep(rigs_or_overrides, analysis="margins", *, rig=None, client=None, batch_size=None,
+          **options):
     """``analysis`` ("margins", "design" or "select") of many rigs on the Dask ``client``
     (default: the current client), as a pandas DataFrame with one row a rig.
 
     ``rigs_or_overrides``: a list of :class:`pumpcyl.Rig` or of dicts of rig keys (overrides
-    of the article's rig, as ``Rig(**overrides)``), or a dict of lists, whose product is swept
-    (``{"mass_kg": [4898, 10593], "beta_bar": [60, 120, 165]}``: six rigs). ``options`` go to
-    the analysis (``target_pm_deg=40`` for design, ``gas_fraction_max=0.1`` for select).
+    of the base rig, as ``base.replace(**overrides)``), or a dict of lists, whose product is
+    swept (``{"mass_kg": [4898, 10593], "beta_bar": [60, 120, 165]}``: six rigs). ``rig``: the
+    base rig the overrides apply to, a :class:`pumpcyl.Rig` or the path of a rig TOML file
+    (read here, so the workers need not see it); None, the default, the article's rig. A Rig
+    of the list is swept as it is. ``options`` go to the analysis (``target_pm_deg=40`` for
+    design, ``gas_fraction_max=0.1`` for select).
 
-    Columns: the overrides (or ``rig``, a Rig's repr), the result's numbers, flags and texts
+    Columns: the overrides, or for a Rig of the list ``rig`` (``rigs[k]``, its place in the
+    list) and the keys in which the list's Rigs differ; the result's numbers, flags and texts
     (one level of its dicts as ``outer.inner``), ``error`` (the message of a rig that failed,
     None otherwise: a failure never takes the other rows down) and ``result``, the whole
     document as a dict: equal to ``pumpcyl.margins(rig).to_dict()`` of the same rig. Rigs go to
@@ -234,7 +277,7 @@ def sweep(rigs_or_overrides, analysis="margins", *, client=None, batch_size=None
         raise pumpcyl.PumpcylError(
             f"sweep(analysis={analysis!r}): one of {', '.join(map(repr, ANALYSES))}"
         )
-    items, labels = _sweep_items(rigs_or_overrides)
+    items, labels = _sweep_items(rigs_or_overrides, _base_rig(rig))
     answers = _map_batches(client, analysis, items, options, batch_size)
     return _frame(labels, answers, _scalars)
 

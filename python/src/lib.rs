@@ -1756,7 +1756,8 @@ fn effective_beta(py: Python<'_>, x: f64, p_bar: f64, beta_oil_bar: f64) -> PyRe
 /// `rig` None takes the emulator's own rig (the article's rig with the emulator's effects),
 /// keyword `overrides` set its keys as `--set` does; `effects=False` switches every emulator
 /// effect off, `noise=False` the sensor noise (`seed` seeds it). Records beyond the work limit
-/// run only with `allow_long_run=True`. A `Result` with `experiment`, `rig`, `samples`,
+/// (their controller steps, or their integrator's work counted as they run:
+/// docs/emulator.md#the-work-limit) run only with `allow_long_run=True`. A `Result` with `experiment`, `rig`, `samples`,
 /// `basis` (what the emulator used, in words), `warnings` (each also a UserWarning),
 /// `end_stop` and `columns`, the record's columns as numpy arrays (docs/formats.md#record-csv).
 #[pyfunction]
@@ -1826,9 +1827,17 @@ fn emulate(
     pumpcyl::limits::check_emulation(emulated::duration_s(&plan), plc.rate_hz, allow_long_run)
         .map_err(long_run_err)?;
     let truth = pumpcyl::emulator::article::Truth { rig, effects, plc };
-    let (data, end_stop) = py
-        .detach(|| emulated::run(&plan, &truth, &|_| {}))
-        .map_err(err)?;
+    let work = pumpcyl::limits::Work {
+        allow_long_run,
+        ..pumpcyl::limits::Work::QUIET
+    };
+    let (data, end_stop) =
+        py.detach(|| emulated::run(&plan, &truth, &work))
+            .map_err(|e| match e {
+                // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
+                pumpcyl::emulator::RunError::Limit(e) => long_run_err(e),
+                pumpcyl::emulator::RunError::Emulator(e) => err(e),
+            })?;
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(err)?;
     let warnings = warn_each(py, emulated::warnings(&truth.rig, &data))?;
     let doc = emulated::emulated_json(
@@ -1911,8 +1920,9 @@ fn fmu(
 /// `kp` fixes the gain; `experiment` (an experiment TOML file) gives the gas-fraction range
 /// from its records' interval of β at `confidence`. The command line's `select --json`, as a
 /// `Result` (`column("options", "kp_max")`: a numpy array over the options). Loads × pressure
-/// levels beyond 400 cases (minutes to hours of work) run only with `allow_long_run=True`, as
-/// the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
+/// levels beyond 400 cases (each wave beyond the first adding 1/30 of a case), or single-pump
+/// mode checks beyond 5e9 evaluations (docs/select.md#work), run only with
+/// `allow_long_run=True`, as the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
 /// cases. `mode_check` names the single-pump candidates' mode check, as the command line's
 /// `--mode-check`: "emulator" (the default) or "equations".
 #[pyfunction]

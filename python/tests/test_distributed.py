@@ -156,11 +156,49 @@ def test_a_sweep_keeps_a_bad_rig_in_its_row_and_takes_rigs_and_designs(client):
         pumpcyl.Rig(beta_bar=-1.0)
     assert df["error"][0] == str(e.value)
     assert df["result"][1] == pumpcyl.design(user, target_pm_deg=40.0).to_dict()
-    assert df["rig"][1] == repr(user)
+    assert df["rig"][1] == "rigs[1]"
     assert df["kp_max"][2] == pumpcyl.design(pumpcyl.Rig(mass_kg=6000.0), target_pm_deg=40.0).kp_max
     assert df["error"][1] is None and df["error"][2] is None
     with pytest.raises(pumpcyl.PumpcylError, match="analysis='bode'"):
         pd_.sweep(given, "bode", client=client)
+
+
+def test_a_sweep_overrides_the_base_rig_it_is_given_and_labels_rigs_shortly(client, tmp_path):
+    # the user rig (80/45 mm, 2500 kg, beta 300 bar; none of the article's values) as the base,
+    # by path and as a Rig: its overrides are swept, not the article's rig's
+    path = ROOT / "tests" / "user-rig.toml"
+    with pytest.warns(UserWarning, match="does not set"):
+        user = pumpcyl.Rig.from_toml(path)
+    axes = {"mass_kg": [2000.0, 3000.0], "kp": [10.0, 15.0]}
+    with pytest.warns(UserWarning, match="does not set"):
+        by_path = pd_.sweep(axes, "margins", rig=path, client=client)
+    by_rig = pd_.sweep(axes, "margins", rig=user, client=client)
+    for df in (by_path, by_rig):
+        assert len(df) == 4 and df["error"].isna().all()
+        for k, (m, kp) in enumerate((m, kp) for m in axes["mass_kg"] for kp in axes["kp"]):
+            row = df.iloc[k]
+            assert (row["mass_kg"], row["kp"]) == (m, kp)
+            expected = pumpcyl.margins(user.replace(mass_kg=m, kp=kp))
+            assert row["result"] == expected.to_dict()
+            assert row["gain_margin_db"] == expected.gain_margin_db
+    # not the article's rig with the same overrides
+    article = pumpcyl.margins(pumpcyl.Rig(mass_kg=2000.0, kp=10.0))
+    assert by_rig["gain_margin_db"][0] != article.gain_margin_db
+    # a list of Rigs: each labelled by its place and the keys in which the Rigs differ, not
+    # by its whole repr; the base does not apply to a Rig of the list
+    single = user.replace(circuit="single-pump", external_force_n=500.0)
+    rigs = [user, user.replace(mass_kg=3000.0), single]
+    df = pd_.sweep(rigs, "margins", rig=pumpcyl.Rig(beta_bar=37.8), client=client)
+    assert list(df["rig"]) == ["rigs[0]", "rigs[1]", "rigs[2]"]
+    assert list(df["mass_kg"]) == [2500.0, 3000.0, 2500.0]
+    assert list(df["circuit"]) == ["dpm", "dpm", "single-pump"]
+    assert list(df["external_force_n"]) == [0.0, 0.0, 500.0]
+    assert "beta_bar" not in df.columns and "piston_diameter_mm" not in df.columns
+    expected = pumpcyl.margins(single)
+    assert (df["gain_margin_db"][2], df["phase_margin_deg"][2]) == (
+        expected.gain_margin_db, expected.phase_margin_deg)
+    with pytest.raises(pumpcyl.PumpcylError, match="sweep\\(rig=3\\)"):
+        pd_.sweep(axes, rig=3, client=client)
 
 
 def _small_experiment(folder, csv_source=ARTICLE / "identification.csv"):

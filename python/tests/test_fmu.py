@@ -141,6 +141,38 @@ def test_the_emulator_fmu_follows_the_beta_bar_a_host_sets_on_a_user_rig(tmp_pat
     assert abs(peaks[0] - peaks[1]) > 0.05 * max(peaks), peaks
 
 
+def test_the_emulator_fmu_runs_at_the_external_force_a_host_sets_on_a_user_rig(tmp_path):
+    """docs/fmu.md#variables, one force: on the user rig written at 0 N, a host that sets the
+    parameter external_force_n to 500 N (and leaves the input f_ext_n at its start value, 0)
+    gets `pumpcyl emulate` on the rig at 500 N from the first sample, on the DPM and the single
+    pump, not a force step at t = 0 from a rest at 0 N."""
+    fmpy = require_fmpy()
+    for circuit in ("dpm", "single-pump"):
+        rig = tmp_path / f"{circuit}.toml"
+        # the single pump has one pump: the second displacement is not one of its keys
+        keys = [k for k in USER_RIG.splitlines()
+                if circuit == "dpm" or not k.startswith("displacement_2")]
+        rig.write_text("\n".join(keys) + f'\ncircuit = "{circuit}"\n')
+        fmu = tmp_path / f"{circuit}.fmu"
+        cli("fmu", "--model", "emulator", "--rig", str(rig), "--out", str(fmu))
+        md = fmpy.read_model_description(str(fmu))
+        force = next(v for v in md.modelVariables if v.name == "f_ext_n")
+        assert float(force.start) == 0.0
+        records = {}
+        for f in (0.0, 500.0):
+            records[f] = tmp_path / f"{circuit}-{f:g}.csv"
+            cli("emulate", "--rig", str(rig), "--set", f"external_force_n={f}", "--experiment",
+                "step", "--no-noise", "--out", str(records[f]))
+        rec, unloaded = read_csv(records[500.0]), read_csv(records[0.0])
+        # the two loads rest apart: a run at the wrong force cannot pass
+        assert np.max(np.abs(rec["x_mm"] - unloaded["x_mm"])) > 1e-3, circuit
+        r = run_fmu(fmpy, fmu, rec["time_s"], rec["x_ref_mm"] * 1e-3,
+                    start_values={"external_force_n": 500.0})
+        assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9, circuit
+        assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0, circuit
+        assert np.max(np.abs(r["p2_pa"] - rec["p2_bar"] * 1e5)) < 1.0, circuit
+
+
 def test_the_linear_fmu_gives_the_step_response(fmus):
     fmpy = require_fmpy()
     d, _, linear = fmus

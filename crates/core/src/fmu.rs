@@ -235,7 +235,7 @@ fn drives(rig: &Rig) -> usize {
 }
 
 /// The inputs: the position reference or the speed commands (one per drive), then the
-/// external force.
+/// external force added to the parameter `external_force_n` (docs/fmu.md#variables).
 fn input_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
     let mut out = match c.controller {
         Controller::Article => vec![(
@@ -252,7 +252,8 @@ fn input_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
     out.push((
         "f_ext_n",
         "N",
-        "external force on the piston (positive against the extension)",
+        "external force on the piston added to the parameter external_force_n (positive \
+         against the extension); 0 at the start",
     ));
     out
 }
@@ -548,20 +549,21 @@ pub const UNITS: &[Unit] = &[
     },
 ];
 
-/// The start values of the inputs: the rig at rest at its operating point.
+/// The start values of the inputs: the rig at rest at its operating point. The force input
+/// starts at 0: it is added to the parameter `external_force_n`, the one source of the force
+/// a master that does not drive the input sets (docs/fmu.md#variables).
 fn input_start(c: &Config) -> Vec<f64> {
-    let f = c.rig.external_force_n;
     match c.controller {
         // the linear loop rests at x0 under the reference that holds it there
         // (docs/simulation.md#the-rest-under-load)
         Controller::Article if c.model == ModelKind::Linear => {
-            vec![c.rig.x0_mm * 1e-3 + linear_rest_offset_m(&c.rig), f]
+            vec![c.rig.x0_mm * 1e-3 + linear_rest_offset_m(&c.rig), 0.0]
         }
-        Controller::Article => vec![c.rig.x0_mm * 1e-3, f],
+        Controller::Article => vec![c.rig.x0_mm * 1e-3, 0.0],
         Controller::External => {
             let (_, u) = rest(c.model, &c.rig);
             let mut start = u[..drives(&c.rig)].to_vec();
-            start.push(f);
+            start.push(0.0);
             start
         }
     }
@@ -633,6 +635,9 @@ pub struct Instance {
     note: Option<String>,
     /// An end stop already reported.
     end_stop_noted: bool,
+    /// The parameter `external_force_n` (N) the run was initialised with, to which the input
+    /// `f_ext_n` is added.
+    force_parameter_n: f64,
 }
 
 /// The instance's own time since the start: whole PLC periods counted as an integer and the
@@ -752,6 +757,7 @@ impl Instance {
             clock: Clock::new(),
             note: None,
             end_stop_noted: false,
+            force_parameter_n: 0.0,
         })
     }
 
@@ -808,9 +814,11 @@ impl Instance {
     pub fn exit_initialization(&mut self) -> Result<(), FmuError> {
         self.require("leaving initialisation mode", &[Phase::Initialising])?;
         let rig = self.rig()?;
-        let f_ext = *self.inputs.last().expect("f_ext_n is always an input");
+        // one force: the parameter, plus the input as the master has set it (0 unless it has)
+        let added = *self.inputs.last().expect("f_ext_n is always an input");
+        self.force_parameter_n = rig.external_force_n;
         let rig = Rig {
-            external_force_n: f_ext,
+            external_force_n: rig.external_force_n + added,
             ..rig
         };
         self.sim = Some(match self.config.model {
@@ -974,17 +982,19 @@ impl Instance {
         self.exit_initialization()
     }
 
-    /// The emulator's effects: those of the parameters' rig (its `beta_bar` at its own mean
-    /// pressure at rest, its `mass_by_position`; docs/emulator.md#what-a-user-rig-gets), or none.
-    fn effects(&self) -> Result<crate::emulator::Effects, FmuError> {
+    /// The emulator's effects: those of the rig the run starts on, the parameters' with the
+    /// force the run starts under (its `beta_bar` at its own mean pressure at rest, its
+    /// `mass_by_position`; docs/emulator.md#what-a-user-rig-gets), as `pumpcyl emulate` takes
+    /// them for the same rig; or none.
+    fn effects(&self, rig: &Rig) -> Result<crate::emulator::Effects, FmuError> {
         Ok(crate::emulator::Effects::switched(
-            &self.rig()?,
+            rig,
             self.config.effects,
         )?)
     }
 
     fn emulator(&self, rig: &Rig) -> Result<Sim, FmuError> {
-        let dynamics = Dynamics::new(rig, self.effects()?)?;
+        let dynamics = Dynamics::new(rig, self.effects(rig)?)?;
         Ok(match self.config.controller {
             Controller::Article => {
                 let plc = Plc::ideal(PLC_RATE_HZ);
@@ -1049,7 +1059,9 @@ impl Instance {
 
     /// The simulation over `h_s` (s) from the instance's own time.
     fn advance(&mut self, h_s: f64) -> Result<(), FmuError> {
-        let inputs = self.inputs.clone();
+        // the force the rig feels: the parameter plus the input
+        let mut inputs = self.inputs.clone();
+        *inputs.last_mut().expect("f_ext_n is always an input") += self.force_parameter_n;
         let clock = &mut self.clock;
         match self.sim.as_mut() {
             None => return Err(FmuError("the FMU is not initialised".into())),
@@ -1372,6 +1384,109 @@ mod tests {
             (p1_peaks[0] - p1_peaks[1]).abs() > 1e-3,
             "the two bulk moduli give the same step: {p1_peaks:?}"
         );
+    }
+
+    /// One source for the force (docs/fmu.md#variables): on a rig that shares no value with
+    /// the article's, written at 0 N, the emulator FMU whose master sets the parameter
+    /// `external_force_n` to 500 N gives `emulate`'s 5 mm step of the rig at 500 N, for the
+    /// DPM and the single pump; the input `f_ext_n` starts at 0 and adds to the parameter
+    /// (300 N set and 200 N on the input: the same run); the linear FMU likewise equals the
+    /// one written at 500 N.
+    #[test]
+    fn the_force_parameter_a_master_sets_is_the_force_the_fmu_runs_at() {
+        let user = Rig::from_toml_str(
+            "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\nx0_mm = 400.0\n\
+             mass_kg = 2500.0\nmass_by_position = []\ndisplacement_1_cm3_per_rev = 8.0\n\
+             displacement_2_cm3_per_rev = 5.0\nbeta_bar = 300.0\nkp = 15.0\n",
+            "user.toml",
+        )
+        .unwrap();
+        for kind in [CircuitKind::Dpm, CircuitKind::SinglePump] {
+            let at = |f: f64| Rig {
+                circuit: kind,
+                external_force_n: f,
+                ..user.clone()
+            };
+            let loaded = at(500.0);
+            let effects = crate::emulator::Effects::for_rig(&loaded).unwrap();
+            let plan = Experiment::step(&loaded, None, None, 0.5, Some(1.5));
+            let rec = plan
+                .run(&loaded, effects, &Plc::ideal(PLC_RATE_HZ))
+                .unwrap();
+            // the same rig unloaded rests elsewhere: the comparison can fail
+            let unloaded = Experiment::step(&at(0.0), None, None, 0.5, Some(1.5))
+                .run(
+                    &at(0.0),
+                    crate::emulator::Effects::for_rig(&at(0.0)).unwrap(),
+                    &Plc::ideal(PLC_RATE_HZ),
+                )
+                .unwrap();
+            // (far beyond the comparison's 1e-6 mm and 1 Pa)
+            let worst = |a: &[f64], b: &[f64]| {
+                (a.iter().zip(b)).fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()))
+            };
+            let (dx_mm, dp1_bar) = (
+                worst(&rec.x_mm, &unloaded.x_mm),
+                worst(&rec.p1_bar, &unloaded.p1_bar),
+            );
+            assert!(
+                dx_mm > 1e-3 || dp1_bar > 1e-3,
+                "{kind:?}: x {dx_mm} mm, p1 {dp1_bar} bar apart"
+            );
+            let config = Config::new(ModelKind::Emulator, Controller::Article, true, at(0.0));
+            let force_input = variables(&config)
+                .into_iter()
+                .find(|v| v.name == "f_ext_n")
+                .unwrap();
+            assert_eq!(force_input.start, Some(Value::Real(0.0)));
+            for (parameter, input) in [(500.0, 0.0), (300.0, 200.0)] {
+                let mut fmu = Instance::new(config.clone()).unwrap();
+                let p = fmu.value_reference("external_force_n").unwrap();
+                fmu.set_real(p, parameter).unwrap();
+                let i = fmu.value_reference("f_ext_n").unwrap();
+                fmu.set_real(i, input).unwrap();
+                let got = run(&mut fmu, 150, 0.01, |t| plan.reference_mm(t));
+                for (k, (x, p1)) in got.iter().enumerate() {
+                    assert!(
+                        (x * 1e3 - rec.x_mm[k]).abs() < 1e-6,
+                        "{kind:?} {parameter} + {input} N: x at {k}: {} vs {} mm",
+                        x * 1e3,
+                        rec.x_mm[k]
+                    );
+                    assert!(
+                        (p1 - rec.p1_bar[k] * PA_PER_BAR).abs() < 1.0,
+                        "{kind:?} {parameter} + {input} N: p1 at {k}"
+                    );
+                }
+            }
+        }
+        let linear = |rig: Rig, parameter: Option<f64>| {
+            let config = Config::new(ModelKind::Linear, Controller::Article, false, rig);
+            let mut fmu = Instance::new(config).unwrap();
+            if let Some(f) = parameter {
+                let p = fmu.value_reference("external_force_n").unwrap();
+                fmu.set_real(p, f).unwrap();
+            }
+            let x0 = user.x0_mm;
+            run(&mut fmu, 200, 0.01, |t| if t < 0.5 { x0 } else { x0 + 5.0 })
+        };
+        let written = linear(
+            Rig {
+                external_force_n: 500.0,
+                ..user.clone()
+            },
+            None,
+        );
+        let set = linear(user.clone(), Some(500.0));
+        let unloaded = linear(user.clone(), None);
+        assert!(
+            (written[0].1 - unloaded[0].1).abs() > 1e4,
+            "p1 at 500 N vs 0 N"
+        );
+        for (k, (a, b)) in set.iter().zip(&written).enumerate() {
+            assert!((a.0 - b.0).abs() < 1e-12, "linear x at {k}");
+            assert!((a.1 - b.1).abs() < 1e-6, "linear p1 at {k}");
+        }
     }
 
     #[test]

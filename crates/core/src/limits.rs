@@ -18,6 +18,29 @@ pub const MAX_SAMPLES: f64 = 5e6;
 /// three hours of rig time at 1 kHz, already minutes of computing.
 pub const MAX_EMULATED_STEPS: f64 = 1e7;
 
+/// At most what one controller step of a calm loop costs the emulator's integrator, in
+/// right-hand-side evaluations of the rig's equations (docs/emulator.md#the-work-limit): 57 to
+/// 315 measured on the three circuits' 5 mm steps and 0.2 Hz ±35 mm and 1 Hz ±10 mm sines at
+/// 100 Hz, with and without sensor noise; a loop whose drives saturate, or that is unstable,
+/// takes 20 000 and more.
+pub const CALM_STEP_WORK: f64 = 500.0;
+
+/// The emulator integrator's work done without allowing a long run (right-hand-side
+/// evaluations): the work of [`MAX_EMULATED_STEPS`] calm controller steps
+/// ([`CALM_STEP_WORK`] each), about ten minutes of computing.
+pub const MAX_EMULATOR_WORK: f64 = MAX_EMULATED_STEPS * CALM_STEP_WORK;
+
+/// The share of [`MAX_EMULATOR_WORK`] an emulation does before its work is projected
+/// ([`EmulatorWork::check`]): a thousandth, a second or two of computing.
+pub const PROJECT_AFTER: f64 = 1e-3;
+
+/// How far beyond [`MAX_EMULATOR_WORK`] a projection must reach before it stops a run
+/// ([`EmulatorWork::check`]): a run that saturates for a while and then calms down is
+/// projected high until its calm part dominates the window, and is stopped only if even then
+/// it would need ten times the limit; one that falls short of that is stopped when it reaches
+/// the limit itself **\[choice\]**.
+pub const PROJECTED_FACTOR: f64 = 10.0;
+
 /// Grid candidates × record samples simulated without allowing a long run: 10⁹ is about 200
 /// times the article's identification (6 817 candidates × 2 × 370 samples), minutes of work.
 pub const MAX_CANDIDATE_SAMPLES: f64 = 1e9;
@@ -161,6 +184,88 @@ pub fn check_emulation(
     Ok(samples)
 }
 
+/// An emulation's integrator work watched as it runs, against [`MAX_EMULATOR_WORK`]
+/// (docs/emulator.md#the-work-limit): the controller steps alone
+/// ([`check_emulation`]) cannot see a step that costs thousands of times a calm one, as where
+/// the drives saturate or the loop is unstable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmulatorWork {
+    allowed: bool,
+    total_steps: u64,
+    period_s: f64,
+    /// The next step count at which the work is projected (a power of two).
+    next_check: u64,
+    /// The steps and the work at the last projection (half of `next_check`'s steps).
+    half: (u64, u64),
+}
+
+impl EmulatorWork {
+    /// A run of `total_steps` controller steps of `period_s` (s), its work unlimited when
+    /// `allow_long_run`.
+    pub fn new(total_steps: u64, period_s: f64, allow_long_run: bool) -> EmulatorWork {
+        EmulatorWork {
+            allowed: allow_long_run,
+            total_steps,
+            period_s,
+            next_check: 1,
+            half: (0, 0),
+        }
+    }
+
+    /// After `steps` controller steps that cost the integrator `work` right-hand-side
+    /// evaluations in all: refused when `work` exceeds [`MAX_EMULATOR_WORK`], or when, at a
+    /// power of two of steps once [`PROJECT_AFTER`] of the limit is done, the rate of the
+    /// second half of the steps so far kept over the steps left would take the run beyond
+    /// [`PROJECTED_FACTOR`] times the limit. The error names the run's rate against a calm
+    /// loop's ([`CALM_STEP_WORK`]).
+    pub fn check(&mut self, steps: u64, work: u64) -> Result<(), LimitError> {
+        if self.allowed {
+            return Ok(());
+        }
+        let (done, w) = (steps as f64, work as f64);
+        let t_s = done * self.period_s;
+        let whole_s = self.total_steps as f64 * self.period_s;
+        if w > MAX_EMULATOR_WORK {
+            return Err(LimitError::LongRun {
+                what: format!(
+                    "the emulator's integrator at t = {t_s:.2} s of {whole_s:.2} s \
+                     (right-hand-side evaluations; {:.0} a controller step, a calm loop's at \
+                     most {CALM_STEP_WORK})",
+                    w / done.max(1.0)
+                ),
+                work: w,
+                limit: MAX_EMULATOR_WORK,
+            });
+        }
+        if steps < self.next_check {
+            return Ok(());
+        }
+        let (s0, w0) = self.half;
+        self.half = (steps, work);
+        self.next_check = steps.saturating_mul(2);
+        if w < PROJECT_AFTER * MAX_EMULATOR_WORK || steps <= s0 {
+            return Ok(());
+        }
+        let rate = (work - w0) as f64 / (steps - s0) as f64;
+        let projected = w + rate * self.total_steps.saturating_sub(steps) as f64;
+        if projected <= PROJECTED_FACTOR * MAX_EMULATOR_WORK {
+            return Ok(());
+        }
+        // an estimate: two significant digits
+        let digit = 10f64.powf(projected.log10().floor() - 1.0);
+        Err(LimitError::LongRun {
+            what: format!(
+                "the emulator's integrator over {whole_s:.2} s, projected from its rate over \
+                 t = {:.2}-{t_s:.2} s (right-hand-side evaluations; {rate:.0} a controller step, \
+                 a calm loop's at most {CALM_STEP_WORK})",
+                s0 as f64 * self.period_s
+            ),
+            work: (projected / digit).round() * digit,
+            limit: MAX_EMULATOR_WORK,
+        })
+    }
+}
+
 /// How a caller lets work run beyond its limit and follows it: the one switch of every front
 /// end (the command line's `--allow-long-run`, Python's `allow_long_run=True`) and a callback
 /// given the units of work done since its last call (a progress bar; may be called from
@@ -248,5 +353,52 @@ mod tests {
         }
         let e = check_emulation(6.0, 1e300, true).unwrap_err().to_string();
         assert!(e.contains("limit of 5e6"), "{e}");
+    }
+
+    /// The integrator's work of a run whose steps cost `cost(k)` evaluations each, checked
+    /// after every step: the step at which it is refused, or `None`.
+    fn refused_at(total: u64, allowed: bool, cost: impl Fn(u64) -> u64) -> Option<(u64, String)> {
+        let mut watch = EmulatorWork::new(total, 0.01, allowed);
+        let mut work = 0;
+        for k in 0..total {
+            work += cost(k);
+            if let Err(e) = watch.check(k + 1, work) {
+                return Some((k + 1, e.to_string()));
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn an_emulation_is_stopped_by_its_integrators_work_not_its_steps_alone() {
+        let calm = CALM_STEP_WORK as u64;
+        // 10⁷ calm steps, the most the steps' limit allows: never stopped
+        assert_eq!(refused_at(10_000_000, false, |_| calm), None);
+        // 4.9·10⁶ steps (49 000 s at 100 Hz) at 20 000 evaluations a step, as a dual-pump
+        // loop saturating on a ±150 mm, 0.5 Hz wave: stopped by the projection once a
+        // thousandth of the limit is done (250 steps), at the next power of two
+        let (at, e) = refused_at(4_900_000, false, |_| 20_000).unwrap();
+        assert_eq!(at, 256);
+        assert!(
+            e.contains("projected from its rate over t = 1.28-2.56 s")
+                && e.contains("20000 a controller step")
+                && e.contains("about 9.8e10")
+                && e.contains("more than the 5e9"),
+            "{e}"
+        );
+        // twice the limit at a steady rate: not projected beyond ten times it, stopped when
+        // the work done reaches the limit
+        let (at, e) = refused_at(1_000_000, false, |_| 10_000).unwrap();
+        assert_eq!(at, 500_001);
+        assert!(e.contains("at t = 5000.01 s of 10000.00 s"), "{e}");
+        // a saturated start of 200 steps (2 s) then calm: projected only once the calm steps
+        // have brought the work to a thousandth of the limit, from a calm second half; it
+        // fits and runs
+        assert_eq!(
+            refused_at(4_000_000, false, |k| if k < 200 { 20_000 } else { calm }),
+            None
+        );
+        // allowed: nothing stops it
+        assert_eq!(refused_at(300_000, true, |_| 20_000), None);
     }
 }

@@ -237,12 +237,15 @@ fn an_emulation_reports_every_controller_step_once_and_the_same_record() {
     let plc = Plc::ideal(1000.0);
     let done = std::sync::atomic::AtomicU64::new(0);
     let calls = std::sync::atomic::AtomicU64::new(0);
-    let em = exp
-        .run_reporting(&rig, effects, &plc, &|n| {
-            done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
-            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        })
-        .unwrap();
+    let progress = |n| {
+        done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    };
+    let work = pumpcyl::limits::Work {
+        allow_long_run: false,
+        progress: &progress,
+    };
+    let em = exp.run_reporting(&rig, effects, &plc, &work).unwrap();
     assert_eq!(exp.steps(1000.0), 10_001);
     assert_eq!(done.into_inner(), 10_001);
     assert_eq!(calls.into_inner(), 3);

@@ -7,9 +7,10 @@ use pumpcyl::bulk::effective_beta;
 use pumpcyl::circuit::CircuitKind;
 use pumpcyl::emulator::article::{self, Emulated, Kind, Truth};
 use pumpcyl::emulator::{
-    beta_anchor_bar, DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc, DRIVE_RATE_HZ,
-    DRIVE_RECORD_S, PLC_RATE_HZ,
+    beta_anchor_bar, DriveStep, Effects, EmulatorError, EndStopHit, Experiment, Plc, RunError,
+    DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
 };
+use pumpcyl::limits::Work;
 use pumpcyl::rig::Rig;
 use pumpcyl::source_files::FieldError;
 use pumpcyl::units::{readable, RAD_S_PER_RPM};
@@ -203,15 +204,17 @@ pub fn steps(plan: &Kind, rate_hz: f64) -> u64 {
 }
 
 /// Run a plan on the truth: the record and, for the closed loop, the first end stop it met;
-/// `progress(n)` as `n` more of its [`steps`] are done.
+/// `work.progress(n)` as `n` more of its [`steps`] are done, the closed loop stopped when its
+/// integrator's work goes beyond the limit unless `work` allows a long run
+/// (docs/emulator.md#the-work-limit).
 pub fn run(
     plan: &Kind,
     truth: &Truth,
-    progress: &dyn Fn(u64),
-) -> Result<(Emulated, Option<EndStopHit>), EmulatorError> {
+    work: &Work,
+) -> Result<(Emulated, Option<EndStopHit>), RunError> {
     Ok(match plan {
         Kind::Loop(e) => {
-            let em = e.run_reporting(&truth.rig, truth.effects, &truth.plc, progress)?;
+            let em = e.run_reporting(&truth.rig, truth.effects, &truth.plc, work)?;
             (Emulated::Loop(em.signals), em.end_stop)
         }
         Kind::Drive(_) => (plan.run(truth)?, None),

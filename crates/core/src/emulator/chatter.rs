@@ -213,6 +213,12 @@ pub fn sine(
 /// The whole periods of a sine watched after its start-up transient.
 pub const WATCHED_PERIODS: u32 = 2;
 
+/// How long [`sine`] emulates a wave of `freq_hz` (s): [`SINE_START_S`] at rest, then the
+/// whole periods of its start-up transient and the [`WATCHED_PERIODS`].
+pub fn sine_seconds(freq_hz: f64) -> f64 {
+    SINE_START_S + f64::from(sine_periods(freq_hz)) / freq_hz
+}
+
 /// The times the force the reference's own motion needs from the chamber pressures,
 /// F(t) = F_ext + m ẍ_ref + b ẋ_ref (Newton, docs/model.md#newton; the rig's mass at x0 and
 /// viscous friction, Coulomb friction left out), crosses the switching force p_acc (A1 − A2)

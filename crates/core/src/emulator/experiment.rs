@@ -5,7 +5,8 @@
 use super::integrate::integrate;
 use super::plc::Noise;
 use super::EmulatorError;
-use super::{emulate_reporting, Dynamics, Effects, Emulation, Plc};
+use super::{emulate_reporting, Dynamics, Effects, Emulation, Plc, RunError};
+use crate::limits::Work;
 use crate::response::Signals;
 use crate::rig::Rig;
 use crate::source_files::FieldError;
@@ -230,28 +231,28 @@ impl Experiment {
         effects: Effects,
         plc: &Plc,
     ) -> Result<Emulation, EmulatorError> {
-        self.run_reporting(rig, effects, plc, &|_| {})
+        let unlimited = Work {
+            allow_long_run: true,
+            ..Work::QUIET
+        };
+        self.run_reporting(rig, effects, plc, &unlimited)
+            .map_err(RunError::into_emulator)
     }
 
-    /// [`Experiment::run_noted`], calling `progress(n)` as `n` more controller steps are done
-    /// ([`super::plc::emulate_reporting`]), [`Experiment::steps`] in all.
+    /// [`Experiment::run_noted`], calling `work.progress(n)` as `n` more controller steps are
+    /// done ([`super::plc::emulate_reporting`]), [`Experiment::steps`] in all, and stopped
+    /// when the integrator's work goes beyond its limit unless `work` allows a long run
+    /// (docs/emulator.md#the-work-limit).
     pub fn run_reporting(
         &self,
         rig: &Rig,
         effects: Effects,
         plc: &Plc,
-        progress: &dyn Fn(u64),
-    ) -> Result<Emulation, EmulatorError> {
+        work: &Work,
+    ) -> Result<Emulation, RunError> {
         let dynamics = Dynamics::new(rig, effects)?;
         let span = (SETTLE_S, self.duration_s());
-        emulate_reporting(
-            rig,
-            &dynamics,
-            plc,
-            span,
-            |t| self.reference_mm(t),
-            progress,
-        )
+        emulate_reporting(rig, &dynamics, plc, span, |t| self.reference_mm(t), work)
     }
 
     /// The controller steps of the record at `rate_hz` (its samples).

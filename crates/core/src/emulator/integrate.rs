@@ -61,7 +61,34 @@ const FALLBACK_RTOL: f64 = 1e-9;
 thread_local! {
     /// The BDF's relative tolerance where [`with_bdf_integrator`] asks for it.
     static BDF_RTOL: Cell<Option<f64>> = const { Cell::new(None) };
+    /// The integrator's work on this thread so far ([`work`]).
+    static WORK: Cell<u64> = const { Cell::new(0) };
 }
+
+/// The work the integrations on this thread have done so far, in right-hand-side evaluations of
+/// the rig's equations: each evaluation of an exponential step's nonlinear part or of the BDF's
+/// right-hand side counts 1, a new linear part what its Jacobian ([`JACOBIAN_WORK`]) and a pass
+/// of its φ functions ([`PHI_WORK`]) cost in evaluations of the same time. A caller takes the
+/// difference over its own integrations (docs/emulator.md#the-work-limit).
+pub(crate) fn work() -> u64 {
+    WORK.with(Cell::get)
+}
+
+/// Add `n` units to this thread's integrator work.
+fn add_work(n: u64) {
+    WORK.with(|w| w.set(w.get() + n));
+}
+
+/// A Jacobian at a lattice point by dual numbers, in right-hand-side evaluations: its n + 2
+/// evaluations in dual numbers, about 18 (the one-motor circuits' 7 states) to 28 (the DPM's
+/// 10) evaluations' time (docs/emulator.md#the-work-limit).
+const JACOBIAN_WORK: u64 = 30;
+
+/// One pass of the matrix functions' scaling and squaring for a block of halvings, in
+/// right-hand-side evaluations: a new linear part (this and a Jacobian) costs the time of
+/// 100 to 350 evaluations in the emulator's runs, measured against their evaluations' time
+/// on the three circuits (docs/emulator.md#the-work-limit).
+const PHI_WORK: u64 = 200;
 
 /// Run `f` with the emulator integrating by diffsol's BDF at the relative tolerance `rtol`
 /// (absolute `rtol` times each state's typical size) on this thread: the reference the
@@ -98,6 +125,10 @@ fn bdf<F: Fn(&[f64], &mut [f64])>(
 ) -> Result<Vec<f64>, EmulatorError> {
     let n = x.len();
     let x0 = x.to_vec();
+    let f = &|x: &[f64], y: &mut [f64]| {
+        add_work(1);
+        f(x, y)
+    };
     let err = |e: diffsol::error::DiffsolError| EmulatorError(format!("ODE solver: {e}"));
     let problem = OdeBuilder::<NalgebraMat<f64>>::new()
         .t0(t0)
@@ -318,6 +349,7 @@ fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
         .map(|(&i, c)| (i as f64 + 0.5) * c)
         .collect();
     let uq = [0, 1].map(|i| (key.1[n + i] as f64 + 0.5) * k.command_cell);
+    add_work(JACOBIAN_WORK);
     let mut j = d.jacobian(&at, &uq);
     for r in 0..n {
         for c in 0..n {
@@ -349,6 +381,7 @@ struct Problem<'a> {
 impl Problem<'_> {
     /// The nonlinear part N(y) = f(y) − J₀ y in typical sizes at the scaled state `y`.
     fn nonlinear(&self, y: &Vector, out: &mut Vector) {
+        add_work(1);
         let (n, s) = (self.n, &self.known.scale);
         let mut x = [0.0; N_MAX];
         for i in 0..n {
@@ -598,6 +631,7 @@ fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorErr
         Some(phi) => phi,
         None => {
             let h = p.span * 0.5f64.powi(first as i32);
+            add_work(PHI_WORK);
             let phi = Rc::new(phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?);
             p.linear.phis.borrow_mut().push((block, phi.clone()));
             phi

@@ -23,6 +23,28 @@ pub use plc::{
     emulate, emulate_reporting, equilibrium, hold_speeds, Emulation, Plc, PlcLoop, PROGRESS_STEPS,
 };
 
+/// Why an emulation under a work limit stopped: the emulator could not run, or its
+/// integrator's work went beyond the limit (docs/emulator.md#the-work-limit).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RunError {
+    /// The emulator's own error.
+    #[error(transparent)]
+    Emulator(#[from] EmulatorError),
+    /// The integrator's work beyond [`crate::limits::MAX_EMULATOR_WORK`], not allowed.
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
+}
+
+impl RunError {
+    /// The emulator's error of a run that allows a long run (where no limit stops it).
+    pub(crate) fn into_emulator(self) -> EmulatorError {
+        match self {
+            RunError::Emulator(e) => e,
+            RunError::Limit(e) => EmulatorError(e.to_string()),
+        }
+    }
+}
+
 /// Why the emulator cannot run: a rig or experiment it does not model (a first-order motor, a
 /// drive that does not exist, a bulk modulus beyond the oil's own), a loop that cannot rest at
 /// its start, or the ODE solver failing.

@@ -5,9 +5,10 @@
 //! integrator of `integrate` (the current loop at 1257 1/s makes the dynamics stiff;
 //! docs/emulator.md#the-integration).
 
-use super::integrate::{hold, typical};
-use super::EmulatorError;
+use super::integrate::{hold, typical, work};
 use super::{Dynamics, EndStopHit};
+use super::{EmulatorError, RunError};
+use crate::limits::{EmulatorWork, Work};
 use crate::response::Signals;
 use crate::rig::Rig;
 use crate::units::{PA_PER_BAR, RAD_S_PER_RPM};
@@ -85,32 +86,39 @@ pub fn emulate(
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
 ) -> Result<Emulation, EmulatorError> {
+    let unlimited = Work {
+        allow_long_run: true,
+        ..Work::QUIET
+    };
     emulate_reporting(
         rig,
         dynamics,
         plc,
         (settle_s, duration_s),
         x_ref_mm,
-        &|_| {},
+        &unlimited,
     )
+    .map_err(RunError::into_emulator)
 }
 
 /// Controller steps between two calls of an emulation's progress callback.
 pub const PROGRESS_STEPS: u64 = 1 << 12;
 
-/// [`emulate`] over `(settle_s, duration_s)`, calling `progress(n)` as each `n` more
+/// [`emulate`] over `(settle_s, duration_s)`, calling `work.progress(n)` as each `n` more
 /// controller steps of the record are done ([`PROGRESS_STEPS`] at a time, the rest at the end):
-/// `duration_s × rate_hz` in all.
+/// `duration_s × rate_hz` in all. Unless `work` allows a long run, the integrator's work is
+/// watched as it runs ([`EmulatorWork`]) and the run stopped with [`RunError::Limit`] beyond
+/// [`crate::limits::MAX_EMULATOR_WORK`] (docs/emulator.md#the-work-limit).
 pub fn emulate_reporting(
     rig: &Rig,
     dynamics: &Dynamics,
     plc: &Plc,
     (settle_s, duration_s): (f64, f64),
     x_ref_mm: impl Fn(f64) -> f64,
-    progress: &dyn Fn(u64),
-) -> Result<Emulation, EmulatorError> {
+    work: &Work,
+) -> Result<Emulation, RunError> {
     let mut run = PlcLoop::settled(rig, dynamics, plc, x_ref_mm(0.0), settle_s)?;
-    let signals = record(&mut run, duration_s, x_ref_mm, progress)?;
+    let signals = record(&mut run, duration_s, x_ref_mm, work)?;
     Ok(Emulation {
         signals,
         end_stop: run.end_stop,
@@ -129,6 +137,9 @@ pub struct PlcLoop {
     noise: Noise,
     x: Vec<f64>,
     end_stop: Option<EndStopHit>,
+    /// The integrator's work in this loop's [`PlcLoop::hold`]s (right-hand-side evaluations,
+    /// docs/emulator.md#the-work-limit).
+    work: u64,
 }
 
 impl PlcLoop {
@@ -148,6 +159,7 @@ impl PlcLoop {
             noise: Noise::new(plc.seed),
             x: equilibrium(rig, dynamics, r0_mm)?,
             end_stop: None,
+            work: 0,
         };
         let ts = 1.0 / plc.rate_hz;
         let settle_steps = (settle_s * plc.rate_hz).round() as usize;
@@ -178,7 +190,9 @@ impl PlcLoop {
     /// Integrate the rig from `t0` to `t1` (s) with the speed references `u` (rad/s) held.
     /// The first end stop met is kept ([`PlcLoop::end_stop`]).
     pub fn hold(&mut self, u: [f64; 2], t0: f64, t1: f64) -> Result<(), EmulatorError> {
+        let before = work();
         self.x = hold(&self.dynamics, &self.x, u, t0, t1)?;
+        self.work += work() - before;
         if self.end_stop.is_none() {
             self.end_stop = self.dynamics.end_stop(&self.x, t1);
         }
@@ -205,6 +219,12 @@ impl PlcLoop {
     /// Change the external force on the piston (N) from now on.
     pub fn set_external_force_n(&mut self, f_n: f64) {
         self.dynamics.set_external_force_n(f_n);
+    }
+
+    /// The integrator's work in this loop's holds so far, in right-hand-side evaluations of
+    /// the rig's equations (docs/emulator.md#the-work-limit).
+    pub fn integrator_work(&self) -> u64 {
+        self.work
     }
 
     /// The PLC's sample period (s).
@@ -397,15 +417,17 @@ fn measure(x: &[f64], d: &Dynamics, plc: &Plc, noise: &mut Noise) -> Measured {
     }
 }
 
-/// The recorded run from t = 0.
+/// The recorded run from t = 0, its integrator work watched unless `work` allows a long run.
 fn record(
     run: &mut PlcLoop,
     duration_s: f64,
     x_ref_mm: impl Fn(f64) -> f64,
-    progress: &dyn Fn(u64),
-) -> Result<Signals, EmulatorError> {
+    work: &Work,
+) -> Result<Signals, RunError> {
     let ts = run.period_s();
     let steps = (duration_s * run.plc.rate_hz).round() as usize;
+    let mut watch = EmulatorWork::new(steps as u64, ts, work.allow_long_run);
+    let before = run.work;
     let mut out = Signals::default();
     for k in 0..=steps {
         let t = k as f64 * ts;
@@ -425,11 +447,12 @@ fn record(
         }
         if k < steps {
             run.hold(u, t, t + ts)?;
+            watch.check(k as u64 + 1, run.work - before)?;
         }
         if (k as u64 + 1).is_multiple_of(PROGRESS_STEPS) {
-            progress(PROGRESS_STEPS);
+            (work.progress)(PROGRESS_STEPS);
         }
     }
-    progress((steps as u64 + 1) % PROGRESS_STEPS);
+    (work.progress)((steps as u64 + 1) % PROGRESS_STEPS);
     Ok(out)
 }

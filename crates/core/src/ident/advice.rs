@@ -502,8 +502,23 @@ pub fn designs_from_toml(
 /// [`designs_from_toml`] for the records of `problem`: its first dataset's sample rate,
 /// rig position and stroke.
 pub fn designs_for(problem: &Problem, text: &str, name: &str) -> Result<Vec<Design>, IdentError> {
-    let first = &problem.datasets[0];
+    let first = first_step_record(problem)?;
     designs_from_toml(text, name, rate_hz(first), &first.rig)
+}
+
+/// The first step record of `problem`, whose sample rate, rig and position the candidates
+/// take; refused in one line when the experiment has none (its records all sweeps, fitted in
+/// the frequency domain): the advice weighs each candidate against the information of the step
+/// records' time-domain fit (docs/identification.md, "Experiment advice").
+fn first_step_record(problem: &Problem) -> Result<&Prepared, IdentError> {
+    problem.datasets.first().ok_or_else(|| {
+        IdentError::Input(
+            "no step record: the advice weighs candidate experiments against the information \
+             of the experiment's step records, and its records are all sweeps (fitted in the \
+             frequency domain); add a step record to the experiment"
+                .into(),
+        )
+    })
 }
 
 /// Options of the advice.
@@ -871,6 +886,7 @@ pub fn advise(
     start: &Candidate,
     opts: &AdviceOptions,
 ) -> Result<Advice, IdentError> {
+    let first = first_step_record(problem)?;
     let u = analyze(
         problem,
         start,
@@ -880,7 +896,6 @@ pub fn advise(
         },
     )?;
     check_budget(opts.budget_s)?;
-    let first = &problem.datasets[0];
     let rate = rate_hz(first);
     let designs = match &opts.designs {
         Some(d) => d.clone(),
@@ -1015,6 +1030,9 @@ pub fn advise_experiment(
 ) -> Result<Advice, IdentError> {
     let confidence = check_confidence(confidence)?;
     check_budget(budget_s)?;
+    // before the candidates are read and the records identified: the same refusal with or
+    // without a candidates file
+    first_step_record(&exp.problem)?;
     let designs = match candidates {
         Some(path) => {
             let name = path.display().to_string();

@@ -195,6 +195,12 @@ pub trait ModeCheck: Sync {
 
     /// The check's name in a selection's result (`emulator`, `equations`).
     fn name(&self) -> &'static str;
+
+    /// The work one run of the check takes at least, in right-hand-side evaluations of the
+    /// rig's equations, under the application's waves `waves`: what a selection counts
+    /// against its limit (docs/select.md#work). At least: without the step's settling time,
+    /// which follows the gain the selection designs.
+    fn work(&self, waves: &[WaveRequirement]) -> f64;
 }
 
 /// The check on the circuit's own nonlinear equations under the continuous P law
@@ -239,6 +245,13 @@ impl ModeCheck for EquationsCheck {
 
     fn name(&self) -> &'static str {
         "equations"
+    }
+
+    /// The step held and watched (without its settling time) in RK4 steps of four
+    /// evaluations each.
+    fn work(&self, _: &[WaveRequirement]) -> f64 {
+        let c = &self.0;
+        4.0 * (c.hold_s + c.tail_s) / c.step_s
     }
 }
 
@@ -301,6 +314,15 @@ impl ModeCheck for EmulatedCheck {
 
     fn name(&self) -> &'static str {
         "emulator"
+    }
+
+    /// The step's hold and watched tail ([`chatter::HOLD_S`], [`chatter::TAIL_S`]) and each
+    /// wave's run ([`chatter::sine_seconds`]) at the PLC's rate, each controller step counted
+    /// as a calm loop's at most ([`crate::limits::CALM_STEP_WORK`]; docs/emulator.md#the-work-limit).
+    fn work(&self, waves: &[WaveRequirement]) -> f64 {
+        let waves_s: f64 = waves.iter().map(|w| chatter::sine_seconds(w.freq_hz)).sum();
+        let seconds = chatter::HOLD_S + chatter::TAIL_S + waves_s;
+        seconds * crate::emulator::PLC_RATE_HZ * crate::limits::CALM_STEP_WORK
     }
 }
 

@@ -374,9 +374,30 @@ pub fn select_checked(
 ) -> Result<Selection, SelectError> {
     check(rig, req, levels, kp).map_err(|(key, m)| SelectError::Input(format!("`{key}` = {m}")))?;
     crate::limits::check_work(
-        "mass_kg loads × pressure levels (cases)",
-        cases(req, levels),
+        &format!(
+            "mass_kg loads × pressure levels (cases{})",
+            if req.waves.len() > 1 {
+                format!(
+                    "; each [[wave]] beyond the first adds 1/{WAVES_PER_CASE} of a case, {} \
+                     waves",
+                    req.waves.len()
+                )
+            } else {
+                String::new()
+            }
+        ),
+        case_work(req, levels),
         crate::limits::MAX_SELECT_CASES,
+        work.allow_long_run,
+    )?;
+    crate::limits::check_work(
+        &format!(
+            "the single-pump mode checks (right-hand-side evaluations of the {} check's runs at \
+             each load, external force and pre-charge, the bisection's included)",
+            mode_check.name()
+        ),
+        mode_check_work(req, levels, mode_check),
+        crate::limits::MAX_EMULATOR_WORK,
         work.allow_long_run,
     )?;
     let loads = req.targets.mass_kg.len().max(1) as u64;
@@ -396,6 +417,49 @@ pub fn select_checked(
 /// pressure level.
 pub fn cases(req: &Requirement, levels: &[(Circuit, f64)]) -> f64 {
     req.targets.mass_kg.len().max(1) as f64 * levels.len() as f64
+}
+
+/// Waves whose tracking simulations cost about one case (docs/select.md#work): a case's gain
+/// design and simulations of the first wave take about 5 ms in the debug-optimised CLI, each
+/// further wave's simulations at the gas fraction's ends about 0.16 ms of it (40 waves on the
+/// user rig's 13 DPM levels and two loads) **\[choice\]**: 30, rounding towards counting more.
+pub const WAVES_PER_CASE: f64 = 30.0;
+
+/// A selection's work in cases against [`MAX_SELECT_CASES`](crate::limits::MAX_SELECT_CASES)
+/// (docs/select.md#work): its [`cases`], each wave beyond the first (a case includes one
+/// wave's tracking) adding [`1/WAVES_PER_CASE`](WAVES_PER_CASE) of a case.
+pub fn case_work(req: &Requirement, levels: &[(Circuit, f64)]) -> f64 {
+    let extra = req.waves.len().saturating_sub(1) as f64;
+    cases(req, levels) * (1.0 + extra / WAVES_PER_CASE)
+}
+
+/// The work of the single-pump candidates' mode checks (right-hand-side evaluations, against
+/// [`MAX_EMULATOR_WORK`](crate::limits::MAX_EMULATOR_WORK); docs/select.md#work): one run of
+/// `check` ([`ModeCheck::work`], its step and each wave) at each load and each end of the
+/// external force, for each single-pump level and each halving of the bisection between
+/// them ([`refine`]: at most as many as bring the widest gap between two levels down to
+/// [`REFINE_TOLERANCE_BAR`]). An estimate before the gains are designed: without the step's
+/// settling time, and a loop far from calm costs more (docs/emulator.md#the-work-limit);
+/// a candidate whose margins fail is not checked at all.
+pub fn mode_check_work(req: &Requirement, levels: &[(Circuit, f64)], check: &dyn ModeCheck) -> f64 {
+    let mut p: Vec<f64> = (levels.iter())
+        .filter(|(c, _)| c.kind == CircuitKind::SinglePump)
+        .map(|&(_, p)| p)
+        .collect();
+    if p.is_empty() {
+        return 0.0;
+    }
+    p.sort_by(f64::total_cmp);
+    let gap = p.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    let halvings = if gap > REFINE_TOLERANCE_BAR {
+        ((gap / REFINE_TOLERANCE_BAR).log2().ceil() as usize).min(MAX_BISECTIONS)
+    } else {
+        0
+    };
+    let mut forces = req.external_force_n.to_vec();
+    forces.dedup();
+    let runs = (p.len() + halvings) * req.targets.mass_kg.len().max(1) * forces.len();
+    runs as f64 * check.work(&req.waves)
 }
 
 /// What cannot be used in a selection, as (the key, why): the gas fractions, the waves (each
