@@ -156,12 +156,6 @@ fn step_times_s(rig: &Rig) -> Result<(f64, f64), EmulatorError> {
     Ok((settled_at_s, settled_at_s + TAIL_S))
 }
 
-/// How long [`sine`] at `freq_hz` runs (s): at rest for [`SINE_START_S`], then the whole
-/// periods of the article's sine records ([`sine_periods`]).
-fn sine_seconds(freq_hz: f64) -> f64 {
-    SINE_START_S + f64::from(sine_periods(freq_hz)) / freq_hz
-}
-
 /// The emulated sinusoid of `amplitude_mm` at `freq_hz` about x0 of `rig`, as the article's
 /// sine records run it ([`super::article::records`]): at rest for [`SINE_START_S`], then
 /// [`super::article::SINE_SETTLE_S`] of wave for the start-up transient, then
