@@ -435,9 +435,9 @@ pub fn case_work(req: &Requirement, levels: &[(Circuit, f64)]) -> f64 {
 
 /// The work of the single-pump candidates' mode checks (right-hand-side evaluations, against
 /// [`MAX_EMULATOR_WORK`](crate::limits::MAX_EMULATOR_WORK); docs/select.md#work): one run of
-/// `check` ([`ModeCheck::work`], its step and each wave) at each load and each end of the
-/// external force, for each single-pump level and each halving of the bisection between
-/// them ([`refine`]: at most as many as bring the widest gap between two levels down to
+/// `check` ([`ModeCheck::work`], its step and each wave) at each load and each force the check
+/// runs at (the range's ends, the switching force and the forces about it), for each single-pump level and each halving of the bisection between
+/// them (`refine`: at most as many as bring the widest gap between two levels down to
 /// [`REFINE_TOLERANCE_BAR`]). An estimate before the gains are designed: without the step's
 /// settling time, and a loop far from calm costs more (docs/emulator.md#the-work-limit);
 /// a candidate whose margins fail is not checked at all.
@@ -456,9 +456,15 @@ pub fn mode_check_work(req: &Requirement, levels: &[(Circuit, f64)], check: &dyn
     } else {
         0
     };
-    let mut forces = req.external_force_n.to_vec();
-    forces.dedup();
-    let runs = (p.len() + halvings) * req.targets.mass_kg.len().max(1) * forces.len();
+    // the range's ends, and where it reaches the switching force's window the switching force
+    // and the forces inside it (circuits::mode_check_forces): counted as if it always did
+    let [lo, hi] = req.external_force_n;
+    let forces = if lo == hi {
+        1
+    } else {
+        3 + circuits::MODE_CHECK_INNER_FORCES
+    };
+    let runs = (p.len() + halvings) * req.targets.mass_kg.len().max(1) * forces;
     runs as f64 * check.work(&req.waves)
 }
 
