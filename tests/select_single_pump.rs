@@ -422,3 +422,34 @@ fn an_unknown_mode_check_is_refused_and_other_circuits_have_no_numbers() {
         assert!(s["options"][0][key].is_null(), "{key}: {s}");
     }
 }
+
+/// No level to try names the key that lists the levels of the circuits asked for: a one-motor
+/// circuit's `precharge_bar`, not the DPM's `low_pressure_bar`.
+#[test]
+fn no_level_names_the_circuits_own_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let one_motor = [
+        "select",
+        "--set",
+        "circuits=[\"single-pump\"]",
+        "--set",
+        "precharge_bar=[]",
+    ];
+    run::refused(
+        dir.path(),
+        &one_motor,
+        &["precharge_bar", "no pressure level to try"],
+    );
+    let out = run::pumpcyl(dir.path(), &one_motor);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("low_pressure_bar"));
+    let dpm = [
+        "select",
+        "--set",
+        "circuits=[\"dpm\"]",
+        "--set",
+        "low_pressure_bar=[]",
+        "--set",
+        "pressurised_bar=[]",
+    ];
+    run::refused(dir.path(), &dpm, &["low_pressure_bar", "pressurised_bar"]);
+}

@@ -516,14 +516,14 @@ impl Application {
         {
             return fail("circuits", why);
         }
+        // the keys that list the levels of the circuits asked for (precharge_bar for the
+        // one-motor circuits), named in the error
+        let keys = self.levels_keys();
         if self.levels().is_empty() {
-            return fail("low_pressure_bar", "no pressure level to try".into());
+            return fail(&keys, "no pressure level to try".into());
         }
         if self.levels().len() > MAX_LEVELS {
-            return fail(
-                "low_pressure_bar",
-                format!("more than {MAX_LEVELS} pressure levels"),
-            );
+            return fail(&keys, format!("more than {MAX_LEVELS} pressure levels"));
         }
         let targets = [
             ("target_pm_deg", self.target_pm_deg),
@@ -573,20 +573,36 @@ impl Application {
 
     /// The circuits and pressure levels to try, low-pressure first, pressure rising.
     pub fn levels(&self) -> Vec<(Circuit, f64)> {
-        let mut out: Vec<(Circuit, f64)> = Vec::new();
-        for circuit in Circuit::ALL
+        self.circuits_asked()
+            .flat_map(|circuit| {
+                let mut ps = match circuit.level {
+                    PressureLevel::LowPressure => self.low_pressure_bar.clone(),
+                    PressureLevel::Pressurised => self.pressurised_bar.clone(),
+                    PressureLevel::Precharge => self.precharge_bar.clone(),
+                };
+                ps.sort_by(f64::total_cmp);
+                ps.into_iter().map(move |p| (circuit, p))
+            })
+            .collect()
+    }
+
+    /// The candidate circuits of the circuits asked for, in [`Circuit::ALL`]'s order.
+    fn circuits_asked(&self) -> impl Iterator<Item = Circuit> + '_ {
+        Circuit::ALL
             .into_iter()
             .filter(|c| self.circuits.contains(&c.kind))
-        {
-            let mut ps = match circuit.level {
-                PressureLevel::LowPressure => self.low_pressure_bar.clone(),
-                PressureLevel::Pressurised => self.pressurised_bar.clone(),
-                PressureLevel::Precharge => self.precharge_bar.clone(),
-            };
-            ps.sort_by(f64::total_cmp);
-            out.extend(ps.into_iter().map(|p| (circuit, p)));
+    }
+
+    /// The keys that list the pressure levels of the circuits asked for, joined by " / " (each
+    /// once, in [`Circuit::ALL`]'s order).
+    fn levels_keys(&self) -> String {
+        let mut keys: Vec<&str> = Vec::new();
+        for k in self.circuits_asked().map(Circuit::levels_key) {
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
         }
-        out
+        keys.join(" / ")
     }
 
     /// The application with the circuits to try set to `kinds` (stated: the rig no longer sets
