@@ -167,3 +167,13 @@ def test_margins_have_the_fields_of_the_command_lines_json():
     assert set(cli) <= set(dir(m))
     # an infinite margin is None in Python, null in the JSON
     assert "loop" in repr(m) and m.closed_loop_stable is True
+
+
+def test_one_key_under_two_names_is_refused_as_on_the_command_line():
+    # accumulator_pressure_bar is another name of accumulator_precharge_bar: both given is a
+    # contradiction the rig file and --set refuse too
+    with pytest.raises(pumpcyl.PumpcylError, match="name the same key"):
+        pumpcyl.Rig(circuit="single-pump", accumulator_precharge_bar=4.0,
+                    accumulator_pressure_bar=3.0)
+    assert pumpcyl.Rig(circuit="single-pump",
+                       accumulator_pressure_bar=3.0).accumulator_precharge_bar == 3.0

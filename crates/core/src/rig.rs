@@ -669,8 +669,20 @@ impl Rig {
         }
         let mut table = toml::Table::try_from(self).expect("a rig always serialises");
         let mut set = Vec::new();
+        let mut named: Vec<(String, &str)> = Vec::new();
         for assignment in assignments {
             let (key, value) = parse_assignment(source_name, assignment, &table)?;
+            // one key under two names (an alias and its own name) is refused, as in a rig file
+            let given = assignment.split_once('=').map_or("", |(k, _)| k.trim());
+            if let Some((_, other)) = named.iter().find(|(k, n)| *k == key && *n != given) {
+                return Err(RigError::Set {
+                    source_name: source_name.to_string(),
+                    assignment: source_files::shown_text(assignment, source_files::MAX_VALUE_CHARS)
+                        .into_owned(),
+                    message: format!("`{given}` and `{other}` name the same key: give one"),
+                });
+            }
+            named.push((key.clone(), given));
             table.insert(key.clone(), value);
             set.push(key);
         }
@@ -1547,6 +1559,30 @@ mod tests {
         let e = set("motor_model=second").unwrap_err().to_string();
         assert!(e.contains("motor_model") || e.contains("variant"), "{e}");
         assert!(set("beta_bar").is_err());
+    }
+
+    /// An alias and its own name set together are refused, as a rig file refuses the pair;
+    /// the same name twice is a later value.
+    #[test]
+    fn one_key_under_two_names_is_refused() {
+        let one_motor = |sets: &[&str]| {
+            let mut all = vec!["circuit=single-pump".to_string()];
+            all.extend(sets.iter().map(|s| s.to_string()));
+            Rig::default().with_overrides_from("--set", &all)
+        };
+        let e = one_motor(&["accumulator_pressure_bar=3", "accumulator_precharge_bar=4"])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(
+                "`accumulator_precharge_bar` and `accumulator_pressure_bar` name the same key"
+            ),
+            "{e}"
+        );
+        let r = one_motor(&["accumulator_pressure_bar=3", "accumulator_pressure_bar=4"]).unwrap();
+        assert_eq!(r.accumulator_precharge_bar, 4.0);
+        let text = "circuit = \"single-pump\"\naccumulator_pressure_bar = 3.0\naccumulator_precharge_bar = 4.0\n";
+        assert!(Rig::from_toml_str(text, "pair.toml").is_err());
     }
 
     #[test]
