@@ -43,7 +43,7 @@ pub struct DesignArgs {
     /// Wave to track, FREQ_HZ:AMP_MM (repeatable), e.g. --wave 0.2:35.
     #[arg(long, value_parser = parse_wave)]
     wave: Vec<(f64, f64)>,
-    /// Print JSON (kp_max, kp_max_worst_case, worst_case, conditions, tracking, rest_offset_mm, verdict,
+    /// Print JSON (analysed_loop, kp_max, kp_max_worst_case, worst_case, conditions, tracking, rest_offset_mm, verdict,
     /// reasons; with --robust: kp_max, kp_max_nominal, worst_case, deciding, steps, region).
     #[arg(long)]
     json: bool,

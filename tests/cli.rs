@@ -1022,7 +1022,7 @@ fn every_command_runs_a_typical_case_and_prints_its_header() {
         (
             vec!["design"],
             vec![
-                "design (the article §2.2) for default rig: PM >= 34 deg, GM >= 6 dB".into(),
+                "design (the article §2.2) for default rig (circuit dpm): PM >= 34 deg, GM >= 6 dB".into(),
                 "  Kp max at the design point   24.72 (1/m)".into(),
             ],
         ),

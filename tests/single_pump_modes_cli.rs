@@ -153,3 +153,21 @@ fn the_modes_poles_and_the_text_show_both_modes() {
     let dpm = run::json(Path::new("."), &["margins", "--json"]);
     assert!(dpm.get("modes").is_none() && dpm.get("switching_force_n").is_none());
 }
+
+/// `design` on a single-pump rig names the circuit and the mode whose linear model the gains
+/// are designed on, in the text and the JSON (`analysed_loop`), as `margins` does.
+#[test]
+fn design_names_the_circuit_and_the_mode_at_rest() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = run::json(
+        dir.path(),
+        &["design", "--set", "circuit=single-pump", "--json"],
+    );
+    let named = v["analysed_loop"].as_str().unwrap();
+    assert!(
+        named.contains("circuit single-pump") && named.contains("the mode at rest"),
+        "{named}"
+    );
+    let margins = run::pumpcyl(dir.path(), &["margins", "--set", "circuit=single-pump"]);
+    assert!(String::from_utf8_lossy(&margins.stdout).contains(named));
+}

@@ -383,6 +383,9 @@ class Chatter(Result):
 class Design(Result):
     """The design method (the article §2.2): ``pumpcyl design --json``."""
 
+    analysed_loop: str
+    """The loop the gains are designed on: the circuit and, for the single-pump circuit, the
+    mode at rest (docs/circuits.md#its-two-modes)."""
     targets: Dict[str, Any]
     kp_max: float
     kp_max_worst_case: float

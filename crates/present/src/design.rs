@@ -78,8 +78,8 @@ fn anchor_text(t: &Targets) -> String {
 /// condition, the predicted tracking at the gain it names, the verdict and its reasons.
 pub fn design_text(rig: &str, d: &Design) -> String {
     let mut s = format!(
-        "design (the article §2.2) for {rig}: PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
-        d.targets.pm_deg, d.targets.gm_db, d.kp_max, d.kp_max_worst_case
+        "design (the article §2.2) for {rig} ({}): PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
+        d.analysed_loop, d.targets.pm_deg, d.targets.gm_db, d.kp_max, d.kp_max_worst_case
     );
     if !d.targets.p_mean_bar.is_empty() {
         let _ = writeln!(s, "  {}", anchor_text(&d.targets));

@@ -152,6 +152,9 @@ pub enum Verdict {
 /// The design result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Design {
+    /// The loop the gains are designed on, in words: the circuit and, for the single-pump
+    /// circuit, the mode at rest whose linear model it is (docs/circuits.md#its-two-modes).
+    pub analysed_loop: String,
     /// The targets.
     pub targets: Targets,
     /// Largest Kp meeting the targets at the design point (the rig's own operating point,
@@ -507,6 +510,7 @@ pub fn design_with(
         ));
     }
     Ok(Design {
+        analysed_loop: format!("circuit {}", Plant::new(rig).circuit().describe()),
         targets: t.clone(),
         kp_max: kp,
         kp_max_worst_case,
