@@ -48,6 +48,11 @@ MIN_SHARE = {"simulate": 0.2}
 # release of the GIL is shown by the share alone.
 POOLED = {"identify", "identify_shard", "identify_merge", "design_robust", "select"}
 
+# Calls of many short core calls (200 margins of ~1 ms each): each hands the GIL back and forth,
+# so the ratio depends on the machine's scheduler (CI 1.15-1.18, a quiet machine 1.68-1.79)
+# while the share shows the release; their ratio is printed, not asserted.
+SHORT_CALLS = {"margins"}
+
 MEASURE = r"""
 SPAN_S = 0.3
 import json, sys, threading, time, warnings
@@ -162,5 +167,5 @@ def test_two_threads_take_about_the_time_of_one(name):
     assert m["share"] >= MIN_SHARE.get(name, 0.5), m
     # the ratio is bounded by the part of the call that needs the GIL (making its result's
     # Python objects): asserted where the core's work is most of it
-    if not busy and m["share"] >= 0.8 and name not in POOLED:
+    if not busy and m["share"] >= 0.8 and name not in POOLED | SHORT_CALLS:
         assert m["ratio"] >= 1.3, m
