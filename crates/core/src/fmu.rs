@@ -1337,18 +1337,24 @@ mod tests {
         out
     }
 
+    /// A rig that shares no value with the article's: 80/45 mm, 2500 kg, 8/5 cm³/rev, β 300
+    /// bar, Kp 15.
+    fn user_rig() -> Rig {
+        Rig::from_toml_str(
+            "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\nx0_mm = 400.0\n\
+                 mass_kg = 2500.0\nmass_by_position = []\ndisplacement_1_cm3_per_rev = 8.0\n\
+                 displacement_2_cm3_per_rev = 5.0\nbeta_bar = 300.0\nkp = 15.0\n",
+            "user.toml",
+        )
+        .unwrap()
+    }
+
     /// The emulator FMU follows the `beta_bar` a host sets (docs/emulator.md#what-a-user-rig-gets):
     /// on a rig that shares no value with the article's, its step at 100 and 1000 bar equals the
     /// emulator run on the rig with that `beta_bar`, and the two differ.
     #[test]
     fn the_emulator_fmu_follows_the_beta_bar_a_host_sets() {
-        let user = Rig::from_toml_str(
-            "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\nx0_mm = 400.0\n\
-             mass_kg = 2500.0\nmass_by_position = []\ndisplacement_1_cm3_per_rev = 8.0\n\
-             displacement_2_cm3_per_rev = 5.0\nbeta_bar = 300.0\nkp = 15.0\n",
-            "user.toml",
-        )
-        .unwrap();
+        let user = user_rig();
         let mut p1_peaks = vec![];
         for beta_bar in [100.0, 1000.0] {
             let rig = Rig {
@@ -1394,13 +1400,7 @@ mod tests {
     /// one written at 500 N.
     #[test]
     fn the_force_parameter_a_master_sets_is_the_force_the_fmu_runs_at() {
-        let user = Rig::from_toml_str(
-            "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\nx0_mm = 400.0\n\
-             mass_kg = 2500.0\nmass_by_position = []\ndisplacement_1_cm3_per_rev = 8.0\n\
-             displacement_2_cm3_per_rev = 5.0\nbeta_bar = 300.0\nkp = 15.0\n",
-            "user.toml",
-        )
-        .unwrap();
+        let user = user_rig();
         for kind in [CircuitKind::Dpm, CircuitKind::SinglePump] {
             let at = |f: f64| Rig {
                 circuit: kind,
