@@ -59,6 +59,26 @@ impl Truth {
         assert!(ok, "{out}: {err}");
     }
 
+    /// Emulate the sweep `experiment` with its options `keys` (emulate's names without the
+    /// dashes) into `out`, and return the `[dataset.sweep]` lines that describe it: the same
+    /// keys, with `_` for `-`.
+    fn emulate_described(
+        &self,
+        dir: &Path,
+        experiment: &str,
+        keys: &[(&str, &str)],
+        out: &str,
+    ) -> String {
+        let flags: Vec<String> = (keys.iter())
+            .flat_map(|(k, v)| [format!("--{k}"), v.to_string()])
+            .collect();
+        let flags: Vec<&str> = flags.iter().map(String::as_str).collect();
+        self.emulate(dir, experiment, &flags, out);
+        (keys.iter())
+            .map(|(k, v)| format!("{} = {v}\n", k.replace('-', "_")))
+            .collect()
+    }
+
     /// The truth in the order of the intervals' keys.
     fn values(&self) -> [(&'static str, f64); 3] {
         [
@@ -185,6 +205,93 @@ fn a_multisine_of_the_user_rig_gives_beta_b_and_c12_with_intervals_that_hold_the
     assert_recovers(&v, &truth, TOLERANCE, true);
 }
 
+/// An 80/45 mm DPM of 2000 kg: the user rig (tests/user-rig.toml) with a lighter load.
+fn light_user_rig(dir: &Path) -> Truth {
+    let rig =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml"))
+            .unwrap();
+    let rig = rig.replace("mass_kg = 2500.0", "mass_kg = 2000.0");
+    assert!(rig.contains("mass_kg = 2000.0"));
+    std::fs::write(dir.join("rig.toml"), rig).unwrap();
+    Truth {
+        rig: Some("rig.toml"),
+        beta_bar: 320.0,
+        b_ns_per_m: 600.0,
+        c12: 2.6e-10,
+    }
+}
+
+#[test]
+fn a_single_chirp_shorter_than_its_lowest_frequency_needs_is_fitted_over_the_band_it_resolves() {
+    // one 150 s chirp of 0.05–3 Hz, as MATLAB's frestimate takes it: 8 half-overlapping
+    // Welch segments of 2n/9 samples (33.4 s) resolve from their third bin, 0.09 Hz, so the
+    // chirp's lowest frequencies are left out and the rest fitted
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let truth = light_user_rig(d);
+    let chirp = [
+        "--from-hz",
+        "0.05",
+        "--to-hz",
+        "3",
+        "--sweep-s",
+        "150",
+        "--periods",
+        "1",
+    ];
+    truth.emulate(d, "chirp", &chirp, "chirp.csv");
+    exact_standstill(&truth, d);
+    let samples = std::fs::read_to_string(d.join("chirp.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    let lowest_hz = 3.0 * 100.0 / (2 * samples / 9) as f64;
+    experiment(
+        d,
+        Some("rig.toml"),
+        "method = \"frequency\"",
+        &dataset("chirp.csv", 15.0, 2000.0, ""),
+    );
+    let v = identify(d, &[]);
+    let sweep = &v["sweeps"][0];
+    assert_eq!(sweep["method"], "welch-hann");
+    let got = sweep["lowest_frequency_hz"].as_f64().unwrap();
+    assert!((got - lowest_hz).abs() < 1e-9, "{got} vs {lowest_hz}");
+    let reason = sweep["lowest_frequency_reason"].as_str().unwrap();
+    assert!(
+        reason.contains(&format!("resolve only from {lowest_hz:.4} Hz")),
+        "{reason}"
+    );
+    // β and c12 near the truth (3.0 % and 5.2 % off as measured). Their intervals miss it: a
+    // single chirp's coherence is near 1 whatever the noise, so its bands are too narrow for
+    // the window's bias (docs/identification.md#the-estimators), and the fit's scale s² (136)
+    // says so. b, read from one chirp's ripple, is not asserted.
+    for (key, t, tol) in [
+        ("beta_bar", truth.beta_bar, 0.05),
+        ("c12_m5_per_ns", truth.c12, 0.1),
+    ] {
+        let got = v[key].as_f64().unwrap();
+        let i = &v["intervals"][key];
+        let (lo, hi) = (i[0].as_f64().unwrap(), i[1].as_f64().unwrap());
+        eprintln!("{key}: {got:.6e} (truth {t:.6e}), 95 % interval {lo:.6e} … {hi:.6e}");
+        assert!((got / t - 1.0).abs() < tol, "{key}: {got} vs {t}");
+    }
+    // the text says the band too, and frf shows the same lowest frequency with its reason
+    let (ok, text, err) = pumpcyl(d, &["identify", "exp.toml"]);
+    assert!(ok, "{err}");
+    assert!(
+        text.contains(&format!("lowest frequency fitted {lowest_hz:.4} Hz: ")),
+        "{text}"
+    );
+    let (ok, out, err) = pumpcyl(d, &["frf", "chirp.csv", "--rig", "rig.toml", "--json"]);
+    assert!(ok, "{err}");
+    let f: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(f["lowest_frequency_hz"].as_f64(), Some(got));
+    assert_eq!(f["closed_loop"]["points"][0]["freq_hz"].as_f64(), Some(got));
+    assert_eq!(f["lowest_frequency_reason"].as_str(), Some(reason));
+}
+
 #[test]
 fn a_sweep_and_a_step_fitted_together_weigh_each_by_its_own_noise() {
     let dir = tempfile::tempdir().unwrap();
@@ -240,23 +347,21 @@ fn records_that_cannot_be_fitted_in_the_frequency_domain_are_refused_in_one_line
     truth.emulate(d, "multisine", &low, "low.csv");
     let e = one("low.csv", "");
     assert!(e.contains("below the") && e.contains("crossover"), "{e}");
-    // one chirp too short for its lowest frequency
-    let short = [
-        "--from-hz",
-        "0.01",
-        "--to-hz",
-        "3",
-        "--sweep-s",
-        "150",
-        "--periods",
-        "1",
+    // one chirp whose whole band lies below what the record resolves: 150 s in 8 Welch
+    // segments of 33.4 s resolve from 0.09 Hz, the chirp described ends at 0.05 Hz
+    let keys = [
+        ("from-hz", "0.01"),
+        ("to-hz", "0.05"),
+        ("sweep-s", "150"),
+        ("periods", "1"),
+        ("amplitude-mm", "5"),
     ];
-    truth.emulate(d, "chirp", &short, "short.csv");
-    let e = one("short.csv", "");
-    assert!(
-        e.contains("too short for the sweep's lowest frequency"),
-        "{e}"
+    let table = truth.emulate_described(d, "chirp", &keys, "short.csv");
+    let e = one(
+        "short.csv",
+        &format!("[dataset.sweep]\nkind = \"chirp\"\n{table}"),
     );
+    assert!(e.contains("no band is left"), "{e}");
     // a response that is all noise: no coherence anywhere
     truth.emulate(d, "multisine", &[], "sweep.csv");
     let text = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
@@ -311,16 +416,8 @@ fn a_sweep_described_in_the_experiment_file_is_checked_and_estimated_as_describe
         ("levels", "6"),
         ("settle-periods", "20"),
     ];
-    let options: Vec<String> = (keys.iter())
-        .flat_map(|(k, v)| [format!("--{k}"), v.to_string()])
-        .collect();
-    let options: Vec<&str> = options.iter().map(String::as_str).collect();
-    truth.emulate(d, "stepped-sine", &options, "stepped.csv");
+    let table = truth.emulate_described(d, "stepped-sine", &keys, "stepped.csv");
     exact_standstill(&truth, d);
-    // the [dataset.sweep] table takes emulate's option names
-    let table: String = (keys.iter())
-        .map(|(k, v)| format!("{} = {v}\n", k.replace('-', "_")))
-        .collect();
     let described = |extra: &str| {
         let extra = format!("[dataset.sweep]\n{table}{extra}");
         experiment(d, None, "", &dataset("stepped.csv", 25.0, 10593.0, &extra));

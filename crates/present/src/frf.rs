@@ -59,6 +59,11 @@ pub fn frf_text(est: &Estimate) -> String {
         est.averages,
         discarded_text(est)
     );
+    let _ = writeln!(
+        out,
+        "lowest frequency {:.4} Hz: {}",
+        est.lowest_frequency_hz, est.lowest_frequency_reason
+    );
     for r in std::iter::once(&est.closed_loop).chain(&est.plant) {
         out.push_str(&response_table(r).text());
     }
@@ -413,6 +418,11 @@ pub fn frequency_text(
             s,
             "  sweep {}: {} of {} frequencies usable (coherence >= {:.3}), weighted cost {:.4}",
             w.file, w.fitted_frequencies, w.frequencies, w.usable_coherence, w.weighted_cost
+        );
+        let _ = writeln!(
+            s,
+            "    lowest frequency fitted {:.4} Hz: {}",
+            w.lowest_frequency_hz, w.lowest_frequency_reason
         );
     }
     let _ = writeln!(

@@ -49,6 +49,12 @@ pub const MAX_FREQUENCIES: usize = 400;
 pub const SEGMENTS: usize = 8;
 /// Periods of the lowest frequency a Welch segment must hold.
 pub const PERIODS_PER_SEGMENT: f64 = 4.0;
+/// The lowest Welch bin an estimate keeps: its segment holds 3 periods there. The Hann
+/// window's main lobe spans ±2 bins, so a bin within two of zero shares it with the segment's
+/// mean and drift: on a noise-free single chirp (0.05–3 Hz, 150 s) of the 80/45 mm rig the
+/// phase at bin 2 is 2.9° off the model's, at bin 3 0.2°
+/// (docs/identification.md#the-estimators).
+pub const RESOLVED_BIN: usize = 3;
 /// Coherence below which a frequency is never usable: the noise carries as much power as the
 /// response (ε > 0.5/√n_d). With few averages the bar is higher: [`usable_coherence`].
 pub const USABLE_COHERENCE: f64 = 0.5;
@@ -208,6 +214,11 @@ pub struct Estimate {
     pub averages: f64,
     /// The coherence a frequency needs to be usable ([`usable_coherence`]).
     pub usable_coherence: f64,
+    /// The lowest frequency estimated (Hz).
+    pub lowest_frequency_hz: f64,
+    /// Why the estimate starts there: the sweep's own lowest frequency, or the lowest the
+    /// record's Welch segments resolve where the sweep reaches below it.
+    pub lowest_frequency_reason: String,
     /// The closed loop x/x_ref.
     pub closed_loop: Response,
     /// The plant x/ω_e (needs the rig's gains), where estimated.
@@ -413,26 +424,13 @@ fn welch_estimate(
         file: rec.file.clone(),
         message,
     };
-    let len = match opts.segment_s {
-        Some(s) => (s * rate_hz).round().max(0.0) as usize,
-        None => {
-            let need = band
-                .map_or(0.0, |(lo, _)| PERIODS_PER_SEGMENT * rate_hz / lo)
-                .ceil() as usize;
-            (2 * n / (SEGMENTS + 1)).max(need)
-        }
-    };
+    let len = segment_len(opts, band, n, rate_hz);
     if len < 8 || len > n || len > MAX_SEGMENT {
         return Err(too_short(format!(
             "a Welch segment of {len} samples ({} s) does not fit: it needs 8 … {} samples, \
-             the record holds {n}{}",
+             the record holds {n}",
             len as f64 / rate_hz,
             MAX_SEGMENT.min(n),
-            band.map_or(String::new(), |(lo, _)| format!(
-                "; the lowest frequency {lo} Hz needs {PERIODS_PER_SEGMENT} periods per segment \
-                 ({} s)",
-                PERIODS_PER_SEGMENT / lo
-            ))
         )));
     }
     let (r, x) = (&rec.x_ref_mm, &rec.x_mm);
@@ -441,7 +439,7 @@ fn welch_estimate(
     let df = rate_hz / len as f64;
     let peak = sx.rr.iter().skip(1).cloned().fold(0.0, f64::max);
     let lowest = 1 + usize::from(band.is_none());
-    let bins: Vec<usize> = (lowest..sx.rr.len() - 1)
+    let excited: Vec<usize> = (lowest..sx.rr.len() - 1)
         .filter(|&k| {
             let f = k as f64 * df;
             match band {
@@ -450,24 +448,60 @@ fn welch_estimate(
             }
         })
         .collect();
+    let (below, bins) = excited.split_at(excited.partition_point(|&k| k < RESOLVED_BIN));
+    let segment_s = len as f64 / rate_hz;
+    let resolved_hz = RESOLVED_BIN as f64 * df;
     if bins.is_empty() {
-        return Err(too_short(format!(
-            "no frequency of the sweep lies on the {df:.4} Hz grid of {len}-sample segments"
-        )));
-    }
-    if band.is_none() && bins[0] <= 2 {
-        warnings.push(format!(
-            "the reference has power at {:.4} Hz, near the lowest frequency the {} s segments \
-             resolve ({df:.4} Hz): a longer record or --segment-s resolves it",
-            bins[0] as f64 * df,
-            len as f64 / rate_hz
-        ));
+        return Err(too_short(match below.last() {
+            Some(&k) => format!(
+                "the sweep's frequencies end at {:.4} Hz, below the {resolved_hz:.4} Hz that \
+                 {segment_s:.2} s Welch segments resolve ({RESOLVED_BIN} periods each): no band \
+                 is left (a longer record, or the sweep repeated in whole periods, 3 or more)",
+                k as f64 * df
+            ),
+            None => format!(
+                "no frequency of the sweep lies on the {df:.4} Hz grid of {len}-sample segments"
+            ),
+        }));
     }
     let raw = bins
         .iter()
         .map(|&k| ratio_at(k as f64 * df, k, &sx, su.as_ref()))
         .collect();
-    Ok((raw, shell(rec, Method::WelchHann, rate_hz, &sx)))
+    let mut est = shell(rec, Method::WelchHann, rate_hz, &sx);
+    est.lowest_frequency_reason = match below.first() {
+        Some(&k) => format!(
+            "{} {:.4} Hz, but the record's {segment_s:.2} s Welch segments resolve only from \
+             {resolved_hz:.4} Hz ({RESOLVED_BIN} periods each; below, the window biases the \
+             estimate): a longer record, or the sweep repeated in whole periods, reaches lower",
+            band.map_or("the reference has power down to", |_| {
+                "the sweep described starts at"
+            }),
+            band.map_or(k as f64 * df, |b| b.0)
+        ),
+        None if band.is_some() => "the lowest frequency of the sweep described".into(),
+        None => "the lowest frequency the reference excites (within 40 dB of its strongest)".into(),
+    };
+    Ok((raw, est))
+}
+
+/// Samples of a Welch segment: `segment_s` where given; else the record cut into
+/// [`SEGMENTS`] half-overlapping ones, longer where a described band's lowest frequency needs
+/// [`PERIODS_PER_SEGMENT`] periods and the record holds them (where it does not, the estimate
+/// starts at the lowest frequency the shorter segments resolve).
+fn segment_len(opts: &Options, band: Option<(f64, f64)>, n: usize, rate_hz: f64) -> usize {
+    if let Some(s) = opts.segment_s {
+        return (s * rate_hz).round().max(0.0) as usize;
+    }
+    let default = 2 * n / (SEGMENTS + 1);
+    let need = band
+        .map_or(0.0, |(lo, _)| PERIODS_PER_SEGMENT * rate_hz / lo)
+        .ceil() as usize;
+    if need <= n.min(MAX_SEGMENT) {
+        default.max(need)
+    } else {
+        default
+    }
 }
 
 /// An estimate's description before its points.
@@ -481,6 +515,8 @@ fn shell(rec: &Record, method: Method, rate_hz: f64, s: &Spectra) -> Estimate {
         periods_discarded: 0,
         averages: s.averages,
         usable_coherence: USABLE_COHERENCE,
+        lowest_frequency_hz: f64::NAN,
+        lowest_frequency_reason: String::new(),
         closed_loop: Response {
             name: "x/x_ref",
             unit: "mm/mm",
@@ -501,7 +537,8 @@ fn periodic(
     let period_s = e.period_s().unwrap_or(f64::NAN);
     let len = (period_s * rate_hz).round() as usize;
     let start = ((e.start_s() - rec.time_s[0]) * rate_hz).round().max(0.0) as usize;
-    let (sx, su, est) = settled_spectra(rec, (start, len), rate_hz, command)?;
+    let (sx, su, mut est) = settled_spectra(rec, (start, len), rate_hz, command)?;
+    est.lowest_frequency_reason = "the lowest frequency of the sweep described".into();
     let raw = e
         .excited_harmonics()
         .iter()
@@ -577,7 +614,10 @@ fn found_periodic(
     rate_hz: f64,
     command: Option<&[f64]>,
 ) -> Result<(Vec<Raw>, Estimate), FrfError> {
-    let (sx, su, est) = settled_spectra(rec, (first - len, len), rate_hz, command)?;
+    let (sx, su, mut est) = settled_spectra(rec, (first - len, len), rate_hz, command)?;
+    est.lowest_frequency_reason =
+        "the lowest frequency the periodic reference excites (within 40 dB of its strongest)"
+            .into();
     let peak = sx.rr.iter().skip(1).cloned().fold(0.0, f64::max);
     let period_s = len as f64 / rate_hz;
     let raw = (1..len.div_ceil(2))
@@ -670,6 +710,7 @@ fn sine_fits(
         },
     );
     est.rate_hz = (t.len() - 1) as f64 / (t[t.len() - 1] - t[0]);
+    est.lowest_frequency_reason = "the lowest level of the sweep described".into();
     Ok((raw, est))
 }
 
@@ -724,6 +765,7 @@ fn finish(
             raw.len()
         ));
     }
+    est.lowest_frequency_hz = raw.iter().map(|r| r.freq_hz).fold(f64::INFINITY, f64::min);
     est.closed_loop.points = unwrap(
         raw.iter()
             .map(|r| Point::new(r.freq_hz, r.t, r.coherence, r.error))

@@ -94,7 +94,6 @@ impl SweepSet {
             segment_s: None,
         };
         let estimate = frf::estimate(record, &opts)?;
-        check_resolved(&estimate)?;
         let usable = estimate.usable_coherence;
         let (mut freq_hz, mut measured, mut weight) = (Vec::new(), Vec::new(), Vec::new());
         for p in &estimate.closed_loop.points {
@@ -118,6 +117,25 @@ impl SweepSet {
     /// The frequencies the fit uses (Hz).
     pub fn frequencies_hz(&self) -> &[f64] {
         &self.freq_hz
+    }
+
+    /// The lowest frequency the fit uses (Hz).
+    fn lowest_fitted_hz(&self) -> f64 {
+        self.freq_hz.iter().copied().fold(f64::INFINITY, f64::min)
+    }
+
+    /// Why the fit starts at [`SweepSet::lowest_fitted_hz`]: the estimate's reason where it is
+    /// the estimate's lowest frequency, else the coherence below the usable level beneath it.
+    fn lowest_fitted_reason(&self) -> String {
+        let est = &self.estimate;
+        if self.lowest_fitted_hz() <= est.lowest_frequency_hz {
+            return est.lowest_frequency_reason.clone();
+        }
+        format!(
+            "the coherence is below the usable {:.3} from the estimate's lowest frequency, \
+             {:.4} Hz ({}), up to it",
+            est.usable_coherence, est.lowest_frequency_hz, est.lowest_frequency_reason
+        )
     }
 
     /// The closed loop of `rig` at `freq_hz`, its controller sampled at the record's rate
@@ -149,28 +167,6 @@ impl SweepSet {
             f64::INFINITY
         }
     }
-}
-
-/// Refuse a Welch estimate whose reference has power within two bins of zero: the record is
-/// too short for the sweep's lowest frequency, and the fit would read a biased estimate there.
-fn check_resolved(est: &Estimate) -> Result<(), FrfError> {
-    let df = est.rate_hz / est.segment_samples as f64;
-    let Some(first) = est.closed_loop.points.first() else {
-        return Ok(());
-    };
-    if est.method != frf::Method::WelchHann || first.freq_hz > 2.0 * df * (1.0 + 1e-9) {
-        return Ok(());
-    }
-    Err(FrfError::TooShort {
-        file: est.file.clone(),
-        message: format!(
-            "the reference has power at {:.4} Hz, where {:.2} s Welch segments hold only two \
-             periods: the record is too short for the sweep's lowest frequency (a longer \
-             record, or a multisine or chirp repeated in whole periods, 3 or more)",
-            first.freq_hz,
-            est.segment_samples as f64 / est.rate_hz
-        ),
-    })
 }
 
 /// The records of a frequency-domain (or combined) fit.
@@ -206,6 +202,12 @@ pub struct SweepSummary {
     pub fitted_frequencies: usize,
     /// The coherence a frequency needed.
     pub usable_coherence: f64,
+    /// The lowest frequency fitted (Hz).
+    pub lowest_frequency_hz: f64,
+    /// Why the fit starts there: the estimate's lowest frequency and its reason
+    /// ([`frf::Estimate::lowest_frequency_reason`]), or where the coherence first reaches the
+    /// usable level.
+    pub lowest_frequency_reason: String,
     /// J of this record at the answer (no unit).
     pub weighted_cost: f64,
 }
@@ -416,6 +418,8 @@ impl FrequencyProblem {
                     frequencies: s.estimate.closed_loop.points.len(),
                     fitted_frequencies: s.freq_hz.len(),
                     usable_coherence: s.estimate.usable_coherence,
+                    lowest_frequency_hz: s.lowest_fitted_hz(),
+                    lowest_frequency_reason: s.lowest_fitted_reason(),
                     weighted_cost: cost,
                 }
             })
