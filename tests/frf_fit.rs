@@ -293,6 +293,54 @@ fn a_single_chirp_shorter_than_its_lowest_frequency_needs_is_fitted_over_the_ban
 }
 
 #[test]
+fn a_parameter_whose_estimate_sits_at_its_search_bound_is_shown_as_not_identifiable() {
+    // the user rig without viscous friction: the fit presses b onto its lower search bound,
+    // 1 N·s/m (ident::BOUNDS), where the records do not stop it; β and c12 stay estimates
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
+    std::fs::copy(rig, d.join("rig.toml")).unwrap();
+    let truth = Truth {
+        rig: Some("rig.toml"),
+        beta_bar: 300.0,
+        b_ns_per_m: 0.0,
+        c12: 2.0e-10,
+    };
+    truth.emulate(d, "multisine", &[], "sweep.csv");
+    exact_standstill(&truth, d);
+    let sweep = dataset("sweep.csv", 15.0, 2500.0, "");
+    experiment(d, Some("rig.toml"), "method = \"frequency\"", &sweep);
+    let v = identify(d, &[]);
+    let b = v["viscous_friction_ns_per_m"].as_f64().unwrap();
+    assert!((b - 1.0).abs() < 1e-3, "{b}");
+    let at = &v["at_search_bound"];
+    assert_eq!(
+        [
+            &at["beta_bar"],
+            &at["viscous_friction_ns_per_m"],
+            &at["c12_m5_per_ns"]
+        ],
+        [false, true, false]
+    );
+    assert_eq!(v["identifiable"]["viscous_friction_ns_per_m"], false);
+    assert_eq!(v["identifiable"]["beta_bar"], true);
+    let reason = v["not_identifiable"]["viscous_friction_ns_per_m"]
+        .as_str()
+        .unwrap();
+    assert!(reason.contains("search bound 1 N·s/m"), "{reason}");
+    assert!((v["beta_bar"].as_f64().unwrap() / 300.0 - 1.0).abs() < 0.01);
+    // the text names the bound and never shows b's value as an estimate
+    let (ok, text, err) = pumpcyl(d, &["identify", "exp.toml"]);
+    assert!(ok, "{err}");
+    let fitted = text.lines().find(|l| l.contains("fitted")).unwrap();
+    assert!(
+        fitted.contains("b at the search bound 1.0 N·s/m (not identifiable)"),
+        "{fitted}"
+    );
+    assert!(!fitted.contains("b      1.0"), "{fitted}");
+}
+
+#[test]
 fn a_sweep_and_a_step_fitted_together_weigh_each_by_its_own_noise() {
     let dir = tempfile::tempdir().unwrap();
     let truth = ARTICLE_TRUTH;

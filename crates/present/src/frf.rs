@@ -377,6 +377,7 @@ pub fn frequency_json(
         v["chi2_threshold"] = json!(u.threshold);
         v["uncertainty_seconds"] = json!(s);
     }
+    crate::uncertainty::add_search_bound_json(&mut v, c);
     v
 }
 
@@ -401,9 +402,13 @@ pub fn frequency_text(
         fit.evaluated
     );
     let line = |label: &str, c: &Candidate| {
+        let v = pumpcyl::ident::candidate_values(c);
+        let shown = |i: usize, text: String| crate::uncertainty::estimate_text(i, v[i], text);
         format!(
-            "  {label:<16} beta {:>8.2} bar  b {:>8.1} N·s/m  c12 {:.4e} m⁵/(N·s)\n",
-            c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns
+            "  {label:<16} beta {}  b {}  c12 {}\n",
+            shown(0, format!("{:>8.2} bar", v[0])),
+            shown(1, format!("{:>8.1} N·s/m", v[1])),
+            shown(2, format!("{:.4e} m⁵/(N·s)", v[2]))
         )
     };
     s += &line("best grid point", &fit.grid_best);

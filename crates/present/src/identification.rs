@@ -7,9 +7,10 @@ use crate::matfile::MatWriter;
 use crate::plot::{HeatMap, Marker};
 use crate::records::{csv_number, csv_text};
 use anyhow::Result;
+use pumpcyl::ident::search_bound_at;
 use pumpcyl::ident::{
-    identifiability, Candidate, DriveFit, DriveRecord, Experiment, Identifiability, Identification,
-    Leakage, Problem, Scored, Standstill, Uncertainty,
+    candidate_values, identifiability, Candidate, DriveFit, DriveRecord, Experiment,
+    Identifiability, Identification, Leakage, Problem, Scored, Standstill, Uncertainty,
 };
 use pumpcyl::response::Signals;
 use pumpcyl::rig::Rig;
@@ -113,6 +114,7 @@ pub fn identification_document(
         })
         .collect();
     v["warnings"] = json!(id.warnings());
+    crate::uncertainty::add_search_bound_json(&mut v, &best.candidate);
     Ok(v)
 }
 
@@ -130,6 +132,13 @@ pub fn verdicts(
         })),
         _ => identifiability(problem, &id.best().candidate, 0.95).ok(),
     }
+    .map(|v| {
+        let values = candidate_values(&id.best().candidate);
+        v.map(|d| {
+            let i = crate::figures::parameter_index(d.parameter);
+            d.checked_at(values[i])
+        })
+    })
 }
 
 /// [lo, hi, count] of a grid axis.
@@ -476,18 +485,22 @@ fn short_name(parameter: &str) -> &'static str {
 /// One candidate and its cost as a text line; a `hidden` parameter (not identifiable) shows
 /// as `n/a` instead of its value.
 fn scored_line(label: &str, c: &Scored, hidden: [bool; 3]) -> String {
+    let values = candidate_values(&c.candidate);
     let show = |i: usize, text: String| {
-        if hidden[i] {
-            format!("{:>8}", "n/a")
+        if hidden[i] && search_bound_at(i, values[i]).is_none() {
+            format!("{:>8} {}", "n/a", crate::figures::PARAMETER_UNITS[i])
         } else {
-            text
+            crate::uncertainty::estimate_text(i, values[i], text)
         }
     };
     format!(
-        "  {label:<16} beta {} bar  b {} N·s/m  c12 {} m⁵/(N·s)  cost {:.5} mm²\n",
-        show(0, format!("{:>8.2}", c.candidate.beta_bar)),
-        show(1, format!("{:>8.1}", c.candidate.viscous_friction_ns_per_m)),
-        show(2, format!("{:.4e}", c.candidate.c12_m5_per_ns)),
+        "  {label:<16} beta {}  b {}  c12 {}  cost {:.5} mm²\n",
+        show(0, format!("{:>8.2} bar", c.candidate.beta_bar)),
+        show(
+            1,
+            format!("{:>8.1} N·s/m", c.candidate.viscous_friction_ns_per_m)
+        ),
+        show(2, format!("{:.4e} m⁵/(N·s)", c.candidate.c12_m5_per_ns)),
         c.cost_mm2
     )
 }

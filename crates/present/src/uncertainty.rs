@@ -3,7 +3,9 @@
 
 use crate::figures::{parameter_index as index, parameter_value as value, Chart, PARAMETER_UNITS};
 use anyhow::Result;
-use pumpcyl::ident::{Profile, Uncertainty};
+use pumpcyl::ident::{
+    at_bound_reason, candidate_values, search_bound_at, Candidate, Profile, Uncertainty, PARAMETERS,
+};
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;
 
@@ -31,6 +33,40 @@ pub fn add_profiles_json(v: &mut Value, profiles: &[Profile], cost_key: &str) {
     v["intervals"] = intervals.into();
     v["identifiable"] = identifiable.into();
     v["profiles"] = curves.into();
+}
+
+/// Add `at_search_bound` (per parameter, whether the answer `c` sits at a search bound) to a
+/// result's JSON, and for each that does, `identifiable` false (where the result has the key)
+/// and its reason under `not_identifiable`: that value is the search's limit, not an estimate.
+pub fn add_search_bound_json(v: &mut Value, c: &Candidate) {
+    let values = candidate_values(c);
+    let mut at = Map::new();
+    for (i, p) in PARAMETERS.iter().enumerate() {
+        let bound = search_bound_at(i, values[i]);
+        at.insert(p.to_string(), json!(bound.is_some()));
+        let Some(bound) = bound else { continue };
+        if v["identifiable"].is_object() {
+            v["identifiable"][p] = json!(false);
+        }
+        if !v["not_identifiable"].is_object() {
+            v["not_identifiable"] = json!({});
+        }
+        v["not_identifiable"][p] = json!(at_bound_reason(i, bound));
+    }
+    v["at_search_bound"] = at.into();
+}
+
+/// Parameter `i`'s `estimate` as text: `shown` (its formatted value with its unit), or where
+/// it sits at a search bound, that it does and is not identifiable, never the value.
+pub fn estimate_text(i: usize, estimate: f64, shown: String) -> String {
+    match search_bound_at(i, estimate) {
+        Some(b) => format!(
+            "at the search bound {} {} (not identifiable)",
+            value(i, b),
+            PARAMETER_UNITS[i]
+        ),
+        None => shown,
+    }
 }
 
 /// Add the uncertainty's fields to an identification's JSON: `intervals`, `identifiable`,

@@ -39,8 +39,30 @@ pub const UNITS: [&str; 3] = ["bar", "N·s/m", "m⁵/(N·s)"];
 /// Search bounds of β (bar), b (N·s/m) and c12 (m⁵/(N·s)): a profile that reaches one without
 /// crossing the threshold means the data do not bound that side.
 pub const BOUNDS: [[f64; 2]; 3] = [[1.0, 1.0e5], [1.0, 1.0e5], [1.0e-15, 1.0e-8]];
+/// How near a search bound (in ln, 0.1 %) an estimate sits at it: the searches are +∞ outside
+/// [`BOUNDS`], so one the records do not stop presses on the bound (b within 1e-8 of 1 N·s/m
+/// on a sweep of a rig without viscous friction).
+pub const AT_BOUND: f64 = 1e-3;
 /// Unknowns fitted besides the datasets' offsets (β, b, c12).
 const FITTED: usize = 3;
+
+/// The search bound (of [`BOUNDS`]) that parameter `i`'s estimate `value` sits at, within
+/// [`AT_BOUND`], if any: such a value is the search's limit, not an estimate.
+pub fn search_bound_at(i: usize, value: f64) -> Option<f64> {
+    BOUNDS[i]
+        .into_iter()
+        .find(|b| (value / b).ln().abs() <= AT_BOUND)
+}
+
+/// Why parameter `i` whose estimate sits at the search bound `bound` is not identifiable.
+pub fn at_bound_reason(i: usize, bound: f64) -> String {
+    format!(
+        "its estimate sits at the search bound {} {}: the records do not bound it, and that \
+         value is the search's limit, not an estimate",
+        super::grid::short(bound),
+        UNITS[i]
+    )
+}
 /// First profile offset from the optimum, in ln(parameter) (0.2 %).
 const FIRST_STEP: f64 = 0.002;
 /// Each further offset is this much larger than the previous one.
@@ -358,6 +380,20 @@ impl Identifiability {
                     open.join(" and ")
                 )
             }),
+        }
+    }
+
+    /// This verdict for the estimate `value`: not identifiable where it sits at a search bound
+    /// ([`search_bound_at`]), whatever the profile said.
+    pub fn checked_at(self, value: f64) -> Identifiability {
+        let i = PARAMETERS.iter().position(|n| *n == self.parameter);
+        match i.and_then(|i| Some((i, search_bound_at(i, value)?))) {
+            Some((i, bound)) => Identifiability {
+                identifiable: false,
+                reason: Some(at_bound_reason(i, bound)),
+                ..self
+            },
+            None => self,
         }
     }
 }
@@ -742,6 +778,25 @@ mod tests {
         assert!((variance_inflation(&cut) - (-1.0 + 2.0 * (1.5 + 0.4))).abs() < 1e-12);
         assert_eq!(variance_inflation(&[]), 1.0);
         assert_eq!(variance_inflation(&[f64::NAN, 1.0]), 1.0);
+    }
+
+    #[test]
+    fn an_estimate_at_a_search_bound_is_not_identifiable_whatever_its_profile() {
+        // within 0.1 % (in ln) of a bound of BOUNDS: [1, 1e5] N·s/m for b
+        assert_eq!(search_bound_at(1, 1.000_000_007), Some(1.0));
+        assert_eq!(search_bound_at(1, 0.9995), Some(1.0));
+        assert_eq!(search_bound_at(1, 1.002), None);
+        assert_eq!(search_bound_at(0, 99_950.0), Some(1.0e5));
+        assert_eq!(search_bound_at(2, 1.2e-10), None);
+        let bounded = Identifiability {
+            parameter: PARAMETERS[1],
+            identifiable: true,
+            reason: None,
+        };
+        let d = bounded.clone().checked_at(1.0);
+        assert!(!d.identifiable);
+        assert!(d.reason.unwrap().contains("search bound 1 N·s/m"));
+        assert_eq!(bounded.clone().checked_at(2500.0), bounded);
     }
 
     #[test]
