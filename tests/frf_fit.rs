@@ -166,6 +166,7 @@ fn a_multisine_of_the_article_rig_gives_beta_b_and_c12_with_intervals_that_hold_
     // its band (a continuous-time model of the 100 Hz PLC would leave a far larger scale)
     let scale = v["sweep_cost_scale"].as_f64().unwrap();
     assert!((0.5..2.0).contains(&scale), "{scale}");
+    assert!(model_error_warning(&v).is_none(), "{}", v["warnings"]);
     // the --frequency flag does what the file's method does, and the folder holds the figure
     experiment(dir.path(), None, "", &sweep);
     let (ok, _, err) = pumpcyl(
@@ -203,6 +204,52 @@ fn a_multisine_of_the_user_rig_gives_beta_b_and_c12_with_intervals_that_hold_the
     );
     let v = identify(dir.path(), &[]);
     assert_recovers(&v, &truth, TOLERANCE, true);
+}
+
+/// The warning of a fit whose scale s² says the model does not explain the records, if any.
+fn model_error_warning(v: &serde_json::Value) -> Option<String> {
+    (v["warnings"].as_array().unwrap().iter())
+        .filter_map(|w| w.as_str())
+        .find(|w| w.contains("the model does not explain the records"))
+        .map(str::to_string)
+}
+
+#[test]
+fn a_sweep_recorded_at_one_kp_and_declared_at_another_warns_that_its_intervals_do_not_hold() {
+    // the article rig's multisine run at Kp 20 and declared at Kp 25: the fit moves β and b
+    // to make up for the gain, and its scale s² (5.8e5 as measured) is far above the 10 of
+    // ident::MODEL_ERROR_SCALE, which correct records stay well under (0.42–1.83 measured)
+    let (truth, dir) = (ARTICLE_TRUTH, tempfile::tempdir().unwrap());
+    let d = dir.path();
+    truth.emulate(d, "multisine", &["--set", "kp=20"], "sweep.csv");
+    exact_standstill(&truth, d);
+    experiment(
+        d,
+        None,
+        "method = \"frequency\"",
+        &dataset("sweep.csv", 25.0, 10593.0, ""),
+    );
+    let v = identify(d, &[]);
+    let s2 = v["sweep_cost_scale"].as_f64().unwrap();
+    assert!(s2 > 1e4, "{s2}");
+    let w = model_error_warning(&v).unwrap_or_else(|| panic!("{}", v["warnings"]));
+    assert!(
+        w.contains(&format!("s² = {s2:.3e}")) && w.contains("the intervals do not hold"),
+        "{w}"
+    );
+    // the interval of β the fit reports misses the truth, which is what the warning says
+    let i = &v["intervals"]["beta_bar"];
+    let (lo, hi) = (i[0].as_f64().unwrap(), i[1].as_f64().unwrap());
+    eprintln!("Kp 20 declared 25: s² {s2:.3e}, beta {lo:.1} … {hi:.1} bar (truth 180)");
+    assert!(!(lo..=hi).contains(&truth.beta_bar), "{lo} … {hi}");
+    // the text prints it as a warning line
+    let (ok, text, err) = pumpcyl(d, &["identify", "exp.toml"]);
+    assert!(ok, "{err}");
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("  warning: the fit's scale s²")),
+        "{text}"
+    );
 }
 
 /// An 80/45 mm DPM of 2000 kg: the user rig (tests/user-rig.toml) with a lighter load.
@@ -277,6 +324,7 @@ fn a_single_chirp_shorter_than_its_lowest_frequency_needs_is_fitted_over_the_ban
         eprintln!("{key}: {got:.6e} (truth {t:.6e}), 95 % interval {lo:.6e} … {hi:.6e}");
         assert!((got / t - 1.0).abs() < tol, "{key}: {got} vs {t}");
     }
+    assert!(model_error_warning(&v).is_some(), "{}", v["warnings"]);
     // the text says the band too, and frf shows the same lowest frequency with its reason
     let (ok, text, err) = pumpcyl(d, &["identify", "exp.toml"]);
     assert!(ok, "{err}");

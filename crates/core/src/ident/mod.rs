@@ -54,6 +54,7 @@ pub use experiment::{DatasetEntry, Experiment, ExperimentFile, Method, RigDefaul
 pub use frequency::Loaded;
 pub use frequency::{
     FrequencyFit, FrequencyProblem, FrequencyUncertainty, Scales, SweepSet, SweepSummary,
+    MODEL_ERROR_SCALE,
 };
 pub use grid::{
     candidate_values, spaced, stepped, Candidate, Grid, SecondGrid, FIRST_AXES, SECOND_COUNTS,
