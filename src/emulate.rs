@@ -148,16 +148,17 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         allow_long_run: args.allow_long_run,
         progress: &|n| bar.inc(n),
     };
-    let (data, end_stop) = emulated::run(&plan, &truth, &work).map_err(|e| match e {
+    let outcome = emulated::run(&plan, &truth, &work).map_err(|e| match e {
         // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
         RunError::Limit(e) => anyhow!("{}: {e} (--allow-long-run)", out.display()),
         RunError::Emulator(e) => anyhow!("{}: {e}", out.display()),
     })?;
     bar.finish_and_clear();
+    let warnings = emulated::warnings(&truth.rig, &outcome);
+    let (data, end_stop) = (outcome.data, outcome.end_stop);
     let basis = emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
     write_atomic(out, records::emulated_csv(&data).as_bytes())?;
     let origin = args.source.origin_or("the emulated article rig");
-    let warnings = emulated::warnings(&truth.rig, &data);
     if args.json {
         let doc = emulated::emulated_json(
             request.experiment,

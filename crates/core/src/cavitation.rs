@@ -57,3 +57,63 @@ pub fn check_chambers(p_bar: &[f64]) -> Result<(), Cavitation> {
         }),
     }
 }
+
+/// How near the floor (bar) a chamber of an emulated run counts as at it: the emulator holds a
+/// chamber there (its pressure does not fall below [`VAPOUR_PRESSURE_BAR_GAUGE`]), so one that
+/// reaches it sits within the integrator's step of it.
+pub const AT_FLOOR_BAR: f64 = 1e-3;
+
+/// The first time a chamber of an emulated run reached the cavitation floor
+/// (docs/emulator.md#cavitation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FloorHit {
+    /// The chamber (1-based, as the article numbers them).
+    pub chamber: usize,
+    /// Time of the first PLC sample at the floor (s).
+    pub at_s: f64,
+}
+
+impl FloorHit {
+    /// The first chamber of `p_bar` (bar gauge, chamber 1 first) within [`AT_FLOOR_BAR`] of the
+    /// floor or below it, at `at_s`.
+    pub fn of_chambers(p_bar: &[f64], at_s: f64) -> Option<FloorHit> {
+        let i = p_bar
+            .iter()
+            .position(|p| *p <= VAPOUR_PRESSURE_BAR_GAUGE + AT_FLOOR_BAR)?;
+        Some(FloorHit {
+            chamber: i + 1,
+            at_s,
+        })
+    }
+}
+
+impl std::fmt::Display for FloorHit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "chamber {} reached the cavitation floor ({} bar gauge) at t = {:.2} s: the oil \
+             cavitates and the emulator holds the chamber there, so from then on the record is \
+             not what the linear model describes (a smaller or slower reference, or a higher \
+             sum-pressure set-point, keeps the chambers above it; docs/emulator.md#cavitation)",
+            self.chamber,
+            readable(VAPOUR_PRESSURE_BAR_GAUGE),
+            self.at_s
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_chamber_within_a_millibar_of_the_floor_is_at_it() {
+        assert_eq!(FloorHit::of_chambers(&[4.0, 5.0], 1.0), None);
+        assert_eq!(FloorHit::of_chambers(&[4.0, -0.998], 1.0), None);
+        let hit = FloorHit::of_chambers(&[-0.9995, -1.0], 0.6).unwrap();
+        assert_eq!((hit.chamber, hit.at_s), (1, 0.6));
+        assert!(hit
+            .to_string()
+            .starts_with("chamber 1 reached the cavitation floor (-1 bar gauge) at t = 0.60 s"));
+    }
+}

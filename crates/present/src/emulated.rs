@@ -4,6 +4,7 @@
 //! run the emulator (docs/emulator.md#what-a-user-rig-gets).
 
 use pumpcyl::bulk::effective_beta;
+use pumpcyl::cavitation::FloorHit;
 use pumpcyl::circuit::CircuitKind;
 use pumpcyl::emulator::article::{self, Emulated, Kind, Truth};
 use pumpcyl::emulator::{
@@ -203,34 +204,52 @@ pub fn steps(plan: &Kind, rate_hz: f64) -> u64 {
     }
 }
 
-/// Run a plan on the truth: the record and, for the closed loop, the first end stop it met;
-/// `work.progress(n)` as `n` more of its [`steps`] are done, the closed loop stopped when its
-/// integrator's work goes beyond the limit unless `work` allows a long run
-/// (docs/emulator.md#the-work-limit).
-pub fn run(
-    plan: &Kind,
-    truth: &Truth,
-    work: &Work,
-) -> Result<(Emulated, Option<EndStopHit>), RunError> {
+/// What a run of a plan gives: the record and, for the closed loop, the first end stop it met
+/// and the first chamber at the cavitation floor.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The record.
+    pub data: Emulated,
+    /// The first end stop the piston met (docs/emulator.md#end-stops).
+    pub end_stop: Option<EndStopHit>,
+    /// The first chamber at the cavitation floor (docs/emulator.md#cavitation).
+    pub cavitation: Option<FloorHit>,
+}
+
+/// Run a plan on the truth ([`Outcome`]); `work.progress(n)` as `n` more of its [`steps`] are
+/// done, the closed loop stopped when its integrator's work goes beyond the limit unless `work`
+/// allows a long run (docs/emulator.md#the-work-limit).
+pub fn run(plan: &Kind, truth: &Truth, work: &Work) -> Result<Outcome, RunError> {
     Ok(match plan {
         Kind::Loop(e) => {
             let em = e.run_reporting(&truth.rig, truth.effects, &truth.plc, work)?;
-            (Emulated::Loop(em.signals), em.end_stop)
+            Outcome {
+                data: Emulated::Loop(em.signals),
+                end_stop: em.end_stop,
+                cavitation: em.cavitation,
+            }
         }
-        Kind::Drive(_) => (plan.run(truth)?, None),
+        Kind::Drive(_) => Outcome {
+            data: plan.run(truth)?,
+            end_stop: None,
+            cavitation: None,
+        },
     })
 }
 
-/// The warnings of an emulated record on `rig`: the drive ratings a closed-loop record exceeds
-/// (docs/simulation.md#drive-ratings), one line each; none for a drive record.
-pub fn warnings(rig: &Rig, data: &Emulated) -> Vec<String> {
-    match data {
+/// The warnings of an emulated run on `rig`: the drive ratings a closed-loop record exceeds
+/// (docs/simulation.md#drive-ratings), one line each, and the first chamber at the cavitation
+/// floor; none for a drive record.
+pub fn warnings(rig: &Rig, run: &Outcome) -> Vec<String> {
+    let mut lines = match &run.data {
         Emulated::Loop(s) => crate::documents::rating_warning_lines(
             "emulated",
             &pumpcyl::response::signals_over_ratings(rig, s),
         ),
         Emulated::Drive(_) => Vec::new(),
-    }
+    };
+    lines.extend(run.cavitation.map(|hit| format!("emulated: {hit}")));
+    lines
 }
 
 /// An emulated record's columns by name, those its CSV holds, in its order

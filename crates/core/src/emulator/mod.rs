@@ -233,6 +233,12 @@ impl Dynamics {
         })
     }
 
+    /// The first chamber of state `x` at the cavitation floor, if any, met at `t_s`.
+    pub fn floor_hit(&self, x: &[f64], t_s: f64) -> Option<crate::cavitation::FloorHit> {
+        let p = [0, 1].map(|k| x[self.at.pressures[k]] / PA_PER_BAR);
+        crate::cavitation::FloorHit::of_chambers(&p, t_s)
+    }
+
     /// Number of states.
     pub fn order(&self) -> usize {
         self.circuit.order()

@@ -8,6 +8,7 @@
 use super::integrate::{hold, typical, work};
 use super::{Dynamics, EndStopHit};
 use super::{EmulatorError, RunError};
+use crate::cavitation::FloorHit;
 use crate::limits::{EmulatorWork, Work};
 use crate::response::Signals;
 use crate::rig::Rig;
@@ -72,6 +73,8 @@ pub struct Emulation {
     pub signals: Signals,
     /// The first end stop the piston met, at a PLC sample.
     pub end_stop: Option<EndStopHit>,
+    /// The first chamber at the cavitation floor, at a PLC sample of the record.
+    pub cavitation: Option<FloorHit>,
 }
 
 /// Emulate the closed loop for the reference `x_ref_mm(t)` from `t = 0` to `duration_s`.
@@ -122,6 +125,7 @@ pub fn emulate_reporting(
     Ok(Emulation {
         signals,
         end_stop: run.end_stop,
+        cavitation: run.cavitation,
     })
 }
 
@@ -137,6 +141,8 @@ pub struct PlcLoop {
     noise: Noise,
     x: Vec<f64>,
     end_stop: Option<EndStopHit>,
+    /// The first chamber at the cavitation floor after t = 0 ([`PlcLoop::hold`]).
+    cavitation: Option<FloorHit>,
     /// The integrator's work in this loop's [`PlcLoop::hold`]s (right-hand-side evaluations,
     /// docs/emulator.md#the-work-limit).
     work: u64,
@@ -159,6 +165,7 @@ impl PlcLoop {
             noise: Noise::new(plc.seed),
             x: equilibrium(rig, dynamics, r0_mm)?,
             end_stop: None,
+            cavitation: None,
             work: 0,
         };
         let ts = 1.0 / plc.rate_hz;
@@ -188,13 +195,17 @@ impl PlcLoop {
     }
 
     /// Integrate the rig from `t0` to `t1` (s) with the speed references `u` (rad/s) held.
-    /// The first end stop met is kept ([`PlcLoop::end_stop`]).
+    /// The first end stop met is kept ([`PlcLoop::end_stop`]), and from t = 0 on the first
+    /// chamber at the cavitation floor.
     pub fn hold(&mut self, u: [f64; 2], t0: f64, t1: f64) -> Result<(), EmulatorError> {
         let before = work();
         self.x = hold(&self.dynamics, &self.x, u, t0, t1)?;
         self.work += work() - before;
         if self.end_stop.is_none() {
             self.end_stop = self.dynamics.end_stop(&self.x, t1);
+        }
+        if self.cavitation.is_none() && t0 >= 0.0 {
+            self.cavitation = self.dynamics.floor_hit(&self.x, t1);
         }
         Ok(())
     }
