@@ -46,8 +46,9 @@ use serde::Serialize;
 const FITTED: usize = 3;
 /// The sweeps' scale s² = J_min/(2K − 3) above which the model does not explain the estimates
 /// and the fit warns. With the model right, s² is χ²_ν/ν (ν = 2K − 3), whose 99.99 % point is
-/// 5.1 at ν = 5 and lower for more frequencies; measured 0.42–1.83 on 17 emulated multisines of
-/// three rigs (seeds 1–6, every effect off, K 4–23), against 280–1100 with the emulator's
+/// 5.1 at ν = 5 and lower for more frequencies (at the fewest a fit takes, K = 2, s² exceeds 10
+/// with probability 0.0016); measured 0.42–1.83 on 17 emulated multisines of two rigs at three
+/// bands (seeds 1–6, every effect off, K 4–23), against 280–1100 with the emulator's
 /// friction and dead band on and 7.6e4–3.3e6 for a record at one Kp declared at another
 /// (docs/identification.md#the-intervals).
 pub const MODEL_ERROR_SCALE: f64 = 10.0;
