@@ -648,6 +648,12 @@ fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorErr
 /// left out is below 10⁻¹⁶ of them.
 const TAYLOR_TERMS: usize = 14;
 
+thread_local! {
+    /// [`phi_levels`]' working matrices, kept between calls: a new linear part would otherwise
+    /// allocate and zero them afresh.
+    static PHI_SCRATCH: Cell<Vec<f64>> = const { Cell::new(Vec::new()) };
+}
+
 /// e^z, φ₁(z), φ₂(z), φ₃(z) of z = hJ/2ˡ for ℓ = 0 ..= `levels` + 1 (φ₀ = e^z,
 /// φ_{k+1}(z) = (φ_k(z) − 1/k!)/z): J balanced by a diagonal similarity of powers of two
 /// ([`balance`]), the Taylor series of φ₃(z/2ˢ) by Horner's rule and φ_k = z φ_{k+1} + 1/k!,
@@ -663,7 +669,9 @@ fn phi_levels(n: usize, j: &[f64], h: f64, levels: usize) -> Result<Phis, Emulat
     // doublings drops from the typical sizes' scaling to near the spectral radius
     let nn = n * n;
     // one allocation: a, two Taylor terms, four products, φ₀..φ₃
-    let mut work = vec![0.0; 11 * nn];
+    let mut work = PHI_SCRATCH.with(Cell::take);
+    work.clear();
+    work.resize(11 * nn, 0.0);
     let (a, rest) = work.split_at_mut(nn);
     let (mut t0, rest) = rest.split_at_mut(nn);
     let (mut t1, rest) = rest.split_at_mut(nn);
@@ -716,6 +724,7 @@ fn phi_levels(n: usize, j: &[f64], h: f64, levels: usize) -> Result<Phis, Emulat
         }
         e.copy_from_slice(&products[..nn]);
     }
+    PHI_SCRATCH.with(|s| s.set(work));
     Ok(Phis { n, d, m: out })
 }
 
