@@ -645,3 +645,70 @@ fn the_default_multisine_is_estimated_from_its_settled_periods_only() {
         "{e}"
     );
 }
+
+/// `design --robust --experiment` on an experiment fitted in the frequency domain holds over
+/// the region of that fit, sweep and step together, as `identify --uncertainty` reports it
+/// (docs/design.md#robust-design): the same answer and the same intervals, b bounded by the
+/// sweep; the same records fitted by their step alone leave b unbounded.
+#[test]
+fn a_robust_design_on_a_sweep_beside_a_step_holds_over_the_fit_of_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
+    std::fs::copy(rig, d.join("rig.toml")).unwrap();
+    let truth = Truth {
+        rig: Some("rig.toml"),
+        beta_bar: 320.0,
+        b_ns_per_m: 600.0,
+        c12: 2.6e-10,
+    };
+    truth.emulate(d, "multisine", &[], "sweep.csv");
+    truth.emulate(d, "step", &[], "step.csv");
+    exact_standstill(&truth, d);
+    let step = dataset("step.csv", 15.0, 2500.0, "fit_end_s = 4.0\nkind = \"step\"");
+    let both = dataset("sweep.csv", 15.0, 2500.0, "kind = \"sweep\"") + &step;
+    experiment(d, Some("rig.toml"), "method = \"frequency\"", &both);
+    let fit = identify(d, &[]);
+    let robust = |d: &Path| {
+        let args = ["design", "--robust", "--experiment", "exp.toml", "--json"];
+        let (ok, out, err) = pumpcyl(d, &args);
+        assert!(ok, "{err}");
+        serde_json::from_str::<serde_json::Value>(&out).unwrap()
+    };
+    let v = robust(d);
+    let r = &v["region"];
+    for (key, t) in truth.values() {
+        let nominal = r["nominal"][key].as_f64().unwrap();
+        let answer = fit[key].as_f64().unwrap();
+        assert!(
+            (nominal / answer - 1.0).abs() < 1e-9,
+            "{key}: {nominal} vs {answer}"
+        );
+        for k in 0..2 {
+            let (got, want) = (
+                r[key][k].as_f64().unwrap(),
+                fit["intervals"][key][k].as_f64().unwrap(),
+            );
+            assert!(
+                (got / want - 1.0).abs() < 1e-9,
+                "{key}[{k}]: {got} vs {want}"
+            );
+        }
+        let [lo, hi] = [0, 1].map(|k| r[key][k].as_f64().unwrap());
+        assert!(lo <= t && t <= hi, "{key}: {t} not in [{lo}, {hi}]");
+    }
+    assert_eq!(
+        r["identifiable"],
+        serde_json::json!([true, true, true]),
+        "{r}"
+    );
+    assert!(v["kp_max"].as_f64().unwrap() > 0.0, "{v}");
+    // the step alone, fitted in the time domain: b is not bounded
+    experiment(d, Some("rig.toml"), "", &step);
+    let steps = robust(d);
+    assert_eq!(
+        steps["region"]["identifiable"][1], false,
+        "{}",
+        steps["region"]
+    );
+}

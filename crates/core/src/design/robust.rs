@@ -13,8 +13,8 @@ use super::{kp_max, kp_max_below, margins_at, meets, DesignError, Targets, Verdi
 use super::{GM_TOLERANCE_DB, KP_CEILING, KP_FLOOR, PM_TOLERANCE_DEG};
 use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
 use crate::ident::{
-    analyze, check_confidence, spaced, Candidate, Experiment, Grid, Standstill, Uncertainty,
-    UncertaintyOptions,
+    analyze, check_confidence, spaced, Candidate, Experiment, FrequencyProblem, Grid, Profile,
+    Standstill, Uncertainty, UncertaintyOptions,
 };
 use crate::lti::Margins;
 use crate::rig::Rig;
@@ -105,32 +105,44 @@ impl Region {
     /// bounds for a side a profile did not cross) and the profile points whose statistic is
     /// within the threshold; c1, c2 from `standstill`.
     pub fn from_uncertainty(u: &Uncertainty, standstill: Standstill) -> Region {
-        let interval = |name: &str, v: f64| u.profile(name).map_or([v, v], |p| p.interval);
+        Region::from_profiles(u.best, (u.confidence, u.threshold), &u.profiles, standstill)
+    }
+
+    /// The confidence region at (confidence, threshold) of the profiles around `best`, of a
+    /// time-domain ([`Uncertainty`]) or a frequency-domain fit
+    /// ([`crate::ident::FrequencyUncertainty`]).
+    fn from_profiles(
+        best: Candidate,
+        (confidence, threshold): (f64, f64),
+        profiles: &[Profile],
+        standstill: Standstill,
+    ) -> Region {
+        let profile = |name: &str| profiles.iter().find(|p| p.parameter == name);
+        let interval = |name: &str, v: f64| profile(name).map_or([v, v], |p| p.interval);
         let identifiable =
-            crate::ident::PARAMETERS.map(|name| u.profile(name).is_some_and(|p| p.identifiable));
+            crate::ident::PARAMETERS.map(|name| profile(name).is_some_and(|p| p.identifiable));
         let [beta, b, c12] = crate::ident::PARAMETERS;
-        let boxed = [beta, b, c12].map(|n| u.profile(n).map(|p| p.interval));
+        let boxed = [beta, b, c12].map(|n| profile(n).map(|p| p.interval));
         // each profile has its own variance inflation (docs/identification.md, "Uncertainty"):
         // a point under one profile's threshold may lie outside another's interval
         let inside = |c: &Candidate| {
             let v = [c.beta_bar, c.viscous_friction_ns_per_m, c.c12_m5_per_ns];
             (0..3).all(|i| boxed[i].is_none_or(|[lo, hi]| lo <= v[i] && v[i] <= hi))
         };
-        let ridge: Vec<Candidate> = u
-            .profiles
+        let ridge: Vec<Candidate> = profiles
             .iter()
             .flat_map(|p| &p.points)
-            .filter(|q| q.statistic <= u.threshold)
+            .filter(|q| q.statistic <= threshold)
             .map(|q| q.candidate)
             .filter(inside)
             .collect();
         Region {
             source: RegionSource::Records,
-            confidence: Some(u.confidence),
-            nominal: u.best,
-            beta_bar: interval(beta, u.best.beta_bar),
-            viscous_friction_ns_per_m: interval(b, u.best.viscous_friction_ns_per_m),
-            c12_m5_per_ns: interval(c12, u.best.c12_m5_per_ns),
+            confidence: Some(confidence),
+            nominal: best,
+            beta_bar: interval(beta, best.beta_bar),
+            viscous_friction_ns_per_m: interval(b, best.viscous_friction_ns_per_m),
+            c12_m5_per_ns: interval(c12, best.c12_m5_per_ns),
             identifiable,
             ridge: thin(ridge, MAX_RIDGE),
             standstill: Some(standstill),
@@ -146,7 +158,12 @@ impl Region {
     /// range's lowest value: its interval is widened to hold the answer, so that the region is
     /// still the whole range the records allow.
     pub fn around(best: Candidate, u: &Uncertainty, standstill: Standstill) -> Region {
-        let r = Region::from_uncertainty(u, standstill);
+        Region::from_uncertainty(u, standstill).holding(best)
+    }
+
+    /// This region with `best` as its point estimate, each interval widened to hold it.
+    fn holding(self, best: Candidate) -> Region {
+        let r = self;
         let hold = |[lo, hi]: [f64; 2], v: f64| [lo.min(v), hi.max(v)];
         Region {
             nominal: best,
@@ -166,14 +183,19 @@ impl Region {
     /// standstill) and the region.
     pub fn of_records(exp: &Experiment, confidence: f64) -> Result<(Rig, Region), DesignError> {
         let confidence = check_confidence(confidence)?;
-        let id = exp.identify(&exp.options())?;
-        let opts = UncertaintyOptions {
-            confidence,
-            ..UncertaintyOptions::default()
+        let (best, region) = match exp.frequency_problem() {
+            Some(problem) => Region::of_frequency_fit(exp, &problem, confidence)?,
+            None => {
+                let id = exp.identify(&exp.options())?;
+                let opts = UncertaintyOptions {
+                    confidence,
+                    ..UncertaintyOptions::default()
+                };
+                let best = id.best().candidate;
+                let u = analyze(&exp.problem, &best, &opts)?;
+                (best, Region::around(best, &u, exp.problem.standstill))
+            }
         };
-        let best = id.best().candidate;
-        let u = analyze(&exp.problem, &best, &opts)?;
-        let region = Region::around(best, &u, exp.problem.standstill);
         let (c1, c2) = region.leakages(&exp.rig, best.c12_m5_per_ns)?;
         let rig = Rig {
             beta_bar: best.beta_bar,
@@ -184,6 +206,26 @@ impl Region {
             ..exp.rig.clone()
         };
         Ok((rig, region))
+    }
+
+    /// The frequency-domain fit of an experiment's sweeps, with its step records beside them
+    /// where it has any (docs/identification.md#grey-box-fit-to-a-frequency-response), and
+    /// its confidence region at `confidence` around the fit's answer, as `identify
+    /// --uncertainty` gives them: the records the robust design holds over are all of them.
+    fn of_frequency_fit(
+        exp: &Experiment,
+        problem: &FrequencyProblem,
+        confidence: f64,
+    ) -> Result<(Candidate, Region), DesignError> {
+        let fit = problem.fit(&exp.first_grid)?;
+        let u = problem.uncertainty(&fit, confidence)?;
+        let region = Region::from_profiles(
+            fit.best,
+            (u.confidence, u.threshold),
+            &u.profiles,
+            exp.problem.standstill,
+        );
+        Ok((fit.best, region.holding(fit.best)))
     }
 
     /// A region of one point (zero width): `c` with c1, c2 from `standstill` or the rig.
