@@ -89,6 +89,19 @@ impl Truth {
     }
 }
 
+/// The user rig (tests/user-rig.toml) copied into `dir` as rig.toml, with the truth β (bar),
+/// b (N·s/m) and c12 (m⁵/(N·s)) its records are emulated with.
+fn user_rig(dir: &Path, beta_bar: f64, b_ns_per_m: f64, c12: f64) -> Truth {
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
+    std::fs::copy(rig, dir.join("rig.toml")).unwrap();
+    Truth {
+        rig: Some("rig.toml"),
+        beta_bar,
+        b_ns_per_m,
+        c12,
+    }
+}
+
 /// An experiment file: the rig line, the standstill record, then `datasets`.
 fn experiment(dir: &Path, rig: Option<&str>, head: &str, datasets: &str) {
     let rig = rig.map_or(String::new(), |r| format!("rig = \"{r}\"\n"));
@@ -185,14 +198,7 @@ fn a_multisine_of_the_article_rig_gives_beta_b_and_c12_with_intervals_that_hold_
 #[test]
 fn a_multisine_of_the_user_rig_gives_beta_b_and_c12_with_intervals_that_hold_them() {
     let dir = tempfile::tempdir().unwrap();
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
-    std::fs::copy(rig, dir.path().join("rig.toml")).unwrap();
-    let truth = Truth {
-        rig: Some("rig.toml"),
-        beta_bar: 320.0,
-        b_ns_per_m: 600.0,
-        c12: 2.6e-10,
-    };
+    let truth = user_rig(dir.path(), 320.0, 600.0, 2.6e-10);
     truth.emulate(dir.path(), "multisine", &[], "sweep.csv");
     exact_standstill(&truth, dir.path());
     let sweep = dataset("sweep.csv", 15.0, 2500.0, "kind = \"sweep\"");
@@ -346,14 +352,7 @@ fn a_parameter_whose_estimate_sits_at_its_search_bound_is_shown_as_not_identifia
     // 1 N·s/m (ident::BOUNDS), where the records do not stop it; β and c12 stay estimates
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
-    std::fs::copy(rig, d.join("rig.toml")).unwrap();
-    let truth = Truth {
-        rig: Some("rig.toml"),
-        beta_bar: 300.0,
-        b_ns_per_m: 0.0,
-        c12: 2.0e-10,
-    };
+    let truth = user_rig(d, 300.0, 0.0, 2.0e-10);
     truth.emulate(d, "multisine", &[], "sweep.csv");
     exact_standstill(&truth, d);
     let sweep = dataset("sweep.csv", 15.0, 2500.0, "");
@@ -654,14 +653,7 @@ fn the_default_multisine_is_estimated_from_its_settled_periods_only() {
 fn a_robust_design_on_a_sweep_beside_a_step_holds_over_the_fit_of_both() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml");
-    std::fs::copy(rig, d.join("rig.toml")).unwrap();
-    let truth = Truth {
-        rig: Some("rig.toml"),
-        beta_bar: 320.0,
-        b_ns_per_m: 600.0,
-        c12: 2.6e-10,
-    };
+    let truth = user_rig(d, 320.0, 600.0, 2.6e-10);
     truth.emulate(d, "multisine", &[], "sweep.csv");
     truth.emulate(d, "step", &[], "step.csv");
     exact_standstill(&truth, d);
