@@ -286,6 +286,9 @@ class Identification(Result):
     """Per parameter, whether the records bound it (absent when the noise cannot be estimated)."""
     not_identifiable: Dict[str, str]
     """Why, for the parameters the records do not bound."""
+    at_search_bound: Dict[str, bool]
+    """Per parameter, whether the answer sits at a search bound: the search's limit, not an
+    estimate (docs/identification.md)."""
 
 class IdentificationUncertainty(Identification):
     """The fields ``identify(..., uncertainty=True)`` adds (docs/identification.md,

@@ -2,7 +2,7 @@
 //! it (§2.3.3; docs/analysis.md#the-loop-that-is-analysed), or a loop transfer L(s) read from a
 //! JSON state-space model (docs/formats.md); and its view for display and export.
 
-use crate::circuit::{CircuitKind, Role};
+use crate::circuit::Role;
 use crate::ident::Standstill;
 use crate::lti::{LtiError, ModelJson, StateInfo, StateSpace};
 use crate::model::Plant;
@@ -116,10 +116,10 @@ impl Loop {
     /// removed, the sum-pressure loop closed inside it or not.
     pub fn of_rig(rig: Rig, origin: &str, sum_pressure_closed: bool) -> Loop {
         let plant = Plant::new(&rig);
-        let sp = match (rig.circuit, sum_pressure_closed) {
-            (CircuitKind::Dpm, true) => ", sum-pressure loop closed",
-            (CircuitKind::Dpm, false) => ", sum-pressure loop open",
-            _ => "",
+        let sp = match (rig.circuit.has_sum_pressure_loop(), sum_pressure_closed) {
+            (true, true) => ", sum-pressure loop closed",
+            (true, false) => ", sum-pressure loop open",
+            (false, _) => "",
         };
         Loop {
             open_loop: plant.open_loop(sum_pressure_closed),
@@ -133,15 +133,19 @@ impl Loop {
         }
     }
 
+    /// The rig whose loop as simulated differs from the analysed one: its circuit has a
+    /// sum-pressure loop, the rig turns it on, and the analysed loop opens it.
+    pub fn simulated_rig(&self) -> Option<&Rig> {
+        self.rig.as_ref().filter(|r| {
+            r.sum_pressure && r.circuit.has_sum_pressure_loop() && !self.sum_pressure_closed
+        })
+    }
+
     /// The loop as simulated, where it differs from the analysed one: a rig whose
     /// sum-pressure loop is on but open in the analysed loop. `None` otherwise (a JSON model, a
     /// rig without the sum-pressure loop, or the loop analysed with it closed).
     pub fn simulated(&self) -> Result<Option<SimulatedLoop>, LtiError> {
-        let Some(rig) = self
-            .rig
-            .as_ref()
-            .filter(|r| r.sum_pressure && !self.sum_pressure_closed)
-        else {
+        let Some(rig) = self.simulated_rig() else {
             return Ok(None);
         };
         let full = Plant::new(rig).closed_loop(true);

@@ -228,7 +228,7 @@ pub fn loop_pole_sets(lp: &Loop) -> Result<Vec<PoleSet>, LtiError> {
         PoleSet::of(PoleSetKind::OpenLoop, &lp.open_loop.a)?,
         PoleSet::of(PoleSetKind::ClosedLoop, &lp.open_loop.unity_feedback()?.a)?,
     ];
-    if let Some(rig) = (lp.rig.as_ref()).filter(|r| r.sum_pressure && !lp.sum_pressure_closed) {
+    if let Some(rig) = lp.simulated_rig() {
         let full = pumpcyl::model::Plant::new(rig).closed_loop(true);
         sets.push(PoleSet::of(
             PoleSetKind::ClosedLoopWithSumPressure,

@@ -181,12 +181,17 @@ pub fn step_json(setup: &StepSetup, runs: &Runs<StepMetrics>) -> Value {
 /// unstable variants.
 pub fn step_text(setup: &StepSetup, runs: &Runs<StepMetrics>) -> String {
     let mut s = format!(
-        "step {:+} mm, {} Hz, {} s ({}, circuit {}; sum-pressure loop as the rig says)\n",
+        "step {:+} mm, {} Hz, {} s ({}, circuit {}{})\n",
         setup.step_mm,
         setup.rate_hz,
         setup.duration_s,
         setup.rig,
-        setup.circuit.name()
+        setup.circuit.name(),
+        if setup.circuit.has_sum_pressure_loop() {
+            "; sum-pressure loop as the rig says"
+        } else {
+            ""
+        }
     );
     let _ = write!(s, "{:<24}", "");
     for r in &runs.done {

@@ -128,6 +128,27 @@ impl CircuitKind {
         }
     }
 
+    /// The controller's loops closed in the simulated loop, in words: the DPM's sum-pressure
+    /// loop beside the position loop (the article §2.3.3); a one-motor circuit has the
+    /// position loop alone (docs/circuits.md).
+    pub fn closed_loops(self) -> &'static str {
+        if self.has_sum_pressure_loop() {
+            "the position and sum-pressure loops closed"
+        } else {
+            "the position loop closed"
+        }
+    }
+
+    /// Whether the circuit's controller has a sum-pressure loop (the DPM's, the article
+    /// §2.3.3): the one-motor circuits' pressure level is their accumulator's
+    /// (docs/circuits.md), whatever the rig's `sum_pressure` says.
+    pub fn has_sum_pressure_loop(self) -> bool {
+        match self {
+            CircuitKind::Dpm => true,
+            CircuitKind::DualPump | CircuitKind::SinglePump => false,
+        }
+    }
+
     /// The circuit of a name used in rig files, if any.
     pub fn from_name(name: &str) -> Option<CircuitKind> {
         CircuitKind::ALL.into_iter().find(|k| k.name() == name)

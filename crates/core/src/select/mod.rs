@@ -764,7 +764,10 @@ fn assess(
         Err(DesignError::Lti(e @ crate::lti::LtiError::Unstable { .. })) => Ok((
             None,
             vec![format!(
-                "at Kp = {kp:.2} with the sum-pressure loop closed: {e}"
+                "at Kp = {kp:.2} with {}: {e}",
+                ends.first().map_or("the controller's loops closed", |r| r
+                    .circuit
+                    .closed_loops())
             )],
         )),
         Err(e) => Err(e.into()),
