@@ -402,6 +402,51 @@ fn the_report_opens_with_contents_linking_every_heading_and_figure() {
     );
 }
 
+/// The report leads with its answers: the comparison with the article is never folded, the
+/// records that share what the emulator used share one row, and a section's table longer than
+/// html::LONG_TABLE_ROWS rows sits in a disclosure headed by its caption.
+#[test]
+fn the_report_folds_long_section_tables_and_says_what_the_emulator_used_once() {
+    let html = std::fs::read_to_string(reproduced().0.join("report.html")).unwrap();
+    let first_heading = html.find("<h2").unwrap();
+    let lead = &html[..first_heading];
+    assert!(!lead.contains("<details>"), "the lead is never folded");
+    assert!(lead.contains("pumpcyl beside the article's printed values</caption>"));
+    // one row per distinct basis: the seven records of 165 bar, and the robustness record's
+    // 220 bar (its β_e: the article's Figure 10)
+    let at = lead.find("What the emulator used").unwrap();
+    let emulator = &lead[at..at + lead[at..].find("</table>").unwrap()];
+    let rows: Vec<&str> = emulator.split("<tr>").skip(2).collect();
+    assert_eq!(rows.len(), 2, "{emulator}");
+    assert!(
+        rows[0].contains(">165.0<") && rows[1].contains(">220.0<"),
+        "{emulator}"
+    );
+    for record in [
+        "identification.csv",
+        "validation.csv",
+        "standstill.csv",
+        "robustness.csv",
+    ] {
+        assert_eq!(emulator.matches(record).count(), 1, "{record}");
+    }
+    // every table after the first heading with more than 12 rows is folded, and no other
+    let body = &html[first_heading..];
+    for t in body.split("<table>").skip(1) {
+        let rows = t[..t.find("</table>").unwrap()].matches("<tr>").count() - 1;
+        let caption = t
+            .split("<caption>")
+            .nth(1)
+            .unwrap()
+            .split("</caption>")
+            .next()
+            .unwrap();
+        let summary = format!("<summary>{caption} ({rows} rows)</summary><table>");
+        assert_eq!(body.contains(&summary), rows > 12, "{caption}: {rows} rows");
+    }
+    assert!(body.matches("<details>").count() >= 2);
+}
+
 /// Headless Chromium: `chromium` (Debian) or `chromium-browser` on the PATH.
 fn chromium() -> Option<PathBuf> {
     let path = std::env::var_os("PATH")?;
@@ -480,6 +525,13 @@ fn report_renders_in_headless_chromium_with_every_figure_loaded() {
         "figures in the page: the registered figures, the landscape and the two fits"
     );
     assert_eq!(loaded, total, "every figure loaded with a non-zero size");
+    // the long tables of the sections are folded, and the page is shorter for it
+    assert!(attr("data-folded-tables") >= 2, "folded tables");
+    let (folded, unfolded) = (attr("data-page-height"), attr("data-page-height-unfolded"));
+    assert!(
+        folded < unfolded,
+        "page height {folded} px folded, {unfolded} unfolded"
+    );
     assert!(!dom.contains("class=\"notice\">This figure did not load"));
     // the figures are inline SVG drawn in the PNGs' font: the page's own DejaVu Sans (a data
     // URL, not a system font) loaded, and every text of every figure names it first

@@ -48,11 +48,15 @@ padding:.25em .6em;text-align:left;vertical-align:top}td.num{text-align:right;wh
 figure svg{display:block;width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}\
 .notice{background:#fff4d6;border-left:4px solid #e0a000;padding:.6em 1em}\
 nav.toc{font-size:.9em;margin:1em 0}nav.toc ul{margin:.2em 0;padding-left:1.4em}\
-nav.toc>ul>li{margin-top:.3em}nav.toc ul ul{list-style:circle}";
+nav.toc>ul>li{margin-top:.3em}nav.toc ul ul{list-style:circle}\
+details{margin:1em 0}summary{cursor:pointer;font-weight:bold}";
 
 /// Marks on `<body>` how many figures laid out with a non-zero size (data-figures-loaded) out
-/// of how many (data-figures-total), and flags any that did not; how many number cells
-/// (data-number-cells) laid out on more than one line (data-wrapped-numbers); and, once the
+/// of how many (data-figures-total), and flags any that did not; the page's height in pixels
+/// with its long tables folded (data-page-height) and unfolded (data-page-height-unfolded)
+/// and how many are (data-folded-tables); how
+/// many number cells (data-number-cells, the folded tables opened to lay them out, then folded
+/// again) laid out on more than one line (data-wrapped-numbers); and, once the
 /// fonts are ready, how many faces of the embedded font loaded (data-embedded-font) and how
 /// many of the figures' text elements (data-figure-texts) name it first (data-figure-texts-embedded):
 /// all checked by the browser test.
@@ -61,11 +65,16 @@ var im=document.querySelectorAll('figure svg');\
 var ok=0;im.forEach(function(i){if(i.getBoundingClientRect().height>0){ok++}\
 else{i.insertAdjacentHTML('afterend','<p class=notice>This figure did not load.</p>')}});\
 b.setAttribute('data-figures-loaded',ok);b.setAttribute('data-figures-total',im.length);\
+var folded=document.querySelectorAll('details');\
+b.setAttribute('data-page-height',document.documentElement.scrollHeight);\
+b.setAttribute('data-folded-tables',folded.length);folded.forEach(function(d){d.open=true});\
+b.setAttribute('data-page-height-unfolded',document.documentElement.scrollHeight);\
 var wrapped=0,cells=document.querySelectorAll('td.num');cells.forEach(function(c){\
 var r=document.createRange();r.selectNodeContents(c);var tops={};\
 Array.prototype.forEach.call(r.getClientRects(),function(q){tops[Math.round(q.top)]=1});\
 if(Object.keys(tops).length>1){wrapped++}});\
 b.setAttribute('data-number-cells',cells.length);b.setAttribute('data-wrapped-numbers',wrapped);\
+folded.forEach(function(d){d.open=false});\
 document.fonts.ready.then(function(){var faces=0;document.fonts.forEach(function(f){\
 if(f.family.replace(/[\"']/g,'')==='DejaVu Sans'&&f.status==='loaded'){faces++}});\
 var texts=document.querySelectorAll('figure svg text'),named=0;texts.forEach(function(t){\
@@ -97,10 +106,12 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
     if toc_after.is_none() {
         s.push_str(&contents(blocks, &ids));
     }
+    let mut in_section = false;
     for (k, (b, id)) in blocks.iter().zip(&ids).enumerate() {
         let id = id.as_deref().unwrap_or("");
         match b {
             Block::Heading(h) => {
+                in_section = true;
                 let _ = writeln!(s, "<h2 id=\"{id}\">{}</h2>", escape(h));
             }
             Block::Paragraph(p) => {
@@ -120,7 +131,7 @@ pub fn html_page(title: &str, blocks: &[Block]) -> String {
                 caption,
                 header,
                 rows,
-            } => table(&mut s, caption, header, rows),
+            } => table(&mut s, caption, header, rows, in_section),
             Block::Figure { svg, caption, .. } => {
                 let _ = writeln!(
                     s,
@@ -263,7 +274,22 @@ fn inline_svg(svg: &str, caption: &str, id: &str) -> String {
     }
 }
 
-fn table(s: &mut String, caption: &str, header: &[String], rows: &[Vec<String>]) {
+/// Rows beyond which a table in a section is folded behind a disclosure (`<details>`) headed
+/// by its caption: the answers and their figures lead each section, the long tables open on a
+/// click. The page's lead (what comes before its first section heading: reproduce's comparison
+/// with the article) is never folded.
+pub const LONG_TABLE_ROWS: usize = 12;
+
+fn table(s: &mut String, caption: &str, header: &[String], rows: &[Vec<String>], fold: bool) {
+    let long = fold && rows.len() > LONG_TABLE_ROWS;
+    if long {
+        let _ = write!(
+            s,
+            "<details><summary>{} ({} rows)</summary>",
+            escape(caption),
+            rows.len()
+        );
+    }
     let _ = write!(s, "<table><caption>{}</caption><tr>", escape(caption));
     for h in header {
         let _ = write!(s, "<th>{}</th>", escape(h));
@@ -277,6 +303,9 @@ fn table(s: &mut String, caption: &str, header: &[String], rows: &[Vec<String>])
         s.push_str("</tr>\n");
     }
     s.push_str("</table>\n");
+    if long {
+        s.push_str("</details>\n");
+    }
 }
 
 /// A table cell: a short one holding a number, past the first (naming) column, is kept on one

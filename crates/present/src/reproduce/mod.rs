@@ -595,6 +595,21 @@ fn emulator_used(records: &[article::ArticleRecord]) -> Result<Vec<summary::Emul
         .collect()
 }
 
+/// One row per distinct emulator basis, naming every record made with it, in the records'
+/// order: the records share most of what the emulator used, said once.
+fn emulator_rows(used: &[summary::EmulatorUsed]) -> Vec<Vec<String>> {
+    let mut rows: Vec<(Vec<&str>, &str)> = Vec::new();
+    for e in used {
+        match rows.iter_mut().find(|(_, basis)| *basis == e.basis) {
+            Some((records, _)) => records.push(&e.record),
+            None => rows.push((vec![&e.record], &e.basis)),
+        }
+    }
+    (rows.into_iter())
+        .map(|(records, basis)| vec![records.join(", "), basis.to_string()])
+        .collect()
+}
+
 impl Reproduction {
     /// The self-contained report.html: the notice that the inputs are emulated, the comparison
     /// with the article, then every step with its tables and inlined figures.
@@ -630,13 +645,8 @@ impl Reproduction {
             Block::Table {
                 caption: "What the emulator used for each record (docs/emulator.md#what-a-user-rig-gets)"
                     .into(),
-                header: vec!["record".into(), "emulator".into()],
-                rows: self
-                    .summary
-                    .emulator
-                    .iter()
-                    .map(|e| vec![e.record.clone(), e.basis.clone()])
-                    .collect(),
+                header: vec!["records".into(), "emulator".into()],
+                rows: emulator_rows(&self.summary.emulator),
             },
         ];
         blocks.extend(self.blocks.iter().cloned());
