@@ -123,6 +123,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         SelectError::Limit(l) => crate::emit::hinted(l.into()),
         e => e.into(),
     })?;
+    let warnings = relief_warnings(&app);
     let document = json_document(&s)?;
     if let Some(dir) = &args.out {
         let folder = crate::emit::out_dir(dir)?;
@@ -135,6 +136,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         crate::emit::commit(folder, dir)?;
     }
     if args.json {
+        warnings.iter().for_each(|w| eprintln!("warning: {w}"));
         return Ok(document);
     }
     let origin = args
@@ -143,7 +145,29 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         .map_or("the article's application".to_string(), |p| {
             p.display().to_string()
         });
-    Ok(selection_text(&origin, &app, &s))
+    let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
+    Ok(format!("{}{warnings}", selection_text(&origin, &app, &s)))
+}
+
+/// The relief warnings of the one-motor circuits `app` tries, each at its highest accumulator
+/// pre-charge (docs/circuits.md#valves): a relief setting, given or derived, that lets a
+/// chamber go above the rig's cylinder rating.
+fn relief_warnings(app: &Application) -> Vec<String> {
+    let precharge_bar = (app.precharge_bar.iter().copied())
+        .reduce(f64::max)
+        .unwrap_or(app.rig.accumulator_precharge_bar);
+    (app.circuits.iter())
+        .filter(|kind| **kind != CircuitKind::Dpm)
+        .filter_map(|&circuit| {
+            let rig = Rig {
+                circuit,
+                accumulator_precharge_bar: precharge_bar,
+                ..app.rig.clone()
+            };
+            let w = pumpcyl::circuit::valves::relief_warning(&rig)?;
+            Some(format!("{} circuit: {w}", circuit.name()))
+        })
+        .collect()
 }
 
 /// `app` on the rig of the file `path` (`--rig`), naming the application's own rig it replaces.

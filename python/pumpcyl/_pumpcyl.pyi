@@ -83,6 +83,13 @@ class Rig:
     check_valve_crack_bar: float
     c1_m5_per_ns: float
     c2_m5_per_ns: float
+    # emulator effects (docs/emulator.md); None = derived from the rig
+    pump_dead_band_rpm: float
+    pump_slip_m5_per_ns: Optional[float]
+    coulomb_friction_n: Optional[float]
+    # dual- and single-pump circuits only: their relief valves and cylinder rating
+    relief_setting_bar: Optional[float]
+    cylinder_rated_pressure_bar: float
     # controller
     kp: float
     p_sum_ref_bar: float

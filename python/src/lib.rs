@@ -375,7 +375,7 @@ impl PyRig {
     fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
         match self.table().get(name) {
             Some(v) => toml_to_py(py, v),
-            None if name == "motor_time_constant_s" => Ok(py.None()),
+            None if pumpcyl::rig::is_optional_key(name) => Ok(py.None()),
             None => Err(PyAttributeError::new_err(format!(
                 "Rig has no key `{name}`"
             ))),

@@ -203,11 +203,51 @@ pub const PILOT_RATIO: f64 = 3.0;
 /// spring, piloted (docs/circuits.md#valves).
 pub const CHECK_VALVE_CRACK_BAR: f64 = 0.5;
 
+/// The article's rig's cross-port leakage c12 (m⁵/(N·s), the article §2.3.4).
+pub const ARTICLE_C12_M5_PER_NS: f64 = 1.2e-10;
+
+/// The emulator's pump dead band (rpm): pumpcyl's value for the article's pumps
+/// **\[choice\]**, every rig's default (docs/emulator.md#what-a-user-rig-gets).
+pub const PUMP_DEAD_BAND_RPM: f64 = 60.0;
+
+/// The emulator's pump slip leakage on the article's rig (m⁵/(N·s)): pumpcyl's value
+/// **\[choice\]**, a third of the rig's c12; another rig's default keeps that ratio to its own
+/// c12 ([`Rig::pump_slip`]).
+pub const ARTICLE_PUMP_SLIP_M5_PER_NS: f64 = 4e-11;
+
+/// The emulator's Coulomb friction on the article's 63/36 mm cylinder (N): pumpcyl's value
+/// **\[choice\]**; another rig's default scales it by its seals' diameters
+/// ([`Rig::coulomb_friction`]).
+pub const ARTICLE_COULOMB_FRICTION_N: f64 = 15.0;
+
+/// The article's piston and rod diameters added (mm), 63 + 36: the seals' sizes the
+/// emulator's 15 N Coulomb friction belongs to.
+const ARTICLE_SEAL_DIAMETERS_MM: f64 = 99.0;
+
+/// The one-motor circuits' cylinder rating (bar) where a rig states none: 250 bar, the
+/// nominal pressure of the ISO 6022 series of industrial cylinders **\[choice\]**; the relief
+/// valves' setting is checked against it (docs/circuits.md#valves).
+pub const CYLINDER_RATED_PRESSURE_BAR: f64 = 250.0;
+
+/// The keys a rig may leave out without taking a value of the article's: absent, each is
+/// derived from the rig itself (docs/formats.md#rig-toml), each with its allowed range.
+const OPTIONAL_KEYS: [(&str, Range); 4] = [
+    ("motor_time_constant_s", Range::Positive(1e-6, 1000.0)),
+    ("pump_slip_m5_per_ns", Range::NonNegative(1e-6)),
+    ("coulomb_friction_n", Range::NonNegative(1e9)),
+    ("relief_setting_bar", Range::Positive(0.001, 1e5)),
+];
+
+/// Whether `key` is one of the rig's optional keys ([`OPTIONAL_KEYS`]), absent unless set.
+pub fn is_optional_key(key: &str) -> bool {
+    OPTIONAL_KEYS.iter().any(|(k, _)| *k == key)
+}
+
 /// The keys not every circuit has, each with the circuits that have it (docs/circuits.md): the
 /// DPM's second drive and sum-pressure loop, the second pump of the DPM and the dual-pump
-/// circuit, the accumulator of the dual- and single-pump circuits, and the single-pump
-/// circuit's pilot-operated check valves.
-const CIRCUIT_KEYS: [(&str, &[CircuitKind]); 11] = {
+/// circuit, the accumulator, relief valves and cylinder rating of the dual- and single-pump
+/// circuits, and the single-pump circuit's pilot-operated check valves.
+const CIRCUIT_KEYS: [(&str, &[CircuitKind]); 13] = {
     use CircuitKind::*;
     [
         ("motor_inertia_2_kg_mm2", &[Dpm]),
@@ -219,6 +259,8 @@ const CIRCUIT_KEYS: [(&str, &[CircuitKind]); 11] = {
         ("pump_inertia_2_kg_mm2", &[Dpm, DualPump]),
         ("displacement_2_cm3_per_rev", &[Dpm, DualPump]),
         ("accumulator_precharge_bar", &[DualPump, SinglePump]),
+        ("relief_setting_bar", &[DualPump, SinglePump]),
+        ("cylinder_rated_pressure_bar", &[DualPump, SinglePump]),
         ("pilot_ratio", &[SinglePump]),
         ("check_valve_crack_bar", &[SinglePump]),
     ]
@@ -355,6 +397,24 @@ pub struct Rig {
     pub motor_rated_speed_rpm: f64,
     /// Pump maximum speed (rpm).
     pub pump_max_speed_rpm: f64,
+    /// The emulator's pump dead band (rpm): below it a pump's flow fades out and its slip
+    /// leakage sets in (docs/emulator.md#the-dynamics); 0 = ideal pumps.
+    pub pump_dead_band_rpm: f64,
+    /// The emulator's pump slip leakage at standstill (m⁵/(N·s)); absent = [`Rig::pump_slip`]'s
+    /// default, the article rig's 4e-11 in proportion to the rig's c12.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pump_slip_m5_per_ns: Option<f64>,
+    /// The emulator's Coulomb friction on the piston (N); absent = [`Rig::coulomb_friction`]'s
+    /// default, the article rig's 15 N in proportion to the seals' diameters d1 + d2.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coulomb_friction_n: Option<f64>,
+    /// The dual- and single-pump circuits' relief valves' setting (bar above the accumulator
+    /// line); absent = [`Rig::relief_setting_pa`]'s τ_rated / D (docs/circuits.md#valves).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relief_setting_bar: Option<f64>,
+    /// The dual- and single-pump circuits' cylinder rating (bar gauge): a relief setting that
+    /// lets a chamber go above it is warned about (docs/circuits.md#valves).
+    pub cylinder_rated_pressure_bar: f64,
     /// Drive velocity feedforward on (docs/choices.md#feedforward-as-a-torque-after-the-p-gain) or off.
     pub feedforward: bool,
     /// Motor–hydraulics coupling: the D1(p1 − p2) and D2 p1 load torques on the motors.
@@ -395,7 +455,7 @@ impl Default for Rig {
             external_force_n: 0.0,
             beta_bar: 165.0,
             viscous_friction_ns_per_m: 100.0,
-            c12_m5_per_ns: 1.2e-10,
+            c12_m5_per_ns: ARTICLE_C12_M5_PER_NS,
             accumulator_precharge_bar: ACCUMULATOR_PRECHARGE_BAR,
             pilot_ratio: PILOT_RATIO,
             check_valve_crack_bar: CHECK_VALVE_CRACK_BAR,
@@ -408,6 +468,11 @@ impl Default for Rig {
             motor_rated_torque_nm: 12.5,
             motor_rated_speed_rpm: 3000.0,
             pump_max_speed_rpm: 3600.0,
+            pump_dead_band_rpm: PUMP_DEAD_BAND_RPM,
+            pump_slip_m5_per_ns: None,
+            coulomb_friction_n: None,
+            relief_setting_bar: None,
+            cylinder_rated_pressure_bar: CYLINDER_RATED_PRESSURE_BAR,
             feedforward: true,
             motor_coupling: true,
             sum_pressure: true,
@@ -488,8 +553,9 @@ pub struct RigFile {
     /// The rig.
     pub rig: Rig,
     /// The keys the text does not set, in the order of the commented TOML; each took its
-    /// value in [`Rig::file_default`]. `motor_time_constant_s` is never listed: absent, it is
-    /// J_i/Km_i of the rig itself, not a value of the article's.
+    /// value in [`Rig::file_default`]. The optional keys (`motor_time_constant_s`, the emulator's
+    /// slip and Coulomb friction, the relief setting) are never listed: absent, each is derived
+    /// from the rig itself, not a value of the article's.
     pub defaulted: Vec<&'static str>,
 }
 
@@ -498,7 +564,7 @@ pub struct RigFile {
 fn defaulted_keys(rig: &Rig, written: impl Fn(&str) -> bool) -> Vec<&'static str> {
     Rig::key_docs()
         .map(|(key, _)| key)
-        .filter(|key| *key != "motor_time_constant_s")
+        .filter(|key| !is_optional_key(key))
         .filter(|key| foreign_key(rig.circuit, key).is_none() && !written(key))
         .collect()
 }
@@ -533,7 +599,7 @@ impl RigFile {
     /// assert_eq!(file.note("a.toml", &[]), None);
     /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
     /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
-    /// assert!(note.starts_with("b.toml does not set 35 keys; they take the article rig's values: "));
+    /// assert!(note.starts_with("b.toml does not set 36 keys; they take the article rig's values: "));
     /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
     /// assert!(!note.contains("beta_bar"));
     /// # Ok::<(), pumpcyl::rig::RigError>(())
@@ -920,14 +986,84 @@ impl Rig {
     /// What is wrong with `value` for the numeric rig key `key` (its physical range), if anything;
     /// `None` also for a key that is not numeric.
     pub fn check_key(key: &str, value: f64) -> Option<String> {
-        let (_, _, rule) = Rig::default()
-            .numeric_fields()
-            .into_iter()
-            .find(|(k, ..)| *k == key)?;
+        let (_, rule) = (Rig::default().numeric_fields().into_iter())
+            .map(|(k, _, rule)| (k, rule))
+            .chain(OPTIONAL_KEYS)
+            .find(|(k, _)| *k == key)?;
         if !value.is_finite() {
             return Some("must be a finite number".into());
         }
         rule.violated(value)
+    }
+
+    /// The value of the optional key `key` ([`OPTIONAL_KEYS`]) where the rig sets it.
+    fn optional(&self, key: &str) -> Option<f64> {
+        match key {
+            "motor_time_constant_s" => self.motor_time_constant_s,
+            "pump_slip_m5_per_ns" => self.pump_slip_m5_per_ns,
+            "coulomb_friction_n" => self.coulomb_friction_n,
+            "relief_setting_bar" => self.relief_setting_bar,
+            _ => None,
+        }
+    }
+
+    /// What the optional key `key` stands for where the rig leaves it out, in its unit: the
+    /// value derived from the rig (0.05 s, an example, for `motor_time_constant_s`, whose
+    /// absence is J_i/Km_i per motor).
+    fn optional_default(&self, key: &str) -> f64 {
+        match key {
+            "pump_slip_m5_per_ns" => self.pump_slip(),
+            "coulomb_friction_n" => self.coulomb_friction(),
+            "relief_setting_bar" => self.relief_setting_pa(self.circuit) / PA_PER_BAR,
+            _ => 0.05,
+        }
+    }
+
+    /// The emulator's pump slip leakage at standstill (m⁵/(N·s), docs/emulator.md#the-dynamics):
+    /// `pump_slip_m5_per_ns`, or where the rig leaves it out the article rig's 4e-11 in
+    /// proportion to the rig's own cross-port leakage, 4e-11 × c12 / 1.2e-10 **\[choice\]**:
+    /// the slip is leakage across the pump, of the pump's size as c12 is
+    /// (docs/emulator.md#what-a-user-rig-gets).
+    ///
+    /// ```
+    /// use pumpcyl::rig::Rig;
+    ///
+    /// assert_eq!(Rig::default().pump_slip(), 4e-11);
+    /// let small = Rig::default().with_overrides(&["c12_m5_per_ns=2e-12".into()])?;
+    /// assert!((small.pump_slip() - 4e-11 / 60.0).abs() < 1e-25);
+    /// # Ok::<(), pumpcyl::rig::RigError>(())
+    /// ```
+    pub fn pump_slip(&self) -> f64 {
+        self.pump_slip_m5_per_ns
+            .unwrap_or(ARTICLE_PUMP_SLIP_M5_PER_NS * (self.c12_m5_per_ns / ARTICLE_C12_M5_PER_NS))
+    }
+
+    /// The emulator's Coulomb friction on the piston (N, docs/emulator.md#the-dynamics):
+    /// `coulomb_friction_n`, or where the rig leaves it out the article rig's 15 N in
+    /// proportion to the seals' diameters, 15 N × (d1 + d2) / (63 + 36 mm) **\[choice\]**: seal
+    /// friction at a pressure grows with the seal's length of contact, the piston seal's
+    /// π d1 and the rod seal's π d2 (docs/emulator.md#what-a-user-rig-gets).
+    pub fn coulomb_friction(&self) -> f64 {
+        self.coulomb_friction_n.unwrap_or(
+            ARTICLE_COULOMB_FRICTION_N
+                * ((self.piston_diameter_mm + self.rod_diameter_mm) / ARTICLE_SEAL_DIAMETERS_MM),
+        )
+    }
+
+    /// The relief valves' setting of the one-motor circuit `kind` (Pa above the accumulator
+    /// line, docs/circuits.md#valves): `relief_setting_bar`, or where the rig leaves it out
+    /// the pressure at which the pumps' load torque reaches the motor's rated torque with the
+    /// other chamber at the accumulator **\[choice\]**, τ_rated / (D1 + D2) for the dual-pump
+    /// circuit and τ_rated / D1 for the single-pump circuit (and for the DPM, which has none:
+    /// its pump 1 alone).
+    pub fn relief_setting_pa(&self, kind: CircuitKind) -> f64 {
+        let d = self.si().d;
+        let derived = match kind {
+            CircuitKind::DualPump => self.motor_rated_torque_nm / (d[0] + d[1]),
+            CircuitKind::Dpm | CircuitKind::SinglePump => self.motor_rated_torque_nm / d[0],
+        };
+        self.relief_setting_bar
+            .map_or(derived, |bar| bar * PA_PER_BAR)
     }
 
     /// Every key with its documentation ("unit, meaning"), in the order of the commented TOML.
@@ -1046,9 +1182,19 @@ impl Rig {
                 self.pump_max_speed_rpm,
                 Positive(0.01, 1e6),
             ),
+            (
+                "pump_dead_band_rpm",
+                self.pump_dead_band_rpm,
+                NonNegative(1e4),
+            ),
+            (
+                "cylinder_rated_pressure_bar",
+                self.cylinder_rated_pressure_bar,
+                Positive(0.001, 1e5),
+            ),
         ];
-        if let Some(tau) = self.motor_time_constant_s {
-            fields.push(("motor_time_constant_s", tau, Positive(1e-6, 1000.0)));
+        for (key, range) in OPTIONAL_KEYS {
+            fields.extend(self.optional(key).map(|v| (key, v, range)));
         }
         fields
     }
@@ -1136,17 +1282,22 @@ impl Rig {
         for (section, keys) in KEY_DOCS {
             out.push_str(&format!("\n# --- {section} ---\n"));
             for (key, doc) in *keys {
-                match (table.get(*key), foreign_key(self.circuit, key)) {
-                    (Some(value), None) => {
-                        out.push_str(&format!("{key} = {}  # {doc}\n", toml_text(value)))
-                    }
+                // an optional key left out: shown, commented out, with what it stands for
+                let (value, set) = match table.get(*key) {
+                    Some(value) => (toml_text(value), true),
+                    None => (
+                        toml_text(&toml::Value::Float(self.optional_default(key))),
+                        false,
+                    ),
+                };
+                match (set, foreign_key(self.circuit, key)) {
+                    (true, None) => out.push_str(&format!("{key} = {value}  # {doc}\n")),
+                    (false, None) => out.push_str(&format!("# {key} = {value}  # {doc}\n")),
                     // a key of another circuit may not be set: shown, commented out
-                    (Some(value), Some((_, owners))) => out.push_str(&format!(
-                        "# {key} = {}  # {doc} ({} only)\n",
-                        toml_text(value),
+                    (_, Some((_, owners))) => out.push_str(&format!(
+                        "# {key} = {value}  # {doc} ({} only)\n",
                         circuits_text(owners)
                     )),
-                    (None, _) => out.push_str(&format!("# {key} = 0.05  # {doc}\n")),
                 }
             }
         }
@@ -1222,11 +1373,11 @@ fn parse_assignment(
     let key = canonical_key(key.trim());
     let raw = raw.trim();
     let value = source_files::parse_value(raw);
-    // the one optional key is absent from the table when unset: its type is float
+    // an optional key is absent from the table when unset: its type is float
     let float = toml::Value::Float(0.0);
     let current = match table.get(key) {
         Some(current) => current,
-        None if key == "motor_time_constant_s" => &float,
+        None if is_optional_key(key) => &float,
         None => {
             let known: Vec<&str> = KEY_DOCS
                 .iter()
@@ -1357,6 +1508,31 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             (
                 "c2_m5_per_ns",
                 "m⁵/(N·s), chamber 2 leakage (may be negative: pump null shift)",
+            ),
+        ],
+    ),
+    (
+        "emulator effects (docs/emulator.md)",
+        &[
+            (
+                "pump_dead_band_rpm",
+                "rpm, pump speed below which its flow fades out and its slip sets in (the article rig's 60)",
+            ),
+            (
+                "pump_slip_m5_per_ns",
+                "m⁵/(N·s), pump slip leakage at standstill; absent = 4e-11 × c12 / 1.2e-10 (the article rig's 4e-11)",
+            ),
+            (
+                "coulomb_friction_n",
+                "N, Coulomb friction on the piston; absent = 15 N × (d1 + d2) / 99 mm (the article rig's 15 N)",
+            ),
+            (
+                "relief_setting_bar",
+                "bar, relief valves' setting above the accumulator line; absent = rated torque / D (docs/circuits.md#valves)",
+            ),
+            (
+                "cylinder_rated_pressure_bar",
+                "bar, cylinder rating: a relief setting above it is warned about (ISO 6022's 250 bar)",
             ),
         ],
     ),

@@ -3,6 +3,7 @@
 //! used on a rig, in words: `emulate`, the emulator FMU and `reproduce` each say it where they
 //! run the emulator (docs/emulator.md#what-a-user-rig-gets).
 
+use crate::plot::sig;
 use pumpcyl::bulk::effective_beta;
 use pumpcyl::cavitation::FloorHit;
 use pumpcyl::circuit::CircuitKind;
@@ -12,7 +13,7 @@ use pumpcyl::emulator::{
     DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
 };
 use pumpcyl::limits::Work;
-use pumpcyl::rig::Rig;
+use pumpcyl::rig::{Rig, PUMP_DEAD_BAND_RPM};
 use pumpcyl::source_files::FieldError;
 use pumpcyl::units::{readable, RAD_S_PER_RPM};
 use serde_json::{json, Value};
@@ -249,6 +250,7 @@ pub fn warnings(rig: &Rig, run: &Outcome) -> Vec<String> {
         Emulated::Drive(_) => Vec::new(),
     };
     lines.extend(run.cavitation.map(|hit| format!("emulated: {hit}")));
+    lines.extend(pumpcyl::circuit::valves::relief_warning(rig));
     lines
 }
 
@@ -331,8 +333,7 @@ pub fn basis(rig: &Rig, effects: &Effects) -> Result<String, EmulatorError> {
         "emulator: beta_e {:.1} bar at {}, {:.2} bar \
          (gas fraction X = {:.5}, beta_oil {} bar), beta_e(p) of both chambers' mean pressure; \
          {}; chamber volumes following the piston; torque limited to {} x the rated {} N m, \
-         pump speed to {} rpm; pumpcyl's defaults {:.0} rpm pump dead band with slip \
-         {:e} m^5/(N s) and {} N Coulomb friction{valves} (docs/emulator.md#what-a-user-rig-gets)",
+         pump speed to {} rpm; {}{valves} (docs/emulator.md#what-a-user-rig-gets)",
         effective_beta(x, p_mean, effects.beta_oil_bar),
         anchor,
         p_mean,
@@ -344,10 +345,43 @@ pub fn basis(rig: &Rig, effects: &Effects) -> Result<String, EmulatorError> {
             .map_or("no limit".into(), readable),
         readable(rig.motor_rated_torque_nm),
         readable(rig.pump_max_speed_rpm),
-        effects.dead_band_rad_s / RAD_S_PER_RPM,
-        effects.slip_m5_per_ns,
-        readable(effects.coulomb_n)
+        pumps_and_seals(rig, effects)
     ))
+}
+
+/// The emulator's pump dead band, slip and Coulomb friction on `rig` in words, each with its
+/// key when the rig sets it and its default's rule when it does not
+/// (docs/emulator.md#what-a-user-rig-gets).
+fn pumps_and_seals(rig: &Rig, effects: &Effects) -> String {
+    let source = |key: &str, set: bool, default: &str| {
+        if set {
+            key.to_string()
+        } else {
+            format!("default: {default}")
+        }
+    };
+    let band_rpm = effects.dead_band_rad_s / RAD_S_PER_RPM;
+    format!(
+        "{} rpm pump dead band ({}) with slip {} m^5/(N s) ({}) and {} N Coulomb friction ({})",
+        sig(band_rpm, 4),
+        source(
+            "pump_dead_band_rpm",
+            rig.pump_dead_band_rpm != PUMP_DEAD_BAND_RPM,
+            "the article rig's"
+        ),
+        sig(effects.slip_m5_per_ns, 4),
+        source(
+            "pump_slip_m5_per_ns",
+            rig.pump_slip_m5_per_ns.is_some(),
+            "the article rig's 4e-11 x c12 / 1.2e-10"
+        ),
+        sig(effects.coulomb_n, 4),
+        source(
+            "coulomb_friction_n",
+            rig.coulomb_friction_n.is_some(),
+            "the article rig's 15 N x (d1 + d2) / 99 mm"
+        ),
+    )
 }
 
 /// The emulator's mass law on `rig`, in words.

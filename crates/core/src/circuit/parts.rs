@@ -9,6 +9,7 @@
 
 use super::stops::Stops;
 use super::{Role, Scalar, Signal};
+use crate::rig::{ARTICLE_COULOMB_FRICTION_N, ARTICLE_PUMP_SLIP_M5_PER_NS, PUMP_DEAD_BAND_RPM};
 use crate::units::PA_PER_BAR;
 
 /// Absolute pressure of a gauge pressure of 0 (Pa): the cavitation floor is −1 bar gauge.
@@ -63,9 +64,10 @@ impl Effects {
 
     /// Every effect on with the gas fraction `x` (docs/emulator.md#the-dynamics): volumes
     /// following the piston, β_e(p) of the constant gas-fraction model, a 3× peak torque, the
-    /// pump speed limit, a 60 rpm pump dead band with slip leakage, 15 N Coulomb friction, and
-    /// the moving mass following the rig's `mass_by_position`. The last four are pumpcyl's
-    /// emulator defaults, not keys of a rig (docs/emulator.md#what-a-user-rig-gets).
+    /// pump speed limit, the article rig's 60 rpm pump dead band with its 4e-11 m⁵/(N·s) slip
+    /// leakage and 15 N Coulomb friction, and the moving mass following the rig's
+    /// `mass_by_position`. [`Effects::with_rig`] puts another rig's own dead band, slip and
+    /// friction in (docs/emulator.md#what-a-user-rig-gets).
     pub fn all(x: f64) -> Effects {
         Effects {
             varying_volumes: true,
@@ -73,10 +75,23 @@ impl Effects {
             beta_oil_bar: BETA_OIL_BAR,
             peak_torque_factor: Some(3.0),
             pump_speed_limit: true,
-            dead_band_rad_s: 60.0 * crate::units::RAD_S_PER_RPM,
-            slip_m5_per_ns: 4e-11,
-            coulomb_n: 15.0,
+            dead_band_rad_s: PUMP_DEAD_BAND_RPM * crate::units::RAD_S_PER_RPM,
+            slip_m5_per_ns: ARTICLE_PUMP_SLIP_M5_PER_NS,
+            coulomb_n: ARTICLE_COULOMB_FRICTION_N,
             stroke_mass: true,
+        }
+    }
+
+    /// These effects with `rig`'s own pump dead band, slip leakage and Coulomb friction (its
+    /// keys `pump_dead_band_rpm`, `pump_slip_m5_per_ns`, `coulomb_friction_n`, or the defaults
+    /// [`crate::rig::Rig::pump_slip`] and [`crate::rig::Rig::coulomb_friction`] derive): on the
+    /// article's rig exactly [`Effects::all`]'s (docs/emulator.md#what-a-user-rig-gets).
+    pub fn with_rig(self, rig: &crate::rig::Rig) -> Effects {
+        Effects {
+            dead_band_rad_s: rig.pump_dead_band_rpm * crate::units::RAD_S_PER_RPM,
+            slip_m5_per_ns: rig.pump_slip(),
+            coulomb_n: rig.coulomb_friction(),
+            ..self
         }
     }
 }

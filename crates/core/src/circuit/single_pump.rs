@@ -153,7 +153,9 @@ impl SinglePump {
             leakage: [si.c1, si.c2, si.c12],
             coupling: b.emulated || rig.motor_coupling,
             checks: [check; 2],
-            relief: b.emulated.then(|| Valve::relief(relief_setting_pa(rig))),
+            relief: b
+                .emulated
+                .then(|| Valve::relief(rig.relief_setting_pa(CircuitKind::SinglePump))),
             valves_on: true,
             p_acc: rig.accumulator_precharge_bar * PA_PER_BAR,
             gain: si.k_scale * si.kp,
@@ -294,13 +296,6 @@ impl SinglePump {
             ..self.clone()
         }
     }
-}
-
-/// The relief valves' setting (Pa above the accumulator): the pressure at which the pump's
-/// load torque reaches the motor's rated torque with the other chamber at the accumulator,
-/// τ_rated / D1 **\[choice\]**, as for the dual-pump circuit (docs/circuits.md#valves).
-fn relief_setting_pa(rig: &Rig) -> f64 {
-    rig.motor_rated_torque_nm / rig.si().d[0]
 }
 
 impl Circuit for SinglePump {

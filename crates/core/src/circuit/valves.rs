@@ -151,6 +151,53 @@ impl PilotCheck {
     }
 }
 
+/// A warning when `rig`'s relief valves do not protect its cylinder (docs/circuits.md#valves):
+/// the highest chamber pressure they let through, the accumulator's pre-charge plus their
+/// setting ([`crate::rig::Rig::relief_setting_pa`], given or derived), above the rig's
+/// `cylinder_rated_pressure_bar`. `None` for the DPM, which has no relief valves, and for a
+/// setting within the rating.
+///
+/// ```
+/// use pumpcyl::circuit::valves::relief_warning;
+/// use pumpcyl::rig::Rig;
+///
+/// let one = |sets: &[&str]| {
+///     let mut all = vec!["circuit=single-pump".to_string()];
+///     all.extend(sets.iter().map(|s| s.to_string()));
+///     Rig::default().with_overrides(&all)
+/// };
+/// // the article's 12.5 N m on 6 cm³/rev: 130.9 bar, within ISO 6022's 250 bar
+/// assert_eq!(relief_warning(&one(&[])?), None);
+/// let w = relief_warning(&one(&["motor_rated_torque_nm=64", "displacement_1_cm3_per_rev=2.5"])?);
+/// assert!(w.unwrap().starts_with("relief valves set 1608.5 bar above the accumulator"));
+/// assert_eq!(relief_warning(&one(&["motor_rated_torque_nm=64", "relief_setting_bar=200"])?), None);
+/// # Ok::<(), pumpcyl::rig::RigError>(())
+/// ```
+pub fn relief_warning(rig: &crate::rig::Rig) -> Option<String> {
+    use crate::units::PA_PER_BAR;
+    if rig.circuit == super::CircuitKind::Dpm {
+        return None;
+    }
+    let setting_bar = rig.relief_setting_pa(rig.circuit) / PA_PER_BAR;
+    let highest_bar = rig.accumulator_precharge_bar + setting_bar;
+    if highest_bar <= rig.cylinder_rated_pressure_bar {
+        return None;
+    }
+    let why = match rig.relief_setting_bar {
+        Some(_) => "the rig's relief_setting_bar".to_string(),
+        None => format!(
+            "derived: motor_rated_torque_nm {} N m over the displacement; set relief_setting_bar",
+            crate::units::readable(rig.motor_rated_torque_nm)
+        ),
+    };
+    Some(format!(
+        "relief valves set {setting_bar:.1} bar above the accumulator ({why}) let a chamber reach \
+         {highest_bar:.1} bar, above cylinder_rated_pressure_bar = {} bar: they do not protect \
+         the cylinder (docs/circuits.md#valves)",
+        crate::units::readable(rig.cylinder_rated_pressure_bar)
+    ))
+}
+
 /// The valves of a single-motor circuit: one anti-cavitation check valve from the accumulator
 /// into each chamber, and a relief valve from each chamber to the accumulator.
 #[derive(Debug, Clone, Copy, PartialEq)]

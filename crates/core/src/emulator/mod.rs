@@ -72,7 +72,8 @@ impl Effects {
         Ok(Effects::all(x))
     }
 
-    /// Every effect on for `rig` ([`Effects::all`]), the bulk modulus anchored at the rig
+    /// Every effect on for `rig` ([`Effects::all`] with the rig's own dead band, slip and
+    /// Coulomb friction, [`Effects::with_rig`]), the bulk modulus anchored at the rig
     /// itself: the gas fraction that gives the rig's `beta_bar` at the pressure
     /// [`beta_anchor_bar`] names — the DPM's mean chamber pressure at rest
     /// ([`rest_mean_pressure_bar`]), so the emulated β_e at its operating point *is*
@@ -99,7 +100,7 @@ impl Effects {
         }
         let x = crate::bulk::gas_fraction(rig.beta_bar, p_mean, crate::bulk::BETA_OIL_BAR)
             .map_err(|e| EmulatorError(format!("beta_bar = {}: {e}", rig.beta_bar)))?;
-        Ok(Effects::all(x))
+        Ok(Effects::all(x).with_rig(rig))
     }
 
     /// [`Effects::for_rig`] when `on`, [`Effects::none`] otherwise: the choice of
@@ -146,10 +147,10 @@ pub fn rest_mean_pressure_bar(rig: &Rig) -> Result<f64, EmulatorError> {
         crate::bulk::BETA_OIL_BAR,
     );
     let effects = match guess {
-        Ok(x) => Effects::all(x),
+        Ok(x) => Effects::all(x).with_rig(rig),
         Err(_) => Effects {
             gas_fraction: None,
-            ..Effects::all(0.0)
+            ..Effects::all(0.0).with_rig(rig)
         },
     };
     let d = Dynamics::new(rig, effects)?;
