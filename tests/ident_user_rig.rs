@@ -228,6 +228,31 @@ fn advise_on_a_user_rig_says_where_it_linearised_and_gives_no_ratio_of_unbounded
     let point = v["point"]["beta_bar"].as_f64().unwrap();
     let identified = v["identified"]["beta_bar"].as_f64().unwrap();
     assert!((point / 300.0 - 1.0).abs() < 0.03 && (identified / 300.0 - 1.0).abs() < 0.03);
+    // the candidates' gains are the records' 15 and 10 and 0.6, 1.4 times 15: the rig's own,
+    // never the article's 25 or 35
+    let labels: Vec<&str> = (v["candidates"].as_array().unwrap().iter())
+        .map(|c| c["label"].as_str().unwrap())
+        .chain(
+            v["skipped"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|s| s.as_str().unwrap()),
+        )
+        .collect();
+    assert!(labels.len() >= 40, "{labels:?}");
+    for gain in ["Kp 9,", "Kp 10,", "Kp 15,", "Kp 21,"] {
+        assert!(
+            labels.iter().any(|l| l.contains(gain)),
+            "{gain}: {labels:?}"
+        );
+    }
+    let theirs = |l: &&&str| {
+        ["Kp 9,", "Kp 10,", "Kp 15,", "Kp 21,"]
+            .iter()
+            .any(|g| l.contains(g))
+    };
+    assert!(labels.iter().all(|l| theirs(&l)), "{labels:?}");
 }
 
 /// `design --robust --experiment` on steps that cannot bound b (the usual case): the polished

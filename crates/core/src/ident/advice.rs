@@ -65,8 +65,9 @@ pub const DEFAULT_STEPS_MM: [f64; 4] = [2.0, 5.0, 10.0, 20.0];
 /// Default sinusoid frequencies (Hz): across the closed loop's lightly damped pair and the hydraulic
 /// resonance of the article's rig (0.6 and 1 Hz), far below the records' Nyquist frequency.
 pub const DEFAULT_FREQS_HZ: [f64; 6] = [0.1, 0.2, 0.5, 0.8, 1.0, 1.5];
-/// Default position gains tried besides the experiment's own.
-pub const DEFAULT_KPS: [f64; 3] = [15.0, 25.0, 35.0];
+/// Default position gains tried besides the experiment's own, as factors on its largest: a
+/// softer and a stiffer loop of the rig's own (the article's records at Kp 25 get 15 and 35).
+pub const DEFAULT_KP_FACTORS: [f64; 2] = [0.6, 1.4];
 /// Largest default sinusoid amplitude (mm).
 pub const DEFAULT_MAX_AMP_MM: f64 = 20.0;
 /// Share of the speed at which pump 1 alone, at its maximum speed, moves the piston that a
@@ -317,13 +318,17 @@ impl Design {
 }
 
 /// The default candidates for an experiment whose datasets use the gains `kps`: steps of
-/// [`DEFAULT_STEPS_MM`] and sinusoids of [`DEFAULT_FREQS_HZ`] at each of `kps` and
-/// [`DEFAULT_KPS`], [`DEFAULT_DURATION_S`] each; a sinusoid's amplitude is the least of
+/// [`DEFAULT_STEPS_MM`] and sinusoids of [`DEFAULT_FREQS_HZ`] at each of `kps` and at
+/// [`DEFAULT_KP_FACTORS`] times the largest of them (to 0.1), [`DEFAULT_DURATION_S`] each; a sinusoid's amplitude is the least of
 /// [`DEFAULT_MAX_AMP_MM`], the amplitude whose peak velocity is `v_max_m_per_s`, and the room
 /// in the stroke; frequencies with fewer than [`MIN_SAMPLES_PER_PERIOD`] samples per period
 /// at `rate_hz` are left out.
 pub fn default_designs(kps: &[f64], v_max_m_per_s: f64, room_mm: f64, rate_hz: f64) -> Vec<Design> {
-    let mut gains: Vec<f64> = kps.iter().chain(&DEFAULT_KPS).copied().collect();
+    let largest = kps.iter().copied().fold(0.0, f64::max);
+    let around = DEFAULT_KP_FACTORS.map(|f| (f * largest * 10.0).round() / 10.0);
+    let mut gains: Vec<f64> = (kps.iter().chain(&around).copied())
+        .filter(|k| *k > 0.0)
+        .collect();
     gains.sort_by(f64::total_cmp);
     gains.dedup();
     let duration_s = DEFAULT_DURATION_S;
@@ -1153,6 +1158,22 @@ mod tests {
             assert!(e.contains(line) && e.contains(needle), "{e}");
             assert!(!e.contains('\n'), "{e}");
         }
+    }
+
+    #[test]
+    fn default_gains_come_from_the_experiments_own() {
+        // a rig recorded at Kp 15 and 10: 0.6 and 1.4 times 15 beside them, not the article's
+        // 25 and 35
+        let gains = |kps: &[f64]| {
+            let mut g: Vec<f64> = (default_designs(kps, 0.058, 155.0, 100.0).iter())
+                .map(Design::kp)
+                .collect();
+            g.dedup();
+            g
+        };
+        assert_eq!(gains(&[15.0, 10.0]), [9.0, 10.0, 15.0, 21.0]);
+        assert_eq!(gains(&[25.0, 20.0]), [15.0, 20.0, 25.0, 35.0]);
+        assert_eq!(gains(&[2.5]), [1.5, 2.5, 3.5]);
     }
 
     #[test]
