@@ -238,7 +238,7 @@ const OPTIONAL_KEYS: [(&str, Range); 4] = [
     ("relief_setting_bar", Range::Positive(0.001, 1e5)),
 ];
 
-/// Whether `key` is one of the rig's optional keys ([`OPTIONAL_KEYS`]), absent unless set.
+/// Whether `key` is one of the rig's optional keys (`OPTIONAL_KEYS`), absent unless set.
 pub fn is_optional_key(key: &str) -> bool {
     OPTIONAL_KEYS.iter().any(|(k, _)| *k == key)
 }
