@@ -158,6 +158,39 @@ fn a_best_on_the_edge_of_any_stage_is_a_warning_in_the_text_and_the_json() {
     );
 }
 
+/// A best grid point on the edge of the last grid is no warning when the local refinement's
+/// answer lies inside the grid's range: the optimum is inside (without the refinement it is
+/// a warning, as it must be).
+#[test]
+fn an_edge_of_the_last_grid_is_no_warning_when_the_polished_answer_lies_inside() {
+    let dir = tempfile::tempdir().unwrap();
+    // the second grid's two β values, 250 and 305 bar: its best is its top edge, while the
+    // records' β of 300 bar lies inside it
+    let grid = "[grid]\nbeta_bar = [200.0, 300.0, 400.0]\nviscous_friction_ns_per_m = [250.0]\n\
+        c12_m5_per_ns = [2.0e-10]\n\n[refined_grid]\nbeta_bar = [250.0, 305.0]\n\
+        viscous_friction_ns_per_m = [250.0]\nc12_m5_per_ns = [2.0e-10]\n";
+    user_rig(dir.path(), grid);
+    let last_edge = |v: &serde_json::Value| {
+        (v["warnings"].as_array().unwrap().iter()).any(|w| {
+            w.as_str()
+                .unwrap()
+                .contains("on the edge of the stage 2 grid")
+        })
+    };
+    let unpolished = json(
+        dir.path(),
+        &["identify", "exp.toml", "--json", "--no-refine"],
+    );
+    assert!(last_edge(&unpolished), "{}", unpolished["warnings"]);
+    let v = json(dir.path(), &["identify", "exp.toml", "--json"]);
+    let beta = v["beta_bar"].as_f64().unwrap();
+    assert!(
+        180.0 < beta && beta < 320.0 && (beta / 300.0 - 1.0).abs() < 0.03,
+        "{beta}"
+    );
+    assert!(!last_edge(&v), "{}", v["warnings"]);
+}
+
 #[test]
 fn a_zero_rig_value_without_a_range_and_a_centred_shard_are_refused() {
     let dir = tempfile::tempdir().unwrap();

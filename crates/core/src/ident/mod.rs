@@ -183,9 +183,17 @@ impl Identification {
         }
     }
 
+    /// Whether the local refinement's answer has parameter `i` strictly inside (lo, hi).
+    fn polished_inside(&self, i: usize, (lo, hi): (f64, f64)) -> bool {
+        (self.refined.as_ref())
+            .map(|r| grid::candidate_values(&r.candidate)[i])
+            .is_some_and(|v| lo < v && v < hi)
+    }
+
     /// What a user should know before trusting the answer: each stage's best on an edge of
     /// that stage's grid (the optimum may lie outside it; a later stage centred on it reaches
-    /// beyond), and a search where every candidate of the top list costs the same (the
+    /// beyond; not said of the last stage where the local refinement's answer lies inside its
+    /// range), and a search where every candidate of the top list costs the same (the
     /// records carry no excitation: the reference never moves the loop, so the cost cannot
     /// tell the parameters apart).
     pub fn warnings(&self) -> Vec<String> {
@@ -210,6 +218,10 @@ impl Identification {
             for (i, range) in stage.grid.edges_at(&best.candidate).into_iter().enumerate() {
                 let Some((lo, hi)) = range else { continue };
                 let beyond = later.is_some_and(|g| g.straddles(i, values[i]));
+                if later.is_none() && self.polished_inside(i, (lo, hi)) {
+                    // the local refinement found the optimum inside the last grid's range
+                    continue;
+                }
                 let what = if beyond {
                     format!("the grid of stage {} reaches beyond it", k + 2)
                 } else {
