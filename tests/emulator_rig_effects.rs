@@ -229,3 +229,68 @@ fn an_implausible_relief_setting_is_warned_about() {
         "{stdout}"
     );
 }
+
+/// A rest whose leakage under the load needs the pump faster than `pump_max_speed_rpm` is
+/// refused, naming the speed it needs, instead of emulated at that speed: the speed limit stops
+/// acceleration, and a rest has none. The speed named is the one the emulator rests at without
+/// its limits (every effect off), and raising the limit lets the same rig run.
+#[test]
+fn a_rest_beyond_the_pumps_speed_limit_is_refused_naming_the_speed_it_needs() {
+    let rig = user_rig_file("speed-limit.toml");
+    let out = rig.with_extension("csv");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "emulate",
+            "--rig",
+            rig.to_str().unwrap(),
+            "--experiment",
+            "step",
+        ];
+        args.extend([
+            "--duration-s",
+            "1",
+            "--set",
+            "external_force_n=30000",
+            "--out",
+        ]);
+        args.push(out.to_str().unwrap());
+        args.extend(extra);
+        pumpcyl(&args)
+    };
+    let (ok, _, err) = run(&["--no-effects", "--no-noise"]);
+    assert!(ok, "{err}");
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let rest_rpm: f64 = csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(5)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((1000.0..3600.0).contains(&rest_rpm), "{rest_rpm}");
+    std::fs::remove_file(&out).unwrap();
+    let (ok, _, err) = run(&["--set", "pump_max_speed_rpm=1000"]);
+    assert!(!ok && err.trim().lines().count() == 1, "{err}");
+    assert!(!out.exists(), "no record is written");
+    let needed: f64 = (err
+        .split("pumps at ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap())
+    .parse()
+    .unwrap();
+    assert!(
+        (needed / rest_rpm - 1.0).abs() < 0.01,
+        "{needed} vs {rest_rpm}: {err}"
+    );
+    assert!(
+        err.contains("beyond pump_max_speed_rpm = 1000 rpm"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&["--set", "pump_max_speed_rpm=3000"]);
+    assert!(ok, "{err}");
+}

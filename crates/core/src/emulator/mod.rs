@@ -173,6 +173,8 @@ pub struct Dynamics {
     circuit: Emulated,
     /// Where the position, the pressures and the motor speeds are in the state.
     pub(crate) at: Places,
+    /// The pumps' speed limit (rad/s) where the effect is on: the rig's `pump_max_speed_rpm`.
+    speed_limit_rad_s: Option<f64>,
 }
 
 /// Where the signals the PLC measures are in a circuit's state.
@@ -202,7 +204,13 @@ impl Dynamics {
         }
         let circuit = Emulated::of_rig(rig, effects).map_err(EmulatorError)?;
         let at = Places::of(&circuit);
-        Ok(Dynamics { circuit, at })
+        let speed_limit_rad_s = (effects.pump_speed_limit)
+            .then_some(rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM);
+        Ok(Dynamics {
+            circuit,
+            at,
+            speed_limit_rad_s,
+        })
     }
 
     /// The circuit whose equations these are.
@@ -216,7 +224,31 @@ impl Dynamics {
         Dynamics {
             circuit: self.circuit.without_limits(),
             at: self.at.clone(),
+            speed_limit_rad_s: None,
         }
+    }
+
+    /// Refuse a rest `x` whose motors turn faster than the pumps' speed limit, where it is on:
+    /// the load's leakage needs a speed the pumps cannot reach, so the loop cannot hold it
+    /// (the speed limit only stops acceleration, and a rest has none).
+    pub(crate) fn check_rest_speeds(&self, x: &[f64], r_mm: f64) -> Result<(), EmulatorError> {
+        let Some(max) = self.speed_limit_rad_s else {
+            return Ok(());
+        };
+        let fastest = (self.at.speeds.iter())
+            .map(|&i| x[i].abs())
+            .fold(0.0, f64::max);
+        if fastest <= max * (1.0 + 1e-9) {
+            return Ok(());
+        }
+        let rpm = |w: f64| w / crate::units::RAD_S_PER_RPM;
+        Err(EmulatorError(format!(
+            "the emulated loop cannot rest at x_ref = {r_mm} mm: feeding the leakage under the \
+             load needs the pumps at {:.0} rpm, beyond pump_max_speed_rpm = {:.0} rpm (a smaller \
+             load or leakage, or a larger pump)",
+            rpm(fastest),
+            rpm(max)
+        )))
     }
 
     /// Change the external force on the piston (N).

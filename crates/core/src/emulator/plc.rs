@@ -282,6 +282,7 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emula
             .check_rest(x[d.at.position], r_mm)
             .map_err(EmulatorError)?;
     }
+    d.check_rest_speeds(&x, r_mm)?;
     let mut f = vec![0.0; x.len()];
     let m = measure(&x, d, &Plc::ideal(1.0), &mut Noise::new(1));
     d.rhs(
