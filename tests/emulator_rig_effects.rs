@@ -40,20 +40,26 @@ fn pumpcyl(args: &[&str]) -> (bool, String, String) {
     (out.status.success(), text(&out.stdout), text(&out.stderr))
 }
 
+/// `pumpcyl emulate --experiment step` of the rig file `rig` into `out`.
+fn step_args<'a>(rig: &'a std::path::Path, out: &'a std::path::Path) -> Vec<&'a str> {
+    let (rig, out) = (rig.to_str().unwrap(), out.to_str().unwrap());
+    vec![
+        "emulate",
+        "--rig",
+        rig,
+        "--experiment",
+        "step",
+        "--out",
+        out,
+    ]
+}
+
 /// `pumpcyl emulate --experiment step` on the user rig with `sets`: the message and the
 /// record's position column (mm).
 fn emulated_step(name: &str, sets: &[&str]) -> (String, Vec<f64>) {
     let rig = user_rig_file(&format!("{name}.toml"));
     let out = rig.with_extension("csv");
-    let mut args = vec![
-        "emulate",
-        "--rig",
-        rig.to_str().unwrap(),
-        "--experiment",
-        "step",
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let mut args = step_args(&rig, &out);
     for s in sets {
         args.extend(["--set", s]);
     }
@@ -239,21 +245,8 @@ fn a_rest_beyond_the_pumps_speed_limit_is_refused_naming_the_speed_it_needs() {
     let rig = user_rig_file("speed-limit.toml");
     let out = rig.with_extension("csv");
     let run = |extra: &[&str]| {
-        let mut args = vec![
-            "emulate",
-            "--rig",
-            rig.to_str().unwrap(),
-            "--experiment",
-            "step",
-        ];
-        args.extend([
-            "--duration-s",
-            "1",
-            "--set",
-            "external_force_n=30000",
-            "--out",
-        ]);
-        args.push(out.to_str().unwrap());
+        let mut args = step_args(&rig, &out);
+        args.extend(["--duration-s", "1", "--set", "external_force_n=30000"]);
         args.extend(extra);
         pumpcyl(&args)
     };
