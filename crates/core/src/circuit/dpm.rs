@@ -133,9 +133,7 @@ impl Dpm {
                     feedforward: layout.ff.map(|_| si.kff / si.tau_ff),
                     tau_ff_s: si.tau_ff,
                     torque_limit: e.peak_torque_factor.map(|f| f * rig.motor_rated_torque_nm),
-                    speed_limit: e
-                        .pump_speed_limit
-                        .then_some(rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM),
+                    speed_limit: e.pump_speed_limit_rad_s(rig),
                 }),
                 tau,
             ),

@@ -82,6 +82,12 @@ impl Effects {
         }
     }
 
+    /// The pumps' speed limit (rad/s) these effects put on `rig`: its `pump_max_speed_rpm`
+    /// where the limit is on.
+    pub fn pump_speed_limit_rad_s(&self, rig: &crate::rig::Rig) -> Option<f64> {
+        (self.pump_speed_limit).then_some(rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM)
+    }
+
     /// These effects with `rig`'s own pump dead band, slip leakage and Coulomb friction (its
     /// keys `pump_dead_band_rpm`, `pump_slip_m5_per_ns`, `coulomb_friction_n`, or the defaults
     /// [`crate::rig::Rig::pump_slip`] and [`crate::rig::Rig::coulomb_friction`] derive): on the
@@ -406,8 +412,7 @@ impl Motor {
             feedforward: rig.feedforward.then_some(si.kff / si.tau_ff),
             tau_ff_s: si.tau_ff,
             torque_limit: e.peak_torque_factor.map(|f| f * rig.motor_rated_torque_nm),
-            speed_limit: (e.pump_speed_limit)
-                .then_some(rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM),
+            speed_limit: e.pump_speed_limit_rad_s(rig),
         })
     }
 

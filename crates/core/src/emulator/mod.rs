@@ -204,12 +204,10 @@ impl Dynamics {
         }
         let circuit = Emulated::of_rig(rig, effects).map_err(EmulatorError)?;
         let at = Places::of(&circuit);
-        let speed_limit_rad_s = (effects.pump_speed_limit)
-            .then_some(rig.pump_max_speed_rpm * crate::units::RAD_S_PER_RPM);
         Ok(Dynamics {
             circuit,
             at,
-            speed_limit_rad_s,
+            speed_limit_rad_s: effects.pump_speed_limit_rad_s(rig),
         })
     }
 
