@@ -94,7 +94,7 @@ fn the_default_slip_and_friction_scale_with_the_rig() {
     );
     assert!((e.dead_band_rad_s - 60.0 * std::f64::consts::PI / 30.0).abs() < 1e-12);
     // the relief: τ_rated / D1 = 64 N·m · 2π / 2.5 cm³, 1608.5 bar
-    let relief_bar = pumpcyl::circuit::valves::relief_setting_pa(&rig) / 1e5;
+    let relief_bar = rig.relief_setting_pa(rig.circuit) / 1e5;
     assert!((relief_bar - 64.0 * 2.0 * std::f64::consts::PI / 2.5e-6 / 1e5).abs() < 1e-9);
     assert!((relief_bar - 1608.495).abs() < 1e-3, "{relief_bar}");
 }

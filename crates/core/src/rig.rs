@@ -409,8 +409,7 @@ pub struct Rig {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coulomb_friction_n: Option<f64>,
     /// The dual- and single-pump circuits' relief valves' setting (bar above the accumulator
-    /// line); absent = the circuit's τ_rated / D ([`crate::circuit::valves::relief_setting_pa`],
-    /// docs/circuits.md#valves).
+    /// line); absent = [`Rig::relief_setting_pa`]'s τ_rated / D (docs/circuits.md#valves).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relief_setting_bar: Option<f64>,
     /// The dual- and single-pump circuits' cylinder rating (bar gauge): a relief setting that
@@ -1015,7 +1014,7 @@ impl Rig {
         match key {
             "pump_slip_m5_per_ns" => self.pump_slip(),
             "coulomb_friction_n" => self.coulomb_friction(),
-            "relief_setting_bar" => crate::circuit::valves::relief_setting_pa(self) / PA_PER_BAR,
+            "relief_setting_bar" => self.relief_setting_pa(self.circuit) / PA_PER_BAR,
             _ => 0.05,
         }
     }
@@ -1049,6 +1048,22 @@ impl Rig {
             ARTICLE_COULOMB_FRICTION_N
                 * ((self.piston_diameter_mm + self.rod_diameter_mm) / ARTICLE_SEAL_DIAMETERS_MM),
         )
+    }
+
+    /// The relief valves' setting of the one-motor circuit `kind` (Pa above the accumulator
+    /// line, docs/circuits.md#valves): `relief_setting_bar`, or where the rig leaves it out
+    /// the pressure at which the pumps' load torque reaches the motor's rated torque with the
+    /// other chamber at the accumulator **\[choice\]**, τ_rated / (D1 + D2) for the dual-pump
+    /// circuit and τ_rated / D1 for the single-pump circuit (and for the DPM, which has none:
+    /// its pump 1 alone).
+    pub fn relief_setting_pa(&self, kind: CircuitKind) -> f64 {
+        let d = self.si().d;
+        let derived = match kind {
+            CircuitKind::DualPump => self.motor_rated_torque_nm / (d[0] + d[1]),
+            CircuitKind::Dpm | CircuitKind::SinglePump => self.motor_rated_torque_nm / d[0],
+        };
+        self.relief_setting_bar
+            .map_or(derived, |bar| bar * PA_PER_BAR)
     }
 
     /// Every key with its documentation ("unit, meaning"), in the order of the commented TOML.

@@ -160,7 +160,7 @@ impl DualPump {
             }),
             leakage: [si.c1, si.c2, si.c12],
             coupling: emulated || rig.motor_coupling,
-            valves: Valves::new(super::valves::relief_or(rig, motor_relief_pa(rig))),
+            valves: Valves::new(rig.relief_setting_pa(CircuitKind::DualPump)),
             valves_on: emulated,
             gain: si.k_scale * si.kp,
             x0: si.x0,
@@ -359,15 +359,6 @@ impl DualPump {
         let d = self.balance.displacements_m3;
         (s[P1] - s[P2]) * d[0] + (s[P1] - self.balance.p_acc_pa) * d[1]
     }
-}
-
-/// The relief valves' setting where the rig states none (Pa above the accumulator): the
-/// pressure at which the pumps' load torque reaches the motor's rated torque with the other
-/// chamber at the accumulator, τ_rated / (D1 + D2) **\[choice\]**: the valve protects the
-/// motor (docs/circuits.md#valves).
-pub(crate) fn motor_relief_pa(rig: &Rig) -> f64 {
-    let d = rig.si().d;
-    rig.motor_rated_torque_nm / (d[0] + d[1])
 }
 
 impl Circuit for DualPump {

@@ -155,7 +155,7 @@ impl SinglePump {
             checks: [check; 2],
             relief: b
                 .emulated
-                .then(|| Valve::relief(super::valves::relief_or(rig, motor_relief_pa(rig)))),
+                .then(|| Valve::relief(rig.relief_setting_pa(CircuitKind::SinglePump))),
             valves_on: true,
             p_acc: rig.accumulator_precharge_bar * PA_PER_BAR,
             gain: si.k_scale * si.kp,
@@ -296,14 +296,6 @@ impl SinglePump {
             ..self.clone()
         }
     }
-}
-
-/// The relief valves' setting where the rig states none (Pa above the accumulator): the
-/// pressure at which the pump's load torque reaches the motor's rated torque with the other
-/// chamber at the accumulator, τ_rated / D1 **\[choice\]**, as for the dual-pump circuit
-/// (docs/circuits.md#valves).
-pub(crate) fn motor_relief_pa(rig: &Rig) -> f64 {
-    rig.motor_rated_torque_nm / rig.si().d[0]
 }
 
 impl Circuit for SinglePump {

@@ -151,29 +151,9 @@ impl PilotCheck {
     }
 }
 
-/// The relief valves' setting of `rig`'s circuit (Pa above the accumulator line,
-/// docs/circuits.md#valves): its `relief_setting_bar`, or where it leaves it out the
-/// circuit's own, the pressure at which the pumps' load torque reaches the motor's rated
-/// torque **\[choice\]** (the dual-pump circuit's τ_rated / (D1 + D2), the single-pump
-/// circuit's τ_rated / D1, and for the DPM, which has none, its pump 1's as the single pump's).
-pub fn relief_setting_pa(rig: &crate::rig::Rig) -> f64 {
-    let derived = match rig.circuit {
-        super::CircuitKind::DualPump => super::dual_pump::motor_relief_pa(rig),
-        super::CircuitKind::Dpm | super::CircuitKind::SinglePump => {
-            super::single_pump::motor_relief_pa(rig)
-        }
-    };
-    relief_or(rig, derived)
-}
-
-/// `rig`'s `relief_setting_bar` in Pa, or `derived_pa` where it leaves it out.
-pub(crate) fn relief_or(rig: &crate::rig::Rig, derived_pa: f64) -> f64 {
-    (rig.relief_setting_bar).map_or(derived_pa, |bar| bar * crate::units::PA_PER_BAR)
-}
-
 /// A warning when `rig`'s relief valves do not protect its cylinder (docs/circuits.md#valves):
 /// the highest chamber pressure they let through, the accumulator's pre-charge plus their
-/// setting ([`relief_setting_pa`], given or derived), above the rig's
+/// setting ([`crate::rig::Rig::relief_setting_pa`], given or derived), above the rig's
 /// `cylinder_rated_pressure_bar`. `None` for the DPM, which has no relief valves, and for a
 /// setting within the rating.
 ///
@@ -198,7 +178,7 @@ pub fn relief_warning(rig: &crate::rig::Rig) -> Option<String> {
     if rig.circuit == super::CircuitKind::Dpm {
         return None;
     }
-    let setting_bar = relief_setting_pa(rig) / PA_PER_BAR;
+    let setting_bar = rig.relief_setting_pa(rig.circuit) / PA_PER_BAR;
     let highest_bar = rig.accumulator_precharge_bar + setting_bar;
     if highest_bar <= rig.cylinder_rated_pressure_bar {
         return None;
