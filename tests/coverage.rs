@@ -19,6 +19,10 @@ use pumpcyl::record::Record;
 use pumpcyl::rig::Rig;
 use rayon::prelude::*;
 
+#[path = "common/coverage.rs"]
+mod coverage;
+use coverage::Outcome;
+
 /// The datasets: (Kp, end of the fit window on the record's time axis, s): the article's
 /// windows (2.2 s and 1.9 s after the step, docs/identification.md#the-fit-windows).
 const DATASETS: [(f64, f64); 2] = [(25.0, 2.7), (20.0, 2.4)];
@@ -97,14 +101,6 @@ fn coarse() -> Grid {
     }
 }
 
-/// The outcome for one record set: per parameter (β, b, c12) whether its interval is closed
-/// and whether it holds the truth.
-#[derive(Debug, Clone, Copy)]
-struct Outcome {
-    bounded: [bool; 3],
-    inside: [bool; 3],
-}
-
 fn identify(k: u64) -> Outcome {
     let t = truth(k);
     let p = problem(k, &t);
@@ -115,56 +111,22 @@ fn identify(k: u64) -> Outcome {
     };
     let start = search(&p, &coarse(), 1, opts, &|_| true).top[0].candidate;
     let u = analyze(&p, &start, &UncertaintyOptions::default()).expect("the analysis runs");
-    let value = [t.beta_bar, t.viscous_friction_ns_per_m, t.c12_m5_per_ns];
-    let mut o = Outcome {
-        bounded: [false; 3],
-        inside: [false; 3],
-    };
-    for (i, name) in PARAMETERS.iter().enumerate() {
+    let intervals = PARAMETERS.map(|name| {
         let pr = u.profile(name).expect("every parameter profiled");
-        o.bounded[i] = pr.identifiable;
-        o.inside[i] = pr.interval[0] <= value[i] && value[i] <= pr.interval[1];
-    }
-    o
+        (pr.identifiable, pr.interval)
+    });
+    Outcome::of(
+        intervals,
+        [t.beta_bar, t.viscous_friction_ns_per_m, t.c12_m5_per_ns],
+    )
 }
 
-/// Coverage per parameter over record sets 1..=`sets`: (share inside, bounded intervals);
-/// b counts only where its interval is closed.
-fn coverage(sets: u64) -> [(f64, usize); 3] {
-    let outcomes: Vec<Outcome> = (1..=sets).into_par_iter().map(identify).collect();
-    std::array::from_fn(|i| {
-        let counted: Vec<&Outcome> = outcomes.iter().filter(|o| i != 1 || o.bounded[1]).collect();
-        let inside = counted.iter().filter(|o| o.inside[i]).count();
-        // no closed interval: nothing to count, nothing missed
-        let share = if counted.is_empty() {
-            1.0
-        } else {
-            inside as f64 / counted.len() as f64
-        };
-        (share, counted.len())
-    })
-}
-
-fn report(sets: u64, c: &[(f64, usize); 3]) {
-    eprintln!(
-        "coverage of the 95 % intervals over {sets} emulated record sets: beta {:.1} % ({}), \
-         b {:.1} % ({} bounded), c12 {:.1} % ({})",
-        100.0 * c[0].0,
-        c[0].1,
-        100.0 * c[1].0,
-        c[1].1,
-        100.0 * c[2].0,
-        c[2].1
-    );
-}
-
-/// Every parameter's coverage at least 90 %.
+/// Every parameter's coverage at least 90 % over record sets 1..=`sets`; b counted only where
+/// its interval is closed.
 fn check(sets: u64) {
-    let c = coverage(sets);
-    report(sets, &c);
-    for (name, (share, _)) in PARAMETERS.iter().zip(c) {
-        assert!(share >= 0.9, "coverage of {name}: {share}");
-    }
+    let outcomes: Vec<Outcome> = (1..=sets).into_par_iter().map(identify).collect();
+    let c = coverage::coverage(&outcomes, |o, i| i != 1 || o.bounded[1]);
+    coverage::check("emulated step record sets", sets, &c);
 }
 
 /// 20 record sets, at least 18 covered per parameter (the intervals without the model-error
@@ -177,9 +139,5 @@ fn the_intervals_hold_the_emulators_truth_on_20_record_sets() {
 #[test]
 #[ignore = "about 20 s in release: cargo test --release --test coverage -- --ignored --nocapture"]
 fn the_95_percent_intervals_hold_the_emulators_truth_nine_times_in_ten() {
-    let sets: u64 = std::env::var("PUMPCYL_COVERAGE_SETS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(120);
-    check(sets);
+    check(coverage::sets(120));
 }

@@ -76,10 +76,20 @@ pub fn frf_text(est: &Estimate) -> String {
 /// The leading periods left out of a periodic sweep, as the text's first line ends.
 fn discarded_text(est: &Estimate) -> String {
     match est.method {
-        pumpcyl::frf::Method::Periods => format!(
-            ", {} leading periods left out as not in periodic steady state",
-            est.periods_discarded
-        ),
+        pumpcyl::frf::Method::Periods => {
+            let mut text = format!(
+                ", {} leading periods left out as not in periodic steady state",
+                est.periods_discarded
+            );
+            if est.pooled_lines > 0 {
+                let _ = write!(
+                    text,
+                    "; each line's noise from its own and {} neighbouring lines' scatter",
+                    2 * est.pooled_lines
+                );
+            }
+            text
+        }
         _ => String::new(),
     }
 }

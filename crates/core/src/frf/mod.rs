@@ -182,6 +182,18 @@ pub fn usable_coherence(averages: f64, frequencies: usize) -> f64 {
     chance.max(USABLE_COHERENCE)
 }
 
+/// [`usable_coherence`] of a periodic estimate whose noise variance pools `half` lines on each
+/// side of each of `frequencies` lines ([`periodic_ratios`]) over `periods` periods. With no
+/// response, M|X̄|²/σ̂² is F-distributed with 2 and 2d degrees of freedom (d = (M − 1)·(2·half
+/// \+ 1) complex ones in σ̂²), exceeding y with probability (1 + y/d)^(−d); at 95 % over m
+/// lines (Bonferroni) y = d((m/0.05)^(1/d) − 1), and γ² = y/(M + y).
+pub fn usable_pooled_coherence(periods: usize, half: usize, frequencies: usize) -> f64 {
+    let m = periods.max(2) as f64;
+    let d = (m - 1.0) * (2 * half + 1) as f64;
+    let y = d * ((frequencies.max(1) as f64 / 0.05).powf(1.0 / d) - 1.0);
+    (y / (m + y)).max(USABLE_COHERENCE)
+}
+
 /// One estimated frequency response.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Response {
@@ -210,6 +222,9 @@ pub struct Estimate {
     /// Leading periods of a periodic sweep left out as not yet in periodic steady state
     /// (docs/identification.md#frequency-response-from-a-sweep); 0 for the other methods.
     pub periods_discarded: usize,
+    /// Neighbouring lines pooled on each side for each line's noise variance (a periodic
+    /// sweep of few periods, [`pooled_lines`]); 0: each line's own scatter (the other methods).
+    pub pooled_lines: usize,
     /// Independent averages n_d in the band's formula.
     pub averages: f64,
     /// The coherence a frequency needs to be usable ([`usable_coherence`]).
@@ -513,6 +528,7 @@ fn shell(rec: &Record, method: Method, rate_hz: f64, s: &Spectra) -> Estimate {
         segment_samples: s.segment_len,
         segments: s.segments,
         periods_discarded: 0,
+        pooled_lines: 0,
         averages: s.averages,
         usable_coherence: USABLE_COHERENCE,
         lowest_frequency_hz: f64::NAN,
@@ -539,14 +555,58 @@ fn periodic(
     let start = ((e.start_s() - rec.time_s[0]) * rate_hz).round().max(0.0) as usize;
     let (sx, su, mut est) = settled_spectra(rec, (start, len), rate_hz, command)?;
     est.lowest_frequency_reason = "the lowest frequency of the sweep described".into();
-    let raw = e
-        .excited_harmonics()
-        .iter()
+    let bins: Vec<usize> = (e.excited_harmonics().iter())
         .map(|&k| k as usize)
         .filter(|&k| k < len / 2)
-        .map(|k| ratio_at(k as f64 / period_s, k, &sx, su.as_ref()))
         .collect();
-    Ok((raw, est))
+    Ok((periodic_ratios(&bins, period_s, &sx, su.as_ref()), est))
+}
+
+/// The residual degrees of freedom (complex) a periodic estimate's noise variance is read from
+/// at each frequency: the period-to-period scatter of M periods gives M − 1 at its own line,
+/// too few for a weight when M is small (with M = 2, 1/σ̂² has no finite mean and a fit weighted
+/// by it is overconfident), so neighbouring lines are pooled until they reach this
+/// (docs/identification.md#coherence-and-the-band).
+pub const NOISE_DOF: usize = 16;
+
+/// Neighbouring lines pooled on each side for a periodic estimate of `periods` periods
+/// ([`NOISE_DOF`]): 0 from 17 periods on.
+pub fn pooled_lines(periods: usize) -> usize {
+    let own = periods.saturating_sub(1).max(1);
+    NOISE_DOF.div_ceil(own).saturating_sub(1).div_ceil(2)
+}
+
+/// The ratios of a periodic estimate at its excited `bins`: H₁ as [`ratio_at`]; with few
+/// periods ([`pooled_lines`] > 0) the noise variance of x at each line is the mean of the
+/// period-to-period scatter of its neighbours' (the noise spectrum is smooth; Pintelon &
+/// Schoukens 2012, §2.6), and γ², ε follow from it: γ² = |X̄|²/(|X̄|² + σ̂²),
+/// ε = h1_relative_error(γ², M) = σ̂/(|X̄|√(2M)).
+fn periodic_ratios(bins: &[usize], period_s: f64, sx: &Spectra, su: Option<&Spectra>) -> Vec<Raw> {
+    let mut raw: Vec<Raw> = (bins.iter())
+        .map(|&k| ratio_at(k as f64 / period_s, k, sx, su))
+        .collect();
+    let half = pooled_lines(sx.segments);
+    if half == 0 || raw.is_empty() {
+        return raw;
+    }
+    let m = sx.segments as f64;
+    // per line: |X̄|² and the scatter Σ|X_m − X̄|²/(M − 1) (R the same in every period)
+    let mean_sq = |k: usize| sx.ry[k].norm_sqr() / (sx.rr[k] * m);
+    let scatter = |k: usize| (sx.yy[k] - sx.ry[k].norm_sqr() / sx.rr[k]).max(0.0) / (m - 1.0);
+    let scatters: Vec<f64> = bins.iter().map(|&k| scatter(k)).collect();
+    let width = (2 * half + 1).min(bins.len());
+    for (i, r) in raw.iter_mut().enumerate() {
+        let from = i.saturating_sub(half).min(bins.len() - width);
+        let noise = scatters[from..from + width].iter().sum::<f64>() / width as f64;
+        let signal = mean_sq(bins[i]);
+        r.coherence = if signal + noise > 0.0 {
+            signal / (signal + noise)
+        } else {
+            0.0
+        };
+        r.error = h1_relative_error(r.coherence, m);
+    }
+    raw
 }
 
 /// The spectra of the whole periods of `len` samples from `start` on that are in periodic
@@ -584,6 +644,7 @@ fn settled_spectra(
     let su = command.map(|u| spectra::periods(r, u, first, len));
     let mut est = shell(rec, Method::Periods, rate_hz, &sx);
     est.periods_discarded = discarded;
+    est.pooled_lines = pooled_lines(sx.segments);
     Ok((sx, su, est))
 }
 
@@ -620,11 +681,10 @@ fn found_periodic(
             .into();
     let peak = sx.rr.iter().skip(1).cloned().fold(0.0, f64::max);
     let period_s = len as f64 / rate_hz;
-    let raw = (1..len.div_ceil(2))
+    let bins: Vec<usize> = (1..len.div_ceil(2))
         .filter(|&k| sx.rr[k] > 0.0 && sx.rr[k] >= EXCITED * peak)
-        .map(|k| ratio_at(k as f64 / period_s, k, &sx, su.as_ref()))
         .collect();
-    Ok((raw, est))
+    Ok((periodic_ratios(&bins, period_s, &sx, su.as_ref()), est))
 }
 
 /// A stepped sine: the sine fit of r, x (and u) over each level's whole periods after settling.
@@ -743,7 +803,10 @@ fn finish(
     plant_name: Option<&'static str>,
     warnings: &mut Vec<String>,
 ) -> Result<(), FrfError> {
-    let bar = usable_coherence(est.averages, raw.len());
+    let bar = match est.pooled_lines {
+        0 => usable_coherence(est.averages, raw.len()),
+        half => usable_pooled_coherence(est.segments, half, raw.len()),
+    };
     est.usable_coherence = bar;
     let best = raw.iter().map(|r| r.coherence).fold(0.0, f64::max);
     if best < bar {
