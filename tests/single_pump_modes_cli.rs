@@ -171,3 +171,56 @@ fn design_names_the_circuit_and_the_mode_at_rest() {
     let margins = run::pumpcyl(dir.path(), &["margins", "--set", "circuit=single-pump"]);
     assert!(String::from_utf8_lossy(&margins.stdout).contains(named));
 }
+
+/// `design` on a single-pump rig checks its gain in both modes at every condition: each
+/// condition's margins equal those `margins` gives for that mode at that position, mass and
+/// gain, and the gain over all conditions is the least Kp max of both modes. On the user rig
+/// under 2 kN (above its switching force: mode 1 at rest) the other mode binds, below what
+/// mode 1 alone would allow.
+#[test]
+fn design_checks_both_modes_at_every_condition() {
+    let (dir, args, _) = rigs(true, 2000.0);
+    let mut design = vec!["design", "--json"];
+    design.extend(args.iter().map(String::as_str));
+    let d = run::json(dir.path(), &design);
+    let conditions = d["conditions"].as_array().unwrap();
+    assert_eq!(conditions.len(), 6, "3 positions × 2 modes");
+    let kp = d["kp_max"].as_f64().unwrap();
+    for c in conditions {
+        let mode = c["mode"].as_u64().unwrap();
+        let (x, m) = (c["x_mm"].as_f64().unwrap(), c["mass_kg"].as_f64().unwrap());
+        let sets = [
+            format!("kp={kp}"),
+            format!("x0_mm={x}"),
+            format!("mass_kg={m}"),
+        ];
+        let mut margins = vec!["margins", "--json"];
+        margins.extend(args.iter().map(String::as_str));
+        for s in &sets {
+            margins.extend(["--set", s.as_str()]);
+        }
+        let v = run::json(dir.path(), &margins);
+        let same = (v["modes"].as_array().unwrap().iter())
+            .find(|e| e["mode"].as_u64() == Some(mode))
+            .unwrap_or_else(|| panic!("mode {mode} in {v}"));
+        for key in ["gain_margin_db", "phase_margin_deg"] {
+            let (a, b) = (c[key].as_f64().unwrap(), same[key].as_f64().unwrap());
+            assert!(
+                (a - b).abs() < 1e-9 * b.abs().max(1.0),
+                "{key} mode {mode}: {a} {b}"
+            );
+        }
+    }
+    let least = (conditions.iter())
+        .map(|c| c["kp_max"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    let worst_case = d["kp_max_worst_case"].as_f64().unwrap();
+    assert_eq!(worst_case, least);
+    assert!(d["analysed_loop"].as_str().unwrap().contains("mode 1"));
+    assert_eq!(d["worst_case"]["mode"], 2);
+    let at_rest = (conditions.iter())
+        .filter(|c| c["mode"] == 1)
+        .map(|c| c["kp_max"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst_case < 0.9 * at_rest, "{worst_case} {at_rest}");
+}

@@ -401,6 +401,9 @@ class Design(Result):
     kp_max_worst_case: float
     worst_case: Dict[str, Any]
     conditions: List[Dict[str, Any]]
+    """Each checked condition: x_mm, mode (the single-pump circuit's 1 or 2, both checked;
+    ``None`` for a circuit without modes), mass_kg, p_mean_bar, beta_bar, the margins at
+    ``kp_max`` and the condition's own kp_max."""
     kp_recommended: float
     tracking_kp: float
     tracking: List[Dict[str, Any]]

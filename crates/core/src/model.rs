@@ -55,7 +55,12 @@ impl Plant {
     /// The plant of the article §2.3.1, Figure 4; docs/model.md for a rig (its variant switches
     /// included): the exact Jacobian of the circuit's equations at its operating point.
     pub fn new(rig: &Rig) -> Plant {
-        let circuit = AnyCircuit::linear(rig);
+        Plant::of(rig, AnyCircuit::linear(rig))
+    }
+
+    /// The plant of `rig` in the linear model `circuit` (one of [`AnyCircuit::linear_modes`]):
+    /// its Jacobian at its operating point.
+    pub fn of(rig: &Rig, circuit: AnyCircuit) -> Plant {
         let op = circuit.operating_point();
         let (a, b) = linearise(&circuit, &op.state, &op.inputs);
         Plant {

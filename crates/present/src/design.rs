@@ -87,8 +87,9 @@ pub fn design_text(rig: &str, d: &Design) -> String {
     let w = &d.worst_case;
     let _ = writeln!(
         s,
-        "  binding condition            x {} mm, m {:.0} kg{}: its Kp max {:.2} sets the gain (GM {} dB, PM {} deg at Kp = {:.2})",
+        "  binding condition            x {} mm{}, m {:.0} kg{}: its Kp max {:.2} sets the gain (GM {} dB, PM {} deg at Kp = {:.2})",
         w.x_mm,
+        w.mode.map_or(String::new(), |m| format!(", mode {m}")),
         w.mass_kg,
         w.p_mean_bar.map_or(String::new(), |p| format!(", p {p} bar")),
         w.kp_max,
@@ -97,10 +98,18 @@ pub fn design_text(rig: &str, d: &Design) -> String {
         d.kp_max
     );
     let _ = writeln!(s, "conditions at Kp = {:.2}:", d.kp_max);
+    let modes = d.conditions.iter().any(|c| c.mode.is_some());
     let _ = writeln!(
         s,
-        "  {:>7} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}",
-        "x_mm", "mass_kg", "p_bar", "beta_bar", "GM_dB", "PM_deg", "kp_max"
+        "  {:>7}{} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}",
+        "x_mm",
+        if modes { "  mode" } else { "" },
+        "mass_kg",
+        "p_bar",
+        "beta_bar",
+        "GM_dB",
+        "PM_deg",
+        "kp_max"
     );
     for c in &d.conditions {
         let p = c.p_mean_bar.map_or("-".into(), |p| format!("{p}"));
@@ -111,8 +120,9 @@ pub fn design_text(rig: &str, d: &Design) -> String {
         };
         let _ = writeln!(
             s,
-            "  {:>7.1} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}{stable}",
+            "  {:>7.1}{} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}{stable}",
             c.x_mm,
+            c.mode.map_or(String::new(), |m| format!("{m:>6}")),
             c.mass_kg,
             p,
             c.beta_bar,

@@ -6,6 +6,10 @@ use super::single_pump::modes::{switching, Mode, Switching};
 use super::{Circuit, CircuitKind, ControlLaw};
 use crate::rig::Rig;
 
+/// The most linear models a circuit's loop runs in ([`AnyCircuit::linear_modes`]): the
+/// single-pump circuit's two modes.
+pub const MOST_LINEAR_MODES: usize = 2;
+
 /// A circuit of any kind, the one a rig is: what the linear model holds. A new kind is a new
 /// arm; what only the DPM has is asked for through [`AnyCircuit::dpm`].
 #[derive(Debug, Clone)]
@@ -66,6 +70,31 @@ impl AnyCircuit {
         }
     }
 
+    /// Every linear model the loop of `rig` runs in, the one at rest first
+    /// ([`AnyCircuit::linear`]): the single-pump circuit's two modes (its other mode where a
+    /// load crosses the switching force, docs/circuits.md#its-two-modes), the one model of a
+    /// circuit without modes. What a design checks its gains in.
+    pub fn linear_modes(rig: &Rig) -> Vec<AnyCircuit> {
+        match rig.circuit {
+            CircuitKind::SinglePump => {
+                let rest = switching(rig).mode_at_rest;
+                [3 - rest, rest]
+                    .map(|chamber| AnyCircuit::SinglePumpMode(Mode::new(rig, chamber)))
+                    .to_vec()
+            }
+            _ => vec![AnyCircuit::linear(rig)],
+        }
+    }
+
+    /// The mode this linear model is (the single-pump circuit's 1 or 2); `None` for a circuit
+    /// without modes.
+    pub fn mode(&self) -> Option<usize> {
+        match self {
+            AnyCircuit::SinglePumpMode(m) => Some(m.number()),
+            _ => None,
+        }
+    }
+
     /// The load torques of the pumps on motors 1 and 2 (N·m) at the chamber pressures `p_pa`
     /// (Pa gauge), what the drives' ratings are checked against; the single motor of a
     /// single-motor circuit is motor 1 (the single-pump circuit's D1 (p1 − p2) in either
@@ -79,13 +108,19 @@ impl AnyCircuit {
     }
 
     /// The circuit in words, as every analysis names it: `dpm`, `dual-pump`, or
-    /// `single-pump, mode M (chamber K at the accumulator pressure), the mode at rest`.
+    /// `single-pump, mode M (chamber K at the accumulator pressure), the mode at rest` (`the
+    /// other mode` for the mode the rig does not rest in).
     pub fn describe(&self) -> String {
         match self {
             AnyCircuit::SinglePumpMode(m) => format!(
-                "single-pump, mode {} (chamber {} at the accumulator pressure), the mode at rest",
+                "single-pump, mode {} (chamber {} at the accumulator pressure), {}",
                 m.number(),
-                m.accumulator_chamber()
+                m.accumulator_chamber(),
+                if m.at_rest() {
+                    "the mode at rest"
+                } else {
+                    "the other mode"
+                }
             ),
             c => c.kind().name().to_string(),
         }

@@ -82,7 +82,9 @@ pub mod single_pump;
 pub mod stops;
 pub mod valves;
 
-pub use any::{mode_switching, pressure_level_bar, require, require_dpm, AnyCircuit};
+pub use any::{
+    mode_switching, pressure_level_bar, require, require_dpm, AnyCircuit, MOST_LINEAR_MODES,
+};
 pub use dpm::Dpm;
 pub use emulated::Emulated;
 pub use parts::Effects;

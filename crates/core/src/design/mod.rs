@@ -3,6 +3,7 @@
 //! accumulator pressure, the predicted tracking of given waves, and a verdict.
 
 use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
+use crate::circuit::AnyCircuit;
 use crate::lti::{margins, LtiError, Margins};
 use crate::model::Plant;
 use crate::response::{track, TrackMetrics};
@@ -121,6 +122,9 @@ impl Targets {
 pub struct Condition {
     /// Position (mm).
     pub x_mm: f64,
+    /// The single-pump circuit's mode whose linear model this is, 1 or 2
+    /// (docs/circuits.md#its-two-modes); `None` for a circuit without modes.
+    pub mode: Option<usize>,
     /// Mass (kg).
     pub mass_kg: f64,
     /// Mean pressure (bar), if pressure was varied.
@@ -210,10 +214,18 @@ fn meets(m: &Margins, t: &Targets) -> bool {
         && m.gain_margin_db.is_none_or(|gm| gm >= t.gm_db)
 }
 
-/// Margins of the loop of docs/analysis.md#the-loop-that-is-analysed of `rig` with gain `kp`.
+/// Margins of the loop of docs/analysis.md#the-loop-that-is-analysed of `rig` with gain `kp`,
+/// in the mode the rig rests in.
 fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
+    margins_in(rig, kp, 0)
+}
+
+/// [`margins_at`] in the linear model `mode` of [`AnyCircuit::linear_modes`] (0: the one at
+/// rest).
+fn margins_in(rig: &Rig, kp: f64, mode: usize) -> Result<Margins, DesignError> {
     let r = Rig { kp, ..rig.clone() };
-    Ok(margins(&Plant::new(&r).open_loop(false))?)
+    let circuit = AnyCircuit::linear_modes(&r).swap_remove(mode);
+    Ok(margins(&Plant::of(&r, circuit).open_loop(false))?)
 }
 
 /// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by a bracketing search on log Kp
@@ -290,7 +302,13 @@ fn slack(m: &Margins, t: &Targets) -> f64 {
 /// the headline margin jumps (a new gain crossing) or stability is lost it bisects. The answer
 /// is the same gain to 2e-13.
 pub fn kp_max_below(rig: &Rig, t: &Targets, ceiling: f64) -> Result<f64, DesignError> {
-    let slack_at = |kp: f64| -> Result<f64, DesignError> { Ok(slack(&margins_at(rig, kp)?, t)) };
+    kp_max_in(rig, t, ceiling, 0)
+}
+
+/// [`kp_max_below`] in the linear model `mode` of [`AnyCircuit::linear_modes`].
+fn kp_max_in(rig: &Rig, t: &Targets, ceiling: f64, mode: usize) -> Result<f64, DesignError> {
+    let slack_at =
+        |kp: f64| -> Result<f64, DesignError> { Ok(slack(&margins_in(rig, kp, mode)?, t)) };
     let (lo, hi) = (KP_FLOOR, ceiling.max(KP_FLOOR));
     let s_lo = slack_at(lo)?;
     if s_lo < 0.0 {
@@ -429,9 +447,11 @@ const ANALYSES_PER_CONDITION: f64 = 3.0 + KP_SEARCH_STEPS as f64;
 
 impl Targets {
     /// The margin analyses the design of these targets takes at most: three stroke positions ×
-    /// masses × pressures conditions, each a Kp search, plus the design point's.
+    /// masses × pressures conditions, each a Kp search in each linear model of the circuit
+    /// (at most [`crate::circuit::MOST_LINEAR_MODES`]), plus the design point's.
     pub fn margin_analyses(&self) -> f64 {
-        (self.conditions() + 1.0) * ANALYSES_PER_CONDITION
+        let modes = crate::circuit::MOST_LINEAR_MODES as f64;
+        (modes * self.conditions() + 1.0) * ANALYSES_PER_CONDITION
     }
 
     /// The conditions the design checks: three stroke positions × masses × pressures.
@@ -547,29 +567,33 @@ fn pm_key(c: &Condition) -> f64 {
     c.phase_margin_deg.unwrap_or(f64::INFINITY)
 }
 
-/// Every combination of stroke position, mass and pressure, at the designed gain.
+/// Every combination of stroke position, mass and pressure, in every linear model of the
+/// circuit ([`AnyCircuit::linear_modes`]: the single-pump circuit's two modes), at the
+/// designed gain.
 fn conditions(
     rig: &Rig,
     t: &Targets,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<Condition>, DesignError> {
-    condition_rigs(rig, t)?
-        .into_iter()
-        .map(|(p, r)| {
-            progress(1);
-            let mm = margins_at(&r, rig.kp)?;
-            Ok(Condition {
+    let mut out = Vec::new();
+    for (p, r) in condition_rigs(rig, t)? {
+        progress(1);
+        for (i, circuit) in AnyCircuit::linear_modes(&r).iter().enumerate() {
+            let mm = margins_in(&r, rig.kp, i)?;
+            out.push(Condition {
                 x_mm: r.x0_mm,
+                mode: circuit.mode(),
                 mass_kg: r.mass_kg,
                 p_mean_bar: p,
                 beta_bar: r.beta_bar,
                 gain_margin_db: mm.gain_margin_db,
                 phase_margin_deg: mm.phase_margin_deg,
                 closed_loop_stable: mm.closed_loop_stable,
-                kp_max: kp_max(&r, t)?,
-            })
-        })
-        .collect()
+                kp_max: kp_max_in(&r, t, KP_CEILING, i)?,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// The rig at every combination of stroke position, load and pressure the targets name (the
@@ -611,14 +635,18 @@ fn condition_rigs(rig: &Rig, t: &Targets) -> Result<Vec<(Option<f64>, Rig)>, Des
     Ok(out)
 }
 
-/// The largest Kp meeting the targets at every condition (stroke positions, loads, pressures)
-/// — the design's `kp_max_worst_case` without designing at the design point first; 0 when
-/// some condition admits no gain.
+/// The largest Kp meeting the targets at every condition (stroke positions, loads, pressures,
+/// the circuit's linear models) — the design's `kp_max_worst_case` without designing at the
+/// design point first; 0 when some condition admits no gain.
 pub fn kp_max_worst_case(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     check_inputs(rig, t)?;
-    condition_rigs(rig, t)?
-        .iter()
-        .try_fold(f64::INFINITY, |lo, (_, r)| Ok(lo.min(kp_max(r, t)?)))
+    let mut lo = f64::INFINITY;
+    for (_, r) in condition_rigs(rig, t)? {
+        for mode in 0..AnyCircuit::linear_modes(&r).len() {
+            lo = lo.min(kp_max_in(&r, t, KP_CEILING, mode)?);
+        }
+    }
+    Ok(lo)
 }
 
 /// The verdict from the conditions at the designed gain.
@@ -633,8 +661,9 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
         .collect();
     let describe = |c: &Condition| {
         format!(
-            "x {} mm, m {} kg{}, beta {:.0} bar: PM {} deg, GM {} dB",
+            "x {} mm{}, m {} kg{}, beta {:.0} bar: PM {} deg, GM {} dB",
             c.x_mm,
+            c.mode.map_or(String::new(), |m| format!(", mode {m}")),
             c.mass_kg,
             c.p_mean_bar
                 .map_or(String::new(), |p| format!(", p {p} bar")),

@@ -59,6 +59,12 @@ impl Mode {
         2 - self.acc
     }
 
+    /// Whether this is the mode the rig rests in under its external force
+    /// ([`SinglePump::accumulator_chamber_at_rest`]).
+    pub fn at_rest(&self) -> bool {
+        self.accumulator_chamber() == self.full.accumulator_chamber_at_rest()
+    }
+
     /// The full circuit's state of the mode's state `s`: the accumulator chamber at p_acc.
     pub fn full_state<T: Scalar>(&self, s: &[T]) -> Vec<T> {
         let mut full = s.to_vec();
