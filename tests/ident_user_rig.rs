@@ -261,6 +261,28 @@ fn advise_on_a_user_rig_says_where_it_linearised_and_gives_no_ratio_of_unbounded
     let point = v["point"]["beta_bar"].as_f64().unwrap();
     let identified = v["identified"]["beta_bar"].as_f64().unwrap();
     assert!((point / 300.0 - 1.0).abs() < 0.03 && (identified / 300.0 - 1.0).abs() < 0.03);
+    // the steps leave b at its search bound: linearised there (b = 1 N·s/m, no friction) no
+    // record could show b; the model is linearised at the rig's 250 N·s/m instead, said so,
+    // and a sweep is then expected to bound b
+    assert_eq!(
+        v["point_from_rig"],
+        serde_json::json!(["viscous_friction_ns_per_m"])
+    );
+    assert_eq!(v["point"]["viscous_friction_ns_per_m"], 250.0);
+    assert!(
+        text.contains("b: identify's estimate sits at its search bound"),
+        "{text}"
+    );
+    assert_eq!(v["current"][1]["interval"], serde_json::Value::Null);
+    let best_b = v["best_for"]["viscous_friction_ns_per_m"].as_str().unwrap();
+    let bounded = (v["candidates"].as_array().unwrap().iter())
+        .find(|c| c["label"] == best_b)
+        .map(|c| c["widths"][1]["relative_width"].as_f64().unwrap())
+        .unwrap();
+    assert!(
+        best_b.contains("multisine") && bounded < 0.1,
+        "{best_b}: {bounded}"
+    );
     // the candidates' gains are the records' 15 and 10 and 0.6, 1.4 times 15: the rig's own,
     // never the article's 25 or 35
     let labels: Vec<&str> = (v["candidates"].as_array().unwrap().iter())

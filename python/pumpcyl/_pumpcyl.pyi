@@ -318,6 +318,9 @@ class Advice(Result):
     """Experiment advice: ``pumpcyl advise --json``."""
 
     point: Dict[str, float]
+    point_from_rig: List[str]
+    """The parameters whose estimate sat at its search bound: the model is linearised at the
+    rig file's value instead, and their current widths are unbounded."""
     identified: Dict[str, float]
     noise_std_mm: float
     variance_inflation: float

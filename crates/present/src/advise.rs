@@ -77,6 +77,18 @@ pub fn advice_text(name: &str, a: &Advice, seconds: f64) -> String {
         i.viscous_friction_ns_per_m,
         i.c12_m5_per_ns
     );
+    if !a.point_from_rig.is_empty() {
+        let names: Vec<&str> = (a.point_from_rig.iter())
+            .map(|p| crate::identification::short_name(p))
+            .collect();
+        let _ = writeln!(
+            s,
+            "{}: identify's estimate sits at its search bound (the records do not bound it), so \
+             the model is linearised at the rig file's value instead, and the current width is \
+             unbounded (docs/identification.md#experiment-advice)",
+            names.join(", ")
+        );
+    }
     let _ = match a.budget_s {
         Some(b) => writeln!(
             s,
@@ -209,6 +221,7 @@ mod tests {
                 viscous_friction_ns_per_m: 2000.0,
                 c12_m5_per_ns: 1e-11,
             },
+            point_from_rig: vec![],
             identified: Candidate {
                 beta_bar: 166.0,
                 viscous_friction_ns_per_m: 140.0,

@@ -474,7 +474,7 @@ pub fn identification_text(
 }
 
 /// The short name of a parameter in text: beta, b, c12.
-fn short_name(parameter: &str) -> &'static str {
+pub(crate) fn short_name(parameter: &str) -> &'static str {
     match parameter {
         "beta_bar" => "beta",
         "viscous_friction_ns_per_m" => "b",

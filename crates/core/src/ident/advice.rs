@@ -24,11 +24,12 @@
 //! length: with a budget ([`AdviceOptions::budget_s`]) each is counted as often as it fits in
 //! that recording time, otherwise once.
 
-use super::grid::Candidate;
+use super::grid::{candidate_values, Candidate};
 use super::problem::{DatasetSpec, Prepared, Problem};
 use super::refine::{candidate_of, log_point};
 use super::uncertainty::{
-    analyze, check_confidence, chi2_1_quantile, UncertaintyOptions, BOUNDS, PARAMETERS,
+    analyze, check_confidence, chi2_1_quantile, search_bound_at, UncertaintyOptions, BOUNDS,
+    PARAMETERS,
 };
 use super::{Experiment, IdentError};
 use crate::frf::spec::{DEFAULT_LEVELS, DEFAULT_LINES};
@@ -571,6 +572,19 @@ pub struct Width {
     pub relative_width: Option<f64>,
 }
 
+impl Width {
+    /// This width shown as unbounded (no interval), its `log_std` kept for the ranking: the
+    /// current width of a parameter whose records put its estimate at a search bound.
+    fn unbounded(&self) -> Width {
+        Width {
+            interval: None,
+            width: None,
+            relative_width: None,
+            ..*self
+        }
+    }
+}
+
 /// One candidate and what it is expected to give.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Assessment {
@@ -594,8 +608,15 @@ pub struct Assessment {
 /// The advice: the current widths, the candidates ranked best first, the best per parameter.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Advice {
-    /// The point the model is linearised at (the identification's answer polished on the SSE).
+    /// The point the model is linearised at: the identification's answer polished on the SSE,
+    /// with the rig file's value for each parameter whose estimate sits at its search bound
+    /// (`point_from_rig`).
     pub point: Candidate,
+    /// The parameters (of [`PARAMETERS`](super::PARAMETERS)) whose estimate sat at its search
+    /// bound, where the records do not bound them: the model is linearised at the rig's value
+    /// instead (a bound such as b = 1 N·s/m linearises a model without friction, in which no
+    /// record could show b), and their current widths are unbounded.
+    pub point_from_rig: Vec<&'static str>,
     /// The identification's answer the point was polished from (`identify`'s refined best,
     /// which minimises the cost: each record's initial position from its samples at rest).
     pub identified: Candidate,
@@ -901,6 +922,7 @@ pub fn advise(
         },
     )?;
     check_budget(opts.budget_s)?;
+    let (point, from_rig) = linearisation_point(&u.best, &first.rig);
     let rate = rate_hz(first);
     let designs = match &opts.designs {
         Some(d) => d.clone(),
@@ -912,7 +934,7 @@ pub fn advise(
             kps.sort_by(f64::total_cmp);
             kps.dedup();
             if opts.sweeps {
-                let at_point = problem.rig_for(&u.best, first)?;
+                let at_point = problem.rig_for(&point, first)?;
                 d.extend(default_sweeps(&at_point, &kps, rate));
             }
             d
@@ -924,7 +946,7 @@ pub fn advise(
             designs.len()
         )));
     }
-    let p: [f64; 3] = log_point(&u.best).try_into().expect("three parameters");
+    let p: [f64; 3] = log_point(&point).try_into().expect("three parameters");
     let var = u.noise_std_mm.powi(2) * u.variance_inflation;
     let z = chi2_1_quantile(opts.confidence).sqrt();
     let mut existing = Matrix3::zeros();
@@ -934,7 +956,10 @@ pub fn advise(
     // the model error the records' disagreement shows stays with every candidate
     let model_error = model_error_factor(&u);
     let existing = with_model_error(&existing, &model_error);
-    let current = widths(&existing, &u.best, z)?;
+    let mut current = widths(&existing, &point, z)?;
+    for &i in &from_rig {
+        current[i] = current[i].unbounded();
+    }
     let assessed: Vec<Result<Result<Assessment, Skip>, IdentError>> = designs
         .par_iter()
         .map(|d| {
@@ -949,13 +974,13 @@ pub fn advise(
                 Some(b) => b / d.duration_s(),
                 None => 1.0,
             };
-            if let Err(Skip(why)) = runnable(problem, &u.best, &ds) {
+            if let Err(Skip(why)) = runnable(problem, &point, &ds) {
                 return Ok(Err(Skip(format!("{}: {why}", d.label()))));
             }
             let info = sweep_information(problem, &ds, d, (&p, LOG_STEP), var, rate)? * repeats;
             let added = with_model_error(&info, &model_error);
             let info = existing + added;
-            let w = widths(&info, &u.best, z)?;
+            let w = widths(&info, &point, z)?;
             let improvement: [f64; 3] =
                 std::array::from_fn(|i| ratio(current[i].log_std, w[i].log_std));
             Ok(Ok(Assessment {
@@ -992,7 +1017,8 @@ pub fn advise(
             .unwrap_or_default()
     });
     Ok(Advice {
-        point: u.best,
+        point,
+        point_from_rig: from_rig.iter().map(|&i| PARAMETERS[i]).collect(),
         identified: *start,
         noise_std_mm: u.noise_std_mm,
         variance_inflation: u.variance_inflation,
@@ -1005,6 +1031,34 @@ pub fn advise(
         skipped,
         best_for,
     })
+}
+
+/// The point to linearise at: `best`, with the value of `rig` (the rig file's, where it lies
+/// inside the search bounds) for each parameter whose estimate sits at its search bound
+/// ([`search_bound_at`]); and those parameters' indices.
+fn linearisation_point(best: &Candidate, rig: &Rig) -> (Candidate, Vec<usize>) {
+    let mut values = candidate_values(best);
+    let own = [
+        rig.beta_bar,
+        rig.viscous_friction_ns_per_m,
+        rig.c12_m5_per_ns,
+    ];
+    let mut replaced = Vec::new();
+    for i in 0..3 {
+        let inside = own[i] > BOUNDS[i][0] && own[i] < BOUNDS[i][1];
+        if search_bound_at(i, values[i]).is_some() && inside && search_bound_at(i, own[i]).is_none()
+        {
+            values[i] = own[i];
+            replaced.push(i);
+        }
+    }
+    let [beta_bar, viscous_friction_ns_per_m, c12_m5_per_ns] = values;
+    let point = Candidate {
+        beta_bar,
+        viscous_friction_ns_per_m,
+        c12_m5_per_ns,
+    };
+    (point, replaced)
 }
 
 /// Each parameter's factor on its variance from the model error the datasets' disagreement
