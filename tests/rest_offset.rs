@@ -28,6 +28,9 @@ const CRANE: &[&str] = &[
     "kp=12.15",
 ];
 
+/// The crane's drive sized for its 30 kN: a 40 N·m motor with a stiffer velocity loop.
+const CRANE_DRIVES: [&str; 2] = ["motor_rated_torque_nm=40", "km1_nms_per_rad=0.15"];
+
 /// An 80/45 mm DPM of 2000 kg pushing 8 kN at a 40 bar sum pressure.
 const DPM: &[&str] = &[
     "piston_diameter_mm=80",
@@ -171,4 +174,86 @@ fn step_reports_the_rest_offset_on_the_command_line() {
     assert!((offset - want).abs() < 1e-6 * want, "{v}");
     let sse = m["steady_state_error_mm"].as_f64().unwrap();
     assert!((sse - want).abs() < 1e-6 * want, "{v}");
+}
+
+/// The crane file written into `dir` as crane.toml (the drives sized for 30 kN).
+fn crane_file(dir: &Path) {
+    let crane: Vec<String> = (CRANE.iter().chain(&CRANE_DRIVES))
+        .map(|s| s.replace('=', " = "))
+        .map(|s| s.replacen("circuit = dual-pump", "circuit = \"dual-pump\"", 1))
+        .collect();
+    std::fs::write(dir.join("crane.toml"), crane.join("\n")).unwrap();
+}
+
+/// An application that states no force range takes the rig's own 20 kN at both ends: the
+/// crane's rest offset, never an unloaded rig's.
+#[test]
+fn select_without_a_force_range_takes_the_rigs_force() {
+    let dir = tempfile::tempdir().unwrap();
+    crane_file(dir.path());
+    let app = "rig = \"crane.toml\"\ncircuits = [\"dual-pump\"]\nprecharge_bar = [7.0]\n";
+    std::fs::write(dir.path().join("app.toml"), app).unwrap();
+    let v = run::json(dir.path(), &["select", "app.toml", "--kp", "5.8", "--json"]);
+    let offsets = &v["options"][0]["rest_offset_mm"];
+    let (lo, hi) = (offsets[0].as_f64().unwrap(), offsets[1].as_f64().unwrap());
+    let beta = v["options"][0]["beta_e_bar"][0].as_f64().unwrap();
+    let mut sets: Vec<&str> = CRANE.iter().chain(&CRANE_DRIVES).copied().collect();
+    let extra = [
+        format!("beta_bar={beta}"),
+        "kp=5.8".into(),
+        "accumulator_precharge_bar=7".into(),
+    ];
+    sets.extend(extra.iter().map(String::as_str));
+    let own = offset_mm(&rig(&sets));
+    assert!(
+        own > 100.0 && (lo - own).abs() < 1e-6 && (hi - own).abs() < 1e-6,
+        "{lo} {hi} {own}"
+    );
+}
+
+/// `select` on the crane under 10–30 kN at a fixed gain: its tracking band [least, most] is
+/// the worst error of the emulated loop (every effect off, the candidate's β_e) over a settled
+/// period of the wave at the two ends of the force range, the rest offset included; the
+/// dual-pump candidate at 7 bar fails the 30 mm it would have passed without its offset.
+#[test]
+fn select_on_the_loaded_crane_gives_the_emulated_loops_wave_error() {
+    let dir = tempfile::tempdir().unwrap();
+    crane_file(dir.path());
+    let app = "rig = \"crane.toml\"\nexternal_force_n = [10000.0, 30000.0]\n\
+               circuits = [\"dual-pump\"]\nprecharge_bar = [7.0]\nlow_pressure_bar = [7.0]\n\
+               gas_fraction = 0.0342\ngas_fraction_min = 0.0342\ngas_fraction_max = 0.0342\n\
+               [[wave]]\nfreq_hz = 0.1\namp_mm = 100.0\nmax_error_mm = 30.0\n";
+    std::fs::write(dir.path().join("app.toml"), app).unwrap();
+    let v = run::json(dir.path(), &["select", "app.toml", "--kp", "5.8", "--json"]);
+    let o = &v["options"][0];
+    assert_eq!(o["meets"], false, "{o}");
+    let band = &o["tracking_max_error_mm"][0];
+    let beta = o["beta_e_bar"][0].as_f64().unwrap();
+    for (end, force) in [(0, 10_000.0), (1, 30_000.0)] {
+        let mut sets: Vec<&str> = CRANE.iter().chain(&CRANE_DRIVES).copied().collect();
+        let extra = [
+            format!("external_force_n={force}"),
+            format!("beta_bar={beta}"),
+            "kp=5.8".to_string(),
+            "accumulator_precharge_bar=7".to_string(),
+        ];
+        sets.extend(extra.iter().map(String::as_str));
+        let r = rig(&sets);
+        let wave = Experiment::Sine {
+            centre_mm: r.x0_mm,
+            amplitude_mm: 100.0,
+            freq_hz: 0.1,
+            start_s: 0.0,
+            duration_s: 60.0,
+        };
+        let s = wave.run(&r, Effects::none(), &Plc::ideal(100.0)).unwrap();
+        let worst = (s.time_s.iter().zip(&s.e_mm))
+            .filter(|(t, _)| **t >= 40.0)
+            .fold(0.0f64, |m, (_, e)| m.max(e.abs()));
+        let said = band[end].as_f64().unwrap();
+        assert!(
+            worst > 100.0 && (said - worst).abs() < 0.5,
+            "{force} N: {said} vs {worst}"
+        );
+    }
 }

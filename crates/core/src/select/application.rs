@@ -61,7 +61,8 @@ pub struct Application {
 /// The application keys that, absent, follow the rig (docs/select.md#the-gas-fraction): the
 /// gas fraction is read off the rig's β at its mean chamber pressure (the article's
 /// identification on the article's rig), its range is a factor 2 either way of it, and the
-/// loads are the rig's `mass_kg` (the article's two loads on the article's rig).
+/// loads are the rig's `mass_kg` (the article's two loads on the article's rig) and its
+/// `external_force_n` (a range of that one force).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FollowsRig {
     /// `gas_fraction` follows the rig.
@@ -72,6 +73,8 @@ pub struct FollowsRig {
     pub gas_fraction_max: bool,
     /// `mass_kg` follows the rig.
     pub mass_kg: bool,
+    /// `external_force_n` is the rig's force, [F, F].
+    pub external_force_n: bool,
     /// `circuits` are those the rig's components allow.
     pub circuits: bool,
 }
@@ -83,6 +86,7 @@ impl FollowsRig {
         gas_fraction_min: true,
         gas_fraction_max: true,
         mass_kg: true,
+        external_force_n: true,
         circuits: true,
     };
 
@@ -93,6 +97,7 @@ impl FollowsRig {
             "gas_fraction_min" => self.gas_fraction_min = false,
             "gas_fraction_max" => self.gas_fraction_max = false,
             "mass_kg" => self.mass_kg = false,
+            "external_force_n" => self.external_force_n = false,
             "circuits" => self.circuits = false,
             _ => {}
         }
@@ -316,6 +321,9 @@ impl Application {
             } else {
                 Vec::new()
             };
+        }
+        if follows.external_force_n {
+            self.external_force_n = [self.rig.external_force_n; 2];
         }
         if follows.gas_fraction {
             let reading = BetaReading::for_rig(&self.rig, article_rig);
@@ -686,7 +694,7 @@ pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
     ),
     (
         "external_force_n",
-        "N, external force range [lowest, highest] (the standing cost is taken at both)",
+        "N, external force range [lowest, highest] (the standing cost is taken at both; absent: the rig's external_force_n at both ends)",
     ),
     (
         "low_pressure_bar",
