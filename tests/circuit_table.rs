@@ -95,8 +95,41 @@ fn select_is_where_the_table_says() {
 }
 
 #[test]
+fn the_linear_analyses_are_where_the_table_says() {
+    for command in [
+        &["margins", "--json"][..],
+        &["poles", "--json"],
+        &["bode"],
+        &["model", "--json"],
+    ] {
+        check("margins", |c| on(c, command));
+    }
+}
+
+#[test]
+fn design_is_where_the_table_says() {
+    check("design", |c| on(c, &["design", "--json"]));
+}
+
+#[test]
+fn the_greybox_export_and_chatter_are_where_the_table_says() {
+    check("model --greybox", |c| {
+        on(c, &["model", "--greybox", "greybox.m"])
+    });
+    check("chatter", |c| on(c, &["chatter", "--json"]));
+}
+
+#[test]
 fn the_table_has_a_row_for_each_command_checked() {
-    for command in ["step", "emulate", "select", "chatter"] {
+    for command in [
+        "step",
+        "emulate",
+        "select",
+        "chatter",
+        "margins",
+        "design",
+        "model --greybox",
+    ] {
         assert_eq!(row(command).len(), 3);
     }
 }
