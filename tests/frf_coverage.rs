@@ -135,7 +135,7 @@ fn the_frequency_methods_intervals_hold_the_truth_on_20_periodic_chirps() {
 }
 
 #[test]
-#[ignore = "about a minute in release: cargo test --release --test frf_coverage -- --ignored --nocapture"]
+#[ignore = "about 3 minutes on 2 cores: cargo test --release --test frf_coverage -- --ignored --nocapture"]
 fn the_frequency_methods_95_percent_intervals_hold_the_truth_nine_times_in_ten() {
     check(coverage::sets(60));
 }
