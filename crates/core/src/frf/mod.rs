@@ -183,7 +183,7 @@ pub fn usable_coherence(averages: f64, frequencies: usize) -> f64 {
 }
 
 /// [`usable_coherence`] of a periodic estimate whose noise variance pools `half` lines on each
-/// side of each of `frequencies` lines ([`periodic_ratios`]) over `periods` periods. With no
+/// side of each of `frequencies` lines (its `periodic_ratios`) over `periods` periods. With no
 /// response, M|X̄|²/σ̂² is F-distributed with 2 and 2d degrees of freedom (d = (M − 1)·(2·half
 /// \+ 1) complex ones in σ̂²), exceeding y with probability (1 + y/d)^(−d); at 95 % over m
 /// lines (Bonferroni) y = d((m/0.05)^(1/d) − 1), and γ² = y/(M + y).
