@@ -1,7 +1,8 @@
 //! The figures of `pumpcyl reproduce` read as a user reads them, checked on the SVG text:
 //! colours keep their meaning across the panels of a figure, so does each dash pattern (one
 //! meaning a pattern, stated in the legend), subtitles never wrap between a number and its
-//! unit, every curve shows on white, and curves keep sub-pixel precision.
+//! unit, every curve shows on white, and curves keep sub-pixel precision. Their layout
+//! (docs/formats.md#figures): no two texts overlap.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -507,4 +508,91 @@ fn every_text_names_the_embedded_font_first() {
         assert!(svg.contains("<text"), "{name}: no text");
         assert_eq!(families, Vec::<&str>::new(), "{name}");
     }
+}
+
+/// `pumpcyl select`'s figure for the article's application with two waves and a rise time:
+/// four panels whose wave descriptions are longer than a panel is high.
+fn select_svg() -> &'static str {
+    static SVG: OnceLock<String> = OnceLock::new();
+    SVG.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let waves = "wave=[{ freq_hz = 0.125, amp_mm = 12.5, max_error_mm = 14.0 }, \
+                     { freq_hz = 0.225, amp_mm = 17.5, max_error_mm = 10.0 }]";
+        let args = [
+            "select",
+            "--set",
+            waves,
+            "--set",
+            "max_rise_time_s=1.0",
+            "--out",
+        ];
+        let out = run::pumpcyl(
+            Path::new("."),
+            &[&args[..], &[dir.path().to_str().unwrap()]].concat(),
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read_to_string(dir.path().join("select.svg")).unwrap()
+    })
+}
+
+/// The y descriptions of `svg` as (first line, line count): consecutive rotated texts at one
+/// height are the lines of one description.
+fn y_descriptions(svg: &str) -> Vec<(String, usize)> {
+    let mut out: Vec<(String, usize, String)> = Vec::new();
+    for tag in svg.split("<text").skip(1) {
+        let Some(centre) = tag.split("rotate(270, ").nth(1) else {
+            continue;
+        };
+        let y = centre
+            .split([',', ')'])
+            .nth(1)
+            .unwrap_or("")
+            .trim()
+            .to_string();
+        let content = tag.split('>').nth(1).unwrap_or("").trim().to_string();
+        match out.last_mut() {
+            Some(last) if last.2 == y => last.1 += 1,
+            _ => out.push((content, 1, y)),
+        }
+    }
+    out.into_iter().map(|(c, n, _)| (c, n)).collect()
+}
+
+#[test]
+fn no_text_of_a_figure_overlaps_another() {
+    for (name, svg) in figures() {
+        let c = pumpcyl_present::plot::text_collisions(svg);
+        assert_eq!(c, Vec::<String>::new(), "{name}");
+    }
+    // select's four panels with two long wave descriptions: each wraps beside its own panel
+    let select = select_svg();
+    assert_eq!(
+        pumpcyl_present::plot::text_collisions(select),
+        Vec::<String>::new()
+    );
+    assert_eq!(
+        pumpcyl_present::plot::text_overflow(select),
+        Vec::<String>::new()
+    );
+    let descs = y_descriptions(select);
+    assert_eq!(descs.len(), 4, "{descs:?}");
+    assert!(
+        descs.iter().filter(|(_, lines)| *lines == 2).count() >= 2,
+        "the wave descriptions are longer than a panel is high: {descs:?}"
+    );
+    // the checker catches the fault it looks for: two y descriptions running into each other
+    let text = |y: f64, t: &str| {
+        format!("<text x=\"8\" y=\"{y}\" dy=\"0.76em\" text-anchor=\"middle\" font-size=\"13.7\" transform=\"rotate(270, 8, {y})\">\n{t}\n</text>\n")
+    };
+    let label = "max |e| (mm), 0.125 Hz ±12.5 mm";
+    let svg = format!(
+        "<svg width=\"600\" height=\"600\">{}{}</svg>",
+        text(175.0, label),
+        text(395.0, label)
+    );
+    assert_eq!(pumpcyl_present::plot::text_collisions(&svg).len(), 1);
 }

@@ -114,6 +114,8 @@ pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32
 /// fits nowhere; if every placement hides a curve, the top of the value axis
 /// is raised (legend at most 40 % of the panel height) to make room above
 /// the data, and failing that the legend covers the fewest curve segments.
+/// Each panel's value-axis description is wrapped onto a second line, then
+/// shortened in the middle, to stay within the panel's height.
 ///
 /// # Errors
 /// [`ReportError::Empty`] when `panels` is empty or no trace has a point with
@@ -414,8 +416,10 @@ impl render::Draw for Figure<'_> {
             .map(|p| nice_axis(p.y_range.0, p.y_range.1, max_y_intervals))
             .collect();
 
-        // Horizontal layout: the y label area fits the widest tick label.
-        let plot_w = stack::plot_width(width, axes::y_label_area(&y_ticks, scale), scale).max(10);
+        // Horizontal layout: the y label area fits the widest tick label and description.
+        let y_descs = || self.panels.iter().map(|p| p.panel.y_label.as_str());
+        let (_, y_label_area) = stack::y_labels(y_descs(), &y_ticks, plot_h, scale);
+        let plot_w = stack::plot_width(width, y_label_area, scale).max(10);
         let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
         let x_ticks = linear_axis(self.t_range.0, self.t_range.1, max_x_intervals);
 
@@ -458,7 +462,7 @@ impl render::Draw for Figure<'_> {
             }
             legends.push(Some((entries, label_w, layout)));
         }
-        let y_label_area = axes::y_label_area(&y_ticks, scale);
+        let (y_desc, y_label_area) = stack::y_labels(y_descs(), &y_ticks, plot_h, scale);
 
         let areas = stack::areas(&body, n, plot_h, scale);
         for (i, (((data, area), yt), legend)) in self
@@ -470,7 +474,7 @@ impl render::Draw for Figure<'_> {
             .enumerate()
         {
             let axes = (x_ticks.clone(), yt.clone());
-            let descs = (self.x_label.as_str(), data.panel.y_label.as_str());
+            let descs = (self.x_label.as_str(), &y_desc[i][..]);
             let mut chart = stack::chart(area, (i, n), axes, descs, y_label_area, scale)?;
             let (pw, _) = chart.plotting_area().dim_in_pixel();
             let bucket_count = (pw as usize).max(1) * 2;
