@@ -2,7 +2,8 @@
 //! colours keep their meaning across the panels of a figure, so does each dash pattern (one
 //! meaning a pattern, stated in the legend), subtitles never wrap between a number and its
 //! unit, every curve shows on white, and curves keep sub-pixel precision. Their layout
-//! (docs/formats.md#figures): no two texts overlap.
+//! (docs/formats.md#figures): a category axis is ticked with its names only and no two texts
+//! overlap.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -64,8 +65,15 @@ enum Element {
         dash: Option<String>,
         points: Vec<(f64, f64)>,
     },
-    /// A text: its fill colour and content.
-    Text { fill: String, content: String },
+    /// A text: its fill colour, content, anchor (`start`, `middle`, `end`), font size and
+    /// whether it is rotated (an axis description).
+    Text {
+        fill: String,
+        content: String,
+        anchor: String,
+        size: f64,
+        rotated: bool,
+    },
     /// Anything else.
     Other,
 }
@@ -107,6 +115,11 @@ fn elements(svg: &str) -> Vec<Element> {
             out.push(Element::Text {
                 fill: attr(tag, "fill").unwrap_or("").to_uppercase(),
                 content: unescape(body[..close].trim()),
+                anchor: attr(tag, "text-anchor").unwrap_or("start").to_string(),
+                size: attr(tag, "font-size")
+                    .and_then(|v| v.parse().ok())
+                    .unwrap_or(0.0),
+                rotated: attr(tag, "transform").is_some_and(|t| t.starts_with("rotate")),
             });
             rest = &body[close..];
             continue;
@@ -308,7 +321,7 @@ fn split_number_units(svg: &str) -> Vec<String> {
     let lines: Vec<String> = elements(svg)
         .into_iter()
         .filter_map(|e| match e {
-            Element::Text { fill, content } if fill == SUBTITLE_FILL => Some(content),
+            Element::Text { fill, content, .. } if fill == SUBTITLE_FILL => Some(content),
             _ => None,
         })
         .collect();
@@ -446,6 +459,7 @@ fn no_subtitle_line_ends_inside_a_number_and_its_unit() {
             y: t.iter().map(|t| t.sin()).collect(),
             ..Default::default()
         }],
+        ..Default::default()
     };
     for pad in 0..40 {
         let subtitle = format!(
@@ -537,6 +551,108 @@ fn select_svg() -> &'static str {
         );
         std::fs::read_to_string(dir.path().join("select.svg")).unwrap()
     })
+}
+
+/// The reproduce figure `name`.svg.
+fn figure(name: &str) -> &'static str {
+    let file = format!("{name}.svg");
+    let found = figures().iter().find(|(n, _)| *n == file);
+    &found.unwrap_or_else(|| panic!("no {file}")).1
+}
+
+/// The SVG font size of tick labels: plotters' text size 15 over 1.24.
+const TICK_FONT: f64 = 15.0 / 1.24;
+
+/// Whether `e` is a tick label anchored at `anchor` (`end`: a y axis, `middle`: the x axis).
+fn tick_label<'a>(e: &'a Element, at: &str) -> Option<&'a str> {
+    match e {
+        Element::Text {
+            content,
+            anchor,
+            size,
+            rotated: false,
+            ..
+        } if anchor == at && (size - TICK_FONT).abs() < 0.01 => Some(content),
+        _ => None,
+    }
+}
+
+/// The y tick labels of the panel of `svg` whose (rotated) description starts with `desc`:
+/// the right-anchored tick labels drawn since the previous panel's description.
+fn y_tick_labels(svg: &str, desc: &str) -> Vec<String> {
+    let mut run = Vec::new();
+    for e in elements(svg) {
+        if let Some(t) = tick_label(&e, "end") {
+            run.push(t.to_string());
+        } else if let Element::Text {
+            content,
+            rotated: true,
+            ..
+        } = &e
+        {
+            if content.starts_with(desc) {
+                return run;
+            }
+            run.clear();
+        }
+    }
+    panic!("no y description {desc:?}")
+}
+
+/// The x tick labels of `svg` (centred under the bottom plot).
+fn x_tick_labels(svg: &str) -> Vec<String> {
+    let els = elements(svg);
+    (els.iter())
+        .filter_map(|e| tick_label(e, "middle").map(str::to_string))
+        .collect()
+}
+
+#[test]
+fn category_axes_are_ticked_with_the_category_names_only() {
+    // the single pump's mode, a category (1 or 2), not a number ticked 1.90 ... 2.10
+    let mut modes = y_tick_labels(figure("figure1_circuits_step"), "Single-pump mode");
+    modes.sort();
+    assert_eq!(modes, ["1", "2"]);
+    // the record sets by name, not at x = 0.5 ... 3.5
+    assert_eq!(
+        x_tick_labels(figure("sweep_beside_steps")),
+        ["steps (the article's method)", "sweep", "steps and sweep"]
+    );
+    // through the library: names at 1..=n on either axis, shortened to their share of the width
+    let long = "a record set whose name is far too long for a third of the width of the figure";
+    let names: Vec<String> = ["first", long, "third"].map(String::from).into();
+    let kinds: Vec<String> = ["off", "on"].map(String::from).into();
+    let panel = pumpcyl_present::plot::Panel {
+        y_label: "State".into(),
+        traces: vec![pumpcyl_present::plot::Trace {
+            label: "x".into(),
+            t_s: vec![1.0, 2.0, 3.0],
+            y: vec![1.0, 2.0, 2.0],
+            ..Default::default()
+        }],
+        categories: kinds,
+    };
+    let svg = pumpcyl_present::plot::panels_categorical_svg(
+        "t",
+        None,
+        ("set", &names),
+        std::slice::from_ref(&panel),
+    )
+    .unwrap();
+    let mut y = y_tick_labels(&svg, "State");
+    y.sort();
+    assert_eq!(y, ["off", "on"]);
+    let x = x_tick_labels(&svg);
+    assert_eq!(
+        (x.len(), &x[0][..], &x[2][..]),
+        (3, "first", "third"),
+        "{x:?}"
+    );
+    assert!(x[1].starts_with("a record") && x[1].contains('…'), "{x:?}");
+    assert_eq!(
+        pumpcyl_present::plot::text_collisions(&svg),
+        Vec::<String>::new()
+    );
 }
 
 /// The y descriptions of `svg` as (first line, line count): consecutive rotated texts at one

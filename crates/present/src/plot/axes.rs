@@ -242,6 +242,19 @@ pub(super) fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
     }
 }
 
+/// Axis of categories: the k-th of `names` (k from 1) at k, ticked with the names and nothing
+/// else, spanning 0.5 ..= n + 0.5 so that every category lies half a step inside the plot.
+pub(super) fn categorical_axis(names: &[String]) -> Axis {
+    Axis {
+        lo: 0.5,
+        hi: names.len() as f64 + 0.5,
+        log: false,
+        major: (1..=names.len()).map(|k| k as f64).collect(),
+        labels: names.to_vec(),
+        minor: Vec::new(),
+    }
+}
+
 /// Linear axis over `lo..hi` whose labels keep at least `min_gap` pixels
 /// apart along `len_px` pixels; `label_len` gives a label's extent along the
 /// axis (0 for a vertical axis, where `min_gap` alone applies).
@@ -544,6 +557,14 @@ mod tests {
         let short = y_desc_lines(d, 60, 1.0);
         assert!(short.len() == 2 && short[1].contains('…'), "{short:?}");
         assert!(y_desc_lines("", 100, 1.0).is_empty());
+    }
+
+    #[test]
+    fn categories_sit_at_whole_numbers() {
+        let a = categorical_axis(&["off".to_string(), "on".to_string()]);
+        assert_eq!((a.lo, a.hi, &a.major[..]), (0.5, 2.5, &[1.0, 2.0][..]));
+        assert_eq!(a.labels, ["off", "on"]);
+        assert!(a.minor.is_empty());
     }
 
     #[test]
