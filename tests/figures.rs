@@ -2,8 +2,8 @@
 //! colours keep their meaning across the panels of a figure, so does each dash pattern (one
 //! meaning a pattern, stated in the legend), subtitles never wrap between a number and its
 //! unit, every curve shows on white, and curves keep sub-pixel precision. Their layout
-//! (docs/formats.md#figures): a category axis is ticked with its names only and no two texts
-//! overlap.
+//! (docs/formats.md#figures): a category axis is ticked with its names only, a series is named
+//! once in a stack of panels, and no two texts overlap.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -653,6 +653,37 @@ fn category_axes_are_ticked_with_the_category_names_only() {
         pumpcyl_present::plot::text_collisions(&svg),
         Vec::<String>::new()
     );
+}
+
+/// Labels named in more than one legend row of `svg`.
+fn repeated_legend_labels(svg: &str) -> Vec<String> {
+    let mut seen: Vec<String> = Vec::new();
+    let mut repeated = Vec::new();
+    for row in legend_rows_styled(svg) {
+        if seen.contains(&row.label) {
+            repeated.push(row.label);
+        } else {
+            seen.push(row.label);
+        }
+    }
+    repeated
+}
+
+#[test]
+fn a_stack_of_panels_names_each_series_once() {
+    let mut stacks = 0;
+    for (name, svg) in figures().iter().map(|(n, s)| (n.as_str(), s.as_str())) {
+        assert_eq!(repeated_legend_labels(svg), Vec::<String>::new(), "{name}");
+        stacks += usize::from(svg.matches("rotate(270").count() > 2);
+    }
+    assert!(stacks >= 10, "only {stacks} figures of stacked panels");
+    // select's figure: the circuits named once, over four panels that all draw them
+    let select = select_svg();
+    assert_eq!(repeated_legend_labels(select), Vec::<String>::new());
+    let rows = legend_rows_styled(select);
+    for circuit in ["low-pressure", "dual-pump", "single-pump"] {
+        assert_eq!(rows.iter().filter(|r| r.label == circuit).count(), 1);
+    }
 }
 
 /// The y descriptions of `svg` as (first line, line count): consecutive rotated texts at one

@@ -54,9 +54,10 @@ pub enum LineStyle {
 /// need not be uniformly sampled.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Trace {
-    /// Label shown in the panel's legend; an empty label keeps the trace out
-    /// of the legend. A labelled trace without points is a note in the legend
-    /// (its label without a line sample).
+    /// Label shown in the legend of the first panel that has the trace's row
+    /// (label and style); an empty label keeps the trace out of the legend. A
+    /// labelled trace without points is a note in the legend (its label
+    /// without a line sample).
     pub label: String,
     /// Sample times, in seconds.
     pub t_s: Vec<f64>,
@@ -114,7 +115,8 @@ pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32
 /// each panel's value axis spans its finite values with 5 % padding (a
 /// constant signal gets ±5 % of its value, or ±1 around 0; a panel with
 /// [`Panel::categories`] spans its categories). A panel with labelled traces
-/// gets a legend of them (semi-transparent box): in the
+/// gets a legend of them (semi-transparent box), leaving out the rows a panel
+/// above already shows, so that each series is named once: in the
 /// top-right corner if it hides no curve there, else in the first free corner
 /// (top left, bottom right, bottom left), using up to 4 columns if one column
 /// fits nowhere; if every placement hides a curve, the top of the value axis
@@ -468,10 +470,10 @@ impl render::Draw for Figure<'_> {
 
         let strokes = self.strokes(&TraceStyles::new(scale));
         let legend_metrics = LegendMetrics::new(scale);
-        let rows: Vec<Vec<LegendEntry>> = (self.panels.iter().zip(&strokes))
+        let rows = (self.panels.iter().zip(&strokes))
             .map(|(data, strokes)| legend_entries(data, strokes))
             .collect();
-        let legends: Vec<Option<PanelLegend>> = (rows.into_iter())
+        let legends: Vec<Option<PanelLegend>> = (legend::first_rows(rows).into_iter())
             .zip(self.panels.iter().zip(y_ticks.iter_mut()))
             .map(|(entries, (data, yt))| {
                 let fit = (&legend_metrics, plot, max_y_intervals);
