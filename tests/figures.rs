@@ -3,7 +3,8 @@
 //! meaning a pattern, stated in the legend), subtitles never wrap between a number and its
 //! unit, every curve shows on white, and curves keep sub-pixel precision. Their layout
 //! (docs/formats.md#figures): a category axis is ticked with its names only, a series is named
-//! once in a stack of panels, and no two texts overlap.
+//! once in a stack of panels, no two texts overlap, and a curve lying under a later one is
+//! drawn in another width.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -139,11 +140,12 @@ fn unescape(s: &str) -> String {
         .replace("&amp;", "&")
 }
 
-/// A legend row: its label and its line sample's colour and dash array.
+/// A legend row: its label and its line sample's colour, dash array and width.
 struct LegendRow {
     label: String,
     stroke: String,
     dash: Option<String>,
+    width: f64,
 }
 
 /// Whether `e` followed by `next` is a legend row's line sample (a horizontal line 28 px long
@@ -164,13 +166,20 @@ fn legend_rows_styled(svg: &str) -> Vec<LegendRow> {
     els.windows(2)
         .filter(|w| is_sample(&w[0], w.get(1)))
         .filter_map(|w| match (&w[0], &w[1]) {
-            (Element::Line { stroke, dash, .. }, Element::Text { content, .. }) => {
-                Some(LegendRow {
-                    label: content.clone(),
-                    stroke: stroke.clone(),
-                    dash: dash.clone(),
-                })
-            }
+            (
+                Element::Line {
+                    stroke,
+                    dash,
+                    width,
+                    ..
+                },
+                Element::Text { content, .. },
+            ) => Some(LegendRow {
+                label: content.clone(),
+                stroke: stroke.clone(),
+                dash: dash.clone(),
+                width: *width,
+            }),
             _ => None,
         })
         .collect()
@@ -742,4 +751,63 @@ fn no_text_of_a_figure_overlaps_another() {
         text(395.0, label)
     );
     assert_eq!(pumpcyl_present::plot::text_collisions(&svg).len(), 1);
+}
+
+/// The curves of `svg` with more than `min_points` points: (stroke, width, dash).
+fn long_curves(svg: &str, min_points: usize) -> Vec<(String, f64, Option<String>)> {
+    (elements(svg).into_iter())
+        .filter_map(|e| match e {
+            Element::Line {
+                stroke,
+                width,
+                dash,
+                points,
+            } if points.len() > min_points => Some((stroke, width, dash)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_curve_lying_under_a_later_one_is_drawn_in_another_width_that_the_legend_shows() {
+    // the two dual pumps step alike: the matched D2 (vermillion) under the article's (green)
+    let svg = figure("figure1_circuits_step");
+    let curves = long_curves(svg, 100);
+    let width_of = |colour: &str| {
+        let c = curves.iter().find(|c| c.0 == colour).expect(colour);
+        (c.1, c.2.clone())
+    };
+    let (matched, article) = (width_of("#D55E00"), width_of("#009E73"));
+    assert_ne!(
+        matched, article,
+        "the matched D2's curve hidden under the article D2's"
+    );
+    let rows = legend_rows_styled(svg);
+    let row = rows
+        .iter()
+        .find(|r| r.label.starts_with("dual pump, D2 matched"));
+    assert_eq!(row.map(|r| r.width), Some(matched.0), "its legend sample");
+
+    // through the library: of two equal curves the first is drawn wider, a third apart is not
+    let t: Vec<f64> = (0..200).map(|i| f64::from(i) * 0.05).collect();
+    let trace = |label: &str, off: f64| pumpcyl_present::plot::Trace {
+        label: label.into(),
+        t_s: t.clone(),
+        y: t.iter().map(|t| t.sin() + off).collect(),
+        ..Default::default()
+    };
+    let panel = pumpcyl_present::plot::Panel {
+        y_label: "Position (mm)".into(),
+        traces: vec![trace("a", 0.0), trace("b", 0.0), trace("c", 3.0)],
+        ..Default::default()
+    };
+    let svg = pumpcyl_present::plot::panels_svg("t", None, &[panel]).unwrap();
+    let widths: Vec<f64> = long_curves(&svg, 100).iter().map(|c| c.1).collect();
+    assert_eq!(widths.len(), 3);
+    assert!(
+        widths[0] > widths[1] && widths[1] == widths[2],
+        "{widths:?}"
+    );
+    let samples: Vec<f64> = legend_rows_styled(&svg).iter().map(|r| r.width).collect();
+    assert_eq!(samples, widths);
 }

@@ -781,6 +781,7 @@ fn series_stroke(i: usize, scale: f64) -> Stroke {
         width: upx(2.0).max(2),
         pattern: (i > 0).then(|| PATTERNS[(i - 1) % PATTERNS.len()].map(|d| px(d).max(1))),
         dot_r: upx(3.0),
+        opacity: 1.0,
     }
 }
 

@@ -29,7 +29,8 @@ pub(super) enum Sample {
 #[derive(Clone)]
 pub(super) struct LegendEntry {
     pub(super) label: String,
-    /// The stroke of the sample line (colour, width, dash pattern) or the colour of its dot.
+    /// The stroke of the sample line (colour, width, dash pattern, opacity) or the colour of
+    /// its dot.
     pub(super) stroke: Stroke,
     /// What the row shows before its label.
     pub(super) sample: Sample,
@@ -263,7 +264,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                     .draw(&Circle::new(
                         (x + m.sample_len / 2, y),
                         r,
-                        stroke.color.filled(),
+                        stroke.color.mix(stroke.opacity).filled(),
                     ))
                     .map_err(plot_err)?,
                 Sample::Note => {}
@@ -386,6 +387,7 @@ mod tests {
             width: 1,
             pattern: None,
             dot_r: 0,
+            opacity: 1.0,
         };
         let e = |l: &str| LegendEntry::of(&black, l);
         let w = m.label_widths(&[e("a"), e("a longer label")]);

@@ -10,6 +10,7 @@ mod error;
 pub(crate) mod font;
 mod layout;
 mod legend;
+mod overlap;
 mod precise;
 mod render;
 mod series;

@@ -14,6 +14,7 @@ use super::bode::DEFAULT_WIDTH_PX;
 use super::error::ReportError;
 use super::layout;
 use super::legend::{self, LegendEntry, LegendLayout, LegendMetrics, Sample};
+use super::overlap::{self, Curve, PanelCurves};
 use super::render::{self, header_height};
 use super::series::{
     draw_pieces, even_dash, finite_extent, series_color, Dash, Pieces, Polyline, Stroke, PALETTE,
@@ -85,7 +86,9 @@ pub struct Trace {
 pub struct Panel {
     /// Value-axis description with its unit, e.g. `"Position (mm)"`.
     pub y_label: String,
-    /// Curves of the panel, drawn in order (later ones on top).
+    /// Curves of the panel, drawn in order (later ones on top). A curve that later ones of
+    /// other colours or line styles would hide is drawn wider, in every panel and in the
+    /// legend, so that it shows around them (docs/formats.md#figures).
     pub traces: Vec<Trace>,
     /// Names of the categories when the values are categories (a mode, a kind): the k-th name
     /// (k from 1) at the value k, the axis ticked with the names and nothing else; empty for a
@@ -468,7 +471,7 @@ impl render::Draw for Figure<'_> {
         );
         let x_ticks = self.x_axis(plot.0, scale);
 
-        let strokes = self.strokes(&TraceStyles::new(scale));
+        let strokes = self.strokes(&TraceStyles::new(scale), (&x_ticks, &y_ticks), plot);
         let legend_metrics = LegendMetrics::new(scale);
         let rows = (self.panels.iter().zip(&strokes))
             .map(|(data, strokes)| legend_entries(data, strokes))
@@ -520,12 +523,42 @@ impl Figure<'_> {
         categorical_axis(&names)
     }
 
-    /// The stroke of every trace of every panel: its colour and line style.
-    fn strokes(&self, styles: &TraceStyles) -> Vec<Vec<Stroke>> {
-        (self.panels.iter())
-            .map(|d| {
-                (d.panel.traces.iter().zip(&d.colors))
-                    .map(|(t, &c)| styles.stroke(c, t.style))
+    /// The stroke of every trace of every panel: its colour and line style, and the width of
+    /// its group (its colour and line style) raised where later curves would hide one of its
+    /// curves ([`overlap::width_levels`]), on plots `plot` px wide and high over the axes.
+    fn strokes(
+        &self,
+        styles: &TraceStyles,
+        (x, y): (&Axis, &[Axis]),
+        plot: (i32, i32),
+    ) -> Vec<Vec<Stroke>> {
+        let traces =
+            || (self.panels.iter()).map(|d| d.panel.traces.iter().map(|t| t.style).zip(&d.colors));
+        let mut groups: Vec<(LineStyle, usize)> = Vec::new();
+        for (style, &c) in traces().flatten() {
+            if !groups.contains(&(style, c)) {
+                groups.push((style, c));
+            }
+        }
+        let group = |style, c| groups.iter().position(|g| *g == (style, c)).unwrap_or(0);
+        let panels: Vec<PanelCurves<'_>> = (self.panels.iter().zip(y))
+            .map(|(d, y)| PanelCurves {
+                curves: (d.panel.traces.iter().zip(&d.pieces).zip(&d.colors))
+                    .filter(|((t, _), _)| t.style != LineStyle::Markers)
+                    .map(|((t, pieces), &c)| Curve {
+                        group: group(t.style, c),
+                        pieces,
+                    })
+                    .collect(),
+                y,
+            })
+            .collect();
+        let size = (f64::from(plot.0), f64::from(plot.1));
+        let tol = f64::from(styles.line_w);
+        let levels = overlap::width_levels(&panels, x, size, tol, groups.len());
+        traces()
+            .map(|p| {
+                p.map(|(style, &c)| styles.stroke(c, style, levels[group(style, c)]))
                     .collect()
             })
             .collect()
@@ -619,6 +652,8 @@ fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
 /// Pixel sizes for drawing traces.
 struct TraceStyles {
     line_w: u32,
+    /// Width added to a line for each level it is raised by ([`overlap::width_levels`]).
+    band_w: u32,
     dot_r: u32,
     /// Radius of the circles of [`LineStyle::Markers`].
     marker_r: u32,
@@ -635,6 +670,7 @@ impl TraceStyles {
         let (long, short, gap) = (px(12.0).max(3), px(2.0).max(1), px(4.0).max(2));
         TraceStyles {
             line_w: upx(2.0),
+            band_w: upx(3.0),
             dot_r: upx(3.0),
             marker_r: upx(6.0),
             dash: even_dash(px(10.0).max(2), px(6.0).max(2)),
@@ -643,11 +679,12 @@ impl TraceStyles {
         }
     }
 
-    /// The stroke of a trace in palette colour `color` and line style `style`.
-    fn stroke(&self, color: usize, style: LineStyle) -> Stroke {
+    /// The stroke of a trace in palette colour `color` and line style `style`, its width
+    /// raised by `level` bands (and then drawn as a see-through band).
+    fn stroke(&self, color: usize, style: LineStyle, level: u32) -> Stroke {
         Stroke {
             color: series_color(color),
-            width: self.line_w,
+            width: self.line_w + level * self.band_w,
             pattern: match style {
                 LineStyle::Solid | LineStyle::Markers => None,
                 LineStyle::Dashed => Some(self.dash),
@@ -658,6 +695,11 @@ impl TraceStyles {
                 self.marker_r
             } else {
                 self.dot_r
+            },
+            opacity: if level > 0 {
+                overlap::BAND_OPACITY
+            } else {
+                1.0
             },
         }
     }
