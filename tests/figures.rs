@@ -1,7 +1,10 @@
 //! The figures of `pumpcyl reproduce` read as a user reads them, checked on the SVG text:
 //! colours keep their meaning across the panels of a figure, so does each dash pattern (one
 //! meaning a pattern, stated in the legend), subtitles never wrap between a number and its
-//! unit, every curve shows on white, and curves keep sub-pixel precision.
+//! unit, every curve shows on white, and curves keep sub-pixel precision. Their layout
+//! (docs/formats.md#figures): a category axis is ticked with its names only, a series is named
+//! once in a stack of panels, no two texts overlap, and a curve lying under a later one is
+//! drawn in another width.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -63,8 +66,15 @@ enum Element {
         dash: Option<String>,
         points: Vec<(f64, f64)>,
     },
-    /// A text: its fill colour and content.
-    Text { fill: String, content: String },
+    /// A text: its fill colour, content, anchor (`start`, `middle`, `end`), font size and
+    /// whether it is rotated (an axis description).
+    Text {
+        fill: String,
+        content: String,
+        anchor: String,
+        size: f64,
+        rotated: bool,
+    },
     /// Anything else.
     Other,
 }
@@ -106,6 +116,11 @@ fn elements(svg: &str) -> Vec<Element> {
             out.push(Element::Text {
                 fill: attr(tag, "fill").unwrap_or("").to_uppercase(),
                 content: unescape(body[..close].trim()),
+                anchor: attr(tag, "text-anchor").unwrap_or("start").to_string(),
+                size: attr(tag, "font-size")
+                    .and_then(|v| v.parse().ok())
+                    .unwrap_or(0.0),
+                rotated: attr(tag, "transform").is_some_and(|t| t.starts_with("rotate")),
             });
             rest = &body[close..];
             continue;
@@ -125,11 +140,12 @@ fn unescape(s: &str) -> String {
         .replace("&amp;", "&")
 }
 
-/// A legend row: its label and its line sample's colour and dash array.
+/// A legend row: its label and its line sample's colour, dash array and width.
 struct LegendRow {
     label: String,
     stroke: String,
     dash: Option<String>,
+    width: f64,
 }
 
 /// Whether `e` followed by `next` is a legend row's line sample (a horizontal line 28 px long
@@ -150,13 +166,20 @@ fn legend_rows_styled(svg: &str) -> Vec<LegendRow> {
     els.windows(2)
         .filter(|w| is_sample(&w[0], w.get(1)))
         .filter_map(|w| match (&w[0], &w[1]) {
-            (Element::Line { stroke, dash, .. }, Element::Text { content, .. }) => {
-                Some(LegendRow {
-                    label: content.clone(),
-                    stroke: stroke.clone(),
-                    dash: dash.clone(),
-                })
-            }
+            (
+                Element::Line {
+                    stroke,
+                    dash,
+                    width,
+                    ..
+                },
+                Element::Text { content, .. },
+            ) => Some(LegendRow {
+                label: content.clone(),
+                stroke: stroke.clone(),
+                dash: dash.clone(),
+                width: *width,
+            }),
             _ => None,
         })
         .collect()
@@ -307,7 +330,7 @@ fn split_number_units(svg: &str) -> Vec<String> {
     let lines: Vec<String> = elements(svg)
         .into_iter()
         .filter_map(|e| match e {
-            Element::Text { fill, content } if fill == SUBTITLE_FILL => Some(content),
+            Element::Text { fill, content, .. } if fill == SUBTITLE_FILL => Some(content),
             _ => None,
         })
         .collect();
@@ -445,6 +468,7 @@ fn no_subtitle_line_ends_inside_a_number_and_its_unit() {
             y: t.iter().map(|t| t.sin()).collect(),
             ..Default::default()
         }],
+        ..Default::default()
     };
     for pad in 0..40 {
         let subtitle = format!(
@@ -507,4 +531,283 @@ fn every_text_names_the_embedded_font_first() {
         assert!(svg.contains("<text"), "{name}: no text");
         assert_eq!(families, Vec::<&str>::new(), "{name}");
     }
+}
+
+/// `pumpcyl select`'s figure for the article's application with two waves and a rise time:
+/// four panels whose wave descriptions are longer than a panel is high.
+fn select_svg() -> &'static str {
+    static SVG: OnceLock<String> = OnceLock::new();
+    SVG.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let waves = "wave=[{ freq_hz = 0.125, amp_mm = 12.5, max_error_mm = 14.0 }, \
+                     { freq_hz = 0.225, amp_mm = 17.5, max_error_mm = 10.0 }]";
+        let args = [
+            "select",
+            "--set",
+            waves,
+            "--set",
+            "max_rise_time_s=1.0",
+            "--out",
+        ];
+        let out = run::pumpcyl(
+            Path::new("."),
+            &[&args[..], &[dir.path().to_str().unwrap()]].concat(),
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read_to_string(dir.path().join("select.svg")).unwrap()
+    })
+}
+
+/// The reproduce figure `name`.svg.
+fn figure(name: &str) -> &'static str {
+    let file = format!("{name}.svg");
+    let found = figures().iter().find(|(n, _)| *n == file);
+    &found.unwrap_or_else(|| panic!("no {file}")).1
+}
+
+/// The SVG font size of tick labels: plotters' text size 15 over 1.24.
+const TICK_FONT: f64 = 15.0 / 1.24;
+
+/// Whether `e` is a tick label anchored at `anchor` (`end`: a y axis, `middle`: the x axis).
+fn tick_label<'a>(e: &'a Element, at: &str) -> Option<&'a str> {
+    match e {
+        Element::Text {
+            content,
+            anchor,
+            size,
+            rotated: false,
+            ..
+        } if anchor == at && (size - TICK_FONT).abs() < 0.01 => Some(content),
+        _ => None,
+    }
+}
+
+/// The y tick labels of the panel of `svg` whose (rotated) description starts with `desc`:
+/// the right-anchored tick labels drawn since the previous panel's description.
+fn y_tick_labels(svg: &str, desc: &str) -> Vec<String> {
+    let mut run = Vec::new();
+    for e in elements(svg) {
+        if let Some(t) = tick_label(&e, "end") {
+            run.push(t.to_string());
+        } else if let Element::Text {
+            content,
+            rotated: true,
+            ..
+        } = &e
+        {
+            if content.starts_with(desc) {
+                return run;
+            }
+            run.clear();
+        }
+    }
+    panic!("no y description {desc:?}")
+}
+
+/// The x tick labels of `svg` (centred under the bottom plot).
+fn x_tick_labels(svg: &str) -> Vec<String> {
+    let els = elements(svg);
+    (els.iter())
+        .filter_map(|e| tick_label(e, "middle").map(str::to_string))
+        .collect()
+}
+
+#[test]
+fn category_axes_are_ticked_with_the_category_names_only() {
+    // the single pump's mode, a category (1 or 2), not a number ticked 1.90 ... 2.10
+    let mut modes = y_tick_labels(figure("figure1_circuits_step"), "Single-pump mode");
+    modes.sort();
+    assert_eq!(modes, ["1", "2"]);
+    // the record sets by name, not at x = 0.5 ... 3.5
+    assert_eq!(
+        x_tick_labels(figure("sweep_beside_steps")),
+        ["steps (the article's method)", "sweep", "steps and sweep"]
+    );
+    // through the library: names at 1..=n on either axis, shortened to their share of the width
+    let long = "a record set whose name is far too long for a third of the width of the figure";
+    let names: Vec<String> = ["first", long, "third"].map(String::from).into();
+    let kinds: Vec<String> = ["off", "on"].map(String::from).into();
+    let panel = pumpcyl_present::plot::Panel {
+        y_label: "State".into(),
+        traces: vec![pumpcyl_present::plot::Trace {
+            label: "x".into(),
+            t_s: vec![1.0, 2.0, 3.0],
+            y: vec![1.0, 2.0, 2.0],
+            ..Default::default()
+        }],
+        categories: kinds,
+    };
+    let svg = pumpcyl_present::plot::panels_categorical_svg(
+        "t",
+        None,
+        ("set", &names),
+        std::slice::from_ref(&panel),
+    )
+    .unwrap();
+    let mut y = y_tick_labels(&svg, "State");
+    y.sort();
+    assert_eq!(y, ["off", "on"]);
+    let x = x_tick_labels(&svg);
+    assert_eq!(
+        (x.len(), &x[0][..], &x[2][..]),
+        (3, "first", "third"),
+        "{x:?}"
+    );
+    assert!(x[1].starts_with("a record") && x[1].contains('…'), "{x:?}");
+    assert_eq!(
+        pumpcyl_present::plot::text_collisions(&svg),
+        Vec::<String>::new()
+    );
+}
+
+/// Labels named in more than one legend row of `svg`.
+fn repeated_legend_labels(svg: &str) -> Vec<String> {
+    let mut seen: Vec<String> = Vec::new();
+    let mut repeated = Vec::new();
+    for row in legend_rows_styled(svg) {
+        if seen.contains(&row.label) {
+            repeated.push(row.label);
+        } else {
+            seen.push(row.label);
+        }
+    }
+    repeated
+}
+
+#[test]
+fn a_stack_of_panels_names_each_series_once() {
+    let mut stacks = 0;
+    for (name, svg) in figures().iter().map(|(n, s)| (n.as_str(), s.as_str())) {
+        assert_eq!(repeated_legend_labels(svg), Vec::<String>::new(), "{name}");
+        stacks += usize::from(svg.matches("rotate(270").count() > 2);
+    }
+    assert!(stacks >= 10, "only {stacks} figures of stacked panels");
+    // select's figure: the circuits named once, over four panels that all draw them
+    let select = select_svg();
+    assert_eq!(repeated_legend_labels(select), Vec::<String>::new());
+    let rows = legend_rows_styled(select);
+    for circuit in ["low-pressure", "dual-pump", "single-pump"] {
+        assert_eq!(rows.iter().filter(|r| r.label == circuit).count(), 1);
+    }
+}
+
+/// The y descriptions of `svg` as (first line, line count): consecutive rotated texts at one
+/// height are the lines of one description.
+fn y_descriptions(svg: &str) -> Vec<(String, usize)> {
+    let mut out: Vec<(String, usize, String)> = Vec::new();
+    for tag in svg.split("<text").skip(1) {
+        let Some(centre) = tag.split("rotate(270, ").nth(1) else {
+            continue;
+        };
+        let y = centre
+            .split([',', ')'])
+            .nth(1)
+            .unwrap_or("")
+            .trim()
+            .to_string();
+        let content = tag.split('>').nth(1).unwrap_or("").trim().to_string();
+        match out.last_mut() {
+            Some(last) if last.2 == y => last.1 += 1,
+            _ => out.push((content, 1, y)),
+        }
+    }
+    out.into_iter().map(|(c, n, _)| (c, n)).collect()
+}
+
+#[test]
+fn no_text_of_a_figure_overlaps_another() {
+    for (name, svg) in figures() {
+        let c = pumpcyl_present::plot::text_collisions(svg);
+        assert_eq!(c, Vec::<String>::new(), "{name}");
+    }
+    // select's four panels with two long wave descriptions: each wraps beside its own panel
+    let select = select_svg();
+    assert_eq!(
+        pumpcyl_present::plot::text_collisions(select),
+        Vec::<String>::new()
+    );
+    assert_eq!(
+        pumpcyl_present::plot::text_overflow(select),
+        Vec::<String>::new()
+    );
+    let descs = y_descriptions(select);
+    assert_eq!(descs.len(), 4, "{descs:?}");
+    assert!(
+        descs.iter().filter(|(_, lines)| *lines == 2).count() >= 2,
+        "the wave descriptions are longer than a panel is high: {descs:?}"
+    );
+    // the checker catches the fault it looks for: two y descriptions running into each other
+    let text = |y: f64, t: &str| {
+        format!("<text x=\"8\" y=\"{y}\" dy=\"0.76em\" text-anchor=\"middle\" font-size=\"13.7\" transform=\"rotate(270, 8, {y})\">\n{t}\n</text>\n")
+    };
+    let label = "max |e| (mm), 0.125 Hz ±12.5 mm";
+    let svg = format!(
+        "<svg width=\"600\" height=\"600\">{}{}</svg>",
+        text(175.0, label),
+        text(395.0, label)
+    );
+    assert_eq!(pumpcyl_present::plot::text_collisions(&svg).len(), 1);
+}
+
+/// The curves of `svg` with more than `min_points` points: (stroke, width, dash).
+fn long_curves(svg: &str, min_points: usize) -> Vec<(String, f64, Option<String>)> {
+    (elements(svg).into_iter())
+        .filter_map(|e| match e {
+            Element::Line {
+                stroke,
+                width,
+                dash,
+                points,
+            } if points.len() > min_points => Some((stroke, width, dash)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_curve_lying_under_a_later_one_is_drawn_in_another_width_that_the_legend_shows() {
+    // the two dual pumps step alike: the matched D2 (vermillion) under the article's (green)
+    let svg = figure("figure1_circuits_step");
+    let curves = long_curves(svg, 100);
+    let width_of = |colour: &str| {
+        let c = curves.iter().find(|c| c.0 == colour).expect(colour);
+        (c.1, c.2.clone())
+    };
+    let (matched, article) = (width_of("#D55E00"), width_of("#009E73"));
+    assert_ne!(
+        matched, article,
+        "the matched D2's curve hidden under the article D2's"
+    );
+    let rows = legend_rows_styled(svg);
+    let row = rows
+        .iter()
+        .find(|r| r.label.starts_with("dual pump, D2 matched"));
+    assert_eq!(row.map(|r| r.width), Some(matched.0), "its legend sample");
+
+    // through the library: of two equal curves the first is drawn wider, a third apart is not
+    let t: Vec<f64> = (0..200).map(|i| f64::from(i) * 0.05).collect();
+    let trace = |label: &str, off: f64| pumpcyl_present::plot::Trace {
+        label: label.into(),
+        t_s: t.clone(),
+        y: t.iter().map(|t| t.sin() + off).collect(),
+        ..Default::default()
+    };
+    let panel = pumpcyl_present::plot::Panel {
+        y_label: "Position (mm)".into(),
+        traces: vec![trace("a", 0.0), trace("b", 0.0), trace("c", 3.0)],
+        ..Default::default()
+    };
+    let svg = pumpcyl_present::plot::panels_svg("t", None, &[panel]).unwrap();
+    let widths: Vec<f64> = long_curves(&svg, 100).iter().map(|c| c.1).collect();
+    assert_eq!(widths.len(), 3);
+    assert!(
+        widths[0] > widths[1] && widths[1] == widths[2],
+        "{widths:?}"
+    );
+    let samples: Vec<f64> = legend_rows_styled(&svg).iter().map(|r| r.width).collect();
+    assert_eq!(samples, widths);
 }

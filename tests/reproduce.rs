@@ -625,6 +625,7 @@ fn titles_print_rounded_numbers() {
 fn pngs_have_the_asked_size_and_anti_aliased_curves() {
     let pngs = figure_files("png");
     assert_eq!(pngs.len(), figure_files("svg").len());
+    let mut measured = 0;
     for p in &pngs {
         let img = image::open(p)
             .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
@@ -650,6 +651,13 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
         // The first series' blue (0, 114, 178) over white: anti-aliased curves have edge pixels
         // blending it with white about as often as fully blue pixels; jagged curves drawn
         // without anti-aliasing (plotters' bitmap backend) had 0.10-0.15 blends per blue pixel on the step figures (0.3-1.5 here).
+        // A figure whose blue is a see-through band (a record under the model that follows
+        // it, docs/formats.md#figures) has no blue line on white to measure: left out.
+        let svg = std::fs::read_to_string(p.with_extension("svg")).unwrap();
+        if svg.contains("opacity=\"0.5\" stroke=\"#0072B2\"") {
+            continue;
+        }
+        measured += 1;
         let (mut blend, mut pure) = (0usize, 0usize);
         for p in img.pixels() {
             let a = (255.0 - f64::from(p.0[0])) / 255.0;
@@ -670,6 +678,7 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
             "{name}: {ratio:.2} edge blends per blue pixel"
         );
     }
+    assert!(measured >= 15, "only {measured} figures measured");
 }
 
 /// The contents of an SVG's text elements, in document order.

@@ -415,6 +415,7 @@ pub fn chatter_chart(doc: &Chatter) -> Result<Chart, String> {
             trace("valve band", &lo_x, &lo_y, LineStyle::Dashed, Some(7)),
             trace("", &hi_x, &hi_y, LineStyle::Dashed, Some(7)),
         ],
+        ..Default::default()
     };
     Ok(Chart {
         title: format!("Will it chatter? {}: {}", doc.rig, doc.verdict.name()),

@@ -28,6 +28,16 @@ pub enum Plot {
         /// The panels, first on top.
         panels: Vec<Panel>,
     },
+    /// Panels stacked over one x axis of categories (docs/formats.md#figures): the traces' x
+    /// values are category numbers, the k-th of `categories` (k from 1) at x = k.
+    Categories {
+        /// The x axis label.
+        x_label: String,
+        /// The names of the categories, ticked on the x axis.
+        categories: Vec<String>,
+        /// The panels, first on top.
+        panels: Vec<Panel>,
+    },
     /// A Bode diagram of one or more series, each with its margin markers when given.
     Bode {
         /// The overlaid series.
@@ -72,6 +82,11 @@ impl Chart {
         match &self.plot {
             Plot::Time(panels) => plot::panels_svg(title, sub, panels),
             Plot::Xy { x_label, panels } => plot::panels_xy_svg(title, sub, x_label, panels),
+            Plot::Categories {
+                x_label,
+                categories,
+                panels,
+            } => plot::panels_categorical_svg(title, sub, (x_label, categories), panels),
             Plot::Bode { series, markers } => plot::bode_svg(title, series, markers),
             Plot::HeatMap { map, markers } => plot::heatmap_svg(title, sub, map, markers),
         }
@@ -87,6 +102,14 @@ impl Chart {
             Plot::Time(panels) => plot::panels_png(title, sub, panels, TIME_PNG.0, TIME_PNG.1),
             Plot::Xy { x_label, panels } => {
                 plot::panels_xy_png(title, sub, x_label, panels, XY_PNG.0, XY_PNG.1)
+            }
+            Plot::Categories {
+                x_label,
+                categories,
+                panels,
+            } => {
+                let x = (x_label.as_str(), &categories[..]);
+                plot::panels_categorical_png(title, sub, x, panels, XY_PNG.0, XY_PNG.1)
             }
             Plot::Bode { series, markers } => {
                 plot::bode_png(title, series, markers, BODE_PNG.0, BODE_PNG.1)
@@ -142,7 +165,9 @@ impl Chart {
 
     /// The chart with every trace labelled `from` labelled `to` instead.
     pub fn relabel(mut self, from: &str, to: &str) -> Chart {
-        if let Plot::Time(panels) | Plot::Xy { panels, .. } = &mut self.plot {
+        if let Plot::Time(panels) | Plot::Xy { panels, .. } | Plot::Categories { panels, .. } =
+            &mut self.plot
+        {
             for t in panels.iter_mut().flat_map(|p| &mut p.traces) {
                 if t.label == from {
                     t.label = to.to_string();
@@ -169,6 +194,7 @@ impl Chart {
                     Some(1),
                 ),
             ],
+            ..Default::default()
         }];
         let subtitle = format!("fit RMS error {:.2} rpm", fit.mse_rpm2.sqrt());
         Chart::time(
@@ -190,6 +216,7 @@ impl Chart {
             Panel {
                 y_label: "Effective bulk modulus (bar)".into(),
                 traces: vec![line("β_e", rows.iter().map(|r| r.beta_bar).collect(), 0)],
+                ..Default::default()
             },
             Panel {
                 y_label: "Gain margin (dB)".into(),
@@ -201,6 +228,7 @@ impl Chart {
                     ),
                     line("stability limit", vec![0.0; p.len()], 6),
                 ],
+                ..Default::default()
             },
             Panel {
                 y_label: "Phase margin (deg)".into(),
@@ -212,6 +240,7 @@ impl Chart {
                     ),
                     line("stability limit", vec![0.0; p.len()], 6),
                 ],
+                ..Default::default()
             },
         ];
         Chart {
@@ -267,6 +296,7 @@ impl Chart {
                     Some(6),
                 ),
             ],
+            ..Default::default()
         }];
         let end = |k: usize| {
             let v = parameter_value(i, p.interval[k]);
@@ -342,6 +372,7 @@ impl Chart {
             Panel {
                 y_label: y_label.into(),
                 traces,
+                ..Default::default()
             }
         };
         let at = &d.deciding.at;
@@ -470,6 +501,7 @@ fn four_panels_named(
     .map(|l| Panel {
         y_label: l.to_string(),
         traces: Vec::new(),
+        ..Default::default()
     })
     .collect();
     let Some(first) = record.map(|r| r.1).or(series.first().map(|s| s.1)) else {

@@ -265,6 +265,7 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     let mut kp = Panel {
         y_label: "Largest Kp (1/m)".into(),
         traces: Vec::new(),
+        ..Default::default()
     };
     for (k, c) in present(s) {
         let (p, o) = of_circuit(s, c);
@@ -356,6 +357,7 @@ fn band_panel(
     let mut panel = Panel {
         y_label,
         traces: Vec::new(),
+        ..Default::default()
     };
     for (k, c) in present(s) {
         let (p, o) = of_circuit(s, c);

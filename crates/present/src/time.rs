@@ -411,6 +411,7 @@ pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
     let mut errors = Panel {
         y_label: "Control error (mm)".into(),
         traces: Vec::new(),
+        ..Default::default()
     };
     for (i, ((label, s), r)) in track_series(runs).iter().zip(runs).enumerate() {
         panels.push(Panel {
@@ -425,6 +426,7 @@ pub fn track_chart(runs: &[Run<TrackMetrics>]) -> Chart {
                     Some(i),
                 ),
             ],
+            ..Default::default()
         });
         errors
             .traces

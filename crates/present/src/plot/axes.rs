@@ -9,6 +9,7 @@ use std::ops::Range;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::error::{plot_err, ReportError};
 use super::{layout, render};
@@ -241,6 +242,19 @@ pub(super) fn steps_125(span: f64, max_intervals: f64) -> Vec<(f64, f64)> {
     }
 }
 
+/// Axis of categories: the k-th of `names` (k from 1) at k, ticked with the names and nothing
+/// else, spanning 0.5 ..= n + 0.5 so that every category lies half a step inside the plot.
+pub(super) fn categorical_axis(names: &[String]) -> Axis {
+    Axis {
+        lo: 0.5,
+        hi: names.len() as f64 + 0.5,
+        log: false,
+        major: (1..=names.len()).map(|k| k as f64).collect(),
+        labels: names.to_vec(),
+        minor: Vec::new(),
+    }
+}
+
 /// Linear axis over `lo..hi` whose labels keep at least `min_gap` pixels
 /// apart along `len_px` pixels; `label_len` gives a label's extent along the
 /// axis (0 for a vertical axis, where `min_gap` alone applies).
@@ -352,22 +366,42 @@ const Y_DESC_ROOM: f64 = 52.0;
 /// A chart whose both axes are [`Axis`].
 pub(super) type Chart<'b, DB> = ChartContext<'b, DB, Cartesian2d<Axis, Axis>>;
 
-/// Width (px) of the y label area for the tick labels of `axes`, at `scale`.
-pub(super) fn y_label_area<'a>(axes: impl IntoIterator<Item = &'a Axis>, scale: f64) -> i32 {
+/// Most lines a y description takes beside its plot; a longer one is shortened in the middle.
+const Y_DESC_MAX_LINES: usize = 2;
+
+/// The y description `desc` fitted beside a plot `plot_h` px high, at `scale`: one line when it
+/// fits the plot's height, else wrapped at safe points (never between a number and its unit,
+/// as [`layout::fit_subtitle`] wraps) onto at most [`Y_DESC_MAX_LINES`] lines, shortened in the
+/// middle beyond. Drawn rotated, a line runs along the plot's height and so never reaches into
+/// the label area of a plot stacked above or below.
+pub(super) fn y_desc_lines(desc: &str, plot_h: i32, scale: f64) -> Vec<String> {
+    let max_len = f64::from(plot_h.max(1));
+    layout::fit_subtitle(desc, AXIS_DESC_SIZE * scale, max_len, Y_DESC_MAX_LINES)
+}
+
+/// Width (px) of the y label area for the tick labels of `axes` and a y description of
+/// `desc_lines` lines, at `scale`: the widest tick label measured, each line beyond the first
+/// adding a line height.
+pub(super) fn y_label_area<'a>(
+    axes: impl IntoIterator<Item = &'a Axis>,
+    desc_lines: usize,
+    scale: f64,
+) -> i32 {
     let widest = axes
         .into_iter()
         .map(|a| a.widest_label(TICK_LABEL_SIZE * scale).ceil())
         .fold(0.0, f64::max);
     let px = render::px(scale);
-    px(MIN_Y_LABEL_AREA).max(widest as i32 + px(Y_DESC_ROOM))
+    let more = desc_lines.saturating_sub(1) as f64 * AXIS_DESC_SIZE;
+    px(MIN_Y_LABEL_AREA + more).max(widest as i32 + px(Y_DESC_ROOM + more))
 }
 
-/// Draw the axes of `chart`: tick labels, the descriptions `x_desc` / `y_desc` (rotated on the
-/// y axis) when given, and either a grid (bold lines at major, light at minor ticks) or, without
-/// one, tick marks of `tick_px` pixels at scale 1.
+/// Draw the axes of `chart`: tick labels, the x description `x_desc` when given, and either a
+/// grid (bold lines at major, light at minor ticks) or, without one, tick marks of `tick_px`
+/// pixels at scale 1. The y description is drawn by [`draw_y_desc`].
 pub(super) fn draw_axes<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
-    (x_desc, y_desc): (Option<&str>, Option<&str>),
+    x_desc: Option<&str>,
     grid: bool,
     tick_px: f64,
     scale: f64,
@@ -388,10 +422,30 @@ pub(super) fn draw_axes<DB: DrawingBackend>(
     if let Some(d) = x_desc.filter(|d| !d.is_empty()) {
         mesh.x_desc(d);
     }
-    if let Some(d) = y_desc.filter(|d| !d.is_empty()) {
-        mesh.y_desc(d);
-    }
     mesh.draw().map_err(plot_err)
+}
+
+/// Draw the y description `lines` (from [`y_desc_lines`]) of `chart` rotated in its y label
+/// area `y_label_area` px wide: the first line at the area's left edge, each next one a line
+/// height to the right, all centred on the plot's height; the tick labels keep to the area's
+/// right part, which [`y_label_area`] sized to leave the lines room.
+pub(super) fn draw_y_desc<DB: DrawingBackend>(
+    chart: &Chart<'_, DB>,
+    lines: &[String],
+    y_label_area: i32,
+    scale: f64,
+) -> Result<(), ReportError> {
+    let plot = chart.plotting_area().strip_coord_spec();
+    let mid = plot.dim_in_pixel().1 as i32 / 2;
+    let style = render::text(scale)(AXIS_DESC_SIZE)
+        .transform(FontTransform::Rotate270)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    let line_h = render::px(scale)(AXIS_DESC_SIZE);
+    for (j, line) in lines.iter().enumerate() {
+        let x = -y_label_area + j as i32 * line_h;
+        plot.draw_text(line, &style, (x, mid)).map_err(plot_err)?;
+    }
+    Ok(())
 }
 
 /// Pixel bounds `(left, right, top, bottom)` of the plotting area of `area`.
@@ -490,15 +544,45 @@ mod tests {
     }
 
     #[test]
+    fn y_descriptions_fit_the_plot_height() {
+        let d = "max |e| (mm), 0.125 Hz ±12.5 mm";
+        assert_eq!(y_desc_lines(d, 400, 1.0), vec![d]);
+        // wrapped after the comma, the numbers kept with their units
+        let lines = y_desc_lines(d, 150, 1.0);
+        assert_eq!(lines, vec!["max |e| (mm),", "0.125 Hz ±12.5 mm"]);
+        for l in &lines {
+            assert!(layout::text_width(l, AXIS_DESC_SIZE) <= 150.0, "{l}");
+        }
+        // too long even for two lines: shortened in the middle
+        let short = y_desc_lines(d, 60, 1.0);
+        assert!(short.len() == 2 && short[1].contains('…'), "{short:?}");
+        assert!(y_desc_lines("", 100, 1.0).is_empty());
+    }
+
+    #[test]
+    fn categories_sit_at_whole_numbers() {
+        let a = categorical_axis(&["off".to_string(), "on".to_string()]);
+        assert_eq!((a.lo, a.hi, &a.major[..]), (0.5, 2.5, &[1.0, 2.0][..]));
+        assert_eq!(a.labels, ["off", "on"]);
+        assert!(a.minor.is_empty());
+    }
+
+    #[test]
     fn y_label_area_fits_the_widest_label() {
         let narrow = linear_axis(0.0, 1.0, 4.0);
-        assert_eq!(y_label_area([&narrow], 1.0), 82);
+        assert_eq!(y_label_area([&narrow], 1, 1.0), 82);
         let wide = Axis {
             labels: vec!["-123456.789".into()],
             ..narrow.clone()
         };
         let w = layout::text_width("-123456.789", TICK_LABEL_SIZE);
-        assert_eq!(y_label_area([&narrow, &wide], 1.0), w.ceil() as i32 + 52);
-        assert_eq!(y_label_area([&narrow], 2.0), 164);
+        assert_eq!(y_label_area([&narrow, &wide], 1, 1.0), w.ceil() as i32 + 52);
+        assert_eq!(y_label_area([&narrow], 1, 2.0), 164);
+        // a second line of the description adds a line height
+        assert_eq!(
+            y_label_area([&narrow, &wide], 2, 1.0),
+            w.ceil() as i32 + 52 + 17
+        );
+        assert_eq!(y_label_area([&narrow], 2, 1.0), 82 + 17);
     }
 }

@@ -558,7 +558,7 @@ impl<'a> Figure<'a> {
 struct PanelSpec<'p> {
     /// Value axis, its description and the solid grey reference value on it (0 dB, -180 deg).
     y: &'p Axis,
-    y_desc: &'static str,
+    y_desc: &'p [String],
     reference: f64,
     /// Drawable pieces of each series on this panel.
     pieces: &'p [Pieces],
@@ -642,15 +642,17 @@ impl render::Draw for Figure<'_> {
 
         // Two plots of equal height sharing the frequency axis.
         let (width, height) = root.dim_in_pixel();
-        let y_label_area = axes::y_label_area([&self.mag, &self.phase], scale);
+        let plot_h = stack::plot_height(height as i32 - header_h, 2, scale).max(10);
+        let descs = ["Magnitude (dB)", "Phase (deg)"];
+        let (y_desc, y_label_area) =
+            stack::y_labels(descs, [&self.mag, &self.phase], plot_h, scale);
         let plot_w = stack::plot_width(width, y_label_area, scale);
         let x = freq_axis(self.x.lo, self.x.hi, f64::from(plot_w.max(10)), scale);
-        let plot_h = stack::plot_height(height as i32 - header_h, 2, scale).max(10);
         let areas = stack::areas(&body, 2, plot_h, scale);
         let panels = [
             PanelSpec {
                 y: &self.mag,
-                y_desc: "Magnitude (dB)",
+                y_desc: &y_desc[0],
                 reference: 0.0,
                 pieces: &self.mag_pieces,
                 bar: |m| m.gm_bar,
@@ -658,7 +660,7 @@ impl render::Draw for Figure<'_> {
             },
             PanelSpec {
                 y: &self.phase,
-                y_desc: "Phase (deg)",
+                y_desc: &y_desc[1],
                 reference: self.phase_ref,
                 pieces: &self.phase_pieces,
                 bar: |m| m.pm_bar,
@@ -779,6 +781,7 @@ fn series_stroke(i: usize, scale: f64) -> Stroke {
         width: upx(2.0).max(2),
         pattern: (i > 0).then(|| PATTERNS[(i - 1) % PATTERNS.len()].map(|d| px(d).max(1))),
         dot_r: upx(3.0),
+        opacity: 1.0,
     }
 }
 

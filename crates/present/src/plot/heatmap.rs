@@ -523,7 +523,8 @@ impl render::Draw for Figure<'_> {
         );
 
         // Horizontal layout: label areas fit the widest tick labels.
-        let y_label_area = axes::y_label_area([&y_axis], scale);
+        let y_desc = axes::y_desc_lines(&self.map.y_label, plot_h, scale);
+        let y_label_area = axes::y_label_area([&y_axis], y_desc.len(), scale);
         let widest_bar = bar_axis.widest_label(TICK_LABEL_SIZE * scale).ceil() as i32;
         let mut bar_label_area = 2 * px(TICK_SIZE) + widest_bar + px(8.0);
         if !self.map.cost_label.is_empty() {
@@ -564,11 +565,9 @@ impl render::Draw for Figure<'_> {
             .y_label_area_size(y_label_area)
             .build_cartesian_2d(x_axis.clone(), y_axis.clone())
             .map_err(plot_err)?;
-        let descs = (
-            Some(self.map.x_label.as_str()),
-            Some(self.map.y_label.as_str()),
-        );
-        axes::draw_axes(&mut chart, descs, false, TICK_SIZE, scale)?;
+        let x_desc = Some(self.map.x_label.as_str());
+        axes::draw_axes(&mut chart, x_desc, false, TICK_SIZE, scale)?;
+        axes::draw_y_desc(&chart, &y_desc, y_label_area, scale)?;
 
         let nx = self.map.x.len();
         let cells = self.map.cost.iter().enumerate().map(|(i, &c)| {

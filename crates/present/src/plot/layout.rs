@@ -452,6 +452,31 @@ pub fn text_overflow(svg: &str) -> Vec<String> {
         .collect()
 }
 
+/// The pairs of texts of an SVG document (as the figures write it) whose ink overlaps, each
+/// described with the overlap, e.g. `"Phase (deg)" and "-90" overlap by 3.1 x 12.0 px`. Extents
+/// as [`text_overflow`] computes them; overlaps of at most 0.5 px either way are tolerated.
+pub fn text_collisions(svg: &str) -> Vec<String> {
+    const TOL: f64 = 0.5;
+    let texts: Vec<(String, (f64, f64, f64, f64))> = (svg_texts(svg).into_iter())
+        .filter(|t| !t.content.trim().is_empty())
+        .map(|t| {
+            let b = text_box(&t);
+            (t.content, b)
+        })
+        .collect();
+    let mut out = Vec::new();
+    for (i, (a, p)) in texts.iter().enumerate() {
+        for (b, q) in &texts[i + 1..] {
+            let w = p.2.min(q.2) - p.0.max(q.0);
+            let h = p.3.min(q.3) - p.1.max(q.1);
+            if w > TOL && h > TOL {
+                out.push(format!("{a:?} and {b:?} overlap by {w:.1} x {h:.1} px"));
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -538,6 +563,23 @@ mod tests {
         let o = text_overflow(&svg(&both));
         assert_eq!(o.len(), 1);
         assert!(o[0].starts_with("\"-0.5\""), "{o:?}");
+    }
+
+    #[test]
+    fn overlapping_texts_are_reported_once_a_pair() {
+        // two y descriptions rotated about points 60 px apart: 100 px long, they overlap
+        let rot = |y: f64| {
+            let r = format!(" transform=\"rotate(270, 30, {y})\"");
+            text(30.0, y, "middle", 14.0, &r, "Position x (mm) ....")
+        };
+        let o = text_collisions(&svg(&(rot(100.0) + &rot(160.0))));
+        assert_eq!(o.len(), 1, "{o:?}");
+        assert!(o[0].contains("overlap by"), "{o:?}");
+        // 200 px apart they do not; nor do texts side by side
+        assert_eq!(text_collisions(&svg(&(rot(100.0) + &rot(300.0)))).len(), 0);
+        let side =
+            text(100.0, 50.0, "end", 12.0, "", "10") + &text(104.0, 50.0, "start", 12.0, "", "20");
+        assert_eq!(text_collisions(&svg(&side)), Vec::<String>::new());
     }
 
     #[test]

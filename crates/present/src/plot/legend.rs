@@ -7,7 +7,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axes::Axis;
 use super::error::{plot_err, ReportError};
-use super::series::{precise_path, Dash, Pieces, Stroke};
+use super::series::{precise_path, Pieces, Stroke};
 use super::{layout, render};
 
 /// Label text size, and line-sample length (px), at scale 1.
@@ -26,12 +26,12 @@ pub(super) enum Sample {
 }
 
 /// One legend row: a sample and a label.
+#[derive(Clone)]
 pub(super) struct LegendEntry {
     pub(super) label: String,
-    /// Colour and width of the sample line.
-    pub(super) style: ShapeStyle,
-    /// Dash pattern of a dashed or dotted sample; `None` for a solid line.
-    pub(super) pattern: Option<Dash>,
+    /// The stroke of the sample line (colour, width, dash pattern, opacity) or the colour of
+    /// its dot.
+    pub(super) stroke: Stroke,
     /// What the row shows before its label.
     pub(super) sample: Sample,
 }
@@ -41,11 +41,35 @@ impl LegendEntry {
     pub(super) fn of(stroke: &Stroke, label: &str) -> LegendEntry {
         LegendEntry {
             label: label.to_string(),
-            style: stroke.color.stroke_width(stroke.width),
-            pattern: stroke.pattern,
+            stroke: *stroke,
             sample: Sample::Line,
         }
     }
+
+    /// Whether `other` is the same row: the same label and sample, and for a sample the same
+    /// stroke (a note is its label).
+    pub(super) fn same_row(&self, other: &LegendEntry) -> bool {
+        self.label == other.label
+            && self.sample == other.sample
+            && (self.sample == Sample::Note || self.stroke == other.stroke)
+    }
+}
+
+/// The rows of a stack of plots' legends, top plot first, each row kept only in the first
+/// legend that has it (docs/formats.md#figures): the plots share their series' names, so a
+/// series is named once.
+pub(super) fn first_rows(legends: Vec<Vec<LegendEntry>>) -> Vec<Vec<LegendEntry>> {
+    let mut shown: Vec<LegendEntry> = Vec::new();
+    legends
+        .into_iter()
+        .map(|rows| {
+            let new: Vec<LegendEntry> = (rows.into_iter())
+                .filter(|r| !shown.iter().any(|s| s.same_row(r)))
+                .collect();
+            shown.extend(new.iter().cloned());
+            new
+        })
+        .collect()
 }
 
 /// Pixel sizes of the legend box.
@@ -228,25 +252,19 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
     for (col, widths) in entries.chunks(layout.rows).zip(label_w.chunks(layout.rows)) {
         for (row, e) in col.iter().enumerate() {
             let y = y0 + m.pad + row as i32 * m.row_h + m.font.font.get_size() as i32 / 2;
-            let (r, g, b) = e.style.color.rgb();
-            let stroke = Stroke {
-                color: RGBColor(r, g, b),
-                width: e.style.stroke_width,
-                pattern: e.pattern,
-                dot_r: 0,
-            };
+            let stroke = &e.stroke;
             let (xf, yf) = (f64::from(x), f64::from(y));
             match e.sample {
                 Sample::Line => precise_path(
                     area,
                     &[(xf, yf), (xf + f64::from(m.sample_len), yf)],
-                    &stroke,
+                    stroke,
                 )?,
                 Sample::Dot(r) => area
                     .draw(&Circle::new(
                         (x + m.sample_len / 2, y),
                         r,
-                        stroke.color.filled(),
+                        stroke.color.mix(stroke.opacity).filled(),
                     ))
                     .map_err(plot_err)?,
                 Sample::Note => {}
@@ -364,12 +382,14 @@ mod tests {
     #[test]
     fn label_widths_follow_the_font() {
         let m = LegendMetrics::new(2.0);
-        let e = |l: &str| LegendEntry {
-            label: l.into(),
-            style: BLACK.stroke_width(1),
+        let black = Stroke {
+            color: BLACK,
+            width: 1,
             pattern: None,
-            sample: Sample::Line,
+            dot_r: 0,
+            opacity: 1.0,
         };
+        let e = |l: &str| LegendEntry::of(&black, l);
         let w = m.label_widths(&[e("a"), e("a longer label")]);
         assert!(w[0] > 0 && w[1] > 5 * w[0], "{w:?}");
         assert_eq!(

@@ -10,12 +10,13 @@ mod error;
 pub(crate) mod font;
 mod layout;
 mod legend;
+mod overlap;
 mod precise;
 mod render;
 mod series;
 mod stack;
 pub use error::ReportError;
-pub use layout::{sig, text_overflow};
+pub use layout::{sig, text_collisions, text_overflow};
 
 pub use bode::{bode_png, bode_svg, BodeMarkers, BodeSeries, DEFAULT_HEIGHT_PX, DEFAULT_WIDTH_PX};
 mod timeseries;

@@ -62,14 +62,16 @@ pub(super) fn even_dash(on: i32, off: i32) -> Dash {
     [on, off, on, off]
 }
 
-/// How a series is drawn: colour, line width (px), dash pattern (`None` for a solid line) and
-/// radius (px) of its isolated points.
+/// How a series is drawn: colour, line width (px), dash pattern (`None` for a solid line),
+/// radius (px) of its isolated points and the lines' opacity (1 opaque; less for a band drawn
+/// around curves on top of it, docs/formats.md#figures).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Stroke {
     pub(super) color: RGBColor,
     pub(super) width: u32,
     pub(super) pattern: Option<Dash>,
     pub(super) dot_r: u32,
+    pub(super) opacity: f64,
 }
 
 /// Draw the polylines `lines` and the points `dots` of one series with `stroke`. The lines
@@ -106,7 +108,7 @@ pub(super) fn draw_pieces<DB: DrawingBackend>(
     chart
         .draw_series(
             dots.iter()
-                .map(|&p| Circle::new(p, stroke.dot_r, stroke.color.filled())),
+                .map(|&p| Circle::new(p, stroke.dot_r, stroke.color.mix(stroke.opacity).filled())),
         )
         .map_err(plot_err)?;
     Ok(())
@@ -143,7 +145,8 @@ pub(super) fn precise_path<DB: DrawingBackend, CT: plotters::coord::CoordTransla
         format!(" stroke-dasharray=\"{}\"", dash_array(d))
     });
     let element = format!(
-        "<polyline fill=\"none\" opacity=\"1\" stroke=\"#{:02X}{:02X}{:02X}\" stroke-width=\"{}\"{dash} points=\"{}\"/>",
+        "<polyline fill=\"none\" opacity=\"{}\" stroke=\"#{:02X}{:02X}{:02X}\" stroke-width=\"{}\"{dash} points=\"{}\"/>",
+        stroke.opacity,
         c.0,
         c.1,
         c.2,

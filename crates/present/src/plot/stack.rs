@@ -54,14 +54,31 @@ pub(super) fn areas<DB: DrawingBackend>(
     body.split_by_breakpoints([] as [i32; 0], breaks)
 }
 
+/// The y descriptions `descs` fitted beside plots `plot_h` px high ([`axes::y_desc_lines`]),
+/// and the width of the y label area they share with the tick labels of `axes` (the plots
+/// line up: every plot gets the area its widest labels and longest description need).
+pub(super) fn y_labels<'d, 'a>(
+    descs: impl IntoIterator<Item = &'d str>,
+    axes: impl IntoIterator<Item = &'a Axis>,
+    plot_h: i32,
+    scale: f64,
+) -> (Vec<Vec<String>>, i32) {
+    let lines: Vec<Vec<String>> = descs
+        .into_iter()
+        .map(|d| axes::y_desc_lines(d, plot_h, scale))
+        .collect();
+    let most = lines.iter().map(Vec::len).max().unwrap_or(1);
+    (lines, axes::y_label_area(axes, most, scale))
+}
+
 /// The chart of plot `i` of `n` on `area` (from [`areas`]) over the axes `(x, y)`, its axes
-/// drawn with a grid: tick labels, the y description `y_desc` and, under the last plot only,
-/// the x tick labels and `x_desc`.
+/// drawn with a grid: tick labels, the y description's lines `y_desc` (from [`y_labels`]) and,
+/// under the last plot only, the x tick labels and `x_desc`.
 pub(super) fn chart<'a, DB: DrawingBackend>(
     area: &'a DrawingArea<DB, Shift>,
     (i, n): (usize, usize),
     (x, y): (Axis, Axis),
-    (x_desc, y_desc): (&str, &str),
+    (x_desc, y_desc): (&str, &[String]),
     y_label_area: i32,
     scale: f64,
 ) -> Result<Chart<'a, DB>, ReportError> {
@@ -77,8 +94,8 @@ pub(super) fn chart<'a, DB: DrawingBackend>(
         .y_label_area_size(y_label_area)
         .build_cartesian_2d(x, y)
         .map_err(plot_err)?;
-    let descs = (last.then_some(x_desc), Some(y_desc));
-    axes::draw_axes(&mut chart, descs, true, 0.0, scale)?;
+    axes::draw_axes(&mut chart, last.then_some(x_desc), true, 0.0, scale)?;
+    axes::draw_y_desc(&chart, y_desc, y_label_area, scale)?;
     Ok(chart)
 }
 

@@ -9,10 +9,12 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::axes::{self, linear_axis, nice_axis, Axis};
+use super::axes::{self, categorical_axis, linear_axis, nice_axis, Axis};
 use super::bode::DEFAULT_WIDTH_PX;
 use super::error::ReportError;
-use super::legend::{self, LegendEntry, LegendMetrics, Sample};
+use super::layout;
+use super::legend::{self, LegendEntry, LegendLayout, LegendMetrics, Sample};
+use super::overlap::{self, Curve, PanelCurves};
 use super::render::{self, header_height};
 use super::series::{
     draw_pieces, even_dash, finite_extent, series_color, Dash, Pieces, Polyline, Stroke, PALETTE,
@@ -53,9 +55,10 @@ pub enum LineStyle {
 /// need not be uniformly sampled.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Trace {
-    /// Label shown in the panel's legend; an empty label keeps the trace out
-    /// of the legend. A labelled trace without points is a note in the legend
-    /// (its label without a line sample).
+    /// Label shown in the legend of the first panel that has the trace's row
+    /// (label and style); an empty label keeps the trace out of the legend. A
+    /// labelled trace without points is a note in the legend (its label
+    /// without a line sample).
     pub label: String,
     /// Sample times, in seconds.
     pub t_s: Vec<f64>,
@@ -83,8 +86,14 @@ pub struct Trace {
 pub struct Panel {
     /// Value-axis description with its unit, e.g. `"Position (mm)"`.
     pub y_label: String,
-    /// Curves of the panel, drawn in order (later ones on top).
+    /// Curves of the panel, drawn in order (later ones on top). A curve that later ones of
+    /// other colours or line styles would hide is drawn wider, in every panel and in the
+    /// legend, so that it shows around them (docs/formats.md#figures).
     pub traces: Vec<Trace>,
+    /// Names of the categories when the values are categories (a mode, a kind): the k-th name
+    /// (k from 1) at the value k, the axis ticked with the names and nothing else; empty for a
+    /// numeric axis.
+    pub categories: Vec<String>,
 }
 
 /// Default figure size in pixels, `(width, height)`, for `panel_count` panels
@@ -107,13 +116,17 @@ pub fn panels_default_size(panel_count: usize, with_subtitle: bool) -> (u32, u32
 /// metrics like "rise 0.62 s, overshoot 4.1 %" or a notice like "emulated
 /// data". The time axis spans the union of the finite times of all traces;
 /// each panel's value axis spans its finite values with 5 % padding (a
-/// constant signal gets ±5 % of its value, or ±1 around 0). A panel with
-/// labelled traces gets a legend of them (semi-transparent box): in the
+/// constant signal gets ±5 % of its value, or ±1 around 0; a panel with
+/// [`Panel::categories`] spans its categories). A panel with labelled traces
+/// gets a legend of them (semi-transparent box), leaving out the rows a panel
+/// above already shows, so that each series is named once: in the
 /// top-right corner if it hides no curve there, else in the first free corner
 /// (top left, bottom right, bottom left), using up to 4 columns if one column
 /// fits nowhere; if every placement hides a curve, the top of the value axis
 /// is raised (legend at most 40 % of the panel height) to make room above
 /// the data, and failing that the legend covers the fewest curve segments.
+/// Each panel's value-axis description is wrapped onto a second line, then
+/// shortened in the middle, to stay within the panel's height.
 ///
 /// # Errors
 /// [`ReportError::Empty`] when `panels` is empty or no trace has a point with
@@ -136,8 +149,20 @@ pub fn panels_xy_svg(
     x_label: &str,
     panels: &[Panel],
 ) -> Result<String, ReportError> {
-    let mut figure = Figure::prepare(title, subtitle, panels)?;
-    figure.x_label = x_label.to_string();
+    panels_categorical_svg(title, subtitle, (x_label, &[]), panels)
+}
+
+/// As [`panels_xy_svg`] over a shared x axis of categories `x.1`, named `x.0`: the traces'
+/// `t_s` hold the category numbers, the k-th name (k from 1) at x = k, and the axis is ticked
+/// with the names (each shortened in the middle to its share of the width) and nothing else
+/// (docs/formats.md#figures). Without categories the axis is numeric, as [`panels_xy_svg`]'s.
+pub fn panels_categorical_svg(
+    title: &str,
+    subtitle: Option<&str>,
+    x: (&str, &[String]),
+    panels: &[Panel],
+) -> Result<String, ReportError> {
+    let figure = Figure::prepare(title, subtitle, panels)?.over(x);
     let size = panels_default_size(panels.len(), figure.subtitle.is_some());
     render::to_svg(&figure, size)
 }
@@ -170,8 +195,19 @@ pub fn panels_xy_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, ReportError> {
-    let mut figure = Figure::prepare(title, subtitle, panels)?;
-    figure.x_label = x_label.to_string();
+    panels_categorical_png(title, subtitle, (x_label, &[]), panels, width, height)
+}
+
+/// As [`panels_png`] over a shared x axis of categories (see [`panels_categorical_svg`]).
+pub fn panels_categorical_png(
+    title: &str,
+    subtitle: Option<&str>,
+    x: (&str, &[String]),
+    panels: &[Panel],
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, ReportError> {
+    let figure = Figure::prepare(title, subtitle, panels)?.over(x);
     let base = panels_default_size(panels.len(), figure.subtitle.is_some());
     render::to_png(&figure, width, height, base)
 }
@@ -298,6 +334,8 @@ struct Figure<'a> {
     subtitle: Option<&'a str>,
     /// Label of the shared x axis, with unit.
     x_label: String,
+    /// Names of the x axis's categories (see [`panels_categorical_svg`]); empty: numeric.
+    x_categories: Vec<String>,
     /// Shared time range, in s.
     t_range: (f64, f64),
     panels: Vec<PanelData<'a>>,
@@ -357,7 +395,11 @@ impl<'a> Figure<'a> {
                 let (lo, hi) =
                     widen_degenerate(y_ext.map_or(0.0, |e| e.0), y_ext.map_or(0.0, |e| e.1));
                 let pad = 0.05 * (hi - lo);
-                let y_range = (lo - pad, hi + pad);
+                let y_range = if panel.categories.is_empty() {
+                    (lo - pad, hi + pad)
+                } else {
+                    (0.5, panel.categories.len() as f64 + 0.5)
+                };
                 check_span(y_range, &format!("panel '{}'", panel.y_label))?;
                 Ok(PanelData {
                     panel,
@@ -376,11 +418,24 @@ impl<'a> Figure<'a> {
             title,
             subtitle: subtitle.filter(|s| !s.trim().is_empty()),
             x_label: "Time (s)".to_string(),
+            x_categories: Vec::new(),
             t_range,
             panels,
         })
     }
+
+    /// The figure over the shared x axis named `x.0`, of categories `x.1` when there are any.
+    fn over(self, (x_label, categories): (&str, &[String])) -> Self {
+        Figure {
+            x_label: x_label.to_string(),
+            x_categories: categories.to_vec(),
+            ..self
+        }
+    }
 }
+
+/// A panel's legend: its rows, their label widths and its box.
+type PanelLegend = (Vec<LegendEntry>, Vec<i32>, LegendLayout);
 
 impl render::Draw for Figure<'_> {
     /// Draw the figure on `root`; `scale` multiplies font sizes, line widths
@@ -390,11 +445,7 @@ impl render::Draw for Figure<'_> {
         root: &DrawingArea<DB, Shift>,
         scale: f64,
     ) -> Result<(), ReportError> {
-        let upx = render::upx(scale);
-
         let (width, height) = root.dim_in_pixel();
-
-        // Header: title and subtitle.
         let (body, header_h) = render::draw_header(root, self.title, self.subtitle, scale)?;
 
         // Vertical layout: equal plotting heights.
@@ -405,112 +456,186 @@ impl render::Draw for Figure<'_> {
                 "image height {height} px too small for {n} panels"
             )));
         }
-
         // Ticks: at most one labelled value per ~36 px of panel height.
         let max_y_intervals = (f64::from(plot_h) / (36.0 * scale)).floor().clamp(2.0, 8.0);
-        let mut y_ticks: Vec<Axis> = self
-            .panels
-            .iter()
-            .map(|p| nice_axis(p.y_range.0, p.y_range.1, max_y_intervals))
+        let mut y_ticks: Vec<Axis> = (self.panels.iter())
+            .map(|p| p.value_axis(max_y_intervals))
             .collect();
 
-        // Horizontal layout: the y label area fits the widest tick label.
-        let plot_w = stack::plot_width(width, axes::y_label_area(&y_ticks, scale), scale).max(10);
-        let max_x_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
-        let x_ticks = linear_axis(self.t_range.0, self.t_range.1, max_x_intervals);
+        // Horizontal layout: the y label area fits the widest tick label and description.
+        let y_descs = || self.panels.iter().map(|p| p.panel.y_label.as_str());
+        let (_, y_label_area) = stack::y_labels(y_descs(), &y_ticks, plot_h, scale);
+        let plot = (
+            stack::plot_width(width, y_label_area, scale).max(10),
+            plot_h,
+        );
+        let x_ticks = self.x_axis(plot.0, scale);
 
-        // Legends: size, corner and columns; headroom above the data when
-        // every placement would hide part of the curves.
-        let styles = TraceStyles::new(scale);
+        let strokes = self.strokes(&TraceStyles::new(scale), (&x_ticks, &y_ticks), plot);
         let legend_metrics = LegendMetrics::new(scale);
-        let mut legends = Vec::with_capacity(self.panels.len());
-        for (data, yt) in self.panels.iter().zip(y_ticks.iter_mut()) {
-            let entries = legend_entries(data, &styles);
-            if entries.is_empty() {
-                legends.push(None);
-                continue;
-            }
-            let label_w = legend_metrics.label_widths(&entries);
-            let plot = (plot_w, plot_h);
-            let place = |y: &Axis| {
-                legend::place_legend(&data.pieces, (&x_ticks, y), &label_w, &legend_metrics, plot)
-            };
-            let (mut layout, hits) = place(yt);
-            if hits > 0 {
-                // Raise the top of the axis until the legend fits above the
-                // data (the most compact layout, at most 40 % of the panel).
-                if let Some(frac) = legend_metrics.compact_fraction(&label_w, plot) {
-                    if frac <= 0.4 {
-                        let top = data.y_range.1;
-                        let mut raised = yt.clone();
-                        for _ in 0..4 {
-                            let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
-                            raised = nice_axis(raised.lo, hi, max_y_intervals);
-                            let (l, h) = place(&raised);
-                            if h == 0 {
-                                *yt = raised;
-                                layout = l;
-                                break;
-                            }
-                        }
-                    }
-                }
-            }
-            legends.push(Some((entries, label_w, layout)));
-        }
-        let y_label_area = axes::y_label_area(&y_ticks, scale);
+        let rows = (self.panels.iter().zip(&strokes))
+            .map(|(data, strokes)| legend_entries(data, strokes))
+            .collect();
+        let legends: Vec<Option<PanelLegend>> = (legend::first_rows(rows).into_iter())
+            .zip(self.panels.iter().zip(y_ticks.iter_mut()))
+            .map(|(entries, (data, yt))| {
+                let fit = (&legend_metrics, plot, max_y_intervals);
+                (!entries.is_empty())
+                    .then(|| place_panel_legend(data, entries, (&x_ticks, yt), fit))
+            })
+            .collect();
+        let (y_desc, y_label_area) = stack::y_labels(y_descs(), &y_ticks, plot_h, scale);
 
         let areas = stack::areas(&body, n, plot_h, scale);
-        for (i, (((data, area), yt), legend)) in self
-            .panels
-            .iter()
-            .zip(&areas)
-            .zip(&y_ticks)
-            .zip(&legends)
-            .enumerate()
-        {
-            let axes = (x_ticks.clone(), yt.clone());
-            let descs = (self.x_label.as_str(), data.panel.y_label.as_str());
-            let mut chart = stack::chart(area, (i, n), axes, descs, y_label_area, scale)?;
-            let (pw, _) = chart.plotting_area().dim_in_pixel();
-            let bucket_count = (pw as usize).max(1) * 2;
-            for ((trace, pieces), &color) in
-                data.panel.traces.iter().zip(&data.pieces).zip(&data.colors)
-            {
-                let stroke = styles.stroke(color, trace.style);
-                if trace.style == LineStyle::Markers {
-                    let points: Vec<(f64, f64)> = pieces
-                        .lines
-                        .iter()
-                        .flatten()
-                        .chain(&pieces.dots)
-                        .copied()
-                        .collect();
-                    draw_pieces(&mut chart, [], &points, &stroke)?;
-                    continue;
-                }
-                let rule = rule_time(trace).map(|t| vec![(t, yt.lo), (t, yt.hi)]);
-                let lines = pieces
-                    .lines
-                    .iter()
-                    .map(|line| decimate(line, x_ticks.lo, x_ticks.hi, bucket_count))
-                    .chain(rule);
-                draw_pieces(&mut chart, lines, &pieces.dots, &stroke)?;
+        for (i, data) in self.panels.iter().enumerate() {
+            let axes = (x_ticks.clone(), y_ticks[i].clone());
+            let descs = (self.x_label.as_str(), &y_desc[i][..]);
+            let mut chart = stack::chart(&areas[i], (i, n), axes, descs, y_label_area, scale)?;
+            draw_traces(&mut chart, data, &strokes[i], (&x_ticks, &y_ticks[i]))?;
+            let border = render::upx(scale)(1.0);
+            if let Some((entries, label_w, layout)) = &legends[i] {
+                let area = chart.plotting_area().strip_coord_spec();
+                legend::draw_legend(&area, entries, label_w, layout, &legend_metrics, border)?;
             }
-            if let Some((entries, label_w, layout)) = legend {
-                legend::draw_legend(
-                    &chart.plotting_area().strip_coord_spec(),
-                    entries,
-                    label_w,
-                    layout,
-                    &legend_metrics,
-                    upx(1.0),
-                )?;
-            }
-            axes::frame(root, axes::plot_bounds(chart.plotting_area()), upx(1.0))?;
+            axes::frame(root, axes::plot_bounds(chart.plotting_area()), border)?;
         }
         Ok(())
     }
+}
+
+/// Least gap (px at scale 1) between the names of neighbouring x categories.
+const X_CATEGORY_GAP: f64 = 12.0;
+
+impl Figure<'_> {
+    /// The shared x axis over plots `plot_w` px wide: the categories when the figure has them,
+    /// each name shortened in the middle to its share of the width, else linear ticks at most
+    /// one per 90 px.
+    fn x_axis(&self, plot_w: i32, scale: f64) -> Axis {
+        if self.x_categories.is_empty() {
+            let max_intervals = (f64::from(plot_w) / (90.0 * scale)).floor().clamp(2.0, 8.0);
+            return linear_axis(self.t_range.0, self.t_range.1, max_intervals);
+        }
+        let share = f64::from(plot_w) / self.x_categories.len() as f64 - X_CATEGORY_GAP * scale;
+        let size = axes::TICK_LABEL_SIZE * scale;
+        let names: Vec<String> = (self.x_categories.iter())
+            .map(|c| layout::ellipsize_middle(c, size, share))
+            .collect();
+        categorical_axis(&names)
+    }
+
+    /// The stroke of every trace of every panel: its colour and line style, and the width of
+    /// its group (its colour and line style) raised where later curves would hide one of its
+    /// curves ([`overlap::width_levels`]), on plots `plot` px wide and high over the axes.
+    fn strokes(
+        &self,
+        styles: &TraceStyles,
+        (x, y): (&Axis, &[Axis]),
+        plot: (i32, i32),
+    ) -> Vec<Vec<Stroke>> {
+        let traces =
+            || (self.panels.iter()).map(|d| d.panel.traces.iter().map(|t| t.style).zip(&d.colors));
+        let mut groups: Vec<(LineStyle, usize)> = Vec::new();
+        for (style, &c) in traces().flatten() {
+            if !groups.contains(&(style, c)) {
+                groups.push((style, c));
+            }
+        }
+        let group = |style, c| groups.iter().position(|g| *g == (style, c)).unwrap_or(0);
+        let panels: Vec<PanelCurves<'_>> = (self.panels.iter().zip(y))
+            .map(|(d, y)| PanelCurves {
+                curves: (d.panel.traces.iter().zip(&d.pieces).zip(&d.colors))
+                    .filter(|((t, _), _)| t.style != LineStyle::Markers)
+                    .map(|((t, pieces), &c)| Curve {
+                        group: group(t.style, c),
+                        pieces,
+                    })
+                    .collect(),
+                y,
+            })
+            .collect();
+        let size = (f64::from(plot.0), f64::from(plot.1));
+        let tol = f64::from(styles.line_w);
+        let levels = overlap::width_levels(&panels, x, size, tol, groups.len());
+        traces()
+            .map(|p| {
+                p.map(|(style, &c)| styles.stroke(c, style, levels[group(style, c)]))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+impl PanelData<'_> {
+    /// The panel's value axis: its categories when it has them, else 1-2-5 ticks over its
+    /// range with at most `max_intervals` intervals.
+    fn value_axis(&self, max_intervals: f64) -> Axis {
+        if self.panel.categories.is_empty() {
+            nice_axis(self.y_range.0, self.y_range.1, max_intervals)
+        } else {
+            categorical_axis(&self.panel.categories)
+        }
+    }
+}
+
+/// The corner and columns of the legend `entries` of panel `data`: where it hides the fewest
+/// curve segments over the axes `(x, yt)`. When every corner hides some, the top of a numeric
+/// value axis `yt` is raised until the legend fits above the data (the most compact layout,
+/// at most 40 % of the panel); `fit` holds the legend's metrics, the plot's size (px) and the
+/// most intervals of a value axis.
+fn place_panel_legend(
+    data: &PanelData<'_>,
+    entries: Vec<LegendEntry>,
+    (x, yt): (&Axis, &mut Axis),
+    (m, plot, max_y_intervals): (&LegendMetrics<'static>, (i32, i32), f64),
+) -> PanelLegend {
+    let label_w = m.label_widths(&entries);
+    let place = |y: &Axis| legend::place_legend(&data.pieces, (x, y), &label_w, m, plot);
+    let (mut layout, hits) = place(yt);
+    let frac = m.compact_fraction(&label_w, plot).filter(|f| *f <= 0.4);
+    if let (true, true, Some(frac)) = (hits > 0, data.panel.categories.is_empty(), frac) {
+        let top = data.y_range.1;
+        let mut raised = yt.clone();
+        for _ in 0..4 {
+            let hi = raised.lo + (top - raised.lo) / (1.0 - frac);
+            raised = nice_axis(raised.lo, hi, max_y_intervals);
+            let (l, h) = place(&raised);
+            if h == 0 {
+                *yt = raised;
+                layout = l;
+                break;
+            }
+        }
+    }
+    (entries, label_w, layout)
+}
+
+/// Draw the traces of panel `data` with their `strokes` on `chart` over the axes `(x, y)`:
+/// lines decimated to what the plot's width shows, markers as circles, time markers as
+/// vertical lines over the panel's height.
+fn draw_traces<DB: DrawingBackend>(
+    chart: &mut axes::Chart<'_, DB>,
+    data: &PanelData<'_>,
+    strokes: &[Stroke],
+    (x, y): (&Axis, &Axis),
+) -> Result<(), ReportError> {
+    let (pw, _) = chart.plotting_area().dim_in_pixel();
+    let bucket_count = (pw as usize).max(1) * 2;
+    for ((trace, pieces), stroke) in data.panel.traces.iter().zip(&data.pieces).zip(strokes) {
+        if trace.style == LineStyle::Markers {
+            let points: Vec<(f64, f64)> = (pieces.lines.iter().flatten())
+                .chain(&pieces.dots)
+                .copied()
+                .collect();
+            draw_pieces(chart, [], &points, stroke)?;
+            continue;
+        }
+        let rule = rule_time(trace).map(|t| vec![(t, y.lo), (t, y.hi)]);
+        let lines = (pieces.lines.iter())
+            .map(|line| decimate(line, x.lo, x.hi, bucket_count))
+            .chain(rule);
+        draw_pieces(chart, lines, &pieces.dots, stroke)?;
+    }
+    Ok(())
 }
 
 /// Error unless `lo..hi` is a finite, non-empty range.
@@ -527,6 +652,8 @@ fn check_span((lo, hi): (f64, f64), what: &str) -> Result<(), ReportError> {
 /// Pixel sizes for drawing traces.
 struct TraceStyles {
     line_w: u32,
+    /// Width added to a line for each level it is raised by ([`overlap::width_levels`]).
+    band_w: u32,
     dot_r: u32,
     /// Radius of the circles of [`LineStyle::Markers`].
     marker_r: u32,
@@ -543,6 +670,7 @@ impl TraceStyles {
         let (long, short, gap) = (px(12.0).max(3), px(2.0).max(1), px(4.0).max(2));
         TraceStyles {
             line_w: upx(2.0),
+            band_w: upx(3.0),
             dot_r: upx(3.0),
             marker_r: upx(6.0),
             dash: even_dash(px(10.0).max(2), px(6.0).max(2)),
@@ -551,11 +679,12 @@ impl TraceStyles {
         }
     }
 
-    /// The stroke of a trace in palette colour `color` and line style `style`.
-    fn stroke(&self, color: usize, style: LineStyle) -> Stroke {
+    /// The stroke of a trace in palette colour `color` and line style `style`, its width
+    /// raised by `level` bands (and then drawn as a see-through band).
+    fn stroke(&self, color: usize, style: LineStyle, level: u32) -> Stroke {
         Stroke {
             color: series_color(color),
-            width: self.line_w,
+            width: self.line_w + level * self.band_w,
             pattern: match style {
                 LineStyle::Solid | LineStyle::Markers => None,
                 LineStyle::Dashed => Some(self.dash),
@@ -566,6 +695,11 @@ impl TraceStyles {
                 self.marker_r
             } else {
                 self.dot_r
+            },
+            opacity: if level > 0 {
+                overlap::BAND_OPACITY
+            } else {
+                1.0
             },
         }
     }
@@ -607,16 +741,13 @@ fn decimate(line: &[(f64, f64)], t_lo: f64, t_hi: f64, buckets: usize) -> Polyli
     out
 }
 
-/// Legend entries of a panel: its traces with a non-empty label, in order.
-fn legend_entries(data: &PanelData<'_>, styles: &TraceStyles) -> Vec<LegendEntry> {
-    data.panel
-        .traces
-        .iter()
-        .zip(&data.colors)
+/// Legend entries of a panel: its traces with a non-empty label, in order, each shown in its
+/// stroke (`strokes`, index for index with the traces).
+fn legend_entries(data: &PanelData<'_>, strokes: &[Stroke]) -> Vec<LegendEntry> {
+    (data.panel.traces.iter().zip(strokes))
         .filter(|(t, _)| !t.label.is_empty())
-        .map(|(t, &c)| {
-            let stroke = styles.stroke(c, t.style);
-            let mut e = LegendEntry::of(&stroke, &t.label);
+        .map(|(t, stroke)| {
+            let mut e = LegendEntry::of(stroke, &t.label);
             e.sample = match (t.t_s.is_empty(), t.style) {
                 (true, _) => Sample::Note,
                 (false, LineStyle::Markers) => Sample::Dot(stroke.dot_r),
@@ -663,18 +794,22 @@ mod tests {
             Panel {
                 y_label: "Position (mm)".into(),
                 traces: vec![trace("x", &t, &x), trace("x_ref", &t, &x_ref)],
+                ..Default::default()
             },
             Panel {
                 y_label: "Error (mm)".into(),
                 traces: vec![trace("", &t, &err)],
+                ..Default::default()
             },
             Panel {
                 y_label: "Pressure (bar)".into(),
                 traces: vec![trace("p1", &t, &p1), trace("p2", &t, &p2)],
+                ..Default::default()
             },
             Panel {
                 y_label: "Speed (rpm)".into(),
                 traces: vec![trace("ω1", &t, &w), trace("ω2", &t, &w)],
+                ..Default::default()
             },
         ]
     }
@@ -752,10 +887,12 @@ mod tests {
             Panel {
                 y_label: "Constant (bar)".into(),
                 traces: vec![trace("", &t, &[4.0; 50])],
+                ..Default::default()
             },
             Panel {
                 y_label: "Zero (mm)".into(),
                 traces: vec![trace("zero", &t, &[0.0; 50])],
+                ..Default::default()
             },
             Panel {
                 y_label: "Holes".into(),
@@ -763,14 +900,17 @@ mod tests {
                     trace("holes", &t_holes, &y),
                     trace("nan", &t, &[f64::NAN; 50]),
                 ],
+                ..Default::default()
             },
             Panel {
                 y_label: "Nothing".into(),
                 traces: vec![],
+                ..Default::default()
             },
             Panel {
                 y_label: "Single".into(),
                 traces: vec![trace("one", &[1.0], &[2.0])],
+                ..Default::default()
             },
         ];
         panels_svg("holes", None, &panels).unwrap();
@@ -780,6 +920,7 @@ mod tests {
         let single = [Panel {
             y_label: "p".into(),
             traces: vec![trace("s", &[0.0], &[0.0])],
+            ..Default::default()
         }];
         panels_svg("single", None, &single).unwrap();
         panels_png("single", None, &single, 400, 300).unwrap();
@@ -799,6 +940,7 @@ mod tests {
         let p = [Panel {
             y_label: "big".into(),
             traces: vec![trace("b", &t, &[-1.7e308, 1.7e308])],
+            ..Default::default()
         }];
         assert!(matches!(
             panels_svg("x", None, &p),
@@ -807,6 +949,7 @@ mod tests {
         let p = [Panel {
             y_label: "large".into(),
             traces: vec![trace("b", &t, &[1e20, 3e20])],
+            ..Default::default()
         }];
         panels_svg("x", None, &p).unwrap();
     }
@@ -829,6 +972,7 @@ mod tests {
                 &[0.0, f64::NAN, 2.0],
                 &[f64::NAN, 1.0, f64::INFINITY],
             )],
+            ..Default::default()
         }];
         let err = panels_svg("x", None, &all_nan).unwrap_err();
         assert!(matches!(err, ReportError::Empty(_)));
@@ -846,6 +990,7 @@ mod tests {
                 trace("ok", &[0.0, 1.0], &[0.0, 1.0]),
                 trace("bad one", &[0.0, 1.0], &[0.0]),
             ],
+            ..Default::default()
         }];
         let err = panels_svg("x", None, &p).unwrap_err();
         assert!(matches!(err, ReportError::Plot(_)));
@@ -868,6 +1013,7 @@ mod tests {
         let panel = |traces: Vec<Trace>| Panel {
             y_label: String::new(),
             traces,
+            ..Default::default()
         };
         let one = |traces| assign_colors(&[panel(traces)]).remove(0);
         assert_eq!(

@@ -442,7 +442,7 @@ fn scan_row(r: &ModeRun) -> Vec<String> {
 }
 
 /// The steps about the rest before the step (mm), the control error (mm) and the single
-/// pump's mode, over the step record.
+/// pump's mode (a category axis, 1 or 2), over the step record.
 fn steps_chart(runs: &[(CircuitRun, Signals)]) -> Chart {
     let mut position = vec![];
     let mut error = vec![];
@@ -481,14 +481,18 @@ fn steps_chart(runs: &[(CircuitRun, Signals)]) -> Chart {
             Panel {
                 y_label: "Position, x − x(step) (mm)".into(),
                 traces: position,
+                ..Default::default()
             },
             Panel {
                 y_label: "Control error x_ref − x (mm)".into(),
                 traces: error,
+                ..Default::default()
             },
             Panel {
-                y_label: "Single-pump mode (1 or 2)".into(),
+                y_label: "Single-pump mode".into(),
                 traces: mode,
+                // the record's mode column (docs/emulator.md#the-mode-signal): 1 or 2
+                categories: vec!["1".into(), "2".into()],
             },
         ],
     )

@@ -237,48 +237,38 @@ fn reading(v: &SweepBeside, truth: &Candidate) -> String {
     )
 }
 
-/// One panel per parameter: each set's interval as a vertical bar at its position (1 steps,
-/// 2 sweep, 3 both), over the truth, cut at [`DRAWN`]; the truth at 1.
+/// One panel per parameter: each set's interval as a vertical bar over its category (the sets
+/// named on the x axis, each in its colour), relative to the truth and cut at [`DRAWN`]; the
+/// truth at 1.
 fn chart(v: &SweepBeside, truth: &Candidate) -> Chart {
+    let sets = sets(v);
     let panels = (0..3)
         .map(|i| {
             let t = value_of(truth, i);
-            let mut traces: Vec<_> = sets(v)
-                .iter()
-                .enumerate()
-                .filter_map(|(k, (label, s))| {
+            let mut traces: Vec<_> = (sets.iter().enumerate())
+                .filter_map(|(k, (_, s))| {
                     let iv = (*s.intervals.get(i))?;
                     let rel = |x: f64| (x / t).min(DRAWN);
                     let x = (k + 1) as f64;
-                    Some(trace(
-                        label,
-                        &[x, x],
-                        &[rel(iv[0]), rel(iv[1])],
-                        LineStyle::Solid,
-                        Some(k),
-                    ))
+                    let (xs, ys) = ([x, x], [rel(iv[0]), rel(iv[1])]);
+                    Some(trace("", &xs, &ys, LineStyle::Solid, Some(k)))
                 })
                 .collect();
-            traces.push(trace(
-                "truth",
-                &[0.5, 3.5],
-                &[1.0, 1.0],
-                LineStyle::Dashed,
-                Some(6),
-            ));
+            let ends = [0.5, sets.len() as f64 + 0.5];
+            traces.push(trace("truth", &ends, &[1.0; 2], LineStyle::Dashed, Some(6)));
             Panel {
                 y_label: format!("{} / truth", ["β", "b", "c12"][i]),
                 traces,
+                ..Default::default()
             }
         })
         .collect();
     Chart {
         title: "Intervals from the steps, the sweep and both".into(),
-        subtitle: Some(format!(
-            "1 steps, 2 sweep, 3 both; an interval is cut at {DRAWN:.0} × the truth"
-        )),
-        plot: crate::figures::Plot::Xy {
-            x_label: "record set (1 steps, 2 sweep, 3 both)".into(),
+        subtitle: Some(format!("an interval is cut at {DRAWN:.0} × the truth")),
+        plot: crate::figures::Plot::Categories {
+            x_label: "record set".into(),
+            categories: sets.iter().map(|(name, _)| name.to_string()).collect(),
             panels,
         },
     }
