@@ -6,10 +6,6 @@ use super::single_pump::modes::{switching, Mode, Switching};
 use super::{Circuit, CircuitKind, ControlLaw};
 use crate::rig::Rig;
 
-/// The most linear models a circuit's loop runs in ([`AnyCircuit::linear_modes`]): the
-/// single-pump circuit's two modes.
-pub const MOST_LINEAR_MODES: usize = 2;
-
 /// A circuit of any kind, the one a rig is: what the linear model holds. A new kind is a new
 /// arm; what only the DPM has is asked for through [`AnyCircuit::dpm`].
 #[derive(Debug, Clone)]

@@ -82,9 +82,7 @@ pub mod single_pump;
 pub mod stops;
 pub mod valves;
 
-pub use any::{
-    mode_switching, pressure_level_bar, require, require_dpm, AnyCircuit, MOST_LINEAR_MODES,
-};
+pub use any::{mode_switching, pressure_level_bar, require, require_dpm, AnyCircuit};
 pub use dpm::Dpm;
 pub use emulated::Emulated;
 pub use parts::Effects;

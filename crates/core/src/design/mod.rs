@@ -446,12 +446,12 @@ const TRACKING_RATE_HZ: f64 = 100.0;
 const ANALYSES_PER_CONDITION: f64 = 3.0 + KP_SEARCH_STEPS as f64;
 
 impl Targets {
-    /// The margin analyses the design of these targets takes at most: three stroke positions ×
-    /// masses × pressures conditions, each a Kp search in each linear model of the circuit
-    /// (at most [`crate::circuit::MOST_LINEAR_MODES`]), plus the design point's.
-    pub fn margin_analyses(&self) -> f64 {
-        let modes = crate::circuit::MOST_LINEAR_MODES as f64;
-        (modes * self.conditions() + 1.0) * ANALYSES_PER_CONDITION
+    /// The margin analyses the design of these targets takes at most in `models` linear models
+    /// of the circuit (its [`AnyCircuit::linear_modes`]: the single-pump circuit's two modes):
+    /// three stroke positions × masses × pressures conditions, each a Kp search in each model,
+    /// plus the design point's.
+    pub fn margin_analyses(&self, models: usize) -> f64 {
+        (models as f64 * self.conditions() + 1.0) * ANALYSES_PER_CONDITION
     }
 
     /// The conditions the design checks: three stroke positions × masses × pressures.
@@ -459,12 +459,16 @@ impl Targets {
         3.0 * self.mass_kg.len().max(1) as f64 * self.p_mean_bar.len().max(1) as f64
     }
 
-    /// Refuse targets whose design would run for hours (more than
+    /// Refuse targets whose design in `models` linear models would run for hours (more than
     /// [`MAX_MARGIN_ANALYSES`](crate::limits::MAX_MARGIN_ANALYSES)), unless `allow_long_run`.
-    pub fn check_work(&self, allow_long_run: bool) -> Result<(), crate::limits::LimitError> {
+    pub fn check_work(
+        &self,
+        models: usize,
+        allow_long_run: bool,
+    ) -> Result<(), crate::limits::LimitError> {
         crate::limits::check_work(
             "mass_kg × p_mean_bar conditions",
-            self.margin_analyses(),
+            self.margin_analyses(models),
             crate::limits::MAX_MARGIN_ANALYSES,
             allow_long_run,
         )
@@ -499,7 +503,7 @@ pub fn design_with(
     t: &Targets,
     work: &crate::limits::Work,
 ) -> Result<Design, DesignError> {
-    t.check_work(work.allow_long_run)?;
+    t.check_work(AnyCircuit::linear_modes(rig).len(), work.allow_long_run)?;
     check_inputs(rig, t)?;
     let t = &t.anchored(rig);
     let kp = kp_max(rig, t)?;

@@ -716,7 +716,8 @@ fn deciding(rig: &Rig, point: Point, t: &Targets, kp: f64) -> Result<Deciding, D
 
 /// Check the inputs as [`super::design`] does, and the search's sizes.
 fn check(rig: &Rig, t: &Targets, opts: &RobustOptions) -> Result<(), DesignError> {
-    t.check_work(opts.allow_long_run)?;
+    // the robust design searches the mode the rig rests in
+    t.check_work(1, opts.allow_long_run)?;
     super::check_inputs(rig, t)?;
     for (name, v, max) in [
         ("grid", opts.grid, MAX_GRID),
