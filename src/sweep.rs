@@ -35,6 +35,10 @@ pub struct SweepArgs {
     /// frequency of a stepped sine. Default: 3, 24 (for ε = 5 % at coherence 0.9), 4.
     #[arg(long)]
     periods: Option<usize>,
+    /// Multisine: its period (s), a whole multiple of 1/--from-hz. Default: the designer's
+    /// (lines dense about the resonance) where --from-hz is the designer's too, else 1/--from-hz.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    period_s: Option<f64>,
     /// Multisine: its lines.
     #[arg(long, default_value_t = 30)]
     lines: usize,
@@ -73,6 +77,7 @@ pub(crate) fn excitation(
         at_s: Some(at_s),
         sweep_s: args.sweep_s,
         periods: args.periods,
+        period_s: args.period_s,
         lines: Some(args.lines),
         levels: Some(args.levels),
         settle_periods: Some(args.settle_periods),
@@ -94,6 +99,7 @@ pub(crate) fn option_of(field: &str) -> &str {
         "duration_s" => "sweep-s",
         "sweeps" | "periods" => "periods",
         "settle_periods" => "settle-periods",
+        "period_s" => "period-s",
         "start_s" => "at-s",
         "rate_hz" => "rate-hz",
         other => other,

@@ -236,8 +236,8 @@ fn band_db(p: &Point, sign: f64) -> f64 {
 pub fn design_text(d: &Design) -> String {
     let mut out = format!(
         "sweep design: crossover {:.3} Hz, resonance {}; band {:.3} … {:.3} Hz; amplitude \
-         {:.2} mm (dead band needs ≥ {:.2}, ratings and stroke allow ≤ {:.2}); {} averages: \
-         {} periods of 1/{:.3} Hz, {:.1} s\n",
+         {:.2} mm (dead band needs ≥ {:.2}, the limits allow ≤ {:.2}, set by {}); a multisine \
+         of {} lines on the harmonics of its {:.3} s period; {} averages: {} periods, {:.1} s\n",
         d.crossover_hz,
         d.resonance_hz
             .map_or("none found".to_string(), |f| format!("{f:.3} Hz")),
@@ -246,9 +246,11 @@ pub fn design_text(d: &Design) -> String {
         d.amplitude_mm,
         d.min_amplitude_mm,
         d.max_amplitude_mm,
+        d.amplitude_bound,
+        d.lines,
+        d.period_s,
         d.averages,
         d.periods,
-        d.from_hz,
         d.duration_s
     );
     for n in &d.notes {

@@ -815,10 +815,11 @@ fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
         .filter_map(|&kp| {
             let rig = Rig { kp, ..like.clone() };
             let d = crate::frf::design(&rig, &goal).ok()?;
-            let fit = (MAX_DURATION_S * d.from_hz).floor() as usize;
+            let fit = (MAX_DURATION_S / d.period_s).floor() as usize;
             let spec = SweepSpec {
                 from_hz: Some(d.from_hz),
                 to_hz: Some(d.to_hz),
+                period_s: Some(d.period_s),
                 lines: Some(SWEEP_LINES),
                 amplitude_mm: Some((d.amplitude_mm * 10.0).floor() / 10.0),
                 periods: Some(d.periods.min(fit)),

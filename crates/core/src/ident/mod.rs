@@ -64,9 +64,9 @@ pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
 pub use uncertainty::{
-    analyze, at_bound_reason, check_confidence, chi2_1_quantile, identifiability, search_bound_at,
-    Identifiability, Profile, ProfilePoint, Uncertainty, UncertaintyOptions, AT_BOUND, BOUNDS,
-    FLAT_FACTOR, PARAMETERS,
+    analyze, at_bound_reason, check_confidence, chi2_1_quantile, identifiability, normal_quantile,
+    search_bound_at, Identifiability, Profile, ProfilePoint, Uncertainty, UncertaintyOptions,
+    AT_BOUND, BOUNDS, FLAT_FACTOR, PARAMETERS,
 };
 
 use serde::{Deserialize, Serialize};

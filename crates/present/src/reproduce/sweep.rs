@@ -83,7 +83,8 @@ fn emulate(truth: &Truth) -> Result<(Excitation, Record)> {
         (d.from_hz, d.to_hz),
         (LINES, d.periods),
         truth.plc.rate_hz,
-    );
+    )
+    .with_period(d.period_s, truth.plc.rate_hz);
     let plc = pumpcyl::emulator::Plc {
         seed: SEED,
         ..article::plc(SEED)
