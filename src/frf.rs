@@ -62,6 +62,13 @@ pub struct FrfArgs {
 /// `pumpcyl frf`.
 pub fn run(args: &FrfArgs) -> Result<String> {
     let rig = crate::emulate::load_rig(&args.source, true)?;
+    if let (true, Some(path)) = (args.design, &args.record) {
+        anyhow::bail!(
+            "{}: --design designs the sweep from the rig's model and reads no record; run \
+             `pumpcyl frf --design` alone, or estimate the record without --design",
+            path.display()
+        );
+    }
     if args.design {
         let d = design_for(&rig, args.rate_hz)?;
         return Ok(if args.json {
@@ -97,12 +104,18 @@ pub fn run(args: &FrfArgs) -> Result<String> {
             )
         })
         .transpose()?;
+    if let Some(e) = &excitation {
+        frf::check_matches(&rec, e)
+            .map_err(|err| anyhow!("{err}{}", defaults_hint(args, e, &rec)))?;
+    }
     let opts = Options {
         excitation,
         rig: Some(&rig),
         segment_s: args.segment_s,
     };
-    let est = frf::estimate(&rec, &opts)?;
+    let mut est = frf::estimate(&rec, &opts)?;
+    est.warnings
+        .extend(pumpcyl_present::frf::model_warning(&rig));
     let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, &args.source.origin())?;
     if let Some(out) = &args.out {
         write_atomic(out, frf_csv(&est, Some(&model)).as_bytes())?;
@@ -118,4 +131,39 @@ pub fn run(args: &FrfArgs) -> Result<String> {
         ))?);
     }
     Ok(frf_text(&est))
+}
+
+/// Where the described sweep `e` took the designer's values for absent options and the record
+/// is not that sweep: the values taken, and the period and peak deviation the record's own
+/// reference shows, so that the options it was emulated with can be given.
+fn defaults_hint(args: &FrfArgs, e: &frf::Excitation, rec: &Record) -> String {
+    let defaulted = args.amplitude_mm.is_none() || args.shape.band_defaulted();
+    if !defaulted {
+        return String::new();
+    }
+    let (from_hz, to_hz) = e.band_hz();
+    let period = match e {
+        frf::Excitation::Multisine { period_s, .. } => format!(" --period-s {period_s}"),
+        _ => String::new(),
+    };
+    let shown = frf::find_period(rec).map_or(String::new(), |(_, len)| {
+        let rate_hz = (rec.len() - 1) as f64 / (rec.time_s[rec.len() - 1] - rec.time_s[0]);
+        let r0 = rec.x_ref_mm[0];
+        let dev = rec
+            .x_ref_mm
+            .iter()
+            .map(|r| (r - r0).abs())
+            .fold(0.0, f64::max);
+        format!(
+            "; the record's reference repeats every {} s with a peak deviation of {dev:.3} mm",
+            len as f64 / rate_hz
+        )
+    });
+    format!(
+        "; absent options took the designer's values for this rig: --from-hz {from_hz} --to-hz \
+         {to_hz} --amplitude-mm {}{period}{shown}: give the options the record was emulated \
+         with (a record emulated with --no-effects, another --rig or --set had another rig's \
+         design)",
+        e.amplitude_mm()
+    )
 }

@@ -51,6 +51,13 @@ pub struct SweepArgs {
     settle_periods: usize,
 }
 
+impl SweepArgs {
+    /// The band or the period is left to the designer.
+    pub(crate) fn band_defaulted(&self) -> bool {
+        self.from_hz.is_none() || self.to_hz.is_none() || self.period_s.is_none()
+    }
+}
+
 impl From<SweepKind> for frf::SweepKind {
     fn from(k: SweepKind) -> frf::SweepKind {
         match k {

@@ -285,7 +285,29 @@ pub fn rig_model_curve(
     let plant = pumpcyl::model::Plant::new(rig);
     let freqs: Vec<f64> = est.closed_loop.points.iter().map(|p| p.freq_hz).collect();
     let h = pumpcyl::frf::sampled_loop_response(&plant, rig.sum_pressure, &freqs, est.rate_hz)?;
-    Ok(model_curve(format!("model x/x_ref ({origin})"), est, &h))
+    let label = format!("model x/x_ref ({origin}; {})", plant.circuit().describe());
+    Ok(model_curve(label, est, &h))
+}
+
+/// What the reader of `rig`'s model curve must know: a dual-pump circuit whose linear model
+/// rests with a check valve open (docs/circuits.md#valves), while the model holds every valve
+/// shut: the curve is not the loop the rig runs about its rest. The single-pump circuit's model
+/// is already the mode it rests in ([`pumpcyl::circuit::AnyCircuit::describe`]).
+pub fn model_warning(rig: &pumpcyl::rig::Rig) -> Option<String> {
+    if rig.circuit != pumpcyl::circuit::CircuitKind::DualPump {
+        return None;
+    }
+    let c = pumpcyl::circuit::dual_pump::DualPump::new(rig).ok()?;
+    let (chamber, p_bar, p_acc_bar, q) = c.valve_open_at_rest()?;
+    Some(format!(
+        "the model drawn holds every valve shut, but at its rest chamber {chamber} sits at \
+         {p_bar:.2} bar, below the {p_acc_bar:.2} bar accumulator by more than its check valve's \
+         cracking pressure: the valve is open at rest ({:.3e} m³/s) and ties the chamber to the \
+         accumulator, so the rig's loop about its rest is not the model's and the curves differ \
+         (load the piston so that both chambers sit within the valves' settings; \
+         docs/circuits.md#identification-where-a-valve-is-open)",
+        q
+    ))
 }
 
 /// The fitted model of each sweep of a frequency-domain fit, at the sweep's frequencies; a

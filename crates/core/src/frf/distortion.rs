@@ -8,7 +8,7 @@
 //! Approach*, 2nd ed., Wiley 2012, Ch. 4; Schoukens, Vaes & Pintelon, IEEE Control Syst. Mag.
 //! 36(3), 2016, 38–69). Over M periods the mean X̄_k of a detection line carries the periodic
 //! part, the period-to-period scatter s_k² = (Σ|X_m,k|² − M|X̄_k|²)/(M − 1) the noise alone:
-//! without distortion E[M|X̄_k|²] = E[s_k²] = σ_k². The ratio R = Σ M|X̄_k|² / Σ s_k² over
+//! without distortion E(M|X̄_k|²) = E(s_k²) = σ_k². The ratio R = Σ M|X̄_k|² / Σ s_k² over
 //! the K detection lines is the distortion's level above the noise, 1 (0 dB) for a linear loop.
 //! Without distortion R is F-distributed with 2K_e and 2K_e(M − 1) degrees of freedom, K_e =
 //! (Σ s_k²)²/Σ s_k⁴ the lines' effective number where the noise level varies with frequency

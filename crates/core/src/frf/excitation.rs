@@ -420,7 +420,7 @@ impl Excitation {
             .fold(0.0, f64::max)
     }
 
-    /// The lowest and highest value over one period (on [`PEAK_GRID`] points) of a linear
+    /// The lowest and highest value over one period (on 4096 points) of a linear
     /// system's periodic response to the multisine, `h` its response at each line
     /// ([`Excitation::frequencies_hz`]) per mm of reference, at the multisine's own amplitude:
     /// the excursion of that output about its rest. (0, 0) for the other sweeps.

@@ -361,7 +361,7 @@ pub fn check_sweep(rec: &Record) -> Result<(), FrfError> {
 }
 
 /// Refuse a record whose reference is not the sweep `e` described.
-fn check_matches(rec: &Record, e: &Excitation) -> Result<(), FrfError> {
+pub fn check_matches(rec: &Record, e: &Excitation) -> Result<(), FrfError> {
     let tol = crate::record::POSITION_RESOLUTION_MM;
     let worst = rec
         .time_s

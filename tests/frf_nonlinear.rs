@@ -1,0 +1,286 @@
+//! A sweep that leaves the linear model's reach is designed against and reported
+//! (docs/identification.md#designing-the-sweep, #non-linear-distortion): the designer bounds
+//! the amplitude by the chambers' pressure band, `frf` detects non-linear distortion at a
+//! multisine's non-excited lines and pressures at the cavitation floor, the designed multisine
+//! resolves the resonance, a record made with the designer's defaults reads back with them, and
+//! the model drawn beside a one-motor record says which rest it is the model of.
+
+#[path = "common/run.rs"]
+#[allow(dead_code)]
+mod run;
+
+use pumpcyl::frf::{Excitation, SweepKind, SweepSpec};
+use pumpcyl::lti::{eigenvalues, resonance};
+use pumpcyl::model::Plant;
+use pumpcyl::rig::Rig;
+use std::path::{Path, PathBuf};
+
+fn user_rig_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/user-rig.toml")
+}
+
+/// A column of a record's CSV.
+fn column(path: &Path, name: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header.iter().position(|h| *h == name).unwrap();
+    lines
+        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+        .collect()
+}
+
+/// `pumpcyl emulate --experiment multisine --out NAME ARGS --json` in `dir`: its warnings.
+fn emulate(dir: &Path, name: &str, args: &[&str]) -> Vec<String> {
+    let mut all = vec![
+        "emulate",
+        "--experiment",
+        "multisine",
+        "--out",
+        name,
+        "--json",
+    ];
+    all.extend_from_slice(args);
+    let v = run::json(dir, &all);
+    (v["warnings"].as_array().unwrap().iter())
+        .map(|w| w.as_str().unwrap().to_string())
+        .collect()
+}
+
+fn floor_warned(warnings: &[String]) -> bool {
+    warnings.iter().any(|w| w.contains("cavitation floor"))
+}
+
+#[test]
+fn the_designed_multisine_keeps_the_chambers_above_the_cavitation_floor() {
+    // the article's rig at beta 250 bar, where the speed-bound design (15.0 mm) drove chamber 1
+    // to -1 bar in 264 samples, and the user rig (80/45 mm); every emulator effect on, no noise
+    let dir = tempfile::tempdir().unwrap();
+    let user = user_rig_path();
+    let user = user.to_str().unwrap();
+    for (label, rig) in [
+        ("beta 250", vec!["--set", "beta_bar=250"]),
+        ("user rig", vec!["--rig", user]),
+    ] {
+        let d = run::json(
+            dir.path(),
+            &[&["frf", "--design", "--json"], &rig[..]].concat(),
+        );
+        let bound = d["amplitude_bound"].as_str().unwrap();
+        let warnings = emulate(dir.path(), "ms.csv", &[&rig[..], &["--no-noise"]].concat());
+        assert!(!floor_warned(&warnings), "{label}: {warnings:?}");
+        // the design takes half the room from chamber 1's rest to the floor: the record's
+        // lowest p1 lies that far below its rest, as the record's own first sample shows it
+        let p1 = column(&dir.path().join("ms.csv"), "p1_bar");
+        let lowest = p1.iter().cloned().fold(f64::INFINITY, f64::min);
+        let halfway = p1[0] - 0.5 * (p1[0] + 1.0);
+        eprintln!(
+            "{label}: {bound}; rest {:.3}, lowest {lowest:.3}, halfway {halfway:.3} bar",
+            p1[0]
+        );
+        assert!(bound.starts_with("p1"), "{label}: {bound}");
+        assert!(
+            (lowest - halfway).abs() < 0.3,
+            "{label}: {lowest} against {halfway}"
+        );
+        assert!(lowest > -0.5, "{label}: {lowest}");
+    }
+}
+
+/// `pumpcyl frf REC --json ARGS` in `dir`.
+fn frf_json(dir: &Path, rec: &str, args: &[&str]) -> serde_json::Value {
+    run::json(dir, &[&["frf", rec, "--json"], args].concat())
+}
+
+#[test]
+fn a_multisine_that_cavitates_is_reported_as_distorted_and_at_the_floor() {
+    // the speed-bound design on the article rig at beta 250 bar: 15 mm, 0.195 … 2.456 Hz,
+    // period 1/0.195 s (13 lines), 24 periods; the sensors' noise on
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = [
+        "--set",
+        "beta_bar=250",
+        "--amplitude-mm",
+        "15",
+        "--from-hz",
+        "0.1953125",
+        "--to-hz",
+        "2.456",
+        "--periods",
+        "24",
+    ];
+    assert!(floor_warned(&emulate(dir.path(), "cav.csv", &sweep)));
+    let at_floor = |p: &[f64]| p.iter().filter(|&&v| v <= -1.0 + 1e-3).count();
+    let p1 = column(&dir.path().join("cav.csv"), "p1_bar");
+    assert!(at_floor(&p1) > 100, "{}", at_floor(&p1));
+    let v = frf_json(
+        dir.path(),
+        "cav.csv",
+        &[&["--sweep", "multisine"], &sweep[..]].concat(),
+    );
+    let d = &v["distortion"];
+    let above = d["non_excited_db_above_noise"].as_f64().unwrap();
+    let threshold = d["threshold_db"].as_f64().unwrap();
+    eprintln!("cavitating: {d}");
+    assert!(
+        d["warned"].as_bool().unwrap() && above > threshold + 10.0,
+        "{d}"
+    );
+    let warnings: Vec<&str> = (v["warnings"].as_array().unwrap().iter())
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("non-linear distortion")),
+        "{warnings:?}"
+    );
+    let floor = warnings
+        .iter()
+        .find(|w| w.contains("cavitation floor"))
+        .unwrap();
+    assert!(floor.contains("chamber 1 in "), "{floor}");
+}
+
+#[test]
+fn a_small_multisine_of_the_linear_loop_shows_no_distortion() {
+    // every effect off, 2 mm on the user rig, the sensors' noise on: the detection lines hold
+    // noise only, their level within the threshold of a 0.001 false alarm
+    let dir = tempfile::tempdir().unwrap();
+    let user = user_rig_path();
+    let sweep = [
+        "--rig",
+        user.to_str().unwrap(),
+        "--amplitude-mm",
+        "2",
+        "--from-hz",
+        "0.1",
+        "--to-hz",
+        "3",
+        "--periods",
+        "12",
+    ];
+    emulate(
+        dir.path(),
+        "lin.csv",
+        &[&sweep[..], &["--no-effects"]].concat(),
+    );
+    let v = frf_json(
+        dir.path(),
+        "lin.csv",
+        &[&["--sweep", "multisine"], &sweep[..]].concat(),
+    );
+    let d = &v["distortion"];
+    eprintln!("{d}");
+    assert!(!d["warned"].as_bool().unwrap(), "{d}");
+    let above = d["non_excited_db_above_noise"].as_f64().unwrap();
+    assert!(above.abs() < d["threshold_db"].as_f64().unwrap(), "{d}");
+    assert!(d["lines"].as_u64().unwrap() > 20, "{d}");
+    assert!(!format!("{}", v["warnings"]).contains("distortion"));
+}
+
+#[test]
+fn the_designed_multisine_puts_two_lines_within_the_resonances_half_power_band() {
+    // the plant's least-damped pair above the crossover (what the design reports as its
+    // resonance): lines within f_n (1 ± ζ), the half-power band, on the user rig and the article's
+    let user = Rig::from_file(&user_rig_path()).unwrap();
+    for (label, rig) in [("user rig", user), ("article rig", Rig::default())] {
+        let spec = SweepSpec::of_kind(SweepKind::Multisine);
+        let e: Excitation = spec.excitation(&rig, 100.0).unwrap();
+        let lines = e.frequencies_hz();
+        let d = pumpcyl::frf::design(&rig, &pumpcyl::frf::DesignGoal::default()).unwrap();
+        let plant = Plant::new(&rig);
+        let r = resonance(&eigenvalues(&plant.a).unwrap(), d.crossover_hz, 100.0).unwrap();
+        let z = r.damping.unwrap();
+        let (lo, hi) = (r.natural_freq_hz * (1.0 - z), r.natural_freq_hz * (1.0 + z));
+        let within = lines.iter().filter(|&&f| f >= lo && f <= hi).count();
+        eprintln!(
+            "{label}: {} lines, {within} in {lo:.3} … {hi:.3} Hz",
+            lines.len()
+        );
+        assert_eq!(lines.len(), d.lines, "{label}");
+        assert!(within >= 2, "{label}: {lines:?}");
+        assert!(lines.len() >= 12, "{label}: {lines:?}");
+    }
+}
+
+#[test]
+fn a_record_of_the_designers_defaults_reads_back_with_them() {
+    // emulated with --set and read back with the same --set and no sweep option: the
+    // description is the record's (its last sample, at the sweep's end, included)
+    let dir = tempfile::tempdir().unwrap();
+    let set = ["--set", "beta_bar=250"];
+    emulate(dir.path(), "d.csv", &set);
+    let v = frf_json(
+        dir.path(),
+        "d.csv",
+        &[&["--sweep", "multisine"], &set[..]].concat(),
+    );
+    assert_eq!(v["method"], "periods");
+    // another rig's design: refused in one line that names the options to give
+    run::refused(
+        dir.path(),
+        &["frf", "d.csv", "--sweep", "multisine"],
+        &[
+            "d.csv",
+            "--from-hz",
+            "--amplitude-mm",
+            "--period-s",
+            "repeats every",
+        ],
+    );
+}
+
+#[test]
+fn frf_design_refuses_a_record_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("r.csv"), "time_s,x_ref_mm,x_mm\n").unwrap();
+    run::refused(
+        dir.path(),
+        &["frf", "--design", "r.csv"],
+        &["r.csv", "--design", "reads no record"],
+    );
+}
+
+#[test]
+fn a_dual_pump_model_resting_with_a_valve_open_is_drawn_with_a_warning() {
+    // the user rig as a dual-pump circuit at no load: the valves-shut rest puts chamber 1 far
+    // below the accumulator, where its check valve opens; the emulated record rests with
+    // chamber 1 held within the valve's opening of the accumulator instead
+    let dir = tempfile::tempdir().unwrap();
+    let user = user_rig_path();
+    let rig = [
+        "--rig",
+        user.to_str().unwrap(),
+        "--set",
+        "circuit=dual-pump",
+    ];
+    emulate(
+        dir.path(),
+        "dp.csv",
+        &[&rig[..], &["--amplitude-mm", "2"]].concat(),
+    );
+    let p1 = column(&dir.path().join("dp.csv"), "p1_bar");
+    let r = Rig::from_file(&user)
+        .unwrap()
+        .with_overrides(&["circuit=dual-pump".into()])
+        .unwrap();
+    let p_acc = r.accumulator_precharge_bar;
+    assert!(p1[0] < p_acc && p1[0] > p_acc - 1.5, "{} bar", p1[0]);
+    let v = frf_json(
+        dir.path(),
+        "dp.csv",
+        &[&["--sweep", "multisine", "--amplitude-mm", "2"], &rig[..]].concat(),
+    );
+    let label = v["model"]["label"].as_str().unwrap();
+    assert!(label.contains("dual-pump"), "{label}");
+    let w = format!("{}", v["warnings"]);
+    assert!(w.contains("chamber 1") && w.contains("open at rest"), "{w}");
+    let model_rest = pumpcyl::circuit::dual_pump::DualPump::new(&r)
+        .unwrap()
+        .rest()
+        .p1_pa
+        / 1e5;
+    assert!(model_rest < p_acc - 0.5, "{model_rest}");
+    assert!(w.contains(&format!("{model_rest:.2} bar")), "{w}");
+}
