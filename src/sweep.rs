@@ -39,9 +39,10 @@ pub struct SweepArgs {
     /// (lines dense about the resonance) where --from-hz is the designer's too, else 1/--from-hz.
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     period_s: Option<f64>,
-    /// Multisine: its lines.
-    #[arg(long, default_value_t = 30)]
-    lines: usize,
+    /// Multisine: its lines. Default: the designer's (at least 30, as many as put two within
+    /// the resonance's half-power band) where --from-hz is the designer's too, else 30.
+    #[arg(long)]
+    lines: Option<usize>,
     /// Stepped sine: its frequencies.
     #[arg(long, default_value_t = 12)]
     levels: usize,
@@ -85,7 +86,7 @@ pub(crate) fn excitation(
         sweep_s: args.sweep_s,
         periods: args.periods,
         period_s: args.period_s,
-        lines: Some(args.lines),
+        lines: args.lines,
         levels: Some(args.levels),
         settle_periods: Some(args.settle_periods),
         ..frf::SweepSpec::of_kind(kind.into())

@@ -478,22 +478,37 @@ fn pumpcyl(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
 
 #[test]
 fn emulate_a_multisine_then_read_its_frequency_response_back() {
-    // the band from 0.407 Hz on a period of 1/0.407 s, shorter than the loop's settling (the
-    // designer's own period resolves the resonance and outlasts it), at the 8.9 mm the motors'
-    // ratings allow (the designer's amplitude keeps to the chambers' pressures)
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let shape = ["--from-hz", "0.407", "--amplitude-mm", "8.9"];
-    let emulate = ["emulate", "--experiment", "multisine"];
-    let eight = ["--periods", "8"];
     let (ok, _, err) = pumpcyl(
         d,
-        &[&emulate[..], &shape, &eight, &["--out", "ms.csv"]].concat(),
+        &[
+            "emulate",
+            "--experiment",
+            "multisine",
+            "--periods",
+            "8",
+            "--out",
+            "ms.csv",
+        ],
     );
     assert!(ok, "{err}");
-    let outputs = ["--json", "--out", "frf.csv", "--figure", "frf.svg"];
-    let read = ["frf", "ms.csv", "--sweep", "multisine"];
-    let (ok, json, err) = pumpcyl(d, &[&read[..], &shape, &eight, &outputs].concat());
+    let (ok, json, err) = pumpcyl(
+        d,
+        &[
+            "frf",
+            "ms.csv",
+            "--sweep",
+            "multisine",
+            "--periods",
+            "8",
+            "--json",
+            "--out",
+            "frf.csv",
+            "--figure",
+            "frf.svg",
+        ],
+    );
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["method"], "periods");
@@ -503,13 +518,8 @@ fn emulate_a_multisine_then_read_its_frequency_response_back() {
     assert_eq!(v["segments"].as_u64().unwrap() + discarded, 8);
     // 60 periods of the same: the friction and dead band make later periods differ from one
     // another by more than the noise, yet no more leading periods are left out
-    let long = [
-        &emulate[..],
-        &shape,
-        &["--periods", "60", "--out", "long.csv"],
-    ]
-    .concat();
-    let (ok, _, err) = pumpcyl(d, &long);
+    let args = ["emulate", "--experiment", "multisine", "--periods", "60"];
+    let (ok, _, err) = pumpcyl(d, &[&args[..], &["--out", "long.csv"]].concat());
     assert!(ok, "{err}");
     let (ok, long, err) = pumpcyl(d, &["frf", "long.csv", "--json"]);
     assert!(ok, "{err}");

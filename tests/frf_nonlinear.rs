@@ -9,6 +9,9 @@
 #[allow(dead_code)]
 mod run;
 
+#[path = "common/cavitating.rs"]
+mod cavitating;
+
 use pumpcyl::frf::{Excitation, SweepKind, SweepSpec};
 use pumpcyl::lti::{eigenvalues, resonance};
 use pumpcyl::model::Plant;
@@ -53,37 +56,42 @@ fn floor_warned(warnings: &[String]) -> bool {
 
 #[test]
 fn the_designed_multisine_keeps_the_chambers_above_the_cavitation_floor() {
-    // the article's rig at beta 250 bar, where the speed-bound design (15.0 mm) drove chamber 1
-    // to -1 bar in 264 samples, and the user rig (80/45 mm); every emulator effect on, no noise
+    // the article's rig at beta 250 bar, where the design bound by the motors' speed alone
+    // (15.0 mm) drove chamber 1 to -1 bar, and the user rig (80/45 mm) at beta 800 bar and a
+    // 7 bar sum pressure, where it (60.7 mm) did too; every emulator effect on, no noise
     let dir = tempfile::tempdir().unwrap();
     let user = user_rig_path();
     let user = user.to_str().unwrap();
+    let stiff_user = [
+        "--rig",
+        user,
+        "--set",
+        "beta_bar=800",
+        "--set",
+        "p_sum_ref_bar=7",
+    ];
     for (label, rig) in [
-        ("beta 250", vec!["--set", "beta_bar=250"]),
-        ("user rig", vec!["--rig", user]),
+        ("beta 250", &["--set", "beta_bar=250"][..]),
+        ("user rig", &stiff_user[..]),
     ] {
-        let d = run::json(
-            dir.path(),
-            &[&["frf", "--design", "--json"], &rig[..]].concat(),
-        );
+        let d = run::json(dir.path(), &[&["frf", "--design", "--json"], rig].concat());
         let bound = d["amplitude_bound"].as_str().unwrap();
-        let warnings = emulate(dir.path(), "ms.csv", &[&rig[..], &["--no-noise"]].concat());
+        let warnings = emulate(dir.path(), "ms.csv", &[rig, &["--no-noise"]].concat());
         assert!(!floor_warned(&warnings), "{label}: {warnings:?}");
-        // the design takes half the room from chamber 1's rest to the floor: the record's
-        // lowest p1 lies that far below its rest, as the record's own first sample shows it
+        // the design lets chamber 1 take two thirds of the room from its rest to the floor:
+        // the record's lowest p1 lies that far below its rest, as its first sample shows it
         let p1 = column(&dir.path().join("ms.csv"), "p1_bar");
         let lowest = p1.iter().cloned().fold(f64::INFINITY, f64::min);
-        let halfway = p1[0] - 0.5 * (p1[0] + 1.0);
+        let aimed = p1[0] - 2.0 / 3.0 * (p1[0] + 1.0);
         eprintln!(
-            "{label}: {bound}; rest {:.3}, lowest {lowest:.3}, halfway {halfway:.3} bar",
+            "{label}: {bound}; rest {:.3}, lowest {lowest:.3}, aimed at {aimed:.3} bar",
             p1[0]
         );
         assert!(bound.starts_with("p1"), "{label}: {bound}");
         assert!(
-            (lowest - halfway).abs() < 0.3,
-            "{label}: {lowest} against {halfway}"
+            (lowest - aimed).abs() < 0.3,
+            "{label}: {lowest} against {aimed}"
         );
-        assert!(lowest > -0.5, "{label}: {lowest}");
     }
 }
 
@@ -97,18 +105,7 @@ fn a_multisine_that_cavitates_is_reported_as_distorted_and_at_the_floor() {
     // the speed-bound design on the article rig at beta 250 bar: 15 mm, 0.195 … 2.456 Hz,
     // period 1/0.195 s (13 lines), 24 periods; the sensors' noise on
     let dir = tempfile::tempdir().unwrap();
-    let sweep = [
-        "--set",
-        "beta_bar=250",
-        "--amplitude-mm",
-        "15",
-        "--from-hz",
-        "0.1953125",
-        "--to-hz",
-        "2.456",
-        "--periods",
-        "24",
-    ];
+    let sweep = [&cavitating::MULTISINE[..], &["--set", "beta_bar=250"]].concat();
     assert!(floor_warned(&emulate(dir.path(), "cav.csv", &sweep)));
     let at_floor = |p: &[f64]| p.iter().filter(|&&v| v <= -1.0 + 1e-3).count();
     let p1 = column(&dir.path().join("cav.csv"), "p1_bar");
@@ -181,10 +178,18 @@ fn a_small_multisine_of_the_linear_loop_shows_no_distortion() {
 
 #[test]
 fn the_designed_multisine_puts_two_lines_within_the_resonances_half_power_band() {
-    // the plant's least-damped pair above the crossover (what the design reports as its
-    // resonance): lines within f_n (1 ± ζ), the half-power band, on the user rig and the article's
+    // the plant's least-damped pair above the crossover, the hydraulic resonance the design
+    // reports: lines within f_n (1 ± ζ), its half-power band. The user rig with little friction
+    // and cross-port leakage rings at 2.49 Hz with ζ 0.04, a band of 0.2 Hz, where a period of
+    // 1/from_hz (0.337 Hz) put its lines 0.337 Hz apart and none in it; the article's rig,
+    // damped (ζ 0.77), holds its 4 lines within it
+    let light = [
+        "viscous_friction_ns_per_m=10".into(),
+        "c12_m5_per_ns=1e-12".into(),
+    ];
     let user = Rig::from_file(&user_rig_path()).unwrap();
-    for (label, rig) in [("user rig", user), ("article rig", Rig::default())] {
+    let light = user.with_overrides(&light).unwrap();
+    for (label, rig) in [("light user rig", light), ("article rig", Rig::default())] {
         let spec = SweepSpec::of_kind(SweepKind::Multisine);
         let e: Excitation = spec.excitation(&rig, 100.0).unwrap();
         let lines = e.frequencies_hz();
@@ -195,12 +200,12 @@ fn the_designed_multisine_puts_two_lines_within_the_resonances_half_power_band()
         let (lo, hi) = (r.natural_freq_hz * (1.0 - z), r.natural_freq_hz * (1.0 + z));
         let within = lines.iter().filter(|&&f| f >= lo && f <= hi).count();
         eprintln!(
-            "{label}: {} lines, {within} in {lo:.3} … {hi:.3} Hz",
-            lines.len()
+            "{label}: {} lines on {:.3} s, {within} in {lo:.3} … {hi:.3} Hz",
+            lines.len(),
+            d.period_s
         );
-        assert_eq!(lines.len(), d.lines, "{label}");
+        assert_eq!(lines.len(), d.lines_held, "{label}");
         assert!(within >= 2, "{label}: {lines:?}");
-        assert!(lines.len() >= 12, "{label}: {lines:?}");
     }
 }
 

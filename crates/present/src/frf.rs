@@ -247,7 +247,7 @@ pub fn design_text(d: &Design) -> String {
         d.min_amplitude_mm,
         d.max_amplitude_mm,
         d.amplitude_bound,
-        d.lines,
+        d.lines_held,
         d.period_s,
         d.averages,
         d.periods,

@@ -5,8 +5,7 @@
 //! multisine's period that puts its lines densely about the resonance, and the length that
 //! gives a stated random error at a stated coherence.
 
-use super::excitation::{Excitation, MIN_SAMPLES_PER_PERIOD, START_S};
-use super::spec::DEFAULT_LINES;
+use super::excitation::{Excitation, DEFAULT_LINES, MAX_LINES, MIN_SAMPLES_PER_PERIOD, START_S};
 use crate::circuit::Role;
 use crate::lti::{bode, eigenvalues, log_grid, margins, resonance, LtiError, StateSpace};
 use crate::model::Plant;
@@ -64,9 +63,12 @@ pub struct Design {
     /// The multisine's period (s): 1/`from_hz`, or a whole multiple of it where the lines must
     /// lie closer than 1/`from_hz` to resolve the least-damped resonance in the band.
     pub period_s: f64,
-    /// The lines the designed multisine holds: [`DEFAULT_LINES`] log-spaced harmonics of its
-    /// period, fewer where the band holds fewer harmonics.
+    /// The lines asked of the multisine (its `lines` key): [`DEFAULT_LINES`], or as many as
+    /// put two log-spaced lines within the resonance's half-power band.
     pub lines: usize,
+    /// The lines it holds: `lines` log-spaced harmonics of its period, repeats dropped, so
+    /// fewer where the band holds fewer harmonics.
+    pub lines_held: usize,
     /// Independent averages n_d = (1 − γ²)/(2 γ² ε²) for the goal's ε at its γ².
     pub averages: usize,
     /// Periods of the multisine of `period_s`: the averages and one to settle.
@@ -91,7 +93,7 @@ fn output(sys: &StateSpace, row: usize) -> Result<StateSpace, LtiError> {
 /// ([`crate::circuit::valves::pressure_band_bar`]) the linear model's pressure excursion may
 /// take at the designed amplitude's upper limit: the rest is the margin for the multisine's
 /// lines adding up beyond a single sine's peak and for the model's error.
-pub const PRESSURE_SHARE: f64 = 0.5;
+pub const PRESSURE_SHARE: f64 = 2.0 / 3.0;
 
 /// The largest amplitude (mm) one limit allows and the limit in words.
 type Limit = (f64, String);
@@ -116,20 +118,7 @@ pub fn design(rig: &Rig, goal: &DesignGoal) -> Result<Design, LtiError> {
     let sys = plant.closed_loop_outputs(rig.sum_pressure);
     let grid = log_grid(from_hz / 10.0, to_hz, 200);
     let (speed, peak) = motor_speeds(&plant, &sys, &grid)?;
-    let op = plant.operating_point();
-    let idle_rpm = (plant.states_of(Role::MotorSpeed).into_iter())
-        .map(|i| op.state[i].abs())
-        .fold(0.0, f64::max)
-        / RAD_S_PER_RPM;
-    let room = rig.x0_mm.min(rig.stroke_mm - rig.x0_mm);
-    let limits: Vec<Limit> = vec![
-        (
-            (rig.motor_rated_speed_rpm - idle_rpm) / peak,
-            "the motors' rated speed".into(),
-        ),
-        (0.9 * room, "90 % of the room to the stroke's ends".into()),
-    ];
-    let (mut max_mm, mut bound) = least(limits);
+    let (max_mm, bound) = motion_limit(rig, &plant, peak);
     let need = goal.dead_band_factor * goal.dead_band_rpm;
     let at = |f: f64| speed[grid.partition_point(|&g| g < f).min(grid.len() - 1)];
     let mut min_mm = need / at(from_hz);
@@ -153,32 +142,13 @@ pub fn design(rig: &Rig, goal: &DesignGoal) -> Result<Design, LtiError> {
     }
     let averages = averages_for(goal.coherence, goal.relative_error);
     let periods = averages + 1;
-    let period_s = resolving_period_s(&plant, &sys, (from_hz, to_hz))?;
-    let unit = Excitation::multisine(
-        rig,
-        1.0,
-        (from_hz, to_hz),
-        (DEFAULT_LINES, periods),
-        goal.rate_hz,
-    )
-    .with_period(period_s, goal.rate_hz);
-    if let Some((by_pressure, what)) =
-        least_of(pressure_limits(rig, &plant, &sys, &unit, &mut notes)?)
-    {
-        if by_pressure < max_mm {
-            (max_mm, bound) = (by_pressure, what);
-        }
-    }
-    if min_mm > max_mm {
-        notes.push(format!(
-            "the chambers' pressures allow {max_mm:.2} mm, below the {min_mm:.2} mm that drives \
-             the motors {} dead bands: the pumps spend part of the sweep in their dead band",
-            goal.dead_band_factor
-        ));
-        min_mm = max_mm;
-    }
+    let (period_s, lines) = resolving_grid(&plant, (from_hz, to_hz))?;
+    let unit = Excitation::multisine(rig, 1.0, (from_hz, to_hz), (lines, periods), goal.rate_hz)
+        .with_period(period_s, goal.rate_hz);
+    let by_pressure = least_of(pressure_limits(rig, &plant, &sys, &unit, &mut notes)?);
+    let ((max_mm, bound), min_mm) =
+        bound_by_pressures((max_mm, bound), min_mm, by_pressure, goal, &mut notes);
     let amplitude_mm = (min_mm * max_mm).sqrt();
-    let lines = unit.harmonics().len();
     Ok(Design {
         crossover_hz: fc,
         resonance_hz: res,
@@ -190,6 +160,7 @@ pub fn design(rig: &Rig, goal: &DesignGoal) -> Result<Design, LtiError> {
         amplitude_bound: bound,
         period_s,
         lines,
+        lines_held: unit.harmonics().len(),
         averages,
         periods,
         duration_s: START_S + periods as f64 * period_s,
@@ -197,9 +168,49 @@ pub fn design(rig: &Rig, goal: &DesignGoal) -> Result<Design, LtiError> {
     })
 }
 
-/// The least of `limits`.
-fn least(limits: Vec<Limit>) -> Limit {
+/// The least of the motors' rated speed (less the standstill speed) at `peak` rpm per mm of
+/// reference and 90 % of the room to the nearer end of the stroke.
+fn motion_limit(rig: &Rig, plant: &Plant, peak: f64) -> Limit {
+    let op = plant.operating_point();
+    let idle_rpm = (plant.states_of(Role::MotorSpeed).into_iter())
+        .map(|i| op.state[i].abs())
+        .fold(0.0, f64::max)
+        / RAD_S_PER_RPM;
+    let room = rig.x0_mm.min(rig.stroke_mm - rig.x0_mm);
+    let limits: Vec<Limit> = vec![
+        (
+            (rig.motor_rated_speed_rpm - idle_rpm) / peak,
+            "the motors' rated speed".into(),
+        ),
+        (0.9 * room, "90 % of the room to the stroke's ends".into()),
+    ];
     least_of(limits).unwrap_or((f64::NAN, String::new()))
+}
+
+/// The upper limit `max` lowered to the chambers' `by_pressure` where that is lower, and the
+/// lower limit `min_mm` lowered to it where it exceeds it (the pressures win over the dead
+/// band, with a note).
+fn bound_by_pressures(
+    max: Limit,
+    min_mm: f64,
+    by_pressure: Option<Limit>,
+    goal: &DesignGoal,
+    notes: &mut Vec<String>,
+) -> (Limit, f64) {
+    let max = match by_pressure {
+        Some(p) if p.0 < max.0 => p,
+        _ => max,
+    };
+    if min_mm <= max.0 {
+        return (max, min_mm);
+    }
+    notes.push(format!(
+        "the chambers' pressures allow {:.2} mm, below the {min_mm:.2} mm that drives the \
+         motors {} dead bands: the pumps spend part of the sweep in their dead band",
+        max.0, goal.dead_band_factor
+    ));
+    let low = max.0;
+    (max, low)
 }
 
 /// The least of `limits`, `None` if there is none.
@@ -287,24 +298,22 @@ fn pressure_limits(
     Ok(limits)
 }
 
-/// The multisine's period (s) for the band `(from_hz, to_hz)`: 1/`from_hz`, or the least whole
-/// multiple of it whose lines lie at most ζ f_n = |Re λ|/2π apart, so that two fall within the
-/// half-power band 2ζ f_n of the least-damped complex pole pair λ of the plant or the closed
-/// loop in the band (at most 100 times 1/`from_hz`).
-fn resolving_period_s(
-    plant: &Plant,
-    sys: &StateSpace,
-    (from_hz, to_hz): (f64, f64),
-) -> Result<f64, LtiError> {
-    let mut poles = eigenvalues(&plant.a)?;
-    poles.extend(eigenvalues(&sys.a)?);
-    let spacing_hz = (poles.iter())
-        .filter(|p| p.im > 0.0)
-        .filter(|p| (from_hz..=to_hz).contains(&(p.norm() / (2.0 * std::f64::consts::PI))))
-        .map(|p| p.re.abs() / (2.0 * std::f64::consts::PI))
-        .fold(f64::INFINITY, f64::min);
-    let k = (from_hz / spacing_hz).ceil().clamp(1.0, 100.0);
-    Ok(k / from_hz)
+/// The multisine's period (s) and lines for the band `(from_hz, to_hz)`, so that two lines
+/// at the least fall within the half-power band 2ζ f_n of the plant's least-damped complex pole
+/// pair in the band, its hydraulic resonance: the period 1/`from_hz`, or the least whole
+/// multiple of it whose harmonics lie at most ζ f_n apart (at most 100 times 1/`from_hz`), and
+/// the lines [`DEFAULT_LINES`], or as many as log-spaced lines need to lie a ratio 1 + ζ/2
+/// apart, 1 + ln(to/from)/ln(1 + ζ/2) (at most [`MAX_LINES`]), closer than the harmonics
+/// there, so that every harmonic about the resonance is a line.
+fn resolving_grid(plant: &Plant, (from_hz, to_hz): (f64, f64)) -> Result<(f64, usize), LtiError> {
+    let Some(r) = resonance(&eigenvalues(&plant.a)?, from_hz, to_hz) else {
+        return Ok((1.0 / from_hz, DEFAULT_LINES));
+    };
+    let z = r.damping.unwrap_or(1.0).max(1e-6);
+    let k = (from_hz / (z * r.natural_freq_hz)).ceil().clamp(1.0, 100.0);
+    let log_lines = 1.0 + (to_hz / from_hz).ln() / (0.5 * z).ln_1p();
+    let lines = (log_lines.ceil() as usize).clamp(DEFAULT_LINES, MAX_LINES);
+    Ok((k / from_hz, lines))
 }
 
 /// The independent averages n_d at which an H1 estimate of coherence γ² has the relative

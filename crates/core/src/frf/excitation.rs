@@ -9,6 +9,8 @@ use std::f64::consts::PI;
 
 /// The most lines of a multisine or levels of a stepped sine (every loop over them is bounded).
 pub const MAX_LINES: usize = 200;
+/// Lines of a multisine when `lines` is absent and the band is not the designer's.
+pub const DEFAULT_LINES: usize = 30;
 /// The fewest samples per period of the highest frequency an excitation may ask for: four
 /// samples show a sine's amplitude and phase; fewer alias the sweep into the estimate.
 pub const MIN_SAMPLES_PER_PERIOD: f64 = 4.0;

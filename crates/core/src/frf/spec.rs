@@ -33,8 +33,7 @@ impl SweepKind {
     }
 }
 
-/// Lines of a multisine when `lines` is absent.
-pub const DEFAULT_LINES: usize = 30;
+pub use super::excitation::DEFAULT_LINES;
 /// Levels of a stepped sine when `levels` is absent.
 pub const DEFAULT_LEVELS: usize = 12;
 /// Periods discarded per level of a stepped sine when `settle_periods` is absent.
@@ -72,7 +71,8 @@ pub struct SweepSpec {
     /// there. Default: the designer's where `from_hz` is the designer's too, else 1/`from_hz`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub period_s: Option<f64>,
-    /// Multisine: lines. Default: [`DEFAULT_LINES`].
+    /// Multisine: lines. Default: the designer's where `from_hz` is the designer's too (as
+    /// many as the resonance needs, at least [`DEFAULT_LINES`]), else [`DEFAULT_LINES`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lines: Option<usize>,
     /// Stepped sine: levels. Default: [`DEFAULT_LEVELS`].
@@ -117,6 +117,7 @@ impl SweepSpec {
         let designed_period = self.from_hz.is_none() && self.kind == SweepKind::Multisine;
         Ok(SweepSpec {
             period_s: self.period_s.or(designed_period.then_some(d.period_s)),
+            lines: self.lines.or(designed_period.then_some(d.lines)),
             from_hz: self.from_hz.or(Some(d.from_hz)),
             to_hz: self.to_hz.or(Some(d.to_hz)),
             amplitude_mm: self.amplitude_mm.or(Some(d.amplitude_mm)),

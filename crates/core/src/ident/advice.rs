@@ -80,8 +80,6 @@ pub const MIN_SAMPLES_PER_PERIOD: f64 = 10.0;
 /// the loop rings for dozens of periods, too close to instability to run on a rig whose
 /// parameters are uncertain (the article's design targets of §2.2 keep it far higher).
 pub const MIN_DAMPING: f64 = 0.05;
-/// Lines of a default sweep (`pumpcyl emulate --experiment multisine`'s default).
-pub const SWEEP_LINES: usize = 30;
 /// Iteration limit of the 3×3 symmetric eigen-decomposition.
 const EIGEN_ITERS: usize = 1000;
 
@@ -803,7 +801,7 @@ fn sweep_lines(e: &Excitation, rate_hz: f64) -> Vec<(f64, f64, f64)> {
 }
 
 /// The default sweeps at each gain of `kps`: the multisine `pumpcyl frf --design` designs for
-/// the rig of `like` at that gain ([`crate::frf::design`]), [`SWEEP_LINES`] lines, its periods
+/// the rig of `like` at that gain ([`crate::frf::design`]), its lines and period, its periods
 /// cut to [`MAX_DURATION_S`]; none at a gain where fewer than 3 periods fit or the design
 /// fails [`Design::check`].
 fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
@@ -820,7 +818,7 @@ fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
                 from_hz: Some(d.from_hz),
                 to_hz: Some(d.to_hz),
                 period_s: Some(d.period_s),
-                lines: Some(SWEEP_LINES),
+                lines: Some(d.lines),
                 amplitude_mm: Some((d.amplitude_mm * 10.0).floor() / 10.0),
                 periods: Some(d.periods.min(fit)),
                 ..SweepSpec::of_kind(SweepKind::Multisine)
