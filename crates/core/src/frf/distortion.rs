@@ -146,3 +146,74 @@ pub fn floor_warning(rec: &Record, (from, to): (usize, usize)) -> Option<String>
         found.join(", ")
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frf::spectra;
+    use std::f64::consts::PI;
+
+    /// Standard normal deviates from a fixed-seed xorshift and Box–Muller.
+    fn normals(seed: u64, n: usize) -> Vec<f64> {
+        let mut s = seed.max(1);
+        let mut uniform = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let (a, b) = (uniform().max(1e-300), uniform());
+                (-2.0 * a.ln()).sqrt() * (2.0 * PI * b).cos()
+            })
+            .collect()
+    }
+
+    /// 8 periods of 128 samples of a multisine on harmonics 3, 5, 7, 9 and the response
+    /// `y(r)` with unit-variance noise scaled by `noise`; the distortion found.
+    fn found(y: impl Fn(f64) -> f64, noise: f64, seed: u64) -> Distortion {
+        let (len, m, lines) = (128, 8, [3usize, 5, 7, 9]);
+        let r: Vec<f64> = (0..len * m)
+            .map(|t| {
+                (lines.iter())
+                    .map(|&k| (2.0 * PI * (k * t) as f64 / len as f64 + k as f64).cos())
+                    .sum()
+            })
+            .collect();
+        let e = normals(seed, r.len());
+        let x: Vec<f64> = r.iter().zip(&e).map(|(r, e)| y(*r) + noise * e).collect();
+        let sx = spectra::periods(&r, &x, 0, len);
+        detect(&sx, &lines, 0.0).unwrap()
+    }
+
+    #[test]
+    fn a_linear_response_warns_at_about_the_false_alarm_rate() {
+        // 2000 noise realisations of a linear response: the detection's false alarms number
+        // about 2000 · 0.001 = 2 (at most 8 holds with probability 0.9997, Poisson; 0 measured:
+        // the normal approximation of ln R is conservative at 14 lines and 8 periods)
+        let alarms = (1..=2000)
+            .filter(|&seed| found(|r| 0.5 * r, 0.1, seed).warned)
+            .count();
+        assert!(alarms <= 8, "{alarms} of 2000");
+        let d = found(|r| 0.5 * r, 0.1, 7);
+        // 2 · 9 = 18 harmonics, 4 excited, the even ones and 1 left: 14 detection lines
+        assert_eq!(d.lines, 14);
+    }
+
+    #[test]
+    fn a_squared_term_puts_its_products_on_the_detection_lines() {
+        // r² puts its products on the even harmonics 2 … 18 (sums and differences of the odd
+        // lines): at 0.02 r² a product of amplitude 0.02 gives a 128-sample period's DFT
+        // |X|² = (64 · 0.02)² = 1.64 against the noise's 128 · 0.1² = 1.28, so M|X̄|²/s² ≈ 10 at
+        // such a line over 8 periods: some 10 dB over the 14 lines, 13.5 measured
+        let d = found(|r| 0.5 * r + 0.02 * r * r, 0.1, 3);
+        assert!(
+            d.warned && d.non_excited_db_above_noise > d.threshold_db + 6.0,
+            "{d:?}"
+        );
+        // without it the same noise stays within the threshold
+        let quiet = found(|r| 0.5 * r, 0.1, 3);
+        assert!(!quiet.warned && quiet.non_excited_db_above_noise.abs() < quiet.threshold_db);
+    }
+}
