@@ -42,7 +42,8 @@ pub struct FrfArgs {
     /// least four periods of the sweep's lowest frequency.
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     segment_s: Option<f64>,
-    /// Print the sweep the designer proposes for the rig (band, amplitude, length) instead.
+    /// Print the sweep the designer proposes for the rig (band, amplitude, length) instead;
+    /// with a RECORD.csv of a sweep on the rig, its averages follow from the record's coherence.
     #[arg(long, conflicts_with_all = ["sweep", "out", "figure"])]
     design: bool,
     /// The sample rate the designed sweep is recorded at (Hz).
@@ -62,15 +63,11 @@ pub struct FrfArgs {
 /// `pumpcyl frf`.
 pub fn run(args: &FrfArgs) -> Result<String> {
     let rig = crate::emulate::load_rig(&args.source, true)?;
-    if let (true, Some(path)) = (args.design, &args.record) {
-        anyhow::bail!(
-            "{}: --design designs the sweep from the rig's model and reads no record; run \
-             `pumpcyl frf --design` alone, or estimate the record without --design",
-            path.display()
-        );
-    }
     if args.design {
-        let d = design_for(&rig, args.rate_hz)?;
+        let d = match &args.record {
+            Some(path) => design_for_pilot(&rig, args.rate_hz, path)?,
+            None => design_for(&rig, args.rate_hz)?,
+        };
         return Ok(if args.json {
             pumpcyl_present::format::json_document(&d)?
         } else {
@@ -166,4 +163,39 @@ fn defaults_hint(args: &FrfArgs, e: &frf::Excitation, rec: &Record) -> String {
          design)",
         e.amplitude_mm()
     )
+}
+
+/// The design for `rig` at `rate_hz` whose averages follow from the coherence of the sweep
+/// record at `path` ([`frf::design_from_pilot`]): estimated as `frf` estimates an undescribed
+/// record, its median coherence over the usable frequencies at its own peak deviation.
+fn design_for_pilot(
+    rig: &pumpcyl::rig::Rig,
+    rate_hz: f64,
+    path: &std::path::Path,
+) -> Result<frf::Design> {
+    let rec = Record::read_in(crate::read_files::files(), path)?;
+    rec.check_units(rig.stroke_mm)?;
+    let opts = Options {
+        excitation: None,
+        rig: Some(rig),
+        segment_s: None,
+    };
+    let est = frf::estimate(&rec, &opts)?;
+    let mut usable: Vec<f64> = (est.closed_loop.points.iter())
+        .map(|p| p.coherence)
+        .filter(|&c| c >= est.usable_coherence)
+        .collect();
+    usable.sort_by(f64::total_cmp);
+    let r0 = rec.x_ref_mm[0];
+    let pilot = frf::Pilot {
+        coherence: usable[usable.len() / 2],
+        amplitude_mm: rec
+            .x_ref_mm
+            .iter()
+            .map(|r| (r - r0).abs())
+            .fold(0.0, f64::max),
+        settling_s: (est.periods_discarded * est.segment_samples) as f64 / est.rate_hz,
+    };
+    frf::design_from_pilot(rig, &crate::sweep::goal_at(rate_hz), &pilot)
+        .map_err(|e| anyhow!("designing the sweep: {e}"))
 }

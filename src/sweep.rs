@@ -116,9 +116,13 @@ pub(crate) fn option_of(field: &str) -> &str {
 
 /// The designer's sweep for `rig` at `rate_hz`.
 pub(crate) fn design_for(rig: &Rig, rate_hz: f64) -> Result<Design> {
-    let goal = DesignGoal {
+    frf::design(rig, &goal_at(rate_hz)).map_err(|e| anyhow!("designing the sweep: {e}"))
+}
+
+/// The designer's default goal for a record at `rate_hz`.
+pub(crate) fn goal_at(rate_hz: f64) -> DesignGoal {
+    DesignGoal {
         rate_hz,
         ..DesignGoal::default()
-    };
-    frf::design(rig, &goal).map_err(|e| anyhow!("designing the sweep: {e}"))
+    }
 }

@@ -237,14 +237,56 @@ fn a_record_of_the_designers_defaults_reads_back_with_them() {
 }
 
 #[test]
-fn frf_design_refuses_a_record_in_one_line() {
+fn frf_design_of_a_record_takes_its_coherence_and_settling() {
+    // a pilot record of the designed multisine on the user rig, the sensors' noise on: its
+    // median usable coherence, at the design's own amplitude, gives the averages for ε = 5 %
+    // by n_d = (1 − γ²)/(2 γ² ε²) (at least 2), its discarded periods the settling; the
+    // designed record then reaches ε = 5 % at the median line
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("r.csv"), "time_s,x_ref_mm,x_mm\n").unwrap();
-    run::refused(
+    let user = user_rig_path();
+    let rig = ["--rig", user.to_str().unwrap()];
+    emulate(dir.path(), "pilot.csv", &rig);
+    let pilot = frf_json(dir.path(), "pilot.csv", &rig);
+    let bar = pilot["usable_coherence"].as_f64().unwrap();
+    let mut usable: Vec<f64> = (pilot["closed_loop"]["points"].as_array().unwrap().iter())
+        .map(|p| p["coherence"].as_f64().unwrap())
+        .filter(|&c| c >= bar)
+        .collect();
+    usable.sort_by(f64::total_cmp);
+    let g2 = usable[usable.len() / 2];
+    let n_d = ((1.0 - g2) / (2.0 * g2 * 0.05 * 0.05)).ceil().max(2.0) as u64;
+    let d = run::json(
         dir.path(),
-        &["frf", "--design", "r.csv"],
-        &["r.csv", "--design", "reads no record"],
+        &[&["frf", "--design", "pilot.csv", "--json"], &rig[..]].concat(),
     );
+    let (averages, periods) = (
+        d["averages"].as_u64().unwrap(),
+        d["periods"].as_u64().unwrap(),
+    );
+    let settled = pilot["periods_discarded"].as_u64().unwrap();
+    eprintln!("pilot: coherence {g2:.6}, {settled} periods settling; design {averages} averages, {periods} periods");
+    assert_eq!(averages, n_d);
+    // the pilot's period is the design's: its settling periods, then at least 3 and one more
+    assert_eq!(periods, settled + averages.max(3) + 1);
+    let count = periods.to_string();
+    emulate(
+        dir.path(),
+        "short.csv",
+        &[&rig[..], &["--periods", &count]].concat(),
+    );
+    let v = frf_json(
+        dir.path(),
+        "short.csv",
+        &[&["--sweep", "multisine", "--periods", &count], &rig[..]].concat(),
+    );
+    let mut eps: Vec<f64> = (v["closed_loop"]["points"].as_array().unwrap().iter())
+        .map(|p| p["relative_error"].as_f64().unwrap())
+        .collect();
+    eps.sort_by(f64::total_cmp);
+    assert!(eps[eps.len() / 2] <= 0.05, "{eps:?}");
+    // a file that is no record: one line naming it
+    std::fs::write(dir.path().join("r.csv"), "time_s,x_ref_mm,x_mm\n").unwrap();
+    run::refused(dir.path(), &["frf", "--design", "r.csv"], &["r.csv"]);
 }
 
 #[test]

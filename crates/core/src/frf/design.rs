@@ -60,8 +60,9 @@ pub struct Design {
     pub max_amplitude_mm: f64,
     /// The limit that set `max_amplitude_mm`, in words.
     pub amplitude_bound: String,
-    /// The multisine's period (s): 1/`from_hz`, or a whole multiple of it where the lines must
-    /// lie closer than 1/`from_hz` to resolve the least-damped resonance in the band.
+    /// The multisine's period (s), in whole samples at the goal's rate: 1/`from_hz`, or a whole
+    /// multiple of it where the lines must lie closer than 1/`from_hz` to resolve the
+    /// least-damped resonance in the band.
     pub period_s: f64,
     /// The lines asked of the multisine (its `lines` key): [`DEFAULT_LINES`], or as many as
     /// put two log-spaced lines within the resonance's half-power band.
@@ -149,6 +150,8 @@ pub fn design(rig: &Rig, goal: &DesignGoal) -> Result<Design, LtiError> {
     let ((max_mm, bound), min_mm) =
         bound_by_pressures((max_mm, bound), min_mm, by_pressure, goal, &mut notes);
     let amplitude_mm = (min_mm * max_mm).sqrt();
+    // the period as the record holds it, in whole samples
+    let period_s = unit.period_s().unwrap_or(period_s);
     Ok(Design {
         crossover_hz: fc,
         resonance_hz: res,
@@ -314,6 +317,62 @@ fn resolving_grid(plant: &Plant, (from_hz, to_hz): (f64, f64)) -> Result<(f64, u
     let log_lines = 1.0 + (to_hz / from_hz).ln() / (0.5 * z).ln_1p();
     let lines = (log_lines.ceil() as usize).clamp(DEFAULT_LINES, MAX_LINES);
     Ok((k / from_hz, lines))
+}
+
+/// What a record of a sweep on the rig tells the design: its coherence and the amplitude it
+/// was recorded at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pilot {
+    /// The median coherence over the record's usable frequencies.
+    pub coherence: f64,
+    /// The record's peak deviation of the reference from where it starts (mm).
+    pub amplitude_mm: f64,
+    /// How long its loop took to reach periodic steady state (s): the leading periods its
+    /// estimate left out as transient; 0 where it is not periodic.
+    pub settling_s: f64,
+}
+
+/// The coherence a sweep of `to_mm` would have where one of `from_mm` had `coherence`: the
+/// response's power grows with the amplitude squared, the noise's does not, so the
+/// signal-to-noise ratio γ²/(1 − γ²) scales by (to/from)² (Bendat & Piersol 2010, §9.2.3).
+pub fn coherence_at(coherence: f64, from_mm: f64, to_mm: f64) -> f64 {
+    let g2 = coherence.clamp(0.0, 1.0 - 1e-12);
+    let snr = g2 / (1.0 - g2) * (to_mm / from_mm).powi(2);
+    if snr.is_finite() {
+        snr / (1.0 + snr)
+    } else {
+        g2
+    }
+}
+
+/// [`design`] with the coherence read from a pilot record instead of the goal's: the pilot's
+/// coherence at the design's amplitude ([`coherence_at`]) sets the averages for the goal's ε,
+/// and the pilot's settling the periods left to settle (at least one) before at least 3 and
+/// one to spare ([`super::spectra::transient_periods`]), a note says so. The
+/// band, amplitude and lines do not depend on it.
+pub fn design_from_pilot(rig: &Rig, goal: &DesignGoal, pilot: &Pilot) -> Result<Design, LtiError> {
+    let first = design(rig, goal)?;
+    let coherence = coherence_at(pilot.coherence, pilot.amplitude_mm, first.amplitude_mm);
+    let mut d = design(rig, &DesignGoal { coherence, ..*goal })?;
+    let settle = (pilot.settling_s / d.period_s - 1e-6)
+        .ceil()
+        .clamp(1.0, 1e4) as usize;
+    // the transient check (spectra::transient_periods) recognises a settled period only with
+    // two more after it to compare, and a record whose last periods still drift by its noise
+    // needs one more: at least 3 averaged, and one to spare
+    d.periods = settle + d.averages.max(3) + 1;
+    d.duration_s = START_S + d.periods as f64 * d.period_s;
+    d.notes.push(format!(
+        "the record's median coherence {:.4} at {:.2} mm is {coherence:.4} at {:.2} mm: {} \
+         averages give ε = {} there; its loop settled in {:.1} s: {settle} periods to settle",
+        pilot.coherence,
+        pilot.amplitude_mm,
+        d.amplitude_mm,
+        d.averages,
+        goal.relative_error,
+        pilot.settling_s
+    ));
+    Ok(d)
 }
 
 /// The independent averages n_d at which an H1 estimate of coherence γ² has the relative

@@ -30,7 +30,7 @@ mod model;
 pub mod spec;
 pub mod spectra;
 
-pub use design::{design, Design, DesignGoal};
+pub use design::{design, design_from_pilot, Design, DesignGoal, Pilot};
 pub use distortion::Distortion;
 pub use excitation::{Excitation, Level};
 pub use model::{model_response, sampled_loop_response};
