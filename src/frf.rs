@@ -42,7 +42,8 @@ pub struct FrfArgs {
     /// least four periods of the sweep's lowest frequency.
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     segment_s: Option<f64>,
-    /// Print the sweep the designer proposes for the rig (band, amplitude, length) instead.
+    /// Print the sweep the designer proposes for the rig (band, amplitude, length) instead;
+    /// with a RECORD.csv of a sweep on the rig, its averages follow from the record's coherence.
     #[arg(long, conflicts_with_all = ["sweep", "out", "figure"])]
     design: bool,
     /// The sample rate the designed sweep is recorded at (Hz).
@@ -63,7 +64,10 @@ pub struct FrfArgs {
 pub fn run(args: &FrfArgs) -> Result<String> {
     let rig = crate::emulate::load_rig(&args.source, true)?;
     if args.design {
-        let d = design_for(&rig, args.rate_hz)?;
+        let d = match &args.record {
+            Some(path) => design_for_pilot(&rig, args.rate_hz, path)?,
+            None => design_for(&rig, args.rate_hz)?,
+        };
         return Ok(if args.json {
             pumpcyl_present::format::json_document(&d)?
         } else {
@@ -97,12 +101,18 @@ pub fn run(args: &FrfArgs) -> Result<String> {
             )
         })
         .transpose()?;
+    if let Some(e) = &excitation {
+        frf::check_matches(&rec, e)
+            .map_err(|err| anyhow!("{err}{}", defaults_hint(args, e, &rec)))?;
+    }
     let opts = Options {
         excitation,
         rig: Some(&rig),
         segment_s: args.segment_s,
     };
-    let est = frf::estimate(&rec, &opts)?;
+    let mut est = frf::estimate(&rec, &opts)?;
+    est.warnings
+        .extend(pumpcyl_present::frf::model_warning(&rig));
     let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, &args.source.origin())?;
     if let Some(out) = &args.out {
         write_atomic(out, frf_csv(&est, Some(&model)).as_bytes())?;
@@ -118,4 +128,74 @@ pub fn run(args: &FrfArgs) -> Result<String> {
         ))?);
     }
     Ok(frf_text(&est))
+}
+
+/// Where the described sweep `e` took the designer's values for absent options and the record
+/// is not that sweep: the values taken, and the period and peak deviation the record's own
+/// reference shows, so that the options it was emulated with can be given.
+fn defaults_hint(args: &FrfArgs, e: &frf::Excitation, rec: &Record) -> String {
+    let defaulted = args.amplitude_mm.is_none() || args.shape.band_defaulted();
+    if !defaulted {
+        return String::new();
+    }
+    let (from_hz, to_hz) = e.band_hz();
+    let period = match e {
+        frf::Excitation::Multisine { period_s, .. } => format!(" --period-s {period_s}"),
+        _ => String::new(),
+    };
+    let shown = frf::find_period(rec).map_or(String::new(), |(_, len)| {
+        let rate_hz = (rec.len() - 1) as f64 / (rec.time_s[rec.len() - 1] - rec.time_s[0]);
+        let r0 = rec.x_ref_mm[0];
+        let dev = rec
+            .x_ref_mm
+            .iter()
+            .map(|r| (r - r0).abs())
+            .fold(0.0, f64::max);
+        format!(
+            "; the record's reference repeats every {} s with a peak deviation of {dev:.3} mm",
+            len as f64 / rate_hz
+        )
+    });
+    format!(
+        "; absent options took the designer's values for this rig: --from-hz {from_hz} --to-hz \
+         {to_hz} --amplitude-mm {}{period}{shown}: give the options the record was emulated \
+         with (a record emulated with --no-effects, another --rig or --set had another rig's \
+         design)",
+        e.amplitude_mm()
+    )
+}
+
+/// The design for `rig` at `rate_hz` whose averages follow from the coherence of the sweep
+/// record at `path` ([`frf::design_from_pilot`]): estimated as `frf` estimates an undescribed
+/// record, its median coherence over the usable frequencies at its own peak deviation.
+fn design_for_pilot(
+    rig: &pumpcyl::rig::Rig,
+    rate_hz: f64,
+    path: &std::path::Path,
+) -> Result<frf::Design> {
+    let rec = Record::read_in(crate::read_files::files(), path)?;
+    rec.check_units(rig.stroke_mm)?;
+    let opts = Options {
+        excitation: None,
+        rig: Some(rig),
+        segment_s: None,
+    };
+    let est = frf::estimate(&rec, &opts)?;
+    let mut usable: Vec<f64> = (est.closed_loop.points.iter())
+        .map(|p| p.coherence)
+        .filter(|&c| c >= est.usable_coherence)
+        .collect();
+    usable.sort_by(f64::total_cmp);
+    let r0 = rec.x_ref_mm[0];
+    let pilot = frf::Pilot {
+        coherence: usable[usable.len() / 2],
+        amplitude_mm: rec
+            .x_ref_mm
+            .iter()
+            .map(|r| (r - r0).abs())
+            .fold(0.0, f64::max),
+        settling_s: (est.periods_discarded * est.segment_samples) as f64 / est.rate_hz,
+    };
+    frf::design_from_pilot(rig, &crate::sweep::goal_at(rate_hz), &pilot)
+        .map_err(|e| anyhow!("designing the sweep: {e}"))
 }

@@ -35,9 +35,14 @@ pub struct SweepArgs {
     /// frequency of a stepped sine. Default: 3, 24 (for ε = 5 % at coherence 0.9), 4.
     #[arg(long)]
     periods: Option<usize>,
-    /// Multisine: its lines.
-    #[arg(long, default_value_t = 30)]
-    lines: usize,
+    /// Multisine: its period (s), a whole multiple of 1/--from-hz. Default: the designer's
+    /// (lines dense about the resonance) where --from-hz is the designer's too, else 1/--from-hz.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    period_s: Option<f64>,
+    /// Multisine: its lines. Default: the designer's (at least 30, as many as put two within
+    /// the resonance's half-power band) where --from-hz is the designer's too, else 30.
+    #[arg(long)]
+    lines: Option<usize>,
     /// Stepped sine: its frequencies.
     #[arg(long, default_value_t = 12)]
     levels: usize,
@@ -45,6 +50,13 @@ pub struct SweepArgs {
     /// is discarded in any case).
     #[arg(long, default_value_t = 2)]
     settle_periods: usize,
+}
+
+impl SweepArgs {
+    /// The band or the period is left to the designer.
+    pub(crate) fn band_defaulted(&self) -> bool {
+        self.from_hz.is_none() || self.to_hz.is_none() || self.period_s.is_none()
+    }
 }
 
 impl From<SweepKind> for frf::SweepKind {
@@ -73,7 +85,8 @@ pub(crate) fn excitation(
         at_s: Some(at_s),
         sweep_s: args.sweep_s,
         periods: args.periods,
-        lines: Some(args.lines),
+        period_s: args.period_s,
+        lines: args.lines,
         levels: Some(args.levels),
         settle_periods: Some(args.settle_periods),
         ..frf::SweepSpec::of_kind(kind.into())
@@ -94,6 +107,7 @@ pub(crate) fn option_of(field: &str) -> &str {
         "duration_s" => "sweep-s",
         "sweeps" | "periods" => "periods",
         "settle_periods" => "settle-periods",
+        "period_s" => "period-s",
         "start_s" => "at-s",
         "rate_hz" => "rate-hz",
         other => other,
@@ -102,9 +116,13 @@ pub(crate) fn option_of(field: &str) -> &str {
 
 /// The designer's sweep for `rig` at `rate_hz`.
 pub(crate) fn design_for(rig: &Rig, rate_hz: f64) -> Result<Design> {
-    let goal = DesignGoal {
+    frf::design(rig, &goal_at(rate_hz)).map_err(|e| anyhow!("designing the sweep: {e}"))
+}
+
+/// The designer's default goal for a record at `rate_hz`.
+pub(crate) fn goal_at(rate_hz: f64) -> DesignGoal {
+    DesignGoal {
         rate_hz,
         ..DesignGoal::default()
-    };
-    frf::design(rig, &goal).map_err(|e| anyhow!("designing the sweep: {e}"))
+    }
 }

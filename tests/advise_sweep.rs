@@ -164,7 +164,7 @@ fn sweeps_in_a_candidates_file_are_weighed_as_the_designed_one() {
     // the designed multisine's keys written out, with a chirp and a stepped sine beside it
     let text = format!(
         "[[sweep]]\nkind = \"multisine\"\nkp = {kp}\namplitude_mm = {}\nfrom_hz = {}\n\
-         to_hz = {}\nlines = {}\nperiods = {}\n\n\
+         to_hz = {}\nperiod_s = {}\nlines = {}\nperiods = {}\n\n\
          [[sweep]]\nkind = \"stepped-sine\"\nkp = 20.0\namplitude_mm = 5.0\nfrom_hz = 0.3\n\
          to_hz = 1.2\nlevels = 4\n\n\
          [[sweep]]\nkind = \"chirp\"\nkp = 20.0\namplitude_mm = 5.0\nfrom_hz = 0.3\n\
@@ -172,6 +172,7 @@ fn sweeps_in_a_candidates_file_are_weighed_as_the_designed_one() {
         sweep.amplitude_mm.unwrap(),
         sweep.from_hz.unwrap(),
         sweep.to_hz.unwrap(),
+        sweep.period_s.unwrap(),
         sweep.lines.unwrap(),
         sweep.periods.unwrap()
     );

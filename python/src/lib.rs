@@ -1536,7 +1536,9 @@ fn frf(
         rig: Some(&rig),
         segment_s,
     };
-    let est = pumpcyl::frf::estimate(&rec, &opts).map_err(err)?;
+    let mut est = pumpcyl::frf::estimate(&rec, &opts).map_err(err)?;
+    est.warnings
+        .extend(pumpcyl_present::frf::model_warning(&rig));
     let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, "the rig given").map_err(err)?;
     warn_each(py, est.warnings.clone())?;
     PyOutcome::of(

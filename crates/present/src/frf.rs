@@ -236,8 +236,8 @@ fn band_db(p: &Point, sign: f64) -> f64 {
 pub fn design_text(d: &Design) -> String {
     let mut out = format!(
         "sweep design: crossover {:.3} Hz, resonance {}; band {:.3} … {:.3} Hz; amplitude \
-         {:.2} mm (dead band needs ≥ {:.2}, ratings and stroke allow ≤ {:.2}); {} averages: \
-         {} periods of 1/{:.3} Hz, {:.1} s\n",
+         {:.2} mm (dead band needs ≥ {:.2}, the limits allow ≤ {:.2}, set by {}); a multisine \
+         of {} lines on the harmonics of its {:.3} s period; {} averages: {} periods, {:.1} s\n",
         d.crossover_hz,
         d.resonance_hz
             .map_or("none found".to_string(), |f| format!("{f:.3} Hz")),
@@ -246,9 +246,11 @@ pub fn design_text(d: &Design) -> String {
         d.amplitude_mm,
         d.min_amplitude_mm,
         d.max_amplitude_mm,
+        d.amplitude_bound,
+        d.lines_held,
+        d.period_s,
         d.averages,
         d.periods,
-        d.from_hz,
         d.duration_s
     );
     for n in &d.notes {
@@ -274,16 +276,78 @@ pub fn model_curve(label: String, est: &Estimate, h: &[Complex64]) -> ModelCurve
 
 /// The rig's closed loop beside `est` (labelled with the rig's `origin`), its controller
 /// sampled at the record's rate as a PLC runs it ([`pumpcyl::frf::sampled_loop_response`],
-/// docs/identification.md#grey-box-fit-to-a-frequency-response).
+/// docs/identification.md#grey-box-fit-to-a-frequency-response), linearised about the rest the
+/// rig holds ([`rest_plant`]).
 pub fn rig_model_curve(
     rig: &pumpcyl::rig::Rig,
     est: &Estimate,
     origin: &str,
 ) -> Result<ModelCurve, pumpcyl::lti::LtiError> {
-    let plant = pumpcyl::model::Plant::new(rig);
+    let (plant, about) = rest_plant(rig);
     let freqs: Vec<f64> = est.closed_loop.points.iter().map(|p| p.freq_hz).collect();
     let h = pumpcyl::frf::sampled_loop_response(&plant, rig.sum_pressure, &freqs, est.rate_hz)?;
-    Ok(model_curve(format!("model x/x_ref ({origin})"), est, &h))
+    let label = format!("model x/x_ref ({origin}; {about})");
+    Ok(model_curve(label, est, &h))
+}
+
+/// The linear plant about the rest `rig` holds, and what it is in words: its linear model
+/// ([`pumpcyl::model::Plant::new`]; the single-pump circuit's in the mode it rests in); for a
+/// dual-pump rig whose valves-shut rest opens a check valve ([`model_warning`]), the Jacobian
+/// of its emulated equations, every effect off and the valves in, at the rest its loop holds
+/// with that valve open ([`pumpcyl::emulator::equilibrium`]); the valves-shut model where that
+/// rest cannot be found.
+pub fn rest_plant(rig: &pumpcyl::rig::Rig) -> (pumpcyl::model::Plant, String) {
+    let plant = pumpcyl::model::Plant::new(rig);
+    let about = plant.circuit().describe();
+    if model_warning(rig).is_none() {
+        return (plant, about);
+    }
+    match valve_open_jacobian(rig) {
+        Some((a, b)) => (
+            pumpcyl::model::Plant { a, b, ..plant },
+            format!("{about}, linearised at its rest with a check valve open"),
+        ),
+        None => (plant, format!("{about}, every valve shut")),
+    }
+}
+
+/// ∂f/∂x, ∂f/∂u of `rig`'s emulated equations (every effect off, valves in) at the rest its
+/// loop holds at x0; `None` where it finds none.
+fn valve_open_jacobian(
+    rig: &pumpcyl::rig::Rig,
+) -> Option<(nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>)> {
+    use pumpcyl::circuit::{Circuit, Role};
+    let d = pumpcyl::emulator::Dynamics::new(rig, pumpcyl::emulator::Effects::none()).ok()?;
+    let x = pumpcyl::emulator::equilibrium(rig, &d, rig.x0_mm).ok()?;
+    let c = d.circuit();
+    let x_mm = x[c.state_of(Role::Position)?] * 1e3;
+    let p_bar: Vec<f64> = (c.states_of(Role::Pressure).iter())
+        .map(|&i| x[i] / 1e5)
+        .collect();
+    let u = c.plc_commands(rig, rig.x0_mm, x_mm, &p_bar);
+    Some(pumpcyl::circuit::linearise(c, &x, &u[..c.drives()]))
+}
+
+/// A note beside `rig`'s model curve where a dual-pump circuit's valves-shut rest opens a
+/// check valve (docs/circuits.md#valves): that model is not the loop the rig runs about its
+/// rest, so the curve drawn is the linearisation at the rest with the valve open
+/// ([`rest_plant`]). The single-pump circuit's model is already the mode it rests in
+/// ([`pumpcyl::circuit::AnyCircuit::describe`]).
+pub fn model_warning(rig: &pumpcyl::rig::Rig) -> Option<String> {
+    if rig.circuit != pumpcyl::circuit::CircuitKind::DualPump {
+        return None;
+    }
+    let c = pumpcyl::circuit::dual_pump::DualPump::new(rig).ok()?;
+    let (chamber, p_bar, p_acc_bar, q) = c.valve_open_at_rest()?;
+    Some(format!(
+        "a check valve is open at rest: the valves-shut linear model rests with chamber \
+         {chamber} at {p_bar:.2} bar, below the {p_acc_bar:.2} bar accumulator by more than the \
+         valve's cracking pressure ({q:.3e} m³/s through it), so the model drawn is the \
+         linearisation at the rest the loop holds with the valve open, which ties the chamber \
+         to the accumulator; it holds for small excursions only (load the piston so that both \
+         chambers sit within the valves' settings; \
+         docs/circuits.md#identification-where-a-valve-is-open)"
+    ))
 }
 
 /// The fitted model of each sweep of a frequency-domain fit, at the sweep's frequencies; a

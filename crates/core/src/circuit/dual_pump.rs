@@ -198,6 +198,21 @@ impl DualPump {
         (self.balance.steady(0.0)).expect("checked when the circuit was built")
     }
 
+    /// Where a check valve is open at the rest the linear model is taken at
+    /// ([`DualPump::rest`], every valve shut; docs/circuits.md#valves): the chamber (1 or 2),
+    /// its pressure and the accumulator's (bar gauge), and the flow the valve would pass there
+    /// (m³/s). `None` while both stay shut.
+    pub fn valve_open_at_rest(&self) -> Option<(usize, f64, f64, f64)> {
+        let rest = self.rest();
+        let p_acc = self.balance.p_acc_pa;
+        [rest.p1_pa, rest.p2_pa]
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| (i, p, self.valves.into_chamber(i, p, p_acc)))
+            .find(|(_, _, q)| *q != 0.0)
+            .map(|(i, p, q)| (i + 1, p / PA_PER_BAR, p_acc / PA_PER_BAR, q))
+    }
+
     /// The steady state at constant piston speed `v` (m/s): the force balance and both
     /// chambers' flow balances with leakage, solved in closed form ([`Balance::steady`],
     /// docs/circuits.md#steady-motion).

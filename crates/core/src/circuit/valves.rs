@@ -198,6 +198,36 @@ pub fn relief_warning(rig: &crate::rig::Rig) -> Option<String> {
     ))
 }
 
+/// The band a chamber pressure of `rig`'s circuit keeps to for its linear model to hold
+/// (bar gauge), each edge with what sets it (docs/identification.md#designing-the-sweep): the
+/// DPM's the cavitation floor ([`crate::cavitation`]) and no upper edge; the dual-pump
+/// circuit's from its anti-cavitation check valves' cracking below the accumulator
+/// ([`Valve::ANTI_CAVITATION`]) to its relief valves' setting above it; the single-pump
+/// circuit's compressible chamber (the other one is held at the accumulator) from where its
+/// pilot lets the open check valve shut ([`PilotCheck::shut_below_pa`], the mode switches) to
+/// the relief valves' setting. Each edge at least the cavitation floor.
+pub fn pressure_band_bar(rig: &crate::rig::Rig) -> [(f64, &'static str); 2] {
+    use crate::cavitation::VAPOUR_PRESSURE_BAR_GAUGE as FLOOR;
+    use crate::units::PA_PER_BAR;
+    let p_acc = rig.accumulator_precharge_bar;
+    let relief = p_acc + rig.relief_setting_pa(rig.circuit) / PA_PER_BAR;
+    let (low, why) = match rig.circuit {
+        super::CircuitKind::Dpm => return [(FLOOR, "the cavitation floor"), (f64::INFINITY, "")],
+        super::CircuitKind::DualPump => (
+            p_acc - Valve::ANTI_CAVITATION.crack_pa / PA_PER_BAR,
+            "its anti-cavitation check valve's cracking",
+        ),
+        super::CircuitKind::SinglePump => (
+            p_acc + rig.check_valve_crack_bar / rig.pilot_ratio,
+            "the pressure below which it lets the open pilot-operated check valve shut (the mode switches)",
+        ),
+    };
+    [
+        (low.max(FLOOR), why),
+        (relief, "its relief valve's setting"),
+    ]
+}
+
 /// The valves of a single-motor circuit: one anti-cavitation check valve from the accumulator
 /// into each chamber, and a relief valve from each chamber to the accumulator.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -9,6 +9,8 @@ use std::f64::consts::PI;
 
 /// The most lines of a multisine or levels of a stepped sine (every loop over them is bounded).
 pub const MAX_LINES: usize = 200;
+/// Lines of a multisine when `lines` is absent and the band is not the designer's.
+pub const DEFAULT_LINES: usize = 30;
 /// The fewest samples per period of the highest frequency an excitation may ask for: four
 /// samples show a sine's amplitude and phase; fewer alias the sweep into the estimate.
 pub const MIN_SAMPLES_PER_PERIOD: f64 = 4.0;
@@ -91,6 +93,10 @@ pub enum Excitation {
     },
 }
 
+/// Relative tolerance on the end of a sweep ([`Excitation::reference_mm`]): far below a sample
+/// and far above the rounding of a time in a record.
+const END_TOLERANCE: f64 = 1e-9;
+
 /// Time of the first sweep when none is given (s): a second at the operating point.
 pub const START_S: f64 = 1.0;
 
@@ -129,22 +135,42 @@ impl Excitation {
         (lines, periods): (usize, usize),
         rate_hz: f64,
     ) -> Self {
-        let mut e = Excitation::Multisine {
+        Excitation::Multisine {
             centre_mm: rig.x0_mm,
             amplitude_mm,
             from_hz,
             to_hz,
             lines,
-            period_s: whole_samples(1.0 / from_hz, rate_hz),
+            period_s: 0.0,
             periods,
             start_s: START_S,
             line_mm: 0.0,
-        };
-        let peak = e.unit_peak();
-        if let Excitation::Multisine { line_mm, .. } = &mut e {
-            *line_mm = if peak > 0.0 { amplitude_mm / peak } else { 0.0 };
         }
-        e
+        .with_period(1.0 / from_hz, rate_hz)
+    }
+
+    /// The same multisine with the period `period_s` rounded to whole samples at `rate_hz`
+    /// (its lines the harmonics of that period in its band), its lines rescaled to the same
+    /// peak; a period shorter than 1/`from_hz` holds no line there ([`Excitation::check`]
+    /// refuses it). Another sweep is returned unchanged.
+    pub fn with_period(mut self, period_s: f64, rate_hz: f64) -> Self {
+        if let Excitation::Multisine { period_s: p, .. } = &mut self {
+            *p = whole_samples(period_s, rate_hz);
+        }
+        let peak = self.unit_peak();
+        if let Excitation::Multisine {
+            line_mm,
+            amplitude_mm,
+            ..
+        } = &mut self
+        {
+            *line_mm = if peak > 0.0 {
+                *amplitude_mm / peak
+            } else {
+                0.0
+            };
+        }
+        self
     }
 
     /// A stepped sine about the rig's x0, settling at each level for `settle_periods` and at
@@ -337,7 +363,10 @@ impl Excitation {
     /// The position reference (mm) at time `t` (s).
     pub fn reference_mm(&self, t: f64) -> f64 {
         let tau = t - self.start_s();
-        if tau < 0.0 || tau > self.duration_s() - self.start_s() {
+        // the last sample of a sweep of whole samples lies at its end: within rounding of it,
+        // whether its time was computed or read from a file, it is the sweep's
+        let span = self.duration_s() - self.start_s();
+        if tau < 0.0 || tau > span + END_TOLERANCE * span.max(1.0) {
             return self.centre_mm();
         }
         self.centre_mm() + self.deviation_mm(tau)
@@ -391,6 +420,32 @@ impl Excitation {
         (0..PEAK_GRID)
             .map(|j| self.unit_multisine(j as f64 / PEAK_GRID as f64).abs())
             .fold(0.0, f64::max)
+    }
+
+    /// The lowest and highest value over one period (on 4096 points) of a linear
+    /// system's periodic response to the multisine, `h` its response at each line
+    /// ([`Excitation::frequencies_hz`]) per mm of reference, at the multisine's own amplitude:
+    /// the excursion of that output about its rest. (0, 0) for the other sweeps.
+    pub fn response_range(&self, h: &[num_complex::Complex64]) -> (f64, f64) {
+        let Excitation::Multisine { line_mm, .. } = *self else {
+            return (0.0, 0.0);
+        };
+        let ks = self.harmonics();
+        let n = ks.len() as f64;
+        let at = |phase: f64| {
+            (ks.iter().zip(h).enumerate())
+                .map(|(i, (&k, h))| {
+                    let i = i as f64 + 1.0;
+                    let arg = 2.0 * PI * f64::from(k) * phase - PI * i * (i - 1.0) / n;
+                    line_mm * (h * num_complex::Complex64::from_polar(1.0, arg)).re
+                })
+                .sum::<f64>()
+        };
+        (0..PEAK_GRID)
+            .map(|j| at(j as f64 / PEAK_GRID as f64))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            })
     }
 
     /// Refuse what cannot work at `rate_hz` on `rig`: a band that is not 0 < from ≤ to, a
@@ -478,6 +533,16 @@ impl Excitation {
             } => {
                 count("lines", lines, 1)?;
                 count("periods", periods, 2)?;
+                if !(period_s.is_finite() && period_s * from_hz >= 0.5) {
+                    return Err(FieldError::new(
+                        "period_s",
+                        format!(
+                            "period_s = {period_s}: a multisine from {from_hz} Hz needs a period \
+                             of at least 1/from_hz ({} s)",
+                            1.0 / from_hz
+                        ),
+                    ));
+                }
                 if self.harmonics().is_empty() {
                     return Err(FieldError::new(
                         "from_hz",

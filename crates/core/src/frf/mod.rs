@@ -24,12 +24,14 @@
 //! |H| lies within ±1.96 ε (relative) and the phase within ±asin(1.96 ε) at 95 %.
 
 pub mod design;
+pub mod distortion;
 pub mod excitation;
 mod model;
 pub mod spec;
 pub mod spectra;
 
-pub use design::{design, Design, DesignGoal};
+pub use design::{design, design_from_pilot, Design, DesignGoal, Pilot};
+pub use distortion::Distortion;
 pub use excitation::{Excitation, Level};
 pub use model::{model_response, sampled_loop_response};
 /// The complex numbers of the estimates (num-complex's).
@@ -238,6 +240,9 @@ pub struct Estimate {
     pub closed_loop: Response,
     /// The plant x/ω_e (needs the rig's gains), where estimated.
     pub plant: Option<Response>,
+    /// The non-linear distortion at a periodic sweep's non-excited harmonics
+    /// ([`distortion::detect`]); `None` for the other methods or a sweep that leaves none.
+    pub distortion: Option<Distortion>,
     /// What the reader should know: unusable frequencies, missing levels.
     pub warnings: Vec<String>,
 }
@@ -290,7 +295,11 @@ pub fn estimate(rec: &Record, opts: &Options) -> Result<Estimate, FrfError> {
     if let Some(rig) = opts.rig {
         check_crossover(&est, rig)?;
     }
-    est.warnings = warnings;
+    if est.method != Method::Periods {
+        warnings.extend(distortion::floor_warning(rec, (0, rec.len())));
+    }
+    // the periodic estimate's own (distortion, cavitation floor in its periods) first
+    est.warnings.extend(warnings);
     Ok(est)
 }
 
@@ -352,7 +361,7 @@ pub fn check_sweep(rec: &Record) -> Result<(), FrfError> {
 }
 
 /// Refuse a record whose reference is not the sweep `e` described.
-fn check_matches(rec: &Record, e: &Excitation) -> Result<(), FrfError> {
+pub fn check_matches(rec: &Record, e: &Excitation) -> Result<(), FrfError> {
     let tol = crate::record::POSITION_RESOLUTION_MM;
     let worst = rec
         .time_s
@@ -539,6 +548,7 @@ fn shell(rec: &Record, method: Method, rate_hz: f64, s: &Spectra) -> Estimate {
             points: Vec::new(),
         },
         plant: None,
+        distortion: None,
         warnings: Vec::new(),
     }
 }
@@ -559,6 +569,7 @@ fn periodic(
         .map(|&k| k as usize)
         .filter(|&k| k < len / 2)
         .collect();
+    detect_distortion(&mut est, &sx, &bins);
     Ok((periodic_ratios(&bins, period_s, &sx, su.as_ref()), est))
 }
 
@@ -645,7 +656,20 @@ fn settled_spectra(
     let mut est = shell(rec, Method::Periods, rate_hz, &sx);
     est.periods_discarded = discarded;
     est.pooled_lines = pooled_lines(sx.segments);
+    let analysed = (first, first + sx.segments * len);
+    est.warnings
+        .extend(distortion::floor_warning(rec, analysed));
     Ok((sx, su, est))
+}
+
+/// The distortion at the non-excited harmonics of a periodic estimate's spectra `sx`, its
+/// lines `bins` excited, into `est` with its warning.
+fn detect_distortion(est: &mut Estimate, sx: &Spectra, bins: &[usize]) {
+    let floor =
+        distortion::quantization_floor(sx.segment_len, crate::record::POSITION_RESOLUTION_MM);
+    est.distortion = distortion::detect(sx, bins, floor);
+    est.warnings
+        .extend(est.distortion.and_then(|d| d.warning()));
 }
 
 /// Samples compared before a lag is checked over the whole record.
@@ -684,6 +708,7 @@ fn found_periodic(
     let bins: Vec<usize> = (1..len.div_ceil(2))
         .filter(|&k| sx.rr[k] > 0.0 && sx.rr[k] >= EXCITED * peak)
         .collect();
+    detect_distortion(&mut est, &sx, &bins);
     Ok((periodic_ratios(&bins, period_s, &sx, su.as_ref()), est))
 }
 
@@ -764,6 +789,7 @@ fn sine_fits(
             rr: Vec::new(),
             ry: Vec::new(),
             yy: Vec::new(),
+            y: Vec::new(),
             segments: raw.len(),
             segment_len: longest,
             averages: 1.0,

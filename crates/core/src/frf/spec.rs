@@ -33,8 +33,7 @@ impl SweepKind {
     }
 }
 
-/// Lines of a multisine when `lines` is absent.
-pub const DEFAULT_LINES: usize = 30;
+pub use super::excitation::DEFAULT_LINES;
 /// Levels of a stepped sine when `levels` is absent.
 pub const DEFAULT_LEVELS: usize = 12;
 /// Periods discarded per level of a stepped sine when `settle_periods` is absent.
@@ -68,7 +67,12 @@ pub struct SweepSpec {
     /// fitted per level. Default: 3; 24 (ε = 5 % at coherence 0.9); 4.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub periods: Option<usize>,
-    /// Multisine: lines. Default: [`DEFAULT_LINES`].
+    /// Multisine: its period (s), a whole multiple of 1/`from_hz` for its lowest line to lie
+    /// there. Default: the designer's where `from_hz` is the designer's too, else 1/`from_hz`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_s: Option<f64>,
+    /// Multisine: lines. Default: the designer's where `from_hz` is the designer's too (as
+    /// many as the resonance needs, at least [`DEFAULT_LINES`]), else [`DEFAULT_LINES`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lines: Option<usize>,
     /// Stepped sine: levels. Default: [`DEFAULT_LEVELS`].
@@ -91,6 +95,7 @@ impl SweepSpec {
             at_s: None,
             sweep_s: None,
             periods: None,
+            period_s: None,
             lines: None,
             levels: None,
             settle_periods: None,
@@ -109,7 +114,10 @@ impl SweepSpec {
         };
         let d = design(rig, &goal)
             .map_err(|e| FieldError::new("from_hz", format!("designing the sweep: {e}")))?;
+        let designed_period = self.from_hz.is_none() && self.kind == SweepKind::Multisine;
         Ok(SweepSpec {
+            period_s: self.period_s.or(designed_period.then_some(d.period_s)),
+            lines: self.lines.or(designed_period.then_some(d.lines)),
             from_hz: self.from_hz.or(Some(d.from_hz)),
             to_hz: self.to_hz.or(Some(d.to_hz)),
             amplitude_mm: self.amplitude_mm.or(Some(d.amplitude_mm)),
@@ -140,7 +148,8 @@ impl SweepSpec {
                     s.periods.unwrap_or(averages_for(0.9, 0.05) + 1),
                 ),
                 rate_hz,
-            ),
+            )
+            .with_period(s.period_s.unwrap_or(1.0 / band.0), rate_hz),
             SweepKind::SteppedSine => {
                 let decay_s = crate::response::transient_decay_s(rig).unwrap_or(0.0);
                 Excitation::stepped_sine(

@@ -15,6 +15,8 @@ pub struct Spectra {
     pub ry: Vec<Complex64>,
     /// Σ|Y|² per bin.
     pub yy: Vec<f64>,
+    /// Σ Y per bin (the mean response of a periodic sweep at every bin, excited or not).
+    pub y: Vec<Complex64>,
     /// Segments averaged.
     pub segments: usize,
     /// Samples per segment.
@@ -146,6 +148,7 @@ struct Accumulator {
     rr: Vec<f64>,
     ry: Vec<Complex64>,
     yy: Vec<f64>,
+    y: Vec<Complex64>,
     segments: usize,
     len: usize,
 }
@@ -163,6 +166,7 @@ impl Accumulator {
             rr: vec![0.0; bins],
             ry: vec![Complex64::new(0.0, 0.0); bins],
             yy: vec![0.0; bins],
+            y: vec![Complex64::new(0.0, 0.0); bins],
             segments: 0,
             len,
         }
@@ -177,6 +181,7 @@ impl Accumulator {
             self.rr[k] += a.norm_sqr();
             self.yy[k] += b.norm_sqr();
             self.ry[k] += a.conj() * b;
+            self.y[k] += b;
         }
         self.segments += 1;
     }
@@ -186,6 +191,7 @@ impl Accumulator {
             rr: self.rr,
             ry: self.ry,
             yy: self.yy,
+            y: self.y,
             segments: self.segments,
             segment_len: self.len,
             averages,

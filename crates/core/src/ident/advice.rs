@@ -81,8 +81,6 @@ pub const MIN_SAMPLES_PER_PERIOD: f64 = 10.0;
 /// the loop rings for dozens of periods, too close to instability to run on a rig whose
 /// parameters are uncertain (the article's design targets of §2.2 keep it far higher).
 pub const MIN_DAMPING: f64 = 0.05;
-/// Lines of a default sweep (`pumpcyl emulate --experiment multisine`'s default).
-pub const SWEEP_LINES: usize = 30;
 /// Iteration limit of the 3×3 symmetric eigen-decomposition.
 const EIGEN_ITERS: usize = 1000;
 
@@ -824,7 +822,7 @@ fn sweep_lines(e: &Excitation, rate_hz: f64) -> Vec<(f64, f64, f64)> {
 }
 
 /// The default sweeps at each gain of `kps`: the multisine `pumpcyl frf --design` designs for
-/// the rig of `like` at that gain ([`crate::frf::design`]), [`SWEEP_LINES`] lines, its periods
+/// the rig of `like` at that gain ([`crate::frf::design`]), its lines and period, its periods
 /// cut to [`MAX_DURATION_S`]; none at a gain where fewer than 3 periods fit or the design
 /// fails [`Design::check`].
 fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
@@ -836,11 +834,12 @@ fn default_sweeps(like: &Rig, kps: &[f64], rate_hz: f64) -> Vec<Design> {
         .filter_map(|&kp| {
             let rig = Rig { kp, ..like.clone() };
             let d = crate::frf::design(&rig, &goal).ok()?;
-            let fit = (MAX_DURATION_S * d.from_hz).floor() as usize;
+            let fit = (MAX_DURATION_S / d.period_s).floor() as usize;
             let spec = SweepSpec {
                 from_hz: Some(d.from_hz),
                 to_hz: Some(d.to_hz),
-                lines: Some(SWEEP_LINES),
+                period_s: Some(d.period_s),
+                lines: Some(d.lines),
                 amplitude_mm: Some((d.amplitude_mm * 10.0).floor() / 10.0),
                 periods: Some(d.periods.min(fit)),
                 ..SweepSpec::of_kind(SweepKind::Multisine)

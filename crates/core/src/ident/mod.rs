@@ -47,7 +47,7 @@ pub use advice::{
     advise, advise_experiment, default_designs, designs_for, designs_from_toml, gram,
     sweep_information, widths, Advice, AdviceOptions, Assessment, Design, Width,
     DEFAULT_DURATION_S, DEFAULT_FREQS_HZ, DEFAULT_KP_FACTORS, DEFAULT_MAX_AMP_MM, DEFAULT_STEPS_MM,
-    LOG_STEP, MAX_CANDIDATES, MIN_DAMPING, MIN_SAMPLES_PER_PERIOD, REST_S, SWEEP_LINES,
+    LOG_STEP, MAX_CANDIDATES, MIN_DAMPING, MIN_SAMPLES_PER_PERIOD, REST_S,
 };
 pub use drive::{identify_drive, DriveFit, DriveRecord};
 pub use experiment::{DatasetEntry, Experiment, ExperimentFile, Method, RigDefaults};
@@ -64,9 +64,9 @@ pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};
 pub use uncertainty::{
-    analyze, at_bound_reason, check_confidence, chi2_1_quantile, identifiability, search_bound_at,
-    Identifiability, Profile, ProfilePoint, Uncertainty, UncertaintyOptions, AT_BOUND, BOUNDS,
-    FLAT_FACTOR, PARAMETERS,
+    analyze, at_bound_reason, check_confidence, chi2_1_quantile, identifiability, normal_quantile,
+    search_bound_at, Identifiability, Profile, ProfilePoint, Uncertainty, UncertaintyOptions,
+    AT_BOUND, BOUNDS, FLAT_FACTOR, PARAMETERS,
 };
 
 use serde::{Deserialize, Serialize};

@@ -169,7 +169,7 @@ pub fn chi2_1_quantile(p: f64) -> f64 {
 }
 
 /// Standard normal quantile (Acklam's rational approximation, relative error below 1.2·10⁻⁹).
-fn normal_quantile(p: f64) -> f64 {
+pub fn normal_quantile(p: f64) -> f64 {
     const A: [f64; 6] = [
         -3.969683028665376e1,
         2.209460984245205e2,

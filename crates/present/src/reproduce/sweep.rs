@@ -17,8 +17,6 @@ use pumpcyl::ident::{
 };
 use pumpcyl::record::Record;
 
-/// Lines of the multisine (`pumpcyl emulate --experiment multisine`'s default).
-const LINES: usize = 30;
 /// Seed of the sweep's sensor noise (the embedded records use 1 to 5).
 const SEED: u64 = 6;
 /// How far above the truth an interval is drawn (a factor): an unbounded one is cut there.
@@ -81,9 +79,10 @@ fn emulate(truth: &Truth) -> Result<(Excitation, Record)> {
         &truth.rig,
         d.amplitude_mm,
         (d.from_hz, d.to_hz),
-        (LINES, d.periods),
+        (d.lines, d.periods),
         truth.plc.rate_hz,
-    );
+    )
+    .with_period(d.period_s, truth.plc.rate_hz);
     let plc = pumpcyl::emulator::Plc {
         seed: SEED,
         ..article::plc(SEED)
@@ -97,7 +96,8 @@ fn emulate(truth: &Truth) -> Result<(Excitation, Record)> {
 fn describe(e: &Excitation) -> String {
     let (lo, hi) = e.band_hz();
     format!(
-        "multisine of {LINES} lines {lo:.3} .. {hi:.2} Hz, ±{:.1} mm, {:.0} s",
+        "multisine of {} lines {lo:.3} .. {hi:.2} Hz, ±{:.1} mm, {:.0} s",
+        e.frequencies_hz().len(),
         e.amplitude_mm(),
         e.duration_s()
     )
