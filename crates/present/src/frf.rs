@@ -232,11 +232,21 @@ fn band_db(p: &Point, sign: f64) -> f64 {
     }
 }
 
+/// What the motors' dead band asks of the amplitude, in words: the least amplitude that clears
+/// it, or, where the limits allow less (the design then takes the limit), that it needs more.
+fn dead_band_text(d: &Design) -> String {
+    if d.min_amplitude_mm < d.max_amplitude_mm {
+        format!("dead band needs ≥ {:.2}", d.min_amplitude_mm)
+    } else {
+        "the dead band needs more than the limits allow, see the note below".to_string()
+    }
+}
+
 /// A designed sweep in words.
 pub fn design_text(d: &Design) -> String {
     let mut out = format!(
         "sweep design: crossover {:.3} Hz, resonance {}; band {:.3} … {:.3} Hz; amplitude \
-         {:.2} mm (dead band needs ≥ {:.2}, the limits allow ≤ {:.2}, set by {}); a multisine \
+         {:.2} mm ({}, the limits allow ≤ {:.2}, set by {}); a multisine \
          of {} lines on the harmonics of its {:.3} s period; {} averages: {} periods, {:.1} s\n",
         d.crossover_hz,
         d.resonance_hz
@@ -244,7 +254,7 @@ pub fn design_text(d: &Design) -> String {
         d.from_hz,
         d.to_hz,
         d.amplitude_mm,
-        d.min_amplitude_mm,
+        dead_band_text(d),
         d.max_amplitude_mm,
         d.amplitude_bound,
         d.lines_held,
