@@ -105,7 +105,7 @@ fn reading(args: &BulkArgs, rig: &pumpcyl::rig::Rig) -> (BetaReading, String) {
     } else {
         (
             "the rig's beta_bar",
-            if rig.circuit == pumpcyl::circuit::CircuitKind::Dpm {
+            if rig.circuit.description().level.at_emulated_rest {
                 "the rig's anchor, the mean chamber pressure of its loop at rest (docs/bulk-modulus.md#the-anchor)"
             } else {
                 "the rig's mean chamber pressure at rest, its accumulator_precharge_bar"

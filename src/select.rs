@@ -89,9 +89,8 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         let kinds = (args.circuits.iter())
             .map(|name| {
                 CircuitKind::from_name(name.trim()).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--circuits {name}: no such circuit (dpm, dual-pump, single-pump)"
-                    )
+                    let names: Vec<&str> = CircuitKind::ALL.iter().map(|k| k.name()).collect();
+                    anyhow::anyhow!("--circuits {name}: no such circuit ({})", names.join(", "))
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -157,7 +156,7 @@ fn relief_warnings(app: &Application) -> Vec<String> {
         .reduce(f64::max)
         .unwrap_or(app.rig.accumulator_precharge_bar);
     (app.circuits.iter())
-        .filter(|kind| **kind != CircuitKind::Dpm)
+        .filter(|kind| kind.description().valves.is_some())
         .filter_map(|&circuit| {
             let rig = Rig {
                 circuit,

@@ -471,10 +471,9 @@ fn circuit_names(code: &str) -> Vec<(usize, &'static str)> {
 /// into the circuits.
 const ALLOWED: [(&str, &str); 1] = [("crates/core/src/rig.rs", "p2")];
 
-/// Outside `crates/core/src/circuit/`, no code names a circuit's states by the DPM's layout or
-/// its signal names: everything works through the circuit's named signals (docs/architecture.md).
-#[test]
-fn only_a_circuit_names_its_states() {
+/// What `check` finds in the code ([`code_only`]) of every source file of every crate outside
+/// `crates/core/src/circuit/`, given the file's path from the workspace root: "path:line: what".
+fn outside_the_circuits(check: impl Fn(&str, &str) -> Vec<(usize, String)>) -> Vec<String> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut found = Vec::new();
     for src in [
@@ -490,14 +489,24 @@ fn only_a_circuit_names_its_states() {
             if path.starts_with("crates/core/src/circuit/") {
                 continue;
             }
-            for (line, name) in circuit_names(&code_only(&text)) {
-                if ALLOWED.contains(&(path.as_str(), name)) {
-                    continue;
-                }
-                found.push(format!("{path}:{line}: {name}"));
+            for (line, what) in check(&path, &code_only(&text)) {
+                found.push(format!("{path}:{line}: {what}"));
             }
         }
     }
+    found
+}
+
+/// Outside `crates/core/src/circuit/`, no code names a circuit's states by the DPM's layout or
+/// its signal names: everything works through the circuit's named signals (docs/architecture.md).
+#[test]
+fn only_a_circuit_names_its_states() {
+    let found = outside_the_circuits(|path, code| {
+        (circuit_names(code).into_iter())
+            .filter(|(_, name)| !ALLOWED.contains(&(path, *name)))
+            .map(|(line, name)| (line, name.to_string()))
+            .collect()
+    });
     assert!(
         found.is_empty(),
         "names a circuit's states:\n{}",
@@ -518,4 +527,65 @@ fn the_name_check_sees_code_and_not_strings_or_comments() {
         ["p2", ".layout", "layout.p[", ".tau", "SIM_OUTPUTS"],
         "{code}"
     );
+}
+
+/// The enums made from the list of circuits (crates/core/src/circuit/mod.rs), whose variants
+/// are the circuits (the emulated form's enum shares its name, `Emulated`, with the records'
+/// and is used outside the circuits through its methods only).
+const CIRCUIT_ENUMS: [&str; 2] = ["CircuitKind", "AnyCircuit"];
+
+/// Where `code` names a circuit by its variant (`CircuitKind::Dpm`, `AnyCircuit::SinglePump(…)`):
+/// (line, the path named). Constants (`CircuitKind::ALL`) and methods (`CircuitKind::name`)
+/// are not variants: a variant's name is in camel case.
+fn circuit_variants(code: &str) -> Vec<(usize, String)> {
+    let ident = |ch: char| ch.is_alphanumeric() || ch == '_';
+    let mut out = Vec::new();
+    for (n, line) in code.lines().enumerate() {
+        for name in CIRCUIT_ENUMS {
+            for (k, _) in line.match_indices(&format!("{name}::")) {
+                if line[..k].chars().next_back().is_some_and(ident) {
+                    continue;
+                }
+                let rest = &line[k + name.len() + 2..];
+                let tail: String = rest
+                    .chars()
+                    .take_while(|&ch| ident(ch) || ch == '{')
+                    .collect();
+                let camel = |w: &str| {
+                    w.starts_with(|ch: char| ch.is_ascii_uppercase())
+                        && w.chars().any(|ch| ch.is_ascii_lowercase())
+                };
+                if tail.trim_start_matches('{').split(['{', ',']).any(camel) {
+                    out.push((n + 1, format!("{name}::{tail}")));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Outside `crates/core/src/circuit/`, no code (tests apart) names a circuit by its variant:
+/// everything asks a circuit's description or its module's forms, so that a circuit is added
+/// in its module and the list alone (docs/architecture.md#circuits).
+#[test]
+fn only_the_list_of_circuits_names_them() {
+    let found = outside_the_circuits(|_, code| circuit_variants(code));
+    assert!(found.is_empty(), "names a circuit:\n{}", found.join("\n"));
+}
+
+#[test]
+fn the_circuit_check_sees_variants_and_not_constants_or_methods() {
+    let text = "let k = CircuitKind::SinglePump; for k in CircuitKind::ALL {}\n\
+                let n = CircuitKind::name(k); if let AnyCircuit::Dpm(d) = c {}\n\
+                use crate::circuit::CircuitKind::{Dpm, DualPump}; let s = \"CircuitKind::Dpm\";\n\
+                let e = MyCircuitKind::Dpm;\n\
+                #[cfg(test)]\nmod tests { let k = CircuitKind::Dpm; }";
+    let found: Vec<(usize, String)> = circuit_variants(&code_only(text));
+    let want = [
+        (1, "CircuitKind::SinglePump"),
+        (2, "AnyCircuit::Dpm"),
+        (3, "CircuitKind::{Dpm"),
+    ];
+    let want: Vec<(usize, String)> = want.iter().map(|(l, s)| (*l, s.to_string())).collect();
+    assert_eq!(found, want);
 }

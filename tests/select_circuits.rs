@@ -17,6 +17,11 @@ use std::path::Path;
 #[allow(dead_code)]
 mod run;
 
+/// The single-pump candidate circuit (docs/select.md#circuits).
+fn single_pump() -> Circuit {
+    Circuit::named("single-pump").expect("select offers the single-pump circuit")
+}
+
 fn select(args: &[&str]) -> Value {
     run::json(Path::new("."), &[&["select", "--json"], args].concat())
 }
@@ -169,7 +174,7 @@ fn check_of(app: &Application, kp: f64) -> pumpcyl::circuit::single_pump::modes:
     let rig = Rig {
         kp,
         mass_kg: app.mass_kg[0],
-        ..Circuit::SINGLE_PUMP.rig_at(&app.rig, p, beta)
+        ..single_pump().rig_at(&app.rig, p, beta)
     };
     StepCheck::ARTICLE.run(&SinglePump::new(&rig)).unwrap()
 }
@@ -193,7 +198,7 @@ fn the_single_pump_candidate_fails_where_its_step_switches_modes() {
     let s = equations(&calm);
     assert_eq!(s.mode_check, "equations");
     let c = &s.options[0];
-    assert_eq!(c.circuit, Circuit::SINGLE_PUMP);
+    assert_eq!(c.circuit, single_pump());
     assert!(!c.meets && !c.meets_best_case, "{c:?}");
     assert!(
         c.reason.starts_with("switches modes under this load: ")

@@ -34,7 +34,7 @@
 //! # Ok::<(), pumpcyl::fmu::FmuError>(())
 //! ```
 
-use crate::circuit::{Circuit, CircuitKind, Effects, Role, Signal};
+use crate::circuit::{Circuit, Effects, Role, Signal};
 use crate::emulator::{self, article, Dynamics, Plc, PlcLoop, PLC_RATE_HZ, SETTLE_S};
 use crate::lti::Zoh;
 use crate::model::Plant;
@@ -228,10 +228,7 @@ pub struct Variable {
 /// How many drives the rig's circuit has: the DPM's two, the single-motor circuits' one
 /// (docs/fmu.md#every-circuit).
 fn drives(rig: &Rig) -> usize {
-    match rig.circuit {
-        CircuitKind::Dpm => 2,
-        CircuitKind::DualPump | CircuitKind::SinglePump => 1,
-    }
+    rig.circuit.description().drives
 }
 
 /// The inputs: the position reference or the speed commands (one per drive), then the
@@ -314,7 +311,7 @@ fn output_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
 
 /// The FMU has the mode output: the emulator of a single-pump rig.
 fn has_mode(c: &Config) -> bool {
-    c.model == ModelKind::Emulator && c.rig.circuit == CircuitKind::SinglePump
+    c.model == ModelKind::Emulator && c.rig.circuit.description().no_modes.is_none()
 }
 
 /// Value references start here for the outputs and the parameters.
@@ -1221,10 +1218,7 @@ impl Linear {
             }
         };
         // a single-pump mode pins its accumulator chamber: the outputs show both chambers
-        let mode = match plant.circuit() {
-            crate::circuit::AnyCircuit::SinglePumpMode(m) => Some(m.clone()),
-            _ => None,
-        };
+        let mode = plant.circuit().single_pump_mode().cloned();
         let signals = match &mode {
             Some(_) => crate::circuit::single_pump::SinglePump::new(rig).states(),
             None => plant.signals(),
@@ -1305,6 +1299,7 @@ fn concat_columns(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::circuit::CircuitKind;
     use crate::emulator::Experiment;
 
     fn emulated_rig() -> (Rig, crate::emulator::Effects) {

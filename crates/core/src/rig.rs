@@ -128,7 +128,7 @@ pub enum RigError {
         /// The rig's circuit.
         circuit: CircuitKind,
         /// The circuits the key belongs to.
-        owners: &'static [CircuitKind],
+        owners: Vec<CircuitKind>,
     },
     /// A value outside its physical range.
     #[error("{source_name}: {}key `{key}` = {}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")), readable(*value))]
@@ -243,29 +243,6 @@ pub fn is_optional_key(key: &str) -> bool {
     OPTIONAL_KEYS.iter().any(|(k, _)| *k == key)
 }
 
-/// The keys not every circuit has, each with the circuits that have it (docs/circuits.md): the
-/// DPM's second drive and sum-pressure loop, the second pump of the DPM and the dual-pump
-/// circuit, the accumulator, relief valves and cylinder rating of the dual- and single-pump
-/// circuits, and the single-pump circuit's pilot-operated check valves.
-const CIRCUIT_KEYS: [(&str, &[CircuitKind]); 13] = {
-    use CircuitKind::*;
-    [
-        ("motor_inertia_2_kg_mm2", &[Dpm]),
-        ("km2_nms_per_rad", &[Dpm]),
-        ("p_sum_ref_bar", &[Dpm]),
-        ("k_pres_per_bar", &[Dpm]),
-        ("k_beta", &[Dpm]),
-        ("sum_pressure", &[Dpm]),
-        ("pump_inertia_2_kg_mm2", &[Dpm, DualPump]),
-        ("displacement_2_cm3_per_rev", &[Dpm, DualPump]),
-        ("accumulator_precharge_bar", &[DualPump, SinglePump]),
-        ("relief_setting_bar", &[DualPump, SinglePump]),
-        ("cylinder_rated_pressure_bar", &[DualPump, SinglePump]),
-        ("pilot_ratio", &[SinglePump]),
-        ("check_valve_crack_bar", &[SinglePump]),
-    ]
-};
-
 /// Another name a rig file or `--set` may give a key, and the key's own name: the article
 /// speaks of the accumulator's pressure, which for a gas accumulator at rest is its pre-charge
 /// (docs/circuits.md#single-pump).
@@ -281,11 +258,15 @@ fn canonical_key(key: &str) -> &str {
 
 /// `key` (by its own name) and the circuits it belongs to when `circuit` does not have it;
 /// `None` for a key of `circuit` (or of every circuit).
-fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, &'static [CircuitKind])> {
+/// The keys not every circuit has are those a circuit's description lists as its own
+/// ([`crate::circuit::Description::own_keys`], docs/circuits.md).
+fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, Vec<CircuitKind>)> {
     let key = canonical_key(key);
-    (CIRCUIT_KEYS.iter())
-        .find(|(k, owners)| *k == key && !owners.contains(&circuit))
-        .map(|(k, owners)| (*k, *owners))
+    let owners: Vec<CircuitKind> = (CircuitKind::ALL.into_iter())
+        .filter(|k| k.description().own_keys.contains(&key))
+        .collect();
+    let own = *(owners.first()?.description().own_keys.iter()).find(|k| **k == key)?;
+    (!owners.contains(&circuit)).then_some((own, owners))
 }
 
 /// "dpm circuit", "dpm and dual-pump circuits".
@@ -430,7 +411,7 @@ impl Default for Rig {
     /// The article's rig (the article §2.3.4; docs/formats.md#rig-toml).
     fn default() -> Self {
         Rig {
-            circuit: CircuitKind::Dpm,
+            circuit: crate::circuit::ARTICLE,
             piston_diameter_mm: 63.0,
             rod_diameter_mm: 36.0,
             line_volume_1_dm3: 0.1272,
@@ -827,22 +808,13 @@ impl Rig {
         }
         self.validate_mass_table()
             .map_err(|(value, rule)| invalid("mass_by_position", value, rule))?;
-        match self.circuit {
-            CircuitKind::Dpm => self
-                .validate_rest()
-                .map_err(|rule| invalid("external_force_n", self.external_force_n, rule)),
-            CircuitKind::DualPump => self
-                .validate_dual_pump_rest()
-                .map_err(|(key, value, rule)| invalid(key, value, rule)),
-            // both modes rest with one chamber at p_acc > 0 and the other above it
-            CircuitKind::SinglePump => Ok(()),
-        }
+        (self.circuit.validate_rest(self)).map_err(|(key, value, rule)| invalid(key, value, rule))
     }
 
     /// The dual-pump circuit's rest (docs/circuits.md#operating-point): its leakage must fix
     /// the chamber pressures, and they must lie above the vapour pressure
     /// (docs/model.md#cavitation).
-    fn validate_dual_pump_rest(&self) -> Result<(), (&'static str, f64, String)> {
+    pub(crate) fn validate_dual_pump_rest(&self) -> Result<(), (&'static str, f64, String)> {
         let op = (self.dual_pump_balance().steady(0.0))
             .map_err(|e| ("c12_m5_per_ns", self.c12_m5_per_ns, e.to_string()))?;
         crate::cavitation::check_chambers(&[op.p1_pa / PA_PER_BAR, op.p2_pa / PA_PER_BAR]).map_err(
@@ -859,7 +831,7 @@ impl Rig {
     /// The operating point at rest must be a state the circuit can hold: the sum-pressure
     /// set-point split by the force balance (docs/model.md#newton) leaves no chamber below the
     /// vapour pressure (docs/model.md#cavitation).
-    fn validate_rest(&self) -> Result<(), String> {
+    pub(crate) fn validate_rest(&self) -> Result<(), String> {
         let [p1, p2] = self.si().rest_pressures_pa();
         crate::cavitation::check_chambers(&[p1 / PA_PER_BAR, p2 / PA_PER_BAR]).map_err(|e| {
             format!(
@@ -1057,11 +1029,7 @@ impl Rig {
     /// circuit and τ_rated / D1 for the single-pump circuit (and for the DPM, which has none:
     /// its pump 1 alone).
     pub fn relief_setting_pa(&self, kind: CircuitKind) -> f64 {
-        let d = self.si().d;
-        let derived = match kind {
-            CircuitKind::DualPump => self.motor_rated_torque_nm / (d[0] + d[1]),
-            CircuitKind::Dpm | CircuitKind::SinglePump => self.motor_rated_torque_nm / d[0],
-        };
+        let derived = self.motor_rated_torque_nm / kind.relief_displacement_m3_per_rad(self);
         self.relief_setting_bar
             .map_or(derived, |bar| bar * PA_PER_BAR)
     }
@@ -1296,7 +1264,7 @@ impl Rig {
                     // a key of another circuit may not be set: shown, commented out
                     (_, Some((_, owners))) => out.push_str(&format!(
                         "# {key} = {value}  # {doc} ({} only)\n",
-                        circuits_text(owners)
+                        circuits_text(&owners)
                     )),
                 }
             }

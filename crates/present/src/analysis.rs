@@ -10,7 +10,6 @@ use crate::plot::BodeSeries;
 use crate::records::{csv_number, csv_text};
 use nalgebra::DMatrix;
 use pumpcyl::circuit::single_pump::modes::{linear_models, switching, ModeModel, Switching};
-use pumpcyl::circuit::CircuitKind;
 use pumpcyl::loops::{Loop, ModelView, Port, SimulatedLoop};
 use pumpcyl::lti::{
     poles_and_stability, CrossingKind, LtiError, Margins, PoleInfo, Stability, RELIABLE_DB,
@@ -305,7 +304,8 @@ impl ModesReport {
     /// # Errors
     /// A mode's model [`pumpcyl::lti::StateSpace::new`] refuses.
     pub fn of_loop(lp: &Loop) -> Result<Option<ModesReport>, LtiError> {
-        let Some(rig) = (lp.rig.as_ref()).filter(|r| r.circuit == CircuitKind::SinglePump) else {
+        let Some(rig) = (lp.rig.as_ref()).filter(|r| r.circuit.description().no_modes.is_none())
+        else {
             return Ok(None);
         };
         Ok(Some(ModesReport {

@@ -315,20 +315,11 @@ pub fn basis(rig: &Rig, effects: &Effects) -> Result<String, EmulatorError> {
     let p_mean = beta_anchor_bar(rig)?;
     // the DPM's sentence as it always was; a single-motor circuit's names its own level and
     // valves (docs/emulator.md#every-circuit)
-    let (anchor, valves) = match rig.circuit {
-        CircuitKind::Dpm => ("the rig's mean chamber pressure at rest", String::new()),
-        kind => (
-            "the accumulator pre-charge",
-            format!(
-                "; circuit {}: {} (docs/circuits.md#valves)",
-                kind.name(),
-                match kind {
-                    CircuitKind::SinglePump => "pilot-operated check valves and relief valves",
-                    _ => "anti-cavitation check valves and relief valves",
-                }
-            ),
-        ),
-    };
+    let d = rig.circuit.description();
+    let valves = (d.valves)
+        .map(|v| format!("; circuit {}: {v} (docs/circuits.md#valves)", d.name))
+        .unwrap_or_default();
+    let anchor = d.level.words;
     Ok(format!(
         "emulator: beta_e {:.1} bar at {}, {:.2} bar \
          (gas fraction X = {:.5}, beta_oil {} bar), beta_e(p) of both chambers' mean pressure; \

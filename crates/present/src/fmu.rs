@@ -140,35 +140,13 @@ pub fn description_of(c: &Config) -> String {
             "the linear model of Goytil, Hansen & Tvilde, Actuators 2025, 14(8), 366, section 2.3"
         }
     };
-    use pumpcyl::circuit::CircuitKind;
-    let (circuit, control) = match (c.rig.circuit, c.controller) {
-        (CircuitKind::Dpm, Controller::Article) => (
-            "dual-prime-mover",
-            "with the article's position and sum-pressure controller",
-        ),
-        (kind, Controller::Article) => (
-            circuit_words(kind),
-            "with the article's position controller on its one motor",
-        ),
-        (kind, Controller::External) => (
-            match kind {
-                CircuitKind::Dpm => "dual-prime-mover",
-                other => circuit_words(other),
-            },
-            "driven by the motor speed commands",
-        ),
+    let d = c.rig.circuit.description();
+    let control = match c.controller {
+        Controller::Article => d.controller_words,
+        Controller::External => "driven by the motor speed commands",
     };
+    let circuit = d.fmu_words;
     format!("pumpcyl {circuit} pump-controlled cylinder: {model}, {control} (docs/fmu.md)")
-}
-
-/// A single-motor circuit in words, as the FMU's description names it.
-fn circuit_words(kind: pumpcyl::circuit::CircuitKind) -> &'static str {
-    match kind {
-        pumpcyl::circuit::CircuitKind::SinglePump => {
-            "single-pump (circuit single-pump, the article's Figure 1a)"
-        }
-        _ => "single-motor dual-pump (circuit dual-pump, the article's Figure 1b)",
-    }
 }
 
 /// What the FMU's emulator uses at the parameters' start values ([`crate::emulated::basis`]);

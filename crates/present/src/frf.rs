@@ -344,10 +344,8 @@ fn valve_open_jacobian(
 /// ([`rest_plant`]). The single-pump circuit's model is already the mode it rests in
 /// ([`pumpcyl::circuit::AnyCircuit::describe`]).
 pub fn model_warning(rig: &pumpcyl::rig::Rig) -> Option<String> {
-    if rig.circuit != pumpcyl::circuit::CircuitKind::DualPump {
-        return None;
-    }
-    let c = pumpcyl::circuit::dual_pump::DualPump::new(rig).ok()?;
+    rig.circuit.validate_rest(rig).ok()?;
+    let c = pumpcyl::circuit::AnyCircuit::linear(rig);
     let (chamber, p_bar, p_acc_bar, q) = c.valve_open_at_rest()?;
     Some(format!(
         "a check valve is open at rest: the valves-shut linear model rests with chamber \

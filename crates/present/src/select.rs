@@ -318,13 +318,12 @@ pub fn selection_chart(app: &Application, s: &Selection) -> Chart {
     }
 }
 
-/// The circuits of the figure, each its colour (docs/select.md#circuits).
-const CIRCUITS: [Circuit; 4] = Circuit::ALL;
-
-/// The circuits with a candidate in `s`, each with its colour (its place in [`CIRCUITS`], so a
-/// circuit keeps its colour whichever others are tried).
+/// The circuits with a candidate in `s`, each with its colour (its place in
+/// [`Circuit::all`], so a circuit keeps its colour whichever others are tried;
+/// docs/select.md#circuits).
 fn present(s: &Selection) -> impl Iterator<Item = (usize, Circuit)> + '_ {
-    (CIRCUITS.into_iter().enumerate()).filter(|(_, c)| s.options.iter().any(|o| o.circuit == *c))
+    (Circuit::all().into_iter().enumerate())
+        .filter(|(_, c)| s.options.iter().any(|o| o.circuit == *c))
 }
 
 /// The candidates of circuit `c` and their mean pressures (bar).

@@ -535,6 +535,115 @@ impl Circuit for Dpm {
     }
 }
 
+/// The DPM circuit as the list of circuits knows it (docs/architecture.md#circuits).
+pub struct Module;
+
+impl super::Module for Module {
+    const DESCRIPTION: super::Description = super::Description {
+        name: "dpm",
+        fmu_words: "dual-prime-mover",
+        controller_words: "with the article's position and sum-pressure controller",
+        drives: 2,
+        pumps: 2,
+        variants: &[
+            super::Variant {
+                level: super::PressureLevel::LowPressure,
+                name: "low-pressure",
+                key: "low_pressure",
+            },
+            super::Variant {
+                level: super::PressureLevel::Pressurised,
+                name: "pressurised",
+                key: "pressurised",
+            },
+        ],
+        sum_pressure_loop: true,
+        level: super::Level {
+            key: "p_sum_ref_bar",
+            words: "the rig's mean chamber pressure at rest",
+            at_emulated_rest: true,
+        },
+        valves: None,
+        own_keys: &[
+            "motor_inertia_2_kg_mm2",
+            "km2_nms_per_rad",
+            "p_sum_ref_bar",
+            "k_pres_per_bar",
+            "k_beta",
+            "sum_pressure",
+            "pump_inertia_2_kg_mm2",
+            "displacement_2_cm3_per_rev",
+        ],
+        no_modes: Some(NO_MODES),
+    };
+    type Linear = Dpm;
+    type Emulated = Dpm;
+
+    fn linear_modes(rig: &Rig) -> Vec<Dpm> {
+        vec![Dpm::linear(rig)]
+    }
+
+    fn emulated(rig: &Rig, effects: Effects) -> Result<Dpm, String> {
+        Ok(Dpm::emulated(rig, effects))
+    }
+
+    fn validate_rest(rig: &Rig) -> Result<(), (&'static str, f64, String)> {
+        rig.validate_rest()
+            .map_err(|rule| ("external_force_n", rig.external_force_n, rule))
+    }
+
+    /// The sum-pressure set-point split evenly: its loop holds p1 + p2 there
+    /// (docs/model.md#the-dpm-control-law).
+    fn pressure_level_bar(rig: &Rig) -> f64 {
+        0.5 * rig.p_sum_ref_bar
+    }
+
+    /// The cavitation floor and no upper edge: no valve limits its chambers.
+    fn pressure_band_bar(_rig: &Rig) -> [(f64, &'static str); 2] {
+        use crate::cavitation::VAPOUR_PRESSURE_BAR_GAUGE as FLOOR;
+        [(FLOOR, "the cavitation floor"), (f64::INFINITY, "")]
+    }
+}
+
+impl super::LinearForm for Dpm {
+    fn law(&self, sum_pressure: bool) -> ControlLaw {
+        Dpm::law(self, sum_pressure)
+    }
+    fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
+        Dpm::load_torques_nm(self, p_pa)
+    }
+    fn describe(&self) -> String {
+        <Module as super::Module>::DESCRIPTION.name.to_string()
+    }
+    fn dpm(&self) -> Option<&Dpm> {
+        Some(self)
+    }
+    /// Motor 2's speed is needed: a record without its column `w2_rpm` cannot give it.
+    fn standstill_leakage(
+        &self,
+        rig: &Rig,
+        s: &Standstill,
+        c12: f64,
+    ) -> Option<Result<Leakage, String>> {
+        if s.w2_rpm.is_nan() {
+            return Some(Err("standstill `w2_rpm` = NaN: the dpm circuit's standstill needs \
+                 motor 2's mean speed (a record's column `w2_rpm`)"
+                .to_string()));
+        }
+        Some(Dpm::standstill_leakage(self, rig, s, c12))
+    }
+}
+
+impl super::EmulatedForm for Dpm {
+    emulated_form_calls!(Dpm, order);
+    fn rest_with_commands(&self) -> (Vec<f64>, [f64; 2]) {
+        self.rest_state(true)
+    }
+    fn commands(&self, rig: &Rig, r_mm: f64, x_mm: f64, p_bar: &[f64]) -> [f64; 2] {
+        self.plc_commands(rig, r_mm, x_mm, p_bar)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

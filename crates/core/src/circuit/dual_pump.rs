@@ -424,6 +424,106 @@ impl Circuit for DualPump {
     }
 }
 
+/// The dual-pump circuit as the list of circuits knows it (docs/architecture.md#circuits).
+pub struct Module;
+
+impl super::Module for Module {
+    const DESCRIPTION: super::Description = super::Description {
+        name: "dual-pump",
+        fmu_words: "single-motor dual-pump (circuit dual-pump, the article's Figure 1b)",
+        controller_words: "with the article's position controller on its one motor",
+        drives: 1,
+        pumps: 2,
+        variants: &[super::Variant {
+            level: super::PressureLevel::Precharge,
+            name: "dual-pump",
+            key: "dual_pump",
+        }],
+        sum_pressure_loop: false,
+        level: super::Level::ACCUMULATOR,
+        valves: Some("anti-cavitation check valves and relief valves"),
+        own_keys: &[
+            "pump_inertia_2_kg_mm2",
+            "displacement_2_cm3_per_rev",
+            "accumulator_precharge_bar",
+            "relief_setting_bar",
+            "cylinder_rated_pressure_bar",
+        ],
+        no_modes: Some(NO_MODES),
+    };
+    type Linear = DualPump;
+    type Emulated = DualPump;
+
+    fn linear_modes(rig: &Rig) -> Vec<DualPump> {
+        vec![DualPump::new(rig).expect("Rig::validate refuses a dual-pump rig with no rest")]
+    }
+
+    fn emulated(rig: &Rig, effects: Effects) -> Result<DualPump, String> {
+        DualPump::emulated(rig, effects).map_err(|e| e.to_string())
+    }
+
+    fn validate_rest(rig: &Rig) -> Result<(), (&'static str, f64, String)> {
+        rig.validate_dual_pump_rest()
+    }
+
+    /// The accumulator's pre-charge (docs/circuits.md).
+    fn pressure_level_bar(rig: &Rig) -> f64 {
+        rig.accumulator_precharge_bar
+    }
+
+    fn one_motor_rest(rig: &Rig) -> Result<([f64; 2], f64), String> {
+        let c = DualPump::new(rig).map_err(|e| e.to_string())?;
+        Ok(super::description::one_motor_rest_of(&c))
+    }
+
+    /// Both pumps: they share the one motor.
+    fn relief_displacement_m3_per_rad(rig: &Rig) -> f64 {
+        let d = rig.si().d;
+        d[0] + d[1]
+    }
+
+    /// From its anti-cavitation check valves' cracking below the accumulator
+    /// ([`super::valves::Valve::ANTI_CAVITATION`]) to its relief valves' setting above it.
+    fn pressure_band_bar(rig: &Rig) -> [(f64, &'static str); 2] {
+        let p_acc = rig.accumulator_precharge_bar;
+        super::valves::band_up_to_relief(
+            rig,
+            p_acc - super::valves::Valve::ANTI_CAVITATION.crack_pa / PA_PER_BAR,
+            "its anti-cavitation check valve's cracking",
+        )
+    }
+}
+
+impl super::LinearForm for DualPump {
+    fn law(&self, _sum_pressure: bool) -> ControlLaw {
+        self.control_law()
+    }
+    fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
+        [self.load_torque_nm(p_pa), 0.0]
+    }
+    fn describe(&self) -> String {
+        <Module as super::Module>::DESCRIPTION.name.to_string()
+    }
+    fn standstill_leakage(
+        &self,
+        rig: &Rig,
+        s: &super::dpm::Standstill,
+        c12: f64,
+    ) -> Option<Result<super::dpm::Leakage, String>> {
+        Some(DualPump::standstill_leakage(self, rig, s, c12))
+    }
+    fn standstill_valves_shut(&self, p_pa: [f64; 2]) -> Result<(), String> {
+        self.valves_shut_at(p_pa)
+    }
+    fn valve_open_at_rest(&self) -> Option<(usize, f64, f64, f64)> {
+        DualPump::valve_open_at_rest(self)
+    }
+}
+
+impl super::EmulatedForm for DualPump {
+    emulated_form_calls!(DualPump, n_states, one_motor);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

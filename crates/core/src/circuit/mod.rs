@@ -73,23 +73,76 @@ macro_rules! cylinder_calls {
     };
 }
 
+/// The [`EmulatedForm`] calls every circuit answers from [`cylinder_calls`]' inherent
+/// methods; `order` is the circuit's number of states. For a one-motor circuit
+/// (`one_motor`), also its rest (its operating point, the command of its one drive) and its
+/// PLC law ω_ref = K_scale Kp (x_ref − x) with 0 for the drive it does not have.
+macro_rules! emulated_form_calls {
+    ($circuit:ty, $order:ident) => {
+        fn order(&self) -> usize {
+            self.$order()
+        }
+        fn set_force_n(&mut self, f_n: f64) {
+            self.set_external_force_n(f_n);
+        }
+        fn end_stops(&self) -> Option<Stops> {
+            self.stops()
+        }
+        fn free(&self) -> $circuit {
+            self.without_limits()
+        }
+        fn beta_at_pa(&self, p_gauge: f64) -> f64 {
+            self.beta_pa(p_gauge)
+        }
+    };
+    ($circuit:ty, $order:ident, one_motor) => {
+        emulated_form_calls!($circuit, $order);
+        fn rest_with_commands(&self) -> (Vec<f64>, [f64; 2]) {
+            let op = self.operating_point();
+            (op.state, [op.inputs[0], 0.0])
+        }
+        fn commands(&self, _rig: &Rig, r_mm: f64, x_mm: f64, _p_bar: &[f64]) -> [f64; 2] {
+            let e = (r_mm - x_mm) * 1e-3;
+            [self.position_gain() * e, 0.0]
+        }
+    };
+}
+
+#[macro_use]
+mod description;
 mod any;
-pub mod dpm;
-pub mod dual_pump;
 pub mod emulated;
 pub mod parts;
-pub mod single_pump;
 pub mod stops;
 pub mod valves;
 
-pub use any::{mode_switching, pressure_level_bar, require, require_dpm, AnyCircuit};
+pub use any::{mode_switching, pressure_level_bar, require, require_dpm};
+pub use description::{
+    Description, EmulatedForm, Level, LinearForm, Module, PressureLevel, Variant,
+};
 pub use dpm::Dpm;
-pub use emulated::Emulated;
 pub use parts::Effects;
 
+use crate::rig::Rig;
 use nalgebra::DMatrix;
 use num_dual::{Dual64, DualNum};
 use serde::{Deserialize, Serialize};
+use single_pump::modes::Switching;
+use stops::Stops;
+
+// The list of circuits: the one place that names them all (docs/architecture.md#circuits).
+circuits! {
+    /// The dual-prime-mover circuit of the article (§2.1, Figure 3): two motors, two pumps.
+    Dpm: dpm,
+    /// One motor turning two pumps on one shaft (the article's Figure 1b).
+    DualPump: dual_pump,
+    /// One motor, one pump between the chambers, pilot-operated check valves to the
+    /// accumulator (the article's Figure 1a).
+    SinglePump: single_pump,
+}
+
+/// The article's circuit (§2.1, Figure 3), the default rig's.
+pub const ARTICLE: CircuitKind = CircuitKind::Dpm;
 
 /// The scalar a circuit's equations are written over: `f64` when the emulator integrates
 /// them, a dual number when [`linearise`] differentiates them.
@@ -97,35 +150,17 @@ pub trait Scalar: DualNum<Primitive = f64> + Copy {}
 
 impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
 
-/// Which hydraulic circuit a rig is (the rig key `circuit`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum CircuitKind {
-    /// The dual-prime-mover circuit of the article (§2.1, Figure 3): two motors, two pumps.
-    #[default]
-    Dpm,
-    /// One motor turning two pumps on one shaft (the article's Figure 1b).
-    DualPump,
-    /// One motor, one pump between the chambers, pilot-operated check valves to the
-    /// accumulator (the article's Figure 1a).
-    SinglePump,
+impl Default for CircuitKind {
+    /// The article's circuit ([`ARTICLE`]).
+    fn default() -> CircuitKind {
+        ARTICLE
+    }
 }
 
 impl CircuitKind {
-    /// Every circuit pumpcyl models.
-    pub const ALL: [CircuitKind; 3] = [
-        CircuitKind::Dpm,
-        CircuitKind::DualPump,
-        CircuitKind::SinglePump,
-    ];
-
     /// The name used in rig files and every output (`circuit = "dpm"`).
     pub fn name(self) -> &'static str {
-        match self {
-            CircuitKind::Dpm => "dpm",
-            CircuitKind::DualPump => "dual-pump",
-            CircuitKind::SinglePump => "single-pump",
-        }
+        self.description().name
     }
 
     /// The controller's loops closed in the simulated loop, in words: the DPM's sum-pressure
@@ -143,10 +178,7 @@ impl CircuitKind {
     /// §2.3.3): the one-motor circuits' pressure level is their accumulator's
     /// (docs/circuits.md), whatever the rig's `sum_pressure` says.
     pub fn has_sum_pressure_loop(self) -> bool {
-        match self {
-            CircuitKind::Dpm => true,
-            CircuitKind::DualPump | CircuitKind::SinglePump => false,
-        }
+        self.description().sum_pressure_loop
     }
 
     /// The circuit of a name used in rig files, if any.

@@ -333,3 +333,111 @@ impl Circuit for SinglePump {
         }
     }
 }
+
+/// The single-pump circuit as the list of circuits knows it (docs/architecture.md#circuits):
+/// its linear models are its two modes ([`modes::Mode`]), its emulated form [`SinglePump`].
+pub struct Module;
+
+impl super::Module for Module {
+    const DESCRIPTION: super::Description = super::Description {
+        name: "single-pump",
+        fmu_words: "single-pump (circuit single-pump, the article's Figure 1a)",
+        controller_words: "with the article's position controller on its one motor",
+        drives: 1,
+        pumps: 1,
+        variants: &[super::Variant {
+            level: super::PressureLevel::Precharge,
+            name: "single-pump",
+            key: "single_pump",
+        }],
+        sum_pressure_loop: false,
+        level: super::Level::ACCUMULATOR,
+        valves: Some("pilot-operated check valves and relief valves"),
+        own_keys: &[
+            "accumulator_precharge_bar",
+            "relief_setting_bar",
+            "cylinder_rated_pressure_bar",
+            "pilot_ratio",
+            "check_valve_crack_bar",
+        ],
+        no_modes: None,
+    };
+    type Linear = modes::Mode;
+    type Emulated = SinglePump;
+
+    /// The mode at rest, then the other (docs/circuits.md#its-two-modes).
+    fn linear_modes(rig: &Rig) -> Vec<modes::Mode> {
+        let rest = modes::switching(rig).mode_at_rest;
+        [3 - rest, rest]
+            .map(|chamber| modes::Mode::new(rig, chamber))
+            .to_vec()
+    }
+
+    fn emulated(rig: &Rig, effects: Effects) -> Result<SinglePump, String> {
+        Ok(SinglePump::emulated(rig, effects))
+    }
+
+    /// The full circuit's rest, with the valve of the mode at rest open.
+    fn one_motor_rest(rig: &Rig) -> Result<([f64; 2], f64), String> {
+        Ok(super::description::one_motor_rest_of(&SinglePump::new(rig)))
+    }
+
+    fn mode_switching(rig: &Rig) -> Result<modes::Switching, &'static str> {
+        Ok(modes::switching(rig))
+    }
+
+    /// The accumulator's pre-charge (docs/circuits.md).
+    fn pressure_level_bar(rig: &Rig) -> f64 {
+        rig.accumulator_precharge_bar
+    }
+
+    /// Its compressible chamber (the other one is held at the accumulator): from where its
+    /// pilot lets the open check valve shut ([`PilotCheck::shut_below_pa`], the mode
+    /// switches) to the relief valves' setting.
+    fn pressure_band_bar(rig: &Rig) -> [(f64, &'static str); 2] {
+        super::valves::band_up_to_relief(
+            rig,
+            rig.accumulator_precharge_bar + rig.check_valve_crack_bar / rig.pilot_ratio,
+            "the pressure below which it lets the open pilot-operated check valve shut (the mode switches)",
+        )
+    }
+}
+
+impl super::LinearForm for modes::Mode {
+    fn law(&self, _sum_pressure: bool) -> ControlLaw {
+        self.control_law()
+    }
+    fn load_torques_nm(&self, p_pa: [f64; 2]) -> [f64; 2] {
+        [self.load_torque_nm(p_pa), 0.0]
+    }
+    /// `single-pump, mode M (chamber K at the accumulator pressure), the mode at rest` (`the
+    /// other mode` for the mode the rig does not rest in).
+    fn describe(&self) -> String {
+        format!(
+            "single-pump, mode {} (chamber {} at the accumulator pressure), {}",
+            self.number(),
+            self.accumulator_chamber(),
+            if self.at_rest() {
+                "the mode at rest"
+            } else {
+                "the other mode"
+            }
+        )
+    }
+    fn mode(&self) -> Option<usize> {
+        Some(self.number())
+    }
+    fn single_pump_mode(&self) -> Option<&modes::Mode> {
+        Some(self)
+    }
+}
+
+impl super::EmulatedForm for SinglePump {
+    emulated_form_calls!(SinglePump, n_states, one_motor);
+    fn mode_at(&self, s: &[f64]) -> Option<usize> {
+        Some(modes::recorded_mode(self, s))
+    }
+    fn as_single_pump(&self) -> Option<&SinglePump> {
+        Some(self)
+    }
+}

@@ -175,9 +175,8 @@ impl PilotCheck {
 /// ```
 pub fn relief_warning(rig: &crate::rig::Rig) -> Option<String> {
     use crate::units::PA_PER_BAR;
-    if rig.circuit == super::CircuitKind::Dpm {
-        return None;
-    }
+    // a circuit without valves has no relief setting to warn of
+    rig.circuit.description().valves?;
     let setting_bar = rig.relief_setting_pa(rig.circuit) / PA_PER_BAR;
     let highest_bar = rig.accumulator_precharge_bar + setting_bar;
     if highest_bar <= rig.cylinder_rated_pressure_bar {
@@ -207,21 +206,19 @@ pub fn relief_warning(rig: &crate::rig::Rig) -> Option<String> {
 /// pilot lets the open check valve shut ([`PilotCheck::shut_below_pa`], the mode switches) to
 /// the relief valves' setting. Each edge at least the cavitation floor.
 pub fn pressure_band_bar(rig: &crate::rig::Rig) -> [(f64, &'static str); 2] {
+    rig.circuit.pressure_band_bar(rig)
+}
+
+/// A band from `low` (bar gauge, with what sets it) to the relief valves' setting above the
+/// accumulator, the low edge at least the cavitation floor ([`pressure_band_bar`]).
+pub(crate) fn band_up_to_relief(
+    rig: &crate::rig::Rig,
+    low: f64,
+    why: &'static str,
+) -> [(f64, &'static str); 2] {
     use crate::cavitation::VAPOUR_PRESSURE_BAR_GAUGE as FLOOR;
     use crate::units::PA_PER_BAR;
-    let p_acc = rig.accumulator_precharge_bar;
-    let relief = p_acc + rig.relief_setting_pa(rig.circuit) / PA_PER_BAR;
-    let (low, why) = match rig.circuit {
-        super::CircuitKind::Dpm => return [(FLOOR, "the cavitation floor"), (f64::INFINITY, "")],
-        super::CircuitKind::DualPump => (
-            p_acc - Valve::ANTI_CAVITATION.crack_pa / PA_PER_BAR,
-            "its anti-cavitation check valve's cracking",
-        ),
-        super::CircuitKind::SinglePump => (
-            p_acc + rig.check_valve_crack_bar / rig.pilot_ratio,
-            "the pressure below which it lets the open pilot-operated check valve shut (the mode switches)",
-        ),
-    };
+    let relief = rig.accumulator_precharge_bar + rig.relief_setting_pa(rig.circuit) / PA_PER_BAR;
     [
         (low.max(FLOOR), why),
         (relief, "its relief valve's setting"),

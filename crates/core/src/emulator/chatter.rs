@@ -70,9 +70,9 @@ impl Prediction {
     }
 }
 
-/// Refuse a rig that is not a single-pump circuit.
+/// Refuse a rig of a circuit without modes to switch between.
 fn require_single_pump(rig: &Rig) -> Result<(), EmulatorError> {
-    crate::circuit::require(rig, "the chatter prediction", &[CircuitKind::SinglePump])
+    crate::circuit::require(rig, "the chatter prediction", CircuitKind::has_modes)
         .map_err(EmulatorError)
 }
 

@@ -330,10 +330,7 @@ impl DriveStep {
         effects: Effects,
         plc: &Plc,
     ) -> Result<DriveSignals, EmulatorError> {
-        let drives = match rig.circuit {
-            crate::circuit::CircuitKind::Dpm => 2,
-            _ => 1,
-        };
+        let drives = rig.circuit.description().drives;
         if !(1..=drives).contains(&self.motor) {
             return Err(EmulatorError(format!(
                 "drive {} does not exist on the {} circuit: {}",

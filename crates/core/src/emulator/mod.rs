@@ -57,7 +57,7 @@ impl From<&str> for EmulatorError {
         EmulatorError(message.to_string())
     }
 }
-use crate::circuit::{Circuit, CircuitKind, Emulated, Role};
+use crate::circuit::{Circuit, Emulated, Role};
 use crate::rig::{MotorModel, Rig};
 use crate::units::PA_PER_BAR;
 
@@ -89,10 +89,8 @@ impl Effects {
         let p_mean = beta_anchor_bar(rig)?;
         if p_mean.is_nan() || p_mean <= 0.0 {
             // the DPM's message as it always was; a single-motor circuit's names its pre-charge
-            let (what, raise) = match rig.circuit {
-                CircuitKind::Dpm => ("the rig's mean chamber pressure at rest", "p_sum_ref_bar"),
-                _ => ("the accumulator pre-charge", "accumulator_precharge_bar"),
-            };
+            let level = rig.circuit.description().level;
+            let (what, raise) = (level.words, level.key);
             return Err(EmulatorError(format!(
                 "{what} is {p_mean:.3} bar gauge: the emulator's bulk modulus (the constant \
                  gas-fraction model, docs/bulk-modulus.md) needs it above 0 bar; raise {raise}"
@@ -122,11 +120,10 @@ impl Effects {
 /// # Errors
 /// A DPM loop that cannot rest at x0, or whose rest needs cavitation.
 pub fn beta_anchor_bar(rig: &Rig) -> Result<f64, EmulatorError> {
-    match rig.circuit {
-        CircuitKind::Dpm => rest_mean_pressure_bar(rig),
-        CircuitKind::DualPump | CircuitKind::SinglePump => {
-            Ok(crate::circuit::pressure_level_bar(rig))
-        }
+    if rig.circuit.description().level.at_emulated_rest {
+        rest_mean_pressure_bar(rig)
+    } else {
+        Ok(crate::circuit::pressure_level_bar(rig))
     }
 }
 

@@ -80,14 +80,12 @@ impl Standstill {
     /// before any fit, so that the reason is said rather than every candidate failing.
     pub fn validate_for(&self, rig: &Rig) -> Result<(), IdentError> {
         self.validate()?;
-        if rig.circuit != crate::circuit::CircuitKind::DualPump {
-            return Ok(());
-        }
-        let Ok(c) = crate::circuit::dual_pump::DualPump::new(rig) else {
+        if rig.circuit.validate_rest(rig).is_err() {
             return Ok(()); // the rig's own checks name an undetermined rest
-        };
+        }
         let p_bar = [self.p1_bar, rig.p2_at_rest_bar(self.p1_bar)];
-        (c.valves_shut_at(p_bar.map(|p| p * crate::units::PA_PER_BAR)))
+        (crate::circuit::AnyCircuit::linear(rig))
+            .standstill_valves_shut(p_bar.map(|p| p * crate::units::PA_PER_BAR))
             .map_err(|e| IdentError::Input(format!("standstill p1_bar = {}: {e}", self.p1_bar)))
     }
 
@@ -96,23 +94,20 @@ impl Standstill {
     /// Newton's force balance at rest, p1 A1 − p2 A2 = F_ext (the sign convention of docs/model.md#newton).
     pub fn leakage(&self, rig: &Rig, c12: f64) -> Result<Leakage, IdentError> {
         self.validate()?;
-        use crate::circuit::{dual_pump::DualPump, CircuitKind};
-        crate::circuit::require(
-            rig,
-            "leakage from standstill",
-            &[CircuitKind::Dpm, CircuitKind::DualPump],
-        )
-        .map_err(IdentError::Input)?;
-        match rig.circuit {
-            CircuitKind::DualPump => DualPump::new(rig)
-                .map_err(|e| e.to_string())
-                .and_then(|c| c.standstill_leakage(rig, self, c12)),
-            _ if self.w2_rpm.is_nan() => Err("standstill `w2_rpm` = NaN: the dpm circuit's \
-                 standstill needs motor 2's mean speed (a record's column `w2_rpm`)"
-                .to_string()),
-            _ => crate::circuit::Dpm::linear(rig).standstill_leakage(rig, self, c12),
-        }
-        .map_err(IdentError::Input)
+        (rig.circuit.validate_rest(rig))
+            .map_err(|(key, value, rule)| IdentError::Input(format!("{key} = {value}: {rule}")))?;
+        (crate::circuit::AnyCircuit::linear(rig))
+            .standstill_leakage(rig, self, c12)
+            .unwrap_or_else(|| {
+                Err(format!(
+                    "circuit = \"{}\": leakage from standstill models the circuits whose \
+                     standstill fixes c1 and c2 only (dpm and dual-pump) so far; margins, \
+                     poles, bode and model analyse every circuit \
+                     (docs/circuits.md#what-works-on-which-circuit)",
+                    rig.circuit.name()
+                ))
+            })
+            .map_err(IdentError::Input)
     }
 }
 

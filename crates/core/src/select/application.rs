@@ -313,7 +313,7 @@ impl Application {
         let article_rig = self.rig_from == RigFrom::Article;
         let follows = self.follows_rig;
         if follows.circuits {
-            self.circuits = circuits::allowed_circuits(&self.rig).to_vec();
+            self.circuits = circuits::allowed_circuits(&self.rig);
         }
         if follows.mass_kg {
             self.mass_kg = if article_rig && self.rig.mass_kg == Rig::default().mass_kg {
@@ -594,15 +594,15 @@ impl Application {
             .collect()
     }
 
-    /// The candidate circuits of the circuits asked for, in [`Circuit::ALL`]'s order.
+    /// The candidate circuits of the circuits asked for, in [`Circuit::all`]'s order.
     fn circuits_asked(&self) -> impl Iterator<Item = Circuit> + '_ {
-        Circuit::ALL
+        Circuit::all()
             .into_iter()
             .filter(|c| self.circuits.contains(&c.kind))
     }
 
     /// The keys that list the pressure levels of the circuits asked for, joined by " / " (each
-    /// once, in [`Circuit::ALL`]'s order).
+    /// once, in [`Circuit::all`]'s order).
     fn levels_keys(&self) -> String {
         let mut keys: Vec<&str> = Vec::new();
         for k in self.circuits_asked().map(Circuit::levels_key) {

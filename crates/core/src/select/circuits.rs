@@ -7,7 +7,7 @@
 use super::{Requirement, StandingLoss, WaveRequirement, RISE_STEP_MM, RISE_WINDOW_S};
 use crate::circuit::single_pump::modes::{switching, Mode, StepCheck};
 use crate::circuit::single_pump::SinglePump;
-use crate::circuit::{CircuitKind, Role};
+use crate::circuit::CircuitKind;
 use crate::design::{Targets, GM_TOLERANCE_DB, PM_TOLERANCE_DEG};
 use crate::emulator::chatter::{self, ModeRun};
 use crate::emulator::Effects;
@@ -18,23 +18,13 @@ use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 use std::f64::consts::PI;
 
-/// How a candidate's pressure level is set.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PressureLevel {
-    /// The DPM's mean chamber pressure at the article's low levels (its 1 to 10 bar), half the
-    /// sum-pressure set-point.
-    LowPressure,
-    /// The DPM's mean chamber pressure raised to tens of bar (the pressurised dual-prime-mover
-    /// circuit of the article's references 5 and 10).
-    Pressurised,
-    /// The accumulator's pre-charge `accumulator_precharge_bar` of a one-motor circuit.
-    Precharge,
-}
+pub use crate::circuit::{PressureLevel, Variant};
 
-/// A candidate's circuit: which circuit and how its pressure level is set. In JSON its keys
-/// `circuit` (`low_pressure`, `pressurised`, `dual_pump`, `single_pump`), `circuit_kind` (the
-/// rig key's name: `dpm`, `dual-pump`, `single-pump`) and `pressure_level`.
+/// A candidate's circuit: which circuit and how its pressure level is set, one of the
+/// circuit's variants ([`crate::circuit::Description::variants`]). In JSON its keys `circuit`
+/// (the variant's key: `low_pressure`, `pressurised`, `dual_pump`, `single_pump`),
+/// `circuit_kind` (the rig key's name: `dpm`, `dual-pump`, `single-pump`) and
+/// `pressure_level`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Circuit {
     /// The circuit.
@@ -46,58 +36,48 @@ pub struct Circuit {
 impl Circuit {
     /// The article's low-pressure DPM: an accumulator's pre-charge sets the mean pressure.
     pub const LOW_PRESSURE: Circuit = Circuit {
-        kind: CircuitKind::Dpm,
+        kind: crate::circuit::ARTICLE,
         level: PressureLevel::LowPressure,
     };
-    /// The pressurised DPM: the sum-pressure set-point raised to tens of bar.
-    pub const PRESSURISED: Circuit = Circuit {
-        kind: CircuitKind::Dpm,
-        level: PressureLevel::Pressurised,
-    };
-    /// The dual-pump circuit (Figure 1b) at a pre-charge.
-    pub const DUAL_PUMP: Circuit = Circuit {
-        kind: CircuitKind::DualPump,
-        level: PressureLevel::Precharge,
-    };
-    /// The single-pump circuit (Figure 1a) at a pre-charge.
-    pub const SINGLE_PUMP: Circuit = Circuit {
-        kind: CircuitKind::SinglePump,
-        level: PressureLevel::Precharge,
-    };
-    /// Every candidate circuit, in the order a selection lists them.
-    pub const ALL: [Circuit; 4] = [
-        Circuit::LOW_PRESSURE,
-        Circuit::PRESSURISED,
-        Circuit::DUAL_PUMP,
-        Circuit::SINGLE_PUMP,
-    ];
+
+    /// Every candidate circuit, in the order a selection lists them: each circuit's variants
+    /// in the order of the list of circuits.
+    pub fn all() -> Vec<Circuit> {
+        (CircuitKind::ALL.into_iter())
+            .flat_map(|kind| {
+                (kind.description().variants.iter()).map(move |v| Circuit {
+                    kind,
+                    level: v.level,
+                })
+            })
+            .collect()
+    }
+
+    /// The candidate circuit of the variant named `name` (`low-pressure`, `single-pump`, …).
+    pub fn named(name: &str) -> Option<Circuit> {
+        Circuit::all().into_iter().find(|c| c.name() == name)
+    }
+
+    /// The circuit's variant of this pressure level.
+    fn variant(self) -> &'static Variant {
+        (self.kind.description().variants.iter())
+            .find(|v| v.level == self.level)
+            .expect("a candidate circuit is one of its circuit's variants")
+    }
 
     /// The circuit in words: `low-pressure`, `pressurised`, `dual-pump`, `single-pump`.
     pub fn name(self) -> &'static str {
-        match self.level {
-            PressureLevel::LowPressure => "low-pressure",
-            PressureLevel::Pressurised => "pressurised",
-            PressureLevel::Precharge => self.kind.name(),
-        }
+        self.variant().name
     }
 
     /// The JSON `circuit`: `low_pressure`, `pressurised`, `dual_pump`, `single_pump`.
     pub fn key(self) -> &'static str {
-        match (self.level, self.kind) {
-            (PressureLevel::LowPressure, _) => "low_pressure",
-            (PressureLevel::Pressurised, _) => "pressurised",
-            (_, CircuitKind::SinglePump) => "single_pump",
-            _ => "dual_pump",
-        }
+        self.variant().key
     }
 
     /// The application key that lists its levels.
     pub fn levels_key(self) -> &'static str {
-        match self.level {
-            PressureLevel::LowPressure => "low_pressure_bar",
-            PressureLevel::Pressurised => "pressurised_bar",
-            PressureLevel::Precharge => "precharge_bar",
-        }
+        self.level.levels_key()
     }
 
     /// The rig of this circuit at the pressure level `p_bar` with the bulk modulus `beta_bar`:
@@ -129,17 +109,20 @@ impl Serialize for Circuit {
     }
 }
 
-/// The circuits a rig's components allow (docs/select.md#circuits): a DPM rig has two drives
-/// and two pumps, so it can be built as any of the three (the one-motor circuits use drive 1
-/// and pump 1, the dual-pump circuit pump 2 as well); a dual-pump rig has one drive (its file
-/// may not name a second), so the dual- and single-pump circuits; a single-pump rig has one
-/// pump, so only itself.
-pub fn allowed_circuits(rig: &Rig) -> &'static [CircuitKind] {
-    match rig.circuit {
-        CircuitKind::Dpm => &CircuitKind::ALL,
-        CircuitKind::DualPump => &[CircuitKind::DualPump, CircuitKind::SinglePump],
-        CircuitKind::SinglePump => &[CircuitKind::SinglePump],
-    }
+/// The circuits a rig's components allow (docs/select.md#circuits): those that need no more
+/// drives and pumps than the rig's circuit has ([`crate::circuit::Description`]). A DPM rig
+/// has two drives and two pumps, so it can be built as any of the three (the one-motor
+/// circuits use drive 1 and pump 1, the dual-pump circuit pump 2 as well); a dual-pump rig has
+/// one drive (its file may not name a second), so the dual- and single-pump circuits; a
+/// single-pump rig has one pump, so only itself.
+pub fn allowed_circuits(rig: &Rig) -> Vec<CircuitKind> {
+    let has = rig.circuit.description();
+    (CircuitKind::ALL.into_iter())
+        .filter(|k| {
+            let needs = k.description();
+            needs.drives <= has.drives && needs.pumps <= has.pumps
+        })
+        .collect()
 }
 
 /// Why `kind` cannot be built from the components of `rig`, if it cannot.
@@ -147,10 +130,20 @@ pub fn not_allowed(rig: &Rig, kind: CircuitKind) -> Option<String> {
     if allowed_circuits(rig).contains(&kind) {
         return None;
     }
-    let missing = match rig.circuit {
-        CircuitKind::SinglePump => "one drive and one pump",
-        _ => "one drive",
+    let has = rig.circuit.description();
+    let count = |n: usize, what: &str| {
+        let words = ["no", "one", "two", "three"];
+        let plural = if n == 1 { "" } else { "s" };
+        format!(
+            "{} {what}{plural}",
+            words.get(n).copied().unwrap_or("several")
+        )
     };
+    let missing = format!(
+        "{} and {}",
+        count(has.drives, "drive"),
+        count(has.pumps, "pump")
+    );
     Some(format!(
         "\"{}\": the rig is a {} circuit, with {missing}: it allows {} (docs/select.md#circuits)",
         kind.name(),
@@ -573,31 +566,14 @@ fn mode_margins_break(
 /// # Errors
 /// The dual-pump circuit's rest is undetermined.
 pub fn one_motor_standing(r: &Rig) -> Result<StandingLoss, String> {
-    let (p_pa, w, torque) = match r.circuit {
-        CircuitKind::DualPump => {
-            let c = crate::circuit::dual_pump::DualPump::new(r).map_err(|e| e.to_string())?;
-            let (p, w) = rest(&c);
-            (p, w, c.load_torque_nm(p))
-        }
-        _ => {
-            let (p, w) = rest(&SinglePump::new(r));
-            (p, w, r.si().d[0] * (p[0] - p[1]))
-        }
-    };
+    let (p_pa, w) = r.circuit.one_motor_rest(r)?;
+    let torque = crate::circuit::AnyCircuit::linear(r).load_torques_nm(p_pa)[0];
     Ok(StandingLoss {
         p_bar: p_pa.map(|p| p / PA_PER_BAR),
         power_w: torque * w,
         speed_rpm: [w * 60.0 / (2.0 * PI), 0.0],
         torque_nm: [torque, 0.0],
     })
-}
-
-/// The chamber pressures (Pa) and the shaft speed (rad/s) of a one-motor circuit at rest.
-fn rest<C: crate::circuit::Circuit>(c: &C) -> ([f64; 2], f64) {
-    let op = c.operating_point();
-    let p = c.states_of(Role::Pressure);
-    let w = c.state_of(Role::MotorSpeed).expect("a circuit has a shaft");
-    ([op.state[p[0]], op.state[p[1]]], op.state[w])
 }
 
 /// The single-pump rig's responses in the mode at rest, which its linear model is
@@ -635,7 +611,7 @@ mod tests {
 
     #[test]
     fn a_circuit_names_itself_three_ways_in_json() {
-        let v = serde_json::to_value(Circuit::SINGLE_PUMP).unwrap();
+        let v = serde_json::to_value(Circuit::named("single-pump").unwrap()).unwrap();
         let want = serde_json::json!({
             "circuit": "single_pump",
             "circuit_kind": "single-pump",
@@ -645,7 +621,7 @@ mod tests {
         let v = serde_json::to_value(Circuit::LOW_PRESSURE).unwrap();
         assert_eq!(v["circuit"], "low_pressure");
         assert_eq!(v["circuit_kind"], "dpm");
-        let names: Vec<&str> = Circuit::ALL.iter().map(|c| c.name()).collect();
+        let names: Vec<&str> = Circuit::all().iter().map(|c| c.name()).collect();
         assert_eq!(
             names,
             ["low-pressure", "pressurised", "dual-pump", "single-pump"]

@@ -443,7 +443,7 @@ pub fn case_work(req: &Requirement, levels: &[(Circuit, f64)]) -> f64 {
 /// a candidate whose margins fail is not checked at all.
 pub fn mode_check_work(req: &Requirement, levels: &[(Circuit, f64)], check: &dyn ModeCheck) -> f64 {
     let mut p: Vec<f64> = (levels.iter())
-        .filter(|(c, _)| c.kind == CircuitKind::SinglePump)
+        .filter(|(c, _)| c.kind.has_modes())
         .map(|&(_, p)| p)
         .collect();
     if p.is_empty() {
@@ -624,7 +624,7 @@ fn candidate(
         out.rise_time_s = Some(band.rise_time_s);
         out.rest_offset_mm = Some(band.rest_offset_mm);
     }
-    if circuit.kind == CircuitKind::SinglePump && kp_max > 0.0 {
+    if circuit.kind.has_modes() && kp_max > 0.0 {
         let with_kp = [&reference, &stiff, &soft].map(|r| Rig {
             kp: kp_max,
             ..r.clone()
@@ -871,7 +871,7 @@ fn response_band(req: &Requirement, ends: &[&Rig], kp: f64) -> Result<Band, Desi
 /// reaches 90 %) of `r`: simulated (docs/simulation.md), or for the single-pump circuit from
 /// its mode at rest's linear model ([`circuits::mode_at_rest_responses`]).
 fn responses(r: &Rig, waves: &[(f64, f64)]) -> Result<(Vec<f64>, f64), DesignError> {
-    if r.circuit == CircuitKind::SinglePump {
+    if r.circuit.has_modes() {
         return Ok(circuits::mode_at_rest_responses(r, waves)?);
     }
     let at = design::predicted_tracking(r, waves)?;

@@ -22,7 +22,7 @@ pub(super) fn which_circuit(
 ) -> Result<WhichCircuit> {
     run.step("Which circuit (the article §4): was the article's low-pressure circuit a certain choice? (docs/select.md)");
     // the article's question is the DPM's: low-pressure or pressurised (docs/select.md)
-    let app = Application::default().with_circuits(&[pumpcyl::circuit::CircuitKind::Dpm])?;
+    let app = Application::default().with_circuits(&[pumpcyl::circuit::ARTICLE])?;
     let stated = app.select(None)?;
     let article = select(
         &app.rig,

@@ -17,7 +17,7 @@ use crate::format::fmt_opt;
 use crate::plot::{LineStyle, Panel};
 use anyhow::{anyhow, Context, Result};
 use pumpcyl::circuit::single_pump::modes::{linear_models, switching};
-use pumpcyl::circuit::CircuitKind;
+use pumpcyl::circuit::Level;
 use pumpcyl::emulator::article::{sine_periods, SINE_START_S};
 use pumpcyl::emulator::chatter::{self, ModeRun, ARTICLE_SINES};
 use pumpcyl::emulator::{Effects, Experiment, Plc, PLC_RATE_HZ};
@@ -227,7 +227,7 @@ fn wave(rig: &Rig, (freq_hz, amplitude_mm): (f64, f64)) -> Result<Wave> {
 /// The margins of `rig`'s analysed loop, and per mode for the single pump.
 fn margins(rig: &Rig) -> Result<(Margins, Vec<ModeMargins>)> {
     let m = lti::margins(&Plant::new(rig).open_loop(false))?;
-    if rig.circuit != CircuitKind::SinglePump {
+    if rig.circuit.description().no_modes.is_some() {
         return Ok((m, Vec::new()));
     }
     let modes = (linear_models(rig)?.iter())
@@ -257,7 +257,7 @@ fn run_circuit(base: &Rig, label: &str, set: &[String]) -> Result<(CircuitRun, S
         label: label.to_string(),
         circuit: rig.circuit.name().to_string(),
         set: set.to_vec(),
-        accumulator_precharge_bar: (rig.circuit != CircuitKind::Dpm)
+        accumulator_precharge_bar: (rig.circuit.description().level == Level::ACCUMULATOR)
             .then_some(rig.accumulator_precharge_bar),
         rest_pressures_bar: [s.p1_bar[0], s.p2_bar[0]],
         rest_error_mm: s.e_mm[0],
