@@ -17,7 +17,7 @@ use pumpcyl::ident::{
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::frf as frf_outputs;
 use pumpcyl_present::identification as outputs;
-use pumpcyl_present::uncertainty::{add_uncertainty_json, profile_files, uncertainty_text};
+use pumpcyl_present::uncertainty::{profile_files, uncertainty_text};
 
 #[derive(Debug, Args)]
 pub struct LeakageArgs {
@@ -413,14 +413,12 @@ fn report_identification(
     json_out: bool,
     out: Option<&Path>,
 ) -> Result<String> {
-    let verdicts = outputs::verdicts(&exp.problem, id, uncertainty.map(|(u, _)| u));
-    let mut v = outputs::identification_json(exp, id, seconds)?;
-    if let Some(d) = &verdicts {
-        outputs::add_identifiability_json(&mut v, d);
-    }
-    if let Some((u, s)) = uncertainty {
-        add_uncertainty_json(&mut v, u, *s);
-    }
+    let origin = outputs::Origin::of_experiment(exp);
+    let found = outputs::Found {
+        uncertainty,
+        ..outputs::Found::of_experiment(exp, &origin, id, seconds)
+    };
+    let (v, verdicts) = outputs::identification_report(&found)?;
     if let Some(dir) = out {
         let folder = crate::emit::out_dir(dir)?;
         let mut files = outputs::files(exp, id, &v)?;

@@ -91,21 +91,19 @@ pub fn rig_defaults_note() -> Option<String> {
 }
 
 /// The JSON result `text` with `rig_defaulted_keys`, the keys the command's rig file left out,
-/// when it has a `rig` block; any other result as it is.
+/// when it has a `rig` block (`pumpcyl_present::documents::with_rig_defaulted_keys`, as Python
+/// adds them); any other result as it is.
 pub fn with_rig_defaults(text: String) -> String {
     let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
     let Some(defaults) = noted.as_ref() else {
         return text;
     };
-    let Ok(serde_json::Value::Object(mut v)) = serde_json::from_str(&text) else {
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
         return text;
     };
-    if !v.contains_key("rig") {
+    if v.get("rig").is_none() {
         return text;
     }
-    v.insert(
-        "rig_defaulted_keys".into(),
-        serde_json::json!(defaults.keys),
-    );
+    let v = pumpcyl_present::documents::with_rig_defaulted_keys(v, Some(&defaults.keys));
     pumpcyl_present::format::json_document(&v).unwrap_or(text)
 }

@@ -33,7 +33,8 @@ class Rig:
     @staticmethod
     def from_toml_str(text: str, name: str = "<string>") -> Rig:
         """Parse rig TOML text; ``name`` stands for the file in messages. Absent keys as in
-        :meth:`from_toml`, named in a ``UserWarning``."""
+        :meth:`from_toml`, named in a ``UserWarning`` and in the ``rig_defaulted_keys`` of the
+        results of this rig."""
     def replace(self, **overrides: Union[float, bool, str]) -> Rig:
         """A new rig with the overrides applied; this one is unchanged."""
     def to_dict(self) -> Dict[str, Union[float, bool, str]]:
@@ -107,7 +108,11 @@ class Result:
     ``r["beta_bar"]``), a run's signals as numpy arrays (a ``Result`` themselves:
     ``r.signals.x_mm``). ``to_dict()`` is the whole as plain data, equal to ``json.loads`` of
     the command line's document; a ``Result`` equals such a dict. The classes below name the
-    fields of each kind of result (for type checkers; at run time each is a ``Result``)."""
+    fields of each kind of result (for type checkers; at run time each is a ``Result``). A
+    result with a ``rig`` field whose rig was read from a file (:meth:`Rig.from_toml`, an
+    experiment's rig file) also holds ``rig_defaulted_keys``, the keys that file left out (those
+    set since by :meth:`Rig.replace` apart), as the command line's does
+    (docs/formats.md#rig-toml)."""
 
     def __getattr__(self, name: str) -> Any: ...
     def __getitem__(self, key: str) -> Any: ...

@@ -26,6 +26,7 @@ use pumpcyl::record::Record;
 use pumpcyl::response::{self, Baseline, Signals};
 use pumpcyl::rig::{Rig, RigError};
 use pumpcyl::select::SelectError;
+use pumpcyl_present::identification as outputs;
 
 create_exception!(
     pumpcyl,
@@ -242,9 +243,19 @@ fn array2<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
 /// A rig description: the article's rig with overrides, or a TOML file. Immutable; `replace`
 /// returns a new rig. Every TOML key is an attribute, with its unit in its name.
 #[pyclass(module = "pumpcyl._pumpcyl", name = "Rig", frozen, eq)]
-#[derive(Clone, PartialEq)]
+#[derive(Clone)]
 struct PyRig {
     rig: Rig,
+    /// The keys its rig file left out, but those set since (`replace`); `None` for a rig made
+    /// from the article's (docs/formats.md#rig-toml).
+    defaulted: Option<Vec<&'static str>>,
+}
+
+impl PartialEq for PyRig {
+    /// Two rigs are equal when their keys are, wherever they came from.
+    fn eq(&self, other: &PyRig) -> bool {
+        self.rig == other.rig
+    }
 }
 
 fn toml_to_py(py: Python<'_>, v: &toml::Value) -> PyResult<Py<PyAny>> {
@@ -297,7 +308,18 @@ impl PyRig {
             }
             err(e)
         })?;
-        Ok(PyRig { rig })
+        let set: Vec<&str> = (all.iter())
+            .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
+            .collect();
+        let defaulted = (self.defaulted.as_ref())
+            .map(|keys| keys.iter().copied().filter(|k| !set.contains(k)).collect());
+        Ok(PyRig { rig, defaulted })
+    }
+
+    /// This rig's result document `doc` with the keys its file left out
+    /// (`pumpcyl_present::documents::with_rig_defaulted_keys`, as the command line's).
+    fn document(&self, doc: serde_json::Value) -> serde_json::Value {
+        pumpcyl_present::documents::with_rig_defaulted_keys(doc, self.defaulted.as_deref())
     }
 
     /// The rig of `file` (read from `name`), a `UserWarning` naming the keys it leaves out and
@@ -307,7 +329,10 @@ impl PyRig {
             let category = py.get_type::<PyUserWarning>();
             PyErr::warn(py, category.as_any(), &CString::new(note)?, 1)?;
         }
-        Ok(PyRig { rig: file.rig })
+        Ok(PyRig {
+            rig: file.rig,
+            defaulted: Some(file.defaulted),
+        })
     }
 }
 
@@ -330,6 +355,7 @@ impl PyRig {
     fn new(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
         PyRig {
             rig: Rig::default(),
+            defaulted: None,
         }
         .with("Rig", overrides)
     }
@@ -394,6 +420,7 @@ impl PyRig {
     fn __repr__(&self) -> String {
         let default = PyRig {
             rig: Rig::default(),
+            defaulted: None,
         }
         .table();
         let changed: Vec<String> = self
@@ -837,7 +864,7 @@ fn simulate(
     let offset_mm = base.x_ref_mm - base.x_mm;
     base.x_ref_mm = r[0];
     base.x_mm = r[0] - offset_mm;
-    let (name, rig) = (rig.__repr__(), rig.rig.clone());
+    let (name, from, rig) = (rig.__repr__(), rig, rig.rig.clone());
     let (s, over, signals) = py
         .detach(|| {
             let s = response::simulate(&rig, &t, &r, &base)?;
@@ -855,7 +882,7 @@ fn simulate(
         "over_ratings": over,
         "warnings": warnings,
     });
-    PyOutcome::of(py, "Simulation", &doc)?.with_arrays(py, "signals", "Signals")
+    PyOutcome::of(py, "Simulation", &from.document(doc))?.with_arrays(py, "signals", "Signals")
 }
 
 /// Below this step size (mm) `step` warns: a step that small is probably metres given as
@@ -887,7 +914,7 @@ fn step(
         let category = py.get_type::<PyUserWarning>();
         PyErr::warn(py, category.as_any(), &CString::new(message)?, 1)?;
     }
-    let (name, rig) = (rig.__repr__(), rig.rig.clone());
+    let (name, from, rig) = (rig.__repr__(), rig, rig.rig.clone());
     let (s, m) = py
         .detach(|| {
             let s = response::step(&rig, step_mm, duration_s, rate_hz)?;
@@ -915,7 +942,7 @@ fn step(
         rate_hz,
     };
     let doc = pumpcyl_present::documents::step_document(&setup, &runs, &warnings);
-    PyOutcome::of(py, "Step", &doc)?.with_arrays(py, "signals", "Signals")
+    PyOutcome::of(py, "Step", &from.document(doc))?.with_arrays(py, "signals", "Signals")
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1139,7 +1166,7 @@ fn identify(
     }
     let loaded;
     let built;
-    let (problem, id_rig, origin, file_grids, file_opts) = match (experiment, datasets) {
+    let (problem, id_rig, origin, file_grids, file_opts, defaulted) = match (experiment, datasets) {
         (Some(path), None) => {
             if standstill.is_some() || rig.is_some() {
                 return Err(err(
@@ -1166,9 +1193,11 @@ fn identify(
                 origin,
                 loaded.grids(),
                 loaded.options(),
+                loaded.rig_defaulted_keys(),
             )
         }
         (None, Some(sets)) => {
+            let defaulted = rig.and_then(|r| r.defaulted.as_deref());
             let rig_name = rig.map_or_else(|| "the article's rig".into(), PyRig::__repr__);
             let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
             let standstill = standstill_of(standstill.ok_or_else(|| {
@@ -1224,7 +1253,7 @@ fn identify(
                     "first centred on the rig's values; second centred on the first stage's best"
                         .into(),
             };
-            (&built, rig, origin, grids, Options::default())
+            (&built, rig, origin, grids, Options::default(), defaulted)
         }
         (Some(_), Some(_)) => {
             return Err(err(
@@ -1301,14 +1330,16 @@ fn identify(
     } else {
         None
     };
-    let found = Found {
+    let found = outputs::Found {
         problem,
         rig: &id_rig,
         origin: &origin,
         id: &id,
         seconds,
+        uncertainty: analysed.as_ref(),
+        defaulted,
     };
-    Ok(Py::new(py, identification_outcome(py, &found, analysed.as_ref())?)?.into_any())
+    Ok(Py::new(py, identification_outcome(py, &found)?)?.into_any())
 }
 
 /// Shard `label` of the `request` on the grids of the experiment file at `path`: the partial
@@ -1332,16 +1363,6 @@ fn shard_of(
     .map_err(err)
 }
 
-/// An identification and where it came from, for [`identification_outcome`].
-struct Found<'a> {
-    problem: &'a Problem,
-    rig: &'a Rig,
-    origin: &'a pumpcyl_present::identification::Origin,
-    id: &'a ident::Identification,
-    /// The time it took (s).
-    seconds: f64,
-}
-
 /// The profile-likelihood uncertainty of the best candidate of `id` at `confidence`
 /// (docs/identification.md, "Uncertainty"), with the seconds it took, as `identify
 /// --uncertainty` analyses it.
@@ -1359,24 +1380,12 @@ fn uncertainty_of(
     Ok((u, start.elapsed().as_secs_f64()))
 }
 
-/// The document of an identification as a `Result`, as `pumpcyl identify --json` (and
-/// `identify-merge --json`) print it: the answer, the identifiability verdicts and, when
-/// analysed, the `uncertainty` with the seconds it took.
-fn identification_outcome(
-    py: Python<'_>,
-    f: &Found<'_>,
-    uncertainty: Option<&(ident::Uncertainty, f64)>,
-) -> PyResult<PyOutcome> {
-    use pumpcyl_present::identification as outputs;
-    let mut doc = outputs::identification_document(f.problem, f.rig, f.origin, f.id, f.seconds)
+/// The result of an identification ([`pumpcyl_present::identification::identification_report`],
+/// as `pumpcyl identify --json`), its verdicts computed with the GIL released.
+fn identification_outcome(py: Python<'_>, f: &outputs::Found<'_>) -> PyResult<PyOutcome> {
+    let (doc, _) = py
+        .detach(|| outputs::identification_report(f))
         .map_err(err)?;
-    let verdicts = py.detach(|| outputs::verdicts(f.problem, f.id, uncertainty.map(|(u, _)| u)));
-    if let Some(v) = verdicts {
-        outputs::add_identifiability_json(&mut doc, &v);
-    }
-    if let Some((u, seconds)) = uncertainty {
-        pumpcyl_present::uncertainty::add_uncertainty_json(&mut doc, u, *seconds);
-    }
     PyOutcome::of(py, "Identification", &doc)
 }
 
@@ -1462,15 +1471,11 @@ fn identify_merge(py: Python<'_>, shards: Vec<Bound<'_, PyAny>>) -> PyResult<PyO
     let (exp, id, seconds) = py
         .detach(|| ident::shards::merge(&pumpcyl::source_files::Disk, parts))
         .map_err(err)?;
-    let origin = pumpcyl_present::identification::Origin::of_experiment(&exp);
-    let found = Found {
-        problem: &exp.problem,
-        rig: &exp.rig,
-        origin: &origin,
-        id: &id,
-        seconds,
-    };
-    identification_outcome(py, &found, None)
+    let origin = outputs::Origin::of_experiment(&exp);
+    identification_outcome(
+        py,
+        &outputs::Found::of_experiment(&exp, &origin, &id, seconds),
+    )
 }
 
 /// The frequency-domain fit of an experiment (on `first`, else its first grid) with its
@@ -1800,11 +1805,13 @@ fn emulate(
             PyRig {
                 rig: pumpcyl::fmu::default_rig(pumpcyl::fmu::ModelKind::Emulator, effects)
                     .map_err(err)?,
+                defaulted: None,
             },
             "the emulated article rig".to_string(),
         ),
     };
-    let rig = base.with("emulate", overrides)?.rig;
+    let base = base.with("emulate", overrides)?;
+    let rig = base.rig.clone();
     let effects = pumpcyl::emulator::Effects::switched(&rig, effects)
         .map_err(|e| err(format!("{origin}: {e}")))?;
     let request = Request {
@@ -1851,7 +1858,7 @@ fn emulate(
         &warnings,
         end_stop.as_ref(),
     );
-    PyOutcome::of(py, "Emulated", &doc)?.with_arrays(py, "columns", "Columns")
+    PyOutcome::of(py, "Emulated", &base.document(doc))?.with_arrays(py, "columns", "Columns")
 }
 
 /// Write the rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64;

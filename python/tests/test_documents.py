@@ -98,6 +98,31 @@ def test_step_and_simulate_name_the_circuit_as_the_command_line():
     assert pumpcyl.step(pumpcyl.Rig()).circuit == "dpm"
 
 
+def test_a_rig_from_a_file_lists_the_keys_it_left_out_as_the_command_line(tmp_path):
+    """A result of a rig read from a file holds `rig_defaulted_keys`, the keys the file left
+    out, as the command line's: step, simulate and emulate alike; a key set since (`replace`,
+    `--set`) is not among them, and a rig made from the article's has no list."""
+    user = ROOT / "tests" / "user-rig.toml"
+    doc = cli("step", "--rig", str(user), "--set", "external_force_n=100", "--json")
+    listed = doc["rig_defaulted_keys"]
+    assert len(listed) > 5 and "external_force_n" not in user.read_text()
+    with pytest.warns(UserWarning, match="does not set"):
+        rig = pumpcyl.Rig.from_toml(user)
+    assert "external_force_n" in pumpcyl.step(rig).rig_defaulted_keys
+    step = pumpcyl.step(rig.replace(external_force_n=100))
+    assert step.rig_defaulted_keys == listed and "external_force_n" not in listed
+    t_s = np.arange(0.0, 0.5, 0.01)
+    sim = pumpcyl.simulate(rig.replace(external_force_n=100), t_s, np.full(t_s.shape, 345.0))
+    assert sim.rig_defaulted_keys == listed
+    out = tmp_path / "e.csv"
+    emulated = cli("emulate", "--experiment", "step", "--rig", str(user), "--set", "external_force_n=100",
+                   "--duration-s", "1", "--out", str(out), "--json")
+    e = pumpcyl.emulate("step", rig=rig, duration_s=1.0, external_force_n=100)
+    assert e.rig_defaulted_keys == emulated["rig_defaulted_keys"] == listed
+    for made in (pumpcyl.Rig(), pumpcyl.Rig(external_force_n=100)):
+        assert "rig_defaulted_keys" not in pumpcyl.step(made)
+
+
 def test_simulate_names_the_stubs_fields():
     t_s = np.arange(0.0, 2.0, 0.01)
     sim = pumpcyl.simulate(pumpcyl.Rig(), t_s, np.full(t_s.shape, 345.0))

@@ -43,6 +43,29 @@ pub fn with_warnings(mut doc: Value, warnings: &[String]) -> Value {
     doc
 }
 
+/// The document `doc` with `rig_defaulted_keys`, the keys its rig file left out (they took the
+/// documented defaults, docs/formats.md#rig-toml), where the document has a `rig` block and its
+/// rig was read from a file (`defaulted` given); any other document as it is. A rig made from
+/// the embedded default has no file and so no list.
+///
+/// ```
+/// use pumpcyl_present::documents::with_rig_defaulted_keys;
+/// let doc = serde_json::json!({"rig": "my.toml", "step_mm": 5.0});
+/// let v = with_rig_defaulted_keys(doc.clone(), Some(&["beta_bar"]));
+/// assert_eq!(v["rig_defaulted_keys"], serde_json::json!(["beta_bar"]));
+/// assert_eq!(with_rig_defaulted_keys(doc, None).get("rig_defaulted_keys"), None);
+/// let other = serde_json::json!({"gain_margin_db": 6.0});
+/// assert_eq!(with_rig_defaulted_keys(other.clone(), Some(&["beta_bar"])), other);
+/// ```
+pub fn with_rig_defaulted_keys(mut doc: Value, defaulted: Option<&[&str]>) -> Value {
+    if let (Some(keys), Some(obj)) = (defaulted, doc.as_object_mut()) {
+        if obj.contains_key("rig") {
+            obj.insert("rig_defaulted_keys".into(), json!(keys));
+        }
+    }
+    doc
+}
+
 /// The drive ratings the run `what` exceeds ([`rating_warnings`]), one line each without the
 /// terminal's `warning: ` prefix, as a document lists its warnings.
 pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {

@@ -59,6 +59,63 @@ pub fn identification_json(exp: &Experiment, id: &Identification, seconds: f64) 
     identification_document(&exp.problem, &exp.rig, &origin, id, seconds)
 }
 
+/// An identification and where it came from: what its document is made of, whichever front
+/// end ran it.
+pub struct Found<'a> {
+    /// The problem it solved.
+    pub problem: &'a Problem,
+    /// The rig its leakages are computed on.
+    pub rig: &'a Rig,
+    /// Where the problem came from.
+    pub origin: &'a Origin,
+    /// The answer.
+    pub id: &'a Identification,
+    /// The time it took (s).
+    pub seconds: f64,
+    /// Its profile-likelihood uncertainty with the seconds that took, when analysed.
+    pub uncertainty: Option<&'a (Uncertainty, f64)>,
+    /// The keys its rig file left out, for a rig read from a file (docs/formats.md#rig-toml).
+    pub defaulted: Option<&'a [&'static str]>,
+}
+
+impl<'a> Found<'a> {
+    /// The identification `id` of the experiment file `exp` (its origin `origin`, made by
+    /// [`Origin::of_experiment`]), without an uncertainty analysis.
+    pub fn of_experiment(
+        exp: &'a Experiment,
+        origin: &'a Origin,
+        id: &'a Identification,
+        seconds: f64,
+    ) -> Found<'a> {
+        Found {
+            problem: &exp.problem,
+            rig: &exp.rig,
+            origin,
+            id,
+            seconds,
+            uncertainty: None,
+            defaulted: exp.rig_defaulted_keys(),
+        }
+    }
+}
+
+/// The document of an identification as `pumpcyl identify --json`, its result.json and
+/// Python's `identify` give it ([`identification_document`] with the verdicts of which
+/// parameters the records bound, the uncertainty when analysed and the keys the rig file left
+/// out), and the verdicts, which the text report shows too. One function for every front end.
+pub fn identification_report(f: &Found) -> Result<(Value, Option<[Identifiability; 3]>)> {
+    let mut v = identification_document(f.problem, f.rig, f.origin, f.id, f.seconds)?;
+    let verdicts = verdicts(f.problem, f.id, f.uncertainty.map(|(u, _)| u));
+    if let Some(d) = &verdicts {
+        add_identifiability_json(&mut v, d);
+    }
+    if let Some((u, seconds)) = f.uncertainty {
+        crate::uncertainty::add_uncertainty_json(&mut v, u, *seconds);
+    }
+    let v = crate::documents::with_rig_defaulted_keys(v, f.defaulted);
+    Ok((v, verdicts))
+}
+
 /// The one document of an identification, whoever asked for it (`pumpcyl identify --json`,
 /// result.json, Python's `identify`): the answer with its leakages, the counts, the best grid
 /// point with its leakages, each stage, the top list, where the problem came from and the

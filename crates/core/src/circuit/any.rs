@@ -2,7 +2,7 @@
 //! from the list of circuits in `circuit/mod.rs`), and the calls every part of pumpcyl asks of
 //! a rig's circuit.
 
-use super::single_pump::modes::Switching;
+use super::switching::Switching;
 use super::{AnyCircuit, CircuitKind};
 use crate::rig::Rig;
 

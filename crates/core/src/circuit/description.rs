@@ -6,8 +6,8 @@
 //! from it by the `circuits!` macro, and everything else asks a circuit's description or its
 //! module's forms, never which circuit it is.
 
-use super::single_pump::modes::Switching;
 use super::stops::Stops;
+use super::switching::Switching;
 use super::{Circuit, ControlLaw, Effects};
 use crate::rig::Rig;
 
@@ -119,10 +119,6 @@ pub trait LinearForm: Circuit + Clone + std::fmt::Debug {
     fn dpm(&self) -> Option<&super::Dpm> {
         None
     }
-    /// The single-pump circuit's mode, for what only it has.
-    fn single_pump_mode(&self) -> Option<&super::single_pump::modes::Mode> {
-        None
-    }
     /// The leakages c1, c2 that hold a standstill for a cross-port leakage `c12`
     /// (docs/identification.md#leakage-from-standstill); `None` where the circuit's standstill
     /// does not determine them.
@@ -170,10 +166,6 @@ pub trait EmulatedForm: Circuit + Clone + std::fmt::Debug {
     fn commands(&self, rig: &Rig, r_mm: f64, x_mm: f64, p_bar: &[f64]) -> [f64; 2];
     /// Its mode at state `s`, for a circuit with modes.
     fn mode_at(&self, _s: &[f64]) -> Option<usize> {
-        None
-    }
-    /// The single-pump circuit, for what only it has.
-    fn as_single_pump(&self) -> Option<&super::single_pump::SinglePump> {
         None
     }
 }
@@ -281,7 +273,7 @@ macro_rules! circuits {
             }
 
             /// Every linear model the loop of `rig` runs in, the one at rest first.
-            pub fn linear_modes(self, rig: &Rig) -> Vec<AnyCircuit> {
+            pub fn linear_modes(self, rig: &$crate::rig::Rig) -> Vec<AnyCircuit> {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::linear_modes(rig)
                         .into_iter()
@@ -294,7 +286,7 @@ macro_rules! circuits {
             ///
             /// # Errors
             /// A rig whose rest the circuit cannot determine.
-            pub fn emulated(self, rig: &Rig, effects: Effects) -> Result<Emulated, String> {
+            pub fn emulated(self, rig: &$crate::rig::Rig, effects: Effects) -> Result<Emulated, String> {
                 match self {
                     $(CircuitKind::$variant =>
                         <$module::Module as Module>::emulated(rig, effects).map(Emulated::$variant)),+
@@ -305,7 +297,7 @@ macro_rules! circuits {
             ///
             /// # Errors
             /// As the circuit's own.
-            pub fn validate_rest(self, rig: &Rig) -> Result<(), (&'static str, f64, String)> {
+            pub fn validate_rest(self, rig: &$crate::rig::Rig) -> Result<(), (&'static str, f64, String)> {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::validate_rest(rig)),+
                 }
@@ -315,21 +307,21 @@ macro_rules! circuits {
             ///
             /// # Errors
             /// Why a circuit without modes has none.
-            pub fn mode_switching(self, rig: &Rig) -> Result<Switching, &'static str> {
+            pub fn mode_switching(self, rig: &$crate::rig::Rig) -> Result<Switching, &'static str> {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::mode_switching(rig)),+
                 }
             }
 
             /// [`Module::pressure_level_bar`] of the circuit.
-            pub fn pressure_level_bar(self, rig: &Rig) -> f64 {
+            pub fn pressure_level_bar(self, rig: &$crate::rig::Rig) -> f64 {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::pressure_level_bar(rig)),+
                 }
             }
 
             /// [`Module::relief_displacement_m3_per_rad`] of the circuit.
-            pub fn relief_displacement_m3_per_rad(self, rig: &Rig) -> f64 {
+            pub fn relief_displacement_m3_per_rad(self, rig: &$crate::rig::Rig) -> f64 {
                 match self {
                     $(CircuitKind::$variant =>
                         <$module::Module as Module>::relief_displacement_m3_per_rad(rig)),+
@@ -340,7 +332,7 @@ macro_rules! circuits {
             ///
             /// # Errors
             /// As the circuit's own.
-            pub fn one_motor_rest(self, rig: &Rig) -> Result<([f64; 2], f64), String> {
+            pub fn one_motor_rest(self, rig: &$crate::rig::Rig) -> Result<([f64; 2], f64), String> {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::one_motor_rest(rig)),+
                 }
@@ -352,7 +344,7 @@ macro_rules! circuits {
             }
 
             /// [`Module::pressure_band_bar`] of the circuit.
-            pub fn pressure_band_bar(self, rig: &Rig) -> [(f64, &'static str); 2] {
+            pub fn pressure_band_bar(self, rig: &$crate::rig::Rig) -> [(f64, &'static str); 2] {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::pressure_band_bar(rig)),+
                 }
@@ -408,7 +400,7 @@ macro_rules! circuits {
             /// [`LinearForm::standstill_leakage`] of the circuit inside.
             pub fn standstill_leakage(
                 &self,
-                rig: &Rig,
+                rig: &$crate::rig::Rig,
                 s: &$crate::circuit::dpm::Standstill,
                 c12: f64,
             ) -> Option<Result<$crate::circuit::dpm::Leakage, String>> {
@@ -426,12 +418,6 @@ macro_rules! circuits {
             /// [`LinearForm::valve_open_at_rest`] of the circuit inside.
             pub fn valve_open_at_rest(&self) -> Option<(usize, f64, f64, f64)> {
                 match self { $(AnyCircuit::$variant(c) => $crate::circuit::LinearForm::valve_open_at_rest(c)),+ }
-            }
-
-            /// The single-pump circuit's mode, for what only it has; `None` for another
-            /// circuit.
-            pub fn single_pump_mode(&self) -> Option<&$crate::circuit::single_pump::modes::Mode> {
-                match self { $(AnyCircuit::$variant(c) => $crate::circuit::LinearForm::single_pump_mode(c)),+ }
             }
         }
 
@@ -479,7 +465,7 @@ macro_rules! circuits {
             /// The speed commands (rad/s) of the circuit's PLC law for the reference `r_mm`,
             /// the measured position `x_mm` (mm) and pressures `p_bar` (bar gauge, in the
             /// order of the pressure states), in absolute terms (0 for a drive it lacks).
-            pub fn plc_commands(&self, rig: &Rig, r_mm: f64, x_mm: f64, p_bar: &[f64]) -> [f64; 2] {
+            pub fn plc_commands(&self, rig: &$crate::rig::Rig, r_mm: f64, x_mm: f64, p_bar: &[f64]) -> [f64; 2] {
                 match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::commands(c, rig, r_mm, x_mm, p_bar)),+ }
             }
 
@@ -487,11 +473,6 @@ macro_rules! circuits {
             /// the accumulator, 2 with chamber 1); `None` for a circuit without modes.
             pub fn mode(&self, s: &[f64]) -> Option<usize> {
                 match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::mode_at(c, s)),+ }
-            }
-
-            /// The single-pump circuit inside, for what only it has (its modes and valves).
-            pub fn single_pump(&self) -> Option<&$crate::circuit::single_pump::SinglePump> {
-                match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::as_single_pump(c)),+ }
             }
         }
 

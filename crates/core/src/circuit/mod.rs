@@ -114,6 +114,7 @@ mod any;
 pub mod emulated;
 pub mod parts;
 pub mod stops;
+pub mod switching;
 pub mod valves;
 
 pub use any::{mode_switching, pressure_level_bar, require, require_dpm};
@@ -123,12 +124,11 @@ pub use description::{
 pub use dpm::Dpm;
 pub use parts::Effects;
 
-use crate::rig::Rig;
 use nalgebra::DMatrix;
 use num_dual::{Dual64, DualNum};
 use serde::{Deserialize, Serialize};
-use single_pump::modes::Switching;
 use stops::Stops;
+use switching::Switching;
 
 // The list of circuits: the one place that names them all (docs/architecture.md#circuits).
 circuits! {

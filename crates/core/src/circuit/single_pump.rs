@@ -427,9 +427,6 @@ impl super::LinearForm for modes::Mode {
     fn mode(&self) -> Option<usize> {
         Some(self.number())
     }
-    fn single_pump_mode(&self) -> Option<&modes::Mode> {
-        Some(self)
-    }
 }
 
 impl super::EmulatedForm for SinglePump {
@@ -437,7 +434,26 @@ impl super::EmulatedForm for SinglePump {
     fn mode_at(&self, s: &[f64]) -> Option<usize> {
         Some(modes::recorded_mode(self, s))
     }
-    fn as_single_pump(&self) -> Option<&SinglePump> {
-        Some(self)
+}
+
+impl super::AnyCircuit {
+    /// The single-pump circuit's mode this linear model is, for what only it has; `None` for
+    /// another circuit's model.
+    pub fn single_pump_mode(&self) -> Option<&modes::Mode> {
+        if let super::AnyCircuit::SinglePump(mode) = self {
+            return Some(mode);
+        }
+        None
+    }
+}
+
+impl super::Emulated {
+    /// The single-pump circuit inside, for what only it has (its modes and valves); `None` for
+    /// another circuit.
+    pub fn single_pump(&self) -> Option<&SinglePump> {
+        if let super::Emulated::SinglePump(c) = self {
+            return Some(c);
+        }
+        None
     }
 }

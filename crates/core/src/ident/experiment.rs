@@ -431,6 +431,15 @@ pub struct Experiment {
 }
 
 impl Experiment {
+    /// The keys the experiment's rig file leaves out (`rig_defaulted_keys` of a result with a
+    /// `rig` block, docs/formats.md#rig-toml); `None` when it names no rig file.
+    pub fn rig_defaulted_keys(&self) -> Option<&[&'static str]> {
+        self.file
+            .rig
+            .is_some()
+            .then_some(self.rig_defaults.keys.as_slice())
+    }
+
     /// The mean chamber pressure (bar gauge) of the first dataset's record, averaged over its
     /// samples: the pressure its identified β holds at (docs/bulk-modulus.md#fitting-the-gas-fraction);
     /// `None` when that record has no chamber pressures.

@@ -151,32 +151,8 @@ impl Circuit for Mode {
     }
 }
 
-/// Where the single-pump circuit switches modes, and where a rig's load puts it
-/// (docs/circuits.md#the-switching-force).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct Switching {
-    /// The switching force p_acc (A1 − A2) (N): the external force at rest with both chambers
-    /// at the accumulator pressure.
-    pub switching_force_n: f64,
-    /// The band the check valves' cracking pressure widens it to (N),
-    /// [F_s − A1 Δp_crack, F_s + A2 Δp_crack]: leaving mode 1, chamber 1 must fall a cracking
-    /// pressure below the accumulator before its valve opens, and leaving mode 2 chamber 2 must;
-    /// inside the band the mode at rest depends on where the load came from.
-    pub valve_band_n: [f64; 2],
-    /// The rig's external force (N).
-    pub external_force_n: f64,
-    /// The mode at rest (1: chamber 2 at the accumulator, above the switching force; 2:
-    /// chamber 1, below it).
-    pub mode_at_rest: usize,
-    /// The force the pressures carry beyond the switching force at rest, F_ext − F_s (N).
-    pub force_from_switching_n: f64,
-    /// The load's acceleration (m/s², positive extending) whose inertial force m a brings the
-    /// pressures' force to the switching force, (F_s − F_ext)/m: an acceleration beyond it
-    /// (in its direction) switches the mode.
-    pub acceleration_to_switch_m_per_s2: f64,
-    /// The rest lies inside the valves' band.
-    pub within_valve_band: bool,
-}
+pub use crate::circuit::switching::Switching;
+
 
 /// The switching force of `rig` as a single-pump circuit, its valve band, the mode at rest for
 /// the rig's external force and how far that force is from switching.
