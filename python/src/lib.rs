@@ -1140,121 +1140,26 @@ fn identify(
     confidence: f64,
     method: Option<&str>,
 ) -> PyResult<Py<PyAny>> {
+    let search = Search {
+        grids,
+        grid,
+        refined_grid,
+        auto_refine,
+        local_refinement,
+        threshold_mm2,
+        top,
+        confidence,
+    };
     if let Some(label) = shard {
-        check_shard_request(
-            &experiment,
-            grids,
-            grid,
-            refined_grid,
-            auto_refine,
-            uncertainty,
-        )
-        .map_err(|problem| err(format!("identify(shard={label:?}): {problem}")))?;
+        check_shard_request(&experiment, &search, uncertainty)
+            .map_err(|problem| err(format!("identify(shard={label:?}): {problem}")))?;
     }
     ident::check_confidence(confidence).map_err(err)?;
+    let method = method_of(method, shard)?;
     let path = experiment.clone();
-    let method = method
-        .map(|m| {
-            ident::Method::named(m)
-                .ok_or_else(|| err(format!("method=\"{m}\": give \"time\" or \"frequency\"")))
-        })
-        .transpose()?;
-    if method == Some(ident::Method::Frequency) && shard.is_some() {
-        return Err(err(
-            "method=\"frequency\" fits its records unsharded: give no `shard`",
-        ));
-    }
-    let loaded;
-    let built;
-    let (problem, id_rig, origin, file_grids, file_opts, defaulted) = match (experiment, datasets) {
-        (Some(path), None) => {
-            if standstill.is_some() || rig.is_some() {
-                return Err(err(
-                    "standstill and rig come from the experiment file: give either the file or datasets",
-                ));
-            }
-            loaded =
-                Experiment::load_as(&pumpcyl::source_files::Disk, &path, method).map_err(err)?;
-            if loaded.method == ident::Method::Frequency {
-                if shard.is_some() {
-                    return Err(err("identify(shard=...): a shard is a slice of the time-domain grid search; the experiment's method is \"frequency\""));
-                }
-                let first = grid.map(|g| grid_of("grid", g)).transpose()?;
-                let outcome = identify_frequency(py, &loaded, first, confidence)?;
-                return Ok(Py::new(py, outcome)?.into_any());
-            }
-            if let Some(label) = shard {
-                ident::shards::check_label(&loaded, label).map_err(err)?;
-            }
-            let origin = pumpcyl_present::identification::Origin::of_experiment(&loaded);
-            (
-                &loaded.problem,
-                loaded.rig.clone(),
-                origin,
-                loaded.grids(),
-                loaded.options(),
-                loaded.rig_defaulted_keys(),
-            )
-        }
-        (None, Some(sets)) => {
-            let defaulted = rig.and_then(|r| r.defaulted.as_deref());
-            let rig_name = rig.map_or_else(|| "the article's rig".into(), PyRig::__repr__);
-            let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
-            let standstill = standstill_of(standstill.ok_or_else(|| {
-                err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)")
-            })?)?;
-            if sets.is_empty() {
-                return Err(err("datasets: needs at least one Dataset"));
-            }
-            let method = method.unwrap_or(ident::Method::Time);
-            let loaded = (sets.iter())
-                .map(|d| d.get().load(method, &rig))
-                .collect::<PyResult<Vec<_>>>()?;
-            // the first grid centred on the rig's values, the second on the first stage's best
-            // (docs/identification.md#the-two-grids)
-            let centre = ident::Candidate {
-                beta_bar: rig.beta_bar,
-                viscous_friction_ns_per_m: rig.viscous_friction_ns_per_m,
-                c12_m5_per_ns: rig.c12_m5_per_ns,
-            };
-            let first = Grid::centred(&centre).map_err(|e| err(e.message))?;
-            if method == ident::Method::Frequency {
-                let problem =
-                    ident::FrequencyProblem::of_loaded(loaded, standstill).map_err(err)?;
-                let first = grid
-                    .map(|g| grid_of("grid", g))
-                    .transpose()?
-                    .unwrap_or(first);
-                let origin = pumpcyl_present::frf::FitOrigin {
-                    experiment: format!("datasets on {rig_name}"),
-                    grids: "first centred on the rig's values".into(),
-                    step_datasets: problem.step_names(),
-                };
-                let outcome = fit_frequency(py, &problem, &first, &origin, confidence)?;
-                return Ok(Py::new(py, outcome)?.into_any());
-            }
-            let datasets = (loaded.into_iter())
-                .map(|l| match l {
-                    ident::Loaded::Step(p) => Ok(*p),
-                    ident::Loaded::Sweep(_) => {
-                        Err(err("a sweep is fitted with method=\"frequency\""))
-                    }
-                })
-                .collect::<PyResult<_>>()?;
-            built = Problem {
-                datasets,
-                standstill,
-            };
-            let grids = (first, Some(ident::SecondGrid::Centred));
-            let origin = pumpcyl_present::identification::Origin {
-                experiment: None,
-                rig: rig_name,
-                grids:
-                    "first centred on the rig's values; second centred on the first stage's best"
-                        .into(),
-            };
-            (&built, rig, origin, grids, Options::default(), defaulted)
-        }
+    let posed = match (experiment, datasets) {
+        (Some(path), None) => pose_experiment(py, &path, standstill, rig, method, &search, shard)?,
+        (None, Some(sets)) => pose_datasets(py, &sets, standstill, rig, method, &search)?,
         (Some(_), Some(_)) => {
             return Err(err(
                 "give either `experiment` (an experiment TOML file) or `datasets`, not both",
@@ -1267,45 +1172,248 @@ fn identify(
             ))
         }
     };
-    let mut origin = origin;
-    // grids="article": the article's two grids (§2.4), as an experiment file's `grids` key
-    if grids == Some("article") {
-        origin.grids = "first the article's first grid; second the article's refined grid".into();
+    let posed = match posed {
+        Posed::Fitted(outcome) => return Ok(Py::new(py, outcome)?.into_any()),
+        Posed::Time(posed) => posed,
+    };
+    let run = Run {
+        progress,
+        allow_long_run,
+        shard: shard.zip(path),
+        uncertainty: uncertainty.then_some(confidence),
+    };
+    run_time_domain(py, &posed, &search, run)
+}
+
+/// The search arguments of `identify`: the grids, the options over the file's, the length of
+/// the top list and the confidence of the intervals.
+struct Search<'a, 'py> {
+    grids: Option<&'a str>,
+    grid: Option<&'a Bound<'py, PyAny>>,
+    refined_grid: Option<&'a Bound<'py, PyAny>>,
+    auto_refine: Option<bool>,
+    local_refinement: Option<bool>,
+    threshold_mm2: Option<f64>,
+    top: usize,
+    confidence: f64,
+}
+
+/// How `identify` runs a time-domain search: progress, the long-run consent, the shard of an
+/// experiment file (label and the file) and the confidence of an uncertainty analysis.
+struct Run {
+    progress: Option<Py<PyAny>>,
+    allow_long_run: bool,
+    shard: Option<((usize, usize), PathBuf)>,
+    uncertainty: Option<f64>,
+}
+
+/// What `identify` was asked: a time-domain problem to search, or a frequency-domain fit,
+/// already done (it takes seconds).
+enum Posed {
+    Time(Box<TimeProblem>),
+    Fitted(PyOutcome),
+}
+
+/// A time-domain problem with its rig, its origin, the grids and options its source gives
+/// and the keys its rig file left out.
+struct TimeProblem {
+    problem: Problem,
+    rig: Rig,
+    origin: outputs::Origin,
+    grids: (Grid, Option<ident::SecondGrid>),
+    options: Options,
+    defaulted: Option<Vec<&'static str>>,
+}
+
+/// The fitting method named, if any; the frequency method is never sharded.
+fn method_of(name: Option<&str>, shard: Option<(usize, usize)>) -> PyResult<Option<ident::Method>> {
+    let method = name
+        .map(|m| {
+            ident::Method::named(m)
+                .ok_or_else(|| err(format!("method=\"{m}\": give \"time\" or \"frequency\"")))
+        })
+        .transpose()?;
+    if method == Some(ident::Method::Frequency) && shard.is_some() {
+        return Err(err(
+            "method=\"frequency\" fits its records unsharded: give no `shard`",
+        ));
     }
-    if grid.is_some() || refined_grid.is_some() {
-        origin.grids = format!(
-            "{}; the `grid` and `refined_grid` arguments over it",
-            origin.grids
-        );
+    Ok(method)
+}
+
+/// The problem of the experiment file at `path` (fitted by `method` over the file's), or its
+/// frequency-domain fit.
+fn pose_experiment(
+    py: Python<'_>,
+    path: &std::path::Path,
+    standstill: Option<&Bound<'_, PyAny>>,
+    rig: Option<&PyRig>,
+    method: Option<ident::Method>,
+    search: &Search<'_, '_>,
+    shard: Option<(usize, usize)>,
+) -> PyResult<Posed> {
+    if standstill.is_some() || rig.is_some() {
+        return Err(err(
+            "standstill and rig come from the experiment file: give either the file or datasets",
+        ));
     }
-    let file_grids = match grids {
-        None => file_grids,
-        Some("article") => (Grid::article_first(), Some(Grid::article_refined().into())),
+    let loaded = Experiment::load_as(&pumpcyl::source_files::Disk, path, method).map_err(err)?;
+    if loaded.method == ident::Method::Frequency {
+        if shard.is_some() {
+            return Err(err("identify(shard=...): a shard is a slice of the time-domain grid search; the experiment's method is \"frequency\""));
+        }
+        let first = search.grid.map(|g| grid_of("grid", g)).transpose()?;
+        return Ok(Posed::Fitted(identify_frequency(
+            py,
+            &loaded,
+            first,
+            search.confidence,
+        )?));
+    }
+    if let Some(label) = shard {
+        ident::shards::check_label(&loaded, label).map_err(err)?;
+    }
+    Ok(Posed::Time(Box::new(TimeProblem {
+        origin: outputs::Origin::of_experiment(&loaded),
+        grids: loaded.grids(),
+        options: loaded.options(),
+        defaulted: loaded.rig_defaulted_keys().map(<[_]>::to_vec),
+        rig: loaded.rig,
+        problem: loaded.problem,
+    })))
+}
+
+/// The problem of `sets` on `rig` (default: the article's) at the `standstill` point, or its
+/// frequency-domain fit; the first grid centred on the rig's values, the second on the first
+/// stage's best (docs/identification.md#the-two-grids).
+fn pose_datasets(
+    py: Python<'_>,
+    sets: &[Bound<'_, PyDataset>],
+    standstill: Option<&Bound<'_, PyAny>>,
+    rig: Option<&PyRig>,
+    method: Option<ident::Method>,
+    search: &Search<'_, '_>,
+) -> PyResult<Posed> {
+    let defaulted = rig.and_then(|r| r.defaulted.clone());
+    let rig_name = rig.map_or_else(|| "the article's rig".into(), PyRig::__repr__);
+    let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
+    let standstill = standstill_of(
+        standstill
+            .ok_or_else(|| err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)"))?,
+    )?;
+    if sets.is_empty() {
+        return Err(err("datasets: needs at least one Dataset"));
+    }
+    let method = method.unwrap_or(ident::Method::Time);
+    let loaded = (sets.iter())
+        .map(|d| d.get().load(method, &rig))
+        .collect::<PyResult<Vec<_>>>()?;
+    let centre = ident::Candidate {
+        beta_bar: rig.beta_bar,
+        viscous_friction_ns_per_m: rig.viscous_friction_ns_per_m,
+        c12_m5_per_ns: rig.c12_m5_per_ns,
+    };
+    let first = Grid::centred(&centre).map_err(|e| err(e.message))?;
+    if method == ident::Method::Frequency {
+        let problem = ident::FrequencyProblem::of_loaded(loaded, standstill).map_err(err)?;
+        let first = (search.grid.map(|g| grid_of("grid", g)).transpose()?).unwrap_or(first);
+        let origin = pumpcyl_present::frf::FitOrigin {
+            experiment: format!("datasets on {rig_name}"),
+            grids: "first centred on the rig's values".into(),
+            step_datasets: problem.step_names(),
+        };
+        return Ok(Posed::Fitted(fit_frequency(
+            py,
+            &problem,
+            &first,
+            &origin,
+            search.confidence,
+        )?));
+    }
+    let datasets = (loaded.into_iter())
+        .map(|l| match l {
+            ident::Loaded::Step(p) => Ok(*p),
+            ident::Loaded::Sweep(_) => Err(err("a sweep is fitted with method=\"frequency\"")),
+        })
+        .collect::<PyResult<_>>()?;
+    Ok(Posed::Time(Box::new(TimeProblem {
+        problem: Problem {
+            datasets,
+            standstill,
+        },
+        rig,
+        origin: outputs::Origin {
+            experiment: None,
+            rig: rig_name,
+            grids: "first centred on the rig's values; second centred on the first stage's best"
+                .into(),
+        },
+        grids: (first, Some(ident::SecondGrid::Centred)),
+        options: Options::default(),
+        defaulted,
+    })))
+}
+
+/// The grids of a search: `grids="article"` (the article's two, §2.4, as an experiment file's
+/// `grids` key), `grid` and `refined_grid` over the source's (`refined_grid=False`: no second
+/// stage); with where they come from, in words, added to `origin`.
+fn search_grids(
+    search: &Search<'_, '_>,
+    source: &(Grid, Option<ident::SecondGrid>),
+    origin: &mut outputs::Origin,
+) -> PyResult<(Grid, Option<ident::SecondGrid>)> {
+    let source = match search.grids {
+        None => source.clone(),
+        Some("article") => {
+            origin.grids =
+                "first the article's first grid; second the article's refined grid".into();
+            (Grid::article_first(), Some(Grid::article_refined().into()))
+        }
         Some(other) => {
             return Err(err(format!(
                 "grids=\"{other}\": the only named grids are \"article\""
             )))
         }
     };
-    let first = match grid {
+    if search.grid.is_some() || search.refined_grid.is_some() {
+        origin.grids = format!(
+            "{}; the `grid` and `refined_grid` arguments over it",
+            origin.grids
+        );
+    }
+    let first = match search.grid {
         Some(g) => grid_of("grid", g)?,
-        None => file_grids.0,
+        None => source.0,
     };
-    let second = match refined_grid {
+    let second = match search.refined_grid {
         Some(g) if g.is_instance_of::<PyBool>() && !g.extract::<bool>()? => None,
         Some(g) => Some(grid_of("refined_grid", g)?.into()),
-        None => file_grids.1,
+        None => source.1,
     };
+    Ok((first, second))
+}
+
+/// The time-domain search of `posed` with the `search` arguments, run as `run` says: the
+/// identification's result, or a shard's partial result as JSON text.
+fn run_time_domain(
+    py: Python<'_>,
+    posed: &TimeProblem,
+    search: &Search<'_, '_>,
+    run: Run,
+) -> PyResult<Py<PyAny>> {
+    let mut origin = posed.origin.clone();
+    let grids = search_grids(search, &posed.grids, &mut origin)?;
+    let file = &posed.options;
     let opts = Options {
-        auto_refine: auto_refine.unwrap_or(file_opts.auto_refine),
-        local_refinement: local_refinement.unwrap_or(file_opts.local_refinement),
-        threshold_mm2: threshold_mm2.unwrap_or(file_opts.threshold_mm2),
-        top_n: top,
+        auto_refine: search.auto_refine.unwrap_or(file.auto_refine),
+        local_refinement: search.local_refinement.unwrap_or(file.local_refinement),
+        threshold_mm2: search.threshold_mm2.unwrap_or(file.threshold_mm2),
+        top_n: search.top,
     };
     let request = ident::Request {
-        allow_long_run,
-        shard,
-        ..ident::Request::new(problem, (first, second), opts)
+        allow_long_run: run.allow_long_run,
+        shard: run.shard.as_ref().map(|(label, _)| *label),
+        ..ident::Request::new(&posed.problem, grids, opts)
     };
     request.check().map_err(|e| match e {
         ident::IdentError::Limit(pumpcyl::limits::LimitError::LongRun { .. }) => {
@@ -1313,31 +1421,28 @@ fn identify(
         }
         e => err(e),
     })?;
-    let mut tick = progress_reporter(py, progress, "identify", "candidates", request.candidates())?;
+    let total = request.candidates();
+    let mut tick = progress_reporter(py, run.progress, "identify", "candidates", total)?;
     let start = Instant::now();
-    if let (Some(label), Some(path)) = (shard, &path) {
-        let part = shard_of(py, &request, path, label, &mut tick)?;
+    if let Some((label, path)) = &run.shard {
+        let part = shard_of(py, &request, path, *label, &mut tick)?;
         return Ok(PyString::new(py, &part).into_any().unbind());
     }
     let id = run_interruptible(py, |go_on| request.run(go_on), &mut tick)?.map_err(err)?;
     tick(py, u64::MAX)?;
     let seconds = start.elapsed().as_secs_f64();
-    let analysed = if uncertainty {
-        Some(
-            py.detach(|| uncertainty_of(problem, &id, confidence))
-                .map_err(err)?,
-        )
-    } else {
-        None
-    };
+    let analysed = (run.uncertainty)
+        .map(|confidence| py.detach(|| uncertainty_of(&posed.problem, &id, confidence)))
+        .transpose()
+        .map_err(err)?;
     let found = outputs::Found {
-        problem,
-        rig: &id_rig,
+        problem: &posed.problem,
+        rig: &posed.rig,
         origin: &origin,
         id: &id,
         seconds,
         uncertainty: analysed.as_ref(),
-        defaulted,
+        defaulted: posed.defaulted.as_deref(),
     };
     Ok(Py::new(py, identification_outcome(py, &found)?)?.into_any())
 }
@@ -1394,22 +1499,19 @@ fn identification_outcome(py: Python<'_>, f: &outputs::Found<'_>) -> PyResult<Py
 /// (docs/identification.md#sharding).
 fn check_shard_request(
     experiment: &Option<PathBuf>,
-    grids: Option<&str>,
-    grid: Option<&Bound<'_, PyAny>>,
-    refined_grid: Option<&Bound<'_, PyAny>>,
-    auto_refine: Option<bool>,
+    search: &Search<'_, '_>,
     uncertainty: bool,
 ) -> Result<(), &'static str> {
     if experiment.is_none() {
         return Err("a shard needs an experiment file (the merge loads it again), not datasets");
     }
-    if grids.is_some() || grid.is_some() || refined_grid.is_some() {
+    if search.grids.is_some() || search.grid.is_some() || search.refined_grid.is_some() {
         return Err(
             "a shard runs the experiment file's own grids: give them in the file, \
                     not as grids, grid or refined_grid",
         );
     }
-    if auto_refine == Some(true) {
+    if search.auto_refine == Some(true) {
         return Err(
             "a shard needs fixed grids: auto-refine derives the second grid from the \
                     first, so run that stage unsharded",
