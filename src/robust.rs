@@ -4,13 +4,11 @@
 
 use anyhow::Result;
 use std::path::Path;
-use std::time::Instant;
 
 use crate::emit::{render_both, write_atomic};
-use pumpcyl::design::robust::{Region, RobustOptions};
-use pumpcyl::design::{robust_design, DesignError, Targets};
+use pumpcyl::design::{DesignError, Targets};
 use pumpcyl::rig::Rig;
-use pumpcyl_present::design::{robust_json, robust_text};
+use pumpcyl_present::design::{robust_run, robust_text, RobustRequest};
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::format::json_document;
 
@@ -38,43 +36,35 @@ pub(super) fn run(
     out: Option<&Path>,
 ) -> Result<String> {
     crate::emit::check_confidence(src.confidence)?;
-    let start = Instant::now();
-    let (rig, region, targets) = match src.experiment {
-        Some(path) => {
-            let exp = crate::read_files::experiment(path)?;
-            let (rig, region) = Region::of_records(&exp, src.confidence)?;
-            (rig, region, targets.clone().over_records(&exp))
-        }
-        None => (
-            src.rig.clone(),
-            Region::stated_default(&src.rig),
-            targets.clone(),
-        ),
+    let exp = src
+        .experiment
+        .map(crate::read_files::experiment)
+        .transpose()?;
+    let request = RobustRequest {
+        rig: &src.rig,
+        experiment: exp.as_ref(),
+        confidence: src.confidence,
+        allow_long_run: src.allow_long_run,
     };
-    let identify_seconds = start.elapsed().as_secs_f64();
     // a design error may lie in the rig (its mass table): say which rig
     let origin = src
         .experiment
         .map_or(src.origin.clone(), |p| p.display().to_string());
-    let opts = RobustOptions {
-        allow_long_run: src.allow_long_run,
-        ..RobustOptions::default()
-    };
-    let d = robust_design(&rig, &region, &targets, &opts).map_err(|e| in_rig(e, &origin))?;
-    let seconds = start.elapsed().as_secs_f64();
-    let document = json_document(&robust_json(&d, seconds, identify_seconds))?;
+    let run = robust_run(&request, targets).map_err(|e| in_rig(e, &origin))?;
+    let d = &run.design;
+    let document = json_document(&run.document())?;
     if let Some(dir) = out {
         let folder = crate::emit::out_dir(dir)?;
         write_atomic(&folder.path().join("result.json"), document.as_bytes())?;
         // the margins over the stroke at the deciding parameter point
-        let chart = Chart::robust_margins(&d);
+        let chart = Chart::robust_margins(d);
         render_both(&folder.path().join("robust-margins"), &chart)?;
         crate::emit::commit(folder, dir)?;
     }
     if json_out {
         return Ok(document);
     }
-    Ok(robust_text(&d, seconds))
+    Ok(robust_text(d, run.seconds))
 }
 
 /// A design error in the command line's words: work beyond its limit names

@@ -2293,38 +2293,26 @@ fn design(
     }
     ident::check_confidence(confidence).map_err(err)?;
     let mut tick = progress_reporter(py, progress, "design", "robust designs", 1)?;
-    use pumpcyl::design::robust::{Region, RobustOptions};
-    let start = Instant::now();
-    let d = py
+    let run = py
         .detach(|| -> Result<_, String> {
-            let (rig, region, targets) = match experiment {
-                Some(path) => {
-                    let exp = Experiment::load(&path).map_err(|e| e.to_string())?;
-                    let (rig, region) =
-                        Region::of_records(&exp, confidence).map_err(|e| e.to_string())?;
-                    (rig, region, targets.over_records(&exp))
-                }
-                None => (rig.clone(), Region::stated_default(&rig), targets),
-            };
-            let identify_seconds = start.elapsed().as_secs_f64();
-            let opts = RobustOptions {
+            let exp = (experiment.as_deref())
+                .map(Experiment::load)
+                .transpose()
+                .map_err(|e| e.to_string())?;
+            let request = pumpcyl_present::design::RobustRequest {
+                rig: &rig,
+                experiment: exp.as_ref(),
+                confidence,
                 allow_long_run,
-                ..RobustOptions::default()
             };
-            let d = pumpcyl::design::robust_design(&rig, &region, &targets, &opts).map_err(
-                |e| match e {
-                    pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
-                    e => e.to_string(),
-                },
-            )?;
-            Ok((d, identify_seconds))
+            pumpcyl_present::design::robust_run(&request, &targets).map_err(|e| match e {
+                pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
+                e => e.to_string(),
+            })
         })
         .map_err(err)?;
     tick(py, u64::MAX)?;
-    let (d, identify_seconds) = d;
-    let seconds = start.elapsed().as_secs_f64();
-    let doc = pumpcyl_present::design::robust_json(&d, seconds, identify_seconds);
-    PyOutcome::of(py, "RobustDesign", &doc)
+    PyOutcome::of(py, "RobustDesign", &run.document())
 }
 
 /// The `waves` of [`design`] checked in Python's words (`waves[1] = (80.0, 5.0): …`, the

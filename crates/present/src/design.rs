@@ -5,10 +5,13 @@
 
 use crate::format::fmt_opt;
 use crate::table::Table;
-use pumpcyl::design::robust::{Binding, RegionSource, Worst};
-use pumpcyl::design::{Design, RobustDesign, Targets, Verdict};
+use pumpcyl::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
+use pumpcyl::design::{robust_design, Design, DesignError, RobustDesign, Targets, Verdict};
+use pumpcyl::ident::Experiment;
+use pumpcyl::rig::Rig;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
+use std::time::Instant;
 
 /// The verdict as every text output writes it.
 pub fn verdict_text(v: Verdict) -> &'static str {
@@ -152,6 +155,69 @@ fn verdict_lines(verdict: Verdict, reasons: &[String]) -> String {
         let _ = writeln!(s, "  - {r}");
     }
     s
+}
+
+/// A robust design request (docs/design.md#robust-design): the parameter region of an
+/// experiment's records at `confidence` (its rig and its records' pressures), else the stated
+/// default region around `rig`; masses × pressures beyond the design's limit only with
+/// `allow_long_run`.
+pub struct RobustRequest<'a> {
+    /// The rig, used when there is no experiment.
+    pub rig: &'a Rig,
+    /// The experiment whose records give the region, if any, loaded.
+    pub experiment: Option<&'a Experiment>,
+    /// The confidence of the region.
+    pub confidence: f64,
+    /// Whether work beyond the design's limit may run.
+    pub allow_long_run: bool,
+}
+
+/// A robust design with its times: the whole design's and the parameter region's (s).
+pub struct RobustRun {
+    /// The design.
+    pub design: RobustDesign,
+    /// The time of the whole design (s).
+    pub seconds: f64,
+    /// The time the parameter region took (s).
+    pub identification_seconds: f64,
+}
+
+impl RobustRun {
+    /// Its document ([`robust_json`]).
+    pub fn document(&self) -> Value {
+        robust_json(&self.design, self.seconds, self.identification_seconds)
+    }
+}
+
+/// The robust design of `request` for `targets` (over the records' pressures when an
+/// experiment gives the region), as `design --robust` and Python's `design(robust=True)` run it.
+///
+/// # Errors
+/// A region that cannot be identified, or a design that cannot run.
+pub fn robust_run(request: &RobustRequest, targets: &Targets) -> Result<RobustRun, DesignError> {
+    let start = Instant::now();
+    let (rig, region, targets) = match request.experiment {
+        Some(exp) => {
+            let (rig, region) = Region::of_records(exp, request.confidence)?;
+            (rig, region, targets.clone().over_records(exp))
+        }
+        None => (
+            request.rig.clone(),
+            Region::stated_default(request.rig),
+            targets.clone(),
+        ),
+    };
+    let identification_seconds = start.elapsed().as_secs_f64();
+    let opts = RobustOptions {
+        allow_long_run: request.allow_long_run,
+        ..RobustOptions::default()
+    };
+    let design = robust_design(&rig, &region, &targets, &opts)?;
+    Ok(RobustRun {
+        design,
+        seconds: start.elapsed().as_secs_f64(),
+        identification_seconds,
+    })
 }
 
 /// The robust design document (`design --robust --json`, result.json of its folder): every
