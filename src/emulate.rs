@@ -8,7 +8,7 @@ use pumpcyl::emulator::article::{self, Emulated, Kind};
 use pumpcyl::emulator::{Effects, RunError};
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
-use pumpcyl_present::emulated::{self, ExperimentKind};
+use pumpcyl_present::emulated::{self, Emulation, ExperimentKind};
 use pumpcyl_present::records;
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -148,28 +148,25 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         allow_long_run: args.allow_long_run,
         progress: &|n| bar.inc(n),
     };
-    let outcome = emulated::run(&plan, &truth, &work).map_err(|e| match e {
+    let emulation = emulated::emulate(&plan, &truth, &work).map_err(|e| match e {
         // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
         RunError::Limit(e) => anyhow!("{}: {e} (--allow-long-run)", out.display()),
         RunError::Emulator(e) => anyhow!("{}: {e}", out.display()),
     })?;
     bar.finish_and_clear();
-    let warnings = emulated::warnings(&truth.rig, &outcome);
-    let (data, end_stop) = (outcome.data, outcome.end_stop);
-    let basis = emulated::basis(&truth.rig, &truth.effects).map_err(|e| anyhow!(e))?;
-    write_atomic(out, records::emulated_csv(&data).as_bytes())?;
+    let data = &emulation.outcome.data;
+    write_atomic(out, records::emulated_csv(data).as_bytes())?;
     let origin = args.source.origin_or("the emulated article rig");
     if args.json {
-        let doc = emulated::emulated_json(
-            request.experiment,
-            (&origin, truth.rig.circuit),
-            &data,
-            &basis,
-            &warnings,
-            end_stop.as_ref(),
-        );
+        let doc = emulation.document(request.experiment, &origin, truth.rig.circuit);
         return Ok(pumpcyl_present::format::json_document(&doc)?);
     }
+    let Emulation {
+        warnings,
+        basis,
+        outcome,
+    } = emulation;
+    let end_stop = outcome.end_stop;
     let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
     let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
     Ok(format!(
@@ -177,7 +174,7 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         out.display(),
         request.experiment.name(),
         truth.rig.circuit.name(),
-        data.len()
+        outcome.data.len()
     ))
 }
 

@@ -1942,24 +1942,15 @@ fn emulate(
         allow_long_run,
         ..pumpcyl::limits::Work::QUIET
     };
-    let outcome = py
-        .detach(|| emulated::run(&plan, &truth, &work))
+    let emulation = py
+        .detach(|| emulated::emulate(&plan, &truth, &work))
         .map_err(|e| match e {
             // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
             pumpcyl::emulator::RunError::Limit(e) => long_run_err(e),
             pumpcyl::emulator::RunError::Emulator(e) => err(e),
         })?;
-    let basis = emulated::basis(&truth.rig, &truth.effects).map_err(err)?;
-    let warnings = warn_each(py, emulated::warnings(&truth.rig, &outcome))?;
-    let (data, end_stop) = (outcome.data, outcome.end_stop);
-    let doc = emulated::emulated_json(
-        kind,
-        (&origin, truth.rig.circuit),
-        &data,
-        &basis,
-        &warnings,
-        end_stop.as_ref(),
-    );
+    warn_each(py, emulation.warnings.clone())?;
+    let doc = emulation.document(kind, &origin, truth.rig.circuit);
     PyOutcome::of(py, "Emulated", &base.document(doc))?.with_arrays(py, "columns", "Columns")
 }
 

@@ -238,6 +238,53 @@ pub fn run(plan: &Kind, truth: &Truth, work: &Work) -> Result<Outcome, RunError>
     })
 }
 
+/// An emulated run with what every front end says of it: its outcome, its warnings
+/// ([`warnings`]) and the emulator's basis in words ([`basis`]).
+#[derive(Debug, Clone)]
+pub struct Emulation {
+    /// The run's record, end stop and cavitation.
+    pub outcome: Outcome,
+    /// Its warnings, one line each.
+    pub warnings: Vec<String>,
+    /// The emulator's basis, one sentence.
+    pub basis: String,
+}
+
+/// Run a plan on the truth ([`run`]) with its warnings and basis, as `pumpcyl emulate` and
+/// Python's `emulate` do.
+///
+/// # Errors
+/// As [`run`]; a rig whose loop cannot rest at x0 (its basis names β_e there).
+pub fn emulate(plan: &Kind, truth: &Truth, work: &Work) -> Result<Emulation, RunError> {
+    let outcome = run(plan, truth, work)?;
+    let basis = basis(&truth.rig, &truth.effects).map_err(RunError::Emulator)?;
+    Ok(Emulation {
+        warnings: warnings(&truth.rig, &outcome),
+        outcome,
+        basis,
+    })
+}
+
+impl Emulation {
+    /// Its document ([`emulated_json`]) as an `experiment` on the rig `origin` (in words) of
+    /// the circuit `circuit`.
+    pub fn document(
+        &self,
+        experiment: ExperimentKind,
+        origin: &str,
+        circuit: CircuitKind,
+    ) -> Value {
+        emulated_json(
+            experiment,
+            (origin, circuit),
+            &self.outcome.data,
+            &self.basis,
+            &self.warnings,
+            self.outcome.end_stop.as_ref(),
+        )
+    }
+}
+
 /// The warnings of an emulated run on `rig`: the drive ratings a closed-loop record exceeds
 /// (docs/simulation.md#drive-ratings), one line each, and the first chamber at the cavitation
 /// floor; none for a drive record.
