@@ -232,6 +232,18 @@ struct Known {
     cells: Vec<f64>,
     /// The cell of the speed commands (rad/s).
     command_cell: f64,
+    /// Whether the circuit says which side of their limits its drives are on
+    /// ([`Circuit::drive_regime`]): then the states of [`regime_only`] roles and the commands
+    /// key a linear part by that regime alone.
+    by_regime: bool,
+    /// The role of each state.
+    roles: Vec<Role>,
+}
+
+/// Whether a state of `role` enters the equations only through the drives, linearly on each
+/// side of their limits ([`Circuit::drive_regime`]): the torques and feedforward filters.
+fn regime_only(role: Role) -> bool {
+    matches!(role, Role::Torque | Role::Feedforward)
 }
 
 /// A linear part: the scaled Jacobian J₀ at a lattice point (row-major, and column-major for
@@ -309,9 +321,13 @@ fn known(d: &Dynamics) -> Rc<Known> {
         return k;
     }
     let scale = typical(d);
-    let cells = (d.circuit().states().iter().zip(&scale))
+    let states = d.circuit().states();
+    let cells = (states.iter().zip(&scale))
         .map(|(s, size)| size * cell(s.role))
         .collect();
+    let (x, u) = d.operating_point();
+    let by_regime = d.circuit().drive_regime(&x, &u).is_some();
+    let roles = states.iter().map(|s| s.role).collect();
     let serial = SERIAL.with(|s| {
         s.set(s.get() + 1);
         s.get()
@@ -322,6 +338,8 @@ fn known(d: &Dynamics) -> Rc<Known> {
         scale,
         cells,
         command_cell: Role::SpeedCommand.typical_size() * COMMAND_CELL,
+        by_regime,
+        roles,
     });
     KNOWN.with(|all| {
         let mut all = all.borrow_mut();
@@ -334,21 +352,35 @@ fn known(d: &Dynamics) -> Rc<Known> {
 /// The linear part of `d` for the state `x` and commands `u`: the exact Jacobian at the centre
 /// of the lattice cell that holds them (docs/emulator.md#the-integration; the cells' edges
 /// include 0, so a cell never straddles the retracted end stop), from the cache or computed.
-/// A function of its arguments alone: whether it was cached changes nothing.
+/// Where the circuit says which side of their limits its drives are on, the torque and
+/// feedforward states and the commands key it by that regime at the centre instead of by their
+/// cells: the Jacobian there is the same, bit for bit, whichever of their cells the centre is
+/// in. A function of its arguments alone: whether it was cached changes nothing.
 fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
     let n = x.len();
-    let mut point: Vec<i64> = (x.iter().zip(&k.cells))
-        .map(|(v, c)| (v / c).floor() as i64)
+    let cell_of = |v: f64, c: f64| (v / c).floor() as i64;
+    let centre = |v: f64, c: f64| (cell_of(v, c) as f64 + 0.5) * c;
+    let at: Vec<f64> = (x.iter().zip(&k.cells))
+        .map(|(&v, &c)| centre(v, c))
         .collect();
-    point.extend(u.map(|v| (v / k.command_cell).floor() as i64));
+    let uq = u.map(|v| centre(v, k.command_cell));
+    let point: Vec<i64> = if k.by_regime {
+        let regime = d.circuit().drive_regime(&at, &uq).unwrap_or(u64::MAX);
+        (x.iter().zip(&k.cells).zip(&k.roles))
+            .filter(|(_, role)| !regime_only(**role))
+            .map(|((&v, &c), _)| cell_of(v, c))
+            .chain([regime as i64])
+            .collect()
+    } else {
+        (x.iter().zip(&k.cells))
+            .map(|(&v, &c)| cell_of(v, c))
+            .chain(u.map(|v| cell_of(v, k.command_cell)))
+            .collect()
+    };
     let key = (k.serial, point);
     if let Some(l) = LINEAR.with(|c| c.borrow_mut().get(&key)) {
         return l;
     }
-    let at: Vec<f64> = (key.1[..n].iter().zip(&k.cells))
-        .map(|(&i, c)| (i as f64 + 0.5) * c)
-        .collect();
-    let uq = [0, 1].map(|i| (key.1[n + i] as f64 + 0.5) * k.command_cell);
     add_work(JACOBIAN_WORK);
     let mut j = d.jacobian(&at, &uq);
     for r in 0..n {
@@ -898,6 +930,69 @@ fn mat_mul_any(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::circuit::CircuitKind;
+    use crate::emulator::Effects;
+    use crate::rig::Rig;
+
+    #[test]
+    fn the_jacobian_depends_on_the_torques_feedforward_states_and_commands_through_the_drive_regime_alone(
+    ) {
+        // what keys a linear part by the regime instead of their cells rests on: at any state,
+        // moving the torques, feedforward filters and commands within one regime leaves the
+        // Jacobian the same bit for bit, on every circuit, below, at and beyond the limits
+        for kind in CircuitKind::ALL {
+            let rig = Rig::default()
+                .with_overrides(&[format!("circuit={}", kind.name())])
+                .unwrap();
+            let d = Dynamics::new(&rig, Effects::for_rig(&rig).unwrap()).unwrap();
+            let (x0, u0) = d.operating_point();
+            let roles: Vec<Role> = d.circuit().states().iter().map(|s| s.role).collect();
+            let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+            let mut random = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            };
+            let (mut compared, mut limited) = (0, 0);
+            for sample in 0..400 {
+                // the speeds near and beyond the pumps' limit too (about 377 rad/s)
+                let reach = [1.0, 10.0, 100.0, 1000.0][sample % 4];
+                let x: Vec<f64> = (x0.iter().zip(&roles))
+                    .map(|(&v, role)| match role {
+                        Role::MotorSpeed => v + 2.0 * reach * random(),
+                        _ => v + role.typical_size() * 20.0 * random(),
+                    })
+                    .collect();
+                let u = [0, 1].map(|i| u0[i] + reach * random());
+                let regime = d.circuit().drive_regime(&x, &u).unwrap();
+                let j = d.jacobian(&x, &u);
+                for _ in 0..8 {
+                    let mut y = x.clone();
+                    for (v, role) in y.iter_mut().zip(&roles) {
+                        if regime_only(*role) {
+                            *v += [1.0, reach, 30.0][sample % 3] * random();
+                        }
+                    }
+                    let w = [0, 1].map(|i| u[i] + reach * random());
+                    if d.circuit().drive_regime(&y, &w) != Some(regime) {
+                        continue;
+                    }
+                    let jy = d.jacobian(&y, &w);
+                    assert!(
+                        (j.iter().zip(&jy)).all(|(a, b)| a.to_bits() == b.to_bits()),
+                        "{kind:?} regime {regime}: {x:?} {u:?} vs {y:?} {w:?}"
+                    );
+                    compared += 1;
+                    limited += usize::from(regime != 0);
+                }
+            }
+            assert!(
+                compared > 1000 && limited > 100,
+                "{kind:?}: {compared}, {limited}"
+            );
+        }
+    }
 
     #[test]
     fn the_phi_functions_of_a_diagonal_matrix_are_the_scalar_ones() {
