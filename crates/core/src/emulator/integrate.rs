@@ -247,13 +247,11 @@ fn regime_only(role: Role) -> bool {
 }
 
 /// A linear part: the scaled Jacobian J₀ at a lattice point (row-major, and column-major for
-/// products), the φ functions of the halvings of the intervals it was used over (by the bits of
-/// the interval and the first halving of the block) and the ETDRK4 propagators built from them
-/// (by the bits of the interval and the halving).
+/// products) and the ETDRK4 propagators of the halvings of the intervals it was used over (by
+/// the bits of the interval and the halving).
 struct Linear {
     j: Vec<f64>,
     j_columns: Vec<f64>,
-    phis: RefCell<Vec<(Halving, Rc<Phis>)>>,
     propagators: RefCell<Vec<(Halving, Rc<Propagator>)>>,
 }
 
@@ -265,9 +263,10 @@ type Halving = (u64, u32);
 type LinearKey = (u64, Vec<i64>);
 
 /// Linear parts kept per thread in each of two generations (each with its propagators, about
-/// 15 kB): a noisy record at rest visits a few thousand cells over ten minutes, most of them
-/// again and again. The results do not depend on what the cache holds.
-const CACHE: usize = 1024;
+/// 25 kB): a noisy record at rest visits a few thousand cells over ten minutes, most of them
+/// again and again, a noisy one in motion 17 000, met again periods later
+/// (docs/emulator.md#the-integration). The results do not depend on what the cache holds.
+const CACHE: usize = 2048;
 
 /// The linear parts of the thread: those used since the current generation began, and those of
 /// the one before, moved back into the current one when used again. When the current one is
@@ -391,7 +390,6 @@ fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
     let l = Rc::new(Linear {
         j_columns: columns(&j, n),
         j,
-        phis: RefCell::new(Vec::new()),
         propagators: RefCell::new(Vec::new()),
     });
     LINEAR.with(|c| c.borrow_mut().insert(key, l.clone()));
@@ -643,10 +641,17 @@ fn columns(m: &[f64], n: usize) -> Vec<f64> {
 /// one pass.
 const CHAIN: u32 = 6;
 
+/// Halvings of a block, after its first, whose propagators are built with the first's: most
+/// intervals' steps are of the first four halvings.
+const EAGER: u32 = 3;
+
 /// The propagator of the problem's linear part for steps of the interval's `level`-th halving,
-/// kept with it or built from the φ functions of its block of halvings (computed once per
-/// linear part and interval). Which block a halving belongs to is fixed, so the propagator is
-/// a function of the linear part, the interval and the level alone.
+/// kept with it or built from the φ functions of its block of halvings, with those of the
+/// block's first [`EAGER`] + 1 halvings. The φ functions are not kept (a linear part with them
+/// took three times the memory, and the cache that many fewer linear parts): a longer halving
+/// of the block asked for later computes them again. Which block a halving belongs to is
+/// fixed, so the propagator is a function of the linear part, the interval and the level
+/// alone.
 fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorError> {
     let key = (p.span.to_bits(), level);
     let kept = p.linear.propagators.borrow();
@@ -655,24 +660,23 @@ fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorErr
     }
     drop(kept);
     let first = level / (CHAIN + 1) * (CHAIN + 1);
-    let block = (p.span.to_bits(), first);
-    let found = (p.linear.phis.borrow().iter())
-        .find(|(k, _)| *k == block)
-        .map(|(_, phi)| phi.clone());
-    let phi = match found {
-        Some(phi) => phi,
-        None => {
-            let h = p.span * 0.5f64.powi(first as i32);
-            add_work(PHI_WORK);
-            let phi = Rc::new(phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?);
-            p.linear.phis.borrow_mut().push((block, phi.clone()));
-            phi
-        }
+    let h = p.span * 0.5f64.powi(first as i32);
+    add_work(PHI_WORK);
+    let phi = phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?;
+    let of_level = |l: u32| {
+        let hl = p.span * 0.5f64.powi(l as i32);
+        Rc::new(propagator(&phi, (l - first) as usize, hl))
     };
-    let l = (level - first) as usize;
-    let hl = p.span * 0.5f64.powi(level as i32);
-    let q = Rc::new(propagator(&phi, l, hl));
-    p.linear.propagators.borrow_mut().push((key, q.clone()));
+    let q = of_level(level);
+    let mut kept = p.linear.propagators.borrow_mut();
+    kept.push((key, q.clone()));
+    // the block's first halvings too, which most intervals' steps are of, while its φ
+    // functions are at hand: they are let go, a linear part keeps its propagators alone
+    for l in first..=first + EAGER {
+        if !kept.iter().any(|(k, _)| *k == (p.span.to_bits(), l)) {
+            kept.push(((p.span.to_bits(), l), of_level(l)));
+        }
+    }
     Ok(q)
 }
 
