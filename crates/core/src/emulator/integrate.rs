@@ -637,8 +637,8 @@ fn columns(m: &[f64], n: usize) -> Vec<f64> {
 
 /// Halvings of the interval whose φ functions one pass of the scaling and squaring gives (the
 /// doublings pass them all on the way): a block of halvings 0 ..= CHAIN, then CHAIN + 1 ..= 2 CHAIN + 1,
-/// and so on. Most intervals take steps of the first few halvings, so a linear part needs
-/// one pass.
+/// and so on. Most intervals take steps of the first four halvings, whose propagators the
+/// first pass builds ([`EAGER`]), so a linear part needs one pass.
 const CHAIN: u32 = 6;
 
 /// Halvings of a block, after its first, whose propagators are built with the first's: most
