@@ -415,6 +415,20 @@ impl Dpm {
     }
 }
 
+impl Dpm {
+    /// The pumps' load torques on the drives (N·m) at state `x`: pump 1's D1 (p1 − p2), pump
+    /// 2's D2 p1; none without the motor–hydraulics coupling.
+    fn loads<T: Scalar>(&self, x: &[T]) -> [T; 2] {
+        let (l, si) = (&self.layout, &self.si);
+        let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
+        if self.coupling {
+            [(p1 - p2) * si.d[0], p1 * si.d[1]]
+        } else {
+            [T::from(0.0); 2]
+        }
+    }
+}
+
 impl Circuit for Dpm {
     fn kind(&self) -> CircuitKind {
         CircuitKind::Dpm
@@ -499,11 +513,7 @@ impl Circuit for Dpm {
         cylinder_rates(cylinder, at, x, [in1, in2], dx);
         match &self.motors {
             Motors::Full(drives, tau) => {
-                let load = if self.coupling {
-                    [(p1 - p2) * si.d[0], p1 * si.d[1]]
-                } else {
-                    [T::from(0.0); 2]
-                };
+                let load = self.loads(x);
                 for i in 0..2 {
                     let z = l.ff.map(|ff| x[ff[i]]);
                     let r = drives[i].rates(u[i], x[l.w[i]], x[tau[i]], z, load[i]);
@@ -520,6 +530,21 @@ impl Circuit for Dpm {
                 }
             }
         }
+    }
+
+    /// The regimes of the two drives ([`Drive::regime`]), drive 1's plus 6 times drive 2's;
+    /// first-order motors have none.
+    fn drive_regime(&self, x: &[f64], u: &[f64]) -> Option<u64> {
+        let Motors::Full(drives, tau) = &self.motors else {
+            return Some(0);
+        };
+        let l = &self.layout;
+        let load = self.loads(x);
+        let regime = |i: usize| {
+            let z = l.ff.map(|ff| x[ff[i]]);
+            drives[i].regime(u[i], x[l.w[i]], x[tau[i]], z, load[i])
+        };
+        Some(regime(0) + 6 * regime(1))
     }
 
     fn operating_point(&self) -> OperatingState {

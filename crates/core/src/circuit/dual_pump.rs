@@ -395,6 +395,11 @@ impl Circuit for DualPump {
         (self.motor).write_rates(u[0], s, self.load_torque(s), dx, W);
     }
 
+    /// The regime of the one motor ([`Motor::regime`]).
+    fn drive_regime(&self, s: &[f64], u: &[f64]) -> Option<u64> {
+        Some(self.motor.regime(u[0], s, self.load_torque(s), W))
+    }
+
     /// At rest at x0: the pressures and shaft speed of [`DualPump::rest`]; with the full motor
     /// model the torque that carries the pumps' load, the command that holds it through the P
     /// loop (τ = Km1 (ω_ref − ω)) and the feedforward filter settled (z = ω_ref).

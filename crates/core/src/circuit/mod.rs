@@ -36,6 +36,9 @@ macro_rules! delegate_circuit {
             fn control_law(&self) -> $crate::circuit::ControlLaw {
                 match self { $($ty::$variant(c) => c.control_law()),+ }
             }
+            fn drive_regime(&self, x: &[f64], u: &[f64]) -> Option<u64> {
+                match self { $($ty::$variant(c) => c.drive_regime(x, u)),+ }
+            }
         }
     };
 }
@@ -286,6 +289,15 @@ pub trait Circuit {
 
     /// The control law at the operating point (the article's P law, and what the circuit adds).
     fn control_law(&self) -> ControlLaw;
+
+    /// Which side of their limits the circuit's drives are on at (x, u) ([`parts::Drive::regime`]),
+    /// where its torque and feedforward states and its commands enter its equations only
+    /// through its drives: then ∂f/∂x depends on them through this alone, and the emulator's
+    /// integrator takes one linear part for all of them (docs/emulator.md#the-integration).
+    /// `None` (the default): the circuit does not say so, and every state counts.
+    fn drive_regime(&self, _x: &[f64], _u: &[f64]) -> Option<u64> {
+        None
+    }
 
     /// The position of the first state with `role`, if any.
     fn state_of(&self, role: Role) -> Option<usize> {

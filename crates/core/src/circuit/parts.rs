@@ -344,10 +344,7 @@ impl Drive {
                 rate - tau * w_i
             }
             Some(lim) => {
-                let mut t_ref = (u - w) * self.km;
-                if let Some((z, kf)) = feedforward {
-                    t_ref += (u - z) * kf;
-                }
+                let mut t_ref = self.torque_reference(u, w, feedforward);
                 if t_ref < -lim {
                     t_ref = T::from(-lim);
                 } else if t_ref > lim {
@@ -357,16 +354,55 @@ impl Drive {
             }
         };
         let mut acc = (tau - load) / self.inertia;
-        if let Some(max) = self.speed_limit {
-            if w.abs() >= max && (acc * w) > 0.0 {
-                acc = T::from(0.0);
-            }
+        if self.speed_held(w, acc) {
+            acc = T::from(0.0);
         }
         DriveRates {
             speed: acc,
             torque,
             feedforward: feedforward.map(|(z, _)| (u - z) / self.tau_ff_s),
         }
+    }
+}
+
+impl Drive {
+    /// The torque reference before its limit, Km (u − ω) + (Kff/τff)(u − z), with `feedforward`
+    /// the filter state and Kff/τff where the feedforward is on.
+    fn torque_reference<T: Scalar>(&self, u: T, w: T, feedforward: Option<(T, f64)>) -> T {
+        let mut t_ref = (u - w) * self.km;
+        if let Some((z, kf)) = feedforward {
+            t_ref += (u - z) * kf;
+        }
+        t_ref
+    }
+
+    /// Whether the speed limit holds the acceleration `acc` at zero at speed `w`: at the limit,
+    /// accelerating further.
+    fn speed_held<T: Scalar>(&self, w: T, acc: T) -> bool {
+        self.speed_limit
+            .is_some_and(|max| w.abs() >= max && (acc * w) > 0.0)
+    }
+
+    /// Which side of its limits the drive is on at speed command `u`, speed `w`, torque `tau`,
+    /// feedforward filter `z` and load torque `load`, as [`Drive::rates`] decides it: 0, 1 or 2
+    /// with the torque reference within its limit, clamped at −limit or at +limit, plus 3
+    /// where the speed limit holds the acceleration at zero. Within one regime the rates are
+    /// linear in `u`, `tau` and `z` with coefficients that do not depend on them, so the
+    /// Jacobian of the rates depends on these three through the regime alone.
+    pub fn regime(&self, u: f64, w: f64, tau: f64, z: Option<f64>, load: f64) -> u64 {
+        let feedforward = z.and_then(|z| Some((z, self.feedforward?)));
+        let clamp = self.torque_limit.map_or(0, |lim| {
+            let t_ref = self.torque_reference(u, w, feedforward);
+            if t_ref < -lim {
+                1
+            } else if t_ref > lim {
+                2
+            } else {
+                0
+            }
+        });
+        let held = self.speed_held(w, (tau - load) / self.inertia);
+        clamp + if held { 3 } else { 0 }
     }
 }
 
@@ -450,6 +486,19 @@ impl Motor {
                 if let Some(rate) = rates.feedforward {
                     dx[at + 2] = rate;
                 }
+            }
+        }
+    }
+
+    /// Which side of its limits the motor is on ([`Drive::regime`]) at speed command `u` and
+    /// load torque `load` (N·m), its states starting at `at` in `s`; a first-order motor has
+    /// no limits: 0.
+    pub fn regime(&self, u: f64, s: &[f64], load: f64, at: usize) -> u64 {
+        match self {
+            Motor::FirstOrder(_) => 0,
+            Motor::Full(drive) => {
+                let z = drive.feedforward.map(|_| s[at + 2]);
+                drive.regime(u, s[at], s[at + 1], z, load)
             }
         }
     }

@@ -317,6 +317,11 @@ impl Circuit for SinglePump {
         (self.motor).write_rates(u[0], s, self.load_torque(s), dx, W);
     }
 
+    /// The regime of the one motor ([`Motor::regime`]).
+    fn drive_regime(&self, s: &[f64], u: &[f64]) -> Option<u64> {
+        Some(self.motor.regime(u[0], s, self.load_torque(s), W))
+    }
+
     /// At rest at x0 in the mode of the external force ([`modes::switching`]): the open
     /// chamber at p_acc, the other from the force balance (docs/circuits.md#its-two-modes).
     fn operating_point(&self) -> OperatingState {

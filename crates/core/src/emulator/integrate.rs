@@ -232,16 +232,26 @@ struct Known {
     cells: Vec<f64>,
     /// The cell of the speed commands (rad/s).
     command_cell: f64,
+    /// Whether the circuit says which side of their limits its drives are on
+    /// ([`Circuit::drive_regime`]): then the states of [`regime_only`] roles and the commands
+    /// key a linear part by that regime alone.
+    by_regime: bool,
+    /// The role of each state.
+    roles: Vec<Role>,
+}
+
+/// Whether a state of `role` enters the equations only through the drives, linearly on each
+/// side of their limits ([`Circuit::drive_regime`]): the torques and feedforward filters.
+fn regime_only(role: Role) -> bool {
+    matches!(role, Role::Torque | Role::Feedforward)
 }
 
 /// A linear part: the scaled Jacobian J₀ at a lattice point (row-major, and column-major for
-/// products), the φ functions of the halvings of the intervals it was used over (by the bits of
-/// the interval and the first halving of the block) and the ETDRK4 propagators built from them
-/// (by the bits of the interval and the halving).
+/// products) and the ETDRK4 propagators of the halvings of the intervals it was used over (by
+/// the bits of the interval and the halving).
 struct Linear {
     j: Vec<f64>,
     j_columns: Vec<f64>,
-    phis: RefCell<Vec<(Halving, Rc<Phis>)>>,
     propagators: RefCell<Vec<(Halving, Rc<Propagator>)>>,
 }
 
@@ -253,9 +263,10 @@ type Halving = (u64, u32);
 type LinearKey = (u64, Vec<i64>);
 
 /// Linear parts kept per thread in each of two generations (each with its propagators, about
-/// 15 kB): a noisy record at rest visits a few thousand cells over ten minutes, most of them
-/// again and again. The results do not depend on what the cache holds.
-const CACHE: usize = 1024;
+/// 25 kB): a noisy record at rest visits a few thousand cells over ten minutes, most of them
+/// again and again, a noisy one in motion 17 000, met again periods later
+/// (docs/emulator.md#the-integration). The results do not depend on what the cache holds.
+const CACHE: usize = 2048;
 
 /// The linear parts of the thread: those used since the current generation began, and those of
 /// the one before, moved back into the current one when used again. When the current one is
@@ -309,9 +320,13 @@ fn known(d: &Dynamics) -> Rc<Known> {
         return k;
     }
     let scale = typical(d);
-    let cells = (d.circuit().states().iter().zip(&scale))
+    let states = d.circuit().states();
+    let cells = (states.iter().zip(&scale))
         .map(|(s, size)| size * cell(s.role))
         .collect();
+    let (x, u) = d.operating_point();
+    let by_regime = d.circuit().drive_regime(&x, &u).is_some();
+    let roles = states.iter().map(|s| s.role).collect();
     let serial = SERIAL.with(|s| {
         s.set(s.get() + 1);
         s.get()
@@ -322,6 +337,8 @@ fn known(d: &Dynamics) -> Rc<Known> {
         scale,
         cells,
         command_cell: Role::SpeedCommand.typical_size() * COMMAND_CELL,
+        by_regime,
+        roles,
     });
     KNOWN.with(|all| {
         let mut all = all.borrow_mut();
@@ -334,21 +351,35 @@ fn known(d: &Dynamics) -> Rc<Known> {
 /// The linear part of `d` for the state `x` and commands `u`: the exact Jacobian at the centre
 /// of the lattice cell that holds them (docs/emulator.md#the-integration; the cells' edges
 /// include 0, so a cell never straddles the retracted end stop), from the cache or computed.
-/// A function of its arguments alone: whether it was cached changes nothing.
+/// Where the circuit says which side of their limits its drives are on, the torque and
+/// feedforward states and the commands key it by that regime at the centre instead of by their
+/// cells: the Jacobian there is the same, bit for bit, whichever of their cells the centre is
+/// in. A function of its arguments alone: whether it was cached changes nothing.
 fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
     let n = x.len();
-    let mut point: Vec<i64> = (x.iter().zip(&k.cells))
-        .map(|(v, c)| (v / c).floor() as i64)
+    let cell_of = |v: f64, c: f64| (v / c).floor() as i64;
+    let centre = |v: f64, c: f64| (cell_of(v, c) as f64 + 0.5) * c;
+    let at: Vec<f64> = (x.iter().zip(&k.cells))
+        .map(|(&v, &c)| centre(v, c))
         .collect();
-    point.extend(u.map(|v| (v / k.command_cell).floor() as i64));
+    let uq = u.map(|v| centre(v, k.command_cell));
+    let point: Vec<i64> = if k.by_regime {
+        let regime = d.circuit().drive_regime(&at, &uq).unwrap_or(u64::MAX);
+        (x.iter().zip(&k.cells).zip(&k.roles))
+            .filter(|(_, role)| !regime_only(**role))
+            .map(|((&v, &c), _)| cell_of(v, c))
+            .chain([regime as i64])
+            .collect()
+    } else {
+        (x.iter().zip(&k.cells))
+            .map(|(&v, &c)| cell_of(v, c))
+            .chain(u.map(|v| cell_of(v, k.command_cell)))
+            .collect()
+    };
     let key = (k.serial, point);
     if let Some(l) = LINEAR.with(|c| c.borrow_mut().get(&key)) {
         return l;
     }
-    let at: Vec<f64> = (key.1[..n].iter().zip(&k.cells))
-        .map(|(&i, c)| (i as f64 + 0.5) * c)
-        .collect();
-    let uq = [0, 1].map(|i| (key.1[n + i] as f64 + 0.5) * k.command_cell);
     add_work(JACOBIAN_WORK);
     let mut j = d.jacobian(&at, &uq);
     for r in 0..n {
@@ -359,7 +390,6 @@ fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
     let l = Rc::new(Linear {
         j_columns: columns(&j, n),
         j,
-        phis: RefCell::new(Vec::new()),
         propagators: RefCell::new(Vec::new()),
     });
     LINEAR.with(|c| c.borrow_mut().insert(key, l.clone()));
@@ -607,14 +637,21 @@ fn columns(m: &[f64], n: usize) -> Vec<f64> {
 
 /// Halvings of the interval whose φ functions one pass of the scaling and squaring gives (the
 /// doublings pass them all on the way): a block of halvings 0 ..= CHAIN, then CHAIN + 1 ..= 2 CHAIN + 1,
-/// and so on. Most intervals take steps of the first few halvings, so a linear part needs
-/// one pass.
+/// and so on. Most intervals take steps of the first four halvings, whose propagators the
+/// first pass builds ([`EAGER`]), so a linear part needs one pass.
 const CHAIN: u32 = 6;
 
+/// Halvings of a block, after its first, whose propagators are built with the first's: most
+/// intervals' steps are of the first four halvings.
+const EAGER: u32 = 3;
+
 /// The propagator of the problem's linear part for steps of the interval's `level`-th halving,
-/// kept with it or built from the φ functions of its block of halvings (computed once per
-/// linear part and interval). Which block a halving belongs to is fixed, so the propagator is
-/// a function of the linear part, the interval and the level alone.
+/// kept with it or built from the φ functions of its block of halvings, with those of the
+/// block's first [`EAGER`] + 1 halvings. The φ functions are not kept (a linear part with them
+/// took three times the memory, and the cache that many fewer linear parts): a longer halving
+/// of the block asked for later computes them again. Which block a halving belongs to is
+/// fixed, so the propagator is a function of the linear part, the interval and the level
+/// alone.
 fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorError> {
     let key = (p.span.to_bits(), level);
     let kept = p.linear.propagators.borrow();
@@ -623,24 +660,23 @@ fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorErr
     }
     drop(kept);
     let first = level / (CHAIN + 1) * (CHAIN + 1);
-    let block = (p.span.to_bits(), first);
-    let found = (p.linear.phis.borrow().iter())
-        .find(|(k, _)| *k == block)
-        .map(|(_, phi)| phi.clone());
-    let phi = match found {
-        Some(phi) => phi,
-        None => {
-            let h = p.span * 0.5f64.powi(first as i32);
-            add_work(PHI_WORK);
-            let phi = Rc::new(phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?);
-            p.linear.phis.borrow_mut().push((block, phi.clone()));
-            phi
-        }
+    let h = p.span * 0.5f64.powi(first as i32);
+    add_work(PHI_WORK);
+    let phi = phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?;
+    let of_level = |l: u32| {
+        let hl = p.span * 0.5f64.powi(l as i32);
+        Rc::new(propagator(&phi, (l - first) as usize, hl))
     };
-    let l = (level - first) as usize;
-    let hl = p.span * 0.5f64.powi(level as i32);
-    let q = Rc::new(propagator(&phi, l, hl));
-    p.linear.propagators.borrow_mut().push((key, q.clone()));
+    let q = of_level(level);
+    let mut kept = p.linear.propagators.borrow_mut();
+    kept.push((key, q.clone()));
+    // the block's first halvings too, which most intervals' steps are of, while its φ
+    // functions are at hand: they are let go, a linear part keeps its propagators alone
+    for l in first..=first + EAGER {
+        if !kept.iter().any(|(k, _)| *k == (p.span.to_bits(), l)) {
+            kept.push(((p.span.to_bits(), l), of_level(l)));
+        }
+    }
     Ok(q)
 }
 
@@ -898,6 +934,69 @@ fn mat_mul_any(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::circuit::CircuitKind;
+    use crate::emulator::Effects;
+    use crate::rig::Rig;
+
+    #[test]
+    fn the_jacobian_depends_on_the_torques_feedforward_states_and_commands_through_the_drive_regime_alone(
+    ) {
+        // what keys a linear part by the regime instead of their cells rests on: at any state,
+        // moving the torques, feedforward filters and commands within one regime leaves the
+        // Jacobian the same bit for bit, on every circuit, below, at and beyond the limits
+        for kind in CircuitKind::ALL {
+            let rig = Rig::default()
+                .with_overrides(&[format!("circuit={}", kind.name())])
+                .unwrap();
+            let d = Dynamics::new(&rig, Effects::for_rig(&rig).unwrap()).unwrap();
+            let (x0, u0) = d.operating_point();
+            let roles: Vec<Role> = d.circuit().states().iter().map(|s| s.role).collect();
+            let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+            let mut random = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            };
+            let (mut compared, mut limited) = (0, 0);
+            for sample in 0..400 {
+                // the speeds near and beyond the pumps' limit too (about 377 rad/s)
+                let reach = [1.0, 10.0, 100.0, 1000.0][sample % 4];
+                let x: Vec<f64> = (x0.iter().zip(&roles))
+                    .map(|(&v, role)| match role {
+                        Role::MotorSpeed => v + 2.0 * reach * random(),
+                        _ => v + role.typical_size() * 20.0 * random(),
+                    })
+                    .collect();
+                let u = [0, 1].map(|i| u0[i] + reach * random());
+                let regime = d.circuit().drive_regime(&x, &u).unwrap();
+                let j = d.jacobian(&x, &u);
+                for _ in 0..8 {
+                    let mut y = x.clone();
+                    for (v, role) in y.iter_mut().zip(&roles) {
+                        if regime_only(*role) {
+                            *v += [1.0, reach, 30.0][sample % 3] * random();
+                        }
+                    }
+                    let w = [0, 1].map(|i| u[i] + reach * random());
+                    if d.circuit().drive_regime(&y, &w) != Some(regime) {
+                        continue;
+                    }
+                    let jy = d.jacobian(&y, &w);
+                    assert!(
+                        (j.iter().zip(&jy)).all(|(a, b)| a.to_bits() == b.to_bits()),
+                        "{kind:?} regime {regime}: {x:?} {u:?} vs {y:?} {w:?}"
+                    );
+                    compared += 1;
+                    limited += usize::from(regime != 0);
+                }
+            }
+            assert!(
+                compared > 1000 && limited > 100,
+                "{kind:?}: {compared}, {limited}"
+            );
+        }
+    }
 
     #[test]
     fn the_phi_functions_of_a_diagonal_matrix_are_the_scalar_ones() {
