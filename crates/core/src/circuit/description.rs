@@ -100,7 +100,7 @@ pub struct Description {
     pub no_modes: Option<&'static str>,
 }
 
-/// A linear form of a circuit, what [`AnyCircuit`] holds: its equations without effects, the
+/// A linear form of a circuit, what [`AnyCircuit`](super::AnyCircuit) holds: its equations without effects, the
 /// control law at its operating point, what its drives carry and its name in words.
 pub trait LinearForm: Circuit + Clone + std::fmt::Debug {
     /// The control law at the operating point, with the sum-pressure loop where
@@ -145,7 +145,7 @@ pub trait LinearForm: Circuit + Clone + std::fmt::Debug {
     }
 }
 
-/// The emulated form of a circuit, what [`Emulated`] holds: its equations with the chosen
+/// The emulated form of a circuit, what [`Emulated`](super::Emulated) holds: its equations with the chosen
 /// effects, its end stops, its rest and its PLC law in absolute terms.
 pub trait EmulatedForm: Circuit + Clone + std::fmt::Debug {
     /// Number of states.
