@@ -115,10 +115,6 @@ pub trait LinearForm: Circuit + Clone + std::fmt::Debug {
     fn mode(&self) -> Option<usize> {
         None
     }
-    /// The DPM circuit, for what only it has.
-    fn dpm(&self) -> Option<&super::Dpm> {
-        None
-    }
     /// The leakages c1, c2 that hold a standstill for a cross-port leakage `c12`
     /// (docs/identification.md#leakage-from-standstill); `None` where the circuit's standstill
     /// does not determine them.
@@ -389,12 +385,6 @@ macro_rules! circuits {
             /// circuit without modes.
             pub fn mode(&self) -> Option<usize> {
                 match self { $(AnyCircuit::$variant(c) => $crate::circuit::LinearForm::mode(c)),+ }
-            }
-
-            /// The DPM circuit, for what only it has (its grey-box entries, its standstill,
-            /// its two drives); `None` for another circuit.
-            pub fn dpm(&self) -> Option<&$crate::circuit::Dpm> {
-                match self { $(AnyCircuit::$variant(c) => $crate::circuit::LinearForm::dpm(c)),+ }
             }
 
             /// [`LinearForm::standstill_leakage`] of the circuit inside.

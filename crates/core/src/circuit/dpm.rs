@@ -640,9 +640,6 @@ impl super::LinearForm for Dpm {
     fn describe(&self) -> String {
         <Module as super::Module>::DESCRIPTION.name.to_string()
     }
-    fn dpm(&self) -> Option<&Dpm> {
-        Some(self)
-    }
     /// Motor 2's speed is needed: a record without its column `w2_rpm` cannot give it.
     fn standstill_leakage(
         &self,
@@ -666,6 +663,17 @@ impl super::EmulatedForm for Dpm {
     }
     fn commands(&self, rig: &Rig, r_mm: f64, x_mm: f64, p_bar: &[f64]) -> [f64; 2] {
         self.plc_commands(rig, r_mm, x_mm, p_bar)
+    }
+}
+
+impl super::AnyCircuit {
+    /// The DPM circuit, for what only it has (its grey-box entries, its standstill, its two
+    /// drives); `None` for another circuit's model.
+    pub fn dpm(&self) -> Option<&Dpm> {
+        if let super::AnyCircuit::Dpm(dpm) = self {
+            return Some(dpm);
+        }
+        None
     }
 }
 
