@@ -311,7 +311,7 @@ fn output_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
 
 /// The FMU has the mode output: the emulator of a single-pump rig.
 fn has_mode(c: &Config) -> bool {
-    c.model == ModelKind::Emulator && c.rig.circuit.description().no_modes.is_none()
+    c.model == ModelKind::Emulator && c.rig.circuit.has_modes()
 }
 
 /// Value references start here for the outputs and the parameters.

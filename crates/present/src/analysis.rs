@@ -304,8 +304,7 @@ impl ModesReport {
     /// # Errors
     /// A mode's model [`pumpcyl::lti::StateSpace::new`] refuses.
     pub fn of_loop(lp: &Loop) -> Result<Option<ModesReport>, LtiError> {
-        let Some(rig) = (lp.rig.as_ref()).filter(|r| r.circuit.description().no_modes.is_none())
-        else {
+        let Some(rig) = (lp.rig.as_ref()).filter(|r| r.circuit.has_modes()) else {
             return Ok(None);
         };
         Ok(Some(ModesReport {

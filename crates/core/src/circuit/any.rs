@@ -47,8 +47,7 @@ impl AnyCircuit {
     /// stops, the rig's variant switches as set; the single-pump circuit in the mode of its
     /// operating point at rest (docs/circuits.md#its-two-modes).
     pub fn linear(rig: &Rig) -> AnyCircuit {
-        let mut modes = AnyCircuit::linear_modes(rig);
-        modes.swap_remove(0)
+        rig.circuit.linear(rig)
     }
 
     /// Every linear model the loop of `rig` runs in, the one at rest first

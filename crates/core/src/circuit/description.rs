@@ -176,8 +176,14 @@ pub trait Module {
     /// Its emulated form.
     type Emulated: EmulatedForm;
 
-    /// Every linear model its loop runs in, the one at rest first.
-    fn linear_modes(rig: &Rig) -> Vec<Self::Linear>;
+    /// The linear model at rest (a circuit with modes: the mode its rest is in), what a
+    /// plant holds.
+    fn linear(rig: &Rig) -> Self::Linear;
+
+    /// Every linear model its loop runs in, the one at rest ([`Module::linear`]) first.
+    fn linear_modes(rig: &Rig) -> Vec<Self::Linear> {
+        vec![Self::linear(rig)]
+    }
 
     /// Its emulated form with the chosen effects.
     ///
@@ -218,12 +224,12 @@ pub trait Module {
     /// edge with what sets it (docs/identification.md#designing-the-sweep).
     fn pressure_band_bar(rig: &Rig) -> [(f64, &'static str); 2];
 
-    /// The chamber pressures (Pa gauge) and the shaft speed (rad/s) of a one-motor circuit at
-    /// rest, every valve as its equations have it (docs/select.md#cost).
+    /// A one-motor circuit at rest, every valve as its equations have it
+    /// (docs/select.md#cost).
     ///
     /// # Errors
     /// A circuit with more than one drive, or whose rest is undetermined.
-    fn one_motor_rest(rig: &Rig) -> Result<([f64; 2], f64), String> {
+    fn one_motor_rest(rig: &Rig) -> Result<OneMotorRest, String> {
         Err(format!(
             "the {} circuit has {} drives, not one",
             rig.circuit.name(),
@@ -232,14 +238,35 @@ pub trait Module {
     }
 }
 
-/// The chamber pressures (Pa) and the shaft speed (rad/s) of a one-motor circuit `c` at its
-/// operating point.
-pub(crate) fn one_motor_rest_of<C: Circuit>(c: &C) -> ([f64; 2], f64) {
+/// A one-motor circuit at rest: its chamber pressures, its shaft's speed and the torque its
+/// pumps load the motor with there, what the drive carries to feed the leakage
+/// (docs/select.md#cost).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OneMotorRest {
+    /// The chamber pressures (Pa gauge).
+    pub p_pa: [f64; 2],
+    /// The shaft speed (rad/s).
+    pub w_rad_per_s: f64,
+    /// The pumps' load torque on the motor (N·m).
+    pub torque_nm: f64,
+}
+
+/// The rest of a one-motor circuit `c` at its operating point, its pumps' load torque at the
+/// chamber pressures `torque_nm(p_pa)`.
+pub(crate) fn one_motor_rest_of<C: Circuit>(
+    c: &C,
+    torque_nm: impl Fn([f64; 2]) -> f64,
+) -> OneMotorRest {
     use super::Role;
     let op = c.operating_point();
     let p = c.states_of(Role::Pressure);
     let w = c.state_of(Role::MotorSpeed).expect("a circuit has a shaft");
-    ([op.state[p[0]], op.state[p[1]]], op.state[w])
+    let p_pa = [op.state[p[0]], op.state[p[1]]];
+    OneMotorRest {
+        p_pa,
+        w_rad_per_s: op.state[w],
+        torque_nm: torque_nm(p_pa),
+    }
 }
 
 /// The list of circuits, once: `circuits! { /// doc; Variant: module, ... }` declares each
@@ -265,6 +292,14 @@ macro_rules! circuits {
             pub fn description(self) -> &'static Description {
                 match self {
                     $(CircuitKind::$variant => &<$module::Module as Module>::DESCRIPTION),+
+                }
+            }
+
+            /// The linear model of `rig` at rest ([`Module::linear`]).
+            pub fn linear(self, rig: &$crate::rig::Rig) -> AnyCircuit {
+                match self {
+                    $(CircuitKind::$variant =>
+                        AnyCircuit::$variant(<$module::Module as Module>::linear(rig))),+
                 }
             }
 
@@ -328,7 +363,7 @@ macro_rules! circuits {
             ///
             /// # Errors
             /// As the circuit's own.
-            pub fn one_motor_rest(self, rig: &$crate::rig::Rig) -> Result<([f64; 2], f64), String> {
+            pub fn one_motor_rest(self, rig: &$crate::rig::Rig) -> Result<OneMotorRest, String> {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::one_motor_rest(rig)),+
                 }

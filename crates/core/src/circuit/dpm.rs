@@ -604,8 +604,8 @@ impl super::Module for Module {
     type Linear = Dpm;
     type Emulated = Dpm;
 
-    fn linear_modes(rig: &Rig) -> Vec<Dpm> {
-        vec![Dpm::linear(rig)]
+    fn linear(rig: &Rig) -> Dpm {
+        Dpm::linear(rig)
     }
 
     fn emulated(rig: &Rig, effects: Effects) -> Result<Dpm, String> {

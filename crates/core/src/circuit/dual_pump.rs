@@ -459,8 +459,8 @@ impl super::Module for Module {
     type Linear = DualPump;
     type Emulated = DualPump;
 
-    fn linear_modes(rig: &Rig) -> Vec<DualPump> {
-        vec![DualPump::new(rig).expect("Rig::validate refuses a dual-pump rig with no rest")]
+    fn linear(rig: &Rig) -> DualPump {
+        DualPump::new(rig).expect("Rig::validate refuses a dual-pump rig with no rest")
     }
 
     fn emulated(rig: &Rig, effects: Effects) -> Result<DualPump, String> {
@@ -476,9 +476,11 @@ impl super::Module for Module {
         rig.accumulator_precharge_bar
     }
 
-    fn one_motor_rest(rig: &Rig) -> Result<([f64; 2], f64), String> {
+    fn one_motor_rest(rig: &Rig) -> Result<super::OneMotorRest, String> {
         let c = DualPump::new(rig).map_err(|e| e.to_string())?;
-        Ok(super::description::one_motor_rest_of(&c))
+        Ok(super::description::one_motor_rest_of(&c, |p| {
+            c.load_torque_nm(p)
+        }))
     }
 
     /// Both pumps: they share the one motor.

@@ -370,6 +370,11 @@ impl super::Module for Module {
     type Linear = modes::Mode;
     type Emulated = SinglePump;
 
+    /// The mode its rest is in (docs/circuits.md#its-two-modes).
+    fn linear(rig: &Rig) -> modes::Mode {
+        modes::Mode::new(rig, 3 - modes::switching(rig).mode_at_rest)
+    }
+
     /// The mode at rest, then the other (docs/circuits.md#its-two-modes).
     fn linear_modes(rig: &Rig) -> Vec<modes::Mode> {
         let rest = modes::switching(rig).mode_at_rest;
@@ -383,8 +388,11 @@ impl super::Module for Module {
     }
 
     /// The full circuit's rest, with the valve of the mode at rest open.
-    fn one_motor_rest(rig: &Rig) -> Result<([f64; 2], f64), String> {
-        Ok(super::description::one_motor_rest_of(&SinglePump::new(rig)))
+    fn one_motor_rest(rig: &Rig) -> Result<super::OneMotorRest, String> {
+        let c = SinglePump::new(rig);
+        Ok(super::description::one_motor_rest_of(&c, |p| {
+            c.load_torque_nm(p)
+        }))
     }
 
     fn mode_switching(rig: &Rig) -> Result<modes::Switching, &'static str> {

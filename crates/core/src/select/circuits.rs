@@ -566,10 +566,10 @@ fn mode_margins_break(
 /// # Errors
 /// The dual-pump circuit's rest is undetermined.
 pub fn one_motor_standing(r: &Rig) -> Result<StandingLoss, String> {
-    let (p_pa, w) = r.circuit.one_motor_rest(r)?;
-    let torque = crate::circuit::AnyCircuit::linear(r).load_torques_nm(p_pa)[0];
+    let rest = r.circuit.one_motor_rest(r)?;
+    let (torque, w) = (rest.torque_nm, rest.w_rad_per_s);
     Ok(StandingLoss {
-        p_bar: p_pa.map(|p| p / PA_PER_BAR),
+        p_bar: rest.p_pa.map(|p| p / PA_PER_BAR),
         power_w: torque * w,
         speed_rpm: [w * 60.0 / (2.0 * PI), 0.0],
         torque_nm: [torque, 0.0],
