@@ -211,7 +211,7 @@ fn the_emulated_standstill_sits_in_the_mode_of_its_side_of_the_switching_force()
         };
         assert!(on
             .iter()
-            .all(|p| (p - p_acc).abs() < rig.check_valve_crack_bar));
+            .all(|p| (p - p_acc).abs() < rig.circuit_key("check_valve_crack_bar")));
     }
 }
 

@@ -99,9 +99,12 @@ struct Counted {
 /// column names the valve nearer to opening there too (docs/emulator.md#the-mode-signal), so
 /// it is read from the pressures.
 fn valve_mode(rig: &Rig, p1: f64, p2: f64) -> Option<usize> {
-    let (acc, k) = (rig.accumulator_precharge_bar, rig.pilot_ratio);
+    let (acc, k) = (
+        rig.accumulator_precharge_bar,
+        rig.circuit_key("pilot_ratio"),
+    );
     let (s1, s2) = ((acc - p1) + k * (p2 - acc), (acc - p2) + k * (p1 - acc));
-    if s1.max(s2) <= rig.check_valve_crack_bar {
+    if s1.max(s2) <= rig.circuit_key("check_valve_crack_bar") {
         None
     } else if s2 >= s1 {
         Some(1)

@@ -156,7 +156,7 @@ fn the_mode_at_rest_changes_at_the_switching_force() {
     let si = rig.si();
     let p_acc = rig.accumulator_precharge_bar * 1e5;
     assert!((s.switching_force_n - p_acc * (si.a1 - si.a2)).abs() < 1e-9);
-    let crack = rig.check_valve_crack_bar * 1e5;
+    let crack = rig.circuit_key("check_valve_crack_bar") * 1e5;
     assert!((s.valve_band_n[0] - (s.switching_force_n - si.a1 * crack)).abs() < 1e-9);
     assert!((s.valve_band_n[1] - (s.switching_force_n + si.a2 * crack)).abs() < 1e-9);
     let c = SinglePump::new(&rig);

@@ -284,7 +284,7 @@ fn toml_to_py(py: Python<'_>, v: &toml::Value) -> PyResult<Py<PyAny>> {
 
 impl PyRig {
     fn table(&self) -> toml::Table {
-        toml::Table::try_from(&self.rig).expect("a rig always serialises")
+        self.rig.table()
     }
 
     /// This rig with the keyword overrides of `call` (`Rig`, `Rig.replace`). A value out of

@@ -364,7 +364,7 @@ pub fn variables(c: &Config) -> Vec<Variable> {
 /// Every scalar rig key (numbers and switches) as a parameter; the tables and the motor model
 /// are fixed when the FMU is written.
 fn parameters(rig: &Rig) -> Vec<Variable> {
-    let table = toml::Table::try_from(rig).expect("a rig always serialises");
+    let table = rig.table();
     Rig::key_docs()
         .filter(|(key, _)| rig.has_key(key))
         .filter_map(|(key, doc)| {

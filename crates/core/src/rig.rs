@@ -130,6 +130,19 @@ pub enum RigError {
         /// The circuits the key belongs to.
         owners: Vec<CircuitKind>,
     },
+    /// A key no circuit has, or a value of the wrong type for a key a circuit's module
+    /// declares ([`crate::circuit::Key`]).
+    #[error("{source_name}: {}{message}", at.map_or(String::new(), |(l, c)| format!("line {l}, column {c}: ")))]
+    BadKey {
+        /// Where the rig came from (file name, `--set`).
+        source_name: String,
+        /// The line and column of the key in the file, when it is written there.
+        at: Option<(usize, usize)>,
+        /// The key as written.
+        key: String,
+        /// What is wrong, naming the key.
+        message: String,
+    },
     /// A value outside its physical range.
     #[error("{source_name}: {}key `{key}` = {}: {rule}", line.map_or(String::new(), |l| format!("line {l}, ")), readable(*value))]
     Invalid {
@@ -193,16 +206,6 @@ pub const ARTICLE_MASS_BY_POSITION: [MassPoint; 3] = [
 /// balance (docs/circuits.md#the-default-pre-charge).
 pub const ACCUMULATOR_PRECHARGE_BAR: f64 = 6.91;
 
-/// The single-pump circuit's pilot ratio: 3:1, the smallest of Sun Hydraulics' pilot-to-open
-/// check cartridges (its series 0; series 1, 3 and 4 are 4:1), as Sun's "Frequently asked
-/// questions: pilot-to-open check cartridge valves" (2001) gives them (docs/circuits.md#the-pilot-operated-check-valves).
-pub const PILOT_RATIO: f64 = 3.0;
-
-/// The single-pump circuit's check-valve cracking pressure (bar): the anti-cavitation check
-/// valve's 0.5 bar, a light spring of a size-10 check valve **\[choice\]**: the same poppet and
-/// spring, piloted (docs/circuits.md#valves).
-pub const CHECK_VALVE_CRACK_BAR: f64 = 0.5;
-
 /// The article's rig's cross-port leakage c12 (m⁵/(N·s), the article §2.3.4).
 pub const ARTICLE_C12_M5_PER_NS: f64 = 1.2e-10;
 
@@ -262,11 +265,52 @@ fn canonical_key(key: &str) -> &str {
 /// ([`crate::circuit::Description::own_keys`], docs/circuits.md).
 fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, Vec<CircuitKind>)> {
     let key = canonical_key(key);
+    if let Some((declared, owners)) = declared_key(key) {
+        return (!owners.contains(&circuit)).then_some((declared.name, owners));
+    }
     let owners: Vec<CircuitKind> = (CircuitKind::ALL.into_iter())
         .filter(|k| k.description().own_keys.contains(&key))
         .collect();
     let own = *(owners.first()?.description().own_keys.iter()).find(|k| **k == key)?;
     (!owners.contains(&circuit)).then_some((own, owners))
+}
+
+/// The key `name` as a circuit's module declares it, and the circuits that declare it.
+fn declared_key(name: &str) -> Option<(crate::circuit::Key, Vec<CircuitKind>)> {
+    let declares = |k: &CircuitKind| k.description().keys.iter().any(|d| d.name == name);
+    let owners: Vec<CircuitKind> = CircuitKind::ALL.into_iter().filter(declares).collect();
+    let key = *(owners.first()?.description().keys.iter()).find(|d| d.name == name)?;
+    Some((key, owners))
+}
+
+/// Every key that circuits' modules declare, each once, in the order of the list of circuits.
+fn declared_keys() -> Vec<crate::circuit::Key> {
+    let mut keys: Vec<crate::circuit::Key> = Vec::new();
+    for key in CircuitKind::ALL
+        .into_iter()
+        .flat_map(|k| k.description().keys)
+    {
+        if !keys.iter().any(|k| k.name == key.name) {
+            keys.push(*key);
+        }
+    }
+    keys
+}
+
+/// The column (from 1) where `key` starts on line `line` (from 1) of `text`; 1 where it is
+/// not found there (a quoted or dotted key).
+fn key_column(text: &str, line: usize, key: &str) -> usize {
+    let on = text.lines().nth(line.saturating_sub(1)).unwrap_or("");
+    on.find(key).map_or(1, |c| on[..c].chars().count() + 1)
+}
+
+/// A TOML number as a float.
+fn number(value: &toml::Value) -> Option<f64> {
+    match value {
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    }
 }
 
 /// "dpm circuit", "dpm and dual-pump circuits".
@@ -285,7 +329,8 @@ pub const MAX_MASS_POINTS: usize = 1000;
 /// `[rig]` table take [`Rig::file_default`]: the article's rig (the article §2.3.4) with one mass
 /// over the stroke (docs/formats.md#rig-toml).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default = "Rig::file_default")]
+// unknown keys land in `circuit_keys` (serde's flatten), where `validate` refuses them
+#[serde(default = "Rig::file_default")]
 pub struct Rig {
     /// The hydraulic circuit: the article's dual-prime-mover circuit (`dpm`, the default), one
     /// motor turning two pumps (`dual-pump`, the article's Figure 1b) or one pump with
@@ -352,11 +397,6 @@ pub struct Rig {
     /// sum-pressure loop sets its level.
     #[serde(alias = "accumulator_pressure_bar")]
     pub accumulator_precharge_bar: f64,
-    /// Pilot ratio k of the single-pump circuit's pilot-operated check valves: pilot piston area
-    /// over seat area (docs/circuits.md#the-pilot-operated-check-valves).
-    pub pilot_ratio: f64,
-    /// Cracking pressure of the single-pump circuit's pilot-operated check valves (bar).
-    pub check_valve_crack_bar: f64,
     /// Chamber 1 leakage c1 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
     pub c1_m5_per_ns: f64,
     /// Chamber 2 leakage c2 (m⁵/(N·s)); may be negative (absorbs a pump null shift).
@@ -405,7 +445,18 @@ pub struct Rig {
     pub sum_pressure: bool,
     /// Motor model: "full" or "first_order".
     pub motor_model: MotorModel,
+    /// The values of the keys that circuits' modules declare ([`crate::circuit::Key`]), as
+    /// written; a key of the rig's circuit left out takes its declared default
+    /// ([`Rig::circuit_key`]). A key here that no circuit declares, or that another circuit
+    /// declares, is refused by [`Rig::validate`].
+    #[serde(flatten)]
+    pub circuit_keys: CircuitKeys,
 }
+
+/// The values a rig gives the keys circuits' modules declare, by key (see [`Rig::circuit_keys`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct CircuitKeys(pub std::collections::BTreeMap<String, toml::Value>);
 
 impl Default for Rig {
     /// The article's rig (the article §2.3.4; docs/formats.md#rig-toml).
@@ -438,8 +489,6 @@ impl Default for Rig {
             viscous_friction_ns_per_m: 100.0,
             c12_m5_per_ns: ARTICLE_C12_M5_PER_NS,
             accumulator_precharge_bar: ACCUMULATOR_PRECHARGE_BAR,
-            pilot_ratio: PILOT_RATIO,
-            check_valve_crack_bar: CHECK_VALVE_CRACK_BAR,
             c1_m5_per_ns: 5.49e-11,
             c2_m5_per_ns: -1.19e-11,
             kp: 25.0,
@@ -458,6 +507,7 @@ impl Default for Rig {
             motor_coupling: true,
             sum_pressure: true,
             motor_model: MotorModel::Full,
+            circuit_keys: CircuitKeys::default(),
         }
     }
 }
@@ -592,7 +642,7 @@ impl RigFile {
             .copied()
             .filter(|k| !except.contains(k))
             .collect();
-        let table = toml::Table::try_from(&self.rig).expect("a rig always serialises");
+        let table = self.rig.table();
         let value = |k: &str| table.get(k).map_or_else(String::new, toml_text);
         let article: Vec<String> = keys
             .iter()
@@ -656,18 +706,27 @@ impl Rig {
         rig.check_circuit_keys(name, &set)
             .and_then(|()| rig.validate(name))
             .map_err(|mut e| {
-                if let RigError::Invalid { line, key, .. }
-                | RigError::NotInCircuit { line, key, .. } = &mut e
-                {
-                    let alias = KEY_ALIASES.iter().find(|(_, own)| own == key);
-                    *line = source_files::toml_line(text, &[source_files::Key::Name(key)]).or_else(
-                        || source_files::toml_line(text, &[source_files::Key::Name(alias?.0)]),
-                    );
+                let at = |key: &str| {
+                    let alias = KEY_ALIASES.iter().find(|(_, own)| *own == key);
+                    source_files::toml_line(text, &[source_files::Key::Name(key)]).or_else(|| {
+                        source_files::toml_line(text, &[source_files::Key::Name(alias?.0)])
+                    })
+                };
+                match &mut e {
+                    RigError::Invalid { line, key, .. }
+                    | RigError::NotInCircuit { line, key, .. } => *line = at(key),
+                    RigError::BadKey { at: place, key, .. } => {
+                        *place = at(key).map(|l| (l, key_column(text, l, key)));
+                    }
+                    _ => {}
                 }
                 e
             })?;
         let defaulted = defaulted_keys(&rig, |key| written.keys().any(|k| canonical_key(k) == key));
-        Ok(RigFile { rig, defaulted })
+        Ok(RigFile {
+            rig: rig.with_circuit_keys(),
+            defaulted,
+        })
     }
 
     /// Read and validate a rig file.
@@ -751,7 +810,19 @@ impl Rig {
         let set: Vec<&str> = set.iter().map(String::as_str).collect();
         rig.check_circuit_keys(source_name, &set)?;
         rig.validate(source_name)?;
-        Ok(rig)
+        Ok(rig.with_circuit_keys())
+    }
+
+    /// The rig holding exactly its circuit's declared keys ([`Rig::circuit_keys`]), each as
+    /// written or its default: two rigs that give every key the same value are equal however
+    /// they were written, and another circuit's keys, left from before a change of circuit,
+    /// are gone (as a file may not write them).
+    pub fn with_circuit_keys(mut self) -> Rig {
+        let values: Vec<(String, toml::Value)> = (self.circuit.description().keys.iter())
+            .map(|k| (k.name.to_string(), self.circuit_key(k.name).into()))
+            .collect();
+        self.circuit_keys = CircuitKeys(values.into_iter().collect());
+        self
     }
 
     /// Whether the rig's circuit has `key` (every key but those of the other circuits,
@@ -784,6 +855,7 @@ impl Rig {
             value,
             rule,
         };
+        self.validate_circuit_keys(source_name)?;
         for (key, value, rule) in self.numeric_fields() {
             if !value.is_finite() {
                 return Err(invalid(key, value, "must be a finite number".into()));
@@ -961,6 +1033,7 @@ impl Rig {
         let (_, rule) = (Rig::default().numeric_fields().into_iter())
             .map(|(k, _, rule)| (k, rule))
             .chain(OPTIONAL_KEYS)
+            .chain(declared_keys().into_iter().map(|k| (k.name, k.range)))
             .find(|(k, _)| *k == key)?;
         if !value.is_finite() {
             return Some("must be a finite number".into());
@@ -1036,7 +1109,61 @@ impl Rig {
 
     /// Every key with its documentation ("unit, meaning"), in the order of the commented TOML.
     pub fn key_docs() -> impl Iterator<Item = (&'static str, &'static str)> {
-        KEY_DOCS.iter().flat_map(|(_, keys)| keys.iter().copied())
+        (KEY_DOCS.iter().flat_map(|(_, keys)| keys.iter().copied()))
+            .chain(declared_keys().into_iter().map(|k| (k.name, k.doc)))
+    }
+
+    /// The value of the key `name` that a circuit's module declares ([`crate::circuit::Key`]):
+    /// as the rig writes it, else the declared default.
+    ///
+    /// # Panics
+    /// Where no circuit declares `name`: a module asks only for the keys it declares.
+    pub fn circuit_key(&self, name: &str) -> f64 {
+        match self.circuit_keys.0.get(name) {
+            Some(value) => number(value).unwrap_or(f64::NAN),
+            None => {
+                declared_key(name)
+                    .expect("a module asks for its own keys")
+                    .0
+                    .default
+            }
+        }
+    }
+
+    /// The rig as a TOML table: every key it serialises, and each key its circuit's module
+    /// declares with its value (as written or its default).
+    pub fn table(&self) -> toml::Table {
+        let mut table = toml::Table::try_from(self).expect("a rig always serialises");
+        for key in self.circuit.description().keys {
+            table.insert(
+                key.name.into(),
+                toml::Value::Float(self.circuit_key(key.name)),
+            );
+        }
+        table
+    }
+
+    /// Refuse a written key that no circuit declares, and a declared key's value that is not a
+    /// number (its range is checked with every other key's).
+    fn validate_circuit_keys(&self, source_name: &str) -> Result<(), RigError> {
+        let bad = |key: &str, message| RigError::BadKey {
+            source_name: source_name.to_string(),
+            at: None,
+            key: key.to_string(),
+            message,
+        };
+        for (key, value) in &self.circuit_keys.0 {
+            if declared_key(key).is_none() {
+                let known: Vec<&str> = Rig::key_docs().map(|(k, _)| k).collect();
+                return Err(bad(key, source_files::unknown_key_among(key, &known)));
+            }
+            if number(value).is_none() {
+                let shown = source_files::shown_key(key);
+                let message = format!("key `{shown}` takes a float, got {}", value.type_str());
+                return Err(bad(key, message));
+            }
+        }
+        Ok(())
     }
 
     /// Every numeric key with its value and allowed range.
@@ -1123,12 +1250,6 @@ impl Rig {
                 self.accumulator_precharge_bar,
                 Positive(0.001, 1e4),
             ),
-            ("pilot_ratio", self.pilot_ratio, Positive(0.01, 1000.0)),
-            (
-                "check_valve_crack_bar",
-                self.check_valve_crack_bar,
-                Positive(0.001, 1000.0),
-            ),
             ("c1_m5_per_ns", self.c1_m5_per_ns, Any(1e-6)),
             ("c2_m5_per_ns", self.c2_m5_per_ns, Any(1e-6)),
             ("kp", self.kp, Positive(1e-6, 1e6)),
@@ -1163,6 +1284,9 @@ impl Rig {
         ];
         for (key, range) in OPTIONAL_KEYS {
             fields.extend(self.optional(key).map(|v| (key, v, range)));
+        }
+        for key in self.circuit.description().keys {
+            fields.push((key.name, self.circuit_key(key.name), key.range));
         }
         fields
     }
@@ -1234,26 +1358,28 @@ impl Rig {
     /// The rig as plain TOML, the keys of its circuit only: what [`Rig::from_toml_str`] reads
     /// back to the same rig.
     pub fn to_toml(&self) -> String {
-        let mut table = toml::Table::try_from(self).expect("a rig always serialises");
+        let mut table = self.table();
         table.retain(|key, _| self.has_key(key));
         toml::to_string(&table).expect("a table always serialises")
     }
 
     /// The rig as TOML with a comment per key giving unit and meaning, ready to edit.
     pub fn to_commented_toml(&self) -> String {
-        let table = toml::Table::try_from(self).expect("a rig always serialises");
+        let table = self.table();
         let mut out = String::from(
             "# pumpcyl rig description (the article §2.3.4; docs/formats.md#rig-toml). Units are part of every key.\n\
              # Absent keys take the article's value, except mass_by_position: [], one mass over the\n\
              # stroke; the command names them. Unknown keys are errors.\n",
         );
-        for (section, keys) in KEY_DOCS {
+        for (section, keys) in key_sections() {
             out.push_str(&format!("\n# --- {section} ---\n"));
-            for (key, doc) in *keys {
-                // an optional key left out: shown, commented out, with what it stands for
-                let (value, set) = match table.get(*key) {
-                    Some(value) => (toml_text(value), true),
-                    None => (
+            for (key, doc) in keys {
+                // an optional key left out: shown, commented out, with what it stands for; a key
+                // another circuit declares, with its default
+                let (value, set) = match (table.get(key), declared_key(key)) {
+                    (Some(value), _) => (toml_text(value), true),
+                    (None, Some((declared, _))) => (toml_text(&declared.default.into()), false),
+                    (None, None) => (
                         toml_text(&toml::Value::Float(self.optional_default(key))),
                         false,
                     ),
@@ -1271,6 +1397,21 @@ impl Rig {
         }
         out
     }
+}
+
+/// The commented TOML's sections and their keys with their documentation: the rig's own
+/// ([`KEY_DOCS`]), then one for the keys each circuit's module declares.
+fn key_sections() -> Vec<(String, Vec<(&'static str, &'static str)>)> {
+    let own = KEY_DOCS
+        .iter()
+        .map(|(section, keys)| (section.to_string(), keys.to_vec()));
+    let declared = (CircuitKind::ALL.into_iter())
+        .filter(|k| !k.description().keys.is_empty())
+        .map(|k| {
+            let keys = k.description().keys.iter().map(|d| (d.name, d.doc));
+            (format!("{} circuit", k.name()), keys.collect())
+        });
+    own.chain(declared).collect()
 }
 
 /// A TOML value as a rig file writes it: a float of magnitude below 1e-3 or from 1e7 in
@@ -1294,8 +1435,8 @@ fn toml_text(value: &toml::Value) -> String {
 }
 
 /// Allowed range of a numeric key.
-#[derive(Debug, Clone, Copy)]
-enum Range {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Range {
     /// Strictly positive, at least `.0` and at most `.1` in the key's unit.
     Positive(f64, f64),
     /// Zero or positive, at most `.0`.
@@ -1308,7 +1449,7 @@ impl Range {
     /// What is wrong with `value`, if anything. Magnitudes far outside any pump-controlled
     /// cylinder (the limits span several decades around the article's rig, Table 1) are refused
     /// so the numerics downstream never meet them.
-    fn violated(self, value: f64) -> Option<String> {
+    pub fn violated(self, value: f64) -> Option<String> {
         let outside = |lo: f64, hi: f64| {
             format!("outside the physical range {lo:e} to {hi:e} that pumpcyl accepts")
         };
@@ -1345,12 +1486,9 @@ fn parse_assignment(
     let float = toml::Value::Float(0.0);
     let current = match table.get(key) {
         Some(current) => current,
-        None if is_optional_key(key) => &float,
+        None if is_optional_key(key) || declared_key(key).is_some() => &float,
         None => {
-            let known: Vec<&str> = KEY_DOCS
-                .iter()
-                .flat_map(|(_, k)| k.iter().map(|(n, _)| *n))
-                .collect();
+            let known: Vec<&str> = Rig::key_docs().map(|(k, _)| k).collect();
             return Err(err(source_files::unknown_key_among(key, &known)));
         }
     };
@@ -1460,14 +1598,6 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
             (
                 "accumulator_precharge_bar",
                 "bar, accumulator pre-charge p_acc (also accumulator_pressure_bar): the dual- and single-pump circuits' pressure level",
-            ),
-            (
-                "pilot_ratio",
-                "pilot ratio k of the single-pump circuit's pilot-operated check valves (pilot over seat area)",
-            ),
-            (
-                "check_valve_crack_bar",
-                "bar, cracking pressure of the single-pump circuit's pilot-operated check valves",
             ),
             (
                 "c1_m5_per_ns",
@@ -1754,6 +1884,51 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("line_volume_1_dm3"), "{e}");
+    }
+
+    /// The keys a circuit's module declares (the single-pump circuit's valve keys) are parsed,
+    /// checked and written like the rig's own fields.
+    #[test]
+    fn declared_keys_read_check_and_write_like_fields() {
+        let single = "circuit = \"single-pump\"\n";
+        let read = |extra: &str| Rig::from_toml_str(&format!("{single}{extra}"), "s.toml");
+        let e = read("pilot_ratio = \"x\"\n").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "s.toml: line 2, column 1: key `pilot_ratio` takes a float, got string"
+        );
+        let e = read("beta_bar = 100\npilot_ratoi = 3\n")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "s.toml: line 3, column 1: unknown key `pilot_ratoi`; did you mean `pilot_ratio`?"
+        );
+        let e = read("pilot_ratio = 1e9\n").unwrap_err().to_string();
+        assert!(
+            e.starts_with("s.toml: line 2, key `pilot_ratio` = 1e9: outside"),
+            "{e}"
+        );
+        // written as its default or left out: the same rig; an integer is a float
+        let given = read("pilot_ratio = 3\n").unwrap();
+        assert_eq!(given, read("").unwrap());
+        assert_eq!(given.circuit_key("pilot_ratio"), 3.0);
+        assert_eq!(
+            read("pilot_ratio = 4\n")
+                .unwrap()
+                .circuit_key("pilot_ratio"),
+            4.0
+        );
+        // another circuit's declared key: refused in a file, dropped by a change of circuit
+        let e = Rig::from_toml_str("pilot_ratio = 4.0\n", "d.toml").unwrap_err();
+        assert!(
+            matches!(e, RigError::NotInCircuit { line: Some(1), .. }),
+            "{e}"
+        );
+        let back = (given.with_overrides(&["circuit=dpm".into()])).unwrap();
+        assert_eq!(back, Rig::file_default());
+        assert!(!back.to_toml().contains("pilot_ratio"));
+        assert!(given.to_toml().contains("pilot_ratio = 3.0"));
     }
 
     #[test]

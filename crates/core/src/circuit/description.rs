@@ -71,8 +71,24 @@ pub struct Variant {
     pub key: &'static str,
 }
 
+/// A rig key that its circuit's module alone declares (docs/architecture.md#keys-a-circuit-declares):
+/// its name (the unit in it), its meaning, the value a rig that leaves it out takes and its
+/// allowed range. A rig holds its value in [`Rig::circuit_keys`]; every front end, the
+/// commented TOML, `--set`, the FMU's parameters and Python's `Rig` list it from here.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Key {
+    /// The TOML key, its unit in its name: `supply_pressure_bar`.
+    pub name: &'static str,
+    /// Its unit and meaning, as the commented TOML writes them.
+    pub doc: &'static str,
+    /// The value a rig that leaves it out takes, in its unit.
+    pub default: f64,
+    /// Its allowed range, in its unit.
+    pub range: crate::rig::Range,
+}
+
 /// A circuit in the words and numbers every part of pumpcyl outside its module asks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Description {
     /// The name in rig files and every output: `dpm`, `dual-pump`, `single-pump`.
     pub name: &'static str,
@@ -95,6 +111,9 @@ pub struct Description {
     pub valves: Option<&'static str>,
     /// The rig keys that only some circuits have and this one does (docs/circuits.md).
     pub own_keys: &'static [&'static str],
+    /// The rig keys its module declares, with units, defaults and ranges (held in
+    /// [`Rig::circuit_keys`], not as fields of the rig).
+    pub keys: &'static [Key],
     /// Why it has no modes to switch between, in one line (`None`: it has modes, the
     /// single-pump circuit's: docs/circuits.md#its-two-modes).
     pub no_modes: Option<&'static str>,

@@ -599,6 +599,7 @@ impl super::Module for Module {
             "pump_inertia_2_kg_mm2",
             "displacement_2_cm3_per_rev",
         ],
+        keys: &[],
         no_modes: Some(NO_MODES),
     };
     type Linear = Dpm;

@@ -454,6 +454,7 @@ impl super::Module for Module {
             "relief_setting_bar",
             "cylinder_rated_pressure_bar",
         ],
+        keys: &[],
         no_modes: Some(NO_MODES),
     };
     type Linear = DualPump;

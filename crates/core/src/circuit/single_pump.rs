@@ -45,6 +45,16 @@
 
 pub mod modes;
 
+/// The single-pump circuit's pilot ratio: 3:1, the smallest of Sun Hydraulics' pilot-to-open
+/// check cartridges (its series 0; series 1, 3 and 4 are 4:1), as Sun's "Frequently asked
+/// questions: pilot-to-open check cartridge valves" (2001) gives them (docs/circuits.md#the-pilot-operated-check-valves).
+pub const PILOT_RATIO: f64 = 3.0;
+
+/// The single-pump circuit's check-valve cracking pressure (bar): the anti-cavitation check
+/// valve's 0.5 bar, a light spring of a size-10 check valve **\[choice\]**: the same poppet and
+/// spring, piloted (docs/circuits.md#valves).
+pub const CHECK_VALVE_CRACK_BAR: f64 = 0.5;
+
 use super::parts::{
     cylinder_of_rig, cylinder_rates, one_motor_inputs, one_motor_states, Chamber, Effects, Fluid,
     Motor, Piston, Pump,
@@ -132,10 +142,10 @@ impl SinglePump {
         let motor = Motor::of_rig(rig, si.j[0], &b.effects);
         let check = PilotCheck {
             valve: Valve {
-                crack_pa: rig.check_valve_crack_bar * PA_PER_BAR,
+                crack_pa: rig.circuit_key("check_valve_crack_bar") * PA_PER_BAR,
                 ..Valve::ANTI_CAVITATION
             },
-            pilot_ratio: rig.pilot_ratio,
+            pilot_ratio: rig.circuit_key("pilot_ratio"),
         };
         SinglePump {
             piston,
@@ -362,8 +372,20 @@ impl super::Module for Module {
             "accumulator_precharge_bar",
             "relief_setting_bar",
             "cylinder_rated_pressure_bar",
-            "pilot_ratio",
-            "check_valve_crack_bar",
+        ],
+        keys: &[
+            super::Key {
+                name: "pilot_ratio",
+                doc: "pilot ratio k of the single-pump circuit's pilot-operated check valves (pilot over seat area)",
+                default: PILOT_RATIO,
+                range: crate::rig::Range::Positive(0.01, 1000.0),
+            },
+            super::Key {
+                name: "check_valve_crack_bar",
+                doc: "bar, cracking pressure of the single-pump circuit's pilot-operated check valves",
+                default: CHECK_VALVE_CRACK_BAR,
+                range: crate::rig::Range::Positive(0.001, 1000.0),
+            },
         ],
         no_modes: None,
     };
@@ -410,7 +432,8 @@ impl super::Module for Module {
     fn pressure_band_bar(rig: &Rig) -> [(f64, &'static str); 2] {
         super::valves::band_up_to_relief(
             rig,
-            rig.accumulator_precharge_bar + rig.check_valve_crack_bar / rig.pilot_ratio,
+            rig.accumulator_precharge_bar
+                + rig.circuit_key("check_valve_crack_bar") / rig.circuit_key("pilot_ratio"),
             "the pressure below which it lets the open pilot-operated check valve shut (the mode switches)",
         )
     }
