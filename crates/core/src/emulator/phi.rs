@@ -19,6 +19,20 @@ use super::EmulatorError;
 /// left out is below 10⁻¹⁶ of them.
 const TAYLOR_TERMS: usize = 14;
 
+/// 1/k! for k = 0 ..= [`TAYLOR_TERMS`] + 3 (the factorials are exact integers below 2⁵³).
+const INVERSE_FACTORIALS: [f64; TAYLOR_TERMS + 4] = {
+    let mut out = [0.0; TAYLOR_TERMS + 4];
+    let (mut k, mut factorial) = (0, 1.0);
+    while k < out.len() {
+        if k > 0 {
+            factorial *= k as f64;
+        }
+        out[k] = 1.0 / factorial;
+        k += 1;
+    }
+    out
+};
+
 /// Sweeps of [`balance`] at most.
 const BALANCE_SWEEPS: usize = 16;
 
@@ -97,7 +111,6 @@ pub(super) fn propagator(phis: &Phis, l: usize, h: f64) -> Propagator {
     let nn = n * n;
     let (whole, half) = (phis.level(l), phis.level(l + 1));
     let mut m = spare(6 * nn);
-    m.resize(6 * nn, 0.0);
     for r in 0..n {
         let (w, hf) = (&whole[r * 4 * n..], &half[r * 4 * n..]);
         for c in 0..n {
@@ -127,11 +140,15 @@ thread_local! {
     static SPARES: std::cell::RefCell<Vec<Vec<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// An empty buffer for `len` numbers, a spare one where there is one.
+/// A buffer of `len` numbers, a spare one where there is one: what it holds is to be written
+/// over.
 fn spare(len: usize) -> Vec<f64> {
     let mut m = SPARES.with(|s| s.borrow_mut().pop()).unwrap_or_default();
-    m.clear();
-    m.reserve_exact(len);
+    // a spare of the right length is written over entry by entry: no need to clear it first
+    if m.len() != len {
+        m.clear();
+        m.resize(len, 0.0);
+    }
     m
 }
 
@@ -244,30 +261,35 @@ unsafe fn pass_avx2<const N: usize, const W: usize>(pass: &Pass, out: &mut Vec<f
 struct Sparse<const N: usize> {
     /// Where each row's entries start and end in `entries`.
     rows: [(usize, usize); N],
-    /// (column, value) of each nonzero entry.
-    entries: Vec<(usize, f64)>,
+    /// (column, value) of each nonzero entry, the first of them in use.
+    entries: [(usize, f64); SPARSE_MAX],
 }
+
+/// The most entries a [`Sparse`] holds: the compiled orders' N × N.
+const SPARSE_MAX: usize = 100;
 
 impl<const N: usize> Sparse<N> {
     fn new() -> Self {
+        const { assert!(N * N <= SPARSE_MAX) };
         Sparse {
             rows: [(0, 0); N],
-            entries: Vec::with_capacity(N * N),
+            entries: [(0, 0.0); SPARSE_MAX],
         }
     }
 
     /// The nonzero entries of the first N columns of `a`'s rows.
     #[inline(always)]
     fn of<const W: usize>(&mut self, a: &[[f64; W]; N]) -> &Self {
-        self.entries.clear();
+        let mut len = 0;
         for (r, row) in a.iter().enumerate() {
-            let start = self.entries.len();
+            let start = len;
             for (c, &v) in row[..N].iter().enumerate() {
                 if v != 0.0 {
-                    self.entries.push((c, v));
+                    self.entries[len] = (c, v);
+                    len += 1;
                 }
             }
-            self.rows[r] = (start, self.entries.len());
+            self.rows[r] = (start, len);
         }
         self
     }
@@ -303,24 +325,24 @@ fn pass_n<const N: usize, const W: usize>(pass: &Pass, out: &mut Vec<f64>) {
     }
     let mut sparse_a = Sparse::new();
     let a = sparse_a.of(&a);
-    let factorial = |k: usize| (1..=k).map(|i| i as f64).product::<f64>();
     // φ₃(a) = Σ aᵐ/(m + 3)! by Horner, then φ_k = a φ_{k+1} + I/k!
     let (mut t0, mut t1) = ([[0.0; N]; N], [[0.0; N]; N]);
-    (0..N).for_each(|i| t0[i][i] += 1.0 / factorial(TAYLOR_TERMS + 3));
+    let (mut t, mut next) = (&mut t0, &mut t1);
+    (0..N).for_each(|i| t[i][i] += INVERSE_FACTORIALS[TAYLOR_TERMS + 3]);
     for m in (0..TAYLOR_TERMS).rev() {
-        sparse_mul(a, &t0, &mut t1);
-        (0..N).for_each(|i| t1[i][i] += 1.0 / factorial(m + 3));
-        std::mem::swap(&mut t0, &mut t1);
+        sparse_mul(a, t, next);
+        (0..N).for_each(|i| next[i][i] += INVERSE_FACTORIALS[m + 3]);
+        std::mem::swap(&mut t, &mut next);
     }
     // [φ₀ φ₁ φ₂ φ₃] side by side
     let mut phi = [[0.0; W]; N];
     for k in (0..4).rev() {
         if k < 3 {
-            sparse_mul(a, &t0, &mut t1);
-            (0..N).for_each(|i| t1[i][i] += 1.0 / factorial(k));
-            std::mem::swap(&mut t0, &mut t1);
+            sparse_mul(a, t, next);
+            (0..N).for_each(|i| next[i][i] += INVERSE_FACTORIALS[k]);
+            std::mem::swap(&mut t, &mut next);
         }
-        for (row, t) in phi.iter_mut().zip(&t0) {
+        for (row, t) in phi.iter_mut().zip(t.iter()) {
             row[k * N..(k + 1) * N].copy_from_slice(t);
         }
     }
@@ -429,28 +451,31 @@ fn balance(a: &mut [f64], n: usize) -> Vec<f64> {
                 continue;
             }
             let (total, mut f) = (c + r, 1.0);
-            // at most 64 factors of two each way: beyond, the scaling would not help
+            // at most 64 factors of two each way: beyond, the scaling would not help. Times a
+            // power of two is its division by the inverse power, rounded alike: the same bits
+            // as dividing, without a division's latency
             for _ in 0..64 {
-                if c >= r / 2.0 {
+                if c >= r * 0.5 {
                     break;
                 }
                 c *= 2.0;
-                r /= 2.0;
+                r *= 0.5;
                 f *= 2.0;
             }
             for _ in 0..64 {
                 if c < r * 2.0 {
                     break;
                 }
-                c /= 2.0;
+                c *= 0.5;
                 r *= 2.0;
-                f /= 2.0;
+                f *= 0.5;
             }
             if c + r < 0.95 * total {
                 changed = true;
                 d[i] *= f;
+                let inverse = 1.0 / f;
                 for k in 0..n {
-                    a[i * n + k] /= f;
+                    a[i * n + k] *= inverse;
                     a[k * n + i] *= f;
                 }
             }
