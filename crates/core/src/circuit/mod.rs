@@ -344,6 +344,26 @@ pub fn linearise<C: Circuit>(c: &C, x0: &[f64], u0: &[f64]) -> (DMatrix<f64>, DM
     (a, b)
 }
 
+/// ∂f/∂x alone of a circuit's equations at (x0, u0) into `out` (row-major n × n): the first
+/// matrix [`linearise`] gives, bit for bit, by the same forward pass per column, without
+/// ∂f/∂u and without a matrix of its own (the emulator's integrator takes one per new linear
+/// part, docs/emulator.md#the-integration).
+pub fn state_jacobian<C: Circuit>(c: &C, x0: &[f64], u0: &[f64], out: &mut [f64]) {
+    let n = x0.len();
+    let mut x: Vec<Dual64> = x0.iter().map(|&v| Dual64::new(v, 0.0)).collect();
+    let u: Vec<Dual64> = u0.iter().map(|&v| Dual64::new(v, 0.0)).collect();
+    let mut dx = vec![Dual64::from(0.0); n];
+    for j in 0..n {
+        x[j].eps = 1.0;
+        dx.fill(Dual64::from(0.0));
+        c.rhs(&x, &u, &mut dx);
+        x[j].eps = 0.0;
+        for (i, d) in dx.iter().enumerate() {
+            out[i * n + j] = d.eps;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,6 +14,8 @@
 //! a function of the dynamics, the state, the commands and the interval alone, whatever ran
 //! before on the thread.
 
+use super::phi::{phi_levels, propagator, Phis, Propagator};
+use super::steps::{self, Interval};
 use super::{Dynamics, EmulatorError};
 use crate::circuit::{Circuit, Role};
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, VectorCommon};
@@ -184,24 +186,6 @@ fn jac_vec<F: Fn(&[f64], &mut [f64])>(f: &F, x: &[f64], v: &[f64], scale: &[f64]
     }
 }
 
-/// The most states the integrator takes (the circuits have 7 to 10).
-const N_MAX: usize = 16;
-/// Local error allowed per step, in each state's typical size, as step doubling estimates it
-/// (the estimate runs low on this problem: 10⁻⁹ keeps the emulated records within 10⁻¹⁰ m of
-/// the tight reference, tests/emulator_integration.rs).
-const TOLERANCE: f64 = 1e-9;
-/// A step's error, in typical sizes, beyond which even the shortest step is refused: a
-/// discontinuity of the equations (a stop's contact, cavitation) is crossed by a step of
-/// [`MAX_HALVINGS`] halvings whatever its estimate below this.
-const BLOW_UP: f64 = 1e-3;
-/// Halvings of the PLC interval allowed before the integration gives up.
-const MAX_HALVINGS: u32 = 30;
-/// Steps (each checked by doubling) allowed per PLC interval before the BDF takes over.
-const MAX_STEPS: usize = 5_000;
-
-/// A state in typical sizes: y = x / s.
-type Vector = [f64; N_MAX];
-
 /// The cell of the lattice the linear part is taken on, in typical sizes, by a state's role:
 /// fine where the Jacobian follows the state (the pressures through β(p), the position through
 /// the volumes and the mass along the stroke), about a quarter of the smoothing width where a
@@ -250,6 +234,7 @@ fn regime_only(role: Role) -> bool {
 /// products) and the ETDRK4 propagators of the halvings of the intervals it was used over (by
 /// the bits of the interval and the halving).
 struct Linear {
+    n: usize,
     j: Vec<f64>,
     j_columns: Vec<f64>,
     propagators: RefCell<Vec<(Halving, Rc<Propagator>)>>,
@@ -259,8 +244,41 @@ struct Linear {
 type Halving = (u64, u32);
 
 /// A linear part's key: the serial of what is known of the dynamics, the lattice cell of the
-/// state and of the commands.
-type LinearKey = (u64, Vec<i64>);
+/// state and of the commands (or of the states that are not [`regime_only`] and the drives'
+/// regime), the rest 0.
+type LinearKey = (u64, [i64; KEY]);
+
+/// The most numbers a linear part's lattice cell takes: a cell of each state and of each
+/// of the two commands.
+const KEY: usize = N_MAX + 2;
+
+/// The most states the integrator takes (the circuits have 6 to 10).
+const N_MAX: usize = 16;
+
+/// A hasher for lattice cells (the multiply-rotate hash of Firefox and rustc): the cache looks
+/// a linear part up in every PLC interval, and its keys come from the program, not from
+/// outside.
+#[derive(Default, Clone, Copy)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+/// The cache's maps of linear parts.
+type Cells = HashMap<LinearKey, Rc<Linear>, std::hash::BuildHasherDefault<CellHasher>>;
 
 /// Linear parts kept per thread in each of two generations (each with its propagators, about
 /// 25 kB): a noisy record at rest visits a few thousand cells over ten minutes, most of them
@@ -271,10 +289,18 @@ const CACHE: usize = 2048;
 /// The linear parts of the thread: those used since the current generation began, and those of
 /// the one before, moved back into the current one when used again. When the current one is
 /// full it becomes the old one and the old one is dropped: what is still in use survives.
-#[derive(Default)]
 struct Generations {
-    current: HashMap<LinearKey, Rc<Linear>>,
-    old: HashMap<LinearKey, Rc<Linear>>,
+    current: Cells,
+    old: Cells,
+}
+
+impl Default for Generations {
+    fn default() -> Self {
+        Generations {
+            current: Cells::with_capacity_and_hasher(CACHE, Default::default()),
+            old: Cells::default(),
+        }
+    }
 }
 
 impl Generations {
@@ -289,7 +315,8 @@ impl Generations {
 
     fn insert(&mut self, key: LinearKey, l: Rc<Linear>) {
         if self.current.len() >= CACHE {
-            self.old = std::mem::take(&mut self.current);
+            let fresh = Cells::with_capacity_and_hasher(CACHE, Default::default());
+            self.old = std::mem::replace(&mut self.current, fresh);
         }
         self.current.insert(key, l);
     }
@@ -315,10 +342,11 @@ fn probe(d: &Dynamics) -> Vec<u64> {
 
 /// What is known of `d`, found by its probe or learnt.
 fn known(d: &Dynamics) -> Rc<Known> {
-    let probe = probe(d);
+    let probe = d.probe(probe);
     if let Some(k) = KNOWN.with(|k| k.borrow().iter().find(|k| k.probe == probe).cloned()) {
         return k;
     }
+    let probe = probe.to_vec();
     let scale = typical(d);
     let states = d.circuit().states();
     let cells = (states.iter().zip(&scale))
@@ -359,113 +387,50 @@ fn linear_at(d: &Dynamics, k: &Known, x: &[f64], u: [f64; 2]) -> Rc<Linear> {
     let n = x.len();
     let cell_of = |v: f64, c: f64| (v / c).floor() as i64;
     let centre = |v: f64, c: f64| (cell_of(v, c) as f64 + 0.5) * c;
-    let at: Vec<f64> = (x.iter().zip(&k.cells))
-        .map(|(&v, &c)| centre(v, c))
-        .collect();
+    let mut at = [0.0; N_MAX];
+    for ((a, &v), &c) in at.iter_mut().zip(x).zip(&k.cells) {
+        *a = centre(v, c);
+    }
+    let at = &at[..n];
     let uq = u.map(|v| centre(v, k.command_cell));
-    let point: Vec<i64> = if k.by_regime {
-        let regime = d.circuit().drive_regime(&at, &uq).unwrap_or(u64::MAX);
-        (x.iter().zip(&k.cells).zip(&k.roles))
+    let mut point = [0; KEY];
+    if k.by_regime {
+        let regime = d.circuit().drive_regime(at, &uq).unwrap_or(u64::MAX);
+        let cells = (x.iter().zip(&k.cells).zip(&k.roles))
             .filter(|(_, role)| !regime_only(**role))
             .map(|((&v, &c), _)| cell_of(v, c))
-            .chain([regime as i64])
-            .collect()
+            .chain([regime as i64]);
+        point.iter_mut().zip(cells).for_each(|(p, c)| *p = c);
     } else {
-        (x.iter().zip(&k.cells))
+        let cells = (x.iter().zip(&k.cells))
             .map(|(&v, &c)| cell_of(v, c))
-            .chain(u.map(|v| cell_of(v, k.command_cell)))
-            .collect()
-    };
+            .chain(u.map(|v| cell_of(v, k.command_cell)));
+        point.iter_mut().zip(cells).for_each(|(p, c)| *p = c);
+    }
     let key = (k.serial, point);
     if let Some(l) = LINEAR.with(|c| c.borrow_mut().get(&key)) {
         return l;
     }
     add_work(JACOBIAN_WORK);
-    let mut j = d.jacobian(&at, &uq);
+    let mut j = vec![0.0; n * n];
+    d.jacobian_into(at, &uq, &mut j);
     for r in 0..n {
         for c in 0..n {
             j[r * n + c] *= k.scale[c] / k.scale[r];
         }
     }
     let l = Rc::new(Linear {
+        n,
         j_columns: columns(&j, n),
         j,
-        propagators: RefCell::new(Vec::new()),
+        propagators: RefCell::new(Vec::with_capacity(EAGER as usize + 2)),
     });
     LINEAR.with(|c| c.borrow_mut().insert(key, l.clone()));
     l
 }
 
-/// One integration: the dynamics, the commands held, what is known of them and the linear
-/// part the steps take exactly.
-struct Problem<'a> {
-    d: &'a Dynamics,
-    u: [f64; 2],
-    known: &'a Known,
-    linear: &'a Linear,
-    n: usize,
-    /// The PLC interval (s): the steps are its halvings.
-    span: f64,
-}
-
-impl Problem<'_> {
-    /// The nonlinear part N(y) = f(y) − J₀ y in typical sizes at the scaled state `y`.
-    fn nonlinear(&self, y: &Vector, out: &mut Vector) {
-        add_work(1);
-        let (n, s) = (self.n, &self.known.scale);
-        let mut x = [0.0; N_MAX];
-        for i in 0..n {
-            x[i] = y[i] * s[i];
-        }
-        self.d.rhs(&x[..n], &self.u, &mut out[..n]);
-        for i in 0..n {
-            out[i] /= s[i];
-        }
-        let mut jy = [0.0; N_MAX];
-        mat_vec_add(&self.linear.j_columns, y, &mut jy, n);
-        for i in 0..n {
-            out[i] -= jy[i];
-        }
-    }
-}
-
-/// The matrices of one ETDRK4 step of length h with the linear part J₀ (scaled, column-major):
-/// e^{hJ₀/2}, (h/2) φ₁(hJ₀/2), e^{hJ₀}, and the weights h(φ₁ − 3φ₂ + 4φ₃), 2h(φ₂ − 2φ₃),
-/// h(4φ₃ − φ₂) of hJ₀.
-struct Propagator {
-    /// The six matrices one after the other, each column-major n × n.
-    m: Vec<f64>,
-    n: usize,
-}
-
-impl Propagator {
-    fn matrix(&self, k: usize) -> &[f64] {
-        let nn = self.n * self.n;
-        &self.m[k * nn..(k + 1) * nn]
-    }
-    fn e_half(&self) -> &[f64] {
-        self.matrix(0)
-    }
-    fn p_half(&self) -> &[f64] {
-        self.matrix(1)
-    }
-    fn e(&self) -> &[f64] {
-        self.matrix(2)
-    }
-    fn weight1(&self) -> &[f64] {
-        self.matrix(3)
-    }
-    fn weight2(&self) -> &[f64] {
-        self.matrix(4)
-    }
-    fn weight3(&self) -> &[f64] {
-        self.matrix(5)
-    }
-}
-
 /// Integrate the rig over [t0, t1] with the commands `u` held by ETDRK4 steps of the whole
-/// interval, halved where a step misses the tolerance (at most [`MAX_HALVINGS`] times, at most
-/// [`MAX_STEPS`] steps).
+/// interval, halved where a step misses the tolerance ([`steps::integrate`]).
 fn exponential(
     d: &Dynamics,
     x: &[f64],
@@ -490,144 +455,23 @@ fn exponential(
     }
     let known = known(d);
     let linear = linear_at(d, &known, x, u);
-    let p = Problem {
+    let held = RefCell::new(None);
+    let propagator = |level| propagator_for(&linear, span, level, &held);
+    let interval = Interval {
         d,
         u,
-        known: &known,
-        linear: &linear,
-        n,
-        span,
+        scale: &known.scale,
+        j_columns: &linear.j_columns,
+        propagator: &propagator,
+        work: add_work,
+        t0,
+        t1,
     };
-    let mut y = [0.0; N_MAX];
-    for i in 0..n {
-        y[i] = x[i] / known.scale[i];
-    }
-    // the interval in 2^level steps, `at` of them done
-    let (mut level, mut at) = (0u32, 0u64);
-    let mut reuse: Option<Vector> = None;
-    for _ in 0..MAX_STEPS {
-        if at == 1u64 << level {
-            let out: Vec<f64> = (0..n).map(|i| y[i] * known.scale[i]).collect();
-            finite(&out, t1)?;
-            return Ok(out);
-        }
-        let h = span / (1u64 << level) as f64;
-        let (next, error, mid) = doubled(&p, &y, level, reuse.take())?;
-        let last = level == MAX_HALVINGS;
-        if error <= TOLERANCE || (last && error <= BLOW_UP) {
-            y = next;
-            at += 1;
-            if level > 0 && at % 2 == 0 {
-                level -= 1;
-                at /= 2;
-            }
-        } else if last {
-            let t = t0 + span * at as f64 / (1u64 << level) as f64;
-            return Err(EmulatorError(format!(
-                "ODE solver: no step of {h:.3e} s or longer meets the tolerance at t = {t} s"
-            )));
-        } else {
-            level += 1;
-            at *= 2;
-            // the first half of the step just refused is the next try's whole step
-            reuse = Some(mid);
-        }
-    }
-    Err(EmulatorError(format!(
-        "ODE solver: more than {MAX_STEPS} steps between t = {t0} s and t = {t1} s"
-    )))
-}
-
-/// Two ETDRK4 steps of h/2 from `y`, h the interval's `level`-th halving, and their error:
-/// their difference from one step of h over 15 (Richardson, the method being of order 4), the
-/// largest in typical sizes.
-fn doubled(
-    p: &Problem,
-    y: &Vector,
-    level: u32,
-    whole: Option<Vector>,
-) -> Result<(Vector, f64, Vector), EmulatorError> {
-    let mut n0 = [0.0; N_MAX];
-    p.nonlinear(y, &mut n0);
-    let whole = match whole {
-        Some(w) => w,
-        None => etdrk4(p, &*propagator_for(p, level)?, y, &n0),
-    };
-    let half = propagator_for(p, level + 1)?;
-    let mid = etdrk4(p, &half, y, &n0);
-    let mut n_mid = [0.0; N_MAX];
-    p.nonlinear(&mid, &mut n_mid);
-    let end = etdrk4(p, &half, &mid, &n_mid);
-    let error = (0..p.n)
-        .map(|i| (end[i] - whole[i]).abs() / 15.0)
-        .fold(0.0, f64::max);
-    if !error.is_finite() {
-        return Ok((end, f64::INFINITY, mid));
-    }
-    Ok((end, error, mid))
-}
-
-/// One step of Cox and Matthews' ETDRK4 from `y` (nonlinear part `n0` there) with the
-/// propagator `q`.
-fn etdrk4(p: &Problem, q: &Propagator, y: &Vector, n0: &Vector) -> Vector {
-    let n = p.n;
-    let mut ey = [0.0; N_MAX];
-    mat_vec_add(q.e_half(), y, &mut ey, n);
-    let mut a = ey;
-    mat_vec_add(q.p_half(), n0, &mut a, n);
-    let mut na = [0.0; N_MAX];
-    p.nonlinear(&a, &mut na);
-    let mut b = ey;
-    mat_vec_add(q.p_half(), &na, &mut b, n);
-    let mut nb = [0.0; N_MAX];
-    p.nonlinear(&b, &mut nb);
-    let mut c = [0.0; N_MAX];
-    mat_vec_add(q.e_half(), &a, &mut c, n);
-    let mut twice = [0.0; N_MAX];
-    let mut sum = [0.0; N_MAX];
-    for i in 0..n {
-        twice[i] = 2.0 * nb[i] - n0[i];
-        sum[i] = na[i] + nb[i];
-    }
-    mat_vec_add(q.p_half(), &twice, &mut c, n);
-    let mut nc = [0.0; N_MAX];
-    p.nonlinear(&c, &mut nc);
-    let mut out = [0.0; N_MAX];
-    mat_vec_add(q.e(), y, &mut out, n);
-    mat_vec_add(q.weight1(), n0, &mut out, n);
-    mat_vec_add(q.weight2(), &sum, &mut out, n);
-    mat_vec_add(q.weight3(), &nc, &mut out, n);
-    out
-}
-
-/// out += m · v (m column-major n × n): a sum of columns, which vectorises where a sum of
-/// row products would not; unrolled for the circuits' orders.
-fn mat_vec_add(m: &[f64], v: &Vector, out: &mut Vector, n: usize) {
-    match n {
-        7 => mat_vec_add_n::<7>(m, v, out),
-        8 => mat_vec_add_n::<8>(m, v, out),
-        9 => mat_vec_add_n::<9>(m, v, out),
-        10 => mat_vec_add_n::<10>(m, v, out),
-        _ => {
-            for (column, &vk) in m.chunks_exact(n).zip(&v[..n]) {
-                for (o, c) in out[..n].iter_mut().zip(column) {
-                    *o += c * vk;
-                }
-            }
-        }
-    }
-}
-
-fn mat_vec_add_n<const N: usize>(m: &[f64], v: &Vector, out: &mut Vector) {
-    let (m, _) = m.as_chunks::<N>();
-    let mut acc = [0.0; N];
-    acc.copy_from_slice(&out[..N]);
-    for (column, &vk) in m[..N].iter().zip(&v[..N]) {
-        for r in 0..N {
-            acc[r] += column[r] * vk;
-        }
-    }
-    out[..N].copy_from_slice(&acc);
+    let out = steps::integrate(&interval, x);
+    keep_eager(&linear, span, held.into_inner());
+    let out = out?;
+    finite(&out, t1)?;
+    Ok(out)
 }
 
 /// The column-major copy of a row-major n × n matrix.
@@ -637,247 +481,67 @@ fn columns(m: &[f64], n: usize) -> Vec<f64> {
 
 /// Halvings of the interval whose φ functions one pass of the scaling and squaring gives (the
 /// doublings pass them all on the way): a block of halvings 0 ..= CHAIN, then CHAIN + 1 ..= 2 CHAIN + 1,
-/// and so on. Most intervals take steps of the first four halvings, whose propagators the
-/// first pass builds ([`EAGER`]), so a linear part needs one pass.
+/// and so on.
 const CHAIN: u32 = 6;
 
-/// Halvings of a block, after its first, whose propagators are built with the first's: most
-/// intervals' steps are of the first four halvings.
+/// Halvings of a block, after its first, whose propagators a linear part keeps once the φ
+/// functions of the block were computed for it, whether its interval asked for them or not:
+/// most intervals' steps are of the first four halvings, and a linear part met again then
+/// needs no new pass.
 const EAGER: u32 = 3;
 
-/// The propagator of the problem's linear part for steps of the interval's `level`-th halving,
-/// kept with it or built from the φ functions of its block of halvings, with those of the
-/// block's first [`EAGER`] + 1 halvings. The φ functions are not kept (a linear part with them
-/// took three times the memory, and the cache that many fewer linear parts): a longer halving
-/// of the block asked for later computes them again. Which block a halving belongs to is
+/// The φ functions of the block of halvings last computed in an interval, with the block's
+/// first halving: the interval's other halvings of that block take their propagators from them.
+type Held = RefCell<Option<(u32, Phis)>>;
+
+/// The propagator of `linear` for steps of the interval `span`'s `level`-th halving, kept
+/// with it or built from the φ functions of its block of halvings, those `held` by the
+/// interval or computed (and then held). The φ functions are not kept past the interval (a
+/// linear part with them took three times the memory, and the cache that many fewer linear
+/// parts): a halving asked for later computes them again. Which block a halving belongs to is
 /// fixed, so the propagator is a function of the linear part, the interval and the level
 /// alone.
-fn propagator_for(p: &Problem, level: u32) -> Result<Rc<Propagator>, EmulatorError> {
-    let key = (p.span.to_bits(), level);
-    let kept = p.linear.propagators.borrow();
-    if let Some((_, q)) = kept.iter().find(|(k, _)| *k == key) {
+fn propagator_for(
+    linear: &Linear,
+    span: f64,
+    level: u32,
+    held: &Held,
+) -> Result<Rc<Propagator>, EmulatorError> {
+    let key = (span.to_bits(), level);
+    if let Some((_, q)) = linear.propagators.borrow().iter().find(|(k, _)| *k == key) {
         return Ok(q.clone());
     }
-    drop(kept);
     let first = level / (CHAIN + 1) * (CHAIN + 1);
-    let h = p.span * 0.5f64.powi(first as i32);
-    add_work(PHI_WORK);
-    let phi = phi_levels(p.n, &p.linear.j, h, CHAIN as usize)?;
-    let of_level = |l: u32| {
-        let hl = p.span * 0.5f64.powi(l as i32);
-        Rc::new(propagator(&phi, (l - first) as usize, hl))
-    };
-    let q = of_level(level);
-    let mut kept = p.linear.propagators.borrow_mut();
-    kept.push((key, q.clone()));
-    // the block's first halvings too, which most intervals' steps are of, while its φ
-    // functions are at hand: they are let go, a linear part keeps its propagators alone
-    for l in first..=first + EAGER {
-        if !kept.iter().any(|(k, _)| *k == (p.span.to_bits(), l)) {
-            kept.push(((p.span.to_bits(), l), of_level(l)));
-        }
+    let mut held = held.borrow_mut();
+    if !matches!(&*held, Some((f, _)) if *f == first) {
+        let h = span * 0.5f64.powi(first as i32);
+        add_work(PHI_WORK);
+        *held = Some((first, phi_levels(linear.n, &linear.j, h, CHAIN as usize)?));
     }
-    Ok(q)
+    let phis = &held.as_ref().expect("held just above").1;
+    Ok(keep(linear, span, level, first, phis))
 }
 
-/// Taylor terms of φ₃ at ‖z‖₁ ≤ 1/2 (φ₂, φ₁, e^z then have one, two, three more): the first
-/// left out is below 10⁻¹⁶ of them.
-const TAYLOR_TERMS: usize = 14;
-
-thread_local! {
-    /// [`phi_levels`]' working matrices, kept between calls: a new linear part would otherwise
-    /// allocate and zero them afresh.
-    static PHI_SCRATCH: Cell<Vec<f64>> = const { Cell::new(Vec::new()) };
+/// The propagator of `linear` for the `level`-th halving of `span` from the φ functions `phis`
+/// of the block from `first`, kept with the linear part.
+fn keep(linear: &Linear, span: f64, level: u32, first: u32, phis: &Phis) -> Rc<Propagator> {
+    let h = span * 0.5f64.powi(level as i32);
+    let q = Rc::new(propagator(phis, (level - first) as usize, h));
+    let key = (span.to_bits(), level);
+    linear.propagators.borrow_mut().push((key, q.clone()));
+    q
 }
 
-/// e^z, φ₁(z), φ₂(z), φ₃(z) of z = hJ/2ˡ for ℓ = 0 ..= `levels` + 1 (φ₀ = e^z,
-/// φ_{k+1}(z) = (φ_k(z) − 1/k!)/z): J balanced by a diagonal similarity of powers of two
-/// ([`balance`]), the Taylor series of φ₃(z/2ˢ) by Horner's rule and φ_k = z φ_{k+1} + 1/k!,
-/// then s doublings φ_k(2z) = 2⁻ᵏ (e^z φ_k(z) + Σ_{j=1..k} φ_j(z)/(k−j)!) (Skaflestad and
-/// Wright, Applied Numerical Mathematics 59, 2009), each doubling one level of step length.
-fn phi_levels(n: usize, j: &[f64], h: f64, levels: usize) -> Result<Phis, EmulatorError> {
-    if !j.iter().all(|v| v.is_finite()) {
-        return Err(EmulatorError(
-            "ODE solver: the Jacobian is not finite".to_string(),
-        ));
-    }
-    // φ_k(D⁻¹ZD) = D⁻¹ φ_k(Z) D: balanced by powers of two, exactly, the norm that sets the
-    // doublings drops from the typical sizes' scaling to near the spectral radius
-    let nn = n * n;
-    // one allocation: a, two Taylor terms, four products, φ₀..φ₃
-    let mut work = PHI_SCRATCH.with(Cell::take);
-    work.clear();
-    work.resize(11 * nn, 0.0);
-    let (a, rest) = work.split_at_mut(nn);
-    let (mut t0, rest) = rest.split_at_mut(nn);
-    let (mut t1, rest) = rest.split_at_mut(nn);
-    let (products, phi) = rest.split_at_mut(4 * nn);
-    a.copy_from_slice(j);
-    let d = balance(a, n);
-    let norm = (0..n)
-        .map(|c| (0..n).map(|r| (h * a[r * n + c]).abs()).sum::<f64>())
-        .fold(0.0, f64::max);
-    // ‖hJ/2ˢ‖ ≤ 1/2, and s > `levels` so every level asked for is passed on the way
-    let s = ((norm / 0.5).log2().ceil().max(0.0) as usize).max(levels + 1);
-    let scale = h / 2f64.powi(s as i32);
-    a.iter_mut().for_each(|v| *v *= scale);
-    // φ₃(a) = Σ aᵐ/(m + 3)! by Horner, then φ_k = a φ_{k+1} + I/k!
-    let add_diagonal = |m: &mut [f64], v: f64| (0..n).for_each(|i| m[i * n + i] += v);
-    let factorial = |k: usize| (1..=k).map(|i| i as f64).product::<f64>();
-    add_diagonal(t0, 1.0 / factorial(TAYLOR_TERMS + 3));
-    for m in (0..TAYLOR_TERMS).rev() {
-        mat_mul_into(a, t0, t1, n);
-        add_diagonal(t1, 1.0 / factorial(m + 3));
-        std::mem::swap(&mut t0, &mut t1);
-    }
-    phi[3 * nn..].copy_from_slice(t0);
-    for k in (0..3).rev() {
-        let (low, high) = phi.split_at_mut((k + 1) * nn);
-        mat_mul_into(a, &high[..nn], &mut low[k * nn..], n);
-        add_diagonal(&mut low[k * nn..], 1.0 / factorial(k));
-    }
-    let mut out = Vec::with_capacity((levels + 2) * 4 * nn);
-    for step in 0..=s {
-        if step + levels + 1 >= s {
-            out.extend_from_slice(phi);
-        }
-        if step == s {
-            break;
-        }
-        for k in 0..4 {
-            // e·e, e·φ₁, e·φ₂, e·φ₃
-            let (e, f) = (&phi[..nn], &phi[k * nn..(k + 1) * nn]);
-            mat_mul_into(e, f, &mut products[k * nn..(k + 1) * nn], n);
-        }
-        let (e, f) = phi.split_at_mut(nn);
-        let (f1, f) = f.split_at_mut(nn);
-        let (f2, f3) = f.split_at_mut(nn);
-        for i in 0..nn {
-            let (g1, g2, g3) = (f1[i], f2[i], f3[i]);
-            f1[i] = 0.5 * (products[nn + i] + g1);
-            f2[i] = 0.25 * (products[2 * nn + i] + g1 + g2);
-            f3[i] = 0.125 * (products[3 * nn + i] + 0.5 * g1 + g2 + g3);
-        }
-        e.copy_from_slice(&products[..nn]);
-    }
-    PHI_SCRATCH.with(|s| s.set(work));
-    Ok(Phis { n, d, m: out })
-}
-
-/// e^z, φ₁(z), φ₂(z), φ₃(z) of z = hJ₀/2ˡ for the levels ℓ of a block, finest first, each
-/// row-major n × n, of the balanced D⁻¹J₀D: entry (r, c) of J₀'s is d_r/d_c times it.
-struct Phis {
-    n: usize,
-    d: Vec<f64>,
-    m: Vec<f64>,
-}
-
-impl Phis {
-    /// φ_k of level `l`, balanced.
-    fn balanced(&self, l: usize, k: usize) -> &[f64] {
-        let nn = self.n * self.n;
-        let at = (4 * (self.m.len() / (4 * nn) - 1 - l) + k) * nn;
-        &self.m[at..at + nn]
-    }
-
-    /// φ_k of level `l`, row-major: of J₀ itself.
-    #[cfg(test)]
-    fn of_j(&self, l: usize, k: usize) -> Vec<f64> {
-        let n = self.n;
-        let b = self.balanced(l, k);
-        (0..n * n)
-            .map(|i| b[i] * self.d[i / n] / self.d[i % n])
-            .collect()
-    }
-}
-
-/// Sweeps of [`balance`] at most.
-const BALANCE_SWEEPS: usize = 16;
-
-/// Balance the row-major n × n matrix `a` in place by a diagonal similarity of powers of two,
-/// a ← D⁻¹ a D, so that each state's row and column have about the same norm (Parlett and
-/// Reinsch, Numerische Mathematik 13, 1969, as LAPACK's gebal does it); returns D. Exact in
-/// floating point: only exponents change. Not nalgebra's `balance_parlett_reinsch` (which
-/// `lti::poles` uses on its analyses' matrices): that one iterates until converged with no
-/// bound, and wants a `DMatrix` where this runs on the integrator's row-major slice once per
-/// new linear part.
-fn balance(a: &mut [f64], n: usize) -> Vec<f64> {
-    let mut d = vec![1.0; n];
-    for _ in 0..BALANCE_SWEEPS {
-        let mut changed = false;
-        for i in 0..n {
-            let (mut c, mut r) = (0.0, 0.0);
-            for k in (0..n).filter(|&k| k != i) {
-                c += a[k * n + i].abs();
-                r += a[i * n + k].abs();
-            }
-            if c == 0.0 || r == 0.0 {
-                continue;
-            }
-            let (total, mut f) = (c + r, 1.0);
-            // at most 64 factors of two each way: beyond, the scaling would not help
-            for _ in 0..64 {
-                if c >= r / 2.0 {
-                    break;
-                }
-                c *= 2.0;
-                r /= 2.0;
-                f *= 2.0;
-            }
-            for _ in 0..64 {
-                if c < r * 2.0 {
-                    break;
-                }
-                c /= 2.0;
-                r *= 2.0;
-                f /= 2.0;
-            }
-            if c + r < 0.95 * total {
-                changed = true;
-                d[i] *= f;
-                for k in 0..n {
-                    a[i * n + k] /= f;
-                    a[k * n + i] *= f;
-                }
-            }
-        }
-        if !changed {
-            break;
+/// At the end of an interval: the propagators of the first [`EAGER`] + 1 halvings of the
+/// block whose φ functions it `held`, kept with the linear part where it has them not yet.
+fn keep_eager(linear: &Linear, span: f64, held: Option<(u32, Phis)>) {
+    let Some((first, phis)) = held else { return };
+    for level in first..=first + EAGER {
+        let key = (span.to_bits(), level);
+        if !linear.propagators.borrow().iter().any(|(k, _)| *k == key) {
+            keep(linear, span, level, first, &phis);
         }
     }
-    d
-}
-
-/// The ETDRK4 propagator of a step of `h` from the φ functions of hJ₀ (level `l` of `phis`) and
-/// of hJ₀/2 (level `l + 1`), back from the balanced basis.
-fn propagator(phis: &Phis, l: usize, h: f64) -> Propagator {
-    let n = phis.n;
-    let nn = n * n;
-    let (f1, f2, f3) = (
-        phis.balanced(l, 1),
-        phis.balanced(l, 2),
-        phis.balanced(l, 3),
-    );
-    let (e, e_half, p_half) = (
-        phis.balanced(l, 0),
-        phis.balanced(l + 1, 0),
-        phis.balanced(l + 1, 1),
-    );
-    let mut m = vec![0.0; 6 * nn];
-    for r in 0..n {
-        for c in 0..n {
-            // exact: a ratio of powers of two
-            let back = phis.d[r] / phis.d[c];
-            let (i, o) = (r * n + c, c * n + r);
-            m[o] = e_half[i] * back;
-            m[nn + o] = p_half[i] * (0.5 * h) * back;
-            m[2 * nn + o] = e[i] * back;
-            m[3 * nn + o] = h * (f1[i] - 3.0 * f2[i] + 4.0 * f3[i]) * back;
-            m[4 * nn + o] = h * (2.0 * f2[i] - 4.0 * f3[i]) * back;
-            m[5 * nn + o] = h * (-f2[i] + 4.0 * f3[i]) * back;
-        }
-    }
-    Propagator { m, n }
 }
 
 /// The ETDRK4 propagators of steps of h/2ˡ, ℓ = 0 ..= `levels`, with the scaled linear part `j`.
@@ -892,43 +556,6 @@ fn propagators(
     Ok((0..=levels)
         .map(|l| propagator(&phis, l, h * 0.5f64.powi(l as i32)))
         .collect())
-}
-
-/// out = a · b (row-major n × n), unrolled for the circuits' orders.
-fn mat_mul_into(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
-    match n {
-        7 => mat_mul_n::<7>(a, b, out),
-        8 => mat_mul_n::<8>(a, b, out),
-        9 => mat_mul_n::<9>(a, b, out),
-        10 => mat_mul_n::<10>(a, b, out),
-        _ => mat_mul_any(a, b, out, n),
-    }
-}
-
-fn mat_mul_n<const N: usize>(a: &[f64], b: &[f64], out: &mut [f64]) {
-    let (a, _) = a.as_chunks::<N>();
-    let (b, _) = b.as_chunks::<N>();
-    let (out, _) = out.as_chunks_mut::<N>();
-    for (a_row, out_row) in a[..N].iter().zip(&mut out[..N]) {
-        let mut acc = [0.0; N];
-        for (&aik, b_row) in a_row.iter().zip(&b[..N]) {
-            for c in 0..N {
-                acc[c] += aik * b_row[c];
-            }
-        }
-        *out_row = acc;
-    }
-}
-
-fn mat_mul_any(a: &[f64], b: &[f64], out: &mut [f64], n: usize) {
-    out.fill(0.0);
-    for (a_row, out_row) in a.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
-        for (&aik, b_row) in a_row.iter().zip(b.chunks_exact(n)) {
-            for (o, &b) in out_row.iter_mut().zip(b_row) {
-                *o += aik * b;
-            }
-        }
-    }
 }
 
 #[cfg(test)]
@@ -999,6 +626,36 @@ mod tests {
     }
 
     #[test]
+    fn the_integrators_jacobian_is_the_circuits_linearisation_bit_for_bit() {
+        // the linear parts take ∂f/∂x alone (Dynamics::jacobian_into): the same numbers as the
+        // full linearisation's, on every circuit, within and beyond the drives' limits
+        for kind in CircuitKind::ALL {
+            let rig = Rig::default()
+                .with_overrides(&[format!("circuit={}", kind.name())])
+                .unwrap();
+            let d = Dynamics::new(&rig, Effects::for_rig(&rig).unwrap()).unwrap();
+            let (x0, u0) = d.operating_point();
+            let n = x0.len();
+            for sample in 0..50 {
+                let reach = [0.1, 1.0, 10.0, 100.0][sample % 4];
+                let x: Vec<f64> = (x0.iter().zip(d.circuit().states()))
+                    .map(|(&v, s)| {
+                        v + s.role.typical_size() * reach * ((sample * 7 % 11) as f64 - 5.0) / 5.0
+                    })
+                    .collect();
+                let u = u0.map(|v| v + 30.0 * reach * ((sample % 5) as f64 - 2.0));
+                let mut j = vec![f64::NAN; n * n];
+                d.jacobian_into(&x, &u, &mut j);
+                let want = d.jacobian(&x, &u);
+                assert!(
+                    (j.iter().zip(&want)).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{kind:?}: {x:?} {u:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn the_phi_functions_of_a_diagonal_matrix_are_the_scalar_ones() {
         // φ₀ = eᶻ, φ₁ = (eᶻ − 1)/z, φ₂ = (eᶻ − 1 − z)/z², φ₃ = (eᶻ − 1 − z − z²/2)/z³
         let z = [-1257.0 * 0.01, -3.0, -0.2, 0.7];
@@ -1008,7 +665,7 @@ mod tests {
             j[i * n + i] = z[i];
         }
         let phis = phi_levels(n, &j, 1.0, 2).unwrap();
-        assert_eq!(phis.m.len(), 4 * 4 * n * n);
+        assert_eq!(phis.levels(), 4);
         for l in 0..4 {
             let zs = z.map(|v| v * 0.5f64.powi(l as i32));
             for (i, &z) in zs.iter().enumerate() {
@@ -1052,23 +709,27 @@ mod tests {
         let q = &propagators(n, &j, h, 0).unwrap()[0];
         let full = phi_levels(n, &j, h, 0).unwrap();
         let (e, phi1) = (full.of_j(0, 0), full.of_j(0, 1));
-        let mut y = [0.0; N_MAX];
-        y[0] = 1.0;
-        y[1] = -2.0;
-        let mut c = [0.0; N_MAX];
-        c[0] = 3.0;
-        c[1] = 0.5;
+        let y = [1.0, -2.0];
+        let c = [3.0, 0.5];
+        // out += m v, m column-major n × n
+        let mat_vec_add = |m: &[f64], v: &[f64; 2], out: &mut [f64; 2]| {
+            for (column, vk) in m.chunks_exact(n).zip(v) {
+                for (o, m) in out.iter_mut().zip(column) {
+                    *o += m * vk;
+                }
+            }
+        };
         // four stages of a constant N (the second weight takes two of them): the weights must
         // add up to h φ₁
-        let mut via = [0.0; N_MAX];
-        mat_vec_add(q.e(), &y, &mut via, n);
+        let mut via = [0.0; 2];
+        mat_vec_add(q.e(), &y, &mut via);
         for w in [q.weight1(), q.weight2(), q.weight2(), q.weight3()] {
-            mat_vec_add(w, &c, &mut via, n);
+            mat_vec_add(w, &c, &mut via);
         }
-        let mut want = [0.0; N_MAX];
-        mat_vec_add(&columns(&e, n), &y, &mut want, n);
+        let mut want = [0.0; 2];
+        mat_vec_add(&columns(&e, n), &y, &mut want);
         let p1: Vec<f64> = phi1.iter().map(|v| v * h).collect();
-        mat_vec_add(&columns(&p1, n), &c, &mut want, n);
+        mat_vec_add(&columns(&p1, n), &c, &mut want);
         for i in 0..n {
             assert!(
                 (via[i] - want[i]).abs() < 1e-14,

@@ -11,6 +11,8 @@ pub mod article;
 pub mod chatter;
 mod experiment;
 mod integrate;
+mod phi;
+mod steps;
 pub use integrate::with_bdf_integrator;
 mod plc;
 
@@ -172,6 +174,8 @@ pub struct Dynamics {
     pub(crate) at: Places,
     /// The pumps' speed limit (rad/s) where the effect is on: the rig's `pump_max_speed_rpm`.
     speed_limit_rad_s: Option<f64>,
+    /// The integrator's probe of these equations, once computed ([`Dynamics::probe`]).
+    probe: std::sync::OnceLock<Vec<u64>>,
 }
 
 /// Where the signals the PLC measures are in a circuit's state.
@@ -205,6 +209,7 @@ impl Dynamics {
             circuit,
             at,
             speed_limit_rad_s: effects.pump_speed_limit_rad_s(rig),
+            probe: std::sync::OnceLock::new(),
         })
     }
 
@@ -220,6 +225,7 @@ impl Dynamics {
             circuit: self.circuit.without_limits(),
             at: self.at.clone(),
             speed_limit_rad_s: None,
+            probe: std::sync::OnceLock::new(),
         }
     }
 
@@ -249,6 +255,14 @@ impl Dynamics {
     /// Change the external force on the piston (N).
     pub fn set_external_force_n(&mut self, f_n: f64) {
         self.circuit.set_external_force_n(f_n);
+        self.probe = std::sync::OnceLock::new();
+    }
+
+    /// What the integrator probes of these equations to know them again (their rates at two
+    /// points, bit for bit), computed by `compute` once: the equations do not change but by
+    /// [`Dynamics::set_external_force_n`], which forgets it.
+    pub(crate) fn probe(&self, compute: impl FnOnce(&Dynamics) -> Vec<u64>) -> &[u64] {
+        self.probe.get_or_init(|| compute(self))
     }
 
     /// The end of the stroke the piston of state `x` is at or beyond, if any, met at `t_s`.
@@ -282,6 +296,12 @@ impl Dynamics {
     pub fn jacobian(&self, x: &[f64], u: &[f64]) -> Vec<f64> {
         let (a, _) = crate::circuit::linearise(&self.circuit, x, &u[..self.circuit.drives()]);
         a.transpose().as_slice().to_vec()
+    }
+
+    /// [`Dynamics::jacobian`] into `out`, the same numbers bit for bit
+    /// ([`crate::circuit::state_jacobian`]).
+    pub(crate) fn jacobian_into(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+        crate::circuit::state_jacobian(&self.circuit, x, &u[..self.circuit.drives()], out);
     }
 
     /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage
