@@ -228,7 +228,7 @@ pub struct Variable {
 /// How many drives the rig's circuit has: the DPM's two, the single-motor circuits' one
 /// (docs/fmu.md#every-circuit).
 fn drives(rig: &Rig) -> usize {
-    rig.circuit.description().drives
+    rig.circuit.description().commands()
 }
 
 /// The inputs: the position reference or the speed commands (one per drive), then the
@@ -1070,7 +1070,7 @@ impl Instance {
             }) => {
                 // integrated a PLC period at a time, as the PLC loop is: BDF restarts at each
                 // period, so a long step through an end stop or cavitation does not stall it
-                let n = dynamics.circuit().drives();
+                let n = dynamics.circuit().commands();
                 dynamics.set_external_force_n(inputs[n]);
                 let mut u = [0.0; 2];
                 u[..n].copy_from_slice(&inputs[..n]);

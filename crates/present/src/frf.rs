@@ -335,7 +335,7 @@ fn valve_open_jacobian(
         .map(|&i| x[i] / 1e5)
         .collect();
     let u = c.plc_commands(rig, rig.x0_mm, x_mm, &p_bar);
-    Some(pumpcyl::circuit::linearise(c, &x, &u[..c.drives()]))
+    Some(pumpcyl::circuit::linearise(c, &x, &u[..c.commands()]))
 }
 
 /// A note beside `rig`'s model curve where a dual-pump circuit's valves-shut rest opens a

@@ -98,6 +98,8 @@ pub struct Description {
     pub controller_words: &'static str,
     /// How many drives (motors) the PLC commands.
     pub drives: usize,
+    /// How many servo valves the PLC commands (their spools).
+    pub servo_valves: usize,
     /// How many pumps it has (what a rig of it can be rebuilt as: docs/select.md#circuits).
     pub pumps: usize,
     /// The variants `select` offers of it, in order.
@@ -117,6 +119,14 @@ pub struct Description {
     /// Why it has no modes to switch between, in one line (`None`: it has modes, the
     /// single-pump circuit's: docs/circuits.md#its-two-modes).
     pub no_modes: Option<&'static str>,
+}
+
+impl Description {
+    /// How many commands the PLC sends: one per drive and one per servo valve, the inputs of
+    /// its equations in order.
+    pub const fn commands(&self) -> usize {
+        self.drives + self.servo_valves
+    }
 }
 
 /// A linear form of a circuit, what [`AnyCircuit`](super::AnyCircuit) holds: its equations without effects, the
@@ -471,9 +481,9 @@ macro_rules! circuits {
                 match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::order(c)),+ }
             }
 
-            /// How many drives the PLC commands ([`Description::drives`]).
-            pub fn drives(&self) -> usize {
-                self.kind().description().drives
+            /// How many commands the PLC sends ([`Description::commands`]).
+            pub fn commands(&self) -> usize {
+                self.kind().description().commands()
             }
 
             /// Change the external force on the piston (N); the operating point stays the

@@ -569,6 +569,7 @@ impl super::Module for Module {
         fmu_words: "dual-prime-mover",
         controller_words: "with the article's position and sum-pressure controller",
         drives: 2,
+        servo_valves: 0,
         pumps: 2,
         variants: &[
             super::Variant {

@@ -438,6 +438,7 @@ impl super::Module for Module {
         fmu_words: "single-motor dual-pump (circuit dual-pump, the article's Figure 1b)",
         controller_words: "with the article's position controller on its one motor",
         drives: 1,
+        servo_valves: 0,
         pumps: 2,
         variants: &[super::Variant {
             level: super::PressureLevel::Precharge,

@@ -208,6 +208,12 @@ pub enum Role {
     Feedforward,
     /// A speed command to a drive (rad/s), an input.
     SpeedCommand,
+    /// A servo valve's spool opening, normalised to ±1 at full opening.
+    SpoolOpening,
+    /// A servo valve's spool velocity (normalised openings per second).
+    SpoolVelocity,
+    /// An opening command to a servo valve's spool (normalised, ±1), an input.
+    SpoolCommand,
 }
 
 impl Role {
@@ -220,6 +226,8 @@ impl Role {
             Role::Pressure => 1e5,
             Role::Torque => 0.1,
             Role::MotorSpeed | Role::Feedforward | Role::SpeedCommand => 10.0,
+            Role::SpoolOpening | Role::SpoolCommand => 1e-2,
+            Role::SpoolVelocity => 1.0,
         }
     }
 }

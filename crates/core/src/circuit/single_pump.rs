@@ -359,6 +359,7 @@ impl super::Module for Module {
         fmu_words: "single-pump (circuit single-pump, the article's Figure 1a)",
         controller_words: "with the article's position controller on its one motor",
         drives: 1,
+        servo_valves: 0,
         pumps: 1,
         variants: &[super::Variant {
             level: super::PressureLevel::Precharge,

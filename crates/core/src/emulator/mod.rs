@@ -294,14 +294,14 @@ impl Dynamics {
     /// The exact Jacobian ∂f/∂x at (x, u), row-major n × n, from the circuit's own equations
     /// by dual numbers ([`crate::circuit::linearise`]): what an implicit integrator needs.
     pub fn jacobian(&self, x: &[f64], u: &[f64]) -> Vec<f64> {
-        let (a, _) = crate::circuit::linearise(&self.circuit, x, &u[..self.circuit.drives()]);
+        let (a, _) = crate::circuit::linearise(&self.circuit, x, &u[..self.circuit.commands()]);
         a.transpose().as_slice().to_vec()
     }
 
     /// [`Dynamics::jacobian`] into `out`, the same numbers bit for bit
     /// ([`crate::circuit::state_jacobian`]).
     pub(crate) fn jacobian_into(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
-        crate::circuit::state_jacobian(&self.circuit, x, &u[..self.circuit.drives()], out);
+        crate::circuit::state_jacobian(&self.circuit, x, &u[..self.circuit.commands()], out);
     }
 
     /// The steady operating point of the rig as a state (absolute x0, gauge pressures, leakage

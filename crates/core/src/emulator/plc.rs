@@ -271,7 +271,7 @@ pub fn equilibrium(rig: &Rig, d: &Dynamics, r_mm: f64) -> Result<Vec<f64>, Emula
         Ok(x) => x,
         // a single-motor circuit whose valves are open at the linear model's rest: Newton
         // starts again from where the loop itself runs to
-        Err(e) if d.circuit().drives() == 1 => {
+        Err(e) if d.circuit().commands() == 1 => {
             let near = run_towards_rest(rig, d, r_mm, start).map_err(|_| e)?;
             steady_state(rig, &free, r_mm, near)?
         }

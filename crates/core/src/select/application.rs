@@ -204,7 +204,7 @@ impl Default for Application {
             low_pressure_bar: (1..=10).map(f64::from).collect(),
             pressurised_bar: vec![20.0, 30.0, 50.0],
             precharge_bar: (1..=10).map(f64::from).collect(),
-            circuits: CircuitKind::ALL.to_vec(),
+            circuits: circuits::allowed_circuits(&Rig::default()),
             wave: vec![WaveRequirement {
                 freq_hz: 0.2,
                 amp_mm: 35.0,
@@ -527,6 +527,16 @@ impl Application {
         // the keys that list the levels of the circuits asked for (precharge_bar for the
         // one-motor circuits), named in the error
         let keys = self.levels_keys();
+        if keys.is_empty() {
+            let names: Vec<&str> = self.circuits.iter().map(|k| k.name()).collect();
+            return fail(
+                "circuits",
+                format!(
+                    "{}: select has no pressure level to try on it yet (docs/select.md#circuits)",
+                    names.join(", ")
+                ),
+            );
+        }
         if self.levels().is_empty() {
             return fail(&keys, "no pressure level to try".into());
         }

@@ -120,7 +120,9 @@ pub fn allowed_circuits(rig: &Rig) -> Vec<CircuitKind> {
     (CircuitKind::ALL.into_iter())
         .filter(|k| {
             let needs = k.description();
-            needs.drives <= has.drives && needs.pumps <= has.pumps
+            needs.drives <= has.drives
+                && needs.pumps <= has.pumps
+                && needs.servo_valves <= has.servo_valves
         })
         .collect()
 }
@@ -139,11 +141,12 @@ pub fn not_allowed(rig: &Rig, kind: CircuitKind) -> Option<String> {
             words.get(n).copied().unwrap_or("several")
         )
     };
-    let missing = format!(
-        "{} and {}",
-        count(has.drives, "drive"),
-        count(has.pumps, "pump")
-    );
+    let mut parts = vec![count(has.drives, "drive"), count(has.pumps, "pump")];
+    if has.servo_valves + kind.description().servo_valves > 0 {
+        parts.push(count(has.servo_valves, "servo valve"));
+    }
+    let last = parts.pop().expect("two parts at least");
+    let missing = format!("{} and {last}", parts.join(", "));
     Some(format!(
         "\"{}\": the rig is a {} circuit, with {missing}: it allows {} (docs/select.md#circuits)",
         kind.name(),
