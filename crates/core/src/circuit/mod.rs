@@ -142,6 +142,8 @@ circuits! {
     /// One motor, one pump between the chambers, pilot-operated check valves to the
     /// accumulator (the article's Figure 1a).
     SinglePump: single_pump,
+    /// A four-way servo valve between a supply and the cylinder (the article's introduction, §4).
+    Valve: valve,
 }
 
 /// The article's circuit (§2.1, Figure 3), the default rig's.

@@ -638,6 +638,13 @@ mod tests {
             ..Rig::default()
         };
         assert_eq!(allowed_circuits(&rig(CircuitKind::Dpm)).len(), 3);
+        let why = not_allowed(&rig(CircuitKind::Dpm), CircuitKind::Valve).unwrap();
+        assert!(
+            why.contains("two drives, two pumps and no servo valve"),
+            "{why}"
+        );
+        let valve = rig(CircuitKind::Valve);
+        assert_eq!(allowed_circuits(&valve), [CircuitKind::Valve]);
         assert!(not_allowed(&rig(CircuitKind::Dpm), CircuitKind::SinglePump).is_none());
         let why = not_allowed(&rig(CircuitKind::DualPump), CircuitKind::Dpm).unwrap();
         assert!(why.contains("one drive"), "{why}");
