@@ -509,9 +509,9 @@ macro_rules! circuits {
             }
 
             /// The circuit's rest at x0 as a state, with the motors carrying the pumps' load,
-            /// and the speed commands that hold it, one per drive ([`Emulated::drives`]) and
-            /// 0 for a drive the circuit does not have: where the emulator's search for its
-            /// loop's rest starts.
+            /// and the commands that hold it, one per input ([`Emulated::commands`]) and 0 for
+            /// one the circuit does not have: where the emulator's search for its loop's rest
+            /// starts.
             pub fn rest_state(&self) -> (Vec<f64>, [f64; 2]) {
                 match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::rest_with_commands(c)),+ }
             }
