@@ -142,11 +142,7 @@ impl Dpm {
         Dpm {
             piston,
             chambers,
-            fluid: Fluid {
-                beta_pa: si.beta,
-                gas_fraction: e.gas_fraction,
-                beta_oil_bar: e.beta_oil_bar,
-            },
+            fluid: Fluid::of(si.beta, &e),
             pumps,
             motors,
             si,

@@ -57,7 +57,6 @@ use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
 use crate::rig::Rig;
 use crate::units::PA_PER_BAR;
 use balance::Balance;
-use nalgebra::DMatrix;
 
 /// State positions: position, velocity, the chamber pressures, the shaft speed, then the
 /// motor's torque and feedforward filter (with the full motor model only; tests name them).
@@ -148,11 +147,7 @@ impl DualPump {
             balance,
             piston,
             chambers,
-            fluid: Fluid {
-                beta_pa: si.beta,
-                gas_fraction: e.gas_fraction,
-                beta_oil_bar: e.beta_oil_bar,
-            },
+            fluid: Fluid::of(si.beta, &e),
             pumps: si.d.map(|d| Pump {
                 displacement_m3: d,
                 dead_band_rad_s: e.dead_band_rad_s,
@@ -420,12 +415,7 @@ impl Circuit for DualPump {
 
     /// ω_ref = K_scale Kp (x_ref − x): the article's P law on one motor, no sum-pressure loop.
     fn control_law(&self) -> ControlLaw {
-        let mut kx = DMatrix::zeros(1, self.n);
-        kx[(0, X)] = -self.gain;
-        ControlLaw {
-            kx,
-            kr: DMatrix::from_element(1, 1, self.gain),
-        }
+        ControlLaw::position(self.n, X, self.gain)
     }
 }
 

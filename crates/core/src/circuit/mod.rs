@@ -44,11 +44,11 @@ macro_rules! delegate_circuit {
 }
 
 /// The calls every circuit answers from the parts it holds — its `piston` (load, end stops),
-/// its `fluid` and its drives (the field named, whose type has `without_limits`) — written once
-/// as inherent methods of each circuit, so that callers need no trait in scope. The circuit's
-/// module has `Stops` in scope.
+/// its `fluid` and its drives where it has them (the field named, whose type has
+/// `without_limits`) — written once as inherent methods of each circuit, so that callers need
+/// no trait in scope. The circuit's module has `Stops` in scope.
 macro_rules! cylinder_calls {
-    ($circuit:ty, $drives:ident) => {
+    ($circuit:ty $(, $drives:ident)?) => {
         /// Change the external force on the piston (N) in the equations; the operating point
         /// stays the rig's.
         pub fn set_external_force_n(&mut self, f_n: f64) {
@@ -65,7 +65,7 @@ macro_rules! cylinder_calls {
         pub fn without_limits(&self) -> $circuit {
             let mut free = self.clone();
             free.piston.stops = None;
-            free.$drives = self.$drives.without_limits();
+            $(free.$drives = self.$drives.without_limits();)?
             free
         }
 
@@ -276,6 +276,19 @@ pub struct ControlLaw {
     pub kx: DMatrix<f64>,
     /// Feedforward of the position reference, inputs × 1.
     pub kr: DMatrix<f64>,
+}
+
+impl ControlLaw {
+    /// The article's P law on one input alone, u = gain (x_ref − x), for a circuit of `n`
+    /// states whose position is state `x`.
+    pub fn position(n: usize, x: usize, gain: f64) -> ControlLaw {
+        let mut kx = DMatrix::zeros(1, n);
+        kx[(0, x)] = -gain;
+        ControlLaw {
+            kx,
+            kr: DMatrix::from_element(1, 1, gain),
+        }
+    }
 }
 
 /// A hydraulic circuit: its signals, its nonlinear equations, its operating point and its

@@ -186,6 +186,16 @@ impl<T: Scalar> Beta<T> {
 }
 
 impl Fluid {
+    /// The fluid of a circuit: the rig's constant bulk modulus `beta_pa` (Pa), with the
+    /// gas-fraction law where the effects `e` turn it on.
+    pub fn of(beta_pa: f64, e: &Effects) -> Fluid {
+        Fluid {
+            beta_pa,
+            gas_fraction: e.gas_fraction,
+            beta_oil_bar: e.beta_oil_bar,
+        }
+    }
+
     /// Bulk modulus (Pa) at a gauge pressure (Pa).
     pub fn beta<T: Scalar>(&self, p_gauge: T) -> Beta<T> {
         match self.gas_fraction {

@@ -64,7 +64,6 @@ use super::valves::{PilotCheck, Valve};
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
 use crate::rig::Rig;
 use crate::units::PA_PER_BAR;
-use nalgebra::DMatrix;
 
 /// State positions: position, velocity, the chamber pressures, the shaft speed, then the
 /// motor's torque and feedforward filter (full motor model only).
@@ -150,11 +149,7 @@ impl SinglePump {
         SinglePump {
             piston,
             chambers,
-            fluid: Fluid {
-                beta_pa: si.beta,
-                gas_fraction: b.effects.gas_fraction,
-                beta_oil_bar: b.effects.beta_oil_bar,
-            },
+            fluid: Fluid::of(si.beta, &b.effects),
             pump: Pump {
                 displacement_m3: si.d[0],
                 dead_band_rad_s: b.effects.dead_band_rad_s,
@@ -340,12 +335,7 @@ impl Circuit for SinglePump {
 
     /// ω_ref = K_scale Kp (x_ref − x): the article's P law on the one motor.
     fn control_law(&self) -> ControlLaw {
-        let mut kx = DMatrix::zeros(1, self.n);
-        kx[(0, X)] = -self.gain;
-        ControlLaw {
-            kx,
-            kr: DMatrix::from_element(1, 1, self.gain),
-        }
+        ControlLaw::position(self.n, X, self.gain)
     }
 }
 

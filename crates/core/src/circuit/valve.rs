@@ -39,7 +39,6 @@ use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, Key, OperatingState, Role, Scalar, Signal};
 use crate::rig::{Range, Rig};
 use crate::units::PA_PER_BAR;
-use nalgebra::DMatrix;
 
 /// State positions: position, velocity, the chamber pressures, the spool's opening and rate.
 const X: usize = 0;
@@ -232,11 +231,7 @@ impl Valve {
             valve: ServoValve::of_rig(rig),
             piston,
             chambers,
-            fluid: Fluid {
-                beta_pa: si.beta,
-                gas_fraction: e.gas_fraction,
-                beta_oil_bar: e.beta_oil_bar,
-            },
+            fluid: Fluid::of(si.beta, &e),
             leakage: rig.circuit_key("cylinder_leakage_m5_per_ns"),
             gain: si.kp,
             x0: si.x0,
@@ -352,11 +347,12 @@ impl Valve {
         self.valve.underlap
     }
 
-    /// Change the external force on the piston (N) in the equations; the operating point
-    /// stays the rig's.
-    pub fn set_external_force_n(&mut self, f_n: f64) {
-        self.piston.force_ext_n = f_n;
+    /// Number of states.
+    pub fn n_states(&self) -> usize {
+        N
     }
+
+    cylinder_calls!(Valve);
 }
 
 impl Circuit for Valve {
@@ -414,12 +410,7 @@ impl Circuit for Valve {
 
     /// s_ref = K_p (x_ref − x): the article's P law on the spool.
     fn control_law(&self) -> ControlLaw {
-        let mut kx = DMatrix::zeros(1, N);
-        kx[(0, X)] = -self.gain;
-        ControlLaw {
-            kx,
-            kr: DMatrix::from_element(1, 1, self.gain),
-        }
+        ControlLaw::position(N, X, self.gain)
     }
 }
 
@@ -491,23 +482,7 @@ impl super::LinearForm for Valve {
 }
 
 impl super::EmulatedForm for Valve {
-    fn order(&self) -> usize {
-        N
-    }
-    fn set_force_n(&mut self, f_n: f64) {
-        self.set_external_force_n(f_n);
-    }
-    fn end_stops(&self) -> Option<Stops> {
-        self.piston.stops
-    }
-    fn free(&self) -> Valve {
-        let mut free = self.clone();
-        free.piston.stops = None;
-        free
-    }
-    fn beta_at_pa(&self, p_gauge: f64) -> f64 {
-        self.fluid.beta(p_gauge).value()
-    }
+    emulated_form_calls!(Valve, n_states);
     fn rest_with_commands(&self) -> (Vec<f64>, [f64; 2]) {
         let op = self.operating_point();
         (op.state, [op.inputs[0], 0.0])
