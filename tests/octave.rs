@@ -9,6 +9,10 @@
 #[path = "common/skip.rs"]
 mod skip;
 
+#[path = "common/json.rs"]
+mod json;
+use json::matrix;
+
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::Path;
@@ -85,20 +89,6 @@ fn numbers(out: &str, key: &str) -> Vec<f64> {
             "-Inf" => f64::NEG_INFINITY,
             "NaN" => f64::NAN,
             w => w.parse().unwrap(),
-        })
-        .collect()
-}
-
-fn matrix(v: &Value) -> Vec<Vec<f64>> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|r| {
-            r.as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_f64().unwrap())
-                .collect()
         })
         .collect()
 }

@@ -9,6 +9,12 @@ mod skip;
 #[path = "reproduce/figure1.rs"]
 mod figure1;
 
+#[path = "common/json.rs"]
+mod json;
+
+#[path = "reproduce/valve.rs"]
+mod valve;
+
 use pumpcyl_present::reproduce::{FIGURES, STEPS};
 use serde_json::Value;
 use std::path::{Path, PathBuf};

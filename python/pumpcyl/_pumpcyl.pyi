@@ -165,6 +165,10 @@ class Margins(Result):
     conditioning allows in double precision: docs/analysis.md#conditioning)."""
     integrators: int
     """Poles at the origin."""
+    velocity_gain_per_s: Optional[float]
+    """The velocity-loop gain Kv (1/s): lim s*L(s) as s -> 0, the piston's steady velocity per
+    metre of error, comparable across circuits (docs/analysis.md#the-velocity-loop-gain);
+    ``None`` unless the loop has exactly one integrator."""
     ill_conditioned: bool
     """The model's conditioning does not resolve a headline margin to 0.01 dB / 0.01 deg
     (its crossing's margin_error_bound is larger)."""
@@ -406,6 +410,9 @@ class Design(Result):
     mode at rest (docs/circuits.md#its-two-modes)."""
     targets: Dict[str, Any]
     kp_max: float
+    kv_max_per_s: Optional[float]
+    """The velocity-loop gain Kv (1/s) at ``kp_max``: the piston's steady velocity per metre
+    of error, comparable across circuits (docs/analysis.md#the-velocity-loop-gain)."""
     kp_max_worst_case: float
     worst_case: Dict[str, Any]
     conditions: List[Dict[str, Any]]
@@ -414,6 +421,8 @@ class Design(Result):
     ``kp_max`` and the condition's own kp_max."""
     kp_recommended: float
     tracking_kp: float
+    tracking_kv_per_s: Optional[float]
+    """The velocity-loop gain Kv (1/s) at ``tracking_kp``."""
     tracking: List[Dict[str, Any]]
     rest_offset_mm: Optional[float]
     """The loop's standing error x_ref - x at rest at ``tracking_kp`` (mm;

@@ -85,6 +85,13 @@ def test_margins_equal_a_model_written_from_the_equations(keys):
     gm, pm, _, _ = control.margin(loop(rig, control))
     assert abs(20 * np.log10(gm) - m.gain_margin_db) <= 0.05, (keys, gm, m.gain_margin_db)
     assert abs(pm - m.phase_margin_deg) <= 0.05, (keys, pm, m.phase_margin_deg)
+    # the velocity-loop gain: lim s L(s), python-control's L at s = 1e-7 rad/s (the loop's other
+    # poles lie decades above), and design's K_v at its K_p max scales with the gain
+    s = 1e-7
+    kv = (s * control.evalfr(loop(rig, control), s)).real
+    assert abs(m.velocity_gain_per_s - kv) <= 1e-4 * kv, (keys, m.velocity_gain_per_s, kv)
+    d = pumpcyl.design(rig)
+    assert abs(d.kv_max_per_s / d.kp_max - kv / keys["kp"]) <= 1e-4 * kv / keys["kp"]
 
 
 def test_a_valve_rig_reads_and_writes_its_keys():

@@ -108,6 +108,12 @@ pub fn margins_text(m: &Margins, description: &str) -> String {
         at(m.gain_crossover_hz, "gain crossover")
     );
     let _ = writeln!(s, "  delay margin  {:>9} s", fmt_opt(m.delay_margin_s, 4));
+    if let Some(kv) = m.velocity_gain_per_s {
+        let _ = writeln!(
+            s,
+            "  velocity gain {kv:>9.4} 1/s Kv: steady piston velocity per metre of error"
+        );
+    }
     if m.ill_conditioned {
         let _ = writeln!(
             s,

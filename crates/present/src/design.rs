@@ -76,13 +76,21 @@ fn anchor_text(t: &Targets) -> String {
     )
 }
 
+/// A velocity-loop gain beside its K_p, or nothing where the loop has none.
+fn kv_text(kv: Option<f64>) -> String {
+    kv.map_or(String::new(), |kv| {
+        format!(", Kv {kv:.3} 1/s (docs/analysis.md#the-velocity-loop-gain)")
+    })
+}
+
 /// The nominal design (docs/design.md#what-pumpcyl-design-does) for the rig `rig` (in words)
 /// as text: the targets, the largest gains and the binding condition, the margins at every
 /// condition, the predicted tracking at the gain it names, the verdict and its reasons.
 pub fn design_text(rig: &str, d: &Design) -> String {
     let mut s = format!(
-        "design (the article §2.2) for {rig} ({}): PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m)\n  Kp max over all conditions   {:.2}\n",
-        d.analysed_loop, d.targets.pm_deg, d.targets.gm_db, d.kp_max, d.kp_max_worst_case
+        "design (the article §2.2) for {rig} ({}): PM >= {} deg, GM >= {} dB\n  Kp max at the design point   {:.2} (1/m){}\n  Kp max over all conditions   {:.2}\n",
+        d.analysed_loop, d.targets.pm_deg, d.targets.gm_db, d.kp_max,
+        kv_text(d.kv_max_per_s), d.kp_max_worst_case
     );
     if !d.targets.p_mean_bar.is_empty() {
         let _ = writeln!(s, "  {}", anchor_text(&d.targets));

@@ -182,6 +182,25 @@ impl ServoValve {
     }
 }
 
+/// The rated flow (L/min per land at `valve_rated_drop_bar`) of the valve that drives `rig`'s
+/// cylinder, unloaded and fully open, at `velocity_m_per_s` in its slower direction: the
+/// datasheet sizing of Merritt (1967, §5) and Jelali & Kroll (2003, §4) for an asymmetric
+/// cylinder (docs/circuits.md#sizing-the-valve). With the chamber pressures balanced,
+/// p₁A₁ = p₂A₂, and the lands' law Q = K_v·√Δp, v² = K_v²·y with
+/// y = (p_s − p_t/φ)/(A₁² + A₂²/(r²φ)) extending and r²(p_s − φp_t)/(A₂² + r²φA₁²) retracting
+/// (φ = A₁/A₂, r the B port's ratio): the smaller y sizes K_v, and Q_N = K_v·√Δp_N.
+pub fn rated_flow_for_velocity_lpm(rig: &Rig, velocity_m_per_s: f64) -> f64 {
+    let v = ServoValve::of_rig(rig);
+    let si = rig.si();
+    let (a1, a2, r) = (si.a1, si.a2, v.ratio_b);
+    let phi = a1 / a2;
+    let extending = (v.supply_pa - v.tank_pa / phi) / (a1 * a1 + a2 * a2 / (r * r * phi));
+    let retracting = r * r * (v.supply_pa - phi * v.tank_pa) / (a2 * a2 + r * r * phi * a1 * a1);
+    let kv = velocity_m_per_s / extending.min(retracting).sqrt();
+    let drop_pa = rig.circuit_key("valve_rated_drop_bar") * PA_PER_BAR;
+    kv * drop_pa.sqrt() * 60e3
+}
+
 /// The valve-controlled cylinder of a rig.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Valve {
@@ -503,6 +522,52 @@ mod tests {
         let mut all = vec!["circuit=valve".to_string()];
         all.extend(sets.iter().map(|s| s.to_string()));
         Rig::default().with_overrides(&all).unwrap()
+    }
+
+    /// A valve sized for a velocity moves the unloaded piston at it in its slower direction,
+    /// fully open (the flows of its lands at the balanced pressures), and faster in the other;
+    /// on a symmetric cylinder both ways at the textbook K_v·√(p_s/2)/A.
+    #[test]
+    fn a_valve_sized_for_a_velocity_reaches_it() {
+        for sets in [
+            &["valve_null_leakage_lpm=1e-6"][..],
+            &["valve_null_leakage_lpm=1e-6", "tank_pressure_bar=3", "valve_flow_ratio_b_to_a=0.6"],
+            &["valve_null_leakage_lpm=1e-6", "rod_diameter_mm=20", "supply_pressure_bar=210"],
+        ] {
+            let rig = valve_rig(sets);
+            let q = rated_flow_for_velocity_lpm(&rig, 0.17);
+            let rig = rig
+                .with_overrides(&[format!("valve_rated_flow_lpm={q}")])
+                .unwrap();
+            let c = Valve::new(&rig).unwrap();
+            let si = rig.si();
+            let speed = |s: f64| {
+                // the p1 at which the balanced pressures pass equal velocities in and out (the
+                // flows fall as p1 rises)
+                let v_of = |p1: f64| c.valve.flows(s, p1, p1 * si.a1 / si.a2);
+                let (mut lo, mut hi) = (0.0, c.valve.supply_pa);
+                for _ in 0..200 {
+                    let mid = 0.5 * (lo + hi);
+                    let [q1, q2] = v_of(mid);
+                    if q1 / si.a1 + q2 / si.a2 > 0.0 {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                (v_of(lo)[0] / si.a1).abs()
+            };
+            let (out, back) = (speed(1.0), speed(-1.0));
+            let slower = out.min(back);
+            assert!((slower - 0.17).abs() < 1e-4 * 0.17, "{sets:?}: {out} {back}");
+        }
+        // a rod of 0.5 mm, the least accepted: areas equal to 6·10⁻⁵
+        let symmetric = valve_rig(&["rod_diameter_mm=0.5"]);
+        let q = rated_flow_for_velocity_lpm(&symmetric, 0.1);
+        let (ps, dpn) = (100e5_f64, 35e5_f64);
+        let area = std::f64::consts::PI / 4.0 * 0.063f64.powi(2);
+        let kv = 0.1 * area / (ps / 2.0).sqrt();
+        assert!((q - kv * dpn.sqrt() * 60e3).abs() < 2e-4 * q, "{q}");
     }
 
     /// The operating point is a steady state of the equations, with and without the

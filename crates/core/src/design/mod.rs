@@ -164,6 +164,10 @@ pub struct Design {
     /// Largest Kp meeting the targets at the design point (the rig's own operating point,
     /// docs/design.md#the-method, step 5).
     pub kp_max: f64,
+    /// The velocity-loop gain K_v at `kp_max` (1/s: steady piston velocity per metre of error,
+    /// [`Margins::velocity_gain_per_s`]), which compares across circuits where K_p's unit does
+    /// not.
+    pub kv_max_per_s: Option<f64>,
     /// Largest Kp meeting the targets at every checked condition.
     pub kp_max_worst_case: f64,
     /// The binding condition (docs/design.md#the-worst-case): the one that sets
@@ -179,6 +183,8 @@ pub struct Design {
     /// The gain (1/m) the tracking is predicted at: `kp_recommended`, or `kp_max` when there
     /// is none.
     pub tracking_kp: f64,
+    /// The velocity-loop gain K_v at `tracking_kp` (1/s).
+    pub tracking_kv_per_s: Option<f64>,
     /// Predicted tracking of each wave at `tracking_kp` (the rig's own operating point), the
     /// rest offset included.
     pub tracking: Vec<TrackMetrics>,
@@ -537,11 +543,13 @@ pub fn design_with(
         analysed_loop: format!("circuit {}", Plant::new(rig).circuit().describe()),
         targets: t.clone(),
         kp_max: kp,
+        kv_max_per_s: margins_at(rig, kp)?.velocity_gain_per_s,
         kp_max_worst_case,
         worst_case: worst,
         conditions,
         kp_recommended,
         tracking_kp,
+        tracking_kv_per_s: margins_at(rig, tracking_kp)?.velocity_gain_per_s,
         tracking,
         rest_offset_mm,
         verdict,

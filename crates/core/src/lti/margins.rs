@@ -100,6 +100,13 @@ pub struct Margins {
     pub crossings: Vec<Crossing>,
     /// Poles at the origin counted for the phase anchor.
     pub integrators: usize,
+    /// The velocity-loop gain K_v (1/s): lim s·L(s) as s → 0, the steady rate of the output per
+    /// unit of error, the velocity error constant of a type-1 loop (Ogata, *Modern Control
+    /// Engineering*, 5th ed., §5-8). For a position loop it is the piston's steady velocity per
+    /// metre of error, comparable across circuits whatever unit their K_p has
+    /// (docs/analysis.md#the-velocity-loop-gain). `None` unless the loop has exactly one
+    /// integrator.
+    pub velocity_gain_per_s: Option<f64>,
     /// The conditioning of the model does not allow the headline gain or phase margin to
     /// [`RELIABLE_DB`] dB / [`RELIABLE_DEG`]°: its crossing's `margin_error_bound` is larger
     /// (docs/analysis.md#conditioning).
@@ -146,7 +153,8 @@ pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
     if integrators == 0 {
         crossings.splice(0..0, dc_phase_crossing(&ev));
     }
-    let m = summarise(crossings, stability, integrators);
+    let mut m = summarise(crossings, stability, integrators);
+    m.velocity_gain_per_s = (integrators == 1).then(|| velocity_gain(&ev));
     if let Some(c) = m
         .crossings
         .iter()
@@ -207,7 +215,21 @@ fn summarise(crossings: Vec<Crossing>, stability: Stability, integrators: usize)
         closed_loop_stability: stability,
         crossings,
         integrators,
+        velocity_gain_per_s: None,
     }
+}
+
+/// lim s·L(s) as s → 0 of a loop with one integrator: s·L(s) = K_v + O(s) at real s below the
+/// slowest other pole, so two values at ε and 2ε, ε ten-thousandths of that pole, give K_v by
+/// Richardson extrapolation to O(ε²), a relative 10⁻⁸ of the pole's own term.
+fn velocity_gain(ev: &FreqEvaluator) -> f64 {
+    let slowest = (ev.poles().iter().skip(1))
+        .map(|p| p.norm())
+        .find(|r| *r > 0.0)
+        .unwrap_or(1.0);
+    let at = |s: f64| s * ev.eval(Complex64::new(s, 0.0)).re;
+    let eps = 1e-4 * slowest;
+    2.0 * at(eps) - at(2.0 * eps)
 }
 
 /// The refined frequency grid with values and unwrapped phase.
@@ -524,6 +546,22 @@ fn wrap_half_open(deg: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::lti::siso;
+
+    /// K_v = lim s·L(s): K of K ω²/(s (s² + 2ζω s + ω²)) over gains, resonances and dampings
+    /// from a lightly damped 0.5 Hz to a stiff 500 Hz; none for two integrators or for none.
+    #[test]
+    fn the_velocity_gain_is_the_velocity_error_constant() {
+        for (k, w, zeta) in [(3.7, 3.0, 0.2), (0.05, 3000.0, 0.7), (250.0, 30.0, 0.05)] {
+            let a = [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, -w * w, -2.0 * zeta * w];
+            let sys = siso(&a, &[0.0, 0.0, 1.0], &[k * w * w, 0.0, 0.0], 0.0);
+            let got = margins(&sys).unwrap().velocity_gain_per_s.unwrap();
+            assert!((got - k).abs() < 1e-7 * k, "{got} vs {k}");
+        }
+        let double = siso(&[0.0, 1.0, 0.0, 0.0], &[0.0, 1.0], &[1.0, 0.5], 0.0);
+        assert_eq!(margins(&double).unwrap().velocity_gain_per_s, None);
+        let none = siso(&[-1.0], &[1.0], &[2.0], 0.0);
+        assert_eq!(margins(&none).unwrap().velocity_gain_per_s, None);
+    }
 
     /// |L(0)| = 1 and |L| < 1 at every frequency above: 1/(s + 1), 4/(s² + 3s + 4) (|L|² =
     /// 16/((4 − ω²)² + 9ω²) < 1 for ω > 0) and the same with a gain just below 1. No gain

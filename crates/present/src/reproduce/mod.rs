@@ -40,6 +40,7 @@ mod studies;
 pub mod summary;
 mod sweep;
 mod tracking;
+mod valve_or_pump;
 pub use certainty::Certainty;
 pub use registry::{Registered, FIGURES};
 pub use summary::Summary;
@@ -60,7 +61,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 12;
+pub const STEPS: usize = 13;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -472,20 +473,26 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         })
         .collect();
     let mut run = Run::new(opts, files);
-    // the Figure 1 circuits (step 11) need nothing of the steps before them, and the sweep (step
-    // 12) only the step intervals of step 9: each is computed beside the steps it follows, in a
-    // run of its own merged in order (the same numbers as one after the other)
+    // the Figure 1 circuits (step 11) and the valve-or-pump comparison (step 13) need nothing of
+    // the steps before them, and the sweep (step 12) only the step intervals of step 9: each is
+    // computed beside the steps it follows, in a run of its own merged in order (the same numbers
+    // as one after the other)
     let quiet = ReproduceOptions {
         on_step: None,
         ..*opts
     };
     let figure1 = || -> Result<_> {
-        let mut part = Run::apart(&quiet, STEPS - 2);
+        let mut part = Run::apart(&quiet, STEPS - 3);
         let found = figure1_circuits::figure1_circuits(&mut part)?;
         Ok((found, part))
     };
+    let valve = || -> Result<_> {
+        let mut part = Run::apart(&quiet, STEPS - 1);
+        let found = valve_or_pump::valve_or_pump(&mut part)?;
+        Ok((found, part))
+    };
     std::thread::scope(|scope| {
-        let figure1 = scope.spawn(figure1);
+        let figure1 = scope.spawn(|| Ok::<_, anyhow::Error>((figure1()?, valve()?)));
         let (drive, km) = identification::drive_step(&mut run)?;
         let records = article::records()?;
         let emulator = emulator_used(&records)?;
@@ -507,7 +514,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         };
         let (certainty, how_sure) =
             certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
-        let mut sweep_run = Run::apart(&quiet, STEPS - 1);
+        let mut sweep_run = Run::apart(&quiet, STEPS - 2);
         let (which_circuit, sweep_beside_steps) = rayon::join(
             || {
                 circuit::which_circuit(
@@ -528,11 +535,12 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
             },
         );
         let (which_circuit, sweep_beside_steps) = (which_circuit?, sweep_beside_steps?);
-        let (figure1_circuits, figure1_run) = figure1
+        let ((figure1_circuits, figure1_run), (valve_or_pump, valve_run)) = figure1
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
         run.merge(figure1_run);
         run.merge(sweep_run);
+        run.merge(valve_run);
         registry::check_all(run.figures.iter().map(|f| f.stem.as_str()))?;
         run.render_pngs()?;
         let seconds = start.elapsed().as_secs_f64();
@@ -560,6 +568,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
             which_circuit,
             figure1_circuits,
             sweep_beside_steps,
+            valve_or_pump,
             seconds,
         };
         Ok(Reproduction {

@@ -11,6 +11,7 @@ use pumpcyl::response::{StepMetrics, TrackMetrics};
 use serde::Serialize;
 
 pub use super::figure1_circuits::{Chatter, CircuitRun, Figure1Circuits, ModeMargins, Wave};
+pub use super::valve_or_pump::{Side, ValveOrPump};
 
 /// Every number of the workflow.
 #[derive(Debug, Clone, Serialize)]
@@ -61,6 +62,9 @@ pub struct Summary {
     pub figure1_circuits: Figure1Circuits,
     /// Step 12: a sweep beside the steps (pumpcyl's own study, on emulated records).
     pub sweep_beside_steps: SweepBeside,
+    /// Step 13: the article's rig with its DPM and with a servo valve (pumpcyl's own study of
+    /// the article's introduction, §3.2 and §4).
+    pub valve_or_pump: ValveOrPump,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
 }
