@@ -475,6 +475,12 @@ class Summary(Result):
     which_circuit: Dict[str, Any]
     figure1_circuits: Dict[str, Any]
     sweep_beside_steps: Dict[str, Any]
+    valve_or_pump: Dict[str, Any]
+    """Step 13: the article's rig with its DPM and with a servo valve sized for the DPM's top
+    speed (docs/circuits.md#the-article-s-rig-with-a-valve): top_speed_m_per_s,
+    valve_rated_flow_lpm, gas_fraction, targets [PM deg, GM dB], and sides, each with label,
+    circuit, set, p_mean_bar, beta_e_bar, resonance_hz, damping_ratio, merritt_hz, kp_max,
+    kv_max_per_s and max_error_mm (0.2 Hz, 35 mm)."""
     seconds: float
 
 class Emulated(Result):

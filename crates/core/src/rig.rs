@@ -262,11 +262,18 @@ fn canonical_key(key: &str) -> &str {
 /// `key` (by its own name) and the circuits it belongs to when `circuit` does not have it;
 /// `None` for a key of `circuit` (or of every circuit).
 /// The keys not every circuit has are those a circuit's description lists as its own
-/// ([`crate::circuit::Description::own_keys`], docs/circuits.md).
+/// ([`crate::circuit::Description::own_keys`], docs/circuits.md) and the drives' keys
+/// ([`crate::circuit::DRIVE_KEYS`]), which every circuit with drives has.
 fn foreign_key(circuit: CircuitKind, key: &str) -> Option<(&'static str, Vec<CircuitKind>)> {
     let key = canonical_key(key);
     if let Some((declared, owners)) = declared_key(key) {
         return (!owners.contains(&circuit)).then_some((declared.name, owners));
+    }
+    if let Some(own) = crate::circuit::DRIVE_KEYS.iter().find(|k| **k == key) {
+        let owners: Vec<CircuitKind> = (CircuitKind::ALL.into_iter())
+            .filter(|k| k.description().drives > 0)
+            .collect();
+        return (!owners.contains(&circuit)).then_some((own, owners));
     }
     let owners: Vec<CircuitKind> = (CircuitKind::ALL.into_iter())
         .filter(|k| k.description().own_keys.contains(&key))
@@ -644,11 +651,15 @@ impl RigFile {
             .collect();
         let table = self.rig.table();
         let value = |k: &str| table.get(k).map_or_else(String::new, toml_text);
-        let article: Vec<String> = keys
-            .iter()
-            .filter(|k| **k != "mass_by_position")
-            .map(|k| format!("{k} = {}", value(k)))
-            .collect();
+        let d = self.rig.circuit.description();
+        let declared = |k: &&str| d.keys.iter().any(|key| key.name == *k);
+        let assigned = |own: bool| -> Vec<String> {
+            (keys.iter())
+                .filter(|k| **k != "mass_by_position" && declared(k) == own)
+                .map(|k| format!("{k} = {}", value(k)))
+                .collect()
+        };
+        let (article, own) = (assigned(false), assigned(true));
         let mut parts = Vec::new();
         if keys.contains(&"mass_by_position") {
             parts.push(
@@ -665,6 +676,13 @@ impl RigFile {
             parts.push(format!(
                 "{they} take the article rig's values: {}",
                 article.join(", ")
+            ));
+        }
+        if !own.is_empty() {
+            parts.push(format!(
+                "the {} circuit's own keys take its module's defaults: {}",
+                d.name,
+                own.join(", ")
             ));
         }
         let n = keys.len();
@@ -1888,6 +1906,33 @@ mod tests {
 
     /// The keys a circuit's module declares (the single-pump circuit's valve keys) are parsed,
     /// checked and written like the rig's own fields.
+    #[test]
+    fn the_drives_keys_belong_to_the_circuits_with_drives() {
+        // a valve rig file that writes a drive's key is refused with its line, and the keys it
+        // leaves out name none of the article's motors and pumps
+        let valve = "circuit = \"valve\"\n";
+        let e = Rig::from_toml_str(&format!("{valve}km1_nms_per_rad = 0.03\n"), "v.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("v.toml: line 2"), "{e}");
+        assert!(e.contains("km1_nms_per_rad"), "{e}");
+        let file = Rig::from_toml_str_with_defaults(valve, "v.toml").unwrap();
+        for key in crate::circuit::DRIVE_KEYS {
+            assert!(
+                !file.defaulted.contains(key),
+                "{key} in {:?}",
+                file.defaulted
+            );
+        }
+        assert!(file.defaulted.contains(&"viscous_friction_ns_per_m"));
+        // every circuit with drives has them: a DPM or single-pump file writes them
+        for circuit in ["dpm", "dual-pump", "single-pump"] {
+            let text = format!("circuit = \"{circuit}\"\nkm1_nms_per_rad = 0.03\n");
+            let rig = Rig::from_toml_str(&text, "d.toml").unwrap();
+            assert_eq!(rig.km1_nms_per_rad, 0.03);
+        }
+    }
+
     #[test]
     fn declared_keys_read_check_and_write_like_fields() {
         let single = "circuit = \"single-pump\"\n";

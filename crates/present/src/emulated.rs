@@ -370,37 +370,51 @@ pub fn basis(rig: &Rig, effects: &Effects) -> Result<String, EmulatorError> {
     Ok(format!(
         "emulator: beta_e {:.1} bar at {}, {:.2} bar \
          (gas fraction X = {:.5}, beta_oil {} bar), beta_e(p) of both chambers' mean pressure; \
-         {}; chamber volumes following the piston; torque limited to {} x the rated {} N m, \
-         pump speed to {} rpm; {}{valves} (docs/emulator.md#what-a-user-rig-gets)",
+         {}; chamber volumes following the piston; {}{} N Coulomb friction ({}){valves} \
+         (docs/emulator.md#what-a-user-rig-gets)",
         effective_beta(x, p_mean, effects.beta_oil_bar),
         anchor,
         p_mean,
         x,
         readable(effects.beta_oil_bar),
         mass_law(rig, effects),
+        if d.drives > 0 {
+            drives_and_pumps(rig, effects)
+        } else {
+            String::new()
+        },
+        sig(effects.coulomb_n, 4),
+        source(
+            "coulomb_friction_n",
+            rig.coulomb_friction_n.is_some(),
+            "the article rig's 15 N x (d1 + d2) / 99 mm"
+        ),
+    ))
+}
+
+/// Where an emulator effect's value comes from: its key when the rig sets it, its default's
+/// rule when it does not.
+fn source(key: &str, set: bool, default: &str) -> String {
+    if set {
+        key.to_string()
+    } else {
+        format!("default: {default}")
+    }
+}
+
+/// The emulator's drive and pump limits, pump dead band and slip on `rig` in words, each with
+/// its key or its default's rule (docs/emulator.md#what-a-user-rig-gets), up to the Coulomb
+/// friction that follows: a circuit without drives has none of them.
+fn drives_and_pumps(rig: &Rig, effects: &Effects) -> String {
+    let band_rpm = effects.dead_band_rad_s / RAD_S_PER_RPM;
+    format!(
+        "torque limited to {} x the rated {} N m, pump speed to {} rpm; {} rpm pump dead band ({}) \
+         with slip {} m^5/(N s) ({}) and ",
         effects
             .peak_torque_factor
             .map_or("no limit".into(), readable),
         readable(rig.motor_rated_torque_nm),
         readable(rig.pump_max_speed_rpm),
-        pumps_and_seals(rig, effects)
-    ))
-}
-
-/// The emulator's pump dead band, slip and Coulomb friction on `rig` in words, each with its
-/// key when the rig sets it and its default's rule when it does not
-/// (docs/emulator.md#what-a-user-rig-gets).
-fn pumps_and_seals(rig: &Rig, effects: &Effects) -> String {
-    let source = |key: &str, set: bool, default: &str| {
-        if set {
-            key.to_string()
-        } else {
-            format!("default: {default}")
-        }
-    };
-    let band_rpm = effects.dead_band_rad_s / RAD_S_PER_RPM;
-    format!(
-        "{} rpm pump dead band ({}) with slip {} m^5/(N s) ({}) and {} N Coulomb friction ({})",
         sig(band_rpm, 4),
         source(
             "pump_dead_band_rpm",
@@ -412,12 +426,6 @@ fn pumps_and_seals(rig: &Rig, effects: &Effects) -> String {
             "pump_slip_m5_per_ns",
             rig.pump_slip_m5_per_ns.is_some(),
             "the article rig's 4e-11 x c12 / 1.2e-10"
-        ),
-        sig(effects.coulomb_n, 4),
-        source(
-            "coulomb_friction_n",
-            rig.coulomb_friction_n.is_some(),
-            "the article rig's 15 N x (d1 + d2) / 99 mm"
         ),
     )
 }
@@ -435,4 +443,25 @@ fn mass_law(rig: &Rig, effects: &Effects) -> String {
         readable(t[0].x_mm),
         readable(t[t.len() - 1].x_mm)
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The basis names the drives' and pumps' limits of a circuit with drives, and of the
+    /// valve-controlled cylinder only what it has: nothing of the article's motors leaks in.
+    #[test]
+    fn the_basis_names_only_what_the_circuit_has() {
+        for (circuit, drives) in [("dpm", true), ("single-pump", true), ("valve", false)] {
+            let rig = Rig::default()
+                .with_overrides(&[format!("circuit={circuit}")])
+                .unwrap();
+            let text = basis(&rig, &Effects::for_rig(&rig).unwrap()).unwrap();
+            for words in ["torque limited", "pump speed", "pump dead band", "slip"] {
+                assert_eq!(text.contains(words), drives, "{circuit}: {words} in {text}");
+            }
+            assert!(text.contains("N Coulomb friction (default: "), "{text}");
+        }
+    }
 }

@@ -87,6 +87,33 @@ pub struct Key {
     pub range: crate::rig::Range,
 }
 
+/// The rig keys of a circuit's first drive and pump, their leakages and the drives' law: keys
+/// of every circuit with drives, and of no circuit without (a valve-controlled cylinder's file
+/// that writes them is refused, and its notes do not list them as defaulted). The second
+/// drive's and pump's keys are the own keys of the circuits that have them.
+pub const DRIVE_KEYS: &[&str] = &[
+    "motor_inertia_1_kg_mm2",
+    "pump_inertia_1_kg_mm2",
+    "displacement_1_cm3_per_rev",
+    "current_loop_bandwidth_rad_per_s",
+    "km1_nms_per_rad",
+    "kff_kg_m2",
+    "tau_ff_s",
+    "k_scale_rad_per_s",
+    "motor_time_constant_s",
+    "motor_rated_torque_nm",
+    "motor_rated_speed_rpm",
+    "pump_max_speed_rpm",
+    "c12_m5_per_ns",
+    "c1_m5_per_ns",
+    "c2_m5_per_ns",
+    "pump_dead_band_rpm",
+    "pump_slip_m5_per_ns",
+    "feedforward",
+    "motor_coupling",
+    "motor_model",
+];
+
 /// A circuit in the words and numbers every part of pumpcyl outside its module asks for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Description {
