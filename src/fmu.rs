@@ -43,10 +43,10 @@ pub struct FmuArgs {
     /// The model inside.
     #[arg(long, value_enum, default_value_t = FmuModel::Emulator)]
     model: FmuModel,
-    /// Emulator: the article's controller, or the motor speed commands as inputs.
+    /// Emulator: the article's controller, or the circuit's commands as inputs (motor speeds, a spool opening).
     #[arg(long, value_enum, default_value_t = ControllerKind::Article)]
     controller: ControllerKind,
-    /// Linear model: the position loop closed, or open (the motor speed commands as inputs).
+    /// Linear model: the position loop closed, or open (the circuit's commands as inputs).
     #[arg(long = "loop", value_enum, default_value_t = LoopKind::Closed)]
     loop_kind: LoopKind,
     /// Emulator: every effect of docs/emulator.md off (the nonlinear model then linearises to

@@ -114,6 +114,34 @@ def test_the_single_motor_emulator_fmu_gives_the_records_of_emulate(tmp_path, ci
         assert np.array_equal(r["mode"], rec["mode"])
 
 
+def test_the_valve_emulator_fmu_gives_the_records_of_emulate(tmp_path):
+    """A valve-controlled cylinder's FMU names its spool, not motors: the spool's opening as
+    an output, its command as the external controller's input, none of the drives' keys as
+    parameters; and it gives `pumpcyl emulate`'s record through FMPy."""
+    fmpy = require_fmpy()
+    from fmpy.validation import validate_fmu
+
+    sets = ["--set", "circuit=valve", "--set", "beta_bar=5000", "--set", "kp=0.5"]
+    fmu, record = tmp_path / "valve.fmu", tmp_path / "valve.csv"
+    cli("fmu", *sets, "--out", str(fmu))
+    assert validate_fmu(str(fmu)) == []
+    names = {v.name: v for v in fmpy.read_model_description(str(fmu)).modelVariables}
+    assert "spool_opening" in names and "spool_opening_ref" in names
+    assert not [n for n in names if n.startswith(("omega", "tau", "km1", "displacement"))]
+    external = tmp_path / "external.fmu"
+    cli("fmu", *sets, "--controller", "external", "--out", str(external))
+    inputs = [v.name for v in fmpy.read_model_description(str(external)).modelVariables
+              if v.causality == "input"]
+    assert inputs == ["spool_opening_ref", "f_ext_n"]
+    cli("emulate", "--experiment", "step", *sets, "--no-noise", "--out", str(record))
+    rec = read_csv(record)
+    r = run_fmu(fmpy, fmu, rec["time_s"], rec["x_ref_mm"] * 1e-3)
+    assert np.max(np.abs(r["x_m"] - rec["x_mm"] * 1e-3)) < 1e-9
+    assert np.max(np.abs(r["p1_pa"] - rec["p1_bar"] * 1e5)) < 1.0
+    # the spool moves with the step, within its stops
+    assert 0 < np.max(np.abs(r["spool_opening"])) <= 1
+
+
 USER_RIG = (ROOT / "tests" / "user-rig.toml").read_text()
 
 

@@ -225,81 +225,128 @@ pub struct Variable {
     pub start: Option<Value>,
 }
 
-/// How many drives the rig's circuit has: the DPM's two, the single-motor circuits' one
-/// (docs/fmu.md#every-circuit).
+/// How many commands the rig's circuit takes: the DPM's two drives, the single-motor
+/// circuits' one, the valve-controlled cylinder's spool (docs/fmu.md#every-circuit).
 fn drives(rig: &Rig) -> usize {
     rig.circuit.description().commands()
 }
 
-/// The inputs: the position reference or the speed commands (one per drive), then the
-/// external force added to the parameter `external_force_n` (docs/fmu.md#variables).
-fn input_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
+/// An FMU variable: name, FMI unit (empty: none) and what it is.
+type Named = (String, &'static str, String);
+
+/// The FMU variable of a state or command by its role, the `i`-th (from 1) of that role, as
+/// an output (`output`) or an external controller's input: the names the FMU gives the drives
+/// and the spool (docs/fmu.md#variables); `None` for a role the FMU does not show this way.
+fn by_role(role: Role, i: usize, output: bool) -> Option<Named> {
+    let spool = "(normalised: ±1 fully open)";
+    Some(match (role, output) {
+        (Role::MotorSpeed, _) => (
+            format!("omega{i}_rad_per_s"),
+            "rad/s",
+            format!("speed of motor {i}"),
+        ),
+        (Role::Torque, _) => (
+            format!("tau{i}_nm"),
+            "N.m",
+            format!("electromagnetic torque of motor {i}"),
+        ),
+        (Role::SpoolOpening, _) => (
+            "spool_opening".into(),
+            "1",
+            format!("spool opening {spool}"),
+        ),
+        (Role::SpeedCommand, true) => (
+            format!("omega_ref{i}_rad_per_s"),
+            "rad/s",
+            format!("the controller's speed command to motor {i}"),
+        ),
+        (Role::SpeedCommand, false) => (
+            format!("omega_ref{i}_rad_per_s"),
+            "rad/s",
+            format!("speed command of motor {i}"),
+        ),
+        (Role::SpoolCommand, true) => (
+            "spool_opening_ref".into(),
+            "1",
+            format!("the controller's spool opening command {spool}"),
+        ),
+        (Role::SpoolCommand, false) => (
+            "spool_opening_ref".into(),
+            "1",
+            format!("spool opening command {spool}"),
+        ),
+        _ => return None,
+    })
+}
+
+/// The FMU variables of `signals` whose roles it shows, numbered within each role.
+fn by_roles(signals: &[Signal], roles: &[Role], output: bool) -> Vec<Named> {
+    (roles.iter())
+        .flat_map(|role| {
+            let of_role = signals.iter().filter(move |s| s.role == *role);
+            of_role
+                .enumerate()
+                .filter_map(move |(k, s)| by_role(s.role, k + 1, output))
+        })
+        .collect()
+}
+
+/// The roles of the states the FMU outputs after the position, velocity and pressures, in
+/// order ([`Fmu::outputs`] follows them).
+const STATE_OUTPUTS: [Role; 3] = [Role::MotorSpeed, Role::Torque, Role::SpoolOpening];
+
+/// The inputs: the position reference or the circuit's commands (a speed per drive, a spool
+/// opening), then the external force added to the parameter `external_force_n`
+/// (docs/fmu.md#variables).
+fn input_names(c: &Config) -> Vec<Named> {
     let mut out = match c.controller {
         Controller::Article => vec![(
-            "x_ref_m",
+            "x_ref_m".into(),
             "m",
-            "position reference (absolute, as the rig's x0)",
+            "position reference (absolute, as the rig's x0)".into(),
         )],
-        Controller::External => [
-            ("omega_ref1_rad_per_s", "rad/s", "speed command of motor 1"),
-            ("omega_ref2_rad_per_s", "rad/s", "speed command of motor 2"),
-        ][..drives(&c.rig)]
-            .to_vec(),
+        Controller::External => commands(c, false),
     };
     out.push((
-        "f_ext_n",
+        "f_ext_n".into(),
         "N",
         "external force on the piston added to the parameter external_force_n (positive \
-         against the extension); 0 at the start",
+         against the extension); 0 at the start"
+            .into(),
     ));
     out
 }
 
-/// The outputs: one speed, torque and command per drive; the single-pump emulator's mode.
-fn output_names(c: &Config) -> Vec<(&'static str, &'static str, &'static str)> {
-    let n = drives(&c.rig);
+/// The circuit's commands as FMU variables, as outputs (the article's controller's) or inputs.
+fn commands(c: &Config, output: bool) -> Vec<Named> {
+    let inputs = Plant::new(&c.rig).circuit().inputs();
+    let roles: Vec<Role> = inputs.iter().map(|s| s.role).collect();
+    let mut unique = roles.clone();
+    unique.dedup();
+    by_roles(&inputs, &unique, output)
+}
+
+/// The outputs: the position, velocity and pressures, each drive's speed and torque or the
+/// spool's opening, the article's controller's commands; the single-pump emulator's mode.
+fn output_names(c: &Config) -> Vec<Named> {
+    let plain = |n: &str, unit: &'static str, doc: &str| (n.to_string(), unit, doc.to_string());
     let mut out = vec![
-        ("x_m", "m", "piston position (absolute)"),
-        ("v_m_per_s", "m/s", "piston velocity"),
-        ("p1_pa", "Pa", "chamber 1 (piston side) pressure, gauge"),
-        ("p2_pa", "Pa", "chamber 2 (rod side) pressure, gauge"),
-        ("p_sum_pa", "Pa", "sum pressure p1 + p2"),
+        plain("x_m", "m", "piston position (absolute)"),
+        plain("v_m_per_s", "m/s", "piston velocity"),
+        plain("p1_pa", "Pa", "chamber 1 (piston side) pressure, gauge"),
+        plain("p2_pa", "Pa", "chamber 2 (rod side) pressure, gauge"),
+        plain("p_sum_pa", "Pa", "sum pressure p1 + p2"),
     ];
-    out.extend(
-        [
-            ("omega1_rad_per_s", "rad/s", "speed of motor 1"),
-            ("omega2_rad_per_s", "rad/s", "speed of motor 2"),
-        ][..n]
-            .iter(),
-    );
-    if c.rig.motor_model == MotorModel::Full {
-        out.extend(
-            [
-                ("tau1_nm", "N.m", "electromagnetic torque of motor 1"),
-                ("tau2_nm", "N.m", "electromagnetic torque of motor 2"),
-            ][..n]
-                .iter(),
-        );
-    }
+    out.extend(by_roles(
+        &Plant::new(&c.rig).signals(),
+        &STATE_OUTPUTS,
+        true,
+    ));
     if c.controller == Controller::Article {
-        out.extend(
-            [
-                (
-                    "omega_ref1_rad_per_s",
-                    "rad/s",
-                    "the controller's speed command to motor 1",
-                ),
-                (
-                    "omega_ref2_rad_per_s",
-                    "rad/s",
-                    "the controller's speed command to motor 2",
-                ),
-            ][..n]
-                .iter(),
-        );
+        out.extend(commands(c, true));
     }
     if has_mode(c) {
-        out.push((
+        out.push(plain(
             "mode",
             "",
             "the single-pump circuit's mode: 1 with chamber 2 on the accumulator, 2 with \
@@ -327,11 +374,11 @@ pub fn variables(c: &Config) -> Vec<Variable> {
         .zip(start_inputs)
         .enumerate()
         .map(|(k, ((name, unit, doc), start))| Variable {
-            name: name.into(),
+            name,
             value_reference: k as u32,
             causality: Causality::Input,
             unit: Some(unit),
-            description: doc.into(),
+            description: doc,
             start: Some(Value::Real(start)),
         })
         .collect();
@@ -340,12 +387,12 @@ pub fn variables(c: &Config) -> Vec<Variable> {
             .into_iter()
             .enumerate()
             .map(|(k, (name, unit, doc))| Variable {
-                name: name.into(),
+                name,
                 value_reference: OUTPUT_VR + k as u32,
                 causality: Causality::Output,
                 // the mode is a number without a unit
                 unit: (!unit.is_empty()).then_some(unit),
-                description: doc.into(),
+                description: doc,
                 start: None,
             }),
     );
@@ -1138,8 +1185,9 @@ impl Instance {
         out.extend(of(Role::Velocity));
         out.extend(&pressures);
         out.push(pressures.iter().sum());
-        out.extend(of(Role::MotorSpeed));
-        out.extend(of(Role::Torque));
+        for role in STATE_OUTPUTS {
+            out.extend(of(role));
+        }
         if self.config.controller == Controller::Article {
             out.extend(&u.unwrap_or([f64::NAN; 2])[..drives(&self.config.rig)]);
         }
