@@ -192,9 +192,37 @@ pub fn emit(text: &str) -> Result<()> {
         .context("cannot write to standard output")
 }
 
+/// Whether descriptor 1 was closed when the process started, recorded before the Rust runtime
+/// reopens a closed descriptor on `/dev/null` (which would make it look open): glibc runs the
+/// functions of `.init_array` before `main`, and Rust's runtime starts in `main`.
+#[cfg(target_os = "linux")]
+static STDOUT_CLOSED_AT_START: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static RECORD_STDOUT: extern "C" fn() = record_stdout;
+
+#[cfg(target_os = "linux")]
+extern "C" fn record_stdout() {
+    // SAFETY: fcntl only queries descriptor 1.
+    let closed = unsafe { libc::fcntl(1, libc::F_GETFL) } == -1;
+    STDOUT_CLOSED_AT_START.store(closed, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether standard output was open when the program started: on Linux as recorded before the
+/// runtime started, so `/dev/null` opened for reading and writing (Python's
+/// `subprocess.DEVNULL`) is an ordinary output.
+#[cfg(target_os = "linux")]
+fn stdout_open() -> bool {
+    !STDOUT_CLOSED_AT_START.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Whether standard output was open when the program started. The Rust runtime reopens a closed
 /// descriptor 1 on `/dev/null` for reading and writing, which a shell redirection (`>/dev/null`,
 /// write-only) never does; that combination is taken as "closed by the caller".
+#[cfg(not(target_os = "linux"))]
 fn stdout_open() -> bool {
     // SAFETY: fcntl and fstat only query descriptor 1; `st` is a plain struct they fill.
     unsafe {

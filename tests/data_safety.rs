@@ -175,6 +175,18 @@ fn a_result_that_cannot_reach_standard_output_is_an_error() {
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
+    // and so is /dev/null opened for reading and writing, as Python's subprocess.DEVNULL does
+    let null = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open("/dev/null")
+        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
+        .arg("margins")
+        .stdout(null)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
 }
 
 #[test]
