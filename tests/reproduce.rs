@@ -785,6 +785,7 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
         (&|c| c.contains("Which circuit"), OWN.into()),
         (&|c| c.contains("Figure 1 circuits"), OWN.into()),
         (&|c| c.contains("from the steps, the sweep and both"), OWN.into()),
+        (&|c| c.contains("valve or pump"), OWN.into()),
     ];
     let mut used = vec![0; rules.len()];
     for c in &captions {

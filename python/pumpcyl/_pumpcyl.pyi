@@ -480,7 +480,8 @@ class Summary(Result):
     speed (docs/circuits.md#the-article-s-rig-with-a-valve): top_speed_m_per_s,
     valve_rated_flow_lpm, gas_fraction, targets [PM deg, GM dB], and sides, each with label,
     circuit, set, p_mean_bar, beta_e_bar, resonance_hz, damping_ratio, merritt_hz, kp_max,
-    kv_max_per_s and max_error_mm (0.2 Hz, 35 mm)."""
+    kv_max_per_s and max_error_mm (0.2 Hz, 35 mm); at_kp_max, each side's margins and model
+    step at its kp_max (the figures bode_valve_or_pump and step_valve_or_pump)."""
     seconds: float
 
 class Emulated(Result):

@@ -142,6 +142,16 @@ fn the_valve_or_pump_section_holds_the_commands_numbers() {
             assert!(num("kv_max_per_s") < 0.1 * sides[0]["kv_max_per_s"].as_f64().unwrap());
         }
     }
+    // each side's figures are at its K_p max: one of the article's margins binds there
+    for case in v["at_kp_max"].as_array().unwrap() {
+        let gm = case["gain_margin_db"].as_f64().unwrap();
+        let pm = case["phase_margin_deg"].as_f64().unwrap();
+        assert!(
+            (gm - 6.5).abs() < 1e-6 || (pm - 34.0).abs() < 1e-6,
+            "{gm} dB {pm} deg"
+        );
+        assert!(gm >= 6.5 - 1e-6 && pm >= 34.0 - 1e-6, "{gm} dB {pm} deg");
+    }
     // β_e of the rig's oil at the valve's rest: 1/β = X/p + (1 − X)/β_oil
     let (x, p) = (
         v["gas_fraction"].as_f64().unwrap(),

@@ -44,6 +44,8 @@ pub const FIGURES: &[Registered] = &[
     fig("which_circuit", Source::Own),
     fig("figure1_circuits_step", Source::Own),
     fig("sweep_beside_steps", Source::Own),
+    fig("bode_valve_or_pump", Source::Own),
+    fig("step_valve_or_pump", Source::Own),
 ];
 
 /// The registered figure `stem` drawn as the article figure `source`: an error names a

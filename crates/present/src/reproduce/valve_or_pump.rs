@@ -11,7 +11,7 @@
 //! rig with the `--set` assignments listed in summary.json (`set`; tests/reproduce/valve.rs
 //! runs them).
 
-use super::{printed, Run};
+use super::{printed, summary, variants, Position, Run, Source, Study};
 use crate::format::fmt_opt;
 use anyhow::{Context, Result};
 use pumpcyl::anchor::anchor_bar;
@@ -74,6 +74,9 @@ pub struct ValveOrPump {
     pub targets: [f64; 2],
     /// The DPM, the valve at its own rest's β_e, the valve at the DPM's.
     pub sides: Vec<Side>,
+    /// Each side at its K_p max: its margins and the model's 5 mm step (the figures
+    /// `bode_valve_or_pump` and `step_valve_or_pump`).
+    pub at_kp_max: Vec<summary::Case>,
 }
 
 /// Step 13: the article's DPM and its valve-controlled counterpart side by side.
@@ -112,15 +115,40 @@ pub(super) fn valve_or_pump(run: &mut Run) -> Result<ValveOrPump> {
             p_valve,
         )?,
     ];
-    let out = ValveOrPump {
+    let mut out = ValveOrPump {
         top_speed_m_per_s: top,
         valve_rated_flow_lpm: flow,
         gas_fraction: x,
         targets: [printed::PM_DEG, printed::GM_DB],
         sides,
+        at_kp_max: Vec::new(),
     };
     report(run, &out);
+    out.at_kp_max = figures(run, &article, &out.sides)?;
     Ok(out)
+}
+
+/// The Bode diagrams and 5 mm steps of the sides at their K_p max, overlaid.
+fn figures(run: &mut Run, article: &Rig, sides: &[Side]) -> Result<Vec<summary::Case>> {
+    let rigs = (sides.iter())
+        .map(|s| {
+            let mut set = s.set.clone();
+            set.push(format!("kp={}", s.kp_max));
+            Ok((
+                format!("{}, K_p {:.4}", s.label, s.kp_max),
+                with(article, &set)?,
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let study = Study {
+        stem: "valve_or_pump",
+        what: "valve or pump, each at the largest K_p meeting the article's margins",
+        rig: "the article's rig (Table 1)",
+        position: Position::Absolute,
+        bode: Source::Own,
+        step: Source::Own,
+    };
+    variants(run, &study, &rigs)
 }
 
 /// The default rig with `sets` applied.
