@@ -28,7 +28,8 @@ pub struct SelectArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// The circuits to try, comma-separated: dpm (at the low and the pressurised levels),
-    /// dual-pump and single-pump (at each accumulator pre-charge, precharge_bar). Default: the
+    /// dual-pump and single-pump (at each accumulator pre-charge, precharge_bar), valve (at each
+    /// supply pressure, supply_bar). Default: the
     /// application's `circuits`, else every circuit the rig's components allow
     /// (docs/select.md#circuits).
     #[arg(long, value_delimiter = ',', value_name = "CIRCUIT,...")]

@@ -7,7 +7,7 @@
 mod run;
 
 /// The table's circuits, in its column order.
-const CIRCUITS: [&str; 3] = ["dpm", "dual-pump", "single-pump"];
+const CIRCUITS: [&str; 4] = ["dpm", "dual-pump", "single-pump", "valve"];
 
 /// The cells of the table's row whose first cell starts with `` `command` ``.
 fn row(command: &str) -> Vec<String> {
@@ -19,9 +19,9 @@ fn row(command: &str) -> Vec<String> {
         .find(|l| l.starts_with(&start))
         .unwrap_or_else(|| panic!("docs/circuits.md has no row for `{command}`"));
     let cells: Vec<String> = line.split('|').map(|c| c.trim().to_string()).collect();
-    // "| first | dpm | dual-pump | single-pump |" splits into 6 with empty ends
-    assert_eq!(cells.len(), 6, "{line}");
-    cells[2..5].to_vec()
+    // "| first | dpm | dual-pump | single-pump | valve |" splits into 7 with empty ends
+    assert_eq!(cells.len(), 7, "{line}");
+    cells[2..6].to_vec()
 }
 
 /// Each circuit's run of `args` (with `--set circuit=…` where `set_circuit`) against its cell.
@@ -43,9 +43,14 @@ fn check(command: &str, args: impl Fn(&str) -> Vec<String>) {
     }
 }
 
+/// `args` on the default rig as `circuit`; the valve at a gain its loop is stable at (a
+/// valve's K_p is in full openings per metre, the article's 25 would be an unstable loop).
 fn on(circuit: &str, args: &[&str]) -> Vec<String> {
     let mut v: Vec<String> = args.iter().map(|s| s.to_string()).collect();
     v.extend(["--set".to_string(), format!("circuit={circuit}")]);
+    if circuit == "valve" {
+        v.extend(["--set".to_string(), "kp=0.01".to_string()]);
+    }
     v
 }
 
@@ -77,11 +82,16 @@ fn the_emulator_is_where_the_table_says() {
 fn select_is_where_the_table_says() {
     check("select", |c| {
         let circuits = format!("circuits=[\"{c}\"]");
+        let rig = format!("rig.circuit={c}");
         [
             "select",
             "--json",
             "--set",
+            &rig,
+            "--set",
             &circuits,
+            "--set",
+            "supply_bar=[70.0]",
             "--set",
             "low_pressure_bar=[5.0]",
             "--set",
@@ -130,6 +140,6 @@ fn the_table_has_a_row_for_each_command_checked() {
         "design",
         "model --greybox",
     ] {
-        assert_eq!(row(command).len(), 3);
+        assert_eq!(row(command).len(), CIRCUITS.len());
     }
 }

@@ -707,7 +707,8 @@ def select(
     cavitates). ``progress`` as for :func:`identify`, over the load × level cases. The
     circuits tried are the keyword ``circuits`` (e.g. ``circuits=["dpm", "single-pump"]``, as
     ``--circuits``; absent: every circuit the rig's components allow), the one-motor circuits at
-    each pre-charge of ``precharge_bar`` (docs/select.md#circuits). ``mode_check`` names the
+    each pre-charge of ``precharge_bar``, the valve circuit at each supply of ``supply_bar``
+    (docs/select.md#circuits). ``mode_check`` names the
     single-pump candidates' mode check, as ``--mode-check``: ``"emulator"`` (the emulated step
     and waves, the default) or ``"equations"`` (docs/select.md#the-single-pump-circuit); each
     option's ``mode_switches``, ``switches_after_settling`` and ``oscillation_amplitude_mm``

@@ -176,6 +176,20 @@ def test_select_is_the_document_of_select_json():
     np.testing.assert_allclose(kp_max, [o["kp_max"] for o in doc["options"]], rtol=1e-12)
 
 
+def test_select_on_a_valve_rig_is_the_document_of_select_json(tmp_path):
+    """A valve rig selects over its supply pressures, in Python as on the command line."""
+    rig = pumpcyl.Rig(circuit="valve", piston_diameter_mm=80.0, rod_diameter_mm=45.0,
+                      mass_kg=2500.0, mass_by_position=[], beta_bar=8000.0,
+                      valve_null_leakage_lpm=4.0, external_force_n=15000.0, kp=2.0)
+    path = tmp_path / "valve.toml"
+    path.write_text(rig.to_toml())
+    s = pumpcyl.select(rig=rig, supply_bar=[35.0, 70.0])
+    doc = cli("select", "--rig", str(path), "--set", "supply_bar=[35.0, 70.0]", "--json")
+    assert_one_document(s, doc, "Selection")
+    assert [o["circuit"] for o in s["options"]] == ["valve", "valve"]
+    assert [o["pressure_level"] for o in s["options"]] == ["supply", "supply"]
+
+
 def test_design_and_robust_design_are_the_documents_of_design_json():
     d = pumpcyl.design()
     doc = cli("design", "--json")

@@ -20,6 +20,7 @@ pub fn verdict_text(v: Verdict) -> &'static str {
         Verdict::LowPressureInsufficient => {
             "THE LOW-PRESSURE CIRCUIT FAILS EVEN IN THE BEST CASE: USE THE PRESSURISED CIRCUIT"
         }
+        Verdict::ValveSuitable => "VALVE-CONTROLLED CYLINDER SUITABLE WITH HIGH CERTAINTY",
         Verdict::Uncertain => {
             "UNCERTAIN: MET ONLY IN THE BEST CASE, AT NO LEVEL OVER THE WHOLE RANGE"
         }
@@ -145,7 +146,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     out += &rest_offset_text(s);
     let _ = writeln!(
         out,
-        "lowest mean pressure meeting the requirement over the whole uncertainty: {}",
+        "lowest level (mean chamber pressure, pre-charge or supply) meeting the requirement over the whole uncertainty: {}",
         lowest_text(s)
     );
     if let Some(c) = &s.at_min_mean_pressure {
@@ -161,11 +162,13 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             c.mean_pressure_bar
         );
     }
-    let _ = writeln!(
-        out,
-        "single-pump mode check: {} (switches over its runs; after the step settled and beyond a wave's reference; the step's oscillation amplitude; docs/select.md#the-single-pump-circuit)",
-        s.mode_check
-    );
+    if s.options.iter().any(|c| c.circuit.kind.has_modes()) {
+        let _ = writeln!(
+            out,
+            "single-pump mode check: {} (switches over its runs; after the step settled and beyond a wave's reference; the step's oscillation amplitude; docs/select.md#the-single-pump-circuit)",
+            s.mode_check
+        );
+    }
     let _ = writeln!(out, "verdict: {}", verdict_text(s.verdict));
     for r in &s.reasons {
         let _ = writeln!(out, "  - {r}");

@@ -46,6 +46,9 @@ pub enum PressureLevel {
     Pressurised,
     /// The accumulator's pre-charge `accumulator_precharge_bar` of a one-motor circuit.
     Precharge,
+    /// A valve-controlled cylinder's supply pressure (its [`Level::key`]); its β_e is read at
+    /// the mean chamber pressure its valve holds at rest from that supply.
+    Supply,
 }
 
 impl PressureLevel {
@@ -55,6 +58,7 @@ impl PressureLevel {
             PressureLevel::LowPressure => "low_pressure_bar",
             PressureLevel::Pressurised => "pressurised_bar",
             PressureLevel::Precharge => "precharge_bar",
+            PressureLevel::Supply => "supply_bar",
         }
     }
 }
@@ -292,6 +296,26 @@ pub trait Module {
             Self::DESCRIPTION.drives
         ))
     }
+
+    /// A circuit fed from a constant-pressure supply at rest (docs/select.md#cost).
+    ///
+    /// # Errors
+    /// A circuit without a supply, or whose rest is undetermined.
+    fn supply_rest(rig: &Rig) -> Result<SupplyRest, String> {
+        Err(format!("the {} circuit has no supply", rig.circuit.name()))
+    }
+}
+
+/// A circuit fed from a constant-pressure supply at rest: its chamber pressures and the power
+/// the supply delivers there, all of it lost as heat (docs/select.md#cost).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupplyRest {
+    /// The chamber pressures (Pa gauge).
+    pub p_pa: [f64; 2],
+    /// The flow the supply delivers at rest (m³/s).
+    pub flow_m3_s: f64,
+    /// The power it delivers, (p_s − p_t)·Q (W).
+    pub power_w: f64,
 }
 
 /// A one-motor circuit at rest: its chamber pressures, its shaft's speed and the torque its
@@ -422,6 +446,16 @@ macro_rules! circuits {
             pub fn one_motor_rest(self, rig: &$crate::rig::Rig) -> Result<OneMotorRest, String> {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::one_motor_rest(rig)),+
+                }
+            }
+
+            /// [`Module::supply_rest`] of the circuit.
+            ///
+            /// # Errors
+            /// As the circuit's own.
+            pub fn supply_rest(self, rig: &$crate::rig::Rig) -> Result<SupplyRest, String> {
+                match self {
+                    $(CircuitKind::$variant => <$module::Module as Module>::supply_rest(rig)),+
                 }
             }
 

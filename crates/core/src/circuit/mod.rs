@@ -123,7 +123,7 @@ pub mod valves;
 pub use any::{mode_switching, pressure_level_bar, require, require_dpm};
 pub use description::{
     Description, EmulatedForm, Key, Level, LinearForm, Module, OneMotorRest, PressureLevel,
-    Variant, DRIVE_KEYS,
+    SupplyRest, Variant, DRIVE_KEYS,
 };
 pub use dpm::Dpm;
 pub use parts::Effects;

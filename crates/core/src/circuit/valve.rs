@@ -163,6 +163,14 @@ impl ServoValve {
         o * self.kv * dp / root
     }
 
+    /// The flow (m³/s) the supply delivers through the lands P→A and P→B at the spool opening
+    /// `s` and the chamber pressures `p1`, `p2` (Pa gauge).
+    fn supply_flow(&self, s: f64, p1: f64, p2: f64) -> f64 {
+        let s = s.clamp(-1.0, 1.0);
+        let (ps, u0) = (self.supply_pa, self.underlap);
+        self.land(s + u0, ps - p1) + self.land(-s + u0, ps - p2) * self.ratio_b
+    }
+
     /// The flows (m³/s) the valve passes into chambers 1 and 2 at the spool opening `s` and
     /// the chamber pressures `p1`, `p2`; the opening held to ±1.
     fn flows<T: Scalar>(&self, s: T, p1: T, p2: T) -> [T; 2] {
@@ -445,7 +453,11 @@ impl super::Module for Module {
         drives: 0,
         servo_valves: 1,
         pumps: 0,
-        variants: &[],
+        variants: &[super::Variant {
+            level: super::PressureLevel::Supply,
+            name: "valve",
+            key: "valve",
+        }],
         sum_pressure_loop: false,
         level: super::Level {
             key: "supply_pressure_bar",
@@ -477,6 +489,17 @@ impl super::Module for Module {
     /// The mean of its chambers' pressures at rest.
     fn pressure_level_bar(rig: &Rig) -> f64 {
         Valve::new(rig).map_or(f64::NAN, |c| 0.5 * (c.rest[1] + c.rest[2]) / PA_PER_BAR)
+    }
+
+    fn supply_rest(rig: &Rig) -> Result<super::SupplyRest, String> {
+        let c = Valve::new(rig).map_err(|e| e.to_string())?;
+        let [s, p1, p2] = c.rest;
+        let flow = c.valve.supply_flow(s, p1, p2);
+        Ok(super::SupplyRest {
+            p_pa: [p1, p2],
+            flow_m3_s: flow,
+            power_w: (c.valve.supply_pa - c.valve.tank_pa) * flow,
+        })
     }
 
     /// From the tank's pressure to the supply's: the valve feeds no chamber beyond them.

@@ -521,6 +521,15 @@ impl Experiment {
         let at = Locate { name: &name, text };
         let dir = path.parent().unwrap_or(Path::new("."));
         let (rig, rig_defaults) = file.rig(files, dir, &at)?;
+        if !rig.has_key("c12_m5_per_ns") {
+            let m = format!(
+                "circuit = \"{}\": identification fits beta, b and c12, the pumps' cross-port \
+                 leakage, which this circuit has none of: it models the circuits with drives only \
+                 (docs/circuits.md#what-works-on-which-circuit)",
+                rig.circuit.name()
+            );
+            return Err(IdentError::Input(format!("{name}: {m}")));
+        }
         let standstill = file
             .standstill
             .resolve(files, dir)

@@ -34,6 +34,8 @@ pub struct Application {
     pub pressurised_bar: Vec<f64>,
     /// Accumulator pre-charges of the one-motor circuits (dual pump, single pump) to try (bar).
     pub precharge_bar: Vec<f64>,
+    /// Supply pressures of the valve-controlled cylinder to try (bar).
+    pub supply_bar: Vec<f64>,
     /// The circuits to try (`dpm`, `dual-pump`, `single-pump`); absent: every circuit the
     /// rig's components allow ([`circuits::allowed_circuits`]).
     pub circuits: Vec<CircuitKind>,
@@ -204,6 +206,7 @@ impl Default for Application {
             low_pressure_bar: (1..=10).map(f64::from).collect(),
             pressurised_bar: vec![20.0, 30.0, 50.0],
             precharge_bar: (1..=10).map(f64::from).collect(),
+            supply_bar: vec![35.0, 70.0, 100.0, 140.0, 210.0],
             circuits: circuits::allowed_circuits(&Rig::default()),
             wave: vec![WaveRequirement {
                 freq_hz: 0.2,
@@ -597,6 +600,7 @@ impl Application {
                     PressureLevel::LowPressure => self.low_pressure_bar.clone(),
                     PressureLevel::Pressurised => self.pressurised_bar.clone(),
                     PressureLevel::Precharge => self.precharge_bar.clone(),
+                    PressureLevel::Supply => self.supply_bar.clone(),
                 };
                 ps.sort_by(f64::total_cmp);
                 ps.into_iter().map(move |p| (circuit, p))
@@ -719,8 +723,12 @@ pub const APPLICATION_KEY_DOCS: &[(&str, &str)] = &[
         "bar, accumulator pre-charges of the one-motor circuits (dual-pump, single-pump)",
     ),
     (
+        "supply_bar",
+        "bar, supply pressures of the valve-controlled cylinder (valve; its beta_e read at the mean chamber pressure its valve holds at rest from each)",
+    ),
+    (
         "circuits",
-        "circuits to try: \"dpm\", \"dual-pump\", \"single-pump\" (absent: every circuit the rig's components allow; docs/select.md#circuits)",
+        "circuits to try: \"dpm\", \"dual-pump\", \"single-pump\", \"valve\" (absent: every circuit the rig's components allow; docs/select.md#circuits)",
     ),
     (
         "max_rise_time_s",

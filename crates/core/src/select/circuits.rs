@@ -81,7 +81,8 @@ impl Circuit {
     }
 
     /// The rig of this circuit at the pressure level `p_bar` with the bulk modulus `beta_bar`:
-    /// the DPM's sum-pressure set-point 2p, or a one-motor circuit's pre-charge p.
+    /// the DPM's sum-pressure set-point 2p, a one-motor circuit's pre-charge p, or a
+    /// valve-controlled cylinder's supply p (its circuit's [`crate::circuit::Level::key`]).
     pub fn rig_at(self, rig: &Rig, p_bar: f64, beta_bar: f64) -> Rig {
         match self.level {
             PressureLevel::Precharge => Rig {
@@ -90,11 +91,39 @@ impl Circuit {
                 accumulator_precharge_bar: p_bar,
                 ..rig.clone()
             },
+            PressureLevel::Supply => {
+                let mut r = Rig {
+                    circuit: self.kind,
+                    beta_bar,
+                    ..rig.clone()
+                };
+                let key = self.kind.description().level.key;
+                (r.circuit_keys.0).insert(key.to_string(), toml::Value::Float(p_bar));
+                r
+            }
             _ => Rig {
                 beta_bar,
                 p_sum_ref_bar: 2.0 * p_bar,
                 ..rig.clone()
             },
+        }
+    }
+
+    /// The mean chamber pressure (bar gauge) its β_e is read at, at the level `p_bar`: the
+    /// level itself, but for a supply the mean chamber pressure its valve holds at rest from
+    /// it ([`crate::circuit::Module::pressure_level_bar`]), or the supply itself where the
+    /// valve cannot rest there (the candidate then fails for that reason).
+    pub fn beta_pressure_bar(self, rig: &Rig, p_bar: f64) -> f64 {
+        let at = match self.level {
+            PressureLevel::Supply => {
+                (self.kind).pressure_level_bar(&self.rig_at(rig, p_bar, rig.beta_bar))
+            }
+            _ => p_bar,
+        };
+        if at.is_finite() {
+            at
+        } else {
+            p_bar
         }
     }
 }
@@ -627,8 +656,16 @@ mod tests {
         let names: Vec<&str> = Circuit::all().iter().map(|c| c.name()).collect();
         assert_eq!(
             names,
-            ["low-pressure", "pressurised", "dual-pump", "single-pump"]
+            [
+                "low-pressure",
+                "pressurised",
+                "dual-pump",
+                "single-pump",
+                "valve"
+            ]
         );
+        let v = serde_json::to_value(Circuit::named("valve").unwrap()).unwrap();
+        assert_eq!(v["pressure_level"], "supply");
     }
 
     #[test]

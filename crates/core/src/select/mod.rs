@@ -253,6 +253,9 @@ pub enum Verdict {
     /// Only a pressurised level meets it over the whole uncertainty; no low-pressure level
     /// meets it even in the best case (or none was tried).
     LowPressureInsufficient,
+    /// The valve-controlled cylinder meets it over the whole uncertainty from a supply
+    /// pressure (`min_mean_pressure_bar` holds the supply).
+    ValveSuitable,
     /// No level meets it over the whole uncertainty, but one does in the best case.
     Uncertain,
     /// No level meets it, even in the best case.
@@ -561,7 +564,8 @@ fn candidate(
     fixed_kp: Option<f64>,
     mode_check: &dyn ModeCheck,
 ) -> Result<Candidate, SelectError> {
-    let at = |x: f64| circuit.rig_at(rig, p_bar, effective_beta(x, p_bar, req.beta_oil_bar));
+    let p_beta = circuit.beta_pressure_bar(rig, p_bar);
+    let at = |x: f64| circuit.rig_at(rig, p_bar, effective_beta(x, p_beta, req.beta_oil_bar));
     let (soft, stiff, reference) = (
         at(req.gas_fraction_max),
         at(req.gas_fraction_min),
@@ -587,14 +591,18 @@ fn candidate(
         margins_hold_at_reference_gas_fraction: false,
         reason: String::new(),
     };
-    let one_motor = circuit.level == PressureLevel::Precharge;
-    // a one-motor circuit at a level it cannot rest at fails there, not the whole selection
-    let gains = (!one_motor || reference.validate("candidate").is_ok())
+    // a one-motor or valve circuit at a level it cannot rest at fails there, not the whole
+    // selection
+    let own_rest = matches!(
+        circuit.level,
+        PressureLevel::Precharge | PressureLevel::Supply
+    );
+    let gains = (!own_rest || reference.validate("candidate").is_ok())
         .then(|| gains(req, [&soft, &stiff, &reference]))
         .transpose();
     let [kp_range, kp_stiff, kp_reference] = match gains {
         Ok(Some(kp)) => kp,
-        Err(e) if !one_motor => return Err(e.into()),
+        Err(e) if !own_rest => return Err(e.into()),
         Err(e) => return Ok(failed(out, e.to_string())),
         Ok(None) => {
             let e = reference.validate("candidate").err().map(|e| e.to_string());
@@ -603,10 +611,10 @@ fn candidate(
     };
     let kp_max = fixed_kp.unwrap_or(kp_range);
     (out.kp_max, out.kp_max_range, out.kp_max_reference) = (kp_max, kp_range, kp_reference);
-    let standing = if one_motor {
-        one_motor_standstill(&reference, req)
-    } else {
-        standstill(rig, req, p_bar)
+    let standing = match circuit.level {
+        PressureLevel::Precharge => one_motor_standstill(&reference, req),
+        PressureLevel::Supply => supply_standstill(&reference, req),
+        _ => standstill(rig, req, p_bar),
     };
     let standing = match standing {
         Ok(standing) => standing,
@@ -711,6 +719,32 @@ fn loads_of(req: &Requirement, rig: &Rig) -> Vec<f64> {
 /// The standstill cost of the one-motor rig `r` at the lowest and the highest external force,
 /// or why it cannot rest there (an undetermined rest, a chamber below the vapour pressure).
 fn one_motor_standstill(r: &Rig, req: &Requirement) -> Result<[StandingLoss; 2], String> {
+    own_rest_at_forces(r, req, circuits::one_motor_standing)
+}
+
+/// A supplied circuit's rest at the lowest and the highest external force: the chamber
+/// pressures and the power its supply delivers there (no motors: speeds and torques 0), or
+/// why it cannot rest under that force.
+fn supply_standstill(r: &Rig, req: &Requirement) -> Result<[StandingLoss; 2], String> {
+    own_rest_at_forces(r, req, |loaded| {
+        let rest = loaded.circuit.supply_rest(loaded)?;
+        Ok(StandingLoss {
+            p_bar: rest.p_pa.map(|p| p / crate::units::PA_PER_BAR),
+            power_w: rest.power_w,
+            speed_rpm: [0.0; 2],
+            torque_nm: [0.0; 2],
+        })
+    })
+}
+
+/// `standing` of the rig `r` under the lowest and the highest external force of `req`, each
+/// loaded rig checked first and its chambers after (above the vapour pressure), or why it
+/// cannot rest under that force.
+fn own_rest_at_forces(
+    r: &Rig,
+    req: &Requirement,
+    standing: impl Fn(&Rig) -> Result<StandingLoss, String>,
+) -> Result<[StandingLoss; 2], String> {
     let at = |f: f64| -> Result<StandingLoss, String> {
         let loaded = Rig {
             external_force_n: f,
@@ -720,7 +754,7 @@ fn one_motor_standstill(r: &Rig, req: &Requirement) -> Result<[StandingLoss; 2],
         loaded
             .validate("candidate")
             .map_err(|e| why(e.to_string()))?;
-        let s = circuits::one_motor_standing(&loaded).map_err(why)?;
+        let s = standing(&loaded).map_err(why)?;
         check_chambers(&s.p_bar).map_err(|e| why(e.to_string()))?;
         Ok(s)
     };
@@ -951,10 +985,24 @@ fn refine(
 /// whether any level meets in the best case. The low-pressure circuits are the DPM at its low
 /// levels and the one-motor circuits at their accumulator pre-charge.
 fn verdict(options: &[Candidate], at: Option<&Candidate>) -> (Verdict, Vec<String>) {
-    let is_low = |c: &Candidate| c.circuit.level != PressureLevel::Pressurised;
+    let is_low = |c: &Candidate| {
+        matches!(
+            c.circuit.level,
+            PressureLevel::LowPressure | PressureLevel::Precharge
+        )
+    };
     let low: Vec<&Candidate> = options.iter().filter(|c| is_low(c)).collect();
     let low_best = low.iter().find(|c| c.meets_best_case);
     match at {
+        Some(c) if c.circuit.level == PressureLevel::Supply => (
+            Verdict::ValveSuitable,
+            vec![format!(
+                "the {} circuit meets the requirement over the whole gas-fraction range from a supply of {:.2} bar: {}",
+                c.circuit.name(),
+                c.mean_pressure_bar,
+                c.reason
+            )],
+        ),
         Some(c) if c.circuit.level == PressureLevel::Precharge => (
             Verdict::LowPressureSuitable,
             vec![format!(

@@ -30,6 +30,7 @@
 //! ```
 
 mod bias;
+mod case;
 mod certainty;
 mod circuit;
 mod figure1_circuits;

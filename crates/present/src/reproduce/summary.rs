@@ -7,9 +7,10 @@ use pumpcyl::design::robust::{Deciding, LoopStep, WorstCase};
 use pumpcyl::design::{Targets, Verdict};
 use pumpcyl::ident::{Assessment, Width};
 use pumpcyl::lti::Margins;
-use pumpcyl::response::{StepMetrics, TrackMetrics};
+use pumpcyl::response::TrackMetrics;
 use serde::Serialize;
 
+pub use super::case::Case;
 pub use super::figure1_circuits::{Chatter, CircuitRun, Figure1Circuits, ModeMargins, Wave};
 pub use super::valve_or_pump::{Side, ValveOrPump};
 
@@ -375,22 +376,6 @@ pub struct GmPm {
     pub gain_margin_db: f64,
     /// PM (deg).
     pub phase_margin_deg: f64,
-}
-
-/// One rig variant of a study: its margins (sum-pressure loop open) and whether its step
-/// (sum-pressure loop closed) is stable.
-#[derive(Debug, Clone, Serialize)]
-pub struct Case {
-    /// The variant.
-    pub case: String,
-    /// The margins.
-    #[serde(flatten)]
-    pub margins: Margins,
-    /// Whether the closed loop with the sum-pressure loop is stable (its step is drawn).
-    pub step_closed_loop_stable: bool,
-    /// The 5 mm step's metrics with the sum-pressure loop closed; `null` when that loop is
-    /// unstable.
-    pub step: Option<StepMetrics>,
 }
 
 /// A variant of the Figure 14 study with its resonance.

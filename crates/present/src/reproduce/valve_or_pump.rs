@@ -11,7 +11,8 @@
 //! rig with the `--set` assignments listed in summary.json (`set`; tests/reproduce/valve.rs
 //! runs them).
 
-use super::{printed, summary, variants, Position, Run, Source, Study};
+use super::case::Case;
+use super::{printed, variants, Position, Run, Source, Study};
 use crate::format::fmt_opt;
 use anyhow::{Context, Result};
 use pumpcyl::anchor::anchor_bar;
@@ -76,7 +77,7 @@ pub struct ValveOrPump {
     pub sides: Vec<Side>,
     /// Each side at its K_p max: its margins and the model's 5 mm step (the figures
     /// `bode_valve_or_pump` and `step_valve_or_pump`).
-    pub at_kp_max: Vec<summary::Case>,
+    pub at_kp_max: Vec<Case>,
 }
 
 /// Step 13: the article's DPM and its valve-controlled counterpart side by side.
@@ -129,7 +130,7 @@ pub(super) fn valve_or_pump(run: &mut Run) -> Result<ValveOrPump> {
 }
 
 /// The Bode diagrams and 5 mm steps of the sides at their K_p max, overlaid.
-fn figures(run: &mut Run, article: &Rig, sides: &[Side]) -> Result<Vec<summary::Case>> {
+fn figures(run: &mut Run, article: &Rig, sides: &[Side]) -> Result<Vec<Case>> {
     let rigs = (sides.iter())
         .map(|s| {
             let mut set = s.set.clone();
