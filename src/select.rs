@@ -61,7 +61,7 @@ pub struct SelectArgs {
     #[arg(long)]
     print_default: bool,
     /// Result folder: result.json (as --json prints), options.csv (one row a candidate: its
-    /// circuit, level, gain, loss, mode-check numbers, verdict and reason) and select.svg/.png
+    /// circuit, level, gain and velocity-loop gain, loss, mode-check numbers, verdict and reason) and select.svg/.png
     /// (the largest Kp and the tracking-error band against the pressure level, the
     /// requirement, the chosen level).
     #[arg(long, value_name = "DIR")]
@@ -69,7 +69,7 @@ pub struct SelectArgs {
     /// Print JSON (min_mean_pressure_bar, bisected between the levels, min_level_bar,
     /// chosen_circuit, verdict, reasons, rig, gas_fraction_from, options: circuit,
     /// circuit_kind, pressure_level, mean_pressure_bar,
-    /// beta_e_bar, kp_max, tracking_max_error_mm, standing_loss_w, meets, meets_best_case,
+    /// beta_e_bar, kp_max, kv_max_per_s, tracking_max_error_mm, standing_loss_w, meets, meets_best_case,
     /// margins_hold_at_reference_gas_fraction, mode_switches, switches_after_settling,
     /// oscillation_amplitude_mm, reason; mode_check).
     #[arg(long)]

@@ -222,22 +222,30 @@ fn the_result_folder_holds_the_json_and_the_figure() {
     let csv = std::fs::read_to_string(out.join("options.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert!(
-        lines[0].starts_with("circuit,mean_pressure_bar,kp_max,standing_loss_w,mode_switches,switches_after_settling,oscillation_amplitude_mm,"),
+        lines[0].starts_with("circuit,mean_pressure_bar,kp_max,kv_max_per_s,standing_loss_w,mode_switches,switches_after_settling,oscillation_amplitude_mm,"),
         "{}",
         lines[0]
     );
     let options = printed["options"].as_array().unwrap();
     assert_eq!(lines.len(), options.len() + 1);
     for (line, o) in lines[1..].iter().zip(options) {
-        // the reason, the last cell, may hold commas: the first seven cells are numbers
-        let cells: Vec<&str> = line.splitn(8, ',').collect();
+        // the reason, the last cell, may hold commas: the first eight cells are numbers
+        let cells: Vec<&str> = line.splitn(9, ',').collect();
         assert_eq!(cells[0], o["circuit"].as_str().unwrap());
         let p = o["mean_pressure_bar"].as_f64().unwrap();
         assert_eq!(cells[1].parse::<f64>().unwrap(), p);
         let switches = o["mode_switches"].as_u64().map(|n| n.to_string());
-        assert_eq!(cells[4], switches.unwrap_or_default(), "{line}");
+        assert_eq!(cells[5], switches.unwrap_or_default(), "{line}");
+        let kv = o["kv_max_per_s"].as_f64();
+        // written to 6 decimals, as the records
+        let written = cells[3].parse::<f64>().ok();
+        assert_eq!(written.is_some(), kv.is_some(), "{line}");
+        assert!(
+            written.zip(kv).is_none_or(|(w, k)| (w - k).abs() <= 5e-7),
+            "{line}"
+        );
         let amplitude = o["oscillation_amplitude_mm"].as_f64();
-        let cell = cells[6].parse::<f64>().ok();
+        let cell = cells[7].parse::<f64>().ok();
         assert_eq!(cell.is_some(), amplitude.is_some(), "{line}");
         assert!(
             cell.zip(amplitude)
@@ -246,7 +254,7 @@ fn the_result_folder_holds_the_json_and_the_figure() {
         );
         // the mode check runs on single-pump rows alone
         if o["circuit"] != "single_pump" {
-            assert_eq!(cells[4], "", "{line}");
+            assert_eq!(cells[5], "", "{line}");
         }
     }
 }

@@ -354,9 +354,11 @@ class Advice(Result):
 
 class Selection(Result):
     """Which circuit at which pressure level: ``pumpcyl select --json``. Each option names its
-    circuit as ``circuit`` (``low_pressure``, ``pressurised``, ``dual_pump``, ``single_pump``),
-    ``circuit_kind`` (``dpm``, ``dual-pump``, ``single-pump``) and ``pressure_level``
-    (docs/select.md#circuits)."""
+    circuit as ``circuit`` (``low_pressure``, ``pressurised``, ``dual_pump``, ``single_pump``,
+    ``valve``), ``circuit_kind`` (``dpm``, ``dual-pump``, ``single-pump``, ``valve``) and
+    ``pressure_level`` (``low_pressure``, ``pressurised``, ``precharge``, ``supply``;
+    docs/select.md#circuits), with ``kp_max`` and its velocity-loop gain ``kv_max_per_s`` (1/s,
+    docs/analysis.md#the-velocity-loop-gain)."""
 
     options: List[Dict[str, Any]]
     min_mean_pressure_bar: Optional[float]
@@ -365,8 +367,8 @@ class Selection(Result):
     at_min_mean_pressure: Optional[Dict[str, Any]]
     chosen: Optional[Dict[str, Any]]
     chosen_circuit: Optional[str]
-    """The circuit of the answer (``dpm``, ``dual-pump``, ``single-pump``); ``None`` when no
-    level meets the requirement."""
+    """The circuit of the answer (``dpm``, ``dual-pump``, ``single-pump``, ``valve``); ``None``
+    when no level meets the requirement."""
     verdict: str
     reasons: List[str]
     gas_fraction: Any

@@ -96,11 +96,12 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
     let _ = writeln!(out, "requirement: {}", needs.join("; "));
     let _ = writeln!(
         out,
-        "  {:<13} {:>8} {:>17} {:>8} {:>22} {:>12} {:>10} {:>22}  {:<5} {:<9} reason",
+        "  {:<13} {:>8} {:>17} {:>8} {:>9} {:>22} {:>12} {:>10} {:>22}  {:<5} {:<9} reason",
         "circuit",
         "p (bar)",
         "beta_e (bar)",
         "Kp max",
+        "Kv (1/s)",
         "max |e| (mm)",
         "rise (s)",
         "loss (W)",
@@ -119,7 +120,7 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             .map_or("-".to_string(), |[lo, hi]| format!("{lo:.2}…{hi:.2}"));
         let _ = writeln!(
             out,
-            "  {:<13} {:>8.1} {:>17} {:>8} {:>22} {:>12} {:>10} {:>22}  {:<5} {:<9} {}",
+            "  {:<13} {:>8.1} {:>17} {:>8} {:>9} {:>22} {:>12} {:>10} {:>22}  {:<5} {:<9} {}",
             circuit_text(c.circuit),
             c.mean_pressure_bar,
             format!("{:.0} … {:.0}", c.beta_e_bar[0], c.beta_e_bar[1]),
@@ -129,6 +130,8 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             } else {
                 "-".to_string()
             },
+            c.kv_max_per_s
+                .map_or("-".to_string(), |kv| format!("{kv:.3}")),
             if worst.is_empty() {
                 "-".to_string()
             } else {
@@ -206,7 +209,7 @@ fn mode_check_text(c: &Candidate) -> String {
 }
 
 /// The selection's options as CSV (`options.csv` of `select --out`): one row a candidate,
-/// `circuit,mean_pressure_bar,kp_max,standing_loss_w,mode_switches,switches_after_settling,
+/// `circuit,mean_pressure_bar,kp_max,kv_max_per_s,standing_loss_w,mode_switches,switches_after_settling,
 /// oscillation_amplitude_mm,meets,meets_best_case,reason`, numbers in the records' format
 /// ([`csv_number`]); an empty cell where there is no number (no gain, no check).
 pub fn selection_csv(s: &Selection) -> String {
@@ -214,6 +217,7 @@ pub fn selection_csv(s: &Selection) -> String {
         "circuit",
         "mean_pressure_bar",
         "kp_max",
+        "kv_max_per_s",
         "standing_loss_w",
         "mode_switches",
         "switches_after_settling",
@@ -230,6 +234,7 @@ pub fn selection_csv(s: &Selection) -> String {
             c.circuit.key().to_string(),
             csv_number(c.mean_pressure_bar),
             opt((c.kp_max > 0.0).then_some(c.kp_max)),
+            opt(c.kv_max_per_s),
             opt(c.standing_loss_w),
             count(c.mode_switches),
             count(c.switches_after_settling),

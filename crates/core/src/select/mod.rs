@@ -193,6 +193,10 @@ pub struct Candidate {
     /// The largest Kp at the reference gas fraction (1/m); 0 when none does (`null` in JSON).
     #[serde(serialize_with = "no_gain_as_null")]
     pub kp_max_reference: f64,
+    /// The velocity-loop gain K_v at `kp_max` on the rig at the reference gas fraction (1/s;
+    /// [`crate::lti::Margins::velocity_gain_per_s`]): the gains compared across circuits,
+    /// whatever unit their K_p has. `None` without a gain.
+    pub kv_max_per_s: Option<f64>,
     /// Each wave's largest control error at `kp_max` over the gas-fraction range and the
     /// loads, [least, most] (mm); empty when `kp_max` is 0.
     pub tracking_max_error_mm: Vec<[f64; 2]>,
@@ -578,6 +582,7 @@ fn candidate(
         kp_max: 0.0,
         kp_max_range: 0.0,
         kp_max_reference: 0.0,
+        kv_max_per_s: None,
         tracking_max_error_mm: Vec::new(),
         rest_offset_mm: None,
         rise_time_s: None,
@@ -611,6 +616,7 @@ fn candidate(
     };
     let kp_max = fixed_kp.unwrap_or(kp_range);
     (out.kp_max, out.kp_max_range, out.kp_max_reference) = (kp_max, kp_range, kp_reference);
+    out.kv_max_per_s = velocity_gain(&reference, kp_max);
     let standing = match circuit.level {
         PressureLevel::Precharge => one_motor_standstill(&reference, req),
         PressureLevel::Supply => supply_standstill(&reference, req),
@@ -679,6 +685,17 @@ fn candidate(
         }
     }
     Ok(out)
+}
+
+/// The velocity-loop gain (1/s) of `rig`'s loop at the gain `kp`, `None` without a gain or
+/// where the loop has none.
+fn velocity_gain(rig: &Rig, kp: f64) -> Option<f64> {
+    if kp <= 0.0 {
+        return None;
+    }
+    let at = Rig { kp, ..rig.clone() };
+    let open = crate::model::Plant::new(&at).open_loop(false);
+    crate::lti::margins(&open).ok()?.velocity_gain_per_s
 }
 
 /// `c` failing for `why`: it meets nothing.
