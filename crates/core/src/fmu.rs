@@ -227,7 +227,7 @@ pub struct Variable {
 
 /// How many commands the rig's circuit takes: the DPM's two drives, the single-motor
 /// circuits' one, the valve-controlled cylinder's spool (docs/fmu.md#every-circuit).
-fn drives(rig: &Rig) -> usize {
+fn command_count(rig: &Rig) -> usize {
     rig.circuit.description().commands()
 }
 
@@ -235,51 +235,50 @@ fn drives(rig: &Rig) -> usize {
 type Named = (String, &'static str, String);
 
 /// The FMU variable of a state or command by its role, the `i`-th (from 1) of that role, as
-/// an output (`output`) or an external controller's input: the names the FMU gives the drives
-/// and the spool (docs/fmu.md#variables); `None` for a role the FMU does not show this way.
+/// an output (`output`: a command the article's controller sends) or an external controller's
+/// input: the names the FMU gives the drives and the spool (docs/fmu.md#variables); `None` for
+/// a role the FMU does not show this way.
 fn by_role(role: Role, i: usize, output: bool) -> Option<Named> {
     let spool = "(normalised: ±1 fully open)";
-    Some(match (role, output) {
-        (Role::MotorSpeed, _) => (
+    Some(match role {
+        Role::MotorSpeed => (
             format!("omega{i}_rad_per_s"),
             "rad/s",
             format!("speed of motor {i}"),
         ),
-        (Role::Torque, _) => (
+        Role::Torque => (
             format!("tau{i}_nm"),
             "N.m",
             format!("electromagnetic torque of motor {i}"),
         ),
-        (Role::SpoolOpening, _) => (
+        Role::SpoolOpening => (
             "spool_opening".into(),
             "1",
             format!("spool opening {spool}"),
         ),
-        (Role::SpeedCommand, true) => (
+        Role::SpeedCommand => (
             format!("omega_ref{i}_rad_per_s"),
             "rad/s",
-            format!("the controller's speed command to motor {i}"),
+            if output {
+                format!("the controller's speed command to motor {i}")
+            } else {
+                format!("speed command of motor {i}")
+            },
         ),
-        (Role::SpeedCommand, false) => (
-            format!("omega_ref{i}_rad_per_s"),
-            "rad/s",
-            format!("speed command of motor {i}"),
-        ),
-        (Role::SpoolCommand, true) => (
+        Role::SpoolCommand => (
             "spool_opening_ref".into(),
             "1",
-            format!("the controller's spool opening command {spool}"),
-        ),
-        (Role::SpoolCommand, false) => (
-            "spool_opening_ref".into(),
-            "1",
-            format!("spool opening command {spool}"),
+            format!(
+                "{}spool opening command {spool}",
+                if output { "the controller's " } else { "" }
+            ),
         ),
         _ => return None,
     })
 }
 
-/// The FMU variables of `signals` whose roles it shows, numbered within each role.
+/// The FMU variables of `signals` whose roles it shows, role by role in the order of `roles`,
+/// numbered within each role.
 fn by_roles(signals: &[Signal], roles: &[Role], output: bool) -> Vec<Named> {
     (roles.iter())
         .flat_map(|role| {
@@ -290,6 +289,9 @@ fn by_roles(signals: &[Signal], roles: &[Role], output: bool) -> Vec<Named> {
         })
         .collect()
 }
+
+/// The roles of the commands the FMU shows, in order.
+const COMMANDS: [Role; 2] = [Role::SpeedCommand, Role::SpoolCommand];
 
 /// The roles of the states the FMU outputs after the position, velocity and pressures, in
 /// order ([`Fmu::outputs`] follows them).
@@ -319,11 +321,7 @@ fn input_names(c: &Config) -> Vec<Named> {
 
 /// The circuit's commands as FMU variables, as outputs (the article's controller's) or inputs.
 fn commands(c: &Config, output: bool) -> Vec<Named> {
-    let inputs = Plant::new(&c.rig).circuit().inputs();
-    let roles: Vec<Role> = inputs.iter().map(|s| s.role).collect();
-    let mut unique = roles.clone();
-    unique.dedup();
-    by_roles(&inputs, &unique, output)
+    by_roles(&Plant::new(&c.rig).circuit().inputs(), &COMMANDS, output)
 }
 
 /// The outputs: the position, velocity and pressures, each drive's speed and torque or the
@@ -606,7 +604,7 @@ fn input_start(c: &Config) -> Vec<f64> {
         Controller::Article => vec![c.rig.x0_mm * 1e-3, 0.0],
         Controller::External => {
             let (_, u) = rest(c.model, &c.rig);
-            let mut start = u[..drives(&c.rig)].to_vec();
+            let mut start = u[..command_count(&c.rig)].to_vec();
             start.push(0.0);
             start
         }
@@ -1189,7 +1187,7 @@ impl Instance {
             out.extend(of(role));
         }
         if self.config.controller == Controller::Article {
-            out.extend(&u.unwrap_or([f64::NAN; 2])[..drives(&self.config.rig)]);
+            out.extend(&u.unwrap_or([f64::NAN; 2])[..command_count(&self.config.rig)]);
         }
         if has_mode(&self.config) {
             let mode = match self.sim.as_ref() {
@@ -1260,7 +1258,7 @@ impl Linear {
                 (a, b, Some((kx, kr)), u_op, z_rest, commands)
             }
             Controller::External => {
-                let mut u_op = u_rest[..drives(rig)].to_vec();
+                let mut u_op = u_rest[..command_count(rig)].to_vec();
                 u_op.push(rig.external_force_n);
                 (plant.a.clone(), plant.b.clone(), None, u_op, z_op, u_rest)
             }

@@ -708,6 +708,14 @@ impl Reproduction {
     }
 }
 
+/// The least-damped open-loop pole pair of `rig` in the band `(lo, hi)` (Hz): (Hz, damping
+/// ratio).
+fn resonance(rig: &Rig, (lo, hi): (f64, f64)) -> Result<(Option<f64>, Option<f64>)> {
+    let poles = lti::eigenvalues(&Plant::new(rig).open_loop(false).a)?;
+    let r = lti::resonance(&poles, lo, hi);
+    Ok(r.map_or((None, None), |r| (Some(r.natural_freq_hz), r.damping)))
+}
+
 fn margins_of(rig: &Rig) -> Result<Margins> {
     Ok(lti::margins(&Plant::new(rig).open_loop(false))?)
 }

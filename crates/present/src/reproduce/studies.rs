@@ -4,13 +4,12 @@
 
 use super::summary::{self, Case, ResonanceCase};
 use super::{
-    agrees, margins_of, printed, variants, Position, Run, Source, Study, IDENTIFIED_RIG, TABLE1_RIG,
+    agrees, margins_of, printed, resonance, variants, Position, Run, Source, Study, IDENTIFIED_RIG,
+    TABLE1_RIG,
 };
 use crate::format::fmt_opt;
 use anyhow::Result;
 use pumpcyl::design::{design, Targets};
-use pumpcyl::lti;
-use pumpcyl::model::Plant;
 use pumpcyl::response::ARTICLE_SINE_CASES;
 use pumpcyl::rig::Rig;
 
@@ -35,7 +34,7 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Dam
     let mut rows = Vec::new();
     let mut figure14 = Vec::new();
     for ((label, rig), case) in fig14.iter().zip(cases) {
-        let (f, z) = resonance(rig)?;
+        let (f, z) = resonance(rig, RESONANCE_BAND_HZ)?;
         rows.push(vec![label.clone(), fmt_opt(f, 3), fmt_opt(z, 3)]);
         figure14.push(ResonanceCase {
             case,
@@ -44,7 +43,7 @@ pub(super) fn damping_study(run: &mut Run, nominal: &Rig) -> Result<summary::Dam
         });
     }
     let table1 = Rig::default();
-    let (f, z) = resonance(&figure14_rigs(&table1, "")[2].1)?;
+    let (f, z) = resonance(&figure14_rigs(&table1, "")[2].1, RESONANCE_BAND_HZ)?;
     rows.push(vec![
         format!("c12, c1, c2 / 10, motor coupling removed, on {TABLE1_RIG}"),
         fmt_opt(f, 3),
@@ -122,13 +121,6 @@ fn figure14_rigs(rig: &Rig, as_is: &str) -> Vec<(String, Rig)> {
             uncoupled,
         ),
     ]
-}
-
-/// The least-damped open-loop pole pair of `rig` in the resonance band: (Hz, damping ratio).
-fn resonance(rig: &Rig) -> Result<(Option<f64>, Option<f64>)> {
-    let poles = lti::eigenvalues(&Plant::new(rig).open_loop(false).a)?;
-    let r = lti::resonance(&poles, RESONANCE_BAND_HZ.0, RESONANCE_BAND_HZ.1);
-    Ok(r.map_or((None, None), |r| (Some(r.natural_freq_hz), r.damping)))
 }
 
 /// The article's Figure 11 in numbers: the step's overshoot and peak time on the identified

@@ -19,8 +19,6 @@ use pumpcyl::anchor::anchor_bar;
 use pumpcyl::bulk::{effective_beta, ARTICLE_READING, BETA_OIL_BAR};
 use pumpcyl::circuit::valve::rated_flow_for_velocity_lpm;
 use pumpcyl::design::{self, Targets};
-use pumpcyl::lti;
-use pumpcyl::model::Plant;
 use pumpcyl::rig::Rig;
 use serde::Serialize;
 
@@ -162,12 +160,10 @@ fn with(rig: &Rig, sets: &[String]) -> Result<Rig> {
 /// margins and the tracking error there.
 fn side(article: &Rig, label: &str, set: Vec<String>, p_mean_bar: f64) -> Result<Side> {
     let rig = with(article, &set)?;
-    let poles = lti::eigenvalues(&Plant::new(&rig).open_loop(false).a)?;
-    let resonance = lti::resonance(&poles, BAND_HZ.0, BAND_HZ.1);
+    let (resonance_hz, damping_ratio) = super::resonance(&rig, BAND_HZ)?;
     let targets = Targets {
         pm_deg: printed::PM_DEG,
         gm_db: printed::GM_DB,
-        waves: vec![WAVE],
         ..Targets::default()
     };
     let kp_max = design::kp_max(&rig, &targets)?;
@@ -175,7 +171,7 @@ fn side(article: &Rig, label: &str, set: Vec<String>, p_mean_bar: f64) -> Result
         kp: kp_max,
         ..rig.clone()
     };
-    let margins = lti::margins(&Plant::new(&at_max).open_loop(false))?;
+    let margins = super::margins_of(&at_max)?;
     let tracking = design::predicted_tracking(&at_max, &[WAVE])?;
     Ok(Side {
         label: label.to_string(),
@@ -183,8 +179,8 @@ fn side(article: &Rig, label: &str, set: Vec<String>, p_mean_bar: f64) -> Result
         set,
         p_mean_bar,
         beta_e_bar: rig.beta_bar,
-        resonance_hz: resonance.map(|r| r.natural_freq_hz),
-        damping_ratio: resonance.and_then(|r| r.damping),
+        resonance_hz,
+        damping_ratio,
         merritt_hz: merritt_hz(&rig),
         kp_max,
         kv_max_per_s: margins.velocity_gain_per_s,
