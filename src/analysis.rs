@@ -5,18 +5,16 @@ use clap::Args;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::emit::{format_of, render, write_atomic, Format};
+use crate::emit::{format_of, render, show, write_atomic, Format};
 use crate::export;
 use crate::{Loop, ModelArgs};
 use pumpcyl::lti;
-use pumpcyl_present::analysis::{
-    bode_csv, loop_margins_text, loop_pole_sets, model_text, poles_text, ModesReport,
-};
-use pumpcyl_present::documents::{margins_document, poles_document};
+use pumpcyl_present::analysis::{bode_csv, model_text};
 use pumpcyl_present::figures::{bode_markers, Chart};
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::matlab::bode_mat;
 use pumpcyl_present::plot::BodeSeries;
+use pumpcyl_present::request::analysis::{Margins, Poles};
 
 #[derive(Debug, Args)]
 pub struct MarginsArgs {
@@ -99,16 +97,7 @@ pub struct ModelCmdArgs {
 
 /// `pumpcyl margins`.
 pub fn margins(args: &MarginsArgs) -> Result<String> {
-    let lp = args.model.build(&[])?;
-    let m = lti::margins(&lp.open_loop)?;
-    if args.json {
-        return Ok(json_document(&margins_document(&m, &lp)?)?);
-    }
-    let mut text = loop_margins_text(&m, &lp)?;
-    if let Some(modes) = ModesReport::of_loop(&lp)? {
-        text += &modes.margins_text()?;
-    }
-    Ok(text)
+    show(&Margins::of_loop(args.model.build(&[])?)?, args.json)
 }
 
 /// `pumpcyl bode`.
@@ -179,15 +168,7 @@ fn series_of(lp: &Loop, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
 
 /// `pumpcyl poles`.
 pub fn poles(args: &PolesArgs) -> Result<String> {
-    let lp = args.model.build(&[])?;
-    if args.json {
-        return Ok(json_document(&poles_document(&lp)?)?);
-    }
-    let mut text = poles_text(&lp.description, &loop_pole_sets(&lp)?);
-    if let Some(modes) = ModesReport::of_loop(&lp)? {
-        text += &modes.poles_text()?;
-    }
-    Ok(text)
+    show(&Poles::of_loop(args.model.build(&[])?), args.json)
 }
 
 /// `pumpcyl model`.

@@ -102,7 +102,19 @@ pub fn hinted(e: anyhow::Error) -> anyhow::Error {
         }
         _ => return e,
     };
-    anyhow::anyhow!("{e}{hint}")
+    anyhow::anyhow!("{e:#}{hint}")
+}
+
+/// A request's outcome as the command line shows it: its warnings on standard error, then its
+/// JSON document (`json`) or its text.
+pub fn show(outcome: &impl pumpcyl_present::request::Document, json: bool) -> Result<String> {
+    for w in outcome.warnings() {
+        eprintln!("warning: {w}");
+    }
+    if json {
+        return Ok(pumpcyl_present::format::json_document(&outcome.json()?)?);
+    }
+    outcome.text()
 }
 
 /// Refuse a confidence level outside (0, 1) before any work, naming the option `--confidence`.

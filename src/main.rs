@@ -31,6 +31,7 @@ use std::path::PathBuf;
 
 use pumpcyl::loops::Loop;
 use pumpcyl::rig::Rig;
+use pumpcyl_present::request::{FieldError, RigInput};
 
 /// pumpcyl — model, analyse, identify and design pump-controlled hydraulic cylinders.
 ///
@@ -156,24 +157,38 @@ impl RigSource {
     /// The rig: file or default, with --set applied. The keys a file leaves out are noted on
     /// standard error (docs/formats.md#rig-toml) and in a JSON result's `rig_defaulted_keys`.
     pub fn load(&self) -> Result<Rig> {
-        let base = match &self.rig {
-            Some(path) => {
-                let file = Rig::from_file_with_defaults_in(crate::read_files::files(), path)
-                    .map_err(|e| crate::emit::hinted(e.into()))?;
-                let rig = file.rig.with_overrides_from("--set", &self.set)?;
-                let set: Vec<&str> = self
-                    .set
-                    .iter()
-                    .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
-                    .collect();
-                let name = path.display().to_string();
-                let file = file.with_rig(rig.clone(), &name)?;
-                crate::read_files::note_rig_defaults(&file, &name, &set);
-                return Ok(rig);
-            }
-            None => Rig::default(),
+        Ok(self.input()?.rig)
+    }
+
+    /// The rig as a request runs on it: file or default with --set applied, named by where it
+    /// came from ([`RigSource::origin`]), with the keys its file left out (noted on standard
+    /// error, docs/formats.md#rig-toml).
+    pub fn input(&self) -> Result<RigInput> {
+        let Some(path) = &self.rig else {
+            let rig = Rig::default().with_overrides_from("--set", &self.set)?;
+            return Ok(RigInput {
+                rig,
+                name: self.origin(),
+                defaulted: None,
+            });
         };
-        Ok(base.with_overrides_from("--set", &self.set)?)
+        let file = Rig::from_file_with_defaults_in(crate::read_files::files(), path)
+            .map_err(|e| crate::emit::hinted(e.into()))?;
+        let rig = file.rig.with_overrides_from("--set", &self.set)?;
+        let set: Vec<&str> = (self.set.iter())
+            .filter_map(|a| a.split_once('=').map(|(k, _)| k.trim()))
+            .collect();
+        let name = path.display().to_string();
+        let file = file.with_rig(rig.clone(), &name)?;
+        crate::read_files::note_rig_defaults(&file, &name, &set);
+        let defaulted = (file.defaulted.iter().copied())
+            .filter(|k| !set.contains(k))
+            .collect();
+        Ok(RigInput {
+            rig,
+            name: self.origin(),
+            defaulted: Some(defaulted),
+        })
     }
 
     /// Where the rig came from, in words.
@@ -304,9 +319,21 @@ pub fn run() -> Result<()> {
     emit::emit(&read_files::with_rig_defaults(text))
 }
 
+/// An error as the command line says it: each cause after the one it explains (as `{:#}`), an
+/// option out of range named as the user typed it (`--step-mm 0: ...`).
+fn message(e: &anyhow::Error) -> String {
+    let parts: Vec<String> = (e.chain())
+        .map(|cause| match cause.downcast_ref::<FieldError>() {
+            Some(field) => field.on_command_line(),
+            None => cause.to_string(),
+        })
+        .collect();
+    parts.join(": ")
+}
+
 fn main() {
     if let Err(e) = run() {
-        eprintln!("error: {}", escape_controls(&format!("{e:#}")));
+        eprintln!("error: {}", escape_controls(&message(&e)));
         std::process::exit(1);
     }
 }

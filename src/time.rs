@@ -4,19 +4,12 @@ use anyhow::{Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
-use crate::emit::{format_of, write_atomic, Format};
+use crate::emit::{format_of, show, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::record::Record;
-use pumpcyl::response::{self, Baseline, Signals, ARTICLE_SINE_CASES};
-use pumpcyl::rig::Rig;
-use pumpcyl_present::documents;
 use pumpcyl_present::figures::Chart;
-use pumpcyl_present::format::json_document;
-use pumpcyl_present::time::{
-    series, signals_csv, simulate_json, simulate_mat, simulate_series, simulate_subtitle,
-    simulate_text, simulate_title, step_mat, step_subtitle, step_text, step_title, track_chart,
-    track_json, track_mat, track_series, track_text, Replay, Run, Runs, StepSetup, Unstable,
-};
+use pumpcyl_present::request::time::{Replay, Step, Track};
+use pumpcyl_present::request::{Hooks, Request, RigInput};
 
 /// Options shared by the time-domain commands.
 #[derive(Debug, Args)]
@@ -111,110 +104,6 @@ pub struct SimulateArgs {
     opts: TimeOptions,
 }
 
-/// The nominal rig and each `--compare` variant, labelled.
-fn variants(rig: &Rig, compare: &[String]) -> Result<Vec<(String, Rig)>> {
-    let mut out = vec![("nominal".to_string(), rig.clone())];
-    for c in compare {
-        let overrides: Vec<String> = c.split(',').map(|s| s.trim().to_string()).collect();
-        let v = rig
-            .with_overrides_from("--set", &overrides)
-            .with_context(|| format!("--compare {c}"))?;
-        out.push((c.clone(), v));
-    }
-    Ok(out)
-}
-
-/// Run `f` (signals and metrics) on the nominal rig and on each `--compare` variant, each
-/// run's signals checked against its rig's drive ratings
-/// ([`response::signals_over_ratings`]). An unstable nominal rig is an error; an unstable
-/// variant is set aside with its reason (its response would only grow).
-fn run_variants<M>(
-    source: &RigSource,
-    rig: &Rig,
-    compare: &[String],
-    mut f: impl FnMut(&Rig) -> Result<(Signals, M)>,
-) -> Result<Runs<M>> {
-    let mut runs = Runs {
-        done: Vec::new(),
-        unstable: Vec::new(),
-    };
-    for (label, r) in variants(rig, compare)? {
-        match f(&r) {
-            Ok((signals, metrics)) => runs.done.push(Run {
-                label,
-                over_ratings: response::signals_over_ratings(&r, &signals),
-                signals,
-                metrics,
-            }),
-            Err(e) if label != "nominal" && is_unstable(&e) => runs.unstable.push(Unstable {
-                label,
-                reason: e.to_string(),
-            }),
-            Err(e) => return Err(crate::emit::hinted(e).context(which(source, &label))),
-        }
-    }
-    Ok(runs)
-}
-
-fn is_unstable(e: &anyhow::Error) -> bool {
-    matches!(
-        e.downcast_ref::<pumpcyl::lti::LtiError>(),
-        Some(pumpcyl::lti::LtiError::Unstable { .. })
-    )
-}
-
-/// The rig and variant a run belongs to, for messages.
-fn which(rig: &RigSource, label: &str) -> String {
-    match label {
-        "nominal" => rig.origin(),
-        variant => format!("{} with --compare {variant}", rig.origin()),
-    }
-}
-
-/// Check a run of `duration_s` (set by the options `duration_from`) sampled at `rate_hz` before
-/// any work, as the core checks every record ([`pumpcyl::limits::check_samples`]), blaming the
-/// options that set it.
-fn check_timing(duration_s: f64, duration_from: &str, rate_hz: f64) -> Result<()> {
-    pumpcyl::limits::check_samples(duration_s, rate_hz)
-        .map_err(|e| anyhow::anyhow!("{duration_from} and --rate-hz: {e}"))?;
-    Ok(())
-}
-
-/// Refuse a reference from `lo_mm` to `hi_mm` that leaves the rig's stroke
-/// ([`Rig::check_reference`]), naming the options `what` that set it.
-fn check_in_stroke(rig: &Rig, what: &str, lo_mm: f64, hi_mm: f64) -> Result<()> {
-    rig.check_reference(lo_mm, hi_mm)
-        .map_err(|e| anyhow::anyhow!("{what}: {e}"))
-}
-
-/// Warn of every run whose predicted position leaves the stroke of `rig`
-/// ([`response::stroke_excursion`]) on standard error, and return the warnings, each named
-/// by its run when there are several.
-fn stroke_warnings<M>(rig: &Rig, runs: &Runs<M>) -> Vec<String> {
-    let several = runs.done.len() > 1;
-    let warnings: Vec<String> = runs
-        .done
-        .iter()
-        .filter_map(|run| {
-            let e = response::stroke_excursion(rig, &run.signals)?;
-            Some(if several {
-                format!("{}: {e}", run.label)
-            } else {
-                e.to_string()
-            })
-        })
-        .collect();
-    for w in &warnings {
-        eprintln!("warning: {w}");
-    }
-    warnings
-}
-
-/// The JSON document `doc` with its `warnings` ([`documents::with_warnings`]).
-fn with_warnings(doc: serde_json::Value, warnings: &[String]) -> Result<String> {
-    Ok(json_document(&documents::with_warnings(doc, warnings))?)
-}
-
 /// Write signals by the extension of `path`: the CSV `csv` makes, the MAT-file `mat` makes or
 /// the figure `chart` makes (SVG or PNG).
 fn write_signals(
@@ -230,172 +119,64 @@ fn write_signals(
     }
 }
 
+/// Run `request` on `rig`, its errors with the command line's hints (`crate::emit::hinted`).
+fn run<R: Request>(request: &R, rig: &RigInput) -> Result<R::Outcome> {
+    request.run(rig, Hooks::none()).map_err(crate::emit::hinted)
+}
+
 /// `pumpcyl step`.
 pub fn step(args: &StepArgs) -> Result<String> {
-    check_timing(args.duration_s, "--duration-s", args.rate_hz)?;
-    anyhow::ensure!(
-        args.step_mm != 0.0 && args.step_mm.is_finite(),
-        "--step-mm must be non-zero"
-    );
-    let rig = args.rig.load()?;
-    let (x0, end) = (rig.x0_mm, rig.x0_mm + args.step_mm);
-    check_in_stroke(
-        &rig,
-        &format!("--step-mm {}", args.step_mm),
-        x0.min(end),
-        x0.max(end),
-    )?;
-    let runs = run_variants(&args.rig, &rig, &args.opts.compare, |r| {
-        let s = response::step(r, args.step_mm, args.duration_s, args.rate_hz)?;
-        let m = response::step_report(r, &s, args.step_mm)?;
-        Ok((s, m))
-    })?;
-    let origin = args.rig.origin();
-    let setup = StepSetup {
-        rig: &origin,
-        circuit: rig.circuit,
+    let request = Step {
         step_mm: args.step_mm,
         duration_s: args.duration_s,
         rate_hz: args.rate_hz,
+        compare: args.opts.compare.clone(),
     };
+    let outcome = run(&request, &args.rig.input()?)?;
     if let Some(path) = &args.opts.out {
-        let title = step_title(&setup, rig.x0_mm);
-        let subtitle = step_subtitle(&runs.done[0].metrics);
-        let series = series(&runs.done);
-        write_signals(
-            path,
-            || signals_csv(&series, None),
-            || step_mat(&title, &runs.done),
-            || Chart::signals(&title, Some(&subtitle), &series, None, None),
-        )?;
+        write_signals(path, || outcome.csv(), || outcome.mat(), || outcome.chart())?;
     }
-    let warnings = stroke_warnings(&rig, &runs);
-    if args.opts.json {
-        return Ok(json_document(&documents::step_document(
-            &setup, &runs, &warnings,
-        ))?);
-    }
-    Ok(step_text(&setup, &runs))
+    show(&outcome, args.opts.json)
 }
 
 /// `pumpcyl track`.
 pub fn track(args: &TrackArgs) -> Result<String> {
-    let cases: Vec<(f64, f64)> = if args.article_cases {
-        ARTICLE_SINE_CASES.to_vec()
-    } else {
-        vec![(
-            args.freq_hz.unwrap_or_default(),
-            args.amp_mm.unwrap_or_default(),
-        )]
+    let waves = match (args.article_cases, args.freq_hz, args.amp_mm) {
+        (false, Some(f), Some(a)) => vec![(f, a)],
+        _ => Vec::new(),
     };
-    anyhow::ensure!(
-        (1.0..=f64::from(u32::MAX)).contains(&args.periods) && args.periods.fract() == 0.0,
-        "--periods must be a whole number of periods, 1 or more (got {})",
-        args.periods
-    );
-    for &(f, a) in &cases {
-        anyhow::ensure!(f > 0.0 && f.is_finite(), "--freq-hz must be > 0 (got {f})");
-        anyhow::ensure!(a > 0.0 && a.is_finite(), "--amp-mm must be > 0 (got {a})");
-        check_timing(args.periods / f, "--periods / --freq-hz", args.rate_hz)?;
-    }
-    let periods = args.periods as u32; // whole and within u32, checked above
-    let rig = args.rig.load()?;
-    for &(_, a) in &cases {
-        let what = format!("--amp-mm {a}");
-        check_in_stroke(&rig, &what, rig.x0_mm - a, rig.x0_mm + a)?;
-    }
-    let mut runs = Runs {
-        done: Vec::new(),
-        unstable: Vec::new(),
+    let request = Track {
+        waves,
+        periods: args.periods,
+        rate_hz: args.rate_hz,
+        compare: args.opts.compare.clone(),
     };
-    for &(f, a) in &cases {
-        let case = run_variants(&args.rig, &rig, &args.opts.compare, |r| {
-            Ok(response::track(r, f, a, periods, args.rate_hz)?)
-        })?;
-        runs.done.extend(case.done);
-        // a variant's closed loop is unstable or not whatever the sine
-        runs.unstable = case.unstable;
-    }
+    let outcome = run(&request, &args.rig.input()?)?;
     if let Some(path) = &args.opts.out {
-        write_signals(
-            path,
-            || signals_csv(&track_series(&runs.done), None),
-            || track_mat(&runs.done),
-            || track_chart(&runs.done),
-        )?;
+        write_signals(path, || outcome.csv(), || outcome.mat(), || outcome.chart())?;
     }
-    let origin = args.rig.origin();
-    let warnings = stroke_warnings(&rig, &runs);
-    if args.opts.json {
-        return with_warnings(track_json(&origin, rig.circuit, &runs), &warnings);
-    }
-    Ok(track_text(&origin, rig.circuit, &runs))
+    show(&outcome, args.opts.json)
 }
 
 /// `pumpcyl simulate`.
 pub fn simulate(args: &SimulateArgs) -> Result<String> {
-    let (rec, rig, dataset_end) = replayed(args)?;
-    rec.check_units(rig.stroke_mm)?;
-    let (lo, hi) = rec.reference_range_mm();
-    check_in_stroke(&rig, &format!("{}: x_ref_mm", rec.file), lo, hi)?;
-    let origin = match (&args.experiment, args.dataset) {
-        (Some(p), Some(n)) => format!(
-            "{} dataset {n}: Kp {}, m {} kg, K_pres {} per bar",
-            p.display(),
-            rig.kp,
-            rig.mass_kg,
-            rig.k_pres_per_bar
-        ),
-        _ => args.rig.origin(),
-    };
-    let window_end = match args.fit_end_s.or(dataset_end) {
-        Some(t) => {
-            let (t0, t1) = (rec.time_s[0], rec.time_s[rec.len() - 1]);
-            anyhow::ensure!(
-                t.is_finite() && t > t0 && t <= t1,
-                "{}: --fit-end-s {t} lies outside the record ({t0} … {t1} s)",
-                rec.file
-            );
-            t
-        }
-        None => rec.time_s[rec.len() - 1],
-    };
-    let measured = Signals::of_record(&rec);
-    let runs = run_variants(&args.rig, &rig, &args.opts.compare, |r| {
-        let base = Baseline::of_record(&rec, r);
-        let s = response::simulate(r, &rec.time_s, &rec.x_ref_mm, &base)?;
-        let mse = response::position_mse_until(&rec.time_s, &s.x_mm, &rec.x_mm, window_end);
-        Ok((s, mse))
-    })?;
-    let replay = Replay {
-        record: &rec,
-        rig: &origin,
-        circuit: rig.circuit,
+    let (record, rig, dataset_end) = replayed(args)?;
+    let request = Replay {
+        record,
+        fit_end_s: args.fit_end_s.or(dataset_end),
         own_conditions: args.experiment.is_some(),
-        fit_end_s: window_end,
+        compare: args.opts.compare.clone(),
     };
+    let outcome = run(&request, &rig)?;
     if let Some(path) = &args.opts.out {
-        let series = simulate_series(&runs.done);
-        let title = simulate_title(&replay);
-        let subtitle = simulate_subtitle(&replay, runs.done[0].metrics);
-        let mark = args.fit_end_s.or(dataset_end);
-        write_signals(
-            path,
-            || signals_csv(&series, Some(&measured)),
-            || simulate_mat(&replay, &runs.done, &measured),
-            || Chart::signals(&title, Some(&subtitle), &series, Some(&measured), mark),
-        )?;
+        write_signals(path, || outcome.csv(), || outcome.mat(), || outcome.chart())?;
     }
-    let warnings = stroke_warnings(&rig, &runs);
-    if args.opts.json {
-        return with_warnings(simulate_json(&replay, &runs), &warnings);
-    }
-    Ok(simulate_text(&replay, &runs))
+    show(&outcome, args.opts.json)
 }
 
 /// The record to replay, the rig to replay it on and the dataset's fit window end (s): from
 /// --data and the rig options, or from a dataset of --experiment with its own conditions.
-fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
+fn replayed(args: &SimulateArgs) -> Result<(Record, RigInput, Option<f64>)> {
     let (Some(path), Some(n)) = (&args.experiment, args.dataset) else {
         let data = args
             .data
@@ -403,7 +184,7 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
             .context("--data or --experiment is needed")?;
         return Ok((
             Record::read_in(crate::read_files::files(), data)?,
-            args.rig.load()?,
+            args.rig.input()?,
             None,
         ));
     };
@@ -416,5 +197,18 @@ fn replayed(args: &SimulateArgs) -> Result<(Record, Rig, Option<f64>)> {
     );
     let ds = &exp.problem.datasets[n - 1];
     let rig = ds.rig.with_overrides_from("--set", &args.rig.set)?;
+    let name = format!(
+        "{} dataset {n}: Kp {}, m {} kg, K_pres {} per bar",
+        path.display(),
+        rig.kp,
+        rig.mass_kg,
+        rig.k_pres_per_bar
+    );
+    let defaulted = exp.rig_defaulted_keys().map(<[_]>::to_vec);
+    let rig = RigInput {
+        rig,
+        name,
+        defaulted,
+    };
     Ok((ds.record.clone(), rig, Some(ds.fit_end_s)))
 }

@@ -409,7 +409,9 @@ fn track_metrics_are_the_periodic_steady_state_whatever_the_periods() {
     for bad in ["2.5", "0", "-1"] {
         let err = fails(&track(bad));
         assert!(
-            err.contains("--periods must be a whole number of periods, 1 or more"),
+            err.contains(&format!(
+                "--periods {bad}: must be a whole number of periods, 1 or more"
+            )),
             "{err}"
         );
     }

@@ -36,6 +36,7 @@ from ._pumpcyl import (
     simulate,
     state_space,
     step,
+    track,
 )
 
 __version__ = "0.1.0"
@@ -64,6 +65,7 @@ __all__ = [
     "state_space",
     "step",
     "to_control",
+    "track",
 ]
 
 

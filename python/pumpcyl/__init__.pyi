@@ -18,6 +18,7 @@ from ._pumpcyl import (
     Selection as Selection,
     Signals as Signals,
     Simulation as Simulation,
+    Tracking as Tracking,
     Step as Step,
     Summary as Summary,
     advise as advise,
@@ -38,6 +39,7 @@ from ._pumpcyl import (
     simulate as simulate,
     state_space as state_space,
     step as step,
+    track as track,
 )
 
 __version__: str

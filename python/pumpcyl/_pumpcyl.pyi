@@ -259,6 +259,20 @@ class Step(Result):
     warnings: List[str]
     """The predicted position leaving the stroke, if it does (docs/emulator.md#end-stops)."""
 
+class Tracking(Result):
+    """Sinusoidal tracking (docs/simulation.md#tracking-metrics): ``pumpcyl track --json``."""
+
+    rig: str
+    """The rig simulated, in words (its ``repr`` from Python)."""
+    circuit: Literal["dpm", "dual-pump", "single-pump", "valve"]
+    """The rig's circuit (docs/circuits.md)."""
+    cases: List[Dict[str, Any]]
+    """One per sine: ``label``, ``metrics`` (freq_hz, amp_mm, max_error_mm, rms_error_mm,
+    wave_reduction, rest_offset_mm and ``window``, the periods measured: the periodic steady
+    state) and ``over_ratings`` (the drive ratings the run exceeds; each also warns)."""
+    warnings: List[str]
+    """The predicted position leaving the stroke, if it does (docs/emulator.md#end-stops)."""
+
 class Identification(Result):
     """The answer of :func:`identify`: ``pumpcyl identify --json`` (and result.json)."""
 
@@ -565,6 +579,18 @@ def step(
     """Response to a position step of ``step_mm`` (mm) from x0, sampled at ``rate_hz`` (Hz)
     for ``duration_s`` (s), as ``pumpcyl step --json``. A step smaller than 0.05 mm in size warns (``UserWarning``):
     ``step_mm`` is in millimetres, not metres."""
+
+def track(
+    rig: Rig,
+    freq_hz: Optional[float] = None,
+    amp_mm: Optional[float] = None,
+    *,
+    periods: float = 3.0,
+    rate_hz: float = 100.0,
+) -> Tracking:
+    """Tracking of a sine of ``freq_hz`` (Hz) and ``amp_mm`` (mm) about x0, or of the
+    article's three sines when both are ``None``, over ``periods`` whole periods sampled at
+    ``rate_hz`` (Hz): the metrics of the periodic steady state, as ``pumpcyl track --json``."""
 
 GridDict = Dict[str, Sequence[float]]
 

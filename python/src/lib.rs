@@ -27,6 +27,7 @@ use pumpcyl::response::{self, Baseline, Signals};
 use pumpcyl::rig::{Rig, RigError};
 use pumpcyl::select::SelectError;
 use pumpcyl_present::identification as outputs;
+use pumpcyl_present::request::{self, Document, FieldError, Hooks, Request, RigInput};
 
 create_exception!(
     pumpcyl,
@@ -320,6 +321,15 @@ impl PyRig {
     /// (`pumpcyl_present::documents::with_rig_defaulted_keys`, as the command line's).
     fn document(&self, doc: serde_json::Value) -> serde_json::Value {
         pumpcyl_present::documents::with_rig_defaulted_keys(doc, self.defaulted.as_deref())
+    }
+
+    /// The rig as a request runs on it, named by its `repr`.
+    fn input(&self) -> RigInput {
+        RigInput {
+            rig: self.rig.clone(),
+            name: self.__repr__(),
+            defaulted: self.defaulted.clone(),
+        }
     }
 
     /// The rig of `file` (read from `name`), a `UserWarning` naming the keys it leaves out and
@@ -700,21 +710,56 @@ fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<Stri
     Ok(lines.join("\n"))
 }
 
+/// A request's error as Python says it of the call `call`: an option out of range named as
+/// its keyword (`step(step_mm=0.0): ...`), each cause after the one it explains.
+fn request_err(call: &str, e: &anyhow::Error) -> PyErr {
+    let parts: Vec<String> = (e.chain())
+        .map(|cause| match cause.downcast_ref::<FieldError>() {
+            Some(field) => field.in_python(call),
+            None => cause.to_string(),
+        })
+        .collect();
+    err(parts.join(": "))
+}
+
+/// Run the request `call` (`request`) on `rig` with the GIL released.
+fn run_request<R>(py: Python<'_>, call: &str, request: &R, rig: &PyRig) -> PyResult<R::Outcome>
+where
+    R: Request + Sync,
+    R::Outcome: Send,
+{
+    let input = rig.input();
+    (py.detach(|| request.run(&input, Hooks::none()))).map_err(|e| request_err(call, &e))
+}
+
+/// The outcome of the request `call` as a `Result` of `kind`, each of its warnings a
+/// `UserWarning`.
+fn document(
+    py: Python<'_>,
+    call: &str,
+    kind: &str,
+    outcome: &impl Document,
+) -> PyResult<PyOutcome> {
+    warn_each(py, outcome.warnings().to_vec())?;
+    let doc = outcome.json().map_err(|e| request_err(call, &e))?;
+    PyOutcome::of(py, kind, &doc)
+}
+
 /// Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing and
 /// closed-loop stability: the command line's `margins --json`, field for field (a `None` margin
 /// is infinite: no crossing of that kind).
 #[pyfunction]
 #[pyo3(signature = (rig, *, sum_pressure_closed = false))]
 fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
-    let (name, rig) = (rig.__repr__(), rig.rig.clone());
-    let json = py
-        .detach(|| {
-            let lp = Loop::of_rig(rig, &name, sum_pressure_closed);
-            let m = lti::margins(&lp.open_loop).map_err(|e| e.to_string())?;
-            pumpcyl_present::documents::margins_document(&m, &lp).map_err(|e| e.to_string())
-        })
-        .map_err(err)?;
-    PyOutcome::of(py, "Margins", &json)
+    let request = request::analysis::Margins {
+        sum_pressure_closed,
+    };
+    document(
+        py,
+        "margins",
+        "Margins",
+        &run_request(py, "margins", &request, rig)?,
+    )
 }
 
 /// The poles of the position loop (open loop, unity position feedback, and the closed loop as
@@ -724,14 +769,15 @@ fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<P
 #[pyfunction]
 #[pyo3(signature = (rig, *, sum_pressure_closed = false))]
 fn poles(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
-    let (name, rig) = (rig.__repr__(), rig.rig.clone());
-    let json = py
-        .detach(|| {
-            let lp = Loop::of_rig(rig, &name, sum_pressure_closed);
-            pumpcyl_present::documents::poles_document(&lp).map_err(|e| e.to_string())
-        })
-        .map_err(err)?;
-    PyOutcome::of(py, "Poles", &json)
+    let request = request::analysis::Poles {
+        sum_pressure_closed,
+    };
+    document(
+        py,
+        "poles",
+        "Poles",
+        &run_request(py, "poles", &request, rig)?,
+    )
 }
 
 /// (A, B, C, D) of the open or closed loop (SI units; states as `pumpcyl model` lists them).
@@ -885,10 +931,6 @@ fn simulate(
     PyOutcome::of(py, "Simulation", &from.document(doc))?.with_arrays(py, "signals", "Signals")
 }
 
-/// Below this step size (mm) `step` warns: a step that small is probably metres given as
-/// millimetres.
-const STEP_WARN_BELOW_MM: f64 = 0.05;
-
 /// Closed-loop response to a position step of `step_mm` (mm) from the operating point x0,
 /// sampled at `rate_hz` (Hz) for `duration_s` (s): the command line's `step --json` (`rig`,
 /// `circuit`, `step_mm`, `metrics`, `over_ratings`, `signals` as numpy arrays, `warnings`). A step
@@ -904,45 +946,52 @@ fn step(
     duration_s: f64,
     rate_hz: f64,
 ) -> PyResult<PyOutcome> {
-    let ok = step_mm.is_finite() && step_mm != 0.0;
-    Arg::new("step", "step_mm").check(py, step_mm, ok, "must be finite and non-zero")?;
-    if step_mm.abs() < STEP_WARN_BELOW_MM {
-        let message = format!(
-            "step_mm = {step_mm}: a step of {} µm is unusual; step_mm is in millimetres",
-            step_mm * 1000.0
-        );
-        let category = py.get_type::<PyUserWarning>();
-        PyErr::warn(py, category.as_any(), &CString::new(message)?, 1)?;
-    }
-    let (name, from, rig) = (rig.__repr__(), rig, rig.rig.clone());
-    let (s, m) = py
-        .detach(|| {
-            let s = response::step(&rig, step_mm, duration_s, rate_hz)?;
-            let m = response::step_report(&rig, &s, step_mm)?;
-            Ok::<_, lti::LtiError>((s, m))
-        })
-        .map_err(err)?;
-    let over = response::signals_over_ratings(&rig, &s);
-    let warnings = run_warnings(py, "step", &rig, &s, &over)?;
-    use pumpcyl_present::time::{Run, Runs, StepSetup};
-    let runs = Runs {
-        done: vec![Run {
-            label: "nominal".into(),
-            signals: s,
-            metrics: m,
-            over_ratings: over,
-        }],
-        unstable: Vec::new(),
-    };
-    let setup = StepSetup {
-        rig: &name,
-        circuit: rig.circuit,
+    let request = request::time::Step {
         step_mm,
         duration_s,
         rate_hz,
+        compare: Vec::new(),
     };
-    let doc = pumpcyl_present::documents::step_document(&setup, &runs, &warnings);
-    PyOutcome::of(py, "Step", &from.document(doc))?.with_arrays(py, "signals", "Signals")
+    let outcome = run_request(py, "step", &request, rig)?;
+    let s = document(py, "step", "Step", &outcome)?;
+    warn_each(py, outcome.rating_warnings())?;
+    s.with_arrays(py, "signals", "Signals")
+}
+
+/// Sinusoidal tracking about x0 (docs/simulation.md#tracking-metrics): a sine of `freq_hz` (Hz)
+/// and `amp_mm` (mm), or the article's three (0.1 Hz ±50 mm, 0.2 Hz ±35 mm, 0.25 Hz ±20 mm)
+/// when both are `None`, over `periods` whole periods sampled at `rate_hz` (Hz); the metrics
+/// are the periodic steady state. The command line's `track --json` (`rig`, `circuit`,
+/// `cases`: `label`, `metrics`, `over_ratings` each; `unstable`, `warnings`). A predicted
+/// position outside the stroke warns (UserWarning).
+#[pyfunction]
+#[pyo3(signature = (rig, freq_hz = None, amp_mm = None, *, periods = 3.0, rate_hz = 100.0))]
+fn track(
+    py: Python<'_>,
+    rig: &PyRig,
+    freq_hz: Option<f64>,
+    amp_mm: Option<f64>,
+    periods: f64,
+    rate_hz: f64,
+) -> PyResult<PyOutcome> {
+    let waves =
+        match (freq_hz, amp_mm) {
+            (Some(f), Some(a)) => vec![(f, a)],
+            (None, None) => Vec::new(),
+            _ => return Err(err(
+                "track: give freq_hz and amp_mm together, or neither for the article's three sines",
+            )),
+        };
+    let request = request::time::Track {
+        waves,
+        periods,
+        rate_hz,
+        compare: Vec::new(),
+    };
+    let outcome = run_request(py, "track", &request, rig)?;
+    let t = document(py, "track", "Tracking", &outcome)?;
+    warn_each(py, outcome.rating_warnings())?;
+    Ok(t)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -2346,6 +2395,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bode, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(step, m)?)?;
+    m.add_function(wrap_pyfunction!(track, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify_merge, m)?)?;
     m.add_function(wrap_pyfunction!(check_shards, m)?)?;

@@ -84,6 +84,53 @@ def test_step_is_the_document_of_step_json_with_numpy_signals():
         {k: v for k, v in doc.items() if k not in ("signals", "metrics")}
 
 
+def test_track_is_the_document_of_track_json_on_a_rig_that_is_not_the_articles():
+    """`track` is one request for both front ends: the user rig's tracking of one sine and of
+    the article's three gives the command line's keys and numbers (to the bit: the same
+    computation), `rig_defaulted_keys` included, and the stub's fields."""
+    user = ROOT / "tests" / "user-rig.toml"
+    with pytest.warns(UserWarning, match="does not set"):
+        rig = pumpcyl.Rig.from_toml(user)
+    for args, call in ((["--freq-hz", "0.3", "--amp-mm", "12", "--periods", "2"],
+                        lambda: pumpcyl.track(rig, 0.3, 12.0, periods=2)),
+                       (["--article-cases"], lambda: pumpcyl.track(rig))):
+        doc = cli("track", "--rig", str(user), *args, "--json")
+        t = call()
+        # a rig from a file adds `rig_defaulted_keys` to the stub's fields (Result's docstring)
+        assert sorted(t) == sorted(doc)
+        assert sorted(stub_fields("Tracking")) == sorted(k for k in doc if k != "rig_defaulted_keys")
+        assert len(t.cases) == len(doc["cases"]) == (1 if "--freq-hz" in args else 3)
+        assert t.rig_defaulted_keys == doc["rig_defaulted_keys"] and len(doc["rig_defaulted_keys"]) > 5
+        plain = t.to_dict()
+        assert plain.pop("rig") != doc["rig"]  # each front end names the rig as its user wrote it
+        doc.pop("rig")
+        assert plain == doc
+    # the periodic steady state's error is below the sine and the same whatever the periods
+    a, b = pumpcyl.track(rig, 0.3, 12.0, periods=1), pumpcyl.track(rig, 0.3, 12.0, periods=4)
+    ma, mb = a.cases[0]["metrics"], b.cases[0]["metrics"]
+    assert 0.0 < ma["max_error_mm"] < 12.0
+    assert abs(ma["max_error_mm"] - mb["max_error_mm"]) < 1e-9
+
+
+def test_track_and_step_name_a_bad_argument_as_python_writes_it():
+    rig = pumpcyl.Rig()
+    for call, text in ((lambda: pumpcyl.track(rig, 0.2, 35.0, periods=2.5),
+                        "track(periods=2.5): must be a whole number of periods, 1 or more"),
+                       (lambda: pumpcyl.track(rig, -0.2, 35.0), "track(freq_hz=-0.2): must be > 0"),
+                       (lambda: pumpcyl.track(rig, 0.2, 600.0), "track(amp_mm=600.0): the reference spans"),
+                       (lambda: pumpcyl.track(rig, 0.2), "give freq_hz and amp_mm together"),
+                       (lambda: pumpcyl.step(rig, 0.0), "step(step_mm=0.0): must be finite and non-zero"),
+                       (lambda: pumpcyl.step(rig, 5.0, rate_hz=float("nan")), "step(duration_s=4.0, rate_hz=nan): ")):
+        with pytest.raises(pumpcyl.PumpcylError) as e:
+            call()
+        assert text in str(e.value), str(e.value)
+    # the command line names the same options as it spells them
+    bad = subprocess.run([pumpcyl_binary(), "track", "--freq-hz", "0.2", "--amp-mm", "35", "--periods", "2.5"],
+                         capture_output=True, text=True)
+    assert bad.returncode != 0
+    assert bad.stderr.strip() == "error: --periods 2.5: must be a whole number of periods, 1 or more"
+
+
 def test_step_and_simulate_name_the_circuit_as_the_command_line():
     """Every output names the circuit it used: the user rig switched to the dual-pump circuit
     (the article's Figure 1b) gives `circuit` as `step --json` does."""

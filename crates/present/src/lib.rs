@@ -25,6 +25,7 @@
 //! - [`records`] — the one CSV writer; records, drive records and the emulated article records'
 //!   folder (CSV, README, identify experiment);
 //! - [`reproduce`] — the article's whole workflow as one call: numbers, figures, report;
+//! - [`request`] — the commands as requests: options in, the document both front ends show out;
 //! - [`table`] — tables of text cells, for terminals and reports;
 //! - [`uncertainty`] — the uncertainty of an identification: JSON fields, text, profile figures.
 
@@ -50,6 +51,7 @@ pub mod origin;
 pub mod plot;
 pub mod records;
 pub mod reproduce;
+pub mod request;
 pub mod select;
 pub mod table;
 pub mod time;

@@ -1,0 +1,221 @@
+//! Commands as requests (docs/architecture.md#requests): each command the command line and the
+//! Python package share is a request type, its options as fields named as both front ends name
+//! them (`step_mm` is `--step-mm` and `step_mm=`), and one call, [`Request::run`], that returns
+//! its outcome: the document both front ends show ([`Document`]: the JSON `--json` prints and
+//! Python returns, the text the terminal shows, the warnings). The front ends only parse their
+//! arguments into a request and show its outcome, so both give the same keys, and checks of an
+//! option are written once.
+//!
+//! - [`analysis`] — `margins`, `poles`;
+//! - [`time`] — `step`, `track`, `simulate` (a record replayed).
+
+pub mod analysis;
+pub mod time;
+
+use pumpcyl::rig::Rig;
+use serde_json::Value;
+
+/// The rig a request runs on, as the front end read it.
+#[derive(Debug, Clone)]
+pub struct RigInput {
+    /// The rig, with every override applied.
+    pub rig: Rig,
+    /// The rig as the front end names it in documents (`default rig`, `my.toml, mass_kg=900`,
+    /// `Rig(mass_kg=900.0)`).
+    pub name: String,
+    /// The keys its rig file left out (docs/formats.md#rig-toml); `None` for a rig not read
+    /// from a file.
+    pub defaulted: Option<Vec<&'static str>>,
+}
+
+impl RigInput {
+    /// The embedded default rig (the article's), named `name`.
+    pub fn default_named(name: &str) -> RigInput {
+        RigInput {
+            rig: Rig::default(),
+            name: name.to_string(),
+            defaulted: None,
+        }
+    }
+
+    /// The result document `doc` with the keys this rig's file left out
+    /// ([`crate::documents::with_rig_defaulted_keys`]).
+    pub fn document(&self, doc: Value) -> Value {
+        crate::documents::with_rig_defaulted_keys(doc, self.defaulted.as_deref())
+    }
+}
+
+/// What a long request reports and how it is stopped: `tick(n)` is called as `n` more units of
+/// work are done (candidates, cases) and returns `false` once the caller wants it to stop.
+#[derive(Clone, Copy)]
+pub struct Hooks<'a> {
+    /// Progress and cancellation, as the core's cancellable searches take them.
+    pub tick: &'a (dyn Fn(u64) -> bool + Sync),
+}
+
+impl Hooks<'static> {
+    /// No progress shown, never cancelled.
+    pub fn none() -> Hooks<'static> {
+        Hooks { tick: &|_| true }
+    }
+}
+
+/// A command's request: its options, checked and run by [`Request::run`].
+pub trait Request {
+    /// What the request returns.
+    type Outcome: Document;
+
+    /// Run the request on `rig`.
+    ///
+    /// # Errors
+    /// An option out of range (a [`FieldError`] naming it), a rig the command cannot run on, a
+    /// computation that fails or a cancellation.
+    fn run(&self, rig: &RigInput, hooks: Hooks<'_>) -> anyhow::Result<Self::Outcome>;
+}
+
+/// The outcome of a request as the front ends show it.
+pub trait Document {
+    /// The JSON document (`--json`; Python's `Result`).
+    ///
+    /// # Errors
+    /// A number of the document cannot be computed.
+    fn json(&self) -> anyhow::Result<Value>;
+
+    /// The text the command line prints without `--json`.
+    ///
+    /// # Errors
+    /// A number of the text cannot be computed.
+    fn text(&self) -> anyhow::Result<String>;
+
+    /// What the front end warns of (the command line on standard error, Python as a
+    /// `UserWarning`); the JSON document lists the same lines as its `warnings`.
+    fn warnings(&self) -> &[String] {
+        &[]
+    }
+}
+
+/// An option of a request out of its range: the front end names it as its user wrote it
+/// (`--step-mm 0: ...` on the command line, `step(step_mm=0.0): ...` in Python), with every
+/// option a rule ties together.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}: {problem}", self.named(|f, v| format!("{f} = {}", v.on_command_line())))]
+pub struct FieldError {
+    /// The request's fields (the Python keywords; the command line's options with `-` for `_`)
+    /// and the values given.
+    pub fields: Vec<(&'static str, Given)>,
+    /// What is wrong with them.
+    pub problem: String,
+}
+
+/// A value given for an option.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Given {
+    /// A number.
+    Number(f64),
+    /// Text, as written.
+    Text(String),
+}
+
+impl Given {
+    /// As the command line's user wrote it (`0.5`, `NaN`).
+    fn on_command_line(&self) -> String {
+        match self {
+            Given::Number(v) => format!("{v}"),
+            Given::Text(t) => t.clone(),
+        }
+    }
+
+    /// As Python shows it (`0.5`, `2.0`, `nan`, `'text'`).
+    fn in_python(&self) -> String {
+        match self {
+            Given::Number(v) if v.is_nan() => "nan".into(),
+            Given::Number(v) if v.is_infinite() => if *v > 0.0 { "inf" } else { "-inf" }.into(),
+            Given::Number(v) if v.fract() == 0.0 && v.abs() < 1e16 => format!("{v:.1}"),
+            Given::Number(v) => format!("{v}"),
+            Given::Text(t) => format!("{t:?}").replace('"', "'"),
+        }
+    }
+}
+
+impl FieldError {
+    /// `field` = `value` is wrong: `problem`.
+    pub fn new(field: &'static str, value: Given, problem: impl Into<String>) -> FieldError {
+        FieldError {
+            fields: vec![(field, value)],
+            problem: problem.into(),
+        }
+    }
+
+    /// The same error, tied to `field` = `value` too.
+    #[must_use]
+    pub fn and(mut self, field: &'static str, value: Given) -> FieldError {
+        self.fields.push((field, value));
+        self
+    }
+
+    fn named(&self, each: impl Fn(&str, &Given) -> String) -> String {
+        let parts: Vec<String> = self.fields.iter().map(|(f, v)| each(f, v)).collect();
+        parts.join(", ")
+    }
+
+    /// The error as the command line says it: `--periods 2.5: must be ...`.
+    pub fn on_command_line(&self) -> String {
+        let named = self.named(|f, v| format!("--{} {}", f.replace('_', "-"), v.on_command_line()));
+        format!("{named}: {}", self.problem)
+    }
+
+    /// The error as Python says it of the call `call`: `track(periods=2.5): must be ...`.
+    pub fn in_python(&self, call: &str) -> String {
+        let named = self.named(|f, v| format!("{f}={}", v.in_python()));
+        format!("{call}({named}): {}", self.problem)
+    }
+}
+
+/// `Ok` if `ok`, else the [`FieldError`] of `field` = `value` saying `problem`.
+///
+/// # Errors
+/// `ok` is false.
+pub fn check_field(field: &'static str, value: f64, ok: bool, problem: &str) -> anyhow::Result<()> {
+    if ok {
+        return Ok(());
+    }
+    Err(FieldError::new(field, Given::Number(value), problem).into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_field_error_names_its_options_as_each_front_end_spells_them() {
+        let e = FieldError::new("duration_s", Given::Number(4.0), "too long")
+            .and("rate_hz", Given::Number(f64::NAN));
+        assert_eq!(
+            e.on_command_line(),
+            "--duration-s 4, --rate-hz NaN: too long"
+        );
+        assert_eq!(
+            e.in_python("step"),
+            "step(duration_s=4.0, rate_hz=nan): too long"
+        );
+        assert_eq!(e.to_string(), "duration_s = 4, rate_hz = NaN: too long");
+        let text = FieldError::new("compare", Given::Text("beta_bar=-1".into()), "must be > 0");
+        assert_eq!(
+            text.in_python("step"),
+            "step(compare='beta_bar=-1'): must be > 0"
+        );
+        let half = FieldError::new("periods", Given::Number(2.5), "whole");
+        assert_eq!(half.in_python("track"), "track(periods=2.5): whole");
+        assert_eq!(half.on_command_line(), "--periods 2.5: whole");
+        let inf = FieldError::new("x", Given::Number(f64::NEG_INFINITY), "finite");
+        assert_eq!(inf.in_python("f"), "f(x=-inf): finite");
+    }
+
+    #[test]
+    fn check_field_passes_or_names_the_field() {
+        assert!(check_field("step_mm", 5.0, true, "non-zero").is_ok());
+        let e = check_field("step_mm", 0.0, false, "non-zero").unwrap_err();
+        let field = e.downcast_ref::<FieldError>().expect("a FieldError");
+        assert_eq!(field.on_command_line(), "--step-mm 0: non-zero");
+    }
+}
