@@ -4,11 +4,11 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 
+use crate::emit::{render_both, show, write_atomic};
 use crate::RigSource;
-use pumpcyl::design::{design_with, Targets};
-use pumpcyl::limits::Work;
-use pumpcyl_present::design::design_text;
 use pumpcyl_present::format::json_document;
+use pumpcyl_present::request::design::{Design, Robust};
+use pumpcyl_present::request::Document;
 
 #[derive(Debug, Args)]
 pub struct DesignArgs {
@@ -86,47 +86,29 @@ pub(crate) fn parse_wave(s: &str) -> Result<(f64, f64), String> {
 
 /// `pumpcyl design`.
 pub fn run(args: &DesignArgs) -> Result<String> {
-    let rig = args.rig.load()?;
-    for &p in &args.p_mean_bar {
-        anyhow::ensure!(p > 0.0 && p.is_finite(), "--p-mean-bar {p}: must be > 0");
-    }
-    for &m in &args.mass_kg {
-        anyhow::ensure!(m > 0.0 && m.is_finite(), "--mass-kg {m}: must be > 0");
-    }
-    let targets = Targets {
-        pm_deg: args.target_pm_deg,
-        gm_db: args.target_gm_db,
+    let load = (args.experiment.as_deref()).map(|p| move || crate::read_files::experiment(p));
+    let robust = (args.robust)
+        .then(|| Robust::new(args.confidence.confidence, load))
+        .transpose()?;
+    let request = Design {
+        rig: args.rig.input()?,
+        target_pm_deg: args.target_pm_deg,
+        target_gm_db: args.target_gm_db,
         stroke_mm: args.stroke_mm,
         p_mean_bar: args.p_mean_bar.clone(),
         p_beta_bar: args.p_beta_bar,
         mass_kg: args.mass_kg.clone(),
         waves: args.wave.clone(),
-    };
-    if args.robust {
-        anyhow::ensure!(
-            args.wave.is_empty(),
-            "--wave: tracking is predicted by the nominal design only; leave out --robust"
-        );
-        let src = crate::robust::Source {
-            rig,
-            origin: args.rig.origin(),
-            experiment: args.experiment.as_deref(),
-            confidence: args.confidence.confidence,
-            allow_long_run: args.allow_long_run,
-        };
-        return crate::robust::run(&src, &targets, args.json, args.out.as_deref());
-    }
-    // a design error may lie in the rig (its mass table): say which rig
-    let bar = crate::ident::progress_bar_of(targets.conditions() as u64, "conditions");
-    let work = Work {
         allow_long_run: args.allow_long_run,
-        progress: &|n| bar.inc(n),
+        robust,
     };
-    let designed = design_with(&rig, &targets, &work);
-    bar.finish_and_clear();
-    let d = designed.map_err(|e| crate::robust::in_rig(e, &args.rig.origin()))?;
-    if args.json {
-        return Ok(json_document(&d)?);
+    let outcome = crate::emit::run(&request)?;
+    if let (Some(dir), Some(chart)) = (&args.out, outcome.robust_chart()) {
+        let document = json_document(&outcome.json()?)?;
+        let folder = crate::emit::out_dir(dir)?;
+        write_atomic(&folder.path().join("result.json"), document.as_bytes())?;
+        render_both(&folder.path().join("robust-margins"), &chart)?;
+        crate::emit::commit(folder, dir)?;
     }
-    Ok(design_text(&args.rig.origin(), &d))
+    show(&outcome, args.json)
 }

@@ -105,6 +105,23 @@ pub fn hinted(e: anyhow::Error) -> anyhow::Error {
     anyhow::anyhow!("{e:#}{hint}")
 }
 
+/// Run `request`: a progress bar on a terminal over the work it reports, its errors with the
+/// command line's hints ([`hinted`]).
+pub fn run<R: pumpcyl_present::request::Request>(request: &R) -> Result<R::Outcome> {
+    let bar = (request.work()).map(|(total, unit)| crate::ident::progress_bar_of(total, unit));
+    let tick = |n| {
+        if let Some(bar) = &bar {
+            bar.inc(n);
+        }
+        true
+    };
+    let outcome = request.run(pumpcyl_present::request::Hooks { tick: &tick });
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    outcome.map_err(hinted)
+}
+
 /// A request's outcome as the command line shows it: its warnings on standard error, then its
 /// JSON document (`json`) or its text.
 pub fn show(outcome: &impl pumpcyl_present::request::Document, json: bool) -> Result<String> {

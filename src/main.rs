@@ -20,7 +20,6 @@ mod ident;
 mod interrupt;
 mod read_files;
 mod reproduce;
-mod robust;
 mod select;
 mod sweep;
 mod time;

@@ -4,12 +4,12 @@ use anyhow::{Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
-use crate::emit::{format_of, show, write_atomic, Format};
+use crate::emit::{format_of, run, show, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::record::Record;
 use pumpcyl_present::figures::Chart;
 use pumpcyl_present::request::time::{Replay, Step, Track};
-use pumpcyl_present::request::{Hooks, Request, RigInput};
+use pumpcyl_present::request::RigInput;
 
 /// Options shared by the time-domain commands.
 #[derive(Debug, Args)]
@@ -119,20 +119,16 @@ fn write_signals(
     }
 }
 
-/// Run `request` on `rig`, its errors with the command line's hints (`crate::emit::hinted`).
-fn run<R: Request>(request: &R, rig: &RigInput) -> Result<R::Outcome> {
-    request.run(rig, Hooks::none()).map_err(crate::emit::hinted)
-}
-
 /// `pumpcyl step`.
 pub fn step(args: &StepArgs) -> Result<String> {
     let request = Step {
+        rig: args.rig.input()?,
         step_mm: args.step_mm,
         duration_s: args.duration_s,
         rate_hz: args.rate_hz,
         compare: args.opts.compare.clone(),
     };
-    let outcome = run(&request, &args.rig.input()?)?;
+    let outcome = run(&request)?;
     if let Some(path) = &args.opts.out {
         write_signals(path, || outcome.csv(), || outcome.mat(), || outcome.chart())?;
     }
@@ -146,12 +142,13 @@ pub fn track(args: &TrackArgs) -> Result<String> {
         _ => Vec::new(),
     };
     let request = Track {
+        rig: args.rig.input()?,
         waves,
         periods: args.periods,
         rate_hz: args.rate_hz,
         compare: args.opts.compare.clone(),
     };
-    let outcome = run(&request, &args.rig.input()?)?;
+    let outcome = run(&request)?;
     if let Some(path) = &args.opts.out {
         write_signals(path, || outcome.csv(), || outcome.mat(), || outcome.chart())?;
     }
@@ -162,12 +159,13 @@ pub fn track(args: &TrackArgs) -> Result<String> {
 pub fn simulate(args: &SimulateArgs) -> Result<String> {
     let (record, rig, dataset_end) = replayed(args)?;
     let request = Replay {
+        rig,
         record,
         fit_end_s: args.fit_end_s.or(dataset_end),
         own_conditions: args.experiment.is_some(),
         compare: args.opts.compare.clone(),
     };
-    let outcome = run(&request, &rig)?;
+    let outcome = run(&request)?;
     if let Some(path) = &args.opts.out {
         write_signals(path, || outcome.csv(), || outcome.mat(), || outcome.chart())?;
     }

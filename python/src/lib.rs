@@ -713,23 +713,48 @@ fn repr_of(kind: &str, fields: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<Stri
 /// A request's error as Python says it of the call `call`: an option out of range named as
 /// its keyword (`step(step_mm=0.0): ...`), each cause after the one it explains.
 fn request_err(call: &str, e: &anyhow::Error) -> PyErr {
+    use pumpcyl::limits::LimitError;
     let parts: Vec<String> = (e.chain())
-        .map(|cause| match cause.downcast_ref::<FieldError>() {
-            Some(field) => field.in_python(call),
-            None => cause.to_string(),
+        .map(|cause| {
+            if let Some(field) = cause.downcast_ref::<FieldError>() {
+                return field.in_python(call);
+            }
+            match cause.downcast_ref::<LimitError>() {
+                Some(LimitError::LongRun { .. }) => format!("{cause} (allow_long_run=True)"),
+                _ => cause.to_string(),
+            }
         })
         .collect();
     err(parts.join(": "))
 }
 
-/// Run the request `call` (`request`) on `rig` with the GIL released.
-fn run_request<R>(py: Python<'_>, call: &str, request: &R, rig: &PyRig) -> PyResult<R::Outcome>
+/// Run the request `call` (`request`) with the GIL released, its progress shown as `progress`
+/// asks ([`progress_reporter`]) over the work the request reports, Ctrl-C stopping it.
+fn run_reporting<R>(
+    py: Python<'_>,
+    call: &'static str,
+    request: &R,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<R::Outcome>
 where
     R: Request + Sync,
     R::Outcome: Send,
 {
-    let input = rig.input();
-    (py.detach(|| request.run(&input, Hooks::none()))).map_err(|e| request_err(call, &e))
+    let (total, unit) = request.work().unwrap_or((1, "steps"));
+    let mut tick = progress_reporter(py, progress, call, unit, total)?;
+    let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| request.run(Hooks { tick: go_on });
+    let outcome = run_interruptible(py, work, &mut tick)?.map_err(|e| request_err(call, &e))?;
+    tick(py, u64::MAX)?;
+    Ok(outcome)
+}
+
+/// Run the request `call` (`request`) with the GIL released.
+fn run_request<R>(py: Python<'_>, call: &str, request: &R) -> PyResult<R::Outcome>
+where
+    R: Request + Sync,
+    R::Outcome: Send,
+{
+    (py.detach(|| request.run(Hooks::none()))).map_err(|e| request_err(call, &e))
 }
 
 /// The outcome of the request `call` as a `Result` of `kind`, each of its warnings a
@@ -752,13 +777,14 @@ fn document(
 #[pyo3(signature = (rig, *, sum_pressure_closed = false))]
 fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
     let request = request::analysis::Margins {
+        rig: rig.input(),
         sum_pressure_closed,
     };
     document(
         py,
         "margins",
         "Margins",
-        &run_request(py, "margins", &request, rig)?,
+        &run_request(py, "margins", &request)?,
     )
 }
 
@@ -770,14 +796,10 @@ fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<P
 #[pyo3(signature = (rig, *, sum_pressure_closed = false))]
 fn poles(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
     let request = request::analysis::Poles {
+        rig: rig.input(),
         sum_pressure_closed,
     };
-    document(
-        py,
-        "poles",
-        "Poles",
-        &run_request(py, "poles", &request, rig)?,
-    )
+    document(py, "poles", "Poles", &run_request(py, "poles", &request)?)
 }
 
 /// (A, B, C, D) of the open or closed loop (SI units; states as `pumpcyl model` lists them).
@@ -947,12 +969,13 @@ fn step(
     rate_hz: f64,
 ) -> PyResult<PyOutcome> {
     let request = request::time::Step {
+        rig: rig.input(),
         step_mm,
         duration_s,
         rate_hz,
         compare: Vec::new(),
     };
-    let outcome = run_request(py, "step", &request, rig)?;
+    let outcome = run_request(py, "step", &request)?;
     let s = document(py, "step", "Step", &outcome)?;
     warn_each(py, outcome.rating_warnings())?;
     s.with_arrays(py, "signals", "Signals")
@@ -983,12 +1006,13 @@ fn track(
             )),
         };
     let request = request::time::Track {
+        rig: rig.input(),
         waves,
         periods,
         rate_hz,
         compare: Vec::new(),
     };
-    let outcome = run_request(py, "track", &request, rig)?;
+    let outcome = run_request(py, "track", &request)?;
     let t = document(py, "track", "Tracking", &outcome)?;
     warn_each(py, outcome.rating_warnings())?;
     Ok(t)
@@ -2293,15 +2317,6 @@ fn design(
     allow_long_run: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyOutcome> {
-    let targets = pumpcyl::design::Targets {
-        pm_deg: target_pm_deg,
-        gm_db: target_gm_db,
-        stroke_mm,
-        p_mean_bar,
-        p_beta_bar,
-        mass_kg,
-        waves,
-    };
     if experiment.is_some() && !robust {
         return Err(err("experiment: needs robust=True"));
     }
@@ -2310,73 +2325,30 @@ fn design(
             "the rig comes from the experiment file: give either the file or rig",
         ));
     }
-    let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
-    check_waves(&rig, &targets.waves, robust)?;
-    if !robust {
-        let total = targets.conditions() as u64;
-        let mut tick = progress_reporter(py, progress, "design", "conditions", total)?;
-        let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| {
-            let work = pumpcyl::limits::Work {
-                allow_long_run,
-                progress: &|n| {
-                    go_on(n);
-                },
-            };
-            pumpcyl::design::design_with(&rig, &targets, &work)
-        };
-        let d = run_interruptible(py, work, &mut tick)?.map_err(|e| match e {
-            pumpcyl::design::DesignError::Limit(l) => long_run_err(l),
-            e => err(e),
-        })?;
-        tick(py, u64::MAX)?;
-        return PyOutcome::of_value(py, "Design", &d);
-    }
-    ident::check_confidence(confidence).map_err(err)?;
-    let mut tick = progress_reporter(py, progress, "design", "robust designs", 1)?;
-    let run = py
-        .detach(|| -> Result<_, String> {
-            let exp = (experiment.as_deref())
-                .map(Experiment::load)
-                .transpose()
-                .map_err(|e| e.to_string())?;
-            let request = pumpcyl_present::design::RobustRequest {
-                rig: &rig,
-                experiment: exp.as_ref(),
-                confidence,
-                allow_long_run,
-            };
-            pumpcyl_present::design::robust_run(&request, &targets).map_err(|e| match e {
-                pumpcyl::design::DesignError::Limit(l) => long_run_err(l).to_string(),
-                e => e.to_string(),
-            })
-        })
-        .map_err(err)?;
-    tick(py, u64::MAX)?;
-    PyOutcome::of(py, "RobustDesign", &run.document())
-}
-
-/// The `waves` of [`design`] checked in Python's words (`waves[1] = (80.0, 5.0): …`, the
-/// keyword argument, not the command line's `--wave FREQ:AMP`): each frequency and amplitude
-/// positive, the wave inside the stroke and below the Nyquist frequency of the predicted
-/// tracking; none with `robust=True`, which predicts no tracking.
-fn check_waves(rig: &Rig, waves: &[(f64, f64)], robust: bool) -> PyResult<()> {
-    if robust && !waves.is_empty() {
-        return Err(err(
-            "waves: tracking is predicted by the nominal design only; leave out waves or robust=True",
-        ));
-    }
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    for (i, &(f, a)) in waves.iter().enumerate() {
-        let why = if positive(f) && positive(a) {
-            pumpcyl::design::check_wave(rig, f, a).err()
-        } else {
-            Some("the frequency (Hz) and the amplitude (mm) must be > 0".into())
-        };
-        if let Some(why) = why {
-            return Err(err(format!("waves[{i}] = ({f:?}, {a:?}): {why}")));
-        }
-    }
-    Ok(())
+    let load = (experiment.as_deref()).map(|p| move || Ok(Experiment::load(p)?));
+    let robust = (robust)
+        .then(|| request::design::Robust::new(confidence, load))
+        .transpose()
+        .map_err(|e| request_err("design", &e))?;
+    let request = request::design::Design {
+        rig: rig.map_or_else(|| RigInput::default_named("Rig()"), PyRig::input),
+        target_pm_deg,
+        target_gm_db,
+        stroke_mm,
+        p_mean_bar,
+        p_beta_bar,
+        mass_kg,
+        waves,
+        allow_long_run,
+        robust,
+    };
+    let kind = if request.robust.is_some() {
+        "RobustDesign"
+    } else {
+        "Design"
+    };
+    let outcome = run_reporting(py, "design", &request, progress)?;
+    document(py, "design", kind, &outcome)
 }
 
 #[pymodule]

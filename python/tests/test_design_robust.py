@@ -32,7 +32,7 @@ def test_robust_design_matches_the_command_line():
 
 
 def test_robust_design_errors(tmp_path):
-    with pytest.raises(pumpcyl.PumpcylError, match="confidence 1.5: must lie strictly"):
+    with pytest.raises(pumpcyl.PumpcylError, match=r"design\(confidence=1.5\): must lie strictly"):
         pumpcyl.design(robust=True, experiment=str(tmp_path / "e.toml"), confidence=1.5)
     with pytest.raises(pumpcyl.PumpcylError, match="e.toml: cannot read"):
         pumpcyl.design(robust=True, experiment=str(tmp_path / "e.toml"))

@@ -15,8 +15,10 @@ fn loop_of(rig: &RigInput, sum_pressure_closed: bool) -> Loop {
 
 /// `margins`: gain, phase and delay margins of the position loop, every crossing, closed-loop
 /// stability and, on a single-pump rig, each mode's.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone)]
 pub struct Margins {
+    /// The rig.
+    pub rig: RigInput,
     /// Keep the sum-pressure loop closed inside the analysed loop.
     pub sum_pressure_closed: bool,
 }
@@ -41,8 +43,8 @@ impl Margins {
 impl Request for Margins {
     type Outcome = MarginsOutcome;
 
-    fn run(&self, rig: &RigInput, _: Hooks<'_>) -> anyhow::Result<MarginsOutcome> {
-        Margins::of_loop(loop_of(rig, self.sum_pressure_closed))
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<MarginsOutcome> {
+        Margins::of_loop(loop_of(&self.rig, self.sum_pressure_closed))
     }
 }
 
@@ -62,8 +64,10 @@ impl Document for MarginsOutcome {
 
 /// `poles`: the open- and closed-loop poles with natural frequency and damping and, on a
 /// single-pump rig, each mode's.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone)]
 pub struct Poles {
+    /// The rig.
+    pub rig: RigInput,
     /// Keep the sum-pressure loop closed inside the analysed loop.
     pub sum_pressure_closed: bool,
 }
@@ -83,8 +87,8 @@ impl Poles {
 impl Request for Poles {
     type Outcome = PolesOutcome;
 
-    fn run(&self, rig: &RigInput, _: Hooks<'_>) -> anyhow::Result<PolesOutcome> {
-        Ok(Poles::of_loop(loop_of(rig, self.sum_pressure_closed)))
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<PolesOutcome> {
+        Ok(Poles::of_loop(loop_of(&self.rig, self.sum_pressure_closed)))
     }
 }
 

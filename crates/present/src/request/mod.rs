@@ -7,9 +7,11 @@
 //! option are written once.
 //!
 //! - [`analysis`] — `margins`, `poles`;
+//! - [`design`] — `design`, nominal and robust;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
 pub mod analysis;
+pub mod design;
 pub mod time;
 
 use pumpcyl::rig::Rig;
@@ -60,17 +62,24 @@ impl Hooks<'static> {
     }
 }
 
-/// A command's request: its options, checked and run by [`Request::run`].
+/// A command's request: its inputs (the rig, records, an application) and its options, checked
+/// and run by [`Request::run`].
 pub trait Request {
     /// What the request returns.
     type Outcome: Document;
 
-    /// Run the request on `rig`.
+    /// The work it will report through [`Hooks::tick`]: the units in all and their name
+    /// (`conditions`, `candidates`); `None` for a request too quick to report progress.
+    fn work(&self) -> Option<(u64, &'static str)> {
+        None
+    }
+
+    /// Run the request.
     ///
     /// # Errors
     /// An option out of range (a [`FieldError`] naming it), a rig the command cannot run on, a
     /// computation that fails or a cancellation.
-    fn run(&self, rig: &RigInput, hooks: Hooks<'_>) -> anyhow::Result<Self::Outcome>;
+    fn run(&self, hooks: Hooks<'_>) -> anyhow::Result<Self::Outcome>;
 }
 
 /// The outcome of a request as the front ends show it.
@@ -114,6 +123,12 @@ pub enum Given {
     Number(f64),
     /// Text, as written.
     Text(String),
+    /// A wave: frequency (Hz) and amplitude (mm); `80:5` on the command line, `(80.0, 5.0)` in
+    /// Python.
+    Wave(f64, f64),
+    /// Item `index` of a list option (from 0), given as `value`: on the command line the
+    /// repeated option's value (`--wave 80:5` of `waves`), in Python `waves[1]=(80.0, 5.0)`.
+    Item(usize, Box<Given>),
 }
 
 impl Given {
@@ -122,6 +137,26 @@ impl Given {
         match self {
             Given::Number(v) => format!("{v}"),
             Given::Text(t) => t.clone(),
+            Given::Wave(f, a) => format!("{f}:{a}"),
+            Given::Item(_, v) => v.on_command_line(),
+        }
+    }
+
+    /// The option `field` as the command line spells it: `--step-mm`; an item of a list option
+    /// as the repeated option (`--wave` of `waves`).
+    fn flag(&self, field: &str) -> String {
+        let field = match self {
+            Given::Item(..) => field.strip_suffix('s').unwrap_or(field),
+            _ => field,
+        };
+        format!("--{}", field.replace('_', "-"))
+    }
+
+    /// The option `field` as Python spells it: `step_mm`, an item `waves[1]`.
+    fn keyword(&self, field: &str) -> String {
+        match self {
+            Given::Item(i, _) => format!("{field}[{i}]"),
+            _ => field.to_string(),
         }
     }
 
@@ -133,6 +168,11 @@ impl Given {
             Given::Number(v) if v.fract() == 0.0 && v.abs() < 1e16 => format!("{v:.1}"),
             Given::Number(v) => format!("{v}"),
             Given::Text(t) => format!("{t:?}").replace('"', "'"),
+            Given::Wave(f, a) => {
+                let (f, a) = (Given::Number(*f).in_python(), Given::Number(*a).in_python());
+                format!("({f}, {a})")
+            }
+            Given::Item(_, v) => v.in_python(),
         }
     }
 }
@@ -160,13 +200,13 @@ impl FieldError {
 
     /// The error as the command line says it: `--periods 2.5: must be ...`.
     pub fn on_command_line(&self) -> String {
-        let named = self.named(|f, v| format!("--{} {}", f.replace('_', "-"), v.on_command_line()));
+        let named = self.named(|f, v| format!("{} {}", v.flag(f), v.on_command_line()));
         format!("{named}: {}", self.problem)
     }
 
     /// The error as Python says it of the call `call`: `track(periods=2.5): must be ...`.
     pub fn in_python(&self, call: &str) -> String {
-        let named = self.named(|f, v| format!("{f}={}", v.in_python()));
+        let named = self.named(|f, v| format!("{}={}", v.keyword(f), v.in_python()));
         format!("{call}({named}): {}", self.problem)
     }
 }
@@ -207,6 +247,13 @@ mod tests {
         let half = FieldError::new("periods", Given::Number(2.5), "whole");
         assert_eq!(half.in_python("track"), "track(periods=2.5): whole");
         assert_eq!(half.on_command_line(), "--periods 2.5: whole");
+        let wave = Given::Item(1, Box::new(Given::Wave(80.0, 5.0)));
+        let wave = FieldError::new("waves", wave, "above Nyquist");
+        assert_eq!(wave.on_command_line(), "--wave 80:5: above Nyquist");
+        assert_eq!(
+            wave.in_python("design"),
+            "design(waves[1]=(80.0, 5.0)): above Nyquist"
+        );
         let inf = FieldError::new("x", Given::Number(f64::NEG_INFINITY), "finite");
         assert_eq!(inf.in_python("f"), "f(x=-inf): finite");
     }

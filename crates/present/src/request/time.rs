@@ -126,6 +126,8 @@ fn stroke_warnings<M>(rig: &Rig, runs: &Runs<M>) -> Vec<String> {
 /// (docs/simulation.md#step-metrics), on the rig and on each variant compared.
 #[derive(Debug, Clone)]
 pub struct Step {
+    /// The rig.
+    pub rig: RigInput,
     /// Step size (mm), from x0.
     pub step_mm: f64,
     /// Simulated duration (s).
@@ -136,20 +138,8 @@ pub struct Step {
     pub compare: Vec<String>,
 }
 
-impl Default for Step {
-    fn default() -> Step {
-        Step {
-            step_mm: 5.0,
-            duration_s: 4.0,
-            rate_hz: 100.0,
-            compare: Vec::new(),
-        }
-    }
-}
-
 /// The runs of a step.
 pub struct StepOutcome {
-    rig: RigInput,
     request: Step,
     runs: Runs<StepMetrics>,
     warnings: Vec<String>,
@@ -180,7 +170,8 @@ impl Step {
 impl Request for Step {
     type Outcome = StepOutcome;
 
-    fn run(&self, rig: &RigInput, _: Hooks<'_>) -> anyhow::Result<StepOutcome> {
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<StepOutcome> {
+        let rig = &self.rig;
         self.check(&rig.rig)?;
         let runs = run_variants(rig, &self.compare, |r| {
             let s = response::step(r, self.step_mm, self.duration_s, self.rate_hz)?;
@@ -191,7 +182,6 @@ impl Request for Step {
             .chain(stroke_warnings(&rig.rig, &runs))
             .collect();
         Ok(StepOutcome {
-            rig: rig.clone(),
             request: self.clone(),
             runs,
             warnings,
@@ -207,8 +197,8 @@ impl StepOutcome {
 
     fn setup(&self) -> StepSetup<'_> {
         StepSetup {
-            rig: &self.rig.name,
-            circuit: self.rig.rig.circuit,
+            rig: &self.request.rig.name,
+            circuit: self.request.rig.rig.circuit,
             step_mm: self.request.step_mm,
             duration_s: self.request.duration_s,
             rate_hz: self.request.rate_hz,
@@ -216,7 +206,7 @@ impl StepOutcome {
     }
 
     fn title(&self) -> String {
-        step_title(&self.setup(), self.rig.rig.x0_mm)
+        step_title(&self.setup(), self.request.rig.rig.x0_mm)
     }
 
     /// The signals of every run as CSV.
@@ -240,7 +230,7 @@ impl StepOutcome {
 impl Document for StepOutcome {
     fn json(&self) -> anyhow::Result<Value> {
         let doc = step_document(&self.setup(), &self.runs, &self.warnings);
-        Ok(self.rig.document(doc))
+        Ok(self.request.rig.document(doc))
     }
 
     fn text(&self) -> anyhow::Result<String> {
@@ -256,6 +246,8 @@ impl Document for StepOutcome {
 /// the periodic steady state, on the rig and on each variant compared.
 #[derive(Debug, Clone)]
 pub struct Track {
+    /// The rig.
+    pub rig: RigInput,
     /// The sines, each (frequency in Hz, amplitude in mm); empty: the article's three
     /// ([`ARTICLE_SINE_CASES`]).
     pub waves: Vec<(f64, f64)>,
@@ -267,20 +259,9 @@ pub struct Track {
     pub compare: Vec<String>,
 }
 
-impl Default for Track {
-    fn default() -> Track {
-        Track {
-            waves: Vec::new(),
-            periods: 3.0,
-            rate_hz: 100.0,
-            compare: Vec::new(),
-        }
-    }
-}
-
 /// The runs of a tracking request.
 pub struct TrackOutcome {
-    rig: RigInput,
+    request: Track,
     runs: Runs<TrackMetrics>,
     warnings: Vec<String>,
 }
@@ -319,7 +300,8 @@ impl Track {
 impl Request for Track {
     type Outcome = TrackOutcome;
 
-    fn run(&self, rig: &RigInput, _: Hooks<'_>) -> anyhow::Result<TrackOutcome> {
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<TrackOutcome> {
+        let rig = &self.rig;
         let periods = self.check(&rig.rig)?;
         let mut runs = Runs {
             done: Vec::new(),
@@ -336,7 +318,7 @@ impl Request for Track {
         }
         let warnings = stroke_warnings(&rig.rig, &runs);
         Ok(TrackOutcome {
-            rig: rig.clone(),
+            request: self.clone(),
             runs,
             warnings,
         })
@@ -374,12 +356,23 @@ impl TrackOutcome {
 
 impl Document for TrackOutcome {
     fn json(&self) -> anyhow::Result<Value> {
-        let doc = track_json(&self.rig.name, self.rig.rig.circuit, &self.runs);
-        Ok(self.rig.document(with_warnings(doc, &self.warnings)))
+        let doc = track_json(
+            &self.request.rig.name,
+            self.request.rig.rig.circuit,
+            &self.runs,
+        );
+        Ok(self
+            .request
+            .rig
+            .document(with_warnings(doc, &self.warnings)))
     }
 
     fn text(&self) -> anyhow::Result<String> {
-        Ok(track_text(&self.rig.name, self.rig.rig.circuit, &self.runs))
+        Ok(track_text(
+            &self.request.rig.name,
+            self.request.rig.rig.circuit,
+            &self.runs,
+        ))
     }
 
     fn warnings(&self) -> &[String] {
@@ -391,6 +384,8 @@ impl Document for TrackOutcome {
 /// the position MSE over its fit window, on the rig and on each variant compared.
 #[derive(Debug, Clone)]
 pub struct Replay {
+    /// The rig.
+    pub rig: RigInput,
     /// The record (time, reference and measured position; pressures and speeds if recorded).
     pub record: Record,
     /// The end of the fit window (s) on the record's time axis; `None`: the whole record.
@@ -403,7 +398,6 @@ pub struct Replay {
 
 /// The runs of a replay.
 pub struct ReplayOutcome {
-    rig: RigInput,
     request: Replay,
     window_end_s: f64,
     runs: Runs<f64>,
@@ -433,7 +427,8 @@ impl Replay {
 impl Request for Replay {
     type Outcome = ReplayOutcome;
 
-    fn run(&self, rig: &RigInput, _: Hooks<'_>) -> anyhow::Result<ReplayOutcome> {
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<ReplayOutcome> {
+        let rig = &self.rig;
         let rec = &self.record;
         rec.check_units(rig.rig.stroke_mm)?;
         let (lo, hi) = rec.reference_range_mm();
@@ -449,7 +444,6 @@ impl Request for Replay {
         })?;
         let warnings = stroke_warnings(&rig.rig, &runs);
         Ok(ReplayOutcome {
-            rig: rig.clone(),
             request: self.clone(),
             window_end_s,
             runs,
@@ -462,8 +456,8 @@ impl ReplayOutcome {
     fn replay(&self) -> crate::time::Replay<'_> {
         crate::time::Replay {
             record: &self.request.record,
-            rig: &self.rig.name,
-            circuit: self.rig.rig.circuit,
+            rig: &self.request.rig.name,
+            circuit: self.request.rig.rig.circuit,
             own_conditions: self.request.own_conditions,
             fit_end_s: self.window_end_s,
         }
@@ -503,7 +497,10 @@ impl ReplayOutcome {
 impl Document for ReplayOutcome {
     fn json(&self) -> anyhow::Result<Value> {
         let doc = simulate_json(&self.replay(), &self.runs);
-        Ok(self.rig.document(with_warnings(doc, &self.warnings)))
+        Ok(self
+            .request
+            .rig
+            .document(with_warnings(doc, &self.warnings)))
     }
 
     fn text(&self) -> anyhow::Result<String> {
