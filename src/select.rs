@@ -4,12 +4,12 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 
-use crate::emit::{render_both, write_atomic};
-use pumpcyl::circuit::CircuitKind;
+use crate::emit::{render_both, show, write_atomic};
 use pumpcyl::rig::Rig;
-use pumpcyl::select::{Application, BetaEvidence, ModeCheckKind, RigFrom, SelectError};
+use pumpcyl::select::{Application, RigFrom};
 use pumpcyl_present::format::json_document;
-use pumpcyl_present::select::{selection_chart, selection_csv, selection_text};
+use pumpcyl_present::request::select::{Evidence, Select};
+use pumpcyl_present::request::Document;
 
 #[derive(Debug, Args)]
 pub struct SelectArgs {
@@ -76,6 +76,7 @@ pub struct SelectArgs {
     json: bool,
 }
 
+/// `pumpcyl select`.
 pub fn run(args: &SelectArgs) -> Result<String> {
     let base = match &args.application {
         Some(path) => Application::from_file_in(crate::read_files::files(), path)?,
@@ -85,89 +86,34 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         Some(path) => with_rig_file(&base, path)?,
         None => base,
     };
-    let mut app = base.with_overrides("--set", &args.set)?;
-    if !args.circuits.is_empty() {
-        let kinds = (args.circuits.iter())
-            .map(|name| {
-                CircuitKind::from_name(name.trim()).ok_or_else(|| {
-                    let names: Vec<&str> = CircuitKind::ALL.iter().map(|k| k.name()).collect();
-                    anyhow::anyhow!("--circuits {name}: no such circuit ({})", names.join(", "))
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        app = app
-            .with_circuits(&kinds)
-            .map_err(|e| anyhow::anyhow!("--circuits: {e}"))?;
-    }
-    if let Some(path) = &args.experiment {
-        crate::emit::check_confidence(args.confidence.confidence)?;
-        let exp = crate::read_files::experiment(path)?;
-        let evidence = BetaEvidence::of_records(&exp, args.confidence.confidence)?;
-        app = app
-            .with_evidence(&evidence)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    }
-    if args.print_default {
-        return Ok(app.to_commented_toml());
-    }
-    let bar = crate::ident::progress_bar_of(app.cases() as u64, "load × level cases");
-    let work = pumpcyl::limits::Work {
+    let confidence = args.confidence.confidence;
+    let evidence = (args.experiment.as_deref())
+        .map(|p| Evidence::new(confidence, || crate::read_files::experiment(p)))
+        .transpose()?;
+    let request = Select {
+        application: base.with_overrides("--set", &args.set)?,
+        origin: (args.application.as_ref()).map_or("the article's application".into(), |p| {
+            p.display().to_string()
+        }),
+        circuits: args.circuits.clone(),
+        mode_check: args.mode_check.clone(),
+        kp: args.kp,
+        evidence,
         allow_long_run: args.allow_long_run,
-        progress: &|n| bar.inc(n),
     };
-    let check = ModeCheckKind::from_name(args.mode_check.trim())
-        .map_err(|e| anyhow::anyhow!("--mode-check: {e}"))?;
-    let selected = app.select_checked(args.kp, &work, check.check());
-    bar.finish_and_clear();
-    let s = selected.map_err(|e| match e {
-        SelectError::Limit(l) => crate::emit::hinted(l.into()),
-        e => e.into(),
-    })?;
-    let warnings = relief_warnings(&app);
-    let document = json_document(&s)?;
+    if args.print_default {
+        return Ok(request.application()?.to_commented_toml());
+    }
+    let outcome = crate::emit::run(&request)?;
     if let Some(dir) = &args.out {
+        let document = json_document(&outcome.json()?)?;
         let folder = crate::emit::out_dir(dir)?;
         write_atomic(&folder.path().join("result.json"), document.as_bytes())?;
-        render_both(&folder.path().join("select"), &selection_chart(&app, &s))?;
-        write_atomic(
-            &folder.path().join("options.csv"),
-            selection_csv(&s).as_bytes(),
-        )?;
+        render_both(&folder.path().join("select"), &outcome.chart())?;
+        write_atomic(&folder.path().join("options.csv"), outcome.csv().as_bytes())?;
         crate::emit::commit(folder, dir)?;
     }
-    if args.json {
-        warnings.iter().for_each(|w| eprintln!("warning: {w}"));
-        return Ok(document);
-    }
-    let origin = args
-        .application
-        .as_ref()
-        .map_or("the article's application".to_string(), |p| {
-            p.display().to_string()
-        });
-    let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
-    Ok(format!("{}{warnings}", selection_text(&origin, &app, &s)))
-}
-
-/// The relief warnings of the one-motor circuits `app` tries, each at its highest accumulator
-/// pre-charge (docs/circuits.md#valves): a relief setting, given or derived, that lets a
-/// chamber go above the rig's cylinder rating.
-fn relief_warnings(app: &Application) -> Vec<String> {
-    let precharge_bar = (app.precharge_bar.iter().copied())
-        .reduce(f64::max)
-        .unwrap_or(app.rig.accumulator_precharge_bar);
-    (app.circuits.iter())
-        .filter(|kind| kind.description().valves.is_some())
-        .filter_map(|&circuit| {
-            let rig = Rig {
-                circuit,
-                accumulator_precharge_bar: precharge_bar,
-                ..app.rig.clone()
-            };
-            let w = pumpcyl::circuit::valves::relief_warning(&rig)?;
-            Some(format!("{} circuit: {w}", circuit.name()))
-        })
-        .collect()
+    show(&outcome, args.json)
 }
 
 /// `app` on the rig of the file `path` (`--rig`), naming the application's own rig it replaces.

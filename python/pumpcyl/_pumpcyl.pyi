@@ -391,6 +391,9 @@ class Selection(Result):
     mode_check: str
     """The single-pump candidates' mode check: ``emulator`` or ``equations``
     (docs/select.md#the-single-pump-circuit)."""
+    warnings: List[str]
+    """A relief setting that lets a one-motor circuit's chamber go above the cylinder's rating
+    (docs/circuits.md#valves); each also warns (UserWarning)."""
 
 class Chatter(Result):
     """Will it chatter: ``pumpcyl chatter --json`` (docs/circuits.md#a-scan-of-the-load)."""
@@ -717,6 +720,7 @@ def select(
     application: Optional[Union[str, PathLike[str]]] = None,
     *,
     rig: Optional[Rig] = None,
+    circuits: Sequence[str] = (),
     kp: Optional[float] = None,
     mode_check: str = "emulator",
     experiment: Optional[Union[str, PathLike[str]]] = None,

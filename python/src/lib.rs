@@ -2100,14 +2100,22 @@ fn fmu(
 /// mode checks beyond 5e9 evaluations (docs/select.md#work), run only with
 /// `allow_long_run=True`, as the command line's `--allow-long-run`. `progress` as for `identify`, over the load × level
 /// cases. `mode_check` names the single-pump candidates' mode check, as the command line's
-/// `--mode-check`: "emulator" (the default) or "equations".
+/// `--mode-check`: "emulator" (the default) or "equations". `circuits` names the circuits to
+/// try (`["dpm", "valve"]`; default: the application's), as `--circuits`. A relief setting
+/// that lets a one-motor circuit's chamber go above the cylinder's rating warns (UserWarning)
+/// and is listed in `warnings`.
 #[pyfunction]
-#[pyo3(signature = (application = None, *, rig = None, kp = None, mode_check = "emulator", experiment = None, confidence = 0.95, allow_long_run = false, progress = None, **overrides))]
+#[pyo3(
+    signature = (application = None, *, rig = None, circuits = vec![], kp = None, mode_check = "emulator", experiment = None, confidence = 0.95, allow_long_run = false, progress = None, **overrides),
+    text_signature = "(application=None, *, rig=None, circuits=(), kp=None, mode_check='emulator', \
+        experiment=None, confidence=0.95, allow_long_run=False, progress=None, **overrides)"
+)]
 #[allow(clippy::too_many_arguments)]
 fn select(
     py: Python<'_>,
     application: Option<PathBuf>,
     rig: Option<&PyRig>,
+    circuits: Vec<String>,
     kp: Option<f64>,
     mode_check: &str,
     experiment: Option<PathBuf>,
@@ -2116,10 +2124,7 @@ fn select(
     progress: Option<Py<PyAny>>,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyOutcome> {
-    use pumpcyl::select::{Application, ModeCheckKind};
-    let check = ModeCheckKind::from_name(mode_check)
-        .map_err(|e| err(format!("select(mode_check=…): {e}")))?
-        .check();
+    use pumpcyl::select::Application;
     let base = match &application {
         Some(path) => Application::from_file_in(&pumpcyl::source_files::Disk, path).map_err(err)?,
         None => Application::default(),
@@ -2150,37 +2155,23 @@ fn select(
         };
         app = app.with_rig(r.rig.clone(), from).map_err(err)?;
     }
-    let mut tick = progress_reporter(
-        py,
-        progress,
-        "select",
-        "load × level cases",
-        app.cases() as u64,
-    )?;
-    let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| -> Result<_, String> {
-        if let Some(path) = &experiment {
-            pumpcyl::ident::check_confidence(confidence).map_err(|e| e.to_string())?;
-            let exp = pumpcyl::ident::Experiment::load(path).map_err(|e| e.to_string())?;
-            let evidence = pumpcyl::select::BetaEvidence::of_records(&exp, confidence)
-                .map_err(|e| e.to_string())?;
-            app = app
-                .with_evidence(&evidence)
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-        }
-        let work = pumpcyl::limits::Work {
-            allow_long_run,
-            progress: &|n| {
-                go_on(n);
-            },
-        };
-        app.select_checked(kp, &work, check).map_err(|e| match e {
-            SelectError::Limit(l) => long_run_err(l).to_string(),
-            e => e.to_string(),
-        })
+    let evidence = (experiment.as_deref())
+        .map(|p| request::select::Evidence::new(confidence, || Ok(Experiment::load(p)?)))
+        .transpose()
+        .map_err(|e| request_err("select", &e))?;
+    let request = request::select::Select {
+        application: app,
+        origin: (application.as_ref()).map_or("the article's application".into(), |p| {
+            p.display().to_string()
+        }),
+        circuits,
+        mode_check: mode_check.to_string(),
+        kp,
+        evidence,
+        allow_long_run,
     };
-    let s = run_interruptible(py, work, &mut tick)?.map_err(err)?;
-    tick(py, u64::MAX)?;
-    PyOutcome::of_value(py, "Selection", &s)
+    let outcome = run_reporting(py, "select", &request, progress)?;
+    document(py, "select", "Selection", &outcome)
 }
 
 /// Will it chatter (docs/circuits.md#a-scan-of-the-load; the article §2.1): the single-pump

@@ -131,6 +131,23 @@ def test_track_and_step_name_a_bad_argument_as_python_writes_it():
     assert bad.stderr.strip() == "error: --periods 2.5: must be a whole number of periods, 1 or more"
 
 
+def test_select_warns_of_a_relief_setting_above_the_cylinder_in_both_front_ends():
+    """`select` is one request: a rig whose derived relief setting lets the dual-pump circuit's
+    chamber pass the cylinder's rating gives the same `warnings` from the command line (on
+    standard error too) and from Python (each also a UserWarning); a rated cylinder gives
+    none."""
+    out = subprocess.run([pumpcyl_binary(), "select", "--set", "rig.cylinder_rated_pressure_bar=30",
+                          "--circuits", "dual-pump", "--json"], check=True, capture_output=True, text=True)
+    doc = json.loads(out.stdout)
+    assert len(doc["warnings"]) == 1 and "above cylinder_rated_pressure_bar = 30 bar" in doc["warnings"][0]
+    assert "warning: " + doc["warnings"][0] in out.stderr
+    rig = pumpcyl.Rig(circuit="dual-pump", cylinder_rated_pressure_bar=30.0)
+    with pytest.warns(UserWarning, match="above cylinder_rated_pressure_bar = 30 bar"):
+        s = pumpcyl.select(rig=rig, circuits=["dual-pump"])
+    assert s.warnings == doc["warnings"]
+    assert pumpcyl.select(circuits=["dual-pump"]).warnings == []
+
+
 def test_step_and_simulate_name_the_circuit_as_the_command_line():
     """Every output names the circuit it used: the user rig switched to the dual-pump circuit
     (the article's Figure 1b) gives `circuit` as `step --json` does."""

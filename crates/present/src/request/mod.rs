@@ -8,10 +8,12 @@
 //!
 //! - [`analysis`] — `margins`, `poles`;
 //! - [`design`] — `design`, nominal and robust;
+//! - [`select`] — `select`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
 pub mod analysis;
 pub mod design;
+pub mod select;
 pub mod time;
 
 use pumpcyl::rig::Rig;
