@@ -5,12 +5,11 @@ use anyhow::{anyhow, Result};
 use clap::Args;
 use std::path::PathBuf;
 
-use crate::emit::{format_of, render, write_atomic, Format};
+use crate::emit::{format_of, render, show, write_atomic, Format};
 use crate::RigSource;
-use pumpcyl::emulator::chatter::{Forces, ScanError, Wave, DEFAULT_POINTS};
-use pumpcyl::limits::Work;
-use pumpcyl_present::chatter::{chatter_chart, chatter_csv, chatter_text, runs, Request};
-use pumpcyl_present::format::json_document;
+use pumpcyl::emulator::chatter::{Forces, Wave, DEFAULT_POINTS};
+use pumpcyl_present::chatter::Request as Scan;
+use pumpcyl_present::request::chatter::Chatter;
 
 #[derive(Debug, Args)]
 pub struct ChatterArgs {
@@ -67,20 +66,8 @@ pub struct ChatterArgs {
     out: Option<PathBuf>,
 }
 
-/// The option that sets a field of the chatter request.
-fn option_of(field: &str) -> &str {
-    match field {
-        "forces_n" => "force-n",
-        "from_n" => "from-n",
-        "to_n" => "to-n",
-        "waves" => "wave",
-        other => other,
-    }
-}
-
 /// `pumpcyl chatter`.
 pub fn run(args: &ChatterArgs) -> Result<String> {
-    let rig = args.rig.load()?;
     let format = match &args.out {
         Some(path) => Some(format_of(path, &[Format::Csv, Format::Svg, Format::Png])?),
         None => None,
@@ -97,39 +84,28 @@ pub fn run(args: &ChatterArgs) -> Result<String> {
         }),
         _ => None,
     };
-    let request = Request {
-        forces,
-        waves: (args.wave.iter())
-            .map(|&(freq_hz, amplitude_mm)| Wave {
-                freq_hz,
-                amplitude_mm,
-            })
-            .collect(),
-    };
-    let bar = crate::ident::progress_bar_of(runs(&request), "emulated runs");
-    let work = Work {
+    let request = Chatter {
+        rig: args.rig.input()?,
+        scan: Scan {
+            forces,
+            waves: (args.wave.iter())
+                .map(|&(freq_hz, amplitude_mm)| Wave {
+                    freq_hz,
+                    amplitude_mm,
+                })
+                .collect(),
+        },
         allow_long_run: args.allow_long_run,
-        progress: &|n| bar.inc(n),
     };
-    let origin = args.rig.origin();
-    let done = pumpcyl_present::chatter::run(&rig, &origin, &request, &work);
-    bar.finish_and_clear();
-    let doc = done.map_err(|e| match e {
-        ScanError::Request(f) => crate::emit::as_option(f, option_of),
-        ScanError::Limit(l) => crate::emit::hinted(l.into()),
-        e => anyhow!("{origin}: {e}"),
-    })?;
+    let outcome = crate::emit::run(&request)?;
     if let (Some(path), Some(format)) = (&args.out, format) {
         match format {
-            Format::Csv => write_atomic(path, chatter_csv(&doc).as_bytes())?,
+            Format::Csv => write_atomic(path, outcome.csv().as_bytes())?,
             _ => render(
                 path,
-                &chatter_chart(&doc).map_err(|e| anyhow!("{}: {e}", path.display()))?,
+                &(outcome.chart()).map_err(|e| anyhow!("{}: {e}", path.display()))?,
             )?,
         }
     }
-    if args.json {
-        return Ok(json_document(&doc)?);
-    }
-    Ok(chatter_text(&doc))
+    show(&outcome, args.json)
 }

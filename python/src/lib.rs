@@ -2206,7 +2206,7 @@ fn chatter(
     allow_long_run: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyOutcome> {
-    use pumpcyl::emulator::chatter::{Forces, ScanError, Wave, DEFAULT_POINTS};
+    use pumpcyl::emulator::chatter::{Forces, Wave, DEFAULT_POINTS};
     let forces = match (forces_n, from_n, to_n, points) {
         (Some(f), None, None, None) => {
             Some(Forces::Given(floats(&Arg::new("chatter", "forces_n"), &f)?))
@@ -2229,34 +2229,21 @@ fn chatter(
         (None, None, None, Some(points)) => Some(Forces::AboutSwitching { points }),
         (None, None, None, None) => None,
     };
-    let request = pumpcyl_present::chatter::Request {
-        forces,
-        waves: (waves.iter())
-            .map(|&(freq_hz, amplitude_mm)| Wave {
-                freq_hz,
-                amplitude_mm,
-            })
-            .collect(),
+    let request = request::chatter::Chatter {
+        rig: rig.input(),
+        scan: pumpcyl_present::chatter::Request {
+            forces,
+            waves: (waves.iter())
+                .map(|&(freq_hz, amplitude_mm)| Wave {
+                    freq_hz,
+                    amplitude_mm,
+                })
+                .collect(),
+        },
+        allow_long_run,
     };
-    let total = pumpcyl_present::chatter::runs(&request);
-    let mut tick = progress_reporter(py, progress, "chatter", "emulated runs", total)?;
-    let (origin, rig) = (rig.__repr__(), rig.rig.clone());
-    let work = |go_on: &(dyn Fn(u64) -> bool + Sync)| {
-        let work = pumpcyl::limits::Work {
-            allow_long_run,
-            progress: &|n| {
-                go_on(n);
-            },
-        };
-        pumpcyl_present::chatter::run(&rig, &origin, &request, &work)
-    };
-    let doc = run_interruptible(py, work, &mut tick)?.map_err(|e| match e {
-        ScanError::Request(f) => err(format!("chatter({}): {}", f.field, f.message)),
-        ScanError::Limit(l) => long_run_err(l),
-        e => err(format!("{origin}: {e}")),
-    })?;
-    tick(py, u64::MAX)?;
-    PyOutcome::of_value(py, "Chatter", &doc)
+    let outcome = run_reporting(py, "chatter", &request, progress)?;
+    document(py, "chatter", "Chatter", &outcome)
 }
 
 /// The design method of the article (§2.2) for `rig` (default: the article's): the

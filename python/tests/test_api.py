@@ -126,7 +126,7 @@ def test_pumpcyl_error_is_a_value_error_with_the_cli_message(tmp_path):
         pumpcyl.bode(pumpcyl.Rig(), np.array([1.0, -1.0]))
     with pytest.raises(pumpcyl.PumpcylError, match="identify.toml"):
         pumpcyl.identify(str(tmp_path / "identify.toml"))
-    with pytest.raises(pumpcyl.PumpcylError, match=r"waves\[0\] = \(-1\.0, 3\.0\): the frequency \(Hz\) and the amplitude"):
+    with pytest.raises(pumpcyl.PumpcylError, match=r"design\(waves\[0\]=\(-1\.0, 3\.0\)\): the frequency \(Hz\) and the amplitude"):
         pumpcyl.design(pumpcyl.Rig(), waves=[(-1, 3)])
     with pytest.raises(AttributeError):
         pumpcyl.Rig().beta

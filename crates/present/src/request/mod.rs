@@ -7,11 +7,13 @@
 //! option are written once.
 //!
 //! - [`analysis`] — `margins`, `poles`;
+//! - [`chatter`] — `chatter`;
 //! - [`design`] — `design`, nominal and robust;
 //! - [`select`] — `select`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
 pub mod analysis;
+pub mod chatter;
 pub mod design;
 pub mod select;
 pub mod time;
@@ -109,13 +111,25 @@ pub trait Document {
 /// (`--step-mm 0: ...` on the command line, `step(step_mm=0.0): ...` in Python), with every
 /// option a rule ties together.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}: {problem}", self.named(|f, v| format!("{f} = {}", v.on_command_line())))]
+#[error("{}: {problem}", self.named(|f| format!("{} = {}", f.name, f.given.on_command_line())))]
 pub struct FieldError {
-    /// The request's fields (the Python keywords; the command line's options with `-` for `_`)
-    /// and the values given.
-    pub fields: Vec<(&'static str, Given)>,
+    /// The options at fault and the values given.
+    pub fields: Vec<Field>,
     /// What is wrong with them.
     pub problem: String,
+}
+
+/// An option of a request and the value given for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    /// The request's field: the Python keyword, and the command line's option with `-` for `_`
+    /// unless `flag` says otherwise.
+    pub name: &'static str,
+    /// The command line's option where it is not the field's name (`force-n` for the
+    /// repeated option of `forces_n`).
+    pub flag: Option<&'static str>,
+    /// The value given.
+    pub given: Given,
 }
 
 /// A value given for an option.
@@ -123,8 +137,10 @@ pub struct FieldError {
 pub enum Given {
     /// A number.
     Number(f64),
-    /// Text, as written.
+    /// Text, as written (quoted in Python).
     Text(String),
+    /// A value as the core wrote it, shown as it is by both front ends.
+    Shown(String),
     /// A wave: frequency (Hz) and amplitude (mm); `80:5` on the command line, `(80.0, 5.0)` in
     /// Python.
     Wave(f64, f64),
@@ -138,27 +154,9 @@ impl Given {
     fn on_command_line(&self) -> String {
         match self {
             Given::Number(v) => format!("{v}"),
-            Given::Text(t) => t.clone(),
+            Given::Text(t) | Given::Shown(t) => t.clone(),
             Given::Wave(f, a) => format!("{f}:{a}"),
             Given::Item(_, v) => v.on_command_line(),
-        }
-    }
-
-    /// The option `field` as the command line spells it: `--step-mm`; an item of a list option
-    /// as the repeated option (`--wave` of `waves`).
-    fn flag(&self, field: &str) -> String {
-        let field = match self {
-            Given::Item(..) => field.strip_suffix('s').unwrap_or(field),
-            _ => field,
-        };
-        format!("--{}", field.replace('_', "-"))
-    }
-
-    /// The option `field` as Python spells it: `step_mm`, an item `waves[1]`.
-    fn keyword(&self, field: &str) -> String {
-        match self {
-            Given::Item(i, _) => format!("{field}[{i}]"),
-            _ => field.to_string(),
         }
     }
 
@@ -170,6 +168,7 @@ impl Given {
             Given::Number(v) if v.fract() == 0.0 && v.abs() < 1e16 => format!("{v:.1}"),
             Given::Number(v) => format!("{v}"),
             Given::Text(t) => format!("{t:?}").replace('"', "'"),
+            Given::Shown(t) => t.clone(),
             Given::Wave(f, a) => {
                 let (f, a) = (Given::Number(*f).in_python(), Given::Number(*a).in_python());
                 format!("({f}, {a})")
@@ -179,36 +178,92 @@ impl Given {
     }
 }
 
+impl Field {
+    /// The option as the command line spells it: `--step-mm`; an item of a list option as the
+    /// repeated option (`--wave` of `waves`).
+    fn flag(&self) -> String {
+        let name = match (self.flag, &self.given) {
+            (Some(flag), _) => flag,
+            (None, Given::Item(..)) => self.name.strip_suffix('s').unwrap_or(self.name),
+            (None, _) => self.name,
+        };
+        format!("--{}", name.replace('_', "-"))
+    }
+
+    /// The option as Python spells it: `step_mm`, an item `waves[1]`.
+    fn keyword(&self) -> String {
+        match &self.given {
+            Given::Item(i, _) => format!("{}[{i}]", self.name),
+            _ => self.name.to_string(),
+        }
+    }
+}
+
 impl FieldError {
     /// `field` = `value` is wrong: `problem`.
     pub fn new(field: &'static str, value: Given, problem: impl Into<String>) -> FieldError {
         FieldError {
-            fields: vec![(field, value)],
+            fields: Vec::new(),
             problem: problem.into(),
         }
+        .and(field, value)
     }
 
     /// The same error, tied to `field` = `value` too.
     #[must_use]
     pub fn and(mut self, field: &'static str, value: Given) -> FieldError {
-        self.fields.push((field, value));
+        self.fields.push(Field {
+            name: field,
+            flag: None,
+            given: value,
+        });
         self
     }
 
-    fn named(&self, each: impl Fn(&str, &Given) -> String) -> String {
-        let parts: Vec<String> = self.fields.iter().map(|(f, v)| each(f, v)).collect();
+    /// The core's complaint about a field (`forces_n = 2e9: as an external_force_n, ...`), its
+    /// value shown as the core wrote it; `flag` the command line's option where it is not the
+    /// field's name.
+    pub fn of_core(e: pumpcyl::source_files::FieldError, flag: Option<&'static str>) -> FieldError {
+        let stated = (e.message.strip_prefix(e.field))
+            .and_then(|rest| rest.strip_prefix(" = "))
+            .and_then(|rest| rest.split_once(": "));
+        let (given, problem) = match stated {
+            Some((value, problem)) => (Given::Shown(value.into()), problem.to_string()),
+            None => {
+                let problem = (e.message.strip_prefix(e.field))
+                    .and_then(|rest| rest.strip_prefix(": "))
+                    .unwrap_or(&e.message);
+                (Given::Shown("…".into()), problem.to_string())
+            }
+        };
+        let field = Field {
+            name: e.field,
+            flag,
+            given,
+        };
+        FieldError {
+            fields: vec![field],
+            problem,
+        }
+    }
+
+    fn named(&self, each: impl Fn(&Field) -> String) -> String {
+        let parts: Vec<String> = self.fields.iter().map(each).collect();
         parts.join(", ")
     }
 
     /// The error as the command line says it: `--periods 2.5: must be ...`.
     pub fn on_command_line(&self) -> String {
-        let named = self.named(|f, v| format!("{} {}", v.flag(f), v.on_command_line()));
+        let named = self.named(|f| match f.given.on_command_line().as_str() {
+            "…" => f.flag(),
+            value => format!("{} {value}", f.flag()),
+        });
         format!("{named}: {}", self.problem)
     }
 
     /// The error as Python says it of the call `call`: `track(periods=2.5): must be ...`.
     pub fn in_python(&self, call: &str) -> String {
-        let named = self.named(|f, v| format!("{}={}", v.keyword(f), v.in_python()));
+        let named = self.named(|f| format!("{}={}", f.keyword(), f.given.in_python()));
         format!("{call}({named}): {}", self.problem)
     }
 }

@@ -82,12 +82,15 @@ fn check_timing(
     set_by: Vec<(&'static str, Given)>,
     rate_hz: f64,
 ) -> anyhow::Result<()> {
-    pumpcyl::limits::check_samples(duration_s, rate_hz).map_err(|e| FieldError {
-        fields: set_by
+    pumpcyl::limits::check_samples(duration_s, rate_hz).map_err(|e| {
+        let error = FieldError {
+            fields: Vec::new(),
+            problem: e.to_string(),
+        };
+        (set_by
             .into_iter()
-            .chain([("rate_hz", Given::Number(rate_hz))])
-            .collect(),
-        problem: e.to_string(),
+            .chain([("rate_hz", Given::Number(rate_hz))]))
+        .fold(error, |error, (field, value)| error.and(field, value))
     })?;
     Ok(())
 }
