@@ -1,15 +1,16 @@
 //! `pumpcyl emulate`: records from the nonlinear rig emulator (docs/emulator.md).
 
-use crate::emit::write_atomic;
+use crate::emit::{show, write_atomic};
 use crate::RigSource;
 use anyhow::{anyhow, Result};
 use clap::Args;
-use pumpcyl::emulator::article::{self, Emulated, Kind};
-use pumpcyl::emulator::{Effects, RunError};
+use pumpcyl::emulator::article::{self, Emulated};
 use pumpcyl::fmu::ModelKind;
 use pumpcyl::rig::Rig;
-use pumpcyl_present::emulated::{self, Emulation, ExperimentKind};
+use pumpcyl_present::emulated::{self, ExperimentKind};
 use pumpcyl_present::records;
+use pumpcyl_present::request::emulate::Emulate;
+use pumpcyl_present::request::{FieldError, Request, RigInput};
 use rayon::prelude::*;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -122,60 +123,31 @@ pub fn run(args: &EmulateArgs) -> Result<String> {
         .out
         .as_ref()
         .ok_or_else(|| anyhow!("--out is needed"))?;
-    let rig = load_rig(&args.source, !args.no_effects)?;
-    let effects = Effects::switched(&rig, !args.no_effects)
-        .map_err(|e| anyhow!("{}: {e}", args.source.origin_or("the emulated article rig")))?;
-    let mut request = request(args, kind);
-    let plc = request
-        .plc()
-        .map_err(|e| crate::emit::as_option(e, option_of))?;
-    request.sweep = sweep(args, kind, &rig, plc.rate_hz)?;
-    let plan = request
-        .plan(&rig, plc.rate_hz)
-        .map_err(|e| crate::emit::as_option(e, option_of))?;
-    check_cost(&plan, plc.rate_hz, args.allow_long_run)?;
-    let truth = article::Truth { rig, effects, plc };
-    let steps = emulated::steps(&plan, truth.plc.rate_hz);
-    if steps > ANNOUNCED_STEPS {
-        eprintln!(
-            "emulating {steps} controller steps ({} s at {} Hz) ...",
-            emulated::duration_s(&plan),
-            truth.plc.rate_hz
-        );
-    }
-    let bar = crate::ident::progress_bar_of(steps, "controller steps");
-    let work = pumpcyl::limits::Work {
+    let rig = load_input(&args.source, !args.no_effects)?;
+    let mut record = request(args, kind);
+    let rate_hz = (record.plc())
+        .map_err(|e| FieldError::of_core(e, "rate_hz", None))?
+        .rate_hz;
+    record.sweep = sweep(args, kind, &rig.rig, rate_hz)?;
+    let request = Emulate {
+        rig,
+        effects: !args.no_effects,
+        record,
         allow_long_run: args.allow_long_run,
-        progress: &|n| bar.inc(n),
     };
-    let emulation = emulated::emulate(&plan, &truth, &work).map_err(|e| match e {
-        // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
-        RunError::Limit(e) => anyhow!("{}: {e} (--allow-long-run)", out.display()),
-        RunError::Emulator(e) => anyhow!("{}: {e}", out.display()),
-    })?;
-    bar.finish_and_clear();
-    let data = &emulation.outcome.data;
-    write_atomic(out, records::emulated_csv(data).as_bytes())?;
-    let origin = args.source.origin_or("the emulated article rig");
-    if args.json {
-        let doc = emulation.document(request.experiment, &origin, truth.rig.circuit);
-        return Ok(pumpcyl_present::format::json_document(&doc)?);
+    if let Some((steps, _)) = request.work().filter(|(steps, _)| *steps > ANNOUNCED_STEPS) {
+        eprintln!("emulating {steps} controller steps at {rate_hz} Hz ...");
     }
-    let Emulation {
-        warnings,
-        basis,
-        outcome,
-    } = emulation;
-    let end_stop = outcome.end_stop;
-    let warnings: String = warnings.iter().map(|w| format!("warning: {w}\n")).collect();
-    let note = end_stop.map_or(String::new(), |hit| format!("note: {hit}\n"));
-    Ok(format!(
-        "{}: emulated {} on {origin} (circuit {}), {} samples (emulated data, not a measurement)\n{basis}\n{warnings}{note}",
-        out.display(),
-        request.experiment.name(),
-        truth.rig.circuit.name(),
-        outcome.data.len()
-    ))
+    // a failed run names the record it was to write; a refused option, the option
+    let outcome = crate::emit::run(&request).map_err(|e| match e.is::<FieldError>() {
+        true => e,
+        false => e.context(out.display().to_string()),
+    })?;
+    write_atomic(out, outcome.csv().as_bytes())?;
+    if args.json {
+        return show(&outcome, true);
+    }
+    Ok(format!("{}: {}", out.display(), show(&outcome, false)?))
 }
 
 /// Controller steps above which an emulation says how many it will take before it starts (a
@@ -230,38 +202,20 @@ fn sweep(
 
 /// The rig: a file, or the emulated article rig, with --set applied.
 pub(crate) fn load_rig(source: &RigSource, effects: bool) -> Result<Rig> {
-    let base = match &source.rig {
-        Some(_) => return source.load(),
-        None => pumpcyl::fmu::default_rig(ModelKind::Emulator, effects)?,
-    };
-    Ok(base.with_overrides_from("--set", &source.set)?)
+    Ok(load_input(source, effects)?.rig)
 }
 
-/// The option that sets an experiment's field.
-fn option_of(field: &str) -> &str {
-    match field {
-        "from_mm" => "from-mm",
-        "to_mm" => "to-mm",
-        "at_s" | "start_s" => "at-s",
-        "duration_s" => "duration-s",
-        "freq_hz" => "freq-hz",
-        "amplitude_mm" => "amplitude-mm",
-        "rate_hz" => "rate-hz",
-        other => other,
+/// [`load_rig`] as a request takes it: named, with the keys its file left out.
+fn load_input(source: &RigSource, effects: bool) -> Result<RigInput> {
+    if source.rig.is_some() {
+        return source.input();
     }
-}
-
-/// Refuse a record beyond the samples memory allows, and a run of hours (controller steps
-/// beyond the limit) unless asked for: [`pumpcyl::limits::check_emulation`].
-fn check_cost(plan: &Kind, rate_hz: f64, allow_long_run: bool) -> Result<()> {
-    pumpcyl::limits::check_emulation(emulated::duration_s(plan), rate_hz, allow_long_run).map_err(
-        |e| {
-            let long = matches!(e, pumpcyl::limits::LimitError::LongRun { .. });
-            let hint = if long { " (--allow-long-run)" } else { "" };
-            anyhow!("--duration-s and --rate-hz: {e}{hint}")
-        },
-    )?;
-    Ok(())
+    let base = pumpcyl::fmu::default_rig(ModelKind::Emulator, effects)?;
+    Ok(RigInput {
+        rig: base.with_overrides_from("--set", &source.set)?,
+        name: source.origin_or("the emulated article rig"),
+        defaulted: None,
+    })
 }
 
 /// Emulate every article record into `dir`, with the README and the identify experiment.

@@ -24,7 +24,7 @@ fn first_at_floor(path: &Path) -> Option<(f64, usize)> {
 }
 
 /// `pumpcyl emulate --experiment step --no-noise --out e.csv ARGS` in `dir` with `--json`:
-/// its warnings; and without it, its standard output (the record of both the same).
+/// its warnings; and without it, its standard error (the record of both the same).
 fn emulate_step(dir: &Path, args: &[&str]) -> (Vec<String>, String) {
     let mut all = vec![
         "emulate",
@@ -40,7 +40,8 @@ fn emulate_step(dir: &Path, args: &[&str]) -> (Vec<String>, String) {
     let warnings = (v["warnings"].as_array().unwrap().iter())
         .map(|w| w.as_str().unwrap().to_string())
         .collect();
-    let text = String::from_utf8(run::pumpcyl(dir, &all).stdout).unwrap();
+    // the text run's warnings go to standard error (docs/architecture.md#requests)
+    let text = String::from_utf8(run::pumpcyl(dir, &all).stderr).unwrap();
     (warnings, text)
 }
 

@@ -69,7 +69,8 @@ fn emulated_step(name: &str, sets: &[&str]) -> (String, Vec<f64>) {
     let x = (csv.lines().skip(1))
         .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
         .collect();
-    (stdout, x)
+    // the text, then the warnings, which go to standard error (docs/architecture.md#requests)
+    (stdout + &stderr, x)
 }
 
 #[test]
@@ -228,12 +229,14 @@ fn an_implausible_relief_setting_is_warned_about() {
         "precharge_bar=[5.0]",
     ]);
     assert!(ok, "{stderr}");
+    // a warning goes to standard error, as every command's (docs/architecture.md#requests)
     assert!(
-        stdout.contains(
+        stderr.contains(
             "warning: single-pump circuit: relief valves set 1608.5 bar above the accumulator"
-        ) && stdout.contains("let a chamber reach 1613.5 bar"),
-        "{stdout}"
+        ) && stderr.contains("let a chamber reach 1613.5 bar"),
+        "{stderr}"
     );
+    assert!(!stdout.contains("warning:"), "{stdout}");
 }
 
 /// A rest whose leakage under the load needs the pump faster than `pump_max_speed_rpm` is

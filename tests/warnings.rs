@@ -20,6 +20,13 @@ fn text(args: &[&str]) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
+/// The standard error of a successful `pumpcyl ARGS`.
+fn warnings_of(args: &[&str]) -> String {
+    let out = run::pumpcyl(Path::new("."), args);
+    assert!(out.status.success(), "{args:?}: {out:?}");
+    String::from_utf8(out.stderr).unwrap()
+}
+
 fn tmp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("pumpcyl-warnings-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -115,7 +122,8 @@ fn simulate_flags_the_simulated_response_beyond_the_ratings() {
 #[test]
 fn emulate_flags_the_emulated_record_beyond_the_ratings() {
     let out = tmp("emulated.csv");
-    let t = text(&[
+    // emulate's warnings go to standard error (docs/architecture.md#requests)
+    let t = warnings_of(&[
         "emulate",
         "--experiment",
         "sine",

@@ -47,14 +47,6 @@ fn err(e: impl std::fmt::Display) -> PyErr {
     PumpcylError::new_err(lines.join(" "))
 }
 
-/// A limit refusal in Python's words: work beyond its limit names `allow_long_run=True`.
-fn long_run_err(e: pumpcyl::limits::LimitError) -> PyErr {
-    match e {
-        pumpcyl::limits::LimitError::LongRun { .. } => err(format!("{e} (allow_long_run=True)")),
-        e => err(e),
-    }
-}
-
 /// A value serialised by the library, as plain Python data (dicts, lists, floats, None); the
 /// JSON text is written with the GIL released (a run's signals make it long).
 fn to_py(py: Python<'_>, value: &(impl serde::Serialize + Sync)) -> PyResult<Py<PyAny>> {
@@ -1968,7 +1960,7 @@ fn emulate(
     allow_long_run: bool,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyOutcome> {
-    use pumpcyl_present::emulated::{self, ExperimentKind, Request};
+    use pumpcyl_present::emulated::{ExperimentKind, Request};
     let kind = ExperimentKind::named(experiment).ok_or_else(|| {
         err(format!(
             "emulate(experiment='{experiment}'): \"step\", \"sine\", \"drive-step\" or \"standstill\""
@@ -1986,45 +1978,31 @@ fn emulate(
         ),
     };
     let base = base.with("emulate", overrides)?;
-    let rig = base.rig.clone();
-    let effects = pumpcyl::emulator::Effects::switched(&rig, effects)
-        .map_err(|e| err(format!("{origin}: {e}")))?;
-    let request = Request {
-        experiment: kind,
-        from_mm,
-        to_mm,
-        at_s,
-        amplitude_mm: Some(amplitude_mm),
-        freq_hz,
-        motor,
-        to_rpm,
-        duration_s,
-        rate_hz,
-        seed,
-        noise,
-        sweep: None,
-    };
-    let field =
-        |e: pumpcyl::source_files::FieldError| err(format!("emulate({}): {}", e.field, e.message));
-    let plc = request.plc().map_err(field)?;
-    let plan = request.plan(&rig, plc.rate_hz).map_err(field)?;
-    pumpcyl::limits::check_emulation(emulated::duration_s(&plan), plc.rate_hz, allow_long_run)
-        .map_err(long_run_err)?;
-    let truth = pumpcyl::emulator::article::Truth { rig, effects, plc };
-    let work = pumpcyl::limits::Work {
+    let request = request::emulate::Emulate {
+        rig: RigInput {
+            name: origin,
+            ..base.input()
+        },
+        effects,
+        record: Request {
+            experiment: kind,
+            from_mm,
+            to_mm,
+            at_s,
+            amplitude_mm: Some(amplitude_mm),
+            freq_hz,
+            motor,
+            to_rpm,
+            duration_s,
+            rate_hz,
+            seed,
+            noise,
+            sweep: None,
+        },
         allow_long_run,
-        ..pumpcyl::limits::Work::QUIET
     };
-    let emulation = py
-        .detach(|| emulated::emulate(&plan, &truth, &work))
-        .map_err(|e| match e {
-            // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
-            pumpcyl::emulator::RunError::Limit(e) => long_run_err(e),
-            pumpcyl::emulator::RunError::Emulator(e) => err(e),
-        })?;
-    warn_each(py, emulation.warnings.clone())?;
-    let doc = emulation.document(kind, &origin, truth.rig.circuit);
-    PyOutcome::of(py, "Emulated", &base.document(doc))?.with_arrays(py, "columns", "Columns")
+    let outcome = run_request(py, "emulate", &request)?;
+    document(py, "emulate", "Emulated", &outcome)?.with_arrays(py, "columns", "Columns")
 }
 
 /// Write the rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64;

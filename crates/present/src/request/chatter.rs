@@ -53,8 +53,8 @@ impl Request for Chatter {
         let name = &self.rig.name;
         let scan = run(&self.rig.rig, name, &self.scan, &work).map_err(|e| match e {
             ScanError::Request(f) => {
-                let flag = flag_of(f.field);
-                FieldError::of_core(f, flag).into()
+                let (name, flag) = (f.field, flag_of(f.field));
+                FieldError::of_core(f, name, flag).into()
             }
             ScanError::Limit(l) => anyhow::Error::from(l),
             e => anyhow::anyhow!("{name}: {e}"),

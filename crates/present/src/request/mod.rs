@@ -9,12 +9,14 @@
 //! - [`analysis`] — `margins`, `poles`;
 //! - [`chatter`] — `chatter`;
 //! - [`design`] — `design`, nominal and robust;
+//! - [`emulate`] — `emulate`;
 //! - [`select`] — `select`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
 pub mod analysis;
 pub mod chatter;
 pub mod design;
+pub mod emulate;
 pub mod select;
 pub mod time;
 
@@ -117,6 +119,8 @@ pub struct FieldError {
     pub fields: Vec<Field>,
     /// What is wrong with them.
     pub problem: String,
+    /// The switch that would let it run anyway (`allow_long_run` for work beyond its limit).
+    pub unless: Option<&'static str>,
 }
 
 /// An option of a request and the value given for it.
@@ -205,6 +209,7 @@ impl FieldError {
         FieldError {
             fields: Vec::new(),
             problem: problem.into(),
+            unless: None,
         }
         .and(field, value)
     }
@@ -221,9 +226,13 @@ impl FieldError {
     }
 
     /// The core's complaint about a field (`forces_n = 2e9: as an external_force_n, ...`), its
-    /// value shown as the core wrote it; `flag` the command line's option where it is not the
-    /// field's name.
-    pub fn of_core(e: pumpcyl::source_files::FieldError, flag: Option<&'static str>) -> FieldError {
+    /// value shown as the core wrote it, the field the request's `name`; `flag` the command
+    /// line's option where it is not the field's name.
+    pub fn of_core(
+        e: pumpcyl::source_files::FieldError,
+        name: &'static str,
+        flag: Option<&'static str>,
+    ) -> FieldError {
         let stated = (e.message.strip_prefix(e.field))
             .and_then(|rest| rest.strip_prefix(" = "))
             .and_then(|rest| rest.split_once(": "));
@@ -236,15 +245,19 @@ impl FieldError {
                 (Given::Shown("…".into()), problem.to_string())
             }
         };
-        let field = Field {
-            name: e.field,
-            flag,
-            given,
-        };
+        let field = Field { name, flag, given };
         FieldError {
             fields: vec![field],
             problem,
+            unless: None,
         }
+    }
+
+    /// The same error, which the switch `switch` would let run anyway.
+    #[must_use]
+    pub fn unless(mut self, switch: &'static str) -> FieldError {
+        self.unless = Some(switch);
+        self
     }
 
     fn named(&self, each: impl Fn(&Field) -> String) -> String {
@@ -258,13 +271,16 @@ impl FieldError {
             "…" => f.flag(),
             value => format!("{} {value}", f.flag()),
         });
-        format!("{named}: {}", self.problem)
+        let unless =
+            (self.unless).map_or(String::new(), |u| format!(" (--{})", u.replace('_', "-")));
+        format!("{named}: {}{unless}", self.problem)
     }
 
     /// The error as Python says it of the call `call`: `track(periods=2.5): must be ...`.
     pub fn in_python(&self, call: &str) -> String {
         let named = self.named(|f| format!("{}={}", f.keyword(), f.given.in_python()));
-        format!("{call}({named}): {}", self.problem)
+        let unless = (self.unless).map_or(String::new(), |u| format!(" ({u}=True)"));
+        format!("{call}({named}): {}{unless}", self.problem)
     }
 }
 

@@ -86,6 +86,7 @@ fn check_timing(
         let error = FieldError {
             fields: Vec::new(),
             problem: e.to_string(),
+            unless: None,
         };
         (set_by
             .into_iter()
