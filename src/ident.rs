@@ -5,19 +5,14 @@ use anyhow::Result;
 use clap::Args;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-use crate::emit::{ensure_folder, format_of, write_atomic, Format};
+use crate::emit::{ensure_folder, format_of, show, write_atomic, Format};
 use crate::RigSource;
-use pumpcyl::ident::shards::{self, Partial};
-use pumpcyl::ident::{
-    analyze, finish, identify_drive, DriveRecord, Experiment, Identification, Method, Options,
-    Request, Standstill, Uncertainty, UncertaintyOptions,
-};
+use pumpcyl::ident::shards::Partial;
+use pumpcyl::ident::{identify_drive, DriveRecord, Method, Standstill};
 use pumpcyl_present::figures::Chart;
-use pumpcyl_present::frf as frf_outputs;
 use pumpcyl_present::identification as outputs;
-use pumpcyl_present::uncertainty::{profile_files, uncertainty_text};
+use pumpcyl_present::request::identify::{Identify, Merge, Search, Source};
 
 #[derive(Debug, Args)]
 pub struct LeakageArgs {
@@ -216,17 +211,6 @@ pub(super) fn write_drive_overlay(
     crate::emit::render(path, &chart)
 }
 
-/// The experiment file's options with this command's flags on top.
-fn options(args: &IdentifyArgs, exp: &Experiment) -> Options {
-    let file = exp.options();
-    Options {
-        auto_refine: args.auto_refine || file.auto_refine,
-        local_refinement: !args.no_refine && file.local_refinement,
-        threshold_mm2: args.threshold_mm2.unwrap_or(file.threshold_mm2),
-        top_n: args.top,
-    }
-}
-
 /// A progress bar of candidates on stderr when it is a terminal; silent otherwise.
 pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
     progress_bar_of(total, "candidates")
@@ -251,119 +235,55 @@ pub(super) fn progress_bar_of(total: u64, unit: &str) -> indicatif::ProgressBar 
 
 /// `pumpcyl identify`.
 pub fn identify(args: &IdentifyArgs) -> Result<String> {
-    if args.uncertainty {
-        crate::emit::check_confidence(args.confidence)?;
-    }
-    let method = args.frequency.then_some(Method::Frequency);
-    let exp = crate::read_files::experiment_as(&args.experiment, method)?;
-    if exp.method == Method::Frequency {
-        return identify_frequency(args, &exp);
-    }
-    let opts = options(args, &exp);
     anyhow::ensure!(
         args.shard.is_none() || args.out.is_some(),
         "--shard writes a partial result: give --out DIR"
     );
-    if let Some(shard) = args.shard {
-        shards::check_label(&exp, shard)?;
+    let uncertainty = args.uncertainty.then_some(args.confidence);
+    if let Some(confidence) = uncertainty {
+        pumpcyl_present::request::design::check_confidence(confidence)?;
     }
-    let request = Request {
+    let method = args.frequency.then_some(Method::Frequency);
+    let exp = crate::read_files::experiment_as(&args.experiment, method)?;
+    let request = Identify {
+        source: Source::Experiment(Box::new(exp)),
+        search: Search {
+            auto_refine: args.auto_refine.then_some(true),
+            local_refinement: args.no_refine.then_some(false),
+            threshold_mm2: args.threshold_mm2,
+            top: args.top,
+            ..Search::default()
+        },
         shard: args.shard,
+        uncertainty,
         allow_long_run: args.allow_long_run,
-        ..exp.request(opts)
+        files: crate::read_files::files(),
     };
-    request.check().map_err(|e| crate::emit::hinted(e.into()))?;
-    let bar = progress_bar(request.candidates());
-    let start = Instant::now();
-    let stages = request.search(&|n| {
-        bar.inc(n);
-        true
-    })?;
-    let search_seconds = start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-    if let (Some(shard), Some(dir)) = (args.shard, &args.out) {
-        let part = Partial::of_search(
-            crate::read_files::files(),
-            &args.experiment,
-            &opts,
-            shard,
-            search_seconds,
-            stages,
-        )?;
+    let outcome = crate::emit::run(&request)?;
+    if let (Some(part), Some(dir)) = (outcome.partial(), &args.out) {
         ensure_folder(dir)?;
-        let path = dir.join(format!("part-{}-of-{}.json", shard.0, shard.1));
-        write_atomic(&path, serde_json::to_string(&part)?.as_bytes())?;
+        let (i, n) = part.shard;
+        let path = dir.join(format!("part-{i}-of-{n}.json"));
+        write_atomic(&path, serde_json::to_string(part)?.as_bytes())?;
+        let seconds = part.seconds;
         return Ok(format!(
-            "wrote {} (shard {}/{}, {:.2} s)\n",
-            path.display(),
-            shard.0,
-            shard.1,
-            search_seconds
+            "wrote {} (shard {i}/{n}, {seconds:.2} s)\n",
+            path.display()
         ));
     }
-    let id = finish(&exp.problem, stages, &opts)?;
-    let seconds = start.elapsed().as_secs_f64();
-    warn(&id.warnings());
-    let uncertainty = if args.uncertainty {
-        Some(analyze_uncertainty(&exp, &id, args.confidence)?)
-    } else {
-        None
-    };
-    report_identification(
-        &exp,
-        &id,
-        seconds,
-        uncertainty.as_ref(),
-        args.json,
-        args.out.as_deref(),
-    )
+    if let Some(dir) = &args.out {
+        write_folder(dir, outcome.files()?)?;
+    }
+    show(&outcome, args.json)
 }
 
-/// `pumpcyl identify` of an experiment fitted in the frequency domain: the grid and the
-/// polished answer, the intervals with --uncertainty, with --out the folder of result.json and
-/// one fit figure per sweep (`fit-K.svg`: the estimate with its band and the fitted model).
-fn identify_frequency(args: &IdentifyArgs, exp: &Experiment) -> Result<String> {
-    anyhow::ensure!(
-        args.shard.is_none(),
-        "--shard: the frequency-domain fit is not sharded (it takes seconds)"
-    );
-    let problem = exp
-        .frequency_problem()
-        .ok_or_else(|| anyhow::anyhow!("the experiment is not fitted in the frequency domain"))?;
-    let start = Instant::now();
-    let fit = problem.fit(&exp.first_grid)?;
-    let seconds = start.elapsed().as_secs_f64();
-    warn(&fit.warnings);
-    let uncertainty = if args.uncertainty {
-        let start = Instant::now();
-        let u = problem.uncertainty(&fit, args.confidence)?;
-        Some((u, start.elapsed().as_secs_f64()))
-    } else {
-        None
-    };
-    let u = uncertainty.as_ref().map(|(u, s)| (u, *s));
-    let doc = frf_outputs::frequency_document(exp, &fit, seconds, u);
-    if let Some(dir) = &args.out {
-        let folder = crate::emit::out_dir(dir)?;
-        write_atomic(
-            &folder.path().join("result.json"),
-            (serde_json::to_string_pretty(&doc)? + "\n").as_bytes(),
-        )?;
-        let curves = frf_outputs::fitted_curves(&problem, &fit);
-        for (k, (s, curve)) in problem.sweeps.iter().zip(&curves).enumerate() {
-            let svg = frf_outputs::frf_svg(&s.estimate, curve.as_ref())
-                .map_err(|e| anyhow::anyhow!(e))?;
-            write_atomic(
-                &folder.path().join(format!("fit-{}.svg", k + 1)),
-                svg.as_bytes(),
-            )?;
-        }
-        crate::emit::commit(folder, dir)?;
+/// The result folder `dir` of `files` (name, bytes), built aside and swapped in whole.
+fn write_folder(dir: &Path, files: Vec<(String, Vec<u8>)>) -> Result<()> {
+    let folder = crate::emit::out_dir(dir)?;
+    for (name, bytes) in files {
+        write_atomic(&folder.path().join(name), &bytes)?;
     }
-    if args.json {
-        return Ok(serde_json::to_string_pretty(&doc)? + "\n");
-    }
-    Ok(frf_outputs::frequency_text(exp, &fit, seconds, u))
+    crate::emit::commit(folder, dir)
 }
 
 /// Warnings go to standard error, one line each, so `--json` output stays clean.
@@ -383,59 +303,13 @@ pub fn merge(args: &MergeArgs) -> Result<String> {
             .map_err(|e| anyhow::anyhow!("{}: not a partial result: {e}", p.display()))?;
         parts.push((p.clone(), part));
     }
-    let (exp, id, seconds) = shards::merge(crate::read_files::files(), parts)?;
-    report_identification(&exp, &id, seconds, None, args.json, args.out.as_deref())
-}
-
-/// The profile-likelihood uncertainty of the best candidate (docs/identification.md,
-/// "Uncertainty") and the seconds it took.
-fn analyze_uncertainty(
-    exp: &Experiment,
-    id: &Identification,
-    confidence: f64,
-) -> Result<(Uncertainty, f64)> {
-    let start = Instant::now();
-    let opts = UncertaintyOptions {
-        confidence,
-        ..UncertaintyOptions::default()
+    let request = Merge {
+        parts,
+        files: crate::read_files::files(),
     };
-    let u = analyze(&exp.problem, &id.best().candidate, &opts)?;
-    Ok((u, start.elapsed().as_secs_f64()))
-}
-
-/// Report an identification (with its uncertainty when analysed): JSON or text; with `out`,
-/// its result folder (docs/identification.md), built aside and swapped in whole.
-fn report_identification(
-    exp: &Experiment,
-    id: &Identification,
-    seconds: f64,
-    uncertainty: Option<&(Uncertainty, f64)>,
-    json_out: bool,
-    out: Option<&Path>,
-) -> Result<String> {
-    let origin = outputs::Origin::of_experiment(exp);
-    let found = outputs::Found {
-        uncertainty,
-        ..outputs::Found::of_experiment(exp, &origin, id, seconds)
-    };
-    let (v, verdicts) = outputs::identification_report(&found)?;
-    if let Some(dir) = out {
-        let folder = crate::emit::out_dir(dir)?;
-        let mut files = outputs::files(exp, id, &v)?;
-        if let Some((u, _)) = uncertainty {
-            files.extend(profile_files(u)?);
-        }
-        for (name, bytes) in files {
-            write_atomic(&folder.path().join(name), &bytes)?;
-        }
-        crate::emit::commit(folder, dir)?;
+    let outcome = crate::emit::run(&request)?;
+    if let Some(dir) = &args.out {
+        write_folder(dir, outcome.files()?)?;
     }
-    if json_out {
-        return Ok(serde_json::to_string_pretty(&v)? + "\n");
-    }
-    let mut text = outputs::identification_text(exp, id, seconds, verdicts.as_ref());
-    if let Some((u, s)) = uncertainty {
-        text += &uncertainty_text(u, *s);
-    }
-    Ok(text)
+    show(&outcome, args.json)
 }

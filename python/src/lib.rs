@@ -18,7 +18,7 @@ use std::sync::mpsc::RecvTimeoutError;
 use std::time::{Duration, Instant};
 
 use nalgebra::DMatrix;
-use pumpcyl::ident::{self, Experiment, Grid, Options, Problem, Standstill};
+use pumpcyl::ident::{self, Experiment, Grid, Standstill};
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{self, StateSpace};
 use pumpcyl::model::Plant;
@@ -26,7 +26,7 @@ use pumpcyl::record::Record;
 use pumpcyl::response::{self, Baseline, Signals};
 use pumpcyl::rig::{Rig, RigError};
 use pumpcyl::select::SelectError;
-use pumpcyl_present::identification as outputs;
+use pumpcyl_present::request::identify::{Datasets, Identify, Search, Source};
 use pumpcyl_present::request::{self, Document, FieldError, Hooks, Request, RigInput};
 
 create_exception!(
@@ -1205,26 +1205,21 @@ fn identify(
     confidence: f64,
     method: Option<&str>,
 ) -> PyResult<Py<PyAny>> {
-    let search = Search {
-        grids,
-        grid,
-        refined_grid,
-        auto_refine,
-        local_refinement,
-        threshold_mm2,
-        top,
-        confidence,
-    };
-    if let Some(label) = shard {
-        check_shard_request(&experiment, &search, uncertainty)
-            .map_err(|problem| err(format!("identify(shard={label:?}): {problem}")))?;
-    }
-    ident::check_confidence(confidence).map_err(err)?;
-    let method = method_of(method, shard)?;
-    let path = experiment.clone();
-    let posed = match (experiment, datasets) {
-        (Some(path), None) => pose_experiment(py, &path, standstill, rig, method, &search, shard)?,
-        (None, Some(sets)) => pose_datasets(py, &sets, standstill, rig, method, &search)?,
+    let method = method_of(method)?;
+    let source = match (experiment, datasets) {
+        (Some(path), None) => {
+            if standstill.is_some() || rig.is_some() {
+                return Err(err(
+                    "standstill and rig come from the experiment file: give either the file or datasets",
+                ));
+            }
+            let exp =
+                Experiment::load_as(&pumpcyl::source_files::Disk, &path, method).map_err(err)?;
+            Source::Experiment(Box::new(exp))
+        }
+        (None, Some(sets)) => {
+            Source::Datasets(Box::new(datasets_of(&sets, standstill, rig, method)?))
+        }
         (Some(_), Some(_)) => {
             return Err(err(
                 "give either `experiment` (an experiment TOML file) or `datasets`, not both",
@@ -1237,131 +1232,76 @@ fn identify(
             ))
         }
     };
-    let posed = match posed {
-        Posed::Fitted(outcome) => return Ok(Py::new(py, outcome)?.into_any()),
-        Posed::Time(posed) => posed,
+    let frequency = match &source {
+        Source::Experiment(exp) => exp.method == ident::Method::Frequency,
+        Source::Datasets(d) => d.method == ident::Method::Frequency,
     };
-    let run = Run {
-        progress,
+    let search = Search {
+        article_grids: article_grids(grids)?,
+        grid: grid.map(|g| grid_of("grid", g)).transpose()?,
+        refined_grid: refined_grid.map(refined_of).transpose()?,
+        auto_refine,
+        local_refinement,
+        threshold_mm2,
+        top,
+    };
+    let request = Identify {
+        source,
+        search,
+        shard,
+        // a frequency-domain fit takes seconds: its intervals always come with it
+        uncertainty: (uncertainty || frequency).then_some(confidence),
         allow_long_run,
-        shard: shard.zip(path),
-        uncertainty: uncertainty.then_some(confidence),
+        files: &pumpcyl::source_files::Disk,
     };
-    run_time_domain(py, &posed, &search, run)
-}
-
-/// The search arguments of `identify`: the grids, the options over the file's, the length of
-/// the top list and the confidence of the intervals.
-struct Search<'a, 'py> {
-    grids: Option<&'a str>,
-    grid: Option<&'a Bound<'py, PyAny>>,
-    refined_grid: Option<&'a Bound<'py, PyAny>>,
-    auto_refine: Option<bool>,
-    local_refinement: Option<bool>,
-    threshold_mm2: Option<f64>,
-    top: usize,
-    confidence: f64,
-}
-
-/// How `identify` runs a time-domain search: progress, the long-run consent, the shard of an
-/// experiment file (label and the file) and the confidence of an uncertainty analysis.
-struct Run {
-    progress: Option<Py<PyAny>>,
-    allow_long_run: bool,
-    shard: Option<((usize, usize), PathBuf)>,
-    uncertainty: Option<f64>,
-}
-
-/// What `identify` was asked: a time-domain problem to search, or a frequency-domain fit,
-/// already done (it takes seconds).
-enum Posed {
-    Time(Box<TimeProblem>),
-    Fitted(PyOutcome),
-}
-
-/// A time-domain problem with its rig, its origin, the grids and options its source gives
-/// and the keys its rig file left out.
-struct TimeProblem {
-    problem: Problem,
-    rig: Rig,
-    origin: outputs::Origin,
-    grids: (Grid, Option<ident::SecondGrid>),
-    options: Options,
-    defaulted: Option<Vec<&'static str>>,
-}
-
-/// The fitting method named, if any; the frequency method is never sharded.
-fn method_of(name: Option<&str>, shard: Option<(usize, usize)>) -> PyResult<Option<ident::Method>> {
-    let method = name
-        .map(|m| {
-            ident::Method::named(m)
-                .ok_or_else(|| err(format!("method=\"{m}\": give \"time\" or \"frequency\"")))
-        })
-        .transpose()?;
-    if method == Some(ident::Method::Frequency) && shard.is_some() {
-        return Err(err(
-            "method=\"frequency\" fits its records unsharded: give no `shard`",
-        ));
+    let outcome = run_reporting(py, "identify", &request, progress)?;
+    if let Some(part) = outcome.partial() {
+        let text = serde_json::to_string(part).map_err(err)?;
+        return Ok(PyString::new(py, &text).into_any().unbind());
     }
-    Ok(method)
+    Ok(Py::new(py, document(py, "identify", "Identification", &outcome)?)?.into_any())
 }
 
-/// The problem of the experiment file at `path` (fitted by `method` over the file's), or its
-/// frequency-domain fit.
-fn pose_experiment(
-    py: Python<'_>,
-    path: &std::path::Path,
-    standstill: Option<&Bound<'_, PyAny>>,
-    rig: Option<&PyRig>,
-    method: Option<ident::Method>,
-    search: &Search<'_, '_>,
-    shard: Option<(usize, usize)>,
-) -> PyResult<Posed> {
-    if standstill.is_some() || rig.is_some() {
-        return Err(err(
-            "standstill and rig come from the experiment file: give either the file or datasets",
-        ));
+/// `grids`: `"article"` names the article's two (§2.4), as an experiment file's `grids` key.
+fn article_grids(grids: Option<&str>) -> PyResult<bool> {
+    match grids {
+        None => Ok(false),
+        Some("article") => Ok(true),
+        Some(other) => Err(err(format!(
+            "grids=\"{other}\": the only named grids are \"article\""
+        ))),
     }
-    let loaded = Experiment::load_as(&pumpcyl::source_files::Disk, path, method).map_err(err)?;
-    if loaded.method == ident::Method::Frequency {
-        if shard.is_some() {
-            return Err(err("identify(shard=...): a shard is a slice of the time-domain grid search; the experiment's method is \"frequency\""));
-        }
-        let first = search.grid.map(|g| grid_of("grid", g)).transpose()?;
-        return Ok(Posed::Fitted(identify_frequency(
-            py,
-            &loaded,
-            first,
-            search.confidence,
-        )?));
-    }
-    if let Some(label) = shard {
-        ident::shards::check_label(&loaded, label).map_err(err)?;
-    }
-    Ok(Posed::Time(Box::new(TimeProblem {
-        origin: outputs::Origin::of_experiment(&loaded),
-        grids: loaded.grids(),
-        options: loaded.options(),
-        defaulted: loaded.rig_defaulted_keys().map(<[_]>::to_vec),
-        rig: loaded.rig,
-        problem: loaded.problem,
-    })))
 }
 
-/// The problem of `sets` on `rig` (default: the article's) at the `standstill` point, or its
-/// frequency-domain fit; the first grid centred on the rig's values, the second on the first
-/// stage's best (docs/identification.md#the-two-grids).
-fn pose_datasets(
-    py: Python<'_>,
+/// `refined_grid`: a grid, or `False` for no second stage.
+fn refined_of(g: &Bound<'_, PyAny>) -> PyResult<Option<ident::SecondGrid>> {
+    if g.is_instance_of::<PyBool>() && !g.extract::<bool>()? {
+        return Ok(None);
+    }
+    Ok(Some(grid_of("refined_grid", g)?.into()))
+}
+
+/// The fitting method named, if any.
+fn method_of(name: Option<&str>) -> PyResult<Option<ident::Method>> {
+    name.map(|m| {
+        ident::Method::named(m)
+            .ok_or_else(|| err(format!("method=\"{m}\": give \"time\" or \"frequency\"")))
+    })
+    .transpose()
+}
+
+/// The records `sets` on `rig` (default: the article's) at the `standstill` point, each loaded
+/// for `method` (default: the time domain).
+fn datasets_of(
     sets: &[Bound<'_, PyDataset>],
     standstill: Option<&Bound<'_, PyAny>>,
     rig: Option<&PyRig>,
     method: Option<ident::Method>,
-    search: &Search<'_, '_>,
-) -> PyResult<Posed> {
-    let defaulted = rig.and_then(|r| r.defaulted.clone());
-    let rig_name = rig.map_or_else(|| "the article's rig".into(), PyRig::__repr__);
-    let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
+) -> PyResult<Datasets> {
+    let rig = rig.map_or_else(
+        || RigInput::default_named("the article's rig"),
+        PyRig::input,
+    );
     let standstill = standstill_of(
         standstill
             .ok_or_else(|| err("standstill: give dict(w1_rpm=..., w2_rpm=..., p1_bar=...)"))?,
@@ -1370,222 +1310,15 @@ fn pose_datasets(
         return Err(err("datasets: needs at least one Dataset"));
     }
     let method = method.unwrap_or(ident::Method::Time);
-    let loaded = (sets.iter())
-        .map(|d| d.get().load(method, &rig))
+    let sets = (sets.iter())
+        .map(|d| d.get().load(method, &rig.rig))
         .collect::<PyResult<Vec<_>>>()?;
-    let centre = ident::Candidate {
-        beta_bar: rig.beta_bar,
-        viscous_friction_ns_per_m: rig.viscous_friction_ns_per_m,
-        c12_m5_per_ns: rig.c12_m5_per_ns,
-    };
-    let first = Grid::centred(&centre).map_err(|e| err(e.message))?;
-    if method == ident::Method::Frequency {
-        let problem = ident::FrequencyProblem::of_loaded(loaded, standstill).map_err(err)?;
-        let first = (search.grid.map(|g| grid_of("grid", g)).transpose()?).unwrap_or(first);
-        let origin = pumpcyl_present::frf::FitOrigin {
-            experiment: format!("datasets on {rig_name}"),
-            grids: "first centred on the rig's values".into(),
-            step_datasets: problem.step_names(),
-        };
-        return Ok(Posed::Fitted(fit_frequency(
-            py,
-            &problem,
-            &first,
-            &origin,
-            search.confidence,
-        )?));
-    }
-    let datasets = (loaded.into_iter())
-        .map(|l| match l {
-            ident::Loaded::Step(p) => Ok(*p),
-            ident::Loaded::Sweep(_) => Err(err("a sweep is fitted with method=\"frequency\"")),
-        })
-        .collect::<PyResult<_>>()?;
-    Ok(Posed::Time(Box::new(TimeProblem {
-        problem: Problem {
-            datasets,
-            standstill,
-        },
+    Ok(Datasets {
         rig,
-        origin: outputs::Origin {
-            experiment: None,
-            rig: rig_name,
-            grids: "first centred on the rig's values; second centred on the first stage's best"
-                .into(),
-        },
-        grids: (first, Some(ident::SecondGrid::Centred)),
-        options: Options::default(),
-        defaulted,
-    })))
-}
-
-/// The grids of a search: `grids="article"` (the article's two, §2.4, as an experiment file's
-/// `grids` key), `grid` and `refined_grid` over the source's (`refined_grid=False`: no second
-/// stage); with where they come from, in words, added to `origin`.
-fn search_grids(
-    search: &Search<'_, '_>,
-    source: &(Grid, Option<ident::SecondGrid>),
-    origin: &mut outputs::Origin,
-) -> PyResult<(Grid, Option<ident::SecondGrid>)> {
-    let source = match search.grids {
-        None => source.clone(),
-        Some("article") => {
-            origin.grids =
-                "first the article's first grid; second the article's refined grid".into();
-            (Grid::article_first(), Some(Grid::article_refined().into()))
-        }
-        Some(other) => {
-            return Err(err(format!(
-                "grids=\"{other}\": the only named grids are \"article\""
-            )))
-        }
-    };
-    if search.grid.is_some() || search.refined_grid.is_some() {
-        origin.grids = format!(
-            "{}; the `grid` and `refined_grid` arguments over it",
-            origin.grids
-        );
-    }
-    let first = match search.grid {
-        Some(g) => grid_of("grid", g)?,
-        None => source.0,
-    };
-    let second = match search.refined_grid {
-        Some(g) if g.is_instance_of::<PyBool>() && !g.extract::<bool>()? => None,
-        Some(g) => Some(grid_of("refined_grid", g)?.into()),
-        None => source.1,
-    };
-    Ok((first, second))
-}
-
-/// The time-domain search of `posed` with the `search` arguments, run as `run` says: the
-/// identification's result, or a shard's partial result as JSON text.
-fn run_time_domain(
-    py: Python<'_>,
-    posed: &TimeProblem,
-    search: &Search<'_, '_>,
-    run: Run,
-) -> PyResult<Py<PyAny>> {
-    let mut origin = posed.origin.clone();
-    let grids = search_grids(search, &posed.grids, &mut origin)?;
-    let file = &posed.options;
-    let opts = Options {
-        auto_refine: search.auto_refine.unwrap_or(file.auto_refine),
-        local_refinement: search.local_refinement.unwrap_or(file.local_refinement),
-        threshold_mm2: search.threshold_mm2.unwrap_or(file.threshold_mm2),
-        top_n: search.top,
-    };
-    let request = ident::Request {
-        allow_long_run: run.allow_long_run,
-        shard: run.shard.as_ref().map(|(label, _)| *label),
-        ..ident::Request::new(&posed.problem, grids, opts)
-    };
-    request.check().map_err(|e| match e {
-        ident::IdentError::Limit(pumpcyl::limits::LimitError::LongRun { .. }) => {
-            err(format!("{e} (allow_long_run=True)"))
-        }
-        e => err(e),
-    })?;
-    let total = request.candidates();
-    let mut tick = progress_reporter(py, run.progress, "identify", "candidates", total)?;
-    let start = Instant::now();
-    if let Some((label, path)) = &run.shard {
-        let part = shard_of(py, &request, path, *label, &mut tick)?;
-        return Ok(PyString::new(py, &part).into_any().unbind());
-    }
-    let id = run_interruptible(py, |go_on| request.run(go_on), &mut tick)?.map_err(err)?;
-    tick(py, u64::MAX)?;
-    let seconds = start.elapsed().as_secs_f64();
-    let analysed = (run.uncertainty)
-        .map(|confidence| py.detach(|| uncertainty_of(&posed.problem, &id, confidence)))
-        .transpose()
-        .map_err(err)?;
-    let found = outputs::Found {
-        problem: &posed.problem,
-        rig: &posed.rig,
-        origin: &origin,
-        id: &id,
-        seconds,
-        uncertainty: analysed.as_ref(),
-        defaulted: posed.defaulted.as_deref(),
-    };
-    Ok(Py::new(py, identification_outcome(py, &found)?)?.into_any())
-}
-
-/// Shard `label` of the `request` on the grids of the experiment file at `path`: the partial
-/// result's JSON text, as `pumpcyl identify --shard` writes it (docs/identification.md#sharding).
-fn shard_of(
-    py: Python<'_>,
-    request: &ident::Request<'_>,
-    path: &std::path::Path,
-    label: (usize, usize),
-    tick: &mut (dyn FnMut(Python<'_>, u64) -> PyResult<()> + Send),
-) -> PyResult<String> {
-    let start = Instant::now();
-    let stages = run_interruptible(py, |go_on| request.search(go_on), tick)?.map_err(err)?;
-    tick(py, u64::MAX)?;
-    let seconds = start.elapsed().as_secs_f64();
-    py.detach(|| {
-        let (files, opts) = (&pumpcyl::source_files::Disk, &request.options);
-        let part = ident::shards::Partial::of_search(files, path, opts, label, seconds, stages)?;
-        serde_json::to_string(&part).map_err(|e| ident::IdentError::Input(e.to_string()))
+        sets,
+        standstill,
+        method,
     })
-    .map_err(err)
-}
-
-/// The profile-likelihood uncertainty of the best candidate of `id` at `confidence`
-/// (docs/identification.md, "Uncertainty"), with the seconds it took, as `identify
-/// --uncertainty` analyses it.
-fn uncertainty_of(
-    problem: &Problem,
-    id: &ident::Identification,
-    confidence: f64,
-) -> Result<(ident::Uncertainty, f64), ident::IdentError> {
-    let start = Instant::now();
-    let opts = ident::UncertaintyOptions {
-        confidence,
-        ..ident::UncertaintyOptions::default()
-    };
-    let u = ident::analyze(problem, &id.best().candidate, &opts)?;
-    Ok((u, start.elapsed().as_secs_f64()))
-}
-
-/// The result of an identification ([`pumpcyl_present::identification::identification_report`],
-/// as `pumpcyl identify --json`), its verdicts computed with the GIL released.
-fn identification_outcome(py: Python<'_>, f: &outputs::Found<'_>) -> PyResult<PyOutcome> {
-    let (doc, _) = py
-        .detach(|| outputs::identification_report(f))
-        .map_err(err)?;
-    PyOutcome::of(py, "Identification", &doc)
-}
-
-/// Why `identify(shard=...)` cannot run with these arguments, if it cannot: a shard is a slice
-/// of the grids an experiment file names, which the merge loads again
-/// (docs/identification.md#sharding).
-fn check_shard_request(
-    experiment: &Option<PathBuf>,
-    search: &Search<'_, '_>,
-    uncertainty: bool,
-) -> Result<(), &'static str> {
-    if experiment.is_none() {
-        return Err("a shard needs an experiment file (the merge loads it again), not datasets");
-    }
-    if search.grids.is_some() || search.grid.is_some() || search.refined_grid.is_some() {
-        return Err(
-            "a shard runs the experiment file's own grids: give them in the file, \
-                    not as grids, grid or refined_grid",
-        );
-    }
-    if search.auto_refine == Some(true) {
-        return Err(
-            "a shard needs fixed grids: auto-refine derives the second grid from the \
-                    first, so run that stage unsharded",
-        );
-    }
-    if uncertainty {
-        return Err("the uncertainty is analysed on the merged answer, not on a shard");
-    }
-    Ok(())
 }
 
 /// Refuse, before any shard runs, a split of the grids of the experiment file `experiment`
@@ -1635,56 +1368,12 @@ fn identify_merge(py: Python<'_>, shards: Vec<Bound<'_, PyAny>>) -> PyResult<PyO
         })?;
         parts.push((PathBuf::from(&arg.name), part));
     }
-    let (exp, id, seconds) = py
-        .detach(|| ident::shards::merge(&pumpcyl::source_files::Disk, parts))
-        .map_err(err)?;
-    let origin = outputs::Origin::of_experiment(&exp);
-    identification_outcome(
-        py,
-        &outputs::Found::of_experiment(&exp, &origin, &id, seconds),
-    )
-}
-
-/// The frequency-domain fit of an experiment (on `first`, else its first grid) with its
-/// intervals at `confidence`, as `pumpcyl identify --frequency --uncertainty --json` gives it.
-fn identify_frequency(
-    py: Python<'_>,
-    exp: &Experiment,
-    first: Option<Grid>,
-    confidence: f64,
-) -> PyResult<PyOutcome> {
-    let problem = exp
-        .frequency_problem()
-        .ok_or_else(|| err("the experiment is not fitted in the frequency domain"))?;
-    let grid = first.unwrap_or_else(|| exp.first_grid.clone());
-    let origin = pumpcyl_present::frf::FitOrigin {
-        experiment: exp.path.display().to_string(),
-        grids: exp.grids_origin.clone(),
-        step_datasets: problem.step_names(),
+    let request = request::identify::Merge {
+        parts,
+        files: &pumpcyl::source_files::Disk,
     };
-    fit_frequency(py, &problem, &grid, &origin, confidence)
-}
-
-/// The frequency-domain fit of `problem` on `grid` with its intervals at `confidence`, the
-/// document of `pumpcyl identify --frequency --uncertainty --json` for records from `origin`.
-fn fit_frequency(
-    py: Python<'_>,
-    problem: &ident::FrequencyProblem,
-    grid: &Grid,
-    origin: &pumpcyl_present::frf::FitOrigin,
-    confidence: f64,
-) -> PyResult<PyOutcome> {
-    let start = Instant::now();
-    let fit = py.detach(|| problem.fit(grid)).map_err(err)?;
-    let seconds = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let u = py
-        .detach(|| problem.uncertainty(&fit, confidence))
-        .map_err(err)?;
-    let u_seconds = start.elapsed().as_secs_f64();
-    warn_each(py, fit.warnings.clone())?;
-    let doc = pumpcyl_present::frf::frequency_json(origin, &fit, seconds, Some((&u, u_seconds)));
-    PyOutcome::of(py, "Identification", &doc)
+    let outcome = run_request(py, "identify_merge", &request)?;
+    document(py, "identify_merge", "Identification", &outcome)
 }
 
 /// The closed-loop frequency response of a sweep record (docs/identification.md#frequency-response-from-a-sweep)

@@ -22,7 +22,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 /// A partial result of a sharded run.
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Partial {
     /// The experiment file, by its canonical path.
     pub experiment: PathBuf,

@@ -10,6 +10,7 @@
 //! - [`chatter`] — `chatter`;
 //! - [`design`] — `design`, nominal and robust;
 //! - [`emulate`] — `emulate`;
+//! - [`identify`] — `identify`, from an experiment file or from records on a rig;
 //! - [`select`] — `select`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
@@ -17,6 +18,7 @@ pub mod analysis;
 pub mod chatter;
 pub mod design;
 pub mod emulate;
+pub mod identify;
 pub mod select;
 pub mod time;
 
@@ -148,6 +150,8 @@ pub enum Given {
     /// A wave: frequency (Hz) and amplitude (mm); `80:5` on the command line, `(80.0, 5.0)` in
     /// Python.
     Wave(f64, f64),
+    /// A shard `I/N` of a search: `1/2` on the command line, `(1, 2)` in Python.
+    Shard(usize, usize),
     /// Item `index` of a list option (from 0), given as `value`: on the command line the
     /// repeated option's value (`--wave 80:5` of `waves`), in Python `waves[1]=(80.0, 5.0)`.
     Item(usize, Box<Given>),
@@ -160,6 +164,7 @@ impl Given {
             Given::Number(v) => format!("{v}"),
             Given::Text(t) | Given::Shown(t) => t.clone(),
             Given::Wave(f, a) => format!("{f}:{a}"),
+            Given::Shard(i, n) => format!("{i}/{n}"),
             Given::Item(_, v) => v.on_command_line(),
         }
     }
@@ -177,6 +182,7 @@ impl Given {
                 let (f, a) = (Given::Number(*f).in_python(), Given::Number(*a).in_python());
                 format!("({f}, {a})")
             }
+            Given::Shard(i, n) => format!("({i}, {n})"),
             Given::Item(_, v) => v.in_python(),
         }
     }
