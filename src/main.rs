@@ -315,7 +315,7 @@ pub fn run() -> Result<()> {
     if let Some(note) = read_files::rig_defaults_note() {
         eprintln!("note: {}", escape_controls(&note));
     }
-    emit::emit(&read_files::with_rig_defaults(text))
+    emit::emit(&text)
 }
 
 /// An error as the command line says it: each cause after the one it explains (as `{:#}`), an

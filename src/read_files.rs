@@ -47,7 +47,8 @@ pub fn protected() -> Protected {
 static RIG_DEFAULTS: Mutex<Option<RigDefaults>> = Mutex::new(None);
 
 /// Note what the command's rig file left out (docs/formats.md#rig-toml): the first file read is
-/// the one [`with_rig_defaults`] and [`rig_defaults_note`] report.
+/// the one [`rig_defaults_note`] reports (a request's document lists the keys itself,
+/// `pumpcyl_present::request::RigInput`).
 fn note(defaults: RigDefaults) {
     let mut noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
     if noted.is_none() {
@@ -88,22 +89,4 @@ pub fn experiment_as(
 pub fn rig_defaults_note() -> Option<String> {
     let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
     noted.as_ref().and_then(|d| d.note.clone())
-}
-
-/// The JSON result `text` with `rig_defaulted_keys`, the keys the command's rig file left out,
-/// when it has a `rig` block (`pumpcyl_present::documents::with_rig_defaulted_keys`, as Python
-/// adds them); any other result as it is.
-pub fn with_rig_defaults(text: String) -> String {
-    let noted = RIG_DEFAULTS.lock().unwrap_or_else(|e| e.into_inner());
-    let Some(defaults) = noted.as_ref() else {
-        return text;
-    };
-    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
-        return text;
-    };
-    if v.get("rig").is_none() {
-        return text;
-    }
-    let v = pumpcyl_present::documents::with_rig_defaulted_keys(v, Some(&defaults.keys));
-    pumpcyl_present::format::json_document(&v).unwrap_or(text)
 }
