@@ -5,11 +5,8 @@
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
-use std::time::Instant;
 
-use pumpcyl::ident::advise_experiment;
-use pumpcyl_present::advise::{advice_json, advice_text};
-use pumpcyl_present::format::json_document;
+use pumpcyl_present::request::advise::Advise;
 
 #[derive(Debug, Args)]
 pub struct AdviseArgs {
@@ -38,18 +35,12 @@ pub struct AdviseArgs {
 /// Run the identification of the experiment, then the advice.
 pub fn run(args: &AdviseArgs) -> Result<String> {
     crate::emit::check_confidence(args.confidence)?;
-    let exp = crate::read_files::experiment(&args.experiment)?;
-    let start = Instant::now();
-    let advice = advise_experiment(
-        &exp,
-        crate::read_files::files(),
-        args.candidates.as_deref(),
-        (args.confidence, args.budget_s),
-    )?;
-    let seconds = start.elapsed().as_secs_f64();
-    let name = args.experiment.display().to_string();
-    if args.json {
-        return Ok(json_document(&advice_json(&advice, &name, seconds))?);
-    }
-    Ok(advice_text(&name, &advice, seconds))
+    let request = Advise {
+        experiment: crate::read_files::experiment(&args.experiment)?,
+        candidates: args.candidates.clone(),
+        confidence: args.confidence,
+        budget_s: args.budget_s,
+        files: crate::read_files::files(),
+    };
+    crate::emit::show(&crate::emit::run(&request)?, args.json)
 }

@@ -8,7 +8,9 @@ use anyhow::{anyhow, Result};
 use clap::Args;
 use pumpcyl::frf::{self, Options};
 use pumpcyl::record::Record;
-use pumpcyl_present::frf::{design_text, frf_csv, frf_json, frf_svg, frf_text};
+use pumpcyl_present::frf::design_text;
+use pumpcyl_present::request::frf::Frf;
+use pumpcyl_present::request::RigInput;
 use std::path::PathBuf;
 
 #[derive(Debug, Args)]
@@ -105,29 +107,24 @@ pub fn run(args: &FrfArgs) -> Result<String> {
         frf::check_matches(&rec, e)
             .map_err(|err| anyhow!("{err}{}", defaults_hint(args, e, &rec)))?;
     }
-    let opts = Options {
+    let request = Frf {
+        rig: RigInput {
+            rig,
+            name: args.source.origin(),
+            defaulted: None,
+        },
+        record: rec,
         excitation,
-        rig: Some(&rig),
         segment_s: args.segment_s,
     };
-    let mut est = frf::estimate(&rec, &opts)?;
-    est.warnings
-        .extend(pumpcyl_present::frf::model_warning(&rig));
-    let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, &args.source.origin())?;
+    let outcome = crate::emit::run(&request)?;
     if let Some(out) = &args.out {
-        write_atomic(out, frf_csv(&est, Some(&model)).as_bytes())?;
+        write_atomic(out, outcome.csv().as_bytes())?;
     }
     if let Some(figure) = &args.figure {
-        let svg = frf_svg(&est, Some(&model)).map_err(|e| anyhow!(e))?;
-        write_atomic(figure, svg.as_bytes())?;
+        write_atomic(figure, outcome.svg()?.as_bytes())?;
     }
-    if args.json {
-        return Ok(pumpcyl_present::format::json_document(&frf_json(
-            &est,
-            Some(&model),
-        ))?);
-    }
-    Ok(frf_text(&est))
+    crate::emit::show(&outcome, args.json)
 }
 
 /// Where the described sweep `e` took the designer's values for absent options and the record

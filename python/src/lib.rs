@@ -15,7 +15,7 @@ use std::ffi::CString;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::RecvTimeoutError;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use nalgebra::DMatrix;
 use pumpcyl::ident::{self, Experiment, Grid, Standstill};
@@ -1389,24 +1389,14 @@ fn frf(
     rig: Option<&PyRig>,
     segment_s: Option<f64>,
 ) -> PyResult<PyOutcome> {
-    let rig = rig.map_or_else(Rig::default, |r| r.rig.clone());
-    let rec = Record::read(&record).map_err(err)?;
-    rec.check_units(rig.stroke_mm).map_err(err)?;
-    let opts = pumpcyl::frf::Options {
+    let request = request::frf::Frf {
+        rig: rig.map_or_else(|| RigInput::default_named("Rig()"), PyRig::input),
+        record: Record::read(&record).map_err(err)?,
         excitation: None,
-        rig: Some(&rig),
         segment_s,
     };
-    let mut est = pumpcyl::frf::estimate(&rec, &opts).map_err(err)?;
-    est.warnings
-        .extend(pumpcyl_present::frf::model_warning(&rig));
-    let model = pumpcyl_present::frf::rig_model_curve(&rig, &est, "the rig given").map_err(err)?;
-    warn_each(py, est.warnings.clone())?;
-    PyOutcome::of(
-        py,
-        "FrequencyResponse",
-        &pumpcyl_present::frf::frf_json(&est, Some(&model)),
-    )
+    let outcome = run_request(py, "frf", &request)?;
+    document(py, "frf", "FrequencyResponse", &outcome)
 }
 
 /// Whether Python's `sys.stderr` is a terminal (a notebook's or a pipe's is not).
@@ -1499,22 +1489,15 @@ fn advise(
     candidates: Option<PathBuf>,
     budget_s: Option<f64>,
 ) -> PyResult<PyOutcome> {
-    let start = Instant::now();
-    let advice = py
-        .detach(|| {
-            let exp = pumpcyl::ident::Experiment::load(&experiment)?;
-            pumpcyl::ident::advise_experiment(
-                &exp,
-                &pumpcyl::source_files::Disk,
-                candidates.as_deref(),
-                (confidence, budget_s),
-            )
-        })
-        .map_err(err)?;
-    let seconds = start.elapsed().as_secs_f64();
-    let name = experiment.display().to_string();
-    let doc = pumpcyl_present::advise::advice_json(&advice, &name, seconds);
-    PyOutcome::of(py, "Advice", &doc)
+    let request = request::advise::Advise {
+        experiment: Experiment::load(&experiment).map_err(err)?,
+        candidates,
+        confidence,
+        budget_s,
+        files: &pumpcyl::source_files::Disk,
+    };
+    let outcome = run_request(py, "advise", &request)?;
+    document(py, "advise", "Advice", &outcome)
 }
 
 // The article workflow

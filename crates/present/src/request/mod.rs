@@ -6,18 +6,22 @@
 //! arguments into a request and show its outcome, so both give the same keys, and checks of an
 //! option are written once.
 //!
+//! - [`advise`] — `advise`;
 //! - [`analysis`] — `margins`, `poles`;
 //! - [`chatter`] — `chatter`;
 //! - [`design`] — `design`, nominal and robust;
 //! - [`emulate`] — `emulate`;
+//! - [`frf`] — `frf` of a record;
 //! - [`identify`] — `identify`, from an experiment file or from records on a rig;
 //! - [`select`] — `select`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
+pub mod advise;
 pub mod analysis;
 pub mod chatter;
 pub mod design;
 pub mod emulate;
+pub mod frf;
 pub mod identify;
 pub mod select;
 pub mod time;
