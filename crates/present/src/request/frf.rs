@@ -37,7 +37,7 @@ impl Request for Frf {
         let rig = &self.rig.rig;
         self.record.check_units(rig.stroke_mm)?;
         let opts = Options {
-            excitation: self.excitation.clone(),
+            excitation: self.excitation,
             rig: Some(rig),
             segment_s: self.segment_s,
         };
