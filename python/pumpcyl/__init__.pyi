@@ -19,6 +19,7 @@ from ._pumpcyl import (
     Signals as Signals,
     Simulation as Simulation,
     Tracking as Tracking,
+    FrequencyResponse as FrequencyResponse,
     Step as Step,
     Summary as Summary,
     advise as advise,

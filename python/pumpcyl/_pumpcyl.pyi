@@ -259,6 +259,41 @@ class Step(Result):
     warnings: List[str]
     """The predicted position leaving the stroke, if it does (docs/emulator.md#end-stops)."""
 
+class FrequencyResponse(Result):
+    """A frequency response estimated from a sweep record
+    (docs/identification.md#frequency-response-from-a-sweep): ``pumpcyl frf RECORD.csv --json``."""
+
+    file: str
+    """The record."""
+    method: str
+    """How it was estimated: the periods of a periodic sweep averaged, or Welch's segments."""
+    rate_hz: float
+    segment_samples: int
+    segments: int
+    periods_discarded: int
+    """Periods discarded at the start while the loop settles."""
+    pooled_lines: int
+    averages: float
+    """Independent averages behind each estimate."""
+    usable_coherence: float
+    """The coherence below which a frequency is not used."""
+    lowest_frequency_hz: float
+    lowest_frequency_reason: str
+    closed_loop: Dict[str, Any]
+    """x/x_ref: ``points`` (``freq_hz``, ``re``, ``im``, ``magnitude_db``, ``phase_deg``,
+    ``coherence``, ``relative_error``, ``band_db``, ``band_deg``)."""
+    plant: Optional[Dict[str, Any]]
+    """The plant, where the record holds what it needs."""
+    distortion: Optional[Dict[str, Any]]
+    warnings: List[str]
+    """Each also warns (UserWarning)."""
+    confidence: float
+    """The band's confidence level."""
+    band_reference: str
+    """Where the band's formula comes from."""
+    model: Optional[Dict[str, Any]]
+    """The rig's model beside the estimate: ``label``, ``magnitude_db``, ``phase_deg``."""
+
 class Tracking(Result):
     """Sinusoidal tracking (docs/simulation.md#tracking-metrics): ``pumpcyl track --json``."""
 
@@ -650,7 +685,7 @@ def frf(
     *,
     rig: Optional[Rig] = None,
     segment_s: Optional[float] = None,
-) -> Result:
+) -> FrequencyResponse:
     """Closed-loop frequency response x/x_ref of a sweep record with its coherence and 95 %
     band at each frequency (``closed_loop.points``: ``freq_hz``, ``re``, ``im``,
     ``magnitude_db``, ``phase_deg``, ``coherence``, ``relative_error``, ``band_db``,

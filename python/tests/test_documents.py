@@ -131,6 +131,31 @@ def test_track_and_step_name_a_bad_argument_as_python_writes_it():
     assert bad.stderr.strip() == "error: --periods 2.5: must be a whole number of periods, 1 or more"
 
 
+def test_poles_and_frf_are_the_command_lines_documents_on_a_rig_that_is_not_the_articles(tmp_path):
+    """`poles` and `frf` are each one request for both front ends: the same keys and, for the
+    same inputs, the same numbers (the model's label names the rig as each front end knows
+    it: the file's path or Python's repr)."""
+    p = pumpcyl.poles(pumpcyl.Rig())
+    doc = cli("poles", "--json")
+    assert_one_document(p, doc, "Poles")
+    plain = p.to_dict()
+    plain.pop("loop"), doc.pop("loop")
+    assert plain == doc
+    user = ROOT / "tests" / "user-rig.toml"
+    record = tmp_path / "multisine.csv"
+    subprocess.run([pumpcyl_binary(), "emulate", "--experiment", "multisine", "--rig", str(user),
+                    "--no-noise", "--out", str(record)], check=True, capture_output=True)
+    doc = cli("frf", str(record), "--rig", str(user), "--json")
+    with pytest.warns(UserWarning, match="does not set"):
+        rig = pumpcyl.Rig.from_toml(user)
+    r = pumpcyl.frf(record, rig=rig)
+    assert sorted(r) == sorted(doc) == sorted(stub_fields("FrequencyResponse"))
+    plain = r.to_dict()
+    assert plain["model"].pop("label") != doc["model"].pop("label")
+    assert plain == doc
+    assert len(doc["closed_loop"]["points"]) > 10
+
+
 def test_select_warns_of_a_relief_setting_above_the_cylinder_in_both_front_ends():
     """`select` is one request: a rig whose derived relief setting lets the dual-pump circuit's
     chamber pass the cylinder's rating gives the same `warnings` from the command line (on
