@@ -105,10 +105,32 @@ pub fn hinted(e: anyhow::Error) -> anyhow::Error {
     anyhow::anyhow!("{e:#}{hint}")
 }
 
+/// A progress bar of candidates on stderr when it is a terminal; silent otherwise.
+pub fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    progress_bar_of(total, "candidates")
+}
+
+/// A progress bar of `total` `unit` on stderr when it is a terminal (the size shown from the
+/// start); silent otherwise.
+pub fn progress_bar_of(total: u64, unit: &str) -> indicatif::ProgressBar {
+    if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let bar = indicatif::ProgressBar::new(total);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(&format!(
+                "{{bar:40}} {{pos}}/{{len}} {unit} {{per_sec}} eta {{eta}}"
+            ))
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
+}
+
 /// Run `request`: a progress bar on a terminal over the work it reports, its errors with the
 /// command line's hints ([`hinted`]).
 pub fn run<R: pumpcyl_present::request::Request>(request: &R) -> Result<R::Outcome> {
-    let bar = (request.work()).map(|(total, unit)| crate::ident::progress_bar_of(total, unit));
+    let bar = (request.work()).map(|(total, unit)| progress_bar_of(total, unit));
     let tick = |n| {
         if let Some(bar) = &bar {
             bar.inc(n);

@@ -3,7 +3,6 @@
 
 use anyhow::Result;
 use clap::Args;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use crate::emit::{ensure_folder, format_of, show, write_atomic, Format};
@@ -209,28 +208,6 @@ pub(super) fn write_drive_overlay(
     }
     let chart = Chart::drive_step(rec, fit);
     crate::emit::render(path, &chart)
-}
-
-/// A progress bar of candidates on stderr when it is a terminal; silent otherwise.
-pub(super) fn progress_bar(total: u64) -> indicatif::ProgressBar {
-    progress_bar_of(total, "candidates")
-}
-
-/// A progress bar of `total` `unit` on stderr when it is a terminal (the size shown from the
-/// start); silent otherwise.
-pub(super) fn progress_bar_of(total: u64, unit: &str) -> indicatif::ProgressBar {
-    if std::io::stderr().is_terminal() {
-        let bar = indicatif::ProgressBar::new(total);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(&format!(
-                "{{bar:40}} {{pos}}/{{len}} {unit} {{per_sec}} eta {{eta}}"
-            ))
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        bar
-    } else {
-        indicatif::ProgressBar::hidden()
-    }
 }
 
 /// `pumpcyl identify`.

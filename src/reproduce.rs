@@ -19,7 +19,7 @@ pub fn run(args: &ReproduceArgs) -> Result<String> {
     // refuse a bad output folder before the work, not after it
     drop(crate::emit::out_dir(&args.out)?);
     let start = Instant::now();
-    let bar = crate::ident::progress_bar(0);
+    let bar = crate::emit::progress_bar(0);
     let on_step = |k: usize, total: usize, what: &str| {
         // the candidates' bar belongs to the identification step: gone once a later one starts
         if bar.length().unwrap_or(0) > 0 {

@@ -589,3 +589,69 @@ fn the_circuit_check_sees_variants_and_not_constants_or_methods() {
     let want: Vec<(usize, String)> = want.iter().map(|(l, s)| (*l, s.to_string())).collect();
     assert_eq!(found, want);
 }
+
+/// The functions of `text` longer than `limit` lines, each `name (N lines)`: a function runs
+/// from its `fn` line to the closing brace at the `fn` line's indent (rustfmt's layout).
+fn long_functions(text: &str, limit: usize) -> Vec<String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let line = lines[i];
+        let indent = &line[..line.len() - line.trim_start().len()];
+        let rest = line.trim_start();
+        let rest = rest
+            .strip_prefix("pub ")
+            .or_else(|| rest.strip_prefix("pub(crate) "))
+            .unwrap_or(rest);
+        let Some(name) = rest
+            .strip_prefix("fn ")
+            .map(|r| r.split(['(', '<']).next().unwrap_or(r))
+        else {
+            i += 1;
+            continue;
+        };
+        let end = (i + 1..lines.len()).find(|&j| lines[j] == format!("{indent}}}"));
+        let Some(end) = end else {
+            i += 1;
+            continue;
+        };
+        if end - i + 1 > limit {
+            out.push(format!("{name} ({} lines)", end - i + 1));
+        }
+        i = end + 1;
+    }
+    out
+}
+
+/// Each command is a request and one call (docs/architecture.md#requests): no function of the
+/// requests, of the command line or of the Python module is over 80 lines.
+#[test]
+fn the_request_paths_are_short() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut found = Vec::new();
+    for dir in ["crates/present/src/request", "src", "python/src"] {
+        for (rel, text) in sources(&root.join(dir)) {
+            found.extend(
+                long_functions(&text, 80)
+                    .into_iter()
+                    .map(|f| format!("{dir}/{rel}: {f}")),
+            );
+        }
+    }
+    assert!(found.is_empty(), "over 80 lines:\n{}", found.join("\n"));
+}
+
+#[test]
+fn the_length_check_counts_a_function_to_its_closing_brace() {
+    let body = "    let x = 1;\n".repeat(3);
+    let text = format!(
+        "fn short() {{\n{body}}}\n\nimpl A {{\n    pub fn long(&self) {{\n{}    }}\n}}\n",
+        body.repeat(30)
+    );
+    assert_eq!(
+        long_functions(&text, 80),
+        vec!["long (92 lines)".to_string()]
+    );
+    assert!(long_functions(&text, 92).is_empty());
+}
