@@ -1673,7 +1673,8 @@ fn emulate(
         },
         allow_long_run,
     };
-    let outcome = run_request(py, "emulate", &request)?;
+    // Ctrl-C stops the run at its next progress report
+    let outcome = run_reporting(py, "emulate", &request, None)?;
     document(py, "emulate", "Emulated", &outcome)?.with_arrays(py, "columns", "Columns")
 }
 

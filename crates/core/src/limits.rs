@@ -64,6 +64,9 @@ pub const MAX_SHARDS: usize = 1000;
 /// A size or an amount of work beyond its limit.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LimitError {
+    /// The caller asked the work to stop before its end ([`Work::advance`]).
+    #[error("stopped before its end, as asked")]
+    Cancelled,
     /// More items in one array than [`MAX_POINTS`] (or a count that is not a finite number).
     #[error("{what}: {} points, more than the limit of {limit:e}", readable(*count))]
     TooLarge {
@@ -274,12 +277,15 @@ impl EmulatorWork {
 pub struct Work<'a> {
     /// Whether work beyond its limit may run.
     pub allow_long_run: bool,
-    /// Called with the units of work just done.
-    pub progress: &'a (dyn Fn(u64) + Sync),
+    /// Called with the units of work just done; `false` asks the work to stop, which it does
+    /// at its next unit with [`LimitError::Cancelled`].
+    pub progress: &'a (dyn Fn(u64) -> bool + Sync),
 }
 
-/// A progress callback that shows nothing.
-fn silent(_: u64) {}
+/// A progress callback that shows nothing and never stops the work.
+fn silent(_: u64) -> bool {
+    true
+}
 
 impl Work<'_> {
     /// Work within its limits, followed by nobody.
@@ -287,6 +293,19 @@ impl Work<'_> {
         allow_long_run: false,
         progress: &silent,
     };
+}
+
+impl Work<'_> {
+    /// Report `n` more units done.
+    ///
+    /// # Errors
+    /// [`LimitError::Cancelled`] when the caller asks the work to stop.
+    pub fn advance(&self, n: u64) -> Result<(), LimitError> {
+        match (self.progress)(n) {
+            true => Ok(()),
+            false => Err(LimitError::Cancelled),
+        }
+    }
 }
 
 impl std::fmt::Debug for Work<'_> {

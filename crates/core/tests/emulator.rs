@@ -240,6 +240,7 @@ fn an_emulation_reports_every_controller_step_once_and_the_same_record() {
     let progress = |n| {
         done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
         calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        true
     };
     let work = pumpcyl::limits::Work {
         allow_long_run: false,
@@ -280,4 +281,31 @@ fn the_emulator_at_the_operating_point_stays_there() {
     }
     let drift = (run.state()[at] - start).abs();
     assert!(drift < 1e-9, "every effect on: drift {drift:e} m");
+}
+
+/// A caller that asks the work to stop (its progress callback returns false) stops the
+/// emulation at its next progress report with `LimitError::Cancelled`, having done no more
+/// than that report's steps.
+#[test]
+fn an_emulation_stops_when_its_caller_asks() {
+    let rig = pumpcyl::rig::Rig::default();
+    let effects = pumpcyl::emulator::Effects::for_rig(&rig).unwrap();
+    let plc = article::plc(1);
+    let exp = Experiment::step(&rig, None, None, 0.5, Some(100.0));
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let progress = |n| done.fetch_add(n, std::sync::atomic::Ordering::Relaxed) + n < 3000;
+    let work = pumpcyl::limits::Work {
+        allow_long_run: false,
+        progress: &progress,
+    };
+    let stopped = exp.run_reporting(&rig, effects, &plc, &work).unwrap_err();
+    assert!(
+        matches!(
+            stopped,
+            pumpcyl::emulator::RunError::Limit(pumpcyl::limits::LimitError::Cancelled)
+        ),
+        "{stopped:?}"
+    );
+    let done = done.into_inner();
+    assert!((3000..10_000).contains(&done), "{done} of 10 001 steps");
 }

@@ -520,7 +520,7 @@ pub fn design_with(
         ));
     }
     let designed = Rig { kp, ..rig.clone() };
-    let conditions = conditions(&designed, t, work.progress)?;
+    let conditions = conditions(&designed, t, work)?;
     let worst = binding(&conditions).expect("at least the design point");
     let kp_max_worst_case = worst.kp_max;
     let kp_recommended = (kp_max_worst_case > 0.0).then(|| kp.min(kp_max_worst_case));
@@ -585,11 +585,11 @@ fn pm_key(c: &Condition) -> f64 {
 fn conditions(
     rig: &Rig,
     t: &Targets,
-    progress: &(dyn Fn(u64) + Sync),
+    work: &crate::limits::Work,
 ) -> Result<Vec<Condition>, DesignError> {
     let mut out = Vec::new();
     for (p, r) in condition_rigs(rig, t)? {
-        progress(1);
+        work.advance(1)?;
         for (i, circuit) in AnyCircuit::linear_modes(&r).iter().enumerate() {
             let mm = margins_in(&r, rig.kp, i)?;
             out.push(Condition {

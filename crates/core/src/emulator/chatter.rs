@@ -635,11 +635,11 @@ pub fn scan(
             let r = loaded(f);
             let effects = Effects::for_rig(&r).map_err(|e| at(f, e))?;
             let step = step(&r, effects).map_err(|e| at(f, e))?;
-            (work.progress)(1);
+            work.advance(1)?;
             let waves = (request.waves.iter())
                 .map(|w| {
                     let run = sine(&r, effects, w.freq_hz, w.amplitude_mm).map_err(|e| at(f, e));
-                    (work.progress)(1);
+                    work.advance(1)?;
                     run
                 })
                 .collect::<Result<Vec<_>, _>>()?;

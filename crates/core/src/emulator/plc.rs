@@ -462,9 +462,9 @@ fn record(
             watch.check(k as u64 + 1, run.work - before)?;
         }
         if (k as u64 + 1).is_multiple_of(PROGRESS_STEPS) {
-            (work.progress)(PROGRESS_STEPS);
+            work.advance(PROGRESS_STEPS)?;
         }
     }
-    (work.progress)((steps as u64 + 1) % PROGRESS_STEPS);
+    work.advance((steps as u64 + 1) % PROGRESS_STEPS)?;
     Ok(out)
 }

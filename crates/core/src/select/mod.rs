@@ -413,7 +413,7 @@ pub fn select_checked(
         .par_iter()
         .map(|&(circuit, p)| {
             let c = candidate(rig, req, circuit, p, kp, mode_check);
-            (work.progress)(loads);
+            work.advance(loads)?;
             c
         })
         .collect::<Result<Vec<_>, _>>()?;

@@ -46,9 +46,7 @@ impl Request for Chatter {
     fn run(&self, hooks: Hooks<'_>) -> anyhow::Result<ChatterOutcome> {
         let work = Work {
             allow_long_run: self.allow_long_run,
-            progress: &|n| {
-                (hooks.tick)(n);
-            },
+            progress: hooks.tick,
         };
         let name = &self.rig.name;
         let scan = run(&self.rig.rig, name, &self.scan, &work).map_err(|e| match e {

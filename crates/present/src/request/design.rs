@@ -181,9 +181,7 @@ impl Request for Design {
         }
         let work = Work {
             allow_long_run: self.allow_long_run,
-            progress: &|n| {
-                (hooks.tick)(n);
-            },
+            progress: hooks.tick,
         };
         let design = design_with(&self.rig.rig, &self.targets(), &work)
             .map_err(|e| Design::in_rig(e, &self.rig.name))?;

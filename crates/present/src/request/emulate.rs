@@ -81,9 +81,7 @@ impl Request for Emulate {
         };
         let work = Work {
             allow_long_run: self.allow_long_run,
-            progress: &|n| {
-                (hooks.tick)(n);
-            },
+            progress: hooks.tick,
         };
         // the integrator's work beyond the limit (docs/emulator.md#the-work-limit)
         let emulation = emulated::emulate(&plan, &truth, &work).map_err(|e| match e {

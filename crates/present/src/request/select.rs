@@ -145,9 +145,7 @@ impl Request for Select {
         let app = self.application()?;
         let work = Work {
             allow_long_run: self.allow_long_run,
-            progress: &|n| {
-                (hooks.tick)(n);
-            },
+            progress: hooks.tick,
         };
         let selection =
             (app.select_checked(self.kp, &work, check.check())).map_err(|e| match e {
