@@ -224,6 +224,10 @@ pub trait EmulatedForm: Circuit + Clone + std::fmt::Debug {
     fn mode_at(&self, _s: &[f64]) -> Option<usize> {
         None
     }
+    /// Where its power goes at state `s` under commands `u` (docs/energy.md): its sources, the
+    /// work against the external force, each loss and each stored energy's rate, read off the
+    /// same parts as its equations, so they close to rounding.
+    fn power(&self, s: &[f64], u: &[f64]) -> super::energy::Power;
 }
 
 /// A circuit module: its description and its forms. Implemented once, by the module's
@@ -588,6 +592,12 @@ macro_rules! circuits {
             /// the accumulator, 2 with chamber 1); `None` for a circuit without modes.
             pub fn mode(&self, s: &[f64]) -> Option<usize> {
                 match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::mode_at(c, s)),+ }
+            }
+
+            /// Where the circuit's power goes at state `s` under commands `u`
+            /// ([`EmulatedForm::power`], docs/energy.md).
+            pub fn power(&self, s: &[f64], u: &[f64]) -> $crate::circuit::energy::Power {
+                match self { $(Emulated::$variant(c) => $crate::circuit::EmulatedForm::power(c, s, u)),+ }
             }
         }
 

@@ -15,6 +15,7 @@
 use super::parts::{
     cylinder_of_rig, cylinder_rates, Chamber, Drive, Effects, FirstOrderMotor, Fluid, Piston, Pump,
 };
+use super::energy::{self, Power};
 use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Role, Scalar, Signal};
 use crate::rig::{MotorModel, Rig, RigSi};
@@ -412,6 +413,49 @@ impl Dpm {
 }
 
 impl Dpm {
+    /// The net flows (m³/s) into chambers 1 and 2 at state `x`: the pumps, the piston's
+    /// displacement and the leakages.
+    fn chamber_flows<T: Scalar>(&self, x: &[T]) -> [T; 2] {
+        let (l, si) = (&self.layout, &self.si);
+        let v = x[l.v];
+        let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
+        let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
+        // pump 1 slips from chamber 1 to 2, pump 2 from chamber 1 to the reservoir
+        let q1 = self.pumps[0].flow(w1, p1 - p2);
+        let q2 = self.pumps[1].flow(w2, p1);
+        let cross = (p1 - p2) * si.c12;
+        let in1 = q1 + q2 - v * si.a1 - p1 * si.c1 - cross;
+        let in2 = -q1 + v * si.a2 - p2 * si.c2 + cross;
+        [in1, in2]
+    }
+
+    /// Where the power goes at state `x` under commands `u` (docs/energy.md): the drives'
+    /// shaft power, the pumps' slip and dead band, the leakages, the cylinder.
+    fn power_at(&self, x: &[f64], u: &[f64]) -> Power {
+        let (l, si) = (&self.layout, &self.si);
+        let mut dx = vec![0.0; x.len()];
+        self.rhs(x, u, &mut dx);
+        let mut power = Power::default();
+        let s = [x[l.x], x[l.v], x[l.p[0]], x[l.p[1]]];
+        energy::cylinder(&self.piston, s, self.chamber_flows(x), dx[l.v], &mut power);
+        let [_, _, p1, p2] = s;
+        let coupled = self.coupling;
+        energy::pump(&self.pumps[0], x[l.w[0]], p1 - p2, coupled, &mut power);
+        energy::pump(&self.pumps[1], x[l.w[1]], p1, coupled, &mut power);
+        let leaks = energy::leak(si.c1, p1, 0.0)
+            + energy::leak(si.c2, p2, 0.0)
+            + energy::leak(si.c12, p1, p2);
+        power.loss("leakage", leaks);
+        if let Motors::Full(drives, tau) = &self.motors {
+            let load = self.loads(x);
+            for i in 0..2 {
+                let state = [x[l.w[i]], x[tau[i]]];
+                energy::drive(&drives[i], state, dx[l.w[i]], load[i], &mut power);
+            }
+        }
+        power
+    }
+
     /// The pumps' load torques on the drives (N·m) at state `x`: pump 1's D1 (p1 − p2), pump
     /// 2's D2 p1; none without the motor–hydraulics coupling.
     fn loads<T: Scalar>(&self, x: &[T]) -> [T; 2] {
@@ -494,19 +538,9 @@ impl Circuit for Dpm {
 
     fn rhs<T: Scalar>(&self, x: &[T], u: &[T], dx: &mut [T]) {
         let l = &self.layout;
-        let si = &self.si;
-        let v = x[l.v];
-        let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
-        let (w1, w2) = (x[l.w[0]], x[l.w[1]]);
-        // pump 1 slips from chamber 1 to 2, pump 2 from chamber 1 to the reservoir
-        let q1 = self.pumps[0].flow(w1, p1 - p2);
-        let q2 = self.pumps[1].flow(w2, p1);
-        let cross = (p1 - p2) * si.c12;
-        let in1 = q1 + q2 - v * si.a1 - p1 * si.c1 - cross;
-        let in2 = -q1 + v * si.a2 - p2 * si.c2 + cross;
         let cylinder = (&self.piston, &self.chambers, &self.fluid);
         let at = [l.x, l.v, l.p[0], l.p[1]];
-        cylinder_rates(cylinder, at, x, [in1, in2], dx);
+        cylinder_rates(cylinder, at, x, self.chamber_flows(x), dx);
         match &self.motors {
             Motors::Full(drives, tau) => {
                 let load = self.loads(x);
@@ -661,6 +695,9 @@ impl super::EmulatedForm for Dpm {
     }
     fn commands(&self, rig: &Rig, r_mm: f64, x_mm: f64, p_bar: &[f64]) -> [f64; 2] {
         self.plc_commands(rig, r_mm, x_mm, p_bar)
+    }
+    fn power(&self, s: &[f64], u: &[f64]) -> Power {
+        self.power_at(s, u)
     }
 }
 

@@ -51,6 +51,7 @@ use super::parts::{
     cylinder_of_rig, cylinder_rates, effective_beta_of, gas_fraction_of, one_motor_inputs,
     one_motor_states, Chamber, Effects, Fluid, Motor, Piston, Pump, BETA_OIL_BAR,
 };
+use super::energy::{self, Power};
 use super::stops::Stops;
 use super::valves::Valves;
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
@@ -521,6 +522,40 @@ impl super::LinearForm for DualPump {
 
 impl super::EmulatedForm for DualPump {
     emulated_form_calls!(DualPump, n_states, one_motor);
+    fn power(&self, s: &[f64], u: &[f64]) -> Power {
+        self.power_at(s, u)
+    }
+}
+
+impl DualPump {
+    /// Where the power goes at state `s` under command `u` (docs/energy.md): the drive's shaft
+    /// power, the pumps' slip and dead band, the leakages to the accumulator line and across
+    /// the piston, the check and relief valves, the accumulator, the cylinder.
+    fn power_at(&self, s: &[f64], u: &[f64]) -> Power {
+        let mut dx = vec![0.0; s.len()];
+        self.rhs(s, u, &mut dx);
+        let mut power = Power::default();
+        let (p1, p2, w, pa) = (s[P1], s[P2], s[W], self.balance.p_acc_pa);
+        energy::cylinder(&self.piston, [s[X], s[V], p1, p2], self.chamber_flows(s), dx[V], &mut power);
+        energy::pump(&self.pumps[0], w, p1 - p2, self.coupling, &mut power);
+        let q2 = energy::pump(&self.pumps[1], w, p1 - pa, self.coupling, &mut power);
+        let [c1, c2, c12] = self.leakage;
+        let leaks = energy::leak(c1, p1, pa) + energy::leak(c2, p2, pa) + energy::leak(c12, p1, p2);
+        power.loss("leakage", leaks);
+        // what flows into the accumulator line: the leakages, less what pump 2 and the valves
+        // take from it
+        let mut into_acc = (p1 - pa) * c1 + (p2 - pa) * c2 - q2;
+        if self.valves_on {
+            for (i, p) in [p1, p2].into_iter().enumerate() {
+                let q = self.valves.into_chamber(i, p, pa);
+                power.loss("valves", energy::throttled(q, pa, p));
+                into_acc -= q;
+            }
+        }
+        power.store("accumulator", pa * into_acc);
+        energy::motor(&self.motor, s, &dx, W, self.load_torque(s), &mut power);
+        power
+    }
 }
 
 #[cfg(test)]

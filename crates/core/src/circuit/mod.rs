@@ -115,6 +115,7 @@ macro_rules! emulated_form_calls {
 mod description;
 mod any;
 pub mod emulated;
+pub mod energy;
 pub mod parts;
 pub mod stops;
 pub mod switching;

@@ -154,6 +154,39 @@ impl Piston {
     }
 }
 
+/// The forces on a piston besides its pressures, the external force and its inertia (N,
+/// positive extending): what [`Piston::acceleration`] subtracts or adds, for the power account
+/// (docs/energy.md#the-cylinder).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PistonForces {
+    /// Viscous friction b·v, against the motion.
+    pub viscous_n: f64,
+    /// Coulomb friction (smoothed), against the motion.
+    pub coulomb_n: f64,
+    /// The end stops' push back into the stroke.
+    pub stop_n: f64,
+}
+
+impl Piston {
+    /// The friction and stop forces at position `x` (m) and velocity `v` (m/s), as
+    /// [`Piston::acceleration`] takes them.
+    pub fn forces(&self, x: f64, v: f64) -> PistonForces {
+        PistonForces {
+            viscous_n: v * self.viscous_ns_per_m,
+            coulomb_n: (v / COULOMB_SMOOTHING_M_S).tanh() * self.coulomb_n,
+            stop_n: self.stops.map_or(0.0, |s| s.force_n(x, v)),
+        }
+    }
+
+    /// The moving mass at position `x` (kg), as [`Piston::acceleration`] divides by it.
+    pub fn mass_at(&self, x: f64) -> f64 {
+        match self.mass_law.is_constant() {
+            true => self.mass_kg,
+            false => self.mass_law.ratio_of(x) * self.mass_kg,
+        }
+    }
+}
+
 /// The oil's bulk modulus: constant, or the gas-fraction law β_e(p)
 /// (docs/bulk-modulus.md#the-constant-gas-fraction-model).
 #[derive(Debug, Clone, Copy, PartialEq)]

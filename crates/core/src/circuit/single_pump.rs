@@ -59,6 +59,7 @@ use super::parts::{
     cylinder_of_rig, cylinder_rates, one_motor_inputs, one_motor_states, Chamber, Effects, Fluid,
     Motor, Piston, Pump,
 };
+use super::energy::{self, Power};
 use super::stops::Stops;
 use super::valves::{PilotCheck, Valve};
 use super::{Circuit, CircuitKind, ControlLaw, OperatingState, Scalar, Signal};
@@ -460,6 +461,46 @@ impl super::EmulatedForm for SinglePump {
     emulated_form_calls!(SinglePump, n_states, one_motor);
     fn mode_at(&self, s: &[f64]) -> Option<usize> {
         Some(modes::recorded_mode(self, s))
+    }
+    fn power(&self, s: &[f64], u: &[f64]) -> Power {
+        self.power_at(s, u)
+    }
+}
+
+impl SinglePump {
+    /// Where the power goes at state `s` under command `u` (docs/energy.md): the drive's shaft
+    /// power, the pump's slip and dead band, the leakages to the accumulator line and across
+    /// the piston, the pilot-operated check valves and the relief valves, the accumulator, the
+    /// cylinder.
+    fn power_at(&self, s: &[f64], u: &[f64]) -> Power {
+        let mut dx = vec![0.0; s.len()];
+        self.rhs(s, u, &mut dx);
+        let mut power = Power::default();
+        let (p1, p2, w, pa) = (s[P1], s[P1 + 1], s[W], self.p_acc);
+        let flows = self.chamber_flows(s);
+        energy::cylinder(&self.piston, [s[X], s[V], p1, p2], flows, dx[V], &mut power);
+        energy::pump(&self.pump, w, p1 - p2, self.coupling, &mut power);
+        let [c1, c2, c12] = self.leakage;
+        let leaks = energy::leak(c1, p1, pa) + energy::leak(c2, p2, pa) + energy::leak(c12, p1, p2);
+        power.loss("leakage", leaks);
+        let mut into_acc = (p1 - pa) * c1 + (p2 - pa) * c2;
+        if self.valves_on {
+            for (check, (p, pilot)) in self.checks.iter().zip([(p1, p2), (p2, p1)]) {
+                let q = check.into_chamber(p, pilot, pa);
+                power.loss("valves", energy::throttled(q, pa, p));
+                into_acc -= q;
+            }
+        }
+        if let Some(relief) = self.relief {
+            for p in [p1, p2] {
+                let q = relief.flow(p - pa);
+                power.loss("valves", energy::throttled(q, p, pa));
+                into_acc += q;
+            }
+        }
+        power.store("accumulator", pa * into_acc);
+        energy::motor(&self.motor, s, &dx, W, self.load_torque(s), &mut power);
+        power
     }
 }
 

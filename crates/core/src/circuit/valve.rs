@@ -35,6 +35,7 @@
 
 use super::parts::{cylinder_of_rig, cylinder_rates, one_motor_states, Chamber, Effects, Fluid};
 use super::parts::Piston;
+use super::energy::{self, Power};
 use super::stops::Stops;
 use super::{Circuit, CircuitKind, ControlLaw, Key, OperatingState, Role, Scalar, Signal};
 use crate::rig::{Range, Rig};
@@ -169,6 +170,20 @@ impl ServoValve {
         let s = s.clamp(-1.0, 1.0);
         let (ps, u0) = (self.supply_pa, self.underlap);
         self.land(s + u0, ps - p1) + self.land(-s + u0, ps - p2) * self.ratio_b
+    }
+
+    /// The flows (m³/s) of the four lands at the spool opening `s` and the chamber pressures
+    /// `p1`, `p2`, as [`ServoValve::flows`] takes them: P→A, A→T, P→B, B→T.
+    fn land_flows(&self, s: f64, p1: f64, p2: f64) -> [f64; 4] {
+        let s = s.clamp(-1.0, 1.0);
+        let (ps, pt, u0, r) = (self.supply_pa, self.tank_pa, self.underlap, self.ratio_b);
+        let (open, shut) = (s + u0, -s + u0);
+        [
+            self.land(open, -p1 + ps),
+            self.land(shut, p1 - pt),
+            self.land(shut, -p2 + ps) * r,
+            self.land(open, p2 - pt) * r,
+        ]
     }
 
     /// The flows (m³/s) the valve passes into chambers 1 and 2 at the spool opening `s` and
@@ -523,8 +538,39 @@ impl super::LinearForm for Valve {
     }
 }
 
+impl Valve {
+    /// Where the power goes at state `s` under command `u` (docs/energy.md): the supply's
+    /// power p_s·(Q_PA + Q_PB), throttled on every land, taken by the tank line at its pressure,
+    /// lost in the piston's leakage, and delivered to the cylinder.
+    fn power_at(&self, s: &[f64], u: &[f64]) -> Power {
+        let mut dx = vec![0.0; s.len()];
+        self.rhs(s, u, &mut dx);
+        let mut power = Power::default();
+        let (p1, p2) = (s[P1], s[P2]);
+        let [a1, a2] = self.piston.areas_m2;
+        let [pa, at, pb, bt] = self.valve.land_flows(s[S], p1, p2);
+        let cross = (p1 - p2) * self.leakage;
+        let flows = [pa - at - s[V] * a1 - cross, pb - bt + s[V] * a2 + cross];
+        energy::cylinder(&self.piston, [s[X], s[V], p1, p2], flows, dx[V], &mut power);
+        let (ps, pt) = (self.valve.supply_pa, self.valve.tank_pa);
+        power.source("supply", ps * (pa + pb));
+        let throttling = energy::throttled(pa, ps, p1)
+            + energy::throttled(at, p1, pt)
+            + energy::throttled(pb, ps, p2)
+            + energy::throttled(bt, p2, pt);
+        power.loss("valve_throttling", throttling);
+        // the tank line at its pressure takes what returns, and gives where a chamber is below it
+        power.store("tank_line", pt * (at + bt));
+        power.loss("leakage", energy::leak(self.leakage, p1, p2));
+        power
+    }
+}
+
 impl super::EmulatedForm for Valve {
     emulated_form_calls!(Valve, n_states);
+    fn power(&self, s: &[f64], u: &[f64]) -> Power {
+        self.power_at(s, u)
+    }
     fn rest_with_commands(&self) -> (Vec<f64>, [f64; 2]) {
         let op = self.operating_point();
         (op.state, [op.inputs[0], 0.0])

@@ -312,6 +312,13 @@ impl Dynamics {
         self.circuit.rest_state()
     }
 
+    /// Where the circuit's power goes at state `x` under commands `u` (docs/energy.md): its
+    /// sources, the work against the external force, each loss and each stored energy's rate,
+    /// closing to rounding.
+    pub fn power(&self, x: &[f64], u: &[f64]) -> crate::circuit::energy::Power {
+        self.circuit.power(x, &u[..self.circuit.commands()])
+    }
+
     /// The single-pump circuit's mode at state `x` (1 or 2, docs/emulator.md#the-mode-signal);
     /// `None` for a circuit without modes.
     pub fn mode(&self, x: &[f64]) -> Option<usize> {

@@ -1,0 +1,143 @@
+//! Where a circuit's power goes at one instant (docs/energy.md): what its sources deliver
+//! (the drives' shaft power, a valve's supply), the work the piston does against the external
+//! force, each kind of loss, and the rate at which energy is stored (the load's and the drives'
+//! motion, the oil's compression, the accumulator). Each term is read off the same parts and
+//! flows as the circuit's equations ([`super::Circuit::rhs`]), so the account closes at every
+//! state: sources = work out + losses + stored, to rounding (the tests check it on random
+//! states of every circuit).
+
+use super::parts::{Drive, Motor, Piston, Pump, ATMOSPHERE_PA};
+
+/// The power flows of a circuit at one state (W).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Power {
+    /// What the sources deliver, each by kind (`drives`: the electromagnetic torque times the
+    /// speed of each drive; `supply`: a valve's supply pressure times its flow).
+    pub sources_w: Vec<(&'static str, f64)>,
+    /// The power the piston delivers against the external force, F_ext·v.
+    pub work_out_w: f64,
+    /// Each kind of loss.
+    pub losses_w: Vec<(&'static str, f64)>,
+    /// The rate of each kind of stored energy.
+    pub stored_w: Vec<(&'static str, f64)>,
+}
+
+impl Power {
+    fn add(list: &mut Vec<(&'static str, f64)>, kind: &'static str, w: f64) {
+        match list.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, sum)) => *sum += w,
+            None => list.push((kind, w)),
+        }
+    }
+
+    /// Add `w` to the source `kind`.
+    pub fn source(&mut self, kind: &'static str, w: f64) {
+        Power::add(&mut self.sources_w, kind, w);
+    }
+
+    /// Add `w` to the loss `kind`.
+    pub fn loss(&mut self, kind: &'static str, w: f64) {
+        Power::add(&mut self.losses_w, kind, w);
+    }
+
+    /// Add `w` to the stored energy `kind`.
+    pub fn store(&mut self, kind: &'static str, w: f64) {
+        Power::add(&mut self.stored_w, kind, w);
+    }
+
+    /// The sum of a list.
+    fn sum(list: &[(&'static str, f64)]) -> f64 {
+        list.iter().map(|(_, w)| w).sum()
+    }
+
+    /// Sources − work out − losses − stored (W): zero but for rounding.
+    pub fn imbalance_w(&self) -> f64 {
+        Power::sum(&self.sources_w)
+            - self.work_out_w
+            - Power::sum(&self.losses_w)
+            - Power::sum(&self.stored_w)
+    }
+
+    /// The largest magnitude of any term (W), the scale the imbalance is measured against.
+    pub fn scale_w(&self) -> f64 {
+        (self.sources_w.iter())
+            .chain(&self.losses_w)
+            .chain(&self.stored_w)
+            .map(|(_, w)| w.abs())
+            .fold(self.work_out_w.abs(), f64::max)
+    }
+}
+
+/// A flow `q` (m³/s) through an element from pressure `from` to pressure `to` (Pa): the power
+/// it turns into heat, q·(from − to).
+pub fn throttled(q: f64, from: f64, to: f64) -> f64 {
+    q * (from - to)
+}
+
+/// The cylinder's share (docs/energy.md#the-cylinder): of the power the network delivers into
+/// its chambers, Σ pᵢ·(net inflow + displacement), what compresses the oil (stored, or lost at
+/// the cavitation floor, where the pressure does not fall), and what the piston turns into
+/// work against the external force, friction, the end stops and the load's motion. `s` is the
+/// state at `[x, v, p1, p2]`, `flows` the chambers' net inflows as the equations take them
+/// (the piston's displacement included) and `dv` the piston's acceleration they give.
+/// Returns the network's delivered power Σ pᵢ·(flowᵢ + displacementᵢ).
+pub fn cylinder(piston: &Piston, s: [f64; 4], flows: [f64; 2], dv: f64, power: &mut Power) -> f64 {
+    let [x, v, p1, p2] = s;
+    let [a1, a2] = piston.areas_m2;
+    for (p, q) in [(p1, flows[0]), (p2, flows[1])] {
+        // at the floor a falling pressure stays (parts::Chamber::pressure_rate)
+        match p <= -ATMOSPHERE_PA && q < 0.0 {
+            true => power.loss("cavitation", p * q),
+            false => power.store("oil_compression", p * q),
+        }
+    }
+    let parts = piston.forces(x, v);
+    power.work_out_w += piston.force_ext_n * v;
+    power.loss("viscous_friction", parts.viscous_n * v);
+    power.loss("coulomb_friction", parts.coulomb_n * v);
+    // the stops' spring gives back what it took as the piston leaves them
+    power.store("end_stops", -parts.stop_n * v);
+    power.store("load_motion", piston.mass_at(x) * dv * v);
+    p1 * (flows[0] + v * a1) + p2 * (flows[1] - v * a2)
+}
+
+/// A drive's share (docs/energy.md#the-drives): the electromagnetic torque τ times the speed
+/// ω it delivers, of which the shaft's acceleration stores J·ω·ω̇, the speed limit holds back
+/// (τ − load)·ω − J·ω·ω̇ where it stops the acceleration, and the rest, load·ω, drives the
+/// pumps. `dw` is the speed's rate the equations give and `load` the pumps' torque (N·m).
+pub fn drive(d: &Drive, [w, tau]: [f64; 2], dw: f64, load: f64, power: &mut Power) {
+    power.source("drives", tau * w);
+    power.store("drive_motion", d.inertia * dw * w);
+    power.loss("speed_limit", (tau - load) * w - d.inertia * dw * w);
+}
+
+/// [`drive`] for a one-motor circuit's motor, its states from `at` in `s` (speed, torque, ...)
+/// and their rates in `dx`; a first-order motor has no torque to account (the emulator runs the
+/// full model only).
+pub fn motor(motor: &Motor, s: &[f64], dx: &[f64], at: usize, load: f64, power: &mut Power) {
+    if let Motor::Full(d) = motor {
+        drive(d, [s[at], s[at + 1]], dx[at], load, power);
+    }
+}
+
+/// A pump's share (docs/energy.md#the-pumps): of the shaft power D·ω·Δp its load torque takes
+/// (`coupled`; without the coupling the drive carries no load and the pump's power comes from
+/// outside, a source of its own), it delivers q·Δp and loses (D·ω − q)·Δp in its dead band
+/// and slip. `dp` is outlet minus inlet (Pa); returns the delivered flow q (m³/s).
+pub fn pump(pump: &Pump, w: f64, dp: f64, coupled: bool, power: &mut Power) -> f64 {
+    let q = pump.flow(w, dp);
+    if !coupled {
+        power.source("uncoupled_pumps", pump.displacement_m3 * w * dp);
+    }
+    power.loss(
+        "pump_slip_and_dead_band",
+        (pump.displacement_m3 * w - q) * dp,
+    );
+    q
+}
+
+/// A leak of conductance `c` (m⁵/(N·s)) from pressure `from` to pressure `to` (Pa): the power it
+/// turns into heat, c·(from − to)².
+pub fn leak(c: f64, from: f64, to: f64) -> f64 {
+    throttled((from - to) * c, from, to)
+}

@@ -1,0 +1,165 @@
+//! The power account closes (docs/energy.md): at any state of any circuit's emulated
+//! equations, what the sources deliver equals the work against the external force, the losses
+//! and the rates of the stored energies, to rounding; and each term is what a hand calculation
+//! from its part's law gives where one is easy to write.
+
+use pumpcyl::circuit::energy::Power;
+use pumpcyl::emulator::{Dynamics, Effects};
+use pumpcyl::rig::Rig;
+
+/// The rigs: the article's, and a rig of our own in each circuit (every effect on).
+fn rigs() -> Vec<(String, Rig)> {
+    let own = "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\n\
+               x0_mm = 400.0\nmass_kg = 2500.0\nmass_by_position = []\nbeta_bar = 300.0\n\
+               kp = 15.0\nviscous_friction_ns_per_m = 250.0\nc12_m5_per_ns = 2.0e-10\n\
+               external_force_n = 3000.0\n";
+    let valve = "circuit = \"valve\"\npiston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\n\
+                 stroke_mm = 400.0\nx0_mm = 150.0\nmass_kg = 2500.0\nbeta_bar = 8000.0\n\
+                 supply_pressure_bar = 180.0\nvalve_rated_flow_lpm = 40.0\n\
+                 valve_null_leakage_lpm = 4.0\nexternal_force_n = 15000.0\n\
+                 tank_pressure_bar = 2.0\ncylinder_leakage_m5_per_ns = 1e-12\nkp = 2.0\n\
+                 mass_by_position = []\n";
+    let mut out = vec![("article".to_string(), Rig::default())];
+    for circuit in ["dpm", "dual-pump", "single-pump"] {
+        let text = format!("{own}circuit = \"{circuit}\"\n");
+        out.push((
+            circuit.into(),
+            Rig::from_toml_str(&text, "own.toml").unwrap(),
+        ));
+    }
+    out.push((
+        "valve".into(),
+        Rig::from_toml_str(valve, "valve.toml").unwrap(),
+    ));
+    out
+}
+
+/// A deterministic stream of numbers in [0, 1).
+struct Stream(u64);
+
+impl Stream {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn within(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// A state near `rest` of the circuit's kind of signals, each moved by a random amount on its
+/// own scale: positions across and beyond the stroke (the end stops), speeds both ways,
+/// pressures from the cavitation floor to hundreds of bar.
+fn state_near(d: &Dynamics, rest: &[f64], rig: &Rig, r: &mut Stream) -> Vec<f64> {
+    use pumpcyl::circuit::{Circuit, Role};
+    let stroke = rig.stroke_mm * 1e-3;
+    (d.circuit().states().iter().zip(rest))
+        .map(|(s, &x0)| match s.role {
+            Role::Position => r.within(-0.01, stroke + 0.01),
+            Role::Velocity => r.within(-0.3, 0.3),
+            Role::Pressure => r.within(-1.0e5, 2.0e7),
+            Role::MotorSpeed => r.within(-400.0, 400.0),
+            Role::Torque => r.within(-40.0, 40.0),
+            _ => x0 * r.within(0.5, 1.5) + r.within(-1.0, 1.0),
+        })
+        .collect()
+}
+
+fn sum(list: &[(&'static str, f64)]) -> f64 {
+    list.iter().map(|(_, w)| w).sum()
+}
+
+#[test]
+fn the_account_closes_at_random_states_of_every_circuit() {
+    let mut r = Stream(7);
+    for (name, rig) in rigs() {
+        let d = Dynamics::new(&rig, Effects::for_rig(&rig).unwrap()).unwrap();
+        let (rest, u0) = d.operating_point();
+        for k in 0..2000 {
+            let x = state_near(&d, &rest, &rig, &mut r);
+            let u = [
+                u0[0] + r.within(-300.0, 300.0),
+                u0[1] + r.within(-300.0, 300.0),
+            ];
+            let p = d.power(&x, &u);
+            let (imbalance, scale) = (p.imbalance_w(), p.scale_w());
+            assert!(
+                imbalance.abs() <= 1e-9 * scale,
+                "{name} state {k}: imbalance {imbalance:e} W of {scale:e} W\n{p:#?}"
+            );
+            assert!(
+                sum(&p.sources_w).is_finite() && scale > 0.0,
+                "{name}: {p:?}"
+            );
+            for (kind, w) in &p.losses_w {
+                // a loss never gives energy back, but for the speed limit's rounding
+                assert!(*w >= -1e-9 * scale, "{name} state {k}: loss {kind} = {w} W");
+            }
+        }
+    }
+}
+
+/// At a DPM rig's rest nothing moves: the drives deliver what the leakages lose, which is
+/// `select`'s standing loss at the rest's pressures (docs/select.md), and nothing is stored at
+/// a rate.
+#[test]
+fn at_rest_the_drives_feed_the_standing_loss_select_prices() {
+    for (name, rig) in rigs()
+        .into_iter()
+        .filter(|(n, _)| n == "article" || n == "dpm")
+    {
+        let d = Dynamics::new(&rig, Effects::none()).unwrap();
+        let (x, u) = d.operating_point();
+        let p = d.power(&x, &u);
+        let standing = pumpcyl::select::standing_loss(&rig, [x[2] / 1e5, x[3] / 1e5]).power_w;
+        assert!(standing > 1.0, "{name}: {standing} W");
+        let drives = sum(&p.sources_w);
+        assert!(
+            (drives - standing).abs() <= 1e-6 * standing,
+            "{name}: {drives} W, {standing} W"
+        );
+        for (kind, w) in &p.stored_w {
+            assert!(w.abs() <= 1e-6 * standing, "{name}: stored {kind} = {w} W");
+        }
+        assert_eq!(p.work_out_w, 0.0, "{name}");
+    }
+}
+
+/// The DPM circuit at constant velocity with every effect off, its drives at the speeds that
+/// feed the chambers: each loss is its law by hand (c·Δp², b·v², D·ω·Δp − q·Δp) and the work
+/// out is F_ext·v.
+#[test]
+fn the_losses_are_their_laws_by_hand() {
+    let rig = Rig {
+        external_force_n: 2000.0,
+        ..Rig::default()
+    };
+    let d = Dynamics::new(&rig, Effects::none()).unwrap();
+    let (mut x, u) = d.operating_point();
+    let si = rig.si();
+    let (v, p1, p2) = (0.05, 30.0e5, 12.0e5);
+    x[1] = v;
+    x[2] = p1;
+    x[3] = p2;
+    let p: Power = d.power(&x, &u);
+    let get = |list: &[(&'static str, f64)], kind: &str| {
+        list.iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, w)| *w)
+            .unwrap()
+    };
+    let leaks = si.c1 * p1 * p1 + si.c2 * p2 * p2 + si.c12 * (p1 - p2) * (p1 - p2);
+    assert!((get(&p.losses_w, "leakage") - leaks).abs() <= 1e-12 * leaks);
+    let viscous = rig.viscous_friction_ns_per_m * v * v;
+    assert!((get(&p.losses_w, "viscous_friction") - viscous).abs() <= 1e-12 * viscous);
+    assert_eq!(p.work_out_w, 2000.0 * v);
+    // ideal pumps (no dead band, no slip): nothing lost in them
+    assert_eq!(get(&p.losses_w, "pump_slip_and_dead_band"), 0.0);
+    let (w1, w2, tau1, tau2) = (x[4], x[5], x[6], x[7]);
+    let drives = tau1 * w1 + tau2 * w2;
+    assert!((get(&p.sources_w, "drives") - drives).abs() <= 1e-12 * drives.abs().max(1.0));
+}
