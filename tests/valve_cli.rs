@@ -179,3 +179,49 @@ fn identifying_a_valve_rig_is_refused_in_one_line() {
         ],
     );
 }
+
+/// A servo valve can be tried beside a pump rig's circuits when named
+/// (docs/select.md#the-valve-beside-the-pumps): on the user rig (not the article's) the
+/// selection holds the DPM's levels and a valve candidate at each supply pressure, its rated
+/// flow sized for the pumps' top speed; unnamed, the pump rig's default has no valve.
+#[test]
+fn select_tries_a_valve_beside_a_pump_rigs_circuits_when_named() {
+    let user = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/user-rig.toml");
+    let doc: Value = run::json(
+        std::path::Path::new("."),
+        &[
+            "select",
+            "--rig",
+            user,
+            "--circuits",
+            "dpm,valve",
+            "--set",
+            "supply_bar=[70.0, 140.0]",
+            "--json",
+        ],
+    );
+    let options = doc["options"].as_array().unwrap();
+    let valves: Vec<&Value> = options
+        .iter()
+        .filter(|o| o["circuit_kind"] == "valve")
+        .collect();
+    let levels: Vec<f64> = valves
+        .iter()
+        .map(|o| o["mean_pressure_bar"].as_f64().unwrap())
+        .collect();
+    assert_eq!(levels, [70.0, 140.0], "{doc}");
+    assert!(options.iter().any(|o| o["circuit_kind"] == "dpm"));
+    for v in &valves {
+        let kv = v["kv_max_per_s"].as_f64().unwrap();
+        assert!(kv > 0.0 && v["kp_max"].as_f64().unwrap() > 0.0, "{v}");
+        assert!(v["standing_loss_w"].as_f64().unwrap() > 0.0, "{v}");
+    }
+    let default: Value = run::json(
+        std::path::Path::new("."),
+        &["select", "--rig", user, "--json"],
+    );
+    let kinds: Vec<&str> = (default["options"].as_array().unwrap().iter())
+        .map(|o| o["circuit_kind"].as_str().unwrap())
+        .collect();
+    assert!(!kinds.contains(&"valve"), "{kinds:?}");
+}

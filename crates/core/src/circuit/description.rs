@@ -8,7 +8,7 @@
 
 use super::stops::Stops;
 use super::switching::Switching;
-use super::{Circuit, ControlLaw, Effects};
+use super::{Circuit, CircuitKind, ControlLaw, Effects};
 use crate::rig::Rig;
 
 /// Where a circuit's pressure level (and so the pressure its `beta_bar` is read at) comes
@@ -278,6 +278,16 @@ pub trait Module {
     /// read at.
     fn pressure_level_bar(rig: &Rig) -> f64;
 
+    /// This circuit (`kind`) built on the cylinder, load and fluid of `rig`, whichever circuit
+    /// `rig` is (docs/select.md#circuits): the same rig with its circuit changed, unless the
+    /// module needs more (a servo valve replacing pumps is sized for them).
+    fn built_on(rig: &Rig, kind: CircuitKind) -> Rig {
+        Rig {
+            circuit: kind,
+            ..rig.clone()
+        }
+    }
+
     /// The pumps' displacement (m³/rad) its relief valves' derived setting loads the motor
     /// with (docs/circuits.md#valves).
     fn relief_displacement_m3_per_rad(rig: &Rig) -> f64 {
@@ -432,6 +442,13 @@ macro_rules! circuits {
             pub fn pressure_level_bar(self, rig: &$crate::rig::Rig) -> f64 {
                 match self {
                     $(CircuitKind::$variant => <$module::Module as Module>::pressure_level_bar(rig)),+
+                }
+            }
+
+            /// [`Module::built_on`] of the circuit.
+            pub fn built_on(self, rig: &$crate::rig::Rig) -> $crate::rig::Rig {
+                match self {
+                    $(CircuitKind::$variant => <$module::Module as Module>::built_on(rig, self)),+
                 }
             }
 

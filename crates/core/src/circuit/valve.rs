@@ -495,6 +495,26 @@ impl super::Module for Module {
         Valve::emulated(rig, effects).map_err(|e| e.to_string())
     }
 
+    /// The valve on another circuit's cylinder (docs/select.md#the-valve-beside-the-pumps): where
+    /// that rig has pumps and no valve of its own, a valve sized for the pumps' top speed, pump
+    /// 1 at its speed limit filling the annulus (D₁·ω_max/A₂, the slower direction), at the
+    /// rig's supply pressure ([`rated_flow_for_velocity_lpm`]); a valve rig as it is.
+    fn built_on(rig: &Rig, kind: CircuitKind) -> Rig {
+        let mut out = Rig {
+            circuit: kind,
+            ..rig.clone()
+        };
+        if rig.circuit.description().servo_valves > 0 {
+            return out;
+        }
+        let si = rig.si();
+        let rpm_to_rad_s = std::f64::consts::PI / 30.0;
+        let top = si.d[0] * rig.pump_max_speed_rpm * rpm_to_rad_s / si.a2;
+        let flow = rated_flow_for_velocity_lpm(&out, top);
+        (out.circuit_keys.0).insert("valve_rated_flow_lpm".into(), toml::Value::Float(flow));
+        out
+    }
+
     fn validate_rest(rig: &Rig) -> Result<(), (&'static str, f64, String)> {
         Valve::new(rig)
             .map(|_| ())
@@ -591,6 +611,26 @@ mod tests {
         let mut all = vec!["circuit=valve".to_string()];
         all.extend(sets.iter().map(|s| s.to_string()));
         Rig::default().with_overrides(&all).unwrap()
+    }
+
+    /// On a pump rig's cylinder the valve is sized for the pumps' top speed, D₁·ω_max/A₂ by
+    /// hand (6 cm³/rev at 3600 rpm into the article's 63/36 mm annulus: 0.1715 m/s), at the
+    /// rig's supply; a valve rig keeps its own valve.
+    #[test]
+    fn a_valve_built_on_a_pump_rig_is_sized_for_its_pumps() {
+        let mut pump_rig = Rig::default();
+        (pump_rig.circuit_keys.0).insert("supply_pressure_bar".into(), toml::Value::Float(70.0));
+        let built = CircuitKind::Valve.built_on(&pump_rig);
+        assert_eq!(built.circuit, CircuitKind::Valve);
+        let annulus = std::f64::consts::PI / 4.0 * (0.063f64.powi(2) - 0.036f64.powi(2));
+        let top = 6e-6 * 3600.0 / 60.0 / annulus;
+        assert!((top - 0.1715).abs() < 1e-4, "{top}");
+        let by_hand = rated_flow_for_velocity_lpm(&built, top);
+        let rated = built.circuit_key("valve_rated_flow_lpm");
+        assert!((rated - by_hand).abs() <= 1e-12 * by_hand, "{rated} vs {by_hand}");
+        assert_eq!(built.circuit_key("supply_pressure_bar"), 70.0);
+        let own = valve_rig(&["valve_rated_flow_lpm=12"]);
+        assert_eq!(CircuitKind::Valve.built_on(&own), own);
     }
 
     /// A valve sized for a velocity moves the unloaded piston at it in its slower direction,

@@ -85,21 +85,19 @@ impl Circuit {
     /// valve-controlled cylinder's supply p (its circuit's [`crate::circuit::Level::key`]).
     pub fn rig_at(self, rig: &Rig, p_bar: f64, beta_bar: f64) -> Rig {
         match self.level {
-            PressureLevel::Precharge => Rig {
-                circuit: self.kind,
+            PressureLevel::Precharge => self.kind.built_on(&Rig {
                 beta_bar,
                 accumulator_precharge_bar: p_bar,
                 ..rig.clone()
-            },
+            }),
             PressureLevel::Supply => {
                 let mut r = Rig {
-                    circuit: self.kind,
                     beta_bar,
                     ..rig.clone()
                 };
                 let key = self.kind.description().level.key;
                 (r.circuit_keys.0).insert(key.to_string(), toml::Value::Float(p_bar));
-                r
+                self.kind.built_on(&r)
             }
             _ => Rig {
                 beta_bar,
@@ -156,9 +154,12 @@ pub fn allowed_circuits(rig: &Rig) -> Vec<CircuitKind> {
         .collect()
 }
 
-/// Why `kind` cannot be built from the components of `rig`, if it cannot.
+/// Why `kind` cannot be built from the components of `rig`, if it cannot. A circuit without
+/// drives (the servo valve) can be put on any cylinder beside its own circuit, as its module
+/// builds it there ([`CircuitKind::built_on`], docs/select.md#the-valve-beside-the-pumps);
+/// it is tried only when named.
 pub fn not_allowed(rig: &Rig, kind: CircuitKind) -> Option<String> {
-    if allowed_circuits(rig).contains(&kind) {
+    if allowed_circuits(rig).contains(&kind) || kind.description().drives == 0 {
         return None;
     }
     let has = rig.circuit.description();
@@ -674,14 +675,13 @@ mod tests {
             circuit: k,
             ..Rig::default()
         };
+        // a pump rig's default is its pump circuits; a valve beside them is tried when named
         assert_eq!(allowed_circuits(&rig(CircuitKind::Dpm)).len(), 3);
-        let why = not_allowed(&rig(CircuitKind::Dpm), CircuitKind::Valve).unwrap();
-        assert!(
-            why.contains("two drives, two pumps and no servo valve"),
-            "{why}"
-        );
+        assert!(not_allowed(&rig(CircuitKind::Dpm), CircuitKind::Valve).is_none());
         let valve = rig(CircuitKind::Valve);
         assert_eq!(allowed_circuits(&valve), [CircuitKind::Valve]);
+        let why = not_allowed(&valve, CircuitKind::Dpm).unwrap();
+        assert!(why.contains("no drives, no pumps"), "{why}");
         assert!(not_allowed(&rig(CircuitKind::Dpm), CircuitKind::SinglePump).is_none());
         let why = not_allowed(&rig(CircuitKind::DualPump), CircuitKind::Dpm).unwrap();
         assert!(why.contains("one drive"), "{why}");
