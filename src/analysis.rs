@@ -7,14 +7,9 @@ use std::path::PathBuf;
 
 use crate::emit::{format_of, render, show, write_atomic, Format};
 use crate::export;
-use crate::{Loop, ModelArgs};
-use pumpcyl::lti;
-use pumpcyl_present::analysis::{bode_csv, model_text};
-use pumpcyl_present::figures::{bode_markers, Chart};
-use pumpcyl_present::format::json_document;
-use pumpcyl_present::matlab::bode_mat;
-use pumpcyl_present::plot::BodeSeries;
-use pumpcyl_present::request::analysis::{Margins, Poles};
+use crate::ModelArgs;
+use pumpcyl_present::request::analysis::{Bode, Margins, Model, Poles};
+use pumpcyl_present::request::Document;
 
 #[derive(Debug, Args)]
 pub struct MarginsArgs {
@@ -103,67 +98,38 @@ pub fn margins(args: &MarginsArgs) -> Result<String> {
 /// `pumpcyl bode`.
 pub fn bode(args: &BodeArgs) -> Result<String> {
     anyhow::ensure!(
-        args.from_hz > 0.0 && args.to_hz > args.from_hz && args.to_hz.is_finite(),
-        "--from-hz and --to-hz must satisfy 0 < from < to (got {} and {})",
-        args.from_hz,
-        args.to_hz
-    );
-    anyhow::ensure!(
-        args.points_per_decade >= 2,
-        "--points-per-decade must be at least 2"
-    );
-    anyhow::ensure!(
         args.model.ss.is_none() || args.compare.is_empty(),
         "--compare overlays rig variants; it cannot be used with --ss"
     );
-    let decades = args.to_hz.log10() - args.from_hz.log10();
-    // each point holds its frequency and a magnitude and a phase per series
-    let points = pumpcyl::limits::check_table(
-        "--from-hz, --to-hz and --points-per-decade",
-        (decades * args.points_per_decade as f64).floor() + 1.0,
-        1 + 2 * (1 + args.compare.len()),
-    )?;
-    let freqs = lti::log_grid(args.from_hz, args.to_hz, points);
-    let base = args.model.build(&[])?;
-    let mut series = vec![series_of(&base, "nominal", &freqs)?];
-    let mut variants = Vec::new();
+    let mut loops = vec![("nominal".to_string(), args.model.build(&[])?)];
     for variant in &args.compare {
         let overrides: Vec<String> = variant.split(',').map(|s| s.trim().to_string()).collect();
         let lp = args
             .model
             .build(&overrides)
             .with_context(|| format!("--compare {variant}"))?;
-        series.push(series_of(&lp, variant, &freqs)?);
-        variants.push(lp);
+        loops.push((variant.clone(), lp));
     }
-    let Some(path) = &args.out else {
-        return Ok(bode_csv(&series));
+    let request = Bode {
+        loops,
+        from_hz: args.from_hz,
+        to_hz: args.to_hz,
+        points_per_decade: args.points_per_decade,
     };
-    let count = series.len();
+    let outcome = crate::emit::run(&request)?;
+    let Some(path) = &args.out else {
+        return outcome.text();
+    };
     match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
-        Format::Csv => write_atomic(path, bode_csv(&series).as_bytes())?,
-        Format::Mat => write_atomic(path, &bode_mat(&series))?,
-        _ => {
-            // Every series keeps its margin markers, drawn in its own colour.
-            let markers = std::iter::once(&base)
-                .chain(&variants)
-                .map(|lp| Ok(Some(bode_markers(&lti::margins(&lp.open_loop)?))))
-                .collect::<Result<Vec<_>>>()?;
-            let title = format!("Bode: {}", base.description);
-            render(path, &Chart::bode(&title, series, markers))?;
-        }
+        Format::Csv => write_atomic(path, outcome.text()?.as_bytes())?,
+        Format::Mat => write_atomic(path, &outcome.mat())?,
+        _ => render(path, &outcome.chart())?,
     }
-    Ok(format!("wrote {} ({count} series)\n", path.display()))
-}
-
-fn series_of(lp: &Loop, label: &str, freqs: &[f64]) -> Result<BodeSeries> {
-    let b = lti::bode(&lp.open_loop, freqs)?;
-    Ok(BodeSeries {
-        label: label.to_string(),
-        freq_hz: b.freq_hz,
-        mag_db: b.mag_db,
-        phase_deg: b.phase_deg,
-    })
+    Ok(format!(
+        "wrote {} ({} series)\n",
+        path.display(),
+        outcome.count()
+    ))
 }
 
 /// `pumpcyl poles`.
@@ -173,35 +139,31 @@ pub fn poles(args: &PolesArgs) -> Result<String> {
 
 /// `pumpcyl model`.
 pub fn model(args: &ModelCmdArgs) -> Result<String> {
-    let lp = args.model.build(&[])?;
-    let view = lp.view(args.closed_loop, args.model.sum_pressure_closed)?;
+    let request = Model {
+        lp: args.model.build(&[])?,
+        closed_loop: args.closed_loop,
+    };
+    let outcome = crate::emit::run(&request)?;
+    let view = outcome.view();
     let mut wrote = String::new();
-    for (path, greybox) in [(&args.out, false), (&args.greybox, true)] {
-        if let Some(path) = path {
-            if greybox {
-                let standstill = match (args.w1_rpm, args.w2_rpm, args.p1_bar) {
-                    (Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => {
-                        Some(pumpcyl::ident::Standstill {
-                            w1_rpm,
-                            w2_rpm,
-                            p1_bar,
-                        })
-                    }
-                    _ => None,
-                };
-                export::write_greybox(path, &view, standstill)?;
-            } else {
-                export::write_model(path, &view)?;
-            }
-            let _ = writeln!(wrote, "wrote {}", path.display());
-        }
+    if let Some(path) = &args.out {
+        export::write_model(path, view)?;
+        let _ = writeln!(wrote, "wrote {}", path.display());
     }
-    if args.json {
-        let json = lti::ModelJson::from_model(&view.sys, view.states.clone());
-        return Ok(json_document(&json)?);
+    if let Some(path) = &args.greybox {
+        let standstill = match (args.w1_rpm, args.w2_rpm, args.p1_bar) {
+            (Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Some(pumpcyl::ident::Standstill {
+                w1_rpm,
+                w2_rpm,
+                p1_bar,
+            }),
+            _ => None,
+        };
+        export::write_greybox(path, view, standstill)?;
+        let _ = writeln!(wrote, "wrote {}", path.display());
     }
-    if !wrote.is_empty() {
-        return Ok(wrote);
+    if args.json || wrote.is_empty() {
+        return show(&outcome, args.json);
     }
-    Ok(model_text(&view))
+    Ok(wrote)
 }

@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use crate::emit::{ensure_folder, format_of, show, write_atomic, Format};
 use crate::RigSource;
 use pumpcyl::ident::shards::Partial;
-use pumpcyl::ident::{identify_drive, DriveRecord, Method, Standstill};
-use pumpcyl_present::figures::Chart;
-use pumpcyl_present::identification as outputs;
+use pumpcyl::ident::{DriveRecord, Method, Standstill};
 use pumpcyl_present::request::identify::{Identify, Merge, Search, Source};
+use pumpcyl_present::request::standstill::{DriveRequest, LeakageRequest, Point};
 
 #[derive(Debug, Args)]
 pub struct LeakageArgs {
@@ -144,70 +143,41 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
 
 /// `pumpcyl leakage`.
 pub fn leakage(args: &LeakageArgs) -> Result<String> {
-    anyhow::ensure!(
-        args.c12.is_finite() && args.c12 >= 0.0,
-        "--c12 must be >= 0 (got {})",
-        args.c12
-    );
-    let rig = args.rig.load()?;
-    let s = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
-        (Some(path), ..) => {
-            let rec = pumpcyl::record::Record::read_in(crate::read_files::files(), path)?;
-            warn(&pumpcyl::ident::standstill_warnings(&rec));
-            Standstill::of_record(&rec)?
-        }
-        (None, Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Standstill {
+    let point = match (&args.record, args.w1_rpm, args.w2_rpm, args.p1_bar) {
+        (Some(path), ..) => Point::Record(Box::new(pumpcyl::record::Record::read_in(
+            crate::read_files::files(),
+            path,
+        )?)),
+        (None, Some(w1_rpm), Some(w2_rpm), Some(p1_bar)) => Point::Given(Standstill {
             w1_rpm,
             w2_rpm,
             p1_bar,
-        },
+        }),
         _ => anyhow::bail!("give --record or all of --w1-rpm, --w2-rpm, --p1-bar"),
     };
-
-    let l = s.leakage(&rig, args.c12)?;
-    if args.json {
-        return Ok(serde_json::to_string_pretty(&l)? + "\n");
-    }
-    Ok(outputs::leakage_text(&s, &l))
+    let request = LeakageRequest {
+        rig: args.rig.input()?,
+        point,
+        c12: args.c12,
+    };
+    show(&crate::emit::run(&request)?, args.json)
 }
 
 /// `pumpcyl identify-drive`.
 pub fn drive(args: &DriveArgs) -> Result<String> {
-    let rig = args.rig.load()?;
-    let rec = DriveRecord::read_in(crate::read_files::files(), &args.record)?;
-    let jm = if args.motor == 1 {
-        rig.motor_inertia_1_kg_mm2
-    } else {
-        rig.motor_inertia_2_kg_mm2
-    } * 1e-6;
-    let fit = identify_drive(&rec, jm, rig.current_loop_bandwidth_rad_per_s)?;
+    let request = DriveRequest {
+        rig: args.rig.input()?,
+        record: DriveRecord::read_in(crate::read_files::files(), &args.record)?,
+        motor: args.motor,
+    };
+    let outcome = crate::emit::run(&request)?;
     if let Some(path) = &args.out {
-        write_drive_overlay(path, &rec, &fit)?;
+        match format_of(path, &[Format::Csv, Format::Svg, Format::Png])? {
+            Format::Csv => write_atomic(path, outcome.csv().as_bytes())?,
+            _ => crate::emit::render(path, &outcome.chart())?,
+        }
     }
-    if args.json {
-        let v = outputs::drive_json(&rec, args.motor, &fit, jm);
-        return Ok(serde_json::to_string_pretty(&v)? + "\n");
-    }
-    Ok(outputs::drive_text(
-        &rec,
-        args.motor,
-        &fit,
-        jm,
-        rig.current_loop_bandwidth_rad_per_s,
-    ))
-}
-
-pub(super) fn write_drive_overlay(
-    path: &Path,
-    rec: &DriveRecord,
-    fit: &pumpcyl::ident::DriveFit,
-) -> Result<()> {
-    let format = format_of(path, &[Format::Csv, Format::Svg, Format::Png])?;
-    if format == Format::Csv {
-        return write_atomic(path, outputs::drive_csv(rec, fit).as_bytes());
-    }
-    let chart = Chart::drive_step(rec, fit);
-    crate::emit::render(path, &chart)
+    show(&outcome, args.json)
 }
 
 /// `pumpcyl identify`.
@@ -261,13 +231,6 @@ fn write_folder(dir: &Path, files: Vec<(String, Vec<u8>)>) -> Result<()> {
         write_atomic(&folder.path().join(name), &bytes)?;
     }
     crate::emit::commit(folder, dir)
-}
-
-/// Warnings go to standard error, one line each, so `--json` output stays clean.
-fn warn(lines: &[String]) {
-    for l in lines {
-        eprintln!("warning: {l}");
-    }
 }
 
 /// `pumpcyl identify-merge`.

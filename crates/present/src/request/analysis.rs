@@ -1,11 +1,16 @@
 //! The frequency-analysis requests: `margins` and `poles` (docs/analysis.md#margins).
 
-use super::{Document, Hooks, Request, RigInput};
-use crate::analysis::{loop_margins_text, loop_pole_sets, poles_text, ModesReport};
+use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
+use crate::analysis::{
+    bode_csv, loop_margins_text, loop_pole_sets, model_text, poles_text, ModesReport,
+};
 use crate::documents::{margins_document, poles_document};
-use pumpcyl::loops::Loop;
+use crate::figures::{bode_markers, Chart};
+use crate::matlab::bode_mat;
+use crate::plot::BodeSeries;
+use pumpcyl::loops::{Loop, ModelView};
 use pumpcyl::lti;
-use serde_json::Value;
+use serde_json::{json, Value};
 
 /// The loop a rig's analysis reads: the position loop with its feedback removed, the
 /// sum-pressure loop closed inside it when `sum_pressure_closed` (the article §2.3.3 opens it).
@@ -103,5 +108,152 @@ impl Document for PolesOutcome {
             text += &modes.poles_text()?;
         }
         Ok(text)
+    }
+}
+
+/// `bode`: magnitude and unwrapped phase of the position open loop on a logarithmic grid, the
+/// nominal loop and each variant overlaid, each with its margin markers.
+pub struct Bode {
+    /// The loops: the nominal first, then each variant, labelled.
+    pub loops: Vec<(String, Loop)>,
+    /// Lowest frequency (Hz).
+    pub from_hz: f64,
+    /// Highest frequency (Hz).
+    pub to_hz: f64,
+    /// Points per decade.
+    pub points_per_decade: usize,
+}
+
+/// The Bode series of every loop.
+pub struct BodeOutcome {
+    title: String,
+    series: Vec<BodeSeries>,
+    markers: Vec<Option<crate::plot::BodeMarkers>>,
+}
+
+impl Bode {
+    /// The frequency grid, checked.
+    fn grid(&self) -> anyhow::Result<Vec<f64>> {
+        let (from, to) = (self.from_hz, self.to_hz);
+        let ok = from > 0.0 && to > from && to.is_finite();
+        if !ok {
+            let problem = "must satisfy 0 < from < to";
+            let e = FieldError::new("from_hz", Given::Number(from), problem);
+            return Err(e.and("to_hz", Given::Number(to)).into());
+        }
+        let n = self.points_per_decade;
+        check_field("points_per_decade", n as f64, n >= 2, "must be at least 2")?;
+        let decades = to.log10() - from.log10();
+        // each point holds its frequency and a magnitude and a phase per series
+        let points = pumpcyl::limits::check_table(
+            "the grid",
+            (decades * n as f64).floor() + 1.0,
+            1 + 2 * self.loops.len(),
+        )
+        .map_err(|e| {
+            FieldError::new("from_hz", Given::Number(from), e.to_string())
+                .and("to_hz", Given::Number(to))
+                .and("points_per_decade", Given::Number(n as f64))
+        })?;
+        Ok(lti::log_grid(from, to, points))
+    }
+}
+
+impl Request for Bode {
+    type Outcome = BodeOutcome;
+
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<BodeOutcome> {
+        let freqs = self.grid()?;
+        let mut series = Vec::new();
+        let mut markers = Vec::new();
+        for (label, lp) in &self.loops {
+            let b = lti::bode(&lp.open_loop, &freqs)?;
+            series.push(BodeSeries {
+                label: label.clone(),
+                freq_hz: b.freq_hz,
+                mag_db: b.mag_db,
+                phase_deg: b.phase_deg,
+            });
+            markers.push(Some(bode_markers(&lti::margins(&lp.open_loop)?)));
+        }
+        let title = format!("Bode: {}", self.loops[0].1.description);
+        Ok(BodeOutcome {
+            title,
+            series,
+            markers,
+        })
+    }
+}
+
+impl BodeOutcome {
+    /// The series as a MAT-file.
+    pub fn mat(&self) -> Vec<u8> {
+        bode_mat(&self.series)
+    }
+
+    /// The Bode figure, every series with its margin markers in its own colour.
+    pub fn chart(&self) -> Chart {
+        Chart::bode(&self.title, self.series.clone(), self.markers.clone())
+    }
+
+    /// How many series it holds.
+    pub fn count(&self) -> usize {
+        self.series.len()
+    }
+}
+
+impl Document for BodeOutcome {
+    fn json(&self) -> anyhow::Result<Value> {
+        let series: Vec<Value> = (self.series.iter())
+            .map(|s| json!({"label": s.label, "freq_hz": s.freq_hz, "mag_db": s.mag_db, "phase_deg": s.phase_deg}))
+            .collect();
+        Ok(json!({ "title": self.title, "series": series }))
+    }
+
+    /// The series as CSV (freq_hz, then mag_db and phase_deg per series).
+    fn text(&self) -> anyhow::Result<String> {
+        Ok(bode_csv(&self.series))
+    }
+}
+
+/// `model`: the open or closed loop's state-space model, its states, inputs and outputs named.
+pub struct Model {
+    /// The loop.
+    pub lp: Loop,
+    /// The closed loop as `step` simulates it, instead of the open loop.
+    pub closed_loop: bool,
+}
+
+/// A loop as shown or exported.
+pub struct ModelOutcome {
+    view: ModelView,
+}
+
+impl Request for Model {
+    type Outcome = ModelOutcome;
+
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<ModelOutcome> {
+        let view = self
+            .lp
+            .view(self.closed_loop, self.lp.sum_pressure_closed)?;
+        Ok(ModelOutcome { view })
+    }
+}
+
+impl ModelOutcome {
+    /// The loop as exported (MATLAB/Octave files, MAT-files).
+    pub fn view(&self) -> &ModelView {
+        &self.view
+    }
+}
+
+impl Document for ModelOutcome {
+    fn json(&self) -> anyhow::Result<Value> {
+        let json = lti::ModelJson::from_model(&self.view.sys, self.view.states.clone());
+        Ok(serde_json::to_value(json)?)
+    }
+
+    fn text(&self) -> anyhow::Result<String> {
+        Ok(model_text(&self.view))
     }
 }

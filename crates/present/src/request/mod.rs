@@ -14,6 +14,7 @@
 //! - [`frf`] — `frf` of a record;
 //! - [`identify`] — `identify`, from an experiment file or from records on a rig;
 //! - [`select`] — `select`;
+//! - [`standstill`] — `leakage`, `identify-drive`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
 
 pub mod advise;
@@ -24,6 +25,7 @@ pub mod emulate;
 pub mod frf;
 pub mod identify;
 pub mod select;
+pub mod standstill;
 pub mod time;
 
 use pumpcyl::rig::Rig;
