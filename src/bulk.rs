@@ -6,10 +6,8 @@ use std::path::PathBuf;
 
 use crate::emit::{format_of, render, write_atomic, Format};
 use crate::RigSource;
-use pumpcyl::bulk::{gas_fraction, table, BetaReading, Row, BETA_OIL_BAR};
-use pumpcyl_present::bulk::{bulk_csv, bulk_json, bulk_text};
-use pumpcyl_present::figures::Chart;
-use pumpcyl_present::format::json_document;
+use pumpcyl::bulk::{BetaReading, BETA_OIL_BAR};
+use pumpcyl_present::request::bulk::BulkModulus;
 
 #[derive(Debug, Args)]
 pub struct BulkArgs {
@@ -50,41 +48,26 @@ pub struct BulkArgs {
 
 /// `pumpcyl bulk-modulus`.
 pub fn bulk(args: &BulkArgs) -> Result<String> {
-    anyhow::ensure!(
-        args.from_bar > 0.0 && args.to_bar > args.from_bar && args.to_bar.is_finite(),
-        "--from-bar and --to-bar must satisfy 0 < from < to (got {} and {})",
-        args.from_bar,
-        args.to_bar
-    );
-    anyhow::ensure!(args.points >= 2, "--points must be at least 2");
-    pumpcyl::limits::check_size("--points", args.points as f64)?;
-    pumpcyl::limits::check_work(
-        "--points",
-        args.points as f64,
-        pumpcyl::limits::MAX_MARGIN_ANALYSES,
-        args.allow_long_run,
-    )
-    .map_err(|e| crate::emit::hinted(e.into()))?;
-    let rig = args.rig.load()?;
-    let (reading, from) = reading(args, &rig);
-    let x = gas_fraction(reading.beta_bar, reading.p_mean_bar, args.beta_oil_bar)?;
-    let pressures = pumpcyl::ident::spaced(args.from_bar, args.to_bar, args.points, false);
-    let rows = table(&rig, x, args.beta_oil_bar, &pressures)?;
-    let fit = (reading.beta_bar, reading.p_mean_bar, args.beta_oil_bar);
+    let rig = args.rig.input()?;
+    let (reading, from) = reading(args, &rig.rig);
+    let request = BulkModulus {
+        rig,
+        reading,
+        from,
+        beta_oil_bar: args.beta_oil_bar,
+        from_bar: args.from_bar,
+        to_bar: args.to_bar,
+        points: args.points,
+        allow_long_run: args.allow_long_run,
+    };
+    let outcome = crate::emit::run(&request)?;
     if let Some(path) = &args.out {
-        let fine = pumpcyl::ident::spaced(args.from_bar, args.to_bar, 91, false);
-        let fine_rows = table(&rig, x, args.beta_oil_bar, &fine)?;
-        write_output(path, fit, x, &fine_rows)?;
+        match format_of(path, &[Format::Csv, Format::Svg, Format::Png])? {
+            Format::Csv => write_atomic(path, outcome.csv()?.as_bytes())?,
+            _ => render(path, &outcome.chart()?)?,
+        }
     }
-    if args.json {
-        return Ok(json_document(&bulk_json(
-            x,
-            args.beta_oil_bar,
-            (reading, &from),
-            &rows,
-        ))?);
-    }
-    Ok(bulk_text(fit, &from, x, &rows))
+    crate::emit::show(&outcome, args.json)
 }
 
 /// The β and mean pressure the gas fraction is read off, and where they came from in words:
@@ -124,13 +107,4 @@ fn reading(args: &BulkArgs, rig: &pumpcyl::rig::Rig) -> (BetaReading, String) {
         format!("{from}; rig: {}", args.rig.origin())
     };
     (reading, from)
-}
-
-/// The β_e table as CSV or as a figure (β_e, GM, PM against pressure), by extension; `fit` is
-/// (β bar, at mean pressure bar, β_oil bar) the gas fraction came from.
-fn write_output(path: &std::path::Path, fit: (f64, f64, f64), x: f64, rows: &[Row]) -> Result<()> {
-    if format_of(path, &[Format::Csv, Format::Svg, Format::Png])? == Format::Csv {
-        return write_atomic(path, bulk_csv(rows).as_bytes());
-    }
-    render(path, &Chart::bulk_modulus(fit, x, rows))
 }

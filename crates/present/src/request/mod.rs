@@ -7,7 +7,8 @@
 //! option are written once.
 //!
 //! - [`advise`] — `advise`;
-//! - [`analysis`] — `margins`, `poles`;
+//! - [`analysis`] — `margins`, `poles`, `bode`, `model`;
+//! - [`bulk`] — `bulk-modulus`;
 //! - [`chatter`] — `chatter`;
 //! - [`design`] — `design`, nominal and robust;
 //! - [`emulate`] — `emulate`;
@@ -19,6 +20,7 @@
 
 pub mod advise;
 pub mod analysis;
+pub mod bulk;
 pub mod chatter;
 pub mod design;
 pub mod emulate;

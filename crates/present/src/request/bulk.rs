@@ -1,0 +1,133 @@
+//! The bulk-modulus request: the gas fraction from an identified β_e at its mean pressure, β_e
+//! against pressure and the margins there (docs/bulk-modulus.md).
+
+use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
+use crate::bulk::{bulk_csv, bulk_json, bulk_text};
+use crate::figures::Chart;
+use pumpcyl::bulk::{gas_fraction, table, BetaReading, Row};
+use serde_json::Value;
+
+/// Rows of the fine table an output file holds.
+const FINE_ROWS: usize = 91;
+
+/// `bulk-modulus`: the gas fraction the reading gives, and a table of β_e and the margins over
+/// a range of mean pressures.
+#[derive(Debug, Clone)]
+pub struct BulkModulus {
+    /// The rig whose margins are tabled.
+    pub rig: RigInput,
+    /// The identified β_e (bar) and the mean pressure it was read at (bar).
+    pub reading: BetaReading,
+    /// Where the reading came from, in the front end's words.
+    pub from: String,
+    /// Pure-oil bulk modulus (bar).
+    pub beta_oil_bar: f64,
+    /// Lowest mean pressure of the table (bar).
+    pub from_bar: f64,
+    /// Highest mean pressure of the table (bar).
+    pub to_bar: f64,
+    /// Table rows, evenly spaced.
+    pub points: usize,
+    /// Whether a table beyond the margin analyses' limit may run.
+    pub allow_long_run: bool,
+}
+
+/// The gas fraction and the table.
+pub struct BulkOutcome {
+    request: BulkModulus,
+    gas_fraction: f64,
+    rows: Vec<Row>,
+}
+
+impl BulkModulus {
+    fn check(&self) -> anyhow::Result<()> {
+        let (from, to) = (self.from_bar, self.to_bar);
+        if !(from > 0.0 && to > from && to.is_finite()) {
+            let e = FieldError::new(
+                "from_bar",
+                Given::Number(from),
+                "must satisfy 0 < from < to",
+            );
+            return Err(e.and("to_bar", Given::Number(to)).into());
+        }
+        let n = self.points as f64;
+        check_field("points", n, self.points >= 2, "must be at least 2")?;
+        let limited = |e: pumpcyl::limits::LimitError| {
+            let long = matches!(e, pumpcyl::limits::LimitError::LongRun { .. });
+            let error = FieldError::new("points", Given::Number(n), e.to_string());
+            if long {
+                error.unless("allow_long_run")
+            } else {
+                error
+            }
+        };
+        pumpcyl::limits::check_size("the table", n).map_err(limited)?;
+        let most = pumpcyl::limits::MAX_MARGIN_ANALYSES;
+        pumpcyl::limits::check_work("the table", n, most, self.allow_long_run).map_err(limited)?;
+        Ok(())
+    }
+
+    /// β_e and the margins at `points` mean pressures over the request's range.
+    fn rows(&self, x: f64, points: usize) -> anyhow::Result<Vec<Row>> {
+        let pressures = pumpcyl::ident::spaced(self.from_bar, self.to_bar, points, false);
+        Ok(table(&self.rig.rig, x, self.beta_oil_bar, &pressures)?)
+    }
+}
+
+impl Request for BulkModulus {
+    type Outcome = BulkOutcome;
+
+    fn run(&self, _: Hooks<'_>) -> anyhow::Result<BulkOutcome> {
+        self.check()?;
+        let r = &self.reading;
+        let x = gas_fraction(r.beta_bar, r.p_mean_bar, self.beta_oil_bar)?;
+        Ok(BulkOutcome {
+            rows: self.rows(x, self.points)?,
+            request: self.clone(),
+            gas_fraction: x,
+        })
+    }
+}
+
+impl BulkOutcome {
+    /// What the gas fraction was read off: (β bar, at mean pressure bar, β_oil bar).
+    fn fit(&self) -> (f64, f64, f64) {
+        let r = &self.request;
+        (r.reading.beta_bar, r.reading.p_mean_bar, r.beta_oil_bar)
+    }
+
+    /// A fine table over the same range as CSV.
+    ///
+    /// # Errors
+    /// A margin that cannot be computed.
+    pub fn csv(&self) -> anyhow::Result<String> {
+        Ok(bulk_csv(&self.request.rows(self.gas_fraction, FINE_ROWS)?))
+    }
+
+    /// β_e, GM and PM against pressure over a fine table.
+    ///
+    /// # Errors
+    /// A margin that cannot be computed.
+    pub fn chart(&self) -> anyhow::Result<Chart> {
+        let rows = self.request.rows(self.gas_fraction, FINE_ROWS)?;
+        Ok(Chart::bulk_modulus(self.fit(), self.gas_fraction, &rows))
+    }
+}
+
+impl Document for BulkOutcome {
+    fn json(&self) -> anyhow::Result<Value> {
+        let r = &self.request;
+        let reading = (r.reading, r.from.as_str());
+        Ok(bulk_json(
+            self.gas_fraction,
+            r.beta_oil_bar,
+            reading,
+            &self.rows,
+        ))
+    }
+
+    fn text(&self) -> anyhow::Result<String> {
+        let from = &self.request.from;
+        Ok(bulk_text(self.fit(), from, self.gas_fraction, &self.rows))
+    }
+}
