@@ -13,7 +13,7 @@
 //! - [`design`] — `design`, nominal and robust;
 //! - [`emulate`] — `emulate`;
 //! - [`frf`] — `frf` of a record;
-//! - [`identify`] — `identify`, from an experiment file or from records on a rig;
+//! - [`identify`] — `identify` (from an experiment file or from records on a rig), `identify-merge`;
 //! - [`select`] — `select`;
 //! - [`standstill`] — `leakage`, `identify-drive`;
 //! - [`time`] — `step`, `track`, `simulate` (a record replayed).
