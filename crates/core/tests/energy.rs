@@ -163,3 +163,72 @@ fn the_losses_are_their_laws_by_hand() {
     let drives = tau1 * w1 + tau2 * w2;
     assert!((get(&p.sources_w, "drives") - drives).abs() <= 1e-12 * drives.abs().max(1.0));
 }
+
+/// Over a run the energies are integrated with the states (docs/energy.md#over-a-run): the
+/// states exactly as without the account, the account closing to rounding, and the stored
+/// energies equal to their state functions' changes — ½·m·v² of the load (a constant mass)
+/// and ½·J·ω² of each drive — to 1e-6 of the energy the sources delivered: the quadrature is
+/// the integrator's own fourth order.
+#[test]
+fn over_a_run_the_energies_close_and_the_stored_ones_are_their_state_functions() {
+    use pumpcyl::circuit::energy::Energy;
+    use pumpcyl::circuit::{Circuit, Role};
+    use pumpcyl::emulator::{hold_speeds, hold_speeds_accounting};
+    for (name, rig) in rigs().into_iter().filter(|(n, _)| n != "article") {
+        let d = Dynamics::new(&rig, Effects::none()).unwrap();
+        let (rest, u0) = d.operating_point();
+        let states = d.circuit().states();
+        let at = |role: Role| {
+            (states.iter().enumerate())
+                .filter(move |(_, s)| s.role == role)
+                .map(|(i, _)| i)
+        };
+        let v = at(Role::Velocity).next().unwrap();
+        let speeds: Vec<usize> = at(Role::MotorSpeed).collect();
+        // a command step, held for 0.4 s in PLC intervals of 10 ms
+        let u = match name.as_str() {
+            "valve" => [u0[0] + 0.2, 0.0],
+            _ => [u0[0] + 40.0, u0[1] - 25.0],
+        };
+        let (mut plain, mut counted) = (rest.clone(), rest.clone());
+        let mut energy = Energy::default();
+        for k in 0..40 {
+            let (t0, t1) = (k as f64 * 0.01, (k + 1) as f64 * 0.01);
+            plain = hold_speeds(&d, &plain, u, t0, t1).unwrap();
+            counted = hold_speeds_accounting(&d, &counted, u, (t0, t1), &mut energy).unwrap();
+            assert_eq!(
+                plain, counted,
+                "{name}: the states change with the account at {t1} s"
+            );
+        }
+        let delivered: f64 = energy.sources_j.iter().map(|(_, j)| j.abs()).sum();
+        assert!(delivered > 1.0, "{name}: {energy:?}");
+        assert!(
+            energy.imbalance_j().abs() <= 1e-9 * delivered,
+            "{name}: {energy:?}"
+        );
+        let kinetic = |x: &[f64]| 0.5 * rig.mass_kg * x[v] * x[v];
+        let load = kinetic(&counted) - kinetic(&rest);
+        let got = energy.of("load_motion");
+        assert!(
+            (got - load).abs() <= 1e-6 * delivered,
+            "{name}: load motion {got} J, ½mv² {load} J"
+        );
+        if name == "dpm" {
+            // each drive's motor-plus-pump inertia (RigSi::j)
+            let j = rig.si().j;
+            let spin = |x: &[f64]| {
+                (speeds.iter().zip(j))
+                    .map(|(&i, j)| 0.5 * j * x[i] * x[i])
+                    .sum::<f64>()
+            };
+            let drives = spin(&counted) - spin(&rest);
+            let got = energy.of("drive_motion");
+            assert!(drives.abs() > 1e-3 * delivered, "{name}: {drives} J");
+            assert!(
+                (got - drives).abs() <= 1e-6 * delivered,
+                "{name}: drive motion {got} J, ½Jω² {drives} J; {energy:?}"
+            );
+        }
+    }
+}

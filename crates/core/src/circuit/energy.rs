@@ -85,11 +85,11 @@ pub fn cylinder(piston: &Piston, s: [f64; 4], flows: [f64; 2], dv: f64, power: &
     let [x, v, p1, p2] = s;
     let [a1, a2] = piston.areas_m2;
     for (p, q) in [(p1, flows[0]), (p2, flows[1])] {
-        // at the floor a falling pressure stays (parts::Chamber::pressure_rate)
-        match p <= -ATMOSPHERE_PA && q < 0.0 {
-            true => power.loss("cavitation", p * q),
-            false => power.store("oil_compression", p * q),
-        }
+        // at the floor a falling pressure stays (parts::Chamber::pressure_rate); both kinds are
+        // always listed, so every state's account has the same kinds in the same order
+        let at_floor = p <= -ATMOSPHERE_PA && q < 0.0;
+        power.store("oil_compression", if at_floor { 0.0 } else { p * q });
+        power.loss("cavitation", if at_floor { p * q } else { 0.0 });
     }
     let parts = piston.forces(x, v);
     power.work_out_w += piston.force_ext_n * v;
@@ -140,4 +140,109 @@ pub fn pump(pump: &Pump, w: f64, dp: f64, coupled: bool, power: &mut Power) -> f
 /// turns into heat, c·(from − to)².
 pub fn leak(c: f64, from: f64, to: f64) -> f64 {
     throttled((from - to) * c, from, to)
+}
+
+/// Energies over a run (J), by the same kinds as [`Power`]: the power account integrated with
+/// the states (docs/energy.md#over-a-run).
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
+pub struct Energy {
+    /// What each source delivered.
+    pub sources_j: Vec<(&'static str, f64)>,
+    /// The work against the external force.
+    pub work_out_j: f64,
+    /// Each kind of loss.
+    pub losses_j: Vec<(&'static str, f64)>,
+    /// The change of each kind of stored energy.
+    pub stored_j: Vec<(&'static str, f64)>,
+}
+
+impl Energy {
+    /// Add the power `p` held for `seconds`.
+    pub fn add(&mut self, p: &Power, seconds: f64) {
+        for (to, from) in [
+            (&mut self.sources_j, &p.sources_w),
+            (&mut self.losses_j, &p.losses_w),
+            (&mut self.stored_j, &p.stored_w),
+        ] {
+            for &(kind, w) in from {
+                Power::add(to, kind, w * seconds);
+            }
+        }
+        self.work_out_j += p.work_out_w * seconds;
+    }
+
+    /// Add the energies of `other`.
+    pub fn merge(&mut self, other: &Energy) {
+        let as_power = Power {
+            sources_w: other.sources_j.clone(),
+            work_out_w: other.work_out_j,
+            losses_w: other.losses_j.clone(),
+            stored_w: other.stored_j.clone(),
+        };
+        self.add(&as_power, 1.0);
+    }
+
+    /// Sources − work out − losses − stored changes (J): zero but for rounding.
+    pub fn imbalance_j(&self) -> f64 {
+        Power::sum(&self.sources_j)
+            - self.work_out_j
+            - Power::sum(&self.losses_j)
+            - Power::sum(&self.stored_j)
+    }
+
+    /// The energy of `kind` in any of its lists (J), 0 where absent.
+    pub fn of(&self, kind: &str) -> f64 {
+        (self.sources_j.iter())
+            .chain(&self.losses_j)
+            .chain(&self.stored_j)
+            .filter(|(k, _)| *k == kind)
+            .map(|(_, j)| j)
+            .sum()
+    }
+}
+
+impl Power {
+    /// Every term in one list (sources, the work out, losses, stored rates), for a solver that
+    /// integrates them as states.
+    pub fn flat(&self) -> Vec<f64> {
+        self.flat_as(self)
+    }
+
+    /// This account's terms in the order of `template`'s kinds ([`Power::flat`]), 0 for a kind
+    /// it does not list.
+    pub fn flat_as(&self, template: &Power) -> Vec<f64> {
+        let of = |list: &[(&'static str, f64)], kind: &str| {
+            (list.iter())
+                .find(|(k, _)| *k == kind)
+                .map_or(0.0, |(_, w)| *w)
+        };
+        (template
+            .sources_w
+            .iter()
+            .map(|(k, _)| of(&self.sources_w, k)))
+        .chain([self.work_out_w])
+        .chain(template.losses_w.iter().map(|(k, _)| of(&self.losses_w, k)))
+        .chain(template.stored_w.iter().map(|(k, _)| of(&self.stored_w, k)))
+        .collect()
+    }
+
+    /// The power of this account's kinds with the values `flat` ([`Power::flat`]'s order).
+    pub fn with_flat(&self, flat: &[f64]) -> Power {
+        let mut it = flat.iter().copied();
+        let mut take = |list: &[(&'static str, f64)]| -> Vec<(&'static str, f64)> {
+            list.iter()
+                .map(|(k, _)| (*k, it.next().unwrap_or(0.0)))
+                .collect()
+        };
+        let sources_w = take(&self.sources_w);
+        let work_out_w = take(&[("work", 0.0)])[0].1;
+        let losses_w = take(&self.losses_w);
+        let stored_w = take(&self.stored_w);
+        Power {
+            sources_w,
+            work_out_w,
+            losses_w,
+            stored_w,
+        }
+    }
 }

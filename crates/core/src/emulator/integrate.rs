@@ -17,6 +17,7 @@
 use super::phi::{phi_levels, propagator, Phis, Propagator};
 use super::steps::{self, Interval};
 use super::{Dynamics, EmulatorError};
+use crate::circuit::energy::Energy;
 use crate::circuit::{Circuit, Role};
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, VectorCommon};
 use std::cell::{Cell, RefCell};
@@ -55,6 +56,51 @@ pub(super) fn hold(
         let scale = typical(d);
         bdf(&f, &scale, x, (t0, t1), FALLBACK_RTOL).or_else(|_| bdf(&f, &scale, x, (t0, t1), 1e-7))
     })
+}
+
+/// [`hold`] with the rig's power integrated beside its states (docs/energy.md#over-a-run):
+/// the states exactly as [`hold`] gives them, and the energies of the interval, added to
+/// `energy`, from a BDF run of the states and the power's terms together, whose error control
+/// resolves the drives' fast transients that a quadrature at the exponential steps' nodes
+/// would not.
+pub(super) fn hold_accounting(
+    d: &Dynamics,
+    x: &[f64],
+    u: [f64; 2],
+    (t0, t1): (f64, f64),
+    energy: &mut Energy,
+) -> Result<Vec<f64>, EmulatorError> {
+    let out = hold(d, x, u, t0, t1)?;
+    energy.merge(&energy_by_bdf(d, x, u, (t0, t1))?);
+    Ok(out)
+}
+
+/// The energies of the interval from a BDF run of the states and the power's terms together.
+fn energy_by_bdf(
+    d: &Dynamics,
+    x: &[f64],
+    u: [f64; 2],
+    (t0, t1): (f64, f64),
+) -> Result<Energy, EmulatorError> {
+    let n = x.len();
+    let template = d.power(x, &u);
+    let terms = template.flat().len();
+    let f = |z: &[f64], dz: &mut [f64]| {
+        d.rhs(&z[..n], &u, &mut dz[..n]);
+        let flat = d.power(&z[..n], &u).flat_as(&template);
+        dz[n..].copy_from_slice(&flat);
+    };
+    let joules = template.scale_w().max(1e-3) * (t1 - t0).max(1e-6);
+    let scale: Vec<f64> = (typical(d).into_iter())
+        .chain(std::iter::repeat_n(joules, terms))
+        .collect();
+    let z0: Vec<f64> = (x.iter().copied())
+        .chain(std::iter::repeat_n(0.0, terms))
+        .collect();
+    let z = bdf(&f, &scale, &z0, (t0, t1), FALLBACK_RTOL)?;
+    let mut energy = Energy::default();
+    energy.add(&template.with_flat(&z[n..]), 1.0);
+    Ok(energy)
 }
 
 /// Relative tolerance of the BDF where the exponential integrator gives up.

@@ -22,7 +22,8 @@ pub use experiment::{
     SETTLE_S, SINE_PERIODS, STEP_MM,
 };
 pub use plc::{
-    emulate, emulate_reporting, equilibrium, hold_speeds, Emulation, Plc, PlcLoop, PROGRESS_STEPS,
+    emulate, emulate_reporting, equilibrium, hold_speeds, hold_speeds_accounting, Emulation, Plc,
+    PlcLoop, PROGRESS_STEPS,
 };
 
 /// Why an emulation under a work limit stopped: the emulator could not run, or its

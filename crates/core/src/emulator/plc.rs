@@ -5,10 +5,11 @@
 //! integrator of `integrate` (the current loop at 1257 1/s makes the dynamics stiff;
 //! docs/emulator.md#the-integration).
 
-use super::integrate::{hold, typical, work};
+use super::integrate::{hold, hold_accounting, typical, work};
 use super::{Dynamics, EndStopHit};
 use super::{EmulatorError, RunError};
 use crate::cavitation::FloorHit;
+use crate::circuit::energy::Energy;
 use crate::limits::{EmulatorWork, Work};
 use crate::response::Signals;
 use crate::rig::Rig;
@@ -146,6 +147,8 @@ pub struct PlcLoop {
     /// The integrator's work in this loop's [`PlcLoop::hold`]s (right-hand-side evaluations,
     /// docs/emulator.md#the-work-limit).
     work: u64,
+    /// The energies of its [`PlcLoop::hold`]s since [`PlcLoop::account_energy`], if asked.
+    energy: Option<Energy>,
 }
 
 impl PlcLoop {
@@ -165,6 +168,7 @@ impl PlcLoop {
             noise: Noise::new(plc.seed),
             x: equilibrium(rig, dynamics, r0_mm)?,
             end_stop: None,
+            energy: None,
             cavitation: None,
             work: 0,
         };
@@ -199,7 +203,10 @@ impl PlcLoop {
     /// chamber at the cavitation floor.
     pub fn hold(&mut self, u: [f64; 2], t0: f64, t1: f64) -> Result<(), EmulatorError> {
         let before = work();
-        self.x = hold(&self.dynamics, &self.x, u, t0, t1)?;
+        self.x = match &mut self.energy {
+            Some(energy) => hold_accounting(&self.dynamics, &self.x, u, (t0, t1), energy)?,
+            None => hold(&self.dynamics, &self.x, u, t0, t1)?,
+        };
         self.work += work() - before;
         if self.end_stop.is_none() {
             self.end_stop = self.dynamics.end_stop(&self.x, t1);
@@ -208,6 +215,17 @@ impl PlcLoop {
             self.cavitation = self.dynamics.floor_hit(&self.x, t1);
         }
         Ok(())
+    }
+
+    /// From now on, integrate the rig's power beside its states (docs/energy.md#over-a-run):
+    /// the states stay exactly as without.
+    pub fn account_energy(&mut self) {
+        self.energy = Some(Energy::default());
+    }
+
+    /// The energies since [`PlcLoop::account_energy`], if asked.
+    pub fn energy(&self) -> Option<&Energy> {
+        self.energy.as_ref()
     }
 
     /// The first end of the stroke the piston met at the end of a [`PlcLoop::hold`], if any
@@ -242,6 +260,22 @@ impl PlcLoop {
     pub fn period_s(&self) -> f64 {
         1.0 / self.plc.rate_hz
     }
+}
+
+/// Integrate the rig from state `x` over [`t0`, `t1`] (s) with the speed references `u`
+/// (rad/s) held, its power integrated beside the states into `energy`
+/// (docs/energy.md#over-a-run): the states exactly as [`hold_speeds`] gives them.
+///
+/// # Errors
+/// As [`hold_speeds`].
+pub fn hold_speeds_accounting(
+    d: &Dynamics,
+    x: &[f64],
+    u: [f64; 2],
+    (t0, t1): (f64, f64),
+    energy: &mut Energy,
+) -> Result<Vec<f64>, EmulatorError> {
+    hold_accounting(d, x, u, (t0, t1), energy)
 }
 
 /// Integrate the rig from state `x` over [`t0`, `t1`] (s) with the speed references `u`
