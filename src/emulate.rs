@@ -86,6 +86,12 @@ pub struct EmulateArgs {
     /// Noise-free, unquantised sensors.
     #[arg(long)]
     no_noise: bool,
+    /// Integrate the rig's power account beside its states over the record and print it
+    /// (docs/energy.md#over-a-run): what the sources delivered, the work against the load, each
+    /// loss and each stored energy's change (J); with --json the `energy` object. The record is
+    /// the same either way.
+    #[arg(long)]
+    energy: bool,
     /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).
     #[arg(long)]
     no_effects: bool,
@@ -170,6 +176,7 @@ fn request(args: &EmulateArgs, kind: ExperimentKind) -> emulated::Request {
         seed: args.seed,
         noise: !args.no_noise,
         sweep: None,
+        energy: args.energy,
     }
 }
 

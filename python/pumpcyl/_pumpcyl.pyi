@@ -710,12 +710,16 @@ def emulate(
     noise: bool = True,
     effects: bool = True,
     allow_long_run: bool = False,
+    energy: bool = False,
     **overrides: Union[float, bool, str],
 ) -> Emulated:
     """A record from the nonlinear rig emulator (docs/emulator.md), as ``pumpcyl emulate
     --json``: the experiment and its settings as the command line's options, ``rig=None`` the
     emulator's own rig, keyword ``overrides`` its keys (as ``--set``); the record's columns as
-    numpy arrays in ``.columns`` and what the emulator used in ``.basis``."""
+    numpy arrays in ``.columns`` and what the emulator used in ``.basis``. ``energy=True``
+    adds ``energy``: the power account integrated over the record (``energy_in_j``,
+    ``sources_j``, ``work_out_j``, ``losses_j``, ``stored_j``, ``stored_change_j``,
+    ``imbalance_j``; docs/energy.md#over-a-run), as ``--energy``; the record is the same."""
 
 def advise(
     experiment: Union[str, PathLike[str]],

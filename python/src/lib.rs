@@ -1605,12 +1605,14 @@ fn effective_beta(py: Python<'_>, x: f64, p_bar: f64, beta_oil_bar: f64) -> PyRe
 /// (their controller steps, or their integrator's work counted as they run:
 /// docs/emulator.md#the-work-limit) run only with `allow_long_run=True`. A `Result` with `experiment`, `rig`, `samples`,
 /// `basis` (what the emulator used, in words), `warnings` (each also a UserWarning),
-/// `end_stop` and `columns`, the record's columns as numpy arrays (docs/formats.md#record-csv).
+/// `end_stop` and `columns`, the record's columns as numpy arrays (docs/formats.md#record-csv);
+/// with `energy=True` also `energy`, the power account integrated over the record
+/// (docs/energy.md#over-a-run), as `emulate --energy --json`.
 #[pyfunction]
 #[pyo3(signature = (
     experiment, rig = None, *, from_mm = None, to_mm = None, at_s = 0.5, amplitude_mm = 20.0,
     freq_hz = 0.25, motor = 1, to_rpm = 500.0, duration_s = None, rate_hz = None, seed = 1,
-    noise = true, effects = true, allow_long_run = false, **overrides
+    noise = true, effects = true, allow_long_run = false, energy = false, **overrides
 ))]
 #[allow(clippy::too_many_arguments)]
 fn emulate(
@@ -1630,6 +1632,7 @@ fn emulate(
     noise: bool,
     effects: bool,
     allow_long_run: bool,
+    energy: bool,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyOutcome> {
     use pumpcyl_present::emulated::{ExperimentKind, Request};
@@ -1670,6 +1673,7 @@ fn emulate(
             seed,
             noise,
             sweep: None,
+            energy,
         },
         allow_long_run,
     };

@@ -431,3 +431,20 @@ def test_chatter_answers_a_circuit_without_modes_and_refuses_bad_arguments():
         pumpcyl.chatter(rig, from_n=0.0)
     with pytest.raises(pumpcyl.PumpcylError, match=r"allow_long_run=True"):
         pumpcyl.chatter(rig, from_n=0.0, to_n=200.0, points=20000)
+
+
+def test_emulate_with_energy_is_the_command_lines_energy(tmp_path):
+    """`emulate(energy=True)` is `emulate --energy --json` (docs/energy.md#over-a-run): the same
+    `energy` object on the user rig (the same request), closing to rounding."""
+    user = ROOT / "tests" / "user-rig.toml"
+    doc = cli("emulate", "--experiment", "step", "--rig", str(user), "--energy", "--out",
+              str(tmp_path / "e.csv"), "--json")
+    with pytest.warns(UserWarning, match="does not set"):
+        rig = pumpcyl.Rig.from_toml(user)
+    e = pumpcyl.emulate("step", rig=rig, energy=True)
+    assert e.energy == doc["energy"]
+    en = e.energy
+    delivered = en["energy_in_j"]
+    closing = delivered - en["work_out_j"] - sum(en["losses_j"].values()) - sum(en["stored_j"].values())
+    assert delivered > 0 and abs(closing) <= 1e-9 * delivered
+    assert "energy" not in pumpcyl.emulate("step", rig=rig)

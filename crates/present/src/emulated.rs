@@ -118,6 +118,9 @@ pub struct Request {
     /// The excitation of a sweep experiment (chirp, multisine, stepped sine), built for the
     /// rig and rate (`pumpcyl frf --design` gives its defaults); `None` for the others.
     pub sweep: Option<pumpcyl::frf::Excitation>,
+    /// Whether the closed loop's run integrates the rig's power account beside its states
+    /// (docs/energy.md#over-a-run): the record is the same either way.
+    pub energy: bool,
 }
 
 /// A sine's amplitude when none is given (mm).
@@ -146,6 +149,7 @@ impl Request {
         Ok(Plc {
             rate_hz,
             seed: self.seed,
+            energy: self.energy,
             ..base
         })
     }
@@ -215,6 +219,8 @@ pub struct Outcome {
     pub end_stop: Option<EndStopHit>,
     /// The first chamber at the cavitation floor (docs/emulator.md#cavitation).
     pub cavitation: Option<FloorHit>,
+    /// The energies of a closed-loop run that asked for them (docs/energy.md#over-a-run).
+    pub energy: Option<pumpcyl::circuit::energy::Energy>,
 }
 
 /// Run a plan on the truth ([`Outcome`]); `work.progress(n)` as `n` more of its [`steps`] are
@@ -228,12 +234,14 @@ pub fn run(plan: &Kind, truth: &Truth, work: &Work) -> Result<Outcome, RunError>
                 data: Emulated::Loop(em.signals),
                 end_stop: em.end_stop,
                 cavitation: em.cavitation,
+                energy: em.energy,
             }
         }
         Kind::Drive(_) => Outcome {
             data: plan.run(truth)?,
             end_stop: None,
             cavitation: None,
+            energy: None,
         },
     })
 }
@@ -274,15 +282,42 @@ impl Emulation {
         origin: &str,
         circuit: CircuitKind,
     ) -> Value {
-        emulated_json(
+        let mut doc = emulated_json(
             experiment,
             (origin, circuit),
             &self.outcome.data,
             &self.basis,
             &self.warnings,
             self.outcome.end_stop.as_ref(),
-        )
+        );
+        if let Some(e) = &self.outcome.energy {
+            doc["energy"] = energy_json(e);
+        }
+        doc
     }
+}
+
+/// A run's energies as the `energy` object of `emulate --json` (docs/energy.md#over-a-run):
+/// `energy_in_j` (what the sources delivered: the drives' shaft power τ·ω, or a valve's
+/// supply), `sources_j`, `work_out_j`, `losses_j` and `stored_j` by kind, `stored_change_j`
+/// and `imbalance_j` (sources − work − losses − stored, zero but for rounding).
+pub fn energy_json(e: &pumpcyl::circuit::energy::Energy) -> Value {
+    let by_kind = |list: &[(&'static str, f64)]| -> Value {
+        list.iter()
+            .map(|(k, j)| (k.to_string(), json!(j)))
+            .collect::<serde_json::Map<_, _>>()
+            .into()
+    };
+    let sum = |list: &[(&'static str, f64)]| list.iter().map(|(_, j)| j).sum::<f64>();
+    json!({
+        "energy_in_j": sum(&e.sources_j),
+        "sources_j": by_kind(&e.sources_j),
+        "work_out_j": e.work_out_j,
+        "losses_j": by_kind(&e.losses_j),
+        "stored_j": by_kind(&e.stored_j),
+        "stored_change_j": sum(&e.stored_j),
+        "imbalance_j": e.imbalance_j(),
+    })
 }
 
 /// The warnings of an emulated run on `rig`: the drive ratings a closed-loop record exceeds

@@ -119,6 +119,7 @@ pub fn plc(seed: u64) -> Plc {
         noise_p_bar: 0.01,
         noise_w_rpm: 1.0,
         seed,
+        energy: false,
     }
 }
 

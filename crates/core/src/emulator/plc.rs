@@ -30,6 +30,9 @@ pub struct Plc {
     pub noise_w_rpm: f64,
     /// Seed of the noise.
     pub seed: u64,
+    /// Whether a record's run integrates the rig's power account beside its states
+    /// (docs/energy.md#over-a-run); the record is the same either way.
+    pub energy: bool,
 }
 
 impl Plc {
@@ -42,6 +45,7 @@ impl Plc {
             noise_p_bar: 0.0,
             noise_w_rpm: 0.0,
             seed: 1,
+            energy: false,
         }
     }
 }
@@ -76,6 +80,8 @@ pub struct Emulation {
     pub end_stop: Option<EndStopHit>,
     /// The first chamber at the cavitation floor, at a PLC sample of the record.
     pub cavitation: Option<FloorHit>,
+    /// The energies of the record's run, where its PLC asked for them ([`Plc::energy`]).
+    pub energy: Option<Energy>,
 }
 
 /// Emulate the closed loop for the reference `x_ref_mm(t)` from `t = 0` to `duration_s`.
@@ -122,11 +128,15 @@ pub fn emulate_reporting(
     work: &Work,
 ) -> Result<Emulation, RunError> {
     let mut run = PlcLoop::settled(rig, dynamics, plc, x_ref_mm(0.0), settle_s)?;
+    if plc.energy {
+        run.account_energy();
+    }
     let signals = record(&mut run, duration_s, x_ref_mm, work)?;
     Ok(Emulation {
         signals,
         end_stop: run.end_stop,
         cavitation: run.cavitation,
+        energy: run.energy,
     })
 }
 
