@@ -34,7 +34,7 @@ pub struct AdviseArgs {
 
 /// Run the identification of the experiment, then the advice.
 pub fn run(args: &AdviseArgs) -> Result<String> {
-    crate::emit::check_confidence(args.confidence)?;
+    pumpcyl_present::request::check_confidence(args.confidence)?;
     let request = Advise {
         experiment: crate::read_files::experiment(&args.experiment)?,
         candidates: args.candidates.clone(),

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use crate::emit::{render_both, show, write_atomic};
 use crate::RigSource;
+use pumpcyl::design::Targets;
 use pumpcyl_present::format::json_document;
 use pumpcyl_present::request::design::{Design, Robust};
 use pumpcyl_present::request::Document;
@@ -92,13 +93,15 @@ pub fn run(args: &DesignArgs) -> Result<String> {
         .transpose()?;
     let request = Design {
         rig: args.rig.input()?,
-        target_pm_deg: args.target_pm_deg,
-        target_gm_db: args.target_gm_db,
-        stroke_mm: args.stroke_mm,
-        p_mean_bar: args.p_mean_bar.clone(),
-        p_beta_bar: args.p_beta_bar,
-        mass_kg: args.mass_kg.clone(),
-        waves: args.wave.clone(),
+        targets: Targets {
+            pm_deg: args.target_pm_deg,
+            gm_db: args.target_gm_db,
+            stroke_mm: args.stroke_mm,
+            p_mean_bar: args.p_mean_bar.clone(),
+            p_beta_bar: args.p_beta_bar,
+            mass_kg: args.mass_kg.clone(),
+            waves: args.wave.clone(),
+        },
         allow_long_run: args.allow_long_run,
         robust,
     };

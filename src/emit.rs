@@ -156,12 +156,6 @@ pub fn show(outcome: &impl pumpcyl_present::request::Document, json: bool) -> Re
     outcome.text()
 }
 
-/// Refuse a confidence level outside (0, 1) before any work, naming the option `--confidence`.
-pub fn check_confidence(confidence: f64) -> Result<()> {
-    pumpcyl::ident::check_confidence(confidence).map_err(|e| anyhow::anyhow!("--{e}"))?;
-    Ok(())
-}
-
 /// A core complaint about a named field (`freq_hz = 50: …`), the field shown as the option that
 /// sets it (`--freq-hz 50: …`); `option_of` maps a field to its option name.
 pub fn as_option(

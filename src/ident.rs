@@ -188,7 +188,7 @@ pub fn identify(args: &IdentifyArgs) -> Result<String> {
     );
     let uncertainty = args.uncertainty.then_some(args.confidence);
     if let Some(confidence) = uncertainty {
-        pumpcyl_present::request::design::check_confidence(confidence)?;
+        pumpcyl_present::request::check_confidence(confidence)?;
     }
     let method = args.frequency.then_some(Method::Frequency);
     let exp = crate::read_files::experiment_as(&args.experiment, method)?;

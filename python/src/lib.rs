@@ -1965,13 +1965,15 @@ fn design(
         .map_err(|e| request_err("design", &e))?;
     let request = request::design::Design {
         rig: rig.map_or_else(|| RigInput::default_named("Rig()"), PyRig::input),
-        target_pm_deg,
-        target_gm_db,
-        stroke_mm,
-        p_mean_bar,
-        p_beta_bar,
-        mass_kg,
-        waves,
+        targets: pumpcyl::design::Targets {
+            pm_deg: target_pm_deg,
+            gm_db: target_gm_db,
+            stroke_mm,
+            p_mean_bar,
+            p_beta_bar,
+            mass_kg,
+            waves,
+        },
         allow_long_run,
         robust,
     };

@@ -539,12 +539,10 @@ impl DualPump {
         energy::cylinder(&self.piston, [s[X], s[V], p1, p2], self.chamber_flows(s), dx[V], &mut power);
         energy::pump(&self.pumps[0], w, p1 - p2, self.coupling, &mut power);
         let q2 = energy::pump(&self.pumps[1], w, p1 - pa, self.coupling, &mut power);
-        let [c1, c2, c12] = self.leakage;
-        let leaks = energy::leak(c1, p1, pa) + energy::leak(c2, p2, pa) + energy::leak(c12, p1, p2);
-        power.loss("leakage", leaks);
         // what flows into the accumulator line: the leakages, less what pump 2 and the valves
         // take from it
-        let mut into_acc = (p1 - pa) * c1 + (p2 - pa) * c2 - q2;
+        let leaks = energy::leaks_to_accumulator(self.leakage, [p1, p2], pa, &mut power);
+        let mut into_acc = leaks - q2;
         if self.valves_on {
             for (i, p) in [p1, p2].into_iter().enumerate() {
                 let q = self.valves.into_chamber(i, p, pa);

@@ -80,10 +80,8 @@ pub fn throttled(q: f64, from: f64, to: f64) -> f64 {
 /// work against the external force, friction, the end stops and the load's motion. `s` is the
 /// state at `[x, v, p1, p2]`, `flows` the chambers' net inflows as the equations take them
 /// (the piston's displacement included) and `dv` the piston's acceleration they give.
-/// Returns the network's delivered power Σ pᵢ·(flowᵢ + displacementᵢ).
-pub fn cylinder(piston: &Piston, s: [f64; 4], flows: [f64; 2], dv: f64, power: &mut Power) -> f64 {
+pub fn cylinder(piston: &Piston, s: [f64; 4], flows: [f64; 2], dv: f64, power: &mut Power) {
     let [x, v, p1, p2] = s;
-    let [a1, a2] = piston.areas_m2;
     for (p, q) in [(p1, flows[0]), (p2, flows[1])] {
         // at the floor a falling pressure stays (parts::Chamber::pressure_rate); both kinds are
         // always listed, so every state's account has the same kinds in the same order
@@ -98,7 +96,6 @@ pub fn cylinder(piston: &Piston, s: [f64; 4], flows: [f64; 2], dv: f64, power: &
     // the stops' spring gives back what it took as the piston leaves them
     power.store("end_stops", -parts.stop_n * v);
     power.store("load_motion", piston.mass_at(x) * dv * v);
-    p1 * (flows[0] + v * a1) + p2 * (flows[1] - v * a2)
 }
 
 /// A drive's share (docs/energy.md#the-drives): the electromagnetic torque τ times the speed
@@ -140,6 +137,20 @@ pub fn pump(pump: &Pump, w: f64, dp: f64, coupled: bool, power: &mut Power) -> f
 /// turns into heat, c·(from − to)².
 pub fn leak(c: f64, from: f64, to: f64) -> f64 {
     throttled((from - to) * c, from, to)
+}
+
+/// The one-motor circuits' leakages `[c1, c2, c12]` (m⁵/(N·s)) from the chambers at `p1`, `p2`
+/// to the accumulator line at `pa` and across the piston (Pa), their heat added to `power`;
+/// returns what they feed into the accumulator line (m³/s).
+pub fn leaks_to_accumulator(
+    [c1, c2, c12]: [f64; 3],
+    [p1, p2]: [f64; 2],
+    pa: f64,
+    power: &mut Power,
+) -> f64 {
+    let heat = leak(c1, p1, pa) + leak(c2, p2, pa) + leak(c12, p1, p2);
+    power.loss("leakage", heat);
+    (p1 - pa) * c1 + (p2 - pa) * c2
 }
 
 /// Energies over a run (J), by the same kinds as [`Power`]: the power account integrated with

@@ -480,10 +480,7 @@ impl SinglePump {
         let flows = self.chamber_flows(s);
         energy::cylinder(&self.piston, [s[X], s[V], p1, p2], flows, dx[V], &mut power);
         energy::pump(&self.pump, w, p1 - p2, self.coupling, &mut power);
-        let [c1, c2, c12] = self.leakage;
-        let leaks = energy::leak(c1, p1, pa) + energy::leak(c2, p2, pa) + energy::leak(c12, p1, p2);
-        power.loss("leakage", leaks);
-        let mut into_acc = (p1 - pa) * c1 + (p2 - pa) * c2;
+        let mut into_acc = energy::leaks_to_accumulator(self.leakage, [p1, p2], pa, &mut power);
         if self.valves_on {
             for (check, (p, pilot)) in self.checks.iter().zip([(p1, p2), (p2, p1)]) {
                 let q = check.into_chamber(p, pilot, pa);

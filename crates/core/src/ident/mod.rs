@@ -263,6 +263,21 @@ pub struct Request<'a> {
     pub allow_long_run: bool,
 }
 
+/// The candidates a search on `grids` with `options` evaluates (of the shard `shard`, if
+/// any): the total a progress report counts, known before the problem is posed.
+pub fn candidates(
+    grids: &(Grid, Option<SecondGrid>),
+    options: &Options,
+    shard: Option<(usize, usize)>,
+) -> u64 {
+    let second = match &grids.1 {
+        Some(SecondGrid::Given(g)) if !options.auto_refine => g.len(),
+        Some(_) => SecondGrid::centred_len(),
+        None => 0,
+    };
+    shard_len(grids.0.len() + second, shard) as u64
+}
+
 impl<'a> Request<'a> {
     /// The identification of `problem` on `grids` with `options`, whole, within the work limit.
     pub fn new(problem: &'a Problem, grids: (Grid, Option<SecondGrid>), options: Options) -> Self {
@@ -277,13 +292,7 @@ impl<'a> Request<'a> {
 
     /// The candidates the search evaluates (of this shard): the total for a progress report.
     pub fn candidates(&self) -> u64 {
-        let second = match &self.grids.1 {
-            Some(SecondGrid::Given(g)) if !self.options.auto_refine => g.len(),
-            Some(_) => SecondGrid::centred_len(),
-            None => 0,
-        };
-        let total = self.grids.0.len() + second;
-        shard_len(total, self.shard) as u64
+        candidates(&self.grids, &self.options, self.shard)
     }
 
     /// The samples of the records, all of them (each candidate simulates every record).

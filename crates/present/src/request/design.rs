@@ -1,7 +1,7 @@
 //! The design request: the design method (the article §2.2; docs/design.md) for a rig before
 //! it is built, nominal or robust (docs/design.md#robust-design).
 
-use super::{Document, FieldError, Given, Hooks, Request, RigInput};
+use super::{check_confidence, Document, FieldError, Given, Hooks, Request, RigInput};
 use crate::design::{design_text, robust_run, robust_text, RobustRequest, RobustRun};
 use crate::figures::Chart;
 use pumpcyl::design::{check_wave, design_with, DesignError, Targets};
@@ -16,20 +16,10 @@ use serde_json::Value;
 pub struct Design {
     /// The rig (with a robust design from an experiment, the experiment's rig is designed).
     pub rig: RigInput,
-    /// Phase margin target (deg).
-    pub target_pm_deg: f64,
-    /// Gain margin target (dB).
-    pub target_gm_db: f64,
-    /// Stroke excursion checked on each side of x0 (mm).
-    pub stroke_mm: f64,
-    /// Mean chamber pressures checked (bar); empty: the rig's β only.
-    pub p_mean_bar: Vec<f64>,
-    /// Mean pressure at which the rig's β holds (bar); `None`: the rig's own anchor.
-    pub p_beta_bar: Option<f64>,
-    /// Masses checked (kg); empty: the rig's mass only.
-    pub mass_kg: Vec<f64>,
-    /// Waves to track, each (frequency Hz, amplitude mm).
-    pub waves: Vec<(f64, f64)>,
+    /// The margin targets, the stroke, masses and pressures checked, the waves to track (the
+    /// options `target_pm_deg`, `target_gm_db`, `stroke_mm`, `p_mean_bar`, `p_beta_bar`,
+    /// `mass_kg`, `waves`).
+    pub targets: Targets,
     /// Whether masses × pressures beyond the design's limit may run.
     pub allow_long_run: bool,
     /// The robust design, if asked for.
@@ -59,20 +49,6 @@ pub enum DesignOutcome {
     Robust(Box<RobustRun>),
 }
 
-/// The confidence level `confidence` checked in (0, 1).
-///
-/// # Errors
-/// A [`FieldError`] naming `confidence`.
-pub fn check_confidence(confidence: f64) -> anyhow::Result<()> {
-    let ok = pumpcyl::ident::check_confidence(confidence).is_ok();
-    super::check_field(
-        "confidence",
-        confidence,
-        ok,
-        "must lie strictly between 0 and 1",
-    )
-}
-
 impl Robust {
     /// The region of the records of the experiment `load` reads (`None`: the stated default
     /// region) at `confidence`, checked before the experiment is read.
@@ -92,31 +68,19 @@ impl Robust {
 }
 
 impl Design {
-    /// The core's targets of this request.
-    fn targets(&self) -> Targets {
-        Targets {
-            pm_deg: self.target_pm_deg,
-            gm_db: self.target_gm_db,
-            stroke_mm: self.stroke_mm,
-            p_mean_bar: self.p_mean_bar.clone(),
-            p_beta_bar: self.p_beta_bar,
-            mass_kg: self.mass_kg.clone(),
-            waves: self.waves.clone(),
-        }
-    }
-
     /// Every list option checked: pressures and masses positive, each wave positive, inside
     /// the stroke and below the tracking's Nyquist frequency, and no wave in a robust design.
     fn check(&self) -> anyhow::Result<()> {
         let item = |i, v| Given::Item(i, Box::new(Given::Number(v)));
-        for (field, list) in [("p_mean_bar", &self.p_mean_bar), ("mass_kg", &self.mass_kg)] {
+        let t = &self.targets;
+        for (field, list) in [("p_mean_bar", &t.p_mean_bar), ("mass_kg", &t.mass_kg)] {
             if let Some((i, &v)) =
                 (list.iter().enumerate()).find(|(_, v)| !(v.is_finite() && **v > 0.0))
             {
                 return Err(FieldError::new(field, item(i, v), "must be > 0").into());
             }
         }
-        for (i, &(f, a)) in self.waves.iter().enumerate() {
+        for (i, &(f, a)) in t.waves.iter().enumerate() {
             let positive = |v: f64| v.is_finite() && v > 0.0;
             let why = match () {
                 _ if self.robust.is_some() => Some(
@@ -157,7 +121,7 @@ impl Design {
         };
         let origin =
             (r.experiment.as_ref()).map_or(self.rig.name.clone(), |e| e.path.display().to_string());
-        let run = robust_run(&request, &self.targets()).map_err(|e| Design::in_rig(e, &origin))?;
+        let run = robust_run(&request, &self.targets).map_err(|e| Design::in_rig(e, &origin))?;
         Ok(DesignOutcome::Robust(Box::new(run)))
     }
 }
@@ -168,7 +132,7 @@ impl Request for Design {
     fn work(&self) -> Option<(u64, &'static str)> {
         Some(match self.robust {
             Some(_) => (1, "robust designs"),
-            None => (self.targets().conditions() as u64, "conditions"),
+            None => (self.targets.conditions() as u64, "conditions"),
         })
     }
 
@@ -183,7 +147,7 @@ impl Request for Design {
             allow_long_run: self.allow_long_run,
             progress: hooks.tick,
         };
-        let design = design_with(&self.rig.rig, &self.targets(), &work)
+        let design = design_with(&self.rig.rig, &self.targets, &work)
             .map_err(|e| Design::in_rig(e, &self.rig.name))?;
         Ok(DesignOutcome::Nominal {
             rig: self.rig.name.clone(),

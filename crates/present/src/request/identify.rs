@@ -196,15 +196,28 @@ impl Identify {
         Ok(())
     }
 
+    /// The grids and options the source gives: an experiment file's, or for records on a rig
+    /// the first grid centred on the rig's values and the second on the first stage's best.
+    fn source_search(&self) -> anyhow::Result<((Grid, Option<SecondGrid>), Options)> {
+        Ok(match &self.source {
+            Source::Experiment(exp) => (exp.grids(), exp.options()),
+            Source::Datasets(d) => {
+                let first = Grid::centred(&centre(&d.rig.rig))?;
+                ((first, Some(SecondGrid::Centred)), Options::default())
+            }
+        })
+    }
+
     /// The time-domain problem of the source.
     fn posed(&self) -> anyhow::Result<Posed> {
+        let (grids, options) = self.source_search()?;
         Ok(match &self.source {
             Source::Experiment(exp) => Posed {
                 problem: exp.problem.clone(),
                 rig: exp.rig.clone(),
                 origin: Origin::of_experiment(exp),
-                grids: exp.grids(),
-                options: exp.options(),
+                grids,
+                options,
                 defaulted: exp.rig_defaulted_keys().map(<[_]>::to_vec),
             },
             Source::Datasets(d) => {
@@ -227,8 +240,8 @@ impl Identify {
                         rig: d.rig.name.clone(),
                         grids: "first centred on the rig's values; second centred on the first stage's best".into(),
                     },
-                    grids: (Grid::centred(&centre(&d.rig.rig))?, Some(SecondGrid::Centred)),
-                    options: Options::default(),
+                    grids,
+                    options,
                     defaulted: d.rig.defaulted.clone(),
                 }
             }
@@ -366,18 +379,24 @@ impl Request for Identify {
         if self.method() == Method::Frequency {
             return None;
         }
-        let posed = self.posed().ok()?;
-        let grids = self.search.grids(&posed.grids, &mut posed.origin.clone());
-        let opts = self.search.options(&posed.options);
+        // the grids alone count the work: no problem posed, and this shard's share
+        let (grids, options) = self.source_search().ok()?;
+        let mut words = Origin {
+            experiment: None,
+            rig: String::new(),
+            grids: String::new(),
+        };
+        let grids = self.search.grids(&grids, &mut words);
+        let options = self.search.options(&options);
         Some((
-            ident::Request::new(&posed.problem, grids, opts).candidates(),
+            ident::candidates(&grids, &options, self.shard),
             "candidates",
         ))
     }
 
     fn run(&self, hooks: Hooks<'_>) -> anyhow::Result<IdentifyOutcome> {
         if let Some(confidence) = self.uncertainty {
-            super::design::check_confidence(confidence)?;
+            super::check_confidence(confidence)?;
         }
         self.check_shard()?;
         match self.method() {

@@ -298,6 +298,20 @@ impl FieldError {
     }
 }
 
+/// The confidence level `confidence` checked in (0, 1).
+///
+/// # Errors
+/// A [`FieldError`] naming `confidence`.
+pub fn check_confidence(confidence: f64) -> anyhow::Result<()> {
+    let ok = pumpcyl::ident::check_confidence(confidence).is_ok();
+    check_field(
+        "confidence",
+        confidence,
+        ok,
+        "must lie strictly between 0 and 1",
+    )
+}
+
 /// `Ok` if `ok`, else the [`FieldError`] of `field` = `value` saying `problem`.
 ///
 /// # Errors

@@ -50,7 +50,7 @@ impl Evidence {
         confidence: f64,
         load: impl FnOnce() -> anyhow::Result<Experiment>,
     ) -> anyhow::Result<Evidence> {
-        super::design::check_confidence(confidence)?;
+        super::check_confidence(confidence)?;
         Ok(Evidence {
             experiment: load()?,
             confidence,
