@@ -88,8 +88,9 @@ pub struct EmulateArgs {
     no_noise: bool,
     /// Integrate the rig's power account beside its states over the record and print it
     /// (docs/energy.md#over-a-run): what the sources delivered, the work against the load, each
-    /// loss and each stored energy's change (J); with --json the `energy` object. The record is
-    /// the same either way.
+    /// loss and each stored energy's change (J); with --json the `energy` object. The record's
+    /// signals are the same either way; it gains the account's power columns, each kind's mean
+    /// power to the next sample (W; docs/formats.md#power-columns).
     #[arg(long)]
     energy: bool,
     /// Switch every emulator effect off (the nonlinear model then linearises to the LTI one).

@@ -448,3 +448,28 @@ def test_emulate_with_energy_is_the_command_lines_energy(tmp_path):
     closing = delivered - en["work_out_j"] - sum(en["losses_j"].values()) - sum(en["stored_j"].values())
     assert delivered > 0 and abs(closing) <= 1e-9 * delivered
     assert "energy" not in pumpcyl.emulate("step", rig=rig)
+
+
+def test_the_power_columns_recompute_the_cycle_energy():
+    """The power columns of `emulate(energy=True)` (docs/formats.md#power-columns), each the mean
+    power from its sample to the next, times the sample period and summed with numpy, give every
+    entry of the energy account to 1e-9 of the energy delivered, on a rig that is not the
+    article's in motion (a dual-pump sine)."""
+    user = ROOT / "tests" / "user-rig.toml"
+    with pytest.warns(UserWarning, match="does not set"):
+        rig = pumpcyl.Rig.from_toml(user)
+    e = pumpcyl.emulate("sine", rig=rig, energy=True, duration_s=3.0, circuit="dual-pump")
+    c, en = e.columns, e.energy
+    period_s = float(np.diff(c["time_s"]).mean())
+    joules = {name[:-2]: float(np.sum(np.asarray(v)) * period_s)
+              for name, v in c.items() if name.endswith("_w")}
+    expected = {"work_out": en["work_out_j"]}
+    for role, key in [("source", "sources_j"), ("loss", "losses_j"), ("stored", "stored_j")]:
+        expected.update({f"{role}_{k}": j for k, j in en[key].items()})
+    assert joules.keys() == expected.keys()
+    tol = 1e-9 * en["energy_in_j"]
+    for name, j in expected.items():
+        assert abs(joules[name] - j) <= tol, (name, joules[name], j)
+    cycle = sum(j for name, j in joules.items() if name.startswith("source_"))
+    assert abs(cycle - en["energy_in_j"]) <= tol
+    assert "source_drives_w" not in pumpcyl.emulate("step", rig=rig).columns

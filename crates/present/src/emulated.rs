@@ -338,7 +338,7 @@ pub fn warnings(rig: &Rig, run: &Outcome) -> Vec<String> {
 
 /// An emulated record's columns by name, those its CSV holds, in its order
 /// (docs/formats.md#record-csv, #drive-record-csv).
-pub fn columns(data: &Emulated) -> Vec<(&'static str, &[f64])> {
+pub fn columns(data: &Emulated) -> Vec<(&str, &[f64])> {
     match data {
         Emulated::Loop(s) => (s.record_columns().into_iter())
             .map(|(n, v)| (n, &v[..]))

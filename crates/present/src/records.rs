@@ -37,12 +37,27 @@ where
     String::from_utf8(bytes).expect("CSV of UTF-8 cells")
 }
 
+/// A power column's number (docs/formats.md#power-columns): every digit the value holds (the
+/// shortest text that reads back as the same number), so the columns sum to the run's
+/// energies as exactly as they were integrated.
+pub fn csv_exact(v: f64) -> String {
+    format!("{v:e}")
+}
+
 /// Signals as a record (docs/formats.md#record-csv): CSV with a header row and the columns of
-/// [`Signals::record_columns`].
+/// [`Signals::record_columns`], the power columns at full precision ([`csv_exact`]).
 pub fn record_csv(s: &Signals) -> String {
     let columns = s.record_columns();
     let names: Vec<String> = columns.iter().map(|(c, _)| (*c).to_string()).collect();
-    let rows = (0..s.time_s.len()).map(|k| columns.iter().map(move |(_, v)| csv_number(v[k])));
+    let exact: Vec<bool> = (columns.iter())
+        .map(|(c, _)| s.power_w.iter().any(|(p, _)| p == c))
+        .collect();
+    let rows = (0..s.time_s.len()).map(|k| {
+        (columns.iter().zip(&exact)).map(move |((_, v), &exact)| match exact {
+            true => csv_exact(v[k]),
+            false => csv_number(v[k]),
+        })
+    });
     csv_text(&names, rows)
 }
 

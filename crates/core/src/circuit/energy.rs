@@ -201,6 +201,22 @@ impl Energy {
             - Power::sum(&self.stored_j)
     }
 
+    /// Every entry named by its role and kind, in the order of the lists: `source_<kind>`,
+    /// `work_out`, `loss_<kind>`, `stored_<kind>` (J): the names of a record's power columns
+    /// (docs/formats.md#power-columns).
+    pub fn named(&self) -> Vec<(String, f64)> {
+        let of = |role: &str, list: &[(&'static str, f64)]| -> Vec<(String, f64)> {
+            list.iter()
+                .map(|(k, j)| (format!("{role}_{k}"), *j))
+                .collect()
+        };
+        (of("source", &self.sources_j).into_iter())
+            .chain([("work_out".to_string(), self.work_out_j)])
+            .chain(of("loss", &self.losses_j))
+            .chain(of("stored", &self.stored_j))
+            .collect()
+    }
+
     /// The energy of `kind` in any of its lists (J), 0 where absent.
     pub fn of(&self, kind: &str) -> f64 {
         (self.sources_j.iter())

@@ -59,20 +59,17 @@ pub(super) fn hold(
 }
 
 /// [`hold`] with the rig's power integrated beside its states (docs/energy.md#over-a-run):
-/// the states exactly as [`hold`] gives them, and the energies of the interval, added to
-/// `energy`, from a BDF run of the states and the power's terms together, whose error control
-/// resolves the drives' fast transients that a quadrature at the exponential steps' nodes
-/// would not.
+/// the states exactly as [`hold`] gives them, and the energies of the interval from a BDF run
+/// of the states and the power's terms together, whose error control resolves the drives' fast
+/// transients that a quadrature at the exponential steps' nodes would not.
 pub(super) fn hold_accounting(
     d: &Dynamics,
     x: &[f64],
     u: [f64; 2],
     (t0, t1): (f64, f64),
-    energy: &mut Energy,
-) -> Result<Vec<f64>, EmulatorError> {
+) -> Result<(Vec<f64>, Energy), EmulatorError> {
     let out = hold(d, x, u, t0, t1)?;
-    energy.merge(&energy_by_bdf(d, x, u, (t0, t1))?);
-    Ok(out)
+    Ok((out, energy_by_bdf(d, x, u, (t0, t1))?))
 }
 
 /// The energies of the interval from a BDF run of the states and the power's terms together.

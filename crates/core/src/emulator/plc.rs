@@ -159,6 +159,8 @@ pub struct PlcLoop {
     work: u64,
     /// The energies of its [`PlcLoop::hold`]s since [`PlcLoop::account_energy`], if asked.
     energy: Option<Energy>,
+    /// The energies of the last [`PlcLoop::hold`], where they are accounted.
+    last_hold: Option<Energy>,
 }
 
 impl PlcLoop {
@@ -179,6 +181,7 @@ impl PlcLoop {
             x: equilibrium(rig, dynamics, r0_mm)?,
             end_stop: None,
             energy: None,
+            last_hold: None,
             cavitation: None,
             work: 0,
         };
@@ -214,7 +217,12 @@ impl PlcLoop {
     pub fn hold(&mut self, u: [f64; 2], t0: f64, t1: f64) -> Result<(), EmulatorError> {
         let before = work();
         self.x = match &mut self.energy {
-            Some(energy) => hold_accounting(&self.dynamics, &self.x, u, (t0, t1), energy)?,
+            Some(energy) => {
+                let (x, interval) = hold_accounting(&self.dynamics, &self.x, u, (t0, t1))?;
+                energy.merge(&interval);
+                self.last_hold = Some(interval);
+                x
+            }
             None => hold(&self.dynamics, &self.x, u, t0, t1)?,
         };
         self.work += work() - before;
@@ -285,7 +293,9 @@ pub fn hold_speeds_accounting(
     (t0, t1): (f64, f64),
     energy: &mut Energy,
 ) -> Result<Vec<f64>, EmulatorError> {
-    hold_accounting(d, x, u, (t0, t1), energy)
+    let (out, interval) = hold_accounting(d, x, u, (t0, t1))?;
+    energy.merge(&interval);
+    Ok(out)
 }
 
 /// Integrate the rig from state `x` over [`t0`, `t1`] (s) with the speed references `u`
@@ -504,6 +514,10 @@ fn record(
         if k < steps {
             run.hold(u, t, t + ts)?;
             watch.check(k as u64 + 1, run.work - before)?;
+        }
+        if run.energy.is_some() {
+            // the interval from this sample to the next; none after the last
+            out.push_power(k, &run.last_hold.take().unwrap_or_default(), ts);
         }
         if (k as u64 + 1).is_multiple_of(PROGRESS_STEPS) {
             work.advance(PROGRESS_STEPS)?;

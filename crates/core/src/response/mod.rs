@@ -46,6 +46,11 @@ pub struct Signals {
     /// The single-pump circuit's mode (1: chamber 2 on the accumulator, 2: chamber 1;
     /// docs/emulator.md#the-mode-signal), in its emulated records only; empty otherwise.
     pub mode: Vec<f64>,
+    /// The power account's mean over the interval from each sample to the next (W; 0 at the
+    /// last sample), one column per entry of [`crate::circuit::energy::Energy::named`] with
+    /// `_w` appended, where an emulated run accounts its energy (docs/energy.md#over-a-run,
+    /// docs/formats.md#power-columns); empty otherwise.
+    pub power_w: Vec<(String, Vec<f64>)>,
 }
 
 impl Signals {
@@ -65,13 +70,39 @@ impl Signals {
 
     /// The columns of the signals as a record, in its order: `time_s, x_ref_mm, x_mm` and
     /// those of `p1_bar, p2_bar, w1_rpm, w2_rpm, mode` that hold one value per sample (a
-    /// one-motor circuit's record has no `w2_rpm`, only the single-pump circuit's a `mode`).
-    pub fn record_columns(&self) -> Vec<(&'static str, &Vec<f64>)> {
+    /// one-motor circuit's record has no `w2_rpm`, only the single-pump circuit's a `mode`),
+    /// then the power columns, if any.
+    pub fn record_columns(&self) -> Vec<(&str, &Vec<f64>)> {
         let n = self.time_s.len();
         (self.named().into_iter())
             .chain([("mode", &self.mode)])
+            .chain(self.power_w.iter().map(|(name, v)| (name.as_str(), v)))
             .filter(|(name, v)| *name != "e_mm" && v.len() == n)
             .collect()
+    }
+
+    /// Add the mean power of the energies `interval` over `seconds` as sample `k` of the power
+    /// columns, a column that appears first here holding 0 at the earlier samples.
+    pub fn push_power(
+        &mut self,
+        k: usize,
+        interval: &crate::circuit::energy::Energy,
+        seconds: f64,
+    ) {
+        for (name, j) in interval.named() {
+            let name = format!("{name}_w");
+            let at = match self.power_w.iter().position(|(n, _)| *n == name) {
+                Some(at) => at,
+                None => {
+                    self.power_w.push((name, vec![0.0; k]));
+                    self.power_w.len() - 1
+                }
+            };
+            self.power_w[at].1.push(j / seconds);
+        }
+        for (_, column) in &mut self.power_w {
+            column.resize(k + 1, 0.0);
+        }
     }
 
     /// The samples of the whole periods of `window`, both its ends included, as a figure
@@ -105,6 +136,9 @@ impl Signals {
             w1_rpm: pick(&self.w1_rpm),
             w2_rpm: pick(&self.w2_rpm),
             mode: pick(&self.mode),
+            power_w: (self.power_w.iter())
+                .map(|(name, v)| (name.clone(), pick(v)))
+                .collect(),
         }
     }
 
@@ -127,6 +161,7 @@ impl Signals {
             w1_rpm: opt(&rec.w1_rpm),
             w2_rpm: opt(&rec.w2_rpm),
             mode: Vec::new(),
+            power_w: Vec::new(),
         }
     }
 }
@@ -275,6 +310,7 @@ fn run_from(
         w2_rpm: maybe(&rows.speeds, 1, 1.0 / RAD_S_PER_RPM, base.w_rpm[1]),
         e_mm: shifted(rows.error, 1e3, base.x_ref_mm - base.x_mm),
         mode: Vec::new(),
+        power_w: Vec::new(),
     })
 }
 
