@@ -214,7 +214,7 @@ pub(crate) fn load_rig(source: &RigSource, effects: bool) -> Result<Rig> {
 }
 
 /// [`load_rig`] as a request takes it: named, with the keys its file left out.
-fn load_input(source: &RigSource, effects: bool) -> Result<RigInput> {
+pub(crate) fn load_input(source: &RigSource, effects: bool) -> Result<RigInput> {
     if source.rig.is_some() {
         return source.input();
     }

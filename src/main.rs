@@ -10,6 +10,7 @@ mod advise;
 mod analysis;
 mod bulk;
 mod chatter;
+mod cycle;
 mod design;
 mod emit;
 mod emulate;
@@ -99,6 +100,11 @@ enum Command {
     /// those its step's transient and its waves' references explain, the quiet force ranges,
     /// the switching force and its valve band, and a verdict. Other circuits have no modes.
     Chatter(chatter::ChatterArgs),
+    /// A duty cycle on the emulated rig (docs/energy.md#duty-cycles): the article's three
+    /// sines, a step sequence or a profile's file (position and force over time); the energy
+    /// drawn, returned and lost by kind, the load's work and the efficiency, and each motor's
+    /// RMS and peak torque and speed against its ratings, a motor too small named.
+    Cycle(cycle::CycleArgs),
     /// Records from the nonlinear rig emulator (docs/formats.md#record-csv): a step, a sinusoid, a standstill
     /// or a drive step, or every embedded article record with --article-records.
     Emulate(emulate::EmulateArgs),
@@ -299,6 +305,7 @@ pub fn run() -> Result<()> {
         Command::Design(args) => design::run(&args)?,
         Command::Select(args) => select::run(&args)?,
         Command::Chatter(args) => chatter::run(&args)?,
+        Command::Cycle(args) => cycle::run(&args)?,
         Command::Emulate(args) => emulate::run(&args)?,
         Command::Frf(args) => frf::run(&args)?,
         Command::Fmu(args) => fmu::run(&args)?,

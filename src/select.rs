@@ -57,6 +57,12 @@ pub struct SelectArgs {
     /// on a terminal).
     #[arg(long)]
     allow_long_run: bool,
+    /// Run each circuit that meets (its lowest meeting level, its largest gain) through the
+    /// application's waves, two periods each, on the emulated rig: the cycle's energy, losses
+    /// by kind and peak power per circuit, the cheapest, and what the chosen circuit costs
+    /// against it and saves against the valve (docs/select.md#energy). Seconds per circuit.
+    #[arg(long)]
+    energy: bool,
     /// Print the application as commented TOML (with --set applied) and stop.
     #[arg(long)]
     print_default: bool,
@@ -100,6 +106,7 @@ pub fn run(args: &SelectArgs) -> Result<String> {
         kp: args.kp,
         evidence,
         allow_long_run: args.allow_long_run,
+        energy: args.energy,
     };
     if args.print_default {
         return Ok(request.application()?.to_commented_toml());

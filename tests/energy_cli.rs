@@ -52,7 +52,7 @@ fn split_power(csv: &[u8]) -> (Vec<u8>, Vec<(String, Vec<f64>)>) {
 }
 
 /// Each power column times the sample period, summed, is the entry of the `energy` object it
-/// is named after (`source_drives_w` is `sources_j.drives`), to 1e-9 of the energy delivered;
+/// is named after (`source_electrical_w` is `sources_j.electrical`), to 1e-9 of the energy delivered;
 /// the last sample, with no interval after it, holds 0.
 fn the_power_columns_add_up_to_the_energies(name: &str, power: &[(String, Vec<f64>)], e: &Value) {
     let delivered = e["energy_in_j"].as_f64().unwrap();
@@ -80,14 +80,6 @@ fn the_power_columns_add_up_to_the_energies(name: &str, power: &[(String, Vec<f6
             + e["losses_j"].as_object().unwrap().len()
             + e["stored_j"].as_object().unwrap().len()
     );
-}
-
-fn sum(v: &Value) -> f64 {
-    v.as_object()
-        .unwrap()
-        .values()
-        .map(|j| j.as_f64().unwrap())
-        .sum()
 }
 
 #[test]
@@ -129,11 +121,11 @@ fn the_energy_of_a_record_closes_and_leaves_the_record_as_it_was() {
         the_power_columns_add_up_to_the_energies(name, &power, &e);
         let delivered = e["energy_in_j"].as_f64().unwrap();
         assert!(delivered > 0.0, "{name}: {e}");
-        assert_eq!(delivered, sum(&e["sources_j"]), "{name}");
+        assert_eq!(delivered, run::sum(&e["sources_j"]), "{name}");
         let balance = delivered
             - e["work_out_j"].as_f64().unwrap()
-            - sum(&e["losses_j"])
-            - sum(&e["stored_j"]);
+            - run::sum(&e["losses_j"])
+            - run::sum(&e["stored_j"]);
         assert!(
             balance.abs() <= 1e-9 * delivered,
             "{name}: {balance} J of {delivered} J: {e}"

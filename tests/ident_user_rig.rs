@@ -4,6 +4,7 @@
 //! bound (b from steps) is said to be so, and the article's experiment keeps its grids.
 
 #[path = "common/run.rs"]
+#[allow(dead_code)]
 mod run;
 
 use run::{json, pumpcyl, refused};

@@ -3,6 +3,7 @@
 //! nor name it, where the DPM's outputs do (the article §2.3.3 opens it in the analysed loop).
 
 #[path = "common/run.rs"]
+#[allow(dead_code)]
 mod run;
 
 use run::{json, pumpcyl, refused};

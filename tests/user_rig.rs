@@ -3,6 +3,7 @@
 //! records were emulated with. The records are emulated, not measured.
 
 #[path = "common/run.rs"]
+#[allow(dead_code)]
 mod run;
 
 use run::{json, pumpcyl};

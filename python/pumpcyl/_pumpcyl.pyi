@@ -538,6 +538,34 @@ class Summary(Result):
     step at its kp_max (the figures bode_valve_or_pump and step_valve_or_pump)."""
     seconds: float
 
+class DutyCycle(Result):
+    """A duty cycle on the emulated rig: ``pumpcyl cycle --json`` (docs/energy.md#duty-cycles)."""
+
+    rig: str
+    circuit: str
+    """The rig's circuit: "dpm", "dual-pump", "single-pump" or "valve" (docs/circuits.md)."""
+    cycle: Dict[str, Any]
+    """``kind`` ("article-sines", "steps" or the profile's file) and ``duration_s``."""
+    emulated: str
+    effects: bool
+    noise: bool
+    summary: Dict[str, float]
+    """``duration_s``, ``drawn_j``, ``regenerated_j``, ``net_j``, ``work_out_j``,
+    ``load_work_j``, ``losses_j``, ``stored_change_j``, ``efficiency``, ``mean_power_w``,
+    ``peak_power_w``."""
+    energy: Dict[str, Any]
+    """The account by kind, as ``emulate(energy=True)``'s (docs/energy.md#over-a-run)."""
+    drives: List[Dict[str, Any]]
+    """Each motor: ``rms_torque_nm``, ``peak_torque_nm``, ``rms_speed_rpm``,
+    ``peak_speed_rpm`` against ``rated_torque_nm``, ``peak_torque_limit_nm``,
+    ``rated_speed_rpm``, ``pump_max_speed_rpm``; ``exceeds`` names what it is too small for."""
+    defaults_assumed: Dict[str, float]
+    """The drives' electrical keys at pumpcyl's defaults, which the energies rest on."""
+    basis: str
+    warnings: List[str]
+    columns: Result
+    """The record with its power columns (docs/formats.md#power-columns)."""
+
 class Emulated(Result):
     """An emulated record: ``pumpcyl emulate --json``."""
 
@@ -765,6 +793,7 @@ def select(
     experiment: Optional[Union[str, PathLike[str]]] = None,
     confidence: float = 0.95,
     allow_long_run: bool = False,
+    energy: bool = False,
     progress: Union[None, bool, Callable[[int, int], None]] = None,
     **overrides: Any,
 ) -> Selection:
@@ -783,7 +812,10 @@ def select(
     single-pump candidates' mode check, as ``--mode-check``: ``"emulator"`` (the emulated step
     and waves, the default) or ``"equations"`` (docs/select.md#the-single-pump-circuit); each
     option's ``mode_switches``, ``switches_after_settling`` and ``oscillation_amplitude_mm``
-    are its numbers (``None`` where it did not run)."""
+    are its numbers (``None`` where it did not run). ``energy=True`` (``--energy``) adds
+    ``energy``: each circuit that meets run through the application's waves on the emulated
+    rig, the cheapest, and what the chosen circuit costs against it and saves against the valve
+    (docs/select.md#energy)."""
     ...
 
 def chatter(
@@ -805,6 +837,25 @@ def chatter(
     ``points`` evenly from ``from_n`` to ``to_n``, or by default 13 about the switching force.
     A circuit without modes answers ``no_modes`` and runs nothing. Beyond 10^7 emulated
     controller steps only with ``allow_long_run=True``; ``progress`` as for :func:`identify`."""
+    ...
+
+def cycle(
+    rig: Optional[Rig] = None,
+    cycle: str = "article-sines",
+    *,
+    step_mm: float = 20.0,
+    hold_s: float = 2.0,
+    seed: int = 1,
+    noise: bool = True,
+    effects: bool = True,
+    allow_long_run: bool = False,
+    progress: Union[None, bool, Callable[[int, int], None]] = None,
+) -> DutyCycle:
+    """A duty cycle on the emulated rig (docs/energy.md#duty-cycles), as ``pumpcyl cycle
+    --json``: ``cycle`` "article-sines", "steps" (``step_mm`` about x0, each level held
+    ``hold_s``) or a profile's file (``time_s``, ``x_ref_mm``, optionally
+    ``external_force_n``). The energy drawn, returned and lost by kind, the load's work and the
+    efficiency, each motor against its ratings, and the record with its power columns."""
     ...
 
 def fmu(

@@ -1761,9 +1761,9 @@ fn fmu(
 /// and is listed in `warnings`.
 #[pyfunction]
 #[pyo3(
-    signature = (application = None, *, rig = None, circuits = vec![], kp = None, mode_check = "emulator", experiment = None, confidence = 0.95, allow_long_run = false, progress = None, **overrides),
+    signature = (application = None, *, rig = None, circuits = vec![], kp = None, mode_check = "emulator", experiment = None, confidence = 0.95, allow_long_run = false, energy = false, progress = None, **overrides),
     text_signature = "(application=None, *, rig=None, circuits=(), kp=None, mode_check='emulator', \
-        experiment=None, confidence=0.95, allow_long_run=False, progress=None, **overrides)"
+        experiment=None, confidence=0.95, allow_long_run=False, energy=False, progress=None, **overrides)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn select(
@@ -1776,6 +1776,7 @@ fn select(
     experiment: Option<PathBuf>,
     confidence: f64,
     allow_long_run: bool,
+    energy: bool,
     progress: Option<Py<PyAny>>,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyOutcome> {
@@ -1824,6 +1825,7 @@ fn select(
         kp,
         evidence,
         allow_long_run,
+        energy,
     };
     let outcome = run_reporting(py, "select", &request, progress)?;
     document(py, "select", "Selection", &outcome)
@@ -1899,6 +1901,60 @@ fn chatter(
     };
     let outcome = run_reporting(py, "chatter", &request, progress)?;
     document(py, "chatter", "Chatter", &outcome)
+}
+
+/// A duty cycle on the emulated rig (docs/energy.md#duty-cycles), as `pumpcyl cycle --json`:
+/// `cycle` "article-sines" (the article's three sines about x0), "steps" (`step_mm` about x0,
+/// each level held `hold_s`) or a profile's file (`time_s`, `x_ref_mm`, optionally
+/// `external_force_n`); `summary` (drawn, returned and net energy, the load's work, the
+/// efficiency, mean and peak power), `energy` (the account by kind), `drives` (each motor's RMS
+/// and peak torque and speed against its ratings, what it exceeds), `defaults_assumed` and
+/// `columns`, the record with its power columns (numpy arrays). `rig` None: the emulated
+/// article rig, as `emulate`. `progress` as for `identify`.
+#[pyfunction]
+#[pyo3(signature = (
+    rig = None, cycle = "article-sines", *, step_mm = 20.0, hold_s = 2.0, seed = 1, noise = true,
+    effects = true, allow_long_run = false, progress = None
+))]
+#[allow(clippy::too_many_arguments)]
+fn cycle(
+    py: Python<'_>,
+    rig: Option<&PyRig>,
+    cycle: &str,
+    step_mm: f64,
+    hold_s: f64,
+    seed: u64,
+    noise: bool,
+    effects: bool,
+    allow_long_run: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyOutcome> {
+    use request::cycle::{CycleKind, CycleRequest};
+    let rig = match rig {
+        Some(r) => r.input(),
+        None => RigInput {
+            rig: pumpcyl::fmu::default_rig(pumpcyl::fmu::ModelKind::Emulator, effects)
+                .map_err(err)?,
+            name: "the emulated article rig".to_string(),
+            defaulted: None,
+        },
+    };
+    let cycle = match cycle {
+        "article-sines" => CycleKind::ArticleSines,
+        "steps" => CycleKind::Steps { step_mm, hold_s },
+        file => CycleKind::File(PathBuf::from(file)),
+    };
+    let request = CycleRequest {
+        rig,
+        cycle,
+        effects,
+        noise,
+        seed,
+        allow_long_run,
+        files: &pumpcyl::source_files::Disk,
+    };
+    let outcome = run_reporting(py, "cycle", &request, progress)?;
+    document(py, "cycle", "DutyCycle", &outcome)?.with_arrays(py, "columns", "Columns")
 }
 
 /// The design method of the article (§2.2) for `rig` (default: the article's): the
@@ -2013,6 +2069,7 @@ fn _pumpcyl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(design, m)?)?;
     m.add_function(wrap_pyfunction!(select, m)?)?;
     m.add_function(wrap_pyfunction!(chatter, m)?)?;
+    m.add_function(wrap_pyfunction!(cycle, m)?)?;
     m.add_function(wrap_pyfunction!(fmu, m)?)?;
     m.add_function(wrap_pyfunction!(emulate, m)?)?;
     m.add_function(wrap_pyfunction!(reproduce, m)?)?;

@@ -472,4 +472,40 @@ def test_the_power_columns_recompute_the_cycle_energy():
         assert abs(joules[name] - j) <= tol, (name, joules[name], j)
     cycle = sum(j for name, j in joules.items() if name.startswith("source_"))
     assert abs(cycle - en["energy_in_j"]) <= tol
-    assert "source_drives_w" not in pumpcyl.emulate("step", rig=rig).columns
+    assert "source_electrical_w" not in pumpcyl.emulate("step", rig=rig).columns
+
+
+def test_cycle_is_the_command_lines_cycle(tmp_path):
+    """`cycle` is `pumpcyl cycle --json` (docs/energy.md#duty-cycles): the same document on the
+    default emulated rig for the article's step cycle and on a profile's file with a force
+    column; the power columns are numpy arrays that recompute the cycle's net energy."""
+    profile = tmp_path / "profile.csv"
+    profile.write_text("time_s,x_ref_mm,external_force_n\n0,345,0\n1,345,300\n3,365,300\n4,365,0\n")
+    for cycle, args in [("steps", ["--hold-s", "1", "--step-mm", "5"]), (str(profile), [])]:
+        doc = cli("cycle", "--cycle", cycle, *args, "--no-noise", "--json")
+        c = pumpcyl.cycle(None, cycle, hold_s=1.0, step_mm=5.0, noise=False)
+        assert_one_document(c, doc, "DutyCycle")
+        plain = c.to_dict()
+        assert plain == doc
+        assert isinstance(c.columns["source_electrical_w"], np.ndarray)
+        period_s = float(np.diff(c.columns["time_s"]).mean())
+        net = sum(float(np.sum(v)) for k, v in c.columns.items() if k.startswith("source_")) * period_s
+        assert abs(net - c.summary["net_j"]) <= 1e-9 * c.summary["drawn_j"]
+    assert c.summary["work_out_j"] > 0, "the profile's force does work"
+    with pytest.raises(pumpcyl.PumpcylError, match=r"cycle\(step_mm=5000.0\)"):
+        pumpcyl.cycle(None, "steps", step_mm=5000.0)
+
+
+def test_select_with_energy_is_the_command_lines(tmp_path):
+    """`select(energy=True)` carries `select --energy --json`'s `energy` object
+    (docs/select.md#energy): each circuit's duty cycle on the user rig, the cheapest, the
+    savings against the valve."""
+    app = tmp_path / "app.toml"
+    app.write_text(f'rig = "{ROOT / "tests" / "user-rig.toml"}"\nsupply_bar = [70.0, 140.0]\n'
+                   "[[wave]]\nfreq_hz = 0.1\namp_mm = 20.0\nmax_error_mm = 30.0\n")
+    doc = cli("select", str(app), "--circuits", "dpm,valve", "--energy", "--json")
+    s = pumpcyl.select(app, circuits=["dpm", "valve"], energy=True)
+    assert s.energy == doc["energy"]
+    assert [c["circuit_kind"] for c in s.energy["circuits"]] == ["dpm", "valve"]
+    assert s.energy["chosen_saves_vs_valve_j"] > 0
+    assert "energy" not in pumpcyl.select(app, circuits=["dpm", "valve"])

@@ -33,3 +33,12 @@ pub fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
     );
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}"))
 }
+
+/// The sum of a JSON object's numbers (an energy account's entries by kind).
+pub fn sum(v: &serde_json::Value) -> f64 {
+    v.as_object()
+        .unwrap()
+        .values()
+        .map(|j| j.as_f64().unwrap())
+        .sum()
+}

@@ -442,15 +442,15 @@ fn unit_of(doc: &str) -> &'static str {
 }
 
 /// A unit as the rig's keys write it, its FMI name, its SI base-unit exponents
-/// (kg, m, s, rad) and the factor to SI.
+/// (kg, m, s, rad, A) and the factor to SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Unit {
     /// As the rig's key documentation writes it.
     pub doc: &'static str,
     /// The FMI unit name.
     pub name: &'static str,
-    /// Exponents of kg, m, s, rad.
-    pub base: [i32; 4],
+    /// Exponents of kg, m, s, rad, A.
+    pub base: [i32; 5],
     /// SI value of one unit.
     pub factor: f64,
 }
@@ -458,135 +458,147 @@ pub struct Unit {
 /// Every unit the FMU's variables use.
 pub const UNITS: &[Unit] = &[
     Unit {
+        doc: "ohm",
+        name: "Ohm",
+        base: [1, 2, -3, 0, -2],
+        factor: 1.0,
+    },
+    Unit {
+        doc: "N m/A",
+        name: "N.m/A",
+        base: [1, 2, -2, 0, -1],
+        factor: 1.0,
+    },
+    Unit {
         doc: "-",
         name: "1",
-        base: [0, 0, 0, 0],
+        base: [0, 0, 0, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "m",
         name: "m",
-        base: [0, 1, 0, 0],
+        base: [0, 1, 0, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "m/s",
         name: "m/s",
-        base: [0, 1, -1, 0],
+        base: [0, 1, -1, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "Pa",
         name: "Pa",
-        base: [1, -1, -2, 0],
+        base: [1, -1, -2, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "rad/s",
         name: "rad/s",
-        base: [0, 0, -1, 1],
+        base: [0, 0, -1, 1, 0],
         factor: 1.0,
     },
     Unit {
         doc: "N",
         name: "N",
-        base: [1, 1, -2, 0],
+        base: [1, 1, -2, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "N m",
         name: "N.m",
-        base: [1, 2, -2, 0],
+        base: [1, 2, -2, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "mm",
         name: "mm",
-        base: [0, 1, 0, 0],
+        base: [0, 1, 0, 0, 0],
         factor: 1e-3,
     },
     Unit {
         doc: "dm³",
         name: "dm3",
-        base: [0, 3, 0, 0],
+        base: [0, 3, 0, 0, 0],
         factor: 1e-3,
     },
     Unit {
         doc: "kg·mm²",
         name: "kg.mm2",
-        base: [1, 2, 0, 0],
+        base: [1, 2, 0, 0, 0],
         factor: 1e-6,
     },
     Unit {
         doc: "cm³/rev",
         name: "cm3/rev",
-        base: [0, 3, 0, -1],
+        base: [0, 3, 0, -1, 0],
         factor: 1e-6 / (2.0 * std::f64::consts::PI),
     },
     Unit {
         doc: "N·m·s/rad",
         name: "N.m.s/rad",
-        base: [1, 2, -1, -1],
+        base: [1, 2, -1, -1, 0],
         factor: 1.0,
     },
     Unit {
         doc: "kg·m²",
         name: "kg.m2",
-        base: [1, 2, 0, 0],
+        base: [1, 2, 0, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "s",
         name: "s",
-        base: [0, 0, 1, 0],
+        base: [0, 0, 1, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "rpm",
         name: "rpm",
-        base: [0, 0, -1, 1],
+        base: [0, 0, -1, 1, 0],
         factor: RAD_S_PER_RPM,
     },
     Unit {
         doc: "kg",
         name: "kg",
-        base: [1, 0, 0, 0],
+        base: [1, 0, 0, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "bar",
         name: "bar",
-        base: [1, -1, -2, 0],
+        base: [1, -1, -2, 0, 0],
         factor: PA_PER_BAR,
     },
     Unit {
         doc: "N·s/m",
         name: "N.s/m",
-        base: [1, 0, -1, 0],
+        base: [1, 0, -1, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "m⁵/(N·s)",
         name: "m5/(N.s)",
-        base: [-1, 4, 1, 0],
+        base: [-1, 4, 1, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "1/m",
         name: "1/m",
-        base: [0, -1, 0, 0],
+        base: [0, -1, 0, 0, 0],
         factor: 1.0,
     },
     Unit {
         doc: "1/bar",
         name: "1/bar",
-        base: [-1, 1, 2, 0],
+        base: [-1, 1, 2, 0, 0],
         factor: 1.0 / PA_PER_BAR,
     },
     Unit {
         doc: "rad/s per unit normalised command (1 = 3000 rpm)",
         name: "rad/s",
-        base: [0, 0, -1, 1],
+        base: [0, 0, -1, 1, 0],
         factor: 1.0,
     },
 ];

@@ -637,7 +637,7 @@ impl RigFile {
     /// assert_eq!(file.note("a.toml", &[]), None);
     /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
     /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
-    /// assert!(note.starts_with("b.toml does not set 36 keys; they take the article rig's values: "));
+    /// assert!(note.starts_with("b.toml does not set 40 keys; they take the article rig's values: "));
     /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
     /// assert!(!note.contains("beta_bar"));
     /// # Ok::<(), pumpcyl::rig::RigError>(())
@@ -831,12 +831,14 @@ impl Rig {
         Ok(rig.with_circuit_keys())
     }
 
-    /// The rig holding exactly its circuit's declared keys ([`Rig::circuit_keys`]), each as
-    /// written or its default: two rigs that give every key the same value are equal however
-    /// they were written, and another circuit's keys, left from before a change of circuit,
-    /// are gone (as a file may not write them).
+    /// The rig holding exactly those of its circuit's declared keys ([`Rig::circuit_keys`])
+    /// that differ from their defaults: two rigs that give every key the same value are equal
+    /// however they were written (a key written at its default is the key left out), and
+    /// another circuit's keys, left from before a change of circuit, are gone (as a file may
+    /// not write them).
     pub fn with_circuit_keys(mut self) -> Rig {
         let values: Vec<(String, toml::Value)> = (self.circuit.description().keys.iter())
+            .filter(|k| self.circuit_key(k.name) != k.default)
             .map(|k| (k.name.to_string(), self.circuit_key(k.name).into()))
             .collect();
         self.circuit_keys = CircuitKeys(values.into_iter().collect());
@@ -1418,17 +1420,21 @@ impl Rig {
 }
 
 /// The commented TOML's sections and their keys with their documentation: the rig's own
-/// ([`KEY_DOCS`]), then one for the keys each circuit's module declares.
+/// ([`KEY_DOCS`]), then one for the keys circuits' modules declare, each key once, in a
+/// section named after the circuits that declare it.
 fn key_sections() -> Vec<(String, Vec<(&'static str, &'static str)>)> {
     let own = KEY_DOCS
         .iter()
         .map(|(section, keys)| (section.to_string(), keys.to_vec()));
-    let declared = (CircuitKind::ALL.into_iter())
-        .filter(|k| !k.description().keys.is_empty())
-        .map(|k| {
-            let keys = k.description().keys.iter().map(|d| (d.name, d.doc));
-            (format!("{} circuit", k.name()), keys.collect())
-        });
+    let mut declared: Vec<(String, Vec<(&'static str, &'static str)>)> = Vec::new();
+    for key in declared_keys() {
+        let owners = declared_key(key.name).map(|(_, o)| o).unwrap_or_default();
+        let section = circuits_text(&owners);
+        match declared.iter_mut().find(|(s, _)| *s == section) {
+            Some((_, keys)) => keys.push((key.name, key.doc)),
+            None => declared.push((section, vec![(key.name, key.doc)])),
+        }
+    }
     own.chain(declared).collect()
 }
 

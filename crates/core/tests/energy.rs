@@ -7,12 +7,15 @@ use pumpcyl::circuit::energy::Power;
 use pumpcyl::emulator::{Dynamics, Effects};
 use pumpcyl::rig::Rig;
 
-/// The rigs: the article's, and a rig of our own in each circuit (every effect on).
+/// The rigs: the article's, and a rig of our own in each circuit (every effect on; the drives'
+/// electrical losses too).
 fn rigs() -> Vec<(String, Rig)> {
     let own = "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\n\
                x0_mm = 400.0\nmass_kg = 2500.0\nmass_by_position = []\nbeta_bar = 300.0\n\
                kp = 15.0\nviscous_friction_ns_per_m = 250.0\nc12_m5_per_ns = 2.0e-10\n\
-               external_force_n = 3000.0\n";
+               external_force_n = 3000.0\nmotor_winding_resistance_ohm = 0.6\n\
+               motor_torque_constant_nm_per_a = 1.2\ndrive_efficiency = 0.93\n\
+               drive_regeneration_fraction = 0.5\n";
     let valve = "circuit = \"valve\"\npiston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\n\
                  stroke_mm = 400.0\nx0_mm = 150.0\nmass_kg = 2500.0\nbeta_bar = 8000.0\n\
                  supply_pressure_bar = 180.0\nvalve_rated_flow_lpm = 40.0\n\
@@ -115,8 +118,16 @@ fn at_rest_the_drives_feed_the_standing_loss_select_prices() {
         let d = Dynamics::new(&rig, Effects::none()).unwrap();
         let (x, u) = d.operating_point();
         let p = d.power(&x, &u);
-        let standing = pumpcyl::select::standing_loss(&rig, [x[2] / 1e5, x[3] / 1e5]).power_w;
+        let loss = pumpcyl::select::standing_loss(&rig, [x[2] / 1e5, x[3] / 1e5]);
+        let standing = loss.electrical_power_w;
         assert!(standing > 1.0, "{name}: {standing} W");
+        // the hydraulic loss is what the leakages take; the drives' own losses come on top
+        let leakage = p.losses_w.iter().find(|(k, _)| *k == "leakage").unwrap().1;
+        assert!(
+            (leakage - loss.power_w).abs() <= 1e-6 * loss.power_w,
+            "{name}"
+        );
+        assert_eq!(standing > loss.power_w * 1.01, name == "dpm", "{name}");
         let drives = sum(&p.sources_w);
         assert!(
             (drives - standing).abs() <= 1e-6 * standing,
@@ -159,9 +170,58 @@ fn the_losses_are_their_laws_by_hand() {
     assert_eq!(p.work_out_w, 2000.0 * v);
     // ideal pumps (no dead band, no slip): nothing lost in them
     assert_eq!(get(&p.losses_w, "pump_slip_and_dead_band"), 0.0);
+    // the default electrical side is lossless and burns what the bus returns
     let (w1, w2, tau1, tau2) = (x[4], x[5], x[6], x[7]);
-    let drives = tau1 * w1 + tau2 * w2;
-    assert!((get(&p.sources_w, "drives") - drives).abs() <= 1e-12 * drives.abs().max(1.0));
+    let shafts = tau1 * w1 + tau2 * w2;
+    let net = get(&p.sources_w, "electrical") - get(&p.losses_w, "brake_resistor");
+    assert!((net - shafts).abs() <= 1e-12 * shafts.abs().max(1.0));
+    assert_eq!(get(&p.losses_w, "copper"), 0.0);
+    assert_eq!(get(&p.losses_w, "drive_electronics"), 0.0);
+}
+
+/// The drives' electrical side by hand (docs/energy.md#the-drives), on the DPM with one drive
+/// motoring and the other braking: the copper loss R·(τ/k_t)², the electronics' (1/η − 1) of
+/// what a motoring drive's terminals take and (1 − η) of what a braking one's give, the two
+/// drives' DC powers netted on their common bus, and of the bus's net braking the regenerated
+/// share returned and the rest burnt.
+#[test]
+fn the_electrical_losses_are_their_laws_by_hand() {
+    let text = "motor_winding_resistance_ohm = 0.4\nmotor_torque_constant_nm_per_a = 1.5\n\
+                drive_efficiency = 0.9\ndrive_regeneration_fraction = 0.25\n";
+    let rig = Rig::from_toml_str(text, "electric.toml").unwrap();
+    let d = Dynamics::new(&rig, Effects::none()).unwrap();
+    let (mut x, u) = d.operating_point();
+    let get = |list: &[(&'static str, f64)], kind: &str| {
+        list.iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, w)| *w)
+            .unwrap()
+    };
+    // drive 2 braking a little (the bus draws) or hard (the bus returns)
+    for w2 in [150.0, 300.0] {
+        let [w1, tau1, tau2] = [100.0, 10.0, -8.0];
+        (x[4], x[5], x[6], x[7]) = (w1, w2, tau1, tau2);
+        let p: Power = d.power(&x, &u);
+        let copper = |tau: f64| 0.4 * (tau / 1.5) * (tau / 1.5);
+        let dc1 = (tau1 * w1 + copper(tau1)) / 0.9;
+        let dc2 = (tau2 * w2 + copper(tau2)) * 0.9;
+        let bus = dc1 + dc2;
+        let close = |got: f64, want: f64| (got - want).abs() <= 1e-12 * want.abs().max(1.0);
+        assert!(close(
+            get(&p.losses_w, "copper"),
+            copper(tau1) + copper(tau2)
+        ));
+        let electronics = (dc1 - tau1 * w1 - copper(tau1)) + (dc2 - tau2 * w2 - copper(tau2));
+        assert!(close(get(&p.losses_w, "drive_electronics"), electronics));
+        assert!(close(get(&p.sources_w, "electrical"), bus.max(0.0)));
+        assert!(close(get(&p.sources_w, "regenerated"), 0.25 * bus.min(0.0)));
+        assert!(close(
+            get(&p.losses_w, "brake_resistor"),
+            -0.75 * bus.min(0.0)
+        ));
+        assert!(p.imbalance_w().abs() <= 1e-9 * p.scale_w(), "{w2}: {p:?}");
+        assert_eq!(bus < 0.0, w2 == 300.0, "{bus}");
+    }
 }
 
 /// Over a run the energies are integrated with the states (docs/energy.md#over-a-run): the
@@ -230,5 +290,41 @@ fn over_a_run_the_energies_close_and_the_stored_ones_are_their_state_functions()
                 "{name}: drive motion {got} J, ½Jω² {drives} J; {energy:?}"
             );
         }
+    }
+}
+
+/// A standstill duty cycle (docs/energy.md#duty-cycles), the reference held, effects and noise
+/// off: its mean power is what `select` prices as the standing loss at the rest's pressures,
+/// the drives' electrical losses included, on the article's rig and on a DPM rig of our own
+/// whose drives lose in their windings and electronics.
+#[test]
+fn a_standstill_cycle_costs_selects_standing_loss() {
+    use pumpcyl::emulator::cycle::{self, Cycle};
+    use pumpcyl::emulator::Plc;
+    use pumpcyl::limits::Work;
+    for (name, rig) in rigs()
+        .into_iter()
+        .filter(|(n, _)| n == "article" || n == "dpm")
+    {
+        let d = Dynamics::new(&rig, Effects::none()).unwrap();
+        let held = Cycle::Table {
+            time_s: vec![0.0, 3.0],
+            x_ref_mm: vec![rig.x0_mm; 2],
+            force_n: None,
+        };
+        let plc = Plc::ideal(100.0);
+        let run = cycle::run(&rig, &d, &plc, (1.0, &held), &Work::QUIET).unwrap();
+        let e = run.energy().unwrap();
+        // the loop's own rest (the PLC's), as its record measures it without noise
+        let s = &run.emulation.signals;
+        let loss = pumpcyl::select::standing_loss(&rig, [s.p1_bar[0], s.p2_bar[0]]);
+        let want = loss.electrical_power_w;
+        assert!(
+            (e.mean_power_w - want).abs() <= 1e-6 * want,
+            "{name}: {} W over the cycle, {want} W standing",
+            e.mean_power_w
+        );
+        assert!((e.peak_power_w - want).abs() <= 1e-6 * want, "{name}");
+        assert!(e.load_work_j.abs() <= 1e-12 * e.drawn_j, "{name}");
     }
 }

@@ -364,10 +364,6 @@ pub fn emulated_json(
     warnings: &[String],
     end_stop: Option<&EndStopHit>,
 ) -> Value {
-    let columns: serde_json::Map<String, Value> = columns(data)
-        .into_iter()
-        .map(|(n, v)| (n.to_string(), json!(v)))
-        .collect();
     json!({
         "experiment": experiment.name(),
         "rig": rig,
@@ -376,8 +372,16 @@ pub fn emulated_json(
         "basis": basis,
         "warnings": warnings,
         "end_stop": end_stop.map(|hit| hit.to_string()),
-        "columns": columns,
+        "columns": columns_json(data),
     })
+}
+
+/// An emulated record's columns ([`columns`]) as a JSON object, each a list of numbers.
+pub fn columns_json(data: &Emulated) -> Value {
+    (columns(data).into_iter())
+        .map(|(n, v)| (n.to_string(), json!(v)))
+        .collect::<serde_json::Map<String, Value>>()
+        .into()
 }
 
 /// One sentence naming the emulator's bulk modulus (β_e and the pressure where it holds, the gas

@@ -195,6 +195,7 @@ fn unit_definitions(vars: &[Variable]) -> UnitDefinitions {
                     m: exp(u.base[1]),
                     s: exp(u.base[2]),
                     rad: exp(u.base[3]),
+                    a: exp(u.base[4]),
                     factor: (u.factor != 1.0).then_some(u.factor),
                     ..Default::default()
                 }),

@@ -38,6 +38,7 @@ pub mod chatter;
 pub mod design;
 pub mod documents;
 pub mod emulated;
+pub mod energy;
 pub mod figures;
 pub mod files;
 pub mod fmu;

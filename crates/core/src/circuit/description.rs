@@ -118,6 +118,19 @@ pub const DRIVE_KEYS: &[&str] = &[
     "motor_model",
 ];
 
+/// The keys `a` then `b` as one list: a circuit's own keys after keys it shares with others
+/// (the drives' [`super::energy::ELECTRIC_KEYS`]). `N` must be their number.
+pub const fn joined<const N: usize>(a: &[Key], b: &[Key]) -> [Key; N] {
+    assert!(a.len() + b.len() == N, "N is the number of keys joined");
+    let mut out = [a[0]; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = if i < a.len() { a[i] } else { b[i - a.len()] };
+        i += 1;
+    }
+    out
+}
+
 /// A circuit in the words and numbers every part of pumpcyl outside its module asks for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Description {

@@ -95,6 +95,8 @@ pub struct Dpm {
     fluid: Fluid,
     pumps: [Pump; 2],
     motors: Motors,
+    /// The drives' electrical side (docs/energy.md#the-drives).
+    electrics: energy::Electrics,
     /// The pumps' pressure load acts on the motors.
     coupling: bool,
     /// The sum-pressure loop is part of the control law.
@@ -150,6 +152,7 @@ impl Dpm {
             layout,
             coupling,
             sum_pressure: rig.sum_pressure,
+            electrics: energy::Electrics::of(rig),
         }
     }
 
@@ -448,10 +451,13 @@ impl Dpm {
         power.loss("leakage", leaks);
         if let Motors::Full(drives, tau) = &self.motors {
             let load = self.loads(x);
-            for i in 0..2 {
-                let state = [x[l.w[i]], x[tau[i]]];
-                energy::drive(&drives[i], state, dx[l.w[i]], load[i], &mut power);
-            }
+            let at = [0, 1].map(|i| energy::DriveAt {
+                drive: &drives[i],
+                state: [x[l.w[i]], x[tau[i]]],
+                dw: dx[l.w[i]],
+                load: load[i],
+            });
+            energy::drives(&self.electrics, &at, &mut power);
         }
         power
     }
@@ -630,7 +636,7 @@ impl super::Module for Module {
             "pump_inertia_2_kg_mm2",
             "displacement_2_cm3_per_rev",
         ],
-        keys: &[],
+        keys: &energy::ELECTRIC_KEYS,
         no_modes: Some(NO_MODES),
     };
     type Linear = Dpm;

@@ -79,6 +79,8 @@ pub struct DualPump {
     /// Pump 1 (chamber 2 → chamber 1) and pump 2 (accumulator → chamber 1).
     pumps: [Pump; 2],
     motor: Motor,
+    /// The drive's electrical side (docs/energy.md#the-drives).
+    electrics: energy::Electrics,
     /// Leakages c1, c2, c12 (m⁵/(N·s)).
     leakage: [f64; 3],
     /// The pumps' pressure load acts on the shaft.
@@ -163,6 +165,7 @@ impl DualPump {
             beta_bar: rig.beta_bar,
             n: 4 + motor.n_states(),
             motor,
+            electrics: energy::Electrics::of(rig),
         })
     }
 
@@ -446,7 +449,7 @@ impl super::Module for Module {
             "relief_setting_bar",
             "cylinder_rated_pressure_bar",
         ],
-        keys: &[],
+        keys: &energy::ELECTRIC_KEYS,
         no_modes: Some(NO_MODES),
     };
     type Linear = DualPump;
@@ -551,7 +554,8 @@ impl DualPump {
             }
         }
         power.store("accumulator", pa * into_acc);
-        energy::motor(&self.motor, s, &dx, W, self.load_torque(s), &mut power);
+        let load = self.load_torque(s);
+        energy::motor(&self.electrics, &self.motor, (s, &dx, W), load, &mut power);
         power
     }
 }

@@ -11,8 +11,9 @@ use super::parts::{Drive, Motor, Piston, Pump, ATMOSPHERE_PA};
 /// The power flows of a circuit at one state (W).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Power {
-    /// What the sources deliver, each by kind (`drives`: the electromagnetic torque times the
-    /// speed of each drive; `supply`: a valve's supply pressure times its flow).
+    /// What the sources deliver, each by kind (`electrical`: what the drives' DC bus draws from
+    /// the supply, `regenerated`: what it returns, negative; `supply`: a valve's supply pressure
+    /// times its flow).
     pub sources_w: Vec<(&'static str, f64)>,
     /// The power the piston delivers against the external force, F_ext·v.
     pub work_out_w: f64,
@@ -98,22 +99,148 @@ pub fn cylinder(piston: &Piston, s: [f64; 4], flows: [f64; 2], dv: f64, power: &
     power.store("load_motion", piston.mass_at(x) * dv * v);
 }
 
-/// A drive's share (docs/energy.md#the-drives): the electromagnetic torque τ times the speed
-/// ω it delivers, of which the shaft's acceleration stores J·ω·ω̇, the speed limit holds back
-/// (τ − load)·ω − J·ω·ω̇ where it stops the acceleration, and the rest, load·ω, drives the
-/// pumps. `dw` is the speed's rate the equations give and `load` the pumps' torque (N·m).
-pub fn drive(d: &Drive, [w, tau]: [f64; 2], dw: f64, load: f64, power: &mut Power) {
-    power.source("drives", tau * w);
-    power.store("drive_motion", d.inertia * dw * w);
-    power.loss("speed_limit", (tau - load) * w - d.inertia * dw * w);
+/// The electrical side of a circuit's drives (docs/energy.md#the-drives): the winding's
+/// copper loss R·(τ/k_t)², the drive electronics' efficiency η (the same both ways), and what
+/// becomes of the power the drives return: they share one DC bus, so one drive's braking feeds
+/// the other's motoring, and of the bus's net braking power the fraction `regeneration` goes
+/// back to the supply, the rest into the brake resistor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Electrics {
+    /// The winding's resistance R as its copper loss sees it (Ω): R·i², i = τ/k_t.
+    pub resistance_ohm: f64,
+    /// The torque constant k_t (N·m/A).
+    pub torque_constant_nm_per_a: f64,
+    /// The drive electronics' efficiency η (0 … 1].
+    pub efficiency: f64,
+    /// The share of the DC bus's net braking power returned to the supply (0 … 1).
+    pub regeneration: f64,
 }
 
-/// [`drive`] for a one-motor circuit's motor, its states from `at` in `s` (speed, torque, ...)
+/// The rig keys of [`Electrics`], declared by every circuit with drives
+/// (docs/energy.md#the-drives): the defaults are pumpcyl's choice, the article giving none.
+pub const ELECTRIC_KEYS: [super::Key; 4] = [
+    super::Key {
+        name: "motor_winding_resistance_ohm",
+        doc: "ohm, the motor winding's resistance as its copper loss R (tau/k_t)^2 sees it (3 x the phase resistance for k_t per phase current); 0 = no copper loss",
+        default: 0.0,
+        range: crate::rig::Range::NonNegative(1e3),
+    },
+    super::Key {
+        name: "motor_torque_constant_nm_per_a",
+        doc: "N m/A, the motor's torque constant k_t (used with motor_winding_resistance_ohm)",
+        default: 1.0,
+        range: crate::rig::Range::Positive(1e-4, 1e3),
+    },
+    super::Key {
+        name: "drive_efficiency",
+        doc: "-, the drive electronics' efficiency, the same motoring and braking; 1 = lossless",
+        default: 1.0,
+        range: crate::rig::Range::Positive(0.01, 1.0),
+    },
+    super::Key {
+        name: "drive_regeneration_fraction",
+        doc: "-, the share of the drives' common DC bus's net braking power returned to the supply (1: a regenerative supply unit); the rest heats the brake resistor",
+        default: 0.0,
+        range: crate::rig::Range::NonNegative(1.0),
+    },
+];
+
+impl Electrics {
+    /// The electrical side of `rig`'s drives ([`ELECTRIC_KEYS`]).
+    pub fn of(rig: &crate::rig::Rig) -> Electrics {
+        Electrics {
+            resistance_ohm: rig.circuit_key("motor_winding_resistance_ohm"),
+            torque_constant_nm_per_a: rig.circuit_key("motor_torque_constant_nm_per_a"),
+            efficiency: rig.circuit_key("drive_efficiency"),
+            regeneration: rig.circuit_key("drive_regeneration_fraction"),
+        }
+    }
+}
+
+/// One drive at an instant: its parts, its speed ω and torque τ `[w, tau]`, the speed's rate
+/// `dw` the equations give and the pumps' torque on it, `load` (N·m).
+#[derive(Debug, Clone, Copy)]
+pub struct DriveAt<'a> {
+    /// The drive.
+    pub drive: &'a Drive,
+    /// Speed (rad/s) and electromagnetic torque (N·m).
+    pub state: [f64; 2],
+    /// The speed's rate (rad/s²).
+    pub dw: f64,
+    /// The pumps' torque on it (N·m).
+    pub load: f64,
+}
+
+/// The drives' share (docs/energy.md#the-drives): each drive's electromagnetic torque τ times
+/// its speed ω is the shaft power, of which the shaft's acceleration stores J·ω·ω̇, the speed
+/// limit holds back (τ − load)·ω − J·ω·ω̇ where it stops the acceleration, and the rest,
+/// load·ω, drives the pumps. Behind the shaft the winding loses R·(τ/k_t)² and the electronics
+/// (1 − η) of what passes them; the drives' DC bus draws its net power from the supply
+/// (`electrical`), or returns the `regeneration` share of its net braking (`regenerated`,
+/// negative) and burns the rest (`brake_resistor`).
+pub fn drives(e: &Electrics, drives: &[DriveAt<'_>], power: &mut Power) {
+    for d in drives {
+        let [w, tau] = d.state;
+        let stored = d.drive.inertia * d.dw * w;
+        power.store("drive_motion", stored);
+        power.loss("speed_limit", (tau - d.load) * w - stored);
+    }
+    let shafts: Vec<[f64; 2]> = drives.iter().map(|d| d.state).collect();
+    e.bus(&shafts, power);
+}
+
+impl Electrics {
+    /// What the drives turning at `[w, tau]` each (rad/s, N·m) take from the supply and lose
+    /// on the way (docs/energy.md#the-drives): the sources `electrical` and `regenerated` and
+    /// the losses `copper`, `drive_electronics` and `brake_resistor`, added to `power`; their
+    /// balance is the shafts' Σ τ·ω.
+    pub fn bus(&self, shafts: &[[f64; 2]], power: &mut Power) {
+        let mut bus = 0.0;
+        for &[w, tau] in shafts {
+            let copper = self.resistance_ohm * (tau / self.torque_constant_nm_per_a).powi(2);
+            let terminals = tau * w + copper;
+            let dc = if terminals >= 0.0 {
+                terminals / self.efficiency
+            } else {
+                terminals * self.efficiency
+            };
+            power.loss("copper", copper);
+            power.loss("drive_electronics", dc - terminals);
+            bus += dc;
+        }
+        let braking = (-bus).max(0.0);
+        power.source("electrical", bus.max(0.0));
+        power.source("regenerated", -braking * self.regeneration);
+        power.loss("brake_resistor", braking * (1.0 - self.regeneration));
+    }
+
+    /// The power the drives turning at `[w, tau]` each draw from the supply, net of what they
+    /// return (W; [`Electrics::bus`]).
+    pub fn supply_w(&self, shafts: &[[f64; 2]]) -> f64 {
+        let mut power = Power::default();
+        self.bus(shafts, &mut power);
+        Power::sum(&power.sources_w)
+    }
+}
+
+/// [`drives`] for a one-motor circuit's motor, its states from `at` in `s` (speed, torque, ...)
 /// and their rates in `dx`; a first-order motor has no torque to account (the emulator runs the
 /// full model only).
-pub fn motor(motor: &Motor, s: &[f64], dx: &[f64], at: usize, load: f64, power: &mut Power) {
-    if let Motor::Full(d) = motor {
-        drive(d, [s[at], s[at + 1]], dx[at], load, power);
+pub fn motor(
+    e: &Electrics,
+    motor: &Motor,
+    (s, dx, at): (&[f64], &[f64], usize),
+    load: f64,
+    power: &mut Power,
+) {
+    if let Motor::Full(drive) = motor {
+        let at = DriveAt {
+            drive,
+            state: [s[at], s[at + 1]],
+            dw: dx[at],
+            load,
+        };
+        drives(e, &[at], power);
     }
 }
 

@@ -46,6 +46,10 @@ pub struct Effects {
     pub stroke_mass: bool,
 }
 
+/// The emulated drives' torque limit over their rated torque (docs/emulator.md#the-dynamics):
+/// a servo drive's short-time peak.
+pub const PEAK_TORQUE_FACTOR: f64 = 3.0;
+
 impl Effects {
     /// Everything off: the dynamics linearise to the analytic model.
     pub fn none() -> Effects {
@@ -73,7 +77,7 @@ impl Effects {
             varying_volumes: true,
             gas_fraction: Some(x),
             beta_oil_bar: BETA_OIL_BAR,
-            peak_torque_factor: Some(3.0),
+            peak_torque_factor: Some(PEAK_TORQUE_FACTOR),
             pump_speed_limit: true,
             dead_band_rad_s: PUMP_DEAD_BAND_RPM * crate::units::RAD_S_PER_RPM,
             slip_m5_per_ns: ARTICLE_PUMP_SLIP_M5_PER_NS,

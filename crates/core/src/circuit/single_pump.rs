@@ -81,6 +81,8 @@ pub struct SinglePump {
     fluid: Fluid,
     pump: Pump,
     motor: Motor,
+    /// The drive's electrical side (docs/energy.md#the-drives).
+    electrics: energy::Electrics,
     /// Leakages c1, c2 (to the accumulator line) and c12 (across) (m⁵/(N·s)).
     leakage: [f64; 3],
     /// The pump's pressure load acts on the shaft.
@@ -168,6 +170,7 @@ impl SinglePump {
             x0: si.x0,
             n: 4 + motor.n_states(),
             motor,
+            electrics: energy::Electrics::of(rig),
         }
     }
 
@@ -365,7 +368,7 @@ impl super::Module for Module {
             "relief_setting_bar",
             "cylinder_rated_pressure_bar",
         ],
-        keys: &[
+        keys: &super::description::joined::<6>(&energy::ELECTRIC_KEYS, &[
             super::Key {
                 name: "pilot_ratio",
                 doc: "pilot ratio k of the single-pump circuit's pilot-operated check valves (pilot over seat area)",
@@ -378,7 +381,7 @@ impl super::Module for Module {
                 default: CHECK_VALVE_CRACK_BAR,
                 range: crate::rig::Range::Positive(0.001, 1000.0),
             },
-        ],
+        ]),
         no_modes: None,
     };
     type Linear = modes::Mode;
@@ -496,7 +499,8 @@ impl SinglePump {
             }
         }
         power.store("accumulator", pa * into_acc);
-        energy::motor(&self.motor, s, &dx, W, self.load_torque(s), &mut power);
+        let load = self.load_torque(s);
+        energy::motor(&self.electrics, &self.motor, (s, &dx, W), load, &mut power);
         power
     }
 }

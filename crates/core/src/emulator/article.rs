@@ -251,12 +251,12 @@ pub fn records() -> Result<Vec<ArticleRecord>, EmulatorError> {
             truth: truth(heavy(25.0)?, 5),
         },
     ];
-    let sines = [
-        ("sine_0.10hz_50mm.csv", 0.1, 50.0, 6),
-        ("sine_0.20hz_35mm.csv", 0.2, 35.0, 7),
-        ("sine_0.25hz_20mm.csv", 0.25, 20.0, 8),
+    let files = [
+        "sine_0.10hz_50mm.csv",
+        "sine_0.20hz_35mm.csv",
+        "sine_0.25hz_20mm.csv",
     ];
-    for (file, f, a, seed) in sines {
+    for ((file, (f, a)), seed) in files.into_iter().zip(super::cycle::ARTICLE_SINES).zip(6..) {
         out.push(ArticleRecord {
             file,
             what: "sinusoidal tracking about 345 mm, Kp = 25, after 1 s at rest: 20 s of wave for the start-up transient (below 1 % after about 11 s), then two more whole periods (docs/simulation.md#tracking-metrics)",

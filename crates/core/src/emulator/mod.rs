@@ -9,6 +9,7 @@
 
 pub mod article;
 pub mod chatter;
+pub mod cycle;
 mod experiment;
 mod integrate;
 mod phi;
@@ -22,8 +23,8 @@ pub use experiment::{
     SETTLE_S, SINE_PERIODS, STEP_MM,
 };
 pub use plc::{
-    emulate, emulate_reporting, equilibrium, hold_speeds, hold_speeds_accounting, Emulation, Plc,
-    PlcLoop, PROGRESS_STEPS,
+    emulate, emulate_profile, emulate_reporting, equilibrium, hold_speeds, hold_speeds_accounting,
+    Emulation, Plc, PlcLoop, Profile, PROGRESS_STEPS,
 };
 
 /// Why an emulation under a work limit stopped: the emulator could not run, or its

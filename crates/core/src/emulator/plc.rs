@@ -123,15 +123,55 @@ pub fn emulate_reporting(
     rig: &Rig,
     dynamics: &Dynamics,
     plc: &Plc,
-    (settle_s, duration_s): (f64, f64),
+    times: (f64, f64),
     x_ref_mm: impl Fn(f64) -> f64,
     work: &Work,
 ) -> Result<Emulation, RunError> {
-    let mut run = PlcLoop::settled(rig, dynamics, plc, x_ref_mm(0.0), settle_s)?;
+    emulate_profile(
+        rig,
+        dynamics,
+        plc,
+        times,
+        (&x_ref_mm, Profile::default()),
+        work,
+    )
+}
+
+/// A look at the rig at each sample of a record: its time (s) and the state.
+pub type Observer<'a> = &'a mut dyn FnMut(f64, &[f64]);
+
+/// What a record's run follows besides its position reference (a duty cycle's,
+/// docs/energy.md#duty-cycles): the external force on the piston over time, where it changes,
+/// and a look at the rig's state at each sample (its time and the state, before the PLC
+/// measures it).
+#[derive(Default)]
+pub struct Profile<'a> {
+    /// The external force (N) at a time (s), from the settling on; `None`: the rig's own.
+    pub force_n: Option<&'a dyn Fn(f64) -> f64>,
+    /// Called at each sample of the record with its time (s) and the rig's state.
+    pub observe: Option<Observer<'a>>,
+}
+
+/// [`emulate_reporting`] with the reference `x_ref_mm` and the rest of `profile`: the loop
+/// settles under the force at t = 0.
+pub fn emulate_profile(
+    rig: &Rig,
+    dynamics: &Dynamics,
+    plc: &Plc,
+    (settle_s, duration_s): (f64, f64),
+    (x_ref_mm, mut profile): (&dyn Fn(f64) -> f64, Profile<'_>),
+    work: &Work,
+) -> Result<Emulation, RunError> {
+    let (mut rig, mut dynamics) = (rig.clone(), dynamics.clone());
+    if let Some(force_n) = profile.force_n {
+        rig.external_force_n = force_n(0.0);
+        dynamics.set_external_force_n(rig.external_force_n);
+    }
+    let mut run = PlcLoop::settled(&rig, &dynamics, plc, x_ref_mm(0.0), settle_s)?;
     if plc.energy {
         run.account_energy();
     }
-    let signals = record(&mut run, duration_s, x_ref_mm, work)?;
+    let signals = record(&mut run, duration_s, (x_ref_mm, &mut profile), work)?;
     Ok(Emulation {
         signals,
         end_stop: run.end_stop,
@@ -487,7 +527,7 @@ fn measure(x: &[f64], d: &Dynamics, plc: &Plc, noise: &mut Noise) -> Measured {
 fn record(
     run: &mut PlcLoop,
     duration_s: f64,
-    x_ref_mm: impl Fn(f64) -> f64,
+    (x_ref_mm, profile): (&dyn Fn(f64) -> f64, &mut Profile<'_>),
     work: &Work,
 ) -> Result<Signals, RunError> {
     let ts = run.period_s();
@@ -498,6 +538,12 @@ fn record(
     for k in 0..=steps {
         let t = k as f64 * ts;
         let r = x_ref_mm(t);
+        if let Some(force_n) = profile.force_n {
+            run.set_external_force_n(force_n(t));
+        }
+        if let Some(observe) = &mut profile.observe {
+            observe(t, &run.x);
+        }
         let (m, u) = run.sample(r);
         out.time_s.push(t);
         out.x_ref_mm.push(r);

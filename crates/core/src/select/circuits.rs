@@ -606,6 +606,7 @@ pub fn one_motor_standing(r: &Rig) -> Result<StandingLoss, String> {
         power_w: torque * w,
         speed_rpm: [w * 60.0 / (2.0 * PI), 0.0],
         torque_nm: [torque, 0.0],
+        electrical_power_w: crate::circuit::energy::Electrics::of(r).supply_w(&[[w, torque]]),
     })
 }
 

@@ -15,6 +15,7 @@
 
 mod application;
 pub mod circuits;
+pub mod energy;
 
 pub use application::*;
 pub use circuits::{
@@ -139,6 +140,9 @@ pub struct StandingLoss {
     pub speed_rpm: [f64; 2],
     /// Motor torques that hold the pressures, motors 1 and 2 (N·m).
     pub torque_nm: [f64; 2],
+    /// What the drives draw from the supply to feed it, their winding's and electronics'
+    /// losses included, net of what they return (W; docs/energy.md#the-drives).
+    pub electrical_power_w: f64,
 }
 
 /// The standstill balance of `rig` at the chamber pressures `p_bar` (bar gauge; the circuit's
@@ -148,11 +152,13 @@ pub fn standing_loss(rig: &Rig, p_bar: [f64; 2]) -> StandingLoss {
     let b = circuit.standstill_balance(p_bar.map(|p| p * 1e5));
     let d = circuit.si().d;
     let rpm = |q: f64, d: f64| q / d * 60.0 / (2.0 * PI);
+    let shafts = [0, 1].map(|k| [b.flow_m3_s[k] / d[k], b.torque_nm[k]]);
     StandingLoss {
         p_bar,
         power_w: b.power_w,
         speed_rpm: [0, 1].map(|k| rpm(b.flow_m3_s[k], d[k])),
         torque_nm: b.torque_nm,
+        electrical_power_w: crate::circuit::energy::Electrics::of(rig).supply_w(&shafts),
     }
 }
 
@@ -750,6 +756,8 @@ fn supply_standstill(r: &Rig, req: &Requirement) -> Result<[StandingLoss; 2], St
             power_w: rest.power_w,
             speed_rpm: [0.0; 2],
             torque_nm: [0.0; 2],
+            // the supply's own losses are not modelled: what it delivers
+            electrical_power_w: rest.power_w,
         })
     })
 }

@@ -55,21 +55,6 @@ impl Emulate {
     }
 }
 
-/// A run's energies as lines of text: what the sources delivered, the work against the load,
-/// each loss and each stored energy's change (J; docs/energy.md#over-a-run).
-fn energy_text(e: &pumpcyl::circuit::energy::Energy) -> String {
-    let line = |(kind, j): &(&'static str, f64)| format!("    {kind:<26} {j:>14.4} J\n");
-    let list = |l: &[(&'static str, f64)]| l.iter().map(line).collect::<String>();
-    format!(
-        "energy over the record (docs/energy.md#over-a-run):\n  delivered\n{}  work against the load {:.4} J\n  losses\n{}  stored (change)\n{}  imbalance {:.3e} J\n",
-        list(&e.sources_j),
-        e.work_out_j,
-        list(&e.losses_j),
-        list(&e.stored_j),
-        e.imbalance_j()
-    )
-}
-
 /// An emulated record.
 pub struct EmulateOutcome {
     request: Emulate,
@@ -129,7 +114,7 @@ impl Document for EmulateOutcome {
         let outcome = &self.emulation.outcome;
         let note =
             (outcome.end_stop.as_ref()).map_or(String::new(), |hit| format!("note: {hit}\n"));
-        let energy = (outcome.energy.as_ref()).map_or(String::new(), energy_text);
+        let energy = (outcome.energy.as_ref()).map_or(String::new(), crate::energy::energy_text);
         Ok(format!(
             "emulated {} on {} (circuit {}), {} samples (emulated data, not a measurement)\n{}\n{energy}{note}",
             kind.name(),

@@ -22,6 +22,7 @@ pub mod advise;
 pub mod analysis;
 pub mod bulk;
 pub mod chatter;
+pub mod cycle;
 pub mod design;
 pub mod emulate;
 pub mod frf;

@@ -5,9 +5,11 @@ use super::{Document, FieldError, Given, Hooks, Request};
 use crate::figures::Chart;
 use crate::select::{selection_chart, selection_csv, selection_text};
 use pumpcyl::circuit::CircuitKind;
+use pumpcyl::emulator::RunError;
 use pumpcyl::ident::Experiment;
 use pumpcyl::limits::Work;
 use pumpcyl::rig::Rig;
+use pumpcyl::select::energy::{self, SelectionEnergy};
 use pumpcyl::select::{Application, BetaEvidence, ModeCheckKind, SelectError, Selection};
 use serde_json::Value;
 
@@ -29,6 +31,9 @@ pub struct Select {
     pub evidence: Option<Evidence>,
     /// Whether work beyond the selection's limit may run.
     pub allow_long_run: bool,
+    /// Whether each circuit that meets is run through the application's duty cycle for its
+    /// energy (docs/select.md#energy).
+    pub energy: bool,
 }
 
 /// An experiment whose records' interval of β, at a confidence, gives the gas-fraction range
@@ -63,6 +68,7 @@ pub struct SelectOutcome {
     origin: String,
     application: Application,
     selection: Selection,
+    energy: Option<SelectionEnergy>,
     warnings: Vec<String>,
 }
 
@@ -152,11 +158,16 @@ impl Request for Select {
                 SelectError::Limit(l) => anyhow::Error::from(l),
                 e => e.into(),
             })?;
+        let energy = match self.energy {
+            true => Some(selection_energy(&app, &selection, &work)?),
+            false => None,
+        };
         Ok(SelectOutcome {
             origin: self.origin.clone(),
             warnings: relief_warnings(&app),
             application: app,
             selection,
+            energy,
         })
     }
 }
@@ -173,18 +184,40 @@ impl SelectOutcome {
     }
 }
 
+/// Each circuit of `selection` that meets, through the application's duty cycle.
+fn selection_energy(
+    app: &Application,
+    selection: &Selection,
+    work: &Work,
+) -> anyhow::Result<SelectionEnergy> {
+    let req = app.requirement();
+    // the cycles' controller steps are not the bar's cases: asked only whether to go on
+    let go_on = |_steps: u64| (work.progress)(0);
+    let quiet = Work {
+        allow_long_run: work.allow_long_run,
+        progress: &go_on,
+    };
+    energy::of_selection(&app.rig, &req, selection, &quiet).map_err(|e| match e {
+        RunError::Limit(l) => anyhow::Error::from(l),
+        RunError::Emulator(e) => anyhow::anyhow!("the duty cycle of a candidate: {e}"),
+    })
+}
+
 impl Document for SelectOutcome {
     fn json(&self) -> anyhow::Result<Value> {
-        let doc = serde_json::to_value(&self.selection)?;
+        let mut doc = serde_json::to_value(&self.selection)?;
+        if let Some(e) = &self.energy {
+            doc["energy"] = serde_json::to_value(e)?;
+        }
         Ok(crate::documents::with_warnings(doc, &self.warnings))
     }
 
     fn text(&self) -> anyhow::Result<String> {
-        Ok(selection_text(
-            &self.origin,
-            &self.application,
-            &self.selection,
-        ))
+        let text = selection_text(&self.origin, &self.application, &self.selection);
+        Ok(match &self.energy {
+            Some(e) => text + &crate::energy::selection_energy_text(e),
+            None => text,
+        })
     }
 
     fn warnings(&self) -> &[String] {
