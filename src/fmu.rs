@@ -53,6 +53,11 @@ pub struct FmuArgs {
     /// the linear one).
     #[arg(long)]
     no_effects: bool,
+    /// Emulator: integrate the power account with the states and add its energies since the
+    /// start as outputs, energy_in_j, work_out_j, losses_j, stored_change_j
+    /// (docs/fmu.md#energy; the steps take several times longer).
+    #[arg(long)]
+    energy: bool,
     /// Rig (TOML). Default: the emulated article rig for the emulator (as `pumpcyl emulate`),
     /// the article's rig for the linear model (as `pumpcyl step`).
     #[command(flatten)]
@@ -113,6 +118,9 @@ fn config(args: &FmuArgs) -> Result<Config> {
         ModelKind::Emulator => crate::emulate::load_rig(&args.source, effects)?,
         ModelKind::Linear => args.source.load()?,
     };
-    let config = pumpcyl::fmu::checked_config(model, controller, effects, rig)?;
+    if args.energy && model == ModelKind::Linear {
+        bail!("--energy is the emulator's: the linear model has no power account");
+    }
+    let config = pumpcyl::fmu::checked_config((model, controller), effects, args.energy, rig)?;
     Ok(config)
 }

@@ -8,13 +8,15 @@ mod run;
 use serde_json::Value;
 use std::path::Path;
 
-/// The user rig (tests/user-rig.toml) with the drives' electrical losses of a real servo.
+/// The user rig (tests/user-rig.toml) with the drives' electrical losses of a real servo and
+/// its pumps' torque losses.
 fn electric_rig(dir: &Path) -> String {
     let user = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/user-rig.toml"))
         .unwrap();
     let text = format!(
         "{user}\nmotor_winding_resistance_ohm = 1.8\nmotor_torque_constant_nm_per_a = 1.4\n\
-         drive_efficiency = 0.94\ndrive_regeneration_fraction = 0.5\n"
+         drive_efficiency = 0.94\ndrive_regeneration_fraction = 0.5\n\
+         pump_friction_torque_fraction = 0.02\npump_viscous_torque_nms_per_rad = 1e-4\n"
     );
     let path = dir.join("electric.toml");
     std::fs::write(&path, text).unwrap();
@@ -57,8 +59,14 @@ fn a_step_cycle_closes_and_its_figures_are_the_accounts() {
     let closing = net - get(s, "work_out_j") - get(s, "losses_j") - get(s, "stored_change_j");
     assert!(closing.abs() <= 1e-6 * get(s, "drawn_j"), "{closing} J");
     assert!((get(s, "mean_power_w") - net / 5.0).abs() <= 1e-12 * net);
-    // every electrical loss is there, set: the copper, the electronics, the bus's brake share
-    for kind in ["copper", "drive_electronics", "brake_resistor"] {
+    // every drive-train loss is there, set: the copper, the electronics, the bus's brake share,
+    // the pumps' friction
+    for kind in [
+        "copper",
+        "drive_electronics",
+        "brake_resistor",
+        "pump_friction",
+    ] {
         assert!(get(&e["losses_j"], kind) > 0.0, "{kind}: {e}");
     }
     assert!(get(s, "regenerated_j") > 0.0, "{s}");

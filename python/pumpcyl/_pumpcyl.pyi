@@ -865,10 +865,12 @@ def fmu(
     *,
     controller: str = "article",
     effects: bool = True,
+    energy: bool = False,
     force: bool = False,
 ) -> PathLike[str]:
     """Write the rig emulator (``model="emulator"``) or the linear model (``"linear"``) as an
-    FMU (FMI 2.0 Co-Simulation, Linux x86-64; docs/fmu.md), as ``pumpcyl fmu`` does.
+    FMU (FMI 2.0 Co-Simulation, Linux x86-64; docs/fmu.md), as ``pumpcyl fmu`` does;
+    ``energy=True`` adds the emulator's energy outputs (docs/fmu.md#energy).
     ``controller="article"``: the input is the position reference ``x_ref_m``;
     ``"external"``: the motor speed commands are the inputs. ``rig=None`` takes the emulator's
     own rig or the article's (linear). A read-only file at ``path`` is refused unless

@@ -1687,10 +1687,12 @@ fn emulate(
 /// "article" (the input is the position reference) or "external" (the motor speed commands are
 /// the inputs; the linear model's open loop); `effects` the emulator's effects on or off.
 /// `rig` None takes the emulator's own rig (as `pumpcyl emulate`) or the article's (linear).
+/// `energy` adds the emulator's energy outputs (docs/fmu.md#energy), as `--energy`.
 /// The file appears whole or not at all; a read-only file at `path` is refused unless
 /// `force=True`. Returns `path`.
 #[pyfunction]
-#[pyo3(signature = (rig, path, model = "emulator", *, controller = "article", effects = true, force = false))]
+#[pyo3(signature = (rig, path, model = "emulator", *, controller = "article", effects = true, energy = false, force = false))]
+#[allow(clippy::too_many_arguments)]
 fn fmu(
     py: Python<'_>,
     rig: Option<&PyRig>,
@@ -1698,6 +1700,7 @@ fn fmu(
     model: &str,
     controller: &str,
     effects: bool,
+    energy: bool,
     force: bool,
 ) -> PyResult<PathBuf> {
     use pumpcyl::fmu::{Controller, ModelKind};
@@ -1710,6 +1713,11 @@ fn fmu(
             )))
         }
     };
+    if energy && model == ModelKind::Linear {
+        return Err(err(
+            "fmu(energy=True): the linear model has no power account; energy is the emulator's",
+        ));
+    }
     let controller = match controller {
         "article" => Controller::Article,
         "external" => Controller::External,
@@ -1730,7 +1738,7 @@ fn fmu(
         None => pumpcyl::fmu::default_rig(model, effects).map_err(err)?,
     };
     py.detach(|| -> Result<(), String> {
-        let config = pumpcyl::fmu::checked_config(model, controller, effects, rig)
+        let config = pumpcyl::fmu::checked_config((model, controller), effects, energy, rig)
             .map_err(|e| e.to_string())?;
         let bytes = pumpcyl_present::fmu::archive(&config).map_err(|e| format!("{e:#}"))?;
         pumpcyl_present::files::write_atomic(

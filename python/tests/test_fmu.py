@@ -89,6 +89,38 @@ def test_the_emulator_fmu_gives_the_records_of_emulate(fmus, experiment, args):
     assert np.max(np.abs(r["p2_pa"] - rec["p2_bar"] * 1e5)) < 1.0
 
 
+def test_the_energy_outputs_in_fmpy_are_emulates_account(tmp_path):
+    """An emulator FMU with its energy outputs (docs/fmu.md#energy), run by FMPy through the
+    user rig's step: at the end its four outputs are `emulate --energy --json`'s account of the
+    same record (sources net, work out, losses, stored change) to 1e-9 of the energy delivered,
+    and they close at every output sample."""
+    fmpy = require_fmpy()
+    from fmpy.validation import validate_fmu
+
+    user = str(ROOT / "tests" / "user-rig.toml")
+    fmu, record = tmp_path / "energy.fmu", tmp_path / "step.csv"
+    cli("fmu", "--rig", user, "--energy", "--out", str(fmu))
+    assert validate_fmu(str(fmu)) == []
+    names = {v.name: v for v in fmpy.read_model_description(str(fmu)).modelVariables}
+    assert all(names[n].causality == "output" and names[n].unit == "J"
+               for n in ["energy_in_j", "work_out_j", "losses_j", "stored_change_j"])
+    out = subprocess.run([pumpcyl_binary(), "emulate", "--experiment", "step", "--rig", user,
+                          "--no-noise", "--energy", "--json", "--out", str(record)],
+                         check=True, capture_output=True, text=True)
+    e = __import__("json").loads(out.stdout)["energy"]
+    rec = read_csv(record)
+    r = run_fmu(fmpy, fmu, rec["time_s"], rec["x_ref_mm"] * 1e-3)
+    tol = 1e-9 * e["energy_in_j"]
+    assert abs(r["energy_in_j"][-1] - e["energy_in_j"]) <= tol
+    assert abs(r["work_out_j"][-1] - e["work_out_j"]) <= tol
+    assert abs(r["losses_j"][-1] - sum(e["losses_j"].values())) <= tol
+    assert abs(r["stored_change_j"][-1] - e["stored_change_j"]) <= tol
+    closing = r["energy_in_j"] - r["work_out_j"] - r["losses_j"] - r["stored_change_j"]
+    assert np.max(np.abs(closing)) <= tol
+    with pytest.raises(pumpcyl.PumpcylError, match="energy"):
+        pumpcyl.fmu(None, tmp_path / "linear.fmu", "linear", energy=True)
+
+
 @pytest.mark.parametrize("circuit", ["dual-pump", "single-pump"])
 def test_the_single_motor_emulator_fmu_gives_the_records_of_emulate(tmp_path, circuit):
     """One motor's variables (no omega2, tau2), the single-pump circuit's mode as an output

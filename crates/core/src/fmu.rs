@@ -34,6 +34,7 @@
 //! # Ok::<(), pumpcyl::fmu::FmuError>(())
 //! ```
 
+use crate::circuit::energy::Energy;
 use crate::circuit::{Circuit, Effects, Role, Signal};
 use crate::emulator::{self, article, Dynamics, Plc, PlcLoop, PLC_RATE_HZ, SETTLE_S};
 use crate::lti::Zoh;
@@ -95,6 +96,10 @@ pub struct Config {
     pub controller: Controller,
     /// Emulator only: every effect of docs/emulator.md on (as `pumpcyl emulate`), or none.
     pub effects: bool,
+    /// Emulator only: the power account integrated with the states, its energies as outputs
+    /// (docs/fmu.md#energy).
+    #[serde(default)]
+    pub energy: bool,
     /// The fingerprint of the variables (modelDescription.xml's `guid`).
     pub guid: String,
     /// The rig.
@@ -114,11 +119,20 @@ impl Config {
             model,
             controller,
             effects,
+            energy: false,
             guid: String::new(),
             rig,
         };
         c.guid = c.fingerprint();
         c
+    }
+
+    /// This configuration with the energy outputs (docs/fmu.md#energy) where `on`, for the
+    /// emulator only: the linear model has no power account.
+    pub fn with_energy(mut self, on: bool) -> Config {
+        self.energy = on && self.model == ModelKind::Emulator;
+        self.guid = self.fingerprint();
+        self
     }
 
     /// The configuration as TOML.
@@ -171,9 +185,9 @@ pub fn default_rig(model: ModelKind, effects: bool) -> Result<Rig, FmuError> {
 /// A configuration that starts: [`Config::new`], then an instance initialised once, so an
 /// FMU that could not start is refused when it is written, not in the user's simulator.
 pub fn checked_config(
-    model: ModelKind,
-    controller: Controller,
+    (model, controller): (ModelKind, Controller),
     effects: bool,
+    energy: bool,
     rig: Rig,
 ) -> Result<Config, FmuError> {
     let config = Config::new(
@@ -181,7 +195,8 @@ pub fn checked_config(
         controller,
         effects && model == ModelKind::Emulator,
         rig,
-    );
+    )
+    .with_energy(energy);
     Instance::new(config.clone())?
         .initialize(0.0)
         .map_err(|e| FmuError(format!("the FMU would not start: {e}")))?;
@@ -351,8 +366,31 @@ fn output_names(c: &Config) -> Vec<Named> {
              chamber 1 (docs/emulator.md#the-mode-signal)",
         ));
     }
+    if c.energy {
+        out.extend(ENERGY_OUTPUTS.map(|(n, doc)| plain(n, "J", doc)));
+    }
     out
 }
+
+/// The energy outputs (docs/fmu.md#energy): the power account integrated from the start.
+const ENERGY_OUTPUTS: [(&str, &str); 4] = [
+    (
+        "energy_in_j",
+        "what the sources delivered since the start, net (the drives' supply, a valve's supply)",
+    ),
+    (
+        "work_out_j",
+        "the work against the external force since the start",
+    ),
+    (
+        "losses_j",
+        "every loss since the start (docs/energy.md#the-account)",
+    ),
+    (
+        "stored_change_j",
+        "the change of every stored energy since the start",
+    ),
+];
 
 /// The FMU has the mode output: the emulator of a single-pump rig.
 fn has_mode(c: &Config) -> bool {
@@ -457,6 +495,12 @@ pub struct Unit {
 
 /// Every unit the FMU's variables use.
 pub const UNITS: &[Unit] = &[
+    Unit {
+        doc: "J",
+        name: "J",
+        base: [1, 2, -2, 0, 0],
+        factor: 1.0,
+    },
     Unit {
         doc: "ohm",
         name: "Ohm",
@@ -762,6 +806,8 @@ enum Sim {
         x: Vec<f64>,
         /// The first end stop the piston met, at the end of a PLC period.
         end_stop: Option<emulator::EndStopHit>,
+        /// The energies since the start, where the FMU accounts them.
+        energy: Option<Energy>,
     },
     /// The linear model.
     Linear(Box<Linear>),
@@ -1052,7 +1098,11 @@ impl Instance {
         Ok(match self.config.controller {
             Controller::Article => {
                 let plc = Plc::ideal(PLC_RATE_HZ);
-                let run = PlcLoop::settled(rig, &dynamics, &plc, self.inputs[0] * 1e3, SETTLE_S)?;
+                let mut run =
+                    PlcLoop::settled(rig, &dynamics, &plc, self.inputs[0] * 1e3, SETTLE_S)?;
+                if self.config.energy {
+                    run.account_energy();
+                }
                 Sim::Plc {
                     run: Box::new(run),
                     u: [0.0; 2],
@@ -1064,6 +1114,7 @@ impl Instance {
                     dynamics: Box::new(dynamics),
                     x,
                     end_stop: None,
+                    energy: self.config.energy.then(Energy::default),
                 }
             }
         })
@@ -1124,6 +1175,7 @@ impl Instance {
                 dynamics,
                 x,
                 end_stop,
+                energy,
             }) => {
                 // integrated a PLC period at a time, as the PLC loop is: BDF restarts at each
                 // period, so a long step through an end stop or cavitation does not stall it
@@ -1134,7 +1186,10 @@ impl Instance {
                 let ts = clock.period_s;
                 clock.advance(h_s, |k, from, to| {
                     let (t0, t1) = (k as f64 * ts + from, k as f64 * ts + to);
-                    *x = emulator::hold_speeds(dynamics, x, u, t0, t1)?;
+                    *x = match energy.as_mut() {
+                        Some(e) => emulator::hold_speeds_accounting(dynamics, x, u, (t0, t1), e)?,
+                        None => emulator::hold_speeds(dynamics, x, u, t0, t1)?,
+                    };
                     *end_stop = end_stop.or_else(|| dynamics.end_stop(x, t1));
                     Ok(())
                 })?;
@@ -1209,7 +1264,29 @@ impl Instance {
             };
             out.push(mode.map_or(f64::NAN, |m| m as f64));
         }
+        if self.config.energy {
+            out.extend(self.energy_outputs());
+        }
         Ok(out)
+    }
+
+    /// The energy outputs ([`ENERGY_OUTPUTS`]) of the run so far.
+    fn energy_outputs(&self) -> [f64; 4] {
+        let e = match self.sim.as_ref() {
+            Some(Sim::Plc { run, .. }) => run.energy(),
+            Some(Sim::Plant { energy, .. }) => energy.as_ref(),
+            _ => None,
+        };
+        let Some(e) = e else {
+            return [f64::NAN; 4];
+        };
+        let sum = |l: &[(&'static str, f64)]| l.iter().map(|(_, j)| j).sum::<f64>();
+        [
+            sum(&e.sources_j),
+            e.work_out_j,
+            sum(&e.losses_j),
+            sum(&e.stored_j),
+        ]
     }
 }
 
@@ -1567,6 +1644,55 @@ mod tests {
                 "p1 at sample {k}"
             );
         }
+    }
+
+    /// The emulator FMU with its energy outputs (docs/fmu.md#energy) gives `emulate --energy`'s
+    /// account of the same run, on a rig that is not the article's: what the sources delivered,
+    /// the work out, the losses and the stored change, to 1e-9 of the energy delivered, closing;
+    /// the outputs are listed only when asked for.
+    #[test]
+    fn the_energy_outputs_are_the_emulators_account() {
+        let rig = user_rig();
+        let effects = Effects::for_rig(&rig).unwrap();
+        let plan = Experiment::step(&rig, None, None, 0.5, Some(2.0));
+        let plc = Plc {
+            energy: true,
+            ..Plc::ideal(PLC_RATE_HZ)
+        };
+        let work = crate::limits::Work::QUIET;
+        let e = plan
+            .run_reporting(&rig, effects, &plc, &work)
+            .unwrap()
+            .energy
+            .unwrap();
+        let config = Config::new(ModelKind::Emulator, Controller::Article, true, rig);
+        assert!(Instance::new(config.clone())
+            .unwrap()
+            .value_reference("losses_j")
+            .is_none());
+        let mut fmu = Instance::new(config.with_energy(true)).unwrap();
+        run(&mut fmu, 200, 0.01, |t| plan.reference_mm(t));
+        let out = |name: &str| fmu.get_real(fmu.value_reference(name).unwrap()).unwrap();
+        let sum = |l: &[(&'static str, f64)]| l.iter().map(|(_, j)| j).sum::<f64>();
+        let delivered = sum(&e.sources_j);
+        for (name, want) in [
+            ("energy_in_j", delivered),
+            ("work_out_j", e.work_out_j),
+            ("losses_j", sum(&e.losses_j)),
+            ("stored_change_j", sum(&e.stored_j)),
+        ] {
+            let got = out(name);
+            assert!(
+                (got - want).abs() <= 1e-9 * delivered,
+                "{name}: {got} J, emulate {want} J"
+            );
+        }
+        let closing =
+            out("energy_in_j") - out("work_out_j") - out("losses_j") - out("stored_change_j");
+        assert!(
+            delivered > 1.0 && closing.abs() <= 1e-9 * delivered,
+            "{closing}"
+        );
     }
 
     /// The single-motor circuits' emulator FMU gives `emulate`'s records too, with one motor's

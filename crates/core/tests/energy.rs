@@ -8,14 +8,15 @@ use pumpcyl::emulator::{Dynamics, Effects};
 use pumpcyl::rig::Rig;
 
 /// The rigs: the article's, and a rig of our own in each circuit (every effect on; the drives'
-/// electrical losses too).
+/// electrical losses and the pumps' torque losses too).
 fn rigs() -> Vec<(String, Rig)> {
     let own = "piston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\nstroke_mm = 800.0\n\
                x0_mm = 400.0\nmass_kg = 2500.0\nmass_by_position = []\nbeta_bar = 300.0\n\
                kp = 15.0\nviscous_friction_ns_per_m = 250.0\nc12_m5_per_ns = 2.0e-10\n\
                external_force_n = 3000.0\nmotor_winding_resistance_ohm = 0.6\n\
                motor_torque_constant_nm_per_a = 1.2\ndrive_efficiency = 0.93\n\
-               drive_regeneration_fraction = 0.5\n";
+               drive_regeneration_fraction = 0.5\npump_friction_torque_fraction = 0.03\n\
+               pump_viscous_torque_nms_per_rad = 2e-4\n";
     let valve = "circuit = \"valve\"\npiston_diameter_mm = 80.0\nrod_diameter_mm = 45.0\n\
                  stroke_mm = 400.0\nx0_mm = 150.0\nmass_kg = 2500.0\nbeta_bar = 8000.0\n\
                  supply_pressure_bar = 180.0\nvalve_rated_flow_lpm = 40.0\n\
@@ -327,4 +328,36 @@ fn a_standstill_cycle_costs_selects_standing_loss() {
         assert!((e.peak_power_w - want).abs() <= 1e-6 * want, "{name}");
         assert!(e.load_work_j.abs() <= 1e-12 * e.drawn_j, "{name}");
     }
+}
+
+/// The pumps' torque losses by hand (docs/energy.md#the-pumps), on the DPM with the rig's own
+/// effects: each pump's friction torque C_f·D·|Δp|·tanh(ω/0.6 rad/s) + b_p·ω times its speed,
+/// and the drives carry it: at a state where each drive's torque equals its pumps' load, the
+/// speed's rate is zero only with the friction in the load.
+#[test]
+fn the_pumps_torque_losses_are_their_law_by_hand() {
+    let text = "pump_friction_torque_fraction = 0.04\npump_viscous_torque_nms_per_rad = 3e-4\n";
+    let rig = Rig::from_toml_str(text, "pumps.toml").unwrap();
+    let d = Dynamics::new(&rig, Effects::for_rig(&rig).unwrap()).unwrap();
+    let (mut x, u) = d.operating_point();
+    let si = rig.si();
+    let (p1, p2, w) = (25.0e5, 9.0e5, [-40.0, 90.0]);
+    (x[2], x[3], x[4], x[5]) = (p1, p2, w[0], w[1]);
+    let dp = [p1 - p2, p1];
+    let friction = |i: usize| 0.04 * si.d[i] * dp[i].abs() * (w[i] / 0.6).tanh() + 3e-4 * w[i];
+    // the drives' torques at their loads: no acceleration
+    (x[6], x[7]) = (dp[0] * si.d[0] + friction(0), dp[1] * si.d[1] + friction(1));
+    let p: Power = d.power(&x, &u);
+    let get = |kind: &str| p.losses_w.iter().find(|(k, _)| *k == kind).unwrap().1;
+    let want = friction(0) * w[0] + friction(1) * w[1];
+    assert!(
+        (get("pump_friction") - want).abs() <= 1e-12 * want.abs(),
+        "{p:?}"
+    );
+    let mut dx = vec![0.0; x.len()];
+    d.rhs(&x, &u, &mut dx);
+    for i in [4, 5] {
+        assert!(dx[i].abs() <= 1e-9, "drive {}: {} rad/s²", i - 3, dx[i]);
+    }
+    assert!(p.imbalance_w().abs() <= 1e-9 * p.scale_w());
 }

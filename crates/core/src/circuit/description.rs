@@ -119,7 +119,7 @@ pub const DRIVE_KEYS: &[&str] = &[
 ];
 
 /// The keys `a` then `b` as one list: a circuit's own keys after keys it shares with others
-/// (the drives' [`super::energy::ELECTRIC_KEYS`]). `N` must be their number.
+/// (the drives' [`super::energy::LOSS_KEYS`]). `N` must be their number.
 pub const fn joined<const N: usize>(a: &[Key], b: &[Key]) -> [Key; N] {
     assert!(a.len() + b.len() == N, "N is the number of keys joined");
     let mut out = [a[0]; N];

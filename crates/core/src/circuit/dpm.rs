@@ -122,11 +122,7 @@ impl Dpm {
         let si = rig.si();
         let layout = Layout::for_rig(rig);
         let (piston, chambers) = cylinder_of_rig(rig, &e, stops);
-        let pumps = si.d.map(|d| Pump {
-            displacement_m3: d,
-            dead_band_rad_s: e.dead_band_rad_s,
-            slip_m5_per_ns: e.slip_m5_per_ns,
-        });
+        let pumps = si.d.map(|d| Pump::of(d, &e));
         let motors = match layout.tau {
             Some(tau) => Motors::Full(
                 [0, 1].map(|i| Drive {
@@ -463,12 +459,14 @@ impl Dpm {
     }
 
     /// The pumps' load torques on the drives (N·m) at state `x`: pump 1's D1 (p1 − p2), pump
-    /// 2's D2 p1; none without the motor–hydraulics coupling.
+    /// 2's D2 p1, each with its friction ([`Pump::friction_torque`]); none without the
+    /// motor–hydraulics coupling.
     fn loads<T: Scalar>(&self, x: &[T]) -> [T; 2] {
         let (l, si) = (&self.layout, &self.si);
         let (p1, p2) = (x[l.p[0]], x[l.p[1]]);
         if self.coupling {
-            [(p1 - p2) * si.d[0], p1 * si.d[1]]
+            let dp = [p1 - p2, p1];
+            [0, 1].map(|i| dp[i] * si.d[i] + self.pumps[i].friction_torque(x[l.w[i]], dp[i]))
         } else {
             [T::from(0.0); 2]
         }
@@ -636,7 +634,7 @@ impl super::Module for Module {
             "pump_inertia_2_kg_mm2",
             "displacement_2_cm3_per_rev",
         ],
-        keys: &energy::ELECTRIC_KEYS,
+        keys: &energy::LOSS_KEYS,
         no_modes: Some(NO_MODES),
     };
     type Linear = Dpm;

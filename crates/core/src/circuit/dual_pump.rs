@@ -151,11 +151,7 @@ impl DualPump {
             piston,
             chambers,
             fluid: Fluid::of(si.beta, &e),
-            pumps: si.d.map(|d| Pump {
-                displacement_m3: d,
-                dead_band_rad_s: e.dead_band_rad_s,
-                slip_m5_per_ns: e.slip_m5_per_ns,
-            }),
+            pumps: si.d.map(|d| Pump::of(d, &e)),
             leakage: [si.c1, si.c2, si.c12],
             coupling: emulated || rig.motor_coupling,
             valves: Valves::new(rig.relief_setting_pa(CircuitKind::DualPump)),
@@ -371,7 +367,10 @@ impl DualPump {
             return T::from(0.0);
         }
         let d = self.balance.displacements_m3;
-        (s[P1] - s[P2]) * d[0] + (s[P1] - self.balance.p_acc_pa) * d[1]
+        let dp = [s[P1] - s[P2], s[P1] - self.balance.p_acc_pa];
+        let friction = self.pumps[0].friction_torque(s[W], dp[0])
+            + self.pumps[1].friction_torque(s[W], dp[1]);
+        dp[0] * d[0] + dp[1] * d[1] + friction
     }
 }
 
@@ -449,7 +448,7 @@ impl super::Module for Module {
             "relief_setting_bar",
             "cylinder_rated_pressure_bar",
         ],
-        keys: &energy::ELECTRIC_KEYS,
+        keys: &energy::LOSS_KEYS,
         no_modes: Some(NO_MODES),
     };
     type Linear = DualPump;

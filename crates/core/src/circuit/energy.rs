@@ -116,9 +116,10 @@ pub struct Electrics {
     pub regeneration: f64,
 }
 
-/// The rig keys of [`Electrics`], declared by every circuit with drives
-/// (docs/energy.md#the-drives): the defaults are pumpcyl's choice, the article giving none.
-pub const ELECTRIC_KEYS: [super::Key; 4] = [
+/// The drive train's loss keys, declared by every circuit with drives: those of [`Electrics`]
+/// (docs/energy.md#the-drives) and the pumps' torque losses (docs/energy.md#the-pumps). The
+/// defaults are pumpcyl's choice, the article giving none.
+pub const LOSS_KEYS: [super::Key; 6] = [
     super::Key {
         name: "motor_winding_resistance_ohm",
         doc: "ohm, the motor winding's resistance as its copper loss R (tau/k_t)^2 sees it (3 x the phase resistance for k_t per phase current); 0 = no copper loss",
@@ -143,10 +144,22 @@ pub const ELECTRIC_KEYS: [super::Key; 4] = [
         default: 0.0,
         range: crate::rig::Range::NonNegative(1.0),
     },
+    super::Key {
+        name: "pump_friction_torque_fraction",
+        doc: "-, a pump's Coulomb torque loss as a fraction C_f of its ideal torque D |dp|, against the rotation (emulator); 0 = none",
+        default: 0.0,
+        range: crate::rig::Range::NonNegative(1.0),
+    },
+    super::Key {
+        name: "pump_viscous_torque_nms_per_rad",
+        doc: "N·m·s/rad, a pump's viscous torque loss b_p w (emulator); 0 = none",
+        default: 0.0,
+        range: crate::rig::Range::NonNegative(10.0),
+    },
 ];
 
 impl Electrics {
-    /// The electrical side of `rig`'s drives ([`ELECTRIC_KEYS`]).
+    /// The electrical side of `rig`'s drives ([`LOSS_KEYS`]).
     pub fn of(rig: &crate::rig::Rig) -> Electrics {
         Electrics {
             resistance_ohm: rig.circuit_key("motor_winding_resistance_ohm"),
@@ -244,15 +257,17 @@ pub fn motor(
     }
 }
 
-/// A pump's share (docs/energy.md#the-pumps): of the shaft power D·ω·Δp its load torque takes
-/// (`coupled`; without the coupling the drive carries no load and the pump's power comes from
-/// outside, a source of its own), it delivers q·Δp and loses (D·ω − q)·Δp in its dead band
-/// and slip. `dp` is outlet minus inlet (Pa); returns the delivered flow q (m³/s).
+/// A pump's share (docs/energy.md#the-pumps): of the shaft power (D·Δp + τ_f)·ω its load
+/// torque takes (`coupled`; without the coupling the drive carries no load and the pump's power
+/// comes from outside, a source of its own), its friction torque τ_f turns τ_f·ω into heat,
+/// and it delivers q·Δp and loses (D·ω − q)·Δp in its dead band and slip. `dp` is outlet minus inlet (Pa); returns the delivered flow q (m³/s).
 pub fn pump(pump: &Pump, w: f64, dp: f64, coupled: bool, power: &mut Power) -> f64 {
     let q = pump.flow(w, dp);
+    let friction = pump.friction_torque(w, dp) * w;
     if !coupled {
-        power.source("uncoupled_pumps", pump.displacement_m3 * w * dp);
+        power.source("uncoupled_pumps", pump.displacement_m3 * w * dp + friction);
     }
+    power.loss("pump_friction", friction);
     power.loss(
         "pump_slip_and_dead_band",
         (pump.displacement_m3 * w - q) * dp,

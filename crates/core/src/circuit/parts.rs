@@ -19,6 +19,11 @@ pub const BETA_OIL_BAR: f64 = 17_000.0;
 /// Velocity scale of the smooth Coulomb friction sign (m/s).
 pub const COULOMB_SMOOTHING_M_S: f64 = 1e-3;
 
+/// The speed over which a pump's Coulomb torque loss reverses with the rotation (rad/s): its
+/// sign smoothed as tanh(ω / this), as the piston's Coulomb friction's (a tenth of the article
+/// rig's 60 rpm dead band).
+pub const PUMP_FRICTION_SMOOTHING_RAD_S: f64 = 0.6;
+
 /// The effects beyond the LTI model, each switchable: the switches of the parts.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Effects {
@@ -41,6 +46,10 @@ pub struct Effects {
     pub slip_m5_per_ns: f64,
     /// Coulomb friction force (N); 0 = none.
     pub coulomb_n: f64,
+    /// A pump's Coulomb torque loss as a fraction C_f of its ideal torque D·|Δp|; 0 = none.
+    pub pump_friction_fraction: f64,
+    /// A pump's viscous torque loss b_p·ω (N·m·s/rad); 0 = none.
+    pub pump_viscous_nms_per_rad: f64,
     /// The moving mass follows the rig's `mass_by_position` along the stroke ([`MassLaw`]);
     /// off, or a rig without a table, keeps `mass_kg` everywhere.
     pub stroke_mass: bool,
@@ -62,6 +71,8 @@ impl Effects {
             dead_band_rad_s: 0.0,
             slip_m5_per_ns: 0.0,
             coulomb_n: 0.0,
+            pump_friction_fraction: 0.0,
+            pump_viscous_nms_per_rad: 0.0,
             stroke_mass: false,
         }
     }
@@ -82,6 +93,8 @@ impl Effects {
             dead_band_rad_s: PUMP_DEAD_BAND_RPM * crate::units::RAD_S_PER_RPM,
             slip_m5_per_ns: ARTICLE_PUMP_SLIP_M5_PER_NS,
             coulomb_n: ARTICLE_COULOMB_FRICTION_N,
+            pump_friction_fraction: 0.0,
+            pump_viscous_nms_per_rad: 0.0,
             stroke_mass: true,
         }
     }
@@ -94,13 +107,17 @@ impl Effects {
 
     /// These effects with `rig`'s own pump dead band, slip leakage and Coulomb friction (its
     /// keys `pump_dead_band_rpm`, `pump_slip_m5_per_ns`, `coulomb_friction_n`, or the defaults
-    /// [`crate::rig::Rig::pump_slip`] and [`crate::rig::Rig::coulomb_friction`] derive): on the
-    /// article's rig exactly [`Effects::all`]'s (docs/emulator.md#what-a-user-rig-gets).
+    /// [`crate::rig::Rig::pump_slip`] and [`crate::rig::Rig::coulomb_friction`] derive) and its
+    /// pumps' torque losses (`pump_friction_torque_fraction`, `pump_viscous_torque_nms_per_rad`;
+    /// docs/energy.md#the-pumps): on the article's rig exactly [`Effects::all`]'s
+    /// (docs/emulator.md#what-a-user-rig-gets).
     pub fn with_rig(self, rig: &crate::rig::Rig) -> Effects {
         Effects {
             dead_band_rad_s: rig.pump_dead_band_rpm * crate::units::RAD_S_PER_RPM,
             slip_m5_per_ns: rig.pump_slip(),
             coulomb_n: rig.coulomb_friction(),
+            pump_friction_fraction: rig.circuit_key("pump_friction_torque_fraction"),
+            pump_viscous_nms_per_rad: rig.circuit_key("pump_viscous_torque_nms_per_rad"),
             ..self
         }
     }
@@ -317,9 +334,35 @@ pub struct Pump {
     pub dead_band_rad_s: f64,
     /// Slip leakage across the ports at standstill (m⁵/(N·s)).
     pub slip_m5_per_ns: f64,
+    /// Coulomb torque loss as a fraction of D·|Δp|.
+    pub friction_fraction: f64,
+    /// Viscous torque loss (N·m·s/rad).
+    pub viscous_nms_per_rad: f64,
 }
 
 impl Pump {
+    /// A pump of displacement `d` (m³/rad) with the dead band, slip and torque losses of `e`.
+    pub fn of(d: f64, e: &Effects) -> Pump {
+        Pump {
+            displacement_m3: d,
+            dead_band_rad_s: e.dead_band_rad_s,
+            slip_m5_per_ns: e.slip_m5_per_ns,
+            friction_fraction: e.pump_friction_fraction,
+            viscous_nms_per_rad: e.pump_viscous_nms_per_rad,
+        }
+    }
+
+    /// The torque its friction takes from the shaft at speed `w` (rad/s) against `dp` (Pa)
+    /// (docs/energy.md#the-pumps): a Coulomb part C_f·D·|Δp| against the rotation (its sign
+    /// smoothed over [`PUMP_FRICTION_SMOOTHING_RAD_S`]) and a viscous part b_p·ω, after
+    /// Wilson's pump model; exactly 0 without them.
+    pub fn friction_torque<T: Scalar>(&self, w: T, dp: T) -> T {
+        if self.friction_fraction == 0.0 && self.viscous_nms_per_rad == 0.0 {
+            return T::from(0.0);
+        }
+        let coulomb = dp.abs() * (self.friction_fraction * self.displacement_m3);
+        (w / PUMP_FRICTION_SMOOTHING_RAD_S).tanh() * coulomb + w * self.viscous_nms_per_rad
+    }
     /// The flow factor at speed `w`: 1 above the dead band, fading smoothly to 0 at standstill.
     pub fn factor<T: Scalar>(&self, w: T) -> T {
         let db = self.dead_band_rad_s;
@@ -807,6 +850,8 @@ mod tests {
             displacement_m3: 2e-6,
             dead_band_rad_s: 0.0,
             slip_m5_per_ns: 4e-11,
+            friction_fraction: 0.0,
+            viscous_nms_per_rad: 0.0,
         };
         // ideal pump: flow D ω, no slip
         assert_eq!(derivative(|w| pump.flow(w, Dual64::from(1e5)), 3.0), 2e-6);
@@ -845,6 +890,8 @@ mod tests {
             displacement_m3: 2e-6,
             dead_band_rad_s: 6.0,
             slip_m5_per_ns: 4e-11,
+            friction_fraction: 0.0,
+            viscous_nms_per_rad: 0.0,
         };
         // at standstill only the slip: −slip Δp; at half the band the smoothstep 0.5
         assert_eq!(pump.flow(0.0, 1e5), -4e-11 * 1e5);

@@ -153,11 +153,7 @@ impl SinglePump {
             piston,
             chambers,
             fluid: Fluid::of(si.beta, &b.effects),
-            pump: Pump {
-                displacement_m3: si.d[0],
-                dead_band_rad_s: b.effects.dead_band_rad_s,
-                slip_m5_per_ns: b.effects.slip_m5_per_ns,
-            },
+            pump: Pump::of(si.d[0], &b.effects),
             leakage: [si.c1, si.c2, si.c12],
             coupling: b.emulated || rig.motor_coupling,
             checks: [check; 2],
@@ -264,7 +260,8 @@ impl SinglePump {
         if !self.coupling {
             return T::from(0.0);
         }
-        (s[P1] - s[P1 + 1]) * self.pump.displacement_m3
+        let dp = s[P1] - s[P1 + 1];
+        dp * self.pump.displacement_m3 + self.pump.friction_torque(s[W], dp)
     }
 
     /// The rest at x0 with chamber `acc` (0 or 1) at the accumulator pressure: the other
@@ -368,7 +365,7 @@ impl super::Module for Module {
             "relief_setting_bar",
             "cylinder_rated_pressure_bar",
         ],
-        keys: &super::description::joined::<6>(&energy::ELECTRIC_KEYS, &[
+        keys: &super::description::joined::<8>(&energy::LOSS_KEYS, &[
             super::Key {
                 name: "pilot_ratio",
                 doc: "pilot ratio k of the single-pump circuit's pilot-operated check valves (pilot over seat area)",

@@ -373,7 +373,10 @@ impl CycleRun {
         let load_w = |k: usize| at("work_out_w", k) + at("stored_load_motion_w", k);
         let net_j: f64 = e.sources_j.iter().map(|(_, j)| j).sum();
         let regenerated_j = 0.0 - e.of("regenerated");
-        let drawn_j = net_j + regenerated_j;
+        let drawn_j: f64 = (e.sources_j.iter())
+            .filter(|(k, _)| *k != "regenerated")
+            .map(|(_, j)| j)
+            .sum();
         let load_work_j = (0..rows).map(|k| load_w(k).max(0.0)).sum::<f64>() * period_s;
         let duration_s = period_s * rows.saturating_sub(1) as f64;
         Some(CycleEnergy {

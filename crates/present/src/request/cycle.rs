@@ -6,7 +6,7 @@ use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
 use crate::emulated::{basis, columns_json, energy_json, warnings, Outcome};
 use crate::format::fmt_short;
 use crate::records::record_csv;
-use pumpcyl::circuit::energy::ELECTRIC_KEYS;
+use pumpcyl::circuit::energy::LOSS_KEYS;
 use pumpcyl::emulator::article::Emulated;
 use pumpcyl::emulator::cycle::{self, Cycle, CycleEnergy, CycleRun, DriveDuty};
 use pumpcyl::emulator::{article, Effects, Plc, RunError, PLC_RATE_HZ, SETTLE_S};
@@ -226,7 +226,7 @@ impl CycleOutcome {
         if self.run.drives.is_empty() {
             return json!({});
         }
-        (ELECTRIC_KEYS.iter())
+        (LOSS_KEYS.iter())
             .filter(|k| rig.circuit_key(k.name) == k.default)
             .map(|k| (k.name.to_string(), json!(k.default)))
             .collect::<serde_json::Map<_, _>>()
