@@ -22,7 +22,7 @@ fn rigs() -> Vec<(String, Rig)> {
                  supply_pressure_bar = 180.0\nvalve_rated_flow_lpm = 40.0\n\
                  valve_null_leakage_lpm = 4.0\nexternal_force_n = 15000.0\n\
                  tank_pressure_bar = 2.0\ncylinder_leakage_m5_per_ns = 1e-12\nkp = 2.0\n\
-                 mass_by_position = []\n";
+                 mass_by_position = []\nsupply_flow_lpm = 25.0\n";
     let mut out = vec![("article".to_string(), Rig::default())];
     for circuit in ["dpm", "dual-pump", "single-pump"] {
         let text = format!("{own}circuit = \"{circuit}\"\n");
@@ -360,4 +360,30 @@ fn the_pumps_torque_losses_are_their_law_by_hand() {
         assert!(dx[i].abs() <= 1e-9, "drive {}: {} rad/s²", i - 3, dx[i]);
     }
     assert!(p.imbalance_w().abs() <= 1e-9 * p.scale_w());
+}
+
+/// A valve's fixed-displacement supply by hand (docs/energy.md#the-valve): at rest it delivers
+/// its flow at the supply pressure, the lands draw the underlap's, and the relief valve spills
+/// the rest, (p_s − p_t)·(Q_pump − Q_lands) of heat; `select`'s standing cost is the whole
+/// pump's (p_s − p_t)·Q_pump.
+#[test]
+fn a_fixed_supply_spills_its_excess_through_the_relief_valve() {
+    let (_, rig) = rigs().into_iter().find(|(n, _)| n == "valve").unwrap();
+    let d = Dynamics::new(&rig, Effects::none()).unwrap();
+    let (x, u) = d.operating_point();
+    let p = d.power(&x, &u);
+    let get =
+        |list: &[(&'static str, f64)], kind: &str| list.iter().find(|(k, _)| *k == kind).unwrap().1;
+    let (ps, pt, pump) = (180.0e5, 2.0e5, 25.0e-3 / 60.0);
+    let supply = get(&p.sources_w, "supply");
+    assert!((supply - ps * pump).abs() <= 1e-9 * supply, "{p:?}");
+    let rest = rig.circuit.supply_rest(&rig).unwrap();
+    let spilled = (ps - pt) * (pump - rest.flow_m3_s);
+    assert!(rest.flow_m3_s > 0.0 && spilled > 0.0, "{rest:?}");
+    assert!(
+        (get(&p.losses_w, "supply_relief") - spilled).abs() <= 1e-6 * spilled,
+        "{p:?}"
+    );
+    // select's standing cost of the valve (docs/select.md#cost-of-the-valve-controlled-cylinder)
+    assert!((rest.power_w - (ps - pt) * pump).abs() <= 1e-9 * rest.power_w);
 }

@@ -114,6 +114,12 @@ const KEYS: &[Key] = &[
         range: Range::Positive(1e-3, 100.0),
     },
     Key {
+        name: "supply_flow_lpm",
+        doc: "L/min, a fixed-displacement supply pump's flow at the supply pressure, its excess over what the valve draws spilled through the relief valve; 0 = a pressure-compensated supply, which delivers what the valve draws",
+        default: 0.0,
+        range: Range::NonNegative(1e5),
+    },
+    Key {
         name: "cylinder_leakage_m5_per_ns",
         doc: "m⁵/(N·s), the cylinder's internal leakage, chamber 1 to chamber 2",
         default: 0.0,
@@ -133,6 +139,8 @@ struct ServoValve {
     /// Supply and tank pressures (Pa gauge).
     supply_pa: f64,
     tank_pa: f64,
+    /// A fixed-displacement supply's flow (m³/s); 0 for a pressure-compensated one.
+    fixed_supply_m3_s: f64,
     /// The spool's natural frequency (rad/s) and damping ratio.
     omega: f64,
     zeta: f64,
@@ -150,6 +158,7 @@ impl ServoValve {
             underlap: k("valve_null_leakage_lpm") * lpm / (2.0 * kv * (supply_pa / 2.0).sqrt()),
             supply_pa,
             tank_pa: k("tank_pressure_bar") * PA_PER_BAR,
+            fixed_supply_m3_s: k("supply_flow_lpm") * lpm,
             omega: 2.0 * std::f64::consts::PI * k("valve_natural_frequency_hz"),
             zeta: k("valve_damping"),
         }
@@ -533,7 +542,8 @@ impl super::Module for Module {
         Ok(super::SupplyRest {
             p_pa: [p1, p2],
             flow_m3_s: flow,
-            power_w: (c.valve.supply_pa - c.valve.tank_pa) * flow,
+            // a fixed pump's excess is spilled to the tank as well (docs/energy.md#the-valve)
+            power_w: (c.valve.supply_pa - c.valve.tank_pa) * flow.max(c.valve.fixed_supply_m3_s),
         })
     }
 
@@ -560,8 +570,9 @@ impl super::LinearForm for Valve {
 
 impl Valve {
     /// Where the power goes at state `s` under command `u` (docs/energy.md): the supply's
-    /// power p_s·(Q_PA + Q_PB), throttled on every land, taken by the tank line at its pressure,
-    /// lost in the piston's leakage, and delivered to the cylinder.
+    /// power p_s·(Q_PA + Q_PB), with a fixed pump's excess spilled through its relief valve,
+    /// throttled on every land, taken by the tank line at its pressure, lost in the piston's
+    /// leakage, and delivered to the cylinder.
     fn power_at(&self, s: &[f64], u: &[f64]) -> Power {
         let mut dx = vec![0.0; s.len()];
         self.rhs(s, u, &mut dx);
@@ -573,14 +584,17 @@ impl Valve {
         let flows = [pa - at - s[V] * a1 - cross, pb - bt + s[V] * a2 + cross];
         energy::cylinder(&self.piston, [s[X], s[V], p1, p2], flows, dx[V], &mut power);
         let (ps, pt) = (self.valve.supply_pa, self.valve.tank_pa);
-        power.source("supply", ps * (pa + pb));
+        // a fixed pump spills what the lands do not draw through the relief valve to the tank
+        let spilled = (self.valve.fixed_supply_m3_s - (pa + pb)).max(0.0);
+        power.source("supply", ps * (pa + pb + spilled));
+        power.loss("supply_relief", energy::throttled(spilled, ps, pt));
         let throttling = energy::throttled(pa, ps, p1)
             + energy::throttled(at, p1, pt)
             + energy::throttled(pb, ps, p2)
             + energy::throttled(bt, p2, pt);
         power.loss("valve_throttling", throttling);
         // the tank line at its pressure takes what returns, and gives where a chamber is below it
-        power.store("tank_line", pt * (at + bt));
+        power.store("tank_line", pt * (at + bt + spilled));
         power.loss("leakage", energy::leak(self.leakage, p1, p2));
         power
     }
