@@ -259,6 +259,27 @@ fn bad_cycles_are_refused_in_one_line() {
         &["cycle", "--cycle", "steps", "--hold-s", "0"],
         &["--hold-s 0"],
     );
+    run::refused(
+        dir.path(),
+        &["cycle", "--cycle", "steps", "--step-mm", "NaN"],
+        &["--step-mm NaN", "finite"],
+    );
+    std::fs::write(
+        dir.path().join("long.csv"),
+        "time_s,x_ref_mm\n0,300\n1e6,300\n",
+    )
+    .unwrap();
+    run::refused(
+        dir.path(),
+        &["cycle", "--cycle", "long.csv"],
+        &["--cycle long.csv", "1000000 s", "--allow-long-run"],
+    );
+    std::fs::write(dir.path().join("one.csv"), "time_s,x_ref_mm\n0,300\n").unwrap();
+    run::refused(
+        dir.path(),
+        &["cycle", "--cycle", "one.csv"],
+        &["one.csv", "2 samples"],
+    );
     // the output never replaces the profile it read
     std::fs::write(dir.path().join("p.csv"), "time_s,x_ref_mm\n0,300\n1,300\n").unwrap();
     let before = std::fs::read(dir.path().join("p.csv")).unwrap();

@@ -73,8 +73,13 @@ impl CycleRequest {
                     "the steps reach beyond the stroke (x0_mm = {} in stroke_mm = {})",
                     rig.x0_mm, rig.stroke_mm
                 );
-                let size = step_mm.is_finite() && step_mm.abs() <= reach;
-                check_field("step_mm", *step_mm, size, &beyond)?;
+                check_field(
+                    "step_mm",
+                    *step_mm,
+                    step_mm.is_finite(),
+                    "must be a finite number",
+                )?;
+                check_field("step_mm", *step_mm, step_mm.abs() <= reach, &beyond)?;
                 let held = *hold_s > 0.0 && *hold_s <= 3600.0;
                 check_field("hold_s", *hold_s, held, "must be > 0 s and at most an hour")?;
                 Cycle::Steps {
@@ -128,7 +133,8 @@ impl Request for CycleRequest {
         let duration_s = cycle.duration_s();
         pumpcyl::limits::check_emulation(duration_s, PLC_RATE_HZ, self.allow_long_run).map_err(
             |e| {
-                FieldError::new("duration_s", Given::Number(duration_s), e.to_string())
+                let problem = format!("a cycle of {duration_s} s: {e}");
+                FieldError::new("cycle", Given::Text(self.cycle.name()), problem)
                     .unless("allow_long_run")
             },
         )?;
