@@ -59,14 +59,7 @@ pub fn run(args: &CycleArgs) -> Result<String> {
     if let Some(path) = &args.out {
         format_of(path, &[Format::Csv])?;
     }
-    let cycle = match args.cycle.as_str() {
-        "article-sines" => CycleKind::ArticleSines,
-        "steps" => CycleKind::Steps {
-            step_mm: args.step_mm,
-            hold_s: args.hold_s,
-        },
-        file => CycleKind::File(PathBuf::from(file)),
-    };
+    let cycle = CycleKind::named(&args.cycle, args.step_mm, args.hold_s);
     let request = CycleRequest {
         rig: crate::emulate::load_input(&args.rig, !args.no_effects)?,
         cycle,

@@ -1641,17 +1641,7 @@ fn emulate(
             "emulate(experiment='{experiment}'): \"step\", \"sine\", \"drive-step\" or \"standstill\""
         ))
     })?;
-    let (base, origin) = match rig {
-        Some(r) => (r.clone(), r.__repr__()),
-        None => (
-            PyRig {
-                rig: pumpcyl::fmu::default_rig(pumpcyl::fmu::ModelKind::Emulator, effects)
-                    .map_err(err)?,
-                defaulted: None,
-            },
-            "the emulated article rig".to_string(),
-        ),
-    };
+    let (base, origin) = emulator_rig(rig, effects)?;
     let base = base.with("emulate", overrides)?;
     let request = request::emulate::Emulate {
         rig: RigInput {
@@ -1680,6 +1670,22 @@ fn emulate(
     // Ctrl-C stops the run at its next progress report
     let outcome = run_reporting(py, "emulate", &request, None)?;
     document(py, "emulate", "Emulated", &outcome)?.with_arrays(py, "columns", "Columns")
+}
+
+/// The rig an emulating call runs on and its name: `rig` as given, or the emulated article rig
+/// (effects on) or the article's (off), as the command line's `emulate` takes it.
+fn emulator_rig(rig: Option<&PyRig>, effects: bool) -> PyResult<(PyRig, String)> {
+    Ok(match rig {
+        Some(r) => (r.clone(), r.__repr__()),
+        None => (
+            PyRig {
+                rig: pumpcyl::fmu::default_rig(pumpcyl::fmu::ModelKind::Emulator, effects)
+                    .map_err(err)?,
+                defaulted: None,
+            },
+            "the emulated article rig".to_string(),
+        ),
+    })
 }
 
 /// Write the rig emulator or the linear model as an FMU (FMI 2.0 Co-Simulation, Linux x86-64;
@@ -1938,20 +1944,12 @@ fn cycle(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyOutcome> {
     use request::cycle::{CycleKind, CycleRequest};
-    let rig = match rig {
-        Some(r) => r.input(),
-        None => RigInput {
-            rig: pumpcyl::fmu::default_rig(pumpcyl::fmu::ModelKind::Emulator, effects)
-                .map_err(err)?,
-            name: "the emulated article rig".to_string(),
-            defaulted: None,
-        },
+    let (rig, name) = emulator_rig(rig, effects)?;
+    let rig = RigInput {
+        name,
+        ..rig.input()
     };
-    let cycle = match cycle {
-        "article-sines" => CycleKind::ArticleSines,
-        "steps" => CycleKind::Steps { step_mm, hold_s },
-        file => CycleKind::File(PathBuf::from(file)),
-    };
+    let cycle = CycleKind::named(cycle, step_mm, hold_s);
     let request = CycleRequest {
         rig,
         cycle,

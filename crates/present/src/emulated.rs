@@ -13,6 +13,7 @@ use pumpcyl::emulator::{
     DRIVE_RATE_HZ, DRIVE_RECORD_S, PLC_RATE_HZ,
 };
 use pumpcyl::limits::Work;
+use pumpcyl::response::Signals;
 use pumpcyl::rig::{Rig, PUMP_DEAD_BAND_RPM};
 use pumpcyl::source_files::FieldError;
 use pumpcyl::units::{readable, RAD_S_PER_RPM};
@@ -324,14 +325,27 @@ pub fn energy_json(e: &pumpcyl::circuit::energy::Energy) -> Value {
 /// (docs/simulation.md#drive-ratings), one line each, and the first chamber at the cavitation
 /// floor; none for a drive record.
 pub fn warnings(rig: &Rig, run: &Outcome) -> Vec<String> {
-    let mut lines = match &run.data {
-        Emulated::Loop(s) => crate::documents::rating_warning_lines(
+    let signals = match &run.data {
+        Emulated::Loop(s) => Some(s),
+        Emulated::Drive(_) => None,
+    };
+    run_warnings(rig, signals, run.cavitation)
+}
+
+/// [`warnings`] of a run on `rig` with the closed-loop `signals` (none for a drive record) and
+/// the first chamber at the cavitation floor, if any.
+pub fn run_warnings(
+    rig: &Rig,
+    signals: Option<&Signals>,
+    cavitation: Option<FloorHit>,
+) -> Vec<String> {
+    let mut lines = signals.map_or_else(Vec::new, |s| {
+        crate::documents::rating_warning_lines(
             "emulated",
             &pumpcyl::response::signals_over_ratings(rig, s),
-        ),
-        Emulated::Drive(_) => Vec::new(),
-    };
-    lines.extend(run.cavitation.map(|hit| format!("emulated: {hit}")));
+        )
+    });
+    lines.extend(cavitation.map(|hit| format!("emulated: {hit}")));
     lines.extend(pumpcyl::circuit::valves::relief_warning(rig));
     lines
 }
@@ -340,9 +354,7 @@ pub fn warnings(rig: &Rig, run: &Outcome) -> Vec<String> {
 /// (docs/formats.md#record-csv, #drive-record-csv).
 pub fn columns(data: &Emulated) -> Vec<(&str, &[f64])> {
     match data {
-        Emulated::Loop(s) => (s.record_columns().into_iter())
-            .map(|(n, v)| (n, &v[..]))
-            .collect(),
+        Emulated::Loop(s) => loop_columns(s),
         Emulated::Drive(d) => vec![
             ("time_s", &d.time_s[..]),
             ("w_ref_rpm", &d.w_ref_rpm[..]),
@@ -372,13 +384,20 @@ pub fn emulated_json(
         "basis": basis,
         "warnings": warnings,
         "end_stop": end_stop.map(|hit| hit.to_string()),
-        "columns": columns_json(data),
+        "columns": columns_json(&columns(data)),
     })
 }
 
-/// An emulated record's columns ([`columns`]) as a JSON object, each a list of numbers.
-pub fn columns_json(data: &Emulated) -> Value {
-    (columns(data).into_iter())
+/// A closed-loop record's columns by name ([`Signals::record_columns`]).
+pub fn loop_columns(s: &Signals) -> Vec<(&str, &[f64])> {
+    (s.record_columns().into_iter())
+        .map(|(n, v)| (n, &v[..]))
+        .collect()
+}
+
+/// A record's columns ([`columns`], [`loop_columns`]) as a JSON object, each a list of numbers.
+pub fn columns_json(columns: &[(&str, &[f64])]) -> Value {
+    (columns.iter())
         .map(|(n, v)| (n.to_string(), json!(v)))
         .collect::<serde_json::Map<String, Value>>()
         .into()

@@ -118,12 +118,9 @@ pub fn selection_energy_text(e: &SelectionEnergy) -> String {
         }
         None => {}
     }
-    let valve_meets =
-        (e.circuits.iter()).any(|c| c.meets && c.circuit.kind.description().drives == 0);
-    let valve_note = if valve_meets {
-        ""
-    } else {
-        ", which does not meet the requirement"
+    let valve_note = match e.valve_meets {
+        Some(false) => ", which does not meet the requirement",
+        _ => "",
     };
     match (e.chosen_saves_vs_valve_j, e.chosen_saves_vs_valve_fraction) {
         (Some(j), Some(f)) if j >= 0.0 => {

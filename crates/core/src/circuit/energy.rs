@@ -260,7 +260,8 @@ pub fn motor(
 /// A pump's share (docs/energy.md#the-pumps): of the shaft power (D·Δp + τ_f)·ω its load
 /// torque takes (`coupled`; without the coupling the drive carries no load and the pump's power
 /// comes from outside, a source of its own), its friction torque τ_f turns τ_f·ω into heat,
-/// and it delivers q·Δp and loses (D·ω − q)·Δp in its dead band and slip. `dp` is outlet minus inlet (Pa); returns the delivered flow q (m³/s).
+/// and it delivers q·Δp and loses (D·ω − q)·Δp in its dead band and slip. `dp` is outlet
+/// minus inlet (Pa); returns the delivered flow q (m³/s).
 pub fn pump(pump: &Pump, w: f64, dp: f64, coupled: bool, power: &mut Power) -> f64 {
     let q = pump.flow(w, dp);
     let friction = pump.friction_torque(w, dp) * w;

@@ -357,27 +357,25 @@ impl CycleRun {
     pub fn energy(&self) -> Option<CycleEnergy> {
         let e = self.emulation.energy.as_ref()?;
         let s = &self.emulation.signals;
-        let column = |name: &str| {
-            (s.power_w.iter())
-                .find(|(n, _)| n == name)
-                .map(|(_, v)| v.as_slice())
-        };
         let rows = s.time_s.len();
         let period_s = s.time_s.get(1).map_or(0.0, |t1| t1 - s.time_s[0]);
-        let at = |name: &str, k: usize| column(name).map_or(0.0, |v| v[k]);
-        let sources: Vec<&str> = (s.power_w.iter())
-            .map(|(n, _)| n.as_str())
-            .filter(|n| n.starts_with("source_"))
-            .collect();
-        let drawn_w = |k: usize| sources.iter().map(|n| at(n, k)).sum::<f64>();
-        let load_w = |k: usize| at("work_out_w", k) + at("stored_load_motion_w", k);
+        // each sample's sum of the power columns `keep` names
+        let summed = |keep: &dyn Fn(&str) -> bool| -> Vec<f64> {
+            let mut sum = vec![0.0; rows];
+            for (_, column) in s.power_w.iter().filter(|(n, _)| keep(n)) {
+                sum.iter_mut().zip(column).for_each(|(t, w)| *t += w);
+            }
+            sum
+        };
+        let drawn_w = summed(&|n| n.starts_with("source_"));
+        let load_w = summed(&|n| n == "work_out_w" || n == "stored_load_motion_w");
         let net_j: f64 = e.sources_j.iter().map(|(_, j)| j).sum();
         let regenerated_j = 0.0 - e.of("regenerated");
         let drawn_j: f64 = (e.sources_j.iter())
             .filter(|(k, _)| *k != "regenerated")
             .map(|(_, j)| j)
             .sum();
-        let load_work_j = (0..rows).map(|k| load_w(k).max(0.0)).sum::<f64>() * period_s;
+        let load_work_j = load_w.iter().map(|w| w.max(0.0)).sum::<f64>() * period_s;
         let duration_s = period_s * rows.saturating_sub(1) as f64;
         Some(CycleEnergy {
             duration_s,
@@ -390,7 +388,7 @@ impl CycleRun {
             stored_change_j: e.stored_j.iter().map(|(_, j)| j).sum(),
             efficiency: load_work_j / drawn_j,
             mean_power_w: net_j / duration_s,
-            peak_power_w: (0..rows).map(drawn_w).fold(f64::NEG_INFINITY, f64::max),
+            peak_power_w: drawn_w.into_iter().fold(f64::NEG_INFINITY, f64::max),
         })
     }
 }

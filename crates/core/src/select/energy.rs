@@ -5,7 +5,7 @@
 //! and what the chosen circuit costs against it and saves against the valve-controlled
 //! cylinder.
 
-use super::{lowest_meeting, Candidate, Circuit, Requirement, Selection};
+use super::{lowest_meeting, lowest_where, Candidate, Circuit, Requirement, Selection};
 use crate::bulk::effective_beta;
 use crate::circuit::CircuitKind;
 use crate::emulator::cycle::{self, Cycle, CycleEnergy, DriveDuty, SINE_PERIODS};
@@ -58,6 +58,8 @@ pub struct SelectionEnergy {
     pub chosen_saves_vs_valve_j: Option<f64>,
     /// The same as a share of the valve's net energy.
     pub chosen_saves_vs_valve_fraction: Option<f64>,
+    /// Whether the valve compared with meets the requirement; `None` without a valve.
+    pub valve_meets: Option<bool>,
 }
 
 /// The application's duty cycle: its waves about the rig's x0, [`SINE_PERIODS`] periods each.
@@ -76,14 +78,9 @@ fn costed(selection: &Selection) -> Vec<&Candidate> {
     (CircuitKind::ALL.into_iter())
         .filter_map(|kind| {
             let at = selection.at_min_mean_pressure.as_ref();
-            let lowest_with_gain = || {
-                (options.iter())
-                    .filter(|c| c.circuit.kind == kind && c.kp_max > 0.0)
-                    .min_by(|a, b| a.mean_pressure_bar.total_cmp(&b.mean_pressure_bar))
-            };
-            (at.filter(|c| c.circuit.kind == kind))
-                .or_else(|| lowest_meeting(options, kind).map(|k| &options[k]))
-                .or_else(lowest_with_gain)
+            let lowest = lowest_meeting(options, kind)
+                .or_else(|| lowest_where(options, kind, |c| c.kp_max > 0.0));
+            (at.filter(|c| c.circuit.kind == kind)).or(lowest.map(|k| &options[k]))
         })
         .collect()
 }
@@ -129,9 +126,10 @@ fn cost(
     })
 }
 
-/// Each circuit of `selection` that meets the requirement, run through the application's duty
-/// cycle (its waves about x0, two periods each; noise off, every effect on), and what the chosen circuit costs
-/// against the cheapest and saves against the valve (docs/select.md#energy).
+/// Each circuit of `selection` at its lowest meeting level (or, where none meets, its lowest
+/// with a gain), run through the application's duty cycle (its waves about x0, two periods
+/// each; noise off, every effect on), and what the chosen circuit costs against the cheapest
+/// that meets and saves against the valve (docs/select.md#energy).
 ///
 /// # Errors
 /// A candidate's emulation fails, or goes beyond `work`'s limit.
@@ -155,11 +153,12 @@ pub fn of_selection(
         .map(|c| c.circuit.kind);
     let chosen = selection.chosen_circuit;
     let chosen_net = chosen.and_then(net);
-    let valve = (CircuitKind::ALL.into_iter())
-        .find(|k| k.description().drives == 0)
-        .and_then(net)
+    // the valve-controlled cylinder, compared with a chosen pump circuit
+    let valve = (circuits.iter())
+        .find(|c| c.circuit.kind.description().drives == 0)
         .filter(|_| chosen.is_some_and(|k| k.description().drives > 0));
-    let saves = chosen_net.zip(valve).map(|(c, v)| v - c);
+    let valve_net = valve.map(|c| c.energy.net_j);
+    let saves = chosen_net.zip(valve_net).map(|(c, v)| v - c);
     Ok(SelectionEnergy {
         cycle: format!(
             "the application's waves about x0, {SINE_PERIODS} periods each, then {} s at rest; \
@@ -167,8 +166,9 @@ pub fn of_selection(
             cycle::SINES_REST_S
         ),
         chosen_over_cheapest_j: chosen_net.zip(cheapest.and_then(net)).map(|(c, m)| c - m),
-        chosen_saves_vs_valve_fraction: saves.zip(valve).map(|(s, v)| s / v),
+        chosen_saves_vs_valve_fraction: saves.zip(valve_net).map(|(s, v)| s / v),
         chosen_saves_vs_valve_j: saves,
+        valve_meets: valve.map(|c| c.meets),
         circuits,
         chosen,
         cheapest,

@@ -958,10 +958,19 @@ fn over_rating(rig: &Rig, standing: &[StandingLoss; 2]) -> Option<String> {
 
 /// The lowest level of `options` of the circuit `kind` that meets the requirement (index).
 fn lowest_meeting(options: &[Candidate], kind: CircuitKind) -> Option<usize> {
+    lowest_where(options, kind, |c| c.meets)
+}
+
+/// The lowest level of `options` of the circuit `kind` that `keep` accepts (index).
+fn lowest_where(
+    options: &[Candidate],
+    kind: CircuitKind,
+    keep: impl Fn(&Candidate) -> bool,
+) -> Option<usize> {
     options
         .iter()
         .enumerate()
-        .filter(|(_, c)| c.meets && c.circuit.kind == kind)
+        .filter(|(_, c)| c.circuit.kind == kind && keep(c))
         .min_by(|a, b| a.1.mean_pressure_bar.total_cmp(&b.1.mean_pressure_bar))
         .map(|(k, _)| k)
 }

@@ -3,11 +3,10 @@
 //! motor's RMS and peak torque and speed against its ratings (docs/energy.md#duty-cycles).
 
 use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
-use crate::emulated::{basis, columns_json, energy_json, warnings, Outcome};
+use crate::emulated::{basis, columns_json, energy_json, loop_columns, run_warnings};
 use crate::format::fmt_short;
 use crate::records::record_csv;
 use pumpcyl::circuit::energy::LOSS_KEYS;
-use pumpcyl::emulator::article::Emulated;
 use pumpcyl::emulator::cycle::{self, Cycle, CycleEnergy, CycleRun, DriveDuty};
 use pumpcyl::emulator::{article, Effects, Plc, RunError, PLC_RATE_HZ, SETTLE_S};
 use pumpcyl::limits::Work;
@@ -32,6 +31,16 @@ pub enum CycleKind {
 }
 
 impl CycleKind {
+    /// The cycle a front end names: `article-sines`, `steps` (of `step_mm`, each level held
+    /// `hold_s`), anything else a profile's file.
+    pub fn named(name: &str, step_mm: f64, hold_s: f64) -> CycleKind {
+        match name {
+            "article-sines" => CycleKind::ArticleSines,
+            "steps" => CycleKind::Steps { step_mm, hold_s },
+            file => CycleKind::File(PathBuf::from(file)),
+        }
+    }
+
     /// Its name in documents: `article-sines`, `steps`, or the file.
     pub fn name(&self) -> String {
         match self {
@@ -170,13 +179,8 @@ impl Request for CycleRequest {
 /// The emulated run's warnings (drive ratings, cavitation, the relief setting) and one line for
 /// each motor too small for the cycle, naming what it exceeds.
 fn cycle_warnings(rig: &pumpcyl::rig::Rig, run: &CycleRun) -> Vec<String> {
-    let outcome = Outcome {
-        data: Emulated::Loop(run.emulation.signals.clone()),
-        end_stop: run.emulation.end_stop,
-        cavitation: run.emulation.cavitation,
-        energy: None,
-    };
-    let mut lines = warnings(rig, &outcome);
+    let e = &run.emulation;
+    let mut lines = run_warnings(rig, Some(&e.signals), e.cavitation);
     lines.extend(
         run.drives
             .iter()
@@ -256,7 +260,7 @@ impl Document for CycleOutcome {
             "defaults_assumed": self.assumed(),
             "basis": self.basis,
             "warnings": self.warnings,
-            "columns": columns_json(&Emulated::Loop(self.run.emulation.signals.clone())),
+            "columns": columns_json(&loop_columns(&self.run.emulation.signals)),
         });
         Ok(r.rig.document(doc))
     }
