@@ -7,21 +7,10 @@
 use super::{reproduced, summary};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-/// `pumpcyl ARGS`, its standard output; a failure names the command.
+/// `pumpcyl ARGS`, its standard output as text.
 fn pumpcyl(args: &[String]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_pumpcyl"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "pumpcyl {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
+    String::from_utf8(super::pumpcyl_stdout(args)).unwrap()
 }
 
 /// `--set` options of a circuit's assignments.

@@ -21,6 +21,8 @@ pub(super) enum Sample {
     Line,
     /// A marker: a filled circle of the given radius (px).
     Dot(u32),
+    /// A bar: a filled square as high as a row's text.
+    Block,
     /// Nothing: the row is a note, starting where the samples do.
     Note,
 }
@@ -267,6 +269,15 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                         stroke.color.mix(stroke.opacity).filled(),
                     ))
                     .map_err(plot_err)?,
+                Sample::Block => {
+                    let h = m.font.font.get_size() as i32 / 2;
+                    let c = x + m.sample_len / 2;
+                    area.draw(&Rectangle::new(
+                        [(c - h, y - h), (c + h, y + h)],
+                        stroke.color.mix(stroke.opacity).filled(),
+                    ))
+                    .map_err(plot_err)?
+                }
                 Sample::Note => {}
             }
             let text_x = match e.sample {

@@ -53,6 +53,16 @@ pub(super) struct Pieces {
     pub(super) dots: Vec<(f64, f64)>,
 }
 
+impl Pieces {
+    /// Every point of the pieces, the lines' then the lone dots'.
+    pub(super) fn points(&self) -> Vec<(f64, f64)> {
+        (self.lines.iter().flatten())
+            .chain(&self.dots)
+            .copied()
+            .collect()
+    }
+}
+
 /// A dash pattern in px: dash, gap, dash, gap (a plain dashed or dotted line repeats its first
 /// pair; a dash-dot line does not).
 pub(super) type Dash = [i32; 4];

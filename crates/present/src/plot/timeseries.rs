@@ -11,7 +11,7 @@ use plotters::prelude::*;
 
 use super::axes::{self, categorical_axis, linear_axis, nice_axis, Axis};
 use super::bode::DEFAULT_WIDTH_PX;
-use super::error::ReportError;
+use super::error::{plot_err, ReportError};
 use super::layout;
 use super::legend::{self, LegendEntry, LegendLayout, LegendMetrics, Sample};
 use super::overlap::{self, Curve, PanelCurves};
@@ -45,7 +45,16 @@ pub enum LineStyle {
     /// No line: each point a filled circle (6 px radius at the default size), e.g. to mark a
     /// chosen value on a curve; the legend shows the circle.
     Markers,
+    /// No line: each point (x, y) a filled bar [`BAR_WIDTH`] wide centred on x, from 0 to y
+    /// (over a category axis, a category's bar); the legend shows a filled square, and the
+    /// panel's value axis holds 0. Bars are opaque and drawn in the order of the traces, so a
+    /// stacked bar is its running totals drawn tallest first.
+    Bars,
 }
+
+/// The width of a [`LineStyle::Bars`] bar, in the x axis' unit (on a category axis, of the
+/// distance between two categories).
+pub const BAR_WIDTH: f64 = 0.6;
 
 /// One curve of a panel: time in seconds and values in the panel's unit.
 ///
@@ -385,12 +394,14 @@ impl<'a> Figure<'a> {
             .iter()
             .zip(colors)
             .map(|(panel, colors)| {
+                let bars = panel.traces.iter().any(|tr| tr.style == LineStyle::Bars);
                 let y_ext = finite_extent(panel.traces.iter().flat_map(|tr| {
                     tr.t_s
                         .iter()
                         .zip(&tr.y)
                         .filter(|(t, _)| t.is_finite())
                         .map(|(_, &y)| y)
+                        .chain(bars.then_some(0.0))
                 }));
                 let (lo, hi) =
                     widen_degenerate(y_ext.map_or(0.0, |e| e.0), y_ext.map_or(0.0, |e| e.1));
@@ -544,7 +555,7 @@ impl Figure<'_> {
         let panels: Vec<PanelCurves<'_>> = (self.panels.iter().zip(y))
             .map(|(d, y)| PanelCurves {
                 curves: (d.panel.traces.iter().zip(&d.pieces).zip(&d.colors))
-                    .filter(|((t, _), _)| t.style != LineStyle::Markers)
+                    .filter(|((t, _), _)| !matches!(t.style, LineStyle::Markers | LineStyle::Bars))
                     .map(|((t, pieces), &c)| Curve {
                         group: group(t.style, c),
                         pieces,
@@ -621,12 +632,12 @@ fn draw_traces<DB: DrawingBackend>(
     let (pw, _) = chart.plotting_area().dim_in_pixel();
     let bucket_count = (pw as usize).max(1) * 2;
     for ((trace, pieces), stroke) in data.panel.traces.iter().zip(&data.pieces).zip(strokes) {
+        if trace.style == LineStyle::Bars {
+            draw_bars(chart, &pieces.points(), stroke, y)?;
+            continue;
+        }
         if trace.style == LineStyle::Markers {
-            let points: Vec<(f64, f64)> = (pieces.lines.iter().flatten())
-                .chain(&pieces.dots)
-                .copied()
-                .collect();
-            draw_pieces(chart, [], &points, stroke)?;
+            draw_pieces(chart, [], &pieces.points(), stroke)?;
             continue;
         }
         let rule = rule_time(trace).map(|t| vec![(t, y.lo), (t, y.hi)]);
@@ -635,6 +646,25 @@ fn draw_traces<DB: DrawingBackend>(
             .chain(rule);
         draw_pieces(chart, lines, &pieces.dots, stroke)?;
     }
+    Ok(())
+}
+
+/// Draw each of `points` as a filled bar [`BAR_WIDTH`] wide from 0 (or the axis `y`'s nearer
+/// end) to its value, in the colour of `stroke`.
+fn draw_bars<DB: DrawingBackend>(
+    chart: &mut axes::Chart<'_, DB>,
+    points: &[(f64, f64)],
+    stroke: &Stroke,
+    y: &Axis,
+) -> Result<(), ReportError> {
+    let base = 0.0_f64.clamp(y.lo, y.hi);
+    let half = BAR_WIDTH / 2.0;
+    let fill = stroke.color.mix(stroke.opacity).filled();
+    chart
+        .draw_series(points.iter().map(|&(x, v)| {
+            Rectangle::new([(x - half, base), (x + half, v.clamp(y.lo, y.hi))], fill)
+        }))
+        .map_err(plot_err)?;
     Ok(())
 }
 
@@ -686,7 +716,7 @@ impl TraceStyles {
             color: series_color(color),
             width: self.line_w + level * self.band_w,
             pattern: match style {
-                LineStyle::Solid | LineStyle::Markers => None,
+                LineStyle::Solid | LineStyle::Markers | LineStyle::Bars => None,
                 LineStyle::Dashed => Some(self.dash),
                 LineStyle::Dotted => Some(self.dot),
                 LineStyle::DashDot => Some(self.dash_dot),
@@ -751,6 +781,7 @@ fn legend_entries(data: &PanelData<'_>, strokes: &[Stroke]) -> Vec<LegendEntry> 
             e.sample = match (t.t_s.is_empty(), t.style) {
                 (true, _) => Sample::Note,
                 (false, LineStyle::Markers) => Sample::Dot(stroke.dot_r),
+                (false, LineStyle::Bars) => Sample::Block,
                 (false, _) => Sample::Line,
             };
             e
@@ -1058,5 +1089,54 @@ mod tests {
         assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
         let short = &line[..50];
         assert_eq!(decimate(short, 0.0, 10.0, 100), short.to_vec());
+    }
+
+    #[test]
+    fn bars_stand_on_zero_and_are_as_high_as_their_values() {
+        let bars = |label: &str, y: &[f64], color| Trace {
+            label: label.into(),
+            t_s: vec![1.0, 2.0],
+            y: y.to_vec(),
+            style: LineStyle::Bars,
+            color: Some(color),
+        };
+        // a stack: the running total drawn first, the lower kind over it
+        let panel = Panel {
+            y_label: "energy (J)".into(),
+            traces: vec![bars("b", &[30.0, 50.0], 1), bars("a", &[20.0, 10.0], 0)],
+            ..Default::default()
+        };
+        let names = ["one".to_string(), "two".to_string()];
+        let svg = panels_categorical_svg("t", None, ("x", &names), &[panel]).unwrap();
+        // the value axis holds 0 although every value is above it
+        assert!(svg.contains(">\n0\n<") || svg.contains(">0<"), "{svg}");
+        // four filled bars in the two colours (blue #0072B2, vermillion #D55E00), each as high as
+        // its value in the axis' pixels: heights proportional to 30, 50, 20, 10
+        let rects: Vec<(String, f64)> = svg
+            .split("<rect")
+            .skip(1)
+            .filter_map(|r| {
+                let attr = |k: &str| {
+                    let at = r.find(&format!(" {k}=\""))? + k.len() + 3;
+                    r[at..].split('"').next().map(str::to_string)
+                };
+                let fill = attr("fill")?;
+                let h: f64 = attr("height")?.parse().ok()?;
+                ["#0072B2", "#D55E00"]
+                    .contains(&fill.as_str())
+                    .then_some((fill, h))
+            })
+            .collect();
+        // the bars, then the legend's two squares
+        assert_eq!(rects.len(), 6, "{rects:?}");
+        assert_eq!(rects[4].1, rects[5].1, "the legend's squares");
+        let (b, a): (Vec<_>, Vec<_>) = rects[..4].iter().partition(|r| r.0 == "#D55E00");
+        let unit = b[0].1 / 30.0;
+        for (got, want) in [(b[1].1, 50.0), (a[0].1, 20.0), (a[1].1, 10.0)] {
+            assert!(
+                (got - want * unit).abs() <= 1.5,
+                "{got} px for {want} J ({unit} px/J)"
+            );
+        }
     }
 }

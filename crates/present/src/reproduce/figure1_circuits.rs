@@ -142,7 +142,7 @@ fn dpm_rest_p1_bar(rig: &Rig) -> f64 {
 }
 
 /// The four circuits: label and the `--set` assignments from the default rig.
-fn circuits(base: &Rig) -> Vec<(String, Vec<String>)> {
+pub(super) fn circuits(base: &Rig) -> Vec<(String, Vec<String>)> {
     let d2 = matched_d2_cm3_per_rev(base);
     let p_acc = dpm_rest_p1_bar(base);
     vec![

@@ -33,6 +33,7 @@ mod bias;
 mod case;
 mod certainty;
 mod circuit;
+mod energy;
 mod figure1_circuits;
 mod identification;
 mod pressure;
@@ -62,7 +63,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The number of steps [`reproduce`] announces through [`ReproduceOptions::on_step`].
-pub const STEPS: usize = 13;
+pub const STEPS: usize = 14;
 
 /// What the article prints, for the side-by-side tables (the article §2.1, §2.3, §2.4).
 mod printed {
@@ -483,14 +484,16 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         ..*opts
     };
     let figure1 = || -> Result<_> {
-        let mut part = Run::apart(&quiet, STEPS - 3);
+        let mut part = Run::apart(&quiet, STEPS - 4);
         let found = figure1_circuits::figure1_circuits(&mut part)?;
         Ok((found, part))
     };
+    // the energy study (step 14) costs step 13's valve beside the Figure 1 circuits
     let valve = || -> Result<_> {
-        let mut part = Run::apart(&quiet, STEPS - 1);
+        let mut part = Run::apart(&quiet, STEPS - 2);
         let found = valve_or_pump::valve_or_pump(&mut part)?;
-        Ok((found, part))
+        let energy = energy::energy_study(&mut part, &found)?;
+        Ok((found, energy, part))
     };
     std::thread::scope(|scope| {
         let figure1 = scope.spawn(|| Ok::<_, anyhow::Error>((figure1()?, valve()?)));
@@ -515,7 +518,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
         };
         let (certainty, how_sure) =
             certainty::how_sure(&mut run, &exp, &nominal, pressure.p_mean_bar, &truth_point)?;
-        let mut sweep_run = Run::apart(&quiet, STEPS - 2);
+        let mut sweep_run = Run::apart(&quiet, STEPS - 3);
         let (which_circuit, sweep_beside_steps) = rayon::join(
             || {
                 circuit::which_circuit(
@@ -536,7 +539,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
             },
         );
         let (which_circuit, sweep_beside_steps) = (which_circuit?, sweep_beside_steps?);
-        let ((figure1_circuits, figure1_run), (valve_or_pump, valve_run)) = figure1
+        let ((figure1_circuits, figure1_run), (valve_or_pump, energy, valve_run)) = figure1
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
         run.merge(figure1_run);
@@ -570,6 +573,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> Result<Reproduction> {
             figure1_circuits,
             sweep_beside_steps,
             valve_or_pump,
+            energy,
             seconds,
         };
         Ok(Reproduction {

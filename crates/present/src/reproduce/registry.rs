@@ -46,6 +46,7 @@ pub const FIGURES: &[Registered] = &[
     fig("sweep_beside_steps", Source::Own),
     fig("bode_valve_or_pump", Source::Own),
     fig("step_valve_or_pump", Source::Own),
+    fig("energy_per_circuit", Source::Own),
 ];
 
 /// The registered figure `stem` drawn as the article figure `source`: an error names a

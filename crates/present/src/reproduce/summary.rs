@@ -11,6 +11,7 @@ use pumpcyl::response::TrackMetrics;
 use serde::Serialize;
 
 pub use super::case::Case;
+pub use super::energy::{CircuitCycle, EnergyStudy, Published};
 pub use super::figure1_circuits::{Chatter, CircuitRun, Figure1Circuits, ModeMargins, Wave};
 pub use super::valve_or_pump::{Side, ValveOrPump};
 
@@ -66,6 +67,9 @@ pub struct Summary {
     /// Step 13: the article's rig with its DPM and with a servo valve (pumpcyl's own study of
     /// the article's introduction, §3.2 and §4).
     pub valve_or_pump: ValveOrPump,
+    /// Step 14: the energy of the article's three sines on every circuit of the report
+    /// (pumpcyl's own study of the article's introduction; docs/energy.md).
+    pub energy: EnergyStudy,
     /// Wall-clock time of the workflow (s).
     pub seconds: f64,
 }

@@ -229,9 +229,19 @@ impl CycleOutcome {
         record_csv(&self.run.emulation.signals)
     }
 
+    /// The cycle's energy in figures.
+    pub fn energy(&self) -> &CycleEnergy {
+        &self.energy
+    }
+
+    /// The run: the record, its account and the drives' duty.
+    pub fn run(&self) -> &CycleRun {
+        &self.run
+    }
+
     /// The drives' electrical keys at pumpcyl's defaults, which the energies rest on
     /// (docs/energy.md#the-drives); none for a circuit without drives.
-    fn assumed(&self) -> Value {
+    pub fn assumed(&self) -> Value {
         let rig = &self.request.rig.rig;
         if self.run.drives.is_empty() {
             return json!({});
