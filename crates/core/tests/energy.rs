@@ -387,3 +387,45 @@ fn a_fixed_supply_spills_its_excess_through_the_relief_valve() {
     // select's standing cost of the valve (docs/select.md#cost-of-the-valve-controlled-cylinder)
     assert!((rest.power_w - (ps - pt) * pump).abs() <= 1e-9 * rest.power_w);
 }
+
+/// Drive sizing's RMS torque is the torque's square integrated with the account
+/// (docs/energy.md#drive-sizing), not sampled at the PLC's instants: over a cycle of steps with
+/// the PLC's noisy commands (the drives' current loops answer each new command within a
+/// millisecond) the motors' RMS torques give back the copper loss R·∫(τ/k_t)² dt that the
+/// account integrates under its error control, on the DPM and dual-pump rigs of our own; and no
+/// RMS exceeds its peak.
+#[test]
+fn the_rms_torque_gives_back_the_copper_loss() {
+    use pumpcyl::emulator::article;
+    use pumpcyl::emulator::cycle::{self, Cycle};
+    use pumpcyl::limits::Work;
+    for (name, rig) in rigs()
+        .into_iter()
+        .filter(|(n, _)| n == "dpm" || n == "dual-pump")
+    {
+        let d = Dynamics::new(&rig, Effects::for_rig(&rig).unwrap()).unwrap();
+        let steps = Cycle::Steps {
+            centre_mm: rig.x0_mm,
+            amplitude_mm: 20.0,
+            hold_s: 1.5,
+        };
+        let run = cycle::run(&rig, &d, &article::plc(7), (1.0, &steps), &Work::QUIET).unwrap();
+        let t = &run.emulation.signals.time_s;
+        let seconds = t[t.len() - 1] - t[0];
+        let copper = run.emulation.energy.as_ref().unwrap().of("copper");
+        let r_per_kt2 = rig.circuit_key("motor_winding_resistance_ohm")
+            / rig.circuit_key("motor_torque_constant_nm_per_a").powi(2);
+        let from_rms: f64 = (run.drives.iter())
+            .map(|m| r_per_kt2 * m.rms_torque_nm.powi(2) * seconds)
+            .sum();
+        assert!(copper > 0.1, "{name}: {copper} J of copper loss");
+        assert!(
+            (from_rms - copper).abs() <= 1e-5 * copper,
+            "{name}: the RMS torques give {from_rms} J, the account {copper} J"
+        );
+        for m in &run.drives {
+            assert!(m.rms_torque_nm <= m.peak_torque_nm, "{name}: {m:?}");
+            assert!(m.rms_speed_rpm <= m.peak_speed_rpm, "{name}: {m:?}");
+        }
+    }
+}

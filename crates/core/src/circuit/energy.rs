@@ -308,6 +308,13 @@ pub struct Energy {
     pub losses_j: Vec<(&'static str, f64)>,
     /// The change of each kind of stored energy.
     pub stored_j: Vec<(&'static str, f64)>,
+    /// Each drive's ∫ω² dt and ∫τ² dt over the run (rad²/s, N²·m²·s), in the circuit's order of
+    /// drives, integrated with the account: the RMS speed and torque of drive sizing
+    /// (docs/energy.md#drive-sizing). Not part of the account.
+    pub drive_squares: Vec<[f64; 2]>,
+    /// Each drive's largest |ω| and |τ| over the run (rad/s, N·m) at the integrator's steps:
+    /// drive sizing's peaks. Not part of the account.
+    pub drive_peaks: Vec<[f64; 2]>,
 }
 
 impl Energy {
@@ -334,6 +341,16 @@ impl Energy {
             stored_w: other.stored_j.clone(),
         };
         self.add(&as_power, 1.0);
+        let fold = |to: &mut Vec<[f64; 2]>, from: &[[f64; 2]], f: fn(f64, f64) -> f64| {
+            if to.len() < from.len() {
+                to.resize(from.len(), [0.0; 2]);
+            }
+            for (t, f_) in to.iter_mut().zip(from) {
+                *t = [f(t[0], f_[0]), f(t[1], f_[1])];
+            }
+        };
+        fold(&mut self.drive_squares, &other.drive_squares, |a, b| a + b);
+        fold(&mut self.drive_peaks, &other.drive_peaks, f64::max);
     }
 
     /// Sources − work out − losses − stored changes (J): zero but for rounding.

@@ -3,9 +3,9 @@
 //! profile — run on the emulated rig with its power account, and what the drives go through:
 //! the RMS and peak torque and speed of each motor against its ratings.
 
+use super::integrate::drive_states;
 use super::{emulate_profile, Dynamics, Emulation, Plc, Profile, RunError};
 use crate::circuit::parts::PEAK_TORQUE_FACTOR;
-use crate::circuit::{Circuit, Role};
 use crate::limits::Work;
 use crate::record::{RecordError, Table};
 use crate::rig::Rig;
@@ -228,15 +228,32 @@ pub struct CycleRun {
     pub drives: Vec<DriveDuty>,
 }
 
-/// The duty of each drive from its (speed, torque) at each sample (rad/s, N·m).
-fn duties(rig: &Rig, samples: &[Vec<[f64; 2]>]) -> Vec<DriveDuty> {
-    let n = samples.len().max(1) as f64;
+/// Each drive's RMS and peak (speed, torque) over the run (rad/s, N·m), integrated with the
+/// account: its squares over the record's length, its largest values at the integrator's steps.
+fn rms_of(emulation: &Emulation) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let t = &emulation.signals.time_s;
+    let seconds = t.last().zip(t.first()).map_or(0.0, |(b, a)| b - a);
+    let energy = emulation.energy.as_ref();
+    let rms = (energy.iter().flat_map(|e| &e.drive_squares))
+        .map(|sq| sq.map(|s| (s.max(0.0) / seconds).sqrt()))
+        .collect();
+    (rms, energy.map_or(Vec::new(), |e| e.drive_peaks.clone()))
+}
+
+/// The duty of each drive from its RMS and peak (speed, torque) over the run and its (speed,
+/// torque) at each sample (rad/s, N·m).
+fn duties(
+    rig: &Rig,
+    samples: &[Vec<[f64; 2]>],
+    (rms, peaks): &(Vec<[f64; 2]>, Vec<[f64; 2]>),
+) -> Vec<DriveDuty> {
     let drives = samples.first().map_or(0, Vec::len);
     (0..drives)
         .map(|i| {
             let of = |j: usize| samples.iter().map(move |s| s[i][j]);
-            let rms = |j: usize| (of(j).map(|v| v * v).sum::<f64>() / n).sqrt();
-            let peak = |j: usize| of(j).fold(0.0, |m: f64, v| m.max(v.abs()));
+            let rms = |j: usize| rms.get(i).map_or(f64::NAN, |r| r[j]);
+            let integrated = |j: usize| peaks.get(i).map_or(0.0, |p| p[j]);
+            let peak = |j: usize| of(j).fold(integrated(j), |m: f64, v| m.max(v.abs()));
             let mut duty = DriveDuty {
                 motor: i + 1,
                 rms_torque_nm: rms(1),
@@ -286,21 +303,10 @@ pub fn run(
     (settle_s, cycle): (f64, &Cycle),
     work: &Work,
 ) -> Result<CycleRun, RunError> {
-    let states = dynamics.circuit().states();
-    let at = |role: Role| -> Vec<usize> {
-        (states.iter().enumerate())
-            .filter(|(_, s)| s.role == role)
-            .map(|(i, _)| i)
-            .collect()
-    };
-    let (speeds, torques) = (at(Role::MotorSpeed), at(Role::Torque));
+    let drives = drive_states(dynamics);
     let mut samples: Vec<Vec<[f64; 2]>> = Vec::new();
     let mut observe = |_t: f64, x: &[f64]| {
-        samples.push(
-            (speeds.iter().zip(&torques))
-                .map(|(&w, &tau)| [x[w], x[tau]])
-                .collect(),
-        );
+        samples.push(drives.iter().map(|&[w, tau]| [x[w], x[tau]]).collect());
     };
     let force = |t: f64| cycle.force_n(t).unwrap_or(rig.external_force_n);
     let profile = Profile {
@@ -317,9 +323,10 @@ pub fn run(
     let reference = |t: f64| cycle.reference_mm(t);
     let times = (settle_s, cycle.duration_s());
     let emulation = emulate_profile(rig, dynamics, &plc, times, (&reference, profile), work)?;
+    let rms = rms_of(&emulation);
     Ok(CycleRun {
+        drives: duties(rig, &samples, &rms),
         emulation,
-        drives: duties(rig, &samples),
     })
 }
 
