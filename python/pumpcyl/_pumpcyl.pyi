@@ -536,6 +536,11 @@ class Summary(Result):
     circuit, set, p_mean_bar, beta_e_bar, resonance_hz, damping_ratio, merritt_hz, kp_max,
     kv_max_per_s and max_error_mm (0.2 Hz, 35 mm); at_kp_max, each side's margins and model
     step at its kp_max (the figures bode_valve_or_pump and step_valve_or_pump)."""
+    energy: Dict[str, Any]
+    """Step 14: the article's three sines on every circuit of the report with its power account
+    (docs/energy.md#in-the-report): cycle, noise, circuits (each with label, circuit, set,
+    summary, losses_j, max_error_mm, drives, defaults_assumed, warnings),
+    dpm_saves_vs_valve_fraction and published (the figure energy_per_circuit)."""
     seconds: float
 
 class DutyCycle(Result):
