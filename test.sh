@@ -75,13 +75,13 @@ VENV=target/py-venv
 PIP_LOG=target/py-venv-pip.log
 (
     if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
-    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy mpmath dask distributed pandas
+    "$VENV/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest control fmpy mpmath dask distributed pandas playwright
     echo "== pip install ./python (maturin, dev profile)"
     PATH="$PWD/$VENV/bin:$PATH" MATURIN_PEP517_ARGS="--profile dev" "$VENV/bin/python" -m pip install -q \
         --disable-pip-version-check --no-build-isolation --force-reinstall --no-deps ./python
 ) > "$PIP_LOG" 2>&1 &
 PIP_PID=$!
-echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath dask distributed pandas, then pip install ./python (in the background: $PIP_LOG)"
+echo "== python3 -m venv $VENV; pip install maturin numpy pytest control fmpy mpmath dask distributed pandas playwright, then pip install ./python (in the background: $PIP_LOG)"
 
 if [ -z "${PUMPCYL_SKIP_RUST:-}" ]; then
     # every crate of the workspace, the Python extension's too, from the registry where this

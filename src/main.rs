@@ -22,6 +22,7 @@ mod interrupt;
 mod read_files;
 mod reproduce;
 mod select;
+mod serve;
 mod sweep;
 mod time;
 
@@ -118,6 +119,10 @@ enum Command {
     /// The article's whole workflow on the embedded rig and emulated records: figures, a
     /// summary.json and a self-contained report.html in one folder.
     Reproduce(reproduce::ReproduceArgs),
+    /// The designer: a local page where the rig's fields and sliders move the margins, the
+    /// Bode diagram, the step, the poles and β_e against pressure live, every number the
+    /// command line's own (docs/serve.md); on 127.0.0.1 unless asked otherwise.
+    Serve(serve::ServeArgs),
 }
 
 #[derive(Debug, Args)]
@@ -276,7 +281,19 @@ pub fn run() -> Result<()> {
         <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     emit::set_force(cli.force);
     emit::check_distinct_outputs(&matches)?;
-    let text = match cli.command {
+    if let Command::Serve(args) = &cli.command {
+        return serve::run(args);
+    }
+    let text = dispatch(cli.command)?;
+    if let Some(note) = read_files::rig_defaults_note() {
+        eprintln!("note: {}", escape_controls(&note));
+    }
+    emit::emit(&text)
+}
+
+/// Run one command, its document or text as the command line prints it.
+fn dispatch(command: Command) -> Result<String> {
+    let text = match command {
         Command::Rig(args) => {
             let rig = if args.print_default {
                 Rig::default()
@@ -310,6 +327,7 @@ pub fn run() -> Result<()> {
         Command::Frf(args) => frf::run(&args)?,
         Command::Fmu(args) => fmu::run(&args)?,
         Command::Reproduce(args) => reproduce::run(&args)?,
+        Command::Serve(_) => anyhow::bail!("serve runs a server, not a command of the page"),
     };
     // the last line of defence: a result is never printed with a value that is not a number
     anyhow::ensure!(
@@ -319,10 +337,7 @@ pub fn run() -> Result<()> {
         "the result holds a value that is not a number (NaN): the inputs take the model beyond \
          what double precision can evaluate"
     );
-    if let Some(note) = read_files::rig_defaults_note() {
-        eprintln!("note: {}", escape_controls(&note));
-    }
-    emit::emit(&text)
+    Ok(text)
 }
 
 /// An error as the command line says it: each cause after the one it explains (as `{:#}`), an

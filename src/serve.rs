@@ -1,0 +1,186 @@
+//! `pumpcyl serve`: the designer page and its API on 127.0.0.1 (docs/serve.md). The page
+//! computes nothing of its own: each of its questions is one of the command line's commands,
+//! parsed by the same parser from the page's `--set` assignments and answered with the document
+//! `--json` prints, so the page and the terminal cannot disagree.
+
+use anyhow::{anyhow, Context, Result};
+use clap::{Args, Parser};
+use std::io::Write as _;
+use std::net::IpAddr;
+use std::path::PathBuf;
+use tiny_http::{Header, Method, Request, Response, Server};
+
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// The port (0: any free port); the page's address is printed on standard output.
+    #[arg(long, default_value_t = 8765)]
+    port: u16,
+    /// The rig the page starts from (default: the embedded article rig); every answer applies the
+    /// page's assignments on top of it.
+    #[arg(long, value_name = "FILE")]
+    rig: Option<PathBuf>,
+    /// The address to listen on: this machine only unless another is asked for.
+    #[arg(long, default_value = "127.0.0.1")]
+    host: IpAddr,
+}
+
+/// The page and its script and style, compiled into the binary: nothing is fetched elsewhere.
+const ASSETS: [(&str, &str, &str); 3] = [
+    (
+        "/",
+        include_str!("../web/index.html"),
+        "text/html; charset=utf-8",
+    ),
+    (
+        "/app.js",
+        include_str!("../web/app.js"),
+        "text/javascript; charset=utf-8",
+    ),
+    (
+        "/app.css",
+        include_str!("../web/app.css"),
+        "text/css; charset=utf-8",
+    ),
+];
+
+/// The commands the page may ask for: each name, whether it answers with `--json`, and the
+/// options (besides `--set`) the page may give it. None writes a file.
+const COMMANDS: [(&str, bool, &[&str]); 8] = [
+    ("margins", true, &[]),
+    ("poles", true, &[]),
+    ("design", true, &[]),
+    ("step", true, &["step-mm", "duration-s"]),
+    ("track", true, &["freq-hz", "amplitude-mm"]),
+    ("bulk-modulus", true, &[]),
+    ("bode", false, &["from-hz", "to-hz", "points-per-decade"]),
+    ("rig", false, &[]),
+];
+
+/// The most assignments and options one question may carry, and the longest query (bytes).
+const MAX_ARGS: usize = 400;
+const MAX_QUERY: usize = 64 * 1024;
+
+/// `pumpcyl serve`: answer the page until interrupted.
+pub fn run(args: &ServeArgs) -> Result<()> {
+    let server = Server::http((args.host, args.port))
+        .map_err(|e| anyhow!("cannot listen on {}:{}: {e}", args.host, args.port))?;
+    let addr = server
+        .server_addr()
+        .to_ip()
+        .context("the server has no IP address")?;
+    println!("pumpcyl serve: the designer page at http://{addr}/ (Ctrl-C stops it)");
+    std::io::stdout().flush()?;
+    for request in server.incoming_requests() {
+        let response = respond(&request, args);
+        // a page closed mid-answer is no error of the server's
+        let _ = request.respond(response);
+    }
+    Ok(())
+}
+
+type Answer = Response<std::io::Cursor<Vec<u8>>>;
+
+/// The answer to one request: an asset, an API answer, or 404.
+fn respond(request: &Request, args: &ServeArgs) -> Answer {
+    let url = request.url();
+    let (path, query) = url.split_once('?').unwrap_or((url, ""));
+    if *request.method() != Method::Get {
+        return text(405, "only GET", "text/plain");
+    }
+    if let Some((_, body, kind)) = ASSETS.iter().find(|(p, _, _)| *p == path) {
+        return text(200, body, kind);
+    }
+    match path.strip_prefix("/api/") {
+        Some(command) => api(command, query, args),
+        // no icon: nothing to fetch, and no error in the page's console
+        None if path == "/favicon.ico" => text(204, "", "image/x-icon"),
+        None => text(404, "not found", "text/plain"),
+    }
+}
+
+/// A response with `body` of MIME type `kind`.
+fn text(status: u16, body: &str, kind: &str) -> Answer {
+    let header = Header::from_bytes(&b"Content-Type"[..], kind.as_bytes())
+        .unwrap_or_else(|()| unreachable!("a constant header"));
+    Response::from_string(body)
+        .with_status_code(status)
+        .with_header(header)
+}
+
+/// `/api/COMMAND?set=KEY=VALUE&…&opt=NAME=VALUE`: the command's document, or 400 with
+/// `{"error": …}` naming what is wrong, as the command line would say it.
+fn api(command: &str, query: &str, args: &ServeArgs) -> Answer {
+    let error = |status: u16, message: String| {
+        let body = serde_json::json!({ "error": message }).to_string();
+        text(status, &body, "application/json")
+    };
+    let Some(&(name, json, options)) = COMMANDS.iter().find(|c| c.0 == command) else {
+        return error(404, format!("the page cannot ask for `{command}`"));
+    };
+    let argv = match argv(name, query, (json, options), args) {
+        Ok(argv) => argv,
+        Err(e) => return error(400, e.to_string()),
+    };
+    let answer = std::panic::catch_unwind(|| -> Result<String> {
+        let cli =
+            crate::Cli::try_parse_from(&argv).map_err(|e| anyhow!("{}", e.to_string().trim()))?;
+        crate::dispatch(cli.command)
+    });
+    match answer {
+        Ok(Ok(body)) => text(200, &body, kind_of(name, json)),
+        Ok(Err(e)) => error(400, crate::message(&e)),
+        Err(_) => error(
+            500,
+            format!("{name}: an internal error (a panic); please report it"),
+        ),
+    }
+}
+
+/// The MIME type of a command's answer.
+fn kind_of(name: &str, json: bool) -> &'static str {
+    match (json, name) {
+        (true, _) => "application/json",
+        (false, "bode") => "text/csv; charset=utf-8",
+        _ => "application/toml; charset=utf-8",
+    }
+}
+
+/// The command line of a question: the command, the served rig, its assignments and allowed
+/// options, `--json` where the command has it.
+fn argv(
+    name: &str,
+    query: &str,
+    (json, options): (bool, &[&str]),
+    args: &ServeArgs,
+) -> Result<Vec<String>> {
+    anyhow::ensure!(
+        query.len() <= MAX_QUERY,
+        "a query of more than {MAX_QUERY} bytes"
+    );
+    let mut argv = vec!["pumpcyl".to_string(), name.to_string()];
+    if let Some(rig) = &args.rig {
+        argv.extend(["--rig".to_string(), rig.display().to_string()]);
+    }
+    let pairs: Vec<(String, String)> = form_urlencoded::parse(query.as_bytes())
+        .into_owned()
+        .collect();
+    anyhow::ensure!(pairs.len() <= MAX_ARGS, "more than {MAX_ARGS} assignments");
+    for (field, value) in pairs {
+        match field.as_str() {
+            "set" => argv.extend(["--set".to_string(), value]),
+            "opt" => {
+                let (option, v) = value.split_once('=').unwrap_or((&value, ""));
+                anyhow::ensure!(
+                    options.contains(&option),
+                    "`{name}` takes no option `--{option}` from the page"
+                );
+                argv.extend([format!("--{option}"), v.to_string()]);
+            }
+            other => anyhow::bail!("unknown query field `{other}` (set, opt)"),
+        }
+    }
+    if json {
+        argv.push("--json".to_string());
+    }
+    Ok(argv)
+}
