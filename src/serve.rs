@@ -48,11 +48,25 @@ const ASSETS: [(&str, &str, &str); 3] = [
 const COMMANDS: [(&str, bool, &[&str]); 8] = [
     ("margins", true, &[]),
     ("poles", true, &[]),
-    ("design", true, &[]),
+    (
+        "design",
+        true,
+        &[
+            "robust",
+            "target-pm-deg",
+            "target-gm-db",
+            "stroke-mm",
+            "mass-kg",
+        ],
+    ),
     ("step", true, &["step-mm", "duration-s"]),
     ("track", true, &["freq-hz", "amplitude-mm"]),
     ("bulk-modulus", true, &[]),
-    ("bode", false, &["from-hz", "to-hz", "points-per-decade"]),
+    (
+        "bode",
+        false,
+        &["from-hz", "to-hz", "points-per-decade", "compare"],
+    ),
     ("rig", false, &[]),
 ];
 
@@ -169,12 +183,17 @@ fn argv(
         match field.as_str() {
             "set" => argv.extend(["--set".to_string(), value]),
             "opt" => {
-                let (option, v) = value.split_once('=').unwrap_or((&value, ""));
+                // NAME=VALUE, or NAME alone for a switch (`robust`)
+                let (option, v) = match value.split_once('=') {
+                    Some((o, v)) => (o, Some(v)),
+                    None => (value.as_str(), None),
+                };
                 anyhow::ensure!(
                     options.contains(&option),
                     "`{name}` takes no option `--{option}` from the page"
                 );
-                argv.extend([format!("--{option}"), v.to_string()]);
+                argv.push(format!("--{option}"));
+                argv.extend(v.map(str::to_string));
             }
             other => anyhow::bail!("unknown query field `{other}` (set, opt)"),
         }

@@ -153,26 +153,35 @@ async function update() {
   // each answer on its own: a command a circuit does not have yet (a one-motor circuit's
   // step) is named in the errors and the rest still shown
   const questions = [
-    ["margins", [], showMargins],
-    ["design", [], showDesign],
-    ["step", [], drawStep],
-    ["poles", [], showPoles],
-    ["bode", ["from-hz=0.01", "to-hz=100", "points-per-decade=60"], drawBode],
-    ["bulk-modulus", [], drawBeta],
+    ["margins", () => [], showMargins],
+    ["design", () => [], showDesign],
+    ["design", () => ["robust"], showEnvelope],
+    ["step", () => [], drawStep],
+    ["poles", () => [], showPoles],
+    ["bode", () => ["from-hz=0.01", "to-hz=100", "points-per-decade=60"].concat(envelopeCompare()), drawBode],
+    ["bulk-modulus", () => [], drawBeta],
   ];
-  // one question at a time, on one connection: each answers in milliseconds
+  // one question at a time, on one connection: each answers in milliseconds; the design's
+  // answers come first, since the Bode diagram's envelope is made of their points
   const answers = [];
-  for (const [c, opts] of questions) {
-    answers.push(await ask(c, sets, opts).then(
+  envelope = null;
+  designConditions = [];
+  for (const [c, opts, show] of questions) {
+    const a = await ask(c, sets, opts()).then(
       (value) => ({ status: "fulfilled", value }),
       (reason) => ({ status: "rejected", reason }),
-    ));
+    );
+    answers.push(a);
+    if (a.status === "fulfilled" && show !== drawBode) {
+      try { show(JSON.parse(a.value)); a.shown = true; } catch (e) { a.status = "rejected"; a.reason = new Error(`${c}: ${e.message || e}`); }
+    }
   }
   if (generation !== state.generation) return;
   const errors = [];
   answers.forEach((a, k) => {
     const [command, , show] = questions[k];
     if (a.status === "rejected") return errors.push(String(a.reason.message || a.reason));
+    if (a.shown) return;
     try {
       show(command === "bode" ? a.value : JSON.parse(a.value));
     } catch (e) {
@@ -208,6 +217,7 @@ function showMargins(m) {
 
 function showDesign(d) {
   designTargets = d.targets;
+  designConditions = (d.conditions || []).filter((c) => c.mode === null);
   const t = $("#design");
   t.querySelector("tbody").textContent = "";
   row(t, "largest Kp (design point)", "kpMax", d.kp_max, "");
@@ -258,14 +268,56 @@ const range = (a, pad = 0.05) => {
 };
 
 let designTargets = null;
+
+// The envelope (docs/serve.md#envelopes): the design method's stroke and load points, and the
+// robust design's worst points over the region of β, b and c12 (`pumpcyl design --robust`),
+// each a variant of the Bode diagram at the page's gain.
+let envelope = null;
+let designConditions = [];
+
+function showEnvelope(robust) {
+  const w = robust.worst_case;
+  // the point's keys that the circuit has (the valve has no pump leakages)
+  const point = (at) => Object.entries({ ...at, x0_mm: at.x_mm })
+    .filter(([k, v]) => k in state.base && k !== "mass_by_position" && v !== null)
+    .map(([k, v]) => `${k}=${v}`)
+    .join(",");
+  const words = (at) => `x ${at.x_mm} mm, m ${at.mass_kg} kg, β ${Number(at.beta_bar).toPrecision(4)} bar, ` +
+    `c12 ${Number(at.c12_m5_per_ns).toPrecision(3)}, b ${Number(at.viscous_friction_ns_per_m).toPrecision(3)} N·s/m`;
+  envelope = {
+    worst: [["PM", w.phase_margin_deg.at], ["GM", w.gain_margin_db.at]].map(([k, at]) => ({ k, compare: point(at), words: words(at) })),
+  };
+  const svg = $("#bode");
+  svg.dataset.worstPmAt = envelope.worst[0].words;
+  svg.dataset.worstGmAt = envelope.worst[1].words;
+  const r = robust.region;
+  $("#envelope").textContent = `Envelope: the design's stroke and load points (grey) and the worst points (orange) of the region β ${r.beta_bar.map((v) => v.toPrecision(4)).join("…")} bar, c12 ${r.c12_m5_per_ns.map((v) => v.toPrecision(3)).join("…")} (${r.source}; pumpcyl design --robust), at this gain. Worst phase margin at ${envelope.worst[0].words}; worst gain margin at ${envelope.worst[1].words}.`;
+}
+
+function envelopeCompare() {
+  const points = designConditions.map((c) => `x0_mm=${c.x_mm},mass_kg=${c.mass_kg},beta_bar=${c.beta_bar}`);
+  const worst = envelope ? envelope.worst.map((w) => w.compare) : [];
+  return points.concat(worst).map((c) => `compare=${c}`);
+}
+
 function drawBode(csv) {
   const targets = designTargets;
   const rows = csv.trim().split("\n").slice(1).map((l) => l.split(",").map(Number));
-  const f = rows.map((r) => r[0]), mag = rows.map((r) => r[1]), ph = rows.map((r) => r[2]);
+  const col = (k) => rows.map((r) => r[k]);
+  const f = col(0), mag = col(1), ph = col(2);
   const fr = [f[0], f[f.length - 1]];
-  const m = panel(null, [60, 10, 560, 170], fr, range(mag), { logx: true, ylabel: "magnitude (dB)" });
-  const p = panel(null, [60, 215, 560, 170], fr, range(ph.concat([-180])), { logx: true, xlabel: "frequency (Hz)", ylabel: "phase (deg)" });
-  let s = m.s + p.s + m.line(f, mag, "#0072B2") + p.line(f, ph, "#0072B2");
+  const variants = (rows[0].length - 3) / 2;
+  const allMag = [], allPh = [];
+  for (let k = 0; k <= variants; k++) allMag.push(...col(1 + 2 * k)), allPh.push(...col(2 + 2 * k));
+  const m = panel(null, [60, 10, 560, 170], fr, range(allMag.filter(isFinite)), { logx: true, ylabel: "magnitude (dB)" });
+  const p = panel(null, [60, 215, 560, 170], fr, range(allPh.filter(isFinite).concat([-180])), { logx: true, xlabel: "frequency (Hz)", ylabel: "phase (deg)" });
+  let s = m.s + p.s;
+  const worstFrom = variants - (envelope ? envelope.worst.length : 0);
+  for (let k = 1; k <= variants; k++) {
+    const color = k > worstFrom ? "#D55E00" : "#bbb";
+    s += m.line(f, col(1 + 2 * k), color) + p.line(f, col(2 + 2 * k), color);
+  }
+  s += m.line(f, mag, "#0072B2") + p.line(f, ph, "#0072B2");
   s += m.line(fr, [0, 0], "#555", "3 3") + p.line(fr, [-180, -180], "#555", "3 3");
   if (targets) {
     s += m.line(fr, [-targets.gm_db, -targets.gm_db], "#D55E00", "6 4");

@@ -74,6 +74,15 @@ def cli(command, sets):
     return json.loads(out.stdout)
 
 
+def cli_robust(sets):
+    """`pumpcyl design --robust --set … --json`, parsed."""
+    args = [pumpcyl_binary(), "design", "--robust", "--json"]
+    for s in sets:
+        args += ["--set", s]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=120, check=True)
+    return json.loads(out.stdout)
+
+
 def open_page(browser, url, requests):
     """A new page at `url`, every request it makes logged, once its answers are shown."""
     page = browser.new_page(viewport={"width": 1400, "height": 1300})
@@ -121,6 +130,13 @@ def test_the_page_shows_the_command_lines_margins_for_the_url(server, browser, s
     kept = page.url.split("#")[1].split("&")
     assert sorted(kept) == sorted(sets) and kept[0] == sets[0], kept
     assert requests and all(u.startswith(server) for u in requests), requests
+    # the envelope names the robust design's worst points, the command line's
+    robust = cli_robust(sets)["worst_case"]
+    for margin, attr in [("phase_margin_deg", "data-worst-pm-at"), ("gain_margin_db", "data-worst-gm-at")]:
+        at = robust[margin]["at"]
+        words = page.get_attribute("#bode", attr)
+        x, m = re.match(r"x (\S+) mm, m (\S+) kg", words).groups()
+        assert (float(x), float(m)) == (at["x_mm"], at["mass_kg"]), (words, at)
     if sets[0] == "mass_kg=4898":
         page.screenshot(path=str(ROOT / "target" / "serve-screenshot.png"), full_page=True)
     page.close()
