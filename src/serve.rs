@@ -104,6 +104,9 @@ fn respond(request: &Request, args: &ServeArgs) -> Answer {
     if let Some((_, body, kind)) = ASSETS.iter().find(|(p, _, _)| *p == path) {
         return text(200, body, kind);
     }
+    if let Some(file) = path.strip_prefix("/export/") {
+        return export(file, query, args);
+    }
     match path.strip_prefix("/api/") {
         Some(command) => api(command, query, args),
         // no icon: nothing to fetch, and no error in the page's console
@@ -112,42 +115,102 @@ fn respond(request: &Request, args: &ServeArgs) -> Answer {
     }
 }
 
+/// The files the page may download: the name, the command that writes it with `--out`, and the
+/// options the page may give it.
+const EXPORTS: [(&str, &str, &[&str]); 2] = [
+    ("pumpcyl_rig.m", "model", &["closed-loop"]),
+    (
+        "pumpcyl.fmu",
+        "fmu",
+        &["model", "controller", "loop", "no-effects", "energy"],
+    ),
+];
+
+/// `/export/FILE?set=…`: the file the command line writes with `--out` for the page's
+/// assignments (the model for MATLAB/Octave, an FMU), written to a folder of its own under the
+/// system's temporary folder, sent, and removed.
+fn export(file: &str, query: &str, args: &ServeArgs) -> Answer {
+    let Some(&(name, command, options)) = EXPORTS.iter().find(|e| e.0 == file) else {
+        return json_error(404, format!("the page cannot download `{file}`"));
+    };
+    let folder = std::env::temp_dir().join(format!(
+        "pumpcyl-serve-{}-{}",
+        std::process::id(),
+        EXPORTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let out = folder.join(name);
+    let written = std::fs::create_dir(&folder)
+        .map_err(anyhow::Error::from)
+        .and_then(|()| argv(command, query, (false, options), args))
+        .and_then(|mut argv| {
+            argv.extend(["--out".to_string(), out.display().to_string()]);
+            run_line(&argv)
+        })
+        .and_then(|_| Ok(std::fs::read(&out)?));
+    let _ = std::fs::remove_dir_all(&folder);
+    match written {
+        Ok(bytes) => {
+            let disposition = format!("attachment; filename=\"{name}\"");
+            Response::from_data(bytes)
+                .with_header(header("Content-Type", "application/octet-stream"))
+                .with_header(header("Content-Disposition", &disposition))
+        }
+        Err(e) => json_error(400, crate::message(&e)),
+    }
+}
+
+/// An error answer: `{"error": message}` with `status`.
+fn json_error(status: u16, message: String) -> Answer {
+    let body = serde_json::json!({ "error": message }).to_string();
+    text(status, &body, "application/json")
+}
+
+/// The exports so far: each writes to a folder of its own.
+static EXPORTED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// A header of the server's own (a constant name, a value without line breaks).
+fn header(name: &str, value: &str) -> Header {
+    Header::from_bytes(name.as_bytes(), value.as_bytes())
+        .unwrap_or_else(|()| unreachable!("a header of the server's own"))
+}
+
 /// A response with `body` of MIME type `kind`.
 fn text(status: u16, body: &str, kind: &str) -> Answer {
-    let header = Header::from_bytes(&b"Content-Type"[..], kind.as_bytes())
-        .unwrap_or_else(|()| unreachable!("a constant header"));
     Response::from_string(body)
         .with_status_code(status)
-        .with_header(header)
+        .with_header(header("Content-Type", kind))
 }
 
 /// `/api/COMMAND?set=KEY=VALUE&…&opt=NAME=VALUE`: the command's document, or 400 with
 /// `{"error": …}` naming what is wrong, as the command line would say it.
 fn api(command: &str, query: &str, args: &ServeArgs) -> Answer {
-    let error = |status: u16, message: String| {
-        let body = serde_json::json!({ "error": message }).to_string();
-        text(status, &body, "application/json")
-    };
     let Some(&(name, json, options)) = COMMANDS.iter().find(|c| c.0 == command) else {
-        return error(404, format!("the page cannot ask for `{command}`"));
+        return json_error(404, format!("the page cannot ask for `{command}`"));
     };
     let argv = match argv(name, query, (json, options), args) {
         Ok(argv) => argv,
-        Err(e) => return error(400, e.to_string()),
+        Err(e) => return json_error(400, e.to_string()),
     };
-    let answer = std::panic::catch_unwind(|| -> Result<String> {
-        let cli =
-            crate::Cli::try_parse_from(&argv).map_err(|e| anyhow!("{}", e.to_string().trim()))?;
-        crate::dispatch(cli.command)
-    });
-    match answer {
-        Ok(Ok(body)) => text(200, &body, kind_of(name, json)),
-        Ok(Err(e)) => error(400, crate::message(&e)),
-        Err(_) => error(
-            500,
-            format!("{name}: an internal error (a panic); please report it"),
-        ),
+    match run_line(&argv) {
+        Ok(body) => text(200, &body, kind_of(name, json)),
+        Err(e) => json_error(400, crate::message(&e)),
     }
+}
+
+/// Run the command line `argv` as the terminal would, its document or text; a panic is an
+/// error of its own, and the server goes on.
+fn run_line(argv: &[String]) -> Result<String> {
+    std::panic::catch_unwind(|| -> Result<String> {
+        let cli =
+            crate::Cli::try_parse_from(argv).map_err(|e| anyhow!("{}", e.to_string().trim()))?;
+        crate::dispatch(cli.command)
+    })
+    .unwrap_or_else(|_| {
+        Err(anyhow!(
+            "{}: an internal error (a panic); please report it",
+            argv[1]
+        ))
+    })
 }
 
 /// The MIME type of a command's answer.

@@ -34,19 +34,26 @@ fn serve() -> Served {
     Served(child, addr)
 }
 
-/// GET `path`: (status, body), over a connection of its own.
-fn get(addr: &str, path: &str) -> (u16, String) {
+/// GET `path`: (status, body bytes), over a connection of its own.
+fn get_bytes(addr: &str, path: &str) -> (u16, Vec<u8>) {
     let mut s = TcpStream::connect(addr).unwrap();
     write!(
         s,
         "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
     )
     .unwrap();
-    let mut text = String::new();
-    s.read_to_string(&mut text).unwrap();
-    let (head, body) = text.split_once("\r\n\r\n").unwrap();
+    let mut all = Vec::new();
+    s.read_to_end(&mut all).unwrap();
+    let end = all.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+    let head = String::from_utf8_lossy(&all[..end]).to_string();
     let status = head.split(' ').nth(1).unwrap().parse().unwrap();
-    (status, body.to_string())
+    (status, all[end + 4..].to_vec())
+}
+
+/// GET `path`: (status, body text).
+fn get(addr: &str, path: &str) -> (u16, String) {
+    let (status, body) = get_bytes(addr, path);
+    (status, String::from_utf8(body).unwrap())
 }
 
 fn cli(args: &[&str]) -> String {
@@ -113,4 +120,35 @@ fn a_bad_question_is_named_and_what_the_page_may_not_ask_is_refused() {
     assert_eq!(status, 404);
     // the server still answers after all that
     assert_eq!(get(&served.1, "/api/poles").0, 200);
+}
+
+#[test]
+fn the_page_downloads_the_files_the_command_line_writes() {
+    let served = serve();
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("serve-export");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let m = dir.join("pumpcyl_rig.m");
+    cli(&["model", "--set", "kp=30", "--out", m.to_str().unwrap()]);
+    let (status, body) = get_bytes(&served.1, "/export/pumpcyl_rig.m?set=kp%3D30");
+    assert_eq!(status, 200);
+    assert_eq!(body, std::fs::read(&m).unwrap(), "the same .m file");
+    let (status, fmu) = get_bytes(
+        &served.1,
+        "/export/pumpcyl.fmu?set=kp%3D30&opt=model%3Dlinear",
+    );
+    assert_eq!(status, 200);
+    let names: Vec<String> = zip::ZipArchive::new(std::io::Cursor::new(fmu))
+        .unwrap()
+        .file_names()
+        .map(str::to_string)
+        .collect();
+    assert!(
+        names.iter().any(|n| n == "modelDescription.xml"),
+        "{names:?}"
+    );
+    assert_eq!(get(&served.1, "/export/../../etc/passwd").0, 404);
+    let (status, body) = get(&served.1, "/export/pumpcyl.fmu?set=kp%3Dabc");
+    assert_eq!(status, 400);
+    assert!(body.contains("--set kp=abc"), "{body}");
 }

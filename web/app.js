@@ -148,6 +148,8 @@ async function update() {
   const sets = assignments();
   history.replaceState(null, "", "#" + sets.map((s) => s.split("=").map(encodeURIComponent).join("=")).join("&"));
   $("#export-rig").href = `/api/rig?${query(sets)}`;
+  $("#export-m").href = `/export/pumpcyl_rig.m?${query(sets)}`;
+  $("#export-fmu").href = `/export/pumpcyl.fmu?${query(sets)}`;
   document.body.dataset.state = "busy";
   $("#status").textContent = "…";
   // each answer on its own: a command a circuit does not have yet (a one-motor circuit's
