@@ -19,6 +19,11 @@ pub struct ServeArgs {
     /// page's assignments on top of it.
     #[arg(long, value_name = "FILE")]
     rig: Option<PathBuf>,
+    /// An identification experiment (TOML, as for `identify`): the page's envelope is then the
+    /// robust design over the region its records give (`design --robust --experiment`), the
+    /// identified intervals of β, b and c12, instead of the stated default region.
+    #[arg(long, value_name = "EXPERIMENT.toml")]
+    experiment: Option<PathBuf>,
     /// The address to listen on: this machine only unless another is asked for.
     #[arg(long, default_value = "127.0.0.1")]
     host: IpAddr,
@@ -84,8 +89,9 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         .context("the server has no IP address")?;
     println!("pumpcyl serve: the designer page at http://{addr}/ (Ctrl-C stops it)");
     std::io::stdout().flush()?;
+    let mut identified = Identified::default();
     for request in server.incoming_requests() {
-        let response = respond(&request, args);
+        let response = respond(&request, args, &mut identified);
         // a page closed mid-answer is no error of the server's
         let _ = request.respond(response);
     }
@@ -95,7 +101,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
 type Answer = Response<std::io::Cursor<Vec<u8>>>;
 
 /// The answer to one request: an asset, an API answer, or 404.
-fn respond(request: &Request, args: &ServeArgs) -> Answer {
+fn respond(request: &Request, args: &ServeArgs, identified: &mut Identified) -> Answer {
     let url = request.url();
     let (path, query) = url.split_once('?').unwrap_or((url, ""));
     if *request.method() != Method::Get {
@@ -108,7 +114,7 @@ fn respond(request: &Request, args: &ServeArgs) -> Answer {
         return export(file, query, args);
     }
     match path.strip_prefix("/api/") {
-        Some(command) => api(command, query, args),
+        Some(command) => api(command, query, args, identified),
         // no icon: nothing to fetch, and no error in the page's console
         None if path == "/favicon.ico" => text(204, "", "image/x-icon"),
         None => text(404, "not found", "text/plain"),
@@ -159,6 +165,25 @@ fn export(file: &str, query: &str, args: &ServeArgs) -> Answer {
     }
 }
 
+/// The robust design over the experiment's records, identified once per server run (a second
+/// or so) and kept: it does not depend on the page's assignments.
+#[derive(Default)]
+struct Identified(Option<(Vec<String>, String)>);
+
+impl Identified {
+    /// The answer to `argv`, run the first time it is asked.
+    fn answer(&mut self, argv: &[String]) -> Result<String> {
+        if let Some((asked, body)) = &self.0 {
+            if asked == argv {
+                return Ok(body.clone());
+            }
+        }
+        let body = run_line(argv)?;
+        self.0 = Some((argv.to_vec(), body.clone()));
+        Ok(body)
+    }
+}
+
 /// An error answer: `{"error": message}` with `status`.
 fn json_error(status: u16, message: String) -> Answer {
     let body = serde_json::json!({ "error": message }).to_string();
@@ -183,7 +208,7 @@ fn text(status: u16, body: &str, kind: &str) -> Answer {
 
 /// `/api/COMMAND?set=KEY=VALUE&…&opt=NAME=VALUE`: the command's document, or 400 with
 /// `{"error": …}` naming what is wrong, as the command line would say it.
-fn api(command: &str, query: &str, args: &ServeArgs) -> Answer {
+fn api(command: &str, query: &str, args: &ServeArgs, identified: &mut Identified) -> Answer {
     let Some(&(name, json, options)) = COMMANDS.iter().find(|c| c.0 == command) else {
         return json_error(404, format!("the page cannot ask for `{command}`"));
     };
@@ -191,7 +216,11 @@ fn api(command: &str, query: &str, args: &ServeArgs) -> Answer {
         Ok(argv) => argv,
         Err(e) => return json_error(400, e.to_string()),
     };
-    match run_line(&argv) {
+    let answer = match argv.iter().any(|a| a == "--experiment") {
+        true => identified.answer(&argv),
+        false => run_line(&argv),
+    };
+    match answer {
         Ok(body) => text(200, &body, kind_of(name, json)),
         Err(e) => json_error(400, crate::message(&e)),
     }
@@ -260,6 +289,13 @@ fn argv(
             }
             other => anyhow::bail!("unknown query field `{other}` (set, opt)"),
         }
+    }
+    if let (Some(experiment), true) = (&args.experiment, argv.iter().any(|a| a == "--robust")) {
+        // the experiment's rig is designed: the page's assignments do not apply to it
+        let experiment = experiment.display().to_string();
+        argv = ["pumpcyl", name, "--robust", "--experiment", &experiment]
+            .map(str::to_string)
+            .to_vec();
     }
     if json {
         argv.push("--json".to_string());

@@ -32,13 +32,12 @@ def _chromium():
     return sync_playwright, exe
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    """`pumpcyl serve --port 0` and the address it prints (read within 30 s); its standard error
-    (each answer's warnings) to a file, which no full pipe can block."""
+def _serve(tmp_path_factory, *extra):
+    """`pumpcyl serve --port 0 EXTRA…` and the address it prints (read within 30 s); its
+    standard error (each answer's warnings) to a file, which no full pipe can block."""
     log = open(tmp_path_factory.mktemp("serve") / "stderr.txt", "w")
     proc = subprocess.Popen(
-        [pumpcyl_binary(), "serve", "--port", "0"],
+        [pumpcyl_binary(), "serve", "--port", "0", *extra],
         stdout=subprocess.PIPE,
         stderr=log,
         text=True,
@@ -54,6 +53,20 @@ def server(tmp_path_factory):
         proc.terminate()
         proc.wait(10)
         log.close()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    yield from _serve(tmp_path_factory)
+
+
+EXPERIMENT = ROOT / "data" / "article" / "identify.toml"
+
+
+@pytest.fixture(scope="module")
+def server_identified(tmp_path_factory):
+    """The server whose envelope is the region the article's emulated records identify."""
+    yield from _serve(tmp_path_factory, "--experiment", str(EXPERIMENT))
 
 
 @pytest.fixture(scope="module")
@@ -137,8 +150,6 @@ def test_the_page_shows_the_command_lines_margins_for_the_url(server, browser, s
         words = page.get_attribute("#bode", attr)
         x, m = re.match(r"x (\S+) mm, m (\S+) kg", words).groups()
         assert (float(x), float(m)) == (at["x_mm"], at["mass_kg"]), (words, at)
-    if sets[0] == "mass_kg=4898":
-        page.screenshot(path=str(ROOT / "target" / "serve-screenshot.png"), full_page=True)
     page.close()
 
 
@@ -173,4 +184,23 @@ def test_a_bad_field_is_named_not_shown(server, browser):
         timeout=120_000,
     )
     assert "--set kp=abc" in page.text_content("#errors")
+    page.close()
+
+
+def test_the_envelope_is_the_identified_region_and_its_worst_points(server_identified, browser):
+    requests = []
+    page = open_page(browser, server_identified, requests)
+    args = [pumpcyl_binary(), "design", "--robust", "--experiment", str(EXPERIMENT), "--json"]
+    robust = json.loads(subprocess.run(args, capture_output=True, text=True, timeout=300, check=True).stdout)
+    region = robust["region"]
+    assert region["source"] == "records"
+    text = page.text_content("#envelope")
+    lo, hi = region["beta_bar"]
+    assert f"β {lo:.4g}…{hi:.4g} bar" in text.replace("…", "…"), text
+    for margin, attr in [("phase_margin_deg", "data-worst-pm-at"), ("gain_margin_db", "data-worst-gm-at")]:
+        at = robust["worst_case"][margin]["at"]
+        x, m = re.match(r"x (\S+) mm, m (\S+) kg", page.get_attribute("#bode", attr)).groups()
+        assert (float(x), float(m)) == (at["x_mm"], at["mass_kg"])
+    assert all(u.startswith(server_identified) for u in requests), requests
+    page.screenshot(path=str(ROOT / "target" / "serve-screenshot.png"), full_page=True)
     page.close()
