@@ -65,7 +65,7 @@ const COMMANDS: [(&str, bool, &[&str]); 8] = [
         ],
     ),
     ("step", true, &["step-mm", "duration-s"]),
-    ("track", true, &["freq-hz", "amplitude-mm"]),
+    ("track", true, &["freq-hz", "amp-mm", "periods"]),
     ("bulk-modulus", true, &[]),
     (
         "bode",

@@ -159,6 +159,7 @@ async function update() {
     ["design", () => [], showDesign],
     ["design", () => ["robust"], showEnvelope],
     ["step", () => [], drawStep],
+    ["track", () => [`freq-hz=${$("#wave-freq-hz").value}`, `amp-mm=${$("#wave-amp-mm").value}`], showTracking],
     ["poles", () => [], showPoles],
     ["bode", () => ["from-hz=0.01", "to-hz=100", "points-per-decade=60"].concat(envelopeCompare()), drawBode],
     ["bulk-modulus", () => [], drawBeta],
@@ -215,6 +216,15 @@ function showMargins(m) {
   row(t, "phase crossover", "phaseCrossoverHz", m.phase_crossover_hz, "Hz");
   row(t, "delay margin", "delayMarginS", m.delay_margin_s, "s");
   t.dataset.closedLoopStable = String(m.closed_loop_stable);
+}
+
+function showTracking(t) {
+  const tbl = $("#tracking");
+  tbl.querySelector("tbody").textContent = "";
+  const m = t.cases[0].metrics;
+  row(tbl, "largest error", "maxErrorMm", m.max_error_mm, "mm");
+  row(tbl, "RMS error", "rmsErrorMm", m.rms_error_mm, "mm");
+  row(tbl, "wave reduction", "waveReduction", m.wave_reduction, "");
 }
 
 function showDesign(d) {
@@ -392,6 +402,9 @@ async function start() {
       }
     }
     markChanged();
+    for (const id of ["#wave-freq-hz", "#wave-amp-mm"]) {
+      $(id).addEventListener("input", () => { clearTimeout(timer); timer = setTimeout(update, 120); });
+    }
     $("#circuit").addEventListener("change", async () => {
       await loadRig($("#circuit").value);
       update();

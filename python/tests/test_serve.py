@@ -139,6 +139,12 @@ def test_the_page_shows_the_command_lines_margins_for_the_url(server, browser, s
         assert errors == "", errors
     check_margins(page, sets)
     same(shown(page, "design", "kp-max"), cli("design", sets)["kp_max"], f"{sets} kp_max")
+    if sets[0] != "circuit=single-pump":
+        want = json.loads(subprocess.run(
+            [pumpcyl_binary(), "track", "--json", "--freq-hz", "0.2", "--amp-mm", "35"]
+            + [a for s in sets for a in ("--set", s)],
+            capture_output=True, text=True, timeout=120, check=True).stdout)
+        same(shown(page, "tracking", "max-error-mm"), want["cases"][0]["metrics"]["max_error_mm"], f"{sets} max error")
     # the page keeps the state in its URL (the rig's order of keys, circuit first)
     kept = page.url.split("#")[1].split("&")
     assert sorted(kept) == sorted(sets) and kept[0] == sets[0], kept
