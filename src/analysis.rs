@@ -17,7 +17,9 @@ pub struct MarginsArgs {
     model: ModelArgs,
     /// Print JSON (keys loop, gain_margin_db, phase_margin_deg, phase_crossover_hz,
     /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings, integrators,
-    /// ill_conditioned; a null margin is infinite: no crossing of that kind;
+    /// ill_conditioned, disk (the balanced disk margin), sensitivity_peak and
+    /// complementary_sensitivity_peak (docs/analysis.md#disk-margins); a null margin is
+    /// infinite: no crossing of that kind;
     /// docs/analysis.md#conditioning for ill_conditioned and each crossing's margin_error_bound;
     /// on a single-pump rig also modes, one object per mode with accumulator_chamber, at_rest
     /// and the margin fields, beside switching_force_n, force_from_switching_n and

@@ -172,6 +172,14 @@ class Margins(Result):
     ill_conditioned: bool
     """The model's conditioning does not resolve a headline margin to 0.01 dB / 0.01 deg
     (its crossing's margin_error_bound is larger)."""
+    disk: Dict[str, Any]
+    """The balanced disk margin (docs/analysis.md#disk-margins): skew (0), disk_margin (alpha),
+    gain_margin_db and phase_margin_deg (``None`` infinite) and frequency_hz of the worst case
+    (``None`` at infinite frequency), as python-control's ``disk_margins``."""
+    sensitivity_peak: Dict[str, Any]
+    """M_s = max |S|: value and frequency_hz (the disk margin of skew 1 is 1/M_s)."""
+    complementary_sensitivity_peak: Dict[str, Any]
+    """M_t = max |T|: value and frequency_hz (the disk margin of skew -1 is 1/M_t)."""
     simulated_closed_loop: Optional[Dict[str, Any]]
     """Only where it differs from the loop ``closed_loop_stability`` is read on (the rig's
     sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates

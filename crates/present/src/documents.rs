@@ -82,11 +82,50 @@ pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
 /// # Errors
 /// The margins cannot be computed.
 pub fn margins_document(m: &Margins, lp: &Loop) -> Result<Value, LtiError> {
-    let doc = loop_margins_json(m, lp)?;
+    let doc = merged(loop_margins_json(m, lp)?, disk_json(lp)?);
     Ok(match ModesReport::of_loop(lp)? {
         Some(modes) => merged(doc, modes.margins_json()?),
         None => doc,
     })
+}
+
+/// The loop's balanced disk margin and sensitivity peaks (docs/analysis.md#disk-margins):
+/// `disk` (skew 0), `sensitivity_peak` (M_s, the disk margin of skew 1 being 1/M_s) and
+/// `complementary_sensitivity_peak` (M_t, skew −1: 1/M_t).
+///
+/// # Errors
+/// The frequency response cannot be evaluated.
+pub fn disk_json(lp: &Loop) -> Result<Value, LtiError> {
+    let disk = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0)?;
+    let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop)?;
+    Ok(json!({
+        "disk": disk,
+        "sensitivity_peak": ms,
+        "complementary_sensitivity_peak": mt,
+    }))
+}
+
+/// The loop's disk margin and sensitivity peaks in one line of text.
+///
+/// # Errors
+/// As [`disk_json`].
+pub fn disk_text(lp: &Loop) -> Result<String, LtiError> {
+    let d = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0)?;
+    let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop)?;
+    let num =
+        |v: Option<f64>, unit: &str| v.map_or("inf".to_string(), |v| format!("{v:.2} {unit}"));
+    let hz = |v: Option<f64>| v.map_or("infinite frequency".to_string(), |v| format!("{v:.3} Hz"));
+    Ok(format!(
+        "disk margin (balanced, skew 0): alpha {:.4}, gain +/-{}, phase +/-{} at {}; M_s {:.3} at {}, M_t {:.3} at {} (docs/analysis.md#disk-margins)\n",
+        d.disk_margin,
+        num(d.gain_margin_db, "dB"),
+        num(d.phase_margin_deg, "deg"),
+        hz(d.frequency_hz),
+        ms.value,
+        hz(ms.frequency_hz),
+        mt.value,
+        hz(mt.frequency_hz),
+    ))
 }
 
 /// The poles document (`pumpcyl poles --json`, Python's `poles`): the pole sets of the

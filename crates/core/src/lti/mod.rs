@@ -3,6 +3,7 @@
 //! stability margins — computed on the state-space form, never through transfer-function
 //! polynomials (see DEPENDENCIES.md for the numerical pitfalls this module avoids).
 
+mod disk;
 mod freqresp;
 mod io;
 mod margins;
@@ -10,6 +11,7 @@ mod poles;
 mod roots;
 mod timeresp;
 
+pub use disk::{disk_margin, sensitivity_peaks, DiskMargin, Peak};
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo, MAX_STATES};
 pub use margins::{margins, Crossing, CrossingKind, Margins, RELIABLE_DB, RELIABLE_DEG};

@@ -1,0 +1,228 @@
+//! Disk margins and sensitivity peaks of a SISO loop L(s) (docs/analysis.md#disk-margins).
+//!
+//! The disk margin with skew σ is α = 1 / max_ω |S(jω) + (σ − 1)/2|, S = 1/(1 + L) (Seiler,
+//! Packard & Gahinet, "An introduction to disk margins", IEEE Control Systems Magazine 40(5),
+//! 2020, §"Disk margin"; python-control's `disk_margins`, MATLAB's `diskmargin`): the loop stays
+//! stable for every simultaneous gain and phase change f in the disk whose real-axis intercepts
+//! are γ_min = (1 − α(1 − σ)/2)/(1 + α(1 + σ)/2) and γ_max = (1 + α(1 − σ)/2)/(1 − α(1 + σ)/2).
+//! σ = 0 is the balanced disk (|S − T|/2), σ = 1 the sensitivity S (α = 1/M_s), σ = −1 the
+//! complementary sensitivity T (α = 1/M_t). As for python-control, the margins presume the
+//! nominal closed loop stable; [`super::Margins::closed_loop_stable`] says whether it is.
+//!
+//! The peak is found on a log grid over the loop's poles' span and refined by golden-section
+//! search around the grid's largest value (a bounded number of steps).
+
+use super::{log_grid, FreqEvaluator, LtiError, StateSpace};
+use num_complex::Complex64;
+use serde::Serialize;
+
+/// Grid points per decade before the refinement.
+const POINTS_PER_DECADE: f64 = 200.0;
+/// Golden-section steps of the refinement: the bracket of two grid intervals shrinks by 0.618
+/// per step, to 10⁻¹³ of a decade in 60.
+const REFINE_STEPS: usize = 60;
+
+/// A disk margin and the margins it guarantees.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiskMargin {
+    /// The skew σ: 0 balanced, 1 the sensitivity S, −1 the complementary sensitivity T.
+    pub skew: f64,
+    /// The disk margin α.
+    pub disk_margin: f64,
+    /// The disk-based gain margin (dB): 20 log10 min(1/γ_min, γ_max); `None` infinite.
+    pub gain_margin_db: Option<f64>,
+    /// The disk-based phase margin (deg); `None` infinite.
+    pub phase_margin_deg: Option<f64>,
+    /// Where |S + (σ − 1)/2| peaks (Hz); `None` at infinite frequency.
+    pub frequency_hz: Option<f64>,
+}
+
+/// The peak of |S| or |T| and where it lies.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Peak {
+    /// The peak's value (absolute, not dB).
+    pub value: f64,
+    /// Its frequency (Hz); `None` at infinite frequency.
+    pub frequency_hz: Option<f64>,
+}
+
+/// The disk margin of the loop `sys` with skew `skew` (in [−1, 1]).
+///
+/// # Errors
+/// A model the frequency response cannot be evaluated for, or a skew outside [−1, 1].
+pub fn disk_margin(sys: &StateSpace, skew: f64) -> Result<DiskMargin, LtiError> {
+    if !(-1.0..=1.0).contains(&skew) {
+        return Err(LtiError::NonFiniteResult {
+            what: "the disk margin",
+            at: format!("skew {skew}: it must lie in [-1, 1]"),
+        });
+    }
+    let (g, w) = peak(sys, |l| (1.0 / (1.0 + l) + (skew - 1.0) / 2.0).norm())?;
+    Ok(margins_of(1.0 / g, skew, w))
+}
+
+/// The sensitivity peak M_s = max |S| and the complementary peak M_t = max |T|.
+///
+/// # Errors
+/// As [`disk_margin`].
+pub fn sensitivity_peaks(sys: &StateSpace) -> Result<(Peak, Peak), LtiError> {
+    let (ms, ws) = peak(sys, |l| (1.0 / (1.0 + l)).norm())?;
+    let (mt, wt) = peak(sys, |l| (l / (1.0 + l)).norm())?;
+    let hz = |w: Option<f64>| w.map(|w| w / std::f64::consts::TAU);
+    Ok((
+        Peak {
+            value: ms,
+            frequency_hz: hz(ws),
+        },
+        Peak {
+            value: mt,
+            frequency_hz: hz(wt),
+        },
+    ))
+}
+
+/// The disk's margins for α, as python-control's `disk_margins` states them.
+fn margins_of(alpha: f64, skew: f64, omega: Option<f64>) -> DiskMargin {
+    let g_min = (1.0 - 0.5 * alpha * (1.0 - skew)) / (1.0 + 0.5 * alpha * (1.0 + skew));
+    let g_max = (1.0 + 0.5 * alpha * (1.0 - skew)) / (1.0 - 0.5 * alpha * (1.0 + skew));
+    let gm = 20.0 * (1.0 / g_min).min(g_max).log10();
+    let gain_margin_db = (gm.is_finite() && g_max > 0.0).then_some(gm);
+    let cos = (1.0 + g_min * g_max) / (g_min + g_max);
+    let phase_margin_deg = match (g_max.is_finite() && g_max > 0.0, cos.abs() < 1.0) {
+        (false, _) => Some(90.0),
+        (true, true) => Some(cos.acos().to_degrees()),
+        (true, false) => None,
+    };
+    DiskMargin {
+        skew,
+        disk_margin: alpha,
+        gain_margin_db,
+        phase_margin_deg,
+        frequency_hz: omega.map(|w| w / std::f64::consts::TAU),
+    }
+}
+
+/// The largest value of `f(L(jω))` over ω ≥ 0 and where it lies (rad/s; `None` at ω → ∞,
+/// where L tends to its feedthrough D).
+fn peak(sys: &StateSpace, f: impl Fn(Complex64) -> f64) -> Result<(f64, Option<f64>), LtiError> {
+    let ev = FreqEvaluator::new(sys)?;
+    let spans: Vec<f64> = (ev.poles().iter())
+        .map(|p| p.norm())
+        .filter(|w| *w > 0.0)
+        .collect();
+    let lo = spans.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) / 1e3;
+    let hi = spans.iter().copied().fold(0.0, f64::max).max(1.0) * 1e3;
+    let points = ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2;
+    // the open- and closed-loop poles' frequencies too: S and T peak near a lightly damped
+    // closed-loop pole, narrower than the grid's spacing where the damping is a few thousandths
+    let closed = sys.closed_loop_poles()?;
+    let mut grid = log_grid(lo, hi, points);
+    grid.extend(
+        (ev.poles().iter().chain(&closed))
+            .flat_map(|p| [p.norm(), p.im.abs()])
+            .filter(|w| *w > lo && *w < hi),
+    );
+    grid.sort_by(f64::total_cmp);
+    grid.dedup();
+    let at = |w: f64| {
+        let v = f(ev.at(w));
+        if v.is_finite() {
+            v
+        } else {
+            0.0
+        }
+    };
+    let values: Vec<f64> = grid.iter().map(|&w| at(w)).collect();
+    let (k, best) =
+        (values.iter().copied().enumerate()).fold((0, f64::NEG_INFINITY), |b, (k, v)| {
+            if v > b.1 {
+                (k, v)
+            } else {
+                b
+            }
+        });
+    let at_infinity = f(Complex64::new(sys.d[(0, 0)], 0.0));
+    if !best.is_finite() {
+        return Err(LtiError::NonFiniteResult {
+            what: "the sensitivity",
+            at: "every frequency".into(),
+        });
+    }
+    let (w, v) = golden(
+        &at,
+        grid[k.saturating_sub(1)],
+        grid[(k + 1).min(grid.len() - 1)],
+    );
+    let (w, v) = if v >= best { (w, v) } else { (grid[k], best) };
+    Ok(if at_infinity > v {
+        (at_infinity, None)
+    } else {
+        (v, Some(w))
+    })
+}
+
+/// The largest value of `f` on [a, b] by golden-section search in log ω.
+fn golden(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
+    let r = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (a.ln(), b.ln());
+    let g = |x: f64| f(x.exp());
+    let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
+    let (mut fc, mut fd) = (g(c), g(d));
+    for _ in 0..REFINE_STEPS {
+        if fc > fd {
+            b = d;
+            (d, fd) = (c, fc);
+            c = b - r * (b - a);
+            fc = g(c);
+        } else {
+            a = c;
+            (c, fc) = (d, fd);
+            d = a + r * (b - a);
+            fd = g(d);
+        }
+    }
+    if fc > fd {
+        (c.exp(), fc)
+    } else {
+        (d.exp(), fd)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    /// L(s) = k/(s(s+1)): S = s(s+1)/(s² + s + k); for k = 1, |S(jω)|² = ω²(1+ω²)/((1−ω²)² + ω²).
+    fn loop_k(k: f64) -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 0.0, -1.0]),
+            DMatrix::from_row_slice(2, 1, &[0.0, 1.0]),
+            DMatrix::from_row_slice(1, 2, &[k, 0.0]),
+            DMatrix::zeros(1, 1),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn the_sensitivity_peak_is_the_analytic_one() {
+        // h(u) = u(1+u)/(u² − u + 1), u = ω², peaks where −2u² + 2u + 1 = 0: u = (1 + √3)/2
+        let u = (1.0 + 3f64.sqrt()) / 2.0;
+        let want = (u * (1.0 + u) / (u * u - u + 1.0)).sqrt();
+        let (ms, _) = sensitivity_peaks(&loop_k(1.0)).unwrap();
+        assert!(
+            (ms.value - want).abs() < 1e-12 * want,
+            "{} against {want}",
+            ms.value
+        );
+        let hz = ms.frequency_hz.unwrap();
+        assert!(
+            (hz * std::f64::consts::TAU - u.sqrt()).abs() < 1e-6,
+            "{hz} Hz"
+        );
+        // skew 1 is the sensitivity: α = 1/M_s
+        let d = disk_margin(&loop_k(1.0), 1.0).unwrap();
+        assert!((d.disk_margin - 1.0 / ms.value).abs() < 1e-12);
+        assert!(disk_margin(&loop_k(1.0), 2.0).is_err());
+    }
+}
