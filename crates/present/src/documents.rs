@@ -82,7 +82,7 @@ pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
 /// # Errors
 /// The margins cannot be computed.
 pub fn margins_document(m: &Margins, lp: &Loop) -> Result<Value, LtiError> {
-    let doc = merged(loop_margins_json(m, lp)?, disk_json(lp)?);
+    let doc = merged(loop_margins_json(m, lp)?, disk_json(lp));
     Ok(match ModesReport::of_loop(lp)? {
         Some(modes) => merged(doc, modes.margins_json()?),
         None => doc,
@@ -91,25 +91,25 @@ pub fn margins_document(m: &Margins, lp: &Loop) -> Result<Value, LtiError> {
 
 /// The loop's balanced disk margin and sensitivity peaks (docs/analysis.md#disk-margins):
 /// `disk` (skew 0), `sensitivity_peak` (M_s, the disk margin of skew 1 being 1/M_s) and
-/// `complementary_sensitivity_peak` (M_t, skew −1: 1/M_t).
-///
-/// # Errors
-/// The frequency response cannot be evaluated.
-pub fn disk_json(lp: &Loop) -> Result<Value, LtiError> {
-    let disk = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0)?;
-    let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop)?;
-    Ok(json!({
+/// `complementary_sensitivity_peak` (M_t, skew −1: 1/M_t); each `null` where the loop's
+/// frequency response cannot be evaluated (the classical margins still stand).
+pub fn disk_json(lp: &Loop) -> Value {
+    let disk = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0).ok();
+    let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop).ok().unzip();
+    json!({
         "disk": disk,
         "sensitivity_peak": ms,
         "complementary_sensitivity_peak": mt,
-    }))
+    })
 }
 
-/// The loop's disk margin and sensitivity peaks in one line of text.
-///
-/// # Errors
-/// As [`disk_json`].
-pub fn disk_text(lp: &Loop) -> Result<String, LtiError> {
+/// The loop's disk margin and sensitivity peaks in one line of text (a line saying why where
+/// they cannot be computed).
+pub fn disk_text(lp: &Loop) -> String {
+    disk_line(lp).unwrap_or_else(|e| format!("disk margin: not computed ({e})\n"))
+}
+
+fn disk_line(lp: &Loop) -> Result<String, LtiError> {
     let d = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0)?;
     let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop)?;
     let num =

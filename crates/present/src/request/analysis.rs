@@ -60,7 +60,7 @@ impl Document for MarginsOutcome {
 
     fn text(&self) -> anyhow::Result<String> {
         let mut text = loop_margins_text(&self.margins, &self.lp)?;
-        text += &crate::documents::disk_text(&self.lp)?;
+        text += &crate::documents::disk_text(&self.lp);
         if let Some(modes) = ModesReport::of_loop(&self.lp)? {
             text += &modes.margins_text()?;
         }
