@@ -94,38 +94,38 @@ pub fn margins_document(m: &Margins, lp: &Loop) -> Result<Value, LtiError> {
 /// `complementary_sensitivity_peak` (M_t, skew −1: 1/M_t); each `null` where the loop's
 /// frequency response cannot be evaluated (the classical margins still stand).
 pub fn disk_json(lp: &Loop) -> Value {
-    let disk = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0).ok();
-    let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop).ok().unzip();
-    json!({
-        "disk": disk,
-        "sensitivity_peak": ms,
-        "complementary_sensitivity_peak": mt,
-    })
+    match pumpcyl::lti::disk_margins(&lp.open_loop, 0.0) {
+        Ok(d) => json!(d),
+        Err(_) => json!({
+            "disk": null,
+            "sensitivity_peak": null,
+            "complementary_sensitivity_peak": null,
+        }),
+    }
 }
 
 /// The loop's disk margin and sensitivity peaks in one line of text (a line saying why where
 /// they cannot be computed).
 pub fn disk_text(lp: &Loop) -> String {
-    disk_line(lp).unwrap_or_else(|e| format!("disk margin: not computed ({e})\n"))
-}
-
-fn disk_line(lp: &Loop) -> Result<String, LtiError> {
-    let d = pumpcyl::lti::disk_margin(&lp.open_loop, 0.0)?;
-    let (ms, mt) = pumpcyl::lti::sensitivity_peaks(&lp.open_loop)?;
+    let d = match pumpcyl::lti::disk_margins(&lp.open_loop, 0.0) {
+        Ok(d) => d,
+        Err(e) => return format!("disk margin: not computed ({e})\n"),
+    };
     let num =
         |v: Option<f64>, unit: &str| v.map_or("inf".to_string(), |v| format!("{v:.2} {unit}"));
     let hz = |v: Option<f64>| v.map_or("infinite frequency".to_string(), |v| format!("{v:.3} Hz"));
-    Ok(format!(
+    let (ms, mt) = (&d.sensitivity_peak, &d.complementary_sensitivity_peak);
+    format!(
         "disk margin (balanced, skew 0): alpha {:.4}, gain +/-{}, phase +/-{} at {}; M_s {:.3} at {}, M_t {:.3} at {} (docs/analysis.md#disk-margins)\n",
-        d.disk_margin,
-        num(d.gain_margin_db, "dB"),
-        num(d.phase_margin_deg, "deg"),
-        hz(d.frequency_hz),
+        d.disk.disk_margin,
+        num(d.disk.gain_margin_db, "dB"),
+        num(d.disk.phase_margin_deg, "deg"),
+        hz(d.disk.frequency_hz),
         ms.value,
         hz(ms.frequency_hz),
         mt.value,
         hz(mt.frequency_hz),
-    ))
+    )
 }
 
 /// The poles document (`pumpcyl poles --json`, Python's `poles`): the pole sets of the

@@ -46,39 +46,43 @@ pub struct Peak {
     pub frequency_hz: Option<f64>,
 }
 
-/// The disk margin of the loop `sys` with skew `skew` (in [−1, 1]).
+/// A loop's disk margin and its sensitivity peaks, from one frequency response.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiskMargins {
+    /// The disk margin of the skew asked for.
+    pub disk: DiskMargin,
+    /// M_s = max |S| (the disk margin of skew 1 is 1/M_s).
+    pub sensitivity_peak: Peak,
+    /// M_t = max |T| (the disk margin of skew −1 is 1/M_t).
+    pub complementary_sensitivity_peak: Peak,
+}
+
+/// The disk margin of the loop `sys` with skew `skew` (in [−1, 1]), and its sensitivity peaks
+/// M_s = max |S| and M_t = max |T|.
 ///
 /// # Errors
 /// A model the frequency response cannot be evaluated for, or a skew outside [−1, 1].
-pub fn disk_margin(sys: &StateSpace, skew: f64) -> Result<DiskMargin, LtiError> {
+pub fn disk_margins(sys: &StateSpace, skew: f64) -> Result<DiskMargins, LtiError> {
     if !(-1.0..=1.0).contains(&skew) {
         return Err(LtiError::NonFiniteResult {
             what: "the disk margin",
             at: format!("skew {skew}: it must lie in [-1, 1]"),
         });
     }
-    let (g, w) = peak(sys, |l| (1.0 / (1.0 + l) + (skew - 1.0) / 2.0).norm())?;
-    Ok(margins_of(1.0 / g, skew, w))
-}
-
-/// The sensitivity peak M_s = max |S| and the complementary peak M_t = max |T|.
-///
-/// # Errors
-/// As [`disk_margin`].
-pub fn sensitivity_peaks(sys: &StateSpace) -> Result<(Peak, Peak), LtiError> {
-    let (ms, ws) = peak(sys, |l| (1.0 / (1.0 + l)).norm())?;
-    let (mt, wt) = peak(sys, |l| (l / (1.0 + l)).norm())?;
-    let hz = |w: Option<f64>| w.map(|w| w / std::f64::consts::TAU);
-    Ok((
-        Peak {
-            value: ms,
-            frequency_hz: hz(ws),
-        },
-        Peak {
-            value: mt,
-            frequency_hz: hz(wt),
-        },
-    ))
+    let response = Response::new(sys)?;
+    let (g, w) = response.peak(&|l: Complex64| (1.0 / (1.0 + l) + (skew - 1.0) / 2.0).norm())?;
+    let peak_of = |f: &dyn Fn(Complex64) -> f64| -> Result<Peak, LtiError> {
+        let (value, w) = response.peak(f)?;
+        Ok(Peak {
+            value,
+            frequency_hz: w.map(|w| w / std::f64::consts::TAU),
+        })
+    };
+    Ok(DiskMargins {
+        disk: margins_of(1.0 / g, skew, w),
+        sensitivity_peak: peak_of(&|l| (1.0 / (1.0 + l)).norm())?,
+        complementary_sensitivity_peak: peak_of(&|l| (l / (1.0 + l)).norm())?,
+    })
 }
 
 /// The disk's margins for α, as python-control's `disk_margins` states them.
@@ -102,63 +106,77 @@ fn margins_of(alpha: f64, skew: f64, omega: Option<f64>) -> DiskMargin {
     }
 }
 
-/// The largest value of `f(L(jω))` over ω ≥ 0 and where it lies (rad/s; `None` at ω → ∞,
-/// where L tends to its feedthrough D).
-fn peak(sys: &StateSpace, f: impl Fn(Complex64) -> f64) -> Result<(f64, Option<f64>), LtiError> {
-    let ev = FreqEvaluator::new(sys)?;
-    let spans: Vec<f64> = (ev.poles().iter())
-        .map(|p| p.norm())
-        .filter(|w| *w > 0.0)
-        .collect();
-    let lo = spans.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) / 1e3;
-    let hi = spans.iter().copied().fold(0.0, f64::max).max(1.0) * 1e3;
-    let points = ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2;
-    // the open- and closed-loop poles' frequencies too: S and T peak near a lightly damped
-    // closed-loop pole, narrower than the grid's spacing where the damping is a few thousandths
-    let closed = sys.closed_loop_poles()?;
-    let mut grid = log_grid(lo, hi, points);
-    grid.extend(
-        (ev.poles().iter().chain(&closed))
-            .flat_map(|p| [p.norm(), p.im.abs()])
-            .filter(|w| *w > lo && *w < hi),
-    );
-    grid.sort_by(f64::total_cmp);
-    grid.dedup();
-    let at = |w: f64| {
-        let v = f(ev.at(w));
-        if v.is_finite() {
-            v
-        } else {
-            0.0
-        }
-    };
-    let values: Vec<f64> = grid.iter().map(|&w| at(w)).collect();
-    let (k, best) =
-        (values.iter().copied().enumerate()).fold((0, f64::NEG_INFINITY), |b, (k, v)| {
-            if v > b.1 {
-                (k, v)
-            } else {
-                b
-            }
-        });
-    let at_infinity = f(Complex64::new(sys.d[(0, 0)], 0.0));
-    if !best.is_finite() {
-        return Err(LtiError::NonFiniteResult {
-            what: "the sensitivity",
-            at: "every frequency".into(),
-        });
+/// A loop's frequency response on the peak search's grid.
+struct Response {
+    ev: FreqEvaluator,
+    /// The grid (rad/s) and L(jω) there.
+    grid: Vec<f64>,
+    values: Vec<Complex64>,
+    /// L at infinite frequency: the feedthrough D.
+    at_infinity: Complex64,
+}
+
+impl Response {
+    /// L(jω) on a log grid from a thousandth of the slowest pole to a thousand times the fastest,
+    /// with the open- and closed-loop poles' frequencies added: S and T peak near a lightly
+    /// damped closed-loop pole, narrower than the grid's spacing where the damping is a few
+    /// thousandths.
+    fn new(sys: &StateSpace) -> Result<Response, LtiError> {
+        let ev = FreqEvaluator::new(sys)?;
+        let spans: Vec<f64> = (ev.poles().iter())
+            .map(|p| p.norm())
+            .filter(|w| *w > 0.0)
+            .collect();
+        let lo = spans.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) / 1e3;
+        let hi = spans.iter().copied().fold(0.0, f64::max).max(1.0) * 1e3;
+        let points = ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2;
+        let closed = sys.closed_loop_poles()?;
+        let mut grid = log_grid(lo, hi, points);
+        grid.extend(
+            (ev.poles().iter().chain(&closed))
+                .flat_map(|p| [p.norm(), p.im.abs()])
+                .filter(|w| *w > lo && *w < hi),
+        );
+        grid.sort_by(f64::total_cmp);
+        grid.dedup();
+        let values = ev.at_many(&grid);
+        Ok(Response {
+            ev,
+            grid,
+            values,
+            at_infinity: Complex64::new(sys.d[(0, 0)], 0.0),
+        })
     }
-    let (w, v) = golden(
-        &at,
-        grid[k.saturating_sub(1)],
-        grid[(k + 1).min(grid.len() - 1)],
-    );
-    let (w, v) = if v >= best { (w, v) } else { (grid[k], best) };
-    Ok(if at_infinity > v {
-        (at_infinity, None)
-    } else {
-        (v, Some(w))
-    })
+
+    /// The largest value of `f(L(jω))` over ω ≥ 0 and where it lies (rad/s; `None` at ω → ∞):
+    /// the grid's largest, refined by golden section between its neighbours.
+    fn peak(&self, f: &dyn Fn(Complex64) -> f64) -> Result<(f64, Option<f64>), LtiError> {
+        let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
+        let (k, best) = (self.values.iter().map(|&l| finite(f(l))).enumerate()).fold(
+            (0, f64::NEG_INFINITY),
+            |b, (k, v)| if v > b.1 { (k, v) } else { b },
+        );
+        if !best.is_finite() {
+            return Err(LtiError::NonFiniteResult {
+                what: "the sensitivity",
+                at: "every frequency".into(),
+            });
+        }
+        let grid = &self.grid;
+        let at = |w: f64| finite(f(self.ev.at(w)));
+        let (w, v) = golden(
+            &at,
+            grid[k.saturating_sub(1)],
+            grid[(k + 1).min(grid.len() - 1)],
+        );
+        let (w, v) = if v >= best { (w, v) } else { (grid[k], best) };
+        let at_infinity = f(self.at_infinity);
+        Ok(if at_infinity > v {
+            (at_infinity, None)
+        } else {
+            (v, Some(w))
+        })
+    }
 }
 
 /// The largest value of `f` on [a, b] by golden-section search in log ω.
@@ -209,7 +227,7 @@ mod tests {
         // h(u) = u(1+u)/(u² − u + 1), u = ω², peaks where −2u² + 2u + 1 = 0: u = (1 + √3)/2
         let u = (1.0 + 3f64.sqrt()) / 2.0;
         let want = (u * (1.0 + u) / (u * u - u + 1.0)).sqrt();
-        let (ms, _) = sensitivity_peaks(&loop_k(1.0)).unwrap();
+        let ms = disk_margins(&loop_k(1.0), 0.0).unwrap().sensitivity_peak;
         assert!(
             (ms.value - want).abs() < 1e-12 * want,
             "{} against {want}",
@@ -221,8 +239,8 @@ mod tests {
             "{hz} Hz"
         );
         // skew 1 is the sensitivity: α = 1/M_s
-        let d = disk_margin(&loop_k(1.0), 1.0).unwrap();
+        let d = disk_margins(&loop_k(1.0), 1.0).unwrap().disk;
         assert!((d.disk_margin - 1.0 / ms.value).abs() < 1e-12);
-        assert!(disk_margin(&loop_k(1.0), 2.0).is_err());
+        assert!(disk_margins(&loop_k(1.0), 2.0).is_err());
     }
 }

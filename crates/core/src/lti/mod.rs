@@ -11,7 +11,7 @@ mod poles;
 mod roots;
 mod timeresp;
 
-pub use disk::{disk_margin, sensitivity_peaks, DiskMargin, Peak};
+pub use disk::{disk_margins, DiskMargin, DiskMargins, Peak};
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo, MAX_STATES};
 pub use margins::{margins, Crossing, CrossingKind, Margins, RELIABLE_DB, RELIABLE_DEG};
