@@ -165,32 +165,27 @@ async function update() {
     ["bulk-modulus", () => [], drawBeta],
   ];
   // one question at a time, on one connection: each answers in milliseconds; the design's
-  // answers come first, since the Bode diagram's envelope is made of their points
-  const answers = [];
+  // answers come first, since the Bode diagram's envelope is made of their points. A round a
+  // newer change has overtaken stops showing anything.
   envelope = null;
   designConditions = [];
-  for (const [c, opts, show] of questions) {
-    const a = await ask(c, sets, opts()).then(
-      (value) => ({ status: "fulfilled", value }),
-      (reason) => ({ status: "rejected", reason }),
-    );
-    answers.push(a);
-    if (a.status === "fulfilled" && show !== drawBode) {
-      try { show(JSON.parse(a.value)); a.shown = true; } catch (e) { a.status = "rejected"; a.reason = new Error(`${c}: ${e.message || e}`); }
-    }
-  }
-  if (generation !== state.generation) return;
   const errors = [];
-  answers.forEach((a, k) => {
-    const [command, , show] = questions[k];
-    if (a.status === "rejected") return errors.push(String(a.reason.message || a.reason));
-    if (a.shown) return;
+  for (const [command, opts, show] of questions) {
+    let body;
     try {
-      show(command === "bode" ? a.value : JSON.parse(a.value));
+      body = await ask(command, sets, opts());
+    } catch (e) {
+      if (generation !== state.generation) return;
+      errors.push(String(e.message || e));
+      continue;
+    }
+    if (generation !== state.generation) return;
+    try {
+      show(command === "bode" ? body : JSON.parse(body));
     } catch (e) {
       errors.push(`${command}: ${e.message || e}`);
     }
-  });
+  }
   $("#errors").textContent = errors.join("\n");
   $("#status").textContent = sets.length ? sets.join(", ") : "the served rig";
   document.body.dataset.state = "ready";
@@ -243,7 +238,7 @@ function showDesign(d) {
 }
 
 // Plot helpers: an SVG panel with axes, ticks and polylines.
-function panel(svg, box, xr, yr, { logx = false, xlabel = "", ylabel = "" } = {}) {
+function panel(box, xr, yr, { logx = false, xlabel = "", ylabel = "" } = {}) {
   const [x0, y0, w, h] = box;
   const fx = (v) => x0 + (w * ((logx ? Math.log10(v) : v) - (logx ? Math.log10(xr[0]) : xr[0]))) / ((logx ? Math.log10(xr[1]) - Math.log10(xr[0]) : xr[1] - xr[0]));
   const fy = (v) => y0 + h - (h * (v - yr[0])) / (yr[1] - yr[0]);
@@ -321,8 +316,8 @@ function drawBode(csv) {
   const variants = (rows[0].length - 3) / 2;
   const allMag = [], allPh = [];
   for (let k = 0; k <= variants; k++) allMag.push(...col(1 + 2 * k)), allPh.push(...col(2 + 2 * k));
-  const m = panel(null, [60, 10, 560, 170], fr, range(allMag.filter(isFinite)), { logx: true, ylabel: "magnitude (dB)" });
-  const p = panel(null, [60, 215, 560, 170], fr, range(allPh.filter(isFinite).concat([-180])), { logx: true, xlabel: "frequency (Hz)", ylabel: "phase (deg)" });
+  const m = panel([60, 10, 560, 170], fr, range(allMag.filter(isFinite)), { logx: true, ylabel: "magnitude (dB)" });
+  const p = panel([60, 215, 560, 170], fr, range(allPh.filter(isFinite).concat([-180])), { logx: true, xlabel: "frequency (Hz)", ylabel: "phase (deg)" });
   let s = m.s + p.s;
   const worstFrom = variants - (envelope ? envelope.worst.length : 0);
   for (let k = 1; k <= variants; k++) {
@@ -340,7 +335,7 @@ function drawBode(csv) {
 
 function drawStep(step) {
   const t = step.signals.time_s, x = step.signals.x_mm, r = step.signals.x_ref_mm;
-  const p = panel(null, [60, 10, 560, 190], [t[0], t[t.length - 1]], range(x.concat(r)), { xlabel: "time (s)", ylabel: "position (mm)" });
+  const p = panel([60, 10, 560, 190], [t[0], t[t.length - 1]], range(x.concat(r)), { xlabel: "time (s)", ylabel: "position (mm)" });
   $("#step").innerHTML = p.s + p.line(t, r, "#999", "4 3") + p.line(t, x, "#0072B2");
   const svg = $("#step");
   svg.dataset.riseTimeS = String(step.metrics.rise_time_s);
@@ -350,7 +345,7 @@ function drawStep(step) {
 function drawBeta(bulk) {
   const pts = bulk.table;
   const p = pts.map((r) => r.p_bar), b = pts.map((r) => r.beta_bar);
-  const pl = panel(null, [60, 10, 560, 190], range(p, 0), range(b), { xlabel: "mean chamber pressure (bar)", ylabel: "β_e (bar)" });
+  const pl = panel([60, 10, 560, 190], range(p, 0), range(b), { xlabel: "mean chamber pressure (bar)", ylabel: "β_e (bar)" });
   let s = pl.s + pl.line(p, b, "#0072B2");
   const at = bulk.gas_fraction_from;
   if (at && at.p_mean_bar !== null && at.p_mean_bar !== undefined) {

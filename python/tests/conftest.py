@@ -87,6 +87,19 @@ def pumpcyl_binary():
     return str(exe)
 
 
+def pumpcyl_json(command, sets=(), *options, timeout=300):
+    """`pumpcyl COMMAND OPTIONS… --set S… --json` by the command line ``cargo test`` built,
+    parsed."""
+    import json
+    import subprocess
+
+    args = [pumpcyl_binary(), command, *options, "--json"]
+    for s in sets:
+        args += ["--set", s]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=timeout, check=True)
+    return json.loads(out.stdout)
+
+
 def stub_fields(name):
     """The annotated fields of the class `name` in the stub python/pumpcyl/_pumpcyl.pyi, in
     order: the keys a result of that kind holds."""

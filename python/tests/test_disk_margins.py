@@ -7,14 +7,12 @@ python-control evaluates on the frequencies it is given: a log grid over the loo
 pumpcyl's peak frequencies added. pumpcyl's peak must be the grid's (no grid point above it) and
 its value python-control's there, to 1e-6."""
 
-import json
 import random
-import subprocess
 
 import numpy as np
 import pytest
 
-from conftest import pumpcyl_binary, require_control
+from conftest import pumpcyl_json, require_control
 
 RIGS = 100
 CIRCUITS = {
@@ -39,14 +37,6 @@ def random_sets(circuit, r):
     if circuit != "valve":
         sets.append(f"beta_bar={r.uniform(60.0, 1200.0)}")
     return CIRCUITS[circuit] + sets
-
-
-def pumpcyl_json(command, sets):
-    args = [pumpcyl_binary(), command, "--json"]
-    for s in sets:
-        args += ["--set", s]
-    out = subprocess.run(args, capture_output=True, text=True, timeout=120, check=True)
-    return json.loads(out.stdout)
 
 
 def close(got, want, what, rel=1e-6):

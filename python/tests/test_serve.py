@@ -4,7 +4,6 @@ command line's `pumpcyl margins --json` and `pumpcyl design --json` for the same
 from the URL, for the DPM, a one-motor circuit and the valve; after the K_p slider moves; and a
 bad field is named, not shown as a number. No request leaves the server's address."""
 
-import json
 import os
 import re
 import select
@@ -13,7 +12,7 @@ import subprocess
 
 import pytest
 
-from conftest import ROOT, pumpcyl_binary, skip_missing
+from conftest import ROOT, pumpcyl_binary, pumpcyl_json, skip_missing
 
 
 def _chromium():
@@ -78,24 +77,6 @@ def browser():
         b.close()
 
 
-def cli(command, sets):
-    """`pumpcyl COMMAND --set … --json`, parsed."""
-    args = [pumpcyl_binary(), command, "--json"]
-    for s in sets:
-        args += ["--set", s]
-    out = subprocess.run(args, capture_output=True, text=True, timeout=120, check=True)
-    return json.loads(out.stdout)
-
-
-def cli_robust(sets):
-    """`pumpcyl design --robust --set … --json`, parsed."""
-    args = [pumpcyl_binary(), "design", "--robust", "--json"]
-    for s in sets:
-        args += ["--set", s]
-    out = subprocess.run(args, capture_output=True, text=True, timeout=120, check=True)
-    return json.loads(out.stdout)
-
-
 def open_page(browser, url, requests):
     """A new page at `url`, every request it makes logged, once its answers are shown."""
     page = browser.new_page(viewport={"width": 1400, "height": 1300})
@@ -115,7 +96,7 @@ def same(got, want, what):
 
 
 def check_margins(page, sets):
-    want = cli("margins", sets)
+    want = pumpcyl_json("margins", sets)
     for key, attr in [("gain_margin_db", "gain-margin-db"), ("phase_margin_deg", "phase-margin-deg")]:
         same(shown(page, "margins", attr), want[key], f"{sets} {key}")
 
@@ -138,19 +119,16 @@ def test_the_page_shows_the_command_lines_margins_for_the_url(server, browser, s
     else:
         assert errors == "", errors
     check_margins(page, sets)
-    same(shown(page, "design", "kp-max"), cli("design", sets)["kp_max"], f"{sets} kp_max")
+    same(shown(page, "design", "kp-max"), pumpcyl_json("design", sets)["kp_max"], f"{sets} kp_max")
     if sets[0] != "circuit=single-pump":
-        want = json.loads(subprocess.run(
-            [pumpcyl_binary(), "track", "--json", "--freq-hz", "0.2", "--amp-mm", "35"]
-            + [a for s in sets for a in ("--set", s)],
-            capture_output=True, text=True, timeout=120, check=True).stdout)
+        want = pumpcyl_json("track", sets, "--freq-hz", "0.2", "--amp-mm", "35")
         same(shown(page, "tracking", "max-error-mm"), want["cases"][0]["metrics"]["max_error_mm"], f"{sets} max error")
     # the page keeps the state in its URL (the rig's order of keys, circuit first)
     kept = page.url.split("#")[1].split("&")
     assert sorted(kept) == sorted(sets) and kept[0] == sets[0], kept
     assert requests and all(u.startswith(server) for u in requests), requests
     # the envelope names the robust design's worst points, the command line's
-    robust = cli_robust(sets)["worst_case"]
+    robust = pumpcyl_json("design", sets, "--robust")["worst_case"]
     for margin, attr in [("phase_margin_deg", "data-worst-pm-at"), ("gain_margin_db", "data-worst-gm-at")]:
         at = robust[margin]["at"]
         words = page.get_attribute("#bode", attr)
@@ -196,8 +174,7 @@ def test_a_bad_field_is_named_not_shown(server, browser):
 def test_the_envelope_is_the_identified_region_and_its_worst_points(server_identified, browser):
     requests = []
     page = open_page(browser, server_identified, requests)
-    args = [pumpcyl_binary(), "design", "--robust", "--experiment", str(EXPERIMENT), "--json"]
-    robust = json.loads(subprocess.run(args, capture_output=True, text=True, timeout=300, check=True).stdout)
+    robust = pumpcyl_json("design", (), "--robust", "--experiment", str(EXPERIMENT))
     region = robust["region"]
     assert region["source"] == "records"
     text = page.text_content("#envelope")
