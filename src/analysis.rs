@@ -18,7 +18,10 @@ pub struct MarginsArgs {
     /// Print JSON (keys loop, gain_margin_db, phase_margin_deg, phase_crossover_hz,
     /// gain_crossover_hz, delay_margin_s, closed_loop_stable, crossings, integrators,
     /// ill_conditioned, disk (the balanced disk margin), sensitivity_peak and
-    /// complementary_sensitivity_peak (docs/analysis.md#disk-margins); a null margin is
+    /// complementary_sensitivity_peak (docs/analysis.md#disk-margins), sampled (the same of
+    /// the loop as the rig's PLC samples it: plc_rate_hz, plc_delay_samples, the margin
+    /// fields, delay_margin_samples, phase_margin_cost_deg, gain_margin_cost_db;
+    /// docs/analysis.md#sampled-data-margins); a null margin is
     /// infinite: no crossing of that kind;
     /// docs/analysis.md#conditioning for ill_conditioned and each crossing's margin_error_bound;
     /// on a single-pump rig also modes, one object per mode with accumulator_chamber, at_rest
@@ -26,6 +29,10 @@ pub struct MarginsArgs {
     /// acceleration_to_switch_m_per_s2: docs/circuits.md#modes-in-margins-and-poles).
     #[arg(long)]
     json: bool,
+    /// The disk margin's skew sigma in [-1, 1]: 0 balanced, 1 the sensitivity S (1/M_s), -1
+    /// the complementary sensitivity T (1/M_t) (docs/analysis.md#disk-margins).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    skew: f64,
 }
 
 #[derive(Debug, Args)]
@@ -94,7 +101,10 @@ pub struct ModelCmdArgs {
 
 /// `pumpcyl margins`.
 pub fn margins(args: &MarginsArgs) -> Result<String> {
-    show(&Margins::of_loop(args.model.build(&[])?)?, args.json)
+    show(
+        &Margins::of_loop(args.model.build(&[])?, args.skew)?,
+        args.json,
+    )
 }
 
 /// `pumpcyl bode`.

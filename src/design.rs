@@ -44,6 +44,10 @@ pub struct DesignArgs {
     /// Wave to track, FREQ_HZ:AMP_MM (repeatable), e.g. --wave 0.2:35.
     #[arg(long, value_parser = parse_wave)]
     wave: Vec<(f64, f64)>,
+    /// Design on the loop as the rig's PLC closes it (plc_rate_hz, plc_delay_samples, a
+    /// zero-order hold; docs/analysis.md#sampled-data-margins) instead of the continuous one.
+    #[arg(long)]
+    sampled: bool,
     /// Print JSON (analysed_loop, kp_max, kp_max_worst_case, worst_case, conditions, tracking, rest_offset_mm, verdict,
     /// reasons; with --robust: kp_max, kp_max_nominal, worst_case, deciding, steps, region).
     #[arg(long)]
@@ -101,6 +105,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
             p_beta_bar: args.p_beta_bar,
             mass_kg: args.mass_kg.clone(),
             waves: args.wave.clone(),
+            sampled: args.sampled,
         },
         allow_long_run: args.allow_long_run,
         robust,

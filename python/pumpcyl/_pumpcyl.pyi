@@ -173,13 +173,18 @@ class Margins(Result):
     """The model's conditioning does not resolve a headline margin to 0.01 dB / 0.01 deg
     (its crossing's margin_error_bound is larger)."""
     disk: Dict[str, Any]
-    """The balanced disk margin (docs/analysis.md#disk-margins): skew (0), disk_margin (alpha),
+    """The disk margin of the skew asked for (docs/analysis.md#disk-margins): skew (0 balanced), disk_margin (alpha),
     gain_margin_db and phase_margin_deg (``None`` infinite) and frequency_hz of the worst case
     (``None`` at infinite frequency), as python-control's ``disk_margins``."""
     sensitivity_peak: Dict[str, Any]
     """M_s = max |S|: value and frequency_hz (the disk margin of skew 1 is 1/M_s)."""
     complementary_sensitivity_peak: Dict[str, Any]
     """M_t = max |T|: value and frequency_hz (the disk margin of skew -1 is 1/M_t)."""
+    sampled: Optional[Dict[str, Any]]
+    """The loop as the rig's PLC closes it, sampled with a zero-order hold at ``plc_rate_hz``
+    and delayed ``plc_delay_samples`` (docs/analysis.md#sampled-data-margins): every margin
+    field above of the sampled loop, ``delay_margin_samples``, ``phase_margin_cost_deg`` and
+    ``gain_margin_cost_db`` (continuous less sampled)."""
     simulated_closed_loop: Optional[Dict[str, Any]]
     """Only where it differs from the loop ``closed_loop_stability`` is read on (the rig's
     sum-pressure loop on but open in the analysed loop): the closed loop as ``step`` simulates
@@ -619,9 +624,10 @@ class Dataset:
         name: str = "dataset",
     ) -> None: ...
 
-def margins(rig: Rig, *, sum_pressure_closed: bool = False) -> Margins:
-    """Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing
-    and closed-loop stability."""
+def margins(rig: Rig, *, sum_pressure_closed: bool = False, skew: float = 0.0) -> Margins:
+    """Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing,
+    closed-loop stability, the disk margin of skew ``skew`` with M_s and M_t, and the same of
+    the loop as the rig's PLC samples it (``sampled``)."""
 
 def poles(rig: Rig, *, sum_pressure_closed: bool = False) -> Poles:
     """The poles of the position loop, open and closed (and as simulated where the
@@ -905,6 +911,7 @@ def design(
     confidence: float = 0.95,
     allow_long_run: bool = False,
     progress: Union[None, bool, Callable[[int, int], None]] = None,
+    sampled: bool = False,
 ) -> Union[Design, RobustDesign]:
     """The design method (the article §2.2): kp_max, kp_max_worst_case, worst_case,
     conditions, tracking (each wave's periodic steady state: max_error_mm, rms_error_mm,

@@ -762,15 +762,22 @@ fn document(
     PyOutcome::of(py, kind, &doc)
 }
 
-/// Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing and
-/// closed-loop stability: the command line's `margins --json`, field for field (a `None` margin
-/// is infinite: no crossing of that kind).
+/// Gain, phase and delay margins of the position loop (the article §2.3.3), every crossing,
+/// closed-loop stability, the disk margin of skew `skew` with the sensitivity peaks, and the
+/// same of the loop as the rig's PLC samples it (`sampled`): the command line's
+/// `margins --json`, field for field (a `None` margin is infinite: no crossing of that kind).
 #[pyfunction]
-#[pyo3(signature = (rig, *, sum_pressure_closed = false))]
-fn margins(py: Python<'_>, rig: &PyRig, sum_pressure_closed: bool) -> PyResult<PyOutcome> {
+#[pyo3(signature = (rig, *, sum_pressure_closed = false, skew = 0.0))]
+fn margins(
+    py: Python<'_>,
+    rig: &PyRig,
+    sum_pressure_closed: bool,
+    skew: f64,
+) -> PyResult<PyOutcome> {
     let request = request::analysis::Margins {
         rig: rig.input(),
         sum_pressure_closed,
+        skew,
     };
     document(
         py,
@@ -1982,18 +1989,20 @@ fn cycle(
 /// Masses × pressures beyond 10^5 margin analyses (hours of work) run only with
 /// `allow_long_run=True`, as the command line's `--allow-long-run`. `progress` as for
 /// `identify`, over the design's conditions (the nominal design; the robust design reports
-/// its end only). The result is a `Result`, the command line's `design --json` (or
+/// its end only). `sampled=True` designs on the loop as the rig's PLC closes it, as
+/// `--sampled` (docs/analysis.md#sampled-data-margins). The result is a `Result`, the command line's `design --json` (or
 /// `design --robust --json`).
 #[pyfunction]
 #[pyo3(
     signature = (
         rig = None, *, target_pm_deg = 34.0, target_gm_db = 6.0, stroke_mm = 50.0,
         p_mean_bar = vec![], p_beta_bar = None, mass_kg = vec![], waves = vec![], robust = false,
-        experiment = None, confidence = 0.95, allow_long_run = false, progress = None
+        experiment = None, confidence = 0.95, allow_long_run = false, progress = None,
+        sampled = false
     ),
     text_signature = "(rig=None, *, target_pm_deg=34.0, target_gm_db=6.0, stroke_mm=50.0, \
         p_mean_bar=(), p_beta_bar=None, mass_kg=(), waves=(), robust=False, experiment=None, \
-        confidence=0.95, allow_long_run=False, progress=None)"
+        confidence=0.95, allow_long_run=False, progress=None, sampled=False)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn design(
@@ -2011,6 +2020,7 @@ fn design(
     confidence: f64,
     allow_long_run: bool,
     progress: Option<Py<PyAny>>,
+    sampled: bool,
 ) -> PyResult<PyOutcome> {
     if experiment.is_some() && !robust {
         return Err(err("experiment: needs robust=True"));
@@ -2035,6 +2045,7 @@ fn design(
             p_beta_bar,
             mass_kg,
             waves,
+            sampled,
         },
         allow_long_run,
         robust,

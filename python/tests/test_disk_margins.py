@@ -1,7 +1,8 @@
 """Disk margins and sensitivity peaks of `pumpcyl margins --json` against python-control's
 `disk_margins` (0.10.2) on the open loop `pumpcyl model --json` prints, for 100 random rigs of
 every circuit (docs/analysis.md#disk-margins): the balanced disk (skew 0) with its gain and
-phase margins, and the skews 1 and −1, whose disk margins are 1/M_s and 1/M_t.
+phase margins, the skew 0.5 (`--skew 0.5`), and the skews 1 and −1, whose disk margins are
+1/M_s and 1/M_t.
 
 python-control evaluates on the frequencies it is given: a log grid over the loop's span with
 pumpcyl's peak frequencies added. pumpcyl's peak must be the grid's (no grid point above it) and
@@ -65,6 +66,14 @@ def test_disk_margins_equal_python_controls(circuit):
             close(m["disk"]["gain_margin_db"], dgm, what + " disk gain margin")
         if m["disk"]["phase_margin_deg"] is not None:
             close(m["disk"]["phase_margin_deg"], dpm, what + " disk phase margin")
+        skewed = pumpcyl_json("margins", sets, "--skew", "0.5")["disk"]
+        omega = np.sort(np.append(omega, 2 * np.pi * (skewed["frequency_hz"] or 1.0)))
+        dm, dgm, dpm = control.disk_margins(loop, omega, skew=0.5)
+        close(skewed["disk_margin"], dm, what + " disk margin of skew 0.5")
+        if skewed["gain_margin_db"] is not None:
+            close(skewed["gain_margin_db"], dgm, what + " disk gain margin of skew 0.5")
+        if skewed["phase_margin_deg"] is not None:
+            close(skewed["phase_margin_deg"], dpm, what + " disk phase margin of skew 0.5")
         for skew, peak in [(1.0, "sensitivity_peak"), (-1.0, "complementary_sensitivity_peak")]:
             # returnall: its worst-case summary fails where every phase margin is NaN (skew ±1)
             dm, _, _ = control.disk_margins(loop, omega, skew=skew, returnall=True)

@@ -496,6 +496,12 @@ pub struct Unit {
 /// Every unit the FMU's variables use.
 pub const UNITS: &[Unit] = &[
     Unit {
+        doc: "Hz",
+        name: "Hz",
+        base: [0, 0, -1, 0, 0],
+        factor: 1.0,
+    },
+    Unit {
         doc: "J",
         name: "J",
         base: [1, 2, -2, 0, 0],

@@ -419,6 +419,14 @@ pub struct Rig {
     pub k_pres_per_bar: f64,
     /// Sum-pressure split factor Kβ (dimensionless).
     pub k_beta: f64,
+    /// The PLC's sample rate (Hz) as the sampled-data margins read the loop
+    /// (docs/analysis.md#sampled-data-margins): the article's 100 Hz PLC (§2.3.4).
+    pub plc_rate_hz: f64,
+    /// The PLC's computation delay (whole samples) between reading the position and applying
+    /// the command, as the sampled-data margins read the loop (docs/analysis.md#sampled-data-margins):
+    /// 1 by default, a command computed in one cycle and written out in the next
+    /// **\[choice\]** (docs/choices.md).
+    pub plc_delay_samples: f64,
     /// Motor rated torque (N·m).
     pub motor_rated_torque_nm: f64,
     /// Motor rated speed (rpm).
@@ -502,6 +510,8 @@ impl Default for Rig {
             p_sum_ref_bar: 10.0,
             k_pres_per_bar: 0.22,
             k_beta: 1.4,
+            plc_rate_hz: 100.0,
+            plc_delay_samples: 1.0,
             motor_rated_torque_nm: 12.5,
             motor_rated_speed_rpm: 3000.0,
             pump_max_speed_rpm: 3600.0,
@@ -1276,6 +1286,12 @@ impl Rig {
             ("p_sum_ref_bar", self.p_sum_ref_bar, Positive(0.001, 1e4)),
             ("k_pres_per_bar", self.k_pres_per_bar, NonNegative(1e6)),
             ("k_beta", self.k_beta, NonNegative(1000.0)),
+            ("plc_rate_hz", self.plc_rate_hz, Positive(0.1, 1e6)),
+            (
+                "plc_delay_samples",
+                self.plc_delay_samples,
+                Whole(crate::lti::MAX_DELAY_SAMPLES as f64),
+            ),
             (
                 "motor_rated_torque_nm",
                 self.motor_rated_torque_nm,
@@ -1309,6 +1325,12 @@ impl Rig {
             fields.push((key.name, self.circuit_key(key.name), key.range));
         }
         fields
+    }
+
+    /// The PLC's sample period (s) and computation delay (samples) as the sampled-data margins
+    /// read the loop (docs/analysis.md#sampled-data-margins).
+    pub fn plc_sampling(&self) -> (f64, usize) {
+        (1.0 / self.plc_rate_hz, self.plc_delay_samples as usize)
     }
 
     /// Convert to SI and compute the derived quantities (the article §2.3.1; docs/model.md#geometry).
@@ -1467,6 +1489,8 @@ pub enum Range {
     NonNegative(f64),
     /// Either sign, magnitude at most `.0`.
     Any(f64),
+    /// A whole number from 0 to `.0` (a count).
+    Whole(f64),
 }
 
 impl Range {
@@ -1483,6 +1507,9 @@ impl Range {
             Range::NonNegative(_) if value < 0.0 => Some("must be >= 0".into()),
             Range::NonNegative(hi) if value > hi => Some(outside(0.0, hi)),
             Range::Any(hi) if value.abs() > hi => Some(outside(-hi, hi)),
+            Range::Whole(hi) if value.fract() != 0.0 || !(0.0..=hi).contains(&value) => {
+                Some(format!("must be a whole number from 0 to {hi}"))
+            }
             _ => None,
         }
     }
@@ -1671,6 +1698,14 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
                 "1/bar, sum-pressure gain: normalised command per bar (the article's 22 % per bar)",
             ),
             ("k_beta", "-, sum-pressure split factor"),
+            (
+                "plc_rate_hz",
+                "Hz, the PLC's sample rate, as the sampled-data margins read the loop (the article's 100 Hz)",
+            ),
+            (
+                "plc_delay_samples",
+                "-, the PLC's computation delay in whole samples, from reading the position to applying the command (sampled-data margins)",
+            ),
         ],
     ),
     (

@@ -6,7 +6,9 @@
 use crate::format::fmt_opt;
 use crate::table::Table;
 use pumpcyl::design::robust::{Binding, Region, RegionSource, RobustOptions, Worst};
-use pumpcyl::design::{robust_design, Design, DesignError, RobustDesign, Targets, Verdict};
+use pumpcyl::design::{
+    robust_design, Design, DesignError, RobustDesign, Searched, Targets, Verdict,
+};
 use pumpcyl::ident::Experiment;
 use pumpcyl::rig::Rig;
 use serde_json::{json, Value};
@@ -83,6 +85,15 @@ fn kv_text(kv: Option<f64>) -> String {
     })
 }
 
+/// ", the searched worst PM position" after a searched condition's position.
+fn searched_text(searched: Option<Searched>) -> &'static str {
+    match searched {
+        None => "",
+        Some(Searched::PhaseMargin) => " (searched: the least phase margin over the stroke)",
+        Some(Searched::GainMargin) => " (searched: the least gain margin over the stroke)",
+    }
+}
+
 /// The nominal design (docs/design.md#what-pumpcyl-design-does) for the rig `rig` (in words)
 /// as text: the targets, the largest gains and the binding condition, the margins at every
 /// condition, the predicted tracking at the gain it names, the verdict and its reasons.
@@ -98,8 +109,9 @@ pub fn design_text(rig: &str, d: &Design) -> String {
     let w = &d.worst_case;
     let _ = writeln!(
         s,
-        "  binding condition            x {} mm{}, m {:.0} kg{}: its Kp max {:.2} sets the gain (GM {} dB, PM {} deg at Kp = {:.2})",
+        "  binding condition            x {:.1} mm{}{}, m {:.0} kg{}: its Kp max {:.2} sets the gain (GM {} dB, PM {} deg at Kp = {:.2})",
         w.x_mm,
+        searched_text(w.searched),
         w.mode.map_or(String::new(), |m| format!(", mode {m}")),
         w.mass_kg,
         w.p_mean_bar.map_or(String::new(), |p| format!(", p {p} bar")),
@@ -112,7 +124,7 @@ pub fn design_text(rig: &str, d: &Design) -> String {
     let modes = d.conditions.iter().any(|c| c.mode.is_some());
     let _ = writeln!(
         s,
-        "  {:>7}{} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}",
+        "  {:>7}{} {:>9} {:>7} {:>9} {:>8} {:>8}  {:>8}  position",
         "x_mm",
         if modes { "  mode" } else { "" },
         "mass_kg",
@@ -131,7 +143,7 @@ pub fn design_text(rig: &str, d: &Design) -> String {
         };
         let _ = writeln!(
             s,
-            "  {:>7.1}{} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}{stable}",
+            "  {:>7.1}{} {:>9.0} {:>7} {:>9.1} {:>8} {:>8}  {:>8.2}  {}{stable}",
             c.x_mm,
             c.mode.map_or(String::new(), |m| format!("{m:>6}")),
             c.mass_kg,
@@ -139,7 +151,12 @@ pub fn design_text(rig: &str, d: &Design) -> String {
             c.beta_bar,
             fmt_opt(c.gain_margin_db, 2),
             fmt_opt(c.phase_margin_deg, 1),
-            c.kp_max
+            c.kp_max,
+            match c.searched {
+                None => "checked",
+                Some(Searched::PhaseMargin) => "searched: least PM",
+                Some(Searched::GainMargin) => "searched: least GM",
+            }
         );
     }
     let gain = match d.kp_recommended {

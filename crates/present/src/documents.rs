@@ -4,6 +4,7 @@
 //! and compares).
 
 use crate::analysis::{loop_margins_json, loop_pole_sets, merged, poles_json, ModesReport};
+use crate::robustness::{disk_json, sampled_json};
 use crate::time::{rating_warnings, step_json, Runs, StepSetup};
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{LtiError, Margins};
@@ -76,56 +77,19 @@ pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
 }
 
 /// The margins document (`pumpcyl margins --json`, Python's `margins`): the analysed loop's
-/// margins ([`loop_margins_json`]) and, on a single-pump rig, its two modes beside the
+/// margins ([`loop_margins_json`]), its disk margin of skew `skew` and sensitivity peaks
+/// ([`disk_json`]), the loop as its PLC samples it ([`sampled_json`]) and, on a single-pump rig, its two modes beside the
 /// switching force ([`ModesReport::margins_json`]: `modes`, `switching_force_n`, ...).
 ///
 /// # Errors
 /// The margins cannot be computed.
-pub fn margins_document(m: &Margins, lp: &Loop) -> Result<Value, LtiError> {
-    let doc = merged(loop_margins_json(m, lp)?, disk_json(lp));
+pub fn margins_document(m: &Margins, lp: &Loop, skew: f64) -> Result<Value, LtiError> {
+    let doc = merged(loop_margins_json(m, lp)?, disk_json(lp, skew));
+    let doc = merged(doc, sampled_json(lp, m, skew));
     Ok(match ModesReport::of_loop(lp)? {
         Some(modes) => merged(doc, modes.margins_json()?),
         None => doc,
     })
-}
-
-/// The loop's balanced disk margin and sensitivity peaks (docs/analysis.md#disk-margins):
-/// `disk` (skew 0), `sensitivity_peak` (M_s, the disk margin of skew 1 being 1/M_s) and
-/// `complementary_sensitivity_peak` (M_t, skew −1: 1/M_t); each `null` where the loop's
-/// frequency response cannot be evaluated (the classical margins still stand).
-pub fn disk_json(lp: &Loop) -> Value {
-    match pumpcyl::lti::disk_margins(&lp.open_loop, 0.0) {
-        Ok(d) => json!(d),
-        Err(_) => json!({
-            "disk": null,
-            "sensitivity_peak": null,
-            "complementary_sensitivity_peak": null,
-        }),
-    }
-}
-
-/// The loop's disk margin and sensitivity peaks in one line of text (a line saying why where
-/// they cannot be computed).
-pub fn disk_text(lp: &Loop) -> String {
-    let d = match pumpcyl::lti::disk_margins(&lp.open_loop, 0.0) {
-        Ok(d) => d,
-        Err(e) => return format!("disk margin: not computed ({e})\n"),
-    };
-    let num =
-        |v: Option<f64>, unit: &str| v.map_or("inf".to_string(), |v| format!("{v:.2} {unit}"));
-    let hz = |v: Option<f64>| v.map_or("infinite frequency".to_string(), |v| format!("{v:.3} Hz"));
-    let (ms, mt) = (&d.sensitivity_peak, &d.complementary_sensitivity_peak);
-    format!(
-        "disk margin (balanced, skew 0): alpha {:.4}, gain +/-{}, phase +/-{} at {}; M_s {:.3} at {}, M_t {:.3} at {} (docs/analysis.md#disk-margins)\n",
-        d.disk.disk_margin,
-        num(d.disk.gain_margin_db, "dB"),
-        num(d.disk.phase_margin_deg, "deg"),
-        hz(d.disk.frequency_hz),
-        ms.value,
-        hz(ms.frequency_hz),
-        mt.value,
-        hz(mt.frequency_hz),
-    )
 }
 
 /// The poles document (`pumpcyl poles --json`, Python's `poles`): the pole sets of the

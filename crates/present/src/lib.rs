@@ -53,6 +53,7 @@ pub mod plot;
 pub mod records;
 pub mod reproduce;
 pub mod request;
+pub mod robustness;
 pub mod select;
 pub mod table;
 pub mod time;

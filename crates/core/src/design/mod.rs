@@ -11,7 +11,9 @@ use crate::rig::{Rig, RigError};
 use serde::Serialize;
 
 pub mod robust;
+pub mod stroke;
 pub use robust::{robust_design, Region, RobustDesign};
+pub use stroke::Searched;
 
 /// Errors of the design.
 #[derive(Debug, thiserror::Error)]
@@ -54,6 +56,9 @@ pub struct Targets {
     pub mass_kg: Vec<f64>,
     /// Sinusoidal waves to track: (frequency Hz, amplitude mm).
     pub waves: Vec<(f64, f64)>,
+    /// Design on the loop as the rig's PLC closes it (`plc_rate_hz`, `plc_delay_samples`;
+    /// docs/analysis.md#sampled-data-margins) instead of the continuous one.
+    pub sampled: bool,
 }
 
 impl Targets {
@@ -90,6 +95,7 @@ impl Default for Targets {
             p_beta_bar: None,
             mass_kg: vec![],
             waves: vec![],
+            sampled: false,
         }
     }
 }
@@ -139,6 +145,9 @@ pub struct Condition {
     pub closed_loop_stable: bool,
     /// Largest Kp meeting the targets at this condition.
     pub kp_max: f64,
+    /// `None` for one of the stroke positions checked (x0, x0 ± stroke); for a position the
+    /// search over the stroke found ([`stroke`]), the margin it is the worst of.
+    pub searched: Option<Searched>,
 }
 
 /// The verdict.
@@ -164,6 +173,9 @@ pub struct Design {
     /// Largest Kp meeting the targets at the design point (the rig's own operating point,
     /// docs/design.md#the-method, step 5).
     pub kp_max: f64,
+    /// With `sampled` targets, the largest Kp at the design point of the continuous loop, to
+    /// tell what the PLC's sampling and delay cost; `None` otherwise.
+    pub kp_max_continuous: Option<f64>,
     /// The velocity-loop gain K_v at `kp_max` (1/s: steady piston velocity per metre of error,
     /// [`Margins::velocity_gain_per_s`]), which compares across circuits where K_p's unit does
     /// not.
@@ -221,17 +233,25 @@ fn meets(m: &Margins, t: &Targets) -> bool {
 }
 
 /// Margins of the loop of docs/analysis.md#the-loop-that-is-analysed of `rig` with gain `kp`,
-/// in the mode the rig rests in.
-fn margins_at(rig: &Rig, kp: f64) -> Result<Margins, DesignError> {
-    margins_in(rig, kp, 0)
+/// in the mode the rig rests in; of the loop as its PLC closes it when `sampled`
+/// (docs/analysis.md#sampled-data-margins).
+fn margins_at(rig: &Rig, kp: f64, sampled: bool) -> Result<Margins, DesignError> {
+    margins_in(rig, kp, 0, sampled)
 }
 
 /// [`margins_at`] in the linear model `mode` of [`AnyCircuit::linear_modes`] (0: the one at
 /// rest).
-fn margins_in(rig: &Rig, kp: f64, mode: usize) -> Result<Margins, DesignError> {
+fn margins_in(rig: &Rig, kp: f64, mode: usize, sampled: bool) -> Result<Margins, DesignError> {
     let r = Rig { kp, ..rig.clone() };
     let circuit = AnyCircuit::linear_modes(&r).swap_remove(mode);
-    Ok(margins(&Plant::of(&r, circuit).open_loop(false))?)
+    let open = Plant::of(&r, circuit).open_loop(false);
+    Ok(match sampled {
+        true => {
+            let (h, delay) = r.plc_sampling();
+            crate::lti::sampled_margins(&open, h, delay)?
+        }
+        false => margins(&open)?,
+    })
 }
 
 /// The largest Kp in (0, 10⁴] meeting the targets for `rig`, by a bracketing search on log Kp
@@ -260,7 +280,8 @@ fn margins_in(rig: &Rig, kp: f64, mode: usize) -> Result<Margins, DesignError> {
 /// let d = design::design(&Rig::default(), &targets)?;
 /// assert_eq!(d.kp_max, kp);
 /// assert!(d.kp_max_worst_case <= d.kp_max);
-/// assert_eq!(d.conditions.len(), 3); // x0 − 50 mm, x0, x0 + 50 mm
+/// // x0 − 50 mm, x0, x0 + 50 mm, and the least PM and GM over the stroke, searched
+/// assert_eq!(d.conditions.len(), 5);
 /// # Ok::<(), design::DesignError>(())
 /// ```
 pub fn kp_max(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
@@ -313,8 +334,9 @@ pub fn kp_max_below(rig: &Rig, t: &Targets, ceiling: f64) -> Result<f64, DesignE
 
 /// [`kp_max_below`] in the linear model `mode` of [`AnyCircuit::linear_modes`].
 fn kp_max_in(rig: &Rig, t: &Targets, ceiling: f64, mode: usize) -> Result<f64, DesignError> {
-    let slack_at =
-        |kp: f64| -> Result<f64, DesignError> { Ok(slack(&margins_in(rig, kp, mode)?, t)) };
+    let slack_at = |kp: f64| -> Result<f64, DesignError> {
+        Ok(slack(&margins_in(rig, kp, mode, t.sampled)?, t))
+    };
     let (lo, hi) = (KP_FLOOR, ceiling.max(KP_FLOOR));
     let s_lo = slack_at(lo)?;
     if s_lo < 0.0 {
@@ -451,13 +473,19 @@ const TRACKING_RATE_HZ: f64 = 100.0;
 /// [`KP_SEARCH_STEPS`] steps) and the margins at the designed gain.
 const ANALYSES_PER_CONDITION: f64 = 3.0 + KP_SEARCH_STEPS as f64;
 
+/// Margin analyses per load and pressure in each linear model for the search over the stroke:
+/// the search itself and the two conditions it adds.
+const ANALYSES_PER_SEARCH: f64 = stroke::SEARCH_ANALYSES + 2.0 * ANALYSES_PER_CONDITION;
+
 impl Targets {
     /// The margin analyses the design of these targets takes at most in `models` linear models
     /// of the circuit (its [`AnyCircuit::linear_modes`]: the single-pump circuit's two modes):
     /// three stroke positions × masses × pressures conditions, each a Kp search in each model,
-    /// plus the design point's.
+    /// plus the design point's, and the search over the stroke of each mass and pressure.
     pub fn margin_analyses(&self, models: usize) -> f64 {
+        let cases = self.conditions() / 3.0;
         (models as f64 * self.conditions() + 1.0) * ANALYSES_PER_CONDITION
+            + models as f64 * cases * ANALYSES_PER_SEARCH
     }
 
     /// The conditions the design checks: three stroke positions × masses × pressures.
@@ -533,6 +561,25 @@ pub fn design_with(
     let rest_offset_mm =
         (Plant::new(&tracked).rest(tracked.sum_pressure)).map(|r| r.offset_m * 1e3);
     let (verdict, mut reasons) = judge(&conditions, t, kp, kp_max_worst_case);
+    let kp_max_continuous = match t.sampled {
+        true => Some(kp_max(
+            rig,
+            &Targets {
+                sampled: false,
+                ..t.clone()
+            },
+        )?),
+        false => None,
+    };
+    if let Some(kc) = kp_max_continuous {
+        let d = rig.plc_sampling().1;
+        reasons.push(format!(
+            "the PLC ({} Hz, {d} sample(s) of computation delay, a zero-order hold) lowers Kp max at the design point from \
+             {kc:.2} (the continuous loop) to {kp:.2} ({:+.1} %; docs/analysis.md#sampled-data-margins)",
+            rig.plc_rate_hz,
+            100.0 * (kp / kc - 1.0)
+        ));
+    }
     if let Some(mm) = rest_offset_mm {
         reasons.push(format!(
             "at Kp = {tracking_kp:.2} the loop rests with x_ref - x = {mm:.3} mm: the standing error with which \
@@ -540,21 +587,34 @@ pub fn design_with(
         ));
     }
     Ok(Design {
-        analysed_loop: format!("circuit {}", Plant::new(rig).circuit().describe()),
+        analysed_loop: analysed_loop(rig, t),
         targets: t.clone(),
         kp_max: kp,
-        kv_max_per_s: margins_at(rig, kp)?.velocity_gain_per_s,
+        kp_max_continuous,
+        kv_max_per_s: margins_at(rig, kp, t.sampled)?.velocity_gain_per_s,
         kp_max_worst_case,
         worst_case: worst,
         conditions,
         kp_recommended,
         tracking_kp,
-        tracking_kv_per_s: margins_at(rig, tracking_kp)?.velocity_gain_per_s,
+        tracking_kv_per_s: margins_at(rig, tracking_kp, t.sampled)?.velocity_gain_per_s,
         tracking,
         rest_offset_mm,
         verdict,
         reasons,
     })
+}
+
+/// The loop the gains are designed on, in words.
+fn analysed_loop(rig: &Rig, t: &Targets) -> String {
+    let circuit = format!("circuit {}", Plant::new(rig).circuit().describe());
+    match t.sampled {
+        true => format!(
+            "{circuit}, sampled by its PLC at {} Hz with {} sample(s) of computation delay",
+            rig.plc_rate_hz, rig.plc_delay_samples
+        ),
+        false => circuit,
+    }
 }
 
 /// The binding condition: the smallest Kp max, the gain every condition can bear
@@ -581,38 +641,121 @@ fn pm_key(c: &Condition) -> f64 {
 
 /// Every combination of stroke position, mass and pressure, in every linear model of the
 /// circuit ([`AnyCircuit::linear_modes`]: the single-pump circuit's two modes), at the
-/// designed gain.
+/// designed gain: the positions x0 and x0 ± stroke, and for each load, pressure and model the
+/// positions of the smallest phase and gain margins over the stroke between them, searched
+/// ([`stroke`]; docs/design.md#the-worst-case-searched).
 fn conditions(
     rig: &Rig,
     t: &Targets,
     work: &crate::limits::Work,
 ) -> Result<Vec<Condition>, DesignError> {
+    let (cases, mut out) = (cases(rig, t)?, Vec::new());
+    for x_mm in positions(rig, t) {
+        for case in &cases {
+            work.advance(1)?;
+            let r = case.rig(rig, x_mm)?;
+            for mode in 0..AnyCircuit::linear_modes(&r).len() {
+                out.push(condition(rig, t, case, &r, mode, None)?);
+            }
+        }
+    }
+    for case in &cases {
+        out.extend(searched_conditions(rig, t, case)?);
+    }
+    Ok(out)
+}
+
+/// The conditions at the positions of the smallest margins over the stroke of one load and
+/// pressure, in each linear model ([`stroke::Line::worst`]).
+fn searched_conditions(rig: &Rig, t: &Targets, case: &Case) -> Result<Vec<Condition>, DesignError> {
+    let (lo, hi) = stroke_range(rig, t);
     let mut out = Vec::new();
-    for (p, r) in condition_rigs(rig, t)? {
-        work.advance(1)?;
-        for (i, circuit) in AnyCircuit::linear_modes(&r).iter().enumerate() {
-            let mm = margins_in(&r, rig.kp, i)?;
-            out.push(Condition {
-                x_mm: r.x0_mm,
-                mode: circuit.mode(),
-                mass_kg: r.mass_kg,
-                p_mean_bar: p,
-                beta_bar: r.beta_bar,
-                gain_margin_db: mm.gain_margin_db,
-                phase_margin_deg: mm.phase_margin_deg,
-                closed_loop_stable: mm.closed_loop_stable,
-                kp_max: kp_max_in(&r, t, KP_CEILING, i)?,
-            });
+    if hi <= lo {
+        return Ok(out);
+    }
+    let breaks: Vec<f64> = rig.mass_by_position.iter().map(|p| p.x_mm).collect();
+    let at = |x_mm: f64| case.rig(rig, x_mm);
+    for mode in 0..AnyCircuit::linear_modes(rig).len() {
+        let line = stroke::Line {
+            at: &at,
+            mode,
+            kp: rig.kp,
+            targets: t,
+        };
+        for (which, x_mm) in line.worst(lo, hi, &breaks)? {
+            let r = case.rig(rig, x_mm)?;
+            out.push(condition(rig, t, case, &r, mode, Some(which))?);
         }
     }
     Ok(out)
 }
 
-/// The rig at every combination of stroke position, load and pressure the targets name (the
-/// mean pressure, when varied, beside it): the operating point moved to the position, the
-/// mass following the stroke where the geometry ties them, β_e from the gas-fraction model.
-fn condition_rigs(rig: &Rig, t: &Targets) -> Result<Vec<(Option<f64>, Rig)>, DesignError> {
-    let positions = [rig.x0_mm - t.stroke_mm, rig.x0_mm, rig.x0_mm + t.stroke_mm];
+/// The condition of `r` (one case at one position) in linear model `mode` at the designed gain.
+fn condition(
+    rig: &Rig,
+    t: &Targets,
+    case: &Case,
+    r: &Rig,
+    mode: usize,
+    searched: Option<Searched>,
+) -> Result<Condition, DesignError> {
+    let mm = margins_in(r, rig.kp, mode, t.sampled)?;
+    Ok(Condition {
+        x_mm: r.x0_mm,
+        mode: AnyCircuit::linear_modes(r)[mode].mode(),
+        mass_kg: r.mass_kg,
+        p_mean_bar: case.p_mean_bar,
+        beta_bar: r.beta_bar,
+        gain_margin_db: mm.gain_margin_db,
+        phase_margin_deg: mm.phase_margin_deg,
+        closed_loop_stable: mm.closed_loop_stable,
+        kp_max: kp_max_in(r, t, KP_CEILING, mode)?,
+        searched,
+    })
+}
+
+/// The stroke positions checked: x0 and x0 ± stroke, those strictly inside the stroke.
+fn positions(rig: &Rig, t: &Targets) -> Vec<f64> {
+    let all = [rig.x0_mm - t.stroke_mm, rig.x0_mm, rig.x0_mm + t.stroke_mm];
+    all.into_iter()
+        .filter(|&x| x > 0.0 && x < rig.stroke_mm)
+        .collect()
+}
+
+/// The range the search covers: from the lowest to the highest checked position.
+fn stroke_range(rig: &Rig, t: &Targets) -> (f64, f64) {
+    let xs = positions(rig, t);
+    let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
+    (lo, xs.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+}
+
+/// One load and mean pressure of the conditions, at any stroke position.
+struct Case {
+    /// The load: its mass at x0 (kg).
+    load_mass_kg: f64,
+    /// The mean chamber pressure (bar), when pressure is varied.
+    p_mean_bar: Option<f64>,
+    /// β there (bar).
+    beta_bar: f64,
+}
+
+impl Case {
+    /// `rig` at `x_mm` with this load and pressure: the operating point moved to the position,
+    /// the mass following the stroke where the geometry ties them.
+    fn rig(&self, rig: &Rig, x_mm: f64) -> Result<Rig, DesignError> {
+        let r = Rig {
+            x0_mm: x_mm,
+            mass_kg: rig.mass_at(self.load_mass_kg, x_mm)?,
+            beta_bar: self.beta_bar,
+            ..rig.clone()
+        };
+        r.validate("design condition")?;
+        Ok(r)
+    }
+}
+
+/// Every load and pressure the targets name, β_e at each pressure from the gas-fraction model.
+fn cases(rig: &Rig, t: &Targets) -> Result<Vec<Case>, DesignError> {
     let masses = if t.mass_kg.is_empty() {
         vec![rig.mass_kg]
     } else {
@@ -629,19 +772,26 @@ fn condition_rigs(rig: &Rig, t: &Targets) -> Result<Vec<(Option<f64>, Rig)>, Des
         gas_fraction(rig.beta_bar, t.beta_anchor_bar(rig), BETA_OIL_BAR)?
     };
     let mut out = Vec::new();
-    for &x_mm in positions.iter().filter(|&&x| x > 0.0 && x < rig.stroke_mm) {
-        for &load in &masses {
-            let m = rig.mass_at(load, x_mm)?;
-            for &p in &pressures {
-                let r = Rig {
-                    x0_mm: x_mm,
-                    mass_kg: m,
-                    beta_bar: p.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR)),
-                    ..rig.clone()
-                };
-                r.validate("design condition")?;
-                out.push((p, r));
-            }
+    for &load_mass_kg in &masses {
+        for &p_mean_bar in &pressures {
+            let beta_bar = p_mean_bar.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR));
+            out.push(Case {
+                load_mass_kg,
+                p_mean_bar,
+                beta_bar,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The rig at every combination of stroke position, load and pressure the targets name (the
+/// mean pressure, when varied, beside it).
+fn condition_rigs(rig: &Rig, t: &Targets) -> Result<Vec<(Option<f64>, Rig)>, DesignError> {
+    let mut out = Vec::new();
+    for x_mm in positions(rig, t) {
+        for case in cases(rig, t)? {
+            out.push((case.p_mean_bar, case.rig(rig, x_mm)?));
         }
     }
     Ok(out)
@@ -674,9 +824,9 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
     let describe = |c: &Condition| {
         format!(
             "x {} mm{}, m {} kg{}, beta {:.0} bar: PM {} deg, GM {} dB",
-            c.x_mm,
+            (c.x_mm * 10.0).round() / 10.0,
             c.mode.map_or(String::new(), |m| format!(", mode {m}")),
-            c.mass_kg,
+            c.mass_kg.round(),
             c.p_mean_bar
                 .map_or(String::new(), |p| format!(", p {p} bar")),
             c.beta_bar,
@@ -695,20 +845,20 @@ fn judge(conditions: &[Condition], t: &Targets, kp: f64, kp_worst: f64) -> (Verd
             "recommended Kp = {kp_worst:.2}: the worst case sets the gain (the article §2.2, last step of the method)"
         ));
     }
+    // a searched position may be a checked one: each condition is named once
+    let mut named = |what: &str, cs: &[&Condition]| {
+        for line in cs.iter().map(|c| format!("{what} at {}", describe(c))) {
+            if !reasons.contains(&line) {
+                reasons.push(line);
+            }
+        }
+    };
     if !unstable.is_empty() {
-        reasons.extend(
-            unstable
-                .iter()
-                .map(|c| format!("unstable at {}", describe(c))),
-        );
+        named("unstable", &unstable);
         return (Verdict::UseHigherPressure, reasons);
     }
     if !below.is_empty() {
-        reasons.extend(
-            below
-                .iter()
-                .map(|c| format!("below target at {}", describe(c))),
-        );
+        named("below target", &below);
         return (Verdict::Marginal, reasons);
     }
     reasons.push("every checked condition meets the targets".into());
@@ -728,6 +878,7 @@ mod tests {
             p_beta_bar: Some(4.4),
             mass_kg: vec![],
             waves: vec![],
+            sampled: false,
         }
     }
 
@@ -777,7 +928,7 @@ mod tests {
     #[test]
     fn the_gain_search_agrees_with_bisection() {
         let bisect = |rig: &Rig, t: &Targets| {
-            let ok = |kp: f64| meets(&margins_at(rig, kp).unwrap(), t);
+            let ok = |kp: f64| meets(&margins_at(rig, kp, false).unwrap(), t);
             let (mut lo, mut hi) = (KP_FLOOR, KP_CEILING);
             for _ in 0..60 {
                 let mid = (lo * hi).sqrt();
@@ -815,7 +966,7 @@ mod tests {
         let kp = kp_max(&Rig::default(), &targets(34.0)).unwrap();
         assert!((kp - 25.0).abs() <= 1.0, "{kp}");
         // and at that gain the phase margin is the target
-        let m = margins_at(&Rig::default(), kp).unwrap();
+        let m = margins_at(&Rig::default(), kp, false).unwrap();
         assert!((m.phase_margin_deg.unwrap() - 34.0).abs() < 0.01);
     }
 
@@ -847,7 +998,7 @@ mod tests {
             mass_kg: 12373.0,
             ..Rig::default()
         };
-        let m = margins_at(&rig, d.kp_max).unwrap();
+        let m = margins_at(&rig, d.kp_max, false).unwrap();
         assert_eq!(c.phase_margin_deg, m.phase_margin_deg);
         assert_eq!(c.gain_margin_db, m.gain_margin_db);
     }
@@ -921,6 +1072,11 @@ mod tests {
         assert!(d.kp_max_worst_case < d.kp_max);
         let d = design(&Rig::default(), &targets(30.0)).unwrap();
         assert_ne!(d.verdict, Verdict::UseHigherPressure);
-        assert_eq!(d.conditions.len(), 3);
+        // x0 and x0 ± 50 mm checked, the least PM and GM over the stroke searched
+        assert_eq!(d.conditions.len(), 5);
+        assert_eq!(
+            d.conditions.iter().filter(|c| c.searched.is_some()).count(),
+            2
+        );
     }
 }

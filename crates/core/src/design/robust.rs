@@ -575,6 +575,38 @@ fn points(
     Ok(out)
 }
 
+/// `xs` with the positions of the least phase and gain margins over the stroke of the nominal
+/// point `nominal` at gain `kp`, searched (docs/design.md#the-worst-case-searched): the region's
+/// corners then meet the position where the nominal loop is weakest, not only the samples.
+fn with_searched(
+    mut xs: Vec<f64>,
+    nominal: &Rig,
+    t: &Targets,
+    kp: f64,
+) -> Result<Vec<f64>, DesignError> {
+    let (lo, hi) = (xs[0], xs[xs.len() - 1]);
+    if hi > lo {
+        let at = |x_mm: f64| -> Result<Rig, DesignError> {
+            Ok(Rig {
+                x0_mm: x_mm,
+                mass_kg: nominal.mass_at(nominal.mass_kg, x_mm)?,
+                ..nominal.clone()
+            })
+        };
+        let breaks: Vec<f64> = nominal.mass_by_position.iter().map(|p| p.x_mm).collect();
+        let line = super::stroke::Line {
+            at: &at,
+            mode: 0,
+            kp,
+            targets: t,
+        };
+        xs.extend(line.worst(lo, hi, &breaks)?.into_iter().map(|(_, x)| x));
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+    }
+    Ok(xs)
+}
+
 /// `n` positions from x0 − stroke to x0 + stroke (x0 alone for a zero stroke or n = 1).
 fn positions(rig: &Rig, stroke_mm: f64, n: usize) -> Vec<f64> {
     if stroke_mm == 0.0 || n <= 1 {
@@ -601,9 +633,14 @@ fn meets_within(m: &Margins, t: &Targets) -> bool {
 }
 
 /// The margins at every point with gain `kp`, in parallel.
-fn margins_over(rig: &Rig, pts: &[Point], kp: f64) -> Result<Vec<Margins>, DesignError> {
+fn margins_over(
+    rig: &Rig,
+    pts: &[Point],
+    kp: f64,
+    sampled: bool,
+) -> Result<Vec<Margins>, DesignError> {
     pts.par_iter()
-        .map(|p| margins_at(&p.rig(rig), kp))
+        .map(|p| margins_at(&p.rig(rig), kp, sampled))
         .collect()
 }
 
@@ -614,7 +651,7 @@ pub fn worst_case(
     t: &Targets,
     kp: f64,
 ) -> Result<WorstCase, DesignError> {
-    let ms = margins_over(rig, pts, kp)?;
+    let ms = margins_over(rig, pts, kp, t.sampled)?;
     let worst = |f: fn(&Margins) -> Option<f64>| {
         let (i, m) = ms
             .iter()
@@ -654,7 +691,7 @@ pub fn robust_kp(
 ) -> Result<(f64, Option<usize>), DesignError> {
     let (mut kp, mut deciding) = (ceiling, None);
     for _ in 0..=pts.len() {
-        let ms = margins_over(rig, pts, kp)?;
+        let ms = margins_over(rig, pts, kp, t.sampled)?;
         let failing: Vec<usize> = (0..pts.len()).filter(|&i| !meets(&ms[i], t)).collect();
         let furthest = |f: fn(&Margins) -> Option<f64>| {
             failing
@@ -692,7 +729,7 @@ pub fn robust_kp(
 
 /// Which margin binds at `point` with gain `kp` (the largest meeting the targets there).
 fn deciding(rig: &Rig, point: Point, t: &Targets, kp: f64) -> Result<Deciding, DesignError> {
-    let m = margins_at(&point.rig(rig), kp.max(KP_FLOOR))?;
+    let m = margins_at(&point.rig(rig), kp.max(KP_FLOOR), t.sampled)?;
     let slack =
         |v: Option<f64>, target: f64, tol: f64| v.map_or(f64::INFINITY, |v| (v - target) / tol);
     let (pm, gm) = (
@@ -766,7 +803,12 @@ pub fn robust_design(
                 .into(),
         ));
     }
-    let xs = positions(rig, t.stroke_mm, opts.positions);
+    let xs = with_searched(
+        positions(rig, t.stroke_mm, opts.positions),
+        &nominal_point.rig(rig),
+        t,
+        kp_nominal,
+    )?;
     let pts = points(rig, region, &region.samples(opts.grid), t, &xs)?;
     let (kp, at) = robust_kp(rig, &pts, t, kp_nominal)?;
     let deciding = deciding(rig, at.map_or(nominal_point, |i| pts[i]), t, kp)?;
@@ -860,7 +902,7 @@ fn stroke_curves(
         ..rig.clone()
     };
     let pts = points(&fixed, &region, &[region.nominal], t, &xs)?;
-    let ms = margins_over(rig, &pts, kp)?;
+    let ms = margins_over(rig, &pts, kp, t.sampled)?;
     let mut curves: Vec<StrokeCurve> = Vec::new();
     for (p, m) in pts.iter().zip(&ms) {
         let same =
@@ -1063,6 +1105,7 @@ mod tests {
                 ..rig
             },
             d.kp_max,
+            false,
         )
         .unwrap();
         let on_pm = (m.phase_margin_deg.unwrap() - 34.0).abs() < 0.01;

@@ -12,7 +12,8 @@
 //! The peak is found on a log grid over the loop's poles' span and refined by golden-section
 //! search around the grid's largest value (a bounded number of steps).
 
-use super::{log_grid, FreqEvaluator, LtiError, StateSpace};
+use super::freqresp::LoopResponse;
+use super::{eigenvalues, log_grid, FreqEvaluator, LtiError, SampledLoop, StateSpace};
 use num_complex::Complex64;
 use serde::Serialize;
 
@@ -63,13 +64,39 @@ pub struct DiskMargins {
 /// # Errors
 /// A model the frequency response cannot be evaluated for, or a skew outside [−1, 1].
 pub fn disk_margins(sys: &StateSpace, skew: f64) -> Result<DiskMargins, LtiError> {
+    check_skew(skew)?;
+    disk_of(&Response::continuous(sys)?, skew)
+}
+
+/// [`disk_margins`] of the loop `sys` as a PLC closes it, sampled every `h` seconds with a
+/// zero-order hold and `delay` samples of computation delay ([`super::sampled_margins`]): the
+/// peaks over 0 < ω ≤ π/h of the sampled loop's frequency response.
+///
+/// # Errors
+/// As [`disk_margins`] and [`SampledLoop::new`].
+pub fn sampled_disk_margins(
+    sys: &StateSpace,
+    h: f64,
+    delay: usize,
+    skew: f64,
+) -> Result<DiskMargins, LtiError> {
+    check_skew(skew)?;
+    disk_of(&Response::sampled(sys, h, delay)?, skew)
+}
+
+/// Refuse a skew outside [−1, 1].
+fn check_skew(skew: f64) -> Result<(), LtiError> {
     if !(-1.0..=1.0).contains(&skew) {
         return Err(LtiError::NonFiniteResult {
             what: "the disk margin",
             at: format!("skew {skew}: it must lie in [-1, 1]"),
         });
     }
-    let response = Response::new(sys)?;
+    Ok(())
+}
+
+/// The disk margin of skew `skew` and the sensitivity peaks of a loop's response.
+fn disk_of(response: &Response<impl LoopResponse>, skew: f64) -> Result<DiskMargins, LtiError> {
     let (g, w) = response.peak(&|l: Complex64| (1.0 / (1.0 + l) + (skew - 1.0) / 2.0).norm())?;
     let peak_of = |f: &dyn Fn(Complex64) -> f64| -> Result<Peak, LtiError> {
         let (value, w) = response.peak(f)?;
@@ -107,21 +134,61 @@ fn margins_of(alpha: f64, skew: f64, omega: Option<f64>) -> DiskMargin {
 }
 
 /// A loop's frequency response on the peak search's grid.
-struct Response {
-    ev: FreqEvaluator,
+struct Response<R> {
+    ev: R,
     /// The grid (rad/s) and L(jω) there.
     grid: Vec<f64>,
     values: Vec<Complex64>,
-    /// L at infinite frequency: the feedthrough D.
-    at_infinity: Complex64,
+    /// L at infinite frequency (the feedthrough D of a continuous loop); `None` for a sampled
+    /// loop, whose grid ends at the Nyquist frequency.
+    at_infinity: Option<Complex64>,
 }
 
-impl Response {
+impl Response<SampledLoop> {
+    /// The sampled loop's L(e^{jωh}) on a log grid from a thousandth of the slowest pole (or a
+    /// ten-thousandth of the Nyquist frequency) to the Nyquist frequency π/h, with the sampled
+    /// closed loop's poles' frequencies |arg z|/h added.
+    fn sampled(sys: &StateSpace, h: f64, delay: usize) -> Result<Self, LtiError> {
+        let ev = FreqEvaluator::new(sys)?;
+        let sampled = SampledLoop::new(sys, h, delay)?;
+        let nyquist = sampled.nyquist_rad_per_s();
+        let slowest = (ev.poles().iter().map(|p| p.norm()))
+            .filter(|w| *w > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let lo = (slowest.min(1.0) / 1e3).min(nyquist * 1e-4);
+        let points = ((nyquist / lo).log10() * POINTS_PER_DECADE) as usize + 2;
+        let mut grid = log_grid(lo, nyquist, points);
+        let closed = eigenvalues(&sampled.closed_loop_matrix()?)?;
+        grid.extend(
+            (closed.iter())
+                .map(|z| z.arg().abs() / h)
+                .filter(|w| *w > lo && *w < nyquist),
+        );
+        Ok(Response::on_grid(sampled, grid, None))
+    }
+}
+
+impl<R: LoopResponse> Response<R> {
+    /// `ev` evaluated on `grid` (rad/s, sorted here).
+    fn on_grid(ev: R, mut grid: Vec<f64>, at_infinity: Option<Complex64>) -> Self {
+        grid.sort_by(f64::total_cmp);
+        grid.dedup();
+        let values = ev.at_many(&grid);
+        Response {
+            ev,
+            grid,
+            values,
+            at_infinity,
+        }
+    }
+}
+
+impl Response<FreqEvaluator> {
     /// L(jω) on a log grid from a thousandth of the slowest pole to a thousand times the fastest,
     /// with the open- and closed-loop poles' frequencies added: S and T peak near a lightly
     /// damped closed-loop pole, narrower than the grid's spacing where the damping is a few
     /// thousandths.
-    fn new(sys: &StateSpace) -> Result<Response, LtiError> {
+    fn continuous(sys: &StateSpace) -> Result<Self, LtiError> {
         let ev = FreqEvaluator::new(sys)?;
         let spans: Vec<f64> = (ev.poles().iter())
             .map(|p| p.norm())
@@ -137,17 +204,12 @@ impl Response {
                 .flat_map(|p| [p.norm(), p.im.abs()])
                 .filter(|w| *w > lo && *w < hi),
         );
-        grid.sort_by(f64::total_cmp);
-        grid.dedup();
-        let values = ev.at_many(&grid);
-        Ok(Response {
-            ev,
-            grid,
-            values,
-            at_infinity: Complex64::new(sys.d[(0, 0)], 0.0),
-        })
+        let at_infinity = Complex64::new(sys.d[(0, 0)], 0.0);
+        Ok(Response::on_grid(ev, grid, Some(at_infinity)))
     }
+}
 
+impl<R: LoopResponse> Response<R> {
     /// The largest value of `f(L(jω))` over ω ≥ 0 and where it lies (rad/s; `None` at ω → ∞):
     /// the grid's largest, refined by golden section between its neighbours.
     fn peak(&self, f: &dyn Fn(Complex64) -> f64) -> Result<(f64, Option<f64>), LtiError> {
@@ -170,7 +232,7 @@ impl Response {
             grid[(k + 1).min(grid.len() - 1)],
         );
         let (w, v) = if v >= best { (w, v) } else { (grid[k], best) };
-        let at_infinity = f(self.at_infinity);
+        let at_infinity = self.at_infinity.map_or(f64::NEG_INFINITY, f);
         Ok(if at_infinity > v {
             (at_infinity, None)
         } else {

@@ -244,13 +244,23 @@ pub(crate) fn unwrap_anchored(
     omega0: f64,
     integrators: usize,
 ) -> Vec<f64> {
+    unwrap_from(values, low_frequency_asymptote(ev, omega0, integrators))
+}
+
+/// The phase (deg) a loop with `integrators` poles at the origin approaches at low frequency:
+/// −90° per integrator, −180° more for a negative low-frequency gain, its sign read from the
+/// real-axis value G(σ)·σ^k at σ = `omega0`.
+pub(crate) fn low_frequency_asymptote(ev: &FreqEvaluator, omega0: f64, integrators: usize) -> f64 {
+    let real_gain = ev.eval(Complex64::new(omega0, 0.0)).re;
+    -90.0 * integrators as f64 - if real_gain < 0.0 { 180.0 } else { 0.0 }
+}
+
+/// Unwrapped phase (deg) of successive values, the first on the branch nearest `asymptote`.
+pub(crate) fn unwrap_from(values: &[Complex64], asymptote: f64) -> Vec<f64> {
     let mut out = Vec::with_capacity(values.len());
     let Some(first) = values.first() else {
         return out;
     };
-    // sign of the low-frequency gain from the real-axis value G(σ)·σ^k
-    let real_gain = ev.eval(Complex64::new(omega0, 0.0)).re;
-    let asymptote = -90.0 * integrators as f64 - if real_gain < 0.0 { 180.0 } else { 0.0 };
     let mut prev = nearest_branch(first.arg().to_degrees(), asymptote);
     out.push(prev);
     for g in &values[1..] {
@@ -258,6 +268,32 @@ pub(crate) fn unwrap_anchored(
         out.push(prev);
     }
     out
+}
+
+/// A loop's frequency response L(jω) as the margin and disk analyses read it: a continuous
+/// model's ([`FreqEvaluator`]) or a sampled loop's ([`super::SampledLoop`]).
+pub(crate) trait LoopResponse {
+    /// L at the angular frequency ω (rad/s).
+    fn at(&self, omega: f64) -> Complex64;
+    /// L at many angular frequencies (rad/s).
+    fn at_many(&self, omega: &[f64]) -> Vec<Complex64> {
+        omega.iter().map(|&w| self.at(w)).collect()
+    }
+    /// A first-order bound on the relative error of L(ω) as evaluated, and d ln L/dω
+    /// (docs/analysis.md#conditioning).
+    fn relative_error_and_log_slope(&self, omega: f64) -> (f64, Complex64);
+}
+
+impl LoopResponse for FreqEvaluator {
+    fn at(&self, omega: f64) -> Complex64 {
+        FreqEvaluator::at(self, omega)
+    }
+    fn at_many(&self, omega: &[f64]) -> Vec<Complex64> {
+        FreqEvaluator::at_many(self, omega)
+    }
+    fn relative_error_and_log_slope(&self, omega: f64) -> (f64, Complex64) {
+        FreqEvaluator::relative_error_and_log_slope(self, omega)
+    }
 }
 
 /// The angle `raw + 360 k` (deg) nearest to `reference`.

@@ -12,7 +12,9 @@
 //! noise) are not reported. Stability is decided from the closed-loop eigenvalues, never from
 //! the margins, so open-loop unstable plants are not misjudged.
 
-use super::freqresp::{nearest_branch, unwrap_anchored, FreqEvaluator};
+use super::freqresp::{
+    low_frequency_asymptote, nearest_branch, unwrap_from, FreqEvaluator, LoopResponse,
+};
 use super::{roots, LtiError, Stability, StateSpace};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -148,7 +150,9 @@ pub fn margins(sys: &StateSpace) -> Result<Margins, LtiError> {
     let poles = ev.poles();
     let integrators = ev.integrators();
     let stability = sys.closed_loop_stability()?;
-    let grid = Grid::build(&ev, poles, integrators, sys.d[(0, 0)]);
+    let (lo, hi) = frequency_range(&ev, poles, integrators, sys.d[(0, 0)]);
+    let asymptote = low_frequency_asymptote(&ev, lo, integrators);
+    let grid = Grid::build(&ev, seeds(poles, lo, hi), asymptote);
     let mut crossings = grid.crossings(&ev);
     if integrators == 0 {
         crossings.splice(0..0, dc_phase_crossing(&ev));
@@ -187,7 +191,11 @@ fn dc_phase_crossing(ev: &FreqEvaluator) -> Option<Crossing> {
 }
 
 /// Pick the headline margins from the crossings.
-fn summarise(crossings: Vec<Crossing>, stability: Stability, integrators: usize) -> Margins {
+pub(super) fn summarise(
+    crossings: Vec<Crossing>,
+    stability: Stability,
+    integrators: usize,
+) -> Margins {
     let closed_loop_stable = stability == Stability::Stable;
     let smallest = |kind| {
         crossings
@@ -222,7 +230,7 @@ fn summarise(crossings: Vec<Crossing>, stability: Stability, integrators: usize)
 /// lim s·L(s) as s → 0 of a loop with one integrator: s·L(s) = K_v + O(s) at real s below the
 /// slowest other pole, so two values at ε and 2ε, ε ten-thousandths of that pole, give K_v by
 /// Richardson extrapolation to O(ε²), a relative 10⁻⁸ of the pole's own term.
-fn velocity_gain(ev: &FreqEvaluator) -> f64 {
+pub(super) fn velocity_gain(ev: &FreqEvaluator) -> f64 {
     let slowest = (ev.poles().iter().skip(1))
         .map(|p| p.norm())
         .find(|r| *r > 0.0)
@@ -232,23 +240,29 @@ fn velocity_gain(ev: &FreqEvaluator) -> f64 {
     2.0 * at(eps) - at(2.0 * eps)
 }
 
+/// The grid's first points over [`lo`, `hi`] (rad/s): [`POINTS_PER_DECADE`] and the points
+/// around the lightly damped `poles` ([`pole_points`]).
+pub(super) fn seeds(poles: &[Complex64], lo: f64, hi: f64) -> Vec<f64> {
+    let mut seeds = super::log_grid(lo, hi, ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2);
+    seeds.extend(
+        pole_points(poles)
+            .into_iter()
+            .filter(|w| *w > lo && *w < hi),
+    );
+    seeds
+}
+
 /// The refined frequency grid with values and unwrapped phase.
-struct Grid {
+pub(super) struct Grid {
     omega: Vec<f64>,
     mag_db: Vec<f64>,
     phase_deg: Vec<f64>,
 }
 
 impl Grid {
-    fn build(ev: &FreqEvaluator, poles: &[Complex64], integrators: usize, d: f64) -> Grid {
-        let (lo, hi) = frequency_range(ev, poles, integrators, d);
-        let mut seeds =
-            super::log_grid(lo, hi, ((hi / lo).log10() * POINTS_PER_DECADE) as usize + 2);
-        seeds.extend(
-            pole_points(poles)
-                .into_iter()
-                .filter(|w| *w > lo && *w < hi),
-        );
+    /// The response on `seeds` (rad/s), refined where it moves too much between neighbours, the
+    /// phase unwrapped from the branch nearest `asymptote` (deg).
+    pub(super) fn build(ev: &impl LoopResponse, mut seeds: Vec<f64>, asymptote: f64) -> Grid {
         seeds.sort_by(f64::total_cmp);
         seeds.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * *b);
         let seeded = ev.at_many(&seeds).into_iter().zip(&seeds).map(|(g, &w)| {
@@ -272,7 +286,7 @@ impl Grid {
             prev = Some(next);
         }
         let (omega, values) = with_hidden_extrema(ev, omega, values);
-        let phase_deg = unwrap_anchored(ev, &values, omega[0], integrators);
+        let phase_deg = unwrap_from(&values, asymptote);
         let mag_db = values.iter().map(|g| 20.0 * g.norm().log10()).collect();
         Grid {
             omega,
@@ -282,7 +296,7 @@ impl Grid {
     }
 
     /// Every gain and phase crossing, refined, by increasing frequency.
-    fn crossings(&self, ev: &FreqEvaluator) -> Vec<Crossing> {
+    pub(super) fn crossings(&self, ev: &impl LoopResponse) -> Vec<Crossing> {
         let mut out = Vec::new();
         for i in 1..self.omega.len() {
             let (w0, w1) = (self.omega[i - 1], self.omega[i]);
@@ -311,8 +325,23 @@ impl Grid {
         out
     }
 
+    /// A phase crossing at the grid's last point, where the phase sits on −180° + k·360° (within
+    /// [`PHASE_TOUCH_DEG`] · 10³) without crossing it inside the grid: the Nyquist frequency of a
+    /// sampled loop, where its response is real. `None` elsewhere.
+    pub(super) fn crossing_at_end(&self, ev: &impl LoopResponse) -> Option<Crossing> {
+        let i = self.omega.len() - 1;
+        let phase = self.phase_deg[i];
+        let level = -180.0 + 360.0 * ((phase + 180.0) / 360.0).round();
+        let on = (phase - level).abs() <= 1e3 * PHASE_TOUCH_DEG;
+        let c = self.crossing_at(ev, CrossingKind::Phase, self.omega[i], i);
+        (on && c.magnitude_db > PHASE_CROSSING_FLOOR_DB).then_some(Crossing {
+            phase_deg: level,
+            ..c
+        })
+    }
+
     /// Unwrapped phase at ω inside grid interval `i` (between points i−1 and i).
-    fn phase_near(&self, ev: &FreqEvaluator, omega: f64, i: usize) -> f64 {
+    fn phase_near(&self, ev: &impl LoopResponse, omega: f64, i: usize) -> f64 {
         let (w0, w1) = (self.omega[i - 1], self.omega[i]);
         let t = (omega / w0).ln() / (w1 / w0).ln();
         let interp = self.phase_deg[i - 1] + t * (self.phase_deg[i] - self.phase_deg[i - 1]);
@@ -321,7 +350,7 @@ impl Grid {
 
     fn crossing_at(
         &self,
-        ev: &FreqEvaluator,
+        ev: &impl LoopResponse,
         kind: CrossingKind,
         omega: f64,
         i: usize,
@@ -354,7 +383,7 @@ impl Grid {
 /// the crossing along the other quantity's slope, indirectly. With g = d ln L/dω, a phase
 /// crossing's GM moves by 8.69 η (1 + |Re g / Im g|) dB, a gain crossing's PM by
 /// η (1 + |Im g / Re g|) rad.
-fn margin_error_bound(ev: &FreqEvaluator, kind: CrossingKind, omega: f64) -> f64 {
+fn margin_error_bound(ev: &impl LoopResponse, kind: CrossingKind, omega: f64) -> f64 {
     let (eta, g) = ev.relative_error_and_log_slope(omega);
     match kind {
         CrossingKind::Phase => DB_PER_NEPER * eta * (1.0 + (g.re / g.im).abs()),
@@ -364,7 +393,7 @@ fn margin_error_bound(ev: &FreqEvaluator, kind: CrossingKind, omega: f64) -> f64
 
 /// Bisect (in log ω) between two evaluated points while the response moves too much.
 fn refine(
-    ev: &FreqEvaluator,
+    ev: &impl LoopResponse,
     a: (f64, Complex64),
     b: (f64, Complex64),
     depth: u32,
@@ -394,7 +423,7 @@ const HIDDEN_PAIR_BAND_DB: f64 = 6.0;
 /// below 0 dB (or minimum just above), found by golden-section search in log ω over the two
 /// neighbouring intervals: where it reaches across 0 dB the crossing pair becomes visible.
 fn with_hidden_extrema(
-    ev: &FreqEvaluator,
+    ev: &impl LoopResponse,
     omega: Vec<f64>,
     values: Vec<Complex64>,
 ) -> (Vec<f64>, Vec<Complex64>) {
@@ -444,7 +473,7 @@ fn golden_min(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 /// to its asymptote there (it still moves more than [`SETTLED_DEG`] over the next decade) and
 /// |L| is above the phase-crossing floor. The poles alone do not bound the crossings: a zero far
 /// below or above them turns the phase and lifts |L| through 1 outside their range.
-fn frequency_range(
+pub(super) fn frequency_range(
     ev: &FreqEvaluator,
     poles: &[Complex64],
     integrators: usize,
@@ -514,7 +543,7 @@ fn pole_points(poles: &[Complex64]) -> Vec<f64> {
 
 /// ω itself, or just above it (by 1e-9 relative, a few times at most) where ω falls on an
 /// undamped pole and |L(jω)| is infinite, with L(jω) there (each point evaluated once).
-fn off_pole(ev: &FreqEvaluator, omega: f64) -> (f64, Complex64) {
+fn off_pole(ev: &impl LoopResponse, omega: f64) -> (f64, Complex64) {
     (0..4)
         .map(|k| omega * (1.0 + 1e-9 * k as f64))
         .map(|w| (w, ev.at(w)))

@@ -9,15 +9,17 @@ mod io;
 mod margins;
 mod poles;
 mod roots;
+mod sampled;
 mod timeresp;
 
-pub use disk::{disk_margins, DiskMargin, DiskMargins, Peak};
+pub use disk::{disk_margins, sampled_disk_margins, DiskMargin, DiskMargins, Peak};
 pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo, MAX_STATES};
 pub use margins::{margins, Crossing, CrossingKind, Margins, RELIABLE_DB, RELIABLE_DEG};
 pub use poles::{
     check_magnitudes, eigenvalues, poles_and_stability, resonance, stability, PoleInfo, Stability,
 };
+pub use sampled::{sampled_margins, SampledLoop, MAX_DELAY_SAMPLES};
 pub use timeresp::{dc_output, Response, Simulator, Zoh};
 
 use nalgebra::DMatrix;

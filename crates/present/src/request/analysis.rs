@@ -19,29 +19,40 @@ fn loop_of(rig: &RigInput, sum_pressure_closed: bool) -> Loop {
 }
 
 /// `margins`: gain, phase and delay margins of the position loop, every crossing, closed-loop
-/// stability and, on a single-pump rig, each mode's.
+/// stability, the disk margin and sensitivity peaks, the same of the loop as its PLC samples it
+/// and, on a single-pump rig, each mode's.
 #[derive(Debug, Clone)]
 pub struct Margins {
     /// The rig.
     pub rig: RigInput,
     /// Keep the sum-pressure loop closed inside the analysed loop.
     pub sum_pressure_closed: bool,
+    /// The disk margin's skew σ in [−1, 1] (0: balanced; docs/analysis.md#disk-margins).
+    pub skew: f64,
 }
 
 /// The margins of a loop.
 pub struct MarginsOutcome {
     lp: Loop,
     margins: lti::Margins,
+    skew: f64,
 }
 
 impl Margins {
-    /// The margins of the loop `lp` (a rig's or a state-space model's).
+    /// The margins of the loop `lp` (a rig's or a state-space model's), the disk margin's skew
+    /// `skew`.
     ///
     /// # Errors
-    /// The margins cannot be computed.
-    pub fn of_loop(lp: Loop) -> anyhow::Result<MarginsOutcome> {
+    /// The margins cannot be computed, or the skew lies outside [−1, 1].
+    pub fn of_loop(lp: Loop, skew: f64) -> anyhow::Result<MarginsOutcome> {
+        check_field(
+            "skew",
+            skew,
+            (-1.0..=1.0).contains(&skew),
+            "must lie in [-1, 1]",
+        )?;
         let margins = lti::margins(&lp.open_loop)?;
-        Ok(MarginsOutcome { lp, margins })
+        Ok(MarginsOutcome { lp, margins, skew })
     }
 }
 
@@ -49,18 +60,20 @@ impl Request for Margins {
     type Outcome = MarginsOutcome;
 
     fn run(&self, _: Hooks<'_>) -> anyhow::Result<MarginsOutcome> {
-        Margins::of_loop(loop_of(&self.rig, self.sum_pressure_closed))
+        let lp = loop_of(&self.rig, self.sum_pressure_closed);
+        Margins::of_loop(lp, self.skew)
     }
 }
 
 impl Document for MarginsOutcome {
     fn json(&self) -> anyhow::Result<Value> {
-        Ok(margins_document(&self.margins, &self.lp)?)
+        Ok(margins_document(&self.margins, &self.lp, self.skew)?)
     }
 
     fn text(&self) -> anyhow::Result<String> {
         let mut text = loop_margins_text(&self.margins, &self.lp)?;
-        text += &crate::documents::disk_text(&self.lp);
+        text += &crate::robustness::disk_text(&self.lp, self.skew);
+        text += &crate::robustness::sampled_text(&self.lp, &self.margins, self.skew);
         if let Some(modes) = ModesReport::of_loop(&self.lp)? {
             text += &modes.margins_text()?;
         }
