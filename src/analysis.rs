@@ -10,6 +10,7 @@ use crate::export;
 use crate::ModelArgs;
 use pumpcyl_present::request::analysis::{Bode, Margins, Model, Poles};
 use pumpcyl_present::request::Document;
+use pumpcyl_present::robustness::nyquist_chart;
 
 #[derive(Debug, Args)]
 pub struct MarginsArgs {
@@ -56,6 +57,11 @@ pub struct BodeArgs {
     /// e.g. --compare beta_bar=37.8 --compare beta_bar=370.
     #[arg(long, value_name = "KEY=VALUE[,...]")]
     compare: Vec<String>,
+    /// Also write the nominal loop's Nyquist diagram (.svg or .png): L(jw), the loop as the
+    /// rig's PLC samples it, the unit circle, -1 and the balanced disk margin's disk
+    /// (docs/analysis.md#the-nyquist-diagram).
+    #[arg(long, value_name = "FILE.svg|FILE.png")]
+    nyquist: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -128,9 +134,22 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
         to_hz: args.to_hz,
         points_per_decade: args.points_per_decade,
     };
+    let nyquist = match &args.nyquist {
+        Some(path) => {
+            format_of(path, &[Format::Svg, Format::Png])?;
+            Some((path, nyquist_chart(&request.loops[0].1, 0.0)?))
+        }
+        None => None,
+    };
     let outcome = crate::emit::run(&request)?;
+    if let Some((path, chart)) = &nyquist {
+        render(path, chart)?;
+    }
     let Some(path) = &args.out else {
-        return outcome.text();
+        return match nyquist {
+            Some((path, _)) => Ok(format!("wrote {}\n", path.display())),
+            None => outcome.text(),
+        };
     };
     match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
         Format::Csv => write_atomic(path, outcome.text()?.as_bytes())?,

@@ -477,6 +477,9 @@ class Design(Result):
     mode at rest (docs/circuits.md#its-two-modes)."""
     targets: Dict[str, Any]
     kp_max: float
+    kp_max_continuous: Optional[float]
+    """With ``sampled=True``: the largest Kp at the design point of the continuous loop, to
+    tell what the PLC costs (docs/analysis.md#sampled-data-margins); ``None`` otherwise."""
     kv_max_per_s: Optional[float]
     """The velocity-loop gain Kv (1/s) at ``kp_max``: the piston's steady velocity per metre
     of error, comparable across circuits (docs/analysis.md#the-velocity-loop-gain)."""

@@ -2,13 +2,18 @@
 //! sensitivity peaks (docs/analysis.md#disk-margins), and the loop as its PLC samples it
 //! (docs/analysis.md#sampled-data-margins).
 
+use crate::figures::{trace, Chart, Plot};
 use crate::format::fmt_opt;
+use crate::plot::{LineStyle, Panel, Trace};
+type Complex64 = nalgebra::Complex<f64>;
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{
-    disk_margins, sampled_disk_margins, sampled_margins, DiskMargins, LtiError, Margins,
+    disk_margins, log_grid, sampled_disk_margins, sampled_margins, DiskMargins, FreqEvaluator,
+    LtiError, Margins, SampledLoop,
 };
 use serde::Serialize;
 use serde_json::{json, Value};
+use std::f64::consts::{PI, TAU};
 use std::fmt::Write as _;
 
 /// The loop's disk margin of skew `skew` and its sensitivity peaks: `disk`, `sensitivity_peak`
@@ -164,5 +169,141 @@ pub fn sampled_text(lp: &Loop, continuous: &Margins, skew: f64) -> String {
         Ok(Some(s)) => s.text(),
         Ok(None) => String::new(),
         Err(e) => format!("sampled margins: not computed ({e})\n"),
+    }
+}
+
+/// Largest |L| drawn in the Nyquist diagram: the curve is drawn from where it last enters the
+/// circle of this radius (a type-1 loop comes from −j∞), so the region around −1 fills it.
+const NYQUIST_RADIUS: f64 = 3.0;
+/// Points of the Nyquist curves (log-spaced in frequency).
+const NYQUIST_POINTS: usize = 4000;
+
+/// The Nyquist diagram of the loop `lp` (docs/analysis.md#the-nyquist-diagram): L(jω) for
+/// ω > 0 and, for a rig's loop, the loop as its PLC samples it up to its Nyquist frequency;
+/// the unit circle, the critical point −1 and the disk of critical points the disk margin of
+/// skew `skew` keeps the curve away from.
+///
+/// # Errors
+/// The frequency response or the disk margin cannot be computed.
+pub fn nyquist_chart(lp: &Loop, skew: f64) -> Result<Chart, LtiError> {
+    let ev = FreqEvaluator::new(&lp.open_loop)?;
+    let hi_hz = (ev.poles().iter().map(|p| p.norm())).fold(1.0, f64::max) * 10.0 / TAU;
+    let omega: Vec<f64> = log_grid(1e-4, hi_hz, NYQUIST_POINTS)
+        .iter()
+        .map(|f| f * TAU)
+        .collect();
+    let mut traces = vec![curve(
+        "L(jω), continuous",
+        &ev.at_many(&omega),
+        LineStyle::Solid,
+        0,
+    )];
+    if let Some(rig) = &lp.rig {
+        let (h, d) = rig.plc_sampling();
+        let sampled = SampledLoop::new(&lp.open_loop, h, d)?;
+        let within: Vec<f64> = omega.iter().copied().filter(|w| *w <= PI / h).collect();
+        let values: Vec<Complex64> = within
+            .iter()
+            .map(|&w| sampled.frequency_response(w))
+            .collect();
+        let label = format!(
+            "L(e^jωh), sampled at {} Hz, {d} sample(s) of delay",
+            rig.plc_rate_hz
+        );
+        traces.push(curve(&label, &values, LineStyle::Dashed, 1));
+    }
+    let disk = disk_margins(&lp.open_loop, skew)?.disk;
+    traces.push(circle("unit circle", 0.0, 1.0, LineStyle::Dotted, 7));
+    let (centre, radius) = critical_disk(disk.disk_margin, skew);
+    let label = format!(
+        "disk margin's disk (alpha {:.3}, skew {skew})",
+        disk.disk_margin
+    );
+    traces.push(circle(&label, centre, radius, LineStyle::DashDot, 3));
+    traces.push(trace(
+        "critical point -1",
+        &[-1.0],
+        &[0.0],
+        LineStyle::Markers,
+        Some(3),
+    ));
+    Ok(Chart {
+        title: format!("Nyquist: {}", lp.description),
+        subtitle: Some(format!(
+            "the curve must leave the disk outside: the loop holds for any gain and phase change within ±{} dB and ±{} deg at once",
+            disk.gain_margin_db.map_or("inf".into(), |g| format!("{g:.2}")),
+            disk.phase_margin_deg.map_or("inf".into(), |p| format!("{p:.1}"))
+        )),
+        plot: Plot::Xy {
+            x_label: "Re L".into(),
+            panels: vec![Panel {
+                y_label: "Im L".into(),
+                traces,
+                categories: vec![],
+            }],
+        },
+    })
+}
+
+/// The curve of `values` from where it last enters the circle of radius [`NYQUIST_RADIUS`].
+fn curve(label: &str, values: &[Complex64], style: LineStyle, color: usize) -> Trace {
+    let start = values
+        .iter()
+        .rposition(|l| l.norm() > NYQUIST_RADIUS || l.norm().is_nan())
+        .map_or(0, |k| k + 1);
+    let (re, im): (Vec<f64>, Vec<f64>) = values[start..].iter().map(|l| (l.re, l.im)).unzip();
+    trace(label, &re, &im, style, Some(color))
+}
+
+/// A circle of `radius` about (`centre`, 0).
+fn circle(label: &str, centre: f64, radius: f64, style: LineStyle, color: usize) -> Trace {
+    let (re, im): (Vec<f64>, Vec<f64>) = (0..=360)
+        .map(|k| f64::from(k).to_radians())
+        .map(|t| (centre + radius * t.cos(), radius * t.sin()))
+        .unzip();
+    trace(label, &re, &im, style, Some(color))
+}
+
+/// The centre (on the real axis) and radius of the disk of critical points −1/f, f in the disk
+/// margin's disk of gains with real-axis intercepts γ_min and γ_max (docs/analysis.md#disk-margins):
+/// its intercepts are −1/γ_min and −1/γ_max (a half-plane, drawn as a large disk, where γ_max
+/// is unbounded).
+fn critical_disk(alpha: f64, skew: f64) -> (f64, f64) {
+    let g_min = (1.0 - 0.5 * alpha * (1.0 - skew)) / (1.0 + 0.5 * alpha * (1.0 + skew));
+    let g_max = (1.0 + 0.5 * alpha * (1.0 - skew)) / (1.0 - 0.5 * alpha * (1.0 + skew));
+    let far = if g_max > 0.0 { -1.0 / g_max } else { 0.0 };
+    let near = -1.0 / g_min.max(1e-9);
+    ((near + far) / 2.0, (far - near).abs() / 2.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pumpcyl::rig::Rig;
+
+    /// The balanced disk margin's disk of critical points, drawn about −1, is the largest the
+    /// Nyquist curve stays out of: the continuous curve of the article's loop keeps
+    /// |L − c| ≥ r at every frequency and touches it (to 10⁻⁴ of r) near the disk margin's
+    /// frequency.
+    #[test]
+    fn the_nyquist_curve_touches_the_disk_margins_disk() {
+        let lp = Loop::of_rig(Rig::default(), "article", false);
+        let dm = disk_margins(&lp.open_loop, 0.0).unwrap().disk;
+        let (c, r) = critical_disk(dm.disk_margin, 0.0);
+        // for skew 0 the intercepts are −γ_max and −1/γ_max about −1
+        let g_max = 10f64.powf(dm.gain_margin_db.unwrap() / 20.0);
+        assert!((c - r + g_max).abs() < 1e-9 && (c + r + 1.0 / g_max).abs() < 1e-9);
+        let ev = FreqEvaluator::new(&lp.open_loop).unwrap();
+        let omega: Vec<f64> = log_grid(1e-2, 1e3, 200_000);
+        let (gap, at) = (omega.iter())
+            .map(|&w| ((ev.at(w) - Complex64::new(c, 0.0)).norm() - r, w))
+            .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
+        assert!(gap > -1e-6 * r && gap < 1e-4 * r, "gap {gap}, r {r}");
+        let hz = dm.frequency_hz.unwrap();
+        assert!(
+            (at / TAU / hz - 1.0).abs() < 0.01,
+            "{} Hz vs {hz}",
+            at / TAU
+        );
     }
 }

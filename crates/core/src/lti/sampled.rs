@@ -131,14 +131,21 @@ impl SampledLoop {
     }
 }
 
-impl LoopResponse for SampledLoop {
-    fn at(&self, omega: f64) -> Complex64 {
+impl SampledLoop {
+    /// L(e^{jωh}) at the angular frequency ω (rad/s): the sampled loop's frequency response.
+    pub fn frequency_response(&self, omega: f64) -> Complex64 {
         let (m, _) = self.resolvent(omega);
         let rhs = self.gamma.map(Complex64::from);
         match m.lu().solve(&rhs) {
             Some(x) => (self.c.map(Complex64::from).dot(&x) + self.d) * self.delay_factor(omega),
             None => Complex64::new(f64::INFINITY, f64::INFINITY),
         }
+    }
+}
+
+impl LoopResponse for SampledLoop {
+    fn at(&self, omega: f64) -> Complex64 {
+        self.frequency_response(omega)
     }
 
     /// As [`FreqEvaluator::relative_error_and_log_slope`] with M = zI − Φ: G = cᵀ M⁻¹ Γ + D,
