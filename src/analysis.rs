@@ -10,7 +10,7 @@ use crate::export;
 use crate::ModelArgs;
 use pumpcyl_present::request::analysis::{Bode, Margins, Model, Poles};
 use pumpcyl_present::request::Document;
-use pumpcyl_present::robustness::nyquist_chart;
+use pumpcyl_present::robustness::{gang_of_four_chart, nyquist_chart};
 
 #[derive(Debug, Args)]
 pub struct MarginsArgs {
@@ -62,6 +62,10 @@ pub struct BodeArgs {
     /// (docs/analysis.md#the-nyquist-diagram).
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     nyquist: Option<PathBuf>,
+    /// Also write the nominal rig loop's gang of four (.svg or .png) over the same grid: S, T,
+    /// PS and CS with the rig's Kp as the controller (docs/analysis.md#the-gang-of-four).
+    #[arg(long, value_name = "FILE.svg|FILE.png")]
+    gang_of_four: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -141,15 +145,27 @@ pub fn bode(args: &BodeArgs) -> Result<String> {
         }
         None => None,
     };
+    let gang = match &args.gang_of_four {
+        Some(path) => {
+            format_of(path, &[Format::Svg, Format::Png])?;
+            let grid = request.grid()?;
+            Some((path, gang_of_four_chart(&request.loops[0].1, &grid)?))
+        }
+        None => None,
+    };
     let outcome = crate::emit::run(&request)?;
-    if let Some((path, chart)) = &nyquist {
+    let extra: Vec<_> = nyquist.iter().chain(&gang).collect();
+    for (path, chart) in &extra {
         render(path, chart)?;
     }
     let Some(path) = &args.out else {
-        return match nyquist {
-            Some((path, _)) => Ok(format!("wrote {}\n", path.display())),
-            None => outcome.text(),
-        };
+        if extra.is_empty() {
+            return outcome.text();
+        }
+        return Ok(extra
+            .iter()
+            .map(|(p, _)| format!("wrote {}\n", p.display()))
+            .collect());
     };
     match format_of(path, &[Format::Csv, Format::Svg, Format::Png, Format::Mat])? {
         Format::Csv => write_atomic(path, outcome.text()?.as_bytes())?,

@@ -12,6 +12,9 @@ mod energy;
 #[path = "reproduce/figure1.rs"]
 mod figure1;
 
+#[path = "reproduce/loop_margins.rs"]
+mod loop_margins;
+
 #[path = "common/json.rs"]
 mod json;
 
@@ -659,7 +662,7 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
         // profiles, the margins over the stroke, the selection over pressure), 1500 x 1500 for
         // the stacked time series.
         let name = p.file_name().unwrap().to_string_lossy().to_string();
-        let height = if name.starts_with("bode_") {
+        let height = if name.starts_with("bode_") || name == "gang_of_four.png" {
             1125
         } else if name == "bulk_modulus.png"
             || name.starts_with("profile-")
@@ -667,6 +670,7 @@ fn pngs_have_the_asked_size_and_anti_aliased_curves() {
             || name == "which_circuit.png"
             || name == "sweep_beside_steps.png"
             || name == "energy_per_circuit.png"
+            || name == "nyquist.png"
         {
             1200
         } else {
@@ -807,6 +811,8 @@ fn the_report_names_the_article_figures_and_sets_its_numbers_beside_ours() {
         (&|c| c.contains("from the steps, the sweep and both"), OWN.into()),
         (&|c| c.contains("valve or pump"), OWN.into()),
         (&|c| c.contains("What each circuit costs"), OWN.into()),
+        (&|c| c.contains("Nyquist diagram of the article's loop"), OWN.into()),
+        (&|c| c.contains("The gang of four of the article's loop"), OWN.into()),
     ];
     let mut used = vec![0; rules.len()];
     for c in &captions {

@@ -184,7 +184,16 @@ fn design_checks_both_modes_at_every_condition() {
     design.extend(args.iter().map(String::as_str));
     let d = run::json(dir.path(), &design);
     let conditions = d["conditions"].as_array().unwrap();
-    assert_eq!(conditions.len(), 6, "3 positions × 2 modes");
+    let checked = conditions
+        .iter()
+        .filter(|c| c["searched"].is_null())
+        .count();
+    assert_eq!(checked, 6, "3 positions × 2 modes");
+    assert_eq!(
+        conditions.len(),
+        10,
+        "and the least PM and GM searched in each mode"
+    );
     let kp = d["kp_max"].as_f64().unwrap();
     for c in conditions {
         let mode = c["mode"].as_u64().unwrap();

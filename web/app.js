@@ -210,6 +210,14 @@ function showMargins(m) {
   row(t, "gain crossover", "gainCrossoverHz", m.gain_crossover_hz, "Hz");
   row(t, "phase crossover", "phaseCrossoverHz", m.phase_crossover_hz, "Hz");
   row(t, "delay margin", "delayMarginS", m.delay_margin_s, "s");
+  if (m.disk) row(t, "disk margin α (balanced)", "diskMargin", m.disk.disk_margin, "");
+  if (m.sensitivity_peak) row(t, "sensitivity peak M_s", "sensitivityPeak", m.sensitivity_peak.value, "");
+  if (m.sampled) {
+    const s = m.sampled;
+    const at = `as the PLC closes it (${s.plc_rate_hz} Hz, ${s.plc_delay_samples} sample delay)`;
+    row(t, `gain margin, ${at}`, "sampledGainMarginDb", s.gain_margin_db, "dB");
+    row(t, `phase margin, ${at}`, "sampledPhaseMarginDeg", s.phase_margin_deg, "deg");
+  }
   t.dataset.closedLoopStable = String(m.closed_loop_stable);
 }
 

@@ -180,6 +180,12 @@ class Margins(Result):
     """M_s = max |S|: value and frequency_hz (the disk margin of skew 1 is 1/M_s)."""
     complementary_sensitivity_peak: Dict[str, Any]
     """M_t = max |T|: value and frequency_hz (the disk margin of skew -1 is 1/M_t)."""
+    gang_of_four: Optional[Dict[str, Any]]
+    """The gang of four with the rig's Kp as the controller (docs/analysis.md#the-gang-of-four):
+    ``controller_gain_per_m``, ``sensitivity_peak``, ``complementary_sensitivity_peak``,
+    ``load_sensitivity_peak_m`` (max |PS|, m per unit of command) and
+    ``noise_sensitivity_peak_per_m`` (max |CS|), each ``value`` and ``frequency_hz``; ``None``
+    for a state-space model."""
     sampled: Optional[Dict[str, Any]]
     """The loop as the rig's PLC closes it, sampled with a zero-order hold at ``plc_rate_hz``
     and delayed ``plc_delay_samples`` (docs/analysis.md#sampled-data-margins): every margin

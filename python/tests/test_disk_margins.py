@@ -78,3 +78,32 @@ def test_disk_margins_equal_python_controls(circuit):
             # returnall: its worst-case summary fails where every phase margin is NaN (skew ±1)
             dm, _, _ = control.disk_margins(loop, omega, skew=skew, returnall=True)
             close(1.0 / m[peak]["value"], dm.min(), f"{what} skew {skew}")
+
+
+@pytest.mark.parametrize("circuit", sorted(CIRCUITS))
+def test_the_gang_of_four_peaks_are_python_controls(circuit):
+    """PS = P/(1 + PC) and CS = C/(1 + PC) with C = Kp and P = L/Kp, from python-control's
+    `feedback`: pumpcyl's peaks are their magnitudes at pumpcyl's frequencies (to 1e-6) and no
+    point of a dense grid lies above them."""
+    control = require_control()
+    r = random.Random(f"gang-{circuit}")
+    for k in range(20):
+        sets = random_sets(circuit, r)
+        model = pumpcyl_json("model", sets)
+        loop = control.ss(*(np.array(model[m], dtype=float) for m in "ABCD"))
+        gang = pumpcyl_json("margins", sets)["gang_of_four"]
+        kp = gang["controller_gain_per_m"]
+        plant = loop * (1.0 / kp)
+        what = f"{circuit} rig {k} ({' '.join(sets)})"
+        for key, sys in [
+            ("load_sensitivity_peak_m", control.feedback(plant, kp)),
+            ("noise_sensitivity_peak_per_m", control.feedback(control.ss([], [], [], kp), plant)),
+        ]:
+            peak = gang[key]
+            w = 2 * np.pi * peak["frequency_hz"]
+            close(peak["value"], abs(sys(1j * w)), f"{what} {key}")
+            poles = np.abs(np.linalg.eigvals(loop.A))
+            poles = poles[poles > 0]
+            grid = np.logspace(np.log10(poles.min() / 1e3), np.log10(poles.max() * 1e3), 4000)
+            top = np.abs(sys(1j * grid)).max()
+            assert top <= peak["value"] * (1 + 1e-6), f"{what} {key}: grid {top} above {peak['value']}"

@@ -22,7 +22,7 @@ def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_o
         rig = pumpcyl.Rig.from_toml(path)
     assert len(caught) == 1
     note = str(caught[0].message)
-    assert note.startswith(f"{path} does not set 32 keys; mass_by_position = [] (one mass over the stroke")
+    assert note.startswith(f"{path} does not set 34 keys; mass_by_position = [] (one mass over the stroke")
     # each of the other 31 with its default (the article rig's, or the drives' electrical keys'),
     # e.g. the leakages in exponent form
     named = re.findall(r"(\w+) = ", note.split("the others take the article rig's values: ")[1])

@@ -99,6 +99,8 @@ def check_margins(page, sets):
     want = pumpcyl_json("margins", sets)
     for key, attr in [("gain_margin_db", "gain-margin-db"), ("phase_margin_deg", "phase-margin-deg")]:
         same(shown(page, "margins", attr), want[key], f"{sets} {key}")
+        same(shown(page, "margins", "sampled-" + attr), want["sampled"][key], f"{sets} sampled {key}")
+    same(shown(page, "margins", "disk-margin"), want["disk"]["disk_margin"], f"{sets} disk margin")
 
 
 @pytest.mark.parametrize(

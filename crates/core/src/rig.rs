@@ -647,7 +647,7 @@ impl RigFile {
     /// assert_eq!(file.note("a.toml", &[]), None);
     /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
     /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
-    /// assert!(note.starts_with("b.toml does not set 42 keys; they take the article rig's values: "));
+    /// assert!(note.starts_with("b.toml does not set 44 keys; they take the article rig's values: "));
     /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
     /// assert!(!note.contains("beta_bar"));
     /// # Ok::<(), pumpcyl::rig::RigError>(())

@@ -4,7 +4,7 @@
 //! and compares).
 
 use crate::analysis::{loop_margins_json, loop_pole_sets, merged, poles_json, ModesReport};
-use crate::robustness::{disk_json, sampled_json};
+use crate::robustness::{disk_json, gang_of_four_json, sampled_json};
 use crate::time::{rating_warnings, step_json, Runs, StepSetup};
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{LtiError, Margins};
@@ -86,6 +86,7 @@ pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
 pub fn margins_document(m: &Margins, lp: &Loop, skew: f64) -> Result<Value, LtiError> {
     let doc = merged(loop_margins_json(m, lp)?, disk_json(lp, skew));
     let doc = merged(doc, sampled_json(lp, m, skew));
+    let doc = merged(doc, gang_of_four_json(lp));
     Ok(match ModesReport::of_loop(lp)? {
         Some(modes) => merged(doc, modes.margins_json()?),
         None => doc,

@@ -9,7 +9,7 @@ type Complex64 = nalgebra::Complex<f64>;
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{
     disk_margins, log_grid, sampled_disk_margins, sampled_margins, DiskMargins, FreqEvaluator,
-    LtiError, Margins, SampledLoop,
+    LtiError, Margins, Peak, SampledLoop,
 };
 use serde::Serialize;
 use serde_json::{json, Value};
@@ -214,7 +214,7 @@ pub fn nyquist_chart(lp: &Loop, skew: f64) -> Result<Chart, LtiError> {
     }
     let disk = disk_margins(&lp.open_loop, skew)?.disk;
     traces.push(circle("unit circle", 0.0, 1.0, LineStyle::Dotted, 7));
-    let (centre, radius) = critical_disk(disk.disk_margin, skew);
+    let (centre, radius) = critical_disk(disk.gains());
     let label = format!(
         "disk margin's disk (alpha {:.3}, skew {skew})",
         disk.disk_margin
@@ -268,12 +268,134 @@ fn circle(label: &str, centre: f64, radius: f64, style: LineStyle, color: usize)
 /// margin's disk of gains with real-axis intercepts γ_min and γ_max (docs/analysis.md#disk-margins):
 /// its intercepts are −1/γ_min and −1/γ_max (a half-plane, drawn as a large disk, where γ_max
 /// is unbounded).
-fn critical_disk(alpha: f64, skew: f64) -> (f64, f64) {
-    let g_min = (1.0 - 0.5 * alpha * (1.0 - skew)) / (1.0 + 0.5 * alpha * (1.0 + skew));
-    let g_max = (1.0 + 0.5 * alpha * (1.0 - skew)) / (1.0 - 0.5 * alpha * (1.0 + skew));
+fn critical_disk((g_min, g_max): (f64, f64)) -> (f64, f64) {
     let far = if g_max > 0.0 { -1.0 / g_max } else { 0.0 };
     let near = -1.0 / g_min.max(1e-9);
     ((near + far) / 2.0, (far - near).abs() / 2.0)
+}
+
+/// The gang of four of a rig's loop L = C·P, C the PLC's position gain K_p (1/m) and P the
+/// plant from the normalised command to the position (docs/analysis.md#the-gang-of-four): the
+/// sensitivity S = 1/(1 + L), the complementary sensitivity T = L/(1 + L), the load sensitivity
+/// PS = T/K_p (position per unit of a disturbance added to the command) and the noise
+/// sensitivity CS = K_p·S (command per metre of position noise) (Åström & Murray, *Feedback
+/// Systems*, 2nd ed., 2021, §12.1). Their peaks; the curves are [`gang_of_four_chart`]'s.
+#[derive(Debug, Clone, Serialize)]
+pub struct GangOfFour {
+    /// The controller's gain K_p (1/m).
+    pub controller_gain_per_m: f64,
+    /// max |S| = M_s.
+    pub sensitivity_peak: Peak,
+    /// max |T| = M_t.
+    pub complementary_sensitivity_peak: Peak,
+    /// max |PS| = M_t/K_p (m per unit of command).
+    pub load_sensitivity_peak_m: Peak,
+    /// max |CS| = K_p·M_s (unit of command per m).
+    pub noise_sensitivity_peak_per_m: Peak,
+}
+
+impl GangOfFour {
+    /// The gang of four of `lp`'s loop from its disk margins `d` (whose M_s and M_t it scales);
+    /// `None` for a state-space model, which names no controller.
+    pub fn of_loop(lp: &Loop, d: &DiskMargins) -> Option<GangOfFour> {
+        let kp = lp.rig.as_ref()?.kp;
+        let scaled = |p: &Peak, k: f64| Peak {
+            value: p.value * k,
+            frequency_hz: p.frequency_hz,
+        };
+        Some(GangOfFour {
+            controller_gain_per_m: kp,
+            load_sensitivity_peak_m: scaled(&d.complementary_sensitivity_peak, 1.0 / kp),
+            noise_sensitivity_peak_per_m: scaled(&d.sensitivity_peak, kp),
+            sensitivity_peak: d.sensitivity_peak.clone(),
+            complementary_sensitivity_peak: d.complementary_sensitivity_peak.clone(),
+        })
+    }
+}
+
+/// The gang of four's peaks in one line of text, nothing for a state-space model.
+pub fn gang_of_four_text(lp: &Loop) -> String {
+    let Some(g) = disk_margins(&lp.open_loop, 0.0)
+        .ok()
+        .and_then(|d| GangOfFour::of_loop(lp, &d))
+    else {
+        return String::new();
+    };
+    let at = |p: &Peak| {
+        p.frequency_hz
+            .map_or("infinite frequency".into(), |f| format!("{f:.3} Hz"))
+    };
+    format!(
+        "gang of four (Kp {} 1/m): max |PS| {:.4} m per unit of command at {}, max |CS| {:.2} per m at {} (docs/analysis.md#the-gang-of-four)\n",
+        g.controller_gain_per_m,
+        g.load_sensitivity_peak_m.value,
+        at(&g.load_sensitivity_peak_m),
+        g.noise_sensitivity_peak_per_m.value,
+        at(&g.noise_sensitivity_peak_per_m),
+    )
+}
+
+/// `gang_of_four`: [`GangOfFour`] of the loop, `null` for a state-space model or where the
+/// frequency response cannot be evaluated.
+pub fn gang_of_four_json(lp: &Loop) -> Value {
+    let gang = disk_margins(&lp.open_loop, 0.0)
+        .ok()
+        .and_then(|d| GangOfFour::of_loop(lp, &d));
+    json!({ "gang_of_four": gang })
+}
+
+/// The gang of four of a rig's loop `lp` as Bode magnitudes (and phases) over `freq_hz`:
+/// S, T (dB), PS (dB re 1 m per unit of command) and CS (dB re 1 per m).
+///
+/// # Errors
+/// A state-space model (no controller gain), or a frequency response that cannot be evaluated.
+pub fn gang_of_four_chart(lp: &Loop, freq_hz: &[f64]) -> anyhow::Result<Chart> {
+    let Some(rig) = &lp.rig else {
+        anyhow::bail!(
+            "the gang of four needs a rig's loop: a state-space model names no controller gain"
+        );
+    };
+    let ev = FreqEvaluator::new(&lp.open_loop)?;
+    let omega: Vec<f64> = freq_hz.iter().map(|f| f * TAU).collect();
+    let l = ev.at_many(&omega);
+    let s: Vec<Complex64> = l.iter().map(|l| 1.0 / (1.0 + l)).collect();
+    let t: Vec<Complex64> = l.iter().map(|l| l / (1.0 + l)).collect();
+    let kp = rig.kp;
+    let series = |label: &str, v: &[Complex64], k: f64| {
+        let phase = unwrapped_deg(v);
+        crate::plot::BodeSeries {
+            label: label.into(),
+            freq_hz: freq_hz.to_vec(),
+            mag_db: v.iter().map(|v| 20.0 * (v.norm() * k).log10()).collect(),
+            phase_deg: phase,
+        }
+    };
+    let all = vec![
+        series("S = 1/(1+L)", &s, 1.0),
+        series("T = L/(1+L)", &t, 1.0),
+        series("PS = T/Kp (dB re 1 m per unit command)", &t, 1.0 / kp),
+        series("CS = Kp S (dB re 1 per m)", &s, kp),
+    ];
+    let markers = vec![None; all.len()];
+    Ok(Chart::bode(
+        &format!("Gang of four (Kp {kp} 1/m): {}", lp.description),
+        all,
+        markers,
+    ))
+}
+
+/// The phase (deg) of successive values, unwrapped from the first's principal value.
+fn unwrapped_deg(v: &[Complex64]) -> Vec<f64> {
+    let mut out: Vec<f64> = Vec::with_capacity(v.len());
+    for z in v {
+        let raw = z.arg().to_degrees();
+        let next = match out.last() {
+            Some(&prev) => raw + 360.0 * ((prev - raw) / 360.0).round(),
+            None => raw,
+        };
+        out.push(next);
+    }
+    out
 }
 
 #[cfg(test)]
@@ -289,7 +411,7 @@ mod tests {
     fn the_nyquist_curve_touches_the_disk_margins_disk() {
         let lp = Loop::of_rig(Rig::default(), "article", false);
         let dm = disk_margins(&lp.open_loop, 0.0).unwrap().disk;
-        let (c, r) = critical_disk(dm.disk_margin, 0.0);
+        let (c, r) = critical_disk(dm.gains());
         // for skew 0 the intercepts are −γ_max and −1/γ_max about −1
         let g_max = 10f64.powf(dm.gain_margin_db.unwrap() / 20.0);
         assert!((c - r + g_max).abs() < 1e-9 && (c + r + 1.0 / g_max).abs() < 1e-9);

@@ -272,6 +272,7 @@ fn margins_in(rig: &Rig, kp: f64, mode: usize, sampled: bool) -> Result<Margins,
 ///     p_beta_bar: Some(4.4),
 ///     mass_kg: vec![],
 ///     waves: vec![],
+///     sampled: false,
 /// };
 /// let kp = design::kp_max(&Rig::default(), &targets)?;
 /// assert!((24.0..26.0).contains(&kp), "Kp max {kp}");
@@ -806,6 +807,16 @@ pub fn kp_max_worst_case(rig: &Rig, t: &Targets) -> Result<f64, DesignError> {
     for (_, r) in condition_rigs(rig, t)? {
         for mode in 0..AnyCircuit::linear_modes(&r).len() {
             lo = lo.min(kp_max_in(&r, t, KP_CEILING, mode)?);
+        }
+    }
+    // the positions the design searches, at the gain it designs at the design point
+    let kp = kp_max(rig, t)?;
+    if kp > 0.0 {
+        let designed = Rig { kp, ..rig.clone() };
+        for case in cases(rig, t)? {
+            for c in searched_conditions(&designed, t, &case)? {
+                lo = lo.min(c.kp_max);
+            }
         }
     }
     Ok(lo)

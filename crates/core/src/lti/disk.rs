@@ -112,10 +112,25 @@ fn disk_of(response: &Response<impl LoopResponse>, skew: f64) -> Result<DiskMarg
     })
 }
 
-/// The disk's margins for α, as python-control's `disk_margins` states them.
-fn margins_of(alpha: f64, skew: f64, omega: Option<f64>) -> DiskMargin {
+impl DiskMargin {
+    /// The real-axis intercepts (γ_min, γ_max) of the disk of gain-and-phase changes the loop
+    /// tolerates (see the module documentation); γ_max is negative or infinite where the disk
+    /// holds every gain above γ_min.
+    pub fn gains(&self) -> (f64, f64) {
+        gains(self.disk_margin, self.skew)
+    }
+}
+
+/// (γ_min, γ_max) of the disk of skew `skew` and size `alpha`.
+fn gains(alpha: f64, skew: f64) -> (f64, f64) {
     let g_min = (1.0 - 0.5 * alpha * (1.0 - skew)) / (1.0 + 0.5 * alpha * (1.0 + skew));
     let g_max = (1.0 + 0.5 * alpha * (1.0 - skew)) / (1.0 - 0.5 * alpha * (1.0 + skew));
+    (g_min, g_max)
+}
+
+/// The disk's margins for α, as python-control's `disk_margins` states them.
+fn margins_of(alpha: f64, skew: f64, omega: Option<f64>) -> DiskMargin {
+    let (g_min, g_max) = gains(alpha, skew);
     let gm = 20.0 * (1.0 / g_min).min(g_max).log10();
     let gain_margin_db = (gm.is_finite() && g_max > 0.0).then_some(gm);
     let cos = (1.0 + g_min * g_max) / (g_min + g_max);

@@ -38,6 +38,7 @@ pub const FIGURES: &[Registered] = &[
     fig("sine_0p20hz", Source::Article(17)),
     fig("sine_0p25hz", Source::Article(18)),
     fig("nyquist", Source::Own),
+    fig("gang_of_four", Source::Own),
     fig("profile-beta_bar", Source::Own),
     fig("profile-viscous_friction_ns_per_m", Source::Own),
     fig("profile-c12_m5_per_ns", Source::Own),

@@ -335,7 +335,7 @@ fn stroke_numbers(run: &mut Run) -> Result<(Vec<summary::StrokeBasis>, bool)> {
 /// The article's loop (its Table 1 rig at Kp 25) as it designs it, continuous, and as its
 /// 100 Hz PLC closes it, with the disk margin, and its Nyquist diagram
 /// (docs/analysis.md#sampled-data-margins, docs/analysis.md#disk-margins).
-fn loop_margins(run: &mut Run) -> Result<()> {
+fn loop_margins(run: &mut Run) -> Result<summary::LoopMargins> {
     let lp = pumpcyl::loops::Loop::of_rig(Rig::default(), TABLE1_RIG, false);
     let m = pumpcyl::lti::margins(&lp.open_loop)?;
     let s = crate::robustness::Sampled::of_loop(&lp, &m, 0.0)?.expect("a rig's loop names its PLC");
@@ -383,7 +383,26 @@ fn loop_margins(run: &mut Run) -> Result<()> {
         Source::Own,
         "Nyquist diagram of the article's loop, continuous and as its PLC samples it, with the unit circle, the critical point and the disk the balanced disk margin keeps the curve from",
         &chart,
-    )
+    )?;
+    let grid = pumpcyl::lti::log_grid(0.01, 100.0, 801);
+    let chart = crate::robustness::gang_of_four_chart(&lp, &grid)?;
+    run.figure(
+        "gang_of_four",
+        Source::Own,
+        "The gang of four of the article's loop: S and T, the load sensitivity PS (position per unit of command disturbance) and the noise sensitivity CS (command per metre of noise), the PLC's Kp 25 as the controller",
+        &chart,
+    )?;
+    Ok(summary::LoopMargins {
+        gain_margin_db: m.gain_margin_db,
+        phase_margin_deg: m.phase_margin_deg,
+        disk_margin: disk.disk.disk_margin,
+        plc_rate_hz: s.plc_rate_hz,
+        plc_delay_samples: s.plc_delay_samples,
+        sampled_gain_margin_db: s.margins.gain_margin_db,
+        sampled_phase_margin_deg: s.margins.phase_margin_deg,
+        sampled_disk_margin: s.disk.disk.disk_margin,
+        phase_margin_cost_deg: s.phase_margin_cost_deg,
+    })
 }
 
 /// Step 8: the design check of the article §2.2 on the identified rig.
@@ -460,7 +479,7 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
         &format!("{} (kept)", printed::KP),
         "-",
     );
-    loop_margins(run)?;
+    let loop_margins = loop_margins(run)?;
     let kp_max = d.kp_max;
     Ok((
         summary::DesignCheck {
@@ -472,6 +491,7 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
             kp_max_worst_case_constant_mass: constant.kp_max_worst_case,
             verdict_constant_mass: constant.verdict,
             article_kp: printed::KP,
+            loop_margins,
         },
         kp_max,
     ))

@@ -520,6 +520,33 @@ pub struct DesignCheck {
     pub verdict_constant_mass: Verdict,
     /// The article's Kp.
     pub article_kp: f64,
+    /// The article's loop (its Table 1 rig at Kp 25) continuous and as its PLC runs it
+    /// (docs/analysis.md#sampled-data-margins).
+    pub loop_margins: LoopMargins,
+}
+
+/// The article's loop's margins, continuous and sampled, and its disk margins
+/// (`pumpcyl margins --json` on the Table 1 rig: the same numbers).
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopMargins {
+    /// Gain margin of the continuous loop (dB).
+    pub gain_margin_db: Option<f64>,
+    /// Phase margin of the continuous loop (deg).
+    pub phase_margin_deg: Option<f64>,
+    /// Its balanced disk margin α.
+    pub disk_margin: f64,
+    /// The PLC's rate (Hz) and delay (samples).
+    pub plc_rate_hz: f64,
+    /// The PLC's computation delay (samples).
+    pub plc_delay_samples: usize,
+    /// Gain margin of the sampled loop (dB).
+    pub sampled_gain_margin_db: Option<f64>,
+    /// Phase margin of the sampled loop (deg).
+    pub sampled_phase_margin_deg: Option<f64>,
+    /// The sampled loop's balanced disk margin α.
+    pub sampled_disk_margin: f64,
+    /// The phase margin the PLC costs (deg).
+    pub phase_margin_cost_deg: Option<f64>,
 }
 
 /// One value a parameter, keyed by the parameters' names.

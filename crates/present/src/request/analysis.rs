@@ -73,6 +73,7 @@ impl Document for MarginsOutcome {
     fn text(&self) -> anyhow::Result<String> {
         let mut text = loop_margins_text(&self.margins, &self.lp)?;
         text += &crate::robustness::disk_text(&self.lp, self.skew);
+        text += &crate::robustness::gang_of_four_text(&self.lp);
         text += &crate::robustness::sampled_text(&self.lp, &self.margins, self.skew);
         if let Some(modes) = ModesReport::of_loop(&self.lp)? {
             text += &modes.margins_text()?;
@@ -147,7 +148,7 @@ pub struct BodeOutcome {
 
 impl Bode {
     /// The frequency grid, checked.
-    fn grid(&self) -> anyhow::Result<Vec<f64>> {
+    pub fn grid(&self) -> anyhow::Result<Vec<f64>> {
         let (from, to) = (self.from_hz, self.to_hz);
         let ok = from > 0.0 && to > from && to.is_finite();
         if !ok {
