@@ -740,21 +740,40 @@ fn margins_row(label: &str, rig: &Rig, m: &Margins) -> Vec<String> {
         ),
         Err(_) => "undecided".to_string(),
     };
+    let open = Plant::new(rig).open_loop(false);
+    // the disk margin presumes a stable closed loop (docs/analysis.md#disk-margins)
+    let disk = (lti::disk_margins(&open, 0.0).ok())
+        .filter(|_| m.closed_loop_stable)
+        .map_or("-".to_string(), |d| {
+            format!("{:.3}, {:.2}", d.disk.disk_margin, d.sensitivity_peak.value)
+        });
+    let (h, delay) = rig.plc_sampling();
+    let sampled = lti::sampled_margins(&open, h, delay).map_or("-".to_string(), |s| {
+        format!(
+            "{} / {}",
+            fmt_opt(s.gain_margin_db, 2),
+            fmt_opt(s.phase_margin_deg, 1)
+        )
+    });
     vec![
         label.to_string(),
         fmt_opt(m.gain_margin_db, 2),
         fmt_opt(m.phase_margin_deg, 1),
         fmt_opt(m.gain_crossover_hz, 3),
+        disk,
+        sampled,
         if m.closed_loop_stable { "yes" } else { "NO" }.to_string(),
         simulated,
     ]
 }
 
-const MARGIN_HEADER: [&str; 6] = [
+const MARGIN_HEADER: [&str; 8] = [
     "case",
     "GM (dB)",
     "PM (deg)",
     "gain crossover (Hz)",
+    "disk margin α, M_s (balanced; docs/analysis.md#disk-margins)",
+    "GM (dB) / PM (deg) as the 100 Hz PLC runs it (docs/analysis.md#sampled-data-margins)",
     "stable, sum-pressure loop open (as analysed)",
     "stable, sum-pressure loop as simulated",
 ];
