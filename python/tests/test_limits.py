@@ -11,8 +11,11 @@ import pumpcyl
 from conftest import ROOT, pumpcyl_binary
 
 # docs/design.md#targets: 3 stroke positions x masses x pressures, plus the design point, each
-# a Kp search of 54 margin analyses; at most 10^5 of them without allowing a long run
+# a Kp search of 54 margin analyses, and for each mass and pressure the search over the stroke
+# (docs/design.md#the-worst-case-searched: 41 scanned positions, two golden sections of 42,
+# and the two conditions it adds); at most 10^5 of them without allowing a long run
 ANALYSES_PER_CONDITION = 54
+ANALYSES_PER_SEARCH = 41 + 2 * 42 + 2 * ANALYSES_PER_CONDITION
 MAX_MARGIN_ANALYSES = 1e5
 MAX_SELECT_CASES = 400
 
@@ -26,10 +29,11 @@ def test_design_refuses_the_masses_the_command_line_refuses():
     masses = [5000.0 + i for i in range(100_000)]
     with pytest.raises(pumpcyl.PumpcylError, match=r"allow_long_run=True") as e:
         pumpcyl.design(mass_kg=masses)
-    work = (3 * len(masses) + 1) * ANALYSES_PER_CONDITION
+    per_mass = 3 * ANALYSES_PER_CONDITION + ANALYSES_PER_SEARCH
+    work = len(masses) * per_mass + ANALYSES_PER_CONDITION
     assert work_of(e.value) == work
     # the first count beyond the limit, as the command line counts it
-    first = int((MAX_MARGIN_ANALYSES / ANALYSES_PER_CONDITION - 1) // 3) + 1
+    first = int((MAX_MARGIN_ANALYSES - ANALYSES_PER_CONDITION) // per_mass) + 1
     with pytest.raises(pumpcyl.PumpcylError, match=r"mass_kg × p_mean_bar"):
         pumpcyl.design(mass_kg=masses[:first])
     cli = subprocess.run(

@@ -23,7 +23,7 @@ def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_o
     assert len(caught) == 1
     note = str(caught[0].message)
     assert note.startswith(f"{path} does not set 34 keys; mass_by_position = [] (one mass over the stroke")
-    # each of the other 31 with its default (the article rig's, or the drives' electrical keys'),
+    # each of the other 33 with its default (the article rig's, or the drives' electrical keys'),
     # e.g. the leakages in exponent form
     named = re.findall(r"(\w+) = ", note.split("the others take the article rig's values: ")[1])
     article = pumpcyl.Rig()
@@ -32,15 +32,17 @@ def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_o
     others = ("mass_by_position", "accumulator_precharge_bar", "pilot_ratio", "check_valve_crack_bar",
               "cylinder_rated_pressure_bar")
     expected = [k for k in article.to_dict() if k not in written and k not in others]
-    assert sorted(named) == sorted(expected) and len(named) == 31
+    assert sorted(named) == sorted(expected) and len(named) == 33
     assert "c1_m5_per_ns = 5.49e-11" in note and "kff_kg_m2 = 0.0016" in note
     for key in expected:
         assert getattr(rig, key) == getattr(article, key), key
     assert rig.mass_by_position == [] and len(article.mass_by_position) == 3
-    # the design checks x0 ± 50 mm = 350 … 450 mm, all at the rig's one mass
+    # the design checks x0 ± 50 mm = 350 … 450 mm, all at the rig's one mass (the positions it
+    # searches between them too)
     d = pumpcyl.design(rig)
-    assert [(c["x_mm"], c["mass_kg"]) for c in d["conditions"]] == [
+    assert [(c["x_mm"], c["mass_kg"]) for c in d["conditions"] if c["searched"] is None] == [
         (350.0, 2500.0), (400.0, 2500.0), (450.0, 2500.0)]
+    assert all(c["mass_kg"] == 2500.0 for c in d["conditions"])
 
 
 def test_a_rig_that_sets_every_key_reads_back_without_a_warning():

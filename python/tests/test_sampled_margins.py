@@ -79,3 +79,20 @@ def test_the_plc_costs_the_article_loop_about_three_degrees():
     assert abs(s["phase_margin_cost_deg"] - estimate) < 0.1, (s["phase_margin_cost_deg"], estimate)
     assert s["phase_margin_cost_deg"] == pytest.approx(m["phase_margin_deg"] - s["phase_margin_deg"])
     assert s["delay_margin_samples"] == pytest.approx(s["delay_margin_s"] * 100.0)
+
+
+def test_designing_on_the_sampled_loop_costs_what_the_command_line_says():
+    """`design(sampled=True)` is `pumpcyl design --sampled --json`; its continuous Kp max is the
+    plain design's, and the sampled loop at the sampled Kp max meets the phase-margin target
+    where the continuous one has margin to spare."""
+    import pumpcyl
+
+    got = pumpcyl.design(sampled=True)
+    want = pumpcyl_json("design", [], "--sampled")
+    assert got["kp_max"] == want["kp_max"]
+    assert got["kp_max_continuous"] == pumpcyl_json("design")["kp_max"]
+    assert got["kp_max"] < got["kp_max_continuous"]
+    at = pumpcyl_json("margins", [f"kp={got['kp_max']}"])
+    assert at["sampled"]["phase_margin_deg"] >= 34.0 - 1e-6
+    assert at["sampled"]["phase_margin_deg"] < at["phase_margin_deg"]
+    assert "sampled by its PLC at 100" in got["analysed_loop"]
