@@ -5,7 +5,7 @@
 
 use crate::format::{fmt_opt, fmt_short};
 use crate::records::{csv_number, csv_text};
-use pumpcyl::bulk::{BetaReading, Row};
+use pumpcyl::bulk::{BetaReading, BulkModel, Row};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 
@@ -61,6 +61,84 @@ pub fn bulk_text(fit: (f64, f64, f64), from: &str, x: f64, rows: &[Row]) -> Stri
         );
     }
     s
+}
+
+/// The family of β(p) models (docs/bulk-modulus.md#a-family-of-models), each fitted to the same
+/// reading: the model, its gas fraction and β_e at each pressure of `pressures_bar` (bar); an
+/// error in place of a model that cannot hold the reading.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Family {
+    /// The pressures (bar gauge).
+    pub p_bar: Vec<f64>,
+    /// Each model fitted.
+    pub models: Vec<Fitted>,
+}
+
+/// One model of the family fitted to the reading.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Fitted {
+    /// The model and its parameters.
+    #[serde(flatten)]
+    pub model: BulkModel,
+    /// Its gas fraction X (at atmospheric pressure for the entrained air), or `None`.
+    pub gas_fraction: Option<f64>,
+    /// β_e at each pressure (bar), empty where the fit failed.
+    pub beta_bar: Vec<f64>,
+    /// Why the model cannot hold the reading, where it cannot.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+impl Family {
+    /// Every model of [`pumpcyl::bulk::FAMILY`] fitted to `reading` with the oil's
+    /// `beta_oil_bar`, at `pressures_bar`.
+    pub fn fit(reading: BetaReading, beta_oil_bar: f64, pressures_bar: &[f64]) -> Family {
+        let models = (pumpcyl::bulk::FAMILY.into_iter())
+            .map(
+                |model| match model.fit(reading.beta_bar, reading.p_mean_bar, beta_oil_bar) {
+                    Ok(x) => Fitted {
+                        model,
+                        gas_fraction: Some(x),
+                        beta_bar: (pressures_bar.iter())
+                            .map(|&p| model.beta_bar(x, p, beta_oil_bar))
+                            .collect(),
+                        error: None,
+                    },
+                    Err(e) => Fitted {
+                        model,
+                        gas_fraction: None,
+                        beta_bar: vec![],
+                        error: Some(e.to_string()),
+                    },
+                },
+            )
+            .collect();
+        Family {
+            p_bar: pressures_bar.to_vec(),
+            models,
+        }
+    }
+
+    /// The family as text: β_e at each pressure under each model, one column a model.
+    pub fn text(&self) -> String {
+        let mut s = String::from(
+            "the same reading under other models of beta against pressure (docs/bulk-modulus.md#a-family-of-models):\n",
+        );
+        let _ = write!(s, "{:>8}", "p_bar");
+        for m in &self.models {
+            let _ = write!(s, " {:>31}", m.model.name());
+        }
+        s.push('\n');
+        for (k, p) in self.p_bar.iter().enumerate() {
+            let _ = write!(s, "{p:>8.2}");
+            for m in &self.models {
+                let cell = m.beta_bar.get(k).map_or("-".into(), |b| format!("{b:.1}"));
+                let _ = write!(s, " {cell:>31}");
+            }
+            s.push('\n');
+        }
+        s
+    }
 }
 
 /// The table as CSV: `p_bar,beta_bar,gain_margin_db,phase_margin_deg,closed_loop_stable`, one

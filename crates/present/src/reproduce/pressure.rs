@@ -183,6 +183,7 @@ pub(super) fn pressure_study(
         "-",
     );
     forty_fold(run, &intro, table1.beta_bar, nominal.beta_bar);
+    other_models(run, &table1, &article_at)?;
     let [(p1bar, _), (p_fit, _), (p10bar, _)] = article_at;
     let [(id_low, _), (id_mean, _), (id_high, _)] = identified_at;
     Ok(Pressure {
@@ -212,6 +213,50 @@ pub(super) fn pressure_study(
         intro,
         p_mean_bar: p_mean,
     })
+}
+
+/// The article's extrapolation beside the other models of β(p) fitted to the same 165 bar at
+/// 4.4 bar (docs/bulk-modulus.md#a-family-of-models): β_e and the margins at 1 and 10 bar under
+/// each, and the band they span.
+fn other_models(run: &mut Run, table1: &Rig, article_at: &[(AtPressure, Rig); 3]) -> Result<()> {
+    let pressures = [LOW_BAR, HIGH_BAR];
+    let reading = pumpcyl::bulk::ARTICLE_READING;
+    let family = crate::bulk::Family::fit(reading, BETA_OIL_BAR, &pressures);
+    let mut rows = Vec::new();
+    let mut band = [(f64::INFINITY, f64::NEG_INFINITY); 2];
+    for m in &family.models {
+        let mut row = vec![m.model.name().to_string()];
+        for (k, beta) in m.beta_bar.iter().enumerate() {
+            band[k] = (band[k].0.min(*beta), band[k].1.max(*beta));
+            let r = Rig {
+                beta_bar: *beta,
+                ..table1.clone()
+            };
+            let mm = margins_of(&r)?;
+            row.push(format!(
+                "{beta:.1} bar: GM {} dB, PM {} deg",
+                fmt_opt(mm.gain_margin_db, 2),
+                fmt_opt(mm.phase_margin_deg, 1)
+            ));
+        }
+        rows.push(row);
+    }
+    run.table(
+        &format!("β_e at {LOW_BAR} and {HIGH_BAR} bar from the same 165 bar at 4.4 bar under each model of β against pressure, and the margins of {TABLE1_RIG} there (isothermal air, all of it dissolved at 30 bar in the last)"),
+        &["model", "1 bar", "10 bar"],
+        rows,
+    );
+    run.compare_why(
+        "β_e at 1 bar / 10 bar under the other models of β(p) fitted to 165 bar at 4.4 bar (bar)",
+        format!(
+            "{:.1} / {:.1} (the article's model); {:.1}–{:.1} / {:.1}–{:.1} over the family",
+            article_at[0].0.beta_bar, article_at[2].0.beta_bar, band[0].0, band[0].1, band[1].0, band[1].1
+        ),
+        "as low as 38 / up to 370",
+        "-",
+        "one identification at one pressure cannot tell the models apart: the extrapolation holds only as far as its model (docs/bulk-modulus.md#a-family-of-models)",
+    );
+    Ok(())
 }
 
 /// The article's introduction: a gas fraction of 1 % and β_e at 100 bar against 1 bar.

@@ -2,7 +2,7 @@
 //! against pressure and the margins there (docs/bulk-modulus.md).
 
 use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
-use crate::bulk::{bulk_csv, bulk_json, bulk_text};
+use crate::bulk::{bulk_csv, bulk_json, bulk_text, Family};
 use crate::figures::Chart;
 use pumpcyl::bulk::{gas_fraction, table, BetaReading, Row};
 use serde_json::Value;
@@ -90,6 +90,13 @@ impl Request for BulkModulus {
 }
 
 impl BulkOutcome {
+    /// The family of β(p) models fitted to the same reading, at the table's pressures.
+    fn family(&self) -> Family {
+        let r = &self.request;
+        let p: Vec<f64> = self.rows.iter().map(|row| row.p_bar).collect();
+        Family::fit(r.reading, r.beta_oil_bar, &p)
+    }
+
     /// What the gas fraction was read off: (β bar, at mean pressure bar, β_oil bar).
     fn fit(&self) -> (f64, f64, f64) {
         let r = &self.request;
@@ -118,16 +125,14 @@ impl Document for BulkOutcome {
     fn json(&self) -> anyhow::Result<Value> {
         let r = &self.request;
         let reading = (r.reading, r.from.as_str());
-        Ok(bulk_json(
-            self.gas_fraction,
-            r.beta_oil_bar,
-            reading,
-            &self.rows,
-        ))
+        let mut doc = bulk_json(self.gas_fraction, r.beta_oil_bar, reading, &self.rows);
+        doc["models"] = serde_json::to_value(self.family())?;
+        Ok(doc)
     }
 
     fn text(&self) -> anyhow::Result<String> {
         let from = &self.request.from;
-        Ok(bulk_text(self.fit(), from, self.gas_fraction, &self.rows))
+        let text = bulk_text(self.fit(), from, self.gas_fraction, &self.rows);
+        Ok(text + &self.family().text())
     }
 }

@@ -28,6 +28,9 @@ use serde::Serialize;
 
 pub use crate::circuit::parts::BETA_OIL_BAR;
 
+pub mod models;
+pub use models::{BulkModel, ATMOSPHERE_BAR, FAMILY};
+
 /// Errors of the bulk-modulus model.
 #[derive(Debug, thiserror::Error)]
 pub enum BulkError {

@@ -1,0 +1,56 @@
+"""The family of beta(p) models (docs/bulk-modulus.md#a-family-of-models) in
+`pumpcyl bulk-modulus --json`'s `models`: each model's beta_e on a grid of 1-300 bar equals its
+equation implemented here independently to 1e-9, with the gas fraction pumpcyl fitted, and that
+fit gives back the reading (the article's 165 bar at 4.4 bar, and another) to 1e-9."""
+
+import math
+
+import pytest
+
+from conftest import pumpcyl_json
+
+P0 = 1.01325  # bar, atmospheric
+
+
+def entrained(x, p_gauge, n, beta_oil):
+    p = p_gauge + P0
+    v_g = x * (P0 / p) ** (1.0 / n)
+    v_l = (1.0 - x) * math.exp(-(p - P0) / beta_oil)
+    return (v_l + v_g) / (v_l / beta_oil + v_g / (n * p))
+
+
+def beta(model, x, p, beta_oil):
+    """beta_e (bar) of `model` (the JSON object) with gas fraction x at gauge pressure p (bar)."""
+    name = model["model"]
+    if name == "constant-gas-fraction":
+        return 1.0 / (x / p + (1.0 - x) / beta_oil)
+    if name == "constant-gas-fraction-absolute":
+        return 1.0 / (x / (p + P0) + (1.0 - x) / beta_oil)
+    if name == "entrained-air":
+        return entrained(x, p, model["polytropic_index"], beta_oil)
+    assert name == "entrained-air-dissolving", name
+    p_crit = model["air_dissolution_pressure_bar"]
+    free = min(max((p_crit - p) / p_crit, 0.0), 1.0)
+    return entrained(x * free, p, model["polytropic_index"], beta_oil)
+
+
+@pytest.mark.parametrize("reading", [(165.0, 4.4), (600.0, 12.0)])
+def test_each_model_is_its_equation_and_holds_the_reading(reading):
+    beta_bar, p_mean = reading
+    doc = pumpcyl_json("bulk-modulus", [], "--beta-bar", str(beta_bar), "--p-mean-bar", str(p_mean),
+                       "--from-bar", "1", "--to-bar", "300", "--points", "300")
+    oil = doc["beta_oil_bar"]
+    family = doc["models"]
+    assert [m["model"] for m in family["models"]] == [
+        "constant-gas-fraction", "constant-gas-fraction-absolute", "entrained-air",
+        "entrained-air-dissolving"]
+    for m in family["models"]:
+        x = m["gas_fraction"]
+        assert abs(beta(m, x, p_mean, oil) - beta_bar) <= 1e-9 * beta_bar, (m, reading)
+        for p, got in zip(family["p_bar"], m["beta_bar"]):
+            want = beta(m, x, p, oil)
+            assert abs(got - want) <= 1e-9 * want, (m["model"], p, got, want)
+    # the article's model is the one the table and the margins use
+    article = family["models"][0]
+    assert article["gas_fraction"] == doc["gas_fraction"]
+    assert article["beta_bar"] == [row["beta_bar"] for row in doc["table"]]
