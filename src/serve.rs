@@ -157,7 +157,10 @@ fn export(file: &str, query: &str, args: &ServeArgs) -> Answer {
     match written {
         Ok(bytes) => {
             let disposition = format!("attachment; filename=\"{name}\"");
+            // its length stated whatever its size (tiny_http chunks from 32 KiB): the download
+            // is whole or the browser says it is not
             Response::from_data(bytes)
+                .with_chunked_threshold(usize::MAX)
                 .with_header(header("Content-Type", "application/octet-stream"))
                 .with_header(header("Content-Disposition", &disposition))
         }

@@ -138,6 +138,21 @@ fn the_page_downloads_the_files_the_command_line_writes() {
         "/export/pumpcyl.fmu?set=kp%3D30&opt=model%3Dlinear",
     );
     assert_eq!(status, 200);
+    // sent whole with its length stated (no chunks: the body is the file's bytes)
+    let fmu_file = dir.join("pumpcyl.fmu");
+    cli(&[
+        "fmu",
+        "--set",
+        "kp=30",
+        "--model",
+        "linear",
+        "--out",
+        fmu_file.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        fmu.len(),
+        std::fs::metadata(&fmu_file).unwrap().len() as usize
+    );
     let names: Vec<String> = zip::ZipArchive::new(std::io::Cursor::new(fmu))
         .unwrap()
         .file_names()
