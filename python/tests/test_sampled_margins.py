@@ -96,3 +96,16 @@ def test_designing_on_the_sampled_loop_costs_what_the_command_line_says():
     assert at["sampled"]["phase_margin_deg"] >= 34.0 - 1e-6
     assert at["sampled"]["phase_margin_deg"] < at["phase_margin_deg"]
     assert "sampled by its PLC at 100" in got["analysed_loop"]
+
+
+def test_python_margins_carry_the_skew_sampled_margins_and_gang_of_four_of_the_command_line():
+    """`margins(rig, skew=…)` is `pumpcyl margins --skew … --json`, its `disk`, `sampled` and
+    `gang_of_four` included."""
+    import pumpcyl
+
+    rig = pumpcyl.Rig().replace(plc_rate_hz=50.0, plc_delay_samples=2)
+    got = pumpcyl.margins(rig, skew=0.5)
+    want = pumpcyl_json("margins", ["plc_rate_hz=50", "plc_delay_samples=2"], "--skew", "0.5")
+    for key in ["disk", "sampled", "gang_of_four"]:
+        assert got[key] == want[key], key
+    assert got["disk"]["skew"] == 0.5 and got["sampled"]["plc_delay_samples"] == 2
