@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use crate::emit::{format_of, render, write_atomic, Format};
 use crate::RigSource;
-use pumpcyl::bulk::{BetaReading, BETA_OIL_BAR};
+use pumpcyl::bulk::{BetaReading, BulkModel, BETA_OIL_BAR};
 use pumpcyl_present::request::bulk::BulkModulus;
 
 #[derive(Debug, Args)]
@@ -44,6 +44,35 @@ pub struct BulkArgs {
     /// Run even when the table would take long (more than 10^5 margin analyses: --points).
     #[arg(long)]
     allow_long_run: bool,
+    /// The model of beta against pressure (docs/bulk-modulus.md#a-family-of-models):
+    /// constant-gas-fraction (the article's), constant-gas-fraction-absolute, entrained-air or
+    /// entrained-air-dissolving; every model's beta is tabled beside it either way.
+    #[arg(long, default_value = "constant-gas-fraction")]
+    model: String,
+    /// The entrained air's polytropic index n (1 isothermal ... 1.4 adiabatic).
+    #[arg(long, default_value_t = 1.0)]
+    polytropic_index: f64,
+    /// The pressure (bar gauge) at which the dissolving model's air is all dissolved.
+    #[arg(long, default_value_t = 30.0)]
+    air_dissolution_pressure_bar: f64,
+}
+
+/// The model `--model` names with its parameters.
+fn model_of(args: &BulkArgs) -> Result<BulkModel> {
+    let model = match BulkModel::named(&args.model)? {
+        BulkModel::EntrainedAir { .. } => BulkModel::EntrainedAir {
+            polytropic_index: args.polytropic_index,
+        },
+        BulkModel::EntrainedAirDissolving { .. } => BulkModel::EntrainedAirDissolving {
+            polytropic_index: args.polytropic_index,
+            air_dissolution_pressure_bar: args.air_dissolution_pressure_bar,
+        },
+        other => other,
+    };
+    model
+        .check()
+        .map_err(|e| anyhow::anyhow!("--model {}: {e}", args.model))?;
+    Ok(model)
 }
 
 /// `pumpcyl bulk-modulus`.
@@ -59,6 +88,7 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
         to_bar: args.to_bar,
         points: args.points,
         allow_long_run: args.allow_long_run,
+        model: model_of(args)?,
     };
     let outcome = crate::emit::run(&request)?;
     if let Some(path) = &args.out {

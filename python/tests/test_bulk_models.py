@@ -54,3 +54,24 @@ def test_each_model_is_its_equation_and_holds_the_reading(reading):
     article = family["models"][0]
     assert article["gas_fraction"] == doc["gas_fraction"]
     assert article["beta_bar"] == [row["beta_bar"] for row in doc["table"]]
+
+
+@pytest.mark.parametrize("name", ["constant-gas-fraction-absolute", "entrained-air",
+                                  "entrained-air-dissolving"])
+def test_the_table_and_its_margins_follow_the_model_asked_for(name):
+    """`bulk-modulus --model NAME`: the gas fraction is that model's fit, the table's beta_e its
+    equation's, and each row's margins those of `pumpcyl margins` with that beta."""
+    doc = pumpcyl_json("bulk-modulus", [], "--model", name, "--polytropic-index", "1.2",
+                       "--air-dissolution-pressure-bar", "25")
+    model = doc["model"]
+    assert model["model"] == name
+    oil, x = doc["beta_oil_bar"], doc["gas_fraction"]
+    if "polytropic_index" in model:
+        assert model["polytropic_index"] == 1.2
+    for row in doc["table"]:
+        want = beta(model, x, row["p_bar"], oil)
+        assert abs(row["beta_bar"] - want) <= 1e-9 * want
+    assert abs(beta(model, x, 4.4, oil) - 165.0) <= 1e-9 * 165.0
+    low = doc["table"][0]
+    m = pumpcyl_json("margins", [f"beta_bar={low['beta_bar']!r}"])
+    assert low["gain_margin_db"] == m["gain_margin_db"] and low["closed_loop_stable"] == m["closed_loop_stable"]

@@ -102,10 +102,28 @@ pub fn table(
     beta_oil_bar: f64,
     pressures_bar: &[f64],
 ) -> Result<Vec<Row>, BulkError> {
+    table_under(
+        BulkModel::ConstantGasFraction,
+        rig,
+        x,
+        beta_oil_bar,
+        pressures_bar,
+    )
+}
+
+/// [`table`] with β_e from `model` (docs/bulk-modulus.md#a-family-of-models) and its gas
+/// fraction `x`.
+pub fn table_under(
+    model: BulkModel,
+    rig: &Rig,
+    x: f64,
+    beta_oil_bar: f64,
+    pressures_bar: &[f64],
+) -> Result<Vec<Row>, BulkError> {
     pressures_bar
         .iter()
         .map(|&p| {
-            let beta = effective_beta(x, p, beta_oil_bar);
+            let beta = model.beta_bar(x, p, beta_oil_bar);
             let r = Rig {
                 beta_bar: beta,
                 ..rig.clone()

@@ -4,7 +4,7 @@
 use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
 use crate::bulk::{bulk_csv, bulk_json, bulk_text, Family};
 use crate::figures::Chart;
-use pumpcyl::bulk::{gas_fraction, table, BetaReading, Row};
+use pumpcyl::bulk::{table_under, BetaReading, BulkModel, Row};
 use serde_json::Value;
 
 /// Rows of the fine table an output file holds.
@@ -30,6 +30,8 @@ pub struct BulkModulus {
     pub points: usize,
     /// Whether a table beyond the margin analyses' limit may run.
     pub allow_long_run: bool,
+    /// The model of β against pressure the table follows (docs/bulk-modulus.md#a-family-of-models).
+    pub model: BulkModel,
 }
 
 /// The gas fraction and the table.
@@ -70,7 +72,14 @@ impl BulkModulus {
     /// β_e and the margins at `points` mean pressures over the request's range.
     fn rows(&self, x: f64, points: usize) -> anyhow::Result<Vec<Row>> {
         let pressures = pumpcyl::ident::spaced(self.from_bar, self.to_bar, points, false);
-        Ok(table(&self.rig.rig, x, self.beta_oil_bar, &pressures)?)
+        let rig = &self.rig.rig;
+        Ok(table_under(
+            self.model,
+            rig,
+            x,
+            self.beta_oil_bar,
+            &pressures,
+        )?)
     }
 }
 
@@ -80,7 +89,9 @@ impl Request for BulkModulus {
     fn run(&self, _: Hooks<'_>) -> anyhow::Result<BulkOutcome> {
         self.check()?;
         let r = &self.reading;
-        let x = gas_fraction(r.beta_bar, r.p_mean_bar, self.beta_oil_bar)?;
+        let x = self
+            .model
+            .fit(r.beta_bar, r.p_mean_bar, self.beta_oil_bar)?;
         Ok(BulkOutcome {
             rows: self.rows(x, self.points)?,
             request: self.clone(),
@@ -127,12 +138,17 @@ impl Document for BulkOutcome {
         let reading = (r.reading, r.from.as_str());
         let mut doc = bulk_json(self.gas_fraction, r.beta_oil_bar, reading, &self.rows);
         doc["models"] = serde_json::to_value(self.family())?;
+        doc["model"] = serde_json::to_value(r.model)?;
         Ok(doc)
     }
 
     fn text(&self) -> anyhow::Result<String> {
         let from = &self.request.from;
-        let text = bulk_text(self.fit(), from, self.gas_fraction, &self.rows);
+        let text = format!(
+            "{}beta against pressure under the {} model (docs/bulk-modulus.md#a-family-of-models)\n",
+            bulk_text(self.fit(), from, self.gas_fraction, &self.rows),
+            self.request.model.name(),
+        );
         Ok(text + &self.family().text())
     }
 }
