@@ -84,9 +84,10 @@ pub fn rating_warning_lines(what: &str, over: &[OverRating]) -> Vec<String> {
 /// # Errors
 /// The margins cannot be computed.
 pub fn margins_document(m: &Margins, lp: &Loop, skew: f64) -> Result<Value, LtiError> {
-    let doc = merged(loop_margins_json(m, lp)?, disk_json(lp, skew));
+    let disk = pumpcyl::lti::disk_margins(&lp.open_loop, skew);
+    let doc = merged(loop_margins_json(m, lp)?, disk_json(&disk));
     let doc = merged(doc, sampled_json(lp, m, skew));
-    let doc = merged(doc, gang_of_four_json(lp));
+    let doc = merged(doc, gang_of_four_json(lp, &disk));
     Ok(match ModesReport::of_loop(lp)? {
         Some(modes) => merged(doc, modes.margins_json()?),
         None => doc,

@@ -8,20 +8,24 @@ use crate::plot::{LineStyle, Panel, Trace};
 type Complex64 = nalgebra::Complex<f64>;
 use pumpcyl::loops::Loop;
 use pumpcyl::lti::{
-    disk_margins, log_grid, sampled_disk_margins, sampled_margins, DiskMargins, FreqEvaluator,
-    LtiError, Margins, Peak, SampledLoop,
+    disk_margins, log_grid, sampled_disk_margins, sampled_margins, unwrap_from, DiskMargins,
+    FreqEvaluator, LtiError, Margins, Peak, SampledLoop,
 };
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::f64::consts::{PI, TAU};
 use std::fmt::Write as _;
 
-/// The loop's disk margin of skew `skew` and its sensitivity peaks: `disk`, `sensitivity_peak`
+/// A loop's disk margins ([`disk_margins`]), computed once for every part of a document that
+/// shows them (the disk margin, the gang of four's peaks).
+pub type Disk = Result<DiskMargins, LtiError>;
+
+/// The loop's disk margin and its sensitivity peaks: `disk`, `sensitivity_peak`
 /// (M_s, the disk margin of skew 1 being 1/M_s) and `complementary_sensitivity_peak` (M_t, skew
 /// −1: 1/M_t); each `null` where the loop's frequency response cannot be evaluated (the
 /// classical margins still stand).
-pub fn disk_json(lp: &Loop, skew: f64) -> Value {
-    match disk_margins(&lp.open_loop, skew) {
+pub fn disk_json(disk: &Disk) -> Value {
+    match disk {
         Ok(d) => json!(d),
         Err(_) => json!({
             "disk": null,
@@ -33,9 +37,9 @@ pub fn disk_json(lp: &Loop, skew: f64) -> Value {
 
 /// The loop's disk margin and sensitivity peaks in one line of text (a line saying why where
 /// they cannot be computed).
-pub fn disk_text(lp: &Loop, skew: f64) -> String {
-    match disk_margins(&lp.open_loop, skew) {
-        Ok(d) => format!("{} (docs/analysis.md#disk-margins)\n", disk_line(&d)),
+pub fn disk_text(disk: &Disk) -> String {
+    match disk {
+        Ok(d) => format!("{} (docs/analysis.md#disk-margins)\n", disk_line(d)),
         Err(e) => format!("disk margin: not computed ({e})\n"),
     }
 }
@@ -295,8 +299,9 @@ pub struct GangOfFour {
 }
 
 impl GangOfFour {
-    /// The gang of four of `lp`'s loop from its disk margins `d` (whose M_s and M_t it scales);
-    /// `None` for a state-space model, which names no controller.
+    /// The gang of four of `lp`'s loop from its disk margins `d` of any skew (whose M_s and M_t,
+    /// the same whatever the skew, it scales); `None` for a state-space model, which names no
+    /// controller.
     pub fn of_loop(lp: &Loop, d: &DiskMargins) -> Option<GangOfFour> {
         let kp = lp.rig.as_ref()?.kp;
         let scaled = |p: &Peak, k: f64| Peak {
@@ -314,11 +319,8 @@ impl GangOfFour {
 }
 
 /// The gang of four's peaks in one line of text, nothing for a state-space model.
-pub fn gang_of_four_text(lp: &Loop) -> String {
-    let Some(g) = disk_margins(&lp.open_loop, 0.0)
-        .ok()
-        .and_then(|d| GangOfFour::of_loop(lp, &d))
-    else {
+pub fn gang_of_four_text(lp: &Loop, disk: &Disk) -> String {
+    let Some(g) = disk.as_ref().ok().and_then(|d| GangOfFour::of_loop(lp, d)) else {
         return String::new();
     };
     let at = |p: &Peak| {
@@ -337,10 +339,8 @@ pub fn gang_of_four_text(lp: &Loop) -> String {
 
 /// `gang_of_four`: [`GangOfFour`] of the loop, `null` for a state-space model or where the
 /// frequency response cannot be evaluated.
-pub fn gang_of_four_json(lp: &Loop) -> Value {
-    let gang = disk_margins(&lp.open_loop, 0.0)
-        .ok()
-        .and_then(|d| GangOfFour::of_loop(lp, &d));
+pub fn gang_of_four_json(lp: &Loop, disk: &Disk) -> Value {
+    let gang = disk.as_ref().ok().and_then(|d| GangOfFour::of_loop(lp, d));
     json!({ "gang_of_four": gang })
 }
 
@@ -362,7 +362,8 @@ pub fn gang_of_four_chart(lp: &Loop, freq_hz: &[f64]) -> anyhow::Result<Chart> {
     let t: Vec<Complex64> = l.iter().map(|l| l / (1.0 + l)).collect();
     let kp = rig.kp;
     let series = |label: &str, v: &[Complex64], k: f64| {
-        let phase = unwrapped_deg(v);
+        // unwrapped from the first value's principal phase
+        let phase = unwrap_from(v, v.first().map_or(0.0, |z| z.arg().to_degrees()));
         crate::plot::BodeSeries {
             label: label.into(),
             freq_hz: freq_hz.to_vec(),
@@ -382,20 +383,6 @@ pub fn gang_of_four_chart(lp: &Loop, freq_hz: &[f64]) -> anyhow::Result<Chart> {
         all,
         markers,
     ))
-}
-
-/// The phase (deg) of successive values, unwrapped from the first's principal value.
-fn unwrapped_deg(v: &[Complex64]) -> Vec<f64> {
-    let mut out: Vec<f64> = Vec::with_capacity(v.len());
-    for z in v {
-        let raw = z.arg().to_degrees();
-        let next = match out.last() {
-            Some(&prev) => raw + 360.0 * ((prev - raw) / 360.0).round(),
-            None => raw,
-        };
-        out.push(next);
-    }
-    out
 }
 
 #[cfg(test)]

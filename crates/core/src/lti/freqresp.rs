@@ -256,7 +256,7 @@ pub(crate) fn low_frequency_asymptote(ev: &FreqEvaluator, omega0: f64, integrato
 }
 
 /// Unwrapped phase (deg) of successive values, the first on the branch nearest `asymptote`.
-pub(crate) fn unwrap_from(values: &[Complex64], asymptote: f64) -> Vec<f64> {
+pub fn unwrap_from(values: &[Complex64], asymptote: f64) -> Vec<f64> {
     let mut out = Vec::with_capacity(values.len());
     let Some(first) = values.first() else {
         return out;

@@ -13,7 +13,7 @@ mod sampled;
 mod timeresp;
 
 pub use disk::{disk_margins, sampled_disk_margins, DiskMargin, DiskMargins, Peak};
-pub use freqresp::{bode, log_grid, Bode, FreqEvaluator};
+pub use freqresp::{bode, log_grid, unwrap_from, Bode, FreqEvaluator};
 pub use io::{ModelJson, StateInfo, MAX_STATES};
 pub use margins::{margins, Crossing, CrossingKind, Margins, RELIABLE_DB, RELIABLE_DEG};
 pub use poles::{

@@ -86,8 +86,6 @@ impl SampledLoop {
     /// plant's n states and the delay line's d (the commands computed and not yet applied).
     pub fn closed_loop_matrix(&self) -> Result<DMatrix<f64>, LtiError> {
         let (n, d) = (self.phi.nrows(), self.delay);
-        let mut a = DMatrix::zeros(n + d, n + d);
-        a.view_mut((0, 0), (n, n)).copy_from(&self.phi);
         if d == 0 {
             let den = 1.0 + self.d;
             if den.abs() < f64::EPSILON {
@@ -95,6 +93,8 @@ impl SampledLoop {
             }
             return Ok(&self.phi - &self.gamma * self.c.transpose() / den);
         }
+        let mut a = DMatrix::zeros(n + d, n + d);
+        a.view_mut((0, 0), (n, n)).copy_from(&self.phi);
         // the applied command is the delay line's last entry v_d: x⁺ = Φ x + Γ v_d; the PLC's
         // new command u = −(Cx + D v_d) enters v_1; v_{i+1}⁺ = v_i
         a.view_mut((0, n + d - 1), (n, 1)).copy_from(&self.gamma);

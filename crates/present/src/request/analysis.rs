@@ -72,8 +72,9 @@ impl Document for MarginsOutcome {
 
     fn text(&self) -> anyhow::Result<String> {
         let mut text = loop_margins_text(&self.margins, &self.lp)?;
-        text += &crate::robustness::disk_text(&self.lp, self.skew);
-        text += &crate::robustness::gang_of_four_text(&self.lp);
+        let disk = lti::disk_margins(&self.lp.open_loop, self.skew);
+        text += &crate::robustness::disk_text(&disk);
+        text += &crate::robustness::gang_of_four_text(&self.lp, &disk);
         text += &crate::robustness::sampled_text(&self.lp, &self.margins, self.skew);
         if let Some(modes) = ModesReport::of_loop(&self.lp)? {
             text += &modes.margins_text()?;
