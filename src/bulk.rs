@@ -46,39 +46,41 @@ pub struct BulkArgs {
     allow_long_run: bool,
     /// The model of beta against pressure (docs/bulk-modulus.md#a-family-of-models):
     /// constant-gas-fraction (the article's), constant-gas-fraction-absolute, entrained-air or
-    /// entrained-air-dissolving; every model's beta is tabled beside it either way.
-    #[arg(long, default_value = "constant-gas-fraction")]
-    model: String,
-    /// The entrained air's polytropic index n (1 isothermal ... 1.4 adiabatic).
-    #[arg(long, default_value_t = 1.0)]
-    polytropic_index: f64,
+    /// entrained-air-dissolving; every model's beta is tabled beside it either way. Default:
+    /// the rig's bulk_modulus_model.
+    #[arg(long)]
+    model: Option<String>,
+    /// The entrained air's polytropic index n (1 isothermal ... 1.4 adiabatic). Default: the
+    /// rig's polytropic_index, else 1.
+    #[arg(long)]
+    polytropic_index: Option<f64>,
     /// The pressure (bar gauge) at which the dissolving model's air is all dissolved.
-    #[arg(long, default_value_t = 30.0)]
-    air_dissolution_pressure_bar: f64,
+    /// Default: the rig's air_dissolution_pressure_bar, else 30.
+    #[arg(long)]
+    air_dissolution_pressure_bar: Option<f64>,
 }
 
-/// The model `--model` names with its parameters.
-fn model_of(args: &BulkArgs) -> Result<BulkModel> {
-    let model = match BulkModel::named(&args.model)? {
-        BulkModel::EntrainedAir { .. } => BulkModel::EntrainedAir {
-            polytropic_index: args.polytropic_index,
-        },
-        BulkModel::EntrainedAirDissolving { .. } => BulkModel::EntrainedAirDissolving {
-            polytropic_index: args.polytropic_index,
-            air_dissolution_pressure_bar: args.air_dissolution_pressure_bar,
-        },
-        other => other,
+/// The model `--model` names with its parameters, the rig's model and parameters where they
+/// are not given.
+fn model_of(args: &BulkArgs, rig: &pumpcyl::rig::Rig) -> Result<BulkModel> {
+    let form = match &args.model {
+        Some(name) => BulkModel::named(name)?.form(),
+        None => rig.bulk_modulus_model,
     };
-    model
-        .check()
-        .map_err(|e| anyhow::anyhow!("--model {}: {e}", args.model))?;
-    Ok(model)
+    let same = form == rig.bulk_modulus_model;
+    let n = args
+        .polytropic_index
+        .or(rig.polytropic_index.filter(|_| same));
+    let pc =
+        (args.air_dissolution_pressure_bar).or(rig.air_dissolution_pressure_bar.filter(|_| same));
+    BulkModel::of(form, n, pc).map_err(|e| anyhow::anyhow!("bulk-modulus model: {e}"))
 }
 
 /// `pumpcyl bulk-modulus`.
 pub fn bulk(args: &BulkArgs) -> Result<String> {
     let rig = args.rig.input()?;
     let (reading, from) = reading(args, &rig.rig);
+    let model = model_of(args, &rig.rig)?;
     let request = BulkModulus {
         rig,
         reading,
@@ -88,7 +90,7 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
         to_bar: args.to_bar,
         points: args.points,
         allow_long_run: args.allow_long_run,
-        model: model_of(args)?,
+        model,
     };
     let outcome = crate::emit::run(&request)?;
     if let Some(path) = &args.out {

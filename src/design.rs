@@ -106,6 +106,7 @@ pub fn run(args: &DesignArgs) -> Result<String> {
             mass_kg: args.mass_kg.clone(),
             waves: args.wave.clone(),
             sampled: args.sampled,
+            bulk_model: None,
         },
         allow_long_run: args.allow_long_run,
         robust,

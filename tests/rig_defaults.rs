@@ -105,13 +105,13 @@ fn the_keys_a_rig_file_leaves_out_are_named_with_the_values_they_take() {
         .into_iter()
         .filter(|k| !written.contains(&k.as_str()))
         .collect();
-    assert_eq!(expected.len(), 34, "{expected:?}");
+    assert_eq!(expected.len(), 35, "{expected:?}");
     let (_, err) = run(&["margins", "--rig", &mine]);
     let notes: Vec<&str> = err.lines().collect();
     assert_eq!(notes.len(), 1, "{err}");
     let note = notes[0];
     assert!(
-        note.starts_with(&format!("note: {mine} does not set 34 keys; ")),
+        note.starts_with(&format!("note: {mine} does not set 35 keys; ")),
         "{note}"
     );
     assert!(note.contains("mass_by_position = [] (one mass over the stroke"));

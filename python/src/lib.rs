@@ -2046,6 +2046,7 @@ fn design(
             mass_kg,
             waves,
             sampled,
+            bulk_model: None,
         },
         allow_long_run,
         robust,

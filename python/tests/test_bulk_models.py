@@ -61,8 +61,10 @@ def test_each_model_is_its_equation_and_holds_the_reading(reading):
 def test_the_table_and_its_margins_follow_the_model_asked_for(name):
     """`bulk-modulus --model NAME`: the gas fraction is that model's fit, the table's beta_e its
     equation's, and each row's margins those of `pumpcyl margins` with that beta."""
-    doc = pumpcyl_json("bulk-modulus", [], "--model", name, "--polytropic-index", "1.2",
-                       "--air-dissolution-pressure-bar", "25")
+    options = {"entrained-air": ["--polytropic-index", "1.2"],
+               "entrained-air-dissolving": ["--polytropic-index", "1.2",
+                                            "--air-dissolution-pressure-bar", "25"]}
+    doc = pumpcyl_json("bulk-modulus", [], "--model", name, *options.get(name, []))
     model = doc["model"]
     assert model["model"] == name
     oil, x = doc["beta_oil_bar"], doc["gas_fraction"]
@@ -75,3 +77,86 @@ def test_the_table_and_its_margins_follow_the_model_asked_for(name):
     low = doc["table"][0]
     m = pumpcyl_json("margins", [f"beta_bar={low['beta_bar']!r}"])
     assert low["gain_margin_db"] == m["gain_margin_db"] and low["closed_loop_stable"] == m["closed_loop_stable"]
+
+
+def fit(model, beta_bar, p, beta_oil):
+    """The gas fraction of `model` through (beta_bar, p), by bisection here (beta falls as X
+    rises)."""
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if beta(model, mid, p, beta_oil) > beta_bar:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+# a rig that is not the article's: an 80/45 mm cylinder, 2 t, its own beta, one mass
+OWN_RIG = ["piston_diameter_mm=80", "rod_diameter_mm=45", "mass_kg=2000", "mass_by_position=[]",
+           "beta_bar=400"]
+
+
+@pytest.mark.parametrize("model", [
+    {"model": "constant-gas-fraction-absolute"},
+    {"model": "entrained-air", "polytropic_index": 1.3},
+    {"model": "entrained-air-dissolving", "polytropic_index": 1.1,
+     "air_dissolution_pressure_bar": 20.0},
+])
+def test_the_rig_key_sets_the_model_of_every_command(model, tmp_path):
+    """`bulk_modulus_model` (with its parameters) in the rig: `bulk-modulus` tables it without
+    --model, `design --p-mean-bar` takes beta_e at each pressure from it through the rig's
+    beta at its anchor, and the emulator's gas fraction is its fit there."""
+    import re
+    import subprocess
+
+    from conftest import pumpcyl_binary
+    sets = OWN_RIG + [f"bulk_modulus_model={model['model']}"] + [
+        f"{k}={v}" for k, v in model.items() if k != "model"]
+    # the rig as a file, so the emulator runs it as it is (not the emulated article rig's
+    # set-point with these keys over it)
+    args = [pumpcyl_binary(), "rig"]
+    for s in sets:
+        args += ["--set", s]
+    rig = tmp_path / "own.toml"
+    rig.write_text(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
+    bulk = pumpcyl_json("bulk-modulus", [], "--rig", str(rig))
+    assert bulk["model"] == model
+    oil = bulk["beta_oil_bar"]
+    anchor = bulk["gas_fraction_from"]["p_mean_bar"]
+    x = fit(model, 400.0, anchor, oil)
+    assert abs(bulk["gas_fraction"] - x) <= 1e-9 * x
+    design = pumpcyl_json("design", [], "--rig", str(rig), "--p-mean-bar", "1.5",
+                          "--p-mean-bar", "12")
+    assert design["targets"]["p_beta_bar"] == anchor
+    assert design["targets"]["bulk_model"]["model"] == model["model"]
+    for c in design["conditions"]:
+        want = beta(model, x, c["p_mean_bar"], oil)
+        assert abs(c["beta_bar"] - want) <= 1e-9 * want, (c, want)
+    args = [pumpcyl_binary(), "emulate", "--experiment", "step", "--duration-s", "1",
+            "--rig", str(rig), "--out", str(tmp_path / "step.csv")]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    said = re.search(r"gas fraction X = ([0-9.]+).*under the ([a-z-]+)", out.stdout + out.stderr)
+    assert said, out.stdout + out.stderr
+    assert abs(float(said.group(1)) - x) < 1e-5 and said.group(2) == model["model"]
+
+
+@pytest.mark.parametrize("sets, key", [
+    (["polytropic_index=1.2"], "polytropic_index"),
+    (["bulk_modulus_model=entrained-air", "air_dissolution_pressure_bar=20"],
+     "air_dissolution_pressure_bar"),
+    (["bulk_modulus_model=entrained-air", "polytropic_index=3"], "polytropic_index"),
+    (["bulk_modulus_model=bubbles"], "bulk_modulus_model"),
+])
+def test_a_parameter_the_model_does_not_have_is_refused(sets, key):
+    import subprocess
+
+    from conftest import pumpcyl_binary
+    args = [pumpcyl_binary(), "margins"]
+    for s in sets:
+        args += ["--set", s]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=60)
+    assert out.returncode != 0 and out.stdout == ""
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and key in lines[0], out.stderr

@@ -21,9 +21,16 @@ pub fn anchor_bar(rig: &Rig) -> f64 {
 
 impl BetaReading {
     /// A rig's own reading: its `beta_bar` at its one anchor ([`anchor_bar`]); the article's
-    /// identification ([`ARTICLE_READING`]) on the article's rig itself.
+    /// identification ([`ARTICLE_READING`]) on the article's rig itself, under any model of
+    /// β_e against pressure (the reading is the records', whatever model extrapolates it).
     pub fn of_rig(rig: &Rig) -> BetaReading {
-        if *rig == Rig::default() {
+        let article = Rig {
+            bulk_modulus_model: rig.bulk_modulus_model,
+            polytropic_index: rig.polytropic_index,
+            air_dissolution_pressure_bar: rig.air_dissolution_pressure_bar,
+            ..Rig::default()
+        };
+        if *rig == article {
             return ARTICLE_READING;
         }
         BetaReading {

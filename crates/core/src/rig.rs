@@ -234,8 +234,10 @@ pub const CYLINDER_RATED_PRESSURE_BAR: f64 = 250.0;
 
 /// The keys a rig may leave out without taking a value of the article's: absent, each is
 /// derived from the rig itself (docs/formats.md#rig-toml), each with its allowed range.
-const OPTIONAL_KEYS: [(&str, Range); 4] = [
+const OPTIONAL_KEYS: [(&str, Range); 6] = [
     ("motor_time_constant_s", Range::Positive(1e-6, 1000.0)),
+    ("polytropic_index", Range::Positive(1.0, 2.0)),
+    ("air_dissolution_pressure_bar", Range::Positive(1e-3, 1e4)),
     ("pump_slip_m5_per_ns", Range::NonNegative(1e-6)),
     ("coulomb_friction_n", Range::NonNegative(1e9)),
     ("relief_setting_bar", Range::Positive(0.001, 1e5)),
@@ -392,8 +394,22 @@ pub struct Rig {
     pub mass_by_position: Vec<MassPoint>,
     /// External force F_ext (N); zero at the horizontal position.
     pub external_force_n: f64,
-    /// Effective bulk modulus β (bar).
+    /// Effective bulk modulus β (bar): the linear model's, and where β_e varies with pressure
+    /// (the emulator, `design --p-mean-bar`, `select`) its value at the rig's anchor
+    /// (docs/bulk-modulus.md#the-anchor).
     pub beta_bar: f64,
+    /// The model of β_e against pressure through `beta_bar` at the anchor
+    /// (docs/bulk-modulus.md#a-family-of-models): `constant-gas-fraction` (the article's §3.1,
+    /// the default), `constant-gas-fraction-absolute`, `entrained-air` or
+    /// `entrained-air-dissolving`.
+    pub bulk_modulus_model: crate::bulk::models::Form,
+    /// The entrained-air models' polytropic index n (1 isothermal … 1.4 adiabatic); absent = 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub polytropic_index: Option<f64>,
+    /// The dissolving model's critical pressure (bar gauge) above which no free air is left;
+    /// absent = 30 bar.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub air_dissolution_pressure_bar: Option<f64>,
     /// Viscous friction b (N·s/m).
     pub viscous_friction_ns_per_m: f64,
     /// Cross-port leakage c12 (m⁵/(N·s)).
@@ -501,6 +517,9 @@ impl Default for Rig {
             mass_by_position: ARTICLE_MASS_BY_POSITION.to_vec(),
             external_force_n: 0.0,
             beta_bar: 165.0,
+            bulk_modulus_model: crate::bulk::models::Form::ConstantGasFraction,
+            polytropic_index: None,
+            air_dissolution_pressure_bar: None,
             viscous_friction_ns_per_m: 100.0,
             c12_m5_per_ns: ARTICLE_C12_M5_PER_NS,
             accumulator_precharge_bar: ACCUMULATOR_PRECHARGE_BAR,
@@ -647,7 +666,7 @@ impl RigFile {
     /// assert_eq!(file.note("a.toml", &[]), None);
     /// let file = Rig::from_toml_str_with_defaults("kp = 15.0\nmass_by_position = []\n", "b.toml")?;
     /// let note = file.note("b.toml", &["beta_bar"]).unwrap();
-    /// assert!(note.starts_with("b.toml does not set 44 keys; they take the article rig's values: "));
+    /// assert!(note.starts_with("b.toml does not set 45 keys; they take the article rig's values: "));
     /// assert!(note.contains("piston_diameter_mm = 63.0, ") && note.contains("c12_m5_per_ns = 1.2e-10"));
     /// assert!(!note.contains("beta_bar"));
     /// # Ok::<(), pumpcyl::rig::RigError>(())
@@ -910,6 +929,8 @@ impl Rig {
         }
         self.validate_mass_table()
             .map_err(|(value, rule)| invalid("mass_by_position", value, rule))?;
+        self.validate_bulk_model()
+            .map_err(|(key, value, rule)| invalid(key, value, rule))?;
         (self.circuit.validate_rest(self)).map_err(|(key, value, rule)| invalid(key, value, rule))
     }
 
@@ -1078,6 +1099,8 @@ impl Rig {
             "pump_slip_m5_per_ns" => self.pump_slip_m5_per_ns,
             "coulomb_friction_n" => self.coulomb_friction_n,
             "relief_setting_bar" => self.relief_setting_bar,
+            "polytropic_index" => self.polytropic_index,
+            "air_dissolution_pressure_bar" => self.air_dissolution_pressure_bar,
             _ => None,
         }
     }
@@ -1090,6 +1113,10 @@ impl Rig {
             "pump_slip_m5_per_ns" => self.pump_slip(),
             "coulomb_friction_n" => self.coulomb_friction(),
             "relief_setting_bar" => self.relief_setting_pa(self.circuit) / PA_PER_BAR,
+            "polytropic_index" => crate::bulk::models::DEFAULT_POLYTROPIC_INDEX,
+            "air_dissolution_pressure_bar" => {
+                crate::bulk::models::DEFAULT_AIR_DISSOLUTION_PRESSURE_BAR
+            }
             _ => 0.05,
         }
     }
@@ -1325,6 +1352,34 @@ impl Rig {
             fields.push((key.name, self.circuit_key(key.name), key.range));
         }
         fields
+    }
+
+    /// The rig's model of β_e against pressure (`bulk_modulus_model` with its parameters, the
+    /// family's defaults where absent; docs/bulk-modulus.md#a-family-of-models).
+    pub fn bulk_model(&self) -> crate::bulk::models::BulkModel {
+        crate::bulk::models::BulkModel::unchecked(
+            self.bulk_modulus_model,
+            self.polytropic_index,
+            self.air_dissolution_pressure_bar,
+        )
+    }
+
+    /// Refuse a bulk-modulus parameter the rig's `bulk_modulus_model` does not have: it would
+    /// be silently ignored otherwise.
+    fn validate_bulk_model(&self) -> Result<(), (&'static str, f64, String)> {
+        let (n, pc) = (self.polytropic_index, self.air_dissolution_pressure_bar);
+        let Some(key) = self.bulk_modulus_model.unused(n, pc) else {
+            return Ok(());
+        };
+        let (value, has) = match key {
+            "polytropic_index" => (n, "entrained-air and entrained-air-dissolving"),
+            _ => (pc, "entrained-air-dissolving"),
+        };
+        let rule = format!(
+            "the {} bulk-modulus model has no such parameter; it belongs to {has} (docs/bulk-modulus.md#a-family-of-models)",
+            self.bulk_model().name()
+        );
+        Err((key, value.unwrap_or(f64::NAN), rule))
     }
 
     /// The PLC's sample period (s) and computation delay (samples) as the sampled-data margins
@@ -1643,7 +1698,19 @@ const KEY_DOCS: &[(&str, &[(&str, &str)])] = &[
                 "mass at each stroke position where the geometry ties them: [{ x_mm, mass_kg }, ...], [] for constant",
             ),
             ("external_force_n", "N, external force (0 at horizontal)"),
-            ("beta_bar", "bar, effective bulk modulus"),
+            ("beta_bar", "bar, effective bulk modulus (at the anchor where it varies with pressure)"),
+            (
+                "bulk_modulus_model",
+                "\"constant-gas-fraction\" (the article's), \"constant-gas-fraction-absolute\", \"entrained-air\" or \"entrained-air-dissolving\": beta against pressure (docs/bulk-modulus.md)",
+            ),
+            (
+                "polytropic_index",
+                "-, the entrained-air models' polytropic index n, 1 (isothermal) to 1.4 (adiabatic); absent = 1",
+            ),
+            (
+                "air_dissolution_pressure_bar",
+                "bar, the dissolving model's pressure above which no free air is left; absent = 30",
+            ),
             ("viscous_friction_ns_per_m", "N·s/m, viscous friction"),
             ("c12_m5_per_ns", "m⁵/(N·s), cross-port leakage"),
             (

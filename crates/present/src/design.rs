@@ -74,7 +74,10 @@ pub fn leakage_loop_table(d: &RobustDesign) -> Table {
 fn anchor_text(t: &Targets) -> String {
     t.p_beta_bar.map_or_else(
         || "beta_bar at the rig's anchor".to_string(),
-        |p| format!("beta_bar holds at {p:.2} bar mean pressure, the gas-fraction model's anchor (docs/bulk-modulus.md#the-anchor)"),
+        |p| {
+            let model = t.bulk_model.map_or("gas-fraction".to_string(), |m| m.described());
+            format!("beta_bar holds at {p:.2} bar mean pressure, the {model} model's anchor (docs/bulk-modulus.md#the-anchor)")
+        },
     )
 }
 

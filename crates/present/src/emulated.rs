@@ -4,7 +4,6 @@
 //! run the emulator (docs/emulator.md#what-a-user-rig-gets).
 
 use crate::plot::sig;
-use pumpcyl::bulk::effective_beta;
 use pumpcyl::cavitation::FloorHit;
 use pumpcyl::circuit::CircuitKind;
 use pumpcyl::emulator::article::{self, Emulated, Kind, Truth};
@@ -427,14 +426,15 @@ pub fn basis(rig: &Rig, effects: &Effects) -> Result<String, EmulatorError> {
     let anchor = d.level.words;
     Ok(format!(
         "emulator: beta_e {:.1} bar at {}, {:.2} bar \
-         (gas fraction X = {:.5}, beta_oil {} bar), beta_e(p) of both chambers' mean pressure; \
+         (gas fraction X = {:.5}, beta_oil {} bar), beta_e(p) of both chambers' mean pressure{}; \
          {}; chamber volumes following the piston; {}{} N Coulomb friction ({}){valves} \
          (docs/emulator.md#what-a-user-rig-gets)",
-        effective_beta(x, p_mean, effects.beta_oil_bar),
+        effects.bulk_model.beta_bar(x, p_mean, effects.beta_oil_bar),
         anchor,
         p_mean,
         x,
         readable(effects.beta_oil_bar),
+        effects.bulk_model.unless_the_articles(),
         mass_law(rig, effects),
         if d.drives > 0 {
             drives_and_pumps(rig, effects)

@@ -28,8 +28,9 @@ use serde::Serialize;
 
 pub use crate::circuit::parts::BETA_OIL_BAR;
 
+pub mod levels;
 pub mod models;
-pub use models::{BulkModel, ATMOSPHERE_BAR, FAMILY};
+pub use models::{BulkModel, Form, ATMOSPHERE_BAR, FAMILY};
 
 /// Errors of the bulk-modulus model.
 #[derive(Debug, thiserror::Error)]
@@ -43,12 +44,15 @@ pub enum BulkError {
     /// A rig override failed.
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
+    /// A model of the family refused its values.
+    #[error(transparent)]
+    Model(#[from] models::ModelError),
 }
 
 /// The gas fraction X that gives `beta_bar` at mean pressure `p_bar` (docs/bulk-modulus.md#fitting-the-gas-fraction):
 /// X = (1/β − 1/β_oil) / (1/p − 1/β_oil). Needs 0 < β < β_oil and 0 < p < β_oil.
 pub fn gas_fraction(beta_bar: f64, p_bar: f64, beta_oil_bar: f64) -> Result<f64, BulkError> {
-    crate::circuit::parts::gas_fraction_of(beta_bar, p_bar, beta_oil_bar).map_err(BulkError::Input)
+    models::gas_fraction_of(beta_bar, p_bar, beta_oil_bar).map_err(BulkError::Input)
 }
 
 /// A bulk modulus and the mean chamber pressure it holds at: what a gas fraction is read off
@@ -73,11 +77,53 @@ impl BetaReading {
     pub fn gas_fraction(&self, beta_oil_bar: f64) -> Result<f64, BulkError> {
         gas_fraction(self.beta_bar, self.p_mean_bar, beta_oil_bar)
     }
+
+    /// The gas fraction this reading gives under `model` ([`BulkModel::fit`]).
+    pub fn gas_fraction_under(
+        &self,
+        model: BulkModel,
+        beta_oil_bar: f64,
+    ) -> Result<f64, BulkError> {
+        Ok(model.fit(self.beta_bar, self.p_mean_bar, beta_oil_bar)?)
+    }
+}
+
+/// A model of the family fitted to a reading: β_e at any pressure
+/// (docs/bulk-modulus.md#a-family-of-models).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BetaCurve {
+    /// The model.
+    pub model: BulkModel,
+    /// Its gas fraction, fitted to the reading.
+    pub gas_fraction: f64,
+    /// The pure oil's bulk modulus (bar).
+    pub beta_oil_bar: f64,
+}
+
+impl BetaCurve {
+    /// `model` through `reading`, with the oil's `beta_oil_bar`.
+    pub fn through(
+        model: BulkModel,
+        reading: BetaReading,
+        beta_oil_bar: f64,
+    ) -> Result<BetaCurve, BulkError> {
+        Ok(BetaCurve {
+            model,
+            gas_fraction: model.fit(reading.beta_bar, reading.p_mean_bar, beta_oil_bar)?,
+            beta_oil_bar,
+        })
+    }
+
+    /// β_e (bar) at the gauge pressure `p_bar`.
+    pub fn beta_bar(&self, p_bar: f64) -> f64 {
+        self.model
+            .beta_bar(self.gas_fraction, p_bar, self.beta_oil_bar)
+    }
 }
 
 /// β_e at pressure `p_bar` for gas fraction `x` (bar).
 pub fn effective_beta(x: f64, p_bar: f64, beta_oil_bar: f64) -> f64 {
-    crate::circuit::parts::effective_beta_of(x, p_bar, beta_oil_bar)
+    models::effective_beta_of(x, p_bar, beta_oil_bar)
 }
 
 /// One row of the β_e(p) table with the rig's margins there.

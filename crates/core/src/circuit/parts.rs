@@ -9,6 +9,8 @@
 
 use super::stops::Stops;
 use super::{Role, Scalar, Signal};
+use crate::bulk::models::BulkModel;
+pub use crate::bulk::models::{effective_beta_of, gas_fraction_of};
 use crate::rig::{ARTICLE_COULOMB_FRICTION_N, ARTICLE_PUMP_SLIP_M5_PER_NS, PUMP_DEAD_BAND_RPM};
 use crate::units::PA_PER_BAR;
 
@@ -32,6 +34,9 @@ pub struct Effects {
     /// Gas fraction X of the bulk-modulus model: β_e of both chambers from their mean pressure
     /// (p1 + p2)/2, as docs/bulk-modulus.md#the-constant-gas-fraction-model defines it; `None` keeps β constant.
     pub gas_fraction: Option<f64>,
+    /// The model of β_e against pressure the gas fraction belongs to
+    /// (docs/bulk-modulus.md#a-family-of-models): the article's unless a rig names another.
+    pub bulk_model: BulkModel,
     /// Pure-oil bulk modulus (bar) for the gas-fraction model.
     pub beta_oil_bar: f64,
     /// Motor torque limit as a multiple of the rated torque; `None` = unlimited.
@@ -65,6 +70,7 @@ impl Effects {
         Effects {
             varying_volumes: false,
             gas_fraction: None,
+            bulk_model: BulkModel::ConstantGasFraction,
             beta_oil_bar: BETA_OIL_BAR,
             peak_torque_factor: None,
             pump_speed_limit: false,
@@ -87,6 +93,7 @@ impl Effects {
         Effects {
             varying_volumes: true,
             gas_fraction: Some(x),
+            bulk_model: BulkModel::ConstantGasFraction,
             beta_oil_bar: BETA_OIL_BAR,
             peak_torque_factor: Some(PEAK_TORQUE_FACTOR),
             pump_speed_limit: true,
@@ -216,6 +223,8 @@ pub struct Fluid {
     pub beta_pa: f64,
     /// The gas fraction of the β_e(p) law, if it acts.
     pub gas_fraction: Option<f64>,
+    /// The model of the law (docs/bulk-modulus.md#a-family-of-models).
+    pub bulk_model: BulkModel,
     /// Pure-oil bulk modulus (bar) of the law.
     pub beta_oil_bar: f64,
 }
@@ -246,6 +255,7 @@ impl Fluid {
         Fluid {
             beta_pa,
             gas_fraction: e.gas_fraction,
+            bulk_model: e.bulk_model,
             beta_oil_bar: e.beta_oil_bar,
         }
     }
@@ -255,8 +265,8 @@ impl Fluid {
         match self.gas_fraction {
             None => Beta::Constant(self.beta_pa),
             Some(x) => {
-                let p_bar = at_least(p_gauge / PA_PER_BAR, 1e-3);
-                Beta::Varying(effective_beta_of(x, p_bar, self.beta_oil_bar) * PA_PER_BAR)
+                let p_bar = at_least(p_gauge / PA_PER_BAR, self.bulk_model.floor_bar());
+                Beta::Varying(self.bulk_model.beta(x, p_bar, self.beta_oil_bar) * PA_PER_BAR)
             }
         }
     }
@@ -710,40 +720,6 @@ pub fn cylinder_of_rig(
     (piston, volumes.map(|volume| Chamber { volume }))
 }
 
-/// The gas fraction X that gives `beta_bar` at mean pressure `p_bar` (docs/bulk-modulus.md#fitting-the-gas-fraction):
-/// X = (1/β − 1/β_oil) / (1/p − 1/β_oil). Needs 0 < β < β_oil and 0 < p < β_oil; the error
-/// says which value is out of that range.
-pub fn gas_fraction_of(beta_bar: f64, p_bar: f64, beta_oil_bar: f64) -> Result<f64, String> {
-    let positive = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(format!("{name} = {v}: must be a finite value > 0"))
-        }
-    };
-    positive("beta_bar", beta_bar)?;
-    positive("p_mean_bar", p_bar)?;
-    positive("beta_oil_bar", beta_oil_bar)?;
-    if beta_bar >= beta_oil_bar || p_bar >= beta_oil_bar {
-        return Err(format!(
-            "beta_bar ({beta_bar}) and p_mean_bar ({p_bar}) must both be below beta_oil_bar ({beta_oil_bar})"
-        ));
-    }
-    let x = (1.0 / beta_bar - 1.0 / beta_oil_bar) / (1.0 / p_bar - 1.0 / beta_oil_bar);
-    if x > 1.0 {
-        return Err(format!(
-            "beta_bar = {beta_bar} is below p_mean_bar = {p_bar}: no gas fraction <= 1 gives it"
-        ));
-    }
-    Ok(x)
-}
-
-/// β_e (bar) of the constant gas-fraction law at pressure `p_bar` for gas fraction `x`
-/// (docs/bulk-modulus.md#the-constant-gas-fraction-model), over `f64` or a dual number.
-pub fn effective_beta_of<T: Scalar>(x: f64, p_bar: T, beta_oil_bar: f64) -> T {
-    T::from(1.0) / (T::from(x) / p_bar + (1.0 - x) / beta_oil_bar)
-}
-
 /// The moving mass along the stroke, relative to its value at x0: the rig's
 /// `mass_by_position` table, interpolated by the quadratic through the three neighbouring table
 /// points nearest the position (the line through two for a two-point table), so a three-point table
@@ -830,7 +806,7 @@ impl MassLaw {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bulk::effective_beta;
+    use crate::bulk::models::effective_beta_of as effective_beta;
     use num_dual::Dual64;
 
     /// d/dx of `f` at `x` by a dual number.
@@ -843,6 +819,7 @@ mod tests {
         let fluid = Fluid {
             beta_pa: 1.65e7,
             gas_fraction: None,
+            bulk_model: BulkModel::ConstantGasFraction,
             beta_oil_bar: 1.6e4,
         };
         assert_eq!(fluid.beta(3e5_f64).value(), 1.65e7);
@@ -875,6 +852,7 @@ mod tests {
         let fluid = Fluid {
             beta_pa: 0.0,
             gas_fraction: Some(x),
+            bulk_model: BulkModel::ConstantGasFraction,
             beta_oil_bar: oil,
         };
         let p_bar = 5.0;
@@ -882,6 +860,38 @@ mod tests {
         let want = beta * beta * x / (p_bar * p_bar);
         let got = derivative(|p| fluid.beta(p).value(), p_bar * PA_PER_BAR);
         assert!((got / want - 1.0).abs() < 1e-12, "{got} vs {want}");
+    }
+
+    /// Every model of the family differentiates (the emulator's Jacobians) to the central
+    /// difference of its own values, on both sides of the dissolving model's kink at p_c.
+    #[test]
+    fn every_bulk_model_differentiates_to_its_finite_difference() {
+        let models = crate::bulk::models::FAMILY
+            .into_iter()
+            .chain([BulkModel::EntrainedAir {
+                polytropic_index: 1.4,
+            }]);
+        for model in models {
+            let fluid = Fluid {
+                beta_pa: 0.0,
+                gas_fraction: Some(0.02),
+                bulk_model: model,
+                beta_oil_bar: 1.7e4,
+            };
+            for p_bar in [0.5, 4.4, 12.0, 29.0, 45.0] {
+                let p = p_bar * PA_PER_BAR;
+                let h = 1e-4 * PA_PER_BAR;
+                let at = |p: f64| fluid.beta(p).value();
+                let want = (at(p + h) - at(p - h)) / (2.0 * h);
+                let got = derivative(|p| fluid.beta(p).value(), p);
+                let scale = want.abs().max(1e-3);
+                assert!(
+                    (got - want).abs() < 1e-5 * scale,
+                    "{} at {p_bar} bar: {got} vs {want}",
+                    model.name()
+                );
+            }
+        }
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! meeting the margin targets at the design point, the margins across stroke, mass and
 //! accumulator pressure, the predicted tracking of given waves, and a verdict.
 
-use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
+use crate::bulk::{BetaCurve, BetaReading, BETA_OIL_BAR};
 use crate::circuit::AnyCircuit;
 use crate::lti::{margins, LtiError, Margins};
 use crate::model::Plant;
@@ -59,6 +59,10 @@ pub struct Targets {
     /// Design on the loop as the rig's PLC closes it (`plc_rate_hz`, `plc_delay_samples`;
     /// docs/analysis.md#sampled-data-margins) instead of the continuous one.
     pub sampled: bool,
+    /// The model of β_e against pressure a pressure list follows: the rig's
+    /// ([`Rig::bulk_model`]), stated by [`Targets::anchored`]; ignored as an input.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bulk_model: Option<crate::bulk::BulkModel>,
 }
 
 impl Targets {
@@ -96,6 +100,7 @@ impl Default for Targets {
             mass_kg: vec![],
             waves: vec![],
             sampled: false,
+            bulk_model: None,
         }
     }
 }
@@ -112,12 +117,13 @@ impl Targets {
     /// These targets with `p_beta_bar` set to [`Targets::beta_anchor_bar`] where a pressure list
     /// uses it, so that a design states the anchor it used (and finds it once).
     pub fn anchored(&self, rig: &Rig) -> Targets {
-        let p_beta_bar = match self.p_mean_bar.is_empty() {
-            true => self.p_beta_bar,
-            false => Some(self.beta_anchor_bar(rig)),
+        let (p_beta_bar, bulk_model) = match self.p_mean_bar.is_empty() {
+            true => (self.p_beta_bar, None),
+            false => (Some(self.beta_anchor_bar(rig)), Some(rig.bulk_model())),
         };
         Targets {
             p_beta_bar,
+            bulk_model,
             ..self.clone()
         }
     }
@@ -273,6 +279,7 @@ fn margins_in(rig: &Rig, kp: f64, mode: usize, sampled: bool) -> Result<Margins,
 ///     mass_kg: vec![],
 ///     waves: vec![],
 ///     sampled: false,
+///     bulk_model: None,
 /// };
 /// let kp = design::kp_max(&Rig::default(), &targets)?;
 /// assert!((24.0..26.0).contains(&kp), "Kp max {kp}");
@@ -567,6 +574,7 @@ pub fn design_with(
             rig,
             &Targets {
                 sampled: false,
+                bulk_model: None,
                 ..t.clone()
             },
         )?),
@@ -767,15 +775,17 @@ fn cases(rig: &Rig, t: &Targets) -> Result<Vec<Case>, DesignError> {
     } else {
         t.p_mean_bar.iter().map(|p| Some(*p)).collect()
     };
-    let x = if t.p_mean_bar.is_empty() {
-        0.0
-    } else {
-        gas_fraction(rig.beta_bar, t.beta_anchor_bar(rig), BETA_OIL_BAR)?
+    let curve = match t.p_mean_bar.is_empty() {
+        true => None,
+        false => Some(rig_curve(rig, rig.beta_bar, t.beta_anchor_bar(rig))?),
     };
     let mut out = Vec::new();
     for &load_mass_kg in &masses {
         for &p_mean_bar in &pressures {
-            let beta_bar = p_mean_bar.map_or(rig.beta_bar, |p| effective_beta(x, p, BETA_OIL_BAR));
+            let beta_bar = match (curve, p_mean_bar) {
+                (Some(c), Some(p)) => c.beta_bar(p),
+                _ => rig.beta_bar,
+            };
             out.push(Case {
                 load_mass_kg,
                 p_mean_bar,
@@ -784,6 +794,19 @@ fn cases(rig: &Rig, t: &Targets) -> Result<Vec<Case>, DesignError> {
         }
     }
     Ok(out)
+}
+
+/// `rig`'s bulk-modulus model ([`Rig::bulk_model`]) through `beta_bar` at `p_anchor_bar`.
+pub(crate) fn rig_curve(
+    rig: &Rig,
+    beta_bar: f64,
+    p_anchor_bar: f64,
+) -> Result<BetaCurve, DesignError> {
+    let reading = BetaReading {
+        beta_bar,
+        p_mean_bar: p_anchor_bar,
+    };
+    Ok(BetaCurve::through(rig.bulk_model(), reading, BETA_OIL_BAR)?)
 }
 
 /// The rig at every combination of stroke position, load and pressure the targets name (the
@@ -890,6 +913,7 @@ mod tests {
             mass_kg: vec![],
             waves: vec![],
             sampled: false,
+            bulk_model: None,
         }
     }
 

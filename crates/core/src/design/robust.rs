@@ -11,7 +11,6 @@
 
 use super::{kp_max, kp_max_below, margins_at, meets, DesignError, Targets, Verdict};
 use super::{GM_TOLERANCE_DB, KP_CEILING, KP_FLOOR, PM_TOLERANCE_DEG};
-use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
 use crate::ident::{
     analyze, check_confidence, spaced, Candidate, Experiment, FrequencyProblem, Grid, Profile,
     Standstill, Uncertainty, UncertaintyOptions,
@@ -544,10 +543,9 @@ fn points(
     let mut out = Vec::with_capacity(total);
     for c in params {
         let (c1, c2) = region.leakages(rig, c.c12_m5_per_ns)?;
-        let gas = if pressures[0].is_some() {
-            gas_fraction(c.beta_bar, t.beta_anchor_bar(rig), BETA_OIL_BAR)?
-        } else {
-            0.0
+        let curve = match pressures[0] {
+            Some(_) => Some(super::rig_curve(rig, c.beta_bar, t.beta_anchor_bar(rig))?),
+            None => None,
         };
         for &x_mm in positions {
             for &load_mass_kg in &masses {
@@ -563,7 +561,10 @@ fn points(
                         mass_kg: rig.mass_at(load_mass_kg, x_mm)?,
                         load_mass_kg,
                         p_mean_bar: p,
-                        beta_e_bar: p.map_or(c.beta_bar, |p| effective_beta(gas, p, BETA_OIL_BAR)),
+                        beta_e_bar: match (curve, p) {
+                            (Some(curve), Some(p)) => curve.beta_bar(p),
+                            _ => c.beta_bar,
+                        },
                     });
                 }
             }
@@ -985,6 +986,7 @@ fn judge(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
 
     fn targets() -> Targets {
         Targets::default()

@@ -8,7 +8,6 @@
 use super::experiment::{DriveSignals, DriveStep, Experiment};
 use super::EmulatorError;
 use super::{equilibrium, Dynamics, Effects, Plc};
-use crate::bulk::effective_beta;
 use crate::response::Signals;
 use crate::rig::Rig;
 use crate::units::PA_PER_BAR;
@@ -138,7 +137,9 @@ pub fn rig(kp: f64, mass_kg: f64, p_mean_bar: f64, effects: Effects) -> Result<R
         mass_kg,
         k_pres_per_bar: k_pres,
         p_sum_ref_bar: 2.0 * p_mean_bar,
-        beta_bar: effective_beta(gas, p_mean_bar, effects.beta_oil_bar),
+        beta_bar: effects
+            .bulk_model
+            .beta_bar(gas, p_mean_bar, effects.beta_oil_bar),
         ..Rig::default()
     };
     // the P sum-pressure loop droops: move the set-point until the rest's sum is 2 p_mean
@@ -168,18 +169,6 @@ pub fn effects() -> Result<Effects, EmulatorError> {
 /// 4.4 bar mean pressure (data/article/README.md).
 pub fn default_rig() -> Result<Rig, EmulatorError> {
     rig(25.0, 10_593.0, P_FIT_BAR, effects()?)
-}
-
-/// The mean chamber pressure (bar) at which the gas-fraction model gives `beta_bar`.
-pub fn pressure_for_beta(effects: &Effects, beta_bar: f64) -> Result<f64, EmulatorError> {
-    let x = effects.gas_fraction.ok_or("no gas fraction")?;
-    let denom = 1.0 / beta_bar - (1.0 - x) / effects.beta_oil_bar;
-    if denom <= 0.0 {
-        return Err(EmulatorError(format!(
-            "beta {beta_bar} bar is beyond the oil's own"
-        )));
-    }
-    Ok(x / denom)
 }
 
 /// Every embedded record, in the order `reproduce` uses them.

@@ -96,13 +96,24 @@ impl Effects {
             let level = rig.circuit.description().level;
             let (what, raise) = (level.words, level.key);
             return Err(EmulatorError(format!(
-                "{what} is {p_mean:.3} bar gauge: the emulator's bulk modulus (the constant \
-                 gas-fraction model, docs/bulk-modulus.md) needs it above 0 bar; raise {raise}"
+                "{what} is {p_mean:.3} bar gauge: the emulator's bulk modulus (the {} \
+                 model, docs/bulk-modulus.md) needs it above 0 bar; raise {raise}",
+                rig.bulk_model().name()
             )));
         }
-        let x = crate::bulk::gas_fraction(rig.beta_bar, p_mean, crate::bulk::BETA_OIL_BAR)
-            .map_err(|e| EmulatorError(format!("beta_bar = {}: {e}", rig.beta_bar)))?;
-        Ok(Effects::all(x).with_rig(rig))
+        Effects::of_gas(rig, p_mean)
+            .map_err(|e| EmulatorError(format!("beta_bar = {}: {e}", rig.beta_bar)))
+    }
+
+    /// Every effect on for `rig` ([`Effects::with_rig`]) with its bulk-modulus model
+    /// ([`Rig::bulk_model`]) through its `beta_bar` at the gauge pressure `p_anchor_bar`.
+    fn of_gas(rig: &Rig, p_anchor_bar: f64) -> Result<Effects, crate::bulk::BulkError> {
+        let model = rig.bulk_model();
+        let x = model.fit(rig.beta_bar, p_anchor_bar, crate::bulk::BETA_OIL_BAR)?;
+        Ok(Effects {
+            bulk_model: model,
+            ..Effects::all(x).with_rig(rig)
+        })
     }
 
     /// [`Effects::for_rig`] when `on`, [`Effects::none`] otherwise: the choice of
@@ -142,13 +153,8 @@ pub fn beta_anchor_bar(rig: &Rig) -> Result<f64, EmulatorError> {
 pub fn rest_mean_pressure_bar(rig: &Rig) -> Result<f64, EmulatorError> {
     // Newton runs with β_e(p) anchored at the set-point's mean (the rest does not depend on
     // it, the path to it does: this is the path the emulator's own start takes)
-    let guess = crate::bulk::gas_fraction(
-        rig.beta_bar,
-        0.5 * rig.p_sum_ref_bar,
-        crate::bulk::BETA_OIL_BAR,
-    );
-    let effects = match guess {
-        Ok(x) => Effects::all(x).with_rig(rig),
+    let effects = match Effects::of_gas(rig, 0.5 * rig.p_sum_ref_bar) {
+        Ok(effects) => effects,
         Err(_) => Effects {
             gas_fraction: None,
             ..Effects::all(0.0).with_rig(rig)

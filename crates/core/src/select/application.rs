@@ -330,7 +330,8 @@ impl Application {
         }
         if follows.gas_fraction {
             let reading = BetaReading::for_rig(&self.rig, article_rig);
-            self.gas_fraction = reading.gas_fraction(self.beta_oil_bar).map_err(|e| {
+            let model = self.rig.bulk_model();
+            self.gas_fraction = reading.gas_fraction_under(model, self.beta_oil_bar).map_err(|e| {
                 let m = format!(
                     "absent, so read off the rig's beta {} bar at its mean chamber pressure {} bar, which gives none: {e}; state gas_fraction",
                     reading.beta_bar, reading.p_mean_bar
@@ -442,8 +443,9 @@ impl Application {
                 e.beta_nominal_bar
             )));
         }
+        let model = self.rig.bulk_model();
         let x = |b: f64| {
-            crate::bulk::gas_fraction(b, e.p_mean_bar, self.beta_oil_bar)
+            (model.fit(b, e.p_mean_bar, self.beta_oil_bar))
                 .map_err(|err| SelectError::Input(format!("gas fraction from beta {b} bar: {err}")))
         };
         let out = Application {

@@ -6,7 +6,6 @@
 //! cylinder.
 
 use super::{lowest_meeting, lowest_where, Candidate, Circuit, Requirement, Selection};
-use crate::bulk::effective_beta;
 use crate::circuit::CircuitKind;
 use crate::emulator::cycle::{self, Cycle, CycleEnergy, DriveDuty, SINE_PERIODS};
 use crate::emulator::{Dynamics, Effects, Plc, RunError, PLC_RATE_HZ, SETTLE_S};
@@ -93,7 +92,7 @@ fn cost(
     work: &Work,
 ) -> Result<CircuitEnergy, RunError> {
     let p = c.mean_pressure_bar;
-    let beta = effective_beta(
+    let beta = rig.bulk_model().beta_bar(
         req.gas_fraction,
         c.circuit.beta_pressure_bar(rig, p),
         req.beta_oil_bar,

@@ -22,7 +22,7 @@ pub use circuits::{
     Circuit, EmulatedCheck, EquationsCheck, ModeCheck, ModeCheckKind, ModeVerdict, PressureLevel,
 };
 
-use crate::bulk::{effective_beta, BetaReading, ARTICLE_READING};
+use crate::bulk::{BetaReading, ARTICLE_READING};
 use crate::cavitation::check_chambers;
 use crate::circuit::CircuitKind;
 use crate::design::{self, DesignError, Targets};
@@ -575,7 +575,8 @@ fn candidate(
     mode_check: &dyn ModeCheck,
 ) -> Result<Candidate, SelectError> {
     let p_beta = circuit.beta_pressure_bar(rig, p_bar);
-    let at = |x: f64| circuit.rig_at(rig, p_bar, effective_beta(x, p_beta, req.beta_oil_bar));
+    let model = rig.bulk_model();
+    let at = |x: f64| circuit.rig_at(rig, p_bar, model.beta_bar(x, p_beta, req.beta_oil_bar));
     let (soft, stiff, reference) = (
         at(req.gas_fraction_max),
         at(req.gas_fraction_min),
@@ -1165,7 +1166,7 @@ fn answer(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bulk::{gas_fraction, BETA_OIL_BAR};
+    use crate::bulk::{effective_beta, gas_fraction, BETA_OIL_BAR};
 
     fn requirement(x: [f64; 3], waves: Vec<WaveRequirement>) -> Requirement {
         Requirement {

@@ -414,6 +414,7 @@ pub(super) fn design_check(run: &mut Run, nominal: &Rig) -> Result<(summary::Des
         mass_kg: vec![4898.0, nominal.mass_kg],
         waves: ARTICLE_SINE_CASES.to_vec(),
         sampled: false,
+        bulk_model: None,
         ..Targets::default()
     };
     let d = design(nominal, &targets)?;

@@ -147,7 +147,7 @@ impl Document for BulkOutcome {
         let text = format!(
             "{}beta against pressure under the {} model (docs/bulk-modulus.md#a-family-of-models)\n",
             bulk_text(self.fit(), from, self.gas_fraction, &self.rows),
-            self.request.model.name(),
+            self.request.model.described(),
         );
         Ok(text + &self.family().text())
     }
