@@ -58,6 +58,19 @@ pub struct BulkArgs {
     /// Default: the rig's air_dissolution_pressure_bar, else 30.
     #[arg(long)]
     air_dissolution_pressure_bar: Option<f64>,
+    /// An identification experiment at one pressure level (repeatable, up to 20): each
+    /// identifies beta with its interval at its records' mean chamber pressure, and the family
+    /// is fitted to them all (docs/bulk-modulus.md#several-pressure-levels).
+    #[arg(long, value_name = "EXPERIMENT.toml")]
+    level: Vec<PathBuf>,
+    /// Confidence level of the levels' intervals and of the models' tests, in (0, 1).
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        requires = "level",
+        allow_negative_numbers = true
+    )]
+    confidence: f64,
 }
 
 /// The model `--model` names with its parameters, the rig's model and parameters where they
@@ -91,6 +104,10 @@ pub fn bulk(args: &BulkArgs) -> Result<String> {
         points: args.points,
         allow_long_run: args.allow_long_run,
         model,
+        levels: (args.level.iter())
+            .map(|p| crate::read_files::experiment(p))
+            .collect::<Result<Vec<_>>>()?,
+        confidence: args.confidence,
     };
     let outcome = crate::emit::run(&request)?;
     if let Some(path) = &args.out {

@@ -196,3 +196,132 @@ mod tests {
         );
     }
 }
+
+/// β_e identified at several pressure levels and the family fitted to them
+/// (docs/bulk-modulus.md#several-pressure-levels), with the margins of the rig at the advised
+/// next level under the two models it separates.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Levels {
+    /// Each level's experiment file and what it read.
+    pub identified: Vec<IdentifiedLevel>,
+    /// The family fitted to them.
+    #[serde(flatten)]
+    pub fit: pumpcyl::bulk::levels::LevelsFit,
+    /// The rig's margins at the next level under each of the two models it separates.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub next_level_margins: Vec<Row>,
+}
+
+/// One level's identification.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct IdentifiedLevel {
+    /// The experiment file.
+    pub experiment: String,
+    /// The mean chamber pressure (bar gauge).
+    pub p_mean_bar: f64,
+    /// Where it came from: `records` or `anchor`.
+    pub p_mean_from: &'static str,
+    /// The identified β_e (bar).
+    pub beta_bar: f64,
+    /// Its profile-likelihood interval (bar).
+    pub interval_bar: [f64; 2],
+    /// Whether the records bound β on both sides.
+    pub identifiable: bool,
+}
+
+impl Levels {
+    /// The levels as text: the readings, each model's fit, the verdict, the band and the next level.
+    pub fn text(&self) -> String {
+        let f = &self.fit;
+        let pct = f.confidence * 100.0;
+        let n = self.identified.len();
+        let levels = if n == 1 { "level" } else { "levels" };
+        let mut s = format!("beta identified at {n} pressure {levels} ({pct}% intervals):
+");
+        for l in &self.identified {
+            let _ = writeln!(
+                s,
+                "  {:>7.2} bar ({})  beta {:>7.1} bar  [{:.1}, {:.1}]{}  {}",
+                l.p_mean_bar,
+                l.p_mean_from,
+                l.beta_bar,
+                l.interval_bar[0],
+                l.interval_bar[1],
+                if l.identifiable { "" } else { " (not bounded)" },
+                l.experiment
+            );
+        }
+        let _ = writeln!(
+            s,
+            "{:>40} {:>9} {:>21} {:>8} {:>7} {:>7} {:>8}  verdict",
+            "model", "X", "X interval", "chi2", "dAIC", "weight", "p"
+        );
+        for m in &f.fits {
+            let [lo, hi] = m.gas_fraction_interval;
+            let p = m.p_value.map_or("-".into(), |p| format!("{p:.3}"));
+            let verdict = if m.plausible { "plausible" } else { "rejected" };
+            let _ =
+                writeln!(
+                s,
+                "{:>40} {:>9.5} [{lo:>9.5}, {hi:>9.5}] {:>8.2} {:>7.2} {:>7.3} {p:>8}  {verdict}",
+                m.model.described(), m.gas_fraction, m.chi2, m.delta_aic, m.akaike_weight
+            );
+        }
+        let _ = writeln!(s, "{}", self.verdict());
+        let _ = writeln!(s, "beta against pressure, the band holding the plausible models' parameter and model-form uncertainty:");
+        let _ = writeln!(
+            s,
+            "{:>8} {:>10} {:>23} {:>23}",
+            "p_bar", "beta_bar", "band (all plausible)", "band (best model)"
+        );
+        for b in &f.band {
+            let _ = writeln!(
+                s,
+                "{:>8.2} {:>10.1} [{:>9.1}, {:>9.1}] [{:>9.1}, {:>9.1}]",
+                b.p_bar,
+                b.beta_bar,
+                b.band_bar[0],
+                b.band_bar[1],
+                b.best_model_band_bar[0],
+                b.best_model_band_bar[1]
+            );
+        }
+        if let Some(n) = &f.next_level {
+            let _ = writeln!(
+                s,
+                "next level: record at {:.1} bar mean chamber pressure, where {} and {} differ most (beta {:.1} and {:.1} bar; a record as sure as these adds chi2 {:.1} between them)",
+                n.p_mean_bar, n.models[0].described(), n.models[1].described(), n.beta_bar[0], n.beta_bar[1], n.expected_chi2
+            );
+            for (m, r) in n.models.iter().zip(&self.next_level_margins) {
+                let stable = if r.closed_loop_stable {
+                    "stable"
+                } else {
+                    "UNSTABLE: lower Kp for that record"
+                };
+                let _ = writeln!(
+                    s,
+                    "  the rig there under {}: GM {} dB, PM {} deg, {stable}",
+                    m.name(),
+                    fmt_opt(r.gain_margin_db, 2),
+                    fmt_opt(r.phase_margin_deg, 1)
+                );
+            }
+        }
+        s
+    }
+
+    /// The verdict in one line.
+    fn verdict(&self) -> String {
+        let f = &self.fit;
+        let standing: Vec<String> = (f.fits.iter())
+            .filter(|m| m.plausible)
+            .map(|m| m.model.described())
+            .collect();
+        match (f.model, f.levels.len()) {
+            (_, 1) => "one level: every model passes through it; record at a second pressure level to tell them apart".into(),
+            (Some(m), _) => format!("the records tell the model: {} (every other model's misfit is significant at {}%)", m.described(), f.confidence * 100.0),
+            (None, _) if standing.is_empty() => "no model of the family fits the levels: the band spans them all".into(),
+            (None, _) => format!("the records cannot tell apart: {}", standing.join(", ")),
+        }
+    }
+}

@@ -7,8 +7,11 @@
 //! its misfit χ² = Σ ((ln β_i − ln β(p_i; X)) / σ_i)² read against the χ² distribution with
 //! L − 1 degrees of freedom (L levels), and compared by Akaike's information criterion (with
 //! one parameter each, AIC = χ² + 2; Burnham & Anderson, *Model Selection and Multimodel
-//! Inference*, 2nd ed., 2002, §2.2 and §2.9). σ_i is each level's interval read as a normal
-//! one in ln β. The records *tell the model* when every other model's misfit is significant at
+//! Inference*, 2nd ed., 2002, §2.2 and §2.9). Each level's term is its own profile likelihood
+//! of β at the model's β (the identification's ΔSSE/σ² statistic, its signed root interpolated
+//! linearly in ln β and extended along its end slopes: the root is nearly linear in the
+//! parameter), so a level whose β is bounded on one side only weighs as little as it should;
+//! without a profile, the interval read as a normal one in ln β on each side of the estimate. The records *tell the model* when every other model's misfit is significant at
 //! the confidence level; otherwise they cannot tell the remaining ones apart. The β(p) band
 //! holds both uncertainties: each plausible model's X interval (Δχ² ≤ χ²₁(P)), and the models
 //! themselves (the band is the union over the plausible models).
@@ -32,7 +35,7 @@ const BISECTION_STEPS: usize = 80;
 const X_RANGE: [f64; 2] = [1e-9, 0.999];
 
 /// β_e identified at one pressure level.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Level {
     /// The records' mean chamber pressure (bar gauge).
     pub p_mean_bar: f64,
@@ -40,6 +43,10 @@ pub struct Level {
     pub beta_bar: f64,
     /// Its interval at the confidence level (bar).
     pub interval_bar: [f64; 2],
+    /// Its profile likelihood where the identification gives one: (β bar, ΔSSE/σ² statistic)
+    /// by increasing β; empty: the interval read as a normal one in ln β.
+    #[serde(skip)]
+    pub profile: Vec<[f64; 2]>,
 }
 
 /// One model fitted to the levels.
@@ -122,11 +129,35 @@ pub fn candidates(own: BulkModel) -> Vec<BulkModel> {
     out
 }
 
-/// One level's σ of ln β: its interval read as a normal one at `confidence`.
-fn sigma_ln(level: &Level, confidence: f64) -> f64 {
+/// One level's σ of ln β below and above its estimate: its interval read as a normal one at
+/// `confidence` on each side.
+fn sigma_ln(level: &Level, confidence: f64) -> [f64; 2] {
     let z = normal_quantile(0.5 + 0.5 * confidence);
     let [lo, hi] = level.interval_bar;
-    ((hi / lo).ln() / (2.0 * z)).max(1e-6)
+    let b = level.beta_bar;
+    [((b / lo).ln() / z).max(1e-6), ((hi / b).ln() / z).max(1e-6)]
+}
+
+/// The level's statistic (χ²-like) at β `beta`: its profile's where it has one, else its
+/// two-sided normal reading.
+fn level_chi2(level: &Level, sigma: [f64; 2], beta: f64) -> f64 {
+    let u = beta.ln();
+    if level.profile.len() < 2 {
+        let d = u - level.beta_bar.ln();
+        return (d / if d < 0.0 { sigma[0] } else { sigma[1] }).powi(2);
+    }
+    // the signed root against ln β, linear between points and along the end segments
+    let centre = level.beta_bar.ln();
+    let root = |[b, stat]: [f64; 2]| (b.ln(), stat.max(0.0).sqrt() * (b.ln() - centre).signum());
+    let pts: Vec<(f64, f64)> = level.profile.iter().map(|p| root(*p)).collect();
+    let k = pts.partition_point(|p| p.0 < u).clamp(1, pts.len() - 1);
+    let ((u0, r0), (u1, r1)) = (pts[k - 1], pts[k]);
+    let r = if u1 > u0 {
+        r0 + (r1 - r0) * (u - u0) / (u1 - u0)
+    } else {
+        r0
+    };
+    r * r
 }
 
 /// Check the levels: finite, positive, each interval holding its estimate, at most
@@ -163,11 +194,11 @@ fn check(levels: &[Level], confidence: f64) -> Result<(), BulkError> {
 }
 
 /// χ² of `model` with gas fraction `x` on the levels.
-fn chi2(model: BulkModel, x: f64, levels: &[Level], sigma: &[f64], oil: f64) -> f64 {
+fn chi2(model: BulkModel, x: f64, levels: &[Level], sigma: &[[f64; 2]], oil: f64) -> f64 {
     levels
         .iter()
         .zip(sigma)
-        .map(|(l, s)| ((l.beta_bar / model.beta_bar(x, l.p_mean_bar, oil)).ln() / s).powi(2))
+        .map(|(l, s)| level_chi2(l, *s, model.beta_bar(x, l.p_mean_bar, oil)))
         .sum()
 }
 
@@ -237,7 +268,7 @@ fn chi2_survival(chi2: f64, dof: usize) -> f64 {
 fn fit_one(
     model: BulkModel,
     levels: &[Level],
-    sigma: &[f64],
+    sigma: &[[f64; 2]],
     oil: f64,
     confidence: f64,
 ) -> ModelFit {
@@ -289,7 +320,7 @@ pub fn fit_levels(
     check(levels, confidence)?;
     let mut levels = levels.to_vec();
     levels.sort_by(|a, b| a.p_mean_bar.total_cmp(&b.p_mean_bar));
-    let sigma: Vec<f64> = levels.iter().map(|l| sigma_ln(l, confidence)).collect();
+    let sigma: Vec<[f64; 2]> = levels.iter().map(|l| sigma_ln(l, confidence)).collect();
     let mut fits = Vec::with_capacity(models.len());
     for m in models {
         m.check()?;
@@ -309,7 +340,8 @@ pub fn fit_levels(
     let band = (band_at_bar.iter())
         .map(|&p| band_point(p, &fits[0], &spanned, beta_oil_bar))
         .collect();
-    let median_sigma = median(&sigma);
+    let means: Vec<f64> = sigma.iter().map(|s| 0.5 * (s[0] + s[1])).collect();
+    let median_sigma = median(&means);
     let next_level = match levels.len() > 1 && model.is_none() && plausible.len() > 1 {
         true => next_level(&plausible, next_from_bar, median_sigma, beta_oil_bar),
         false => None,
@@ -411,6 +443,7 @@ mod tests {
                     p_mean_bar: p,
                     beta_bar: b,
                     interval_bar: [b / (1.0 + spread), b * (1.0 + spread)],
+                    profile: vec![],
                 }
             })
             .collect()
@@ -506,13 +539,14 @@ mod tests {
             p_mean_bar: 4.4,
             beta_bar: 165.0,
             interval_bar: [170.0, 180.0],
+            profile: vec![],
         };
-        assert!(fit_levels(&[l], &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
+        assert!(fit_levels(std::slice::from_ref(&l), &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
         let ok = Level {
             interval_bar: [150.0, 180.0],
-            ..l
+            ..l.clone()
         };
-        assert!(fit_levels(&[ok, ok], &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
+        assert!(fit_levels(&[ok.clone(), ok], &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
         assert!(fit_levels(&[], &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
     }
 }

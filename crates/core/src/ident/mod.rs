@@ -37,6 +37,7 @@ mod experiment;
 mod frequency;
 mod grid;
 mod leakage;
+mod level;
 mod problem;
 mod refine;
 mod search;
@@ -60,6 +61,7 @@ pub use grid::{
     candidate_values, spaced, stepped, Candidate, Grid, SecondGrid, FIRST_AXES, SECOND_COUNTS,
 };
 pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
+pub use level::{identify_level, LevelReading};
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};

@@ -1,0 +1,94 @@
+"""β identified at several pressure levels and the family of β(p) models fitted to them
+(docs/bulk-modulus.md#several-pressure-levels), on records emulated at three sum-pressure
+set-points with a hidden model and gas fraction (emulated records, not measurements): the fit
+names the hidden model or says the records cannot tell it from the others, the hidden model
+stays plausible, its gas fraction's 95 % interval holds the truth, and the band of beta at
+1 bar (parameter and model-form uncertainty) holds the true beta there."""
+
+import json
+import subprocess
+
+import pytest
+
+from conftest import pumpcyl_binary, pumpcyl_json
+from test_bulk_models import beta
+
+OIL = 17000.0
+
+
+def run(*args):
+    return subprocess.run([pumpcyl_binary(), *args], capture_output=True, text=True, check=True,
+                          timeout=600).stdout
+
+
+def write_rig(path, sets):
+    args = ["rig"]
+    for s in sets:
+        args += ["--set", s]
+    path.write_text(run(*args))
+
+
+def emulate_level(tmp, i, sets, model, x, kp, mass):
+    """A rig at one set-point whose beta_bar is the hidden model's at its anchor (the emulator
+    anchors its gas fraction there), two steps (Kp and 2/3 Kp) and a standstill record, and the
+    experiment that identifies them."""
+    rig = tmp / f"rig{i}.toml"
+    write_rig(rig, sets)
+    anchor = pumpcyl_json("bulk-modulus", [], "--rig", str(rig))["gas_fraction_from"]["p_mean_bar"]
+    write_rig(rig, sets + [f"beta_bar={beta(model, x, anchor, OIL)!r}"])
+    datasets = ""
+    for k, gain in enumerate([kp, round(2 * kp / 3, 3)]):
+        record = tmp / f"step{i}_{k}.csv"
+        run("emulate", "--experiment", "step", "--rig", str(rig), "--set", f"kp={gain}",
+            "--out", str(record), "--seed", str(10 * i + k + 1))
+        datasets += f'[[dataset]]\nfile = "{record.name}"\nkp = {gain}\nmass_kg = {mass}\nfit_end_s = 3.0\n'
+    run("emulate", "--experiment", "standstill", "--rig", str(rig), "--out",
+        str(tmp / f"still{i}.csv"), "--seed", str(10 * i + 9))
+    exp = tmp / f"level{i}.toml"
+    exp.write_text(f'rig = "{rig.name}"\n[standstill]\nrecord = "still{i}.csv"\n{datasets}')
+    return exp
+
+# an 80/45 mm cylinder, 12 t, longer lines, its own leakage: not the article's rig
+OWN = ["mass_kg=12000", "piston_diameter_mm=80", "rod_diameter_mm=45", "mass_by_position=[]", "line_volume_1_dm3=0.3", "line_volume_2_dm3=0.3",
+       "c12_m5_per_ns=8e-11", "k_pres_per_bar=0.15"]
+ARTICLE = []  # the article's rig, its 10 593 kg at x0
+
+
+@pytest.mark.parametrize("base, mass, model, x, named", [
+    # on the article's rig the three levels tell adiabatic entrained air from the rest
+    (ARTICLE, 10593.0, {"model": "entrained-air", "polytropic_index": 1.4}, 0.12, True),
+    # on a lighter, stiffer rig the high levels bound beta loosely: the records cannot tell
+    (OWN, 12000.0, {"model": "entrained-air", "polytropic_index": 1.4}, 0.12, False),
+    (OWN, 12000.0, {"model": "constant-gas-fraction"}, 0.03, False),
+])
+def test_three_levels_find_the_hidden_model_and_bound_beta_at_1_bar(base, mass, model, x, named,
+                                                                    tmp_path):
+    keys = [f"bulk_modulus_model={model['model']}"] + [
+        f"{k}={v}" for k, v in model.items() if k != "model"]
+    exps = [emulate_level(tmp_path, i, base + keys + ["kp=15", f"p_sum_ref_bar={s}"], model, x,
+                          15, mass)
+            for i, s in enumerate([6, 12, 24])]
+    args = []
+    for e in exps:
+        args += ["--level", str(e)]
+    doc = pumpcyl_json("bulk-modulus", [], "--rig", str(tmp_path / "rig1.toml"), *args)
+    levels = doc["levels"]
+    fits = {json.dumps(f["model"], sort_keys=True): f for f in levels["fits"]}
+    truth = fits[json.dumps(model, sort_keys=True)]
+    standing = [f["model"] for f in levels["fits"] if f["plausible"]]
+    # the hidden model is named, or stands among the models the records cannot tell apart
+    assert levels["model"] == (model if named else None), levels["model"]
+    assert model in standing, levels["fits"]
+    lo, hi = truth["gas_fraction_interval"]
+    assert lo <= x <= hi, (lo, x, hi)
+    # the true beta at every level inside that level's interval
+    for l in levels["identified"]:
+        want = beta(model, x, l["p_mean_bar"], OIL)
+        assert l["interval_bar"][0] <= want <= l["interval_bar"][1], (l, want)
+    at_1 = next(b for b in levels["band"] if b["p_bar"] == 1.0)
+    want = beta(model, x, 1.0, OIL)
+    assert at_1["band_bar"][0] <= want <= at_1["band_bar"][1], (at_1, want)
+    # the Akaike weights sum to 1 and order the fits
+    assert abs(sum(f["akaike_weight"] for f in levels["fits"]) - 1.0) < 1e-12
+    aic = [f["aic"] for f in levels["fits"]]
+    assert aic == sorted(aic)
