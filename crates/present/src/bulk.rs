@@ -236,8 +236,7 @@ impl Levels {
         let pct = f.confidence * 100.0;
         let n = self.identified.len();
         let levels = if n == 1 { "level" } else { "levels" };
-        let mut s = format!("beta identified at {n} pressure {levels} ({pct}% intervals):
-");
+        let mut s = format!("beta identified at {n} pressure {levels} ({pct}% intervals):\n");
         for l in &self.identified {
             let _ = writeln!(
                 s,

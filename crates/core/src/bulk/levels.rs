@@ -541,7 +541,15 @@ mod tests {
             interval_bar: [170.0, 180.0],
             profile: vec![],
         };
-        assert!(fit_levels(std::slice::from_ref(&l), &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
+        assert!(fit_levels(
+            std::slice::from_ref(&l),
+            &FAMILY,
+            BETA_OIL_BAR,
+            0.95,
+            &[],
+            &[]
+        )
+        .is_err());
         let ok = Level {
             interval_bar: [150.0, 180.0],
             ..l.clone()
