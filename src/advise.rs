@@ -30,6 +30,11 @@ pub struct AdviseArgs {
     /// times, candidates longer than it skipped. Default: each candidate is one record.
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     budget_s: Option<f64>,
+    /// An experiment at another pressure level (repeatable): with this experiment's own, the
+    /// family of beta(p) models is fitted to them and the next level to record named
+    /// (docs/bulk-modulus.md#several-pressure-levels).
+    #[arg(long, value_name = "EXPERIMENT.toml")]
+    level: Vec<PathBuf>,
 }
 
 /// Run the identification of the experiment, then the advice.
@@ -41,6 +46,9 @@ pub fn run(args: &AdviseArgs) -> Result<String> {
         confidence: args.confidence,
         budget_s: args.budget_s,
         files: crate::read_files::files(),
+        levels: (args.level.iter())
+            .map(|p| crate::read_files::experiment(p))
+            .collect::<Result<Vec<_>>>()?,
     };
     crate::emit::show(&crate::emit::run(&request)?, args.json)
 }

@@ -417,6 +417,10 @@ class Advice(Result):
     ranking_by_parameter: Dict[str, List[Dict[str, Any]]]
     """Per parameter name, the candidates best first: label, log_std, interval, width,
     relative_width."""
+    pressure_levels: Optional[Dict[str, Any]]
+    """The family of beta(p) models fitted to the experiment's pressure level and the
+    ``levels`` given (identified, fits, model, band, next_level), or None for an experiment
+    fitted in the frequency domain (docs/bulk-modulus.md#several-pressure-levels)."""
     experiment: str
     seconds: float
 
@@ -783,11 +787,14 @@ def advise(
     confidence: float = 0.95,
     candidates: Optional[Union[str, PathLike[str]]] = None,
     budget_s: Optional[float] = None,
+    levels: Sequence[Union[str, PathLike[str]]] = (),
 ) -> Advice:
     """Experiment advice: identify the experiment's records, then rank candidate further
     records (steps, sinusoids, gains; the TOML file ``candidates`` or the defaults) by the
     expected interval widths of beta, b and c12, as ``pumpcyl advise --json``: ``best_for``
-    and ``ranking_by_parameter`` are keyed by parameter name."""
+    and ``ranking_by_parameter`` are keyed by parameter name. ``levels``, experiments at
+    other pressure levels, join the experiment's own in ``pressure_levels`` (``advise
+    --level``)."""
 
 def reproduce(
     out: Optional[Union[str, PathLike[str]]] = None,

@@ -1485,16 +1485,19 @@ fn progress_reporter(
 /// skipped, and keyed by parameter name: `best_for` {parameter: label} and
 /// `ranking_by_parameter` {parameter: [{label, log_std, interval, width, relative_width}, ...]
 /// best first}). `budget_s` weighs every candidate at that recording time (its record counted
-/// budget/length times, longer ones skipped), as `advise --budget-s`. Runs with the GIL
-/// released.
+/// budget/length times, longer ones skipped), as `advise --budget-s`. `levels`, experiments
+/// at other pressure levels, join the experiment's own in `pressure_levels` (the family of
+/// beta(p) models fitted to them and the next level to record, as `advise --level`;
+/// docs/bulk-modulus.md#several-pressure-levels). Runs with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None, budget_s = None))]
+#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None, budget_s = None, levels = vec![]))]
 fn advise(
     py: Python<'_>,
     experiment: PathBuf,
     confidence: f64,
     candidates: Option<PathBuf>,
     budget_s: Option<f64>,
+    levels: Vec<PathBuf>,
 ) -> PyResult<PyOutcome> {
     let request = request::advise::Advise {
         experiment: Experiment::load(&experiment).map_err(err)?,
@@ -1502,6 +1505,9 @@ fn advise(
         confidence,
         budget_s,
         files: &pumpcyl::source_files::Disk,
+        levels: (levels.iter())
+            .map(|p| Experiment::load(p).map_err(err))
+            .collect::<PyResult<Vec<_>>>()?,
     };
     let outcome = run_request(py, "advise", &request)?;
     document(py, "advise", "Advice", &outcome)

@@ -10,6 +10,7 @@ import subprocess
 
 import pytest
 
+import pumpcyl
 from conftest import pumpcyl_binary, pumpcyl_json
 from test_bulk_models import beta
 
@@ -92,3 +93,32 @@ def test_three_levels_find_the_hidden_model_and_bound_beta_at_1_bar(base, mass, 
     assert abs(sum(f["akaike_weight"] for f in levels["fits"]) - 1.0) < 1e-12
     aic = [f["aic"] for f in levels["fits"]]
     assert aic == sorted(aic)
+
+
+def test_advise_names_the_next_level_where_the_loop_is_stable(tmp_path):
+    """`advise --level`: the experiment's own level and another; the next level advised is one
+    where the first experiment's loop is stable under both models it separates (the margins
+    shown are `pumpcyl margins`' with that beta), their beta there is each model's equation,
+    and the Python call gives the same document."""
+    model = {"model": "entrained-air", "polytropic_index": 1.4}
+    keys = ["bulk_modulus_model=entrained-air", "polytropic_index=1.4", "kp=15"]
+    exps = [emulate_level(tmp_path, i, keys + [f"p_sum_ref_bar={s}"], model, 0.12, 15, 10593.0)
+            for i, s in enumerate([6, 12])]
+    doc = pumpcyl_json("advise", [], str(exps[0]), "--level", str(exps[1]))
+    levels = doc["pressure_levels"]
+    assert [l["experiment"] for l in levels["identified"]] == [str(e) for e in exps]
+    nxt = levels["next_level"]
+    assert nxt is not None and levels["model"] is None
+    fits = {json.dumps(f["model"], sort_keys=True): f for f in levels["fits"]}
+    for m, b in zip(nxt["models"], nxt["beta_bar"]):
+        f = fits[json.dumps(m, sort_keys=True)]
+        assert f["plausible"]
+        want = beta(m, f["gas_fraction"], nxt["p_mean_bar"], OIL)
+        assert abs(b - want) <= 1e-9 * want
+        rig = tmp_path / "rig0.toml"
+        margins = pumpcyl_json("margins", [f"beta_bar={b!r}"], "--rig", str(rig))
+        assert margins["closed_loop_stable"], (nxt, margins)
+    # the Python call: the same fit (the wall-clock seconds aside)
+    py = pumpcyl.advise(str(exps[0]), levels=[str(exps[1])])
+    assert py["pressure_levels"]["next_level"] == nxt
+    assert py["pressure_levels"]["fits"] == levels["fits"]

@@ -266,7 +266,6 @@ impl Levels {
                 m.model.described(), m.gas_fraction, m.chi2, m.delta_aic, m.akaike_weight
             );
         }
-        let _ = writeln!(s, "{}", self.verdict());
         let _ = writeln!(s, "beta against pressure, the band holding the plausible models' parameter and model-form uncertainty:");
         let _ = writeln!(
             s,
@@ -285,10 +284,17 @@ impl Levels {
                 b.best_model_band_bar[1]
             );
         }
+        s + &self.next_text()
+    }
+
+    /// The verdict and the next level to record, with the rig's margins there.
+    pub fn next_text(&self) -> String {
+        let f = &self.fit;
+        let mut s = format!("{}\n", self.verdict());
         if let Some(n) = &f.next_level {
             let _ = writeln!(
                 s,
-                "next level: record at {:.1} bar mean chamber pressure, where {} and {} differ most (beta {:.1} and {:.1} bar; a record as sure as these adds chi2 {:.1} between them)",
+                "next level: record at {:.1} bar mean chamber pressure, where {} and {} differ most (beta {:.1} and {:.1} bar; a record there, as sure as the levels' trend against beta says, adds chi2 {:.1} between them)",
                 n.p_mean_bar, n.models[0].described(), n.models[1].described(), n.beta_bar[0], n.beta_bar[1], n.expected_chi2
             );
             for (m, r) in n.models.iter().zip(&self.next_level_margins) {
@@ -300,7 +306,7 @@ impl Levels {
                 let _ = writeln!(
                     s,
                     "  the rig there under {}: GM {} dB, PM {} deg, {stable}",
-                    m.name(),
+                    m.described(),
                     fmt_opt(r.gain_margin_db, 2),
                     fmt_opt(r.phase_margin_deg, 1)
                 );
@@ -323,4 +329,95 @@ impl Levels {
             (None, _) => format!("the records cannot tell apart: {}", standing.join(", ")),
         }
     }
+}
+
+/// Most levels a request identifies.
+const MAX_LEVEL_FILES: usize = pumpcyl::bulk::levels::MAX_LEVELS;
+
+/// β identified at each experiment's pressure level and the family of models (with `own`, a
+/// rig's model) fitted to them with the oil's β and the confidence `(beta_oil_bar,
+/// confidence)`, the band at `band_at_bar`, the next level among 0.5 bar steps up to twice the
+/// highest level (at least 20 bar) with the first experiment's rig's margins there
+/// (docs/bulk-modulus.md#several-pressure-levels).
+///
+/// # Errors
+/// No experiment or more than the limit, a confidence outside (0, 1), an identification that
+/// fails (named by its file), levels the fit refuses.
+pub fn identify_levels(
+    exps: &[pumpcyl::ident::Experiment],
+    own: BulkModel,
+    (beta_oil_bar, confidence): (f64, f64),
+    band_at_bar: &[f64],
+) -> anyhow::Result<Levels> {
+    use pumpcyl::bulk::levels::{candidates, fit_levels, NextSearch};
+    let most = MAX_LEVEL_FILES;
+    if exps.is_empty() || exps.len() > most {
+        anyhow::bail!(
+            "{} pressure levels: give 1 to {most} experiments",
+            exps.len()
+        );
+    }
+    let confidence = pumpcyl::ident::check_confidence(confidence)?;
+    let mut identified = Vec::new();
+    let mut read = Vec::new();
+    for exp in exps {
+        let (r, _) = pumpcyl::ident::identify_level(exp, confidence)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?;
+        identified.push(IdentifiedLevel {
+            experiment: exp.path.display().to_string(),
+            p_mean_bar: r.level.p_mean_bar,
+            p_mean_from: if r.pressure_from_records {
+                "records"
+            } else {
+                "anchor"
+            },
+            beta_bar: r.level.beta_bar,
+            interval_bar: r.level.interval_bar,
+            identifiable: r.identifiable,
+        });
+        read.push(r.level);
+    }
+    let highest = read.iter().map(|l| l.p_mean_bar).fold(0.0, f64::max);
+    let next_from: Vec<f64> = (1..=400)
+        .map(|i| 0.5 * f64::from(i))
+        .take_while(|p| *p <= (2.0 * highest).max(20.0))
+        .collect();
+    let models = candidates(own);
+    let rig = &exps[0].rig;
+    // a level is only advised where the first experiment's loop is stable with every
+    // standing model's β there (records at an unstable gain cannot be taken)
+    let stable = |beta: f64| level_margins(rig, 0.0, beta).is_ok_and(|r| r.closed_loop_stable);
+    let next = NextSearch {
+        from_bar: &next_from,
+        usable: &stable,
+    };
+    let fit = fit_levels(&read, &models, beta_oil_bar, confidence, band_at_bar, &next)?;
+    let next_level_margins = match &fit.next_level {
+        Some(n) => (n.beta_bar.iter())
+            .map(|&b| level_margins(rig, n.p_mean_bar, b))
+            .collect::<anyhow::Result<Vec<Row>>>()?,
+        None => Vec::new(),
+    };
+    Ok(Levels {
+        identified,
+        fit,
+        next_level_margins,
+    })
+}
+
+/// The margins of `rig` with β `beta_bar` at the mean pressure `p_bar`.
+fn level_margins(rig: &pumpcyl::rig::Rig, p_bar: f64, beta_bar: f64) -> anyhow::Result<Row> {
+    let r = pumpcyl::rig::Rig {
+        beta_bar,
+        ..rig.clone()
+    };
+    r.validate("beta at the next level")?;
+    let m = pumpcyl::lti::margins(&pumpcyl::model::Plant::new(&r).open_loop(false))?;
+    Ok(Row {
+        p_bar,
+        beta_bar,
+        gain_margin_db: m.gain_margin_db,
+        phase_margin_deg: m.phase_margin_deg,
+        closed_loop_stable: m.closed_loop_stable,
+    })
 }

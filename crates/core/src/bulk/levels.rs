@@ -95,7 +95,8 @@ pub struct NextLevel {
     pub models: [BulkModel; 2],
     /// Their β_e there (bar).
     pub beta_bar: [f64; 2],
-    /// The χ² by which a record there, as sure as the levels' median, would separate them.
+    /// The χ² by which a record there would separate them, its σ of ln β extrapolated from
+    /// the levels' own against their β.
     pub expected_chi2: f64,
 }
 
@@ -114,6 +115,25 @@ pub struct LevelsFit {
     pub band: Vec<BandPoint>,
     /// Where to record next, while more than one model stands.
     pub next_level: Option<NextLevel>,
+}
+
+/// Where the next level is looked for: the mean pressures (bar) to try, and whether a β is
+/// usable for a record (the rig's loop stable with it, at the records' gain).
+pub struct NextSearch<'a> {
+    /// The mean chamber pressures tried (bar gauge).
+    pub from_bar: &'a [f64],
+    /// Whether records can be taken with this β (bar).
+    pub usable: &'a dyn Fn(f64) -> bool,
+}
+
+impl<'a> NextSearch<'a> {
+    /// Every pressure of `from_bar`, every β usable.
+    pub fn any(from_bar: &'a [f64]) -> NextSearch<'a> {
+        NextSearch {
+            from_bar,
+            usable: &|_| true,
+        }
+    }
 }
 
 /// The models fitted to several levels: [`FAMILY`], the adiabatic entrained air (n = 1.4) and
@@ -304,7 +324,7 @@ fn model_band(fit: &ModelFit, p_bar: f64, oil: f64) -> [f64; 2] {
 }
 
 /// Fit every model of `models` to `levels` (intervals at `confidence`), with the oil's
-/// `beta_oil_bar`; the band at `band_at_bar`; the next level among `next_from_bar`.
+/// `beta_oil_bar`; the band at `band_at_bar`; the next level as `next` searches it.
 ///
 /// # Errors
 /// Levels that are not positive and finite, an interval that does not hold its estimate, two
@@ -315,7 +335,7 @@ pub fn fit_levels(
     beta_oil_bar: f64,
     confidence: f64,
     band_at_bar: &[f64],
-    next_from_bar: &[f64],
+    next: &NextSearch<'_>,
 ) -> Result<LevelsFit, BulkError> {
     check(levels, confidence)?;
     let mut levels = levels.to_vec();
@@ -340,10 +360,9 @@ pub fn fit_levels(
     let band = (band_at_bar.iter())
         .map(|&p| band_point(p, &fits[0], &spanned, beta_oil_bar))
         .collect();
-    let means: Vec<f64> = sigma.iter().map(|s| 0.5 * (s[0] + s[1])).collect();
-    let median_sigma = median(&means);
-    let next_level = match levels.len() > 1 && model.is_none() && plausible.len() > 1 {
-        true => next_level(&plausible, next_from_bar, median_sigma, beta_oil_bar),
+    let trend = SigmaTrend::of(&levels, &sigma);
+    let next_level = match model.is_none() && plausible.len() > 1 {
+        true => next_level(&plausible, next, trend, beta_oil_bar),
         false => None,
     };
     Ok(LevelsFit {
@@ -381,25 +400,55 @@ fn band_point(p: f64, best: &ModelFit, spanned: &[&ModelFit], oil: f64) -> BandP
     }
 }
 
-/// The middle value (the mean of the middle two for an even count).
-fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => s[n / 2],
-        _ => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+/// How sure a level is against its β: σ of ln β = e^a β^k, least squares in ln σ against
+/// ln β over the levels (a stiffer loop at a higher β says less about it: k > 0 on records),
+/// k within [0, 3], and never below the surest level's σ (no record is trusted to be surer
+/// than any taken); one level, or levels at one β, a constant σ.
+#[derive(Debug, Clone, Copy)]
+struct SigmaTrend {
+    a: f64,
+    k: f64,
+    floor: f64,
+}
+
+impl SigmaTrend {
+    fn of(levels: &[Level], sigma: &[[f64; 2]]) -> SigmaTrend {
+        let pts: Vec<(f64, f64)> = (levels.iter().zip(sigma))
+            .map(|(l, s)| (l.beta_bar.ln(), (0.5 * (s[0] + s[1])).ln()))
+            .collect();
+        let n = pts.len() as f64;
+        let (mx, my) = pts
+            .iter()
+            .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
+        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+        let k = if sxx > 1e-12 {
+            (sxy / sxx).clamp(0.0, 3.0)
+        } else {
+            0.0
+        };
+        let floor = pts.iter().map(|p| p.1.exp()).fold(f64::INFINITY, f64::min);
+        SigmaTrend {
+            a: my - k * mx,
+            k,
+            floor,
+        }
+    }
+
+    /// σ of ln β for a record whose β is `beta_bar`.
+    fn at(&self, beta_bar: f64) -> f64 {
+        (self.a + self.k * beta_bar.ln()).exp().max(self.floor)
     }
 }
 
-/// The pressure among `from_bar` at which the closest pair of the plausible models differs
-/// most in ln β, in units of `sigma`: the record that best separates what the records leave
-/// standing.
+/// The pressure among `next`'s at which the closest pair of the plausible models is best
+/// told apart: their difference in ln β over the σ a record there is expected to have
+/// ([`SigmaTrend`]), the record that best separates what the records leave standing; only
+/// where every plausible model's β there is usable.
 fn next_level(
     plausible: &[&ModelFit],
-    from_bar: &[f64],
-    sigma: f64,
+    next: &NextSearch<'_>,
+    trend: SigmaTrend,
     oil: f64,
 ) -> Option<NextLevel> {
     let ln_beta = |f: &ModelFit, p: f64| f.model.beta_bar(f.gas_fraction, p, oil).ln();
@@ -407,16 +456,20 @@ fn next_level(
         let mut best: Option<(f64, usize, usize)> = None;
         for i in 0..plausible.len() {
             for j in i + 1..plausible.len() {
-                let d = (ln_beta(plausible[i], p) - ln_beta(plausible[j], p)).abs();
-                if d.is_finite() && best.is_none_or(|b| d < b.0) {
-                    best = Some((d, i, j));
+                let (a, b) = (ln_beta(plausible[i], p), ln_beta(plausible[j], p));
+                let z = (a - b).abs() / trend.at((0.5 * (a + b)).exp());
+                if z.is_finite() && best.is_none_or(|c| z < c.0) {
+                    best = Some((z, i, j));
                 }
             }
         }
         best
     };
-    let (p, (d, i, j)) = from_bar
-        .iter()
+    let usable = |p: f64| {
+        (plausible.iter()).all(|f| (next.usable)(f.model.beta_bar(f.gas_fraction, p, oil)))
+    };
+    let (p, (z, i, j)) = (next.from_bar.iter())
+        .filter(|&&p| usable(p))
         .filter_map(|&p| closest(p).map(|c| (p, c)))
         .max_by(|a, b| a.1 .0.total_cmp(&b.1 .0))?;
     let beta = |f: &ModelFit| f.model.beta_bar(f.gas_fraction, p, oil);
@@ -424,7 +477,7 @@ fn next_level(
         p_mean_bar: p,
         models: [plausible[i].model, plausible[j].model],
         beta_bar: [beta(plausible[i]), beta(plausible[j])],
-        expected_chi2: (d / sigma).powi(2) / 2.0,
+        expected_chi2: z * z,
     })
 }
 
@@ -465,7 +518,7 @@ mod tests {
             BETA_OIL_BAR,
             0.95,
             &[1.0],
-            &[1.0, 20.0],
+            &NextSearch::any(&[1.0, 20.0]),
         )
         .unwrap();
         assert_eq!(fit.model, Some(truth), "{:#?}", fit.fits);
@@ -487,7 +540,7 @@ mod tests {
             BETA_OIL_BAR,
             0.95,
             &[1.0],
-            &[],
+            &NextSearch::any(&[]),
         )
         .unwrap();
         assert_eq!(one.model, None);
@@ -507,7 +560,7 @@ mod tests {
             BETA_OIL_BAR,
             0.95,
             &[1.0, 10.0],
-            &from,
+            &NextSearch::any(&from),
         )
         .unwrap();
         assert_eq!(fit.model, None);
@@ -547,14 +600,22 @@ mod tests {
             BETA_OIL_BAR,
             0.95,
             &[],
-            &[]
+            &NextSearch::any(&[])
         )
         .is_err());
         let ok = Level {
             interval_bar: [150.0, 180.0],
             ..l.clone()
         };
-        assert!(fit_levels(&[ok.clone(), ok], &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
-        assert!(fit_levels(&[], &FAMILY, BETA_OIL_BAR, 0.95, &[], &[]).is_err());
+        assert!(fit_levels(
+            &[ok.clone(), ok],
+            &FAMILY,
+            BETA_OIL_BAR,
+            0.95,
+            &[],
+            &NextSearch::any(&[])
+        )
+        .is_err());
+        assert!(fit_levels(&[], &FAMILY, BETA_OIL_BAR, 0.95, &[], &NextSearch::any(&[])).is_err());
     }
 }

@@ -3,6 +3,7 @@
 
 use super::{Document, Hooks, Request};
 use crate::advise::{advice_json, advice_text};
+use crate::bulk::{identify_levels, Levels};
 use pumpcyl::ident::{advise_experiment, Advice, Experiment};
 use pumpcyl::source_files::Files;
 use serde_json::Value;
@@ -22,6 +23,10 @@ pub struct Advise {
     pub budget_s: Option<f64>,
     /// Where the candidates' file is read.
     pub files: &'static dyn Files,
+    /// Experiments at other pressure levels: with the experiment's own, the family of β(p)
+    /// models is fitted to them and the next level to record named
+    /// (docs/bulk-modulus.md#several-pressure-levels).
+    pub levels: Vec<Experiment>,
 }
 
 /// The advice.
@@ -29,6 +34,7 @@ pub struct AdviseOutcome {
     name: String,
     advice: Advice,
     seconds: f64,
+    pressure_levels: Option<Levels>,
 }
 
 impl Request for Advise {
@@ -42,17 +48,37 @@ impl Request for Advise {
         Ok(AdviseOutcome {
             name: self.experiment.path.display().to_string(),
             advice,
+            pressure_levels: self.pressure_levels()?,
             seconds: start.elapsed().as_secs_f64(),
         })
     }
 }
 
+impl Advise {
+    /// The family of β(p) models fitted to the experiment's level and the others', with the
+    /// next level to record; `None` for an experiment fitted in the frequency domain.
+    fn pressure_levels(&self) -> anyhow::Result<Option<Levels>> {
+        if self.experiment.frequency_problem().is_some() {
+            return Ok(None);
+        }
+        let exps: Vec<Experiment> = std::iter::once(self.experiment.clone())
+            .chain(self.levels.iter().cloned())
+            .collect();
+        let own = self.experiment.rig.bulk_model();
+        let fit = (pumpcyl::bulk::BETA_OIL_BAR, self.confidence);
+        identify_levels(&exps, own, fit, &[1.0, 10.0]).map(Some)
+    }
+}
+
 impl Document for AdviseOutcome {
     fn json(&self) -> anyhow::Result<Value> {
-        Ok(advice_json(&self.advice, &self.name, self.seconds))
+        let mut v = advice_json(&self.advice, &self.name, self.seconds);
+        v["pressure_levels"] = serde_json::to_value(&self.pressure_levels)?;
+        Ok(v)
     }
 
     fn text(&self) -> anyhow::Result<String> {
-        Ok(advice_text(&self.name, &self.advice, self.seconds))
+        let levels = (self.pressure_levels.as_ref()).map_or(String::new(), Levels::next_text);
+        Ok(advice_text(&self.name, &self.advice, self.seconds) + &levels)
     }
 }

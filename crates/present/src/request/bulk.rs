@@ -2,11 +2,10 @@
 //! against pressure and the margins there (docs/bulk-modulus.md).
 
 use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
-use crate::bulk::{bulk_csv, bulk_json, bulk_text, Family, IdentifiedLevel, Levels};
+use crate::bulk::{bulk_csv, bulk_json, bulk_text, identify_levels, Family, Levels};
 use crate::figures::Chart;
-use pumpcyl::bulk::levels::{candidates, fit_levels};
 use pumpcyl::bulk::{table_under, BetaReading, BulkModel, Row};
-use pumpcyl::ident::{identify_level, Experiment};
+use pumpcyl::ident::Experiment;
 use serde_json::Value;
 
 /// Rows of the fine table an output file holds.
@@ -111,9 +110,6 @@ impl Request for BulkModulus {
     }
 }
 
-/// Most levels a request identifies.
-const MAX_LEVEL_FILES: usize = pumpcyl::bulk::levels::MAX_LEVELS;
-
 impl BulkModulus {
     /// β identified at each level's experiment and the family fitted to them, the band at
     /// `band_at_bar`; `None` without levels.
@@ -121,77 +117,10 @@ impl BulkModulus {
         if self.levels.is_empty() {
             return Ok(None);
         }
-        let n = self.levels.len() as f64;
-        let most = MAX_LEVEL_FILES;
-        check_field(
-            "levels",
-            n,
-            self.levels.len() <= most,
-            &format!("at most {most} experiments"),
-        )?;
-        let confidence = pumpcyl::ident::check_confidence(self.confidence)?;
-        let mut identified = Vec::new();
-        let mut read = Vec::new();
-        for exp in &self.levels {
-            let (r, _) = identify_level(exp, confidence)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?;
-            identified.push(IdentifiedLevel {
-                experiment: exp.path.display().to_string(),
-                p_mean_bar: r.level.p_mean_bar,
-                p_mean_from: if r.pressure_from_records {
-                    "records"
-                } else {
-                    "anchor"
-                },
-                beta_bar: r.level.beta_bar,
-                interval_bar: r.level.interval_bar,
-                identifiable: r.identifiable,
-            });
-            read.push(r.level);
-        }
-        let highest = read.iter().map(|l| l.p_mean_bar).fold(0.0, f64::max);
-        let next_from: Vec<f64> = (1..=80)
-            .map(|i| 0.5 * i as f64)
-            .filter(|p| *p <= (2.0 * highest).max(20.0))
-            .collect();
-        let models = candidates(self.rig.rig.bulk_model());
-        let fit = fit_levels(
-            &read,
-            &models,
-            self.beta_oil_bar,
-            confidence,
-            band_at_bar,
-            &next_from,
-        )?;
-        let next_level_margins = match &fit.next_level {
-            Some(n) => (n.beta_bar.iter())
-                .map(|&b| level_margins(&self.levels[0].rig, n.p_mean_bar, b))
-                .collect::<anyhow::Result<Vec<Row>>>()?,
-            None => Vec::new(),
-        };
-        Ok(Some(Levels {
-            identified,
-            fit,
-            next_level_margins,
-        }))
+        let own = self.rig.rig.bulk_model();
+        let fit = (self.beta_oil_bar, self.confidence);
+        identify_levels(&self.levels, own, fit, band_at_bar).map(Some)
     }
-}
-
-/// The margins of `rig` with β `beta_bar` at the mean pressure `p_bar`.
-fn level_margins(rig: &pumpcyl::rig::Rig, p_bar: f64, beta_bar: f64) -> anyhow::Result<Row> {
-    let r = pumpcyl::rig::Rig {
-        beta_bar,
-        ..rig.clone()
-    };
-    r.validate("beta at the next level")?;
-    let m = pumpcyl::lti::margins(&pumpcyl::model::Plant::new(&r).open_loop(false))?;
-    Ok(Row {
-        p_bar,
-        beta_bar,
-        gain_margin_db: m.gain_margin_db,
-        phase_margin_deg: m.phase_margin_deg,
-        closed_loop_stable: m.closed_loop_stable,
-    })
 }
 
 impl BulkOutcome {
