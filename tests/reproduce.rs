@@ -6,6 +6,9 @@
 #[path = "common/skip.rs"]
 mod skip;
 
+#[path = "reproduce/bulk_models.rs"]
+mod bulk_models;
+
 #[path = "reproduce/energy.rs"]
 mod energy;
 

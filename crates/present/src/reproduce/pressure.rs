@@ -183,7 +183,7 @@ pub(super) fn pressure_study(
         "-",
     );
     forty_fold(run, &intro, table1.beta_bar, nominal.beta_bar);
-    other_models(run, &table1, &article_at)?;
+    let models = other_models(run, &table1, &article_at)?;
     let [(p1bar, _), (p_fit, _), (p10bar, _)] = article_at;
     let [(id_low, _), (id_mean, _), (id_high, _)] = identified_at;
     Ok(Pressure {
@@ -207,6 +207,7 @@ pub(super) fn pressure_study(
                 p_mean: id_mean,
                 p10bar: id_high,
             },
+            models,
         },
         gas_fraction: x,
         gas_fraction_article_basis: x_article,
@@ -218,13 +219,29 @@ pub(super) fn pressure_study(
 /// The article's extrapolation beside the other models of β(p) fitted to the same 165 bar at
 /// 4.4 bar (docs/bulk-modulus.md#a-family-of-models): β_e and the margins at 1 and 10 bar under
 /// each, and the band they span.
-fn other_models(run: &mut Run, table1: &Rig, article_at: &[(AtPressure, Rig); 3]) -> Result<()> {
+fn other_models(
+    run: &mut Run,
+    table1: &Rig,
+    article_at: &[(AtPressure, Rig); 3],
+) -> Result<Vec<summary::ModelExtrapolation>> {
     let pressures = [LOW_BAR, HIGH_BAR];
     let reading = pumpcyl::bulk::ARTICLE_READING;
     let family = crate::bulk::Family::fit(reading, BETA_OIL_BAR, &pressures);
     let mut rows = Vec::new();
+    let mut out = Vec::new();
     let mut band = [(f64::INFINITY, f64::NEG_INFINITY); 2];
     for m in &family.models {
+        let x = m
+            .gas_fraction
+            .ok_or_else(|| anyhow::anyhow!("{}: no fit", m.model.name()))?;
+        let lowest = lowest_level(table1, |p| m.model.beta_bar(x, p, BETA_OIL_BAR))?;
+        out.push(summary::ModelExtrapolation {
+            model: m.model,
+            gas_fraction: x,
+            beta_1bar: m.beta_bar[0],
+            beta_10bar: m.beta_bar[1],
+            lowest_level_bar: lowest,
+        });
         let mut row = vec![m.model.name().to_string()];
         for (k, beta) in m.beta_bar.iter().enumerate() {
             band[k] = (band[k].0.min(*beta), band[k].1.max(*beta));
@@ -239,12 +256,27 @@ fn other_models(run: &mut Run, table1: &Rig, article_at: &[(AtPressure, Rig); 3]
                 fmt_opt(mm.phase_margin_deg, 1)
             ));
         }
+        row.push(lowest.map_or("none up to 100 bar".into(), |p| format!("{p:.2} bar")));
         rows.push(row);
     }
+    let t = Targets::default();
     run.table(
-        &format!("β_e at {LOW_BAR} and {HIGH_BAR} bar from the same 165 bar at 4.4 bar under each model of β against pressure, and the margins of {TABLE1_RIG} there (isothermal air, all of it dissolved at 30 bar in the last)"),
-        &["model", "1 bar", "10 bar"],
+        &format!("β_e at {LOW_BAR} and {HIGH_BAR} bar from the same 165 bar at 4.4 bar under each model of β against pressure, the margins of {TABLE1_RIG} there (isothermal air, all of it dissolved at 30 bar in the last), and the lowest mean pressure at which that loop has PM >= {} deg and GM >= {} dB (pumpcyl's default targets; docs/bulk-modulus.md#a-family-of-models)", t.pm_deg, t.gm_db),
+        &["model", "1 bar", "10 bar", "lowest level meeting the targets"],
         rows,
+    );
+    let lowest: Vec<f64> = out.iter().filter_map(|m| m.lowest_level_bar).collect();
+    run.compare_why(
+        "lowest mean chamber pressure at which the article's loop (Kp 25) meets PM 34 deg and GM 6 dB, over the models of β(p)",
+        format!(
+            "{} (the article's model); {:.2}–{:.2} bar over the family",
+            out[0].lowest_level_bar.map_or("none".into(), |p| format!("{p:.2} bar")),
+            lowest.iter().copied().fold(f64::INFINITY, f64::min),
+            lowest.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        ),
+        "-",
+        "-",
+        "which pressure level a circuit needs moves with the model of β(p): one identification cannot settle it (docs/bulk-modulus.md#several-pressure-levels)",
     );
     run.compare_why(
         "β_e at 1 bar / 10 bar under the other models of β(p) fitted to 165 bar at 4.4 bar (bar)",
@@ -256,7 +288,42 @@ fn other_models(run: &mut Run, table1: &Rig, article_at: &[(AtPressure, Rig); 3]
         "-",
         "one identification at one pressure cannot tell the models apart: the extrapolation holds only as far as its model (docs/bulk-modulus.md#a-family-of-models)",
     );
-    Ok(())
+    Ok(out)
+}
+
+/// Bisection steps of [`lowest_level`]: 100 bar to 0.01 bar in fewer than 14; 40 leaves room.
+const LEVEL_STEPS: usize = 40;
+
+/// The lowest mean chamber pressure (bar, to 0.01 bar, between 0.01 and 100 bar) at which
+/// `rig` with β_e `beta_at(p)` meets pumpcyl's default targets; `None` where 100 bar does not
+/// (β_e rises with pressure under every model, and the margins with β_e on this rig).
+fn lowest_level(rig: &Rig, beta_at: impl Fn(f64) -> f64) -> Result<Option<f64>> {
+    let t = Targets::default();
+    let meets = |p: f64| -> Result<bool> {
+        let m = margins_of(&Rig {
+            beta_bar: beta_at(p),
+            ..rig.clone()
+        })?;
+        let pm = m.phase_margin_deg.unwrap_or(f64::INFINITY);
+        let gm = m.gain_margin_db.unwrap_or(f64::INFINITY);
+        Ok(m.closed_loop_stable && pm >= t.pm_deg && gm >= t.gm_db)
+    };
+    let (mut lo, mut hi) = (0.01, 100.0);
+    if !meets(hi)? {
+        return Ok(None);
+    }
+    for _ in 0..LEVEL_STEPS {
+        if hi - lo < 0.005 {
+            break;
+        }
+        let mid = 0.5 * (lo + hi);
+        if meets(mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(Some(hi))
 }
 
 /// The article's introduction: a gas fraction of 1 % and β_e at 100 bar against 1 bar.

@@ -311,6 +311,28 @@ pub struct MarginsStudy {
     pub p10bar: ArticleAtPressure,
     /// The same study on the rig identified from the records.
     pub identified_rig: IdentifiedPressures,
+    /// The article's extrapolation beside the other models of β(p) fitted to the same 165 bar
+    /// at 4.4 bar (docs/bulk-modulus.md#a-family-of-models).
+    pub models: Vec<ModelExtrapolation>,
+}
+
+/// One model of β(p) through the article's reading: β_e at 1 and 10 bar, and the lowest mean
+/// chamber pressure at which the article's loop (Table 1, Kp 25) meets pumpcyl's default
+/// targets under it.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelExtrapolation {
+    /// The model and its parameters.
+    #[serde(flatten)]
+    pub model: pumpcyl::bulk::BulkModel,
+    /// Its gas fraction through 165 bar at 4.4 bar.
+    pub gas_fraction: f64,
+    /// β_e at 1 bar (bar).
+    pub beta_1bar: f64,
+    /// β_e at 10 bar (bar).
+    pub beta_10bar: f64,
+    /// The lowest mean chamber pressure (bar, to 0.01 bar) at which the Table 1 rig at Kp 25
+    /// has PM ≥ 34° and GM ≥ 6 dB; `None` where none up to 100 bar does.
+    pub lowest_level_bar: Option<f64>,
 }
 
 /// The pressure study on the rig identified from the records.
