@@ -160,3 +160,22 @@ def test_a_parameter_the_model_does_not_have_is_refused(sets, key):
     assert out.returncode != 0 and out.stdout == ""
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and key in lines[0], out.stderr
+
+
+def test_select_reads_the_gas_fraction_and_beta_under_the_rigs_model():
+    """`select` with the rig's `bulk_modulus_model`: its reference gas fraction is that model's
+    fit to the article's 165 bar at 4.4 bar (a factor 2 either way), and every DPM candidate's
+    beta range is the model's beta at its mean pressure for the range's ends."""
+    model = {"model": "entrained-air", "polytropic_index": 1.4}
+    doc = pumpcyl_json("select", ["rig.bulk_modulus_model=entrained-air",
+                                  "rig.polytropic_index=1.4"], timeout=600)
+    lo, x, hi = doc["gas_fraction"]
+    want = fit(model, 165.0, 4.4, 17000.0)
+    assert abs(x - want) <= 1e-9 * want and lo == x / 2 and hi == 2 * x
+    dpm = [o for o in doc["options"] if o["circuit"] == "low_pressure"]
+    assert dpm
+    for o in dpm:
+        p = o["mean_pressure_bar"]
+        soft, stiff = o["beta_e_bar"]
+        assert abs(soft - beta(model, hi, p, 17000.0)) <= 1e-9 * soft
+        assert abs(stiff - beta(model, lo, p, 17000.0)) <= 1e-9 * stiff

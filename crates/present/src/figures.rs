@@ -205,8 +205,13 @@ impl Chart {
     }
 
     /// β_e, gain margin and phase margin against mean chamber pressure (docs/bulk-modulus.md);
-    /// `fit` is (β bar, at mean pressure bar, β_oil bar) the gas fraction `x` came from.
-    pub fn bulk_modulus(fit: (f64, f64, f64), x: f64, rows: &[Row]) -> Chart {
+    /// `fit` is (β bar, at mean pressure bar, β_oil bar) the gas fraction `x` of `model` came
+    /// from; the subtitle names the model.
+    pub fn bulk_modulus(
+        fit: (f64, f64, f64),
+        (model, x): (pumpcyl::bulk::BulkModel, f64),
+        rows: &[Row],
+    ) -> Chart {
         let p: Vec<f64> = rows.iter().map(|r| r.p_bar).collect();
         let line = |label: &str, y: Vec<f64>, color: usize| {
             trace(label, &p, &y, LineStyle::Solid, Some(color))
@@ -246,7 +251,8 @@ impl Chart {
         Chart {
             title: "Effective bulk modulus and margins against mean chamber pressure".into(),
             subtitle: Some(format!(
-                "gas fraction X = {x:.4} from {} bar at {} bar (β_oil {} bar); below 0 dB / 0 deg the loop is unstable",
+                "{} model: gas fraction X = {x:.4} from {} bar at {} bar (β_oil {} bar); below 0 dB / 0 deg the loop is unstable",
+                model.described(),
                 plot::sig(fit.0, 4),
                 plot::sig(fit.1, 4),
                 plot::sig(fit.2, 4)

@@ -78,7 +78,8 @@ pub fn selection_text(origin: &str, app: &Application, s: &Selection) -> String 
             loads.join(", ")
         }
     );
-    let _ = writeln!(out, "{}", gas_fraction_text(s));
+    let model = app.rig.bulk_model().unless_the_articles();
+    let _ = writeln!(out, "{}{model}", gas_fraction_text(s));
     let mut needs: Vec<String> = app
         .wave
         .iter()

@@ -399,6 +399,9 @@ impl Application {
                 }
                 // an optional key left out: its type is checked as the application is read
                 None if OPTIONAL_KEYS.contains(&key) => value,
+                // a rig key its table leaves out (an optional one, a circuit's): checked as
+                // the rig is read
+                None if key.starts_with("rig.") && Rig::key_docs().any(|(k, _)| k == leaf) => value,
                 None => return Err(err(a, format!("unknown key `{key}`"))),
             };
             place.insert(leaf.to_string(), value);

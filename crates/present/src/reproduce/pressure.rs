@@ -88,7 +88,7 @@ pub(super) fn pressure_study(
         ),
         &Chart::bulk_modulus(
             (table1.beta_bar, article::P_FIT_BAR, BETA_OIL_BAR),
-            x_article,
+            (bulk::BulkModel::ConstantGasFraction, x_article),
             &fine,
         ),
     )?;

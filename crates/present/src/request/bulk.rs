@@ -151,7 +151,8 @@ impl BulkOutcome {
     /// A margin that cannot be computed.
     pub fn chart(&self) -> anyhow::Result<Chart> {
         let rows = self.request.rows(self.gas_fraction, FINE_ROWS)?;
-        Ok(Chart::bulk_modulus(self.fit(), self.gas_fraction, &rows))
+        let model = (self.request.model, self.gas_fraction);
+        Ok(Chart::bulk_modulus(self.fit(), model, &rows))
     }
 }
 
