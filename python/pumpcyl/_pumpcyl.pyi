@@ -787,7 +787,7 @@ def advise(
     confidence: float = 0.95,
     candidates: Optional[Union[str, PathLike[str]]] = None,
     budget_s: Optional[float] = None,
-    levels: Sequence[Union[str, PathLike[str]]] = (),
+    levels: Optional[Sequence[Union[str, PathLike[str]]]] = None,
 ) -> Advice:
     """Experiment advice: identify the experiment's records, then rank candidate further
     records (steps, sinusoids, gains; the TOML file ``candidates`` or the defaults) by the

@@ -1490,14 +1490,14 @@ fn progress_reporter(
 /// beta(p) models fitted to them and the next level to record, as `advise --level`;
 /// docs/bulk-modulus.md#several-pressure-levels). Runs with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None, budget_s = None, levels = vec![]))]
+#[pyo3(signature = (experiment, *, confidence = 0.95, candidates = None, budget_s = None, levels = None))]
 fn advise(
     py: Python<'_>,
     experiment: PathBuf,
     confidence: f64,
     candidates: Option<PathBuf>,
     budget_s: Option<f64>,
-    levels: Vec<PathBuf>,
+    levels: Option<Vec<PathBuf>>,
 ) -> PyResult<PyOutcome> {
     let request = request::advise::Advise {
         experiment: Experiment::load(&experiment).map_err(err)?,
@@ -1505,7 +1505,7 @@ fn advise(
         confidence,
         budget_s,
         files: &pumpcyl::source_files::Disk,
-        levels: (levels.iter())
+        levels: (levels.unwrap_or_default().iter())
             .map(|p| Experiment::load(p).map_err(err))
             .collect::<PyResult<Vec<_>>>()?,
     };

@@ -22,8 +22,8 @@ def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_o
         rig = pumpcyl.Rig.from_toml(path)
     assert len(caught) == 1
     note = str(caught[0].message)
-    assert note.startswith(f"{path} does not set 34 keys; mass_by_position = [] (one mass over the stroke")
-    # each of the other 33 with its default (the article rig's, or the drives' electrical keys'),
+    assert note.startswith(f"{path} does not set 35 keys; mass_by_position = [] (one mass over the stroke")
+    # each of the other 34 with its default (the article rig's, or the drives' electrical keys'),
     # e.g. the leakages in exponent form
     named = re.findall(r"(\w+) = ", note.split("the others take the article rig's values: ")[1])
     article = pumpcyl.Rig()
@@ -32,7 +32,7 @@ def test_a_rig_file_without_a_mass_table_has_one_mass_and_names_what_it_leaves_o
     others = ("mass_by_position", "accumulator_precharge_bar", "pilot_ratio", "check_valve_crack_bar",
               "cylinder_rated_pressure_bar")
     expected = [k for k in article.to_dict() if k not in written and k not in others]
-    assert sorted(named) == sorted(expected) and len(named) == 33
+    assert sorted(named) == sorted(expected) and len(named) == 34
     assert "c1_m5_per_ns = 5.49e-11" in note and "kff_kg_m2 = 0.0016" in note
     for key in expected:
         assert getattr(rig, key) == getattr(article, key), key

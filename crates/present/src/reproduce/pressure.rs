@@ -84,7 +84,7 @@ pub(super) fn pressure_study(
         "bulk_modulus",
         Source::Article(12),
         &format!(
-            "Effective bulk modulus and the margins against the mean chamber pressure on {basis}"
+            "Effective bulk modulus and the margins against the mean chamber pressure on {basis}, under the article's constant-gas-fraction model"
         ),
         &Chart::bulk_modulus(
             (table1.beta_bar, article::P_FIT_BAR, BETA_OIL_BAR),
@@ -130,7 +130,7 @@ pub(super) fn pressure_study(
     run.figure(
         "bode_pressure",
         Source::Article(13),
-        &format!("Bode diagram of the position loop for β_e at {LOW_BAR} bar, at {} bar (β {} bar) and at {HIGH_BAR} bar, on {basis}", article::P_FIT_BAR, table1.beta_bar),
+        &format!("Bode diagram of the position loop for β_e at {LOW_BAR} bar, at {} bar (β {} bar) and at {HIGH_BAR} bar, on {basis}, under the article's constant-gas-fraction model (the other models: the table below)", article::P_FIT_BAR, table1.beta_bar),
         &Chart::bode(title, series, markers),
     )?;
     run.compare(
