@@ -1371,14 +1371,8 @@ impl Rig {
         let Some(key) = self.bulk_modulus_model.unused(n, pc) else {
             return Ok(());
         };
-        let (value, has) = match key {
-            "polytropic_index" => (n, "entrained-air and entrained-air-dissolving"),
-            _ => (pc, "entrained-air-dissolving"),
-        };
-        let rule = format!(
-            "the {} bulk-modulus model has no such parameter; it belongs to {has} (docs/bulk-modulus.md#a-family-of-models)",
-            self.bulk_model().name()
-        );
+        let value = if key == "polytropic_index" { n } else { pc };
+        let rule = self.bulk_modulus_model.unused_rule(key);
         Err((key, value.unwrap_or(f64::NAN), rule))
     }
 

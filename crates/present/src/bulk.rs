@@ -361,7 +361,7 @@ pub fn identify_levels(
     let mut identified = Vec::new();
     let mut read = Vec::new();
     for exp in exps {
-        let (r, _) = pumpcyl::ident::identify_level(exp, confidence)
+        let r = pumpcyl::ident::identify_level(exp, confidence)
             .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?;
         identified.push(IdentifiedLevel {
             experiment: exp.path.display().to_string(),

@@ -21,8 +21,8 @@
 use num_dual::DualNum;
 use serde::{Deserialize, Serialize};
 
-/// A number the models evaluate over: `f64` or a dual number (the emulator's Jacobians), as
-/// the circuits' equations do.
+/// A number the models evaluate over: `f64` or a dual number (the emulator's Jacobians); the
+/// circuits' equations are written over the same one (`crate::circuit::Scalar`).
 pub trait Scalar: DualNum<Primitive = f64> + Copy {}
 
 impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
@@ -71,6 +71,18 @@ impl Form {
         let dissolving = self == Form::EntrainedAirDissolving;
         (air_dissolution_pressure_bar.is_some() && !dissolving)
             .then_some("air_dissolution_pressure_bar")
+    }
+
+    /// Why `key` ([`Form::unused`]) is refused: the models it belongs to.
+    pub fn unused_rule(self, key: &str) -> String {
+        let has = match key {
+            "polytropic_index" => "entrained-air and entrained-air-dissolving",
+            _ => "entrained-air-dissolving",
+        };
+        let name = BulkModel::unchecked(self, None, None).name();
+        format!(
+            "the {name} bulk-modulus model has no such parameter; it belongs to {has} (docs/bulk-modulus.md#a-family-of-models)"
+        )
     }
 }
 
@@ -149,10 +161,7 @@ impl BulkModel {
     ) -> Result<BulkModel, ModelError> {
         let model = BulkModel::unchecked(form, polytropic_index, air_dissolution_pressure_bar);
         if let Some(key) = form.unused(polytropic_index, air_dissolution_pressure_bar) {
-            return Err(ModelError(format!(
-                "{key}: the {} model has no such parameter (docs/bulk-modulus.md#a-family-of-models)",
-                model.name()
-            )));
+            return Err(ModelError(format!("{key}: {}", form.unused_rule(key))));
         }
         model.check()?;
         Ok(model)

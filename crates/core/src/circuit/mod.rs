@@ -130,7 +130,7 @@ pub use dpm::Dpm;
 pub use parts::Effects;
 
 use nalgebra::DMatrix;
-use num_dual::{Dual64, DualNum};
+use num_dual::Dual64;
 use serde::{Deserialize, Serialize};
 use stops::Stops;
 use switching::Switching;
@@ -152,10 +152,9 @@ circuits! {
 pub const ARTICLE: CircuitKind = CircuitKind::Dpm;
 
 /// The scalar a circuit's equations are written over: `f64` when the emulator integrates
-/// them, a dual number when [`linearise`] differentiates them.
-pub trait Scalar: DualNum<Primitive = f64> + Copy {}
-
-impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
+/// them, a dual number when [`linearise`] differentiates them. Declared with the bulk-modulus
+/// models (a leaf module, which the circuits' fluid evaluates over the same scalar).
+pub use crate::bulk::models::Scalar;
 
 impl Default for CircuitKind {
     /// The article's circuit ([`ARTICLE`]).

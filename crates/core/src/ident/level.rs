@@ -2,7 +2,7 @@
 //! interval of its β, at the records' mean chamber pressure
 //! (docs/bulk-modulus.md#several-pressure-levels).
 
-use super::{analyze, Experiment, IdentError, Uncertainty, UncertaintyOptions};
+use super::{analyze, Experiment, IdentError, UncertaintyOptions};
 use crate::bulk::levels::Level;
 
 /// β_e at one level and what it was read off.
@@ -23,10 +23,7 @@ pub struct LevelReading {
 ///
 /// # Errors
 /// The identification's or the analysis' own.
-pub fn identify_level(
-    exp: &Experiment,
-    confidence: f64,
-) -> Result<(LevelReading, Uncertainty), IdentError> {
+pub fn identify_level(exp: &Experiment, confidence: f64) -> Result<LevelReading, IdentError> {
     let id = exp.identify(&exp.options())?;
     let opts = UncertaintyOptions {
         confidence,
@@ -49,5 +46,5 @@ pub fn identify_level(
         identifiable: beta.identifiable,
         pressure_from_records: from_records.is_some(),
     };
-    Ok((reading, u))
+    Ok(reading)
 }
