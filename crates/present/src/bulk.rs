@@ -210,6 +210,10 @@ pub struct Levels {
     /// The rig's margins at the next level under each of the two models it separates.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub next_level_margins: Vec<Row>,
+    /// The emulator run against the records of the levels that join it, the gas fraction of
+    /// the best model fitted directly (docs/identification.md#nonlinear-refinement); `null`
+    /// where no level joins.
+    pub nonlinear: Option<pumpcyl::ident::NonlinearFit>,
 }
 
 /// One level's identification.
@@ -284,7 +288,61 @@ impl Levels {
                 b.best_model_band_bar[1]
             );
         }
-        s + &self.next_text()
+        s + &self.nonlinear_text() + &self.next_text()
+    }
+
+    /// The nonlinear refinement: each model's refit, the verdict, the best model's X and β at
+    /// each level; nothing where it did not run.
+    fn nonlinear_text(&self) -> String {
+        let Some(n) = &self.nonlinear else {
+            return String::new();
+        };
+        let mut s = format!(
+            "nonlinear refinement, the emulator run against the records ({} emulations, docs/identification.md#nonlinear-refinement):\n",
+            n.emulations
+        );
+        let _ = writeln!(
+            s,
+            "{:>40} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>7}  verdict",
+            "model", "X", "b N s/m", "Fc N", "band rpm", "SSE mm2", "dAIC", "weight"
+        );
+        for m in &n.fits {
+            let r = &m.refined;
+            let verdict = if m.plausible { "plausible" } else { "rejected" };
+            let _ = writeln!(
+                s,
+                "{:>40} {:>9.5} {:>9.0} {:>9.1} {:>9.2} {:>9.4} {:>7.2} {:>7.3}  {verdict}",
+                m.model.described(),
+                r.gas_fraction,
+                r.viscous_friction_ns_per_m,
+                r.coulomb_friction_n,
+                r.pump_dead_band_rpm,
+                m.sse_mm2,
+                m.delta_aic,
+                m.akaike_weight
+            );
+        }
+        let best = n.best();
+        let [lo, hi] = n.gas_fraction_interval;
+        let bounded = if n.identifiable { "" } else { " (not bounded)" };
+        let told = match n.model {
+            Some(m) => format!("the records tell the model: {}", m.described()),
+            None if n.fits.len() == 1 => format!("one model refined: {}", best.model.described()),
+            None => "the records cannot tell every other model from the best".to_string(),
+        };
+        let _ = writeln!(
+            s,
+            "{told}; its X {:.5} [{lo:.5}, {hi:.5}]{bounded}, noise {:.4} mm; beta at each level:",
+            best.refined.gas_fraction, n.noise_std_mm
+        );
+        for l in &n.levels {
+            let _ = writeln!(
+                s,
+                "  {:>7.2} bar  beta {:>7.1} bar  [{:.1}, {:.1}]",
+                l.p_mean_bar, l.beta_bar, l.interval_bar[0], l.interval_bar[1]
+            );
+        }
+        s
     }
 
     /// The verdict and the next level to record, with the rig's margins there.
@@ -340,14 +398,18 @@ const MAX_LEVEL_FILES: usize = pumpcyl::bulk::levels::MAX_LEVELS;
 /// highest level (at least 20 bar) with the first experiment's rig's margins there
 /// (docs/bulk-modulus.md#several-pressure-levels).
 ///
+/// With `nonlinear`, the levels whose experiments join it are refined through the emulator
+/// (docs/identification.md#nonlinear-refinement).
+///
 /// # Errors
 /// No experiment or more than the limit, a confidence outside (0, 1), an identification that
-/// fails (named by its file), levels the fit refuses.
+/// fails (named by its file), levels the fit refuses, a refinement that cannot run.
 pub fn identify_levels(
     exps: &[pumpcyl::ident::Experiment],
     own: BulkModel,
     (beta_oil_bar, confidence): (f64, f64),
     band_at_bar: &[f64],
+    nonlinear: bool,
 ) -> anyhow::Result<Levels> {
     use pumpcyl::bulk::levels::{candidates, fit_levels, NextSearch};
     let most = MAX_LEVEL_FILES;
@@ -359,7 +421,7 @@ pub fn identify_levels(
     }
     let confidence = pumpcyl::ident::check_confidence(confidence)?;
     let mut identified = Vec::new();
-    let mut read = Vec::new();
+    let (mut read, mut linear) = (Vec::new(), Vec::new());
     for exp in exps {
         let r = pumpcyl::ident::identify_level(exp, confidence)
             .map_err(|e| anyhow::anyhow!("{}: {e}", exp.path.display()))?;
@@ -375,6 +437,7 @@ pub fn identify_levels(
             interval_bar: r.level.interval_bar,
             identifiable: r.identifiable,
         });
+        linear.push((r.best, r.level.p_mean_bar));
         read.push(r.level);
     }
     let highest = read.iter().map(|l| l.p_mean_bar).fold(0.0, f64::max);
@@ -398,11 +461,58 @@ pub fn identify_levels(
             .collect::<anyhow::Result<Vec<Row>>>()?,
         None => Vec::new(),
     };
+    let nonlinear = match nonlinear {
+        true => refine_levels(exps, &linear, &fit.fits, confidence)?,
+        false => None,
+    };
     Ok(Levels {
         identified,
         fit,
         next_level_margins,
+        nonlinear,
     })
+}
+
+/// The nonlinear refinement (docs/identification.md#nonlinear-refinement) of the step records
+/// of the experiments that join it — those whose `nonlinear_refinement` says so, or, where it
+/// is absent, every one when two levels or more are fitted (where the refinement pays: one
+/// gas fraction across pressures) — under each model of `fits` (the levels fit's), from its
+/// gas fraction; `linear` holds each level's linear answer and mean pressure. `None` where no
+/// experiment joins.
+///
+/// # Errors
+/// A refinement that cannot run, named by the first experiment that joins.
+fn refine_levels(
+    exps: &[pumpcyl::ident::Experiment],
+    linear: &[(pumpcyl::ident::Candidate, f64)],
+    fits: &[pumpcyl::bulk::levels::ModelFit],
+    confidence: f64,
+) -> anyhow::Result<Option<pumpcyl::ident::NonlinearFit>> {
+    let pays = exps.len() >= 2;
+    let joining: Vec<(&pumpcyl::ident::Experiment, pumpcyl::ident::Source<'_>)> = (exps.iter())
+        .zip(linear)
+        .filter(|(e, _)| e.file.nonlinear_refinement.unwrap_or(pays))
+        .filter(|(e, _)| !e.problem.datasets.is_empty())
+        .map(|(e, &(linear, p_mean_bar))| {
+            let problem = &e.problem;
+            (
+                e,
+                pumpcyl::ident::Source {
+                    problem,
+                    linear,
+                    p_mean_bar,
+                },
+            )
+        })
+        .collect();
+    let Some((first, _)) = joining.first() else {
+        return Ok(None);
+    };
+    let sources: Vec<_> = joining.iter().map(|(_, s)| *s).collect();
+    let models: Vec<(BulkModel, f64)> = fits.iter().map(|f| (f.model, f.gas_fraction)).collect();
+    pumpcyl::ident::refine_nonlinear(&sources, &models, confidence)
+        .map(Some)
+        .map_err(|e| anyhow::anyhow!("{}: nonlinear refinement: {e}", first.path.display()))
 }
 
 /// The margins of `rig` with β `beta_bar` at the mean pressure `p_bar`.

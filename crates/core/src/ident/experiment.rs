@@ -59,6 +59,11 @@ pub struct ExperimentFile {
     /// Nelder–Mead refinement from the best grid point.
     #[serde(default = "yes")]
     pub local_refinement: bool,
+    /// Whether the records join the nonlinear refinement of a fit at several pressure levels
+    /// (docs/identification.md#nonlinear-refinement); absent: where it pays, when two levels
+    /// or more are fitted together.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nonlinear_refinement: Option<bool>,
 }
 
 /// One `[[dataset]]` as written: a [`DatasetSpec`] whose `fit_end_s` only a step record needs,

@@ -2,7 +2,7 @@
 //! interval of its β, at the records' mean chamber pressure
 //! (docs/bulk-modulus.md#several-pressure-levels).
 
-use super::{analyze, Experiment, IdentError, UncertaintyOptions};
+use super::{analyze, Candidate, Experiment, IdentError, UncertaintyOptions};
 use crate::bulk::levels::Level;
 
 /// β_e at one level and what it was read off.
@@ -10,6 +10,8 @@ use crate::bulk::levels::Level;
 pub struct LevelReading {
     /// β_e, its interval and the mean chamber pressure.
     pub level: Level,
+    /// The linear identification's answer (β, b, c12), polished on the SSE.
+    pub best: Candidate,
     /// Whether the records bound β on both sides.
     pub identifiable: bool,
     /// Where the mean pressure came from: the records' chamber pressures, or the rig's anchor
@@ -43,6 +45,7 @@ pub fn identify_level(exp: &Experiment, confidence: f64) -> Result<LevelReading,
                 .map(|pt| [pt.value, pt.statistic])
                 .collect(),
         },
+        best: u.best,
         identifiable: beta.identifiable,
         pressure_from_records: from_records.is_some(),
     };

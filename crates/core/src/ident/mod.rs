@@ -38,6 +38,7 @@ mod frequency;
 mod grid;
 mod leakage;
 mod level;
+mod nonlinear;
 mod problem;
 mod refine;
 mod search;
@@ -62,6 +63,7 @@ pub use grid::{
 };
 pub use leakage::{standstill_warnings, Leakage, Standstill, STANDSTILL_SPREAD_MM};
 pub use level::{identify_level, LevelReading};
+pub use nonlinear::{refine_nonlinear, LevelBeta, NonlinearFit, Refined, Source};
 pub use problem::{DatasetSpec, Prepared, Problem};
 pub use refine::refine;
 pub use search::{search, shard_len, Scored, SearchOptions, Summary, MEMBERS_KEPT};

@@ -473,16 +473,18 @@ pub fn variance_inflation(rho: &[f64]) -> f64 {
 }
 
 /// Autocorrelations of the offset-free residuals of a candidate at lags 0, 1, …, pooled over
-/// the datasets (each lag's products summed within each dataset, over the pooled power), up
-/// to the shortest dataset's length less one; empty when the residuals are not finite.
+/// the datasets ([`pooled_autocorrelations`]); empty when the residuals are not finite.
 fn autocorrelations(problem: &Problem, c: &Candidate) -> Vec<f64> {
-    let mut residuals = Vec::new();
-    for ds in &problem.datasets {
-        let Some(r) = problem.residuals_offset_free(c, ds) else {
-            return Vec::new();
-        };
-        residuals.push(r);
-    }
+    let residuals: Option<Vec<Vec<f64>>> = (problem.datasets.iter())
+        .map(|ds| problem.residuals_offset_free(c, ds))
+        .collect();
+    residuals.map_or_else(Vec::new, |r| pooled_autocorrelations(&r))
+}
+
+/// Autocorrelations of residuals at lags 0, 1, …, pooled over the datasets (each lag's
+/// products summed within each dataset, over the pooled power), up to the shortest dataset's
+/// length less one.
+pub(super) fn pooled_autocorrelations(residuals: &[Vec<f64>]) -> Vec<f64> {
     let lags = residuals.iter().map(Vec::len).min().unwrap_or(0);
     let lagged = |k: usize| -> f64 {
         residuals

@@ -66,7 +66,7 @@ impl Advise {
             .collect();
         let own = self.experiment.rig.bulk_model();
         let fit = (pumpcyl::bulk::BETA_OIL_BAR, self.confidence);
-        identify_levels(&exps, own, fit, &[1.0, 10.0]).map(Some)
+        identify_levels(&exps, own, fit, &[1.0, 10.0], false).map(Some)
     }
 }
 

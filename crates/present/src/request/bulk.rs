@@ -119,7 +119,7 @@ impl BulkModulus {
         }
         let own = self.rig.rig.bulk_model();
         let fit = (self.beta_oil_bar, self.confidence);
-        identify_levels(&self.levels, own, fit, band_at_bar).map(Some)
+        identify_levels(&self.levels, own, fit, band_at_bar, true).map(Some)
     }
 }
 
