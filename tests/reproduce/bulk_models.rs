@@ -69,3 +69,38 @@ fn the_report_tables_each_model_and_the_lowest_level_it_allows() {
         assert!(!meets(&margins_at(beta_at(p - 0.02))), "{m}");
     }
 }
+
+/// The report's `which_circuit.models`: under each model of β(p), the DPM's lowest meeting
+/// level over the stated gas-fraction range is `pumpcyl select --circuits dpm` with the
+/// article rig under that model (`--set rig.bulk_modulus_model=…` and its parameters), and
+/// the models do not all agree (the choice of level moves with the model).
+#[test]
+fn the_report_selects_under_each_model_as_select_does() {
+    let s = summary();
+    let models = s["which_circuit"]["models"].as_array().unwrap();
+    assert_eq!(models.len(), 4);
+    let mut lowest = Vec::new();
+    for m in models {
+        let mut args: Vec<String> = ["select", "--json", "--circuits", "dpm"]
+            .iter()
+            .map(|a| a.to_string())
+            .collect();
+        for (k, v) in m["model"].as_object().unwrap() {
+            let key = if k == "model" {
+                "bulk_modulus_model"
+            } else {
+                k
+            };
+            let v = v.as_str().map_or(v.to_string(), str::to_string);
+            args.extend(["--set".into(), format!("rig.{key}={v}")]);
+        }
+        let doc: Value = serde_json::from_slice(&pumpcyl(&args)).unwrap();
+        for key in ["min_mean_pressure_bar", "min_level_bar", "gas_fraction"] {
+            assert_eq!(m[key], doc[key], "{key} under {}", m["model"]);
+        }
+        lowest.push(m["min_mean_pressure_bar"].as_f64().unwrap());
+    }
+    let spread = lowest.iter().fold(0.0f64, |a, b| a.max(*b))
+        - lowest.iter().fold(f64::INFINITY, |a, b| a.min(*b));
+    assert!(spread > 1.0, "{lowest:?}");
+}

@@ -1364,6 +1364,26 @@ impl Rig {
         )
     }
 
+    /// The rig under the model `m` of β_e against pressure: its `bulk_modulus_model` and the
+    /// parameters that model has, as a rig file names them (the inverse of [`Rig::bulk_model`]).
+    pub fn with_bulk_model(&self, m: crate::bulk::models::BulkModel) -> Rig {
+        use crate::bulk::models::BulkModel as M;
+        let (n, p_crit) = match m {
+            M::ConstantGasFraction | M::ConstantGasFractionAbsolute => (None, None),
+            M::EntrainedAir { polytropic_index } => (Some(polytropic_index), None),
+            M::EntrainedAirDissolving {
+                polytropic_index,
+                air_dissolution_pressure_bar,
+            } => (Some(polytropic_index), Some(air_dissolution_pressure_bar)),
+        };
+        Rig {
+            bulk_modulus_model: m.form(),
+            polytropic_index: n,
+            air_dissolution_pressure_bar: p_crit,
+            ..self.clone()
+        }
+    }
+
     /// Refuse a bulk-modulus parameter the rig's `bulk_modulus_model` does not have: it would
     /// be silently ignored otherwise.
     fn validate_bulk_model(&self) -> Result<(), (&'static str, f64, String)> {

@@ -4,7 +4,7 @@
 //! was the article's own (its pressure level, Kp 25)? Then the same question with the gas
 //! fraction read off the identification's interval of β (step 9).
 
-use super::summary::WhichCircuit;
+use super::summary::{SelectUnder, WhichCircuit};
 use super::{printed, Run, Source};
 use crate::select::{gas_fraction_text, selection_chart, verdict_text};
 use anyhow::Result;
@@ -46,6 +46,8 @@ pub(super) fn which_circuit(
             .map(|(s, i)| row(s, i))
             .collect(),
     );
+    let models = under_models(&app, &stated)?;
+    models_table(run, &models);
     let chart = selection_chart(&app, &stated);
     run.figure(
         "which_circuit",
@@ -57,7 +59,72 @@ pub(super) fn which_circuit(
         stated,
         article_choice: article,
         identified,
+        models,
     })
+}
+
+/// The selection over the stated gas-fraction range under each model of β(p) of the family
+/// (docs/bulk-modulus.md#a-family-of-models): the article's reading, 165 bar at 4.4 bar, read
+/// through each for its X (a factor 2 either way); `stated` is the rig's own model's. The
+/// models run in parallel.
+fn under_models(app: &Application, stated: &Selection) -> Result<Vec<SelectUnder>> {
+    use rayon::prelude::*;
+    let own = app.rig.bulk_model();
+    (pumpcyl::bulk::FAMILY.par_iter())
+        .map(|&m| {
+            let s = match m == own {
+                true => stated.clone(),
+                false => {
+                    let rig = app.rig.with_bulk_model(m);
+                    app.with_rig(rig, app.rig_from.clone())?.select(None)?
+                }
+            };
+            Ok(SelectUnder {
+                model: m,
+                gas_fraction: s.gas_fraction,
+                min_mean_pressure_bar: s.min_mean_pressure_bar,
+                min_level_bar: s.min_level_bar,
+            })
+        })
+        .collect()
+}
+
+/// The table of the lowest meeting level under each model of β(p), and the comparison row.
+fn models_table(run: &mut Run, models: &[SelectUnder]) {
+    let level = |p: Option<f64>| p.map_or("none".to_string(), |p| format!("{p:.2}"));
+    run.table(
+        "Which circuit under each model of β against pressure (docs/bulk-modulus.md#a-family-of-models): the article's 165 bar at 4.4 bar read through each for its gas fraction, a factor 2 either way; the lowest mean pressure that meets pumpcyl's requirement",
+        &["model", "X range", "lowest meeting mean pressure (bar)", "lowest meeting level (bar)"],
+        (models.iter())
+            .map(|m| {
+                let [lo, _, hi] = m.gas_fraction;
+                vec![
+                    m.model.described(),
+                    format!("{lo:.4}–{hi:.4}"),
+                    level(m.min_mean_pressure_bar),
+                    level(m.min_level_bar),
+                ]
+            })
+            .collect(),
+    );
+    let spread: Vec<f64> = models
+        .iter()
+        .filter_map(|m| m.min_mean_pressure_bar)
+        .collect();
+    let (lo, hi) = (
+        spread.iter().copied().fold(f64::INFINITY, f64::min),
+        spread.iter().copied().fold(0.0, f64::max),
+    );
+    run.compare_why(
+        "§4 advice: select's lowest certain mean pressure over the models of β(p) (stated X range)",
+        match spread.len() {
+            0 => "none under any model".to_string(),
+            _ => format!("{lo:.2}–{hi:.2} bar ({} of {} models meet somewhere)", spread.len(), models.len()),
+        },
+        "one model (the constant gas fraction of its reference [21])",
+        "-",
+        "the choice of pressure level moves with the model of β(p); one identification at one pressure cannot tell them apart (docs/bulk-modulus.md#several-pressure-levels)",
+    );
 }
 
 /// The comparison rows: the lowest certain level before and after the identification, beside

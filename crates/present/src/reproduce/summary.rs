@@ -666,6 +666,23 @@ pub struct WhichCircuit {
     pub article_choice: pumpcyl::select::Candidate,
     /// Over the gas-fraction range read off the identification's interval of β.
     pub identified: pumpcyl::select::Selection,
+    /// The stated range's lowest meeting level under each model of β(p), the rig's β at the
+    /// records' mean pressure read through it (docs/bulk-modulus.md#a-family-of-models).
+    pub models: Vec<SelectUnder>,
+}
+
+/// `select`'s answer under one model of β(p).
+#[derive(Debug, Clone, Serialize)]
+pub struct SelectUnder {
+    /// The model.
+    pub model: pumpcyl::bulk::BulkModel,
+    /// Its gas-fraction range [lowest, reference, highest].
+    pub gas_fraction: [f64; 3],
+    /// The lowest mean chamber pressure (bar) that meets the requirement, bisected between the
+    /// levels; `None` where no level meets it.
+    pub min_mean_pressure_bar: Option<f64>,
+    /// The lowest level that meets (bar), `None` where none does.
+    pub min_level_bar: Option<f64>,
 }
 
 /// A sweep beside the steps: the intervals of β, b and c12 from each kind of record and both.
