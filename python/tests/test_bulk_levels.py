@@ -164,3 +164,26 @@ def test_advise_names_the_next_level_where_the_loop_is_stable(tmp_path):
     py = pumpcyl.advise(str(exps[0]), levels=[str(exps[1])])
     assert py["pressure_levels"]["next_level"] == nxt
     assert py["pressure_levels"]["fits"] == levels["fits"]
+
+
+def test_the_refinement_refuses_records_off_one_rate(tmp_path):
+    """An experiment that asks for the nonlinear refinement (`nonlinear_refinement = true`, one
+    level) with a record whose samples are not at one rate: one line naming the experiment and
+    the dataset, exit 1, nothing on stdout."""
+    model = {"model": "constant-gas-fraction"}
+    exp = emulate_level(tmp_path, 0, ["kp=15", "p_sum_ref_bar=12"], model, 0.0264, 15, 10593.0,
+                        "nonlinear_refinement = true\n")
+    record = tmp_path / "step0_0.csv"
+    lines = record.read_text().splitlines()
+    head = lines[0].split(",")
+    t = head.index("time_s") if "time_s" in head else 0
+    row = lines[50].split(",")
+    row[t] = repr(float(row[t]) + 0.003)  # 0.3 of a 10 ms sample off
+    lines[50] = ",".join(row)
+    record.write_text("\n".join(lines) + "\n")
+    out = subprocess.run([pumpcyl_binary(), "bulk-modulus", "--level", str(exp)],
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 1 and out.stdout == "", out
+    err = out.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert str(exp) in err and "step0_0.csv" in err and "one rate" in err, err

@@ -215,7 +215,7 @@ impl<'a> Residuals<'a> {
                 let uniform = t.windows(2).all(|w| ((w[1] - w[0]) - h).abs() <= 1e-6 * h);
                 if !(h > 0.0 && uniform) {
                     return Err(IdentError::Input(format!(
-                        "dataset `{}`: the nonlinear refinement needs samples at one rate (the PLC's)",
+                        "dataset `{}`: its samples are not at one rate, the rate the emulated PLC runs at",
                         ds.name
                     )));
                 }
