@@ -81,6 +81,7 @@ pub struct Refined {
 }
 
 impl Refined {
+    /// The parameters of a point in their logarithms (the order of [`PARAMETERS`]).
     fn of(theta: &[f64]) -> Refined {
         Refined {
             gas_fraction: theta[0].exp(),
@@ -91,6 +92,7 @@ impl Refined {
         }
     }
 
+    /// The point of the parameters in their logarithms, each at least its floor.
     fn theta(&self) -> Vec<f64> {
         let v = [
             self.gas_fraction,
@@ -193,41 +195,44 @@ struct Residuals<'a> {
     count: std::sync::atomic::AtomicU64,
 }
 
-impl<'a> Residuals<'a> {
-    fn new(sources: &[Source<'a>], model: BulkModel) -> Result<Residuals<'a>, IdentError> {
-        let mut runs = Vec::new();
-        for s in sources {
-            for ds in &s.problem.datasets {
-                // the pumps' slip stays the rig's (absent, it follows the rig's c12, not the fit's)
-                let rig = Rig {
-                    pump_slip_m5_per_ns: Some(ds.rig.pump_slip()),
-                    ..s.problem.rig_for(&s.linear, ds)?
-                };
-                let t = &ds.record.time_s[..ds.window_len()];
-                let n = t.len();
-                if n < 3 {
-                    return Err(IdentError::Input(format!(
-                        "dataset `{}`: too few samples in its fit window",
-                        ds.name
-                    )));
-                }
-                let h = (t[n - 1] - t[0]) / (n - 1) as f64;
-                let uniform = t.windows(2).all(|w| ((w[1] - w[0]) - h).abs() <= 1e-6 * h);
-                if !(h > 0.0 && uniform) {
-                    return Err(IdentError::Input(format!(
-                        "dataset `{}`: its samples are not at one rate, the rate the emulated PLC runs at",
-                        ds.name
-                    )));
-                }
-                runs.push(Run {
-                    ds,
-                    problem: s.problem,
-                    rig,
-                    rate_hz: 1.0 / h,
-                    duration_s: t[n - 1] - t[0],
-                });
-            }
+impl<'a> Run<'a> {
+    /// Dataset `ds` of level `s`, its rig that of the level's linear answer with the pumps'
+    /// slip held at the rig's (absent, it would follow the fit's c12); refused when its fit
+    /// window holds fewer than three samples or its samples are not at one rate.
+    fn new(s: &Source<'a>, ds: &'a Prepared) -> Result<Run<'a>, IdentError> {
+        let rig = Rig {
+            pump_slip_m5_per_ns: Some(ds.rig.pump_slip()),
+            ..s.problem.rig_for(&s.linear, ds)?
+        };
+        let refuse = |why: &str| IdentError::Input(format!("dataset `{}`: {why}", ds.name));
+        let t = &ds.record.time_s[..ds.window_len()];
+        let n = t.len();
+        if n < 3 {
+            return Err(refuse("too few samples in its fit window"));
         }
+        let h = (t[n - 1] - t[0]) / (n - 1) as f64;
+        let uniform = t.windows(2).all(|w| ((w[1] - w[0]) - h).abs() <= 1e-6 * h);
+        if !(h > 0.0 && uniform) {
+            return Err(refuse(
+                "its samples are not at one rate, the rate the emulated PLC runs at",
+            ));
+        }
+        Ok(Run {
+            ds,
+            problem: s.problem,
+            rig,
+            rate_hz: 1.0 / h,
+            duration_s: t[n - 1] - t[0],
+        })
+    }
+}
+
+impl<'a> Residuals<'a> {
+    /// Every dataset of `sources` under `model`.
+    fn new(sources: &[Source<'a>], model: BulkModel) -> Result<Residuals<'a>, IdentError> {
+        let runs = (sources.iter())
+            .flat_map(|s| s.problem.datasets.iter().map(move |ds| Run::new(s, ds)))
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(Residuals {
             runs,
             model,
@@ -303,6 +308,7 @@ impl<'a> Residuals<'a> {
         self.all(theta).map_or(f64::INFINITY, |r| r.norm_squared())
     }
 
+    /// Samples inside the fit windows, over every dataset.
     fn samples(&self) -> usize {
         self.runs.iter().map(|r| r.ds.window_len()).sum()
     }
