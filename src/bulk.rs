@@ -41,7 +41,9 @@ pub struct BulkArgs {
     /// Output: .csv (a fine table) or .svg / .png (β_e, GM and PM against pressure).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
-    /// Run even when the table would take long (more than 10^5 margin analyses: --points).
+    /// Run even when the table would take long (more than 10^5 margin analyses: --points), or
+    /// the nonlinear refinement of the --level records (more than 5·10^4 record samples × models,
+    /// docs/identification.md#nonlinear-refinement).
     #[arg(long)]
     allow_long_run: bool,
     /// The model of beta against pressure (docs/bulk-modulus.md#a-family-of-models):

@@ -187,3 +187,30 @@ def test_the_refinement_refuses_records_off_one_rate(tmp_path):
     err = out.stderr.strip()
     assert len(err.splitlines()) == 1, err
     assert str(exp) in err and "step0_0.csv" in err and "one rate" in err, err
+
+
+def test_long_records_need_a_long_run_for_the_refinement(tmp_path):
+    """Two levels of one 60 s step each: 2 × 6000 samples × 5 models is beyond the refinement's
+    5·10^4 without --allow-long-run (docs/identification.md#nonlinear-refinement): one line that
+    says so and how to keep the records out, exit 1, nothing on stdout."""
+    exps = []
+    for i, s in enumerate([6, 12]):
+        rig = tmp_path / f"rig{i}.toml"
+        write_rig(rig, ["kp=15", f"p_sum_ref_bar={s}"])
+        run("emulate", "--experiment", "step", "--rig", str(rig), "--duration-s", "60",
+            "--out", str(tmp_path / f"long{i}.csv"))
+        run("emulate", "--experiment", "standstill", "--rig", str(rig), "--out",
+            str(tmp_path / f"still{i}.csv"))
+        exp = tmp_path / f"level{i}.toml"
+        exp.write_text(f'rig = "{rig.name}"\n[standstill]\nrecord = "still{i}.csv"\n'
+                       f'[[dataset]]\nfile = "long{i}.csv"\nkp = 15\nmass_kg = 10593\n'
+                       'fit_end_s = 59.9\n')
+        exps += ["--level", str(exp)]
+    out = subprocess.run([pumpcyl_binary(), "bulk-modulus", *exps], capture_output=True,
+                         text=True, timeout=600)
+    assert out.returncode == 1 and out.stdout == "", out
+    err = out.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "nonlinear refinement" in err and "nonlinear_refinement = false" in err, err
+    # 5991 samples (0 to 59.9 s at 100 Hz) per record, two records, five models
+    assert "59910 units" in err and "--allow-long-run" in err, err

@@ -56,6 +56,12 @@ pub const MAX_MARGIN_ANALYSES: f64 = 1e5;
 /// loads at its levels ran for a minute, 10⁵ would run for days.
 pub const MAX_SELECT_CASES: f64 = 400.0;
 
+/// Record samples × models the nonlinear refinement emulates without allowing a long run
+/// (docs/identification.md#nonlinear-refinement): each sample is emulated about 1 500 times a
+/// model (the search, the profile, the datasets' own X); 5·10⁴ is minutes of work, three levels
+/// of two 3 s steps each under the five models about 9 000.
+pub const MAX_REFINED_SAMPLES: f64 = 5e4;
+
 /// The most shards one identification is split into (`identify --shard I/N`,
 /// docs/identification.md#sharding): each shard is a process and a partial result the merge
 /// reads and checks; a thousand already leaves each a few candidates of the article's grids.

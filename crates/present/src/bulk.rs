@@ -389,6 +389,19 @@ impl Levels {
     }
 }
 
+/// Whether [`identify_levels`] refines the levels through the emulator
+/// (docs/identification.md#nonlinear-refinement).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refine {
+    /// No refinement.
+    Off,
+    /// The levels whose experiments join it, beyond the work limit only if allowed.
+    On {
+        /// Run beyond [`pumpcyl::limits::MAX_REFINED_SAMPLES`].
+        allow_long_run: bool,
+    },
+}
+
 /// Most levels a request identifies.
 const MAX_LEVEL_FILES: usize = pumpcyl::bulk::levels::MAX_LEVELS;
 
@@ -398,7 +411,7 @@ const MAX_LEVEL_FILES: usize = pumpcyl::bulk::levels::MAX_LEVELS;
 /// highest level (at least 20 bar) with the first experiment's rig's margins there
 /// (docs/bulk-modulus.md#several-pressure-levels).
 ///
-/// With `nonlinear`, the levels whose experiments join it are refined through the emulator
+/// With `refine` on, the levels whose experiments join it are refined through the emulator
 /// (docs/identification.md#nonlinear-refinement).
 ///
 /// # Errors
@@ -409,7 +422,7 @@ pub fn identify_levels(
     own: BulkModel,
     (beta_oil_bar, confidence): (f64, f64),
     band_at_bar: &[f64],
-    nonlinear: bool,
+    refine: Refine,
 ) -> anyhow::Result<Levels> {
     use pumpcyl::bulk::levels::{candidates, fit_levels, NextSearch};
     let most = MAX_LEVEL_FILES;
@@ -461,9 +474,11 @@ pub fn identify_levels(
             .collect::<anyhow::Result<Vec<Row>>>()?,
         None => Vec::new(),
     };
-    let nonlinear = match nonlinear {
-        true => refine_levels(exps, &linear, &fit.fits, confidence)?,
-        false => None,
+    let nonlinear = match refine {
+        Refine::On { allow_long_run } => {
+            refine_levels(exps, &linear, &fit.fits, (confidence, allow_long_run))?
+        }
+        Refine::Off => None,
     };
     Ok(Levels {
         identified,
@@ -481,12 +496,13 @@ pub fn identify_levels(
 /// experiment joins.
 ///
 /// # Errors
-/// A refinement that cannot run, named by the first experiment that joins.
+/// A refinement that cannot run, named by the first experiment that joins; records × models
+/// beyond [`pumpcyl::limits::MAX_REFINED_SAMPLES`] unless `allow_long_run`.
 fn refine_levels(
     exps: &[pumpcyl::ident::Experiment],
     linear: &[(pumpcyl::ident::Candidate, f64)],
     fits: &[pumpcyl::bulk::levels::ModelFit],
-    confidence: f64,
+    (confidence, allow_long_run): (f64, bool),
 ) -> anyhow::Result<Option<pumpcyl::ident::NonlinearFit>> {
     let pays = exps.len() >= 2;
     let joining: Vec<(&pumpcyl::ident::Experiment, pumpcyl::ident::Source<'_>)> = (exps.iter())
@@ -509,6 +525,14 @@ fn refine_levels(
         return Ok(None);
     };
     let sources: Vec<_> = joining.iter().map(|(_, s)| *s).collect();
+    let samples: usize = sources.iter().map(|s| s.problem.samples()).sum();
+    pumpcyl::limits::check_work(
+        "the nonlinear refinement (record samples in the fit windows × models; an experiment's \
+         nonlinear_refinement = false keeps its records out)",
+        (samples * fits.len()) as f64,
+        pumpcyl::limits::MAX_REFINED_SAMPLES,
+        allow_long_run,
+    )?;
     let models: Vec<(BulkModel, f64)> = fits.iter().map(|f| (f.model, f.gas_fraction)).collect();
     pumpcyl::ident::refine_nonlinear(&sources, &models, confidence)
         .map(Some)

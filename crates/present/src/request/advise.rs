@@ -3,7 +3,7 @@
 
 use super::{Document, Hooks, Request};
 use crate::advise::{advice_json, advice_text};
-use crate::bulk::{identify_levels, Levels};
+use crate::bulk::{identify_levels, Levels, Refine};
 use pumpcyl::ident::{advise_experiment, Advice, Experiment};
 use pumpcyl::source_files::Files;
 use serde_json::Value;
@@ -66,7 +66,7 @@ impl Advise {
             .collect();
         let own = self.experiment.rig.bulk_model();
         let fit = (pumpcyl::bulk::BETA_OIL_BAR, self.confidence);
-        identify_levels(&exps, own, fit, &[1.0, 10.0], false).map(Some)
+        identify_levels(&exps, own, fit, &[1.0, 10.0], Refine::Off).map(Some)
     }
 }
 

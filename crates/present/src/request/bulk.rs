@@ -2,7 +2,7 @@
 //! against pressure and the margins there (docs/bulk-modulus.md).
 
 use super::{check_field, Document, FieldError, Given, Hooks, Request, RigInput};
-use crate::bulk::{bulk_csv, bulk_json, bulk_text, identify_levels, Family, Levels};
+use crate::bulk::{bulk_csv, bulk_json, bulk_text, identify_levels, Family, Levels, Refine};
 use crate::figures::Chart;
 use pumpcyl::bulk::{table_under, BetaReading, BulkModel, Row};
 use pumpcyl::ident::Experiment;
@@ -29,7 +29,8 @@ pub struct BulkModulus {
     pub to_bar: f64,
     /// Table rows, evenly spaced.
     pub points: usize,
-    /// Whether a table beyond the margin analyses' limit may run.
+    /// Whether a table beyond the margin analyses' limit, or a nonlinear refinement of the
+    /// levels beyond its limit, may run.
     pub allow_long_run: bool,
     /// The model of β against pressure the table follows (docs/bulk-modulus.md#a-family-of-models).
     pub model: BulkModel,
@@ -119,7 +120,16 @@ impl BulkModulus {
         }
         let own = self.rig.rig.bulk_model();
         let fit = (self.beta_oil_bar, self.confidence);
-        identify_levels(&self.levels, own, fit, band_at_bar, true).map(Some)
+        identify_levels(
+            &self.levels,
+            own,
+            fit,
+            band_at_bar,
+            Refine::On {
+                allow_long_run: self.allow_long_run,
+            },
+        )
+        .map(Some)
     }
 }
 
