@@ -379,11 +379,18 @@ pub fn fit_levels(
 fn weigh(fits: &mut [ModelFit]) {
     fits.sort_by(|a, b| a.aic.total_cmp(&b.aic));
     let least = fits.first().map_or(0.0, |f| f.aic);
-    let total: f64 = fits.iter().map(|f| (-(f.aic - least) / 2.0).exp()).sum();
-    for f in fits.iter_mut() {
-        f.delta_aic = f.aic - least;
-        f.akaike_weight = (-f.delta_aic / 2.0).exp() / total;
+    let delta: Vec<f64> = fits.iter().map(|f| f.aic - least).collect();
+    for ((f, d), w) in fits.iter_mut().zip(&delta).zip(akaike_weights(&delta)) {
+        f.delta_aic = *d;
+        f.akaike_weight = w;
     }
+}
+
+/// The Akaike weights exp(−ΔAIC/2) normalised over the models (Burnham & Anderson 2002, §2.9),
+/// of each model's ΔAIC.
+pub fn akaike_weights(delta_aic: &[f64]) -> Vec<f64> {
+    let total: f64 = delta_aic.iter().map(|d| (-0.5 * d).exp()).sum();
+    delta_aic.iter().map(|d| (-0.5 * d).exp() / total).collect()
 }
 
 /// The band at `p`: the best model's β and band, the union of `spanned`'s bands.

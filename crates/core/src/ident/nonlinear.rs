@@ -563,16 +563,16 @@ fn compare(searched: &[Searched<'_>], var: f64, threshold: f64) -> Vec<ModelRefi
     let delta: Vec<f64> = (searched.iter())
         .map(|s| (s.best.sse - least) / var)
         .collect();
-    let total: f64 = delta.iter().map(|d| (-0.5 * d).exp()).sum();
-    (searched.iter().zip(&delta))
-        .map(|(s, &d)| ModelRefit {
+    let weights = crate::bulk::levels::akaike_weights(&delta);
+    (searched.iter().zip(&delta).zip(weights))
+        .map(|((s, &d), w)| ModelRefit {
             model: s.res.model,
             start: s.start,
             start_sse_mm2: s.start_sse,
             refined: Refined::of(&s.best.theta),
             sse_mm2: s.best.sse,
             delta_aic: d,
-            akaike_weight: (-0.5 * d).exp() / total,
+            akaike_weight: w,
             plausible: d < threshold,
         })
         .collect()
